@@ -1,0 +1,37 @@
+"""The built-in scene catalogue and SCENE-argument resolution.
+
+Built-in scenes are ordinary TOML files in ``scenes/builtin/`` (they double as
+examples of the format). Paper Table 1: ``sphere1``, ``sphere2``, ``bunny``,
+``feline`` (stand-in), ``skull`` (stand-in); paper Figure 5: ``two_spheres``,
+``refocus``.
+"""
+
+from __future__ import annotations
+
+import os
+
+from .errors import SceneError
+from .loader import load_scene
+from .model import Scene
+
+BUILTIN_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "builtin")
+BUILTIN_NAMES = ("sphere1", "sphere2", "bunny", "feline", "skull", "two_spheres", "refocus")
+
+
+def builtin_path(name: str) -> str:
+    return os.path.join(BUILTIN_DIR, f"{name}.toml")
+
+
+def load_builtin(name: str) -> Scene:
+    if name not in BUILTIN_NAMES:
+        raise SceneError(None, "SCENE", name, f"expected a built-in scene ({', '.join(BUILTIN_NAMES)})")
+    return load_scene(builtin_path(name))
+
+
+def resolve_scene(arg: str) -> Scene:
+    """A SCENE argument: a built-in name or a path to a TOML scene file."""
+    if arg in BUILTIN_NAMES:
+        return load_builtin(arg)
+    if arg.endswith(".toml") or os.sep in arg or os.path.exists(arg):
+        return load_scene(arg)
+    raise SceneError(None, "SCENE", arg, f"expected a built-in scene ({', '.join(BUILTIN_NAMES)}) or a path to a .toml file")

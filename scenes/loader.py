@@ -1,0 +1,350 @@
+"""TOML scene files → validated :class:`scenes.model.Scene`.
+
+Every problem raises :class:`scenes.errors.SceneError` naming the file, the key
+(dotted path), the offending value and what is allowed. Nothing else escapes
+:func:`load_scene` for any input file. The format, by example::
+
+    name = "my_scene"
+    description = "one line"
+
+    [camera]                      # pinhole, box filter
+    position = [0, 1.2, 4]        # metres
+    target = [0, 0.9, 0]
+    up = [0, 1, 0]                # optional
+    fov_y = 40                    # vertical field of view, degrees
+    width = 512
+    height = 512
+
+    [light]                       # Mitsuba `spot`
+    position = [0, 2.5, 0]
+    direction = [0, -1, 0]        # any length > 0
+    intensity = [20, 20, 20]      # W/sr (a number means grey)
+    cutoff_angle = 25             # degrees, 0 < cutoff_angle < 90
+    beam_width = 20               # degrees, 0 < beam_width <= cutoff_angle (default 3/4 cutoff)
+
+    [medium]                      # optional; absent = vacuum
+    sigma_s = 0.3                 # 1/m, number or RGB list
+    sigma_a = [0.02, 0.02, 0.02]
+    phase = "isotropic"           # or "hg" with g = 0.3
+
+    [[specular]]                  # closed dielectric meshes
+    name = "glass"
+    mesh = { generator = "sphere", radius = 0.5, subdivisions = 45 }   # or "file.ply"
+    transform = { translate = [0, 1, 0], rotate = [0, 0, 0], scale = 1 }
+    ior = 1.5
+    absorption = [0, 0, 0]        # 1/m, Beer–Lambert inside
+
+    [[diffuse]]                   # Lambertian
+    name = "floor"
+    mesh = { generator = "quad", size_x = 8, size_z = 8 }
+    albedo = 0.5
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from typing import Any, Callable
+
+try:
+    import tomllib
+except ModuleNotFoundError:  # Python 3.10
+    import tomli as tomllib
+
+from .errors import SceneError
+from .generators import GENERATORS
+from .mesh import MeshReadError, closedness_problem, file_sha256, winding_number
+from .model import Camera, DiffuseSurface, MeshSpec, Medium, Phase, Scene, SpecularObject, SpotLight, Transform
+
+_REQUIRED = object()
+
+
+class _Ctx:
+    """Where we are: the file label and the directory mesh paths are relative to."""
+
+    def __init__(self, file: str | None, base_dir: str):
+        self.file = file
+        self.base_dir = base_dir
+
+    def error(self, key, value, allowed) -> SceneError:
+        return SceneError(self.file, key, value, allowed)
+
+
+class _Table:
+    """One TOML table: typed reads by key, then :meth:`finish` rejects unknown keys."""
+
+    def __init__(self, ctx: _Ctx, key: str, table: Any):
+        if not isinstance(table, dict):
+            raise ctx.error(key or "<top level>", table, "expected a table")
+        self.ctx, self.key, self.table, self.used = ctx, key, table, set()
+
+    def path(self, k: str) -> str:
+        return f"{self.key}.{k}" if self.key else k
+
+    def get(self, k: str, parse: Callable, default: Any = _REQUIRED):
+        self.used.add(k)
+        if k not in self.table:
+            if default is _REQUIRED:
+                raise self.ctx.error(self.path(k), None, "missing required key")
+            return default
+        return parse(self.ctx, self.path(k), self.table[k])
+
+    def finish(self):
+        unknown = sorted(set(self.table) - self.used)
+        if unknown:
+            allowed = ", ".join(sorted(self.used))
+            raise self.ctx.error(self.path(unknown[0]), self.table[unknown[0]], f"unknown key; allowed here: {allowed}")
+
+
+# --- value parsers (ctx, key, value) -> python value ----------------------------
+
+def _number(ctx, key, v, what="a number"):
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        raise ctx.error(key, v, f"expected {what}")
+    v = float(v)
+    if not math.isfinite(v):
+        raise ctx.error(key, v, f"expected a finite number ({what})")
+    return v
+
+
+def _ranged(low=None, high=None, *, low_open=False, high_open=False, unit=""):
+    lo_b, hi_b = ("(" if low_open else "["), (")" if high_open else "]")
+    what = f"a number in {lo_b}{'-inf' if low is None else low}, {'inf' if high is None else high}{hi_b}{' ' + unit if unit else ''}"
+
+    def parse(ctx, key, v):
+        x = _number(ctx, key, v, what)
+        if low is not None and (x < low or (low_open and x == low)):
+            raise ctx.error(key, v, f"expected {what}")
+        if high is not None and (x > high or (high_open and x == high)):
+            raise ctx.error(key, v, f"expected {what}")
+        return x
+
+    return parse
+
+
+def _integer(low, high):
+    def parse(ctx, key, v):
+        if isinstance(v, bool) or not isinstance(v, int) or not low <= v <= high:
+            raise ctx.error(key, v, f"expected an integer in [{low}, {high}]")
+        return int(v)
+
+    return parse
+
+
+def _string(ctx, key, v):
+    if not isinstance(v, str):
+        raise ctx.error(key, v, "expected a string")
+    return v
+
+
+def _vec3(ctx, key, v):
+    if not isinstance(v, list) or len(v) != 3:
+        raise ctx.error(key, v, "expected a list of 3 numbers [x, y, z]")
+    return tuple(_number(ctx, f"{key}[{i}]", x) for i, x in enumerate(v))
+
+
+def _rgb(low=0.0, high=None, unit=""):
+    one = _ranged(low, high, unit=unit)
+
+    def parse(ctx, key, v):
+        if isinstance(v, list):
+            if len(v) != 3:
+                raise ctx.error(key, v, f"expected a number or a list of 3 (RGB), each {_describe(low, high, unit)}")
+            return tuple(one(ctx, f"{key}[{i}]", x) for i, x in enumerate(v))
+        x = one(ctx, key, v)
+        return (x, x, x)
+
+    return parse
+
+
+def _describe(low, high, unit):
+    text = f">= {low}" if high is None else f"in [{low}, {high}]"
+    return f"{text} {unit}".rstrip()
+
+
+def _direction(ctx, key, v):
+    d = _vec3(ctx, key, v)
+    n = math.sqrt(sum(x * x for x in d))
+    if n < 1e-12:
+        raise ctx.error(key, v, "expected a non-zero direction vector")
+    return tuple(x / n for x in d)
+
+
+# --- sections -------------------------------------------------------------------
+
+def _camera(ctx, key, value) -> Camera:
+    t = _Table(ctx, key, value)
+    cam = Camera(
+        position=t.get("position", _vec3),
+        target=t.get("target", _vec3),
+        up=t.get("up", _direction, (0.0, 1.0, 0.0)),
+        fov_y=t.get("fov_y", _ranged(0, 180, low_open=True, high_open=True, unit="degrees")),
+        width=t.get("width", _integer(1, 16384), 512),
+        height=t.get("height", _integer(1, 16384), 512),
+    )
+    t.finish()
+    forward = [b - a for a, b in zip(cam.position, cam.target)]
+    norm = math.sqrt(sum(x * x for x in forward))
+    if norm < 1e-9:
+        raise ctx.error("camera.target", list(cam.target), "must differ from camera.position")
+    cross = [forward[1] * cam.up[2] - forward[2] * cam.up[1],
+             forward[2] * cam.up[0] - forward[0] * cam.up[2],
+             forward[0] * cam.up[1] - forward[1] * cam.up[0]]
+    if math.sqrt(sum(x * x for x in cross)) < 1e-6 * norm:
+        raise ctx.error("camera.up", list(cam.up), "must not be parallel to the view direction (target - position)")
+    return cam
+
+
+def _light(ctx, key, value) -> SpotLight:
+    t = _Table(ctx, key, value)
+    position = t.get("position", _vec3)
+    direction = t.get("direction", _direction)
+    intensity = t.get("intensity", _rgb(0.0, unit="W/sr"))
+    cutoff = t.get("cutoff_angle", _ranged(0, 90, low_open=True, high_open=True, unit="degrees"), 20.0)
+    beam = t.get("beam_width", _ranged(0, 90, low_open=True, high_open=True, unit="degrees"), 0.75 * cutoff)
+    t.finish()
+    if beam > cutoff:
+        raise ctx.error("light.beam_width", beam, f"must be <= light.cutoff_angle ({cutoff:g} degrees)")
+    return SpotLight(position, direction, intensity, cutoff, beam)
+
+
+def _medium(ctx, key, value) -> Medium:
+    t = _Table(ctx, key, value)
+    sigma_s = t.get("sigma_s", _rgb(0.0, unit="1/m"), (0.0, 0.0, 0.0))
+    sigma_a = t.get("sigma_a", _rgb(0.0, unit="1/m"), (0.0, 0.0, 0.0))
+    kind = t.get("phase", _string, "isotropic")
+    if kind not in ("isotropic", "hg"):
+        raise ctx.error("medium.phase", kind, 'expected "isotropic" or "hg"')
+    g = t.get("g", _ranged(-1, 1, low_open=True, high_open=True), None)
+    t.finish()
+    if g is not None and kind != "hg":
+        raise ctx.error("medium.g", g, 'only allowed with phase = "hg"')
+    return Medium(sigma_s, sigma_a, Phase(kind, 0.0 if g is None else g))
+
+
+def _transform(ctx, key, value) -> Transform:
+    t = _Table(ctx, key, value)
+    tr = Transform(
+        translate=t.get("translate", _vec3, (0.0, 0.0, 0.0)),
+        rotate=t.get("rotate", _vec3, (0.0, 0.0, 0.0)),
+        scale=t.get("scale", _ranged(0, None, low_open=True), 1.0),
+    )
+    t.finish()
+    return tr
+
+
+def _mesh(ctx, key, value, transform: Transform) -> MeshSpec:
+    if isinstance(value, str):
+        value = {"path": value}
+    if not isinstance(value, dict):
+        raise ctx.error(key, value, 'expected a mesh path ("file.ply") or a table { generator = "...", ... }')
+    if "path" in value:
+        t = _Table(ctx, key, value)
+        rel = t.get("path", _string)
+        t.finish()
+        path = os.path.normpath(os.path.join(ctx.base_dir, os.path.expanduser(rel)))
+        try:
+            digest = file_sha256(path)
+        except OSError as exc:
+            raise ctx.error(f"{key}.path", rel, f"a readable PLY or OBJ file ({path}: {exc.strerror or exc})") from None
+        return MeshSpec(path=path, transform=transform, content_hash=digest)
+    t = _Table(ctx, key, value)
+    name = t.get("generator", _string)
+    if name not in GENERATORS:
+        raise ctx.error(f"{key}.generator", name, f"expected one of: {', '.join(GENERATORS)}")
+    params = {}
+    for pname, spec in GENERATORS[name].params.items():
+        parse = _integer(int(spec.low), int(spec.high)) if spec.kind is int else _ranged(spec.low, spec.high)
+        params[pname] = t.get(pname, parse, spec.kind(spec.default))
+    t.finish()
+    return MeshSpec(generator=name, params=tuple(sorted(params.items())), transform=transform)
+
+
+def _load_checked(ctx, key, spec: MeshSpec, closed: bool):
+    try:
+        mesh = spec.load()
+    except MeshReadError as exc:
+        raise ctx.error(key, spec.label, f"a readable PLY or OBJ mesh ({exc})") from None
+    except Exception as exc:  # generator failure on odd but in-range parameters
+        raise ctx.error(key, spec.label, f"mesh could not be built ({type(exc).__name__}: {exc})") from None
+    if len(mesh.faces) == 0:
+        raise ctx.error(key, spec.label, "a mesh with at least one triangle")
+    if closed:
+        problem = closedness_problem(mesh)
+        if problem is not None:
+            raise ctx.error(key, spec.label, f"specular meshes must be closed (watertight): {problem}")
+    return mesh
+
+
+def _objects(ctx, key, value, build):
+    if not isinstance(value, list):
+        raise ctx.error(key, value, f"expected an array of tables [[{key}]]")
+    return tuple(build(ctx, f"{key}[{i}]", item, i) for i, item in enumerate(value))
+
+
+def _specular(ctx, key, value, index) -> SpecularObject:
+    t = _Table(ctx, key, value)
+    name = t.get("name", _string, f"specular{index}")
+    transform = t.get("transform", _transform, Transform())
+    mesh = t.get("mesh", lambda c, k, v: _mesh(c, k, v, transform))
+    ior = t.get("ior", _ranged(1.0, 10.0), 1.5)
+    absorption = t.get("absorption", _rgb(0.0, unit="1/m"), (0.0, 0.0, 0.0))
+    t.finish()
+    _load_checked(ctx, f"{key}.mesh", mesh, closed=True)
+    return SpecularObject(name, mesh, ior, absorption)
+
+
+def _diffuse(ctx, key, value, index) -> DiffuseSurface:
+    t = _Table(ctx, key, value)
+    name = t.get("name", _string, f"diffuse{index}")
+    transform = t.get("transform", _transform, Transform())
+    mesh = t.get("mesh", lambda c, k, v: _mesh(c, k, v, transform))
+    albedo = t.get("albedo", _rgb(0.0, 1.0), (0.5, 0.5, 0.5))
+    t.finish()
+    _load_checked(ctx, f"{key}.mesh", mesh, closed=False)
+    return DiffuseSurface(name, mesh, albedo)
+
+
+# --- entry points -----------------------------------------------------------------
+
+def parse_scene(data: dict, *, file: str | None = None, base_dir: str = ".", source: str | None = None) -> Scene:
+    """Validate a parsed TOML document (a dict) and build the :class:`Scene`."""
+    ctx = _Ctx(file, base_dir)
+    t = _Table(ctx, "", data)
+    name = t.get("name", _string, os.path.splitext(os.path.basename(file))[0] if file else "scene")
+    description = t.get("description", _string, "")
+    camera = t.get("camera", _camera)
+    light = t.get("light", _light)
+    medium = t.get("medium", _medium, Medium())
+    specular = t.get("specular", lambda c, k, v: _objects(c, k, v, _specular), ())
+    diffuse = t.get("diffuse", lambda c, k, v: _objects(c, k, v, _diffuse), ())
+    t.finish()
+    seen = {}
+    for kind, objs in (("specular", specular), ("diffuse", diffuse)):
+        for i, obj in enumerate(objs):
+            if obj.name in seen:
+                raise ctx.error(f"{kind}[{i}].name", obj.name, f"names must be unique (already used by {seen[obj.name]})")
+            seen[obj.name] = f"{kind}[{i}]"
+    for i, obj in enumerate(specular):
+        if winding_number(obj.mesh.load(), camera.position) > 0.5:
+            raise ctx.error("camera.position", list(camera.position),
+                            f"the camera must be outside every specular object (it is inside specular[{i}] '{obj.name}')")
+    return Scene(name=name, description=description, camera=camera, light=light, medium=medium,
+                 specular=specular, diffuse=diffuse, source=source)
+
+
+def load_scene(path: str) -> Scene:
+    """Read and validate a TOML scene file; raises :class:`SceneError` for any problem."""
+    label = str(path)
+    try:
+        with open(path, "rb") as fh:
+            data = tomllib.load(fh)
+    except FileNotFoundError:
+        raise SceneError(label, None, None, "scene file does not exist") from None
+    except IsADirectoryError:
+        raise SceneError(label, None, None, "is a directory, expected a .toml scene file") from None
+    except OSError as exc:
+        raise SceneError(label, None, None, f"cannot read scene file ({exc.strerror or exc})") from None
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        raise SceneError(label, None, None, f"invalid TOML ({exc})") from None
+    return parse_scene(data, file=label, base_dir=os.path.dirname(os.path.abspath(path)), source=os.path.abspath(path))

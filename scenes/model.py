@@ -1,0 +1,181 @@
+"""Typed, immutable scene description shared by both renderers.
+
+Conventions (DESIGN.md): right-handed world, +y up, metres; angles in degrees in
+the scene description; RGB triples are linear Rec.709 primaries. Instances are
+frozen dataclasses; derive variants with :func:`dataclasses.replace`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+Vec3 = tuple[float, float, float]
+RGB = tuple[float, float, float]
+
+
+@dataclass(frozen=True)
+class Camera:
+    """Pinhole camera with a box pixel filter.
+
+    ``fov_y`` is the *vertical* field of view in degrees; the image is
+    ``width`` × ``height`` pixels, row 0 at the top.
+    """
+
+    position: Vec3
+    target: Vec3
+    up: Vec3 = (0.0, 1.0, 0.0)
+    fov_y: float = 40.0
+    width: int = 512
+    height: int = 512
+
+    @property
+    def forward(self) -> np.ndarray:
+        """Unit view direction (3,) float64."""
+        d = np.subtract(self.target, self.position, dtype=np.float64)
+        return d / np.linalg.norm(d)
+
+
+@dataclass(frozen=True)
+class SpotLight:
+    """Spot light with exactly the parameters of Mitsuba's ``spot`` emitter.
+
+    ``intensity`` is the radiant intensity on the axis in W/sr (RGB);
+    ``cutoff_angle`` and ``beam_width`` are half-angles in degrees, with
+    0 < beam_width <= cutoff_angle < 90. ``direction`` is a unit vector.
+    """
+
+    position: Vec3
+    direction: Vec3
+    intensity: RGB
+    cutoff_angle: float = 20.0
+    beam_width: float = 15.0
+
+
+@dataclass(frozen=True)
+class Phase:
+    """Phase function: ``kind`` is ``"isotropic"`` or ``"hg"`` (Henyey–Greenstein, mean cosine ``g``)."""
+
+    kind: str = "isotropic"
+    g: float = 0.0
+
+
+@dataclass(frozen=True)
+class Medium:
+    """Homogeneous medium filling the scene outside the objects.
+
+    ``sigma_s`` and ``sigma_a`` are scattering and absorption coefficients in 1/m
+    (RGB, >= 0). All zero means vacuum.
+    """
+
+    sigma_s: RGB = (0.0, 0.0, 0.0)
+    sigma_a: RGB = (0.0, 0.0, 0.0)
+    phase: Phase = field(default_factory=Phase)
+
+    @property
+    def sigma_t(self) -> RGB:
+        """Extinction coefficient sigma_s + sigma_a (1/m, RGB)."""
+        return tuple(s + a for s, a in zip(self.sigma_s, self.sigma_a))
+
+    @property
+    def is_vacuum(self) -> bool:
+        return not any(self.sigma_t)
+
+
+@dataclass(frozen=True)
+class Transform:
+    """Placement of a mesh: scale (uniform), then rotate (Euler degrees about x, then y, then z), then translate."""
+
+    translate: Vec3 = (0.0, 0.0, 0.0)
+    rotate: Vec3 = (0.0, 0.0, 0.0)
+    scale: float = 1.0
+
+    def matrix(self) -> np.ndarray:
+        """4×4 float64 object-to-world matrix."""
+        rx, ry, rz = (math.radians(a) for a in self.rotate)
+        cx, sx, cy, sy, cz, sz = math.cos(rx), math.sin(rx), math.cos(ry), math.sin(ry), math.cos(rz), math.sin(rz)
+        mx = np.array([[1, 0, 0], [0, cx, -sx], [0, sx, cx]])
+        my = np.array([[cy, 0, sy], [0, 1, 0], [-sy, 0, cy]])
+        mz = np.array([[cz, -sz, 0], [sz, cz, 0], [0, 0, 1]])
+        m = np.eye(4)
+        m[:3, :3] = mz @ my @ mx * self.scale
+        m[:3, 3] = self.translate
+        return m
+
+
+@dataclass(frozen=True)
+class MeshSpec:
+    """Where a mesh comes from: a file (``path``, absolute, PLY or OBJ) or a
+    procedural ``generator`` with ``params`` (sorted key/value pairs), then ``transform``.
+
+    ``content_hash`` is the SHA-256 of the file bytes (file meshes) so that the
+    scene hash follows the geometry, not where the file lies.
+    """
+
+    path: str | None = None
+    generator: str | None = None
+    params: tuple[tuple[str, Any], ...] = ()
+    transform: Transform = field(default_factory=Transform)
+    content_hash: str | None = None
+
+    def load(self):
+        """The world-space :class:`scenes.mesh.Mesh` (cached per spec)."""
+        from .mesh import load_mesh_spec
+
+        return load_mesh_spec(self)
+
+    @property
+    def label(self) -> str:
+        return self.path if self.path is not None else f"generator {self.generator}"
+
+
+@dataclass(frozen=True)
+class SpecularObject:
+    """Closed dielectric mesh: index of refraction ``ior`` (>= 1) and interior
+    Beer–Lambert ``absorption`` coefficient (1/m, RGB, >= 0)."""
+
+    name: str
+    mesh: MeshSpec
+    ior: float = 1.5
+    absorption: RGB = (0.0, 0.0, 0.0)
+
+
+@dataclass(frozen=True)
+class DiffuseSurface:
+    """Lambertian surface (need not be closed) with RGB ``albedo`` in [0, 1]."""
+
+    name: str
+    mesh: MeshSpec
+    albedo: RGB = (0.5, 0.5, 0.5)
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A whole scene. ``name``, ``description`` and ``source`` are labels and do
+    not enter :meth:`scene_hash`; every physical parameter does."""
+
+    name: str
+    camera: Camera
+    light: SpotLight
+    medium: Medium = field(default_factory=Medium)
+    specular: tuple[SpecularObject, ...] = ()
+    diffuse: tuple[DiffuseSurface, ...] = ()
+    description: str = ""
+    source: str | None = None
+
+    def canonical_json(self) -> str:
+        from .canonical import canonical_json
+
+        return canonical_json(self)
+
+    def scene_hash(self) -> str:
+        """SHA-256 (hex) of :meth:`canonical_json`: stable across runs and machines."""
+        from .canonical import scene_hash
+
+        return scene_hash(self)
+
+    def specular_triangle_count(self) -> int:
+        return sum(len(obj.mesh.load().faces) for obj in self.specular)

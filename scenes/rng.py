@@ -1,0 +1,67 @@
+"""The shared counter-based random numbers ``u(seed, photon, step, dim)``.
+
+Both renderers draw every random number from this one stateless hash so that an
+exact tracer can replay the very same free-flight samples as the GPU tracer. The
+GLSL twin is ``approx/shaders/common/rng.glsl``; the two must agree bit for bit
+(``tests/approx/test_rng_glsl.py`` checks 100,000 tuples).
+
+Specification (all arithmetic in uint32 with wrap-around):
+
+* ``pcg(v)``: the PCG hash of Jarzynski & Olano, "Hash Functions for GPU
+  Rendering", JCGT 9(3), 2020::
+
+      state = v * 747796405 + 2891336453
+      word  = ((state >> ((state >> 28) + 4)) ^ state) * 277803737
+      pcg   = (word >> 22) ^ word
+
+* ``hash(seed, photon, step, dim) = pcg(pcg(pcg(pcg(seed) + photon) + step) + dim)``
+* ``u = (hash >> 8) * 2**-24``: a float32 in [0, 1) on a 2**-24 grid, exactly
+  representable, so GLSL and numpy produce identical floats.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+_MULT = np.uint32(747796405)
+_INC = np.uint32(2891336453)
+_WORD = np.uint32(277803737)
+
+
+def pcg_hash(v: np.ndarray) -> np.ndarray:
+    """PCG hash (Jarzynski & Olano 2020) of uint32 values, elementwise.
+
+    Parameters
+    ----------
+    v : array_like of uint32, any shape
+
+    Returns
+    -------
+    ndarray of uint32, same shape
+    """
+    v = np.asarray(v, dtype=np.uint32)
+    with np.errstate(over="ignore"):
+        state = v * _MULT + _INC
+        word = ((state >> ((state >> np.uint32(28)) + np.uint32(4))) ^ state) * _WORD
+    return (word >> np.uint32(22)) ^ word
+
+
+def hash4(seed, photon, step, dim) -> np.ndarray:
+    """uint32 hash of (seed, photon, step, dim); arguments broadcast."""
+    seed, photon, step, dim = (np.asarray(a, dtype=np.uint32) for a in (seed, photon, step, dim))
+    with np.errstate(over="ignore"):
+        h = pcg_hash(seed)
+        h = pcg_hash(h + photon)
+        h = pcg_hash(h + step)
+        return pcg_hash(h + dim)
+
+
+def uniform(seed, photon, step, dim) -> np.ndarray:
+    """Uniform float32 in [0, 1) for (seed, photon, step, dim); arguments broadcast.
+
+    Returns
+    -------
+    ndarray of float32, values k * 2**-24 with integer k in [0, 2**24)
+    """
+    h = hash4(seed, photon, step, dim)
+    return (h >> np.uint32(8)).astype(np.float32) * np.float32(2.0**-24)

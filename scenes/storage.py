@@ -1,0 +1,51 @@
+"""Where cached data lives and how files are written without ever leaving a
+half-written file behind (temporary file in the same folder, then rename).
+
+Shared by every package (``scenes`` sits at the bottom of the data flow).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import tempfile
+
+
+def cache_dir(*parts: str) -> str:
+    """``$VOLCAUSTICS_CACHE``, else ``$XDG_CACHE_HOME/volcaustics``, else
+    ``~/.cache/volcaustics``; joined with ``parts`` and created."""
+    root = os.environ.get("VOLCAUSTICS_CACHE") or os.path.join(
+        os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache"), "volcaustics")
+    path = os.path.join(root, *parts)
+    os.makedirs(path, exist_ok=True)
+    return path
+
+
+@contextlib.contextmanager
+def atomic_path(path: str):
+    """Yield a temporary path next to ``path``; on success rename it onto ``path``.
+
+    On an exception the temporary file is removed and ``path`` is untouched. The
+    temporary name keeps the extension, so writers that look at it still work.
+    """
+    folder = os.path.dirname(os.path.abspath(path))
+    os.makedirs(folder, exist_ok=True)
+    base, ext = os.path.splitext(os.path.basename(path))
+    fd, tmp = tempfile.mkstemp(prefix=f".{base}.", suffix=f".tmp{ext}", dir=folder)
+    os.close(fd)
+    try:
+        yield tmp
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+
+
+def atomic_write_bytes(path: str, data: bytes) -> None:
+    with atomic_path(path) as tmp:
+        with open(tmp, "wb") as fh:
+            fh.write(data)
+
+
+def atomic_write_text(path: str, text: str) -> None:
+    atomic_write_bytes(path, text.encode("utf-8"))

@@ -1,0 +1,50 @@
+#!/usr/bin/env bash
+# Prepare a machine for volcaustics: Debian system libraries, then .venv with the
+# project installed editable (with test extras). Idempotent and fast when nothing
+# changed: system packages are checked with dpkg, the venv is refreshed only when
+# pyproject.toml (or this script) changed since the last install.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+VENV=.venv
+STAMP="$VENV/.installed"
+PYTHON=${PYTHON:-python3}
+
+# --- system packages ---------------------------------------------------------
+# libllvm19: Dr.Jit's LLVM backend needs libLLVM >= 16 (14/15 crash in the JIT).
+# libegl1 + libgl1-mesa-dri: headless OpenGL (Mesa llvmpipe) for moderngl.
+need=()
+have_llvm=0
+for lib in /usr/lib/x86_64-linux-gnu/libLLVM-{16,17,18,19,20,21}*.so* /usr/lib/llvm-{16,17,18,19,20,21}/lib/libLLVM*.so*; do
+  [ -e "$lib" ] && have_llvm=1 && break
+done
+[ "$have_llvm" = 1 ] || need+=(libllvm19)
+for pkg in libegl1 libgl1-mesa-dri; do
+  dpkg -s "$pkg" >/dev/null 2>&1 || need+=("$pkg")
+done
+if ! "$PYTHON" -c 'import venv, ensurepip' >/dev/null 2>&1; then
+  need+=(python3-venv)
+fi
+if [ ${#need[@]} -gt 0 ]; then
+  if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null; then
+    echo "setup: installing system packages: ${need[*]}"
+    export DEBIAN_FRONTEND=noninteractive
+    apt-get update -qq
+    apt-get install -y -qq "${need[@]}" >/dev/null
+  else
+    echo "setup: missing system packages. Run:" >&2
+    echo "  sudo apt-get update && sudo apt-get install -y ${need[*]}" >&2
+    exit 1
+  fi
+fi
+
+# --- virtual environment -----------------------------------------------------
+want=$(cat pyproject.toml scripts/setup.sh | sha256sum | cut -d' ' -f1)
+if [ -x "$VENV/bin/python" ] && [ -f "$STAMP" ] && [ "$(cat "$STAMP")" = "$want" ]; then
+  exit 0
+fi
+[ -x "$VENV/bin/python" ] || "$PYTHON" -m venv "$VENV"
+echo "setup: installing volcaustics into $VENV (editable, with test extras)"
+"$VENV/bin/python" -m pip install -q --upgrade pip
+"$VENV/bin/python" -m pip install -q -e ".[test]"
+echo "$want" > "$STAMP"
