@@ -1,0 +1,8 @@
+"""The paper's method on the GPU through moderngl/GLSL.
+
+Multi-layer depth/normal maps from the spot light, image-space photon–geometry
+intersection estimation, photon maps per interaction step, photon splatting,
+volume fog and direct lighting, composed into one frame (DESIGN.md, "approx").
+GLSL lives in ``approx/shaders/<pass>/`` and is loaded through ``approx.glsl``;
+the one GL context comes from ``approx.context``. Never imports ``reference``.
+"""

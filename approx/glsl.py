@@ -1,0 +1,54 @@
+"""The one GLSL loader: shaders by name from ``approx/shaders/<pass>/``.
+
+A shader file has no ``#version`` line; the loader writes ``#version 430 core``,
+then one ``#define NAME VALUE`` per entry of ``defines``, then the file with every
+``#include "common/x.glsl"`` line replaced by that file (paths relative to the
+shaders folder, each file included once).
+"""
+
+from __future__ import annotations
+
+import os
+import re
+
+import moderngl
+
+SHADER_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "shaders")
+GLSL_VERSION = "#version 430 core"
+_INCLUDE = re.compile(r'^\s*#include\s+"([^"]+)"\s*$', re.MULTILINE)
+
+
+def _expand(text: str, seen: set[str]) -> str:
+    def replace(match):
+        rel = match.group(1)
+        if rel in seen:
+            return f"// {rel} already included"
+        seen.add(rel)
+        with open(os.path.join(SHADER_DIR, rel), encoding="utf-8") as fh:
+            return f"// begin {rel}\n{_expand(fh.read(), seen)}\n// end {rel}"
+
+    return _INCLUDE.sub(replace, text)
+
+
+def build_source(text: str, defines: dict | None = None) -> str:
+    """Full GLSL source from shader ``text`` (no #version line) and ``defines``."""
+    lines = [GLSL_VERSION]
+    for name, value in (defines or {}).items():
+        if isinstance(value, bool):
+            value = int(value)
+        lines.append(f"#define {name} {value}")
+    return "\n".join(lines) + "\n" + _expand(text, set())
+
+
+def load_source(name: str, defines: dict | None = None) -> str:
+    """GLSL source of ``approx/shaders/<name>`` (e.g. ``"preview/preview.frag.glsl"``)."""
+    with open(os.path.join(SHADER_DIR, name), encoding="utf-8") as fh:
+        return build_source(fh.read(), defines)
+
+
+def compute_shader(ctx: moderngl.Context, name: str, defines: dict | None = None) -> moderngl.ComputeShader:
+    return ctx.compute_shader(load_source(name, defines))
+
+
+def program(ctx: moderngl.Context, vertex: str, fragment: str, defines: dict | None = None) -> moderngl.Program:
+    return ctx.program(vertex_shader=load_source(vertex, defines), fragment_shader=load_source(fragment, defines))

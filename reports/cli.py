@@ -1,0 +1,92 @@
+"""The ``volcaustics`` command line: parses arguments and calls the libraries.
+
+Scene problems (:class:`scenes.SceneError`) print on one or two lines and exit 2,
+never a traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+EXIT_USAGE = 2
+
+
+def _cmd_doctor(args) -> int:
+    from .doctor import format_report, run_doctor
+
+    report = run_doctor()
+    print(format_report(report))
+    return 0 if report.ok else EXIT_USAGE
+
+
+def _cmd_scenes(args) -> int:
+    from scenes import BUILTIN_NAMES, load_builtin, load_scene
+
+    if args.check:
+        scene = load_scene(args.check)
+        tris = scene.specular_triangle_count()
+        print(f"ok: {args.check}: scene '{scene.name}', {len(scene.specular)} specular object(s) "
+              f"({tris:,} triangles), {len(scene.diffuse)} diffuse, scene_hash {scene.scene_hash()[:12]}")
+        return 0
+    print(f"{'name':<12} {'triangles':>10}  description")
+    for name in BUILTIN_NAMES:
+        scene = load_builtin(name)
+        print(f"{name:<12} {scene.specular_triangle_count():>10,}  {scene.description}")
+    return 0
+
+
+def _cmd_report(args) -> int:
+    from scenes import BUILTIN_NAMES
+
+    from .report import build_report
+
+    names = args.scenes.split(",") if args.scenes else list(BUILTIN_NAMES)
+    unknown = [n for n in names if n not in BUILTIN_NAMES]
+    if unknown:
+        from scenes import SceneError
+
+        raise SceneError(None, "--scenes", unknown[0], f"expected built-in scene names ({', '.join(BUILTIN_NAMES)})")
+    summary = build_report(args.out, names, width=args.width, height=args.height)
+    print(f"report: {len(summary['scenes'])} scenes -> {args.out}/index.html")
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="volcaustics", description=(
+        "Validation harness for Real-time Volume Caustics with Image-based Photon Tracing: "
+        "the paper's GPU method beside Mitsuba 3 ground truth."))
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
+    p = sub.add_parser("doctor", help="check GL, libLLVM and Mitsuba variants; exit 2 with the fix if unusable")
+    p.set_defaults(func=_cmd_doctor)
+
+    p = sub.add_parser("scenes", help="list the built-in scenes, or validate a scene file with --check")
+    p.add_argument("--check", metavar="FILE.toml", help="validate a scene file: exit 0 and a summary, or exit 2 and the error")
+    p.set_defaults(func=_cmd_scenes)
+
+    p = sub.add_parser("report", help="the main job: the report on the built-in scenes")
+    p.add_argument("--out", default="runs/report", help="output folder (default runs/report)")
+    p.add_argument("--scenes", help="comma-separated built-in scene names (default: all)")
+    p.add_argument("--width", type=int, default=384, help="image width in pixels (default 384)")
+    p.add_argument("--height", type=int, default=384, help="image height in pixels (default 384)")
+    p.set_defaults(func=_cmd_report)
+    return parser
+
+
+def main(argv=None) -> int:
+    from scenes import SceneError
+
+    args = build_parser().parse_args(argv)
+    try:
+        return args.func(args)
+    except SceneError as exc:
+        print(f"volcaustics: error: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+    except KeyboardInterrupt:
+        print("volcaustics: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())
