@@ -6,3 +6,8 @@ volume fog and direct lighting, composed into one frame (DESIGN.md, "approx").
 GLSL lives in ``approx/shaders/<pass>/`` and is loaded through ``approx.glsl``;
 the one GL context comes from ``approx.context``. Never imports ``reference``.
 """
+
+from .params import ApproxParams, ParamError
+from .renderer import Frame, Renderer, render
+
+__all__ = ["ApproxParams", "Frame", "ParamError", "Renderer", "render"]

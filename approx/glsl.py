@@ -52,3 +52,25 @@ def compute_shader(ctx: moderngl.Context, name: str, defines: dict | None = None
 
 def program(ctx: moderngl.Context, vertex: str, fragment: str, defines: dict | None = None) -> moderngl.Program:
     return ctx.program(vertex_shader=load_source(vertex, defines), fragment_shader=load_source(fragment, defines))
+
+
+def set_uniforms(prog, **values) -> None:
+    """Set the uniforms that the compiled program still has (unused ones are
+    optimised away by the GLSL compiler, depending on defines)."""
+    for name, value in values.items():
+        if name in prog:
+            prog[name].value = value
+
+
+def attribute_layout(prog, parts, per_instance: bool = False) -> tuple[str, list[str]]:
+    """moderngl buffer format and attribute names for ``parts`` = [(format, name or None)],
+    turning attributes the program does not use into padding."""
+    fmt, names = [], []
+    for f, name in parts:
+        if name is not None and name in prog:
+            fmt.append(f)
+            names.append(name)
+        else:
+            count, kind = (int(f[:-1]) if f[:-1] else 1), f[-1]
+            fmt.append(f"{count * (4 if kind == 'f' else 1)}x")
+    return " ".join(fmt) + ("/i" if per_instance else ""), names

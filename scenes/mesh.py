@@ -42,6 +42,21 @@ class Mesh:
         f = self.faces if np.linalg.det(matrix[:3, :3]) >= 0 else self.faces[:, ::-1]
         return Mesh(v, np.ascontiguousarray(f))
 
+    def vertex_normals(self) -> np.ndarray:
+        """Unit vertex normals, V×3 float64: face normals weighted by the corner angle
+        (Thürrner & Wüthrich 1998), the shading normals both renderers use."""
+        tri = self.vertices[self.faces]
+        face_n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+        face_n /= np.maximum(np.linalg.norm(face_n, axis=1, keepdims=True), 1e-300)
+        normals = np.zeros_like(self.vertices)
+        for k in range(3):
+            e1 = tri[:, (k + 1) % 3] - tri[:, k]
+            e2 = tri[:, (k + 2) % 3] - tri[:, k]
+            cos = np.einsum("ij,ij->i", e1, e2) / np.maximum(
+                np.linalg.norm(e1, axis=1) * np.linalg.norm(e2, axis=1), 1e-300)
+            np.add.at(normals, self.faces[:, k], face_n * np.arccos(np.clip(cos, -1, 1))[:, None])
+        return normals / np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-300)
+
     def flipped(self) -> "Mesh":
         return Mesh(self.vertices, np.ascontiguousarray(self.faces[:, ::-1]))
 

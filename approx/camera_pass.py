@@ -1,0 +1,117 @@
+"""Camera passes: the G-buffer of primary hits, fog and direct lighting."""
+
+from __future__ import annotations
+
+import moderngl
+import numpy as np
+
+from .context import bound
+from .glsl import program, set_uniforms as _set
+from .light import spot_constants
+from .transforms import gl_matrix, look_at, perspective
+
+MAX_DIFFUSE = 16
+KIND_NONE, KIND_DIFFUSE, KIND_SPECULAR = 0, 1, 2
+
+
+class CameraView:
+    """Camera matrices for one image size (GL conventions)."""
+
+    def __init__(self, camera, width: int, height: int, far: float):
+        self.eye = np.asarray(camera.position, np.float64)
+        self.width, self.height = width, height
+        self.view = look_at(camera.position, camera.target, camera.up)
+        self.proj = perspective(camera.fov_y, width / height, 1e-3, far)
+        self.view_proj = self.proj @ self.view
+        self.inv_view_proj = np.linalg.inv(self.view_proj)
+
+    def set_uniforms(self, prog: moderngl.Program):
+        for name, value in (("eye", tuple(self.eye)), ("viewport", (float(self.width), float(self.height)))):
+            if name in prog:
+                prog[name].value = value
+        for name, m in (("view_proj", self.view_proj), ("inv_view_proj", self.inv_view_proj)):
+            if name in prog:
+                prog[name].write(gl_matrix(m))
+
+
+class CameraPasses:
+    """G-buffer, fog and direct programs for one fog_steps setting and phase function."""
+
+    def __init__(self, ctx: moderngl.Context, scene, fog_steps: int):
+        self.ctx = ctx
+        phase = {"PHASE_G": repr(float(scene.medium.phase.g))} if scene.medium.phase.kind == "hg" else {}
+        self.gbuffer = program(ctx, "camera/gbuffer.vert.glsl", "camera/gbuffer.frag.glsl")
+        self.fog = program(ctx, "shade/fullscreen.vert.glsl", "shade/fog.frag.glsl", {"FOG_STEPS": fog_steps, **phase})
+        self.direct = program(ctx, "shade/fullscreen.vert.glsl", "shade/direct.frag.glsl", {"MAX_DIFFUSE": MAX_DIFFUSE})
+        self.empty_vao = ctx.vertex_array(self.fog, [])
+        self.empty_vao_direct = ctx.vertex_array(self.direct, [])
+
+    def render_gbuffer(self, geometry, view: CameraView):
+        """(geometry, normal) RGBA32F textures: (distance to eye, kind, material, 0) and world normals."""
+        ctx = self.ctx
+        size = (view.width, view.height)
+        geo, nrm = ctx.texture(size, 4, dtype="f4"), ctx.texture(size, 4, dtype="f4")
+        for t in (geo, nrm):
+            t.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        depth = ctx.depth_renderbuffer(size)
+        fbo = ctx.framebuffer(color_attachments=[geo, nrm], depth_attachment=depth)
+        prog = self.gbuffer
+        view.set_uniforms(prog)
+        with bound(ctx, fbo):
+            ctx.enable(moderngl.DEPTH_TEST)
+            fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+            vao = geometry.vertex_array(ctx, prog, "specular")
+            if vao is not None:
+                _set(prog, kind=float(KIND_SPECULAR), material=0.0)
+                vao.render(moderngl.TRIANGLES)
+                vao.release()
+            vao = geometry.vertex_array(ctx, prog, "diffuse")
+            if vao is not None:
+                for i, (first, count) in enumerate(geometry.diffuse_ranges):
+                    _set(prog, kind=float(KIND_DIFFUSE), material=float(i))
+                    vao.render(moderngl.TRIANGLES, vertices=count, first=first)
+                vao.release()
+            ctx.disable(moderngl.DEPTH_TEST)
+        fbo.release()
+        depth.release()
+        return geo, nrm
+
+    def _common(self, prog, scene, view, frustum, shadow_map, shadow_res, gbuffer_geometry):
+        view.set_uniforms(prog)
+        for name, value in spot_constants(scene.light).items():
+            _set(prog, **{name: value})
+        prog["light_view_proj"].write(gl_matrix(frustum.view_proj))
+        _set(prog, shadow_res=shadow_res, sigma_t=tuple(scene.medium.sigma_t))
+        shadow_map.use(location=0)
+        gbuffer_geometry.use(location=1)
+        _set(prog, shadow_map=0, gbuffer_geometry=1)
+
+    def _draw(self, vao, view) -> moderngl.Texture:
+        ctx = self.ctx
+        out = ctx.texture((view.width, view.height), 4, dtype="f4")
+        fbo = ctx.framebuffer(color_attachments=[out])
+        with bound(ctx, fbo):
+            fbo.clear(0.0, 0.0, 0.0, 0.0)
+            vao.render(moderngl.TRIANGLES, vertices=3)
+        fbo.release()
+        return out
+
+    def render_fog(self, scene, view, frustum, geometry, shadow_map, shadow_res, gbuffer_geometry) -> moderngl.Texture:
+        prog = self.fog
+        self._common(prog, scene, view, frustum, shadow_map, shadow_res, gbuffer_geometry)
+        _set(prog, sigma_s=tuple(scene.medium.sigma_s), scene_min=tuple(geometry.scene_min),
+             scene_max=tuple(geometry.scene_max))
+        return self._draw(self.empty_vao, view)
+
+    def render_direct(self, scene, view, frustum, shadow_map, shadow_res, gbuffer_geometry, gbuffer_normal):
+        prog = self.direct
+        self._common(prog, scene, view, frustum, shadow_map, shadow_res, gbuffer_geometry)
+        gbuffer_normal.use(location=2)
+        albedo = [tuple(o.albedo) for o in scene.diffuse][:MAX_DIFFUSE]
+        albedo += [(0.0, 0.0, 0.0)] * (MAX_DIFFUSE - len(albedo))
+        _set(prog, gbuffer_normal=2, albedo=albedo, texel_angle=2.0 * frustum.tan_half / shadow_res)
+        return self._draw(self.empty_vao_direct, view)
+
+    def release(self):
+        for r in (self.empty_vao, self.empty_vao_direct, self.gbuffer, self.fog, self.direct):
+            r.release()

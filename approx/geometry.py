@@ -1,0 +1,85 @@
+"""Scene meshes uploaded once per scene: vertex buffers for the light and camera passes."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import moderngl
+import numpy as np
+
+from .glsl import attribute_layout
+
+VERTEX_FORMAT = "3f 3f 1f"  # position, smooth normal, material index
+VERTEX_ATTRIBUTES = ("in_position", "in_normal", "in_material")
+
+
+def interleave(mesh, material: int) -> np.ndarray:
+    """(3·F)×7 float32 un-indexed triangles: position, angle-weighted vertex normal, material."""
+    normals = mesh.vertex_normals()
+    idx = mesh.faces.reshape(-1)
+    data = np.empty((len(idx), 7), dtype=np.float32)
+    data[:, :3] = mesh.vertices[idx]
+    data[:, 3:6] = normals[idx]
+    data[:, 6] = material
+    return data
+
+
+def _max_edge(corners: np.ndarray) -> float:
+    if len(corners) == 0:
+        return 0.0
+    tri = corners.reshape(-1, 3, 3).astype(np.float64)
+    return float(max(np.linalg.norm(tri[:, (k + 1) % 3] - tri[:, k], axis=1).max() for k in range(3)))
+
+
+@dataclass
+class SceneGeometry:
+    """GPU buffers of one scene's meshes and its bounds (the box photons may not leave)."""
+
+    specular: moderngl.Buffer
+    diffuse: moderngl.Buffer | None
+    specular_vertices: int
+    diffuse_ranges: list  # (first vertex, count) per diffuse surface
+    specular_points: np.ndarray  # V×3 float32 (un-indexed triangle corners)
+    specular_max_edge: float
+    specular_min: np.ndarray
+    specular_max: np.ndarray
+    scene_min: np.ndarray
+    scene_max: np.ndarray
+
+    @classmethod
+    def upload(cls, ctx: moderngl.Context, scene) -> "SceneGeometry":
+        spec = [interleave(o.mesh.load(), i) for i, o in enumerate(scene.specular)]
+        diff = [interleave(o.mesh.load(), i) for i, o in enumerate(scene.diffuse)]
+        spec_data = np.concatenate(spec) if spec else np.zeros((0, 7), np.float32)
+        ranges, first = [], 0
+        for d in diff:
+            ranges.append((first, len(d)))
+            first += len(d)
+        points = [spec_data[:, :3]] + [d[:, :3] for d in diff]
+        points.append(np.asarray([scene.light.position, scene.camera.position], np.float32))
+        allp = np.concatenate(points)
+        margin = 1e-3 * float(np.linalg.norm(allp.max(0) - allp.min(0)))
+        spec_min = spec_data[:, :3].min(0) if len(spec_data) else np.zeros(3)
+        spec_max = spec_data[:, :3].max(0) if len(spec_data) else np.zeros(3)
+        return cls(
+            specular=ctx.buffer(spec_data.tobytes() if len(spec_data) else np.zeros(7, np.float32).tobytes()),
+            diffuse=ctx.buffer(np.concatenate(diff).tobytes()) if diff else None,
+            specular_vertices=len(spec_data),
+            specular_points=spec_data[:, :3].copy(),
+            specular_max_edge=_max_edge(spec_data[:, :3]),
+            diffuse_ranges=ranges,
+            specular_min=spec_min.astype(np.float64), specular_max=spec_max.astype(np.float64),
+            scene_min=allp.min(0).astype(np.float64) - margin, scene_max=allp.max(0).astype(np.float64) + margin,
+        )
+
+    def vertex_array(self, ctx, program, which: str) -> moderngl.VertexArray | None:
+        buf = self.specular if which == "specular" else self.diffuse
+        if buf is None or (which == "specular" and self.specular_vertices == 0):
+            return None
+        fmt, names = attribute_layout(program, list(zip(VERTEX_FORMAT.split(), VERTEX_ATTRIBUTES)))
+        return ctx.vertex_array(program, [(buf, fmt, *names)])
+
+    def release(self):
+        self.specular.release()
+        if self.diffuse is not None:
+            self.diffuse.release()

@@ -1,0 +1,149 @@
+"""Light maps (paper Fig. 1A, 3, §4.2): depth (distance to the light, not z),
+material id and normal of surfaces seen from the spot light.
+
+Map m = 2·level + facing (0 front faces, 1 back faces); each texel holds
+(distance, material, octahedral normal), 0 where empty. Strategies:
+
+* ``threshold`` (the paper): the specular objects' extent along the spot axis is
+  divided uniformly into ``layers`` levels; level i keeps the nearest front face
+  and the nearest back face beyond threshold i (two passes).
+* ``peel``: depth peeling per facing: level i holds the i-th front face and the
+  i-th back face along each light ray (for closed meshes: the 2i-th and
+  (2i+1)-th surfaces of classic peeling), so both strategies use 2·layers maps.
+"""
+
+from __future__ import annotations
+
+import moderngl
+import numpy as np
+
+from .context import bound
+from .glsl import program
+from .transforms import gl_matrix
+
+FRONT, BACK, BOTH = 1, -1, 0
+
+
+class LightMapRenderer:
+    """Renders light maps of a :class:`SceneGeometry` into RGBA32F textures."""
+
+    def __init__(self, ctx: moderngl.Context, geometry):
+        self.ctx = ctx
+        self.geometry = geometry
+        self.program = program(ctx, "layers/layer.vert.glsl", "layers/layer.frag.glsl")
+        self.vao_specular = geometry.vertex_array(ctx, self.program, "specular")
+        self.vao_diffuse = geometry.vertex_array(ctx, self.program, "diffuse")
+        self._empty = ctx.texture((1, 1), 4, dtype="f4")  # bound as previous_map when unused
+        self._empty.filter = (moderngl.NEAREST, moderngl.NEAREST)
+
+    def render_map(self, frustum, res: int, *, facing: int = BOTH, threshold: float = -np.inf,
+                   previous: moderngl.Texture | None = None, peel_epsilon: float = 0.0,
+                   include_diffuse: bool = False, target: moderngl.Texture | None = None) -> moderngl.Texture:
+        """One map at res×res; returns the texture (``target`` reused if given).
+
+        ``self.last_samples`` holds the number of fragments that passed (occlusion
+        query): 0 means the map is empty."""
+        ctx = self.ctx
+        tex = target or ctx.texture((res, res), 4, dtype="f4")
+        tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        depth = ctx.depth_renderbuffer((res, res))
+        fbo = ctx.framebuffer(color_attachments=[tex], depth_attachment=depth)
+        prog = self.program
+        prog["light_view_proj"].write(gl_matrix(frustum.view_proj))
+        prog["light_position"].value = tuple(frustum.position)
+        prog["light_direction"].value = tuple(frustum.direction)
+        prog["facing"].value = facing
+        prog["threshold"].value = float(max(threshold, -3.0e38))
+        prog["use_previous"].value = previous is not None
+        prog["peel_epsilon"].value = float(peel_epsilon)
+        (previous or self._empty).use(location=0)
+        prog["previous_map"].value = 0
+        with bound(ctx, fbo):
+            ctx.enable(moderngl.DEPTH_TEST)
+            ctx.disable(moderngl.CULL_FACE)
+            fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+            query = ctx.query(samples=True)
+            with query:
+                if self.vao_specular is not None:
+                    self.vao_specular.render(moderngl.TRIANGLES)
+                if include_diffuse and self.vao_diffuse is not None:
+                    self.vao_diffuse.render(moderngl.TRIANGLES)
+            ctx.disable(moderngl.DEPTH_TEST)
+        self.last_samples = query.samples
+        fbo.release()
+        depth.release()
+        return tex
+
+    def thresholds(self, frustum, layers: int) -> list[float]:
+        """Level thresholds along the spot axis: uniform over the specular objects' extent.
+
+        Level 0 keeps everything; level i > 0 starts at d_min + i·(d_max − d_min)/layers,
+        with d the distance along the axis over the specular bounding box corners.
+        """
+        g = self.geometry
+        corners = np.array([[x, y, z] for x in (g.specular_min[0], g.specular_max[0])
+                            for y in (g.specular_min[1], g.specular_max[1])
+                            for z in (g.specular_min[2], g.specular_max[2])])
+        along = (corners - frustum.position) @ frustum.direction
+        lo, hi = float(along.min()), float(along.max())
+        return [-np.inf] + [lo + i * (hi - lo) / layers for i in range(1, layers)]
+
+    def distance_bounds(self, frustum) -> tuple[float, float]:
+        """Conservative [min, max] distance from the light to any specular surface point:
+        max over vertices (distance is convex), min over vertices less the longest edge."""
+        g = self.geometry
+        if g.specular_vertices == 0:
+            return 0.0, 0.0
+        dist = np.linalg.norm(g.specular_points - frustum.position, axis=1)
+        return max(0.0, float(dist.min()) - g.specular_max_edge), float(dist.max())
+
+    def render_layers(self, frustum, res: int, layers: int, strategy: str, targets=None) -> list[moderngl.Texture]:
+        """The 2·layers maps in map order (2·level + facing).
+
+        Also sets ``self.layer_info``: per map (used, min distance, max distance),
+        conservative bounds of the distances it can hold."""
+        maps, info = [], []
+        d_min, d_max = self.distance_bounds(frustum)
+        targets = targets or [None] * (2 * layers)
+        peel_epsilon = 1e-5 * frustum.far
+        thresholds = self.thresholds(frustum, layers)
+        for level in range(layers):
+            for k, facing in enumerate((FRONT, BACK)):
+                target = targets[2 * level + k]
+                if strategy == "threshold":
+                    tex = self.render_map(frustum, res, facing=facing, threshold=thresholds[level],
+                                          target=target)
+                    lower = max(d_min, thresholds[level]) if level > 0 else d_min  # distance >= axial distance
+                else:
+                    previous = maps[2 * (level - 1) + k] if level > 0 else None
+                    tex = self.render_map(frustum, res, facing=facing, previous=previous,
+                                          peel_epsilon=peel_epsilon, target=target)
+                    lower = d_min
+                maps.append(tex)
+                info.append((self.last_samples > 0, lower * (1 - 1e-5), d_max * (1 + 1e-5)))
+        self.layer_info = info
+        return maps
+
+    def release(self):
+        for vao in (self.vao_specular, self.vao_diffuse):
+            if vao is not None:
+                vao.release()
+        self.program.release()
+        self._empty.release()
+
+
+def read_map(tex: moderngl.Texture) -> np.ndarray:
+    """A light map as res×res×4 float32 (row 0 = bottom of the light image, GL order)."""
+    w, h = tex.size
+    return np.frombuffer(tex.read(), dtype=np.float32).reshape(h, w, 4).copy()
+
+
+def decode_normals(encoded: np.ndarray) -> np.ndarray:
+    """Octahedral-decoded unit normals from ...×2 encodings (numpy twin of common/octahedral.glsl)."""
+    e = np.asarray(encoded, np.float64)
+    n = np.concatenate([e, 1.0 - np.abs(e[..., :1]) - np.abs(e[..., 1:2])], axis=-1)
+    neg = n[..., 2] < 0
+    sign = np.where(n[..., :2] >= 0, 1.0, -1.0)
+    folded = (1.0 - np.abs(n[..., 1::-1])) * sign
+    n[..., :2] = np.where(neg[..., None], folded, n[..., :2])
+    return n / np.linalg.norm(n, axis=-1, keepdims=True)

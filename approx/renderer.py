@@ -1,0 +1,162 @@
+"""``approx.render(scene, params) -> Frame``: the paper's whole pipeline, one frame.
+
+A :class:`Renderer` keeps the GL context, compiled programs and the scene's
+vertex buffers; changing the light, the medium or the parameters retraces
+without re-uploading geometry (the paper retraces every frame).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from dataclasses import dataclass, field
+
+import moderngl
+import numpy as np
+
+from .camera_pass import KIND_SPECULAR, CameraPasses, CameraView
+from .context import gl_info, shared_context
+from .geometry import SceneGeometry
+from .layers import BOTH, LightMapRenderer
+from .light import LightFrustum
+from .params import ApproxParams
+from .records import RAW_RECORD_DTYPE, records_from_raw
+from .splat import Splatter
+from .timing import PassTimer, timer_queries_work
+from .trace import PhotonTracer, read_raw_records, sampling_rate
+
+LAYER_NAMES = ("caustic", "fog", "direct", "combined", "mask_specular")
+
+
+@dataclass
+class Frame:
+    """One rendered frame.
+
+    images: layer name → H×W×3 float32, linear Rec.709, radiance W·m⁻²·sr⁻¹, row 0 at
+        the top (``mask_specular`` is 0/1 in all three channels).
+    caustic_steps: per interaction step, the caustic image of that step's photons.
+    records: per step, the segment records (approx.records.RECORD_DTYPE, active photons).
+    timings: pass name → seconds; ``timing_method`` says how they were measured.
+    params: the parameters actually used (width/height resolved).
+    """
+
+    images: dict
+    caustic_steps: list
+    records: list
+    timings: dict
+    timing_method: str
+    params: dict
+    photons_emitted: int
+    gl: dict = field(default_factory=dict)
+
+
+def _read_rgb(tex: moderngl.Texture) -> np.ndarray:
+    w, h = tex.size
+    rgba = np.frombuffer(tex.read(), dtype=np.float32).reshape(h, w, 4)
+    return np.ascontiguousarray(rgba[::-1, :, :3])
+
+
+class Renderer:
+    """The approximation for one scene's geometry (light, medium, materials may change)."""
+
+    def __init__(self, scene, ctx: moderngl.Context | None = None):
+        self.ctx = ctx or shared_context()
+        self.scene = scene
+        self.geometry = SceneGeometry.upload(self.ctx, scene)
+        self.light_maps = LightMapRenderer(self.ctx, self.geometry)
+        self._programs = {}
+        self._use_queries = timer_queries_work(self.ctx)
+
+    def _cached(self, key, factory):
+        if key not in self._programs:
+            self._programs[key] = factory()
+        return self._programs[key]
+
+    def render(self, params: ApproxParams | None = None, scene=None, *, keep_records: bool = True) -> Frame:
+        """Render one frame. ``scene`` may replace light, medium, camera or materials
+        of the scene given at construction (same meshes)."""
+        ctx = self.ctx
+        scene = scene or self.scene
+        p = (params or ApproxParams()).resolved(scene)
+        timer = PassTimer(ctx, self._use_queries)
+        wall0 = time.perf_counter()
+        geo = self.geometry
+        frustum = LightFrustum.for_scene(scene, geo.scene_min, geo.scene_max)
+        tracer = self._cached(("tracer", p.layers, p.peak_samples, p.iterations, p.fresnel),
+                              lambda: PhotonTracer(ctx, p))
+        phase_key = (scene.medium.phase.kind, scene.medium.phase.g)
+        camera_passes = self._cached(("camera", p.fog_steps, phase_key), lambda: CameraPasses(ctx, scene, p.fog_steps))
+        splatter = self._cached(("splat", phase_key), lambda: Splatter(ctx, scene.medium))
+        released = []
+
+        with timer.measure("layers"):
+            layer_maps = self.light_maps.render_layers(frustum, p.light_res, p.layers, p.layer_strategy)
+            map_info = self.light_maps.layer_info
+            shadow_map = self.light_maps.render_map(frustum, p.light_res, facing=BOTH, include_diffuse=True)
+        released += layer_maps + [shadow_map]
+
+        with timer.measure("emission"):
+            emission_map = self.light_maps.render_map(frustum, p.photon_res, facing=BOTH)
+            photons = tracer.emit_photons(scene, frustum, emission_map, p.photon_res, p.seed)
+        released += [emission_map, photons]
+        count = p.photon_res * p.photon_res
+
+        view = CameraView(scene.camera, p.width, p.height, far=2.0 * float(np.linalg.norm(geo.scene_max - geo.scene_min)))
+        with timer.measure("camera"):
+            gbuf_geo, gbuf_nrm = camera_passes.render_gbuffer(geo, view)
+        released += [gbuf_geo, gbuf_nrm]
+
+        sigma_bar = sampling_rate(scene.medium)
+        records, caustic_steps = [], []
+        record_buf = ctx.buffer(reserve=count * RAW_RECORD_DTYPE.itemsize)
+        released.append(record_buf)
+        for step in range(1, p.steps + 1):
+            with timer.measure(f"trace_step{step}"):
+                tracer.trace_step(scene, frustum, geo, layer_maps, map_info, p.light_res, photons, record_buf, count, step, p.seed)
+            step_image = ctx.texture((p.width, p.height), 4, dtype="f4")
+            with timer.measure("splat"):
+                step_fbo = ctx.framebuffer(color_attachments=[step_image])
+                step_fbo.clear(0.0, 0.0, 0.0, 0.0)
+                step_fbo.release()
+                splatter.splat(record_buf, count, view, scene.medium, p.splat_radius, sigma_bar, gbuf_geo, step_image)
+            caustic_steps.append(_read_rgb(step_image))
+            step_image.release()
+            if keep_records:
+                records.append(records_from_raw(read_raw_records(record_buf, count), step))
+
+        with timer.measure("fog"):
+            fog_tex = camera_passes.render_fog(scene, view, frustum, geo, shadow_map, p.light_res, gbuf_geo)
+        with timer.measure("direct"):
+            direct_tex = camera_passes.render_direct(scene, view, frustum, shadow_map, p.light_res, gbuf_geo, gbuf_nrm)
+        released += [fog_tex, direct_tex]
+
+        caustic = np.sum(caustic_steps, axis=0).astype(np.float32) if caustic_steps else np.zeros((p.height, p.width, 3), np.float32)
+        fog, direct = _read_rgb(fog_tex), _read_rgb(direct_tex)
+        kind = _read_rgb(gbuf_geo)[:, :, 1]
+        mask = np.repeat((np.round(kind) == KIND_SPECULAR).astype(np.float32)[:, :, None], 3, axis=2)
+        emitted = int(np.count_nonzero(records[0]["status"] >= 0)) if keep_records and records else -1
+        for r in released:
+            r.release()
+        timings = dict(timer.seconds)
+        timings["trace"] = sum(v for k, v in timings.items() if k.startswith("trace_step"))
+        timings["frame_wall"] = time.perf_counter() - wall0
+        return Frame(
+            images={"caustic": caustic, "fog": fog, "direct": direct, "combined": caustic + fog + direct,
+                    "mask_specular": mask},
+            caustic_steps=caustic_steps, records=records, timings=timings, timing_method=timer.method,
+            params=p.to_dict(), photons_emitted=emitted, gl=gl_info(ctx))
+
+    def release(self):
+        for prog in self._programs.values():
+            prog.release()
+        self.light_maps.release()
+        self.geometry.release()
+
+
+def render(scene, params: ApproxParams | None = None, **kwargs) -> Frame:
+    """Render one frame of ``scene`` with the paper's method (see :class:`Renderer`)."""
+    renderer = Renderer(scene)
+    try:
+        return renderer.render(params, **kwargs)
+    finally:
+        renderer.release()

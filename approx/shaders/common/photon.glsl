@@ -1,0 +1,32 @@
+// Photon state and per-step segment records (std430). Python twin: approx/records.py.
+#ifndef VOLCAUSTICS_PHOTON_GLSL
+#define VOLCAUSTICS_PHOTON_GLSL
+
+// status (photon.dir.w and record.end_status.w)
+#define STATUS_DEAD 0        // no photon here, or terminated earlier
+#define STATUS_SURFACE 1     // ended at a specular surface (after the interaction there)
+#define STATUS_COLLIDED 2    // ended at a medium collision: splatted for this step
+#define STATUS_LEFT_SCENE 3  // left the scene bounds: terminated
+#define STATUS_LOST 4        // inside glass and no exit found: terminated
+
+// flags (record.extra.x)
+#define FLAG_LEFT_FRUSTUM 1u // part of the segment lay outside the light maps
+#define FLAG_REFLECTED 2u    // the interaction at the end reflected (Fresnel choice or TIR)
+#define FLAG_TIR 4u          // total internal reflection at the end
+
+struct Photon {
+    vec4 pos;    // xyz position; w: material id of the glass it is inside, -1 in the medium
+    vec4 dir;    // xyz unit direction; w: status
+    vec4 power;  // rgb power (W); w unused
+};
+
+struct Record {
+    vec4 start_maxlen;  // xyz segment start; w: sampled max length (free flight, or scene span inside glass)
+    vec4 dir_t;         // xyz direction; w: estimated hit distance t, -1 if no hit
+    vec4 normal_map;    // xyz estimated normal at the hit (world); w: map index, -1 if no hit
+    vec4 end_status;    // xyz end position; w: status after the step
+    vec4 power_inside;  // rgb power after the step; w: material id inside at the start, -1 in the medium
+    vec4 extra;         // x: flags; y: material id hit (-1 none); z: segment length searched; w: unused
+};
+
+#endif

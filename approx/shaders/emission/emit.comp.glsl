@@ -1,0 +1,48 @@
+// Emission (paper §4.3): one photon per covered texel of the photon_res² light
+// map, at the first surface, with power I·falloff(ω)·ΔΩ(texel) (exact texel
+// solid angle from the CPU), then the first specular interaction.
+#include "common/rng.glsl"
+#include "common/spot.glsl"
+#include "common/optics.glsl"
+#include "common/octahedral.glsl"
+#include "common/photon.glsl"
+
+layout(local_size_x = 8, local_size_y = 8) in;
+
+uniform float ior[MAX_MATERIALS];
+#include "common/interaction.glsl"
+
+uniform sampler2D emission_map;  // nearest surface: (distance, material, octahedral normal)
+uniform int photon_res;
+uniform float tan_half;          // tan(cutoff): the map's image plane spans [-tan_half, tan_half]²
+uniform mat3 light_basis;        // columns: light right, up, spot axis (world)
+uniform uint seed;
+
+layout(std430, binding = 0) writeonly buffer Photons { Photon photons[]; };
+layout(std430, binding = 1) readonly buffer SolidAngles { float solid_angle[]; };
+
+void main() {
+    ivec2 texel = ivec2(gl_GlobalInvocationID.xy);
+    if (texel.x >= photon_res || texel.y >= photon_res) return;
+    uint index = uint(texel.y * photon_res + texel.x);
+    vec4 map = texelFetch(emission_map, texel, 0);
+
+    Photon ph;
+    ph.pos = vec4(0.0, 0.0, 0.0, -1.0);
+    ph.dir = vec4(0.0, 0.0, 0.0, float(STATUS_DEAD));
+    ph.power = vec4(0.0);
+
+    vec2 plane = ((vec2(texel) + 0.5) / float(photon_res) * 2.0 - 1.0) * tan_half;
+    vec3 d = normalize(light_basis * vec3(plane, 1.0));
+    float falloff = spot_falloff(d);
+    if (map.r > 0.0 && falloff > 0.0) {
+        vec3 power = light_intensity * falloff * solid_angle[index];
+        int inside = -1;
+        surface_interaction(d, power, inside, octa_decode(map.ba), int(map.g + 0.5),
+                            rng_uniform(seed, index, 0u, 1u));
+        ph.pos = vec4(light_position + normalize(light_basis * vec3(plane, 1.0)) * map.r, float(inside));
+        ph.dir = vec4(d, float(STATUS_SURFACE));
+        ph.power = vec4(power, 0.0);
+    }
+    photons[index] = ph;
+}

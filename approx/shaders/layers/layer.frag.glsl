@@ -1,0 +1,38 @@
+// One light map: per texel the nearest surface that passes this map's filter.
+// Output (RGBA32F): distance to the light (not z), material id, octahedral
+// world normal. Cleared to 0 = no surface.
+//
+// Filters (uniforms):
+//   facing        +1 front faces only, -1 back faces only, 0 both
+//   threshold     keep fragments whose distance along the spot axis exceeds it
+//                 (strategy `threshold`, paper §4.2); -inf to disable
+//   use_previous  depth peeling (strategy `peel`): keep fragments farther than
+//                 the previous map of the same facing by more than peel_epsilon
+#include "common/octahedral.glsl"
+
+uniform vec3 light_position;
+uniform vec3 light_direction;
+uniform int facing;
+uniform float threshold;
+uniform bool use_previous;
+uniform sampler2D previous_map;
+uniform float peel_epsilon;
+
+in vec3 v_position;
+in vec3 v_normal;
+flat in float v_material;
+
+out vec4 out_map;
+
+void main() {
+    if (facing > 0 && !gl_FrontFacing) discard;
+    if (facing < 0 && gl_FrontFacing) discard;
+    vec3 to_point = v_position - light_position;
+    if (dot(to_point, light_direction) <= threshold) discard;
+    float dist = length(to_point);
+    if (use_previous) {
+        float prev = texelFetch(previous_map, ivec2(gl_FragCoord.xy), 0).r;
+        if (prev <= 0.0 || dist <= prev + peel_epsilon) discard;
+    }
+    out_map = vec4(dist, v_material, octa_encode(normalize(v_normal)));
+}

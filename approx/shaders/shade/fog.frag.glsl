@@ -1,0 +1,92 @@
+// Fog (DESIGN.md): single scattering of direct, unrefracted spot light along the
+// camera ray, with volumetric shadows of all objects (Wyman & Ramsey 2008, ray
+// marching). The march covers only the part of the ray inside the spot's cutoff
+// cone (elsewhere the falloff is 0) and in front of the first surface, with
+// FOG_STEPS midpoint samples:
+//   L = ∫ σs p(θ) I·falloff(ω)/r² · exp(-σt r) · V(x) · exp(-σt s) ds
+#include "common/camera.glsl"
+#include "common/spot.glsl"
+#include "common/phase.glsl"
+#include "common/shadow.glsl"
+
+uniform sampler2D gbuffer_geometry;  // (distance to eye, kind, material, 0)
+uniform vec3 sigma_s;
+uniform vec3 sigma_t;
+uniform vec3 scene_min;
+uniform vec3 scene_max;
+
+out vec4 out_color;
+
+bool in_cone(vec3 p) {
+    vec3 q = p - light_position;
+    return dot(q, light_direction) > spot_cos_cutoff * length(q);
+}
+
+// Part [s_in, s_out] of the ray o + s r, s in [0, s_end], inside the cutoff cone.
+// The cone (half-angle < 90°) is convex, so the part is one interval; it is found
+// between the roots of the cone's quadratic by testing sub-interval midpoints.
+bool cone_interval(vec3 o, vec3 r, float s_end, out float s_in, out float s_out) {
+    vec3 q = o - light_position;
+    float c2 = spot_cos_cutoff * spot_cos_cutoff;
+    float qa = dot(q, light_direction), ra = dot(r, light_direction);
+    float A = ra * ra - c2;
+    float B = 2.0 * (qa * ra - c2 * dot(q, r));
+    float C = qa * qa - c2 * dot(q, q);
+    float cuts[4];
+    int n = 0;
+    cuts[n++] = 0.0;
+    if (abs(A) > 1e-12) {
+        float disc = B * B - 4.0 * A * C;
+        if (disc >= 0.0) {
+            float sq = sqrt(disc);
+            float r0 = (-B - sq) / (2.0 * A), r1 = (-B + sq) / (2.0 * A);
+            float lo = min(r0, r1), hi = max(r0, r1);
+            if (lo > 0.0 && lo < s_end) cuts[n++] = lo;
+            if (hi > 0.0 && hi < s_end) cuts[n++] = hi;
+        }
+    } else if (abs(B) > 1e-12) {
+        float r0 = -C / B;
+        if (r0 > 0.0 && r0 < s_end) cuts[n++] = r0;
+    }
+    cuts[n++] = s_end;
+    s_in = -1.0;
+    s_out = -1.0;
+    for (int k = 0; k + 1 < n; ++k) {
+        if (in_cone(o + r * (0.5 * (cuts[k] + cuts[k + 1])))) {
+            if (s_in < 0.0) s_in = cuts[k];
+            s_out = cuts[k + 1];
+        }
+    }
+    return s_in >= 0.0 && s_out > s_in;
+}
+
+float box_exit(vec3 o, vec3 d) {
+    vec3 inv = 1.0 / d;
+    vec3 t_far = max((scene_min - o) * inv, (scene_max - o) * inv);
+    return max(min(min(t_far.x, t_far.y), t_far.z), 0.0);
+}
+
+void main() {
+    vec3 r = pixel_ray(gl_FragCoord.xy);
+    vec4 g = texelFetch(gbuffer_geometry, ivec2(gl_FragCoord.xy), 0);
+    float s_end = g.y > 0.0 ? g.x : box_exit(eye, r);
+    vec3 radiance = vec3(0.0);
+    float s_in, s_out;
+    if (cone_interval(eye, r, s_end, s_in, s_out)) {
+        float ds = (s_out - s_in) / float(FOG_STEPS);
+        for (int k = 0; k < FOG_STEPS; ++k) {
+            float s = s_in + (float(k) + 0.5) * ds;
+            vec3 x = eye + r * s;
+            vec3 to_x = x - light_position;
+            float dist = length(to_x);
+            vec3 w = to_x / dist;
+            float vis = light_visibility(x, dist, 0.0);
+            if (vis > 0.0) {
+                radiance += phase_eval(dot(w, -r)) * spot_falloff(w) / (dist * dist)
+                          * exp(-sigma_t * (dist + s));
+            }
+        }
+        radiance *= sigma_s * light_intensity * ds;
+    }
+    out_color = vec4(radiance, 1.0);
+}

@@ -1,0 +1,28 @@
+// Closed-form line integral of the photon's 3D Gaussian along the pixel ray,
+// over the visible part [0, s_max] (s_max: distance to the first surface, so the
+// splat is depth-tested against the scene):
+//   ∫ K ds = exp(-b²/2σ²)/(2πσ²) · ½[erf((s_max - s_c)/(√2σ)) + erf(s_c/(√2σ))]
+// with s_c the ray parameter closest to the centre and b the distance there.
+#include "common/camera.glsl"
+#include "common/erf.glsl"
+
+uniform sampler2D scene_distance;  // G-buffer (distance to the first surface, kind > 0 if any)
+uniform float sigma;
+
+in vec3 v_center;
+flat in vec3 v_weight;
+
+out vec4 out_color;
+
+void main() {
+    vec3 ray = pixel_ray(gl_FragCoord.xy);
+    vec4 g = texelFetch(scene_distance, ivec2(gl_FragCoord.xy), 0);
+    float s_max = g.y > 0.0 ? g.x : 1e30;
+    vec3 oc = v_center - eye;
+    float s_c = dot(oc, ray);
+    float b2 = max(dot(oc, oc) - s_c * s_c, 0.0);
+    float inv_sqrt2_sigma = 0.7071067811865476 / sigma;
+    float along = 0.5 * (erf_approx((s_max - s_c) * inv_sqrt2_sigma) + erf_approx(s_c * inv_sqrt2_sigma));
+    float k = exp(-b2 / (2.0 * sigma * sigma)) / (6.283185307179586 * sigma * sigma) * along;
+    out_color = vec4(v_weight * k, 1.0);
+}

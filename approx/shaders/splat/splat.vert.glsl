@@ -1,0 +1,43 @@
+// Photon splatting (paper §3, Eq. 5, §4.3): every photon whose step ended at a
+// medium collision is a normalised 3D Gaussian (standard deviation SIGMA) drawn as
+// a billboard perpendicular to the ray towards it, wide enough to cover the
+// Gaussian's 4σ sphere in perspective. The per-photon weight is
+// Φ·(σs/sigma_bar)·p(θ)·τ(eye, x): power, scattering per collision, phase towards
+// the camera, transmittance to the eye (evaluated at the photon centre).
+#include "common/phase.glsl"
+#include "common/photon.glsl"
+
+uniform mat4 view_proj;
+uniform vec3 eye;
+uniform vec3 scatter_weight;  // sigma_s / sigma_bar (RGB)
+uniform vec3 sigma_t;
+uniform float sigma;          // kernel standard deviation (m) = splat_radius
+
+in vec2 in_corner;            // per vertex: (±1, ±1)
+in vec4 in_dir_t;             // per instance: record.dir_t
+in vec4 in_end;               // per instance: record.end_status
+in vec4 in_power;             // per instance: record.power_inside
+
+out vec3 v_center;
+flat out vec3 v_weight;
+
+void main() {
+    if (int(in_end.w + 0.5) != STATUS_COLLIDED) {
+        gl_Position = vec4(2.0, 2.0, 2.0, 1.0);  // outside the clip volume: no fragments
+        v_center = vec3(0.0);
+        v_weight = vec3(0.0);
+        return;
+    }
+    vec3 c = in_end.xyz;
+    vec3 to_eye = eye - c;
+    float dist = length(to_eye);
+    vec3 w = to_eye / dist;
+    v_weight = in_power.rgb * scatter_weight * phase_eval(dot(in_dir_t.xyz, w)) * exp(-sigma_t * dist);
+    v_center = c;
+    float R = 4.0 * sigma;
+    float extent = R * dist / sqrt(max(dist * dist - R * R, 1e-4 * R * R));
+    vec3 helper = abs(w.y) < 0.99 ? vec3(0.0, 1.0, 0.0) : vec3(1.0, 0.0, 0.0);
+    vec3 right = normalize(cross(helper, w));
+    vec3 up = cross(w, right);
+    gl_Position = view_proj * vec4(c + (in_corner.x * right + in_corner.y * up) * extent, 1.0);
+}

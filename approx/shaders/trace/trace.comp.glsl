@@ -1,0 +1,221 @@
+// One interaction step of the image-based photon tracer (paper §4.1–4.3).
+//
+// Each photon traces one segment: inside glass towards the exit (up to the
+// scene span); in the medium a free-flight distance d = -ln(1 - ξ)/sigma_bar
+// drawn from the shared RNG. The first hit on the segment is *estimated* from
+// the light maps: per map, PEAK_SAMPLES interior samples, uniform along the
+// segment's projection in the light's image, look for the first sign change of
+// (distance to the light − map distance); none means no hit on that map; else
+// ITERATIONS steps of binary search refine it. The smallest t over the maps wins.
+// A hit applies the specular interaction; no hit in the medium moves the photon
+// to the collision point (direction kept: single scattering) where it is
+// splatted. Power follows the deterministic transmittance of every distance
+// travelled (medium sigma_t, glass absorption), which together with collisions
+// at rate sigma_bar makes the splatted power unbiased (see approx/trace.py).
+//
+// Maps that cannot hold a crossing are skipped (same result, less work): maps
+// with no surface at all, and maps whose surfaces' distance range from the light
+// [map_min_dist, map_max_dist] misses the segment's distance range. Each map is
+// searched through its own sampler (TRY_ALL_MAPS unrolls the calls with constant
+// indices; llvmpipe is slow with dynamically indexed sampler arrays).
+//
+// Defines: MAPS (2 × layers), TRY_ALL_MAPS, PEAK_SAMPLES, ITERATIONS,
+// MAX_MATERIALS, and FRESNEL_STOCHASTIC when chosen.
+#include "common/rng.glsl"
+#include "common/optics.glsl"
+#include "common/octahedral.glsl"
+#include "common/photon.glsl"
+
+layout(local_size_x = 64) in;
+
+uniform float ior[MAX_MATERIALS];
+uniform vec3 absorption[MAX_MATERIALS];
+#include "common/interaction.glsl"
+
+uniform sampler2D light_maps[MAPS];  // (distance, material, octahedral normal), 0 = empty
+uniform bool map_used[MAPS];         // the map holds at least one surface texel
+uniform float map_min_dist[MAPS];    // bounds of the map's distances to the light
+uniform float map_max_dist[MAPS];
+uniform mat4 light_view_proj;
+uniform vec3 light_position;
+uniform int light_res;
+uniform float texel_angle;           // 2·tan(cutoff)/light_res: texel footprint per metre of distance
+uniform vec3 sigma_t;
+uniform float sigma_bar;             // free-flight sampling rate (mean of sigma_t); 0 = vacuum
+uniform vec3 scene_min;
+uniform vec3 scene_max;
+uniform uint seed;
+uniform uint step_index;             // 1..steps
+uniform uint photon_count;
+
+layout(std430, binding = 0) buffer Photons { Photon photons[]; };
+layout(std430, binding = 1) writeonly buffer Records { Record records[]; };
+
+uint g_flags;
+
+// Texel of map m under p: (distance, material, octahedral normal); 0 if empty
+// or outside the frustum (then FLAG_LEFT_FRUSTUM is raised).
+vec4 map_texel(sampler2D map, vec3 p) {
+    vec4 clip = light_view_proj * vec4(p, 1.0);
+    vec2 uv = clip.xy / clip.w * 0.5 + 0.5;
+    if (clip.w <= 0.0 || any(lessThan(uv, vec2(0.0))) || any(greaterThanEqual(uv, vec2(1.0)))) {
+        g_flags |= FLAG_LEFT_FRUSTUM;
+        return vec4(0.0);
+    }
+    return texelFetch(map, ivec2(uv * float(light_res)), 0);
+}
+
+// Map value at p: f = (distance to light) − (map distance); valid = covered texel.
+float map_f(sampler2D map, vec3 p, out bool valid) {
+    float map_dist = map_texel(map, p).r;
+    valid = map_dist > 0.0;
+    return length(p - light_position) - map_dist;
+}
+
+// Segment parameter for a fraction lam of the segment's projection in the light
+// image (perspective-correct: clip w is linear in t, screen position is not).
+float screen_uniform_t(float lam, float t0, float t1, float w0, float w1) {
+    float mu = (lam / w1) / ((1.0 - lam) / w0 + lam / w1);
+    return mix(t0, t1, mu);
+}
+
+// First sign change on the map within [t0, t1]; returns t or -1, and the map texel
+// at t (fetched here: on llvmpipe, sampler-array fetches after these loops in
+// main() read zeros, so the texel is taken while the search still runs).
+float estimate_on_map(sampler2D map, vec3 o, vec3 d, float t0, float t1, float w0, float w1, out vec4 texel) {
+    texel = vec4(0.0);
+    bool prev_valid;
+    float prev_t = t0;
+    float prev_f = map_f(map, o + d * t0, prev_valid);
+    for (int j = 1; j <= PEAK_SAMPLES + 1; ++j) {
+        float t = screen_uniform_t(float(j) / float(PEAK_SAMPLES + 1), t0, t1, w0, w1);
+        bool valid;
+        float f = map_f(map, o + d * t, valid);
+        if (valid && prev_valid && ((f > 0.0) != (prev_f > 0.0))) {
+            float a = prev_t, b = t;
+            bool a_positive = prev_f > 0.0;
+            for (int k = 0; k < ITERATIONS; ++k) {
+                float mid = 0.5 * (a + b);
+                bool v;
+                float fm = map_f(map, o + d * mid, v);
+                // An uncovered midpoint counts as the start's side: the crossing is beyond it.
+                if (v && ((fm > 0.0) != a_positive)) b = mid; else a = mid;
+            }
+            float t_hit = 0.5 * (a + b);
+            texel = map_texel(map, o + d * b);  // the texel beyond the crossing holds the surface crossed
+            return t_hit;
+        }
+        prev_t = t;
+        prev_f = f;
+        prev_valid = valid;
+    }
+    return -1.0;
+}
+
+// Distance along d from o (inside the box) to the exit of the scene box.
+float box_exit(vec3 o, vec3 d) {
+    vec3 inv = 1.0 / d;
+    vec3 t_far = max((scene_min - o) * inv, (scene_max - o) * inv);
+    return max(min(min(t_far.x, t_far.y), t_far.z), 0.0);
+}
+
+void main() {
+    uint i = gl_GlobalInvocationID.x;
+    if (i >= photon_count) return;
+    Photon ph = photons[i];
+    Record rec;
+    rec.start_maxlen = vec4(ph.pos.xyz, 0.0);
+    rec.dir_t = vec4(ph.dir.xyz, -1.0);
+    rec.normal_map = vec4(0.0, 0.0, 0.0, -1.0);
+    rec.end_status = vec4(ph.pos.xyz, float(STATUS_DEAD));
+    rec.power_inside = vec4(ph.power.rgb, ph.pos.w);
+    rec.extra = vec4(0.0, -1.0, 0.0, 0.0);
+    int status = int(ph.dir.w + 0.5);
+    if (status != STATUS_SURFACE && status != STATUS_COLLIDED) {
+        ph.dir.w = float(STATUS_DEAD);
+        photons[i] = ph;
+        records[i] = rec;
+        return;
+    }
+
+    vec3 o = ph.pos.xyz;
+    vec3 d = ph.dir.xyz;
+    vec3 power = ph.power.rgb;
+    int inside = int(round(ph.pos.w));
+    g_flags = 0u;
+
+    // --- segment: free flight in the medium, or the way out of the glass
+    float span = box_exit(o, d);
+    float max_len = span;
+    if (inside < 0 && sigma_bar > 0.0) {
+        max_len = -log(1.0 - rng_uniform(seed, i, step_index, 0u)) / sigma_bar;
+    }
+    float search = min(max_len, span);
+
+    // --- intersection estimation over all light maps
+    float t_eps = 3.0 * texel_angle * length(o - light_position);  // leave the surface we start on
+    vec4 c0 = light_view_proj * vec4(o, 1.0);
+    vec4 c1 = light_view_proj * vec4(o + d * search, 1.0);
+    float w_min = 1e-4 * max(c0.w, 1e-3);
+    float t1 = search;
+    if (c1.w < w_min && c0.w > w_min) {  // keep the part in front of the light
+        t1 = search * (c0.w - w_min) / (c0.w - c1.w);
+    }
+    float best_t = -1.0;
+    int best_map = -1;
+    vec4 best_texel = vec4(0.0);
+    if (c0.w > w_min && t1 > t_eps) {
+        float w0 = c0.w + (c1.w - c0.w) * (t_eps / search);
+        float w1 = c0.w + (c1.w - c0.w) * (t1 / search);
+        // distance range of the segment from the light: closest point, farthest end
+        vec3 q = o - light_position;
+        float t_close = clamp(-dot(q, d), t_eps, t1);
+        float r_min = length(q + d * t_close);
+        float r_max = max(length(q + d * t_eps), length(q + d * t1));
+        vec4 texel;
+        float t;
+#define TRY_MAP(M) \
+        if (map_used[M] && r_max >= map_min_dist[M] && r_min <= map_max_dist[M]) { \
+            t = estimate_on_map(light_maps[M], o, d, t_eps, t1, w0, w1, texel); \
+            if (t >= 0.0 && (best_t < 0.0 || t < best_t)) { best_t = t; best_map = M; best_texel = texel; } \
+        }
+        TRY_ALL_MAPS
+    }
+
+    // --- outcome
+    vec3 end;
+    int material_hit = -1;
+    vec3 normal = vec3(0.0);
+    if (best_t >= 0.0) {
+        end = o + d * best_t;
+        power *= exp(-(inside >= 0 ? absorption[inside] : sigma_t) * best_t);
+        normal = octa_decode(best_texel.ba);
+        material_hit = int(best_texel.g + 0.5);
+        g_flags |= surface_interaction(d, power, inside, normal, material_hit,
+                                       rng_uniform(seed, i, step_index, 1u));
+        status = STATUS_SURFACE;
+    } else if (inside >= 0) {
+        end = o + d * search;
+        status = STATUS_LOST;
+    } else if (max_len <= span) {
+        end = o + d * max_len;
+        power *= exp(-sigma_t * max_len);
+        status = STATUS_COLLIDED;
+    } else {
+        end = o + d * span;
+        status = STATUS_LEFT_SCENE;
+    }
+
+    ph.pos = vec4(end, float(inside));
+    ph.dir = vec4(d, float(status));
+    ph.power = vec4(power, 0.0);
+    photons[i] = ph;
+
+    rec.start_maxlen.w = max_len;
+    rec.dir_t.w = best_t;
+    rec.normal_map = vec4(normal, float(best_map));
+    rec.end_status = vec4(end, float(status));
+    rec.power_inside.rgb = power;
+    rec.extra = vec4(float(g_flags), float(material_hit), search, 0.0);
+    records[i] = rec;
+}

@@ -1,0 +1,114 @@
+"""Emission and the image-based photon tracer (paper §4.1–4.3) on compute shaders.
+
+Why the splatted power is right: in the medium a photon collides at rate
+sigma_bar (free flight d = −ln(1−ξ)/sigma_bar) and keeps going after each
+collision, while its power follows the deterministic transmittance
+exp(−sigma_t·s) of the distance s travelled. The expected number of collisions
+in ds is sigma_bar·ds, each splatting power Φ(s)·sigma_s/sigma_bar, so the
+expected splatted power density is sigma_s·Φ0·exp(−sigma_t·s): exactly the
+single-scattering source along the refracted beam. With grey media
+sigma_bar = sigma_t and the weight is the paper's σs/σt.
+"""
+
+from __future__ import annotations
+
+import math
+
+import moderngl
+import numpy as np
+
+from .glsl import compute_shader, set_uniforms
+from .light import spot_constants
+from .records import PHOTON_DTYPE, RAW_RECORD_DTYPE
+from .transforms import gl_matrix
+
+MAX_MATERIALS = 16
+
+
+def sampling_rate(medium) -> float:
+    """Free-flight sampling rate sigma_bar: the mean of sigma_t over RGB (1/m); 0 for vacuum."""
+    return float(np.mean(medium.sigma_t))
+
+
+def _materials(scene):
+    if len(scene.specular) > MAX_MATERIALS:
+        raise ValueError(f"at most {MAX_MATERIALS} specular objects are supported, scene has {len(scene.specular)}")
+    ior = [o.ior for o in scene.specular] + [1.0] * (MAX_MATERIALS - len(scene.specular))
+    absorption = [tuple(o.absorption) for o in scene.specular] + [(0.0, 0.0, 0.0)] * (MAX_MATERIALS - len(scene.specular))
+    return ior, absorption
+
+
+class PhotonTracer:
+    """Holds the compute programs for one (layers, peak_samples, iterations, fresnel) setting."""
+
+    def __init__(self, ctx: moderngl.Context, params):
+        self.ctx = ctx
+        defines = {"MAX_MATERIALS": MAX_MATERIALS}
+        if params.fresnel == "stochastic":
+            defines["FRESNEL_STOCHASTIC"] = 1
+        self.emit = compute_shader(ctx, "emission/emit.comp.glsl", defines)
+        maps = 2 * params.layers
+        self.trace = compute_shader(ctx, "trace/trace.comp.glsl", {
+            **defines, "MAPS": maps, "TRY_ALL_MAPS": " ".join(f"TRY_MAP({m})" for m in range(maps)),
+            "PEAK_SAMPLES": params.peak_samples, "ITERATIONS": params.iterations})
+        self.maps = 2 * params.layers
+        self._solid_angles = {}
+
+    def _solid_angle_buffer(self, frustum, res: int) -> moderngl.Buffer:
+        key = (res, round(frustum.tan_half, 12))
+        if key not in self._solid_angles:
+            for buf in self._solid_angles.values():
+                buf.release()
+            self._solid_angles = {key: self.ctx.buffer(frustum.texel_solid_angles(res).astype(np.float32).tobytes())}
+        return self._solid_angles[key]
+
+    def emit_photons(self, scene, frustum, emission_map, photon_res: int, seed: int) -> moderngl.Buffer:
+        """Photon buffer (photon_res² slots of PHOTON_DTYPE) after emission and the first interaction."""
+        ctx, prog = self.ctx, self.emit
+        n = photon_res * photon_res
+        photons = ctx.buffer(reserve=n * PHOTON_DTYPE.itemsize)
+        ior, _ = _materials(scene)
+        emission_map.use(location=0)
+        set_uniforms(prog, **spot_constants(scene.light), ior=ior, emission_map=0, photon_res=photon_res,
+                     tan_half=frustum.tan_half, seed=seed)
+        basis = np.stack([frustum.view[0, :3], frustum.view[1, :3], frustum.direction], axis=1)  # columns
+        prog["light_basis"].write(np.asarray(basis, np.float32).T.tobytes())
+        photons.bind_to_storage_buffer(0)
+        self._solid_angle_buffer(frustum, photon_res).bind_to_storage_buffer(1)
+        prog.run(group_x=math.ceil(photon_res / 8), group_y=math.ceil(photon_res / 8))
+        return photons
+
+    def trace_step(self, scene, frustum, geometry, light_maps, map_info, light_res: int, photons: moderngl.Buffer,
+                   records: moderngl.Buffer, count: int, step: int, seed: int) -> None:
+        """Advance every photon by one interaction step, writing one raw record per slot.
+
+        ``map_info``: per map (used, min distance, max distance), see LightMapRenderer.render_layers."""
+        prog = self.trace
+        ior, absorption = _materials(scene)
+        for m, tex in enumerate(light_maps):
+            tex.use(location=m)
+        prog["light_view_proj"].write(gl_matrix(frustum.view_proj))
+        set_uniforms(prog, ior=ior, absorption=absorption, light_maps=list(range(len(light_maps))),
+                     map_used=[bool(u) for u, _, _ in map_info], map_min_dist=[float(a) for _, a, _ in map_info],
+                     map_max_dist=[float(b) for _, _, b in map_info],
+                     light_position=tuple(frustum.position), light_res=light_res,
+                     texel_angle=2.0 * frustum.tan_half / light_res, sigma_t=tuple(scene.medium.sigma_t),
+                     sigma_bar=sampling_rate(scene.medium), scene_min=tuple(geometry.scene_min),
+                     scene_max=tuple(geometry.scene_max), seed=seed, step_index=step, photon_count=count)
+        photons.bind_to_storage_buffer(0)
+        records.bind_to_storage_buffer(1)
+        prog.run(group_x=math.ceil(count / 64))
+
+    def release(self):
+        self.emit.release()
+        self.trace.release()
+        for buf in self._solid_angles.values():
+            buf.release()
+
+
+def read_raw_records(buf: moderngl.Buffer, count: int) -> np.ndarray:
+    return np.frombuffer(buf.read(size=count * RAW_RECORD_DTYPE.itemsize), dtype=RAW_RECORD_DTYPE)
+
+
+def read_photons(buf: moderngl.Buffer, count: int) -> np.ndarray:
+    return np.frombuffer(buf.read(size=count * PHOTON_DTYPE.itemsize), dtype=PHOTON_DTYPE)
