@@ -46,7 +46,7 @@ class Frame:
     timings: dict
     timing_method: str
     params: dict
-    photons_emitted: int
+    photons_emitted: int | None
     gl: dict = field(default_factory=dict)
 
 
@@ -134,7 +134,7 @@ class Renderer:
         fog, direct = _read_rgb(fog_tex), _read_rgb(direct_tex)
         kind = _read_rgb(gbuf_geo)[:, :, 1]
         mask = np.repeat((np.round(kind) == KIND_SPECULAR).astype(np.float32)[:, :, None], 3, axis=2)
-        emitted = int(np.count_nonzero(records[0]["status"] >= 0)) if keep_records and records else -1
+        emitted = len(records[0]) if keep_records and records else None  # photons alive after emission
         for r in released:
             r.release()
         timings = dict(timer.seconds)

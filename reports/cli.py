@@ -52,6 +52,51 @@ def _cmd_report(args) -> int:
     return 0
 
 
+def _approx_params(args):
+    import dataclasses
+
+    from approx.params import PAPER, QUICK, ApproxParams
+
+    base = {"paper": ApproxParams(), "quick": QUICK}[args.preset]
+    changes = {name: getattr(args, name) for name in ApproxParams.names()
+               if getattr(args, name, None) is not None}
+    return dataclasses.replace(base, **changes)
+
+
+def _cmd_approx(args) -> int:
+    from scenes import resolve_scene
+
+    from .approx_job import run_approx
+
+    scene = resolve_scene(args.scene)
+    params = _approx_params(args)
+    summary = run_approx(scene, params, args.output, records_max=args.records_max)
+    t = summary["timings_s"]
+    print(f"approx {scene.name}: {t['frame_wall']:.2f} s ({summary['timing_method']}), "
+          f"trace {t['trace']:.2f} s, splat {t['splat']:.2f} s -> {summary['outputs']['exr']}")
+    return 0
+
+
+def _add_approx_params(p):
+    g = p.add_argument_group("approximation parameters (DESIGN.md names; default: --preset)")
+    g.add_argument("--preset", choices=("paper", "quick"), default="paper",
+                   help="paper: photon_res 1500, layers 4, steps 4, iterations 30, peak_samples 8, scene image size; "
+                        "quick: 256x256, photon_res 256, light_res 512")
+    g.add_argument("--photon-res", dest="photon_res", type=int, help="photon map resolution N (N² texels)")
+    g.add_argument("--layers", type=int, help="light-map levels (each: front + back map)")
+    g.add_argument("--layer-strategy", dest="layer_strategy", choices=("threshold", "peel"))
+    g.add_argument("--iterations", type=int, help="binary-search iterations")
+    g.add_argument("--peak-samples", dest="peak_samples", type=int, help="samples to find the first sign change")
+    g.add_argument("--steps", type=int, help="interaction steps (photon maps)")
+    g.add_argument("--splat-radius", dest="splat_radius", type=float, help="Gaussian standard deviation (m)")
+    g.add_argument("--light-res", dest="light_res", type=int, help="light map resolution")
+    g.add_argument("--width", type=int, help="image width (default: the scene camera's)")
+    g.add_argument("--height", type=int, help="image height (default: the scene camera's)")
+    g.add_argument("--fog-steps", dest="fog_steps", type=int, help="ray-marching samples for fog")
+    g.add_argument("--fresnel", choices=("deterministic", "stochastic"))
+    g.add_argument("--seed", type=int, help="seed of the shared RNG")
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="volcaustics", description=(
         "Validation harness for Real-time Volume Caustics with Image-based Photon Tracing: "
@@ -65,6 +110,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--check", metavar="FILE.toml", help="validate a scene file: exit 0 and a summary, or exit 2 and the error")
     p.set_defaults(func=_cmd_scenes)
 
+    p = sub.add_parser("approx", help="render SCENE with the paper's method: OUT.exr, .png, .records.npz, .json")
+    p.add_argument("scene", metavar="SCENE", help="built-in scene name or path to a .toml scene file")
+    p.add_argument("-o", "--output", required=True, metavar="OUT.exr", help="output EXR (siblings share its name)")
+    p.add_argument("--records-max", dest="records_max", type=int, default=200_000,
+                   help="segment records kept per step (fixed stride subsample; 0 none, -1 all; default 200000)")
+    _add_approx_params(p)
+    p.set_defaults(func=_cmd_approx)
+
     p = sub.add_parser("report", help="the main job: the report on the built-in scenes")
     p.add_argument("--out", default="runs/report", help="output folder (default runs/report)")
     p.add_argument("--scenes", help="comma-separated built-in scene names (default: all)")
@@ -75,12 +128,13 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv=None) -> int:
+    from approx.params import ParamError
     from scenes import SceneError
 
     args = build_parser().parse_args(argv)
     try:
         return args.func(args)
-    except SceneError as exc:
+    except (SceneError, ParamError) as exc:
         print(f"volcaustics: error: {exc}", file=sys.stderr)
         return EXIT_USAGE
     except KeyboardInterrupt:

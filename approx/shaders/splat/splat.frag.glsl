@@ -2,9 +2,12 @@
 // over the visible part [0, s_max] (s_max: distance to the first surface, so the
 // splat is depth-tested against the scene):
 //   ∫ K ds = exp(-b²/2σ²)/(2πσ²) · ½[erf((s_max - s_c)/(√2σ)) + erf(s_c/(√2σ))]
-// with s_c the ray parameter closest to the centre and b the distance there.
+// with s_c the ray parameter closest to the centre and b the distance there. The
+// kernel is cut at b = TRUNCATION·σ and divided by the mass it keeps,
+// 1 − exp(−TRUNCATION²/2), so a splat's integral over the image stays exact.
 #include "common/camera.glsl"
 #include "common/erf.glsl"
+#include "splat/kernel.glsl"
 
 uniform sampler2D scene_distance;  // G-buffer (distance to the first surface, kind > 0 if any)
 uniform float sigma;
@@ -23,6 +26,7 @@ void main() {
     float b2 = max(dot(oc, oc) - s_c * s_c, 0.0);
     float inv_sqrt2_sigma = 0.7071067811865476 / sigma;
     float along = 0.5 * (erf_approx((s_max - s_c) * inv_sqrt2_sigma) + erf_approx(s_c * inv_sqrt2_sigma));
-    float k = exp(-b2 / (2.0 * sigma * sigma)) / (6.283185307179586 * sigma * sigma) * along;
+    if (b2 > TRUNCATION * TRUNCATION * sigma * sigma) discard;
+    float k = exp(-b2 / (2.0 * sigma * sigma)) / (6.283185307179586 * sigma * sigma * KEPT_MASS) * along;
     out_color = vec4(v_weight * k, 1.0);
 }

@@ -1,11 +1,13 @@
 // Photon splatting (paper §3, Eq. 5, §4.3): every photon whose step ended at a
 // medium collision is a normalised 3D Gaussian (standard deviation SIGMA) drawn as
 // a billboard perpendicular to the ray towards it, wide enough to cover the
-// Gaussian's 4σ sphere in perspective. The per-photon weight is
+// Gaussian's 3σ sphere in perspective (the fragment shader renormalises the
+// truncated kernel so that its integral stays exact). The per-photon weight is
 // Φ·(σs/sigma_bar)·p(θ)·τ(eye, x): power, scattering per collision, phase towards
 // the camera, transmittance to the eye (evaluated at the photon centre).
 #include "common/phase.glsl"
 #include "common/photon.glsl"
+#include "splat/kernel.glsl"
 
 uniform mat4 view_proj;
 uniform vec3 eye;
@@ -34,7 +36,7 @@ void main() {
     vec3 w = to_eye / dist;
     v_weight = in_power.rgb * scatter_weight * phase_eval(dot(in_dir_t.xyz, w)) * exp(-sigma_t * dist);
     v_center = c;
-    float R = 4.0 * sigma;
+    float R = TRUNCATION * sigma;
     float extent = R * dist / sqrt(max(dist * dist - R * R, 1e-4 * R * R));
     vec3 helper = abs(w.y) < 0.99 ? vec3(0.0, 1.0, 0.0) : vec3(1.0, 0.0, 0.0);
     vec3 right = normalize(cross(helper, w));
