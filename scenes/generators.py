@@ -6,6 +6,7 @@ origin. Closed generators return closed, outward-wound meshes.
 
 * ``sphere``: geodesic sphere (icosahedron, each face split into
   ``subdivisions``² triangles): 20·subdivisions² triangles.
+* ``shell``: a hollow sphere, outer surface outward, inner surface inward.
 * ``quad``: a ``size_x`` × ``size_z`` rectangle in the plane y = 0, facing +y (open).
 * ``feline_standin``: stand-in for the paper's Feline (150k triangles): a
   cat-like body (genus 4) with a tail loop, two crossing ring wings and four legs, so that rays from above
@@ -84,6 +85,17 @@ def sphere(radius: float = 1.0, subdivisions: int = 8) -> Mesh:
     _, first, inverse = np.unique(keys, axis=0, return_index=True, return_inverse=True)
     mesh = Mesh(points[first] * radius, inverse.reshape(-1)[faces])
     return _outward(mesh)
+
+
+def shell(radius: float = 1.0, inner_radius: float = 0.8, subdivisions: int = 8) -> Mesh:
+    """Hollow sphere: outer surface wound outward, inner surface wound inward (towards
+    the cavity), one closed mesh of 40·subdivisions² triangles."""
+    if not 0 < inner_radius < radius:
+        raise ValueError(f"inner_radius {inner_radius} must lie in (0, radius = {radius})")
+    outer = sphere(radius, subdivisions)
+    inner = sphere(inner_radius, subdivisions).flipped()
+    return Mesh(np.concatenate([outer.vertices, inner.vertices]),
+                np.concatenate([outer.faces, inner.faces + len(outer.vertices)]))
 
 
 def quad(size_x: float = 1.0, size_z: float = 1.0) -> Mesh:
@@ -186,6 +198,11 @@ GENERATORS: dict[str, Generator] = {
         "radius": ParamSpec(float, 1.0, 1e-6, 1e6, "sphere radius (m)"),
         "subdivisions": ParamSpec(int, 8, 1, 200, "geodesic frequency; 20·n² triangles"),
     }, True, "geodesic sphere"),
+    "shell": Generator(shell, {
+        "radius": ParamSpec(float, 1.0, 1e-6, 1e6, "outer radius (m)"),
+        "inner_radius": ParamSpec(float, 0.8, 1e-6, 1e6, "cavity radius (m), < radius"),
+        "subdivisions": ParamSpec(int, 8, 1, 200, "geodesic frequency of each surface"),
+    }, True, "hollow sphere (two nested surfaces)"),
     "quad": Generator(quad, {
         "size_x": ParamSpec(float, 1.0, 1e-6, 1e6, "extent along x (m)"),
         "size_z": ParamSpec(float, 1.0, 1e-6, 1e6, "extent along z (m)"),

@@ -1,0 +1,147 @@
+"""Whole-frame properties: emitted power, splat normalisation, determinism, fog convergence."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+from scipy import integrate
+
+from approx import ApproxParams, Renderer, render
+from approx.camera_pass import CameraView
+from approx.geometry import SceneGeometry
+from approx.layers import BOTH, LightMapRenderer
+from approx.light import LightFrustum, spot_falloff
+from approx.records import STATUS_SURFACE
+from approx.splat import Splatter, raw_from_arrays
+from approx.trace import PhotonTracer, read_photons
+from scenes.model import Camera, Medium
+from tests.approx.helpers import make_scene, sphere_spec
+
+SMALL = ApproxParams(photon_res=128, light_res=256, width=64, height=64, fog_steps=32, splat_radius=0.03)
+
+
+@pytest.mark.parametrize("res", [256, 512])
+def test_emission_power_is_intensity_times_solid_angle(ctx, res):
+    """Sphere of radius R at distance D inside the beam (falloff 1): the photons' total
+    power (stochastic Fresnel keeps power) is I·2π(1 − cos asin(R/D))."""
+    radius, dist, intensity = 0.4, 1.8, 7.0
+    scene = make_scene([(sphere_spec(radius, (0, 3.0 - dist, 0), 48), 1.5, (0, 0, 0))], cutoff=30.0, beam=28.0,
+                       intensity=intensity)
+    params = dataclasses.replace(SMALL, photon_res=res, fresnel="stochastic")
+    geo = SceneGeometry.upload(ctx, scene)
+    lm = LightMapRenderer(ctx, geo)
+    frustum = LightFrustum.for_scene(scene, geo.scene_min, geo.scene_max)
+    emission_map = lm.render_map(frustum, res, facing=BOTH)
+    tracer = PhotonTracer(ctx, params)
+    buf = tracer.emit_photons(scene, frustum, emission_map, res, seed=1)
+    photons = read_photons(buf, res * res)
+    alive = photons["dir"][:, 3] == STATUS_SURFACE
+    total = photons["power"][alive, 0].astype(np.float64).sum()
+    expected = intensity * 2 * math.pi * (1 - math.cos(math.asin(radius / dist)))
+    # Tolerance 0.5% (issue): the covered texels approximate the disc; the mesh's silhouette
+    # is inside the sphere's by the face sag (< 1e-3 relative here).
+    print("emission", total / expected)
+    assert total == pytest.approx(expected, rel=5e-3)
+    # every photon starts on the sphere surface
+    r = np.linalg.norm(photons["pos"][alive, :3] - np.array([0, 3.0 - dist, 0]), axis=1)
+    assert np.all(np.abs(r - radius) < 2e-3)
+    for x in (buf, emission_map):
+        x.release()
+
+
+def test_single_splat_integrates_to_analytic_value(ctx):
+    """One photon of power Φ at distance z straight ahead, grey medium with sigma_a = 0
+    (so sigma_s / sigma_bar = 1), isotropic phase: the image integral
+    Σ L(pixel) Ω(pixel) equals Φ · 1/(4π) · exp(−σt z) · ∫K(x)/|x−eye|² dV, and the last
+    factor is 1/z² (1 + σ²/z² + O(σ⁴/z⁴)) for a normalised Gaussian."""
+    z, sigma_k, sigma_t, power = 3.0, 0.05, 0.1, 2.0
+    cam = Camera(position=(0.0, 1.0, z), target=(0.0, 1.0, 0.0), fov_y=20.0, width=160, height=160)
+    scene = make_scene([], camera=cam, sigma_s=sigma_t, sigma_a=0.0, floor=False)
+    view = CameraView(cam, cam.width, cam.height, far=100.0)
+    splatter = Splatter(ctx, scene.medium)
+    raw = raw_from_arrays(end=[[0.0, 1.0, 0.0]], direction=[[0.0, -1.0, 0.0]], power=[[power] * 3])
+    records = ctx.buffer(raw.tobytes())
+    target = ctx.texture((cam.width, cam.height), 4, dtype="f4")
+    empty = ctx.texture((cam.width, cam.height), 4, dtype="f4")  # G-buffer: nothing hit
+    splatter.splat(records, 1, view, scene.medium, sigma_k, sigma_t, empty, target)
+    image = np.frombuffer(target.read(), np.float32).reshape(cam.height, cam.width, 4)[..., 0].astype(np.float64)
+    # exact pixel solid angles of the image plane at unit distance
+    half = math.tan(math.radians(cam.fov_y) / 2)
+    edges = np.linspace(-half, half, cam.width + 1)
+    f = lambda x, y: np.arctan2(x * y, np.sqrt(1 + x * x + y * y))  # noqa: E731
+    x0, y0 = np.meshgrid(edges[:-1], edges[:-1])
+    x1, y1 = np.meshgrid(edges[1:], edges[1:])
+    omega = f(x1, y1) - f(x0, y1) - f(x1, y0) + f(x0, y0)
+    measured = float((image * omega).sum())
+    expected = power / (4 * math.pi) * math.exp(-sigma_t * z) / z**2 * (1 + sigma_k**2 / z**2)
+    # 1%: the kernel spans ~25 pixels (midpoint rule error << 1e-3), erf approximation 1.5e-7.
+    print("splat", measured / expected)
+    assert measured == pytest.approx(expected, rel=1e-2)
+    for x in (records, target, empty):
+        x.release()
+
+
+def test_same_seed_bit_identical_other_seed_differs(ctx):
+    scene = make_scene([(sphere_spec(0.4, (0, 1.5, 0), 16), 1.5, (0, 0, 0))], cutoff=20.0)
+    renderer = Renderer(scene, ctx)
+    a = renderer.render(SMALL, keep_records=False)
+    b = renderer.render(SMALL, keep_records=False)
+    c = renderer.render(dataclasses.replace(SMALL, seed=1), keep_records=False)
+    renderer.release()
+    for name in a.images:
+        assert np.array_equal(a.images[name], b.images[name]), name
+    assert a.images["caustic"].max() > 0
+    assert not np.array_equal(a.images["caustic"], c.images["caustic"])
+    assert np.array_equal(a.images["fog"], c.images["fog"])  # fog has no randomness
+
+
+def _pixel_ray(cam, row, col):
+    """Independent pinhole model: direction through the centre of pixel (row, col), row 0 on top."""
+    fwd = np.subtract(cam.target, cam.position)
+    fwd /= np.linalg.norm(fwd)
+    right = np.cross(fwd, cam.up)
+    right /= np.linalg.norm(right)
+    up = np.cross(right, fwd)
+    half = math.tan(math.radians(cam.fov_y) / 2)
+    x = ((col + 0.5) / cam.width * 2 - 1) * half * cam.width / cam.height
+    y = (1 - (row + 0.5) / cam.height * 2) * half
+    d = fwd + x * right + y * up
+    return d / np.linalg.norm(d)
+
+
+def test_fog_converges_to_quadrature():
+    """One pixel's fog vs scipy quadrature of the single-scattering integral
+    ∫ σs p I falloff(ω)/r² exp(−σt (r + s)) ds along the ray, up to the floor."""
+    cam = Camera(position=(0.0, 1.2, 4.5), target=(0.0, 1.0, 0.0), fov_y=36.0, width=48, height=48)
+    scene = make_scene([], camera=cam, sigma_s=0.3, sigma_a=0.05, cutoff=25.0, beam=15.0, g=0.4)
+    row, col = 30, 26
+    eye = np.asarray(cam.position, float)
+    d = _pixel_ray(cam, row, col)
+    s_floor = -eye[1] / d[1]  # the floor plane y = 0
+    light = scene.light
+    g, ss, st = 0.4, 0.3, 0.35
+
+    def integrand(s):
+        x = eye + d * s
+        to_x = x - np.asarray(light.position)
+        r = np.linalg.norm(to_x)
+        w = to_x / r
+        falloff = float(spot_falloff(light, w[None])[0])
+        cos_t = float(w @ -d)
+        phase = (1 - g * g) / (4 * math.pi * (1 + g * g - 2 * g * cos_t) ** 1.5)
+        return ss * phase * light.intensity[0] * falloff / r**2 * math.exp(-st * (r + s))
+
+    expected, _ = integrate.quad(integrand, 0.0, s_floor, limit=400, points=np.linspace(0, s_floor, 40)[1:-1])
+    assert expected > 0
+    errors = []
+    renderer = Renderer(scene)
+    for steps in (8, 64, 512):
+        params = dataclasses.replace(SMALL, fog_steps=steps, width=48, height=48)
+        fog = renderer.render(params, keep_records=False).images["fog"][row, col, 0]
+        errors.append(abs(fog - expected) / expected)
+    renderer.release()
+    print("fog relative errors", errors)
+    assert errors[2] < errors[0] and errors[2] < 5e-3, errors  # converges; 0.5% at 512 steps

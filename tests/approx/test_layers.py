@@ -1,0 +1,110 @@
+"""Light maps of analytic spheres against closed-form ray–sphere distances."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from approx.geometry import SceneGeometry
+from approx.layers import LightMapRenderer, decode_normals, read_map
+from approx.light import LightFrustum
+from tests.approx.helpers import make_scene, ray_sphere, shell_spec, sphere_spec
+
+RES = 128
+CENTER = np.array([0.0, 1.2, 0.0])
+SUBDIV = 48
+
+
+def _setup(ctx, specular, strategy_scene_kwargs=None):
+    scene = make_scene(specular, cutoff=25.0, **(strategy_scene_kwargs or {}))
+    geo = SceneGeometry.upload(ctx, scene)
+    lm = LightMapRenderer(ctx, geo)
+    frustum = LightFrustum.for_scene(scene, geo.scene_min, geo.scene_max)
+    return scene, geo, lm, frustum
+
+
+def _max_sag(mesh, center, radius) -> float:
+    """Largest depth of a face plane below the sphere (the polyhedron is inscribed)."""
+    tri = mesh.vertices[mesh.faces] - center
+    n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    return float(np.max(radius - np.abs(np.einsum("ij,ij->i", n, tri[:, 0]))))
+
+
+def _tolerance(frustum, dirs, radius, t, sag):
+    """Allowed |map − closed form|: rasterisation evaluates the face plane exactly at the
+    texel centre, so the only geometric error is the polyhedron's face sag below the
+    sphere (measured on the mesh), which a ray at incidence cosine c sees stretched to
+    sag / c; plus float32 rounding of distances (~1e-7 relative, 2e-6 allowed)."""
+    hit = frustum.position + dirs * t[..., None]
+    normal = (hit - CENTER) / radius
+    cos_inc = np.abs(np.einsum("...k,...k->...", normal, dirs))
+    return sag / np.maximum(cos_inc, 1e-3) + 2e-6 * t, cos_inc
+
+
+def _check(map_rgba, frustum, expected, radius, sag, mask_cos=0.2):
+    dirs = frustum.texel_directions(RES)
+    covered = np.isfinite(expected)
+    tol, cos_inc = _tolerance(frustum, dirs, radius, np.where(covered, expected, 0.0), sag)
+    got = map_rgba[..., 0]
+    # Coverage agrees except within one texel of the silhouette (grazing rays).
+    stable = covered & (cos_inc > mask_cos)
+    assert np.all(got[stable] > 0)
+    assert np.all(got[~covered] == 0) or (got[~covered] > 0).sum() < 4 * RES  # silhouette texels only
+    err = np.abs(got[stable] - expected[stable])
+    assert np.all(err <= tol[stable]), f"max error {err.max():.2e} > tolerance"
+    return stable
+
+
+@pytest.mark.parametrize("strategy", ["threshold", "peel"])
+def test_sphere_front_and_back_distances(ctx, strategy):
+    radius = 0.5
+    scene, geo, lm, frustum = _setup(ctx, [(sphere_spec(radius, CENTER, SUBDIV), 1.5, (0, 0, 0))])
+    maps = [read_map(t) for t in lm.render_layers(frustum, RES, 2, strategy)]
+    t_in, t_out = ray_sphere(frustum.position, frustum.texel_directions(RES), CENTER, radius)
+    sag = _max_sag(scene.specular[0].mesh.load(), CENTER, radius)
+    assert sag < 2e-4  # a fine mesh: the check below is about the maps, not the faceting
+    stable = _check(maps[0], frustum, t_in, radius, sag)
+    _check(maps[1], frustum, t_out, radius, sag)
+    # Normals: outward sphere normal at the front hit (octahedral encoding, float32).
+    hit = frustum.position + frustum.texel_directions(RES) * t_in[..., None]
+    normals = decode_normals(maps[0][..., 2:4])
+    dots = np.einsum("...k,...k->...", normals, (hit - CENTER) / radius)
+    assert np.all(dots[stable] > 0.999)
+    assert np.all(maps[0][..., 1][stable] == 0)  # material id of specular object 0
+    if strategy == "peel":  # one convex object: nothing behind the first front/back pair
+        assert lm.layer_info[2][0] is False and lm.layer_info[3][0] is False
+    else:  # threshold level 1 keeps surfaces beyond the mid-plane only
+        # front faces seen from a point light end above the equator: level-1 front is empty
+        assert lm.layer_info[2][0] is False and not (maps[2][..., 0] > 0).any()
+        beyond = maps[3][..., 0] > 0
+        assert beyond.any() and lm.layer_info[3][0]
+        threshold = lm.thresholds(frustum, 2)[1]
+        pts = frustum.position + frustum.texel_directions(RES) * maps[3][..., :1]
+        assert np.all((pts[beyond] - frustum.position) @ frustum.direction > threshold - 1e-5)
+        # where the back surface lies beyond the threshold, level 1 holds exactly it
+        both = beyond & (maps[1][..., 0] > 0)
+        assert np.allclose(maps[3][..., 0][both], maps[1][..., 0][both])
+
+
+def test_peel_separates_nested_surfaces(ctx):
+    """Hollow shell: along a ray, outer front (F), inner near (B), inner far (F), outer back (B)."""
+    outer, inner = 0.5, 0.3
+    scene, geo, lm, frustum = _setup(ctx, [(shell_spec(outer, inner, CENTER, SUBDIV), 1.5, (0, 0, 0))])
+    maps = [read_map(t) for t in lm.render_layers(frustum, RES, 2, "peel")]
+    dirs = frustum.texel_directions(RES)
+    o_in, o_out = ray_sphere(frustum.position, dirs, CENTER, outer)
+    i_in, i_out = ray_sphere(frustum.position, dirs, CENTER, inner)
+    through_cavity = np.isfinite(i_in)
+    inner_front = np.where(through_cavity, i_out, np.nan)  # level 1 front: the cavity's far wall
+    inner_back = np.where(through_cavity, i_in, o_out)     # level 0 back: cavity's near wall, else outer back
+    mesh = scene.specular[0].mesh.load()
+    _check(maps[0], frustum, o_in, outer, _max_sag(mesh, CENTER, outer))
+    ok = through_cavity
+    assert np.all(np.abs(maps[1][..., 0] - inner_back)[ok & (np.abs(dirs @ frustum.direction) > 0.99)] < 0.01)
+    core = ok & np.isfinite(inner_front)
+    err = np.abs(maps[2][..., 0] - inner_front)
+    central = core & (np.abs(dirs @ frustum.direction) > 0.995)
+    assert central.sum() > 50 and np.all(err[central] < 0.01)
+    err_back = np.abs(maps[3][..., 0] - o_out)
+    assert np.all(err_back[central] < 0.01)

@@ -1,0 +1,53 @@
+"""`volcaustics approx`: one multi-layer EXR, PNG preview, segment records, timings JSON."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+
+from approx.records import STATUS_COLLIDED, STATUS_SURFACE
+from reports.cli import main
+from reports.imageio import read_exr
+
+LAYERS = {"caustic", "fog", "direct", "combined", "mask_specular"}
+
+
+def test_approx_cli_outputs(tmp_path, capsys):
+    out = tmp_path / "r.exr"
+    rc = main(["approx", "refocus", "--preset", "quick", "--photon-res", "96", "--width", "48", "--height", "40",
+               "--light-res", "128", "--steps", "3", "-o", str(out)])
+    assert rc == 0
+    layers, header = read_exr(str(out))
+    assert set(layers) == LAYERS
+    assert layers["combined"].shape == (40, 48, 3)
+    assert np.allclose(layers["combined"], layers["caustic"] + layers["fog"] + layers["direct"], rtol=1e-6, atol=1e-9)
+    assert set(np.unique(layers["mask_specular"])) <= {0.0, 1.0} and layers["mask_specular"].max() == 1.0
+    params = json.loads(header["volcaustics_params"])
+    assert params["photon_res"] == 96 and params["steps"] == 3 and params["layers"] == 4
+    summary = json.loads((tmp_path / "r.json").read_text())
+    assert summary["params"] == params and summary["timing_method"] in ("gl_timer_query", "finish_wall_clock")
+    assert {"layers", "emission", "trace", "splat", "fog", "direct"} <= set(summary["timings_s"])
+    assert all(v >= 0 for v in summary["timings_s"].values())
+    assert (tmp_path / "r.png").read_bytes().startswith(b"\x89PNG")
+    data = np.load(tmp_path / "r.records.npz")
+    recs = data["records"]
+    assert set(np.unique(recs["step"])) == {1, 2, 3}
+    # A hit's end point is start + t·direction; a collision's is start + max_length·direction.
+    hit = recs["hit"] & (recs["status"] == STATUS_SURFACE)
+    assert hit.any()
+    assert np.allclose(recs["end"][hit], recs["start"][hit] + recs["t"][hit, None] * recs["direction"][hit], atol=1e-4)
+    col = recs["status"] == STATUS_COLLIDED
+    assert col.any()
+    assert np.allclose(recs["end"][col], recs["start"][col] + recs["max_length"][col, None] * recs["direction"][col],
+                       atol=1e-4)
+    assert "approx refocus" in capsys.readouterr().out
+    assert not list(tmp_path.glob(".*tmp*"))
+
+
+def test_bad_parameter_exits_2(tmp_path, capsys):
+    assert main(["approx", "refocus", "--layer-strategy", "peel", "--peak-samples", "-1", "-o",
+                 str(tmp_path / "x.exr")]) == 2
+    err = capsys.readouterr().err
+    assert "peak_samples = -1" in err and "Traceback" not in err
+    assert not (tmp_path / "x.exr").exists()
