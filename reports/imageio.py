@@ -90,7 +90,7 @@ def read_exr(path: str) -> tuple[dict, dict]:
     float32 (``.Y`` layers broadcast to 3 channels)."""
     import OpenEXR
 
-    with OpenEXR.File(path) as f:
+    with OpenEXR.File(path, separate_channels=True) as f:
         channels = {name: np.asarray(ch.pixels, dtype=np.float32) for name, ch in f.channels().items()}
         header = dict(f.header())
     layers = {}
