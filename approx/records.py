@@ -15,6 +15,7 @@ STATUS_NAMES = {STATUS_DEAD: "dead", STATUS_SURFACE: "surface", STATUS_COLLIDED:
 FLAG_LEFT_FRUSTUM, FLAG_REFLECTED, FLAG_TIR = 1, 2, 4
 
 PHOTON_DTYPE = np.dtype([("pos", "<f4", 4), ("dir", "<f4", 4), ("power", "<f4", 4)])
+SPLAT_DTYPE = np.dtype([("center_status", "<f4", 4), ("dir", "<f4", 4), ("power", "<f4", 4)])
 RAW_RECORD_DTYPE = np.dtype([("start_maxlen", "<f4", 4), ("dir_t", "<f4", 4), ("normal_map", "<f4", 4),
                              ("end_status", "<f4", 4), ("power_inside", "<f4", 4), ("extra", "<f4", 4)])
 

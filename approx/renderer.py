@@ -20,7 +20,7 @@ from .geometry import SceneGeometry
 from .layers import BOTH, LightMapRenderer
 from .light import LightFrustum
 from .params import ApproxParams
-from .records import RAW_RECORD_DTYPE, records_from_raw
+from .records import RAW_RECORD_DTYPE, SPLAT_DTYPE, records_from_raw
 from .splat import Splatter
 from .timing import PassTimer, timer_queries_work
 from .trace import PhotonTracer, read_raw_records, sampling_rate
@@ -109,16 +109,19 @@ class Renderer:
         sigma_bar = sampling_rate(scene.medium)
         records, caustic_steps = [], []
         record_buf = ctx.buffer(reserve=count * RAW_RECORD_DTYPE.itemsize)
-        released.append(record_buf)
+        splat_buf = ctx.buffer(reserve=count * SPLAT_DTYPE.itemsize)
+        released += [record_buf, splat_buf]
         for step in range(1, p.steps + 1):
             with timer.measure(f"trace_step{step}"):
-                tracer.trace_step(scene, frustum, geo, layer_maps, map_info, p.light_res, photons, record_buf, count, step, p.seed)
+                tracer.trace_step(scene, frustum, geo, layer_maps, map_info, p.light_res, photons, record_buf,
+                                  count, step, p.seed)
             step_image = ctx.texture((p.width, p.height), 4, dtype="f4")
             with timer.measure("splat"):
+                n_splats = tracer.compact_splats(record_buf, count, splat_buf)
                 step_fbo = ctx.framebuffer(color_attachments=[step_image])
                 step_fbo.clear(0.0, 0.0, 0.0, 0.0)
                 step_fbo.release()
-                splatter.splat(record_buf, count, view, scene.medium, p.splat_radius, sigma_bar, gbuf_geo, step_image)
+                splatter.splat(splat_buf, n_splats, view, scene.medium, p.splat_radius, sigma_bar, gbuf_geo, step_image)
             caustic_steps.append(_read_rgb(step_image))
             step_image.release()
             if keep_records:

@@ -1,8 +1,8 @@
 """Photon splatting (paper §3, Eq. 5, §4.3): medium-collision photons as 3D
 Gaussians, closed-form line integrals along pixel rays, additive float blending.
 
-Accepts photon records from any source: the GPU tracer's record buffers, or
-numpy arrays (for instance from the exact photon tracer) via :func:`raw_from_arrays`.
+Accepts photons from any source: the GPU tracer's compact splat lists, or numpy
+arrays (for instance from the exact photon tracer) via :func:`splats_from_arrays`.
 """
 
 from __future__ import annotations
@@ -12,23 +12,23 @@ import numpy as np
 
 from .context import bound
 from .glsl import attribute_layout, program
-from .records import RAW_RECORD_DTYPE, STATUS_COLLIDED
+from .records import SPLAT_DTYPE, STATUS_COLLIDED
 
-# Instance attributes read from a raw record (96 bytes): dir_t @16, end_status @48, power_inside @64.
-INSTANCE_PARTS = [("16x", None), ("4f", "in_dir_t"), ("16x", None), ("4f", "in_end"), ("4f", "in_power"), ("16x", None)]
+# Instance attributes of a splat (SPLAT_DTYPE, 48 bytes).
+INSTANCE_PARTS = [("4f", "in_end"), ("4f", "in_dir_t"), ("4f", "in_power")]
 
 
-def raw_from_arrays(end, direction, power, status=None) -> np.ndarray:
-    """Raw records for the splatter from numpy arrays: end (N×3 collision points, m),
+def splats_from_arrays(end, direction, power) -> np.ndarray:
+    """Splat rows (SPLAT_DTYPE) from numpy arrays: end (N×3 collision points, m),
     direction (N×3 unit, propagation before scattering), power (N×3 W, RGB, after
-    transmittance), status (N, default all collided)."""
+    transmittance)."""
     end = np.asarray(end, np.float32).reshape(-1, 3)
-    raw = np.zeros(len(end), dtype=RAW_RECORD_DTYPE)
-    raw["dir_t"][:, :3] = np.asarray(direction, np.float32).reshape(-1, 3)
-    raw["end_status"][:, :3] = end
-    raw["end_status"][:, 3] = STATUS_COLLIDED if status is None else np.asarray(status)
-    raw["power_inside"][:, :3] = np.asarray(power, np.float32).reshape(-1, 3)
-    return raw
+    out = np.zeros(len(end), dtype=SPLAT_DTYPE)
+    out["center_status"][:, :3] = end
+    out["center_status"][:, 3] = STATUS_COLLIDED
+    out["dir"][:, :3] = np.asarray(direction, np.float32).reshape(-1, 3)
+    out["power"][:, :3] = np.asarray(power, np.float32).reshape(-1, 3)
+    return out
 
 
 class Splatter:
@@ -41,9 +41,9 @@ class Splatter:
         corners = np.array([[-1, -1], [1, -1], [-1, 1], [1, 1]], np.float32)
         self.corners = ctx.buffer(corners.tobytes())
 
-    def splat(self, records: moderngl.Buffer, count: int, view, medium, splat_radius: float, sigma_bar: float,
+    def splat(self, splats: moderngl.Buffer, count: int, view, medium, splat_radius: float, sigma_bar: float,
               scene_distance: moderngl.Texture, target: moderngl.Texture) -> None:
-        """Add the collided photons of one record buffer into ``target`` (RGBA32F)."""
+        """Add ``count`` splats (SPLAT_DTYPE rows of ``splats``) into ``target`` (RGBA32F)."""
         if count == 0 or sigma_bar <= 0:
             return
         ctx, prog = self.ctx, self.program
@@ -54,7 +54,7 @@ class Splatter:
         scene_distance.use(location=0)
         prog["scene_distance"].value = 0
         fmt, names = attribute_layout(prog, INSTANCE_PARTS, per_instance=True)
-        vao = ctx.vertex_array(prog, [(self.corners, "2f", "in_corner"), (records, fmt, *names)])
+        vao = ctx.vertex_array(prog, [(self.corners, "2f", "in_corner"), (splats, fmt, *names)])
         fbo = ctx.framebuffer(color_attachments=[target])
         with bound(ctx, fbo):
             ctx.enable(moderngl.BLEND)

@@ -23,6 +23,7 @@ from .records import PHOTON_DTYPE, RAW_RECORD_DTYPE
 from .transforms import gl_matrix
 
 MAX_MATERIALS = 16
+COMPACT_BLOCK = 256  # BLOCK of splat/compact.comp.glsl
 
 
 def sampling_rate(medium) -> float:
@@ -51,6 +52,8 @@ class PhotonTracer:
         self.trace = compute_shader(ctx, "trace/trace.comp.glsl", {
             **defines, "MAPS": maps, "TRY_ALL_MAPS": " ".join(f"TRY_MAP({m})" for m in range(maps)),
             "PEAK_SAMPLES": params.peak_samples, "ITERATIONS": params.iterations})
+        self.compact_count = compute_shader(ctx, "splat/compact.comp.glsl", {"PASS_COUNT": 1})
+        self.compact_write = compute_shader(ctx, "splat/compact.comp.glsl")
         self.maps = 2 * params.layers
         self._solid_angles = {}
 
@@ -99,9 +102,29 @@ class PhotonTracer:
         records.bind_to_storage_buffer(1)
         prog.run(group_x=math.ceil(count / 64))
 
+    def compact_splats(self, records: moderngl.Buffer, count: int, splats: moderngl.Buffer) -> int:
+        """Gather the medium collisions of one step's records into ``splats`` (SPLAT_DTYPE
+        rows, capacity ``count``) in photon order; returns how many."""
+        blocks = math.ceil(count / COMPACT_BLOCK)
+        block_buf = self.ctx.buffer(reserve=4 * blocks)
+        records.bind_to_storage_buffer(0)
+        block_buf.bind_to_storage_buffer(1)
+        splats.bind_to_storage_buffer(2)
+        self.compact_count["photon_count"].value = count
+        self.compact_count.run(group_x=blocks)
+        block_counts = np.frombuffer(block_buf.read(), np.uint32)
+        offsets = np.concatenate([[0], np.cumsum(block_counts, dtype=np.uint64)[:-1]]).astype(np.uint32)
+        total = int(block_counts.sum(dtype=np.uint64))
+        if total:
+            block_buf.write(offsets.tobytes())
+            self.compact_write["photon_count"].value = count
+            self.compact_write.run(group_x=blocks)
+        block_buf.release()
+        return total
+
     def release(self):
-        self.emit.release()
-        self.trace.release()
+        for prog in (self.emit, self.trace, self.compact_count, self.compact_write):
+            prog.release()
         for buf in self._solid_angles.values():
             buf.release()
 

@@ -15,7 +15,7 @@ from approx.geometry import SceneGeometry
 from approx.layers import BOTH, LightMapRenderer
 from approx.light import LightFrustum, spot_falloff
 from approx.records import STATUS_SURFACE
-from approx.splat import Splatter, raw_from_arrays
+from approx.splat import Splatter, splats_from_arrays
 from approx.trace import PhotonTracer, read_photons
 from scenes.model import Camera, Medium
 from tests.approx.helpers import make_scene, sphere_spec
@@ -62,7 +62,7 @@ def test_single_splat_integrates_to_analytic_value(ctx):
     scene = make_scene([], camera=cam, sigma_s=sigma_t, sigma_a=0.0, floor=False)
     view = CameraView(cam, cam.width, cam.height, far=100.0)
     splatter = Splatter(ctx, scene.medium)
-    raw = raw_from_arrays(end=[[0.0, 1.0, 0.0]], direction=[[0.0, -1.0, 0.0]], power=[[power] * 3])
+    raw = splats_from_arrays(end=[[0.0, 1.0, 0.0]], direction=[[0.0, -1.0, 0.0]], power=[[power] * 3])
     records = ctx.buffer(raw.tobytes())
     target = ctx.texture((cam.width, cam.height), 4, dtype="f4")
     empty = ctx.texture((cam.width, cam.height), 4, dtype="f4")  # G-buffer: nothing hit

@@ -29,4 +29,11 @@ struct Record {
     vec4 extra;         // x: flags; y: material id hit (-1 none); z: segment length searched; w: unused
 };
 
+// A photon to splat (compacted list of this step's medium collisions).
+struct Splat {
+    vec4 center_status;  // xyz collision point; w: STATUS_COLLIDED
+    vec4 dir;            // xyz propagation direction before scattering
+    vec4 power;          // rgb power at the collision (after transmittance)
+};
+
 #endif

@@ -9,7 +9,7 @@
 // ITERATIONS steps of binary search refine it. The smallest t over the maps wins.
 // A hit applies the specular interaction; no hit in the medium moves the photon
 // to the collision point (direction kept: single scattering) where it is
-// splatted. Power follows the deterministic transmittance of every distance
+// splatted (splat/compact.comp.glsl gathers these from the records). Power follows the deterministic transmittance of every distance
 // travelled (medium sigma_t, glass absorption), which together with collisions
 // at rate sigma_bar makes the splatted power unbiased (see approx/trace.py).
 //

@@ -1,0 +1,42 @@
+// Gather one step's medium collisions from the per-photon records into a compact
+// splat list, in photon order, so that additive blending sums them in the same
+// order on every run (bit-identical images for a seed). Two dispatches:
+//   PASS_COUNT: per block of BLOCK photons, the number of collisions;
+//   PASS_WRITE: each collision goes to block_offset[block] + its rank in the block
+//               (exclusive prefix sum in shared memory; offsets summed on the CPU).
+#include "common/photon.glsl"
+
+#define BLOCK 256
+layout(local_size_x = BLOCK) in;
+
+layout(std430, binding = 0) readonly buffer Records { Record records[]; };
+layout(std430, binding = 1) buffer BlockCounts { uint block_value[]; };  // counts, then offsets
+layout(std430, binding = 2) writeonly buffer Splats { Splat splats[]; };
+uniform uint photon_count;
+
+shared uint rank[BLOCK];
+
+void main() {
+    uint i = gl_GlobalInvocationID.x;
+    uint lane = gl_LocalInvocationID.x;
+    bool collided = i < photon_count && int(records[i].end_status.w + 0.5) == STATUS_COLLIDED;
+    rank[lane] = collided ? 1u : 0u;
+    barrier();
+    // Hillis–Steele inclusive scan over the block.
+    for (uint offset = 1u; offset < uint(BLOCK); offset <<= 1) {
+        uint add = lane >= offset ? rank[lane - offset] : 0u;
+        barrier();
+        rank[lane] += add;
+        barrier();
+    }
+#ifdef PASS_COUNT
+    if (lane == uint(BLOCK) - 1u) block_value[gl_WorkGroupID.x] = rank[lane];
+#else
+    if (collided) {
+        Record r = records[i];
+        uint slot = block_value[gl_WorkGroupID.x] + rank[lane] - 1u;
+        splats[slot] = Splat(vec4(r.end_status.xyz, float(STATUS_COLLIDED)), vec4(r.dir_t.xyz, 0.0),
+                             vec4(r.power_inside.rgb, 0.0));
+    }
+#endif
+}

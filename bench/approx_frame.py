@@ -1,0 +1,57 @@
+"""Per-pass times of the approximation: paper settings and the quick preset.
+
+    .venv/bin/python bench/approx_frame.py [SCENE] [--frames N]
+
+Paper (Wang, Wang & Chen): 800×800, photon_res 1500, layers 4, steps 4,
+iterations 30, peak_samples 8; intersection estimation ≈ 70% and splatting ≈ 23%
+of a frame on their GPU. Each preset renders one warm-up frame (shader
+compilation, which llvmpipe does lazily), then N timed frames; the median per
+pass is printed. Shares are computed within one run.
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import sys
+import time
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("scene", nargs="?", default="two_spheres")
+    parser.add_argument("--frames", type=int, default=3)
+    parser.add_argument("--presets", default="quick,paper")
+    args = parser.parse_args(argv)
+
+    from approx import Renderer
+    from approx.params import PAPER, QUICK
+    from scenes import resolve_scene
+
+    scene = resolve_scene(args.scene)
+    renderer = Renderer(scene)
+    presets = {"quick": QUICK, "paper": PAPER}
+    print(f"scene {scene.name}; GL: {renderer.ctx.info['GL_RENDERER']}")
+    for name in args.presets.split(","):
+        params = presets[name]
+        t0 = time.perf_counter()
+        renderer.render(params, keep_records=False)
+        warm = time.perf_counter() - t0
+        frames = [renderer.render(params, keep_records=False) for _ in range(args.frames)]
+        passes = [k for k in frames[0].timings if not k.startswith("trace_step")]
+        med = {k: statistics.median(f.timings[k] for f in frames) for k in passes}
+        frame = med["frame_wall"]
+        print(f"\n[{name}] {params.width}x{params.height}, photon_res {params.photon_res}, layers {params.layers}, "
+              f"steps {params.steps}, iterations {params.iterations}, peak_samples {params.peak_samples}, "
+              f"light_res {params.light_res}; timing: {frames[0].timing_method}; "
+              f"first frame (compiles shaders) {warm:.2f} s; median of {args.frames}:")
+        for k in passes:
+            print(f"  {k:<12} {med[k]:8.3f} s  {100 * med[k] / frame:5.1f}%")
+        print(f"  intersection estimation (trace) {100 * med['trace'] / frame:.0f}% vs splatting "
+              f"{100 * med['splat'] / frame:.0f}% of the frame (paper: 70% / 23%)")
+    renderer.release()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
