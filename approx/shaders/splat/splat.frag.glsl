@@ -25,7 +25,10 @@ void main() {
     float s_c = dot(oc, ray);
     float b2 = max(dot(oc, oc) - s_c * s_c, 0.0);
     float inv_sqrt2_sigma = 0.7071067811865476 / sigma;
-    float along = 0.5 * (erf_approx((s_max - s_c) * inv_sqrt2_sigma) + erf_approx(s_c * inv_sqrt2_sigma));
+    // Both erf terms are 1 to float precision more than 6σ from the ends of [0, s_max].
+    float along = (s_c > 6.0 * sigma && s_max - s_c > 6.0 * sigma)
+        ? 1.0
+        : 0.5 * (erf_approx((s_max - s_c) * inv_sqrt2_sigma) + erf_approx(s_c * inv_sqrt2_sigma));
     if (b2 > TRUNCATION * TRUNCATION * sigma * sigma) discard;
     float k = exp(-b2 / (2.0 * sigma * sigma)) / (6.283185307179586 * sigma * sigma * KEPT_MASS) * along;
     out_color = vec4(v_weight * k, 1.0);

@@ -53,57 +53,67 @@ layout(std430, binding = 1) writeonly buffer Records { Record records[]; };
 
 uint g_flags;
 
-// Texel of map m under p: (distance, material, octahedral normal); 0 if empty
-// or outside the frustum (then FLAG_LEFT_FRUSTUM is raised).
-vec4 map_texel(sampler2D map, vec3 p) {
-    vec4 clip = light_view_proj * vec4(p, 1.0);
+// A segment o + t·d, t in [t0, t1], with its light-clip coordinates at both ends
+// (clip coordinates are affine in t, so no matrix product per sample).
+struct Segment {
+    vec3 q;   // o − light position
+    vec3 d;
+    float t0;
+    float t1;
+    vec4 c0;  // light clip coordinates at t0 (w > 0)
+    vec4 c1;  // ... at t1 (w > 0)
+};
+
+// Texel of the map under the segment point at t: (distance, material, octahedral
+// normal); 0 if empty or outside the frustum (then FLAG_LEFT_FRUSTUM is raised).
+vec4 segment_texel(sampler2D map, Segment s, float t) {
+    vec4 clip = mix(s.c0, s.c1, (t - s.t0) / (s.t1 - s.t0));
     vec2 uv = clip.xy / clip.w * 0.5 + 0.5;
-    if (clip.w <= 0.0 || any(lessThan(uv, vec2(0.0))) || any(greaterThanEqual(uv, vec2(1.0)))) {
+    if (any(lessThan(uv, vec2(0.0))) || any(greaterThanEqual(uv, vec2(1.0)))) {
         g_flags |= FLAG_LEFT_FRUSTUM;
         return vec4(0.0);
     }
     return texelFetch(map, ivec2(uv * float(light_res)), 0);
 }
 
-// Map value at p: f = (distance to light) − (map distance); valid = covered texel.
-float map_f(sampler2D map, vec3 p, out bool valid) {
-    float map_dist = map_texel(map, p).r;
+// f(t) = (distance to the light) − (map distance); valid = covered texel.
+float segment_f(sampler2D map, Segment s, float t, out bool valid) {
+    float map_dist = segment_texel(map, s, t).r;
     valid = map_dist > 0.0;
-    return length(p - light_position) - map_dist;
+    return length(s.q + s.d * t) - map_dist;
 }
 
 // Segment parameter for a fraction lam of the segment's projection in the light
 // image (perspective-correct: clip w is linear in t, screen position is not).
-float screen_uniform_t(float lam, float t0, float t1, float w0, float w1) {
-    float mu = (lam / w1) / ((1.0 - lam) / w0 + lam / w1);
-    return mix(t0, t1, mu);
+float screen_uniform_t(float lam, Segment s) {
+    float mu = (lam / s.c1.w) / ((1.0 - lam) / s.c0.w + lam / s.c1.w);
+    return mix(s.t0, s.t1, mu);
 }
 
 // First sign change on the map within [t0, t1]; returns t or -1, and the map texel
 // at t (fetched here: on llvmpipe, sampler-array fetches after these loops in
 // main() read zeros, so the texel is taken while the search still runs).
-float estimate_on_map(sampler2D map, vec3 o, vec3 d, float t0, float t1, float w0, float w1, out vec4 texel) {
+float estimate_on_map(sampler2D map, Segment s, out vec4 texel) {
     texel = vec4(0.0);
     bool prev_valid;
-    float prev_t = t0;
-    float prev_f = map_f(map, o + d * t0, prev_valid);
+    float prev_t = s.t0;
+    float prev_f = segment_f(map, s, s.t0, prev_valid);
     for (int j = 1; j <= PEAK_SAMPLES + 1; ++j) {
-        float t = screen_uniform_t(float(j) / float(PEAK_SAMPLES + 1), t0, t1, w0, w1);
+        float t = j == PEAK_SAMPLES + 1 ? s.t1 : screen_uniform_t(float(j) / float(PEAK_SAMPLES + 1), s);
         bool valid;
-        float f = map_f(map, o + d * t, valid);
+        float f = segment_f(map, s, t, valid);
         if (valid && prev_valid && ((f > 0.0) != (prev_f > 0.0))) {
             float a = prev_t, b = t;
             bool a_positive = prev_f > 0.0;
             for (int k = 0; k < ITERATIONS; ++k) {
                 float mid = 0.5 * (a + b);
                 bool v;
-                float fm = map_f(map, o + d * mid, v);
+                float fm = segment_f(map, s, mid, v);
                 // An uncovered midpoint counts as the start's side: the crossing is beyond it.
                 if (v && ((fm > 0.0) != a_positive)) b = mid; else a = mid;
             }
-            float t_hit = 0.5 * (a + b);
-            texel = map_texel(map, o + d * b);  // the texel beyond the crossing holds the surface crossed
-            return t_hit;
+            texel = segment_texel(map, s, b);  // the texel beyond the crossing holds the surface crossed
+            return 0.5 * (a + b);
         }
         prev_t = t;
         prev_f = f;
@@ -165,18 +175,22 @@ void main() {
     int best_map = -1;
     vec4 best_texel = vec4(0.0);
     if (c0.w > w_min && t1 > t_eps) {
-        float w0 = c0.w + (c1.w - c0.w) * (t_eps / search);
-        float w1 = c0.w + (c1.w - c0.w) * (t1 / search);
+        Segment seg;
+        seg.q = o - light_position;
+        seg.d = d;
+        seg.t0 = t_eps;
+        seg.t1 = t1;
+        seg.c0 = mix(c0, c1, t_eps / search);
+        seg.c1 = mix(c0, c1, t1 / search);
         // distance range of the segment from the light: closest point, farthest end
-        vec3 q = o - light_position;
-        float t_close = clamp(-dot(q, d), t_eps, t1);
-        float r_min = length(q + d * t_close);
-        float r_max = max(length(q + d * t_eps), length(q + d * t1));
+        float t_close = clamp(-dot(seg.q, d), t_eps, t1);
+        float r_min = length(seg.q + d * t_close);
+        float r_max = max(length(seg.q + d * t_eps), length(seg.q + d * t1));
         vec4 texel;
         float t;
 #define TRY_MAP(M) \
         if (map_used[M] && r_max >= map_min_dist[M] && r_min <= map_max_dist[M]) { \
-            t = estimate_on_map(light_maps[M], o, d, t_eps, t1, w0, w1, texel); \
+            t = estimate_on_map(light_maps[M], seg, texel); \
             if (t >= 0.0 && (best_t < 0.0 || t < best_t)) { best_t = t; best_map = M; best_texel = texel; } \
         }
         TRY_ALL_MAPS
