@@ -92,8 +92,9 @@ class Renderer:
         with timer.measure("layers"):
             layer_maps = self.light_maps.render_layers(frustum, p.light_res, p.layers, p.layer_strategy)
             map_info = self.light_maps.layer_info
+            map_texels = tracer.map_buffer(layer_maps, p.light_res)
             shadow_map = self.light_maps.render_map(frustum, p.light_res, facing=BOTH, include_diffuse=True)
-        released += layer_maps + [shadow_map]
+        released += layer_maps + [shadow_map, map_texels]
 
         with timer.measure("emission"):
             emission_map = self.light_maps.render_map(frustum, p.photon_res, facing=BOTH)
@@ -113,7 +114,7 @@ class Renderer:
         released += [record_buf, splat_buf]
         for step in range(1, p.steps + 1):
             with timer.measure(f"trace_step{step}"):
-                tracer.trace_step(scene, frustum, geo, layer_maps, map_info, p.light_res, photons, record_buf,
+                tracer.trace_step(scene, frustum, geo, map_texels, map_info, p.light_res, photons, record_buf,
                                   count, step, p.seed)
             step_image = ctx.texture((p.width, p.height), 4, dtype="f4")
             with timer.measure("splat"):

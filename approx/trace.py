@@ -50,8 +50,7 @@ class PhotonTracer:
         self.emit = compute_shader(ctx, "emission/emit.comp.glsl", defines)
         maps = 2 * params.layers
         self.trace = compute_shader(ctx, "trace/trace.comp.glsl", {
-            **defines, "MAPS": maps, "TRY_ALL_MAPS": " ".join(f"TRY_MAP({m})" for m in range(maps)),
-            "PEAK_SAMPLES": params.peak_samples, "ITERATIONS": params.iterations})
+            **defines, "MAPS": maps, "PEAK_SAMPLES": params.peak_samples, "ITERATIONS": params.iterations})
         self.compact_count = compute_shader(ctx, "splat/compact.comp.glsl", {"PASS_COUNT": 1})
         self.compact_write = compute_shader(ctx, "splat/compact.comp.glsl")
         self.maps = 2 * params.layers
@@ -81,17 +80,25 @@ class PhotonTracer:
         prog.run(group_x=math.ceil(photon_res / 8), group_y=math.ceil(photon_res / 8))
         return photons
 
-    def trace_step(self, scene, frustum, geometry, light_maps, map_info, light_res: int, photons: moderngl.Buffer,
+    def map_buffer(self, light_maps, light_res: int) -> moderngl.Buffer:
+        """The light maps copied into one storage buffer (map-major, rows bottom-up, RGBA32F)."""
+        texel_bytes = 16 * light_res * light_res
+        buf = self.ctx.buffer(reserve=texel_bytes * len(light_maps))
+        for m, tex in enumerate(light_maps):
+            tex.read_into(buf, write_offset=m * texel_bytes)
+        return buf
+
+    def trace_step(self, scene, frustum, geometry, map_texels: moderngl.Buffer, map_info, light_res: int,
+                   photons: moderngl.Buffer,
                    records: moderngl.Buffer, count: int, step: int, seed: int) -> None:
         """Advance every photon by one interaction step, writing one raw record per slot.
 
-        ``map_info``: per map (used, min distance, max distance), see LightMapRenderer.render_layers."""
+        ``map_texels``: :meth:`map_buffer` of the layer maps; ``map_info``: per map (used,
+        min distance, max distance), see LightMapRenderer.render_layers."""
         prog = self.trace
         ior, absorption = _materials(scene)
-        for m, tex in enumerate(light_maps):
-            tex.use(location=m)
         prog["light_view_proj"].write(gl_matrix(frustum.view_proj))
-        set_uniforms(prog, ior=ior, absorption=absorption, light_maps=list(range(len(light_maps))),
+        set_uniforms(prog, ior=ior, absorption=absorption,
                      map_used=[bool(u) for u, _, _ in map_info], map_min_dist=[float(a) for _, a, _ in map_info],
                      map_max_dist=[float(b) for _, _, b in map_info],
                      light_position=tuple(frustum.position), light_res=light_res,
@@ -100,6 +107,7 @@ class PhotonTracer:
                      scene_max=tuple(geometry.scene_max), seed=seed, step_index=step, photon_count=count)
         photons.bind_to_storage_buffer(0)
         records.bind_to_storage_buffer(1)
+        map_texels.bind_to_storage_buffer(2)
         prog.run(group_x=math.ceil(count / 64))
 
     def compact_splats(self, records: moderngl.Buffer, count: int, splats: moderngl.Buffer) -> int:

@@ -5,7 +5,7 @@
 // with s_c the ray parameter closest to the centre and b the distance there. The
 // kernel is cut at b = TRUNCATION·σ and divided by the mass it keeps,
 // 1 − exp(−TRUNCATION²/2), so a splat's integral over the image stays exact.
-#include "common/camera.glsl"
+uniform vec3 eye;
 #include "common/erf.glsl"
 #include "splat/kernel.glsl"
 
@@ -13,12 +13,13 @@ uniform sampler2D scene_distance;  // G-buffer (distance to the first surface, k
 uniform float sigma;
 
 in vec3 v_center;
+in vec3 v_corner;
 flat in vec3 v_weight;
 
 out vec4 out_color;
 
 void main() {
-    vec3 ray = pixel_ray(gl_FragCoord.xy);
+    vec3 ray = normalize(v_corner - eye);  // perspective-correct point on the billboard at this pixel centre
     vec4 g = texelFetch(scene_distance, ivec2(gl_FragCoord.xy), 0);
     float s_max = g.y > 0.0 ? g.x : 1e30;
     vec3 oc = v_center - eye;

@@ -21,12 +21,14 @@ in vec4 in_end;               // per instance: record.end_status
 in vec4 in_power;             // per instance: record.power_inside
 
 out vec3 v_center;
+out vec3 v_corner;            // world position on the billboard: the pixel ray passes through it
 flat out vec3 v_weight;
 
 void main() {
     if (int(in_end.w + 0.5) != STATUS_COLLIDED) {
         gl_Position = vec4(2.0, 2.0, 2.0, 1.0);  // outside the clip volume: no fragments
         v_center = vec3(0.0);
+        v_corner = vec3(0.0);
         v_weight = vec3(0.0);
         return;
     }
@@ -41,5 +43,6 @@ void main() {
     vec3 helper = abs(w.y) < 0.99 ? vec3(0.0, 1.0, 0.0) : vec3(1.0, 0.0, 0.0);
     vec3 right = normalize(cross(helper, w));
     vec3 up = cross(w, right);
-    gl_Position = view_proj * vec4(c + (in_corner.x * right + in_corner.y * up) * extent, 1.0);
+    v_corner = c + (in_corner.x * right + in_corner.y * up) * extent;
+    gl_Position = view_proj * vec4(v_corner, 1.0);
 }
