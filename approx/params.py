@@ -72,5 +72,5 @@ class ApproxParams:
         return [f.name for f in fields(cls)]
 
 
-QUICK = ApproxParams(photon_res=256, light_res=512, width=256, height=256, fog_steps=48, splat_radius=0.02)
+QUICK = ApproxParams(photon_res=256, light_res=256, width=256, height=256, fog_steps=48, splat_radius=0.02)
 PAPER = ApproxParams(width=800, height=800)

@@ -81,7 +81,7 @@ def _add_approx_params(p):
     g = p.add_argument_group("approximation parameters (DESIGN.md names; default: --preset)")
     g.add_argument("--preset", choices=("paper", "quick"), default="paper",
                    help="paper: photon_res 1500, layers 4, steps 4, iterations 30, peak_samples 8, scene image size; "
-                        "quick: 256x256, photon_res 256, light_res 512")
+                        "quick: 256x256, photon_res 256, light_res 256")
     g.add_argument("--photon-res", dest="photon_res", type=int, help="photon map resolution N (N² texels)")
     g.add_argument("--layers", type=int, help="light-map levels (each: front + back map)")
     g.add_argument("--layer-strategy", dest="layer_strategy", choices=("threshold", "peel"))
