@@ -7,6 +7,8 @@ from dataclasses import dataclass
 import moderngl
 import numpy as np
 
+from scenes.bounds import medium_bounds
+
 from .glsl import attribute_layout
 
 VERTEX_FORMAT = "3f 3f 1f"  # position, smooth normal, material index
@@ -43,7 +45,7 @@ class SceneGeometry:
     specular_max_edge: float
     specular_min: np.ndarray
     specular_max: np.ndarray
-    scene_min: np.ndarray
+    scene_min: np.ndarray  # the medium's box (scenes.bounds.medium_bounds)
     scene_max: np.ndarray
 
     @classmethod
@@ -55,10 +57,7 @@ class SceneGeometry:
         for d in diff:
             ranges.append((first, len(d)))
             first += len(d)
-        points = [spec_data[:, :3]] + [d[:, :3] for d in diff]
-        points.append(np.asarray([scene.light.position, scene.camera.position], np.float32))
-        allp = np.concatenate(points)
-        margin = 1e-3 * float(np.linalg.norm(allp.max(0) - allp.min(0)))
+        box_min, box_max = medium_bounds(scene)
         spec_min = spec_data[:, :3].min(0) if len(spec_data) else np.zeros(3)
         spec_max = spec_data[:, :3].max(0) if len(spec_data) else np.zeros(3)
         return cls(
@@ -69,7 +68,7 @@ class SceneGeometry:
             specular_max_edge=_max_edge(spec_data[:, :3]),
             diffuse_ranges=ranges,
             specular_min=spec_min.astype(np.float64), specular_max=spec_max.astype(np.float64),
-            scene_min=allp.min(0).astype(np.float64) - margin, scene_max=allp.max(0).astype(np.float64) + margin,
+            scene_min=box_min, scene_max=box_max,
         )
 
     def vertex_array(self, ctx, program, which: str) -> moderngl.VertexArray | None:

@@ -1,0 +1,25 @@
+"""The scene box: where the medium is.
+
+DESIGN.md says the homogeneous medium "fills the scene outside the objects". Both
+renderers make that precise the same way: the medium fills the axis-aligned box
+around every mesh, the light and the camera (plus a margin of 1e-3 of its
+diagonal) and there is vacuum outside. Photons leaving the box never return (it
+is convex and holds all geometry), camera rays see fog only inside it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+MARGIN = 1e-3
+
+
+def medium_bounds(scene) -> tuple[np.ndarray, np.ndarray]:
+    """(min, max) corners of the scene box, each (3,) float64, metres."""
+    points = [np.asarray([scene.light.position, scene.camera.position], np.float64)]
+    for obj in (*scene.specular, *scene.diffuse):
+        points.append(obj.mesh.load().vertices)
+    allp = np.concatenate(points)
+    lo, hi = allp.min(axis=0), allp.max(axis=0)
+    margin = MARGIN * float(np.linalg.norm(hi - lo))
+    return lo - margin, hi + margin
