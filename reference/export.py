@@ -61,6 +61,17 @@ def _rgb(value):
     return {"type": "rgb", "value": [float(x) for x in value]}
 
 
+def _homogeneous(sigma_t, albedo, phase=None) -> dict:
+    """Homogeneous medium; Mitsuba's RGB values must lie in [0, 1], so sigma_t is
+    normalised by its largest channel, which goes into ``scale``."""
+    sigma_t = np.asarray(sigma_t, float)
+    scale = float(sigma_t.max()) if sigma_t.max() > 0 else 1.0
+    d = {"type": "homogeneous", "albedo": _rgb(albedo), "sigma_t": _rgb(sigma_t / scale), "scale": scale}
+    if phase:
+        d["phase"] = phase
+    return d
+
+
 def spot_to_world(mi, light):
     pos = np.asarray(light.position, float)
     axis = np.asarray(light.direction, float)
@@ -83,7 +94,7 @@ def to_mitsuba(scene, *, integrator: dict | None = None, spp: int = 16, mesh_dir
         sigma_t = np.asarray(medium.sigma_t, float)
         albedo = np.divide(medium.sigma_s, sigma_t, out=np.zeros(3), where=sigma_t > 0)
         phase = {"type": "hg", "g": float(medium.phase.g)} if medium.phase.kind == "hg" else {"type": "isotropic"}
-        fog = {"type": "homogeneous", "albedo": _rgb(albedo), "sigma_t": _rgb(sigma_t), "scale": 1.0, "phase": phase}
+        fog = _homogeneous(sigma_t, albedo, phase)
     d = {
         "type": "scene",
         "integrator": integrator or {"type": "volpath", "max_depth": 2},
@@ -111,8 +122,7 @@ def to_mitsuba(scene, *, integrator: dict | None = None, spp: int = 16, mesh_dir
         shape = {"type": "ply", "filename": mesh_file(obj.mesh.load(), mesh_dir), "face_normals": False,
                  "bsdf": {"type": "dielectric", "int_ior": float(obj.ior), "ext_ior": 1.0}}
         if any(obj.absorption):
-            shape["interior"] = {"type": "homogeneous", "albedo": 0.0, "sigma_t": _rgb(obj.absorption),
-                                 "scale": 1.0}
+            shape["interior"] = _homogeneous(obj.absorption, (0.0, 0.0, 0.0))
         if has_fog:
             shape["exterior"] = {"type": "ref", "id": FOG_ID}
         d[f"specular_{i}"] = shape

@@ -1,0 +1,48 @@
+"""What each Mitsuba shape of an exported scene is, for vectorised lookups.
+
+Shapes are told apart by their registry id (``dr.reinterpret_array(UInt32,
+ShapePtr)``, a small integer): tables indexed by it give the kind, the object
+index in our scene model and the glass absorption coefficient.
+"""
+
+from __future__ import annotations
+
+KIND_NONE, KIND_SPECULAR, KIND_DIFFUSE, KIND_BOUNDARY = 0, 1, 2, 3
+
+
+class ShapeTable:
+    """kind (UInt32), index (Int32) and absorption (Color3f) by shape registry id."""
+
+    def __init__(self, mi, mi_scene, scene):
+        import drjit as dr
+
+        entries = {}
+        for shape in mi_scene.shapes():
+            sid = int(dr.reinterpret_array(mi.UInt32, mi.ShapePtr(shape))[0])
+            name = shape.id()
+            if name.startswith("specular_"):
+                i = int(name.split("_")[1])
+                entries[sid] = (KIND_SPECULAR, i, scene.specular[i].absorption)
+            elif name.startswith("diffuse_"):
+                i = int(name.split("_")[1])
+                entries[sid] = (KIND_DIFFUSE, i, (0.0, 0.0, 0.0))
+            elif name == "medium_box":
+                entries[sid] = (KIND_BOUNDARY, -1, (0.0, 0.0, 0.0))
+        size = max(entries, default=0) + 1
+        kind, index, absorption = [KIND_NONE] * size, [-1] * size, [(0.0, 0.0, 0.0)] * size
+        for sid, (k, i, a) in entries.items():
+            kind[sid], index[sid], absorption[sid] = k, i, a
+        self.kind = mi.UInt32(kind)
+        self.index = mi.Int32(index)
+        self.absorption = mi.Color3f([a[0] for a in absorption], [a[1] for a in absorption],
+                                     [a[2] for a in absorption])
+        self.entries = entries
+
+    def lookup(self, mi, si, active):
+        """(kind, index, absorption) of the shapes hit by ``si`` (KIND_NONE on a miss)."""
+        import drjit as dr
+
+        sid = dr.reinterpret_array(mi.UInt32, si.shape)
+        ok = active & si.is_valid()
+        return (dr.gather(mi.UInt32, self.kind, sid, ok), dr.gather(mi.Int32, self.index, sid, ok, ),
+                dr.gather(mi.Color3f, self.absorption, sid, ok))
