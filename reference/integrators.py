@@ -13,7 +13,8 @@
   flight, phase sampling) to measure what single scattering leaves out.
 * ``vc_singlescatter`` (:class:`SingleScatterIntegrator`): camera rays to the first
   surface; the fog integral of direct (unrefracted) spot light with shadows of all
-  objects by one equiangular sample toward the light; direct Lambert light on
+  objects by one equiangular sample toward the light on the part of the ray inside
+  the spot's cone; direct Lambert light on
   diffuse surfaces; ``mask_specular`` where the ray hits glass. Its AOVs are
   ``fog.R/G/B``, ``direct.R/G/B``, ``mask.Y``.
 
@@ -70,6 +71,37 @@ def equiangular(origin, d, length, target, sample):
     return t, pdf
 
 
+def cone_interval(o, d, s_end, apex, axis, cos_cutoff: float):
+    """Part [s_in, s_out] of the ray o + s·d, s in [0, s_end], inside the cone (apex,
+    unit axis, half-angle with cosine cos_cutoff < 1); the cone is convex so the part is
+    one interval, found between the roots of the cone's quadratic by testing the
+    midpoints of the pieces. Returns (s_in, s_out, nonempty)."""
+    q = o - apex
+    c2 = cos_cutoff * cos_cutoff
+    qa, da = dr.dot(q, axis), dr.dot(d, axis)
+    a = da * da - c2
+    b = 2.0 * (qa * da - c2 * dr.dot(q, d))
+    c = qa * qa - c2 * dr.dot(q, q)
+    disc = b * b - 4.0 * a * c
+    ok = (disc >= 0.0) & (dr.abs(a) > 1e-12)
+    sq = dr.sqrt(dr.maximum(disc, 0.0))
+    r0, r1 = (-b - sq) / (2.0 * a), (-b + sq) / (2.0 * a)
+    p1 = dr.select(ok, dr.clip(dr.minimum(r0, r1), 0.0, s_end), s_end)
+    p2 = dr.select(ok, dr.clip(dr.maximum(r0, r1), 0.0, s_end), s_end)
+
+    def inside(s):
+        x = q + d * s
+        return dr.dot(x, axis) > cos_cutoff * dr.norm(x)
+
+    in01, in12, in23 = inside(0.5 * p1), inside(0.5 * (p1 + p2)), inside(0.5 * (p2 + s_end))
+    in01 &= p1 > 0.0
+    in12 &= p2 > p1
+    in23 &= s_end > p2
+    s_in = dr.select(in01, 0.0, dr.select(in12, p1, p2))
+    s_out = dr.select(in23, s_end, dr.select(in12, p2, p1))
+    return s_in, s_out, (in01 | in12 | in23) & (s_out > s_in)
+
+
 def configure(integrator, scene_model, mi_scene):
     """Give an integrator of this module the scene's medium and shape table."""
     medium = scene_model.medium
@@ -79,6 +111,9 @@ def configure(integrator, scene_model, mi_scene):
     integrator.has_medium = not medium.is_vacuum
     integrator.g = float(medium.phase.g) if medium.phase.kind == "hg" else 0.0
     integrator.table = ShapeTable(mi, mi_scene, scene_model)
+    light = scene_model.light
+    integrator.light_axis = mi.Vector3f(*light.direction)
+    integrator.cos_cutoff = math.cos(math.radians(light.cutoff_angle))
     return integrator
 
 
@@ -216,8 +251,11 @@ class SingleScatterIntegrator(mi.SamplingIntegrator):
         if self.has_medium:
             length = dr.select(hit, si.t, 0.0)
             light_pos = scene.emitters()[0].world_transform().translation()
-            use = hit & (length > 0.0)
-            t, pdf = equiangular(ray.o, ray.d, length, light_pos, sampler.next_1d(use))
+            # only the part inside the spot's cone receives light: sample it alone
+            s_in, s_out, use = cone_interval(ray.o, ray.d, length, light_pos, self.light_axis, self.cos_cutoff)
+            use &= hit
+            t, pdf = equiangular(ray.o + s_in * ray.d, ray.d, s_out - s_in, light_pos, sampler.next_1d(use))
+            t += s_in
             it = dr.zeros(mi.Interaction3f)
             it.p = ray(t)
             it.time = ray.time

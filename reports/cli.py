@@ -77,6 +77,32 @@ def _cmd_approx(args) -> int:
     return 0
 
 
+def _cmd_reference(args) -> int:
+    from reference.settings import ReferenceSettings
+    from scenes import resolve_scene
+
+    from .reference_job import run_reference
+
+    scene = resolve_scene(args.scene)
+    settings = ReferenceSettings(photons=args.photons, spp=args.spp, batches=args.batches,
+                                 max_scatter=args.max_scatter, width=args.width, height=args.height, seed=args.seed)
+    summary = run_reference(scene, settings, args.output, force=args.force)
+    source = "cache" if summary["cached"] else f"rendered in {summary['wall_seconds']:.1f} s"
+    print(f"reference {scene.name}: {summary['photons']:,} photons, {summary['batches']} batches ({source}, "
+          f"{summary['mitsuba_variant']}) -> {summary['outputs']['exr']}")
+    return 0
+
+
+def _cmd_export(args) -> int:
+    from reference.export import export_xml
+    from scenes import resolve_scene
+
+    scene = resolve_scene(args.scene)
+    export_xml(scene, args.mitsuba_xml)
+    print(f"export {scene.name} -> {args.mitsuba_xml}")
+    return 0
+
+
 def _add_approx_params(p):
     g = p.add_argument_group("approximation parameters (DESIGN.md names; default: --preset)")
     g.add_argument("--preset", choices=("paper", "quick"), default="paper",
@@ -118,6 +144,25 @@ def build_parser() -> argparse.ArgumentParser:
     _add_approx_params(p)
     p.set_defaults(func=_cmd_approx)
 
+    p = sub.add_parser("reference", help="ground truth of SCENE with Mitsuba 3 (cached): OUT.exr, .png, .json")
+    p.add_argument("scene", metavar="SCENE", help="built-in scene name or path to a .toml scene file")
+    p.add_argument("-o", "--output", required=True, metavar="OUT.exr", help="output EXR (mean and _var layers)")
+    p.add_argument("--photons", type=int, default=1 << 24, help="light paths for the caustic (default 2^24)")
+    p.add_argument("--spp", type=int, default=256, help="camera samples per pixel for fog/direct (default 256)")
+    p.add_argument("--batches", type=int, default=8, help="independent batches for the variance (default 8)")
+    p.add_argument("--max-scatter", dest="max_scatter", type=int, default=1,
+                   help="scattering events per path (1 = single scattering, the paper's model)")
+    p.add_argument("--width", type=int, help="image width (default: the scene camera's)")
+    p.add_argument("--height", type=int, help="image height (default: the scene camera's)")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--force", action="store_true", help="render even if the cache has this reference")
+    p.set_defaults(func=_cmd_reference)
+
+    p = sub.add_parser("export", help="write SCENE as a Mitsuba 3 XML file (with PLY meshes beside it)")
+    p.add_argument("scene", metavar="SCENE")
+    p.add_argument("--mitsuba-xml", dest="mitsuba_xml", required=True, metavar="OUT.xml")
+    p.set_defaults(func=_cmd_export)
+
     p = sub.add_parser("report", help="the main job: the report on the built-in scenes")
     p.add_argument("--out", default="runs/report", help="output folder (default runs/report)")
     p.add_argument("--scenes", help="comma-separated built-in scene names (default: all)")
@@ -129,12 +174,13 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv=None) -> int:
     from approx.params import ParamError
+    from reference.settings import SettingsError
     from scenes import SceneError
 
     args = build_parser().parse_args(argv)
     try:
         return args.func(args)
-    except (SceneError, ParamError) as exc:
+    except (SceneError, ParamError, SettingsError) as exc:
         print(f"volcaustics: error: {exc}", file=sys.stderr)
         return EXIT_USAGE
     except KeyboardInterrupt:

@@ -1,6 +1,9 @@
-"""Image files: tonemapped sRGB PNG previews (colour-science's sRGB encoding).
+"""Image files: tonemapped sRGB PNG previews; EXR via scenes.imageio.
 
-All writes are atomic (temporary file, then rename).
+The sRGB encoding is the IEC 61966-2-1 piecewise OETF, written here in numpy
+because importing colour-science costs over a second per command; the tests
+check it against ``colour.cctf_encoding(..., function="sRGB")``. All writes are
+atomic (temporary file, then rename).
 """
 
 from __future__ import annotations
@@ -10,7 +13,8 @@ import zlib
 
 import numpy as np
 
-from scenes.storage import atomic_path, atomic_write_bytes
+from scenes.imageio import read_exr, write_exr  # noqa: F401  (re-exported: EXR I/O lives in scenes)
+from scenes.storage import atomic_write_bytes
 
 
 def auto_exposure(image: np.ndarray, percentile: float = 99.5) -> float:
@@ -23,19 +27,22 @@ def auto_exposure(image: np.ndarray, percentile: float = 99.5) -> float:
     return 1.0 / level if level > 0 else 1.0
 
 
+def srgb_encode(linear: np.ndarray) -> np.ndarray:
+    """sRGB OETF (IEC 61966-2-1) of linear values in [0, 1], float64."""
+    x = np.asarray(linear, dtype=np.float64)
+    return np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(np.maximum(x, 0.0031308), 1 / 2.4) - 0.055)
+
+
 def tonemap_srgb8(image: np.ndarray, exposure: float | None = None) -> np.ndarray:
     """Linear H×W×3 float (≥ 0) → H×W×3 uint8 sRGB: exposure, clip to [0, 1], sRGB OETF.
 
     ``exposure`` None means :func:`auto_exposure`.
     """
-    import colour
-
     if image.ndim != 3 or image.shape[2] != 3:
         raise ValueError(f"expected an H×W×3 image, got shape {image.shape}")
     scale = auto_exposure(image) if exposure is None else exposure
     linear = np.clip(np.nan_to_num(image.astype(np.float64) * scale, nan=0.0, posinf=1.0), 0.0, 1.0)
-    encoded = colour.cctf_encoding(linear, function="sRGB")
-    return np.round(np.asarray(encoded) * 255.0).astype(np.uint8)
+    return np.round(srgb_encode(linear) * 255.0).astype(np.uint8)
 
 
 def png_bytes(rgb8: np.ndarray) -> bytes:
@@ -56,47 +63,3 @@ def write_png(path: str, image: np.ndarray, exposure: float | None = None) -> No
     """Write a linear H×W×3 image as a tonemapped sRGB PNG (atomically)."""
     atomic_write_bytes(path, png_bytes(tonemap_srgb8(image, exposure)))
 
-
-def write_exr(path: str, layers: dict, metadata: dict | None = None) -> None:
-    """Write a multi-layer OpenEXR file atomically (ZIP compression, float32).
-
-    layers: name → H×W×3 array (channels ``name.R/G/B``) or H×W array (``name.Y``);
-    ``mask_specular`` is written as one ``.Y`` channel. metadata: name → str header attributes.
-    """
-    import OpenEXR
-
-    channels = {}
-    for name, image in layers.items():
-        image = np.asarray(image, dtype=np.float32)
-        if name == "mask_specular" and image.ndim == 3:
-            image = image[..., 0]
-        if image.ndim == 2:
-            channels[f"{name}.Y"] = np.ascontiguousarray(image)
-        elif image.ndim == 3 and image.shape[2] == 3:
-            for k, c in enumerate("RGB"):
-                channels[f"{name}.{c}"] = np.ascontiguousarray(image[..., k])
-        else:
-            raise ValueError(f"layer {name!r}: expected H×W or H×W×3, got shape {image.shape}")
-    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
-    for key, value in (metadata or {}).items():
-        header[key] = str(value)
-    with atomic_path(path) as tmp:
-        with OpenEXR.File(header, channels) as f:
-            f.write(tmp)
-
-
-def read_exr(path: str) -> tuple[dict, dict]:
-    """(layers, header) of a file written by :func:`write_exr`: layers are H×W×3
-    float32 (``.Y`` layers broadcast to 3 channels)."""
-    import OpenEXR
-
-    with OpenEXR.File(path, separate_channels=True) as f:
-        channels = {name: np.asarray(ch.pixels, dtype=np.float32) for name, ch in f.channels().items()}
-        header = dict(f.header())
-    layers = {}
-    for name in sorted({c.rsplit(".", 1)[0] for c in channels}):
-        if f"{name}.Y" in channels:
-            layers[name] = np.repeat(channels[f"{name}.Y"][..., None], 3, axis=2)
-        else:
-            layers[name] = np.stack([channels[f"{name}.{c}"] for c in "RGB"], axis=-1)
-    return layers, header

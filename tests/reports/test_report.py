@@ -42,3 +42,12 @@ def test_png_encoding_round_trip():
     idat = data[data.index(b"IDAT") + 4:]
     raw = zlib.decompress(idat[: int.from_bytes(data[data.index(b"IDAT") - 4:data.index(b"IDAT")], "big")])
     assert raw == b"".join(b"\x00" + bytes([188] * 6) for _ in range(3))
+
+
+def test_srgb_encoding_matches_colour_science():
+    import colour
+
+    from reports.imageio import srgb_encode
+
+    x = np.concatenate([np.linspace(0, 0.01, 101), np.linspace(0.01, 1, 1000)])
+    assert np.allclose(srgb_encode(x), colour.cctf_encoding(x, function="sRGB"), atol=1e-12)

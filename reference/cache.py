@@ -1,0 +1,68 @@
+"""On-disk cache of reference renders.
+
+Key: SHA-256 of the canonical scene JSON, the resolved settings and the
+reference code version (a hash of the integrator and export sources). A result
+is an EXR (mean and variance layers) plus a manifest JSON written after it; the
+manifest records the EXR's SHA-256, so a truncated or mismatching file is
+detected and re-rendered, never trusted.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+
+from scenes.imageio import read_exr, write_exr
+from scenes.storage import atomic_write_text, cache_dir
+
+_SOURCES = ("integrators.py", "export.py", "render.py", "shapes.py")
+
+
+def code_version() -> str:
+    here = os.path.dirname(os.path.abspath(__file__))
+    h = hashlib.sha256()
+    for name in _SOURCES:
+        with open(os.path.join(here, name), "rb") as fh:
+            h.update(fh.read())
+    return h.hexdigest()[:16]
+
+
+def cache_key(scene, settings) -> str:
+    text = json.dumps({"scene": scene.canonical_json(), "settings": settings.to_dict(), "code": code_version()},
+                      sort_keys=True)
+    return hashlib.sha256(text.encode()).hexdigest()[:32]
+
+
+def paths(key: str) -> tuple[str, str]:
+    folder = cache_dir("reference")
+    return os.path.join(folder, f"{key}.exr"), os.path.join(folder, f"{key}.json")
+
+
+def _sha256(path: str) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for chunk in iter(lambda: fh.read(1 << 20), b""):
+            h.update(chunk)
+    return h.hexdigest()
+
+
+def load(key: str):
+    """(layers, manifest) if a complete, matching entry exists, else None."""
+    exr, manifest_path = paths(key)
+    try:
+        with open(manifest_path) as fh:
+            manifest = json.load(fh)
+        if manifest.get("key") != key or manifest.get("exr_sha256") != _sha256(exr):
+            return None
+        return read_exr(exr)[0], manifest
+    except (OSError, ValueError, KeyError):
+        return None
+
+
+def store(key: str, layers: dict, manifest: dict) -> dict:
+    exr, manifest_path = paths(key)
+    write_exr(exr, layers, {"volcaustics_reference_key": key})
+    manifest = {**manifest, "key": key, "exr_sha256": _sha256(exr)}
+    atomic_write_text(manifest_path, json.dumps(manifest, indent=2, default=float))
+    return manifest

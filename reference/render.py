@@ -1,0 +1,130 @@
+"""Reference renders: every component in independent batches, with per-pixel
+variance of the mean, served from and stored to the cache.
+
+Layers (DESIGN.md names) and their variances: ``caustic`` (light tracer),
+``fog`` and ``direct`` (single-scatter camera integrator), ``combined`` (their
+sum, per batch, so its variance includes the correlation of fog and direct),
+``mask_specular``; ``<layer>_var`` holds the variance of the mean.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+
+import numpy as np
+
+from . import cache
+from .settings import ReferenceSettings
+
+COLOUR_LAYERS = ("caustic", "fog", "direct", "combined")
+
+
+@dataclasses.dataclass
+class ReferenceResult:
+    mean: dict  # layer → H×W×3 float32 (mask_specular: 0/1)
+    var: dict  # layer → H×W×3 float32, variance of the mean
+    manifest: dict  # photons, batches, seed, wall time, variant, versions, scene hash, settings, cached
+    cached: bool
+
+
+def _sized(scene, settings):
+    cam = dataclasses.replace(scene.camera, width=settings.width, height=settings.height)
+    return dataclasses.replace(scene, camera=cam)
+
+
+class _Welford:
+    def __init__(self):
+        self.n, self.mean, self.m2 = 0, None, None
+
+    def add(self, x: np.ndarray):
+        x = x.astype(np.float64)
+        self.n += 1
+        if self.mean is None:
+            self.mean, self.m2 = x.copy(), np.zeros_like(x)
+            return
+        delta = x - self.mean
+        self.mean += delta / self.n
+        self.m2 += delta * (x - self.mean)
+
+    def result(self):
+        return self.mean.astype(np.float32), (self.m2 / (self.n - 1) / self.n).astype(np.float32)
+
+
+def render_batches(scene, settings: ReferenceSettings, *, mode: str = "caustic", progress: bool = True) -> dict:
+    """Render without the cache; returns {layer: (mean, var)} for the colour layers
+    and the mask, plus timing and counts under the key ``"_info"``."""
+    from tqdm import tqdm
+
+    from .export import to_mitsuba
+    from .integrators import SingleScatterIntegrator, VolumetricLightTracer, configure
+    from .mi_setup import mitsuba
+
+    mi = mitsuba()
+    settings = settings.resolved(scene)
+    scene = _sized(scene, settings)
+    t0 = time.perf_counter()
+    mi_scene = mi.load_dict(to_mitsuba(scene))
+    props = mi.Properties()
+    props["mode"] = mode
+    props["max_scatter"] = settings.max_scatter
+    tracer = configure(VolumetricLightTracer(props), scene, mi_scene)
+    camera = configure(SingleScatterIntegrator(), scene, mi_scene)
+    pixels = settings.width * settings.height
+    photon_spp = max(1, math.ceil(settings.photons / settings.batches / pixels))
+    camera_spp = settings.spp // settings.batches
+    acc = {name: _Welford() for name in COLOUR_LAYERS}
+    mask = None
+    for b in tqdm(range(settings.batches), desc=f"reference {scene.name}", unit="batch", disable=not progress):
+        seed = settings.seed * settings.batches + b
+        caustic = np.asarray(mi.render(mi_scene, integrator=tracer, seed=seed, spp=photon_spp))[..., :3]
+        cam = np.asarray(mi.render(mi_scene, integrator=camera, seed=seed, spp=camera_spp))
+        fog, direct = cam[..., 3:6], cam[..., 6:9]
+        mask = cam[..., 9:10] > 0.5 if mask is None else mask | (cam[..., 9:10] > 0.5)
+        for name, image in (("caustic", caustic), ("fog", fog), ("direct", direct),
+                            ("combined", caustic + fog + direct)):
+            acc[name].add(image)
+    out = {name: acc[name].result() for name in COLOUR_LAYERS}
+    m = np.repeat(mask.astype(np.float32), 3, axis=2)
+    out["mask_specular"] = (m, np.zeros_like(m))
+    out["_info"] = {"seconds": time.perf_counter() - t0, "photons": photon_spp * pixels * settings.batches,
+                    "photon_spp_per_batch": photon_spp, "camera_spp_per_batch": camera_spp}
+    return out
+
+
+def render_reference(scene, settings: ReferenceSettings | None = None, *, force: bool = False,
+                     progress: bool = True) -> ReferenceResult:
+    """The reference for ``scene``: from the cache when a valid entry exists (and not
+    ``force``), else rendered and stored."""
+    from .mi_setup import mitsuba_version, variant_name
+
+    settings = (settings or ReferenceSettings()).resolved(scene)
+    key = cache.cache_key(scene, settings)
+    if not force:
+        hit = cache.load(key)
+        if hit is not None:
+            layers, manifest = hit
+            return _split(layers, manifest, cached=True)
+    out = render_batches(scene, settings, progress=progress)
+    info = out.pop("_info")
+    layers = {}
+    for name, (mean, var) in out.items():
+        layers[name] = mean
+        if name != "mask_specular":
+            layers[f"{name}_var"] = var
+    manifest = {
+        "scene": scene.name, "scene_hash": scene.scene_hash(), "settings": settings.to_dict(),
+        "photons": info["photons"], "batches": settings.batches, "seed": settings.seed,
+        "camera_spp": info["camera_spp_per_batch"] * settings.batches, "wall_seconds": info["seconds"],
+        "mitsuba_variant": variant_name(), "mitsuba_version": mitsuba_version(),
+        "reference_code_version": cache.code_version(),
+    }
+    manifest = cache.store(key, layers, manifest)
+    return _split(layers, manifest, cached=False)
+
+
+def _split(layers: dict, manifest: dict, cached: bool) -> ReferenceResult:
+    mean = {k: v for k, v in layers.items() if not k.endswith("_var")}
+    var = {k[:-4]: v for k, v in layers.items() if k.endswith("_var")}
+    return ReferenceResult(mean=mean, var=var, manifest={**manifest, "cached": cached}, cached=cached)
