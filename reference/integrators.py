@@ -105,14 +105,14 @@ def cone_interval(o, d, s_end, apex, axis, cos_cutoff: float):
 def configure(integrator, scene_model, mi_scene):
     """Give an integrator of this module the scene's medium and shape table."""
     medium = scene_model.medium
-    integrator.sigma_s = mi.Color3f(*medium.sigma_s)
-    integrator.sigma_t = mi.Color3f(*medium.sigma_t)
+    integrator.sigma_s = mi.Color3f(*(float(x) for x in medium.sigma_s))
+    integrator.sigma_t = mi.Color3f(*(float(x) for x in medium.sigma_t))
     integrator.sigma_bar = float(sum(medium.sigma_t) / 3.0)
     integrator.has_medium = not medium.is_vacuum
     integrator.g = float(medium.phase.g) if medium.phase.kind == "hg" else 0.0
     integrator.table = ShapeTable(mi, mi_scene, scene_model)
     light = scene_model.light
-    integrator.light_axis = mi.Vector3f(*light.direction)
+    integrator.light_axis = mi.Vector3f(*(float(x) for x in light.direction))
     integrator.cos_cutoff = math.cos(math.radians(light.cutoff_angle))
     return integrator
 

@@ -1,0 +1,42 @@
+"""The z-test: calibrated on synthetic estimates with known mean and variance."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from metrics.stats import sidak_alpha, z_test
+
+
+def _estimates(rng, truth, sigma, n_batches):
+    batches = truth + rng.normal(0, sigma, size=(n_batches, *truth.shape))
+    return batches.mean(0), batches.var(0, ddof=1) / n_batches
+
+
+def test_sidak_alpha():
+    assert sidak_alpha(0.01, 1) == pytest.approx(0.01)
+    a = sidak_alpha(0.01, 1000)
+    assert (1 - a) ** 1000 == pytest.approx(0.99)
+
+
+def test_same_truth_passes_and_bias_fails():
+    rng = np.random.default_rng(3)
+    truth = rng.uniform(1, 2, size=(32, 32, 3))
+    a_mean, a_var = _estimates(rng, truth, 0.05, 64)
+    b_mean, b_var = _estimates(rng, truth, 0.05, 64)
+    assert z_test(a_mean, a_var, b_mean, b_var).passed
+    c_mean, c_var = _estimates(rng, truth * 1.1, 0.05, 64)  # 10% bias, noise 0.6%: must fail
+    result = z_test(a_mean, a_var, c_mean, c_var)
+    assert not result.passed and result.pass_rate < 0.5
+
+
+def test_identity_and_input_checks():
+    x = np.ones((4, 4, 3))
+    with pytest.raises(ValueError):
+        z_test(x, np.zeros_like(x), x, np.zeros_like(x))  # nothing to test
+    with pytest.raises(ValueError):
+        z_test(x, x, x[:2], x[:2])
+    with pytest.raises(ValueError):
+        z_test(x, -x, x, x)
+    r = z_test(x, x, x, x)
+    assert r.passed and r.max_abs_z == 0.0
