@@ -17,7 +17,8 @@ FLAG_LEFT_FRUSTUM, FLAG_REFLECTED, FLAG_TIR = 1, 2, 4
 PHOTON_DTYPE = np.dtype([("pos", "<f4", 4), ("dir", "<f4", 4), ("power", "<f4", 4)])
 SPLAT_DTYPE = np.dtype([("center_status", "<f4", 4), ("dir", "<f4", 4), ("power", "<f4", 4)])
 RAW_RECORD_DTYPE = np.dtype([("start_maxlen", "<f4", 4), ("dir_t", "<f4", 4), ("normal_map", "<f4", 4),
-                             ("end_status", "<f4", 4), ("power_inside", "<f4", 4), ("extra", "<f4", 4)])
+                             ("end_status", "<f4", 4), ("power_inside", "<f4", 4), ("extra", "<f4", 4),
+                             ("power_start", "<f4", 4)])
 
 RECORD_DTYPE = np.dtype([
     ("photon", "<u4"),        # photon index = emission texel (row * photon_res + column)
@@ -33,6 +34,7 @@ RECORD_DTYPE = np.dtype([
     ("material", "<i2"),      # specular object hit (-1 none)
     ("inside", "<i2"),        # specular object the segment runs inside (-1: medium)
     ("end", "<f4", 3),        # where the step ended
+    ("power_start", "<f4", 3),  # power at the segment start (W, RGB)
     ("power", "<f4", 3),      # power after the step (W, RGB)
     ("status", "<u1"),        # STATUS_* after the step
     ("flags", "<u1"),         # FLAG_* bits
@@ -59,6 +61,7 @@ def records_from_raw(raw: np.ndarray, step: int, *, active_only: bool = True) ->
     out["material"] = r["extra"][:, 1]
     out["inside"] = r["power_inside"][:, 3]
     out["end"] = r["end_status"][:, :3]
+    out["power_start"] = r["power_start"][:, :3]
     out["power"] = r["power_inside"][:, :3]
     out["status"] = r["end_status"][:, 3]
     out["flags"] = r["extra"][:, 0]

@@ -141,6 +141,7 @@ void main() {
     rec.end_status = vec4(ph.pos.xyz, float(STATUS_DEAD));
     rec.power_inside = vec4(ph.power.rgb, ph.pos.w);
     rec.extra = vec4(0.0, -1.0, 0.0, 0.0);
+    rec.power_start = vec4(ph.power.rgb, 0.0);
     int status = int(ph.dir.w + 0.5);
     if (status != STATUS_SURFACE && status != STATUS_COLLIDED) {
         ph.dir.w = float(STATUS_DEAD);

@@ -1,0 +1,191 @@
+"""Exact intersections for the approximation's segments, and an exact photon tracer.
+
+* :class:`Oracle`: exact first hit of arbitrary segments (start, direction, max
+  length → hit flag, t, shading normal, geometric normal, specular object index)
+  against the scene's specular objects — the geometry the approximation's light
+  maps hold — with Mitsuba's ``scene.ray_intersect``.
+* :func:`exact_photon_records`: replays the approximation's photons from their
+  emission state with exact intersections and the very same random numbers
+  (``scenes.rng``: free flight from u(seed, photon, step, 0), Fresnel choice from
+  u(seed, photon, step, 1)), producing per-step records in the approximation's
+  format (``approx.records.RECORD_DTYPE``), so the two can be compared segment by
+  segment. The physics mirrors ``approx/shaders/trace/trace.comp.glsl``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from scenes.bounds import medium_bounds
+from scenes.rng import uniform
+
+STATUS_DEAD, STATUS_SURFACE, STATUS_COLLIDED, STATUS_LEFT_SCENE, STATUS_LOST = range(5)
+FLAG_REFLECTED, FLAG_TIR = 2, 4
+
+
+class Oracle:
+    """Exact segment queries against one scene's specular objects."""
+
+    def __init__(self, scene):
+        from .export import mesh_file
+        from .mi_setup import mitsuba
+        from scenes.storage import cache_dir
+
+        mi = self.mi = mitsuba()
+        import drjit as dr
+
+        d = {"type": "scene"}
+        for i, obj in enumerate(scene.specular):
+            d[f"specular_{i}"] = {"type": "ply", "filename": mesh_file(obj.mesh.load(), cache_dir("mitsuba-meshes")),
+                                  "face_normals": False}
+        self.mi_scene = mi.load_dict(d)
+        table = {}
+        for shape in self.mi_scene.shapes():
+            table[int(dr.reinterpret_array(mi.UInt32, mi.ShapePtr(shape))[0])] = int(shape.id().split("_")[1])
+        self.shape_index = np.full(max(table, default=0) + 1, -1, np.int64)
+        for sid, i in table.items():
+            self.shape_index[sid] = i
+        lo, hi = medium_bounds(scene)
+        self.epsilon = 1e-6 * float(np.linalg.norm(hi - lo))
+
+    def first_hits(self, starts, directions, max_lengths) -> dict:
+        """Exact first hits on segments start + t·direction, t in (0, max_length].
+
+        Parameters: starts, directions N×3 (directions unit), max_lengths N; metres.
+        Returns hit (N bool), t (N float64, nan without hit), normal (N×3 shading
+        normal, nan), geometric_normal (N×3), shape (N int, -1 without hit).
+        """
+        import drjit as dr
+
+        mi = self.mi
+        o = np.asarray(starts, np.float64).reshape(-1, 3)
+        d = np.asarray(directions, np.float64).reshape(-1, 3)
+        L = np.asarray(max_lengths, np.float64).reshape(-1)
+        if len(o) == 0:
+            return {"hit": np.zeros(0, bool), "t": np.zeros(0), "normal": np.zeros((0, 3)),
+                    "geometric_normal": np.zeros((0, 3)), "shape": np.zeros(0, np.int64)}
+        eps = self.epsilon
+        ray = mi.Ray3f(mi.Point3f(*(o + d * eps).T.astype(np.float32)), mi.Vector3f(*d.T.astype(np.float32)))
+        ray.maxt = mi.Float(np.maximum(L - eps, 0.0).astype(np.float32))
+        si = self.mi_scene.ray_intersect(ray)
+        hit = np.asarray(si.is_valid()).astype(bool) & (L > eps)
+        t = np.where(hit, np.asarray(si.t, np.float64) + eps, np.nan)
+        sid = np.asarray(dr.reinterpret_array(mi.UInt32, si.shape), np.int64)
+        shape = np.where(hit, self.shape_index[np.clip(sid, 0, len(self.shape_index) - 1)], -1)
+
+        def vec(v):
+            return np.stack([np.asarray(v.x), np.asarray(v.y), np.asarray(v.z)], axis=1).astype(np.float64)
+
+        nan3 = np.full((len(o), 3), np.nan)
+        return {"hit": hit, "t": t, "normal": np.where(hit[:, None], vec(si.sh_frame.n), nan3),
+                "geometric_normal": np.where(hit[:, None], vec(si.n), nan3), "shape": shape}
+
+
+def fresnel_dielectric(cos_i, eta):
+    """Unpolarised Fresnel reflectance (numpy twin of common/optics.glsl), 1 under TIR."""
+    sin2_t = (1.0 - cos_i * cos_i) / (eta * eta)
+    cos_t = np.sqrt(np.maximum(1.0 - sin2_t, 0.0))
+    r_s = (cos_i - eta * cos_t) / (cos_i + eta * cos_t)
+    r_p = (eta * cos_i - cos_t) / (eta * cos_i + cos_t)
+    return np.where(sin2_t >= 1.0, 1.0, 0.5 * (r_s * r_s + r_p * r_p))
+
+
+def _box_exit(o, d, lo, hi):
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inv = 1.0 / d
+        t_far = np.maximum((lo - o) * inv, (hi - o) * inv)
+    return np.maximum(np.nanmin(t_far, axis=1), 0.0)
+
+
+def surface_interaction(d, power, inside, n, hit_material, xi, ior, stochastic: bool):
+    """Vectorised twin of common/interaction.glsl; returns (d, power, inside, flags)."""
+    n = np.where((np.einsum("ij,ij->i", d, n) > 0)[:, None], -n, n)
+    entering = inside < 0
+    m = np.where(entering, hit_material, inside)
+    eta = np.where(entering, ior[m], 1.0 / ior[m])
+    cos_i = -np.einsum("ij,ij->i", d, n)
+    R = fresnel_dielectric(cos_i, eta)
+    sin2_t = (1.0 - cos_i * cos_i) / (eta * eta)
+    tir = sin2_t >= 1.0
+    cos_t = np.sqrt(np.maximum(1.0 - sin2_t, 0.0))
+    refracted = d / eta[:, None] + (cos_i / eta - cos_t)[:, None] * n
+    refracted /= np.maximum(np.linalg.norm(refracted, axis=1, keepdims=True), 1e-300)
+    reflected = d - 2.0 * np.einsum("ij,ij->i", d, n)[:, None] * n
+    reflect = tir | (stochastic & (xi < R))
+    if not stochastic:
+        power = np.where(tir[:, None], power, power * (1.0 - R)[:, None])
+    new_d = np.where(reflect[:, None], reflected, refracted)
+    new_inside = np.where(reflect, inside, np.where(entering, m, -1))
+    flags = np.where(reflect, FLAG_REFLECTED, 0) | np.where(tir, FLAG_TIR, 0)
+    return new_d, power, new_inside, flags
+
+
+def exact_photon_records(scene, first_records, *, steps: int, seed: int, fresnel: str = "deterministic",
+                         oracle: Oracle | None = None) -> list:
+    """Replay photons from the approximation's step-1 records (their emission state:
+    start, direction, inside, power_start) with exact intersections; returns one
+    RECORD_DTYPE array per step (photons alive at that step)."""
+    from approx.records import RECORD_DTYPE
+
+    oracle = oracle or Oracle(scene)
+    lo, hi = medium_bounds(scene)
+    sigma_t = np.asarray(scene.medium.sigma_t, np.float64)
+    sigma_bar = float(np.float32(np.mean(np.asarray(scene.medium.sigma_t, np.float32))))
+    ior = np.asarray([o.ior for o in scene.specular] + [1.0], np.float64)
+    absorption = np.asarray([o.absorption for o in scene.specular] + [(0.0, 0.0, 0.0)], np.float64)
+    stochastic = fresnel == "stochastic"
+
+    idx = first_records["photon"].astype(np.int64)
+    o = first_records["start"].astype(np.float64)
+    d = first_records["direction"].astype(np.float64)
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    inside = first_records["inside"].astype(np.int64)
+    power = first_records["power_start"].astype(np.float64)
+    out = []
+    for step in range(1, steps + 1):
+        n = len(idx)
+        span = _box_exit(o, d, lo, hi)
+        max_len = span.copy()
+        medium = inside < 0
+        if sigma_bar > 0:
+            u = uniform(seed, idx.astype(np.uint32), step, 0).astype(np.float32)
+            free = (-np.log(np.float32(1.0) - u) / np.float32(sigma_bar)).astype(np.float64)
+            max_len = np.where(medium, free, span)
+        search = np.minimum(max_len, span)
+        q = oracle.first_hits(o, d, search)
+        hit = q["hit"]
+        t = np.where(hit, q["t"], 0.0)
+        status = np.full(n, STATUS_LEFT_SCENE, np.int64)
+        flags = np.zeros(n, np.int64)
+        end = o + d * np.where(hit, t, np.where(medium & (max_len <= span), max_len, search))[:, None]
+        # transmittance of the distance travelled
+        coeff = np.where(medium[:, None], sigma_t[None, :], absorption[np.where(medium, -1, inside)])
+        travelled = np.where(hit, t, np.where(medium & (max_len <= span), max_len, 0.0))
+        new_power = power * np.exp(-coeff * travelled[:, None])
+        status[hit] = STATUS_SURFACE
+        status[~hit & ~medium] = STATUS_LOST
+        status[~hit & medium & (max_len <= span)] = STATUS_COLLIDED
+        new_d, new_inside = d.copy(), inside.copy()
+        if hit.any():
+            xi = uniform(seed, idx[hit].astype(np.uint32), step, 1).astype(np.float64)
+            dd, pp, ii, ff = surface_interaction(d[hit], new_power[hit], inside[hit], q["normal"][hit],
+                                                 q["shape"][hit], xi, ior, stochastic)
+            new_d[hit], new_power[hit], new_inside[hit], flags[hit] = dd, pp, ii, ff
+        rec = np.zeros(n, RECORD_DTYPE)
+        rec["photon"], rec["step"] = idx, step
+        rec["start"], rec["direction"] = o, d
+        rec["max_length"], rec["search_length"] = max_len, search
+        rec["t"], rec["hit"] = np.where(hit, q["t"], np.nan), hit
+        rec["map"] = -1
+        rec["normal"] = q["normal"]
+        rec["material"] = q["shape"]
+        rec["inside"] = inside
+        rec["end"] = end
+        rec["power_start"], rec["power"] = power, new_power
+        rec["status"], rec["flags"] = status, flags
+        out.append(rec)
+        alive = (status == STATUS_SURFACE) | (status == STATUS_COLLIDED)
+        idx, o, d, inside, power = idx[alive], end[alive], new_d[alive], new_inside[alive], new_power[alive]
+        if len(idx) == 0:
+            break
+    return out
