@@ -5,6 +5,8 @@
 #ifndef VOLCAUSTICS_SPOT_GLSL
 #define VOLCAUSTICS_SPOT_GLSL
 
+#include "common/acos.glsl"
+
 uniform vec3 light_position;
 uniform vec3 light_direction;       // unit spot axis
 uniform vec3 light_intensity;       // W/sr on the axis
@@ -18,7 +20,7 @@ float spot_falloff(vec3 d) {
     float cos_theta = dot(d, light_direction);
     float beam_res = cos_theta >= spot_cos_beam
         ? 1.0
-        : (spot_cutoff_angle - acos(clamp(cos_theta, -1.0, 1.0))) * spot_inv_transition;
+        : (spot_cutoff_angle - acos_accurate(clamp(cos_theta, -1.0, 1.0))) * spot_inv_transition;
     return cos_theta > spot_cos_cutoff ? beam_res : 0.0;
 }
 

@@ -1,0 +1,83 @@
+"""`volcaustics reference` / `export`, and the cache's integrity checks."""
+
+from __future__ import annotations
+
+import json
+import os
+
+import numpy as np
+import pytest
+
+from reference import cache
+from reference.render import render_reference
+from reference.settings import ReferenceSettings, SettingsError
+from reports.cli import main
+from scenes import load_builtin
+from scenes.imageio import read_exr
+
+SMALL = ["--width", "24", "--height", "24", "--photons", "200000", "--spp", "16", "--batches", "4"]
+
+
+@pytest.fixture
+def private_cache(tmp_path, monkeypatch):
+    monkeypatch.setenv("VOLCAUSTICS_CACHE", str(tmp_path / "cache"))
+    return tmp_path / "cache"
+
+
+def test_reference_cli_renders_then_serves_from_cache(tmp_path, private_cache, capsys):
+    out = tmp_path / "r.exr"
+    assert main(["reference", "refocus", *SMALL, "-o", str(out)]) == 0
+    first = json.loads((tmp_path / "r.json").read_text())
+    assert first["cached"] is False and first["batches"] == 4 and first["photons"] >= 200000
+    assert first["mitsuba_variant"] == "llvm_ad_rgb" and first["scene_hash"] == load_builtin("refocus").scene_hash()
+    layers, header = read_exr(str(out))
+    assert {"caustic", "fog", "direct", "combined", "mask_specular", "caustic_var", "combined_var"} <= set(layers)
+    assert layers["caustic"].max() > 0 and np.all(layers["caustic_var"] >= 0)
+    assert main(["reference", "refocus", *SMALL, "-o", str(out)]) == 0
+    second = json.loads((tmp_path / "r.json").read_text())
+    assert second["cached"] is True and "cache" in capsys.readouterr().out
+    again, _ = read_exr(str(out))
+    assert all(np.array_equal(layers[k], again[k]) for k in layers)
+
+
+def test_truncated_cache_entry_is_rerendered(private_cache):
+    scene = load_builtin("refocus")
+    settings = ReferenceSettings(photons=100000, spp=8, batches=2, width=16, height=16)
+    first = render_reference(scene, settings, progress=False)
+    exr, manifest = cache.paths(cache.cache_key(scene, settings.resolved(scene)))
+    data = open(exr, "rb").read()
+    open(exr, "wb").write(data[: len(data) // 2])  # a crash mid-write elsewhere, or disk trouble
+    second = render_reference(scene, settings, progress=False)
+    assert not first.cached and not second.cached  # the broken entry was not trusted
+    third = render_reference(scene, settings, progress=False)
+    assert third.cached
+    os.unlink(manifest)  # an EXR without its manifest is not trusted either
+    assert not render_reference(scene, settings, progress=False).cached
+
+
+def test_settings_changes_change_the_key():
+    scene = load_builtin("refocus")
+    a = ReferenceSettings(photons=100000, spp=8, batches=2).resolved(scene)
+    keys = {cache.cache_key(scene, a)}
+    for change in ({"photons": 100001}, {"seed": 1}, {"max_scatter": 2}, {"width": 17}, {"batches": 4}):
+        keys.add(cache.cache_key(scene, ReferenceSettings(**{**a.to_dict(), **change})))
+    assert len(keys) == 6
+
+
+def test_bad_settings_exit_2(tmp_path, capsys):
+    with pytest.raises(SettingsError):
+        ReferenceSettings(batches=1)
+    assert main(["reference", "refocus", "--batches", "1", "-o", str(tmp_path / "x.exr")]) == 2
+    assert "batches = 1" in capsys.readouterr().err
+
+
+def test_export_xml_loads_in_mitsuba(tmp_path):
+    from reference.mi_setup import mitsuba
+
+    mi = mitsuba()
+    out = tmp_path / "two.xml"
+    assert main(["export", "two_spheres", "--mitsuba-xml", str(out)]) == 0
+    scene = mi.load_file(str(out))
+    assert len(scene.shapes()) == 4  # two glass spheres, the floor, the medium box
+    image = np.asarray(mi.render(scene, spp=4))
+    assert image.shape == (512, 512, 3) and np.isfinite(image).all() and image.mean() > 0
