@@ -40,3 +40,21 @@ def test_identity_and_input_checks():
         z_test(x, -x, x, x)
     r = z_test(x, x, x, x)
     assert r.passed and r.max_abs_z == 0.0
+
+
+def test_relative_mse_identities():
+    from metrics.image import relative_mse
+
+    rng = np.random.default_rng(0)
+    x = rng.random((8, 8, 3))
+    assert relative_mse(x, x) == 0.0
+    assert relative_mse(x, 1.1 * x) == pytest.approx(0.01)  # (0.1 x)² / x²
+    mask = np.zeros((8, 8), bool)
+    mask[:4] = True
+    y = x.copy()
+    y[4:] += 5
+    assert relative_mse(x, y, mask=mask) == 0.0
+    with pytest.raises(ValueError):
+        relative_mse(x, x[:4])
+    with pytest.raises(ValueError):
+        relative_mse(np.zeros_like(x), x)
