@@ -14,7 +14,7 @@ import json
 import os
 
 from scenes.imageio import read_exr, write_exr
-from scenes.storage import atomic_write_text, cache_dir
+from scenes.storage import atomic_write_bytes, atomic_write_text, cache_dir
 
 _SOURCES = ("integrators.py", "export.py", "render.py", "shapes.py")
 
@@ -35,6 +35,7 @@ def cache_key(scene, settings) -> str:
 
 
 def paths(key: str) -> tuple[str, str]:
+    """(EXR, manifest) paths of a cache entry; the PNG preview sits beside as <key>.png."""
     folder = cache_dir("reference")
     return os.path.join(folder, f"{key}.exr"), os.path.join(folder, f"{key}.json")
 
@@ -48,21 +49,29 @@ def _sha256(path: str) -> str:
 
 
 def load(key: str):
-    """(layers, manifest) if a complete, matching entry exists, else None."""
+    """The manifest if a complete, matching entry exists (EXR hash checked), else None."""
     exr, manifest_path = paths(key)
     try:
         with open(manifest_path) as fh:
             manifest = json.load(fh)
         if manifest.get("key") != key or manifest.get("exr_sha256") != _sha256(exr):
             return None
-        return read_exr(exr)[0], manifest
+        if not os.path.exists(exr[:-4] + ".png"):
+            return None
+        return manifest
     except (OSError, ValueError, KeyError):
         return None
 
 
-def store(key: str, layers: dict, manifest: dict) -> dict:
+def store(key: str, layers: dict, manifest: dict, header: dict, png: bytes) -> dict:
+    """Write EXR and PNG preview, then the manifest (the commit marker)."""
     exr, manifest_path = paths(key)
-    write_exr(exr, layers, {"volcaustics_reference_key": key})
+    write_exr(exr, layers, {**header, "volcaustics_reference_key": key})
+    atomic_write_bytes(exr[:-4] + ".png", png)
     manifest = {**manifest, "key": key, "exr_sha256": _sha256(exr)}
     atomic_write_text(manifest_path, json.dumps(manifest, indent=2, default=float))
     return manifest
+
+
+def read_layers(key: str) -> dict:
+    return read_exr(paths(key)[0])[0]

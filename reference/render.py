@@ -10,10 +10,13 @@ sum, per batch, so its variance includes the correlation of fog and direct),
 from __future__ import annotations
 
 import dataclasses
+import json
 import math
 import time
 
 import numpy as np
+
+from scenes.imageio import png_bytes, tonemap_srgb8
 
 from . import cache
 from .settings import ReferenceSettings
@@ -21,12 +24,30 @@ from .settings import ReferenceSettings
 COLOUR_LAYERS = ("caustic", "fog", "direct", "combined")
 
 
-@dataclasses.dataclass
 class ReferenceResult:
-    mean: dict  # layer → H×W×3 float32 (mask_specular: 0/1)
-    var: dict  # layer → H×W×3 float32, variance of the mean
-    manifest: dict  # photons, batches, seed, wall time, variant, versions, scene hash, settings, cached
-    cached: bool
+    """A cached reference: ``manifest`` (photons, batches, seed, wall time, variant,
+    versions, scene hash, settings, cached), ``exr_path``/``png_path`` of the cache
+    files, and the images, read on first use: ``mean`` (layer → H×W×3 float32;
+    mask_specular 0/1) and ``var`` (layer → variance of the mean)."""
+
+    def __init__(self, key: str, manifest: dict, cached: bool, layers: dict | None = None):
+        self.key, self.manifest, self.cached = key, {**manifest, "cached": cached}, cached
+        self.exr_path, _ = cache.paths(key)
+        self.png_path = self.exr_path[:-4] + ".png"
+        self._layers = layers
+
+    def _load(self) -> dict:
+        if self._layers is None:
+            self._layers = cache.read_layers(self.key)
+        return self._layers
+
+    @property
+    def mean(self) -> dict:
+        return {k: v for k, v in self._load().items() if not k.endswith("_var")}
+
+    @property
+    def var(self) -> dict:
+        return {k[:-4]: v for k, v in self._load().items() if k.endswith("_var")}
 
 
 def _sized(scene, settings):
@@ -102,10 +123,9 @@ def render_reference(scene, settings: ReferenceSettings | None = None, *, force:
     settings = (settings or ReferenceSettings()).resolved(scene)
     key = cache.cache_key(scene, settings)
     if not force:
-        hit = cache.load(key)
-        if hit is not None:
-            layers, manifest = hit
-            return _split(layers, manifest, cached=True)
+        manifest = cache.load(key)
+        if manifest is not None:
+            return ReferenceResult(key, manifest, cached=True)
     out = render_batches(scene, settings, progress=progress)
     info = out.pop("_info")
     layers = {}
@@ -120,11 +140,7 @@ def render_reference(scene, settings: ReferenceSettings | None = None, *, force:
         "mitsuba_variant": variant_name(), "mitsuba_version": mitsuba_version(),
         "reference_code_version": cache.code_version(),
     }
-    manifest = cache.store(key, layers, manifest)
-    return _split(layers, manifest, cached=False)
-
-
-def _split(layers: dict, manifest: dict, cached: bool) -> ReferenceResult:
-    mean = {k: v for k, v in layers.items() if not k.endswith("_var")}
-    var = {k[:-4]: v for k, v in layers.items() if k.endswith("_var")}
-    return ReferenceResult(mean=mean, var=var, manifest={**manifest, "cached": cached}, cached=cached)
+    header = {"volcaustics_scene": scene.name, "volcaustics_scene_hash": scene.scene_hash(),
+              "volcaustics_renderer": "reference", "volcaustics_manifest": json.dumps(manifest, default=float)}
+    manifest = cache.store(key, layers, manifest, header, png_bytes(tonemap_srgb8(layers["combined"])))
+    return ReferenceResult(key, manifest, cached=False, layers=layers)

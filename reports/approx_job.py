@@ -12,7 +12,7 @@ import numpy as np
 
 from scenes.storage import atomic_path, atomic_write_text
 
-from .imageio import write_exr, write_png
+from scenes.imageio import write_exr, write_png
 
 
 def output_paths(out: str) -> dict:

@@ -11,7 +11,7 @@ import time
 
 from scenes.storage import atomic_write_text
 
-from .imageio import write_png
+from scenes.imageio import write_png
 
 
 def build_report(out_dir: str, scene_names, *, width: int = 384, height: int = 384, progress: bool = True) -> dict:

@@ -8,7 +8,7 @@ import numpy as np
 
 from approx.records import STATUS_COLLIDED, STATUS_SURFACE
 from reports.cli import main
-from reports.imageio import read_exr
+from scenes.imageio import read_exr
 
 LAYERS = {"caustic", "fog", "direct", "combined", "mask_specular"}
 

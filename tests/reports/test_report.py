@@ -7,7 +7,7 @@ import json
 import numpy as np
 
 from reports.cli import main
-from reports.imageio import png_bytes, tonemap_srgb8
+from scenes.imageio import png_bytes, tonemap_srgb8
 
 
 def test_report_writes_previews(tmp_path, capsys):
@@ -47,7 +47,7 @@ def test_png_encoding_round_trip():
 def test_srgb_encoding_matches_colour_science():
     import colour
 
-    from reports.imageio import srgb_encode
+    from scenes.imageio import srgb_encode
 
     x = np.concatenate([np.linspace(0, 0.01, 101), np.linspace(0.01, 1, 1000)])
     assert np.allclose(srgb_encode(x), colour.cctf_encoding(x, function="sRGB"), atol=1e-12)
