@@ -72,7 +72,7 @@ class PhotonTracer:
         ior, _ = _materials(scene)
         emission_map.use(location=0)
         set_uniforms(prog, **spot_constants(scene.light), ior=ior, emission_map=0, photon_res=photon_res,
-                     tan_half=frustum.tan_half, seed=seed)
+                     tan_half=frustum.tan_half, seed=seed, sigma_t=tuple(scene.medium.sigma_t))
         basis = np.stack([frustum.view[0, :3], frustum.view[1, :3], frustum.direction], axis=1)  # columns
         prog["light_basis"].write(np.asarray(basis, np.float32).T.tobytes())
         photons.bind_to_storage_buffer(0)

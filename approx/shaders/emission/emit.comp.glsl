@@ -1,6 +1,7 @@
 // Emission (paper §4.3): one photon per covered texel of the photon_res² light
 // map, at the first surface, with power I·falloff(ω)·ΔΩ(texel) (exact texel
-// solid angle from the CPU), then the first specular interaction.
+// solid angle from the CPU) times the medium's transmittance exp(−σt·r) over the
+// distance r from the light to that surface, then the first specular interaction.
 #include "common/rng.glsl"
 #include "common/spot.glsl"
 #include "common/optics.glsl"
@@ -17,6 +18,7 @@ uniform int photon_res;
 uniform float tan_half;          // tan(cutoff): the map's image plane spans [-tan_half, tan_half]²
 uniform mat3 light_basis;        // columns: light right, up, spot axis (world)
 uniform uint seed;
+uniform vec3 sigma_t;            // the medium between the light and the first surface
 
 layout(std430, binding = 0) writeonly buffer Photons { Photon photons[]; };
 layout(std430, binding = 1) readonly buffer SolidAngles { float solid_angle[]; };
@@ -36,7 +38,7 @@ void main() {
     vec3 d = normalize(light_basis * vec3(plane, 1.0));
     float falloff = spot_falloff(d);
     if (map.r > 0.0 && falloff > 0.0) {
-        vec3 power = light_intensity * falloff * solid_angle[index];
+        vec3 power = light_intensity * falloff * solid_angle[index] * exp(-sigma_t * map.r);
         int inside = -1;
         surface_interaction(d, power, inside, octa_decode(map.ba), int(map.g + 0.5),
                             rng_uniform(seed, index, 0u, 1u));
