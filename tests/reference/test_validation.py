@@ -15,7 +15,7 @@ from metrics.stats import z_test
 from reference.export import to_mitsuba
 from reference.integrators import SingleScatterIntegrator, VolumetricLightTracer, configure
 from reference.mi_setup import mitsuba
-from scenes.model import Camera, DiffuseSurface, Medium, MeshSpec, Scene, SpotLight, Transform
+from scenes.model import Camera, DiffuseSurface, Medium, MeshSpec, Phase, Scene, SpotLight, Transform
 from tests.approx.helpers import make_scene, sphere_spec
 
 mi = mitsuba()
@@ -61,8 +61,9 @@ def test_v1_surface_light_tracer_matches_ptracer():
     assert not z_test(theirs[0], theirs[1], bad[0], bad[1]).passed
 
 
-def test_v2_single_scatter_matches_volpath():
-    scene = _diffuse_scene(medium=Medium((0.3, 0.25, 0.2), (0.05, 0.05, 0.05)))
+@pytest.mark.parametrize("phase", [Phase(), Phase("hg", 0.6)], ids=["isotropic", "hg0.6"])
+def test_v2_single_scatter_matches_volpath(phase):
+    scene = _diffuse_scene(medium=Medium((0.3, 0.25, 0.2), (0.05, 0.05, 0.05), phase))
     mi_scene = mi.load_dict(to_mitsuba(scene))
     ss = configure(SingleScatterIntegrator(), scene, mi_scene)
     ours = _batches(mi_scene, ss, 32, 8, slice(0, 3))
