@@ -47,7 +47,15 @@ def _cmd_report(args) -> int:
         from scenes import SceneError
 
         raise SceneError(None, "--scenes", unknown[0], f"expected built-in scene names ({', '.join(BUILTIN_NAMES)})")
-    summary = build_report(args.out, names, width=args.width, height=args.height)
+    from reference.settings import ReferenceSettings
+
+    settings = ReferenceSettings(photons=args.photons, spp=args.spp, batches=args.batches)
+    summary = build_report(args.out, names, width=args.width, height=args.height, reference_settings=settings)
+    for row in summary["scenes"]:
+        e = row["errors"]
+        print(f"{row['scene']:<12} relative MSE: " + ", ".join(
+            f"{k} {100 * e[k]['relative_mse']:.2f}%" for k in ("caustic", "fog", "direct", "combined")
+            if e[k]["relative_mse"] is not None))
     print(f"report: {len(summary['scenes'])} scenes -> {args.out}/index.html")
     return 0
 
@@ -163,11 +171,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--mitsuba-xml", dest="mitsuba_xml", required=True, metavar="OUT.xml")
     p.set_defaults(func=_cmd_export)
 
-    p = sub.add_parser("report", help="the main job: the report on the built-in scenes")
+    p = sub.add_parser("report", help="the main job: approximation vs ground truth on the built-in scenes")
     p.add_argument("--out", default="runs/report", help="output folder (default runs/report)")
     p.add_argument("--scenes", help="comma-separated built-in scene names (default: all)")
-    p.add_argument("--width", type=int, default=384, help="image width in pixels (default 384)")
-    p.add_argument("--height", type=int, default=384, help="image height in pixels (default 384)")
+    p.add_argument("--width", type=int, default=256, help="image width in pixels (default 256)")
+    p.add_argument("--height", type=int, default=256, help="image height in pixels (default 256)")
+    p.add_argument("--photons", type=int, default=1 << 22, help="reference photons per scene (default 2^22)")
+    p.add_argument("--spp", type=int, default=64, help="reference camera samples per pixel (default 64)")
+    p.add_argument("--batches", type=int, default=4, help="reference batches (default 4)")
     p.set_defaults(func=_cmd_report)
     return parser
 

@@ -10,16 +10,25 @@ from reports.cli import main
 from scenes.imageio import png_bytes, tonemap_srgb8
 
 
-def test_report_writes_previews(tmp_path, capsys):
+def test_report_renders_both_and_measures(tmp_path, capsys, monkeypatch):
+    monkeypatch.setenv("VOLCAUSTICS_CACHE", str(tmp_path / "cache"))
+    monkeypatch.setenv("VOLCAUSTICS_MI_VARIANT", "llvm_ad_rgb")
     out = tmp_path / "rep"
-    assert main(["report", "--out", str(out), "--scenes", "refocus,two_spheres", "--width", "64", "--height", "48"]) == 0
+    assert main(["report", "--out", str(out), "--scenes", "refocus", "--width", "48", "--height", "40",
+                 "--photons", "100000", "--spp", "8", "--batches", "2"]) == 0
     summary = json.loads((out / "summary.json").read_text())
-    assert [r["scene"] for r in summary["scenes"]] == ["refocus", "two_spheres"]
-    assert summary["params"] == {"width": 64, "height": 48}
-    for row in summary["scenes"]:
-        data = (out / row["preview"]).read_bytes()
-        assert data.startswith(b"\x89PNG\r\n\x1a\n")
-    assert "refocus" in (out / "index.html").read_text()
+    assert summary["approx_params"]["width"] == 48 and summary["reference_settings"]["height"] == 40
+    row = summary["scenes"][0]
+    assert row["scene"] == "refocus"
+    errors = row["errors"]
+    # the fog is the part both renderers compute almost identically (see test_cross_renderers)
+    assert 0.9 < errors["fog"]["energy_ratio"] < 1.1
+    assert errors["caustic"]["relative_mse"] > 0
+    for path in row["images"].values():
+        assert (out / path).read_bytes().startswith(b"\x89PNG\r\n\x1a\n")
+    page = (out / "index.html").read_text()
+    assert "refocus" in page and "relative MSE" in page
+    assert "refocus" in capsys.readouterr().out
     assert not list(out.rglob(".*tmp*"))  # no temporary files left behind
 
 
