@@ -94,7 +94,7 @@ class Renderer:
             map_info = self.light_maps.layer_info
             map_texels = tracer.map_buffer(layer_maps, p.light_res)
             shadow_map = self.light_maps.render_map(frustum, p.light_res, facing=BOTH, include_diffuse=True)
-        released += layer_maps + [shadow_map, map_texels]
+        released += layer_maps + [shadow_map, *map_texels]
 
         with timer.measure("emission"):
             emission_map = self.light_maps.render_map(frustum, p.photon_res, facing=BOTH)

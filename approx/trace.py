@@ -51,6 +51,7 @@ class PhotonTracer:
         maps = 2 * params.layers
         self.trace = compute_shader(ctx, "trace/trace.comp.glsl", {
             **defines, "MAPS": maps, "PEAK_SAMPLES": params.peak_samples, "ITERATIONS": params.iterations})
+        self.pack = compute_shader(ctx, "trace/pack_distances.comp.glsl")
         self.compact_count = compute_shader(ctx, "splat/compact.comp.glsl", {"PASS_COUNT": 1})
         self.compact_write = compute_shader(ctx, "splat/compact.comp.glsl")
         self.maps = 2 * params.layers
@@ -80,15 +81,22 @@ class PhotonTracer:
         prog.run(group_x=math.ceil(photon_res / 8), group_y=math.ceil(photon_res / 8))
         return photons
 
-    def map_buffer(self, light_maps, light_res: int) -> moderngl.Buffer:
-        """The light maps copied into one storage buffer (map-major, rows bottom-up, RGBA32F)."""
+    def map_buffer(self, light_maps, light_res: int) -> tuple:
+        """The light maps copied into storage buffers (map-major, rows bottom-up): all
+        texels (RGBA32F) and their distances alone (R32F). Release both."""
         texel_bytes = 16 * light_res * light_res
-        buf = self.ctx.buffer(reserve=texel_bytes * len(light_maps))
+        texels = self.ctx.buffer(reserve=texel_bytes * len(light_maps))
         for m, tex in enumerate(light_maps):
-            tex.read_into(buf, write_offset=m * texel_bytes)
-        return buf
+            tex.read_into(texels, write_offset=m * texel_bytes)
+        count = light_res * light_res * len(light_maps)
+        distances = self.ctx.buffer(reserve=4 * count)
+        texels.bind_to_storage_buffer(0)
+        distances.bind_to_storage_buffer(1)
+        self.pack["count"].value = count
+        self.pack.run(group_x=math.ceil(count / 256))
+        return texels, distances
 
-    def trace_step(self, scene, frustum, geometry, map_texels: moderngl.Buffer, map_info, light_res: int,
+    def trace_step(self, scene, frustum, geometry, map_texels: tuple, map_info, light_res: int,
                    photons: moderngl.Buffer,
                    records: moderngl.Buffer, count: int, step: int, seed: int) -> None:
         """Advance every photon by one interaction step, writing one raw record per slot.
@@ -107,7 +115,8 @@ class PhotonTracer:
                      scene_max=tuple(geometry.scene_max), seed=seed, step_index=step, photon_count=count)
         photons.bind_to_storage_buffer(0)
         records.bind_to_storage_buffer(1)
-        map_texels.bind_to_storage_buffer(2)
+        map_texels[0].bind_to_storage_buffer(2)
+        map_texels[1].bind_to_storage_buffer(3)
         prog.run(group_x=math.ceil(count / 64))
 
     def compact_splats(self, records: moderngl.Buffer, count: int, splats: moderngl.Buffer) -> int:
@@ -131,7 +140,7 @@ class PhotonTracer:
         return total
 
     def release(self):
-        for prog in (self.emit, self.trace, self.compact_count, self.compact_write):
+        for prog in (self.emit, self.trace, self.pack, self.compact_count, self.compact_write):
             prog.release()
         for buf in self._solid_angles.values():
             buf.release()

@@ -42,7 +42,7 @@ def trace_segment(ctx, scene, start, direction, length, *, layers=2, peak_sample
     texels = tracer.map_buffer(maps, LIGHT_RES)
     tracer.trace_step(scene, frustum, geo, texels, lm.layer_info, LIGHT_RES, pbuf, rbuf, 1, 1, SEED)
     rec = records_from_raw(np.frombuffer(rbuf.read(), RAW_RECORD_DTYPE), 1)[0]
-    for r in (*maps, pbuf, rbuf, texels):
+    for r in (*maps, pbuf, rbuf, *texels):
         r.release()
     tracer.release(), lm.release(), geo.release()
     assert rec["max_length"] == pytest.approx(length, rel=1e-5)
@@ -136,7 +136,8 @@ def test_exit_from_inside_glass(ctx, strategy):
     texels = tracer.map_buffer(maps, LIGHT_RES)
     tracer.trace_step(scene, frustum, geo, texels, lm.layer_info, LIGHT_RES, pbuf, rbuf, 1, 1, SEED)
     rec = records_from_raw(np.frombuffer(rbuf.read(), RAW_RECORD_DTYPE), 1)[0]
-    texels.release()
+    for r in texels:
+        r.release()
     t_exit = ray_sphere(start, d[None], CENTER, radius)[1][0]
     assert rec["hit"] and rec["inside"] == 0 and rec["map"] % 2 == 1  # a back-face map
     # Tolerance: one texel footprint at the exit (2·tan(25°)·r/512 with r ≈ 1.8 m: 3.3 mm);

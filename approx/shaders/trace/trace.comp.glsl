@@ -51,6 +51,8 @@ layout(std430, binding = 0) buffer Photons { Photon photons[]; };
 layout(std430, binding = 1) writeonly buffer Records { Record records[]; };
 // MAPS maps of light_res² texels, rows bottom-up: (distance, material, octahedral normal), 0 = empty
 layout(std430, binding = 2) readonly buffer LightMaps { vec4 map_texels[]; };
+// the same maps' distances alone (what the search reads)
+layout(std430, binding = 3) readonly buffer LightMapDistances { float map_dist[]; };
 
 uint g_flags;
 
@@ -65,24 +67,31 @@ struct Segment {
     vec4 c1;  // ... at t1 (w > 0)
 };
 
-// Texel of the map under the segment point at t: (distance, material, octahedral
-// normal); 0 if empty or outside the frustum (then FLAG_LEFT_FRUSTUM is raised).
-vec4 segment_texel(int map, Segment s, float t) {
+// Index of the map texel under the segment point at t, or -1 outside the frustum
+// (then FLAG_LEFT_FRUSTUM is raised).
+int segment_texel_index(int map, Segment s, float t) {
     vec4 clip = mix(s.c0, s.c1, (t - s.t0) / (s.t1 - s.t0));
     vec2 uv = clip.xy / clip.w * 0.5 + 0.5;
     if (any(lessThan(uv, vec2(0.0))) || any(greaterThanEqual(uv, vec2(1.0)))) {
         g_flags |= FLAG_LEFT_FRUSTUM;
-        return vec4(0.0);
+        return -1;
     }
     ivec2 texel = ivec2(uv * float(light_res));
-    return map_texels[(map * light_res + texel.y) * light_res + texel.x];
+    return (map * light_res + texel.y) * light_res + texel.x;
+}
+
+// Texel under the segment point at t: (distance, material, octahedral normal); 0 if none.
+vec4 segment_texel(int map, Segment s, float t) {
+    int index = segment_texel_index(map, s, t);
+    return index < 0 ? vec4(0.0) : map_texels[index];
 }
 
 // f(t) = (distance to the light) − (map distance); valid = covered texel.
 float segment_f(int map, Segment s, float t, out bool valid) {
-    float map_dist = segment_texel(map, s, t).r;
-    valid = map_dist > 0.0;
-    return length(s.q + s.d * t) - map_dist;
+    int index = segment_texel_index(map, s, t);
+    float map_distance = index < 0 ? 0.0 : map_dist[index];
+    valid = map_distance > 0.0;
+    return length(s.q + s.d * t) - map_distance;
 }
 
 // Segment parameter for a fraction lam of the segment's projection in the light
