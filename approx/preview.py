@@ -42,7 +42,7 @@ def render_preview(ctx: moderngl.Context, scene, width: int | None = None, heigh
     """Preview image, H×W×3 float32, linear, >= 0, row 0 at the top."""
     cam, light = scene.camera, scene.light
     width, height = width or cam.width, height or cam.height
-    prog = program(ctx, "preview/preview.vert.glsl", "preview/preview.frag.glsl")
+    prog = program(ctx, "camera/gbuffer.vert.glsl", "preview/preview.frag.glsl")  # same vertex stage
     view = look_at(cam.position, cam.target, cam.up)
     proj = perspective(cam.fov_y, width / height, 0.01, 2.0 * scene_extent(scene))
     prog["view_proj"].write(gl_matrix(proj @ view))

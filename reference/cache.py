@@ -14,7 +14,7 @@ import json
 import os
 
 from scenes.imageio import read_exr, write_exr
-from scenes.storage import atomic_write_bytes, atomic_write_text, cache_dir
+from scenes.storage import atomic_write_bytes, atomic_write_text, cache_dir, file_sha256
 
 _SOURCES = ("integrators.py", "export.py", "render.py", "shapes.py")
 
@@ -40,21 +40,13 @@ def paths(key: str) -> tuple[str, str]:
     return os.path.join(folder, f"{key}.exr"), os.path.join(folder, f"{key}.json")
 
 
-def _sha256(path: str) -> str:
-    h = hashlib.sha256()
-    with open(path, "rb") as fh:
-        for chunk in iter(lambda: fh.read(1 << 20), b""):
-            h.update(chunk)
-    return h.hexdigest()
-
-
 def load(key: str):
     """The manifest if a complete, matching entry exists (EXR hash checked), else None."""
     exr, manifest_path = paths(key)
     try:
         with open(manifest_path) as fh:
             manifest = json.load(fh)
-        if manifest.get("key") != key or manifest.get("exr_sha256") != _sha256(exr):
+        if manifest.get("key") != key or manifest.get("exr_sha256") != file_sha256(exr):
             return None
         if not os.path.exists(exr[:-4] + ".png"):
             return None
@@ -68,7 +60,7 @@ def store(key: str, layers: dict, manifest: dict, header: dict, png: bytes) -> d
     exr, manifest_path = paths(key)
     write_exr(exr, layers, {**header, "volcaustics_reference_key": key})
     atomic_write_bytes(exr[:-4] + ".png", png)
-    manifest = {**manifest, "key": key, "exr_sha256": _sha256(exr)}
+    manifest = {**manifest, "key": key, "exr_sha256": file_sha256(exr)}
     atomic_write_text(manifest_path, json.dumps(manifest, indent=2, default=float))
     return manifest
 

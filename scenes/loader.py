@@ -53,7 +53,8 @@ except ModuleNotFoundError:  # Python 3.10
 
 from .errors import SceneError
 from .generators import GENERATORS
-from .mesh import MeshReadError, closedness_problem, file_sha256, winding_number
+from .mesh import MeshReadError, closedness_problem, winding_number
+from .storage import file_sha256
 from .model import Camera, DiffuseSurface, MeshSpec, Medium, Phase, Scene, SpecularObject, SpotLight, Transform
 
 _REQUIRED = object()

@@ -9,6 +9,7 @@ from __future__ import annotations
 import functools
 import hashlib
 import os
+
 from dataclasses import dataclass
 
 import numpy as np
@@ -178,14 +179,6 @@ def _triangulate(polygons, n_vertices: int) -> np.ndarray:
     if len(faces) and (faces.min() < 0 or faces.max() >= n_vertices):
         raise MeshReadError("a face index is out of range")
     return faces
-
-
-def file_sha256(path: str) -> str:
-    h = hashlib.sha256()
-    with open(path, "rb") as fh:
-        for chunk in iter(lambda: fh.read(1 << 20), b""):
-            h.update(chunk)
-    return h.hexdigest()
 
 
 # --- specs -> meshes -------------------------------------------------------------

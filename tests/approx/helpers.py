@@ -43,3 +43,48 @@ def ray_sphere(origin, dirs, center, radius):
     disc = b * b - c
     sq = np.sqrt(np.where(disc >= 0, disc, np.nan))
     return -b - sq, -b + sq
+
+
+def pixel_ray(cam, x, y):
+    """Independent pinhole model: unit direction through image point (x, y) in pixels,
+    x to the right from the left edge, y down from the top edge (pixel centres at +0.5)."""
+    fwd = np.subtract(cam.target, cam.position).astype(float)
+    fwd /= np.linalg.norm(fwd)
+    right = np.cross(fwd, cam.up)
+    right /= np.linalg.norm(right)
+    up = np.cross(right, fwd)
+    half = np.tan(np.radians(cam.fov_y) / 2)
+    d = fwd + (x / cam.width * 2 - 1) * half * cam.width / cam.height * right + (1 - y / cam.height * 2) * half * up
+    return d / np.linalg.norm(d)
+
+
+def spot_falloff64(light, w):
+    """Mitsuba's spot falloff in float64 from its definition (spot.cpp): 1 inside
+    beam_width, linear in angle to 0 at cutoff_angle."""
+    cos_theta = float(np.dot(w, light.direction))
+    cutoff, beam = np.radians(light.cutoff_angle), np.radians(light.beam_width)
+    if cos_theta <= np.cos(cutoff):
+        return 0.0
+    if cos_theta >= np.cos(beam):
+        return 1.0
+    return float((cutoff - np.arccos(cos_theta)) / (cutoff - beam))
+
+
+def fog_quadrature(scene, eye, d, s_end):
+    """Single scattering of the unoccluded spot light along eye + s·d, s in [0, s_end]:
+    ∫ σs p(θ) I falloff(ω)/r² exp(−σt (r + s)) ds by scipy quadrature (red channel)."""
+    from scipy import integrate
+
+    light, medium = scene.light, scene.medium
+    g = medium.phase.g if medium.phase.kind == "hg" else 0.0
+    sigma_s, sigma_t = medium.sigma_s[0], medium.sigma_t[0]
+
+    def integrand(s):
+        to_x = eye + d * s - np.asarray(light.position)
+        r = np.linalg.norm(to_x)
+        w = to_x / r
+        cos_t = float(w @ -d)
+        phase = (1 - g * g) / (4 * np.pi * (1 + g * g - 2 * g * cos_t) ** 1.5)
+        return sigma_s * phase * light.intensity[0] * spot_falloff64(light, w) / r**2 * np.exp(-sigma_t * (r + s))
+
+    return integrate.quad(integrand, 0.0, s_end, limit=400, points=np.linspace(0, s_end, 40)[1:-1])[0]

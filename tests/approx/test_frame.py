@@ -13,12 +13,12 @@ from approx import ApproxParams, Renderer, render
 from approx.camera_pass import CameraView
 from approx.geometry import SceneGeometry
 from approx.layers import BOTH, LightMapRenderer
-from approx.light import LightFrustum, spot_falloff
+from approx.light import LightFrustum
 from approx.records import STATUS_SURFACE
 from approx.splat import Splatter, splats_from_arrays
 from approx.trace import PhotonTracer, read_photons
 from scenes.model import Camera, Medium
-from tests.approx.helpers import make_scene, sphere_spec
+from tests.approx.helpers import fog_quadrature, make_scene, pixel_ray, sphere_spec
 
 SMALL = ApproxParams(photon_res=128, light_res=256, width=64, height=64, fog_steps=32, splat_radius=0.03)
 
@@ -108,20 +108,6 @@ def test_same_seed_bit_identical_other_seed_differs(ctx):
     assert np.array_equal(a.images["fog"], c.images["fog"])  # fog has no randomness
 
 
-def _pixel_ray(cam, row, col):
-    """Independent pinhole model: direction through the centre of pixel (row, col), row 0 on top."""
-    fwd = np.subtract(cam.target, cam.position)
-    fwd /= np.linalg.norm(fwd)
-    right = np.cross(fwd, cam.up)
-    right /= np.linalg.norm(right)
-    up = np.cross(right, fwd)
-    half = math.tan(math.radians(cam.fov_y) / 2)
-    x = ((col + 0.5) / cam.width * 2 - 1) * half * cam.width / cam.height
-    y = (1 - (row + 0.5) / cam.height * 2) * half
-    d = fwd + x * right + y * up
-    return d / np.linalg.norm(d)
-
-
 def test_fog_converges_to_quadrature():
     """One pixel's fog vs scipy quadrature of the single-scattering integral
     ∫ σs p I falloff(ω)/r² exp(−σt (r + s)) ds along the ray, up to the floor."""
@@ -129,22 +115,8 @@ def test_fog_converges_to_quadrature():
     scene = make_scene([], camera=cam, sigma_s=0.3, sigma_a=0.05, cutoff=25.0, beam=15.0, g=0.4)
     row, col = 30, 26
     eye = np.asarray(cam.position, float)
-    d = _pixel_ray(cam, row, col)
-    s_floor = -eye[1] / d[1]  # the floor plane y = 0
-    light = scene.light
-    g, ss, st = 0.4, 0.3, 0.35
-
-    def integrand(s):
-        x = eye + d * s
-        to_x = x - np.asarray(light.position)
-        r = np.linalg.norm(to_x)
-        w = to_x / r
-        falloff = float(spot_falloff(light, w[None])[0])
-        cos_t = float(w @ -d)
-        phase = (1 - g * g) / (4 * math.pi * (1 + g * g - 2 * g * cos_t) ** 1.5)
-        return ss * phase * light.intensity[0] * falloff / r**2 * math.exp(-st * (r + s))
-
-    expected, _ = integrate.quad(integrand, 0.0, s_floor, limit=400, points=np.linspace(0, s_floor, 40)[1:-1])
+    d = pixel_ray(cam, col + 0.5, row + 0.5)
+    expected = fog_quadrature(scene, eye, d, -eye[1] / d[1])  # up to the floor plane y = 0
     assert expected > 0
     errors = []
     renderer = Renderer(scene)

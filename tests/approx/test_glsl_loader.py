@@ -25,7 +25,7 @@ def test_defines_and_includes_expand_once():
 
 
 def test_loaded_preview_shaders_compile(ctx):
-    prog = ctx.program(vertex_shader=load_source("preview/preview.vert.glsl"),
+    prog = ctx.program(vertex_shader=load_source("camera/gbuffer.vert.glsl"),
                        fragment_shader=load_source("preview/preview.frag.glsl"))
     assert "view_proj" in prog
     prog.release()

@@ -9,14 +9,13 @@ import math
 
 import numpy as np
 import pytest
-from scipy import integrate
 
 from metrics.stats import z_test
 from reference.export import to_mitsuba
 from reference.integrators import SingleScatterIntegrator, VolumetricLightTracer, configure
 from reference.mi_setup import mitsuba
 from scenes.model import Camera, DiffuseSurface, Medium, MeshSpec, Phase, Scene, SpotLight, Transform
-from tests.approx.helpers import make_scene, sphere_spec
+from tests.approx.helpers import fog_quadrature, make_scene, pixel_ray, sphere_spec
 
 mi = mitsuba()
 W = H = 48
@@ -91,15 +90,6 @@ def test_v3_light_tracer_fog_matches_camera_fog():
     assert not z_test(camera_fog[0], camera_fog[1], both[0], both[1]).passed
 
 
-def _falloff(cos_theta, cutoff_deg, beam_deg):
-    cutoff, beam = math.radians(cutoff_deg), math.radians(beam_deg)
-    if cos_theta <= math.cos(cutoff):
-        return 0.0
-    if cos_theta >= math.cos(beam):
-        return 1.0
-    return (cutoff - math.acos(cos_theta)) / (cutoff - beam)
-
-
 def test_v4_fog_pixel_matches_quadrature():
     """One pixel of the reference fog vs the single-scattering integral by scipy quadrature,
     averaged over the pixel footprint (box filter) with 4×4 Gauss–Legendre points."""
@@ -111,31 +101,10 @@ def test_v4_fog_pixel_matches_quadrature():
     mean, var = _batches(mi_scene, ss, 8192, 8, slice(3, 6))
     row, col = 10, 8
     eye = np.asarray(cam.position)
-    fwd = np.subtract(cam.target, cam.position)
-    fwd /= np.linalg.norm(fwd)
-    right = np.cross(fwd, cam.up)
-    right /= np.linalg.norm(right)
-    up = np.cross(right, fwd)
-    half = math.tan(math.radians(cam.fov_y) / 2)
-    light = scene.light
-    g, ss_c, st_c = 0.4, 0.3, 0.35
 
     def radiance(px, py):
-        d = fwd + ((px / n) * 2 - 1) * half * right + (1 - (py / n) * 2) * half * up
-        d /= np.linalg.norm(d)
-        s_floor = -eye[1] / d[1]
-
-        def f(s):
-            x = eye + d * s
-            to_x = x - np.asarray(light.position)
-            r = np.linalg.norm(to_x)
-            w = to_x / r
-            cos_t = float(w @ -d)
-            phase = (1 - g * g) / (4 * math.pi * (1 + g * g - 2 * g * cos_t) ** 1.5)
-            falloff = _falloff(float(w @ np.asarray(light.direction)), light.cutoff_angle, light.beam_width)
-            return ss_c * phase * light.intensity[0] * falloff / r**2 * math.exp(-st_c * (r + s))
-
-        return integrate.quad(f, 0.0, s_floor, limit=400, points=np.linspace(0, s_floor, 30)[1:-1])[0]
+        d = pixel_ray(cam, px, py)
+        return fog_quadrature(scene, eye, d, -eye[1] / d[1])  # up to the floor plane y = 0
 
     nodes, weights = np.polynomial.legendre.leggauss(4)
     expected = sum(wx * wy * radiance(col + 0.5 + 0.5 * x, row + 0.5 + 0.5 * y)
