@@ -127,3 +127,18 @@ def test_fog_converges_to_quadrature():
     renderer.release()
     print("fog relative errors", errors)
     assert errors[2] < errors[0] and errors[2] < 5e-3, errors  # converges; 0.5% at 512 steps
+
+
+def test_renderer_retraces_with_a_new_light_without_rebuilding(ctx):
+    """One Renderer, two lights: twice the intensity doubles every component (the
+    pipeline is linear in I), and the geometry buffers are not re-uploaded."""
+    scene = make_scene([(sphere_spec(0.4, (0, 1.5, 0), 16), 1.5, (0, 0, 0))], cutoff=20.0)
+    renderer = Renderer(scene, ctx)
+    geometry = renderer.geometry
+    a = renderer.render(SMALL, keep_records=False)
+    brighter = dataclasses.replace(scene, light=dataclasses.replace(scene.light, intensity=(20.0, 20.0, 20.0)))
+    b = renderer.render(SMALL, scene=brighter, keep_records=False)
+    assert renderer.geometry is geometry
+    for name in ("caustic", "fog", "direct"):
+        assert np.allclose(b.images[name], 2 * a.images[name], rtol=1e-5, atol=1e-9), name
+    renderer.release()

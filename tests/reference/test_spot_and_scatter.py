@@ -96,3 +96,11 @@ def test_multiple_scattering_adds_light():
         assert m2 - m1 > 3 * math.hypot(e1, e2), (sigma_s, m1, m2, e1, e2)
         gains[sigma_s] = (m2 - m1) / m1
     assert gains[0.6] > gains[0.1], gains
+
+
+def test_registered_integrators_load_by_name():
+    from reference.integrators import SingleScatterIntegrator
+
+    tracer = mi.load_dict({"type": "vc_lighttracer", "mode": "fog", "max_scatter": 2})
+    assert isinstance(tracer, VolumetricLightTracer) and tracer.mode == "fog" and tracer.max_scatter == 2
+    assert isinstance(mi.load_dict({"type": "vc_singlescatter"}), SingleScatterIntegrator)
