@@ -26,13 +26,6 @@ def interleave(mesh, material: int) -> np.ndarray:
     return data
 
 
-def _max_edge(corners: np.ndarray) -> float:
-    if len(corners) == 0:
-        return 0.0
-    tri = corners.reshape(-1, 3, 3).astype(np.float64)
-    return float(max(np.linalg.norm(tri[:, (k + 1) % 3] - tri[:, k], axis=1).max() for k in range(3)))
-
-
 @dataclass
 class SceneGeometry:
     """GPU buffers of one scene's meshes and its bounds (the box photons may not leave)."""
@@ -41,8 +34,6 @@ class SceneGeometry:
     diffuse: moderngl.Buffer | None
     specular_vertices: int
     diffuse_ranges: list  # (first vertex, count) per diffuse surface
-    specular_points: np.ndarray  # V×3 float32 (un-indexed triangle corners)
-    specular_max_edge: float
     specular_min: np.ndarray
     specular_max: np.ndarray
     scene_min: np.ndarray  # the medium's box (scenes.bounds.medium_bounds)
@@ -64,8 +55,6 @@ class SceneGeometry:
             specular=ctx.buffer(spec_data.tobytes() if len(spec_data) else np.zeros(7, np.float32).tobytes()),
             diffuse=ctx.buffer(np.concatenate(diff).tobytes()) if diff else None,
             specular_vertices=len(spec_data),
-            specular_points=spec_data[:, :3].copy(),
-            specular_max_edge=_max_edge(spec_data[:, :3]),
             diffuse_ranges=ranges,
             specular_min=spec_min.astype(np.float64), specular_max=spec_max.astype(np.float64),
             scene_min=box_min, scene_max=box_max,

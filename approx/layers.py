@@ -88,22 +88,11 @@ class LightMapRenderer:
         lo, hi = float(along.min()), float(along.max())
         return [-np.inf] + [lo + i * (hi - lo) / layers for i in range(1, layers)]
 
-    def distance_bounds(self, frustum) -> tuple[float, float]:
-        """Conservative [min, max] distance from the light to any specular surface point:
-        max over vertices (distance is convex), min over vertices less the longest edge."""
-        g = self.geometry
-        if g.specular_vertices == 0:
-            return 0.0, 0.0
-        dist = np.linalg.norm(g.specular_points - frustum.position, axis=1)
-        return max(0.0, float(dist.min()) - g.specular_max_edge), float(dist.max())
-
     def render_layers(self, frustum, res: int, layers: int, strategy: str, targets=None) -> list[moderngl.Texture]:
         """The 2·layers maps in map order (2·level + facing).
 
-        Also sets ``self.layer_info``: per map (used, min distance, max distance),
-        conservative bounds of the distances it can hold."""
-        maps, info = [], []
-        d_min, d_max = self.distance_bounds(frustum)
+        Also sets ``self.layer_used``: per map, whether any fragment was written."""
+        maps, used = [], []
         targets = targets or [None] * (2 * layers)
         peel_epsilon = 1e-5 * frustum.far
         thresholds = self.thresholds(frustum, layers)
@@ -113,15 +102,13 @@ class LightMapRenderer:
                 if strategy == "threshold":
                     tex = self.render_map(frustum, res, facing=facing, threshold=thresholds[level],
                                           target=target)
-                    lower = max(d_min, thresholds[level]) if level > 0 else d_min  # distance >= axial distance
                 else:
                     previous = maps[2 * (level - 1) + k] if level > 0 else None
                     tex = self.render_map(frustum, res, facing=facing, previous=previous,
                                           peel_epsilon=peel_epsilon, target=target)
-                    lower = d_min
                 maps.append(tex)
-                info.append((self.last_samples > 0, lower * (1 - 1e-5), d_max * (1 + 1e-5)))
-        self.layer_info = info
+                used.append(self.last_samples > 0)
+        self.layer_used = used
         return maps
 
     def release(self):

@@ -91,8 +91,10 @@ class Renderer:
 
         with timer.measure("layers"):
             layer_maps = self.light_maps.render_layers(frustum, p.light_res, p.layers, p.layer_strategy)
-            map_info = self.light_maps.layer_info
-            map_texels = tracer.map_buffer(layer_maps, p.light_res)
+            map_texels, map_bounds = tracer.map_buffer(layer_maps, p.light_res)
+            # exact distance range of each map's surfaces (a little slack for float rounding)
+            map_info = [(b is not None, b[0] * (1 - 1e-5), b[1] * (1 + 1e-5)) if b else (False, 0.0, 0.0)
+                        for b in map_bounds]
             shadow_map = self.light_maps.render_map(frustum, p.light_res, facing=BOTH, include_diffuse=True)
         released += layer_maps + [shadow_map, *map_texels]
 

@@ -83,18 +83,28 @@ class PhotonTracer:
 
     def map_buffer(self, light_maps, light_res: int) -> tuple:
         """The light maps copied into storage buffers (map-major, rows bottom-up): all
-        texels (RGBA32F) and their distances alone (R32F). Release both."""
+        texels (RGBA32F) and their distances alone (R32F), release both; and per map
+        the exact (min, max) of its surface distances, None for an empty map."""
         texel_bytes = 16 * light_res * light_res
         texels = self.ctx.buffer(reserve=texel_bytes * len(light_maps))
         for m, tex in enumerate(light_maps):
             tex.read_into(texels, write_offset=m * texel_bytes)
         count = light_res * light_res * len(light_maps)
         distances = self.ctx.buffer(reserve=4 * count)
+        init = np.zeros((len(light_maps), 2), np.uint32)
+        init[:, 0] = 0xFFFFFFFF
+        ranges = self.ctx.buffer(init.tobytes())
         texels.bind_to_storage_buffer(0)
         distances.bind_to_storage_buffer(1)
+        ranges.bind_to_storage_buffer(2)
         self.pack["count"].value = count
+        self.pack["texels_per_map"].value = light_res * light_res
         self.pack.run(group_x=math.ceil(count / 256))
-        return texels, distances
+        bits = np.frombuffer(ranges.read(), np.uint32).reshape(-1, 2)
+        ranges.release()
+        values = bits.view(np.float32)
+        bounds = [None if b[1] == 0 else (float(v[0]), float(v[1])) for b, v in zip(bits, values)]
+        return (texels, distances), bounds
 
     def trace_step(self, scene, frustum, geometry, map_texels: tuple, map_info, light_res: int,
                    photons: moderngl.Buffer,

@@ -39,8 +39,9 @@ def trace_segment(ctx, scene, start, direction, length, *, layers=2, peak_sample
     photon["dir"] = [*(np.asarray(direction) / np.linalg.norm(direction)), STATUS_COLLIDED]
     photon["power"] = [1.0, 1.0, 1.0, 0.0]
     pbuf, rbuf = ctx.buffer(photon.tobytes()), ctx.buffer(reserve=RAW_RECORD_DTYPE.itemsize)
-    texels = tracer.map_buffer(maps, LIGHT_RES)
-    tracer.trace_step(scene, frustum, geo, texels, lm.layer_info, LIGHT_RES, pbuf, rbuf, 1, 1, SEED)
+    texels, bounds = tracer.map_buffer(maps, LIGHT_RES)
+    info = [(b is not None, *(b or (0.0, 0.0))) for b in bounds]
+    tracer.trace_step(scene, frustum, geo, texels, info, LIGHT_RES, pbuf, rbuf, 1, 1, SEED)
     rec = records_from_raw(np.frombuffer(rbuf.read(), RAW_RECORD_DTYPE), 1)[0]
     for r in (*maps, pbuf, rbuf, *texels):
         r.release()
@@ -133,8 +134,9 @@ def test_exit_from_inside_glass(ctx, strategy):
     photon["dir"] = [*d, STATUS_SURFACE]
     photon["power"] = [1.0, 1.0, 1.0, 0.0]
     pbuf, rbuf = ctx.buffer(photon.tobytes()), ctx.buffer(reserve=RAW_RECORD_DTYPE.itemsize)
-    texels = tracer.map_buffer(maps, LIGHT_RES)
-    tracer.trace_step(scene, frustum, geo, texels, lm.layer_info, LIGHT_RES, pbuf, rbuf, 1, 1, SEED)
+    texels, bounds = tracer.map_buffer(maps, LIGHT_RES)
+    info = [(b is not None, *(b or (0.0, 0.0))) for b in bounds]
+    tracer.trace_step(scene, frustum, geo, texels, info, LIGHT_RES, pbuf, rbuf, 1, 1, SEED)
     rec = records_from_raw(np.frombuffer(rbuf.read(), RAW_RECORD_DTYPE), 1)[0]
     for r in texels:
         r.release()

@@ -73,12 +73,12 @@ def test_sphere_front_and_back_distances(ctx, strategy):
     assert np.all(dots[stable] > 0.999)
     assert np.all(maps[0][..., 1][stable] == 0)  # material id of specular object 0
     if strategy == "peel":  # one convex object: nothing behind the first front/back pair
-        assert lm.layer_info[2][0] is False and lm.layer_info[3][0] is False
+        assert lm.layer_used[2] is False and lm.layer_used[3] is False
     else:  # threshold level 1 keeps surfaces beyond the mid-plane only
         # front faces seen from a point light end above the equator: level-1 front is empty
-        assert lm.layer_info[2][0] is False and not (maps[2][..., 0] > 0).any()
+        assert lm.layer_used[2] is False and not (maps[2][..., 0] > 0).any()
         beyond = maps[3][..., 0] > 0
-        assert beyond.any() and lm.layer_info[3][0]
+        assert beyond.any() and lm.layer_used[3]
         threshold = lm.thresholds(frustum, 2)[1]
         pts = frustum.position + frustum.texel_directions(RES) * maps[3][..., :1]
         assert np.all((pts[beyond] - frustum.position) @ frustum.direction > threshold - 1e-5)
@@ -108,3 +108,24 @@ def test_peel_separates_nested_surfaces(ctx):
     assert central.sum() > 50 and np.all(err[central] < 0.01)
     err_back = np.abs(maps[3][..., 0] - o_out)
     assert np.all(err_back[central] < 0.01)
+
+
+def test_packed_distances_and_exact_map_ranges(ctx):
+    """The tracer's packed distance buffer equals the maps' distance channel, and the
+    per-map ranges (GPU reduction with uint atomics) equal numpy's min/max over covered texels."""
+    from approx.params import ApproxParams
+    from approx.trace import PhotonTracer
+
+    scene, geo, lm, frustum = _setup(ctx, [(shell_spec(0.5, 0.3, CENTER, 16), 1.5, (0, 0, 0))])
+    textures = lm.render_layers(frustum, RES, 2, "peel")
+    maps = [read_map(t) for t in textures]
+    tracer = PhotonTracer(ctx, ApproxParams(layers=2))
+    (texels, distances), bounds = tracer.map_buffer(textures, RES)
+    packed = np.frombuffer(distances.read(), np.float32).reshape(len(maps), RES, RES)
+    for m, (a, b) in enumerate(zip(maps, bounds)):
+        assert np.array_equal(packed[m], a[..., 0])
+        covered = a[..., 0][a[..., 0] > 0]
+        assert b == (float(covered.min()), float(covered.max()))
+    for r in (texels, distances, *textures):
+        r.release()
+    tracer.release()
