@@ -1,9 +1,14 @@
 """Property-based: whatever TOML is thrown at the loader, it returns a Scene or
-raises SceneError — never any other exception."""
+raises SceneError — never any other exception.
+
+Examples are derandomised so CI is repeatable; set FUZZ_EXAMPLES=N for a longer,
+random exploration (e.g. FUZZ_EXAMPLES=5000 make test).
+"""
 
 from __future__ import annotations
 
 import copy
+import os
 
 import tomli_w
 from hypothesis import HealthCheck, given, settings
@@ -49,7 +54,8 @@ def _check(tmp_path, text: str):
     assert isinstance(result, Scene)
 
 
-@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=int(os.environ.get("FUZZ_EXAMPLES", 150)), deadline=None, derandomize=not os.environ.get("FUZZ_EXAMPLES"),
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(edits=st.lists(st.tuples(st.sampled_from(PATHS), st.sampled_from(["set", "delete", "add"]), values),
                       min_size=1, max_size=3))
 def test_mutated_documents_fail_cleanly(tmp_path, edits):
@@ -74,13 +80,15 @@ def test_mutated_documents_fail_cleanly(tmp_path, edits):
     _check(tmp_path, text)
 
 
-@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=int(os.environ.get("FUZZ_EXAMPLES", 150)), deadline=None, derandomize=not os.environ.get("FUZZ_EXAMPLES"),
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(cut=st.integers(min_value=0, max_value=len(BASE_SCENE)), junk=st.text(max_size=30))
 def test_truncated_and_spliced_text_fails_cleanly(tmp_path, cut, junk):
     _check(tmp_path, BASE_SCENE[:cut] + junk + BASE_SCENE[cut:][: len(BASE_SCENE) // 3])
 
 
-@settings(max_examples=100, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=int(os.environ.get("FUZZ_EXAMPLES", 100)), deadline=None, derandomize=not os.environ.get("FUZZ_EXAMPLES"),
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(text=st.text(max_size=200))
 def test_arbitrary_text_fails_cleanly(tmp_path, text):
     _check(tmp_path, text)
