@@ -1,9 +1,12 @@
 // Fog (DESIGN.md): single scattering of direct, unrefracted spot light along the
 // camera ray, with volumetric shadows of all objects (Wyman & Ramsey 2008, ray
 // marching). The march covers only the part of the ray inside the spot's cutoff
-// cone (elsewhere the falloff is 0) and in front of the first surface, with
-// FOG_STEPS midpoint samples:
+// cone (elsewhere the falloff is 0) and in front of the first surface:
 //   L = ∫ σs p(θ) I·falloff(ω)/r² · exp(-σt r) · V(x) · exp(-σt s) ds
+// Its FOG_STEPS samples are spaced uniformly in the angle seen from the light,
+// s = Δ + D·tan φ (Δ: ray parameter closest to the light, D: that distance), the
+// substitution that cancels the 1/r² peak near the light (ds = r²/D dφ); uniform
+// steps in s undersample it where the ray passes close to the light.
 #include "common/camera.glsl"
 #include "common/spot.glsl"
 #include "common/phase.glsl"
@@ -73,20 +76,24 @@ void main() {
     vec3 radiance = vec3(0.0);
     float s_in, s_out;
     if (cone_interval(eye, r, s_end, s_in, s_out)) {
-        float ds = (s_out - s_in) / float(FOG_STEPS);
+        float delta = dot(light_position - eye, r);
+        float D = max(length(light_position - eye - delta * r), 1e-6);
+        float phi_a = atan(s_in - delta, D);
+        float phi_b = atan(s_out - delta, D);
+        float dphi = (phi_b - phi_a) / float(FOG_STEPS);
         for (int k = 0; k < FOG_STEPS; ++k) {
-            float s = s_in + (float(k) + 0.5) * ds;
+            float s = delta + D * tan(phi_a + (float(k) + 0.5) * dphi);
             vec3 x = eye + r * s;
             vec3 to_x = x - light_position;
             float dist = length(to_x);
             vec3 w = to_x / dist;
             float vis = light_visibility(x, dist, 0.0);
             if (vis > 0.0) {
-                radiance += phase_eval(dot(w, -r)) * spot_falloff(w) / (dist * dist)
-                          * exp(-sigma_t * (dist + s));
+                // integrand · ds/dφ with ds/dφ = dist²/D: the 1/dist² cancels
+                radiance += phase_eval(dot(w, -r)) * spot_falloff(w) / D * exp(-sigma_t * (dist + s));
             }
         }
-        radiance *= sigma_s * light_intensity * ds;
+        radiance *= sigma_s * light_intensity * dphi;
     }
     out_color = vec4(radiance, 1.0);
 }
