@@ -20,6 +20,18 @@ def _cmd_doctor(args) -> int:
     return 0 if report.ok else EXIT_USAGE
 
 
+def _write_preview(scene, folder: str) -> str:
+    import os
+
+    from approx.context import shared_context
+    from approx.preview import render_preview
+    from scenes.imageio import write_png
+
+    path = os.path.join(folder, f"{scene.name}.png")
+    write_png(path, render_preview(shared_context(), scene))
+    return path
+
+
 def _cmd_scenes(args) -> int:
     from scenes import BUILTIN_NAMES, load_builtin, load_scene
 
@@ -28,11 +40,17 @@ def _cmd_scenes(args) -> int:
         tris = scene.specular_triangle_count()
         print(f"ok: {args.check}: scene '{scene.name}', {len(scene.specular)} specular object(s) "
               f"({tris:,} triangles), {len(scene.diffuse)} diffuse, scene_hash {scene.scene_hash()[:12]}")
+        if args.preview:
+            print(f"preview -> {_write_preview(scene, args.preview)}")
         return 0
     print(f"{'name':<12} {'triangles':>10}  description")
     for name in BUILTIN_NAMES:
         scene = load_builtin(name)
         print(f"{name:<12} {scene.specular_triangle_count():>10,}  {scene.description}")
+        if args.preview:
+            _write_preview(scene, args.preview)
+    if args.preview:
+        print(f"previews -> {args.preview}/")
     return 0
 
 
@@ -142,6 +160,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("scenes", help="list the built-in scenes, or validate a scene file with --check")
     p.add_argument("--check", metavar="FILE.toml", help="validate a scene file: exit 0 and a summary, or exit 2 and the error")
+    p.add_argument("--preview", metavar="DIR", help="also write a quick rasterised preview per scene (geometry, "
+                                                     "framing, light cone; not physically based) as DIR/NAME.png")
     p.set_defaults(func=_cmd_scenes)
 
     p = sub.add_parser("approx", help="render SCENE with the paper's method: OUT.exr, .png, .records.npz, .json")

@@ -32,6 +32,13 @@ def test_report_renders_both_and_measures(tmp_path, capsys, monkeypatch):
     assert not list(out.rglob(".*tmp*"))  # no temporary files left behind
 
 
+def test_scene_check_writes_a_preview(tmp_path, write_scene, capsys):
+    path = write_scene()
+    assert main(["scenes", "--check", path, "--preview", str(tmp_path / "p")]) == 0
+    assert (tmp_path / "p" / "base.png").read_bytes().startswith(b"\x89PNG")
+    assert "preview ->" in capsys.readouterr().out
+
+
 def test_preview_shows_the_objects(ctx):
     from approx.preview import render_preview
     from scenes import load_builtin
