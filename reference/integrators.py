@@ -204,9 +204,16 @@ class VolumetricLightTracer(mi.AdjointIntegrator):
                 seen = on_diffuse & (ds.pdf > 0.0)
                 seen &= ~scene.ray_test(si.spawn_ray_to(ds.p), seen)
                 ctx = mi.BSDFContext(mi.TransportMode.Importance)
-                bsdf_value = si.bsdf().eval(ctx, si, si.to_local(ds.d), seen)
-                block.put(ds.uv + block.offset(), ray.wavelengths, throughput * bsdf_value * sensor_weight * sample_scale,
-                          0.0, 0.0, seen)
+                local_d = si.to_local(ds.d)
+                bsdf_value = si.bsdf().eval(ctx, si, local_d, seen)
+                # adjoint BSDF with shading normals (Veach 1997, §5.3): cosine ratio, no light leaks
+                wi_geo = dr.dot(si.n, si.to_world(si.wi))
+                wo_geo = dr.dot(si.n, ds.d)
+                cos_wi, cos_wo = mi.Frame3f.cos_theta(si.wi), mi.Frame3f.cos_theta(local_d)
+                consistent = (wi_geo * cos_wi > 0.0) & (wo_geo * cos_wo > 0.0)
+                correction = dr.select(consistent, dr.abs(cos_wi * wo_geo / (cos_wo * wi_geo)), 0.0)
+                block.put(ds.uv + block.offset(), ray.wavelengths,
+                          throughput * bsdf_value * correction * sensor_weight * sample_scale, 0.0, 0.0, seen)
 
             ctx = mi.BSDFContext(mi.TransportMode.Importance)
             bs, bsdf_weight = si.bsdf().sample(ctx, si, sampler.next_1d(on_specular), sampler.next_2d(on_specular),
