@@ -85,21 +85,21 @@ class PhotonTracer:
         """The light maps copied into storage buffers (map-major, rows bottom-up): all
         texels (RGBA32F) and their distances alone (R32F), release both; and per map
         the exact (min, max) of its surface distances, None for an empty map."""
-        texel_bytes = 16 * light_res * light_res
-        texels = self.ctx.buffer(reserve=texel_bytes * len(light_maps))
-        for m, tex in enumerate(light_maps):
-            tex.read_into(texels, write_offset=m * texel_bytes)
-        count = light_res * light_res * len(light_maps)
-        distances = self.ctx.buffer(reserve=4 * count)
+        count = light_res * light_res
+        texels = self.ctx.buffer(reserve=16 * count * len(light_maps))
+        distances = self.ctx.buffer(reserve=4 * count * len(light_maps))
         init = np.zeros((len(light_maps), 2), np.uint32)
         init[:, 0] = 0xFFFFFFFF
         ranges = self.ctx.buffer(init.tobytes())
         texels.bind_to_storage_buffer(0)
         distances.bind_to_storage_buffer(1)
         ranges.bind_to_storage_buffer(2)
-        self.pack["count"].value = count
-        self.pack["texels_per_map"].value = light_res * light_res
-        self.pack.run(group_x=math.ceil(count / 256))
+        self.pack["res"].value = light_res
+        self.pack["map_texture"].value = 0
+        for m, tex in enumerate(light_maps):
+            tex.use(location=0)
+            self.pack["map_index"].value = m
+            self.pack.run(group_x=math.ceil(count / 256))
         bits = np.frombuffer(ranges.read(), np.uint32).reshape(-1, 2)
         ranges.release()
         values = bits.view(np.float32)

@@ -1,16 +1,17 @@
-// The distance channel of the light-map texels as a compact float array (the
-// intersection search reads only distances: 4 bytes instead of 16 per texel),
-// and per map the exact range of its surface distances (texels > 0), which lets
-// the tracer skip maps a segment's distance range cannot meet. Positive floats
-// order like their bit patterns, so the range is reduced with uint atomics.
-// BLOCK texels per work group never straddle two maps (light_res² is a multiple).
+// One light map copied into the tracer's storage buffers: all texels (vec4) and
+// the distance channel alone as a compact float array (the intersection search
+// reads only distances: 4 bytes instead of 16 per texel), plus the exact range of
+// the map's surface distances (texels > 0), which lets the tracer skip maps a
+// segment's distance range cannot meet. Positive floats order like their bit
+// patterns, so the range is reduced with uint atomics. Run once per map.
 #define BLOCK 256
 layout(local_size_x = BLOCK) in;
-layout(std430, binding = 0) readonly buffer Texels { vec4 map_texels[]; };
+uniform sampler2D map_texture;
+uniform int res;
+uniform uint map_index;
+layout(std430, binding = 0) writeonly buffer Texels { vec4 map_texels[]; };
 layout(std430, binding = 1) writeonly buffer Distances { float map_dist[]; };
 layout(std430, binding = 2) buffer Ranges { uvec2 map_range[]; };  // (min bits, max bits) per map
-uniform uint count;
-uniform uint texels_per_map;
 
 shared uint lo[BLOCK];
 shared uint hi[BLOCK];
@@ -18,8 +19,13 @@ shared uint hi[BLOCK];
 void main() {
     uint i = gl_GlobalInvocationID.x;
     uint lane = gl_LocalInvocationID.x;
-    float d = i < count ? map_texels[i].x : 0.0;
-    if (i < count) map_dist[i] = d;
+    uint count = uint(res * res);
+    vec4 texel = i < count ? texelFetch(map_texture, ivec2(int(i) % res, int(i) / res), 0) : vec4(0.0);
+    if (i < count) {
+        map_texels[map_index * count + i] = texel;
+        map_dist[map_index * count + i] = texel.x;
+    }
+    float d = texel.x;
     lo[lane] = d > 0.0 ? floatBitsToUint(d) : 0xFFFFFFFFu;
     hi[lane] = d > 0.0 ? floatBitsToUint(d) : 0u;
     barrier();
@@ -31,8 +37,7 @@ void main() {
         barrier();
     }
     if (lane == 0u && hi[0] > 0u) {
-        uint map = (gl_WorkGroupID.x * uint(BLOCK)) / texels_per_map;
-        atomicMin(map_range[map].x, lo[0]);
-        atomicMax(map_range[map].y, hi[0]);
+        atomicMin(map_range[map_index].x, lo[0]);
+        atomicMax(map_range[map_index].y, hi[0]);
     }
 }
