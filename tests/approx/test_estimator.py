@@ -21,22 +21,17 @@ LIGHT_RES = 512
 SEED = 7
 
 
-def trace_segment(ctx, scene, start, direction, length, *, layers=2, peak_samples=8, iterations=30, strategy="threshold"):
-    """Trace one medium photon over a segment of exactly ``length``: the medium's
-    sigma_t is chosen so that the shared RNG's free flight for (SEED, photon 0, step 1)
-    equals it. Returns the record (RECORD_DTYPE row)."""
-    u = float(uniform(SEED, 0, 1, 0))
-    sigma = -np.log1p(-u) / length
-    scene = dataclasses.replace(scene, medium=Medium((sigma,) * 3, (0.0,) * 3))
-    params = ApproxParams(layers=layers, peak_samples=peak_samples, iterations=iterations, layer_strategy=strategy)
+def trace_one(ctx, scene, start, direction, inside, status, params):
+    """One photon (at ``start``, unit ``direction``, inside object ``inside`` or -1)
+    through one interaction step of the real tracer; returns (record, frustum)."""
     geo = SceneGeometry.upload(ctx, scene)
     lm = LightMapRenderer(ctx, geo)
     frustum = LightFrustum.for_scene(scene, geo.scene_min, geo.scene_max)
-    maps = lm.render_layers(frustum, LIGHT_RES, layers, strategy)
+    maps = lm.render_layers(frustum, LIGHT_RES, params.layers, params.layer_strategy)
     tracer = PhotonTracer(ctx, params)
     photon = np.zeros(1, PHOTON_DTYPE)
-    photon["pos"] = [*start, -1.0]
-    photon["dir"] = [*(np.asarray(direction) / np.linalg.norm(direction)), STATUS_COLLIDED]
+    photon["pos"] = [*start, float(inside)]
+    photon["dir"] = [*(np.asarray(direction) / np.linalg.norm(direction)), status]
     photon["power"] = [1.0, 1.0, 1.0, 0.0]
     pbuf, rbuf = ctx.buffer(photon.tobytes()), ctx.buffer(reserve=RAW_RECORD_DTYPE.itemsize)
     texels, bounds = tracer.map_buffer(maps, LIGHT_RES)
@@ -46,6 +41,18 @@ def trace_segment(ctx, scene, start, direction, length, *, layers=2, peak_sample
     for r in (*maps, pbuf, rbuf, *texels):
         r.release()
     tracer.release(), lm.release(), geo.release()
+    return rec, frustum
+
+
+def trace_segment(ctx, scene, start, direction, length, *, layers=2, peak_samples=8, iterations=30, strategy="threshold"):
+    """Trace one medium photon over a segment of exactly ``length``: the medium's
+    sigma_t is chosen so that the shared RNG's free flight for (SEED, photon 0, step 1)
+    equals it. Returns the record (RECORD_DTYPE row)."""
+    u = float(uniform(SEED, 0, 1, 0))
+    sigma = -np.log1p(-u) / length
+    scene = dataclasses.replace(scene, medium=Medium((sigma,) * 3, (0.0,) * 3))
+    params = ApproxParams(layers=layers, peak_samples=peak_samples, iterations=iterations, layer_strategy=strategy)
+    rec, frustum = trace_one(ctx, scene, start, direction, -1, STATUS_COLLIDED, params)
     assert rec["max_length"] == pytest.approx(length, rel=1e-5)
     return rec, frustum
 
@@ -121,25 +128,9 @@ def test_exit_from_inside_glass(ctx, strategy):
     """A photon inside the sphere finds the back surface."""
     radius = 0.5
     scene = _sphere_scene(radius)
-    params = ApproxParams(layers=2, layer_strategy=strategy)
-    geo = SceneGeometry.upload(ctx, scene)
-    lm = LightMapRenderer(ctx, geo)
-    frustum = LightFrustum.for_scene(scene, geo.scene_min, geo.scene_max)
-    maps = lm.render_layers(frustum, LIGHT_RES, 2, strategy)
-    tracer = PhotonTracer(ctx, params)
     start = CENTER + np.array([0.1, 0.3, 0.0])
     d = np.array([0.1, -1.0, 0.2]) / np.linalg.norm([0.1, -1.0, 0.2])
-    photon = np.zeros(1, PHOTON_DTYPE)
-    photon["pos"] = [*start, 0.0]  # inside specular object 0
-    photon["dir"] = [*d, STATUS_SURFACE]
-    photon["power"] = [1.0, 1.0, 1.0, 0.0]
-    pbuf, rbuf = ctx.buffer(photon.tobytes()), ctx.buffer(reserve=RAW_RECORD_DTYPE.itemsize)
-    texels, bounds = tracer.map_buffer(maps, LIGHT_RES)
-    info = [(b is not None, *(b or (0.0, 0.0))) for b in bounds]
-    tracer.trace_step(scene, frustum, geo, texels, info, LIGHT_RES, pbuf, rbuf, 1, 1, SEED)
-    rec = records_from_raw(np.frombuffer(rbuf.read(), RAW_RECORD_DTYPE), 1)[0]
-    for r in texels:
-        r.release()
+    rec, frustum = trace_one(ctx, scene, start, d, 0, STATUS_SURFACE, ApproxParams(layers=2, layer_strategy=strategy))
     t_exit = ray_sphere(start, d[None], CENTER, radius)[1][0]
     assert rec["hit"] and rec["inside"] == 0 and rec["map"] % 2 == 1  # a back-face map
     # Tolerance: one texel footprint at the exit (2·tan(25°)·r/512 with r ≈ 1.8 m: 3.3 mm);
@@ -147,5 +138,3 @@ def test_exit_from_inside_glass(ctx, strategy):
     # map is off by less than that along this steep segment.
     footprint = 2 * frustum.tan_half * np.linalg.norm(start + d * t_exit - frustum.position) / LIGHT_RES
     assert abs(rec["t"] - t_exit) < footprint
-    for r in (*maps, pbuf, rbuf):
-        r.release()
