@@ -89,6 +89,6 @@ class LightFrustum:
     def texel_solid_angles(self, res: int) -> np.ndarray:
         """Exact solid angle (sr) of each texel, res×res float64."""
         edges = np.linspace(-self.tan_half, self.tan_half, res + 1)
-        x0, x1 = np.meshgrid(edges[:-1], edges[:-1], indexing="xy")[0], np.meshgrid(edges[1:], edges[1:], indexing="xy")[0]
-        y0, y1 = np.meshgrid(edges[:-1], edges[:-1], indexing="xy")[1], np.meshgrid(edges[1:], edges[1:], indexing="xy")[1]
-        return _rect_solid_angle(x0, x1, y0, y1)
+        lo, hi = edges[:-1], edges[1:]
+        # rows index y (GL order, bottom first), columns index x
+        return _rect_solid_angle(lo[None, :], hi[None, :], lo[:, None], hi[:, None])
