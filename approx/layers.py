@@ -35,6 +35,7 @@ class LightMapRenderer:
         self.vao_diffuse = geometry.vertex_array(ctx, self.program, "diffuse")
         self._empty = ctx.texture((1, 1), 4, dtype="f4")  # bound as previous_map when unused
         self._empty.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        self._depth = {}  # resolution -> depth renderbuffer, reused by every map of that size
 
     def render_map(self, frustum, res: int, *, facing: int = BOTH, threshold: float = -np.inf,
                    previous: moderngl.Texture | None = None, peel_epsilon: float = 0.0,
@@ -46,8 +47,9 @@ class LightMapRenderer:
         ctx = self.ctx
         tex = target or ctx.texture((res, res), 4, dtype="f4")
         tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
-        depth = ctx.depth_renderbuffer((res, res))
-        fbo = ctx.framebuffer(color_attachments=[tex], depth_attachment=depth)
+        if res not in self._depth:
+            self._depth[res] = ctx.depth_renderbuffer((res, res))
+        fbo = ctx.framebuffer(color_attachments=[tex], depth_attachment=self._depth[res])
         prog = self.program
         prog["light_view_proj"].write(gl_matrix(frustum.view_proj))
         prog["light_position"].value = tuple(frustum.position)
@@ -71,7 +73,6 @@ class LightMapRenderer:
             ctx.disable(moderngl.DEPTH_TEST)
         self.last_samples = query.samples
         fbo.release()
-        depth.release()
         return tex
 
     def thresholds(self, frustum, layers: int) -> list[float]:
@@ -117,6 +118,8 @@ class LightMapRenderer:
                 vao.release()
         self.program.release()
         self._empty.release()
+        for depth in self._depth.values():
+            depth.release()
 
 
 def read_map(tex: moderngl.Texture) -> np.ndarray:

@@ -23,12 +23,10 @@ def output_paths(out: str) -> dict:
 def subsample_records(records: list, max_per_step: int) -> tuple[np.ndarray, int]:
     """All steps' records in one array, keeping at most ``max_per_step`` per step by a
     fixed stride over photon order (deterministic); returns (records, stride)."""
-    if not records:
-        return np.zeros(0), 1
+    if not records or max_per_step == 0:
+        return np.zeros(0), 0
     longest = max(len(r) for r in records)
-    stride = 1 if max_per_step < 0 or longest <= max_per_step else int(np.ceil(longest / max(max_per_step, 1)))
-    if max_per_step == 0:
-        return records[0][:0], 0
+    stride = 1 if max_per_step < 0 or longest <= max_per_step else int(np.ceil(longest / max_per_step))
     return np.concatenate([r[::stride] for r in records]), stride
 
 

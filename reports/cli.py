@@ -81,7 +81,7 @@ def _cmd_report(args) -> int:
 def _approx_params(args):
     import dataclasses
 
-    from approx.params import PAPER, QUICK, ApproxParams
+    from approx.params import QUICK, ApproxParams
 
     base = {"paper": ApproxParams(), "quick": QUICK}[args.preset]
     changes = {name: getattr(args, name) for name in ApproxParams.names()
@@ -217,6 +217,11 @@ def main(argv=None) -> int:
     except KeyboardInterrupt:
         print("volcaustics: interrupted", file=sys.stderr)
         return 130
+    except BrokenPipeError:  # output piped into `head` and closed: not an error of ours
+        import os
+
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 0
 
 
 if __name__ == "__main__":
