@@ -11,18 +11,22 @@ from scenes.bounds import medium_bounds
 
 from .glsl import attribute_layout
 
-VERTEX_FORMAT = "3f 3f 1f"  # position, smooth normal, material index
-VERTEX_ATTRIBUTES = ("in_position", "in_normal", "in_material")
+VERTEX_FORMAT = "3f 3f 3f 1f"  # position, smooth normal, face normal, material index
+VERTEX_ATTRIBUTES = ("in_position", "in_normal", "in_face_normal", "in_material")
+VERTEX_FLOATS = 10
 
 
 def interleave(mesh, material: int) -> np.ndarray:
-    """(3·F)×7 float32 un-indexed triangles: position, angle-weighted vertex normal, material."""
+    """(3·F)×10 float32 un-indexed triangles: position, angle-weighted vertex normal
+    (shading), the triangle's geometric normal (outward; the inside/outside rule of
+    DESIGN.md needs it at every hit), material."""
     normals = mesh.vertex_normals()
     idx = mesh.faces.reshape(-1)
-    data = np.empty((len(idx), 7), dtype=np.float32)
+    data = np.empty((len(idx), VERTEX_FLOATS), dtype=np.float32)
     data[:, :3] = mesh.vertices[idx]
     data[:, 3:6] = normals[idx]
-    data[:, 6] = material
+    data[:, 6:9] = np.repeat(mesh.face_normals(), 3, axis=0)
+    data[:, 9] = material
     return data
 
 
@@ -43,7 +47,7 @@ class SceneGeometry:
     def upload(cls, ctx: moderngl.Context, scene) -> "SceneGeometry":
         spec = [interleave(o.mesh.load(), i) for i, o in enumerate(scene.specular)]
         diff = [interleave(o.mesh.load(), i) for i, o in enumerate(scene.diffuse)]
-        spec_data = np.concatenate(spec) if spec else np.zeros((0, 7), np.float32)
+        spec_data = np.concatenate(spec) if spec else np.zeros((0, VERTEX_FLOATS), np.float32)
         ranges, first = [], 0
         for d in diff:
             ranges.append((first, len(d)))
@@ -52,7 +56,7 @@ class SceneGeometry:
         spec_min = spec_data[:, :3].min(0) if len(spec_data) else np.zeros(3)
         spec_max = spec_data[:, :3].max(0) if len(spec_data) else np.zeros(3)
         return cls(
-            specular=ctx.buffer(spec_data.tobytes() if len(spec_data) else np.zeros(7, np.float32).tobytes()),
+            specular=ctx.buffer(spec_data.tobytes() if len(spec_data) else np.zeros(VERTEX_FLOATS, np.float32).tobytes()),
             diffuse=ctx.buffer(np.concatenate(diff).tobytes()) if diff else None,
             specular_vertices=len(spec_data),
             diffuse_ranges=ranges,

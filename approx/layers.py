@@ -2,7 +2,9 @@
 material id and normal of surfaces seen from the spot light.
 
 Map m = 2·level + facing (0 front faces, 1 back faces); each texel holds
-(distance, material, octahedral normal), 0 where empty. Strategies:
+(distance, material, octahedral shading normal), 0 where empty, and a second
+texture beside it the octahedral outward geometric normal of the triangle
+(:class:`LightMap`). Strategies:
 
 * ``threshold`` (the paper): the specular objects' extent along the spot axis is
   divided uniformly into ``layers`` levels; level i keeps the nearest front face
@@ -14,6 +16,8 @@ Map m = 2·level + facing (0 front faces, 1 back faces); each texel holds
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import moderngl
 import numpy as np
 
@@ -22,6 +26,18 @@ from .glsl import program
 from .transforms import gl_matrix
 
 FRONT, BACK, BOTH = 1, -1, 0
+
+
+class LightMap(NamedTuple):
+    """One light map: ``surface`` RGBA32F (distance, material, octahedral shading
+    normal; 0 = empty) and ``geometric`` RG32F (octahedral outward geometric normal)."""
+
+    surface: moderngl.Texture
+    geometric: moderngl.Texture
+
+    def release(self):
+        self.surface.release()
+        self.geometric.release()
 
 
 class LightMapRenderer:
@@ -39,8 +55,10 @@ class LightMapRenderer:
 
     def render_map(self, frustum, res: int, *, facing: int = BOTH, threshold: float = -np.inf,
                    previous: moderngl.Texture | None = None, peel_epsilon: float = 0.0,
-                   include_diffuse: bool = False, target: moderngl.Texture | None = None) -> moderngl.Texture:
-        """One map at res×res; returns the texture (``target`` reused if given).
+                   include_diffuse: bool = False, target: moderngl.Texture | None = None,
+                   geometric: moderngl.Texture | None = None) -> moderngl.Texture:
+        """One map at res×res; returns the texture (``target`` reused if given). The
+        geometric normals go to ``geometric`` (RG32F, res×res) when given.
 
         ``self.last_samples`` holds the number of fragments that passed (occlusion
         query): 0 means the map is empty."""
@@ -49,7 +67,8 @@ class LightMapRenderer:
         tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
         if res not in self._depth:
             self._depth[res] = ctx.depth_renderbuffer((res, res))
-        fbo = ctx.framebuffer(color_attachments=[tex], depth_attachment=self._depth[res])
+        attachments = [tex] if geometric is None else [tex, geometric]
+        fbo = ctx.framebuffer(color_attachments=attachments, depth_attachment=self._depth[res])
         prog = self.program
         prog["light_view_proj"].write(gl_matrix(frustum.view_proj))
         prog["light_position"].value = tuple(frustum.position)
@@ -75,6 +94,12 @@ class LightMapRenderer:
         fbo.release()
         return tex
 
+    def render_light_map(self, frustum, res: int, **filters) -> LightMap:
+        """One map with its geometric normals (``filters`` as :meth:`render_map`)."""
+        geometric = self.ctx.texture((res, res), 2, dtype="f4")
+        geometric.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        return LightMap(self.render_map(frustum, res, geometric=geometric, **filters), geometric)
+
     def thresholds(self, frustum, layers: int) -> list[float]:
         """Level thresholds along the spot axis: uniform over the specular objects' extent.
 
@@ -89,25 +114,22 @@ class LightMapRenderer:
         lo, hi = float(along.min()), float(along.max())
         return [-np.inf] + [lo + i * (hi - lo) / layers for i in range(1, layers)]
 
-    def render_layers(self, frustum, res: int, layers: int, strategy: str, targets=None) -> list[moderngl.Texture]:
+    def render_layers(self, frustum, res: int, layers: int, strategy: str) -> list["LightMap"]:
         """The 2·layers maps in map order (2·level + facing).
 
         Also sets ``self.layer_used``: per map, whether any fragment was written."""
         maps, used = [], []
-        targets = targets or [None] * (2 * layers)
         peel_epsilon = 1e-5 * frustum.far
         thresholds = self.thresholds(frustum, layers)
         for level in range(layers):
             for k, facing in enumerate((FRONT, BACK)):
-                target = targets[2 * level + k]
                 if strategy == "threshold":
-                    tex = self.render_map(frustum, res, facing=facing, threshold=thresholds[level],
-                                          target=target)
+                    m = self.render_light_map(frustum, res, facing=facing, threshold=thresholds[level])
                 else:
-                    previous = maps[2 * (level - 1) + k] if level > 0 else None
-                    tex = self.render_map(frustum, res, facing=facing, previous=previous,
-                                          peel_epsilon=peel_epsilon, target=target)
-                maps.append(tex)
+                    previous = maps[2 * (level - 1) + k].surface if level > 0 else None
+                    m = self.render_light_map(frustum, res, facing=facing, previous=previous,
+                                              peel_epsilon=peel_epsilon)
+                maps.append(m)
                 used.append(self.last_samples > 0)
         self.layer_used = used
         return maps

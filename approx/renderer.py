@@ -99,7 +99,7 @@ class Renderer:
         released += layer_maps + [shadow_map, *map_texels]
 
         with timer.measure("emission"):
-            emission_map = self.light_maps.render_map(frustum, p.photon_res, facing=BOTH)
+            emission_map = self.light_maps.render_light_map(frustum, p.photon_res, facing=BOTH)
             photons = tracer.emit_photons(scene, frustum, emission_map, p.photon_res, p.seed)
         released += [emission_map, photons]
         count = p.photon_res * p.photon_res

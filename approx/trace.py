@@ -25,6 +25,12 @@ from .transforms import gl_matrix
 MAX_MATERIALS = 16
 COMPACT_BLOCK = 256  # BLOCK of splat/compact.comp.glsl
 
+# Start offset of a segment leaving a surface, in light-map texel footprints
+# (common/start_offset.glsl): footprint · (START_SLOPE·sin θ + START_FLOOR) / |d·n|,
+# at most START_MAX. START_SLOPE = √2 from the texel geometry; the floor and the cap
+# were chosen by measurement (bench/start_offset.py).
+START_OFFSET = {"START_SLOPE": 1.4142135, "START_FLOOR": 0.5, "START_MAX": 5.0}
+
 
 def sampling_rate(medium) -> float:
     """Free-flight sampling rate sigma_bar: the mean of sigma_t over RGB (1/m); 0 for vacuum."""
@@ -44,7 +50,7 @@ class PhotonTracer:
 
     def __init__(self, ctx: moderngl.Context, params):
         self.ctx = ctx
-        defines = {"MAX_MATERIALS": MAX_MATERIALS}
+        defines = {"MAX_MATERIALS": MAX_MATERIALS, **START_OFFSET}
         if params.fresnel == "stochastic":
             defines["FRESNEL_STOCHASTIC"] = 1
         self.emit = compute_shader(ctx, "emission/emit.comp.glsl", defines)
@@ -66,13 +72,16 @@ class PhotonTracer:
         return self._solid_angles[key]
 
     def emit_photons(self, scene, frustum, emission_map, photon_res: int, seed: int) -> moderngl.Buffer:
-        """Photon buffer (photon_res² slots of PHOTON_DTYPE) after emission and the first interaction."""
+        """Photon buffer (photon_res² slots of PHOTON_DTYPE) after emission and the first
+        interaction; ``emission_map`` is a :class:`approx.layers.LightMap` at photon_res."""
         ctx, prog = self.ctx, self.emit
         n = photon_res * photon_res
         photons = ctx.buffer(reserve=n * PHOTON_DTYPE.itemsize)
         ior, _ = _materials(scene)
-        emission_map.use(location=0)
-        set_uniforms(prog, **spot_constants(scene.light), ior=ior, emission_map=0, photon_res=photon_res,
+        emission_map.surface.use(location=0)
+        emission_map.geometric.use(location=1)
+        set_uniforms(prog, **spot_constants(scene.light), ior=ior, emission_map=0, emission_geometric=1,
+                     photon_res=photon_res,
                      tan_half=frustum.tan_half, seed=seed, sigma_t=tuple(scene.medium.sigma_t))
         basis = np.stack([frustum.view[0, :3], frustum.view[1, :3], frustum.direction], axis=1)  # columns
         prog["light_basis"].write(np.asarray(basis, np.float32).T.tobytes())
@@ -82,29 +91,34 @@ class PhotonTracer:
         return photons
 
     def map_buffer(self, light_maps, light_res: int) -> tuple:
-        """The light maps copied into storage buffers (map-major, rows bottom-up): all
-        texels (RGBA32F) and their distances alone (R32F), release both; and per map
-        the exact (min, max) of its surface distances, None for an empty map."""
+        """The light maps (:class:`approx.layers.LightMap`) copied into storage buffers
+        (map-major, rows bottom-up): all texels (RGBA32F), their distances alone (R32F)
+        and their geometric normals (2 floats, octahedral), release all three; and per
+        map the exact (min, max) of its surface distances, None for an empty map."""
         count = light_res * light_res
         texels = self.ctx.buffer(reserve=16 * count * len(light_maps))
         distances = self.ctx.buffer(reserve=4 * count * len(light_maps))
+        geometric = self.ctx.buffer(reserve=8 * count * len(light_maps))
         init = np.zeros((len(light_maps), 2), np.uint32)
         init[:, 0] = 0xFFFFFFFF
         ranges = self.ctx.buffer(init.tobytes())
         texels.bind_to_storage_buffer(0)
         distances.bind_to_storage_buffer(1)
         ranges.bind_to_storage_buffer(2)
+        geometric.bind_to_storage_buffer(3)
         self.pack["res"].value = light_res
         self.pack["map_texture"].value = 0
-        for m, tex in enumerate(light_maps):
-            tex.use(location=0)
+        self.pack["geometric_texture"].value = 1
+        for m, light_map in enumerate(light_maps):
+            light_map.surface.use(location=0)
+            light_map.geometric.use(location=1)
             self.pack["map_index"].value = m
             self.pack.run(group_x=math.ceil(count / 256))
         bits = np.frombuffer(ranges.read(), np.uint32).reshape(-1, 2)
         ranges.release()
         values = bits.view(np.float32)
         bounds = [None if b[1] == 0 else (float(v[0]), float(v[1])) for b, v in zip(bits, values)]
-        return (texels, distances), bounds
+        return (texels, distances, geometric), bounds
 
     def trace_step(self, scene, frustum, geometry, map_texels: tuple, map_info, light_res: int,
                    photons: moderngl.Buffer,
@@ -127,6 +141,7 @@ class PhotonTracer:
         records.bind_to_storage_buffer(1)
         map_texels[0].bind_to_storage_buffer(2)
         map_texels[1].bind_to_storage_buffer(3)
+        map_texels[2].bind_to_storage_buffer(4)
         prog.run(group_x=math.ceil(count / 64))
 
     def compact_splats(self, records: moderngl.Buffer, count: int, splats: moderngl.Buffer) -> int:

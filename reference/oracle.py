@@ -97,12 +97,16 @@ def _box_exit(o, d, lo, hi):
     return np.maximum(np.nanmin(t_far, axis=1), 0.0)
 
 
-def surface_interaction(d, power, inside, n, hit_material, xi, ior, stochastic: bool):
-    """Vectorised twin of common/interaction.glsl; returns (d, power, inside, flags)."""
-    n = np.where((np.einsum("ij,ij->i", d, n) > 0)[:, None], -n, n)
-    entering = inside < 0
-    m = np.where(entering, hit_material, inside)
-    eta = np.where(entering, ior[m], 1.0 / ior[m])
+def surface_interaction(d, power, n, n_geometric, hit_material, xi, ior, stochastic: bool):
+    """Vectorised twin of common/interaction.glsl; returns (d, power, inside, flags).
+
+    n: outward shading normals, n_geometric: outward geometric normals (N×3). As
+    Mitsuba's dielectric, the incident side and eta come from the shading normal;
+    inside afterwards follows DESIGN.md's one rule: below the geometric surface is
+    inside the object hit."""
+    from_outside = np.einsum("ij,ij->i", d, n) <= 0
+    n = np.where(from_outside[:, None], n, -n)
+    eta = np.where(from_outside, ior[hit_material], 1.0 / ior[hit_material])
     cos_i = -np.einsum("ij,ij->i", d, n)
     R = fresnel_dielectric(cos_i, eta)
     sin2_t = (1.0 - cos_i * cos_i) / (eta * eta)
@@ -115,7 +119,7 @@ def surface_interaction(d, power, inside, n, hit_material, xi, ior, stochastic: 
     if not stochastic:
         power = np.where(tir[:, None], power, power * (1.0 - R)[:, None])
     new_d = np.where(reflect[:, None], reflected, refracted)
-    new_inside = np.where(reflect, inside, np.where(entering, m, -1))
+    new_inside = np.where(np.einsum("ij,ij->i", new_d, n_geometric) < 0, hit_material, -1)
     flags = np.where(reflect, FLAG_REFLECTED, 0) | np.where(tir, FLAG_TIR, 0)
     return new_d, power, new_inside, flags
 
@@ -168,8 +172,8 @@ def exact_photon_records(scene, first_records, *, steps: int, seed: int, fresnel
         new_d, new_inside = d.copy(), inside.copy()
         if hit.any():
             xi = uniform(seed, idx[hit].astype(np.uint32), step, 1).astype(np.float64)
-            dd, pp, ii, ff = surface_interaction(d[hit], new_power[hit], inside[hit], q["normal"][hit],
-                                                 q["shape"][hit], xi, ior, stochastic)
+            dd, pp, ii, ff = surface_interaction(d[hit], new_power[hit], q["normal"][hit],
+                                                 q["geometric_normal"][hit], q["shape"][hit], xi, ior, stochastic)
             new_d[hit], new_power[hit], new_inside[hit], flags[hit] = dd, pp, ii, ff
         rec = np.zeros(n, RECORD_DTYPE)
         rec["photon"], rec["step"] = idx, step

@@ -42,12 +42,18 @@ class Mesh:
         f = self.faces if np.linalg.det(matrix[:3, :3]) >= 0 else self.faces[:, ::-1]
         return Mesh(v, np.ascontiguousarray(f))
 
+    def face_normals(self) -> np.ndarray:
+        """Unit geometric normals, F×3 float64: (v1 − v0) × (v2 − v0), outward for an
+        outward-wound closed mesh (as Mitsuba computes ``si.n``)."""
+        tri = self.vertices[self.faces]
+        face_n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+        return face_n / np.maximum(np.linalg.norm(face_n, axis=1, keepdims=True), 1e-300)
+
     def vertex_normals(self) -> np.ndarray:
         """Unit vertex normals, V×3 float64: face normals weighted by the corner angle
         (Thürrner & Wüthrich 1998), the shading normals both renderers use."""
         tri = self.vertices[self.faces]
-        face_n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-        face_n /= np.maximum(np.linalg.norm(face_n, axis=1, keepdims=True), 1e-300)
+        face_n = self.face_normals()
         normals = np.zeros_like(self.vertices)
         for k in range(3):
             e1 = tri[:, (k + 1) % 3] - tri[:, k]

@@ -36,7 +36,7 @@ def test_emission_power_is_intensity_times_solid_angle(ctx, res, sigma_t):
     geo = SceneGeometry.upload(ctx, scene)
     lm = LightMapRenderer(ctx, geo)
     frustum = LightFrustum.for_scene(scene, geo.scene_min, geo.scene_max)
-    emission_map = lm.render_map(frustum, res, facing=BOTH)
+    emission_map = lm.render_light_map(frustum, res, facing=BOTH)
     tracer = PhotonTracer(ctx, params)
     buf = tracer.emit_photons(scene, frustum, emission_map, res, seed=1)
     photons = read_photons(buf, res * res)

@@ -60,7 +60,7 @@ def _check(map_rgba, frustum, expected, radius, sag, mask_cos=0.2):
 def test_sphere_front_and_back_distances(ctx, strategy):
     radius = 0.5
     scene, geo, lm, frustum = _setup(ctx, [(sphere_spec(radius, CENTER, SUBDIV), 1.5, (0, 0, 0))])
-    maps = [read_map(t) for t in lm.render_layers(frustum, RES, 2, strategy)]
+    maps = [read_map(m.surface) for m in lm.render_layers(frustum, RES, 2, strategy)]
     t_in, t_out = ray_sphere(frustum.position, frustum.texel_directions(RES), CENTER, radius)
     sag = _max_sag(scene.specular[0].mesh.load(), CENTER, radius)
     assert sag < 2e-4  # a fine mesh: the check below is about the maps, not the faceting
@@ -91,7 +91,7 @@ def test_peel_separates_nested_surfaces(ctx):
     """Hollow shell: along a ray, outer front (F), inner near (B), inner far (F), outer back (B)."""
     outer, inner = 0.5, 0.3
     scene, geo, lm, frustum = _setup(ctx, [(shell_spec(outer, inner, CENTER, SUBDIV), 1.5, (0, 0, 0))])
-    maps = [read_map(t) for t in lm.render_layers(frustum, RES, 2, "peel")]
+    maps = [read_map(m.surface) for m in lm.render_layers(frustum, RES, 2, "peel")]
     dirs = frustum.texel_directions(RES)
     o_in, o_out = ray_sphere(frustum.position, dirs, CENTER, outer)
     i_in, i_out = ray_sphere(frustum.position, dirs, CENTER, inner)
@@ -118,14 +118,57 @@ def test_packed_distances_and_exact_map_ranges(ctx):
 
     scene, geo, lm, frustum = _setup(ctx, [(shell_spec(0.5, 0.3, CENTER, 16), 1.5, (0, 0, 0))])
     textures = lm.render_layers(frustum, RES, 2, "peel")
-    maps = [read_map(t) for t in textures]
+    maps = [read_map(m.surface) for m in textures]
     tracer = PhotonTracer(ctx, ApproxParams(layers=2))
-    (texels, distances), bounds = tracer.map_buffer(textures, RES)
+    (texels, distances, geometric), bounds = tracer.map_buffer(textures, RES)
     packed = np.frombuffer(distances.read(), np.float32).reshape(len(maps), RES, RES)
     for m, (a, b) in enumerate(zip(maps, bounds)):
         assert np.array_equal(packed[m], a[..., 0])
         covered = a[..., 0][a[..., 0] > 0]
         assert b == (float(covered.min()), float(covered.max()))
-    for r in (texels, distances, *textures):
+    for r in (texels, distances, geometric, *textures):
         r.release()
     tracer.release()
+
+
+@pytest.mark.parametrize("strategy", ["threshold", "peel"])
+def test_geometric_normals_are_the_outward_triangle_normals(ctx, strategy):
+    """Every covered texel's geometric normal is the outward face normal of the very
+    triangle under it: the texel's surface point lies on that face's plane (to float
+    rounding), the normal matches the face's within octahedral float precision, and it
+    points outward from the glass (away from the centre on the outer sphere of a shell,
+    towards it on the inner one). It also reaches the tracer's storage buffer unchanged."""
+    from approx.params import ApproxParams
+    from approx.trace import PhotonTracer
+
+    spec = shell_spec(0.5, 0.3, CENTER, 6)  # coarse: faces clearly differ from the shading normals
+    scene, geo, lm, frustum = _setup(ctx, [(spec, 1.5, (0, 0, 0))])
+    mesh = scene.specular[0].mesh.load()
+    faces = mesh.face_normals()
+    offsets = np.einsum("ij,ij->i", faces, mesh.vertices[mesh.faces[:, 0]])
+    light_maps = lm.render_layers(frustum, RES, 2, strategy)
+    tracer = PhotonTracer(ctx, ApproxParams(layers=2))
+    (texels, distances, geometric), _ = tracer.map_buffer(light_maps, RES)
+    packed = np.frombuffer(geometric.read(), np.float32).reshape(len(light_maps), RES, RES, 2)
+    dirs = frustum.texel_directions(RES)
+    differs_from_shading = 0
+    for m, light_map in enumerate(light_maps):
+        surface = read_map(light_map.surface)
+        geo_tex = np.frombuffer(light_map.geometric.read(), np.float32).reshape(RES, RES, 2)
+        assert np.array_equal(packed[m], geo_tex)
+        covered = surface[..., 0] > 0
+        points = frustum.position + dirs[covered] * surface[covered][:, :1].astype(np.float64)
+        n_geo = decode_normals(geo_tex[covered])
+        # the face under the texel: normal within octahedral float precision, point on its plane
+        same_normal = n_geo @ faces.T > np.cos(1e-4)
+        plane = np.abs(points @ faces.T - offsets)
+        assert np.all(np.where(same_normal, plane, np.inf).min(axis=1) < 1e-5)
+        radial = np.linalg.norm(points - CENTER, axis=1)
+        outward = np.einsum("ij,ij->i", n_geo, points - CENTER)
+        assert np.all(outward[radial > 0.4] > 0) and np.all(outward[radial < 0.4] < 0)
+        shading = decode_normals(surface[covered][:, 2:])
+        differs_from_shading += int((np.einsum("ij,ij->i", shading, n_geo) < np.cos(1e-3)).sum())
+    assert differs_from_shading > 0
+    for r in (texels, distances, geometric, *light_maps):
+        r.release()
+    tracer.release(), lm.release(), geo.release()

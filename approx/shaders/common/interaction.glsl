@@ -1,38 +1,46 @@
 // The specular interaction at a surface hit (paper §4.3): Snell refraction or
 // reflection, Fresnel weighting (deterministic: refracted power × (1 - R), total
 // internal reflection keeps the power; FRESNEL_STOCHASTIC: reflect with
-// probability R, power unchanged). Requires common/optics.glsl, common/rng.glsl
-// and the uniform array `ior` (defined by the including shader).
+// probability R, power unchanged). Numpy twin: reference/oracle.py. Requires
+// common/optics.glsl and the uniform array `ior` (defined by the including shader).
 #ifndef VOLCAUSTICS_INTERACTION_GLSL
 #define VOLCAUSTICS_INTERACTION_GLSL
 
-// d: incoming unit direction; n: surface normal (any side); inside: material the
-// photon travels in (-1 medium); hit_material: object whose surface was hit.
+// d: incoming unit direction; n: the hit's outward shading normal; n_geometric: the
+// outward geometric normal of its triangle; inside: set to the material the photon
+// travels in afterwards (-1 medium); hit_material: object whose surface was hit. As Mitsuba's dielectric
+// BSDF: the side the photon arrives from, hence eta, is read from the shading
+// normal, and Fresnel, refraction and reflection use it. Inside or outside
+// afterwards follows the one rule of DESIGN.md: a direction below the geometric
+// surface (dot with the outward geometric normal < 0) is inside the object hit.
 // Updates d, power, inside; returns FLAG_* bits.
-uint surface_interaction(inout vec3 d, inout vec3 power, inout int inside, vec3 n, int hit_material, float xi) {
-    if (dot(d, n) > 0.0) n = -n;  // normal on the incident side
-    bool entering = inside < 0;
-    int m = entering ? hit_material : inside;
-    float eta = entering ? ior[m] : 1.0 / ior[m];
+uint surface_interaction(inout vec3 d, inout vec3 power, out int inside, vec3 n, vec3 n_geometric,
+                         int hit_material, float xi) {
+    bool from_outside = dot(d, n) <= 0.0;
+    if (!from_outside) n = -n;  // shading normal on the incident side
+    float eta = from_outside ? ior[hit_material] : 1.0 / ior[hit_material];
     float cos_i = -dot(d, n);
     float R = fresnel_dielectric(cos_i, eta);
     vec3 t;
-    bool can_refract = refract_dir(d, n, eta, t);
-    if (!can_refract) {
+    uint flags = 0u;
+    if (!refract_dir(d, n, eta, t)) {
         d = reflect_dir(d, n);
-        return FLAG_REFLECTED | FLAG_TIR;
-    }
+        flags = FLAG_REFLECTED | FLAG_TIR;
+    } else {
 #ifdef FRESNEL_STOCHASTIC
-    if (xi < R) {
-        d = reflect_dir(d, n);
-        return FLAG_REFLECTED;
-    }
+        if (xi < R) {
+            d = reflect_dir(d, n);
+            flags = FLAG_REFLECTED;
+        } else {
+            d = t;
+        }
 #else
-    power *= (1.0 - R);
+        power *= (1.0 - R);
+        d = t;
 #endif
-    d = t;
-    inside = entering ? m : -1;
-    return 0u;
+    }
+    inside = dot(d, n_geometric) < 0.0 ? hit_material : -1;
+    return flags;
 }
 
 #endif

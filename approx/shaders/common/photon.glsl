@@ -17,7 +17,7 @@
 struct Photon {
     vec4 pos;    // xyz position; w: material id of the glass it is inside, -1 in the medium
     vec4 dir;    // xyz unit direction; w: status
-    vec4 power;  // rgb power (W); w unused
+    vec4 power;  // rgb power (W); w: start offset of the next segment in light-map texel footprints
 };
 
 struct Record {
@@ -26,7 +26,7 @@ struct Record {
     vec4 normal_map;    // xyz estimated normal at the hit (world); w: map index, -1 if no hit
     vec4 end_status;    // xyz end position; w: status after the step
     vec4 power_inside;  // rgb power after the step; w: material id inside at the start, -1 in the medium
-    vec4 extra;         // x: flags; y: material id hit (-1 none); z: segment length searched; w: unused
+    vec4 extra;         // x: flags; y: material id hit (-1 none); z: segment length searched; w: start offset (m)
     vec4 power_start;   // rgb power at the segment start; w unused
 };
 

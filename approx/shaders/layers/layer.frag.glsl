@@ -1,6 +1,8 @@
 // One light map: per texel the nearest surface that passes this map's filter.
-// Output (RGBA32F): distance to the light (not z), material id, octahedral
-// world normal. Cleared to 0 = no surface.
+// Outputs: location 0 (RGBA32F) distance to the light (not z), material id,
+// octahedral world shading normal; cleared to 0 = no surface. Location 1 (RG32F,
+// attached only where needed) the octahedral outward geometric normal of the
+// triangle, which decides inside/outside after a specular interaction (DESIGN.md).
 //
 // Filters (uniforms):
 //   facing        +1 front faces only, -1 back faces only, 0 both
@@ -20,9 +22,11 @@ uniform float peel_epsilon;
 
 in vec3 v_position;
 in vec3 v_normal;
+flat in vec3 v_face_normal;
 flat in float v_material;
 
-out vec4 out_map;
+layout(location = 0) out vec4 out_map;
+layout(location = 1) out vec2 out_geometric;
 
 void main() {
     if (facing > 0 && !gl_FrontFacing) discard;
@@ -35,4 +39,5 @@ void main() {
         if (prev <= 0.0 || dist <= prev + peel_epsilon) discard;
     }
     out_map = vec4(dist, v_material, octa_encode(normalize(v_normal)));
+    out_geometric = octa_encode(normalize(v_face_normal));
 }

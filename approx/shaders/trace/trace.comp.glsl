@@ -2,7 +2,10 @@
 //
 // Each photon traces one segment: inside glass towards the exit (up to the
 // scene span); in the medium a free-flight distance d = -ln(1 - ξ)/sigma_bar
-// drawn from the shared RNG. The first hit on the segment is *estimated* from
+// drawn from the shared RNG. The search only looks where the light maps exist
+// (DESIGN.md): the segment is clipped to the light frustum first (Liang–Barsky
+// on its light clip coordinates, which are affine in t), so no sample is wasted
+// outside. The first hit on the clipped segment is *estimated* from
 // the light maps: per map, PEAK_SAMPLES interior samples, uniform along the
 // segment's projection in the light's image, look for the first sign change of
 // (distance to the light − map distance); none means no hit on that map; else
@@ -19,12 +22,17 @@
 // read as one storage buffer of texels (copied from the rendered textures):
 // plain loads, several times faster than texture fetches on llvmpipe.
 //
-// Defines: MAPS (2 × layers), PEAK_SAMPLES, ITERATIONS, MAX_MATERIALS, and
-// FRESNEL_STOCHASTIC when chosen.
+// The search starts a little way from the surface a photon leaves (the start
+// offset, common/start_offset.glsl): its distance to the maps' picture of that
+// surface must first exceed the maps' own error there.
+//
+// Defines: MAPS (2 × layers), PEAK_SAMPLES, ITERATIONS, MAX_MATERIALS, the
+// start-offset constants, and FRESNEL_STOCHASTIC when chosen.
 #include "common/rng.glsl"
 #include "common/optics.glsl"
 #include "common/octahedral.glsl"
 #include "common/photon.glsl"
+#include "common/start_offset.glsl"
 
 layout(local_size_x = 64) in;
 
@@ -53,6 +61,8 @@ layout(std430, binding = 1) writeonly buffer Records { Record records[]; };
 layout(std430, binding = 2) readonly buffer LightMaps { vec4 map_texels[]; };
 // the same maps' distances alone (what the search reads)
 layout(std430, binding = 3) readonly buffer LightMapDistances { float map_dist[]; };
+// the same maps' outward geometric normals (octahedral): inside/outside after a hit
+layout(std430, binding = 4) readonly buffer LightMapGeometric { vec2 map_geometric[]; };
 
 uint g_flags;
 
@@ -67,22 +77,21 @@ struct Segment {
     vec4 c1;  // ... at t1 (w > 0)
 };
 
-// Index of the map texel under the segment point at t, or -1 outside the frustum
-// (then FLAG_LEFT_FRUSTUM is raised).
+// Index of the map texel under the segment point at t, or -1 outside the maps (only
+// through rounding: segments are clipped to the frustum).
 int segment_texel_index(int map, Segment s, float t) {
     vec4 clip = mix(s.c0, s.c1, (t - s.t0) / (s.t1 - s.t0));
     vec2 uv = clip.xy / clip.w * 0.5 + 0.5;
-    if (any(lessThan(uv, vec2(0.0))) || any(greaterThanEqual(uv, vec2(1.0)))) {
-        g_flags |= FLAG_LEFT_FRUSTUM;
-        return -1;
-    }
+    if (any(lessThan(uv, vec2(0.0))) || any(greaterThanEqual(uv, vec2(1.0)))) return -1;
     ivec2 texel = ivec2(uv * float(light_res));
     return (map * light_res + texel.y) * light_res + texel.x;
 }
 
-// Texel under the segment point at t: (distance, material, octahedral normal); 0 if none.
-vec4 segment_texel(int map, Segment s, float t) {
+// Texel under the segment point at t: (distance, material, octahedral shading normal),
+// 0 if none; and its octahedral geometric normal.
+vec4 segment_texel(int map, Segment s, float t, out vec2 geometric) {
     int index = segment_texel_index(map, s, t);
+    geometric = index < 0 ? vec2(0.0) : map_geometric[index];
     return index < 0 ? vec4(0.0) : map_texels[index];
 }
 
@@ -101,10 +110,41 @@ float screen_uniform_t(float lam, Segment s) {
     return mix(s.t0, s.t1, mu);
 }
 
+// Binary search between a covered and an uncovered point of the map for where its
+// coverage ends; returns the covered end.
+float coverage_edge(int map, Segment s, float covered, float uncovered) {
+    for (int k = 0; k < ITERATIONS; ++k) {
+        float mid = 0.5 * (covered + uncovered);
+        bool v;
+        segment_f(map, s, mid, v);
+        if (v) covered = mid; else uncovered = mid;
+    }
+    return covered;
+}
+
+// Binary search for the crossing in [a, b] (f changes sign between them, a's side
+// given); returns t and the map texel beyond the crossing (the surface crossed).
+float refine_crossing(int map, Segment s, float a, float b, bool a_positive, out vec4 texel, out vec2 geometric) {
+    for (int k = 0; k < ITERATIONS; ++k) {
+        float mid = 0.5 * (a + b);
+        bool v;
+        float fm = segment_f(map, s, mid, v);
+        // An uncovered midpoint counts as the start's side: the crossing is beyond it.
+        if (v && ((fm > 0.0) != a_positive)) b = mid; else a = mid;
+    }
+    texel = segment_texel(map, s, b, geometric);
+    return 0.5 * (a + b);
+}
+
 // First sign change on the map within [t0, t1]; returns t or -1, and the map texel
-// at t (the surface crossed).
-float estimate_on_map(int map, Segment s, out vec4 texel) {
+// at t (the surface crossed) with its geometric normal. A crossing counts between two
+// covered points. Where the map's coverage begins or ends between two samples (a
+// silhouette seen from the light: photons inside glass often leave next to one), the
+// covered end nearest the edge is found by binary search and tested too, so a
+// crossing between the last covered sample and the edge is not missed.
+float estimate_on_map(int map, Segment s, out vec4 texel, out vec2 geometric) {
     texel = vec4(0.0);
+    geometric = vec2(0.0);
     bool prev_valid;
     float prev_t = s.t0;
     float prev_f = segment_f(map, s, s.t0, prev_valid);
@@ -112,18 +152,16 @@ float estimate_on_map(int map, Segment s, out vec4 texel) {
         float t = j == PEAK_SAMPLES + 1 ? s.t1 : screen_uniform_t(float(j) / float(PEAK_SAMPLES + 1), s);
         bool valid;
         float f = segment_f(map, s, t, valid);
-        if (valid && prev_valid && ((f > 0.0) != (prev_f > 0.0))) {
-            float a = prev_t, b = t;
-            bool a_positive = prev_f > 0.0;
-            for (int k = 0; k < ITERATIONS; ++k) {
-                float mid = 0.5 * (a + b);
-                bool v;
-                float fm = segment_f(map, s, mid, v);
-                // An uncovered midpoint counts as the start's side: the crossing is beyond it.
-                if (v && ((fm > 0.0) != a_positive)) b = mid; else a = mid;
-            }
-            texel = segment_texel(map, s, b);  // the texel beyond the crossing holds the surface crossed
-            return 0.5 * (a + b);
+        if (valid && prev_valid) {
+            if ((f > 0.0) != (prev_f > 0.0)) return refine_crossing(map, s, prev_t, t, prev_f > 0.0, texel, geometric);
+        } else if (valid || prev_valid) {
+            float edge = prev_valid ? coverage_edge(map, s, prev_t, t) : coverage_edge(map, s, t, prev_t);
+            bool v;
+            float f_edge = segment_f(map, s, edge, v);
+            if (prev_valid && (f_edge > 0.0) != (prev_f > 0.0))
+                return refine_crossing(map, s, prev_t, edge, prev_f > 0.0, texel, geometric);
+            if (valid && (f_edge > 0.0) != (f > 0.0))
+                return refine_crossing(map, s, edge, t, f_edge > 0.0, texel, geometric);
         }
         prev_t = t;
         prev_f = f;
@@ -131,6 +169,43 @@ float estimate_on_map(int map, Segment s, out vec4 texel) {
     }
     return -1.0;
 }
+
+// Keep the part of [lo, hi] where a + b·t >= 0 (one plane of Liang–Barsky clipping).
+void clip_plane(float a, float b, inout float lo, inout float hi) {
+    if (b == 0.0) {
+        if (a < 0.0) hi = -1.0;
+        return;
+    }
+    float t = -a / b;
+    if (b > 0.0) lo = max(lo, t); else hi = min(hi, t);
+}
+
+// Clip [lo, hi] of o + t·d to the light frustum: light clip coordinates c(t), affine
+// in t (c0 at t = 0, c1 at t = len), must satisfy |x|, |y| <= (1 − margin)·w (margin:
+// a quarter texel, so every sample falls on a texel) and w >= w_min (in front of the light).
+void clip_to_frustum(vec4 c0, vec4 c1, float len, float w_min, inout float lo, inout float hi) {
+    vec4 slope = (c1 - c0) / len;
+    float keep = 1.0 - 0.5 / float(light_res);
+    clip_plane(keep * c0.w - c0.x, keep * slope.w - slope.x, lo, hi);
+    clip_plane(keep * c0.w + c0.x, keep * slope.w + slope.x, lo, hi);
+    clip_plane(keep * c0.w - c0.y, keep * slope.w - slope.y, lo, hi);
+    clip_plane(keep * c0.w + c0.y, keep * slope.w + slope.y, lo, hi);
+    clip_plane(c0.w - w_min, slope.w, lo, hi);
+}
+
+#ifdef CLIP_TO_OBJECTS
+uniform vec3 objects_min;  // bounding box of the specular objects (slightly padded)
+uniform vec3 objects_max;
+
+// Clip [lo, hi] of o + t·d to the specular objects' bounding box (slab test).
+void clip_to_objects(vec3 o, vec3 d, inout float lo, inout float hi) {
+    vec3 inv = 1.0 / d;
+    vec3 ta = (objects_min - o) * inv, tb = (objects_max - o) * inv;
+    vec3 t_near = min(ta, tb), t_far = max(ta, tb);
+    lo = max(lo, max(max(t_near.x, t_near.y), t_near.z));
+    hi = min(hi, min(min(t_far.x, t_far.y), t_far.z));
+}
+#endif
 
 // Distance along d from o (inside the box) to the exit of the scene box.
 float box_exit(vec3 o, vec3 d) {
@@ -173,57 +248,64 @@ void main() {
     }
     float search = min(max_len, span);
 
-    // --- intersection estimation over all light maps
-    // Leave the surface we start on: the maps hold it to within a texel, so the search
-    // starts a few texel footprints away (measured on an index-matched sphere at
-    // light_res 1024: 1 footprint loses 17% of the caustic to false re-hits of the exit
-    // surface, 3 lose 2.5%, 5 lose 1%; larger offsets start to skip thin features).
-    float t_eps = 5.0 * texel_angle * length(o - light_position);
+    // --- intersection estimation over all light maps, on the part of [t_eps, search]
+    // inside the light frustum (and the objects' box); ph.power.w carries the start
+    // offset in light-map texel footprints (0 after a medium collision)
+    float footprint = texel_angle * length(o - light_position);
+    float t_eps = ph.power.w * footprint;
     vec4 c0 = light_view_proj * vec4(o, 1.0);
     vec4 c1 = light_view_proj * vec4(o + d * search, 1.0);
-    float w_min = 1e-4 * max(c0.w, 1e-3);
-    float t1 = search;
-    if (c1.w < w_min && c0.w > w_min) {  // keep the part in front of the light
-        t1 = search * (c0.w - w_min) / (c0.w - c1.w);
-    }
+    float w_min = 1e-4 * max(max(c0.w, c1.w), 1e-3);
+    float t0 = t_eps, t1 = search;
+    if (search > 0.0) clip_to_frustum(c0, c1, search, w_min, t0, t1);
+    if (t0 > t_eps || t1 < search) g_flags |= FLAG_LEFT_FRUSTUM;
+#ifdef CLIP_TO_OBJECTS
+    clip_to_objects(o, d, t0, t1);
+#endif
     float best_t = -1.0;
     int best_map = -1;
     vec4 best_texel = vec4(0.0);
-    if (c0.w > w_min && t1 > t_eps) {
+    vec2 best_geometric = vec2(0.0);
+    if (t1 > t0) {
         Segment seg;
         seg.q = o - light_position;
         seg.d = d;
-        seg.t0 = t_eps;
+        seg.t0 = t0;
         seg.t1 = t1;
-        seg.c0 = mix(c0, c1, t_eps / search);
+        seg.c0 = mix(c0, c1, t0 / search);
         seg.c1 = mix(c0, c1, t1 / search);
         // distance range of the segment from the light: closest point, farthest end
-        float t_close = clamp(-dot(seg.q, d), t_eps, t1);
+        float t_close = clamp(-dot(seg.q, d), t0, t1);
         float r_min = length(seg.q + d * t_close);
-        float r_max = max(length(seg.q + d * t_eps), length(seg.q + d * t1));
+        float r_max = max(length(seg.q + d * t0), length(seg.q + d * t1));
         for (int m = 0; m < MAPS; ++m) {
             if (!map_used[m] || r_max < map_min_dist[m] || r_min > map_max_dist[m]) continue;
             vec4 texel;
-            float t = estimate_on_map(m, seg, texel);
+            vec2 geometric;
+            float t = estimate_on_map(m, seg, texel, geometric);
             if (t >= 0.0 && (best_t < 0.0 || t < best_t)) {
                 best_t = t;
                 best_map = m;
                 best_texel = texel;
+                best_geometric = geometric;
             }
         }
     }
 
     // --- outcome
     vec3 end;
+    float next_offset = 0.0;  // start offset of the next segment (texel footprints)
     int material_hit = -1;
     vec3 normal = vec3(0.0);
     if (best_t >= 0.0) {
         end = o + d * best_t;
         power *= exp(-(inside >= 0 ? absorption[inside] : sigma_t) * best_t);
         normal = octa_decode(best_texel.ba);
+        vec3 geometric = octa_decode(best_geometric);
         material_hit = int(best_texel.g + 0.5);
-        g_flags |= surface_interaction(d, power, inside, normal, material_hit,
+        g_flags |= surface_interaction(d, power, inside, normal, geometric, material_hit,
                                        rng_uniform(seed, i, step_index, 1u));
+        next_offset = start_offset(end - light_position, d, geometric);
         status = STATUS_SURFACE;
     } else if (inside >= 0) {
         end = o + d * search;
@@ -239,7 +321,7 @@ void main() {
 
     ph.pos = vec4(end, float(inside));
     ph.dir = vec4(d, float(status));
-    ph.power = vec4(power, 0.0);
+    ph.power = vec4(power, next_offset);
     photons[i] = ph;
 
     rec.start_maxlen.w = max_len;
@@ -247,6 +329,6 @@ void main() {
     rec.normal_map = vec4(normal, float(best_map));
     rec.end_status = vec4(end, float(status));
     rec.power_inside.rgb = power;
-    rec.extra = vec4(float(g_flags), float(material_hit), search, 0.0);
+    rec.extra = vec4(float(g_flags), float(material_hit), search, t_eps);
     records[i] = rec;
 }
