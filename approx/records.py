@@ -27,6 +27,7 @@ RECORD_DTYPE = np.dtype([
     ("direction", "<f4", 3),  # unit direction
     ("max_length", "<f4"),    # sampled free-flight distance (medium) or scene span (inside glass)
     ("search_length", "<f4"), # length actually searched (max_length clipped to the scene box)
+    ("start_offset", "<f4"),  # the search began this far from the start (m; common/start_offset.glsl)
     ("t", "<f4"),             # estimated first-hit distance, nan if no hit
     ("hit", "?"),
     ("map", "<i2"),           # light map of the hit: 2 * layer + (0 front, 1 back); -1 if no hit
@@ -53,6 +54,7 @@ def records_from_raw(raw: np.ndarray, step: int, *, active_only: bool = True) ->
     out["direction"] = r["dir_t"][:, :3]
     out["max_length"] = r["start_maxlen"][:, 3]
     out["search_length"] = r["extra"][:, 2]
+    out["start_offset"] = r["extra"][:, 3]
     hit = r["dir_t"][:, 3] >= 0
     out["hit"] = hit
     out["t"] = np.where(hit, r["dir_t"][:, 3], np.nan)

@@ -1,0 +1,99 @@
+"""The tracer's start offset: false re-hits against skipped hits across light_res.
+
+    .venv/bin/python bench/start_offset.py [SCENE ...] [--light-res 256,512,1024]
+
+A segment that leaves a surface starts its search a little way out (the start
+offset, approx/shaders/common/start_offset.glsl). Too short and the search finds
+the surface it leaves again (a false re-hit: the maps hold that surface only to
+within a texel); too long and it jumps over real surfaces close by (a skipped
+hit: thin walls, nearby objects). For every segment of steps ≥ 2 that starts at a
+surface, the exact oracle answers on the same interval, and:
+
+* skipped hit: the exact first hit lies within the start offset on another
+  surface (its shading normal differs from the start's by more than 18°; an
+  exact hit on the start surface itself is a self re-hit of the approximate start
+  point, not a skip);
+* false re-hit: the approximation hits the surface it started on (normal within
+  18° of the start's) where the exact first hit is not within 3 texel footprints.
+
+Shares are of those segments, for the rule in approx/trace.py (``new``) and the
+former constant offset of 5 texel footprints (``old``), stochastic Fresnel, 6 steps.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+SAME_SURFACE = 0.95  # cosine between normals: the same surface (18°)
+OLD_RULE = {"START_SLOPE": 0.0, "START_FLOOR": 1e9, "START_MAX": 5.0}  # always 5 footprints
+
+
+def classify(records: list, oracle, texel_angle: float, light_position) -> dict:
+    """Counts of surface-start segments, skipped hits and false re-hits over steps ≥ 2."""
+    import numpy as np
+
+    counts = {"segments": 0, "skipped": 0, "false_rehit": 0}
+    for prev, rec in zip(records[:-1], records[1:]):
+        k = np.searchsorted(prev["photon"], rec["photon"])
+        from_surface = prev["hit"][k]
+        seg, start_normal = rec[from_surface], prev["normal"][k][from_surface]
+        if len(seg) == 0:
+            continue
+        q = oracle.first_hits(seg["start"], seg["direction"], seg["search_length"])
+        exact_same = np.einsum("ij,ij->i", np.nan_to_num(q["normal"]), start_normal) > SAME_SURFACE
+        skipped = q["hit"] & (q["t"] < seg["start_offset"]) & ~exact_same
+        approx_same = np.einsum("ij,ij->i", np.nan_to_num(seg["normal"]), start_normal) > SAME_SURFACE
+        hit_point = seg["start"] + seg["direction"] * np.nan_to_num(seg["t"])[:, None]
+        tolerance = 3.0 * texel_angle * np.linalg.norm(hit_point - light_position, axis=1)
+        agrees = q["hit"] & (np.abs(np.nan_to_num(q["t"]) - np.nan_to_num(seg["t"])) <= tolerance)
+        rehit = seg["hit"] & approx_same & ~agrees
+        counts["segments"] += len(seg)
+        counts["skipped"] += int(skipped.sum())
+        counts["false_rehit"] += int(rehit.sum())
+    return counts
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("scenes", nargs="*", default=["sphere1", "bunny", "skull"])
+    parser.add_argument("--light-res", default="256,512,1024")
+    parser.add_argument("--photon-res", type=int, default=256)
+    args = parser.parse_args(argv)
+
+    import numpy as np
+
+    import reference  # noqa: F401  (libLLVM before drjit)
+    from approx import ApproxParams, Renderer, trace
+    from approx.light import LightFrustum
+    from reference.oracle import Oracle
+    from scenes import load_builtin
+
+    new_rule = dict(trace.START_OFFSET)
+    print(f"photon_res {args.photon_res}, stochastic Fresnel, 6 steps; shares of segments leaving a surface")
+    print(f"{'scene':8} {'light_res':>9} {'rule':5} {'segments':>9} {'skipped':>8} {'false re-hit':>12}")
+    for name in args.scenes:
+        scene = load_builtin(name)
+        oracle = Oracle(scene)
+        for light_res in (int(x) for x in args.light_res.split(",")):
+            frustum = LightFrustum.for_scene(scene, *__import__("scenes.bounds", fromlist=["x"]).medium_bounds(scene))
+            texel_angle = 2.0 * frustum.tan_half / light_res
+            for label, rule in (("old", OLD_RULE), ("new", new_rule)):
+                trace.START_OFFSET.clear()
+                trace.START_OFFSET.update(rule)
+                renderer = Renderer(scene)
+                params = ApproxParams(photon_res=args.photon_res, light_res=light_res, width=32, height=32, steps=6,
+                                      fresnel="stochastic")
+                frame = renderer.render(params)
+                renderer.release()
+                c = classify(frame.records, oracle, texel_angle, np.asarray(scene.light.position))
+                n = max(c["segments"], 1)
+                print(f"{name:8} {light_res:9d} {label:5} {c['segments']:9d} {100 * c['skipped'] / n:7.2f}% "
+                      f"{100 * c['false_rehit'] / n:11.2f}%", flush=True)
+    trace.START_OFFSET.clear()
+    trace.START_OFFSET.update(new_rule)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
