@@ -14,7 +14,9 @@ from dataclasses import dataclass, field
 import moderngl
 import numpy as np
 
-from .camera_pass import KIND_SPECULAR, CameraPasses, CameraView
+from scenes.formats import KIND_SPECULAR
+
+from .camera_pass import CameraPasses, CameraView
 from .context import gl_info, shared_context
 from .geometry import SceneGeometry
 from .layers import BOTH, LightMapRenderer

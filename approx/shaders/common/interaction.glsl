@@ -6,6 +6,8 @@
 #ifndef VOLCAUSTICS_INTERACTION_GLSL
 #define VOLCAUSTICS_INTERACTION_GLSL
 
+#include "common/photon.glsl"
+
 // d: incoming unit direction; n: surface normal (any side); inside: material the
 // photon travels in (-1 medium); hit_material: object whose surface was hit.
 // Updates d, power, inside; returns FLAG_* bits.
