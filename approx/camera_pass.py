@@ -5,13 +5,14 @@ from __future__ import annotations
 import moderngl
 import numpy as np
 
+from scenes.formats import KIND_DIFFUSE, KIND_SPECULAR
+
 from .context import bound
 from .glsl import program, set_uniforms as _set
 from .light import spot_constants
 from .transforms import gl_matrix, look_at, perspective
 
 MAX_DIFFUSE = 16
-KIND_NONE, KIND_DIFFUSE, KIND_SPECULAR = 0, 1, 2
 
 
 class CameraView:
@@ -47,7 +48,8 @@ class CameraPasses:
         self.empty_vao_direct = ctx.vertex_array(self.direct, [])
 
     def render_gbuffer(self, geometry, view: CameraView):
-        """(geometry, normal) RGBA32F textures: (distance to eye, kind, material, 0) and world normals."""
+        """(geometry, normal) RGBA32F textures: (distance to eye, KIND_*, material, 0) and world normals
+        (cleared to 0: KIND_NONE where no surface is seen)."""
         ctx = self.ctx
         size = (view.width, view.height)
         geo, nrm = ctx.texture(size, 4, dtype="f4"), ctx.texture(size, 4, dtype="f4")

@@ -1,9 +1,14 @@
 """The one GLSL loader: shaders by name from ``approx/shaders/<pass>/``.
 
 A shader file has no ``#version`` line; the loader writes ``#version 430 core``,
-then one ``#define NAME VALUE`` per entry of ``defines``, then the file with every
-``#include "common/x.glsl"`` line replaced by that file (paths relative to the
-shaders folder, each file included once).
+then one ``#define NAME VALUE`` per entry of :data:`SHARED_DEFINES` and of
+``defines``, then the file with every ``#include "common/x.glsl"`` line replaced
+by that file (paths relative to the shaders folder, each file included once).
+
+:data:`SHARED_DEFINES` are the codes GLSL shares with Python, whose one source is
+``scenes.formats``: every shader gets them. A shader (or the common file it
+includes) states their defaults under ``#ifndef NAME`` so that it compiles on its
+own; the loader's lines come first, so its values win.
 """
 
 from __future__ import annotations
@@ -13,9 +18,14 @@ import re
 
 import moderngl
 
+from scenes.formats import FLAG_BITS, SHAPE_KINDS, STATUS_CODES
+
 SHADER_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "shaders")
 GLSL_VERSION = "#version 430 core"
 _INCLUDE = re.compile(r'^\s*#include\s+"([^"]+)"\s*$', re.MULTILINE)
+
+#: Status codes and shape kinds as int, flag bits as uint (GLSL ``1u``: they are or-ed into uints).
+SHARED_DEFINES = {**STATUS_CODES, **{name: f"{bit}u" for name, bit in FLAG_BITS.items()}, **SHAPE_KINDS}
 
 
 def _expand(text: str, seen: set[str]) -> str:
@@ -31,9 +41,14 @@ def _expand(text: str, seen: set[str]) -> str:
 
 
 def build_source(text: str, defines: dict | None = None) -> str:
-    """Full GLSL source from shader ``text`` (no #version line) and ``defines``."""
+    """Full GLSL source from shader ``text`` (no #version line), :data:`SHARED_DEFINES`
+    and ``defines`` (which cannot redefine a shared code)."""
+    defines = defines or {}
+    clash = sorted(SHARED_DEFINES.keys() & defines.keys())
+    if clash:
+        raise ValueError(f"defines {clash} are shared codes (scenes.formats) and cannot be redefined")
     lines = [GLSL_VERSION]
-    for name, value in (defines or {}).items():
+    for name, value in {**SHARED_DEFINES, **defines}.items():
         if isinstance(value, bool):
             value = int(value)
         lines.append(f"#define {name} {value}")

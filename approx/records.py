@@ -1,49 +1,21 @@
-"""Photon and segment-record layouts shared with ``common/photon.glsl``.
+"""Segment records from the GPU tracer's raw layout.
 
-Per step the tracer writes one :data:`RECORD_DTYPE` row per photon slot; the
-numpy view exposes what the exact oracle needs: segment start, direction,
-max length, estimated t, hit flag, map (layer) index, estimated normal, status.
+The layouts and codes are ``scenes.formats``: per step the tracer writes one
+``RAW_RECORD_DTYPE`` row (std430 ``Record``) per photon slot; :func:`records_from_raw`
+turns them into ``RECORD_DTYPE`` rows, the format the exact photon tracer
+also writes and metrics compare.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-STATUS_DEAD, STATUS_SURFACE, STATUS_COLLIDED, STATUS_LEFT_SCENE, STATUS_LOST = range(5)
-STATUS_NAMES = {STATUS_DEAD: "dead", STATUS_SURFACE: "surface", STATUS_COLLIDED: "collided",
-                STATUS_LEFT_SCENE: "left_scene", STATUS_LOST: "lost"}
-FLAG_LEFT_FRUSTUM, FLAG_REFLECTED, FLAG_TIR = 1, 2, 4
-
-PHOTON_DTYPE = np.dtype([("pos", "<f4", 4), ("dir", "<f4", 4), ("power", "<f4", 4)])
-SPLAT_DTYPE = np.dtype([("center_status", "<f4", 4), ("dir", "<f4", 4), ("power", "<f4", 4)])
-RAW_RECORD_DTYPE = np.dtype([("start_maxlen", "<f4", 4), ("dir_t", "<f4", 4), ("normal_map", "<f4", 4),
-                             ("end_status", "<f4", 4), ("power_inside", "<f4", 4), ("extra", "<f4", 4),
-                             ("power_start", "<f4", 4)])
-
-RECORD_DTYPE = np.dtype([
-    ("photon", "<u4"),        # photon index = emission texel (row * photon_res + column)
-    ("step", "<u2"),          # interaction step, 1..steps
-    ("start", "<f4", 3),      # segment start (world, m)
-    ("direction", "<f4", 3),  # unit direction
-    ("max_length", "<f4"),    # sampled free-flight distance (medium) or scene span (inside glass)
-    ("search_length", "<f4"), # length actually searched (max_length clipped to the scene box)
-    ("start_offset", "<f4"),  # the search began this far from the start (m; common/start_offset.glsl)
-    ("t", "<f4"),             # estimated first-hit distance, nan if no hit
-    ("hit", "?"),
-    ("map", "<i2"),           # light map of the hit: 2 * layer + (0 front, 1 back); -1 if no hit
-    ("normal", "<f4", 3),     # estimated normal at the hit (nan if no hit)
-    ("material", "<i2"),      # specular object hit (-1 none)
-    ("inside", "<i2"),        # specular object the segment runs inside (-1: medium)
-    ("end", "<f4", 3),        # where the step ended
-    ("power_start", "<f4", 3),  # power at the segment start (W, RGB)
-    ("power", "<f4", 3),      # power after the step (W, RGB)
-    ("status", "<u1"),        # STATUS_* after the step
-    ("flags", "<u1"),         # FLAG_* bits
-])
+from scenes.formats import RECORD_DTYPE, STATUS_DEAD
 
 
 def records_from_raw(raw: np.ndarray, step: int, *, active_only: bool = True) -> np.ndarray:
-    """Convert one step's raw GPU records (N rows of RAW_RECORD_DTYPE) to RECORD_DTYPE."""
+    """Convert one step's raw GPU records (N rows of RAW_RECORD_DTYPE) to RECORD_DTYPE
+    (photons not dead at this step, or every slot when ``active_only`` is false)."""
     status = raw["end_status"][:, 3].astype(np.int64)
     index = np.nonzero(status != STATUS_DEAD)[0] if active_only else np.arange(len(raw))
     r = raw[index]

@@ -14,28 +14,28 @@ from dataclasses import dataclass, field
 import moderngl
 import numpy as np
 
-from .camera_pass import KIND_SPECULAR, CameraPasses, CameraView
+from scenes.formats import KIND_SPECULAR, RAW_RECORD_DTYPE, SPLAT_DTYPE
+
+from .camera_pass import CameraPasses, CameraView
 from .context import gl_info, shared_context
 from .geometry import SceneGeometry
 from .layers import BOTH, LightMapRenderer
 from .light import LightFrustum
 from .params import ApproxParams
-from .records import RAW_RECORD_DTYPE, SPLAT_DTYPE, records_from_raw
+from .records import records_from_raw
 from .splat import Splatter
 from .timing import PassTimer, timer_queries_work
-from .trace import PhotonTracer, read_raw_records, sampling_rate
-
-LAYER_NAMES = ("caustic", "fog", "direct", "combined", "mask_specular")
+from .trace import PhotonTracer, read_raw_records
 
 
 @dataclass
 class Frame:
     """One rendered frame.
 
-    images: layer name → H×W×3 float32, linear Rec.709, radiance W·m⁻²·sr⁻¹, row 0 at
-        the top (``mask_specular`` is 0/1 in all three channels).
+    images: layer name (``scenes.formats.LAYER_NAMES``) → H×W×3 float32, linear Rec.709,
+        radiance W·m⁻²·sr⁻¹, row 0 at the top (``mask_specular`` is 0/1 in all three channels).
     caustic_steps: per interaction step, the caustic image of that step's photons.
-    records: per step, the segment records (approx.records.RECORD_DTYPE, active photons).
+    records: per step, the segment records (scenes.formats.RECORD_DTYPE, active photons).
     timings: pass name → seconds; ``timing_method`` says how they were measured.
     params: the parameters actually used (width/height resolved).
     """
@@ -109,7 +109,6 @@ class Renderer:
             gbuf_geo, gbuf_nrm = camera_passes.render_gbuffer(geo, view)
         released += [gbuf_geo, gbuf_nrm]
 
-        sigma_bar = sampling_rate(scene.medium)
         records, caustic_steps = [], []
         record_buf = ctx.buffer(reserve=count * RAW_RECORD_DTYPE.itemsize)
         splat_buf = ctx.buffer(reserve=count * SPLAT_DTYPE.itemsize)
@@ -124,7 +123,8 @@ class Renderer:
                 step_fbo = ctx.framebuffer(color_attachments=[step_image])
                 step_fbo.clear(0.0, 0.0, 0.0, 0.0)
                 step_fbo.release()
-                splatter.splat(splat_buf, n_splats, view, scene.medium, p.splat_radius, sigma_bar, gbuf_geo, step_image)
+                splatter.splat(splat_buf, n_splats, view, scene.medium, p.splat_radius, scene.medium.sigma_bar,
+                               gbuf_geo, step_image)
             caustic_steps.append(_read_rgb(step_image))
             step_image.release()
             if keep_records:

@@ -10,9 +10,10 @@ from __future__ import annotations
 import moderngl
 import numpy as np
 
+from scenes.formats import SPLAT_DTYPE, STATUS_COLLIDED
+
 from .context import bound
 from .glsl import attribute_layout, program
-from .records import SPLAT_DTYPE, STATUS_COLLIDED
 
 # Instance attributes of a splat (SPLAT_DTYPE, 48 bytes).
 INSTANCE_PARTS = [("4f", "in_end"), ("4f", "in_dir_t"), ("4f", "in_power")]

@@ -1,13 +1,14 @@
 """Emission and the image-based photon tracer (paper §4.1–4.3) on compute shaders.
 
 Why the splatted power is right: in the medium a photon collides at rate
-sigma_bar (free flight d = −ln(1−ξ)/sigma_bar) and keeps going after each
-collision, while its power follows the deterministic transmittance
-exp(−sigma_t·s) of the distance s travelled. The expected number of collisions
-in ds is sigma_bar·ds, each splatting power Φ(s)·sigma_s/sigma_bar, so the
-expected splatted power density is sigma_s·Φ0·exp(−sigma_t·s): exactly the
-single-scattering source along the refracted beam. With grey media
-sigma_bar = sigma_t and the weight is the paper's σs/σt.
+sigma_bar (``scenes.model.Medium.sigma_bar``, the mean of sigma_t over RGB; free
+flight d = −ln(1−ξ)/sigma_bar) and keeps going after each collision, while its
+power follows the deterministic transmittance exp(−sigma_t·s) of the distance s
+travelled. The expected number of collisions in ds is sigma_bar·ds, each
+splatting power Φ(s)·sigma_s/sigma_bar, so the expected splatted power density
+is sigma_s·Φ0·exp(−sigma_t·s): exactly the single-scattering source along the
+refracted beam. With grey media sigma_bar = sigma_t and the weight is the
+paper's σs/σt.
 """
 
 from __future__ import annotations
@@ -17,9 +18,10 @@ import math
 import moderngl
 import numpy as np
 
+from scenes.formats import PHOTON_DTYPE, RAW_RECORD_DTYPE
+
 from .glsl import compute_shader, set_uniforms
 from .light import spot_constants
-from .records import PHOTON_DTYPE, RAW_RECORD_DTYPE
 from .transforms import gl_matrix
 
 MAX_MATERIALS = 16
@@ -30,11 +32,6 @@ COMPACT_BLOCK = 256  # BLOCK of splat/compact.comp.glsl
 # at most START_MAX. START_SLOPE = √2 from the texel geometry; the floor and the cap
 # were chosen by measurement (bench/start_offset.py).
 START_OFFSET = {"START_SLOPE": 1.4142135, "START_FLOOR": 0.5, "START_MAX": 5.0}
-
-
-def sampling_rate(medium) -> float:
-    """Free-flight sampling rate sigma_bar: the mean of sigma_t over RGB (1/m); 0 for vacuum."""
-    return float(np.mean(medium.sigma_t))
 
 
 def _materials(scene):
@@ -135,7 +132,7 @@ class PhotonTracer:
                      map_max_dist=[float(b) for _, _, b in map_info],
                      light_position=tuple(frustum.position), light_res=light_res,
                      texel_angle=2.0 * frustum.tan_half / light_res, sigma_t=tuple(scene.medium.sigma_t),
-                     sigma_bar=sampling_rate(scene.medium), scene_min=tuple(geometry.scene_min),
+                     sigma_bar=scene.medium.sigma_bar, scene_min=tuple(geometry.scene_min),
                      scene_max=tuple(geometry.scene_max), seed=seed, step_index=step, photon_count=count)
         photons.bind_to_storage_buffer(0)
         records.bind_to_storage_buffer(1)

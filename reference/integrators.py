@@ -28,8 +28,10 @@ import math
 
 import drjit as dr
 
+from scenes.formats import KIND_DIFFUSE, KIND_SPECULAR
+
 from .mi_setup import mitsuba
-from .shapes import KIND_BOUNDARY, KIND_DIFFUSE, KIND_SPECULAR, ShapeTable
+from .shapes import ShapeTable
 
 mi = mitsuba()
 
@@ -107,7 +109,7 @@ def configure(integrator, scene_model, mi_scene):
     medium = scene_model.medium
     integrator.sigma_s = mi.Color3f(*(float(x) for x in medium.sigma_s))
     integrator.sigma_t = mi.Color3f(*(float(x) for x in medium.sigma_t))
-    integrator.sigma_bar = float(sum(medium.sigma_t) / 3.0)
+    integrator.sigma_bar = medium.sigma_bar
     integrator.has_medium = not medium.is_vacuum
     integrator.g = float(medium.phase.g) if medium.phase.kind == "hg" else 0.0
     integrator.table = ShapeTable(mi, mi_scene, scene_model)

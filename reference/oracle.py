@@ -8,7 +8,7 @@
   emission state with exact intersections and the very same random numbers
   (``scenes.rng``: free flight from u(seed, photon, step, 0), Fresnel choice from
   u(seed, photon, step, 1)), producing per-step records in the approximation's
-  format (``approx.records.RECORD_DTYPE``), so the two can be compared segment by
+  format (``scenes.formats.RECORD_DTYPE``), so the two can be compared segment by
   segment. The physics mirrors ``approx/shaders/trace/trace.comp.glsl``.
 """
 
@@ -16,11 +16,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from scenes.bounds import medium_bounds
+from scenes.bounds import box_exit, medium_bounds
+from scenes.formats import (FLAG_REFLECTED, FLAG_TIR, RECORD_DTYPE, STATUS_COLLIDED, STATUS_LEFT_SCENE, STATUS_LOST,
+                            STATUS_SURFACE)
 from scenes.rng import uniform
-
-STATUS_DEAD, STATUS_SURFACE, STATUS_COLLIDED, STATUS_LEFT_SCENE, STATUS_LOST = range(5)
-FLAG_REFLECTED, FLAG_TIR = 2, 4
 
 
 class Oracle:
@@ -90,13 +89,6 @@ def fresnel_dielectric(cos_i, eta):
     return np.where(sin2_t >= 1.0, 1.0, 0.5 * (r_s * r_s + r_p * r_p))
 
 
-def _box_exit(o, d, lo, hi):
-    with np.errstate(divide="ignore", invalid="ignore"):
-        inv = 1.0 / d
-        t_far = np.maximum((lo - o) * inv, (hi - o) * inv)
-    return np.maximum(np.nanmin(t_far, axis=1), 0.0)
-
-
 def surface_interaction(d, power, n, n_geometric, hit_material, xi, ior, stochastic: bool):
     """Vectorised twin of common/interaction.glsl; returns (d, power, inside, flags).
 
@@ -129,12 +121,10 @@ def exact_photon_records(scene, first_records, *, steps: int, seed: int, fresnel
     """Replay photons from the approximation's step-1 records (their emission state:
     start, direction, inside, power_start) with exact intersections; returns one
     RECORD_DTYPE array per step (photons alive at that step)."""
-    from approx.records import RECORD_DTYPE
-
     oracle = oracle or Oracle(scene)
     lo, hi = medium_bounds(scene)
     sigma_t = np.asarray(scene.medium.sigma_t, np.float64)
-    sigma_bar = float(np.float32(np.mean(np.asarray(scene.medium.sigma_t, np.float32))))
+    sigma_bar = float(np.float32(scene.medium.sigma_bar))  # the GPU tracer's float32 uniform
     ior = np.asarray([o.ior for o in scene.specular] + [1.0], np.float64)
     absorption = np.asarray([o.absorption for o in scene.specular] + [(0.0, 0.0, 0.0)], np.float64)
     stochastic = fresnel == "stochastic"
@@ -148,7 +138,7 @@ def exact_photon_records(scene, first_records, *, steps: int, seed: int, fresnel
     out = []
     for step in range(1, steps + 1):
         n = len(idx)
-        span = _box_exit(o, d, lo, hi)
+        span = box_exit(o, d, lo, hi)
         max_len = span.copy()
         medium = inside < 0
         if sigma_bar > 0:

@@ -16,12 +16,11 @@ import time
 
 import numpy as np
 
+from scenes.formats import COLOUR_LAYERS, MASK_LAYER
 from scenes.imageio import png_bytes, tonemap_srgb8
 
 from . import cache
 from .settings import ReferenceSettings
-
-COLOUR_LAYERS = ("caustic", "fog", "direct", "combined")
 
 
 class ReferenceResult:
@@ -108,7 +107,7 @@ def render_batches(scene, settings: ReferenceSettings, *, mode: str = "caustic",
             acc[name].add(image)
     out = {name: acc[name].result() for name in COLOUR_LAYERS}
     m = np.repeat(mask.astype(np.float32), 3, axis=2)
-    out["mask_specular"] = (m, np.zeros_like(m))
+    out[MASK_LAYER] = (m, np.zeros_like(m))
     out["_info"] = {"seconds": time.perf_counter() - t0, "photons": photon_spp * pixels * settings.batches,
                     "photon_spp_per_batch": photon_spp, "camera_spp_per_batch": camera_spp}
     return out
@@ -131,7 +130,7 @@ def render_reference(scene, settings: ReferenceSettings | None = None, *, force:
     layers = {}
     for name, (mean, var) in out.items():
         layers[name] = mean
-        if name != "mask_specular":
+        if name != MASK_LAYER:
             layers[f"{name}_var"] = var
     manifest = {
         "scene": scene.name, "scene_hash": scene.scene_hash(), "settings": settings.to_dict(),

@@ -7,11 +7,11 @@ index in our scene model and the glass absorption coefficient.
 
 from __future__ import annotations
 
-KIND_NONE, KIND_SPECULAR, KIND_DIFFUSE, KIND_BOUNDARY = 0, 1, 2, 3
+from scenes.formats import KIND_BOUNDARY, KIND_DIFFUSE, KIND_NONE, KIND_SPECULAR
 
 
 class ShapeTable:
-    """kind (UInt32), index (Int32) and absorption (Color3f) by shape registry id."""
+    """kind (UInt32, ``scenes.formats`` KIND_*), index (Int32) and absorption (Color3f) by shape registry id."""
 
     def __init__(self, mi, mi_scene, scene):
         import drjit as dr

@@ -56,6 +56,7 @@ def _cmd_scenes(args) -> int:
 
 def _cmd_report(args) -> int:
     from scenes import BUILTIN_NAMES
+    from scenes.formats import COLOUR_LAYERS
 
     from .report import build_report
 
@@ -72,7 +73,7 @@ def _cmd_report(args) -> int:
     for row in summary["scenes"]:
         e = row["errors"]
         print(f"{row['scene']:<12} relative MSE: " + ", ".join(
-            f"{k} {100 * e[k]['relative_mse']:.2f}%" for k in ("caustic", "fog", "direct", "combined")
+            f"{k} {100 * e[k]['relative_mse']:.2f}%" for k in COLOUR_LAYERS
             if e[k]["relative_mse"] is not None))
     print(f"report: {len(summary['scenes'])} scenes -> {args.out}/index.html")
     return 0

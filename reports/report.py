@@ -18,10 +18,9 @@ import time
 
 import numpy as np
 
+from scenes.formats import COLOUR_LAYERS, MASK_LAYER
 from scenes.imageio import write_png
 from scenes.storage import atomic_write_text
-
-LAYERS = ("caustic", "fog", "direct", "combined")
 
 
 def _sized(scene, width, height):
@@ -32,9 +31,9 @@ def scene_errors(approx_images: dict, reference_mean: dict) -> dict:
     """Per layer: relative MSE and energy ratio of the approximation over non-glass pixels."""
     from metrics.image import relative_mse
 
-    keep = reference_mean["mask_specular"][..., 0] < 0.5
+    keep = reference_mean[MASK_LAYER][..., 0] < 0.5
     out = {}
-    for layer in LAYERS:
+    for layer in COLOUR_LAYERS:
         a, r = approx_images[layer], reference_mean[layer]
         energy = float(r[keep].sum())
         out[layer] = {"relative_mse": relative_mse(r, a, mask=keep) if energy > 0 else None,
@@ -104,7 +103,7 @@ def _html(summary: dict) -> str:
         e = r["errors"]
         table = "".join(
             f"<tr><td>{layer}</td><td>{_fmt(e[layer]['relative_mse'], pct=True)}</td>"
-            f"<td>{_fmt(e[layer]['energy_ratio'])}</td></tr>" for layer in LAYERS)
+            f"<td>{_fmt(e[layer]['energy_ratio'])}</td></tr>" for layer in COLOUR_LAYERS)
         imgs = "".join(f"<figure><img src='{html.escape(path)}' width=256><figcaption>{html.escape(label)}"
                        f"</figcaption></figure>" for label, path in r["images"].items())
         t = r["approx_timings_s"]

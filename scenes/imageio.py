@@ -15,6 +15,7 @@ import zlib
 
 import numpy as np
 
+from .formats import MASK_LAYER
 from .storage import atomic_path, atomic_write_bytes
 
 
@@ -29,7 +30,7 @@ def write_exr(path: str, layers: dict, metadata: dict | None = None) -> None:
     channels = {}
     for name, image in layers.items():
         image = np.asarray(image, dtype=np.float32)
-        if name == "mask_specular" and image.ndim == 3:
+        if name == MASK_LAYER and image.ndim == 3:
             image = image[..., 0]
         if image.ndim == 2:
             channels[f"{name}.Y"] = np.ascontiguousarray(image)

@@ -81,6 +81,17 @@ class Medium:
         return tuple(s + a for s, a in zip(self.sigma_s, self.sigma_a))
 
     @property
+    def sigma_bar(self) -> float:
+        """Free-flight sampling rate (1/m): the mean of sigma_t over RGB, 0 for vacuum.
+
+        Both photon tracers draw medium collisions at this one rate, d = −ln(1−ξ)/sigma_bar,
+        and weight what they carry so that RGB sigma_t stays unbiased (see approx/trace.py);
+        for a grey medium sigma_bar = sigma_t. The GPU receives it as a float32 uniform:
+        tracers that replay the GPU's draws round it with ``np.float32``.
+        """
+        return float(np.mean(self.sigma_t))
+
+    @property
     def is_vacuum(self) -> bool:
         return not any(self.sigma_t)
 

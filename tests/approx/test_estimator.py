@@ -11,8 +11,9 @@ from approx.geometry import SceneGeometry
 from approx.layers import LightMapRenderer
 from approx.light import LightFrustum
 from approx.params import ApproxParams
-from approx.records import PHOTON_DTYPE, RAW_RECORD_DTYPE, STATUS_COLLIDED, STATUS_SURFACE, records_from_raw
+from approx.records import records_from_raw
 from approx.trace import PhotonTracer
+from scenes.formats import PHOTON_DTYPE, RAW_RECORD_DTYPE, STATUS_COLLIDED, STATUS_SURFACE
 from scenes.model import Medium
 from scenes.rng import uniform
 from tests.approx.helpers import make_scene, ray_sphere, sphere_spec

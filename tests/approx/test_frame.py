@@ -14,9 +14,9 @@ from approx.camera_pass import CameraView
 from approx.geometry import SceneGeometry
 from approx.layers import BOTH, LightMapRenderer
 from approx.light import LightFrustum
-from approx.records import STATUS_SURFACE
 from approx.splat import Splatter, splats_from_arrays
 from approx.trace import PhotonTracer, read_photons
+from scenes.formats import STATUS_SURFACE
 from scenes.model import Camera, Medium
 from tests.approx.helpers import fog_quadrature, make_scene, pixel_ray, sphere_spec
 

@@ -6,11 +6,9 @@ import json
 
 import numpy as np
 
-from approx.records import STATUS_COLLIDED, STATUS_SURFACE
 from reports.cli import main
+from scenes.formats import LAYER_NAMES, STATUS_COLLIDED, STATUS_SURFACE
 from scenes.imageio import read_exr
-
-LAYERS = {"caustic", "fog", "direct", "combined", "mask_specular"}
 
 
 def test_approx_cli_outputs(tmp_path, capsys):
@@ -19,7 +17,7 @@ def test_approx_cli_outputs(tmp_path, capsys):
                "--light-res", "128", "--steps", "3", "-o", str(out)])
     assert rc == 0
     layers, header = read_exr(str(out))
-    assert set(layers) == LAYERS
+    assert set(layers) == set(LAYER_NAMES)
     assert layers["combined"].shape == (40, 48, 3)
     assert np.allclose(layers["combined"], layers["caustic"] + layers["fog"] + layers["direct"], rtol=1e-6, atol=1e-9)
     assert set(np.unique(layers["mask_specular"])) <= {0.0, 1.0} and layers["mask_specular"].max() == 1.0

@@ -1,5 +1,6 @@
 // Outputs: (distance to the eye, kind, material index, 0) and (world normal, 0).
-// kind: 1 diffuse surface, 2 specular object (uniforms per draw).
+// kind: KIND_DIFFUSE or KIND_SPECULAR (common/kinds.glsl), a uniform per draw;
+// the target is cleared to 0 = KIND_NONE where nothing is drawn.
 uniform vec3 eye;
 uniform float kind;
 uniform float material;

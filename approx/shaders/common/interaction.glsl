@@ -6,6 +6,8 @@
 #ifndef VOLCAUSTICS_INTERACTION_GLSL
 #define VOLCAUSTICS_INTERACTION_GLSL
 
+#include "common/photon.glsl"
+
 // d: incoming unit direction; n: the hit's outward shading normal; n_geometric: the
 // outward geometric normal of its triangle; inside: set to the material the photon
 // travels in afterwards (-1 medium); hit_material: object whose surface was hit. As Mitsuba's dielectric

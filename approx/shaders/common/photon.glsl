@@ -1,18 +1,38 @@
-// Photon state and per-step segment records (std430). Python twin: approx/records.py.
+// Photon state and per-step segment records (std430). One source for these
+// layouts and codes: scenes/formats.py (PHOTON_DTYPE, RAW_RECORD_DTYPE,
+// SPLAT_DTYPE; STATUS_*, FLAG_*), tied to this file by tests/approx/test_formats_glsl.py.
 #ifndef VOLCAUSTICS_PHOTON_GLSL
 #define VOLCAUSTICS_PHOTON_GLSL
 
+// The loader (approx/glsl.py) defines the codes from scenes/formats.py before
+// this file; these defaults only stand in when the file is compiled on its own.
 // status (photon.dir.w and record.end_status.w)
+#ifndef STATUS_DEAD
 #define STATUS_DEAD 0        // no photon here, or terminated earlier
+#endif
+#ifndef STATUS_SURFACE
 #define STATUS_SURFACE 1     // ended at a specular surface (after the interaction there)
+#endif
+#ifndef STATUS_COLLIDED
 #define STATUS_COLLIDED 2    // ended at a medium collision: splatted for this step
-#define STATUS_LEFT_SCENE 3  // left the scene bounds: terminated
+#endif
+#ifndef STATUS_LEFT_SCENE
+#define STATUS_LEFT_SCENE 3  // left the scene box: terminated
+#endif
+#ifndef STATUS_LOST
 #define STATUS_LOST 4        // inside glass and no exit found: terminated
+#endif
 
 // flags (record.extra.x)
+#ifndef FLAG_LEFT_FRUSTUM
 #define FLAG_LEFT_FRUSTUM 1u // part of the segment lay outside the light maps
+#endif
+#ifndef FLAG_REFLECTED
 #define FLAG_REFLECTED 2u    // the interaction at the end reflected (Fresnel choice or TIR)
+#endif
+#ifndef FLAG_TIR
 #define FLAG_TIR 4u          // total internal reflection at the end
+#endif
 
 struct Photon {
     vec4 pos;    // xyz position; w: material id of the glass it is inside, -1 in the medium

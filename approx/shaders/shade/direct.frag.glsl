@@ -4,8 +4,9 @@
 #include "common/camera.glsl"
 #include "common/spot.glsl"
 #include "common/shadow.glsl"
+#include "common/kinds.glsl"
 
-uniform sampler2D gbuffer_geometry;  // (distance to eye, kind, material, 0)
+uniform sampler2D gbuffer_geometry;  // (distance to eye, KIND_*, material, 0)
 uniform sampler2D gbuffer_normal;
 uniform vec3 albedo[MAX_DIFFUSE];
 uniform vec3 sigma_t;
@@ -16,7 +17,7 @@ out vec4 out_color;
 void main() {
     vec4 g = texelFetch(gbuffer_geometry, ivec2(gl_FragCoord.xy), 0);
     vec3 radiance = vec3(0.0);
-    if (int(g.y + 0.5) == 1) {
+    if (gbuffer_kind(g) == KIND_DIFFUSE) {
         vec3 r = pixel_ray(gl_FragCoord.xy);
         vec3 x = eye + r * g.x;
         vec3 n = texelFetch(gbuffer_normal, ivec2(gl_FragCoord.xy), 0).xyz;

@@ -11,8 +11,10 @@
 #include "common/spot.glsl"
 #include "common/phase.glsl"
 #include "common/shadow.glsl"
+#include "common/kinds.glsl"
+#include "common/box.glsl"
 
-uniform sampler2D gbuffer_geometry;  // (distance to eye, kind, material, 0)
+uniform sampler2D gbuffer_geometry;  // (distance to eye, KIND_*, material, 0)
 uniform vec3 sigma_s;
 uniform vec3 sigma_t;
 uniform vec3 scene_min;
@@ -63,16 +65,10 @@ bool cone_interval(vec3 o, vec3 r, float s_end, out float s_in, out float s_out)
     return s_in >= 0.0 && s_out > s_in;
 }
 
-float box_exit(vec3 o, vec3 d) {
-    vec3 inv = 1.0 / d;
-    vec3 t_far = max((scene_min - o) * inv, (scene_max - o) * inv);
-    return max(min(min(t_far.x, t_far.y), t_far.z), 0.0);
-}
-
 void main() {
     vec3 r = pixel_ray(gl_FragCoord.xy);
     vec4 g = texelFetch(gbuffer_geometry, ivec2(gl_FragCoord.xy), 0);
-    float s_end = g.y > 0.0 ? g.x : box_exit(eye, r);
+    float s_end = gbuffer_kind(g) != KIND_NONE ? g.x : box_exit(eye, r, scene_min, scene_max);
     vec3 radiance = vec3(0.0);
     float s_in, s_out;
     if (cone_interval(eye, r, s_end, s_in, s_out)) {

@@ -8,8 +8,9 @@
 uniform vec3 eye;
 #include "common/erf.glsl"
 #include "splat/kernel.glsl"
+#include "common/kinds.glsl"
 
-uniform sampler2D scene_distance;  // G-buffer (distance to the first surface, kind > 0 if any)
+uniform sampler2D scene_distance;  // G-buffer (distance to the first surface, KIND_*, material, 0)
 uniform float sigma;
 
 in vec3 v_center;
@@ -21,7 +22,7 @@ out vec4 out_color;
 void main() {
     vec3 ray = normalize(v_corner - eye);  // perspective-correct point on the billboard at this pixel centre
     vec4 g = texelFetch(scene_distance, ivec2(gl_FragCoord.xy), 0);
-    float s_max = g.y > 0.0 ? g.x : 1e30;
+    float s_max = gbuffer_kind(g) != KIND_NONE ? g.x : 1e30;
     vec3 oc = v_center - eye;
     float s_c = dot(oc, ray);
     float b2 = max(dot(oc, oc) - s_c * s_c, 0.0);

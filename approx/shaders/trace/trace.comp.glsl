@@ -33,6 +33,7 @@
 #include "common/octahedral.glsl"
 #include "common/photon.glsl"
 #include "common/start_offset.glsl"
+#include "common/box.glsl"
 
 layout(local_size_x = 64) in;
 
@@ -207,13 +208,6 @@ void clip_to_objects(vec3 o, vec3 d, inout float lo, inout float hi) {
 }
 #endif
 
-// Distance along d from o (inside the box) to the exit of the scene box.
-float box_exit(vec3 o, vec3 d) {
-    vec3 inv = 1.0 / d;
-    vec3 t_far = max((scene_min - o) * inv, (scene_max - o) * inv);
-    return max(min(min(t_far.x, t_far.y), t_far.z), 0.0);
-}
-
 void main() {
     uint i = gl_GlobalInvocationID.x;
     if (i >= photon_count) return;
@@ -241,7 +235,7 @@ void main() {
     g_flags = 0u;
 
     // --- segment: free flight in the medium, or the way out of the glass
-    float span = box_exit(o, d);
+    float span = box_exit(o, d, scene_min, scene_max);
     float max_len = span;
     if (inside < 0 && sigma_bar > 0.0) {
         max_len = -log(1.0 - rng_uniform(seed, i, step_index, 0u)) / sigma_bar;

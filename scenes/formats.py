@@ -1,0 +1,99 @@
+"""Formats every package shares: photon and segment-record layouts, status and
+flag codes, shape kinds and the names of a frame's component images.
+
+This module is their one source. The GPU tracer's std430 structs
+(``approx/shaders/common/photon.glsl``) are tied to the dtypes here by a test
+(``tests/approx/test_formats_glsl.py``), and the codes reach the shaders as
+``#define`` lines through the GLSL loader (``approx.glsl.SHARED_DEFINES``).
+
+All dtypes are little-endian; positions are world coordinates in metres,
+directions unit vectors, powers radiant flux in W (RGB).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+# --- photon status (Photon.dir.w, Record.end_status.w, RECORD_DTYPE["status"])
+STATUS_DEAD = 0        # no photon here, or terminated earlier
+STATUS_SURFACE = 1     # ended at a specular surface (after the interaction there)
+STATUS_COLLIDED = 2    # ended at a medium collision: splatted for this step
+STATUS_LEFT_SCENE = 3  # left the scene box: terminated
+STATUS_LOST = 4        # inside glass and no exit found: terminated
+
+STATUS_NAMES = {STATUS_DEAD: "dead", STATUS_SURFACE: "surface", STATUS_COLLIDED: "collided",
+                STATUS_LEFT_SCENE: "left_scene", STATUS_LOST: "lost"}
+
+# --- flag bits of a segment (Record.extra.x, RECORD_DTYPE["flags"])
+FLAG_LEFT_FRUSTUM = 1  # part of the segment lay outside the light maps
+FLAG_REFLECTED = 2     # the interaction at the end reflected (Fresnel choice or TIR)
+FLAG_TIR = 4           # total internal reflection at the end
+
+# --- shape kinds: what a ray hit (approx G-buffer channel y, reference ShapeTable).
+# KIND_NONE is 0 so that a G-buffer cleared to zero reads as "no surface".
+KIND_NONE = 0      # nothing (the ray leaves the scene)
+KIND_SPECULAR = 1  # a specular (glass) object
+KIND_DIFFUSE = 2   # a diffuse (Lambertian) surface
+KIND_BOUNDARY = 3  # the medium box (reference only: the exported scene's boundary shape)
+
+# Every code by the name both languages spell it with (the GLSL loader defines these).
+STATUS_CODES = {"STATUS_DEAD": STATUS_DEAD, "STATUS_SURFACE": STATUS_SURFACE, "STATUS_COLLIDED": STATUS_COLLIDED,
+                "STATUS_LEFT_SCENE": STATUS_LEFT_SCENE, "STATUS_LOST": STATUS_LOST}
+FLAG_BITS = {"FLAG_LEFT_FRUSTUM": FLAG_LEFT_FRUSTUM, "FLAG_REFLECTED": FLAG_REFLECTED, "FLAG_TIR": FLAG_TIR}
+SHAPE_KINDS = {"KIND_NONE": KIND_NONE, "KIND_SPECULAR": KIND_SPECULAR, "KIND_DIFFUSE": KIND_DIFFUSE,
+               "KIND_BOUNDARY": KIND_BOUNDARY}
+
+# --- component images of a frame (DESIGN.md "What a frame is made of")
+COLOUR_LAYERS = ("caustic", "fog", "direct", "combined")  # H×W×3 float32 radiance, W·m⁻²·sr⁻¹
+MASK_LAYER = "mask_specular"                              # H×W×3 float32, 1 where the camera sees glass, else 0
+LAYER_NAMES = COLOUR_LAYERS + (MASK_LAYER,)
+
+# --- photon arrays
+# One photon slot of the GPU tracer (std430 struct Photon, 48 bytes):
+#   pos    xyz position (m); w: specular object the photon is inside, -1 in the medium
+#   dir    xyz unit direction; w: STATUS_*
+#   power  rgb power (W); w: start offset of the next segment, in light-map texel footprints
+PHOTON_DTYPE = np.dtype([("pos", "<f4", 4), ("dir", "<f4", 4), ("power", "<f4", 4)])
+
+# One photon to splat, a medium collision (std430 struct Splat, 48 bytes):
+#   center_status  xyz collision point (m); w: STATUS_COLLIDED
+#   dir            xyz propagation direction before scattering (unit); w unused
+#   power          rgb power at the collision, after transmittance (W); w unused
+SPLAT_DTYPE = np.dtype([("center_status", "<f4", 4), ("dir", "<f4", 4), ("power", "<f4", 4)])
+
+# --- segment records
+# One segment as the GPU tracer writes it (std430 struct Record, 112 bytes):
+#   start_maxlen  xyz segment start (m); w: sampled max length (free flight, or scene span inside glass)
+#   dir_t         xyz unit direction; w: estimated hit distance t (m), -1 if no hit
+#   normal_map    xyz estimated normal at the hit; w: map index, -1 if no hit
+#   end_status    xyz end position (m); w: STATUS_* after the step
+#   power_inside  rgb power after the step (W); w: specular object inside at the start, -1 in the medium
+#   extra         x: FLAG_* bits; y: specular object hit (-1 none); z: segment length searched (m);
+#                 w: start offset (m)
+#   power_start   rgb power at the segment start (W); w unused
+RAW_RECORD_DTYPE = np.dtype([("start_maxlen", "<f4", 4), ("dir_t", "<f4", 4), ("normal_map", "<f4", 4),
+                             ("end_status", "<f4", 4), ("power_inside", "<f4", 4), ("extra", "<f4", 4),
+                             ("power_start", "<f4", 4)])
+
+# One segment as metrics read it, from the GPU tracer (approx.records.records_from_raw)
+# or the exact photon tracer (reference.oracle.exact_photon_records).
+RECORD_DTYPE = np.dtype([
+    ("photon", "<u4"),          # photon index = emission texel (row * photon_res + column)
+    ("step", "<u2"),            # interaction step, 1..steps
+    ("start", "<f4", 3),        # segment start (world, m)
+    ("direction", "<f4", 3),    # unit direction
+    ("max_length", "<f4"),      # sampled free-flight distance (medium) or scene span (inside glass), m
+    ("search_length", "<f4"),   # length actually searched (max_length clipped to the scene box), m
+    ("start_offset", "<f4"),    # the search began this far from the start (m; 0 for the exact tracer)
+    ("t", "<f4"),               # estimated first-hit distance (m), nan if no hit
+    ("hit", "?"),
+    ("map", "<i2"),             # light map of the hit: 2 * layer + (0 front, 1 back); -1 if no hit
+    ("normal", "<f4", 3),       # estimated normal at the hit (nan if no hit)
+    ("material", "<i2"),        # specular object hit (-1 none)
+    ("inside", "<i2"),          # specular object the segment runs inside (-1: medium)
+    ("end", "<f4", 3),          # where the step ended (m)
+    ("power_start", "<f4", 3),  # power at the segment start (W, RGB)
+    ("power", "<f4", 3),        # power after the step (W, RGB)
+    ("status", "<u1"),          # STATUS_* after the step
+    ("flags", "<u1"),           # FLAG_* bits
+])
