@@ -28,9 +28,17 @@ def code_version() -> str:
     return h.hexdigest()[:16]
 
 
-def cache_key(scene, settings) -> str:
-    text = json.dumps({"scene": scene.canonical_json(), "settings": settings.to_dict(), "code": code_version()},
-                      sort_keys=True)
+def cache_key(scene, settings=None) -> str:
+    """Key of the reference of ``scene`` with ``settings`` (resolved here, see reference.request)."""
+    from .request import resolve
+
+    return request_key(resolve(scene, settings))
+
+
+def request_key(request) -> str:
+    """Key of a resolved :class:`reference.request.RenderRequest`."""
+    text = json.dumps({"scene": request.scene.canonical_json(), "settings": request.settings.to_dict(),
+                       "code": code_version()}, sort_keys=True)
     return hashlib.sha256(text.encode()).hexdigest()[:32]
 
 

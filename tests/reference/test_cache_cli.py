@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 
@@ -81,3 +82,18 @@ def test_export_xml_loads_in_mitsuba(tmp_path):
     assert len(scene.shapes()) == 4  # two glass spheres, the floor, the medium box
     image = np.asarray(mi.render(scene, spp=4))
     assert image.shape == (512, 512, 3) and np.isfinite(image).all() and image.mean() > 0
+
+
+def test_image_size_has_one_place_in_the_key():
+    """A scene whose camera was resized and the scene as loaded, with settings naming
+    the same size, are the same render: one key (the report used to resize the camera,
+    the CLI only the settings, and got two)."""
+    scene = load_builtin("refocus")
+    settings = ReferenceSettings(photons=100000, spp=8, batches=2, width=24, height=24)
+    camera = dataclasses.replace(scene.camera, width=24, height=24)
+    resized = dataclasses.replace(scene, camera=camera)
+    assert cache.cache_key(resized, settings) == cache.cache_key(scene, settings)
+    # settings without a size take the camera's, so the resized scene alone is that render too
+    unsized = dataclasses.replace(settings, width=None, height=None)
+    assert cache.cache_key(resized, unsized) == cache.cache_key(scene, settings)
+    assert cache.cache_key(scene, unsized) != cache.cache_key(scene, settings)  # 512² is another render
