@@ -29,11 +29,11 @@ import math
 import drjit as dr
 
 from .mi_setup import mitsuba
+from .settings import MODES
 from .shapes import KIND_BOUNDARY, KIND_DIFFUSE, KIND_SPECULAR, ShapeTable
 
 mi = mitsuba()
 
-MODES = ("caustic", "fog", "all", "surface")
 INV_FOUR_PI = 1.0 / (4.0 * math.pi)
 
 

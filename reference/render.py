@@ -71,22 +71,22 @@ class _Welford:
 def render_batches(scene, settings: ReferenceSettings, *, mode: str = "caustic", progress: bool = True) -> dict:
     """Render without the cache; returns {layer: (mean, var)} for the colour layers
     and the mask, plus timing and counts under the key ``"_info"``."""
-    return _render(resolve(scene, settings), mode=mode, progress=progress)
+    return _render(resolve(scene, settings, mode), progress=progress)
 
 
-def _render(request: RenderRequest, *, mode: str, progress: bool) -> dict:
+def _render(request: RenderRequest, *, progress: bool) -> dict:
     from tqdm import tqdm
 
-    from .export import to_mitsuba
+    from .export import mitsuba_dict
     from .integrators import SingleScatterIntegrator, VolumetricLightTracer, configure
     from .mi_setup import mitsuba
 
     mi = mitsuba()
     scene, settings = request.scene, request.settings
     t0 = time.perf_counter()
-    mi_scene = mi.load_dict(to_mitsuba(scene))
+    mi_scene = mi.load_dict(mitsuba_dict(request.description))
     props = mi.Properties()
-    props["mode"] = mode
+    props["mode"] = request.mode
     props["max_scatter"] = settings.max_scatter
     tracer = configure(VolumetricLightTracer(props), scene, mi_scene)
     camera = configure(SingleScatterIntegrator(), scene, mi_scene)
@@ -112,21 +112,23 @@ def _render(request: RenderRequest, *, mode: str, progress: bool) -> dict:
     return out
 
 
-def render_reference(scene, settings: ReferenceSettings | None = None, *, force: bool = False,
-                     progress: bool = True) -> ReferenceResult:
+def render_reference(scene, settings: ReferenceSettings | None = None, *, mode: str = "caustic",
+                     force: bool = False, progress: bool = True) -> ReferenceResult:
     """The reference for ``scene``: from the cache when a valid entry exists (and not
     ``force``), else rendered and stored. The image is ``settings.width × height``
-    (unset: the scene camera's); the camera's own size does not matter beyond that."""
-    from .mi_setup import mitsuba_version, variant_name
+    (unset: the scene camera's); the camera's own size does not matter beyond that.
+    ``mode``: which light paths the caustic layer counts (settings.MODES)."""
+    from .mi_setup import drjit_version, mitsuba_version, variant_name
 
-    request = resolve(scene, settings)
+    request = resolve(scene, settings, mode)
     settings = request.settings
-    key = cache.request_key(request)
     if not force:
-        manifest = cache.load(key)
-        if manifest is not None:
+        served = cache.lookup(request)
+        if served is not None:
+            key, manifest = served
             return ReferenceResult(key, _for_caller(manifest, scene), cached=True)
-    out = _render(request, mode="caustic", progress=progress)
+    out = _render(request, progress=progress)
+    key = cache.request_key(request, variant_name())
     info = out.pop("_info")
     layers = {}
     for name, (mean, var) in out.items():
@@ -134,10 +136,10 @@ def render_reference(scene, settings: ReferenceSettings | None = None, *, force:
         if name != "mask_specular":
             layers[f"{name}_var"] = var
     manifest = {
-        "scene": scene.name, "scene_hash": scene.scene_hash(), "settings": settings.to_dict(),
+        "scene": scene.name, "scene_hash": scene.scene_hash(), "settings": settings.to_dict(), "mode": request.mode,
         "photons": info["photons"], "batches": settings.batches, "seed": settings.seed,
         "camera_spp": info["camera_spp_per_batch"] * settings.batches, "wall_seconds": info["seconds"],
-        "mitsuba_variant": variant_name(), "mitsuba_version": mitsuba_version(),
+        "mitsuba_variant": variant_name(), "mitsuba_version": mitsuba_version(), "drjit_version": drjit_version(),
         "reference_code_version": cache.code_version(),
     }
     header = {"volcaustics_scene": scene.name, "volcaustics_scene_hash": scene.scene_hash(),

@@ -97,3 +97,22 @@ def test_image_size_has_one_place_in_the_key():
     unsized = dataclasses.replace(settings, width=None, height=None)
     assert cache.cache_key(resized, unsized) == cache.cache_key(scene, settings)
     assert cache.cache_key(scene, unsized) != cache.cache_key(scene, settings)  # 512² is another render
+
+
+def test_a_cache_hit_needs_no_variant_probe(private_cache, monkeypatch):
+    """Without VOLCAUSTICS_MI_VARIANT a cached reference of any preferred variant is
+    served (its manifest says which), so a hit never probes variants or imports Mitsuba
+    in a fresh process (both cost seconds on a cold machine)."""
+    from reference import variant
+
+    scene = load_builtin("refocus")
+    settings = ReferenceSettings(photons=100000, spp=8, batches=2, width=16, height=16)
+    first = render_reference(scene, settings, progress=False)  # llvm_ad_rgb, from tests/reference/conftest.py
+    monkeypatch.delenv("VOLCAUSTICS_MI_VARIANT")
+
+    def no_probe():
+        raise AssertionError("probed variants on a cache hit")
+
+    monkeypatch.setattr(variant, "reference_variant", no_probe)
+    again = render_reference(scene, settings, progress=False)
+    assert again.cached and again.key == first.key and again.manifest["mitsuba_variant"] == "llvm_ad_rgb"
