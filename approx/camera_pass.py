@@ -98,11 +98,12 @@ class CameraPasses:
         fbo.release()
         return out
 
-    def render_fog(self, scene, view, frustum, geometry, shadow_map, shadow_res, gbuffer_geometry) -> moderngl.Texture:
+    def render_fog(self, scene, view, frustum, box, shadow_map, shadow_res, gbuffer_geometry) -> moderngl.Texture:
+        """Fog of ``scene`` inside ``box``, the (min, max) corners of its medium (scenes.bounds)."""
         prog = self.fog
         self._common(prog, scene, view, frustum, shadow_map, shadow_res, gbuffer_geometry)
-        _set(prog, sigma_s=tuple(scene.medium.sigma_s), scene_min=tuple(geometry.scene_min),
-             scene_max=tuple(geometry.scene_max))
+        _set(prog, sigma_s=tuple(scene.medium.sigma_s), scene_min=tuple(box[0]),
+             scene_max=tuple(box[1]))
         return self._draw(self.empty_vao, view)
 
     def render_direct(self, scene, view, frustum, shadow_map, shadow_res, gbuffer_geometry, gbuffer_normal):

@@ -1,4 +1,9 @@
-"""Scene meshes uploaded once per scene: vertex buffers for the light and camera passes."""
+"""Scene meshes uploaded once per scene: vertex buffers for the light and camera passes.
+
+Only what the meshes alone determine lives here. The medium's box
+(``scenes.bounds.medium_bounds``) also holds the light and the camera, which may
+move between frames, so the renderer computes it per frame from the scene it renders.
+"""
 
 from __future__ import annotations
 
@@ -6,8 +11,6 @@ from dataclasses import dataclass
 
 import moderngl
 import numpy as np
-
-from scenes.bounds import medium_bounds
 
 from .glsl import attribute_layout
 
@@ -32,7 +35,7 @@ def interleave(mesh, material: int) -> np.ndarray:
 
 @dataclass
 class SceneGeometry:
-    """GPU buffers of one scene's meshes and its bounds (the box photons may not leave)."""
+    """GPU buffers of one scene's meshes and the specular objects' bounds."""
 
     specular: moderngl.Buffer
     diffuse: moderngl.Buffer | None
@@ -40,8 +43,6 @@ class SceneGeometry:
     diffuse_ranges: list  # (first vertex, count) per diffuse surface
     specular_min: np.ndarray
     specular_max: np.ndarray
-    scene_min: np.ndarray  # the medium's box (scenes.bounds.medium_bounds)
-    scene_max: np.ndarray
 
     @classmethod
     def upload(cls, ctx: moderngl.Context, scene) -> "SceneGeometry":
@@ -52,7 +53,6 @@ class SceneGeometry:
         for d in diff:
             ranges.append((first, len(d)))
             first += len(d)
-        box_min, box_max = medium_bounds(scene)
         spec_min = spec_data[:, :3].min(0) if len(spec_data) else np.zeros(3)
         spec_max = spec_data[:, :3].max(0) if len(spec_data) else np.zeros(3)
         return cls(
@@ -61,7 +61,6 @@ class SceneGeometry:
             specular_vertices=len(spec_data),
             diffuse_ranges=ranges,
             specular_min=spec_min.astype(np.float64), specular_max=spec_max.astype(np.float64),
-            scene_min=box_min, scene_max=box_max,
         )
 
     def vertex_array(self, ctx, program, which: str) -> moderngl.VertexArray | None:

@@ -1,8 +1,11 @@
 """``approx.render(scene, params) -> Frame``: the paper's whole pipeline, one frame.
 
 A :class:`Renderer` keeps the GL context, compiled programs and the scene's
-vertex buffers; changing the light, the medium or the parameters retraces
-without re-uploading geometry (the paper retraces every frame).
+vertex buffers; changing the light, the camera, the medium or the parameters
+retraces without re-uploading geometry (the paper retraces every frame).
+Everything that depends on the light or the camera — the medium's box, which
+holds both (``scenes.bounds``), the light frustum, the camera's far plane — is
+computed per frame from the scene being rendered.
 """
 
 from __future__ import annotations
@@ -14,6 +17,7 @@ from dataclasses import dataclass, field
 import moderngl
 import numpy as np
 
+from scenes.bounds import medium_bounds
 from scenes.formats import KIND_SPECULAR, RAW_RECORD_DTYPE, SPLAT_DTYPE
 
 from .camera_pass import CameraPasses, CameraView
@@ -57,7 +61,7 @@ def _read_rgb(tex: moderngl.Texture) -> np.ndarray:
 
 
 class Renderer:
-    """The approximation for one scene's geometry (light, medium, materials may change)."""
+    """The approximation for one scene's geometry (light, camera, medium, materials may change)."""
 
     def __init__(self, scene, ctx: moderngl.Context | None = None):
         self.ctx = ctx or shared_context()
@@ -81,7 +85,8 @@ class Renderer:
         timer = PassTimer(ctx, self._use_queries)
         wall0 = time.perf_counter()
         geo = self.geometry
-        frustum = LightFrustum.for_scene(scene, geo.scene_min, geo.scene_max)
+        box = medium_bounds(scene)  # holds light and camera: this frame's, not the construction's
+        frustum = LightFrustum.for_scene(scene, *box)
         tracer = self._cached(("tracer", p.layers, p.peak_samples, p.iterations, p.fresnel),
                               lambda: PhotonTracer(ctx, p))
         phase_key = (scene.medium.phase.kind, scene.medium.phase.g)
@@ -104,7 +109,7 @@ class Renderer:
         released += [emission_map, photons]
         count = p.photon_res * p.photon_res
 
-        view = CameraView(scene.camera, p.width, p.height, far=2.0 * float(np.linalg.norm(geo.scene_max - geo.scene_min)))
+        view = CameraView(scene.camera, p.width, p.height, far=2.0 * float(np.linalg.norm(box[1] - box[0])))
         with timer.measure("camera"):
             gbuf_geo, gbuf_nrm = camera_passes.render_gbuffer(geo, view)
         released += [gbuf_geo, gbuf_nrm]
@@ -115,7 +120,7 @@ class Renderer:
         released += [record_buf, splat_buf]
         for step in range(1, p.steps + 1):
             with timer.measure(f"trace_step{step}"):
-                tracer.trace_step(scene, frustum, geo, map_texels, map_info, p.light_res, photons, record_buf,
+                tracer.trace_step(scene, frustum, box, map_texels, map_info, p.light_res, photons, record_buf,
                                   count, step, p.seed)
             step_image = ctx.texture((p.width, p.height), 4, dtype="f4")
             with timer.measure("splat"):
@@ -131,7 +136,7 @@ class Renderer:
                 records.append(records_from_raw(read_raw_records(record_buf, count), step))
 
         with timer.measure("fog"):
-            fog_tex = camera_passes.render_fog(scene, view, frustum, geo, shadow_map, p.light_res, gbuf_geo)
+            fog_tex = camera_passes.render_fog(scene, view, frustum, box, shadow_map, p.light_res, gbuf_geo)
         with timer.measure("direct"):
             direct_tex = camera_passes.render_direct(scene, view, frustum, shadow_map, p.light_res, gbuf_geo, gbuf_nrm)
         released += [fog_tex, direct_tex]

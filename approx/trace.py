@@ -117,11 +117,13 @@ class PhotonTracer:
         bounds = [None if b[1] == 0 else (float(v[0]), float(v[1])) for b, v in zip(bits, values)]
         return (texels, distances, geometric), bounds
 
-    def trace_step(self, scene, frustum, geometry, map_texels: tuple, map_info, light_res: int,
+    def trace_step(self, scene, frustum, box, map_texels: tuple, map_info, light_res: int,
                    photons: moderngl.Buffer,
                    records: moderngl.Buffer, count: int, step: int, seed: int) -> None:
         """Advance every photon by one interaction step, writing one raw record per slot.
 
+        ``box``: (min, max) corners of the medium's box of ``scene``
+        (``scenes.bounds.medium_bounds``), which photons do not leave;
         ``map_texels``: :meth:`map_buffer` of the layer maps; ``map_info``: per map (used,
         min distance, max distance), see LightMapRenderer.render_layers."""
         prog = self.trace
@@ -132,8 +134,8 @@ class PhotonTracer:
                      map_max_dist=[float(b) for _, _, b in map_info],
                      light_position=tuple(frustum.position), light_res=light_res,
                      texel_angle=2.0 * frustum.tan_half / light_res, sigma_t=tuple(scene.medium.sigma_t),
-                     sigma_bar=scene.medium.sigma_bar, scene_min=tuple(geometry.scene_min),
-                     scene_max=tuple(geometry.scene_max), seed=seed, step_index=step, photon_count=count)
+                     sigma_bar=scene.medium.sigma_bar, scene_min=tuple(box[0]),
+                     scene_max=tuple(box[1]), seed=seed, step_index=step, photon_count=count)
         photons.bind_to_storage_buffer(0)
         records.bind_to_storage_buffer(1)
         map_texels[0].bind_to_storage_buffer(2)

@@ -1,8 +1,13 @@
 """On-disk cache of reference renders.
 
-Key: SHA-256 of the canonical scene JSON, the resolved settings and the
-reference code version (a hash of the integrator and export sources). A result
-is an EXR (mean and variance layers) plus a manifest JSON written after it; the
+Key: SHA-256 of a JSON document of everything that determines the image
+(:func:`key_document`): the scene exactly as Mitsuba gets it
+(``reference.description``: medium box, meshes by the hash of their PLY bytes,
+normals included, transforms as plain data), the scene model the integrators
+read (its canonical form, camera at the image size), the resolved settings, the
+light tracer's mode, the integrator code (a hash of its sources) and the Mitsuba
+and Dr.Jit versions and variant. Computing it imports no Mitsuba. A result is an
+EXR (mean and variance layers) plus a manifest JSON written after it; the
 manifest records the EXR's SHA-256, so a truncated or mismatching file is
 detected and re-rendered, never trusted.
 """
@@ -13,10 +18,16 @@ import hashlib
 import json
 import os
 
+from scenes.canonical import canonical_dict
 from scenes.imageio import read_exr, write_exr
 from scenes.storage import atomic_write_bytes, atomic_write_text, cache_dir, file_sha256
 
-_SOURCES = ("integrators.py", "export.py", "render.py", "shapes.py")
+from . import mi_setup
+
+KEY_FORMAT = "volcaustics-reference-key/2"
+# The code that turns a description into pixels. The exporter's *output* is in the
+# key itself; export.py is here for its conversion of descriptions to Mitsuba objects.
+_SOURCES = ("integrators.py", "render.py", "shapes.py", "export.py")
 
 
 def code_version() -> str:
@@ -28,10 +39,44 @@ def code_version() -> str:
     return h.hexdigest()[:16]
 
 
-def cache_key(scene, settings) -> str:
-    text = json.dumps({"scene": scene.canonical_json(), "settings": settings.to_dict(), "code": code_version()},
-                      sort_keys=True)
+def key_document(request, variant: str) -> dict:
+    """What the key of a resolved :class:`reference.request.RenderRequest` rendered
+    with Mitsuba ``variant`` hashes."""
+    return {
+        "format": KEY_FORMAT,
+        "mitsuba_scene": request.description.tree,
+        "scene": canonical_dict(request.scene),
+        "settings": request.settings.to_dict(),
+        "mode": request.mode,
+        "code": code_version(),
+        "mitsuba": {**mi_setup.library_versions(), "variant": variant},
+    }
+
+
+def request_key(request, variant: str) -> str:
+    """Key of a resolved request rendered with ``variant``."""
+    text = json.dumps(key_document(request, variant), sort_keys=True, separators=(",", ":"), allow_nan=False)
     return hashlib.sha256(text.encode()).hexdigest()[:32]
+
+
+def cache_key(scene, settings=None, *, mode: str = "caustic", variant: str | None = None) -> str:
+    """Key of the reference of ``scene`` with ``settings`` (resolved here, see
+    reference.request) and ``mode``, rendered with ``variant`` (default: the one this
+    process renders with)."""
+    from .request import resolve
+
+    return request_key(resolve(scene, settings, mode), variant or mi_setup.render_variant())
+
+
+def lookup(request):
+    """(key, manifest) of a complete cache entry for ``request`` rendered with one of
+    the variants this process serves (mi_setup.served_variants, in order), else None."""
+    for variant in mi_setup.served_variants():
+        key = request_key(request, variant)
+        manifest = load(key)
+        if manifest is not None:
+            return key, manifest
+    return None
 
 
 def paths(key: str) -> tuple[str, str]:

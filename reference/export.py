@@ -1,136 +1,87 @@
-"""Scene → Mitsuba 3 scene description (dict for ``mi.load_dict``, or XML).
+"""Scene → Mitsuba 3 scene (dict for ``mi.load_dict``, or XML).
 
-Same camera (pinhole, vertical fov, box filter), spot emitter, homogeneous
-medium confined to the scene box (a null-BSDF cube whose interior is the fog,
-see scenes.bounds), dielectric objects with absorbing interior media, diffuse
-surfaces. Meshes are written as binary PLY files with our angle-weighted vertex
-normals, so both renderers shade with identical normals.
+What Mitsuba gets is described, as plain data, by ``reference.description``;
+this module turns a description into Mitsuba's objects: transforms through
+Mitsuba's ``ScalarTransform4f``, meshes into PLY files named by the SHA-256 of
+their content (positions, normals, faces: a change of any of them writes a new
+file, never reuses an old one).
 """
 
 from __future__ import annotations
 
-import hashlib
 import os
 from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
-from scenes.bounds import medium_bounds
-from scenes.storage import atomic_path, cache_dir
+from scenes.storage import atomic_path, atomic_write_bytes, cache_dir
 
-FOG_ID = "fog"
+from .description import FOG_ID, Description, describe, ply_bytes, ply_digest
+
+PLY_NAME_DIGITS = 32  # hex digits of the content hash in a PLY file name
+
+
+def ply_file(data: bytes, folder: str, digest: str | None = None) -> str:
+    """Path of the PLY file holding ``data`` in ``folder``, named by its content
+    hash; written (atomically) only if it is not there yet."""
+    path = os.path.join(folder, f"mesh-{(digest or ply_digest(data))[:PLY_NAME_DIGITS]}.ply")
+    if not os.path.exists(path):
+        atomic_write_bytes(path, data)
+    return path
+
+
+def mesh_file(mesh, folder: str) -> str:
+    """PLY of ``mesh`` (positions, vertex normals, faces) in ``folder``, named by its content."""
+    return ply_file(ply_bytes(mesh), folder)
 
 
 def write_ply(path: str, mesh) -> None:
     """Binary little-endian PLY with positions, vertex normals and triangles (atomic)."""
-    normals = mesh.vertex_normals()
-    v = np.zeros(len(mesh.vertices), dtype=[("x", "<f4"), ("y", "<f4"), ("z", "<f4"),
-                                             ("nx", "<f4"), ("ny", "<f4"), ("nz", "<f4")])
-    for k, name in enumerate("xyz"):
-        v[name] = mesh.vertices[:, k]
-        v["n" + name] = normals[:, k]
-    f = np.zeros(len(mesh.faces), dtype=[("n", "u1"), ("i", "<i4", 3)])
-    f["n"] = 3
-    f["i"] = mesh.faces
-    header = (f"ply\nformat binary_little_endian 1.0\nelement vertex {len(v)}\n"
-              "property float x\nproperty float y\nproperty float z\n"
-              "property float nx\nproperty float ny\nproperty float nz\n"
-              f"element face {len(f)}\nproperty list uchar int vertex_indices\nend_header\n")
-    with atomic_path(path) as tmp:
-        with open(tmp, "wb") as fh:
-            fh.write(header.encode("ascii"))
-            fh.write(v.tobytes())
-            fh.write(f.tobytes())
+    atomic_write_bytes(path, ply_bytes(mesh))
 
 
-def mesh_file(mesh, folder: str) -> str:
-    """PLY of ``mesh`` in ``folder``, named by a hash of its content (written once)."""
-    digest = hashlib.sha256(mesh.vertices.tobytes() + mesh.faces.tobytes()).hexdigest()[:20]
-    path = os.path.join(folder, f"mesh-{digest}.ply")
-    if not os.path.exists(path):
-        write_ply(path, mesh)
-    return path
+def _transform(mi, ops):
+    t = mi.ScalarTransform4f()
+    for op, *vectors in ops:
+        if op == "look_at":
+            origin, target, up = vectors
+            t = t.look_at(origin=origin, target=target, up=up)
+        elif op in ("translate", "scale"):
+            t = getattr(t, op)(vectors[0])
+        else:
+            raise ValueError(f"transform op {op!r}: expected look_at, translate or scale")
+    return t
 
 
-def _look_at(mi, origin, target, up):
-    return mi.ScalarTransform4f().look_at(origin=list(map(float, origin)), target=list(map(float, target)),
-                                          up=list(map(float, up)))
-
-
-def _rgb(value):
-    return {"type": "rgb", "value": [float(x) for x in value]}
-
-
-def _homogeneous(sigma_t, albedo, phase=None) -> dict:
-    """Homogeneous medium; Mitsuba's RGB values must lie in [0, 1], so sigma_t is
-    normalised by its largest channel, which goes into ``scale``."""
-    sigma_t = np.asarray(sigma_t, float)
-    scale = float(sigma_t.max()) if sigma_t.max() > 0 else 1.0
-    d = {"type": "homogeneous", "albedo": _rgb(albedo), "sigma_t": _rgb(sigma_t / scale), "scale": scale}
-    if phase:
-        d["phase"] = phase
-    return d
-
-
-def spot_to_world(mi, light):
-    pos = np.asarray(light.position, float)
-    axis = np.asarray(light.direction, float)
-    up = [0.0, 1.0, 0.0] if abs(axis[1]) < 0.99 else [1.0, 0.0, 0.0]
-    return _look_at(mi, pos, pos + axis, up)
-
-
-def to_mitsuba(scene, *, integrator: dict | None = None, spp: int = 16, mesh_dir: str | None = None,
-               medium_box: bool = True) -> dict:
-    """Mitsuba scene dict of ``scene``. ``integrator`` defaults to volpath; ``mesh_dir``
-    (default: the cache) receives the PLY files."""
+def mitsuba_dict(description: Description, mesh_dir: str | None = None) -> dict:
+    """The ``mi.load_dict`` input of a description; ``mesh_dir`` (default: the cache)
+    receives the PLY files."""
     from .mi_setup import mitsuba
 
     mi = mitsuba()
     mesh_dir = mesh_dir or cache_dir("mitsuba-meshes")
-    cam, light, medium = scene.camera, scene.light, scene.medium
-    has_fog = not medium.is_vacuum
-    fog = None
-    if has_fog:
-        sigma_t = np.asarray(medium.sigma_t, float)
-        albedo = np.divide(medium.sigma_s, sigma_t, out=np.zeros(3), where=sigma_t > 0)
-        phase = {"type": "hg", "g": float(medium.phase.g)} if medium.phase.kind == "hg" else {"type": "isotropic"}
-        fog = _homogeneous(sigma_t, albedo, phase)
-    d = {
-        "type": "scene",
-        "integrator": integrator or {"type": "volpath", "max_depth": 2},
-        "sensor": {
-            "type": "perspective", "fov": float(cam.fov_y), "fov_axis": "y",
-            "near_clip": 1e-3, "far_clip": 1e4,
-            "to_world": _look_at(mi, cam.position, cam.target, cam.up),
-            "film": {"type": "hdrfilm", "width": int(cam.width), "height": int(cam.height),
-                     "rfilter": {"type": "box"}, "pixel_format": "rgb"},
-            "sampler": {"type": "independent", "sample_count": int(spp)},
-        },
-        "light": {"type": "spot", "intensity": _rgb(light.intensity), "cutoff_angle": float(light.cutoff_angle),
-                  "beam_width": float(light.beam_width), "to_world": spot_to_world(mi, light)},
-    }
-    if has_fog:
-        d[FOG_ID] = fog
-        d["sensor"]["medium"] = {"type": "ref", "id": FOG_ID}
-        d["light"]["medium"] = {"type": "ref", "id": FOG_ID}
-        if medium_box:
-            lo, hi = medium_bounds(scene)
-            center, half = (lo + hi) / 2, (hi - lo) / 2
-            d["medium_box"] = {"type": "cube", "bsdf": {"type": "null"}, "interior": {"type": "ref", "id": FOG_ID},
-                               "to_world": mi.ScalarTransform4f().translate(center.tolist()).scale(half.tolist())}
-    for i, obj in enumerate(scene.specular):
-        shape = {"type": "ply", "filename": mesh_file(obj.mesh.load(), mesh_dir), "face_normals": False,
-                 "bsdf": {"type": "dielectric", "int_ior": float(obj.ior), "ext_ior": 1.0}}
-        if any(obj.absorption):
-            shape["interior"] = _homogeneous(obj.absorption, (0.0, 0.0, 0.0))
-        if has_fog:
-            shape["exterior"] = {"type": "ref", "id": FOG_ID}
-        d[f"specular_{i}"] = shape
-    for i, obj in enumerate(scene.diffuse):
-        d[f"diffuse_{i}"] = {"type": "ply", "filename": mesh_file(obj.mesh.load(), mesh_dir), "face_normals": False,
-                             "bsdf": {"type": "twosided", "material": {"type": "diffuse",
-                                                                        "reflectance": _rgb(obj.albedo)}}}
-    return d
+
+    def convert(node):
+        if not isinstance(node, dict):
+            return node
+        if node.get("type") == "transform":
+            return _transform(mi, node["ops"])
+        out = {}
+        for key, value in node.items():
+            if key == "mesh" and node.get("type") == "ply":
+                out["filename"] = ply_file(description.meshes[value], mesh_dir, value)
+            else:
+                out[key] = convert(value)
+        return out
+
+    return convert(description.tree)
+
+
+def to_mitsuba(scene, *, integrator: dict | None = None, spp: int = 16, mesh_dir: str | None = None,
+               medium_box: bool = True) -> dict:
+    """Mitsuba scene dict of ``scene`` (see reference.description). ``integrator``
+    defaults to volpath; ``mesh_dir`` (default: the cache) receives the PLY files."""
+    return mitsuba_dict(describe(scene, integrator=integrator, spp=spp, medium_box=medium_box), mesh_dir)
 
 
 def export_xml(scene, path: str) -> None:

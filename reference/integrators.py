@@ -31,11 +31,11 @@ import drjit as dr
 from scenes.formats import KIND_DIFFUSE, KIND_SPECULAR
 
 from .mi_setup import mitsuba
+from .settings import MODES
 from .shapes import ShapeTable
 
 mi = mitsuba()
 
-MODES = ("caustic", "fog", "all", "surface")
 INV_FOUR_PI = 1.0 / (4.0 * math.pi)
 
 

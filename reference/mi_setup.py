@@ -2,13 +2,39 @@
 
 The variant is ``cuda_ad_rgb`` where it renders, else ``llvm_ad_rgb``
 (``reference.variant`` probes in child processes); ``VOLCAUSTICS_MI_VARIANT``
-overrides the choice (tests use it to skip probing).
+overrides the choice (tests use it to skip probing). The versions and the
+variants a cached reference may come from are known without importing Mitsuba,
+so a cache hit costs no Mitsuba start-up.
 """
 
 from __future__ import annotations
 
 import functools
 import os
+
+VARIANT_ENV = "VOLCAUSTICS_MI_VARIANT"
+
+
+def render_variant() -> str:
+    """The variant this process renders with: the override, else the probed choice."""
+    variant = os.environ.get(VARIANT_ENV)
+    if variant:
+        return variant
+    from .variant import reference_variant
+
+    return reference_variant()
+
+
+def served_variants() -> tuple[str, ...]:
+    """Variants whose cached references this process serves, in order of preference:
+    the override alone when set, else every variant the reference may render with
+    (so a cache hit needs no probe)."""
+    variant = os.environ.get(VARIANT_ENV)
+    if variant:
+        return (variant,)
+    from .variant import PREFERRED
+
+    return PREFERRED
 
 
 @functools.lru_cache(maxsize=1)
@@ -17,11 +43,7 @@ def mitsuba():
     from .llvm import ensure_libllvm
 
     ensure_libllvm()
-    variant = os.environ.get("VOLCAUSTICS_MI_VARIANT")
-    if not variant:
-        from .variant import reference_variant
-
-        variant = reference_variant()
+    variant = render_variant()
     import mitsuba as mi
 
     mi.set_variant(variant)
@@ -32,5 +54,33 @@ def variant_name() -> str:
     return mitsuba().variant()
 
 
+def _installed_version(package: str) -> str:
+    """Version of an installed distribution without importing it: from the name of
+    its wheel's ``<name>-<version>.dist-info`` folder (PEP 427) beside the package,
+    else from ``importlib.metadata`` (slower to import, ~20 ms)."""
+    import glob
+    import importlib.util
+
+    spec = importlib.util.find_spec(package)
+    if spec is not None and spec.origin:
+        site = os.path.dirname(os.path.dirname(spec.origin))
+        found = glob.glob(os.path.join(site, f"{package}-*.dist-info"))
+        if len(found) == 1:
+            return os.path.basename(found[0])[len(package) + 1:-len(".dist-info")]
+    from importlib.metadata import version
+
+    return version(package)
+
+
+@functools.lru_cache(maxsize=1)
+def library_versions() -> dict:
+    """Installed versions of Mitsuba and Dr.Jit (nothing imported)."""
+    return {"mitsuba": _installed_version("mitsuba"), "drjit": _installed_version("drjit")}
+
+
 def mitsuba_version() -> str:
-    return mitsuba().__version__
+    return library_versions()["mitsuba"]
+
+
+def drjit_version() -> str:
+    return library_versions()["drjit"]

@@ -9,7 +9,6 @@ sum, per batch, so its variance includes the correlation of fog and direct),
 
 from __future__ import annotations
 
-import dataclasses
 import json
 import math
 import time
@@ -20,12 +19,13 @@ from scenes.formats import COLOUR_LAYERS, MASK_LAYER
 from scenes.imageio import png_bytes, tonemap_srgb8
 
 from . import cache
+from .request import RenderRequest, resolve
 from .settings import ReferenceSettings
 
 
 class ReferenceResult:
     """A cached reference: ``manifest`` (photons, batches, seed, wall time, variant,
-    versions, scene hash, settings, cached), ``exr_path``/``png_path`` of the cache
+    versions, the caller's scene name and hash, settings, cached), ``exr_path``/``png_path`` of the cache
     files, and the images, read on first use: ``mean`` (layer → H×W×3 float32;
     mask_specular 0/1) and ``var`` (layer → variance of the mean)."""
 
@@ -49,11 +49,6 @@ class ReferenceResult:
         return {k[:-4]: v for k, v in self._load().items() if k.endswith("_var")}
 
 
-def _sized(scene, settings):
-    cam = dataclasses.replace(scene.camera, width=settings.width, height=settings.height)
-    return dataclasses.replace(scene, camera=cam)
-
-
 class _Welford:
     def __init__(self):
         self.n, self.mean, self.m2 = 0, None, None
@@ -75,19 +70,22 @@ class _Welford:
 def render_batches(scene, settings: ReferenceSettings, *, mode: str = "caustic", progress: bool = True) -> dict:
     """Render without the cache; returns {layer: (mean, var)} for the colour layers
     and the mask, plus timing and counts under the key ``"_info"``."""
+    return _render(resolve(scene, settings, mode), progress=progress)
+
+
+def _render(request: RenderRequest, *, progress: bool) -> dict:
     from tqdm import tqdm
 
-    from .export import to_mitsuba
+    from .export import mitsuba_dict
     from .integrators import SingleScatterIntegrator, VolumetricLightTracer, configure
     from .mi_setup import mitsuba
 
     mi = mitsuba()
-    settings = settings.resolved(scene)
-    scene = _sized(scene, settings)
+    scene, settings = request.scene, request.settings
     t0 = time.perf_counter()
-    mi_scene = mi.load_dict(to_mitsuba(scene))
+    mi_scene = mi.load_dict(mitsuba_dict(request.description))
     props = mi.Properties()
-    props["mode"] = mode
+    props["mode"] = request.mode
     props["max_scatter"] = settings.max_scatter
     tracer = configure(VolumetricLightTracer(props), scene, mi_scene)
     camera = configure(SingleScatterIntegrator(), scene, mi_scene)
@@ -113,19 +111,23 @@ def render_batches(scene, settings: ReferenceSettings, *, mode: str = "caustic",
     return out
 
 
-def render_reference(scene, settings: ReferenceSettings | None = None, *, force: bool = False,
-                     progress: bool = True) -> ReferenceResult:
+def render_reference(scene, settings: ReferenceSettings | None = None, *, mode: str = "caustic",
+                     force: bool = False, progress: bool = True) -> ReferenceResult:
     """The reference for ``scene``: from the cache when a valid entry exists (and not
-    ``force``), else rendered and stored."""
-    from .mi_setup import mitsuba_version, variant_name
+    ``force``), else rendered and stored. The image is ``settings.width × height``
+    (unset: the scene camera's); the camera's own size does not matter beyond that.
+    ``mode``: which light paths the caustic layer counts (settings.MODES)."""
+    from .mi_setup import drjit_version, mitsuba_version, variant_name
 
-    settings = (settings or ReferenceSettings()).resolved(scene)
-    key = cache.cache_key(scene, settings)
+    request = resolve(scene, settings, mode)
+    settings = request.settings
     if not force:
-        manifest = cache.load(key)
-        if manifest is not None:
-            return ReferenceResult(key, manifest, cached=True)
-    out = render_batches(scene, settings, progress=progress)
+        served = cache.lookup(request)
+        if served is not None:
+            key, manifest = served
+            return ReferenceResult(key, _for_caller(manifest, scene), cached=True)
+    out = _render(request, progress=progress)
+    key = cache.request_key(request, variant_name())
     info = out.pop("_info")
     layers = {}
     for name, (mean, var) in out.items():
@@ -133,13 +135,20 @@ def render_reference(scene, settings: ReferenceSettings | None = None, *, force:
         if name != MASK_LAYER:
             layers[f"{name}_var"] = var
     manifest = {
-        "scene": scene.name, "scene_hash": scene.scene_hash(), "settings": settings.to_dict(),
+        "scene": scene.name, "scene_hash": scene.scene_hash(), "settings": settings.to_dict(), "mode": request.mode,
         "photons": info["photons"], "batches": settings.batches, "seed": settings.seed,
         "camera_spp": info["camera_spp_per_batch"] * settings.batches, "wall_seconds": info["seconds"],
-        "mitsuba_variant": variant_name(), "mitsuba_version": mitsuba_version(),
+        "mitsuba_variant": variant_name(), "mitsuba_version": mitsuba_version(), "drjit_version": drjit_version(),
         "reference_code_version": cache.code_version(),
     }
     header = {"volcaustics_scene": scene.name, "volcaustics_scene_hash": scene.scene_hash(),
               "volcaustics_renderer": "reference", "volcaustics_manifest": json.dumps(manifest, default=float)}
     manifest = cache.store(key, layers, manifest, header, png_bytes(tonemap_srgb8(layers["combined"])))
     return ReferenceResult(key, manifest, cached=False, layers=layers)
+
+
+def _for_caller(manifest: dict, scene) -> dict:
+    """A cached manifest with the caller's scene name and hash: one entry serves every
+    scene that renders the same (other labels, another camera size with settings naming
+    the size), and the caller is told about the scene it passed."""
+    return {**manifest, "scene": scene.name, "scene_hash": scene.scene_hash()}

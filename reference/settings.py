@@ -5,6 +5,9 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass, replace
 
 
+MODES = ("caustic", "fog", "all", "surface")  # which light paths the light tracer counts (reference.integrators)
+
+
 class SettingsError(ValueError):
     """A reference setting is out of range; the message names it and what is allowed."""
 
@@ -44,3 +47,10 @@ class ReferenceSettings:
 
     def to_dict(self) -> dict:
         return asdict(self)
+
+
+def check_mode(mode: str) -> str:
+    """``mode`` if it is one of :data:`MODES`, else :class:`SettingsError`."""
+    if mode not in MODES:
+        raise SettingsError(f"mode = {mode!r}: expected one of {', '.join(MODES)}")
+    return mode

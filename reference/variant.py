@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import functools
 import json
-import subprocess
 import sys
 import time
 
@@ -38,6 +37,8 @@ def _render_tiny(variant: str) -> float:
 
 def probe(variant: str, timeout: float = 120.0) -> tuple[bool, str, float]:
     """(renders, detail, seconds) for ``variant``, tried in a child process."""
+    import subprocess  # here, not at the top: a cache hit reads PREFERRED only
+
     t0 = time.perf_counter()
     try:
         proc = subprocess.run([sys.executable, "-m", "reference.variant", variant],

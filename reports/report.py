@@ -23,10 +23,6 @@ from scenes.imageio import write_png
 from scenes.storage import atomic_write_text
 
 
-def _sized(scene, width, height):
-    return dataclasses.replace(scene, camera=dataclasses.replace(scene.camera, width=width, height=height))
-
-
 def scene_errors(approx_images: dict, reference_mean: dict) -> dict:
     """Per layer: relative MSE and energy ratio of the approximation over non-glass pixels."""
     from metrics.image import relative_mse
@@ -61,7 +57,7 @@ def build_report(out_dir: str, scene_names, *, width: int = 256, height: int = 2
         reference_settings or ReferenceSettings(photons=1 << 22, spp=64, batches=4), width=width, height=height)
     rows = []
     for name in tqdm(scene_names, desc="report", unit="scene", disable=not progress):
-        scene = _sized(load_builtin(name), width, height)
+        scene = load_builtin(name)  # the image size is in approx_params and reference_settings only
         t0 = time.perf_counter()
         renderer = Renderer(scene)
         renderer.render(approx_params, keep_records=False)  # compile shaders; time the second frame

@@ -15,6 +15,7 @@ from approx.records import records_from_raw
 from approx.trace import PhotonTracer
 from scenes.formats import PHOTON_DTYPE, RAW_RECORD_DTYPE, STATUS_COLLIDED, STATUS_SURFACE
 from scenes.model import Medium
+from scenes.bounds import medium_bounds
 from scenes.rng import uniform
 from tests.approx.helpers import make_scene, ray_sphere, sphere_spec
 
@@ -27,7 +28,7 @@ def trace_one(ctx, scene, start, direction, inside, status, params):
     through one interaction step of the real tracer; returns (record, frustum)."""
     geo = SceneGeometry.upload(ctx, scene)
     lm = LightMapRenderer(ctx, geo)
-    frustum = LightFrustum.for_scene(scene, geo.scene_min, geo.scene_max)
+    frustum = LightFrustum.for_scene(scene, *medium_bounds(scene))
     maps = lm.render_layers(frustum, LIGHT_RES, params.layers, params.layer_strategy)
     tracer = PhotonTracer(ctx, params)
     photon = np.zeros(1, PHOTON_DTYPE)
@@ -37,7 +38,7 @@ def trace_one(ctx, scene, start, direction, inside, status, params):
     pbuf, rbuf = ctx.buffer(photon.tobytes()), ctx.buffer(reserve=RAW_RECORD_DTYPE.itemsize)
     texels, bounds = tracer.map_buffer(maps, LIGHT_RES)
     info = [(b is not None, *(b or (0.0, 0.0))) for b in bounds]
-    tracer.trace_step(scene, frustum, geo, texels, info, LIGHT_RES, pbuf, rbuf, 1, 1, SEED)
+    tracer.trace_step(scene, frustum, medium_bounds(scene), texels, info, LIGHT_RES, pbuf, rbuf, 1, 1, SEED)
     rec = records_from_raw(np.frombuffer(rbuf.read(), RAW_RECORD_DTYPE), 1)[0]
     for r in (*maps, pbuf, rbuf, *texels):
         r.release()

@@ -16,6 +16,7 @@ from approx.layers import BOTH, LightMapRenderer
 from approx.light import LightFrustum
 from approx.splat import Splatter, splats_from_arrays
 from approx.trace import PhotonTracer, read_photons
+from scenes.bounds import medium_bounds
 from scenes.formats import STATUS_SURFACE
 from scenes.model import Camera, Medium
 from tests.approx.helpers import fog_quadrature, make_scene, pixel_ray, sphere_spec
@@ -35,7 +36,7 @@ def test_emission_power_is_intensity_times_solid_angle(ctx, res, sigma_t):
     params = dataclasses.replace(SMALL, photon_res=res, fresnel="stochastic")
     geo = SceneGeometry.upload(ctx, scene)
     lm = LightMapRenderer(ctx, geo)
-    frustum = LightFrustum.for_scene(scene, geo.scene_min, geo.scene_max)
+    frustum = LightFrustum.for_scene(scene, *medium_bounds(scene))
     emission_map = lm.render_light_map(frustum, res, facing=BOTH)
     tracer = PhotonTracer(ctx, params)
     buf = tracer.emit_photons(scene, frustum, emission_map, res, seed=1)
@@ -142,3 +143,28 @@ def test_renderer_retraces_with_a_new_light_without_rebuilding(ctx):
     for name in ("caustic", "fog", "direct"):
         assert np.allclose(b.images[name], 2 * a.images[name], rtol=1e-5, atol=1e-9), name
     renderer.release()
+
+
+@pytest.mark.parametrize("move", ["light", "camera"])
+def test_moved_light_or_camera_renders_like_a_fresh_renderer(ctx, move):
+    """The medium box holds the light and the camera (scenes.bounds), so moving either
+    out of the old box moves the box, and with it the light frustum's far plane, the
+    tracer's and the fog's box and the camera's far plane. One Renderer that rendered
+    the old scene must give bit for bit what a fresh Renderer gives for the moved one."""
+    scene = make_scene([(sphere_spec(0.4, (0, 1.5, 0), 16), 1.5, (0, 0, 0))], cutoff=20.0)
+    r = dataclasses.replace
+    if move == "light":  # 1 m above the old box's top (the light was its highest point)
+        moved = r(scene, light=r(scene.light, position=(0.0, 4.0, 0.0)))
+    else:  # behind the old box, which the camera now sees up to y > 3 at the far end
+        moved = r(scene, camera=r(scene.camera, position=(0.0, 1.2, 6.5)))
+    params = ApproxParams(photon_res=64, light_res=64, width=32, height=32, fog_steps=16, splat_radius=0.03)
+    renderer = Renderer(scene, ctx)
+    renderer.render(params, keep_records=False)
+    reused = renderer.render(params, scene=moved, keep_records=False)
+    renderer.release()
+    fresh_renderer = Renderer(moved, ctx)
+    fresh = fresh_renderer.render(params, keep_records=False)
+    fresh_renderer.release()
+    assert fresh.images["caustic"].max() > 0 and fresh.images["fog"].max() > 0
+    for name in fresh.images:
+        assert np.array_equal(reused.images[name], fresh.images[name]), name

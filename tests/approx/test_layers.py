@@ -8,6 +8,7 @@ import pytest
 from approx.geometry import SceneGeometry
 from approx.layers import LightMapRenderer, decode_normals, read_map
 from approx.light import LightFrustum
+from scenes.bounds import medium_bounds
 from tests.approx.helpers import make_scene, ray_sphere, shell_spec, sphere_spec
 
 RES = 128
@@ -19,7 +20,7 @@ def _setup(ctx, specular, strategy_scene_kwargs=None):
     scene = make_scene(specular, cutoff=25.0, **(strategy_scene_kwargs or {}))
     geo = SceneGeometry.upload(ctx, scene)
     lm = LightMapRenderer(ctx, geo)
-    frustum = LightFrustum.for_scene(scene, geo.scene_min, geo.scene_max)
+    frustum = LightFrustum.for_scene(scene, *medium_bounds(scene))
     return scene, geo, lm, frustum
 
 

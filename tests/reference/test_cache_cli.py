@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 
@@ -82,3 +83,37 @@ def test_export_xml_loads_in_mitsuba(tmp_path):
     assert len(scene.shapes()) == 4  # two glass spheres, the floor, the medium box
     image = np.asarray(mi.render(scene, spp=4))
     assert image.shape == (512, 512, 3) and np.isfinite(image).all() and image.mean() > 0
+
+
+def test_image_size_has_one_place_in_the_key():
+    """A scene whose camera was resized and the scene as loaded, with settings naming
+    the same size, are the same render: one key (the report used to resize the camera,
+    the CLI only the settings, and got two)."""
+    scene = load_builtin("refocus")
+    settings = ReferenceSettings(photons=100000, spp=8, batches=2, width=24, height=24)
+    camera = dataclasses.replace(scene.camera, width=24, height=24)
+    resized = dataclasses.replace(scene, camera=camera)
+    assert cache.cache_key(resized, settings) == cache.cache_key(scene, settings)
+    # settings without a size take the camera's, so the resized scene alone is that render too
+    unsized = dataclasses.replace(settings, width=None, height=None)
+    assert cache.cache_key(resized, unsized) == cache.cache_key(scene, settings)
+    assert cache.cache_key(scene, unsized) != cache.cache_key(scene, settings)  # 512² is another render
+
+
+def test_a_cache_hit_needs_no_variant_probe(private_cache, monkeypatch):
+    """Without VOLCAUSTICS_MI_VARIANT a cached reference of any preferred variant is
+    served (its manifest says which), so a hit never probes variants or imports Mitsuba
+    in a fresh process (both cost seconds on a cold machine)."""
+    from reference import variant
+
+    scene = load_builtin("refocus")
+    settings = ReferenceSettings(photons=100000, spp=8, batches=2, width=16, height=16)
+    first = render_reference(scene, settings, progress=False)  # llvm_ad_rgb, from tests/reference/conftest.py
+    monkeypatch.delenv("VOLCAUSTICS_MI_VARIANT")
+
+    def no_probe():
+        raise AssertionError("probed variants on a cache hit")
+
+    monkeypatch.setattr(variant, "reference_variant", no_probe)
+    again = render_reference(scene, settings, progress=False)
+    assert again.cached and again.key == first.key and again.manifest["mitsuba_variant"] == "llvm_ad_rgb"

@@ -67,3 +67,20 @@ def test_srgb_encoding_matches_colour_science():
 
     x = np.concatenate([np.linspace(0, 0.01, 101), np.linspace(0.01, 1, 1000)])
     assert np.allclose(srgb_encode(x), colour.cctf_encoding(x, function="sRGB"), atol=1e-12)
+
+
+def test_report_and_reference_cli_share_one_cache_entry(tmp_path, monkeypatch):
+    """Image size lives in the settings (DESIGN.md): the report's reference and
+    `volcaustics reference --width/--height` at the same size are one render, one key,
+    one cache entry — whichever path comes first, the other is served from the cache."""
+    cache = tmp_path / "cache"
+    monkeypatch.setenv("VOLCAUSTICS_CACHE", str(cache))
+    monkeypatch.setenv("VOLCAUSTICS_MI_VARIANT", "llvm_ad_rgb")
+    size_and_budget = ["--width", "24", "--height", "24", "--photons", "100000", "--spp", "8", "--batches", "2"]
+    assert main(["report", "--out", str(tmp_path / "rep"), "--scenes", "refocus", *size_and_budget]) == 0
+    from_report = json.loads((tmp_path / "rep" / "summary.json").read_text())["scenes"][0]["reference"]
+    assert main(["reference", "refocus", *size_and_budget, "-o", str(tmp_path / "r.exr")]) == 0
+    from_cli = json.loads((tmp_path / "r.json").read_text())
+    assert from_cli["key"] == from_report["key"]
+    assert from_report["cached"] is False and from_cli["cached"] is True
+    assert len(list((cache / "reference").glob("*.json"))) == 1

@@ -1,0 +1,40 @@
+"""One reference render, resolved once: exactly what will be rendered and keyed.
+
+Image size lives in one place, the settings (DESIGN.md "Results"). A request
+fills the settings' width/height from the scene camera where they are unset, then
+puts the scene's camera at that size, so a scene passed at any camera size with
+settings naming a size, and the same scene already resized, are one request: one
+render, one cache key.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+from dataclasses import dataclass
+
+from .settings import ReferenceSettings, check_mode
+
+
+@dataclass(frozen=True)
+class RenderRequest:
+    """scene: the scene as rendered, its camera at ``settings.width × settings.height``.
+    settings: resolved (width and height set). mode: the light tracer's (settings.MODES)."""
+
+    scene: object
+    settings: ReferenceSettings
+    mode: str = "caustic"
+
+    @functools.cached_property
+    def description(self):
+        """The Mitsuba scene as plain data (reference.description), built once per request."""
+        from .description import describe
+
+        return describe(self.scene)
+
+
+def resolve(scene, settings: ReferenceSettings | None = None, mode: str = "caustic") -> RenderRequest:
+    """The request for ``scene`` with ``settings`` (default :class:`ReferenceSettings`) and ``mode``."""
+    settings = (settings or ReferenceSettings()).resolved(scene)
+    camera = dataclasses.replace(scene.camera, width=settings.width, height=settings.height)
+    return RenderRequest(dataclasses.replace(scene, camera=camera), settings, check_mode(mode))
