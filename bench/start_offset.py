@@ -59,6 +59,8 @@ def main(argv=None) -> int:
     parser.add_argument("scenes", nargs="*", default=["sphere1", "bunny", "skull"])
     parser.add_argument("--light-res", default="256,512,1024")
     parser.add_argument("--photon-res", type=int, default=256)
+    parser.add_argument("--rules", default="old,new",
+                        help="comma-separated: old, new, or SLOPE:FLOOR:MAX in texel footprints")
     args = parser.parse_args(argv)
 
     import numpy as np
@@ -68,17 +70,25 @@ def main(argv=None) -> int:
     from approx.light import LightFrustum
     from reference.oracle import Oracle
     from scenes import load_builtin
+    from scenes.bounds import medium_bounds
 
     new_rule = dict(trace.START_OFFSET)
+    rules = []
+    for text in args.rules.split(","):
+        if text in ("old", "new"):
+            rules.append((text, OLD_RULE if text == "old" else new_rule))
+        else:
+            slope, floor, cap = (float(x) for x in text.split(":"))
+            rules.append((text, {"START_SLOPE": slope, "START_FLOOR": floor, "START_MAX": cap}))
     print(f"photon_res {args.photon_res}, stochastic Fresnel, 6 steps; shares of segments leaving a surface")
-    print(f"{'scene':8} {'light_res':>9} {'rule':5} {'segments':>9} {'skipped':>8} {'false re-hit':>12}")
+    print(f"{'scene':8} {'light_res':>9} {'rule':13} {'segments':>9} {'skipped':>8} {'false re-hit':>12}")
     for name in args.scenes:
         scene = load_builtin(name)
         oracle = Oracle(scene)
         for light_res in (int(x) for x in args.light_res.split(",")):
-            frustum = LightFrustum.for_scene(scene, *__import__("scenes.bounds", fromlist=["x"]).medium_bounds(scene))
+            frustum = LightFrustum.for_scene(scene, *medium_bounds(scene))
             texel_angle = 2.0 * frustum.tan_half / light_res
-            for label, rule in (("old", OLD_RULE), ("new", new_rule)):
+            for label, rule in rules:
                 trace.START_OFFSET.clear()
                 trace.START_OFFSET.update(rule)
                 renderer = Renderer(scene)
@@ -88,7 +98,7 @@ def main(argv=None) -> int:
                 renderer.release()
                 c = classify(frame.records, oracle, texel_angle, np.asarray(scene.light.position))
                 n = max(c["segments"], 1)
-                print(f"{name:8} {light_res:9d} {label:5} {c['segments']:9d} {100 * c['skipped'] / n:7.2f}% "
+                print(f"{name:8} {light_res:9d} {label:13} {c['segments']:9d} {100 * c['skipped'] / n:7.2f}% "
                       f"{100 * c['false_rehit'] / n:11.2f}%", flush=True)
     trace.START_OFFSET.clear()
     trace.START_OFFSET.update(new_rule)
