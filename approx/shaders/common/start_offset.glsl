@@ -8,21 +8,21 @@
 // segment's distance from the surface along the light ray grows at the rate
 // |d·n| / cos(theta); it has passed both errors after
 //     t = footprint · (START_SLOPE · sin(theta) + START_FLOOR) / |d·n|,
-// START_SLOPE = 2 · (√2 / 2). START_FLOOR covers what the plane model leaves out
-// (curvature across a texel, float rounding); START_MAX caps grazing departures,
-// where no offset both avoids the start surface and keeps nearby hits.
-// Values: approx/trace.py START_OFFSET (measured, see there).
+// with START_SLOPE at most 2 · (√2 / 2) (both errors at their bound). START_FLOOR
+// covers what the plane model leaves out (curvature across a texel, float rounding);
+// START_MAX caps grazing departures, where no offset both avoids the start surface
+// and keeps nearby hits. Values: approx/trace.py START_OFFSET (measured, see there).
 #ifndef VOLCAUSTICS_START_OFFSET_GLSL
 #define VOLCAUSTICS_START_OFFSET_GLSL
 
 #ifndef START_SLOPE
-#define START_SLOPE 1.4142135
+#define START_SLOPE 0.7
 #endif
 #ifndef START_FLOOR
-#define START_FLOOR 0.5
+#define START_FLOOR 0.25
 #endif
 #ifndef START_MAX
-#define START_MAX 5.0
+#define START_MAX 2.0
 #endif
 
 // Offset in texel footprints for a photon at light_to_point (from the light) leaving
