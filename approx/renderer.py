@@ -121,7 +121,7 @@ class Renderer:
         for step in range(1, p.steps + 1):
             with timer.measure(f"trace_step{step}"):
                 tracer.trace_step(scene, frustum, box, map_texels, map_info, p.light_res, photons, record_buf,
-                                  count, step, p.seed)
+                                  count, step, p.seed, objects_box=(geo.specular_min, geo.specular_max))
             step_image = ctx.texture((p.width, p.height), 4, dtype="f4")
             with timer.measure("splat"):
                 n_splats = tracer.compact_splats(record_buf, count, splat_buf)

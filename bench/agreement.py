@@ -38,22 +38,26 @@ def main(argv=None) -> int:
     parser.add_argument("--photon-res", type=int, default=512)
     parser.add_argument("--light-res", type=int, default=1024)
     parser.add_argument("--size", type=int, default=256)
+    parser.add_argument("--clip-to-objects", action="store_true",
+                        help="also clip searched segments to the specular objects' box (approx.trace.CLIP_TO_OBJECTS)")
     args = parser.parse_args(argv)
 
     import numpy as np
 
     import reference  # noqa: F401  (libLLVM before drjit)
-    from approx import ApproxParams, Renderer
+    from approx import ApproxParams, Renderer, trace
     from reference.oracle import Oracle, exact_photon_records
     from reference.render import render_reference
     from reference.settings import ReferenceSettings
     from scenes import load_builtin
     from scenes.formats import FLAG_LEFT_FRUSTUM, STATUS_LOST
 
+    trace.CLIP_TO_OBJECTS = args.clip_to_objects
     settings = ReferenceSettings(photons=1 << 22, spp=64, batches=4, width=args.size, height=args.size)
-    print(f"photon_res {args.photon_res}, light_res {args.light_res}, {args.size}², reference {settings.photons} photons")
+    print(f"photon_res {args.photon_res}, light_res {args.light_res}, {args.size}², reference {settings.photons} photons"
+          f"{', clipped to the objects box' if args.clip_to_objects else ''}")
     print(f"{'scene':10} {'fresnel':13} {'steps':>5} {'lost approx':>11} {'lost exact':>10} "
-          f"{'left_frustum':>12} {'caustic approx/ref':>18}")
+          f"{'left_frustum':>12} {'caustic approx/ref':>18} {'trace s':>7}")
     for name in args.scenes:
         scene = load_builtin(name)
         ref = render_reference(scene, settings, progress=False)
@@ -65,6 +69,7 @@ def main(argv=None) -> int:
         for fresnel, steps in (("deterministic", 4), ("stochastic", 16)):
             params = ApproxParams(photon_res=args.photon_res, light_res=args.light_res, width=args.size,
                                   height=args.size, steps=steps, fresnel=fresnel, splat_radius=0.02)
+            renderer.render(params, keep_records=False)  # compile shaders; time the next frame
             frame = renderer.render(params)
             exact = exact_photon_records(scene, frame.records[0], steps=steps, seed=params.seed, fresnel=fresnel,
                                          oracle=oracle)
@@ -73,7 +78,7 @@ def main(argv=None) -> int:
             ratio = float(frame.images["caustic"][keep].sum()) / ref_total
             print(f"{name:10} {fresnel:13} {steps:5d} {100 * power_share(frame.records, STATUS_LOST):10.2f}% "
                   f"{100 * power_share(exact, STATUS_LOST):9.2f}% {100 * flagged / segments:11.2f}% "
-                  f"{ratio:11.3f} ± {ref_sd / ref_total:.3f}", flush=True)
+                  f"{ratio:11.3f} ± {ref_sd / ref_total:.3f} {frame.timings['trace']:7.2f}", flush=True)
         renderer.release()
     return 0
 
