@@ -12,7 +12,8 @@ surface, the exact oracle answers on the same interval, and:
 * skipped hit: the exact first hit lies within the start offset on another
   surface (its shading normal differs from the start's by more than 18°; an
   exact hit on the start surface itself is a self re-hit of the approximate start
-  point, not a skip);
+  point, not a skip), and the approximation did not find it (inside glass, a
+  segment with nothing beyond its offset searches within it: FLAG_WITHIN_OFFSET);
 * false re-hit: the approximation hits the surface it started on (normal within
   18° of the start's) where the exact first hit is not within 3 texel footprints.
 
@@ -42,11 +43,11 @@ def classify(records: list, oracle, texel_angle: float, light_position) -> dict:
             continue
         q = oracle.first_hits(seg["start"], seg["direction"], seg["search_length"])
         exact_same = np.einsum("ij,ij->i", np.nan_to_num(q["normal"]), start_normal) > SAME_SURFACE
-        skipped = q["hit"] & (q["t"] < seg["start_offset"]) & ~exact_same
         approx_same = np.einsum("ij,ij->i", np.nan_to_num(seg["normal"]), start_normal) > SAME_SURFACE
         hit_point = seg["start"] + seg["direction"] * np.nan_to_num(seg["t"])[:, None]
         tolerance = 3.0 * texel_angle * np.linalg.norm(hit_point - light_position, axis=1)
-        agrees = q["hit"] & (np.abs(np.nan_to_num(q["t"]) - np.nan_to_num(seg["t"])) <= tolerance)
+        agrees = q["hit"] & seg["hit"] & (np.abs(np.nan_to_num(q["t"]) - np.nan_to_num(seg["t"])) <= tolerance)
+        skipped = q["hit"] & (q["t"] < seg["start_offset"]) & ~exact_same & ~agrees
         rehit = seg["hit"] & approx_same & ~agrees
         counts["segments"] += len(seg)
         counts["skipped"] += int(skipped.sum())

@@ -28,6 +28,7 @@ STATUS_NAMES = {STATUS_DEAD: "dead", STATUS_SURFACE: "surface", STATUS_COLLIDED:
 FLAG_LEFT_FRUSTUM = 1  # part of the segment lay outside the light maps
 FLAG_REFLECTED = 2     # the interaction at the end reflected (Fresnel choice or TIR)
 FLAG_TIR = 4           # total internal reflection at the end
+FLAG_WITHIN_OFFSET = 8  # inside glass, the exit was found within the start offset (nothing beyond it)
 
 # --- shape kinds: what a ray hit (approx G-buffer channel y, reference ShapeTable).
 # KIND_NONE is 0 so that a G-buffer cleared to zero reads as "no surface".
@@ -39,7 +40,8 @@ KIND_BOUNDARY = 3  # the medium box (reference only: the exported scene's bounda
 # Every code by the name both languages spell it with (the GLSL loader defines these).
 STATUS_CODES = {"STATUS_DEAD": STATUS_DEAD, "STATUS_SURFACE": STATUS_SURFACE, "STATUS_COLLIDED": STATUS_COLLIDED,
                 "STATUS_LEFT_SCENE": STATUS_LEFT_SCENE, "STATUS_LOST": STATUS_LOST}
-FLAG_BITS = {"FLAG_LEFT_FRUSTUM": FLAG_LEFT_FRUSTUM, "FLAG_REFLECTED": FLAG_REFLECTED, "FLAG_TIR": FLAG_TIR}
+FLAG_BITS = {"FLAG_LEFT_FRUSTUM": FLAG_LEFT_FRUSTUM, "FLAG_REFLECTED": FLAG_REFLECTED, "FLAG_TIR": FLAG_TIR,
+             "FLAG_WITHIN_OFFSET": FLAG_WITHIN_OFFSET}
 SHAPE_KINDS = {"KIND_NONE": KIND_NONE, "KIND_SPECULAR": KIND_SPECULAR, "KIND_DIFFUSE": KIND_DIFFUSE,
                "KIND_BOUNDARY": KIND_BOUNDARY}
 

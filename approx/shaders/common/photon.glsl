@@ -33,6 +33,9 @@
 #ifndef FLAG_TIR
 #define FLAG_TIR 4u          // total internal reflection at the end
 #endif
+#ifndef FLAG_WITHIN_OFFSET
+#define FLAG_WITHIN_OFFSET 8u // inside glass, the exit was found within the start offset
+#endif
 
 struct Photon {
     vec4 pos;    // xyz position; w: material id of the glass it is inside, -1 in the medium

@@ -208,6 +208,41 @@ void clip_to_objects(vec3 o, vec3 d, inout float lo, inout float hi) {
 }
 #endif
 
+// Smallest estimated hit over all maps on [t0, t1] of o + t·d (light clip coordinates
+// c0 at t = 0, c1 at t = search); -1 if none, with the map, its texel and geometric normal.
+float search_maps(vec3 o, vec3 d, vec4 c0, vec4 c1, float search, float t0, float t1,
+                  out int best_map, out vec4 best_texel, out vec2 best_geometric) {
+    float best_t = -1.0;
+    best_map = -1;
+    best_texel = vec4(0.0);
+    best_geometric = vec2(0.0);
+    if (!(t1 > t0)) return best_t;
+    Segment seg;
+    seg.q = o - light_position;
+    seg.d = d;
+    seg.t0 = t0;
+    seg.t1 = t1;
+    seg.c0 = mix(c0, c1, t0 / search);
+    seg.c1 = mix(c0, c1, t1 / search);
+    // distance range of the segment from the light: closest point, farthest end
+    float t_close = clamp(-dot(seg.q, d), t0, t1);
+    float r_min = length(seg.q + d * t_close);
+    float r_max = max(length(seg.q + d * t0), length(seg.q + d * t1));
+    for (int m = 0; m < MAPS; ++m) {
+        if (!map_used[m] || r_max < map_min_dist[m] || r_min > map_max_dist[m]) continue;
+        vec4 texel;
+        vec2 geometric;
+        float t = estimate_on_map(m, seg, texel, geometric);
+        if (t >= 0.0 && (best_t < 0.0 || t < best_t)) {
+            best_t = t;
+            best_map = m;
+            best_texel = texel;
+            best_geometric = geometric;
+        }
+    }
+    return best_t;
+}
+
 void main() {
     uint i = gl_GlobalInvocationID.x;
     if (i >= photon_count) return;
@@ -256,34 +291,18 @@ void main() {
 #ifdef CLIP_TO_OBJECTS
     clip_to_objects(o, d, t0, t1);
 #endif
-    float best_t = -1.0;
-    int best_map = -1;
-    vec4 best_texel = vec4(0.0);
-    vec2 best_geometric = vec2(0.0);
-    if (t1 > t0) {
-        Segment seg;
-        seg.q = o - light_position;
-        seg.d = d;
-        seg.t0 = t0;
-        seg.t1 = t1;
-        seg.c0 = mix(c0, c1, t0 / search);
-        seg.c1 = mix(c0, c1, t1 / search);
-        // distance range of the segment from the light: closest point, farthest end
-        float t_close = clamp(-dot(seg.q, d), t0, t1);
-        float r_min = length(seg.q + d * t_close);
-        float r_max = max(length(seg.q + d * t0), length(seg.q + d * t1));
-        for (int m = 0; m < MAPS; ++m) {
-            if (!map_used[m] || r_max < map_min_dist[m] || r_min > map_max_dist[m]) continue;
-            vec4 texel;
-            vec2 geometric;
-            float t = estimate_on_map(m, seg, texel, geometric);
-            if (t >= 0.0 && (best_t < 0.0 || t < best_t)) {
-                best_t = t;
-                best_map = m;
-                best_texel = texel;
-                best_geometric = geometric;
-            }
-        }
+    int best_map;
+    vec4 best_texel;
+    vec2 best_geometric;
+    float best_t = search_maps(o, d, c0, c1, search, t0, t1, best_map, best_texel, best_geometric);
+    // A photon inside glass must leave it: when nothing was found beyond the start offset,
+    // the exit may lie within it (a thin wedge of glass entered at a grazing angle next to
+    // a silhouette): search there as well, from a hundredth of the offset.
+    if (best_t < 0.0 && inside >= 0 && t_eps > 0.0 && search > 0.0) {
+        float u0 = 0.01 * t_eps, u1 = min(t_eps, search);
+        clip_to_frustum(c0, c1, search, w_min, u0, u1);
+        best_t = search_maps(o, d, c0, c1, search, u0, u1, best_map, best_texel, best_geometric);
+        if (best_t >= 0.0) g_flags |= FLAG_WITHIN_OFFSET;
     }
 
     // --- outcome
