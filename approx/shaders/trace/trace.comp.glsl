@@ -5,16 +5,19 @@
 // drawn from the shared RNG. The search only looks where the light maps exist
 // (DESIGN.md): the segment is clipped to the light frustum first (Liang–Barsky
 // on its light clip coordinates, which are affine in t), so no sample is wasted
-// outside. The first hit on the clipped segment is *estimated* from
-// the light maps: per map, PEAK_SAMPLES interior samples, uniform along the
-// segment's projection in the light's image, look for the first sign change of
-// (distance to the light − map distance); none means no hit on that map; else
-// ITERATIONS steps of binary search refine it. The smallest t over the maps wins.
-// A hit applies the specular interaction; no hit in the medium moves the photon
-// to the collision point (direction kept: single scattering) where it is
-// splatted (splat/compact.comp.glsl gathers these from the records). Power follows the deterministic transmittance of every distance
-// travelled (medium sigma_t, glass absorption), which together with collisions
-// at rate sigma_bar makes the splatted power unbiased (see approx/trace.py).
+// outside. The first hit on the clipped segment is *estimated* from the light
+// maps: per map, PEAK_SAMPLES interior samples, uniform along the segment's
+// projection in the light's image, look for the first sign change of (distance
+// to the light − map distance) between covered samples; where a map's coverage
+// ends or begins between two samples (a silhouette), the covered end at the
+// edge is found by binary search and tested too. None means no hit on that map;
+// else ITERATIONS steps of binary search refine it. The smallest t over the maps
+// wins. A hit applies the specular interaction; no hit in the medium moves the
+// photon to the collision point (direction kept: single scattering) where it is
+// splatted (splat/compact.comp.glsl gathers these from the records). Power
+// follows the deterministic transmittance of every distance travelled (medium
+// sigma_t, glass absorption), which together with collisions at rate sigma_bar
+// makes the splatted power unbiased (see approx/trace.py).
 //
 // Maps that cannot hold a crossing are skipped (same result, less work): maps
 // with no surface at all, and maps whose surfaces' distance range from the light
@@ -24,10 +27,11 @@
 //
 // The search starts a little way from the surface a photon leaves (the start
 // offset, common/start_offset.glsl): its distance to the maps' picture of that
-// surface must first exceed the maps' own error there.
+// surface must first exceed the maps' own error there. Inside glass, a segment
+// with nothing beyond its offset searches within it (FLAG_WITHIN_OFFSET).
 //
 // Defines: MAPS (2 × layers), PEAK_SAMPLES, ITERATIONS, MAX_MATERIALS, the
-// start-offset constants, and FRESNEL_STOCHASTIC when chosen.
+// start-offset constants, FRESNEL_STOCHASTIC and CLIP_TO_OBJECTS when chosen.
 #include "common/rng.glsl"
 #include "common/optics.glsl"
 #include "common/octahedral.glsl"
