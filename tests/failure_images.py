@@ -25,18 +25,18 @@ def output_dir(test_name: str) -> str:
 
 
 def write_compared_images(test_name: str, layers: dict, *, info: dict | None = None,
-                          exposure_from: str | None = None) -> str:
+                          exposure_from: str | None = None, own_exposure: tuple = ()) -> str:
     """Write ``layers`` (name → H×W×3 or H×W float array, linear) to
     ``test-output/<test_name>/compared.exr``, one PNG per H×W×3 layer (the exposure of
-    ``exposure_from``, else each its own; negative values are written as their
-    magnitude) and ``info.json``; returns the folder."""
+    ``exposure_from`` except for the layers in ``own_exposure``, which get their own;
+    negative values are written as their magnitude) and ``info.json``; returns the folder."""
     folder = output_dir(test_name)
     write_exr(os.path.join(folder, "compared.exr"), {k: np.asarray(v, np.float32) for k, v in layers.items()})
     exposure = auto_exposure(np.abs(layers[exposure_from])) if exposure_from else None
     for name, image in layers.items():
         image = np.abs(np.asarray(image, np.float32))
         if image.ndim == 3 and image.shape[2] == 3:
-            write_png(os.path.join(folder, f"{name}.png"), image, exposure)
+            write_png(os.path.join(folder, f"{name}.png"), image, None if name in own_exposure else exposure)
     if info is not None:
         with open(os.path.join(folder, "info.json"), "w", encoding="utf-8") as fh:
             json.dump(info, fh, indent=2, default=lambda x: np.asarray(x).tolist())

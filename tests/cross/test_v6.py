@@ -174,8 +174,8 @@ def _write_failure(test_name, reference, exact_batches, keep, info):
     z = (e_mean - reference.mean) / np.sqrt(np.maximum(e_var + reference.var, 1e-30))
     return write_compared_images(test_name, {
         "exact": e_mean, "reference": reference.mean, "difference": e_mean - reference.mean,
-        "z": np.where(keep[..., None], z, 0.0), "compared": np.repeat(keep[..., None], 3, 2).astype(np.float32)},
-        info=info, exposure_from="reference")
+        "z": np.where(keep[..., None], z, 0.0), "pixels_compared": np.repeat(keep[..., None], 3, 2).astype(np.float32)},
+        info=info, exposure_from="reference", own_exposure=("z", "pixels_compared"))
 
 
 @pytest.mark.parametrize("name", list(CASES))
