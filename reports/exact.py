@@ -133,7 +133,8 @@ def exact_photons(scene, params, *, steps: int, fresnel: str, renderer=None, ora
         own = renderer is None
         renderer = renderer or Renderer(scene)
         try:
-            frame = renderer.render(dataclasses.replace(p, steps=1), scene, keep_records=True)
+            # one step: its records hold the emission state; fog_steps 1: the frame's images are unused
+            frame = renderer.render(dataclasses.replace(p, steps=1, fog_steps=1), scene, keep_records=True)
         finally:
             if own:
                 renderer.release()
@@ -236,7 +237,7 @@ def exact_caustic(scene, params, *, steps: int, fresnel: str, batches: int = 8, 
                            for k in range(batches)])
         mask = photons.mask_specular
         if mask is None or mask.shape[:2] != (fine.height, fine.width):
-            mask = renderer.render(dataclasses.replace(fine, steps=1, photon_res=1), scene,
+            mask = renderer.render(dataclasses.replace(fine, steps=1, photon_res=1, fog_steps=1), scene,
                                    keep_records=False).images["mask_specular"]
     finally:
         if own:
