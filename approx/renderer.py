@@ -109,7 +109,7 @@ class Renderer:
         released += [emission_map, photons]
         count = p.photon_res * p.photon_res
 
-        view = CameraView(scene.camera, p.width, p.height, far=2.0 * float(np.linalg.norm(box[1] - box[0])))
+        view = _camera_view(scene, p, box)
         with timer.measure("camera"):
             gbuf_geo, gbuf_nrm = camera_passes.render_gbuffer(geo, view)
         released += [gbuf_geo, gbuf_nrm]
@@ -157,11 +157,65 @@ class Renderer:
             caustic_steps=caustic_steps, records=records, timings=timings, timing_method=timer.method,
             params=p.to_dict(), photons_emitted=emitted, gl=gl_info(ctx))
 
+    def splat(self, splats: np.ndarray, params: ApproxParams | None = None, scene=None) -> np.ndarray:
+        """The caustic image of photons from any source, through this frame's own
+        splatting (paper §3, Eq. 5, §4.3): the same view, G-buffer depth test,
+        ``splat_radius``, medium weights and phase as :meth:`render`.
+
+        Parameters
+        ----------
+        splats : N rows of ``scenes.formats.SPLAT_DTYPE``: medium collisions (world
+            positions in metres, unit propagation directions before scattering, RGB
+            power in W after transmittance), e.g. from
+            :func:`approx.splat.splats_from_arrays`. Rows whose status is not
+            STATUS_COLLIDED draw nothing.
+        params : the approximation's parameters; only width, height and
+            splat_radius matter (width/height unset take the scene camera's).
+        scene : replaces light, camera or medium of the construction's scene (same
+            meshes), as in :meth:`render`.
+
+        Returns
+        -------
+        H×W×3 float32, linear Rec.709 radiance (W·m⁻²·sr⁻¹), row 0 at the top: the
+        single-scattered radiance of the splats as the camera sees it, the
+        ``caustic`` layer of :meth:`render` for the same photons.
+        """
+        splats = np.ascontiguousarray(splats)
+        if splats.dtype != SPLAT_DTYPE or splats.ndim != 1:
+            raise ValueError(f"splats: expected a 1-D array of SPLAT_DTYPE rows, got {splats.dtype} {splats.shape}")
+        ctx = self.ctx
+        scene = scene or self.scene
+        p = (params or ApproxParams()).resolved(scene)
+        view = _camera_view(scene, p, medium_bounds(scene))
+        phase_key = (scene.medium.phase.kind, scene.medium.phase.g)
+        camera_passes = self._cached(("camera", p.fog_steps, phase_key), lambda: CameraPasses(ctx, scene, p.fog_steps))
+        splatter = self._cached(("splat", phase_key), lambda: Splatter(ctx, scene.medium))
+        gbuf_geo, gbuf_nrm = camera_passes.render_gbuffer(self.geometry, view)
+        image = ctx.texture((p.width, p.height), 4, dtype="f4")
+        fbo = ctx.framebuffer(color_attachments=[image])
+        fbo.clear(0.0, 0.0, 0.0, 0.0)
+        fbo.release()
+        released = [gbuf_geo, gbuf_nrm, image]
+        if len(splats):
+            buf = ctx.buffer(splats.tobytes())
+            released.append(buf)
+            splatter.splat(buf, len(splats), view, scene.medium, p.splat_radius, scene.medium.sigma_bar, gbuf_geo,
+                           image)
+        out = _read_rgb(image)
+        for r in released:
+            r.release()
+        return out
+
     def release(self):
         for prog in self._programs.values():
             prog.release()
         self.light_maps.release()
         self.geometry.release()
+
+
+def _camera_view(scene, p: ApproxParams, box) -> CameraView:
+    """The camera of a frame at the resolved image size; the far plane beyond the medium's box."""
+    return CameraView(scene.camera, p.width, p.height, far=2.0 * float(np.linalg.norm(box[1] - box[0])))
 
 
 def render(scene, params: ApproxParams | None = None, **kwargs) -> Frame:

@@ -25,7 +25,10 @@ void main() {
     float s_max = gbuffer_kind(g) != KIND_NONE ? g.x : 1e30;
     vec3 oc = v_center - eye;
     float s_c = dot(oc, ray);
-    float b2 = max(dot(oc, oc) - s_c * s_c, 0.0);
+    // b² from the perpendicular offset itself: dot(oc, oc) − s_c² cancels catastrophically
+    // in float32 (|oc|² ≈ 20 m² has an ulp of 2e-6 m², the size of b² for σ of a few mm).
+    vec3 perp = oc - s_c * ray;
+    float b2 = dot(perp, perp);
     float inv_sqrt2_sigma = 0.7071067811865476 / sigma;
     // Both erf terms are 1 to float precision more than 6σ from the ends of [0, s_max].
     float along = (s_c > 6.0 * sigma && s_max - s_c > 6.0 * sigma)

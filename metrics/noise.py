@@ -1,0 +1,186 @@
+"""Noise-aware comparison of two Monte Carlo images (pure numpy, float64 accumulation).
+
+DESIGN.md, "Noise": a reference stores the variance of its mean per pixel; its
+noise floor Σ var / Σ mean² is the relative MSE an exact renderer would get
+against it. Comparing two unbiased estimates of one image, their squared
+difference has the expectation Σ bias² + Σ (var_test + var_reference): the
+*debiased* relative MSE subtracts the second term, so it estimates the error that
+noise does not explain, and comes with its standard error so that "within noise"
+is a number. Both images are given as independent batch images (K for the test, L
+for the reference), which yield the per-pixel variances, the variances of the
+totals (pixels that share a sample are correlated, e.g. one splat over several
+pixels) and a distribution-free standard error (photon noise is heavy-tailed).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+def _select(image, mask):
+    """Pixels of ``image`` (H×W×C or H×W) under ``mask`` (H×W or H×W×C) as N×C."""
+    m = np.ones(image.shape[:2], bool) if mask is None else np.asarray(mask, dtype=bool)
+    if m.ndim < 2 or m.shape != image.shape[: m.ndim]:
+        raise ValueError(f"mask shape {m.shape} does not match image shape {image.shape}")
+    selected = image[m]
+    return selected.reshape(len(selected), -1)
+
+
+def _batches(reference_batches, test_batches, mask):
+    """Both batch stacks as L×N×C and K×N×C float64 arrays of the masked pixels."""
+    r = np.asarray(reference_batches, dtype=np.float64)
+    t = np.asarray(test_batches, dtype=np.float64)
+    if r.ndim < 3 or t.ndim != r.ndim or r.shape[1:] != t.shape[1:]:
+        raise ValueError(f"shape mismatch: reference_batches {r.shape}, test_batches {t.shape} "
+                         "(expected L×H×W×C and K×H×W×C)")
+    for name, b in (("reference_batches", r), ("test_batches", t)):
+        if len(b) < 4:
+            raise ValueError(f"{name}: {len(b)} batches, expected at least 4")
+    r = np.stack([_select(b, mask) for b in r])
+    t = np.stack([_select(b, mask) for b in t])
+    return r, t
+
+
+def _variance_squared(batches):
+    """Unbiased per-pixel estimate of var(mean)² from one batch stack (n×N×C): the
+    product of the variances of two disjoint halves is unbiased for σ⁴ whatever the
+    distribution (a ``firefly`` in one batch gives ≈ 0, as it should), averaged over
+    two splits (first/second half, even/odd)."""
+    n = len(batches)
+    h = n // 2
+    splits = [(batches[:h], batches[h:2 * h]), (batches[0:2 * h:2], batches[1:2 * h:2])]
+    sigma4 = np.mean([a.var(axis=0, ddof=1) * b.var(axis=0, ddof=1) for a, b in splits], axis=0)
+    return sigma4 / n**2
+
+
+def noise_floor(reference, reference_var, *, mask=None) -> float:
+    """Σ var / Σ mean² over the pixels of ``mask``: the reference's own noise as a
+    relative MSE (DESIGN.md "Noise").
+
+    Parameters
+    ----------
+    reference : H×W×C array, linear radiance, the mean of the batches.
+    reference_var : H×W×C array ≥ 0, the variance of that mean per pixel.
+    mask : optional H×W (or H×W×C) boolean array of the pixels to count.
+    """
+    r = np.asarray(reference, dtype=np.float64)
+    rv = np.asarray(reference_var, dtype=np.float64)
+    if r.shape != rv.shape or r.ndim < 2:
+        raise ValueError(f"shape mismatch: reference {r.shape}, reference_var {rv.shape}")
+    if np.any(rv < 0):
+        raise ValueError("reference_var must be non-negative")
+    r, rv = _select(r, mask), _select(rv, mask)
+    energy = float(np.sum(r * r))
+    if energy == 0.0:
+        raise ValueError("reference is zero everywhere: relative error undefined")
+    return float(np.sum(rv) / energy)
+
+
+@dataclass(frozen=True)
+class EnergyRatio:
+    """Per-channel ratio of the test's total to the reference's over the masked pixels."""
+
+    ratio: np.ndarray                # C, test total / reference total
+    standard_error: np.ndarray       # C, of the ratio (first-order propagation of both variances)
+    test_total: np.ndarray           # C, Σ test over the pixels
+    test_total_var: np.ndarray       # C, variance of that sum, from the batches' totals
+    reference_total: np.ndarray      # C
+    reference_total_var: np.ndarray  # C
+    pixels: int
+    batches: int
+    reference_batches: int
+
+
+def energy_ratio(reference_batches, test_batches, *, mask=None) -> EnergyRatio:
+    """Energy of a test image relative to a reference, both as independent batches.
+
+    Parameters
+    ----------
+    reference_batches : L×H×W×C array, L ≥ 4 independent unbiased estimates of the
+        reference image (linear radiance); the reference is their mean.
+    test_batches : K×H×W×C array, K ≥ 4 independent estimates of the test image.
+    mask : optional H×W (or H×W×C) boolean array of the pixels to sum.
+
+    The variance of each total comes from the spread of the batches' totals, so
+    pixels that share a sample (one splat over several pixels) are accounted for.
+    """
+    r, t = _batches(reference_batches, test_batches, mask)
+    ref_totals, test_totals = r.sum(axis=1), t.sum(axis=1)  # batches × C
+    ref_total, test_total = ref_totals.mean(axis=0), test_totals.mean(axis=0)
+    ref_var = ref_totals.var(axis=0, ddof=1) / len(r)
+    test_var = test_totals.var(axis=0, ddof=1) / len(t)
+    if np.any(ref_total <= 0):
+        raise ValueError("reference total is not positive in every channel: ratio undefined")
+    ratio = test_total / ref_total
+    rel_var = test_var / np.maximum(np.abs(test_total), 1e-300) ** 2 + ref_var / ref_total**2
+    return EnergyRatio(ratio=ratio, standard_error=np.abs(ratio) * np.sqrt(rel_var), test_total=test_total,
+                       test_total_var=test_var, reference_total=ref_total, reference_total_var=ref_var,
+                       pixels=int(r.shape[1]), batches=len(t), reference_batches=len(r))
+
+
+@dataclass(frozen=True)
+class DebiasedError:
+    """Relative MSE of a test image against a reference, split into noise and the rest.
+
+    raw = Σ(test − reference)² / Σ reference² (means of the batches); noise =
+    Σ(var_test + var_reference) / Σ reference², the expectation of raw when both are
+    unbiased estimates of one image (variances of the means, from the batches);
+    debiased = raw − noise, an unbiased estimate of Σ bias² / Σ reference² (negative
+    values are noise); standard_error of ``debiased``; z = debiased / standard_error.
+    """
+
+    raw: float
+    noise: float
+    test_noise: float
+    reference_noise: float
+    debiased: float
+    standard_error: float
+    z: float
+    pixels: int
+    batches: int
+    reference_batches: int
+
+
+def debiased_relative_mse(reference_batches, test_batches, *, mask=None) -> DebiasedError:
+    """Relative MSE of a batched test image against a batched reference, less what
+    their noise explains, with a standard error.
+
+    Parameters
+    ----------
+    reference_batches : L×H×W×C array, L ≥ 4 independent unbiased estimates of the
+        reference image (linear radiance).
+    test_batches : K×H×W×C array, K ≥ 4 independent estimates of the test image.
+    mask : optional H×W (or H×W×C) boolean array of the pixels to compare.
+
+    Notes
+    -----
+    Per pixel, with b the bias, d = mean_test − mean_reference and v_t, v_r the
+    variances of the two means, T = d² − v̂_t − v̂_r is unbiased for b² and, for any
+    distribution of the batches, has the variance
+    4 b² (v_t + v_r) + 2 v_t² K/(K−1) + 2 v_r² L/(L−1) + 4 v_t v_r
+    (the terms are uncorrelated: T is a U-statistic). Pixels are taken as
+    independent; v² comes from products of disjoint half-sample variances (unbiased,
+    robust to fireflies), b² (v_t + v_r) from T·(v̂_t + v̂_r) summed.
+    """
+    r, t = _batches(reference_batches, test_batches, mask)
+    k, n_ref = len(t), len(r)
+    ref_mean, test_mean = r.mean(axis=0), t.mean(axis=0)
+    energy = float(np.sum(ref_mean**2))
+    if energy == 0.0:
+        raise ValueError("reference is zero everywhere: relative error undefined")
+    v_t = t.var(axis=0, ddof=1) / k
+    v_r = r.var(axis=0, ddof=1) / n_ref
+    d2 = (test_mean - ref_mean) ** 2
+    per_pixel = d2 - v_t - v_r
+    variance = (2 * _variance_squared(t) * k / (k - 1) + 2 * _variance_squared(r) * n_ref / (n_ref - 1)
+                + 4 * v_t * v_r)
+    bias_part = max(float(np.sum(4 * per_pixel * (v_t + v_r))), 0.0)
+    se = float(np.sqrt(max(float(np.sum(variance)), 0.0) + bias_part))
+    debiased = float(np.sum(per_pixel))
+    z = debiased / se if se > 0 else (0.0 if debiased == 0 else float(np.copysign(np.inf, debiased)))
+    return DebiasedError(raw=float(np.sum(d2)) / energy, noise=float(np.sum(v_t) + np.sum(v_r)) / energy,
+                         test_noise=float(np.sum(v_t)) / energy, reference_noise=float(np.sum(v_r)) / energy,
+                         debiased=debiased / energy, standard_error=se / energy, z=z,
+                         pixels=int(r.shape[1]), batches=k, reference_batches=n_ref)

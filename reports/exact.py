@@ -1,0 +1,307 @@
+"""Exact photons through the approximation's splatter: the caustic images E_k and E_∞
+of DESIGN.md ("Measuring the error": images).
+
+The approximation's photons are replayed from their emission state (its step-1
+records) with exact intersections and the very same random numbers
+(``reference.oracle.exact_photon_records``); every medium collision is then
+splatted by the approximation's own splatter (``approx.Renderer.splat``): the
+same view, G-buffer depth test, kernel, medium weights and phase. What differs
+from the approximation's own caustic is the intersection estimation alone (and
+``steps``, ``fresnel`` when chosen differently).
+
+Noise: every photon draws its own random numbers (``scenes.rng``, keyed by the
+photon index), so photon subsets are independent. The photons are split into
+``batches`` subsets of interleaved emission texels (each covers the whole light
+on a coarser grid, :func:`interleaved_subsets`); each subset's image times K is an
+independent estimate of the caustic, and their spread gives the variance of the
+mean per pixel. :func:`reference_caustic` gives the reference's caustic in the
+same form (independent batch images), so that ``metrics.noise`` can compare the
+two with their noise.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from scenes.formats import STATUS_COLLIDED, STATUS_SURFACE
+
+
+@dataclass
+class ExactPhotons:
+    """Every medium collision of the exact replay, ready to splat.
+
+    splats: N rows of ``scenes.formats.SPLAT_DTYPE`` (collision point in metres,
+        unit direction before scattering, RGB power in W after transmittance).
+    photon: N photon indices (emission texel, uint32) of the splats.
+    step: N interaction steps (1..steps) of the splats.
+    emitted_power: RGB power (W) of the replayed photons at their start, after the
+        emission's first specular interaction.
+    alive_power: RGB power (W) still travelling after the last step (neither
+        collided-and-continued nor at a surface counts as ended).
+    collided_power: steps×3, RGB power (W) splatted per step.
+    photons: number of photons replayed.
+    params: what produced them: the approximation's resolved parameters (seed,
+        photon_res, the emission's fresnel), the replay's ``steps`` and ``fresnel``.
+    """
+
+    splats: np.ndarray
+    photon: np.ndarray
+    step: np.ndarray
+    emitted_power: np.ndarray
+    alive_power: np.ndarray
+    collided_power: np.ndarray
+    photons: int
+    params: dict
+    mask_specular: np.ndarray | None = None
+
+    @property
+    def alive_fraction(self) -> float:
+        """Largest per-channel share of the start power still alive after the last step."""
+        emitted = np.maximum(self.emitted_power, 1e-300)
+        return float(np.max(self.alive_power / emitted))
+
+
+@dataclass
+class ExactCaustic:
+    """The exact photons' caustic in independent batches.
+
+    batch_images: K×H×W×3 float32, linear Rec.709 radiance (W·m⁻²·sr⁻¹), row 0 at the
+        top; image k is K times the caustic of the photons with index ≡ k (mod K): K
+        independent unbiased estimates of the same image.
+    mask_specular: H×W×3 float32, 1 where the camera sees glass (the approximation's
+        G-buffer), else 0.
+    photons: the :class:`ExactPhotons` splatted.
+    params: the parameters actually used (``photons.params`` plus batches, splat_radius,
+        width, height and the phase the splats were weighted with).
+    """
+
+    batch_images: np.ndarray
+    mask_specular: np.ndarray
+    photons: ExactPhotons
+    params: dict = field(default_factory=dict)
+
+    @property
+    def batches(self) -> int:
+        return len(self.batch_images)
+
+    @property
+    def mean(self) -> np.ndarray:
+        """H×W×3 float32: the caustic of all photons."""
+        return self.batch_images.astype(np.float64).mean(axis=0).astype(np.float32)
+
+    @property
+    def var(self) -> np.ndarray:
+        """H×W×3 float32: per-pixel variance of :attr:`mean` over the batches."""
+        b = self.batch_images.astype(np.float64)
+        return (b.var(axis=0, ddof=1) / len(b)).astype(np.float32)
+
+    def total(self, mask=None) -> tuple[np.ndarray, np.ndarray]:
+        """RGB sum over the pixels of ``mask`` (H×W bool; all pixels when None): its
+        value and the variance of that value, from the batches' totals (so the
+        covariance of neighbouring pixels, which one splat shares, is included)."""
+        b = self.batch_images.astype(np.float64)
+        sums = b[:, mask].sum(axis=1) if mask is not None else b.sum(axis=(1, 2))
+        return sums.mean(axis=0), sums.var(axis=0, ddof=1) / len(sums)
+
+
+def exact_photons(scene, params, *, steps: int, fresnel: str, renderer=None, oracle=None,
+                  first_records: np.ndarray | None = None) -> ExactPhotons:
+    """Replay the approximation's photons exactly and collect their medium collisions.
+
+    Parameters
+    ----------
+    scene : the scene (``scenes.model.Scene``).
+    params : ``approx.ApproxParams``: photon_res, light_res, seed and image size of the
+        frame whose emission is replayed.
+    steps : interaction steps of the replay (E_∞ wants so many that < 0.1% of the power
+        is alive afterwards: check :attr:`ExactPhotons.alive_fraction`).
+    fresnel : "deterministic" or "stochastic", for the emission and the replay.
+    renderer : an ``approx.Renderer`` of ``scene`` to reuse (else one is made).
+    oracle : a ``reference.oracle.Oracle`` of ``scene`` to reuse (else one is made).
+    first_records : the emission state to replay (step-1 records, RECORD_DTYPE) when
+        already at hand; else a one-step frame is rendered for it.
+    """
+    from approx import Renderer
+    from reference.oracle import Oracle, exact_photon_records
+
+    p = dataclasses.replace(params, fresnel=fresnel).resolved(scene)
+    mask = None
+    if first_records is None:
+        own = renderer is None
+        renderer = renderer or Renderer(scene)
+        try:
+            # one step: its records hold the emission state; fog_steps 1: the frame's images are unused
+            frame = renderer.render(dataclasses.replace(p, steps=1, fog_steps=1), scene, keep_records=True)
+        finally:
+            if own:
+                renderer.release()
+        first_records = frame.records[0]
+        mask = frame.images["mask_specular"]
+    records = exact_photon_records(scene, first_records, steps=steps, seed=p.seed, fresnel=fresnel,
+                                   oracle=oracle or Oracle(scene))
+    collided = [r[r["status"] == STATUS_COLLIDED] for r in records]
+    collided_power = np.zeros((steps, 3))
+    for k, c in enumerate(collided):
+        collided_power[k] = c["power"].astype(np.float64).sum(axis=0)
+    rows = np.concatenate(collided) if collided else np.zeros(0, first_records.dtype)
+    last = records[-1] if len(records) == steps else None  # shorter: every photon ended early
+    alive = np.zeros(3)
+    if last is not None:
+        keep = (last["status"] == STATUS_SURFACE) | (last["status"] == STATUS_COLLIDED)
+        alive = last["power"][keep].astype(np.float64).sum(axis=0)
+    from approx.splat import splats_from_arrays
+
+    used = {**p.to_dict(), "steps": steps, "fresnel": fresnel, "emission_fresnel": fresnel}
+    return ExactPhotons(splats=splats_from_arrays(rows["end"], rows["direction"], rows["power"]),
+                        photon=rows["photon"].astype(np.uint32), step=rows["step"].astype(np.int64),
+                        emitted_power=first_records["power_start"].astype(np.float64).sum(axis=0),
+                        alive_power=alive, collided_power=collided_power, photons=len(first_records),
+                        params=used, mask_specular=mask)
+
+
+def interleaved_subsets(photon: np.ndarray, photon_res: int, batches: int) -> np.ndarray:
+    """Subset (0..batches−1) of each photon: emission texel (row mod a, column mod b),
+    a·b = batches with a the largest divisor ≤ √batches. Each subset is the emission
+    grid at a (b) times its spacing, stratified over the light like the whole grid, so
+    the subsets' spread measures the noise of the whole; subsets of whole columns
+    (index mod K) differ in the light they cover and overstated the standard
+    deviation of the energy 2× (sphere1, 8 seeds)."""
+    a = max(d for d in range(1, int(np.sqrt(batches)) + 1) if batches % d == 0)
+    b = batches // a
+    photon = np.asarray(photon, np.int64)
+    return ((photon // photon_res) % a) * b + (photon % photon_res) % b
+
+
+def pixel_footprint(camera, height: int, distance: float | None = None) -> float:
+    """Width (m) of one pixel of an image ``height`` pixels tall, at ``distance`` (m,
+    default: the camera's target distance) along the view axis: the pinhole's vertical
+    field of view over the rows."""
+    if distance is None:
+        distance = float(np.linalg.norm(np.subtract(camera.target, camera.position)))
+    return 2.0 * distance * float(np.tan(np.radians(camera.fov_y) / 2.0)) / height
+
+
+def box_downsample(image: np.ndarray, factor: int, reduce=np.mean) -> np.ndarray:
+    """H·f×W·f×C → H×W×C: each output pixel reduces (mean: the box filter) its f×f block."""
+    if factor == 1:
+        return image
+    h, w = image.shape[0] // factor, image.shape[1] // factor
+    blocks = image.reshape(h, factor, w, factor, *image.shape[2:])
+    return reduce(blocks, axis=(1, 3)).astype(image.dtype)
+
+
+def exact_caustic(scene, params, *, steps: int, fresnel: str, batches: int = 8, supersample: int = 1,
+                  renderer=None, oracle=None, photons: ExactPhotons | None = None) -> ExactCaustic:
+    """E_k / E_∞: the exact photons' caustic through the approximation's splatter.
+
+    Parameters
+    ----------
+    scene : the scene; its medium's phase weights the splats (``photons`` traced in a
+        scene that differs only in the phase may be splatted here).
+    params : ``approx.ApproxParams``; photon_res, light_res, seed select the photons,
+        splat_radius, width, height the image.
+    steps, fresnel : see :func:`exact_photons` (ignored when ``photons`` is given).
+    batches : K ≥ 2 independent photon subsets (:func:`interleaved_subsets`) for the variance.
+    supersample : S ≥ 1: splat at S·width × S·height and average S×S blocks, which
+        gives each pixel the reference's box filter (DESIGN.md "Conventions") instead
+        of the approximation's point sample at the pixel centre. A kernel narrower
+        than about half a fine pixel aliases (the fine samples miss thin caustics).
+    renderer, oracle : reused when given.
+    photons : an earlier :func:`exact_photons` result to splat again (another kernel,
+        phase or image size) without retracing.
+
+    Returns
+    -------
+    :class:`ExactCaustic` at width × height: batch images, mean, per-pixel variance of
+    the mean, the glass mask (1 where any fine sample sees glass), the photons (alive
+    power after the last step) and the parameters used.
+    """
+    from approx import Renderer
+
+    if batches < 2:
+        raise ValueError(f"batches = {batches}: expected at least 2 (the variance needs two)")
+    if isinstance(supersample, bool) or not isinstance(supersample, int) or supersample < 1:
+        raise ValueError(f"supersample = {supersample!r}: expected an integer >= 1")
+    p = params.resolved(scene)
+    fine = dataclasses.replace(p, width=p.width * supersample, height=p.height * supersample)
+    own = renderer is None
+    renderer = renderer or Renderer(scene)
+    try:
+        if photons is None:
+            photons = exact_photons(scene, fine, steps=steps, fresnel=fresnel, renderer=renderer, oracle=oracle)
+        subset = interleaved_subsets(photons.photon, photons.params["photon_res"], batches)
+        images = np.stack([box_downsample(renderer.splat(photons.splats[subset == k], fine, scene), supersample)
+                           for k in range(batches)])
+        mask = photons.mask_specular
+        if mask is None or mask.shape[:2] != (fine.height, fine.width):
+            mask = renderer.render(dataclasses.replace(fine, steps=1, photon_res=1, fog_steps=1), scene,
+                                   keep_records=False).images["mask_specular"]
+    finally:
+        if own:
+            renderer.release()
+    phase = scene.medium.phase
+    used = {**photons.params, "batches": batches, "supersample": supersample, "splat_radius": p.splat_radius,
+            "width": p.width, "height": p.height, "phase": phase.kind,
+            "g": float(phase.g) if phase.kind == "hg" else 0.0}
+    return ExactCaustic(batch_images=(images * np.float32(batches)).astype(np.float32),
+                        mask_specular=box_downsample(mask, supersample, np.max), photons=photons, params=used)
+
+
+@dataclass
+class ReferenceCaustic:
+    """The reference's caustic as independent batch images.
+
+    batch_images: L×H×W×3 float32, linear Rec.709 radiance, row 0 at the top: L
+        independent unbiased estimates of the reference caustic (each the mean of one
+        ``reference.render.render_batches`` call of two Mitsuba batches).
+    mask_specular: H×W×3 float32, 1 where any camera sample saw glass, else 0.
+    params: the settings actually used (per call and in total), the mode, seconds.
+    """
+
+    batch_images: np.ndarray
+    mask_specular: np.ndarray
+    params: dict = field(default_factory=dict)
+
+    @property
+    def mean(self) -> np.ndarray:
+        return self.batch_images.astype(np.float64).mean(axis=0).astype(np.float32)
+
+    @property
+    def var(self) -> np.ndarray:
+        """H×W×3 float32: per-pixel variance of :attr:`mean` over the batches."""
+        b = self.batch_images.astype(np.float64)
+        return (b.var(axis=0, ddof=1) / len(b)).astype(np.float32)
+
+
+def reference_caustic(scene, settings, *, mode: str = "caustic") -> ReferenceCaustic:
+    """The reference caustic in ``settings.batches`` independent batch images (uncached).
+
+    ``reference.render.render_batches`` keeps only each pixel's mean and variance;
+    comparisons that need the reference's batches (the variance of its total, a
+    distribution-free standard error, ``metrics.noise``) get them here from
+    ``settings.batches`` calls of two batches each, ``settings.photons`` and
+    ``settings.spp`` shared among them, with seeds that never repeat
+    (call ℓ: ``settings.seed · L + ℓ``).
+    """
+    import time
+
+    from reference.render import render_batches
+
+    calls = settings.batches
+    t0 = time.perf_counter()
+    per_call = dataclasses.replace(settings, batches=2, photons=max(1, settings.photons // calls),
+                                   spp=max(2, settings.spp // calls))
+    images, mask, photons = [], None, 0
+    for call in range(calls):
+        out = render_batches(scene, dataclasses.replace(per_call, seed=settings.seed * calls + call), mode=mode,
+                             progress=False)
+        images.append(out["caustic"][0])
+        m = out["mask_specular"][0]
+        mask = m if mask is None else np.maximum(mask, m)
+        photons += out["_info"]["photons"]
+    used = {**settings.to_dict(), "mode": mode, "photons": photons, "calls": calls,
+            "per_call": per_call.to_dict(), "seconds": time.perf_counter() - t0}
+    return ReferenceCaustic(batch_images=np.stack(images).astype(np.float32), mask_specular=mask, params=used)
