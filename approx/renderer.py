@@ -89,6 +89,7 @@ class Renderer:
         frustum = LightFrustum.for_scene(scene, *box)
         tracer = self._cached(("tracer", p.layers, p.peak_samples, p.iterations, p.fresnel),
                               lambda: PhotonTracer(ctx, p))
+        tracer.check_limits(p)
         phase_key = (scene.medium.phase.kind, scene.medium.phase.g)
         camera_passes = self._cached(("camera", p.fog_steps, phase_key), lambda: CameraPasses(ctx, scene, p.fog_steps))
         splatter = self._cached(("splat", phase_key), lambda: Splatter(ctx, scene.medium))

@@ -70,6 +70,19 @@ class PhotonTracer:
         self.compact_write = compute_shader(ctx, "splat/compact.comp.glsl")
         self.maps = 2 * params.layers
         self._solid_angles = {}
+        self._max_groups = int(ctx.info["GL_MAX_COMPUTE_WORK_GROUP_COUNT"][0])
+
+    def check_limits(self, params) -> None:
+        """Raise ParamError when ``params`` need more compute work groups in one dispatch
+        than the GL driver runs (GL_MAX_COMPUTE_WORK_GROUP_COUNT; 65,535 on Mesa): the
+        dispatch would silently do nothing."""
+        from .params import ParamError
+
+        for name, res, per_group in (("photon_res", params.photon_res, 64), ("light_res", params.light_res, 256)):
+            if math.ceil(res * res / per_group) > self._max_groups:
+                limit = math.isqrt(self._max_groups * per_group)
+                raise ParamError(f"{name} = {res}: this GL driver runs at most {self._max_groups} work groups of "
+                                 f"{per_group} in one dispatch, so {name} must be at most {limit}")
 
     def _solid_angle_buffer(self, frustum, res: int) -> moderngl.Buffer:
         key = (res, round(frustum.tan_half, 12))

@@ -220,3 +220,20 @@ def test_moved_light_or_camera_renders_like_a_fresh_renderer(ctx, move):
     assert fresh.images["caustic"].max() > 0 and fresh.images["fog"].max() > 0
     for name in fresh.images:
         assert np.array_equal(reused.images[name], fresh.images[name]), name
+
+
+def test_resolutions_beyond_the_drivers_dispatch_limit_are_refused(ctx):
+    """One dispatch runs at most GL_MAX_COMPUTE_WORK_GROUP_COUNT groups (65,535 on Mesa):
+    photon_res 2048 needs 65,536 groups of 64 photons and silently emitted nothing. The
+    renderer now refuses such parameters with an error naming the limit."""
+    import math
+
+    from approx import ParamError, render
+    from tests.approx.helpers import make_scene
+
+    limit = int(ctx.info["GL_MAX_COMPUTE_WORK_GROUP_COUNT"][0])
+    largest = math.isqrt(limit * 64)
+    if largest >= 8192:
+        pytest.skip(f"this driver dispatches {limit} groups: every allowed photon_res fits")
+    with pytest.raises(ParamError, match=f"photon_res = {largest + 1}.*at most {largest}"):
+        render(make_scene(), ApproxParams(photon_res=largest + 1, light_res=64, width=8, height=8))
