@@ -65,23 +65,13 @@ class ExactPhotons:
 
 
 @dataclass
-class ExactCaustic:
-    """The exact photons' caustic in independent batches.
-
-    batch_images: K×H×W×3 float32, linear Rec.709 radiance (W·m⁻²·sr⁻¹), row 0 at the
-        top; image k is K times the caustic of the photons with index ≡ k (mod K): K
-        independent unbiased estimates of the same image.
-    mask_specular: H×W×3 float32, 1 where the camera sees glass (the approximation's
-        G-buffer), else 0.
-    photons: the :class:`ExactPhotons` splatted.
-    params: the parameters actually used (``photons.params`` plus batches, splat_radius,
-        width, height and the phase the splats were weighted with).
-    """
+class BatchImages:
+    """K independent unbiased estimates of one image (``batch_images``, K×H×W×3
+    float32) and the glass mask (``mask_specular``, H×W×3 float32, 1 on glass): their
+    mean, its per-pixel variance and the variance of sums over pixels."""
 
     batch_images: np.ndarray
     mask_specular: np.ndarray
-    photons: ExactPhotons
-    params: dict = field(default_factory=dict)
 
     @property
     def batches(self) -> int:
@@ -89,7 +79,7 @@ class ExactCaustic:
 
     @property
     def mean(self) -> np.ndarray:
-        """H×W×3 float32: the caustic of all photons."""
+        """H×W×3 float32: the mean of the batches."""
         return self.batch_images.astype(np.float64).mean(axis=0).astype(np.float32)
 
     @property
@@ -105,6 +95,24 @@ class ExactCaustic:
         b = self.batch_images.astype(np.float64)
         sums = b[:, mask].sum(axis=1) if mask is not None else b.sum(axis=(1, 2))
         return sums.mean(axis=0), sums.var(axis=0, ddof=1) / len(sums)
+
+
+@dataclass
+class ExactCaustic(BatchImages):
+    """The exact photons' caustic in independent batches.
+
+    batch_images: K×H×W×3 float32, linear Rec.709 radiance (W·m⁻²·sr⁻¹), row 0 at the
+        top; image k is K times the caustic of the photons of subset k
+        (:func:`interleaved_subsets`): K independent unbiased estimates of the same image.
+    mask_specular: H×W×3 float32, 1 where the camera sees glass (the approximation's
+        G-buffer), else 0.
+    photons: the :class:`ExactPhotons` splatted.
+    params: the parameters actually used (``photons.params`` plus batches, splat_radius,
+        width, height and the phase the splats were weighted with).
+    """
+
+    photons: ExactPhotons = None
+    params: dict = field(default_factory=dict)
 
 
 def exact_photons(scene, params, *, steps: int, fresnel: str, renderer=None, oracle=None,
@@ -251,7 +259,7 @@ def exact_caustic(scene, params, *, steps: int, fresnel: str, batches: int = 8, 
 
 
 @dataclass
-class ReferenceCaustic:
+class ReferenceCaustic(BatchImages):
     """The reference's caustic as independent batch images.
 
     batch_images: L×H×W×3 float32, linear Rec.709 radiance, row 0 at the top: L
@@ -261,19 +269,7 @@ class ReferenceCaustic:
     params: the settings actually used (per call and in total), the mode, seconds.
     """
 
-    batch_images: np.ndarray
-    mask_specular: np.ndarray
     params: dict = field(default_factory=dict)
-
-    @property
-    def mean(self) -> np.ndarray:
-        return self.batch_images.astype(np.float64).mean(axis=0).astype(np.float32)
-
-    @property
-    def var(self) -> np.ndarray:
-        """H×W×3 float32: per-pixel variance of :attr:`mean` over the batches."""
-        b = self.batch_images.astype(np.float64)
-        return (b.var(axis=0, ddof=1) / len(b)).astype(np.float32)
 
 
 def reference_caustic(scene, settings, *, mode: str = "caustic") -> ReferenceCaustic:
