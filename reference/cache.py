@@ -18,9 +18,11 @@ import hashlib
 import json
 import os
 
+import numpy as np
+
 from scenes.canonical import canonical_dict
 from scenes.imageio import read_exr, write_exr
-from scenes.storage import atomic_write_bytes, atomic_write_text, cache_dir, file_sha256
+from scenes.storage import atomic_path, atomic_write_bytes, atomic_write_text, cache_dir, file_sha256
 
 from . import mi_setup
 
@@ -46,7 +48,7 @@ def key_document(request, variant: str) -> dict:
         "format": KEY_FORMAT,
         "mitsuba_scene": request.description.tree,
         "scene": canonical_dict(request.scene),
-        "settings": request.settings.to_dict(),
+        "settings": request.settings.batch_identity(),
         "mode": request.mode,
         "code": code_version(),
         "mitsuba": {**mi_setup.library_versions(), "variant": variant},
@@ -100,14 +102,36 @@ def load(key: str):
         return None
 
 
-def store(key: str, layers: dict, manifest: dict, header: dict, png: bytes) -> dict:
-    """Write EXR and PNG preview, then the manifest (the commit marker)."""
+def store(key: str, layers: dict, manifest: dict, header: dict, png: bytes, state: dict | None = None) -> dict:
+    """Write EXR, PNG preview and the batch state (``state``: arrays of float64 batch
+    sums, to continue the render; ``<key>.npz``), then the manifest (the commit marker)."""
     exr, manifest_path = paths(key)
     write_exr(exr, layers, {**header, "volcaustics_reference_key": key})
     atomic_write_bytes(exr[:-4] + ".png", png)
     manifest = {**manifest, "key": key, "exr_sha256": file_sha256(exr)}
+    if state is not None:
+        with atomic_path(state_path(key)) as tmp:
+            np.savez(tmp, **state)
+        manifest["state_sha256"] = file_sha256(state_path(key))
     atomic_write_text(manifest_path, json.dumps(manifest, indent=2, default=float))
     return manifest
+
+
+def state_path(key: str) -> str:
+    """The batch state of a cache entry (float64 sums per stream, see reference.batches)."""
+    return paths(key)[0][:-4] + ".npz"
+
+
+def read_state(key: str, manifest: dict) -> dict | None:
+    """The entry's batch state if present and matching its manifest, else None."""
+    path = state_path(key)
+    try:
+        if manifest.get("state_sha256") != file_sha256(path):
+            return None
+        with np.load(path) as data:
+            return {name: data[name] for name in data.files}
+    except (OSError, ValueError, KeyError):
+        return None
 
 
 def read_layers(key: str) -> dict:

@@ -1,16 +1,21 @@
 """Reference renders: every component in independent batches, with per-pixel
-variance of the mean, served from and stored to the cache.
+variance of the mean and its noise floor, served from, continued in and stored to
+the cache.
 
-Layers (DESIGN.md names) and their variances: ``caustic`` (light tracer),
-``fog`` and ``direct`` (single-scatter camera integrator), ``combined`` (their
-sum, per batch, so its variance includes the correlation of fog and direct),
+Two independent streams of batches: the light tracer's (``caustic``) and the
+camera integrator's (``fog``, ``direct``, ``mask_specular``). With a fixed budget
+each stream renders ``batches`` batches; with ``target_noise`` batches are added
+to a stream until the noise floor (Σ var / Σ mean² over non-glass pixels) of each
+of its components is at most its target, or the photon or time cap stops it (the
+manifest's ``stopped_by`` says which). Layers (DESIGN.md names) and their
+variances: ``caustic``, ``fog``, ``direct``, ``combined`` (their sum; the streams
+are independent, so its variance is the caustic's plus that of fog + direct),
 ``mask_specular``; ``<layer>_var`` holds the variance of the mean.
 """
 
 from __future__ import annotations
 
 import json
-import math
 import time
 
 import numpy as np
@@ -19,6 +24,7 @@ from scenes.formats import COLOUR_LAYERS, MASK_LAYER
 from scenes.imageio import png_bytes, tonemap_srgb8
 
 from . import cache
+from .batches import CAMERA, LIGHT, STREAM_IMAGES, BatchStats, batch_seed, noise_floor
 from .request import RenderRequest, resolve
 from .settings import ReferenceSettings
 
@@ -49,31 +55,107 @@ class ReferenceResult:
         return {k[:-4]: v for k, v in self._load().items() if k.endswith("_var")}
 
 
-class _Welford:
-    def __init__(self):
-        self.n, self.mean, self.m2 = 0, None, None
+class RenderState:
+    """Everything rendered so far for one cache entry: the batch statistics of both
+    streams (reference.batches), the glass mask and the seconds spent (all calls)."""
 
-    def add(self, x: np.ndarray):
-        x = x.astype(np.float64)
-        self.n += 1
-        if self.mean is None:
-            self.mean, self.m2 = x.copy(), np.zeros_like(x)
-            return
-        delta = x - self.mean
-        self.mean += delta / self.n
-        self.m2 += delta * (x - self.mean)
+    def __init__(self, light: BatchStats | None = None, camera: BatchStats | None = None,
+                 mask: np.ndarray | None = None, seconds: float = 0.0, floor_seconds: dict | None = None):
+        self.light = light or BatchStats(STREAM_IMAGES[LIGHT])
+        self.camera = camera or BatchStats(STREAM_IMAGES[CAMERA])
+        self.mask = mask
+        self.seconds = seconds
+        # component -> {"floor": f, "seconds": s}: render time (all calls) at which its noise
+        # floor first came down to f, the lowest target asked of it so far
+        self.floor_seconds = floor_seconds or {}
 
-    def result(self):
-        return self.mean.astype(np.float32), (self.m2 / (self.n - 1) / self.n).astype(np.float32)
+    def arrays(self) -> dict:
+        out = {**self.light.arrays(LIGHT), **self.camera.arrays(CAMERA), "seconds": np.asarray(self.seconds),
+               "floor_seconds": np.asarray(json.dumps(self.floor_seconds))}
+        if self.mask is not None:
+            out["mask"] = self.mask
+        return out
+
+    @classmethod
+    def from_arrays(cls, arrays: dict) -> "RenderState":
+        return cls(BatchStats.from_arrays(STREAM_IMAGES[LIGHT], arrays, LIGHT),
+                   BatchStats.from_arrays(STREAM_IMAGES[CAMERA], arrays, CAMERA),
+                   np.array(arrays["mask"]) if "mask" in arrays else None, float(arrays["seconds"]),
+                   json.loads(str(arrays["floor_seconds"])) if "floor_seconds" in arrays else None)
+
+    def note_targets(self, targets: dict, elapsed: float) -> None:
+        """Record when each target component's floor first met its target (``elapsed``:
+        seconds of this call, added to the earlier calls')."""
+        floors = self.floors()
+        for name, target in targets.items():
+            known = self.floor_seconds.get(name)
+            if floors[name] is not None and floors[name] <= target and (known is None or known["floor"] > target):
+                self.floor_seconds[name] = {"floor": target, "seconds": self.seconds + elapsed}
+
+    def layers(self) -> dict:
+        """{layer: (mean, var)} float32 for the colour layers and the mask. The streams are
+        independent, so combined's variance is the caustic's plus that of fog + direct."""
+        light, camera = self.light, self.camera
+        out = {"caustic": (light.mean("caustic"), light.var("caustic")),
+               "fog": (camera.mean("fog"), camera.var("fog")),
+               "direct": (camera.mean("direct"), camera.var("direct")),
+               "combined": (light.mean("caustic") + camera.mean("fog_direct"),
+                            light.var("caustic") + camera.var("fog_direct"))}
+        out = {k: (m.astype(np.float32), v.astype(np.float32)) for k, (m, v) in out.items()}
+        m = np.repeat(self.mask.astype(np.float32)[..., None], 3, axis=2)
+        out[MASK_LAYER] = (m, np.zeros_like(m))
+        return out
+
+    def floors(self) -> dict:
+        """Noise floor per colour layer over the pixels that do not see glass (None
+        without energy or without two batches yet)."""
+        keep = ~self.mask if self.mask is not None else None
+        out = {}
+        for name, stats, image in (("caustic", self.light, "caustic"), ("fog", self.camera, "fog"),
+                                   ("direct", self.camera, "direct")):
+            out[name] = noise_floor(stats.mean(image), stats.var(image), keep) if stats.n >= 2 and keep is not None \
+                else None
+        if self.light.n >= 2 and self.camera.n >= 2 and keep is not None:
+            mean = self.light.mean("caustic") + self.camera.mean("fog_direct")
+            out["combined"] = noise_floor(mean, self.light.var("caustic") + self.camera.var("fog_direct"), keep)
+        else:
+            out["combined"] = None
+        return out
 
 
-def render_batches(scene, settings: ReferenceSettings, *, mode: str = "caustic", progress: bool = True) -> dict:
-    """Render without the cache; returns {layer: (mean, var)} for the colour layers
-    and the mask, plus timing and counts under the key ``"_info"``."""
-    return _render(resolve(scene, settings, mode), progress=progress)
+def _pending(state: RenderState, settings: ReferenceSettings, stream: str) -> bool:
+    """Whether ``stream`` needs another batch: fewer than ``batches``, or (target_noise)
+    a component of it above its target and the photon cap not reached."""
+    stats = state.light if stream == LIGHT else state.camera
+    if stats.n < settings.batches:
+        return True
+    targets = settings.targets()
+    if not targets:
+        return False
+    if stream == LIGHT and (stats.n + 1) * settings.photon_spp_per_batch() * settings.width * settings.height \
+            > settings.max_photons:
+        return False
+    floors = state.floors()
+    names = ("caustic",) if stream == LIGHT else ("fog", "direct")
+    return any(name in targets and floors[name] is not None and floors[name] > targets[name] for name in names)
 
 
-def _render(request: RenderRequest, *, progress: bool) -> dict:
+def _stop_reason(state: RenderState, settings: ReferenceSettings, timed_out: bool) -> str:
+    if not settings.targets():
+        return "batches"
+    floors, targets = state.floors(), settings.targets()
+    if all(floors[name] is None or floors[name] <= target for name, target in targets.items()):
+        return "target"
+    return "time cap" if timed_out else "photon cap"
+
+
+def _format_floors(floors: dict) -> str:
+    return " ".join(f"{name} {100 * v:.2f}%" for name, v in floors.items() if v is not None and name != "combined")
+
+
+def _render(request: RenderRequest, state: RenderState | None = None, *, progress: bool) -> tuple:
+    """Render batches of both streams into ``state`` (a fresh one if None) until the
+    settings are met (module docstring); returns (state, stopped_by, seconds of this call)."""
     from tqdm import tqdm
 
     from .export import mitsuba_dict
@@ -82,6 +164,7 @@ def _render(request: RenderRequest, *, progress: bool) -> dict:
 
     mi = mitsuba()
     scene, settings = request.scene, request.settings
+    state = state or RenderState()
     t0 = time.perf_counter()
     mi_scene = mi.load_dict(mitsuba_dict(request.description))
     props = mi.Properties()
@@ -89,61 +172,120 @@ def _render(request: RenderRequest, *, progress: bool) -> dict:
     props["max_scatter"] = settings.max_scatter
     tracer = configure(VolumetricLightTracer(props), scene, mi_scene)
     camera = configure(SingleScatterIntegrator(), scene, mi_scene)
-    pixels = settings.width * settings.height
-    photon_spp = max(1, math.ceil(settings.photons / settings.batches / pixels))
-    camera_spp = settings.spp // settings.batches
-    acc = {name: _Welford() for name in COLOUR_LAYERS}
-    mask = None
-    for b in tqdm(range(settings.batches), desc=f"reference {scene.name}", unit="batch", disable=not progress):
-        seed = settings.seed * settings.batches + b
-        caustic = np.asarray(mi.render(mi_scene, integrator=tracer, seed=seed, spp=photon_spp))[..., :3]
-        cam = np.asarray(mi.render(mi_scene, integrator=camera, seed=seed, spp=camera_spp))
-        fog, direct = cam[..., 3:6], cam[..., 6:9]
-        mask = cam[..., 9:10] > 0.5 if mask is None else mask | (cam[..., 9:10] > 0.5)
-        for name, image in (("caustic", caustic), ("fog", fog), ("direct", direct),
-                            ("combined", caustic + fog + direct)):
-            acc[name].add(image)
-    out = {name: acc[name].result() for name in COLOUR_LAYERS}
-    m = np.repeat(mask.astype(np.float32), 3, axis=2)
-    out[MASK_LAYER] = (m, np.zeros_like(m))
-    out["_info"] = {"seconds": time.perf_counter() - t0, "photons": photon_spp * pixels * settings.batches,
-                    "photon_spp_per_batch": photon_spp, "camera_spp_per_batch": camera_spp}
+    photon_spp, camera_spp = settings.photon_spp_per_batch(), settings.camera_spp_per_batch()
+    total = None if settings.targets() else max(0, settings.batches - state.light.n) + \
+        max(0, settings.batches - state.camera.n)
+    bar = tqdm(total=total, desc=f"reference {scene.name}", unit="batch", disable=not progress)
+    timed_out = False
+    while True:
+        streams = [s for s in (CAMERA, LIGHT) if _pending(state, settings, s)]
+        if not streams:
+            break
+        minimum = min(state.light.n, state.camera.n) >= settings.batches  # caps apply beyond the minimum
+        if settings.targets() and minimum and time.perf_counter() - t0 > settings.max_seconds:
+            timed_out = True
+            break
+        for stream in streams:
+            if stream == LIGHT:
+                seed = batch_seed(settings.seed, LIGHT, state.light.n)
+                image = np.asarray(mi.render(mi_scene, integrator=tracer, seed=seed, spp=photon_spp))[..., :3]
+                state.light.add({"caustic": image})
+            else:
+                seed = batch_seed(settings.seed, CAMERA, state.camera.n)
+                cam = np.asarray(mi.render(mi_scene, integrator=camera, seed=seed, spp=camera_spp))
+                fog, direct = cam[..., 3:6], cam[..., 6:9]
+                state.camera.add({"fog": fog, "direct": direct, "fog_direct": fog + direct})
+                seen = cam[..., 9] > 0.5
+                state.mask = seen if state.mask is None else state.mask | seen
+            bar.update(1)
+        state.note_targets(settings.targets(), time.perf_counter() - t0)
+        bar.set_postfix_str(_format_floors(state.floors()))
+    bar.close()
+    seconds = time.perf_counter() - t0
+    state.seconds += seconds
+    return state, _stop_reason(state, settings, timed_out), seconds
+
+
+def render_batches(scene, settings: ReferenceSettings, *, mode: str = "caustic", progress: bool = True) -> dict:
+    """Render without the cache; returns {layer: (mean, var)} for the colour layers
+    and the mask, plus timing, counts and noise floors under the key ``"_info"``."""
+    request = resolve(scene, settings, mode)
+    state, stopped_by, seconds = _render(request, progress=progress)
+    out = state.layers()
+    out["_info"] = _info(state, request.settings, stopped_by, seconds)
     return out
+
+
+def _info(state: RenderState, settings: ReferenceSettings, stopped_by: str, seconds: float) -> dict:
+    pixels = settings.width * settings.height
+    return {"seconds": state.seconds, "seconds_this_call": seconds, "stopped_by": stopped_by,
+            "photons": state.light.n * settings.photon_spp_per_batch() * pixels, "batches": state.light.n,
+            "camera_batches": state.camera.n, "camera_spp": state.camera.n * settings.camera_spp_per_batch(),
+            "photon_spp_per_batch": settings.photon_spp_per_batch(),
+            "camera_spp_per_batch": settings.camera_spp_per_batch(), "noise_floor": state.floors(),
+            "seconds_to_target": dict(state.floor_seconds)}
+
+
+def _satisfied(manifest: dict, settings: ReferenceSettings) -> bool:
+    """Whether a cached entry already meets ``settings``: its batches, or its floors
+    below every target (or its photon cap reached)."""
+    if manifest.get("batches", 0) < settings.batches or manifest.get("camera_batches", 0) < settings.batches:
+        return False
+    targets = settings.targets()
+    floors = manifest.get("noise_floor", {})
+    for name, target in targets.items():
+        floor = floors.get(name)
+        if floor is not None and floor > target:
+            if name == "caustic" and manifest.get("photons", 0) + settings.photon_spp_per_batch() * \
+                    settings.width * settings.height > settings.max_photons:
+                continue
+            return False
+    return True
 
 
 def render_reference(scene, settings: ReferenceSettings | None = None, *, mode: str = "caustic",
                      force: bool = False, progress: bool = True) -> ReferenceResult:
-    """The reference for ``scene``: from the cache when a valid entry exists (and not
-    ``force``), else rendered and stored. The image is ``settings.width × height``
-    (unset: the scene camera's); the camera's own size does not matter beyond that.
+    """The reference for ``scene``: from the cache when a valid entry meets ``settings``
+    (and not ``force``); an entry that does not (fewer batches, a noise floor above
+    ``target_noise``) is continued batch by batch, never thrown away; else rendered and
+    stored. The image is ``settings.width × height`` (unset: the scene camera's).
     ``mode``: which light paths the caustic layer counts (settings.MODES)."""
     from .mi_setup import drjit_version, mitsuba_version, variant_name
 
     request = resolve(scene, settings, mode)
     settings = request.settings
+    key = cache.request_key(request, variant_name())
+    state = None
     if not force:
         served = cache.lookup(request)
         if served is not None:
-            key, manifest = served
-            return ReferenceResult(key, _for_caller(manifest, scene), cached=True)
-    out = _render(request, progress=progress)
-    key = cache.request_key(request, variant_name())
-    info = out.pop("_info")
+            served_key, manifest = served
+            if _satisfied(manifest, settings):
+                return ReferenceResult(served_key, _for_caller(manifest, scene), cached=True)
+            arrays = cache.read_state(served_key, manifest) if served_key == key else None
+            state = RenderState.from_arrays(arrays) if arrays is not None else None
+    state, stopped_by, seconds = _render(request, state, progress=progress)
+    info = _info(state, settings, stopped_by, seconds)
     layers = {}
-    for name, (mean, var) in out.items():
+    for name, (mean, var) in state.layers().items():
         layers[name] = mean
         if name != MASK_LAYER:
             layers[f"{name}_var"] = var
     manifest = {
         "scene": scene.name, "scene_hash": scene.scene_hash(), "settings": settings.to_dict(), "mode": request.mode,
-        "photons": info["photons"], "batches": settings.batches, "seed": settings.seed,
-        "camera_spp": info["camera_spp_per_batch"] * settings.batches, "wall_seconds": info["seconds"],
-        "mitsuba_variant": variant_name(), "mitsuba_version": mitsuba_version(), "drjit_version": drjit_version(),
-        "reference_code_version": cache.code_version(),
+        "photons": info["photons"], "batches": info["batches"], "camera_batches": info["camera_batches"],
+        "camera_spp": info["camera_spp"], "photon_spp_per_batch": info["photon_spp_per_batch"],
+        "camera_spp_per_batch": info["camera_spp_per_batch"], "seed": settings.seed,
+        "noise_floor": info["noise_floor"], "target_noise": settings.targets() or None,
+        "seconds_to_target": info["seconds_to_target"],
+        "stopped_by": stopped_by, "wall_seconds": info["seconds"],
+        "seconds_this_call": seconds, "mitsuba_variant": variant_name(), "mitsuba_version": mitsuba_version(),
+        "drjit_version": drjit_version(), "reference_code_version": cache.code_version(),
     }
     header = {"volcaustics_scene": scene.name, "volcaustics_scene_hash": scene.scene_hash(),
               "volcaustics_renderer": "reference", "volcaustics_manifest": json.dumps(manifest, default=float)}
-    manifest = cache.store(key, layers, manifest, header, png_bytes(tonemap_srgb8(layers["combined"])))
+    manifest = cache.store(key, layers, manifest, header, png_bytes(tonemap_srgb8(layers["combined"])),
+                           state=state.arrays())
     return ReferenceResult(key, manifest, cached=False, layers=layers)
 
 

@@ -2,10 +2,15 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import asdict, dataclass, replace
 
 
 MODES = ("caustic", "fog", "all", "surface")  # which light paths the light tracer counts (reference.integrators)
+NOISE_COMPONENTS = ("caustic", "fog", "direct")  # colour components with a noise floor (combined is their sum)
+# Size-independent settings: they say how long to render, not what one batch is, so they
+# are not part of a cache entry's identity (an entry is continued batch by batch).
+BUDGET_FIELDS = ("photons", "spp", "batches", "target_noise", "max_photons", "max_seconds")
 
 
 class SettingsError(ValueError):
@@ -14,11 +19,18 @@ class SettingsError(ValueError):
 
 @dataclass(frozen=True)
 class ReferenceSettings:
-    """photons: light paths of the caustic light tracer, over all batches.
-    spp: camera samples per pixel of the fog/direct integrator, over all batches.
-    batches: independent batches (seeds seed·B + b) for the per-pixel variance.
+    """photons: light paths of the caustic light tracer, over ``batches`` batches.
+    spp: camera samples per pixel of the fog/direct integrator, over ``batches`` batches.
+    batches: independent batches per stream (light tracer, camera integrator), for the
+        per-pixel variance; photons/batches and spp/batches make one batch.
+    target_noise: None renders exactly ``batches`` batches. Else ((component, floor), ...)
+        over NOISE_COMPONENTS: batches (at least ``batches``) are added to each stream until
+        every listed component's noise floor is at most its target, or a cap is reached.
+    max_photons, max_seconds: the caps of a target_noise render (photons over the
+        entry's light batches; seconds of this call).
     max_scatter: 1 = single scattering (the paper's model); more for multiple scattering.
-    width, height: None takes the scene camera's."""
+    width, height: None takes the scene camera's.
+    seed: batch b of each stream renders with a seed hashed from (seed, stream, b)."""
 
     photons: int = 1 << 24
     spp: int = 256
@@ -27,6 +39,9 @@ class ReferenceSettings:
     width: int | None = None
     height: int | None = None
     seed: int = 0
+    target_noise: tuple | None = None
+    max_photons: int = 1 << 34
+    max_seconds: float = 600.0
 
     def __post_init__(self):
         checks = {"photons": (1, 1 << 40), "spp": (1, 1 << 20), "batches": (2, 4096), "max_scatter": (1, 64),
@@ -41,12 +56,77 @@ class ReferenceSettings:
                 raise SettingsError(f"{name} = {v!r}: expected an integer in [1, 16384] (or unset: the scene's)")
         if self.spp < self.batches:
             raise SettingsError(f"spp = {self.spp}: expected at least one sample per batch (batches = {self.batches})")
+        if isinstance(self.max_photons, bool) or not isinstance(self.max_photons, int) or self.max_photons < 1:
+            raise SettingsError(f"max_photons = {self.max_photons!r}: expected a positive integer")
+        if isinstance(self.max_seconds, bool) or not isinstance(self.max_seconds, (int, float)) \
+                or not self.max_seconds > 0:
+            raise SettingsError(f"max_seconds = {self.max_seconds!r}: expected a positive number of seconds")
+        if self.target_noise is not None:
+            object.__setattr__(self, "target_noise", parse_target_noise(self.target_noise))
 
     def resolved(self, scene) -> "ReferenceSettings":
         return replace(self, width=self.width or scene.camera.width, height=self.height or scene.camera.height)
 
     def to_dict(self) -> dict:
-        return asdict(self)
+        d = asdict(self)
+        if self.target_noise is not None:
+            d["target_noise"] = dict(self.target_noise)
+        return d
+
+    def photon_spp_per_batch(self) -> int:
+        """Light paths per pixel of one light-tracer batch (resolved settings)."""
+        return max(1, math.ceil(self.photons / self.batches / (self.width * self.height)))
+
+    def camera_spp_per_batch(self) -> int:
+        """Camera samples per pixel of one camera batch."""
+        return max(1, self.spp // self.batches)
+
+    def batch_identity(self) -> dict:
+        """What one batch is (resolved settings): every field but the budget ones
+        (BUDGET_FIELDS), with the sizes of one batch of each stream. Batch b of two
+        renders with one identity is the same image, so a cache entry is keyed by it."""
+        d = {k: v for k, v in asdict(self).items() if k not in BUDGET_FIELDS}
+        return {**d, "photon_spp_per_batch": self.photon_spp_per_batch(),
+                "camera_spp_per_batch": self.camera_spp_per_batch()}
+
+    def targets(self) -> dict:
+        """component → target floor ({} without target_noise)."""
+        return dict(self.target_noise or ())
+
+
+def parse_target_noise(value) -> tuple:
+    """((component, floor), ...) in NOISE_COMPONENTS order from a number (every
+    component), a mapping, pairs, or text "0.005" / "caustic=0.005,fog=0.002"."""
+    if isinstance(value, str):
+        text = value.strip()
+        if "=" not in text:
+            value = _floor_value("target_noise", text)
+        else:
+            pairs = {}
+            for part in text.split(","):
+                name, _, number = part.partition("=")
+                pairs[name.strip()] = number
+            value = pairs
+    if isinstance(value, (int, float)) and not isinstance(value, bool):
+        value = {name: value for name in NOISE_COMPONENTS}
+    pairs = dict(value)
+    for name in pairs:
+        if name not in NOISE_COMPONENTS:
+            raise SettingsError(f"target_noise component {name!r}: expected one of {', '.join(NOISE_COMPONENTS)}")
+    if not pairs:
+        raise SettingsError("target_noise: expected at least one component")
+    return tuple((name, _floor_value(f"target_noise {name}", pairs[name])) for name in NOISE_COMPONENTS
+                 if name in pairs)
+
+
+def _floor_value(label: str, number) -> float:
+    try:
+        v = float(number)
+    except (TypeError, ValueError):
+        raise SettingsError(f"{label} = {number!r}: expected a number in (0, 1), e.g. 0.005 for 0.5%") from None
+    if isinstance(number, bool) or not 0 < v < 1:
+        raise SettingsError(f"{label} = {number!r}: expected a number in (0, 1), e.g. 0.005 for 0.5%")
+    return v
 
 
 def check_mode(mode: str) -> str:

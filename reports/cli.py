@@ -68,7 +68,7 @@ def _cmd_report(args) -> int:
         raise SceneError(None, "--scenes", unknown[0], f"expected built-in scene names ({', '.join(BUILTIN_NAMES)})")
     from reference.settings import ReferenceSettings
 
-    settings = ReferenceSettings(photons=args.photons, spp=args.spp, batches=args.batches)
+    settings = ReferenceSettings(photons=args.photons, spp=args.spp, batches=args.batches, **_budget(args))
     summary = build_report(args.out, names, width=args.width, height=args.height, reference_settings=settings)
     for row in summary["scenes"]:
         e = row["errors"]
@@ -112,12 +112,34 @@ def _cmd_reference(args) -> int:
 
     scene = resolve_scene(args.scene)
     settings = ReferenceSettings(photons=args.photons, spp=args.spp, batches=args.batches,
-                                 max_scatter=args.max_scatter, width=args.width, height=args.height, seed=args.seed)
+                                 max_scatter=args.max_scatter, width=args.width, height=args.height, seed=args.seed,
+                                 **_budget(args))
     summary = run_reference(scene, settings, args.output, force=args.force)
-    source = "cache" if summary["cached"] else f"rendered in {summary['wall_seconds']:.1f} s"
-    print(f"reference {scene.name}: {summary['photons']:,} photons, {summary['batches']} batches ({source}, "
-          f"{summary['mitsuba_variant']}) -> {summary['outputs']['exr']}")
+    source = "cache" if summary["cached"] else f"rendered in {summary['seconds_this_call']:.1f} s"
+    floors = ", ".join(f"{k} {100 * v:.3f}%" for k, v in summary["noise_floor"].items() if v is not None)
+    print(f"reference {scene.name}: {summary['photons']:,} photons, {summary['batches']} + "
+          f"{summary['camera_batches']} batches ({source}, {summary['mitsuba_variant']}; stopped by "
+          f"{summary['stopped_by']}); noise floor {floors} -> {summary['outputs']['exr']}")
     return 0
+
+
+def _budget(args) -> dict:
+    """target_noise and its caps from the command line ("none" turns the target off)."""
+    target = args.target_noise
+    if target is not None and target.strip().lower() == "none":
+        target = None
+    return {"target_noise": target, "max_photons": args.max_photons, "max_seconds": args.max_seconds}
+
+
+def _add_budget(p, *, target: str | None, max_seconds: float) -> None:
+    p.add_argument("--target-noise", dest="target_noise", default=target, metavar="F",
+                   help="render batches until every colour component's noise floor (sum var / sum mean^2 over "
+                        "non-glass pixels) is at most F: a number (all components) or caustic=F,fog=F,direct=F; "
+                        f"'none' renders exactly --batches (default: {target or 'none'})")
+    p.add_argument("--max-photons", dest="max_photons", type=int, default=1 << 34,
+                   help="photon cap of a --target-noise render (default 2^34)")
+    p.add_argument("--max-seconds", dest="max_seconds", type=float, default=max_seconds,
+                   help=f"time cap of a --target-noise render, seconds (default {max_seconds:g})")
 
 
 def _cmd_export(args) -> int:
@@ -151,6 +173,8 @@ def _add_approx_params(p):
 
 
 def build_parser() -> argparse.ArgumentParser:
+    from .defaults import REPORT_REFERENCE, REPORT_TARGET
+
     parser = argparse.ArgumentParser(prog="volcaustics", description=(
         "Validation harness for Real-time Volume Caustics with Image-based Photon Tracing: "
         "the paper's GPU method beside Mitsuba 3 ground truth."))
@@ -185,6 +209,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--height", type=int, help="image height (default: the scene camera's)")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--force", action="store_true", help="render even if the cache has this reference")
+    _add_budget(p, target=None, max_seconds=600.0)
     p.set_defaults(func=_cmd_reference)
 
     p = sub.add_parser("export", help="write SCENE as a Mitsuba 3 XML file (with PLY meshes beside it)")
@@ -197,9 +222,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--scenes", help="comma-separated built-in scene names (default: all)")
     p.add_argument("--width", type=int, default=256, help="image width in pixels (default 256)")
     p.add_argument("--height", type=int, default=256, help="image height in pixels (default 256)")
-    p.add_argument("--photons", type=int, default=1 << 22, help="reference photons per scene (default 2^22)")
-    p.add_argument("--spp", type=int, default=64, help="reference camera samples per pixel (default 64)")
-    p.add_argument("--batches", type=int, default=4, help="reference batches (default 4)")
+    p.add_argument("--photons", type=int, default=REPORT_REFERENCE.photons,
+                   help="reference photons over --batches batches: with the target, the size of a batch (default 2^22)")
+    p.add_argument("--spp", type=int, default=REPORT_REFERENCE.spp,
+                   help="reference camera samples per pixel over --batches batches (default 64)")
+    p.add_argument("--batches", type=int, default=REPORT_REFERENCE.batches,
+                   help="reference batches per stream, at least (default 16)")
+    _add_budget(p, target=REPORT_TARGET, max_seconds=REPORT_REFERENCE.max_seconds)
     p.set_defaults(func=_cmd_report)
     return parser
 

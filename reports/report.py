@@ -49,12 +49,13 @@ def build_report(out_dir: str, scene_names, *, width: int = 256, height: int = 2
     from approx.context import gl_info, shared_context
     from approx.params import QUICK
     from reference.render import render_reference
-    from reference.settings import ReferenceSettings
     from scenes import load_builtin
+
+    from .defaults import REPORT_REFERENCE
 
     approx_params = dataclasses.replace(approx_params or QUICK, width=width, height=height)
     reference_settings = dataclasses.replace(
-        reference_settings or ReferenceSettings(photons=1 << 22, spp=64, batches=4), width=width, height=height)
+        reference_settings or REPORT_REFERENCE, width=width, height=height)
     rows = []
     for name in tqdm(scene_names, desc="report", unit="scene", disable=not progress):
         scene = load_builtin(name)  # the image size is in approx_params and reference_settings only
@@ -63,7 +64,7 @@ def build_report(out_dir: str, scene_names, *, width: int = 256, height: int = 2
         renderer.render(approx_params, keep_records=False)  # compile shaders; time the second frame
         frame = renderer.render(approx_params, keep_records=False)
         renderer.release()
-        reference = render_reference(scene, reference_settings, progress=False)
+        reference = render_reference(scene, reference_settings, progress=progress)
         ref = reference.mean
         exposure = 1.0 / max(float(np.percentile(ref["combined"][ref["combined"] > 0], 99.5)), 1e-12) \
             if (ref["combined"] > 0).any() else 1.0
@@ -85,6 +86,10 @@ def build_report(out_dir: str, scene_names, *, width: int = 256, height: int = 2
     atomic_write_text(os.path.join(out_dir, "summary.json"), json.dumps(summary, indent=2, default=float))
     atomic_write_text(os.path.join(out_dir, "index.html"), _html(summary))
     return summary
+
+
+def _floors(floors: dict) -> str:
+    return ", ".join(f"{name} {100 * v:.3f}%" for name, v in floors.items() if v is not None)
 
 
 def _fmt(x, pct=False):
@@ -111,8 +116,10 @@ def _html(summary: dict) -> str:
             f"<table><tr><th>layer</th><th>relative MSE</th><th>energy ratio (approx / reference)</th></tr>{table}</table>"
             f"<p>approx frame {t['frame_wall']:.3f} s ({html.escape(r['approx_timing_method'])}): trace "
             f"{t['trace']:.3f} s, splat {t['splat']:.3f} s. Reference: {r['reference']['photons']:,} photons, "
-            f"{r['reference']['batches']} batches, {html.escape(r['reference']['mitsuba_variant'])}"
-            f"{' (cached)' if r['reference']['cached'] else ''}.</p></section>")
+            f"{r['reference']['batches']} + {r['reference']['camera_batches']} batches, "
+            f"{html.escape(r['reference']['mitsuba_variant'])}{' (cached)' if r['reference']['cached'] else ''}; "
+            f"noise floor {html.escape(_floors(r['reference']['noise_floor']))} "
+            f"(stopped by {html.escape(r['reference']['stopped_by'])}).</p></section>")
     params = html.escape(json.dumps(summary["approx_params"]))
     ref = html.escape(json.dumps(summary["reference_settings"]))
     return f"""<!doctype html>

@@ -58,12 +58,18 @@ def test_truncated_cache_entry_is_rerendered(private_cache):
 
 
 def test_settings_changes_change_the_key():
+    """What one batch is keys an entry; how many batches (or which target) does not:
+    an entry is continued batch by batch."""
     scene = load_builtin("refocus")
-    a = ReferenceSettings(photons=100000, spp=8, batches=2).resolved(scene)
+    a = ReferenceSettings(photons=1 << 20, spp=8, batches=2, width=64, height=64)
     keys = {cache.cache_key(scene, a)}
-    for change in ({"photons": 100001}, {"seed": 1}, {"max_scatter": 2}, {"width": 17}, {"batches": 4}):
-        keys.add(cache.cache_key(scene, ReferenceSettings(**{**a.to_dict(), **change})))
+    for change in ({"photons": 1 << 21}, {"spp": 16}, {"seed": 1}, {"max_scatter": 2}, {"width": 17}):
+        keys.add(cache.cache_key(scene, dataclasses.replace(a, **change)))
     assert len(keys) == 6
+    same_batch = ({"photons": 1 << 21, "spp": 16, "batches": 4}, {"target_noise": 0.01},
+                  {"max_photons": 1 << 22, "max_seconds": 5.0})
+    for change in same_batch:
+        assert cache.cache_key(scene, dataclasses.replace(a, **change)) == cache.cache_key(scene, a)
 
 
 def test_bad_settings_exit_2(tmp_path, capsys):
