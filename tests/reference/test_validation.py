@@ -1,6 +1,10 @@
 """V1–V4: the ground truth against Mitsuba's own integrators, against itself through an
 independent estimator, and against 1-D quadrature. Every comparison is a per-pixel
-z-test with Šidák correction (metrics.stats.z_test: α = 0.01, ≥ 99% of pixels)."""
+z-test with Šidák correction (metrics.stats.z_test: α = 0.01, ≥ 99% of pixels; p-values from
+Student's t with the Welch–Satterthwaite degrees of freedom of the 8 + 8 batches), and in V1
+and V3 the image totals within 3 standard errors: with honest per-pixel p-values the
+per-pixel test alone no longer rejects V1's tracer that is 10% too bright (its power came
+from the noise of 8-batch variances, read as normal)."""
 
 from __future__ import annotations
 
@@ -21,11 +25,30 @@ mi = mitsuba()
 W = H = 48
 
 
-def _batches(mi_scene, integrator, spp, batches, channels, seed0=0):
-    """Mean and variance of the mean over independent batches of mi.render."""
+class Batches(tuple):
+    """(mean, variance of the mean) per pixel over independent batches of mi.render,
+    with the batches' image totals (``totals``: B×C) beside."""
+
+    totals: np.ndarray
+
+
+def _batches(mi_scene, integrator, spp, batches, channels, seed0=0) -> Batches:
     images = np.stack([np.asarray(mi.render(mi_scene, integrator=integrator, seed=seed0 + b, spp=spp))[..., channels]
                        for b in range(batches)]).astype(np.float64)
-    return images.mean(0), images.var(0, ddof=1) / batches
+    out = Batches((images.mean(0), images.var(0, ddof=1) / batches))
+    out.totals = images.sum(axis=(1, 2))
+    return out
+
+
+def _agree(a: Batches, b: Batches) -> bool:
+    """Two estimates of one image agree: per-pixel z-test (Student's t, Šidák), and the
+    image totals within 3 standard errors per channel (from the batches' totals, which
+    include the covariance of pixels one light path splats into). The totals give the
+    power the per-pixel test lacks against a small global bias."""
+    pixels = z_test(a[0], a[1], b[0], b[1], batches=(len(a.totals), len(b.totals)))
+    se = np.sqrt(a.totals.var(0, ddof=1) / len(a.totals) + b.totals.var(0, ddof=1) / len(b.totals))
+    totals = np.abs(a.totals.mean(0) - b.totals.mean(0)) <= 3.0 * se
+    return pixels.passed and bool(np.all(totals))
 
 
 def _tracer(scene, mi_scene, mode, max_scatter=1):
@@ -51,13 +74,12 @@ def test_v1_surface_light_tracer_matches_ptracer():
     ours = _batches(mi_scene, _tracer(scene, mi_scene, "surface"), 64, 8, slice(0, 3))
     ptracer = mi.load_dict({"type": "ptracer", "max_depth": 2})
     theirs = _batches(mi_scene, ptracer, 64, 8, slice(0, 3), seed0=100)
-    result = z_test(theirs[0], theirs[1], ours[0], ours[1])
-    assert result.passed, result
+    assert _agree(theirs, ours)
     # A deliberately wrong light tracer (intensity × 1.1) must fail the same test.
     wrong = _diffuse_scene(intensity=11.0)
     wrong_mi = mi.load_dict(to_mitsuba(wrong))
     bad = _batches(wrong_mi, _tracer(wrong, wrong_mi, "surface"), 64, 8, slice(0, 3), seed0=200)
-    assert not z_test(theirs[0], theirs[1], bad[0], bad[1]).passed
+    assert not _agree(theirs, bad)
 
 
 @pytest.mark.parametrize("phase", [Phase(), Phase("hg", 0.6)], ids=["isotropic", "hg0.6"])
@@ -68,7 +90,10 @@ def test_v2_single_scatter_matches_volpath(phase):
     ours = _batches(mi_scene, ss, 32, 8, slice(0, 3))
     volpath = mi.load_dict({"type": "volpath", "max_depth": 2})
     theirs = _batches(mi_scene, volpath, 256, 8, slice(0, 3), seed0=100)
-    result = z_test(theirs[0], theirs[1], ours[0], ours[1])
+    # per pixel only: the image totals differ by 0.1–0.3% (z 2–4 from 8 batch totals; volpath's
+    # distance sampling is heavy-tailed, so its total's standard error is itself uncertain) —
+    # below what this test resolves, noted for the ground-truth issue
+    result = z_test(theirs[0], theirs[1], ours[0], ours[1], batches=(8, 8))
     assert result.passed, result
     assert ours[0].mean() > 0
 
@@ -83,11 +108,10 @@ def test_v3_light_tracer_fog_matches_camera_fog():
     lt = _batches(mi_scene, _tracer(scene, mi_scene, "fog"), 128, 8, slice(0, 3))
     ss = configure(SingleScatterIntegrator(), scene, mi_scene)
     camera_fog = _batches(mi_scene, ss, 32, 8, slice(3, 6), seed0=100)
-    result = z_test(camera_fog[0], camera_fog[1], lt[0], lt[1])
-    assert result.passed, result
+    assert _agree(camera_fog, lt)
     # ... and the comparison has power: counting refracted light too ('all') must fail it
     both = _batches(mi_scene, _tracer(scene, mi_scene, "all"), 128, 8, slice(0, 3), seed0=300)
-    assert not z_test(camera_fog[0], camera_fog[1], both[0], both[1]).passed
+    assert not _agree(camera_fog, both)
 
 
 def test_v4_fog_pixel_matches_quadrature():
