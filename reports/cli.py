@@ -72,9 +72,12 @@ def _cmd_report(args) -> int:
     summary = build_report(args.out, names, width=args.width, height=args.height, reference_settings=settings)
     for row in summary["scenes"]:
         e = row["errors"]
+        floors = row["reference"]["noise_floor"]
         print(f"{row['scene']:<12} relative MSE: " + ", ".join(
             f"{k} {100 * e[k]['relative_mse']:.2f}%" for k in COLOUR_LAYERS
-            if e[k]["relative_mse"] is not None))
+            if e[k]["relative_mse"] is not None) + "; reference floor: " + ", ".join(
+            f"{k} {100 * floors[k]:.2f}%" for k in COLOUR_LAYERS if floors.get(k) is not None)
+            + f" ({row['reference']['stopped_by']})")
     print(f"report: {len(summary['scenes'])} scenes -> {args.out}/index.html")
     return 0
 
