@@ -149,12 +149,12 @@ def main(argv=None) -> int:
 
     print(f"caustic of the light tracer, {args.size}x{args.size}, {args.photons:,} photons in {args.batches} "
           f"batches, {mitsuba().variant()}, {os.cpu_count()} CPUs, load {os.getloadavg()[0]:.1f}")
-    print(f"{'scene':<12} {'g/conn 1/m':>10} {'floor':>9} {'top 0.1%':>9} {'energy':>18} {'seconds':>8}")
+    print(f"{'scene':<12} {'g/conn 1/m':>10} {'floor':>10} {'top 0.1%':>9} {'energy':>18} {'seconds':>8}")
     for name in args.scenes:
         for value in values:
             r = measure(name, args.photons, args.batches, args.size, value)
             g = "-" if r["geometry_per_connection"] is None else f"{r['geometry_per_connection']:g}"
-            print(f"{r['scene']:<12} {g:>10} {100 * r['floor']:8.3f}% {100 * r['top']:8.1f}% "
+            print(f"{r['scene']:<12} {g:>10} {100 * r['floor']:9.4f}% {100 * r['top']:8.1f}% "
                   f"{r['energy']:10.3f} ± {r['energy_se']:5.3f} {r['seconds']:8.2f}", flush=True)
     if args.cause:
         print("\nsingle connection on the whole segment (the estimator before issue 8), by segment class")
