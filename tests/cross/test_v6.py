@@ -44,10 +44,11 @@ energy σ stated 0.41% on sphere1 against a spread of 0.20% over seeds
 (conservative), on bunny 1.0% against 0.95%. The checks, per case and colour channel:
   energy   |E/R − 1| ≤ 1% + 3σ  (1%: the budget for what is not noise; measured
            |E/R − 1| ≤ 0.8%, σ 0.3–1.7%)
-Photon noise is heavy-tailed on both sides: a collision close to the eye splats
-energy growing as 1/d² (bunny: one E subset +19%), a light-tracer firefly (bunny:
-one R batch held 92% of R's per-pixel variance); the batches' spread includes them
-when they occur, so σ and SE vary from seed to seed more than a Gaussian's would.
+Photon noise is heavy-tailed: a collision close to the eye splats energy growing
+as 1/d² (bunny: one E subset +19%); before issue 8 the light tracer had fireflies
+too (bunny: one R batch held 92% of R's per-pixel variance). The batches' spread
+includes them when they occur, so σ and SE vary from seed to seed more than a
+Gaussian's would.
   relMSE   debiased ≤ 3·SE + BLUR_ALLOWANCE (the kernel's residual blur: sphere2,
            the sharpest caustic, gained 4.4e-4 from σ = 0.075 to 0.15 pixel; blur
            at sharp edges grows as σ², so ≤ 1.5e-4 at 0.075)
