@@ -2,10 +2,14 @@
 
 * ``vc_lighttracer`` (:class:`VolumetricLightTracer`): photons from the spot light,
   specular chains through dielectrics (Mitsuba's dielectric BSDF samples reflection
-  or refraction by Fresnel, importance transport), Beer–Lambert inside glass; on
-  every medium segment one vertex, sampled equiangularly toward the camera (Kulla &
-  Fajardo 2012), is connected to the sensor (``sensor.sample_direction``, shadow
-  ray: glass blocks it, transmittance, phase) and splatted. ``mode`` chooses which
+  or refraction by Fresnel, importance transport), Beer–Lambert inside glass; every
+  medium segment is clipped to the view pyramid and n vertices on it, stratified
+  equiangularly toward the camera (Kulla & Fajardo 2012), are connected to the sensor
+  (``sensor.sample_direction``, shadow ray: glass blocks it, transmittance, phase)
+  and splatted with weight 1/n. n grows with the segment's geometric term seen from
+  the eye, ∫ dt/d² = Δθ/D, up to one connection per pixel of its image: a beam that
+  passes close to the camera is drawn along its streak instead of splatting all its
+  Δθ/D into one pixel (the fireflies of issue 8). ``mode`` chooses which
   paths count: ``caustic`` (≥1 specular interaction before the scattering vertex,
   DESIGN.md), ``fog`` (none), ``all``, or ``surface`` (no medium: the first diffuse
   vertex is connected instead, to check against Mitsuba's ``ptracer``).
@@ -37,6 +41,7 @@ from .shapes import ShapeTable
 mi = mitsuba()
 
 INV_FOUR_PI = 1.0 / (4.0 * math.pi)
+GEOMETRY_PER_CONNECTION = 0.0025  # 1/m: VolumetricLightTracer's default, measured in bench/reference_fireflies.py
 
 
 def hg_phase(cos_theta, g: float):
@@ -60,17 +65,70 @@ def hg_sample(d, g: float, sample):
     return frame.to_world(mi.Vector3f(sin_theta * dr.cos(phi), sin_theta * dr.sin(phi), cos_theta))
 
 
+def closest_approach(origin, d, target):
+    """Where the line origin + t·d (unit d) passes ``target``: the parameter ``delta`` of
+    its closest point and the distance ``dist`` from it to ``target`` (≥ 1e-6)."""
+    delta = dr.dot(target - origin, d)
+    dist = dr.maximum(dr.norm(target - origin - delta * d), 1e-6)
+    return delta, dist
+
+
+def subtended_angle(origin, d, length, target):
+    """Angle θb − θa that the segment origin + t·d, t in [0, length], subtends at
+    ``target``, and its line's distance D to ``target``. Their ratio is the segment's
+    geometric term seen from ``target``: ∫ dt / |x(t) − target|² = (θb − θa) / D."""
+    delta, dist = closest_approach(origin, d, target)
+    return dr.atan2(length - delta, dist) - dr.atan2(-delta, dist), dist
+
+
 def equiangular(origin, d, length, target, sample):
     """Distance t in [0, length] along origin + t·d with pdf ∝ 1/|x(t) − target|²
     (Kulla & Fajardo 2012); returns (t, pdf)."""
-    delta = dr.dot(target - origin, d)
-    dist = dr.maximum(dr.norm(target - origin - delta * d), 1e-6)
+    delta, dist = closest_approach(origin, d, target)
     theta_a = dr.atan2(-delta, dist)
     theta_b = dr.atan2(length - delta, dist)
     theta = dr.lerp(theta_a, theta_b, sample)
     t = dr.clip(delta + dist * dr.tan(theta), 0.0, length)
     pdf = dist / (dr.maximum(theta_b - theta_a, 1e-12) * (dist * dist + (t - delta) * (t - delta)))
     return t, pdf
+
+
+class ViewPyramid:
+    """What a pinhole sensor sees: the pyramid from its eye through the film's edges
+    (widened by ``margin`` of the film on every side, so that rounding never cuts off a
+    point that projects onto the film), and the angle one pixel subtends at the film's
+    centre. Built from the sensor's own rays, symbolically (no evaluation)."""
+
+    def __init__(self, sensor, margin: float = 1e-3):
+        if sensor.class_name() != "PerspectiveCamera":
+            raise ValueError(f"vc_lighttracer connects to a pinhole camera (perspective), not {sensor.class_name()}")
+        self.eye = sensor.world_transform().translation()
+        lo, hi = -margin, 1.0 + margin
+
+        def direction(u, v):
+            ray, _ = sensor.sample_ray(0.0, 0.5, mi.Point2f(u, v), mi.Point2f(0.5, 0.5))
+            return ray.d
+
+        corners = [direction(lo, lo), direction(hi, lo), direction(hi, hi), direction(lo, hi)]
+        centre = direction(0.5, 0.5)
+        self.normals = []  # inward normals of the four side planes through the eye
+        for a, b in zip(corners, corners[1:] + corners[:1]):
+            n = dr.cross(a, b)
+            self.normals.append(dr.select(dr.dot(n, centre) < 0.0, -n, n))
+        rows = sensor.film().crop_size().y
+        self.pixel_angle = dr.acos(dr.dot(centre, direction(0.5, 0.5 + 1.0 / rows)))
+
+    def clip(self, origin, d, length):
+        """Part [s_in, s_out] of origin + s·d, s in [0, length], inside the pyramid: the
+        intersection of the four half-spaces n·(x − eye) ≥ 0 (one interval, as the pyramid
+        is convex). Returns (s_in, s_out, nonempty)."""
+        s_in, s_out = dr.zeros(mi.Float, dr.width(length)), mi.Float(length)
+        for n in self.normals:
+            a, b = dr.dot(n, origin - self.eye), dr.dot(n, d)  # n·(x(s) − eye) = a + b·s
+            s_in = dr.select(b > 0.0, dr.maximum(s_in, -a / b), s_in)
+            s_out = dr.select(b < 0.0, dr.minimum(s_out, -a / b), s_out)
+            s_out = dr.select((b == 0.0) & (a < 0.0), -1.0, s_out)
+        return s_in, s_out, s_out > s_in
 
 
 def cone_interval(o, d, s_end, apex, axis, cos_cutoff: float):
@@ -120,15 +178,39 @@ def configure(integrator, scene_model, mi_scene):
 
 
 class VolumetricLightTracer(mi.AdjointIntegrator):
-    """The caustic (and check) light tracer; see the module docstring."""
+    """The caustic (and check) light tracer; see the module docstring.
+
+    Properties: ``mode`` (settings.MODES, default ``caustic``), ``max_scatter`` (real
+    scattering events a path may continue through, default 1), ``max_path`` (segments
+    traced, default 64) and ``geometry_per_connection`` (1/m, default
+    :data:`GEOMETRY_PER_CONNECTION`): the most of a medium segment's geometric term
+    ∫ dt / |x(t) − eye|² = Δθ / D (the angle it subtends at the eye over its line's
+    distance to the eye) that one camera connection carries. A segment is clipped to
+    the view pyramid and gets n = ⌈Δθ / (D · geometry_per_connection)⌉ connections,
+    stratified in θ, at most one per pixel its image crosses; each is weighted 1/n.
+    The sensor must be a pinhole camera (``perspective``).
+    """
 
     def __init__(self, props=mi.Properties()):
         mi.AdjointIntegrator.__init__(self, props)
         self.mode = props.get("mode", "caustic")
         self.max_scatter = int(props.get("max_scatter", 1))
         self.max_path = int(props.get("max_path", 64))
+        self.geometry_per_connection = float(props.get("geometry_per_connection", GEOMETRY_PER_CONNECTION))
         if self.mode not in MODES:
             raise ValueError(f"mode {self.mode!r}: expected one of {MODES}")
+        if not self.geometry_per_connection > 0.0:
+            raise ValueError(f"geometry_per_connection {self.geometry_per_connection!r}: expected > 0 (1/m)")
+
+    def connections(self, view, ray, t_end):
+        """The camera connections of the medium segment ray(t), t in [0, t_end]: the part
+        [s_in, s_out] the eye sees (``view``: :class:`ViewPyramid`), whether there is one,
+        and how many stratified connections it gets (≥ 1): one per
+        ``geometry_per_connection`` of its geometric term Δθ / D, at most one per pixel."""
+        s_in, s_out, seen = view.clip(ray.o, ray.d, t_end)
+        angle, dist = subtended_angle(ray(s_in), ray.d, s_out - s_in, view.eye)
+        n = dr.minimum(angle / (dist * self.geometry_per_connection), angle / view.pixel_angle)
+        return s_in, s_out, seen, mi.UInt32(dr.maximum(dr.ceil(n), 1.0))
 
     def _counts(self, specular):
         if self.mode == "caustic":
@@ -140,7 +222,7 @@ class VolumetricLightTracer(mi.AdjointIntegrator):
     @dr.syntax
     def sample(self, scene, sensor, sampler, block, sample_scale):
         table = self.table
-        camera = sensor.world_transform().translation()
+        view = ViewPyramid(sensor)
         volume = self.mode != "surface" and self.has_medium
 
         # --- emission
@@ -162,21 +244,29 @@ class VolumetricLightTracer(mi.AdjointIntegrator):
             t_end = dr.select(hit, si.t, 0.0)
             in_medium = hit & (inside < 0)
 
-            # --- camera connection along the medium segment (single scattering from this beam)
+            # --- camera connections along the medium segment (single scattering from this beam):
+            # n vertices on the part the eye sees, stratified in the angle they subtend at the eye
+            # (equiangular), so that the beam's image is drawn along its length, not in one pixel
             if volume:
                 connect = in_medium & self._counts(specular) & (scatters < self.max_scatter)
-                t, pdf = equiangular(ray.o, ray.d, t_end, camera, sampler.next_1d(connect))
-                it = dr.zeros(mi.Interaction3f)
-                it.p = ray(t)
-                it.time = ray.time
-                it.wavelengths = ray.wavelengths
-                ds, sensor_weight = sensor.sample_direction(it, sampler.next_2d(connect), connect)
-                connect &= ds.pdf > 0.0
-                connect &= ~scene.ray_test(it.spawn_ray_to(ds.p), connect)
-                tr = dr.exp(-self.sigma_t * (t + ds.dist))
-                value = (throughput * self.sigma_s * hg_phase(dr.dot(ray.d, ds.d), self.g) * tr / pdf
-                         * sensor_weight * sample_scale)
-                block.put(ds.uv + block.offset(), ray.wavelengths, value, 0.0, 0.0, connect)
+                s_in, s_out, seen, n = self.connections(view, ray, t_end)
+                connect &= seen
+                i = mi.UInt32(0)           # connections made on this segment
+                while dr.hint(connect & (i < n), label="vc_lighttracer_connections"):
+                    t, pdf = equiangular(ray(s_in), ray.d, s_out - s_in, view.eye,
+                                         (mi.Float(i) + sampler.next_1d()) / mi.Float(n))
+                    t += s_in
+                    it = dr.zeros(mi.Interaction3f)
+                    it.p = ray(t)
+                    it.time = ray.time
+                    it.wavelengths = ray.wavelengths
+                    ds, sensor_weight = sensor.sample_direction(it, sampler.next_2d())
+                    visible = (ds.pdf > 0.0) & ~scene.ray_test(it.spawn_ray_to(ds.p), ds.pdf > 0.0)
+                    tr = dr.exp(-self.sigma_t * (t + ds.dist))
+                    value = (throughput * self.sigma_s * hg_phase(dr.dot(ray.d, ds.d), self.g) * tr
+                             / (pdf * mi.Float(n)) * sensor_weight * sample_scale)
+                    block.put(ds.uv + block.offset(), ray.wavelengths, value, 0.0, 0.0, visible)
+                    i += 1
 
             # --- free flight: attenuate to the surface, or scatter (max_scatter > 1)
             reach_surface = mi.Bool(hit)
