@@ -105,6 +105,8 @@ def parse_target_noise(value) -> tuple:
             pairs = {}
             for part in text.split(","):
                 name, _, number = part.partition("=")
+                if name.strip() in pairs:
+                    raise SettingsError(f"target_noise {text!r}: component {name.strip()!r} given twice")
                 pairs[name.strip()] = number
             value = pairs
     if isinstance(value, (int, float)) and not isinstance(value, bool):
