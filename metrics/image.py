@@ -32,3 +32,147 @@ def relative_mse(reference, test, *, mask=None) -> float:
     if energy == 0.0:
         raise ValueError("reference is zero everywhere: relative error undefined")
     return float(np.sum((t - r) ** 2) / energy)
+
+
+def _keep(reference, mask) -> np.ndarray:
+    """H×W bool of the pixels compared (``mask`` H×W or H×W×C, all pixels when None)."""
+    if mask is None:
+        return np.ones(reference.shape[:2], bool)
+    m = np.asarray(mask, dtype=bool)
+    if m.shape[:2] != reference.shape[:2]:
+        raise ValueError(f"mask shape {m.shape} does not match image shape {reference.shape}")
+    return m if m.ndim == 2 else m.all(axis=tuple(range(2, m.ndim)))
+
+
+def _images(reference, test):
+    r = np.asarray(reference, dtype=np.float64)
+    t = np.asarray(test, dtype=np.float64)
+    if r.shape != t.shape or r.ndim != 3 or r.shape[2] != 3:
+        raise ValueError(f"expected two H×W×3 images of one shape, got reference {r.shape}, test {t.shape}")
+    if not (np.all(np.isfinite(r)) and np.all(np.isfinite(t))):
+        raise ValueError("images must be finite")
+    return r, t
+
+
+def per_pixel_relative_mse(reference, test, *, mask=None, epsilon: float = 1e-2) -> dict:
+    """Mean over pixels of (test − reference)² / (reference² + ε), ε = ``epsilon`` times
+    the mean of reference² over the compared pixels (so the floor scales with the image):
+    large errors in dark pixels count without dividing by zero.
+
+    Parameters
+    ----------
+    reference, test : H×W×3 arrays, linear radiance.
+    mask : optional H×W boolean array of the pixels to compare.
+    epsilon : the floor, relative to the mean of reference².
+
+    Returns
+    -------
+    dict: ``value`` and the options used (``epsilon``, ``epsilon_absolute``, ``pixels``).
+    """
+    r, t = _images(reference, test)
+    keep = _keep(r, mask)
+    r, t = r[keep], t[keep]
+    floor = epsilon * float(np.mean(r * r))
+    if not floor > 0:
+        raise ValueError("reference is zero everywhere: relative error undefined")
+    value = float(np.mean((t - r) ** 2 / (r * r + floor)))
+    return {"value": value, "epsilon": epsilon, "epsilon_absolute": floor, "pixels": int(keep.sum())}
+
+
+def reference_exposure(reference, *, mask=None, percentile: float = 99.5) -> float:
+    """Exposure that maps the reference's bright pixels (``percentile`` of the nonzero
+    luminance over the compared pixels) to 1: one exposure for both images."""
+    r = np.asarray(reference, dtype=np.float64)
+    lum = _luminance(r)[_keep(r, mask)]
+    lum = lum[lum > 0]
+    if lum.size == 0:
+        raise ValueError("reference is black: no exposure to choose")
+    return float(1.0 / np.percentile(lum, percentile))
+
+
+def _luminance(rgb):
+    return rgb @ np.array([0.2126, 0.7152, 0.0722])  # Rec.709 / sRGB primaries
+
+
+def _display(rgb, exposure):
+    """Linear radiance × exposure, clipped to [0, 1], sRGB-encoded (scenes.imageio's OETF)."""
+    from scenes.imageio import srgb_encode
+
+    return srgb_encode(np.clip(rgb * exposure, 0.0, 1.0))
+
+
+def ssim(reference, test, *, mask=None, exposure: float | None = None) -> dict:
+    """SSIM (scikit-image, Gaussian weights as Wang et al. 2004) of the two images shown
+    with one exposure (the reference's, :func:`reference_exposure`, unless given),
+    clipped and sRGB-encoded, averaged over the compared pixels; 1 for identical images."""
+    from skimage.metrics import structural_similarity
+
+    r, t = _images(reference, test)
+    keep = _keep(r, mask)
+    exposure = exposure if exposure is not None else reference_exposure(r, mask=mask)
+    _, full = structural_similarity(_display(r, exposure), _display(t, exposure), channel_axis=2, data_range=1.0,
+                                    gaussian_weights=True, sigma=1.5, use_sample_covariance=False, full=True)
+    return {"value": float(full.mean(axis=2)[keep].mean()), "exposure": exposure, "gaussian_weights": True,
+            "sigma": 1.5, "pixels": int(keep.sum())}
+
+
+def delta_e2000(reference, test, *, mask=None, exposure: float | None = None) -> dict:
+    """Mean and 99th percentile CIEDE2000 colour difference (colour-science) of the two
+    images shown with one exposure (the reference's unless given), via sRGB → XYZ → CIELAB
+    (D65), over the compared pixels; 0 for identical images."""
+    import colour
+
+    r, t = _images(reference, test)
+    keep = _keep(r, mask)
+    exposure = exposure if exposure is not None else reference_exposure(r, mask=mask)
+
+    def lab(rgb):
+        shown = np.clip(rgb * exposure, 0.0, 1.0)  # linear, as displayed
+        return colour.XYZ_to_Lab(colour.RGB_to_XYZ(shown, colour.RGB_COLOURSPACES["sRGB"], apply_cctf_decoding=False))
+
+    de = colour.delta_E(lab(r[keep]), lab(t[keep]), method="CIE 2000")
+    return {"value": float(np.mean(de)), "p99": float(np.percentile(de, 99)), "exposure": exposure,
+            "pixels": int(keep.sum())}
+
+
+def hdr_flip(reference, test, *, mask=None, start_exposure: float | None = None,
+             stop_exposure: float | None = None, ppd: float = 67.0) -> dict:
+    """HDR-FLIP (NVIDIA's ``flip-evaluator``; Andersson et al. 2021) over the compared
+    pixels; 0 for identical images.
+
+    FLIP's automatic exposure range fails on dark images, so it is chosen from the
+    reference: from the exposure that maps its bright pixels (99.5th percentile of the
+    nonzero luminance) to 1 up to the one that maps its median nonzero pixel to 1.
+    """
+    import flip_evaluator
+
+    r, t = _images(reference, test)
+    keep = _keep(r, mask)
+    lum = _luminance(r)[keep]
+    lum = lum[lum > 0]
+    if lum.size == 0:
+        raise ValueError("reference is black: no exposure range to choose")
+    start = float(np.log2(1.0 / np.percentile(lum, 99.5))) if start_exposure is None else float(start_exposure)
+    stop = float(np.log2(1.0 / np.median(lum))) if stop_exposure is None else float(stop_exposure)
+    stop = max(stop, start)
+    if not ppd > 0:
+        raise ValueError(f"ppd = {ppd!r}: expected pixels per degree > 0")
+    error_map, _, used = flip_evaluator.evaluate(np.ascontiguousarray(r, np.float32), np.ascontiguousarray(t, np.float32),
+                                                 "HDR", applyMagma=False, computeMeanError=False,
+                                                 parameters={"startExposure": start, "stopExposure": stop,
+                                                             "ppd": float(ppd)})
+    error = np.asarray(error_map, np.float64).reshape(r.shape[:2] + (-1,))[..., 0]
+    return {"value": float(error[keep].mean()), "start_exposure": start, "stop_exposure": stop,
+            "num_exposures": int(used.get("numExposures", 0)) if isinstance(used, dict) else None,
+            "ppd": float(ppd), "pixels": int(keep.sum())}
+
+
+def energy_ratio(reference, test, *, mask=None) -> dict:
+    """Σ test / Σ reference per colour channel over the compared pixels (1 = same energy)."""
+    r, t = _images(reference, test)
+    keep = _keep(r, mask)
+    total = r[keep].sum(axis=0)
+    if not np.all(total > 0):
+        raise ValueError("reference has no energy in some channel: ratio undefined")
+    ratio = t[keep].sum(axis=0) / total
+    return {"value": ratio.tolist(), "mean": float(ratio.mean()), "pixels": int(keep.sum())}
