@@ -76,6 +76,21 @@ class Renderer:
             self._programs[key] = factory()
         return self._programs[key]
 
+    def _shading_programs(self, scene, p: ApproxParams) -> tuple:
+        """(CameraPasses, Splatter) for this fog_steps setting and phase function."""
+        phase_key = (scene.medium.phase.kind, scene.medium.phase.g)
+        camera = self._cached(("camera", p.fog_steps, phase_key), lambda: CameraPasses(self.ctx, scene, p.fog_steps))
+        splatter = self._cached(("splat", phase_key), lambda: Splatter(self.ctx, scene.medium))
+        return camera, splatter
+
+    def _black_image(self, p: ApproxParams) -> moderngl.Texture:
+        """An RGBA32F image of the frame's size cleared to 0 (splats add into it)."""
+        image = self.ctx.texture((p.width, p.height), 4, dtype="f4")
+        fbo = self.ctx.framebuffer(color_attachments=[image])
+        fbo.clear(0.0, 0.0, 0.0, 0.0)
+        fbo.release()
+        return image
+
     def render(self, params: ApproxParams | None = None, scene=None, *, keep_records: bool = True) -> Frame:
         """Render one frame. ``scene`` may replace light, medium, camera or materials
         of the scene given at construction (same meshes)."""
@@ -90,9 +105,7 @@ class Renderer:
         tracer = self._cached(("tracer", p.layers, p.peak_samples, p.iterations, p.fresnel),
                               lambda: PhotonTracer(ctx, p))
         tracer.check_limits(p)
-        phase_key = (scene.medium.phase.kind, scene.medium.phase.g)
-        camera_passes = self._cached(("camera", p.fog_steps, phase_key), lambda: CameraPasses(ctx, scene, p.fog_steps))
-        splatter = self._cached(("splat", phase_key), lambda: Splatter(ctx, scene.medium))
+        camera_passes, splatter = self._shading_programs(scene, p)
         released = []
 
         with timer.measure("layers"):
@@ -123,12 +136,9 @@ class Renderer:
             with timer.measure(f"trace_step{step}"):
                 tracer.trace_step(scene, frustum, box, map_texels, map_info, p.light_res, photons, record_buf,
                                   count, step, p.seed, objects_box=(geo.specular_min, geo.specular_max))
-            step_image = ctx.texture((p.width, p.height), 4, dtype="f4")
             with timer.measure("splat"):
                 n_splats = tracer.compact_splats(record_buf, count, splat_buf)
-                step_fbo = ctx.framebuffer(color_attachments=[step_image])
-                step_fbo.clear(0.0, 0.0, 0.0, 0.0)
-                step_fbo.release()
+                step_image = self._black_image(p)
                 splatter.splat(splat_buf, n_splats, view, scene.medium, p.splat_radius, scene.medium.sigma_bar,
                                gbuf_geo, step_image)
             caustic_steps.append(_read_rgb(step_image))
@@ -188,14 +198,9 @@ class Renderer:
         scene = scene or self.scene
         p = (params or ApproxParams()).resolved(scene)
         view = _camera_view(scene, p, medium_bounds(scene))
-        phase_key = (scene.medium.phase.kind, scene.medium.phase.g)
-        camera_passes = self._cached(("camera", p.fog_steps, phase_key), lambda: CameraPasses(ctx, scene, p.fog_steps))
-        splatter = self._cached(("splat", phase_key), lambda: Splatter(ctx, scene.medium))
+        camera_passes, splatter = self._shading_programs(scene, p)
         gbuf_geo, gbuf_nrm = camera_passes.render_gbuffer(self.geometry, view)
-        image = ctx.texture((p.width, p.height), 4, dtype="f4")
-        fbo = ctx.framebuffer(color_attachments=[image])
-        fbo.clear(0.0, 0.0, 0.0, 0.0)
-        fbo.release()
+        image = self._black_image(p)
         released = [gbuf_geo, gbuf_nrm, image]
         if len(splats):
             buf = ctx.buffer(splats.tobytes())

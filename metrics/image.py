@@ -82,16 +82,17 @@ def per_pixel_relative_mse(reference, test, *, mask=None, epsilon: float = 1e-2)
 def reference_exposure(reference, *, mask=None, percentile: float = 99.5) -> float:
     """Exposure that maps the reference's bright pixels (``percentile`` of the nonzero
     luminance over the compared pixels) to 1: one exposure for both images."""
+    return float(1.0 / np.percentile(_lit_luminance(reference, mask), percentile))
+
+
+def _lit_luminance(reference, mask) -> np.ndarray:
+    """Rec.709 luminance of the compared pixels that are not black; ValueError if none."""
     r = np.asarray(reference, dtype=np.float64)
-    lum = _luminance(r)[_keep(r, mask)]
+    lum = (r @ np.array([0.2126, 0.7152, 0.0722]))[_keep(r, mask)]
     lum = lum[lum > 0]
     if lum.size == 0:
         raise ValueError("reference is black: no exposure to choose")
-    return float(1.0 / np.percentile(lum, percentile))
-
-
-def _luminance(rgb):
-    return rgb @ np.array([0.2126, 0.7152, 0.0722])  # Rec.709 / sRGB primaries
+    return lum
 
 
 def _display(rgb, exposure):
@@ -148,10 +149,7 @@ def hdr_flip(reference, test, *, mask=None, start_exposure: float | None = None,
 
     r, t = _images(reference, test)
     keep = _keep(r, mask)
-    lum = _luminance(r)[keep]
-    lum = lum[lum > 0]
-    if lum.size == 0:
-        raise ValueError("reference is black: no exposure range to choose")
+    lum = _lit_luminance(r, mask)
     start = float(np.log2(1.0 / np.percentile(lum, 99.5))) if start_exposure is None else float(start_exposure)
     stop = float(np.log2(1.0 / np.median(lum))) if stop_exposure is None else float(stop_exposure)
     stop = max(stop, start)

@@ -83,10 +83,9 @@ class RenderState:
                    np.array(arrays["mask"]) if "mask" in arrays else None, float(arrays["seconds"]),
                    json.loads(str(arrays["floor_seconds"])) if "floor_seconds" in arrays else None)
 
-    def note_targets(self, targets: dict, elapsed: float) -> None:
-        """Record when each target component's floor first met its target (``elapsed``:
-        seconds of this call, added to the earlier calls')."""
-        floors = self.floors()
+    def note_targets(self, targets: dict, floors: dict, elapsed: float) -> None:
+        """Record when each target component's floor (``floors``, :meth:`floors`) first met
+        its target (``elapsed``: seconds of this call, added to the earlier calls')."""
         for name, target in targets.items():
             known = self.floor_seconds.get(name)
             if floors[name] is not None and floors[name] <= target and (known is None or known["floor"] > target):
@@ -123,19 +122,18 @@ class RenderState:
         return out
 
 
-def _pending(state: RenderState, settings: ReferenceSettings, stream: str) -> bool:
+def _pending(state: RenderState, settings: ReferenceSettings, stream: str, floors: dict) -> bool:
     """Whether ``stream`` needs another batch: fewer than ``batches``, or (target_noise)
-    a component of it above its target and the photon cap not reached."""
+    a component of it above its target (``floors``: the state's) and the photon cap not
+    reached."""
     stats = state.light if stream == LIGHT else state.camera
     if stats.n < settings.batches:
         return True
     targets = settings.targets()
     if not targets:
         return False
-    if stream == LIGHT and (stats.n + 1) * settings.photon_spp_per_batch() * settings.width * settings.height \
-            > settings.max_photons:
+    if stream == LIGHT and settings.photon_cap_reached(stats.n * settings.photons_per_batch()):
         return False
-    floors = state.floors()
     names = ("caustic",) if stream == LIGHT else ("fog", "direct")
     return any(name in targets and floors[name] is not None and floors[name] > targets[name] for name in names)
 
@@ -177,8 +175,9 @@ def _render(request: RenderRequest, state: RenderState | None = None, *, progres
         max(0, settings.batches - state.camera.n)
     bar = tqdm(total=total, desc=f"reference {scene.name}", unit="batch", disable=not progress)
     timed_out = False
+    floors = state.floors()
     while True:
-        streams = [s for s in (CAMERA, LIGHT) if _pending(state, settings, s)]
+        streams = [s for s in (CAMERA, LIGHT) if _pending(state, settings, s, floors)]
         if not streams:
             break
         minimum = min(state.light.n, state.camera.n) >= settings.batches  # caps apply beyond the minimum
@@ -198,8 +197,9 @@ def _render(request: RenderRequest, state: RenderState | None = None, *, progres
                 seen = cam[..., 9] > 0.5
                 state.mask = seen if state.mask is None else state.mask | seen
             bar.update(1)
-        state.note_targets(settings.targets(), time.perf_counter() - t0)
-        bar.set_postfix_str(_format_floors(state.floors()))
+        floors = state.floors()
+        state.note_targets(settings.targets(), floors, time.perf_counter() - t0)
+        bar.set_postfix_str(_format_floors(floors))
     bar.close()
     seconds = time.perf_counter() - t0
     state.seconds += seconds
@@ -217,9 +217,8 @@ def render_batches(scene, settings: ReferenceSettings, *, mode: str = "caustic",
 
 
 def _info(state: RenderState, settings: ReferenceSettings, stopped_by: str, seconds: float) -> dict:
-    pixels = settings.width * settings.height
     return {"seconds": state.seconds, "seconds_this_call": seconds, "stopped_by": stopped_by,
-            "photons": state.light.n * settings.photon_spp_per_batch() * pixels, "batches": state.light.n,
+            "photons": state.light.n * settings.photons_per_batch(), "batches": state.light.n,
             "camera_batches": state.camera.n, "camera_spp": state.camera.n * settings.camera_spp_per_batch(),
             "photon_spp_per_batch": settings.photon_spp_per_batch(),
             "camera_spp_per_batch": settings.camera_spp_per_batch(), "noise_floor": state.floors(),
@@ -236,8 +235,7 @@ def _satisfied(manifest: dict, settings: ReferenceSettings) -> bool:
     for name, target in targets.items():
         floor = floors.get(name)
         if floor is not None and floor > target:
-            if name == "caustic" and manifest.get("photons", 0) + settings.photon_spp_per_batch() * \
-                    settings.width * settings.height > settings.max_photons:
+            if name == "caustic" and settings.photon_cap_reached(manifest.get("photons", 0)):
                 continue
             return False
     return True

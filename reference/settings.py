@@ -77,6 +77,14 @@ class ReferenceSettings:
         """Light paths per pixel of one light-tracer batch (resolved settings)."""
         return max(1, math.ceil(self.photons / self.batches / (self.width * self.height)))
 
+    def photons_per_batch(self) -> int:
+        """Light paths of one light-tracer batch (resolved settings)."""
+        return self.photon_spp_per_batch() * self.width * self.height
+
+    def photon_cap_reached(self, photons: int) -> bool:
+        """Whether one more light batch after ``photons`` would pass ``max_photons``."""
+        return photons + self.photons_per_batch() > self.max_photons
+
     def camera_spp_per_batch(self) -> int:
         """Camera samples per pixel of one camera batch."""
         return max(1, self.spp // self.batches)
