@@ -107,9 +107,9 @@ def classify_segments(records, exact, *, texel_angle, light_position, start_norm
     light_position : array_like, 3
         The spot light's position, world, m.
     start_normal : array_like, N×3, optional
-        Outward geometric normal of the surface each segment starts on (nan or
-        zero where it starts in the medium). Without it, every exact hit within
-        the start offset counts as a self re-hit.
+        Outward normal of the surface each segment starts on (nan or zero where
+        it is not known). Without it (or where it is not known), every exact hit
+        within the start offset counts as a self re-hit.
     tolerance_texels : float
         |Δt| tolerance in texel footprints at the hit (default 3).
     tolerance_floor : float
@@ -183,7 +183,9 @@ def classify_segments(records, exact, *, texel_angle, light_position, start_norm
     with np.errstate(invalid="ignore"):
         self_rehit = e_hit & (e_t <= start_offset)
         if start_normal is not None:
-            self_rehit &= np.einsum("ij,ij->i", _unit(e_geometric), _unit(start_normal)) >= self_normal_cos
+            known = np.all(np.isfinite(start_normal), axis=1) & (np.linalg.norm(start_normal, axis=1) > 0)
+            same = np.einsum("ij,ij->i", _unit(e_geometric), _unit(start_normal)) >= self_normal_cos
+            self_rehit &= ~known | same
 
     cls = np.full(n, CORRECT_MISS, np.int8)
     cls[both & (np.abs(dt) <= tolerance)] = TRUE_HIT

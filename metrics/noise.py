@@ -184,3 +184,120 @@ def debiased_relative_mse(reference_batches, test_batches, *, mask=None) -> Debi
                          test_noise=float(np.sum(v_t)) / energy, reference_noise=float(np.sum(v_r)) / energy,
                          debiased=debiased / energy, standard_error=se / energy, z=z,
                          pixels=int(r.shape[1]), batches=k, reference_batches=n_ref)
+
+
+# --- errors of the approximation over its seeds ------------------------------------
+#
+# The approximation is biased; its own noise comes from its seeds (free flights,
+# Fresnel choices). Given S frames with different seeds and a reference with a
+# per-pixel variance, the *debiased* relative MSE estimates Σ bias² / Σ R² (DESIGN.md
+# "Noise"), and a percentile bootstrap over the seeds gives its interval.
+
+@dataclass(frozen=True)
+class SeedError:
+    """Relative MSE of the mean of S approximation frames against a reference.
+
+    raw = Σ(Ā − R)² / Σ R²; reference_floor = Σ var_R / Σ R²; approx_noise = the
+    variance of Ā over seeds, Σ s²/S / Σ R² (nan with one seed: not estimated, and
+    not subtracted); debiased = raw − reference_floor − approx_noise; interval: the
+    percentile bootstrap interval of ``debiased`` over the seeds (None with one seed).
+    """
+
+    raw: float
+    reference_floor: float
+    approx_noise: float
+    debiased: float
+    interval: tuple | None
+    seeds: int
+    resamples: int
+    level: float
+    pixels: int
+
+
+def _bootstrap_weights(seeds: int, resamples: int, seed: int) -> np.ndarray:
+    """resamples × seeds multiplicities of a bootstrap over the seeds (deterministic)."""
+    rng = np.random.default_rng(seed)
+    idx = rng.integers(0, seeds, size=(resamples, seeds))
+    return np.stack([np.bincount(row, minlength=seeds) for row in idx]).astype(np.float64)
+
+
+def _interval(values: np.ndarray, level: float) -> tuple:
+    values = values[np.isfinite(values)]
+    lo, hi = np.percentile(values, [50 * (1 - level), 50 * (1 + level)])
+    return float(lo), float(hi)
+
+
+def seed_relative_mse(reference, reference_var, seed_images, *, mask=None, resamples: int = 2000,
+                      level: float = 0.95, seed: int = 0) -> SeedError:
+    """Debiased relative MSE of S approximation frames (S×H×W×C) against a reference
+    (mean H×W×C and the variance of that mean per pixel), with a bootstrap interval
+    over the seeds.
+
+    Every resample needs only the S×S Gram matrix G of the differences D_s = A_s − R
+    over the pixels: with multiplicities w (Σw = S), Σ(Ā − R)² = wᵀGw / S² and the
+    seeds' spread Σ_s w_s |D_s − D̄|² = Σ w_s G_ss − wᵀGw / S, so thousands of
+    resamples cost nothing next to the images.
+    """
+    r = np.asarray(reference, np.float64)
+    rv = np.asarray(reference_var, np.float64)
+    a = np.asarray(seed_images, np.float64)
+    if a.ndim != r.ndim + 1 or a.shape[1:] != r.shape or rv.shape != r.shape:
+        raise ValueError(f"shapes: reference {r.shape}, reference_var {rv.shape}, seed_images {a.shape} "
+                         "(expected H×W×C, H×W×C, S×H×W×C)")
+    if len(a) < 1:
+        raise ValueError("seed_images: no frame")
+    if not 0 < level < 1:
+        raise ValueError(f"level = {level!r}: expected a probability in (0, 1)")
+    sel_r, sel_rv = _select(r, mask), _select(rv, mask)
+    d = np.stack([_select(x, mask) for x in a]) - sel_r  # S×N×C
+    energy = float(np.sum(sel_r * sel_r))
+    if energy == 0.0:
+        raise ValueError("reference is zero everywhere: relative error undefined")
+    n = len(a)
+    flat = d.reshape(n, -1)
+    gram = flat @ flat.T
+    floor = float(sel_rv.sum()) / energy
+
+    def debiased(w):  # w: B×S multiplicities
+        quad = np.einsum("bi,ij,bj->b", w, gram, w)
+        raw = quad / n**2 / energy
+        if n < 2:
+            return raw, raw - floor, np.full(len(w), np.nan)
+        spread = (w @ np.diag(gram) - quad / n) / (n - 1)  # Σ_pixels s² (sample variance over seeds)
+        noise = spread / n / energy
+        return raw, raw - floor - noise, noise
+
+    raw, value, noise = (float(x[0]) for x in debiased(np.ones((1, n))))
+    interval = None
+    if n >= 2:
+        interval = _interval(debiased(_bootstrap_weights(n, resamples, seed))[1], level)
+    return SeedError(raw=raw, reference_floor=floor, approx_noise=noise, debiased=value if n >= 2 else raw - floor,
+                     interval=interval, seeds=n, resamples=resamples if n >= 2 else 0, level=level,
+                     pixels=int(sel_r.shape[0]))
+
+
+def seed_mean_interval(values, *, resamples: int = 2000, level: float = 0.95, seed: int = 0) -> dict:
+    """Mean of a per-frame metric over S seeds and its percentile bootstrap interval
+    (None with one seed)."""
+    v = np.asarray(values, np.float64).reshape(-1)
+    if len(v) == 0 or not np.all(np.isfinite(v)):
+        raise ValueError(f"values: expected finite per-seed values, got {v.tolist()}")
+    interval = None
+    if len(v) >= 2:
+        w = _bootstrap_weights(len(v), resamples, seed)
+        interval = _interval(w @ v / len(v), level)
+    return {"mean": float(v.mean()), "interval": interval, "seeds": len(v), "resamples": resamples if len(v) >= 2 else 0,
+            "level": level}
+
+
+def noisy_copy(reference, reference_var, *, seed: int = 0) -> np.ndarray:
+    """The reference plus Gaussian noise of its own per-pixel variance, clipped at 0:
+    an image as far from the reference as an exact renderer with the reference's noise
+    would be. Metrics that are not quadratic (SSIM, FLIP, ΔE) cannot subtract a floor
+    analytically; their floor is the metric of the reference against this copy."""
+    r = np.asarray(reference, np.float64)
+    rv = np.asarray(reference_var, np.float64)
+    if r.shape != rv.shape or np.any(rv < 0):
+        raise ValueError(f"reference {r.shape} and reference_var {rv.shape}: expected one shape, variances ≥ 0")
+    z = np.random.default_rng(seed).standard_normal(r.shape)
+    return np.maximum(r + np.sqrt(rv) * z, 0.0).astype(np.float32)

@@ -150,6 +150,16 @@ def exact_photons(scene, params, *, steps: int, fresnel: str, renderer=None, ora
         mask = frame.images["mask_specular"]
     records = exact_photon_records(scene, first_records, steps=steps, seed=p.seed, fresnel=fresnel,
                                    oracle=oracle or Oracle(scene))
+    return photons_from_records(records, first_records, p, steps=steps, fresnel=fresnel, mask_specular=mask)
+
+
+def photons_from_records(records: list, first_records: np.ndarray, params, *, steps: int, fresnel: str,
+                         mask_specular=None) -> ExactPhotons:
+    """The medium collisions of an exact replay's per-step records
+    (``reference.oracle.exact_photon_records``) as :class:`ExactPhotons`, for callers
+    that also use the records (power budgets, divergence)."""
+    from approx.splat import splats_from_arrays
+
     collided = [r[r["status"] == STATUS_COLLIDED] for r in records]
     collided_power = np.zeros((steps, 3))
     for k, c in enumerate(collided):
@@ -160,14 +170,12 @@ def exact_photons(scene, params, *, steps: int, fresnel: str, renderer=None, ora
     if last is not None:
         keep = (last["status"] == STATUS_SURFACE) | (last["status"] == STATUS_COLLIDED)
         alive = last["power"][keep].astype(np.float64).sum(axis=0)
-    from approx.splat import splats_from_arrays
-
-    used = {**p.to_dict(), "steps": steps, "fresnel": fresnel, "emission_fresnel": fresnel}
+    used = {**params.to_dict(), "steps": steps, "fresnel": fresnel, "emission_fresnel": fresnel}
     return ExactPhotons(splats=splats_from_arrays(rows["end"], rows["direction"], rows["power"]),
                         photon=rows["photon"].astype(np.uint32), step=rows["step"].astype(np.int64),
                         emitted_power=first_records["power_start"].astype(np.float64).sum(axis=0),
                         alive_power=alive, collided_power=collided_power, photons=len(first_records),
-                        params=used, mask_specular=mask)
+                        params=used, mask_specular=mask_specular)
 
 
 def interleaved_subsets(photon: np.ndarray, photon_res: int, batches: int) -> np.ndarray:

@@ -1,0 +1,547 @@
+"""One experiment: a scene, the approximation's parameters and a reference → both
+renders, the exact replay and every metric (DESIGN.md "Measuring the error").
+
+For each of the approximation's seeds (``params.seed``, +1, …) one frame is rendered
+with its segment records. Then:
+
+* **segments**: every searched segment is asked of the exact oracle on the same
+  interval and classified (``metrics.intersection``); the start surface's normal of
+  a segment is the approximation's hit normal of the step before (unknown at step 1);
+* **photons**: the frame's photons are replayed exactly with the same random numbers,
+  ``steps`` and ``fresnel`` (``reference.oracle.exact_photon_records``): power by
+  fate per step for both tracers, and where each path first leaves its replay
+  (``metrics.paths``);
+* **images**: each colour component of the frames against the reference
+  (``metrics.image``, ``metrics.noise``), and the caustic's error decomposed
+  (``metrics.decomposition``) with E_k (the replay above, splatted by the
+  approximation's splatter), E_∞ (``EXACT_STEPS`` steps, A's Fresnel and
+  stochastic), E_∞,s (small kernel, ``SMALL_SUPERSAMPLE``× pixels box-filtered).
+
+:func:`run_experiment` computes; :func:`write_experiment` writes the tables
+(Parquet and CSV), ``decomposition.exr`` and ``summary.json`` (last).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import os
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from scenes.formats import COLOUR_LAYERS, MASK_LAYER
+
+EXACT_STEPS = 128            # E_∞: < 0.1% of the power alive after them on every built-in (V6; feline 0.03%)
+ALIVE_BUDGET = 1e-3          # above it, summary.json warns that E_∞ is truncated
+SMALL_SUPERSAMPLE = 2        # E_∞,s: splatted at 2× and box-averaged (the reference's pixel filter)
+SMALL_KERNEL_FINE_PIXELS = 0.6  # its σ in fine pixels: aliasing 2·exp(−2π²·0.36) ≈ 0.2% (tests/cross/test_v6.py)
+SMALL_BATCHES = 8            # interleaved photon subsets per seed: E_∞,s's variance
+RESAMPLES = 2000             # bootstrap resamples over the seeds
+LEVEL = 0.95                 # bootstrap interval level
+FLOOR_SEED = 12345           # noise draw of the non-quadratic metrics' floors (metrics.noise.noisy_copy)
+SEGMENT_GROUPINGS = (("step", "map", "inside"), ("step", "inside"), ("step",), ())
+IMAGE_METRICS = ("relative_mse", "per_pixel_relative_mse", "ssim", "hdr_flip", "delta_e2000", "energy_ratio")
+DECOMPOSITION_IMAGES = {"approx": "A", "exact_steps": "E_k", "exact_all_same": "E_inf(A's fresnel)",
+                        "exact_all": "E_inf", "exact_all_small": "E_inf,s", "reference": "R"}
+
+
+@dataclass
+class Experiment:
+    """What :func:`run_experiment` measured: tidy rows and what ``summary.json`` holds,
+    and the decomposition images (name → H×W×3 float32) for the EXR."""
+
+    segments: list
+    photons: list
+    images: list
+    summary: dict
+    layers: dict = field(default_factory=dict)
+
+
+def parameter_columns(scene, params, seeds: list, reference_key: str) -> dict:
+    """The columns every row of every table carries: scene, its hash, every
+    approximation parameter (``seed``: the first seed), the seeds, the reference's
+    cache key and the code version."""
+    from .versions import code_version
+
+    return {"scene": scene.name, "scene_hash": scene.scene_hash(), **params.to_dict(), "seeds": len(seeds),
+            "reference_key": reference_key, "code_version": code_version()}
+
+
+def _progress(total, enabled):
+    from tqdm import tqdm
+
+    return tqdm(total=total, desc="measure", unit="stage", disable=not enabled, leave=False)
+
+
+def run_experiment(scene, params, *, seeds: int = 1, reference_settings=None, progress: bool = False,
+                   renderer=None, oracle=None, reference=None) -> Experiment:
+    """Measure the approximation with ``params`` on ``scene`` against its reference.
+
+    Parameters
+    ----------
+    scene : ``scenes.model.Scene``.
+    params : ``approx.ApproxParams`` (width/height unset: the scene camera's).
+    seeds : frames with seeds params.seed … params.seed + seeds − 1 (≥ 1; the
+        approximation's own noise and the bootstrap intervals need ≥ 2).
+    reference_settings : ``reference.settings.ReferenceSettings`` (default: the
+        report's, ``reports.defaults.REPORT_REFERENCE``), at the frames' size; rendered
+        when not cached.
+    renderer, oracle, reference : reused when given (a ``reference.render.ReferenceResult``
+        at the frames' size).
+    """
+    from approx import Renderer
+    from approx.params import ParamError
+    from reference.oracle import Oracle
+
+    from .defaults import REPORT_REFERENCE
+
+    if isinstance(seeds, bool) or not isinstance(seeds, int) or not 1 <= seeds <= 1024:
+        raise ParamError(f"seeds = {seeds!r}: expected an integer in [1, 1024]")
+    p = params.resolved(scene)
+    if p.seed + seeds - 1 > 2**32 - 1:
+        raise ParamError(f"seed = {p.seed} with seeds = {seeds}: the last seed exceeds 2^32 − 1")
+    seed_list = [p.seed + i for i in range(seeds)]
+    clock = {}
+    bar = _progress(6, progress)
+    t0 = time.perf_counter()
+    if reference is None:
+        from reference.render import render_reference
+
+        settings = dataclasses.replace(reference_settings or REPORT_REFERENCE, width=p.width, height=p.height)
+        reference = render_reference(scene, settings, progress=progress)
+    clock["reference"] = time.perf_counter() - t0
+    bar.update()
+
+    own_renderer, own_oracle = renderer is None, oracle is None
+    renderer = renderer or Renderer(scene)
+    try:
+        t = time.perf_counter()
+        oracle = oracle or Oracle(scene)
+        clock["oracle"] = time.perf_counter() - t
+        t = time.perf_counter()
+        frames = _frames(renderer, scene, p, seed_list, warm_up=own_renderer)
+        clock["approx"] = time.perf_counter() - t
+        bar.update()
+        t = time.perf_counter()
+        columns = parameter_columns(scene, p, seed_list, reference.key)
+        segments = _segment_rows(scene, p, frames, oracle, columns)
+        clock["segments"] = time.perf_counter() - t
+        bar.update()
+        t = time.perf_counter()
+        replays = [_replay(scene, p, f, s, oracle) for f, s in zip(frames, seed_list)]
+        photons, divergence = _photon_rows(frames, replays, columns)
+        clock["photons"] = time.perf_counter() - t
+        bar.update()
+        t = time.perf_counter()
+        exact = _exact_images(scene, p, frames, replays, seed_list, renderer, oracle)
+        clock["exact_images"] = time.perf_counter() - t
+        bar.update()
+    finally:
+        if own_renderer:
+            renderer.release()
+    t = time.perf_counter()
+    keep = _keep(reference, frames)
+    image_rows, headline = _image_rows(frames, reference, keep, columns)
+    decomposition = _decompose(frames, exact, reference, keep)
+    image_rows += _decomposition_rows(decomposition, columns)
+    clock["metrics"] = time.perf_counter() - t
+    bar.update()
+    bar.close()
+    clock["total"] = time.perf_counter() - t0
+
+    summary = _summary(scene, p, seed_list, reference, frames, exact, headline, decomposition, divergence, clock,
+                       keep)
+    layers = {name: np.asarray(img, np.float32) for name, img in decomposition["images"].items()}
+    layers.update({f"term.{name}": np.asarray(img, np.float32) for name, img in decomposition["terms"].items()})
+    return Experiment(segments=segments, photons=photons, images=image_rows, summary=summary, layers=layers)
+
+
+# --- approximation frames ----------------------------------------------------------
+
+def _frames(renderer, scene, p, seeds, *, warm_up: bool) -> list:
+    """One frame per seed, with records. A fresh renderer compiles its shaders in its
+    first frame, so it renders one frame first that is not timed."""
+    if warm_up:
+        renderer.render(dataclasses.replace(p, seed=seeds[0]), scene, keep_records=False)
+    return [renderer.render(dataclasses.replace(p, seed=s), scene, keep_records=True) for s in seeds]
+
+
+def _timings(frames) -> dict:
+    """Median seconds per pass over the frames."""
+    names = frames[0].timings.keys()
+    return {name: float(np.median([f.timings[name] for f in frames])) for name in names}
+
+
+# --- segments ----------------------------------------------------------------------
+
+def _start_normals(records: list) -> list:
+    """Per step, the approximation's normal at the hit that each segment starts from
+    (the step before's hit of the same photon), nan where unknown (step 1, medium)."""
+    out = [np.full((len(records[0]), 3), np.nan)]
+    for prev, cur in zip(records[:-1], records[1:]):
+        normals = np.full((len(cur), 3), np.nan)
+        order = np.argsort(prev["photon"])
+        keys = prev["photon"][order]
+        idx = np.clip(np.searchsorted(keys, cur["photon"]), 0, max(len(keys) - 1, 0))
+        if len(keys):
+            found = keys[idx] == cur["photon"]
+            rows = order[idx[found]]
+            normals[found] = np.where(prev["hit"][rows, None], prev["normal"][rows], np.nan)
+        out.append(normals)
+    return out
+
+
+def _segment_rows(scene, p, frames, oracle, columns) -> list:
+    from approx.light import LightFrustum
+    from metrics.intersection import classify_segments, intersection_table
+    from scenes.bounds import medium_bounds
+
+    records = np.concatenate([r for f in frames for r in f.records])
+    start_normal = np.concatenate([n for f in frames for n in _start_normals(f.records)])
+    exact = oracle.first_hits(records["start"], records["direction"], records["search_length"])
+    frustum = LightFrustum.for_scene(scene, *medium_bounds(scene))
+    classes = classify_segments(records, exact, texel_angle=2.0 * frustum.tan_half / p.light_res,
+                                light_position=np.asarray(scene.light.position), start_normal=start_normal)
+    rows = []
+    for group_by in SEGMENT_GROUPINGS:
+        for row in intersection_table(records, classes, group_by=group_by, parameters=columns):
+            rows.append({"grouping": ",".join(group_by) or "all", **row})
+    return rows
+
+
+# --- photons -----------------------------------------------------------------------
+
+def _replay(scene, p, frame, seed, oracle) -> list:
+    """The frame's photons replayed exactly with its steps and Fresnel."""
+    from reference.oracle import exact_photon_records
+
+    return exact_photon_records(scene, frame.records[0], steps=p.steps, seed=seed, fresnel=p.fresnel, oracle=oracle)
+
+
+def _photon_rows(frames, replays, columns) -> tuple:
+    """Power budget per (tracer, step), the shares averaged over seeds, and the paths'
+    first divergence per step (all seeds' photons pooled)."""
+    from metrics.paths import path_divergence, power_budget
+
+    budgets = {}
+    for tracer, runs in (("approx", [f.records for f in frames]), ("exact", replays)):
+        per_seed = [power_budget(r, tracer=tracer) for r in runs]
+        for rows in per_seed:
+            for row in rows:
+                budgets.setdefault((tracer, row["step"]), []).append(row)
+    divergence = [path_divergence(f.records, e) for f, e in zip(frames, replays)]
+    first = np.concatenate([d["step"] for d in divergence])
+    cause = np.concatenate([d["cause"] for d in divergence])
+    distance = np.concatenate([d["distance"] for d in divergence])
+    drift = np.concatenate([d["power_drift"] for d in divergence])
+    steps = frames[0].params["steps"]
+    out = []
+    for (tracer, step), rows in budgets.items():
+        if step == "after":
+            continue
+        row = {"tracer": tracer, "step": step}
+        for key in rows[0]:
+            if key.startswith("share_"):
+                row[key] = float(np.mean([r[key] for r in rows]))
+        alive = [r["share_alive"] for r in budgets[(tracer, "after")]] if step == steps else None
+        row["share_alive_after_last"] = float(np.mean(alive)) if alive else float("nan")
+        if tracer == "approx":
+            at = first == step
+            row["photons"] = int(len(first))
+            row["diverged_fate"] = float(np.mean(at & (cause == "fate")))
+            row["diverged_place"] = float(np.mean(at & (cause == "place")))
+            row["drift_distance_median"] = _median(distance[at])
+            row["drift_distance_p90"] = _percentile(distance[at], 90)
+            row["power_drift_median"] = _median(drift[at])
+        row.update(columns)
+        out.append(row)
+    summary = {"photons": int(len(first)), "never_diverged": float(np.mean(first == 0)),
+               "first_divergence_by_step": {int(k): float(np.mean(first == k)) for k in range(1, steps + 1)},
+               "place_tolerance_m": divergence[0]["options"]["place_tolerance"]}
+    return sorted(out, key=lambda r: (r["tracer"], r["step"])), summary
+
+
+def _median(v):
+    return _percentile(v, 50)
+
+
+def _percentile(v, q):
+    v = np.asarray(v, np.float64)
+    v = v[np.isfinite(v)]
+    return float(np.percentile(v, q)) if len(v) else float("nan")
+
+
+# --- exact images --------------------------------------------------------------------
+
+def _small_radius(scene, p) -> float:
+    from .exact import pixel_footprint
+
+    return SMALL_KERNEL_FINE_PIXELS * pixel_footprint(scene.camera, p.height * SMALL_SUPERSAMPLE)
+
+
+def _exact_images(scene, p, frames, replays, seeds, renderer, oracle) -> dict:
+    """E_k, E_∞ (A's Fresnel), E_∞ (stochastic) per seed as images, E_∞,s as batches."""
+    from reference.oracle import exact_photon_records
+
+    from .exact import exact_caustic, exact_photons, photons_from_records
+
+    out = {"exact_steps": [], "exact_all_same": [], "exact_all": [], "small_batches": [], "alive": {}}
+    small = dataclasses.replace(p, splat_radius=_small_radius(scene, p))
+    for frame, replay, seed in zip(frames, replays, seeds):
+        ps = dataclasses.replace(p, seed=seed)
+        first = frame.records[0]
+        e_k = photons_from_records(replay, first, ps, steps=p.steps, fresnel=p.fresnel)
+        out["exact_steps"].append(renderer.splat(e_k.splats, ps, scene))
+        records = exact_photon_records(scene, first, steps=EXACT_STEPS, seed=seed, fresnel=p.fresnel, oracle=oracle)
+        same = photons_from_records(records, first, ps, steps=EXACT_STEPS, fresnel=p.fresnel)
+        out["exact_all_same"].append(renderer.splat(same.splats, ps, scene))
+        if p.fresnel == "stochastic":
+            everything = same
+            out["exact_all"].append(out["exact_all_same"][-1])
+        else:
+            everything = exact_photons(scene, ps, steps=EXACT_STEPS, fresnel="stochastic", renderer=renderer,
+                                       oracle=oracle)
+            out["exact_all"].append(renderer.splat(everything.splats, ps, scene))
+        for fresnel, photons in ((p.fresnel, same), ("stochastic", everything)):
+            out["alive"].setdefault(fresnel, []).append(photons.alive_fraction)
+        caustic = exact_caustic(scene, dataclasses.replace(small, seed=seed), steps=EXACT_STEPS,
+                                fresnel="stochastic", batches=SMALL_BATCHES, supersample=SMALL_SUPERSAMPLE,
+                                renderer=renderer, photons=everything)
+        out["small_batches"].append(caustic.batch_images)
+    out["small_batches"] = np.concatenate(out["small_batches"])
+    out["small_radius"] = small.splat_radius
+    return out
+
+
+# --- image metrics -------------------------------------------------------------------
+
+def _keep(reference, frames) -> np.ndarray:
+    """H×W bool: pixels where neither the reference nor any frame sees glass."""
+    keep = reference.mean[MASK_LAYER][..., 0] < 0.5
+    for f in frames:
+        keep &= f.images[MASK_LAYER][..., 0] < 0.5
+    return keep
+
+
+_FLOORS: dict = {}
+
+
+def _floor(metric, reference_key, component, keep, r, rv, compute) -> float:
+    """A non-quadratic metric's value for the reference against its noisy copy, cached
+    in-process and on disk per (reference, component, metric, compared pixels)."""
+    from scenes.storage import atomic_write_text, cache_dir
+
+    ident = hashlib.sha256(f"{reference_key}/{component}/{metric}/{FLOOR_SEED}/".encode() +
+                           np.packbits(keep).tobytes()).hexdigest()[:24]
+    if ident in _FLOORS:
+        return _FLOORS[ident]
+    path = os.path.join(cache_dir("metric-floors"), ident + ".json")
+    try:
+        with open(path) as fh:
+            value = float(json.load(fh)["value"])
+    except (OSError, ValueError, KeyError, TypeError):
+        from metrics.noise import noisy_copy
+
+        value = float(compute(r, noisy_copy(r, rv, seed=FLOOR_SEED)))
+        atomic_write_text(path, json.dumps({"value": value, "metric": metric, "component": component,
+                                            "reference_key": reference_key}))
+    _FLOORS[ident] = value
+    return value
+
+
+def _image_rows(frames, reference, keep, columns) -> tuple:
+    """One row per (component, metric): value (over the seeds), debiased value, the
+    reference's floor, the approximation's own noise where known, bootstrap interval."""
+    from metrics import image as im
+    from metrics.noise import seed_mean_interval, seed_relative_mse
+
+    per_frame = {  # metric: (value of one frame, debias: (mean, floor) -> debiased)
+        "per_pixel_relative_mse": (lambda r, a: im.per_pixel_relative_mse(r, a, mask=keep), lambda m, f: m - f),
+        "ssim": (lambda r, a: im.ssim(r, a, mask=keep), lambda m, f: m + (1.0 - f)),
+        "hdr_flip": (lambda r, a: im.hdr_flip(r, a, mask=keep), lambda m, f: m - f),
+        "delta_e2000": (lambda r, a: im.delta_e2000(r, a, mask=keep), lambda m, f: m - f),
+    }
+    rows, headline = [], {}
+    for component in COLOUR_LAYERS:
+        r = reference.mean[component]
+        rv = reference.var[component]
+        stack = np.stack([f.images[component] for f in frames])
+        base = {"component": component, "term": None, **columns}
+        head = headline.setdefault(component, {})
+        if not float(r[keep].sum()) > 0:
+            for metric in IMAGE_METRICS:
+                rows.append({**base, "metric": metric, "value": float("nan"), "debiased": float("nan"),
+                             "note": "reference is black over the compared pixels"})
+            continue
+        err = seed_relative_mse(r, rv, stack, mask=keep, resamples=RESAMPLES, level=LEVEL)
+        rows.append({**base, "metric": "relative_mse", "value": err.raw, "debiased": err.debiased,
+                     "reference_floor": err.reference_floor, "approx_noise": err.approx_noise,
+                     **_ci(err.interval), "options": json.dumps({"resamples": err.resamples, "level": LEVEL,
+                                                                "pixels": err.pixels})})
+        head["relative_mse"] = {"raw": err.raw, "debiased": err.debiased, "interval": err.interval,
+                                "reference_floor": err.reference_floor, "approx_noise": err.approx_noise}
+        for metric, (fn, debias) in per_frame.items():
+            results = [fn(r, a) for a in stack]
+            floor = _floor(metric, columns["reference_key"], component, keep, r, rv, lambda x, y: fn(x, y)["value"])
+            stat = seed_mean_interval([x["value"] for x in results], resamples=RESAMPLES, level=LEVEL)
+            interval = None if stat["interval"] is None else tuple(debias(v, floor) for v in stat["interval"])
+            options = {k: v for k, v in results[0].items() if k != "value"}
+            rows.append({**base, "metric": metric, "value": stat["mean"], "debiased": debias(stat["mean"], floor),
+                         "reference_floor": floor, **_ci(interval),
+                         "options": json.dumps({**options, "resamples": stat["resamples"], "level": LEVEL},
+                                               default=float)})
+            head[metric] = {"mean": stat["mean"], "debiased": debias(stat["mean"], floor), "interval": interval}
+        ratios = [im.energy_ratio(r, a, mask=keep)["mean"] for a in stack]
+        mean_ratio = im.energy_ratio(r, stack.mean(axis=0), mask=keep)["mean"]
+        stat = seed_mean_interval(ratios, resamples=RESAMPLES, level=LEVEL)
+        sigma = float(np.sqrt(rv[keep].sum(axis=0)).mean() / r[keep].sum(axis=0).mean())
+        rows.append({**base, "metric": "energy_ratio", "value": mean_ratio, "debiased": mean_ratio,
+                     "reference_floor": sigma, **_ci(stat["interval"]),
+                     "options": json.dumps({"reference_floor": "relative σ of the reference's total",
+                                            "resamples": stat["resamples"], "level": LEVEL})})
+        head["energy_ratio"] = {"value": mean_ratio, "interval": stat["interval"], "reference_sigma": sigma}
+    return rows, headline
+
+
+def _ci(interval) -> dict:
+    return {"ci_low": interval[0] if interval else float("nan"), "ci_high": interval[1] if interval else float("nan"),
+            "level": LEVEL}
+
+
+# --- decomposition -------------------------------------------------------------------
+
+def _decompose(frames, exact, reference, keep) -> dict:
+    from metrics.decomposition import decompose_caustic
+
+    approx = np.stack([f.images["caustic"] for f in frames]).astype(np.float64)
+    images = {"approx": approx.mean(axis=0), "reference": reference.mean["caustic"]}
+    for name in ("exact_steps", "exact_all_same", "exact_all"):
+        images[name] = np.mean(np.stack(exact[name]).astype(np.float64), axis=0)
+    approx_var = approx_total_var = None
+    if len(approx) >= 2:
+        approx_var = approx.var(axis=0, ddof=1) / len(approx)
+        approx_total_var = approx[:, keep].sum(axis=1).var(axis=0, ddof=1) / len(approx)
+    return decompose_caustic(images, exact["small_batches"], keep=keep, reference_var=reference.var["caustic"],
+                             approx_var=approx_var, approx_total_var=approx_total_var)
+
+
+def _decomposition_rows(decomposition, columns) -> list:
+    rows = []
+    for row in decomposition["rows"]:
+        for metric in ("energy_share", "relmse_part", "relmse_own"):
+            rows.append({"component": "caustic", "metric": metric, "term": row["term"], "value": row[metric],
+                         "debiased": float("nan"), "standard_error": row.get(f"{metric}_se", float("nan")),
+                         **columns})
+    res = decomposition["residual"]
+    for metric in ("energy_share", "energy_z", "debiased_relmse", "relmse_z", "within_noise"):
+        rows.append({"component": "caustic", "metric": f"residual_{metric}", "term": "residual",
+                     "value": float(res[metric]), "debiased": float("nan"), **columns})
+    return rows
+
+
+# --- summary -------------------------------------------------------------------------
+
+def _summary(scene, p, seeds, reference, frames, exact, headline, decomposition, divergence, clock, keep) -> dict:
+    from approx.context import gl_info, shared_context
+
+    from .versions import code_version, library_versions
+
+    alive = {k: float(max(v)) for k, v in exact["alive"].items()}
+    warnings = [f"E_inf ({k} Fresnel) keeps {100 * v:.2f}% of the power alive after {EXACT_STEPS} steps "
+                f"(> {100 * ALIVE_BUDGET:.1f}%): the truncation term is understated" for k, v in alive.items()
+                if v > ALIVE_BUDGET]
+    if not decomposition["residual"]["within_noise"]:
+        warnings.append(decomposition["residual"]["message"])
+    if len(seeds) < 2:
+        warnings.append("one seed: the approximation's own noise is not estimated (not subtracted) and there are "
+                        "no bootstrap intervals; use --seeds 2 or more")
+    m = reference.manifest
+    return {
+        "kind": "experiment", "scene": scene.name, "scene_hash": scene.scene_hash(),
+        "description": scene.description, "params": p.to_dict(), "seeds": seeds,
+        "reference": {"key": reference.key, "settings": m.get("settings"), "photons": m.get("photons"),
+                      "batches": m.get("batches"), "camera_batches": m.get("camera_batches"),
+                      "noise_floor": m.get("noise_floor"), "stopped_by": m.get("stopped_by"),
+                      "mitsuba_variant": m.get("mitsuba_variant"), "cached": reference.cached,
+                      "reference_code_version": m.get("reference_code_version")},
+        "exact": {"steps": EXACT_STEPS, "alive_after": alive, "small_splat_radius": exact["small_radius"],
+                  "small_supersample": SMALL_SUPERSAMPLE, "small_batches": int(len(exact["small_batches"]))},
+        "compared_pixels": int(keep.sum()),
+        "images": headline,
+        "decomposition": {"rows": decomposition["rows"], "residual": decomposition["residual"],
+                          "options": decomposition["options"]},
+        "paths": divergence,
+        "approx_timings_s": _timings(frames), "timing_method": frames[0].timing_method,
+        "experiment_seconds": clock, "gl": gl_info(shared_context()),
+        "code_version": code_version(), "versions": library_versions(), "warnings": warnings,
+    }
+
+
+# --- writing ---------------------------------------------------------------------------
+
+TABLES = ("segments", "photons", "images")
+
+
+def output_paths(out_dir: str) -> dict:
+    paths = {}
+    for name in TABLES:
+        paths[f"{name}.parquet"] = os.path.join(out_dir, f"{name}.parquet")
+        paths[f"{name}.csv"] = os.path.join(out_dir, f"{name}.csv")
+    paths["decomposition.exr"] = os.path.join(out_dir, "decomposition.exr")
+    paths["summary.json"] = os.path.join(out_dir, "summary.json")
+    return paths
+
+
+def table(rows: list):
+    """Rows as a pandas DataFrame with one dtype per column (None → NaN/NA)."""
+    import pandas as pd
+
+    frame = pd.DataFrame(rows)
+    for column in frame.columns:
+        if frame[column].dtype == object and frame[column].map(lambda v: v is None or isinstance(v, str)).all():
+            frame[column] = frame[column].astype("string")
+    return frame
+
+
+def write_experiment(experiment: Experiment, out_dir: str) -> dict:
+    """Write the tables (Parquet + CSV), ``decomposition.exr`` and, last,
+    ``summary.json`` into ``out_dir``; every file atomically. Returns the paths."""
+    from scenes.imageio import write_exr
+    from scenes.storage import atomic_path, atomic_write_text
+
+    os.makedirs(out_dir, exist_ok=True)
+    paths = output_paths(out_dir)
+    for name in TABLES:
+        frame = table(getattr(experiment, name))
+        with atomic_path(paths[f"{name}.parquet"]) as tmp:
+            frame.to_parquet(tmp, index=False)
+        with atomic_path(paths[f"{name}.csv"]) as tmp:
+            frame.to_csv(tmp, index=False)
+    s = experiment.summary
+    write_exr(paths["decomposition.exr"], experiment.layers,
+              {"volcaustics_scene": s["scene"], "volcaustics_scene_hash": s["scene_hash"],
+               "volcaustics_renderer": "experiment",
+               "volcaustics_layers": json.dumps({**DECOMPOSITION_IMAGES, "term.*": "the decomposition's terms"}),
+               "volcaustics_params": json.dumps(s["params"], sort_keys=True)})
+    summary = {**s, "outputs": {k: os.path.abspath(v) for k, v in paths.items()}}
+    atomic_write_text(paths["summary.json"], json.dumps(plain(summary), indent=2, allow_nan=False))
+    return paths
+
+
+def plain(value):
+    """``value`` as strict JSON data: numpy scalars and arrays as Python numbers and
+    lists, tuples as lists, NaN and ±inf as None (JSON has no NaN)."""
+    if isinstance(value, dict):
+        return {str(k): plain(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [plain(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return plain(value.tolist())
+    if isinstance(value, (np.floating, float)):
+        return float(value) if np.isfinite(value) else None
+    if isinstance(value, (np.integer, np.bool_)):
+        return value.item()
+    return value
