@@ -191,26 +191,40 @@ class Renderer:
         single-scattered radiance of the splats as the camera sees it, the
         ``caustic`` layer of :meth:`render` for the same photons.
         """
-        splats = np.ascontiguousarray(splats)
-        if splats.dtype != SPLAT_DTYPE or splats.ndim != 1:
-            raise ValueError(f"splats: expected a 1-D array of SPLAT_DTYPE rows, got {splats.dtype} {splats.shape}")
+        return self.splat_many([splats], params, scene)[0]
+
+    def splat_many(self, splat_sets, params: ApproxParams | None = None, scene=None) -> list:
+        """:meth:`splat` for several photon sets in one view: one image per set, the
+        G-buffer rendered once (independent photon subsets, batches)."""
+        sets = [np.ascontiguousarray(s) for s in splat_sets]
+        for splats in sets:
+            if splats.dtype != SPLAT_DTYPE or splats.ndim != 1:
+                raise ValueError(f"splats: expected a 1-D array of SPLAT_DTYPE rows, got {splats.dtype} {splats.shape}")
         ctx = self.ctx
         scene = scene or self.scene
         p = (params or ApproxParams()).resolved(scene)
         view = _camera_view(scene, p, medium_bounds(scene))
         camera_passes, splatter = self._shading_programs(scene, p)
         gbuf_geo, gbuf_nrm = camera_passes.render_gbuffer(self.geometry, view)
-        image = self._black_image(p)
-        released = [gbuf_geo, gbuf_nrm, image]
-        if len(splats):
-            buf = ctx.buffer(splats.tobytes())
-            released.append(buf)
-            splatter.splat(buf, len(splats), view, scene.medium, p.splat_radius, scene.medium.sigma_bar, gbuf_geo,
-                           image)
-        out = _read_rgb(image)
-        for r in released:
-            r.release()
-        return out
+        images = []
+        try:
+            for splats in sets:
+                image = self._black_image(p)
+                try:
+                    if len(splats):
+                        buf = ctx.buffer(splats.tobytes())
+                        try:
+                            splatter.splat(buf, len(splats), view, scene.medium, p.splat_radius,
+                                           scene.medium.sigma_bar, gbuf_geo, image)
+                        finally:
+                            buf.release()
+                    images.append(_read_rgb(image))
+                finally:
+                    image.release()
+        finally:
+            gbuf_geo.release()
+            gbuf_nrm.release()
+        return images
 
     def release(self):
         for prog in self._programs.values():

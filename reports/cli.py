@@ -12,6 +12,14 @@ import sys
 EXIT_USAGE = 2
 
 
+class UsageError(ValueError):
+    """A command-line value that cannot work (an output path, a list of names); the
+    message names the option, the value and the fix."""
+
+    def __init__(self, option: str, value, fix: str):
+        super().__init__(f"{option} = {value!r}: {fix}")
+
+
 def _cmd_doctor(args) -> int:
     from .doctor import format_report, run_doctor
 
@@ -126,6 +134,57 @@ def _cmd_reference(args) -> int:
     return 0
 
 
+def _check_output_dir(path: str, option: str = "-o") -> None:
+    """Fail before any work when ``path`` cannot be (or become) a writable folder."""
+    import os
+
+    if not path:
+        raise UsageError(option, path, "expected an output folder")
+    if os.path.exists(path) and not os.path.isdir(path):
+        raise UsageError(option, path, "exists and is not a folder: choose a folder path")
+    existing = os.path.abspath(path)
+    while not os.path.exists(existing):
+        existing = os.path.dirname(existing)
+    if not os.path.isdir(existing) or not os.access(existing, os.W_OK | os.X_OK):
+        raise UsageError(option, path, f"cannot write there ({existing} is not a writable folder)")
+
+
+def _cmd_measure(args) -> int:
+    import dataclasses
+
+    from reference.settings import ReferenceSettings
+    from scenes import resolve_scene
+
+    from .experiment import run_experiment, write_experiment
+
+    _check_output_dir(args.output)
+    scene = resolve_scene(args.scene)
+    params = _approx_params(args)
+    settings = ReferenceSettings(photons=args.photons, spp=args.spp, batches=args.batches, **_budget(args))
+    p = params.resolved(scene)
+    settings = dataclasses.replace(settings, width=p.width, height=p.height)
+    experiment = run_experiment(scene, params, seeds=args.seeds, reference_settings=settings,
+                                progress=not args.quiet)
+    paths = write_experiment(experiment, args.output)
+    s = experiment.summary
+    images = s["images"]
+    print(f"measure {scene.name}: {len(s['seeds'])} seed(s), {s['experiment_seconds']['total']:.1f} s -> "
+          f"{paths['summary.json']}")
+    for component, m in images.items():
+        if "relative_mse" not in m:
+            continue
+        ci = m["relative_mse"]["interval"]
+        ci_text = f" [{100 * ci[0]:.2f}, {100 * ci[1]:.2f}]" if ci else ""
+        print(f"  {component:<9} relative MSE debiased {100 * m['relative_mse']['debiased']:6.2f}%{ci_text}, "
+              f"energy ratio {m['energy_ratio']['value']:.3f}, HDR-FLIP {m['hdr_flip']['mean']:.3f}")
+    print("  caustic decomposition (energy share of the reference, part of the relative MSE):")
+    for row in s["decomposition"]["rows"]:
+        print(f"    {row['term']:<13} {100 * row['energy_share']:+7.2f}%  {100 * row['relmse_part']:+7.2f}%")
+    for warning in s["warnings"]:
+        print(f"  warning: {warning}")
+    return 0
+
+
 def _budget(args) -> dict:
     """target_noise and its caps from the command line ("none" turns the target off)."""
     target = args.target_noise
@@ -155,11 +214,11 @@ def _cmd_export(args) -> int:
     return 0
 
 
-def _add_approx_params(p):
+def _add_approx_params(p, default_preset: str = "paper"):
     g = p.add_argument_group("approximation parameters (DESIGN.md names; default: --preset)")
-    g.add_argument("--preset", choices=("paper", "quick"), default="paper",
+    g.add_argument("--preset", choices=("paper", "quick"), default=default_preset,
                    help="paper: photon_res 1500, layers 4, steps 4, iterations 30, peak_samples 8, scene image size; "
-                        "quick: 256x256, photon_res 256, light_res 256")
+                        f"quick: 256x256, photon_res 256, light_res 256 (default {default_preset})")
     g.add_argument("--photon-res", dest="photon_res", type=int, help="photon map resolution N (N² texels)")
     g.add_argument("--layers", type=int, help="light-map levels (each: front + back map)")
     g.add_argument("--layer-strategy", dest="layer_strategy", choices=("threshold", "peel"))
@@ -220,6 +279,25 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--mitsuba-xml", dest="mitsuba_xml", required=True, metavar="OUT.xml")
     p.set_defaults(func=_cmd_export)
 
+    p = sub.add_parser("measure", help="one experiment on SCENE: approximation vs reference, exact replay, all "
+                                       "metrics -> DIR/{segments,photons,images}.{parquet,csv}, decomposition.exr, "
+                                       "summary.json")
+    p.add_argument("scene", metavar="SCENE", help="built-in scene name or path to a .toml scene file")
+    p.add_argument("-o", "--output", required=True, metavar="DIR", help="output folder (created if missing)")
+    p.add_argument("--seeds", type=int, default=2,
+                   help="frames with seeds --seed … --seed + N − 1: the approximation's own noise and bootstrap "
+                        "intervals need N ≥ 2 (default 2)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    _add_approx_params(p, default_preset="quick")
+    p.add_argument("--photons", type=int, default=REPORT_REFERENCE.photons,
+                   help="reference photons over --batches batches (default: the report's, 2^22)")
+    p.add_argument("--spp", type=int, default=REPORT_REFERENCE.spp,
+                   help="reference camera samples per pixel over --batches batches (default 64)")
+    p.add_argument("--batches", type=int, default=REPORT_REFERENCE.batches,
+                   help="reference batches per stream, at least (default 16)")
+    _add_budget(p, target=REPORT_TARGET, max_seconds=REPORT_REFERENCE.max_seconds)
+    p.set_defaults(func=_cmd_measure)
+
     p = sub.add_parser("report", help="the main job: approximation vs ground truth on the built-in scenes")
     p.add_argument("--out", default="runs/report", help="output folder (default runs/report)")
     p.add_argument("--scenes", help="comma-separated built-in scene names (default: all)")
@@ -244,7 +322,7 @@ def main(argv=None) -> int:
     args = build_parser().parse_args(argv)
     try:
         return args.func(args)
-    except (SceneError, ParamError, SettingsError) as exc:
+    except (SceneError, ParamError, SettingsError, UsageError) as exc:
         print(f"volcaustics: error: {exc}", file=sys.stderr)
         return EXIT_USAGE
     except KeyboardInterrupt:

@@ -210,7 +210,8 @@ def box_downsample(image: np.ndarray, factor: int, reduce=np.mean) -> np.ndarray
 
 
 def exact_caustic(scene, params, *, steps: int, fresnel: str, batches: int = 8, supersample: int = 1,
-                  renderer=None, oracle=None, photons: ExactPhotons | None = None) -> ExactCaustic:
+                  renderer=None, oracle=None, photons: ExactPhotons | None = None,
+                  with_mask: bool = True) -> ExactCaustic:
     """E_k / E_∞: the exact photons' caustic through the approximation's splatter.
 
     Parameters
@@ -228,6 +229,8 @@ def exact_caustic(scene, params, *, steps: int, fresnel: str, batches: int = 8, 
     renderer, oracle : reused when given.
     photons : an earlier :func:`exact_photons` result to splat again (another kernel,
         phase or image size) without retracing.
+    with_mask : False skips rendering the glass mask at the fine size when the photons
+        do not carry it (``mask_specular`` is then None unless they do).
 
     Returns
     -------
@@ -249,10 +252,12 @@ def exact_caustic(scene, params, *, steps: int, fresnel: str, batches: int = 8, 
         if photons is None:
             photons = exact_photons(scene, fine, steps=steps, fresnel=fresnel, renderer=renderer, oracle=oracle)
         subset = interleaved_subsets(photons.photon, photons.params["photon_res"], batches)
-        images = np.stack([box_downsample(renderer.splat(photons.splats[subset == k], fine, scene), supersample)
-                           for k in range(batches)])
+        images = np.stack([box_downsample(image, supersample) for image in
+                           renderer.splat_many([photons.splats[subset == k] for k in range(batches)], fine, scene)])
         mask = photons.mask_specular
-        if mask is None or mask.shape[:2] != (fine.height, fine.width):
+        if mask is not None and mask.shape[:2] != (fine.height, fine.width):
+            mask = None
+        if with_mask and mask is None:
             mask = renderer.render(dataclasses.replace(fine, steps=1, photon_res=1, fog_steps=1), scene,
                                    keep_records=False).images["mask_specular"]
     finally:
@@ -263,7 +268,8 @@ def exact_caustic(scene, params, *, steps: int, fresnel: str, batches: int = 8, 
             "width": p.width, "height": p.height, "phase": phase.kind,
             "g": float(phase.g) if phase.kind == "hg" else 0.0}
     return ExactCaustic(batch_images=(images * np.float32(batches)).astype(np.float32),
-                        mask_specular=box_downsample(mask, supersample, np.max), photons=photons, params=used)
+                        mask_specular=None if mask is None else box_downsample(mask, supersample, np.max),
+                        photons=photons, params=used)
 
 
 @dataclass

@@ -36,8 +36,9 @@ from scenes.formats import COLOUR_LAYERS, MASK_LAYER
 
 EXACT_STEPS = 128            # E_∞: < 0.1% of the power alive after them on every built-in (V6; feline 0.03%)
 ALIVE_BUDGET = 1e-3          # above it, summary.json warns that E_∞ is truncated
-SMALL_SUPERSAMPLE = 2        # E_∞,s: splatted at 2× and box-averaged (the reference's pixel filter)
-SMALL_KERNEL_FINE_PIXELS = 0.6  # its σ in fine pixels: aliasing 2·exp(−2π²·0.36) ≈ 0.2% (tests/cross/test_v6.py)
+SMALL_SUPERSAMPLE = 4        # E_∞,s: splatted at 4× and box-averaged (the reference's pixel filter)
+SMALL_KERNEL_FINE_PIXELS = 0.6  # its σ in fine pixels (0.15 pixel): aliasing 2·exp(−2π²·0.36) ≈ 0.2%; at 2×
+                                # (0.3 pixel) its own blur left sphere2's residual 4σ from 0 (tests/cross/test_v6.py)
 SMALL_BATCHES = 8            # interleaved photon subsets per seed: E_∞,s's variance
 RESAMPLES = 2000             # bootstrap resamples over the seeds
 LEVEL = 0.95                 # bootstrap interval level
@@ -309,7 +310,7 @@ def _exact_images(scene, p, frames, replays, seeds, renderer, oracle) -> dict:
             out["alive"].setdefault(fresnel, []).append(photons.alive_fraction)
         caustic = exact_caustic(scene, dataclasses.replace(small, seed=seed), steps=EXACT_STEPS,
                                 fresnel="stochastic", batches=SMALL_BATCHES, supersample=SMALL_SUPERSAMPLE,
-                                renderer=renderer, photons=everything)
+                                renderer=renderer, photons=everything, with_mask=False)
         out["small_batches"].append(caustic.batch_images)
     out["small_batches"] = np.concatenate(out["small_batches"])
     out["small_radius"] = small.splat_radius
@@ -496,12 +497,16 @@ def output_paths(out_dir: str) -> dict:
 
 
 def table(rows: list):
-    """Rows as a pandas DataFrame with one dtype per column (None → NaN/NA)."""
+    """Rows as a pandas DataFrame with one type per column: integers with gaps (a
+    ``step`` that is None on the rows of all steps) as nullable Int64, text as string."""
     import pandas as pd
 
     frame = pd.DataFrame(rows)
     for column in frame.columns:
-        if frame[column].dtype == object and frame[column].map(lambda v: v is None or isinstance(v, str)).all():
+        values = [row.get(column) for row in rows if row.get(column) is not None]
+        if values and all(isinstance(v, (int, np.integer)) and not isinstance(v, (bool, np.bool_)) for v in values):
+            frame[column] = frame[column].astype("Int64")
+        elif values and all(isinstance(v, str) for v in values):
             frame[column] = frame[column].astype("string")
     return frame
 
