@@ -212,7 +212,11 @@ def decompose_caustic(images: dict, small_batches, *, keep=None, reference_var=N
     return {"terms": terms, "images": images, "rows": rows, "residual": residual, "options": options}
 
 
+ROUNDING = 1e-12  # relative values (shares of the reference) this small are float64 rounding, not a difference
+
+
 def _z(value: float, se: float) -> float:
+    """value / se; with no noise at all (se 0), ±inf unless value is rounding."""
     if se > 0:
         return value / se
-    return 0.0 if value == 0 else float(np.copysign(np.inf, value))
+    return 0.0 if abs(value) <= ROUNDING else float(np.copysign(np.inf, value))

@@ -270,7 +270,14 @@ def seed_relative_mse(reference, reference_var, seed_images, *, mask=None, resam
     raw, value, noise = (float(x[0]) for x in debiased(np.ones((1, n))))
     interval = None
     if n >= 2:
-        interval = _interval(debiased(_bootstrap_weights(n, resamples, seed))[1], level)
+        # The resampled statistic is biased: a resample's mean has the extra error
+        # σ̂²/S while its own noise estimate averages less, so its distribution sits
+        # about approx_noise above the estimate. Centre the percentiles on it
+        # (bias-corrected percentile interval).
+        resampled = debiased(_bootstrap_weights(n, resamples, seed))[1]
+        shift = value - float(np.mean(resampled[np.isfinite(resampled)]))
+        low, high = _interval(resampled, level)
+        interval = (low + shift, high + shift)
     return SeedError(raw=raw, reference_floor=floor, approx_noise=noise, debiased=value if n >= 2 else raw - floor,
                      interval=interval, seeds=n, resamples=resamples if n >= 2 else 0, level=level,
                      pixels=int(sel_r.shape[0]))

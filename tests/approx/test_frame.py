@@ -147,6 +147,26 @@ def test_renderer_splat_reproduces_the_frame_caustic(ctx):
     renderer.release()
 
 
+def test_splat_many_equals_one_splat_per_subset_and_sums_to_the_whole(ctx):
+    """splat_many renders the G-buffer once for several photon subsets: each image is
+    what splat gives for that subset alone, and (additive blending) they sum to the
+    image of all photons, within float32 summation order."""
+    scene = make_scene([(sphere_spec(0.4, (0, 1.5, 0), 16), 1.5, (0, 0, 0))], cutoff=20.0)
+    renderer = Renderer(scene, ctx)
+    frame = renderer.render(dataclasses.replace(SMALL, steps=3))
+    rows = np.concatenate(frame.records)
+    rows = rows[rows["status"] == STATUS_COLLIDED]
+    splats = splats_from_arrays(rows["end"], rows["direction"], rows["power"])
+    subsets = [splats[0::3], splats[1::3], splats[2::3], splats[:0]]
+    images = renderer.splat_many(subsets, SMALL)
+    assert len(images) == 4 and not images[3].any()
+    for subset, image in zip(subsets[:3], images):
+        np.testing.assert_array_equal(image, renderer.splat(subset, SMALL))
+    whole = renderer.splat(splats, SMALL)
+    np.testing.assert_allclose(sum(images), whole, rtol=1e-5, atol=1e-6 * whole.max())
+    renderer.release()
+
+
 def test_same_seed_bit_identical_other_seed_differs(ctx):
     scene = make_scene([(sphere_spec(0.4, (0, 1.5, 0), 16), 1.5, (0, 0, 0))], cutoff=20.0)
     renderer = Renderer(scene, ctx)

@@ -105,6 +105,19 @@ def test_self_rehit_on_start_surface_only():
     assert out["options"]["start_normal_given"] and not out3["options"]["start_normal_given"]
 
 
+def test_unknown_start_normal_falls_back_to_the_offset_rule():
+    """Where a segment's start normal is unknown (nan: step 1 starts where the
+    emission met the glass, which no record holds), within the offset is enough;
+    where it is known, the exact hit must face the same way."""
+    offset = 0.005
+    other_surface = (1.0, 0.0, 0.0)
+    recs = np.concatenate([_records(1, offset=offset, inside=1)] * 2)
+    ex = _exact(2, t=0.001, hit=True, normal=other_surface)
+    start_n = np.array([[np.nan, np.nan, np.nan], UP])
+    out = _classify(recs, ex, start_normal=start_n)
+    assert list(out["cls"]) == [ix.SELF_REHIT, ix.MISSED_INSIDE]
+
+
 def test_tolerance_scales_with_distance_from_light():
     # the same Δt = 5 mm: wrong surface 1 m from the light (tol 3 mm), true hit 2 m away (6 mm)
     near = _records(1, t=1.005, hit=True, map_=0), _exact(1, t=1.0, hit=True)
