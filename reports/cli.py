@@ -74,9 +74,7 @@ def _cmd_report(args) -> int:
         from scenes import SceneError
 
         raise SceneError(None, "--scenes", unknown[0], f"expected built-in scene names ({', '.join(BUILTIN_NAMES)})")
-    from reference.settings import ReferenceSettings
-
-    settings = ReferenceSettings(photons=args.photons, spp=args.spp, batches=args.batches, **_budget(args))
+    settings = _report_settings(args)
     summary = build_report(args.out, names, width=args.width, height=args.height, reference_settings=settings)
     for row in summary["scenes"]:
         e = row["errors"]
@@ -150,9 +148,6 @@ def _check_output_dir(path: str, option: str = "-o") -> None:
 
 
 def _cmd_measure(args) -> int:
-    import dataclasses
-
-    from reference.settings import ReferenceSettings
     from scenes import resolve_scene
 
     from .experiment import run_experiment, write_experiment
@@ -160,9 +155,8 @@ def _cmd_measure(args) -> int:
     _check_output_dir(args.output)
     scene = resolve_scene(args.scene)
     params = _approx_params(args)
-    settings = ReferenceSettings(photons=args.photons, spp=args.spp, batches=args.batches, **_budget(args))
     p = params.resolved(scene)
-    settings = dataclasses.replace(settings, width=p.width, height=p.height)
+    settings = _report_settings(args, width=p.width, height=p.height)
     experiment = run_experiment(scene, params, seeds=args.seeds, reference_settings=settings,
                                 progress=not args.quiet)
     paths = write_experiment(experiment, args.output)
@@ -204,6 +198,25 @@ def _add_budget(p, *, target: str | None, max_seconds: float) -> None:
                    help=f"time cap of a --target-noise render, seconds (default {max_seconds:g})")
 
 
+def _add_report_reference(p) -> None:
+    """The reference options of ``report`` and ``measure`` (default: the report's budget)."""
+    from .defaults import REPORT_REFERENCE, REPORT_TARGET
+
+    p.add_argument("--photons", type=int, default=REPORT_REFERENCE.photons,
+                   help="reference photons over --batches batches: with the target, the size of a batch (default 2^22)")
+    p.add_argument("--spp", type=int, default=REPORT_REFERENCE.spp,
+                   help="reference camera samples per pixel over --batches batches (default 64)")
+    p.add_argument("--batches", type=int, default=REPORT_REFERENCE.batches,
+                   help="reference batches per stream, at least (default 16)")
+    _add_budget(p, target=REPORT_TARGET, max_seconds=REPORT_REFERENCE.max_seconds)
+
+
+def _report_settings(args, **size):
+    from reference.settings import ReferenceSettings
+
+    return ReferenceSettings(photons=args.photons, spp=args.spp, batches=args.batches, **size, **_budget(args))
+
+
 def _cmd_export(args) -> int:
     from reference.export import export_xml
     from scenes import resolve_scene
@@ -235,7 +248,6 @@ def _add_approx_params(p, default_preset: str = "paper"):
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from .defaults import REPORT_REFERENCE, REPORT_TARGET
 
     parser = argparse.ArgumentParser(prog="volcaustics", description=(
         "Validation harness for Real-time Volume Caustics with Image-based Photon Tracing: "
@@ -289,13 +301,7 @@ def build_parser() -> argparse.ArgumentParser:
                         "intervals need N ≥ 2 (default 2)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     _add_approx_params(p, default_preset="quick")
-    p.add_argument("--photons", type=int, default=REPORT_REFERENCE.photons,
-                   help="reference photons over --batches batches (default: the report's, 2^22)")
-    p.add_argument("--spp", type=int, default=REPORT_REFERENCE.spp,
-                   help="reference camera samples per pixel over --batches batches (default 64)")
-    p.add_argument("--batches", type=int, default=REPORT_REFERENCE.batches,
-                   help="reference batches per stream, at least (default 16)")
-    _add_budget(p, target=REPORT_TARGET, max_seconds=REPORT_REFERENCE.max_seconds)
+    _add_report_reference(p)
     p.set_defaults(func=_cmd_measure)
 
     p = sub.add_parser("report", help="the main job: approximation vs ground truth on the built-in scenes")
@@ -303,13 +309,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--scenes", help="comma-separated built-in scene names (default: all)")
     p.add_argument("--width", type=int, default=256, help="image width in pixels (default 256)")
     p.add_argument("--height", type=int, default=256, help="image height in pixels (default 256)")
-    p.add_argument("--photons", type=int, default=REPORT_REFERENCE.photons,
-                   help="reference photons over --batches batches: with the target, the size of a batch (default 2^22)")
-    p.add_argument("--spp", type=int, default=REPORT_REFERENCE.spp,
-                   help="reference camera samples per pixel over --batches batches (default 64)")
-    p.add_argument("--batches", type=int, default=REPORT_REFERENCE.batches,
-                   help="reference batches per stream, at least (default 16)")
-    _add_budget(p, target=REPORT_TARGET, max_seconds=REPORT_REFERENCE.max_seconds)
+    _add_report_reference(p)
     p.set_defaults(func=_cmd_report)
     return parser
 
