@@ -85,7 +85,7 @@ def _unit(v):
 
 
 def classify_segments(records, exact, *, texel_angle, light_position, start_normal=None,
-                      tolerance_texels=3.0, tolerance_floor=1e-4, self_normal_cos=0.9) -> dict:
+                      tolerance_texels=3.0, tolerance_floor=1e-4, self_normal_cos=0.9, exact_beyond=None) -> dict:
     """Class, Δt and normal error of every segment the approximation searched.
 
     Parameters
@@ -117,11 +117,19 @@ def classify_segments(records, exact, *, texel_angle, light_position, start_norm
     self_normal_cos : float
         Smallest cosine between the exact hit's geometric normal and
         ``start_normal`` for a self re-hit (default 0.9).
+    exact_beyond : mapping of arrays, optional
+        For self re-hits: the exact first hits beyond the re-hit surface on the
+        same segment (``hit``, ``t`` from the segment's start, ``normal``; other
+        rows are ignored). A self re-hit hides what the approximation did with the
+        rest of the segment; against these answers it gets a class too
+        (``cls_beyond``).
 
     Returns
     -------
     dict
-        ``cls`` (N int8, a class code, see ``CLASS_NAMES``); ``dt`` (N float64,
+        ``cls`` (N int8, a class code, see ``CLASS_NAMES``); ``cls_beyond`` (N
+        int8: for self re-hits with ``exact_beyond``, the class against what lies
+        beyond the re-hit surface, else -1); ``dt`` (N float64,
         m, approx t − exact t, nan unless both hit); ``normal_error`` (N
         float64, rad, angle between approx and exact shading normals, nan
         unless both hit); ``tolerance`` (N float64, m, nan where neither hits);
@@ -167,38 +175,51 @@ def classify_segments(records, exact, *, texel_angle, light_position, start_norm
     if start_normal is not None:
         start_normal = _vectors(start_normal, n, "start_normal")
 
-    # tolerance at the hit (exact where it hits, else approximate)
-    t_hit = np.where(e_hit, e_t, np.where(a_hit, a_t, np.nan))
-    point = start + t_hit[:, None] * direction
-    tolerance = np.maximum(tolerance_texels * texel_angle * np.linalg.norm(point - light, axis=1),
-                           tolerance_floor)
-    tolerance = np.where(np.isfinite(t_hit), tolerance, np.nan)
+    def answer(e_hit, e_t, e_normal):
+        """Class (self re-hits not yet marked), Δt, normal error and tolerance of the
+        approximation against one set of exact answers."""
+        # tolerance at the hit (exact where it hits, else approximate)
+        t_hit = np.where(e_hit, e_t, np.where(a_hit, a_t, np.nan))
+        point = start + t_hit[:, None] * direction
+        tolerance = np.maximum(tolerance_texels * texel_angle * np.linalg.norm(point - light, axis=1),
+                               tolerance_floor)
+        tolerance = np.where(np.isfinite(t_hit), tolerance, np.nan)
+        both = a_hit & e_hit
+        dt = np.where(both, a_t - e_t, np.nan)
+        with np.errstate(invalid="ignore"):
+            cos = np.einsum("ij,ij->i", _unit(a_normal), _unit(e_normal))
+        normal_error = np.where(both, np.arccos(np.clip(cos, -1.0, 1.0)), np.nan)
+        cls = np.full(n, CORRECT_MISS, np.int8)
+        cls[both & (np.abs(dt) <= tolerance)] = TRUE_HIT
+        cls[both & ~(np.abs(dt) <= tolerance)] = WRONG_SURFACE
+        cls[a_hit & ~e_hit] = FALSE_HIT
+        cls[~a_hit & e_hit & (inside >= 0)] = MISSED_INSIDE
+        cls[~a_hit & e_hit & (inside < 0)] = MISSED_MEDIUM
+        return cls, dt, normal_error, tolerance
 
-    both = a_hit & e_hit
-    dt = np.where(both, a_t - e_t, np.nan)
-    with np.errstate(invalid="ignore"):
-        cos = np.einsum("ij,ij->i", _unit(a_normal), _unit(e_normal))
-    normal_error = np.where(both, np.arccos(np.clip(cos, -1.0, 1.0)), np.nan)
-
+    cls, dt, normal_error, tolerance = answer(e_hit, e_t, e_normal)
     with np.errstate(invalid="ignore"):
         self_rehit = e_hit & (e_t <= start_offset)
         if start_normal is not None:
             known = np.all(np.isfinite(start_normal), axis=1) & (np.linalg.norm(start_normal, axis=1) > 0)
             same = np.einsum("ij,ij->i", _unit(e_geometric), _unit(start_normal)) >= self_normal_cos
             self_rehit &= ~known | same
-
-    cls = np.full(n, CORRECT_MISS, np.int8)
-    cls[both & (np.abs(dt) <= tolerance)] = TRUE_HIT
-    cls[both & ~(np.abs(dt) <= tolerance)] = WRONG_SURFACE
-    cls[a_hit & ~e_hit] = FALSE_HIT
-    cls[~a_hit & e_hit & (inside >= 0)] = MISSED_INSIDE
-    cls[~a_hit & e_hit & (inside < 0)] = MISSED_MEDIUM
     cls[self_rehit] = SELF_REHIT
+
+    cls_beyond = np.full(n, -1, np.int8)
+    if exact_beyond is not None:
+        b = {name: _field(exact_beyond, name, "exact_beyond") for name in EXACT_FIELDS}
+        b_hit = _scalars(b["hit"], n, "exact_beyond hit", bool)
+        b_t = _scalars(b["t"], n, "exact_beyond t")
+        _check_hits(b_hit, b_t, "exact_beyond")
+        beyond = answer(b_hit, b_t, _vectors(b["normal"], n, "exact_beyond normal"))[0]
+        cls_beyond[self_rehit] = beyond[self_rehit]
 
     options = {"texel_angle": float(texel_angle), "light_position": tuple(float(x) for x in light),
                "tolerance_texels": float(tolerance_texels), "tolerance_floor": float(tolerance_floor),
-               "self_normal_cos": float(self_normal_cos), "start_normal_given": start_normal is not None}
-    return {"cls": cls, "dt": dt, "normal_error": normal_error, "tolerance": tolerance,
+               "self_normal_cos": float(self_normal_cos), "start_normal_given": start_normal is not None,
+               "beyond_self_rehit_given": exact_beyond is not None}
+    return {"cls": cls, "cls_beyond": cls_beyond, "dt": dt, "normal_error": normal_error, "tolerance": tolerance,
             "options": options}
 
 
@@ -244,6 +265,8 @@ def intersection_table(records, classes, *, group_by=GROUP_KEYS, parameters=None
         (map // 2), ``facing`` ("front"/"back"), ``inside`` ("glass"/"medium")
         — None for keys not grouped by, layer/facing None for map -1 —
         ``segments``, ``count_<class>`` and ``share_<class>`` for every class,
+        ``count_beyond_self_rehit_<class>`` (the self re-hits by their class
+        beyond the re-hit surface, when ``classes`` has them),
         ``abs_dt_{median,p90,p99}`` (m) and ``normal_error_{median,p90,p99}``
         (rad) over its true hits (nan without any), every option of
         ``classes`` and every entry of ``parameters``.
@@ -256,6 +279,8 @@ def intersection_table(records, classes, *, group_by=GROUP_KEYS, parameters=None
             raise ValueError(f"classes has no entry {name!r}: pass what classify_segments returned")
     cls = np.asarray(classes["cls"])
     n = len(cls)
+    beyond = classes.get("cls_beyond")
+    beyond = None if beyond is None or not classes["options"].get("beyond_self_rehit_given") else np.asarray(beyond)
     keys = {"step": _scalars(_field(records, "step", "records"), n, "records step", np.int64),
             "map": _scalars(_field(records, "map", "records"), n, "records map", np.int64),
             "inside": _scalars(_field(records, "inside", "records"), n, "records inside", np.int64) >= 0}
@@ -287,6 +312,11 @@ def intersection_table(records, classes, *, group_by=GROUP_KEYS, parameters=None
             row[f"count_{name}"] = int(np.sum(c == code))
         for code, name in CLASS_NAMES.items():
             row[f"share_{name}"] = row[f"count_{name}"] / row["segments"]
+        if beyond is not None:
+            b = beyond[sel]
+            for code, name in CLASS_NAMES.items():
+                if code != SELF_REHIT:
+                    row[f"count_beyond_self_rehit_{name}"] = int(np.sum(b == code))
         true = sel & (cls == TRUE_HIT)
         row.update(_quantiles(abs_dt[true], "abs_dt"))
         row.update(_quantiles(normal_error[true], "normal_error"))

@@ -248,7 +248,6 @@ def _add_approx_params(p, default_preset: str = "paper"):
 
 
 def build_parser() -> argparse.ArgumentParser:
-
     parser = argparse.ArgumentParser(prog="volcaustics", description=(
         "Validation harness for Real-time Volume Caustics with Image-based Photon Tracing: "
         "the paper's GPU method beside Mitsuba 3 ground truth."))

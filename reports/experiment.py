@@ -40,6 +40,7 @@ SMALL_SUPERSAMPLE = 4        # E_∞,s: splatted at 4× and box-averaged (the re
 SMALL_KERNEL_FINE_PIXELS = 0.6  # its σ in fine pixels (0.15 pixel): aliasing 2·exp(−2π²·0.36) ≈ 0.2%; at 2×
                                 # (0.3 pixel) its own blur left sphere2's residual 4σ from 0 (tests/cross/test_v6.py)
 SMALL_BATCHES = 8            # interleaved photon subsets per seed: E_∞,s's variance
+BEYOND_SKIP = 10.0           # a self re-hit's re-query starts this many oracle epsilons past the surface
 RESAMPLES = 2000             # bootstrap resamples over the seeds
 LEVEL = 0.95                 # bootstrap interval level
 FLOOR_SEED = 12345           # noise draw of the non-quadratic metrics' floors (metrics.noise.noisy_copy)
@@ -197,20 +198,41 @@ def _start_normals(records: list) -> list:
 
 def _segment_rows(scene, p, frames, oracle, columns) -> list:
     from approx.light import LightFrustum
-    from metrics.intersection import classify_segments, intersection_table
+    from metrics.intersection import SELF_REHIT, classify_segments, intersection_table
     from scenes.bounds import medium_bounds
 
     records = np.concatenate([r for f in frames for r in f.records])
     start_normal = np.concatenate([n for f in frames for n in _start_normals(f.records)])
     exact = oracle.first_hits(records["start"], records["direction"], records["search_length"])
     frustum = LightFrustum.for_scene(scene, *medium_bounds(scene))
-    classes = classify_segments(records, exact, texel_angle=2.0 * frustum.tan_half / p.light_res,
-                                light_position=np.asarray(scene.light.position), start_normal=start_normal)
+    options = {"texel_angle": 2.0 * frustum.tan_half / p.light_res,
+               "light_position": np.asarray(scene.light.position), "start_normal": start_normal}
+    first = classify_segments(records, exact, **options)
+    beyond = _beyond(records, exact, first["cls"] == SELF_REHIT, oracle)
+    classes = classify_segments(records, exact, exact_beyond=beyond, **options)
     rows = []
     for group_by in SEGMENT_GROUPINGS:
         for row in intersection_table(records, classes, group_by=group_by, parameters=columns):
             rows.append({"grouping": ",".join(group_by) or "all", **row})
     return rows
+
+
+def _beyond(records, exact, self_rehit, oracle) -> dict:
+    """The exact first hits beyond each self re-hit's surface (from just past it to
+    the end of the searched segment; t from the segment's start), no hit elsewhere."""
+    n = len(records)
+    out = {"hit": np.zeros(n, bool), "t": np.full(n, np.nan), "normal": np.full((n, 3), np.nan)}
+    if not self_rehit.any():
+        return out
+    start = records["start"][self_rehit].astype(np.float64)
+    direction = records["direction"][self_rehit].astype(np.float64)
+    skip = exact["t"][self_rehit] + BEYOND_SKIP * oracle.epsilon
+    q = oracle.first_hits(start + skip[:, None] * direction, direction,
+                          np.maximum(records["search_length"][self_rehit] - skip, 0.0))
+    out["hit"][self_rehit] = q["hit"]
+    out["t"][self_rehit] = q["t"] + skip
+    out["normal"][self_rehit] = q["normal"]
+    return out
 
 
 # --- photons -----------------------------------------------------------------------

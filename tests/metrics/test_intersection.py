@@ -118,6 +118,26 @@ def test_unknown_start_normal_falls_back_to_the_offset_rule():
     assert list(out["cls"]) == [ix.SELF_REHIT, ix.MISSED_INSIDE]
 
 
+def test_beyond_a_self_rehit_the_segment_is_classified_too():
+    """A self re-hit hides what the approximation did with the rest of its segment:
+    against the exact answer beyond the re-hit surface (the plane at 1 m) an
+    approximate hit 2 mm off is a true hit, no hit is a miss; rows that are not self
+    re-hits have no such class (-1), and the table counts the self re-hits by it."""
+    offset = 0.005
+    found = _records(1, offset=offset, inside=1, t=PLANE + 0.002, hit=True, map_=1), _exact(1, t=0.001, hit=True)
+    missed = _records(1, offset=offset, inside=1), _exact(1, t=0.001, hit=True)
+    plain = _records(1, t=PLANE, hit=True, map_=0), _exact(1, t=PLANE, hit=True)
+    recs, ex = _cat(found, missed, plain)
+    beyond = _exact(3, t=PLANE, hit=True)
+    out = _classify(recs, ex, exact_beyond=beyond)
+    assert list(out["cls"]) == [ix.SELF_REHIT, ix.SELF_REHIT, ix.TRUE_HIT]
+    assert list(out["cls_beyond"]) == [ix.TRUE_HIT, ix.MISSED_INSIDE, -1]
+    (row,) = ix.intersection_table(recs, out, group_by=())
+    assert row["count_self_rehit"] == 2 and row["count_beyond_self_rehit_true_hit"] == 1
+    assert row["count_beyond_self_rehit_missed_inside"] == 1 and row["count_beyond_self_rehit_correct_miss"] == 0
+    assert "count_beyond_self_rehit_true_hit" not in ix.intersection_table(recs, _classify(recs, ex), group_by=())[0]
+
+
 def test_tolerance_scales_with_distance_from_light():
     # the same Δt = 5 mm: wrong surface 1 m from the light (tol 3 mm), true hit 2 m away (6 mm)
     near = _records(1, t=1.005, hit=True, map_=0), _exact(1, t=1.0, hit=True)
