@@ -24,7 +24,7 @@ def main(argv=None) -> int:
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("scenes", nargs="*", default=list(BUILTIN_NAMES))
-    parser.add_argument("--seeds", type=int, default=2)
+    parser.add_argument("--seeds", type=int, default=4)
     parser.add_argument("--out", help="also write each experiment's outputs here")
     args = parser.parse_args(argv)
     OTHER = [c for c in CLASS_NAMES.values() if c != "self_rehit"]
@@ -43,7 +43,9 @@ def main(argv=None) -> int:
             relmse = s["images"]["caustic"]["relative_mse"]
             if strategy == "threshold":
                 decomposition.append(
-                    f"| {name} | " + " | ".join(f"{100 * rows[t]['energy_share']:+.1f}" for t in terms)
+                    f"| {name} | " + " | ".join(f"{100 * rows[t]['energy_share']:+.1f} ± "
+                                                f"{100 * rows[t]['energy_share_se']:.1f}" for t in terms[:6])
+                    + f" | {100 * rows['noise']['energy_sigma']:.1f}"
                     + f" | {res['energy_z']:+.1f} / {res['relmse_z']:+.1f} | {100 * relmse['debiased']:.1f} | "
                     + " | ".join(f"{100 * rows[t]['relmse_part']:+.2f}" for t in terms[:5]) + " |")
             step2 = [r for r in result.segments if r["grouping"] == "step" and r["step"] == 2][0]
@@ -54,7 +56,7 @@ def main(argv=None) -> int:
                            + f" | {100 * step2['share_self_rehit']:.1f} | {1000 * step2['abs_dt_median']:.2f} | "
                            f"{1000 * step2['abs_dt_p90']:.2f} |")
             print(f"done {name} {strategy} ({s['experiment_seconds']['total']:.1f} s)", file=sys.stderr, flush=True)
-    print("Caustic energy shares (% of the reference's energy; total = 1 − energy ratio; noise = 1σ), the "
+    print("Caustic energy shares ± SE (% of the reference's energy; total = 1 − energy ratio; noise = 1σ), the "
           "residual's z (energy / relMSE), debiased relMSE (%), and the parts of the relMSE (%), threshold layers:\n")
     print("| scene | " + " | ".join(terms) + " | residual z | relMSE | " + " | ".join(f"{t} part" for t in terms[:5])
           + " |")

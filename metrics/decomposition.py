@@ -28,14 +28,26 @@ The terms telescope, so they sum to R − A exactly, pixel by pixel:
 Each term is the change that removing its cause brings towards R; DESIGN.md writes
 the blur as E_∞ − E_∞,s, the opposite sign, which would not sum to R − A.
 
-Each term is given, over the compared pixels and averaged over RGB, as an *energy
-share* Σ term / Σ R (they sum to 1 − Σ A / Σ R) and as its *part of the relative
-MSE* Σ term · (R − A) / Σ R² (they sum to the relative MSE Σ (R − A)² / Σ R²: the
-projection of each term on the total error; a negative part is a term that
-cancels some of another's error), and with its own relative MSE Σ term² / Σ R².
-*Noise* is not a term but a statement of how much of the total it may explain: the
-reference's floor plus the approximation's own variance over seeds (relative MSE)
-and the standard deviation of the energy difference (energy share).
+Each term is given, over the compared pixels, as an *energy share* Σ term / Σ R per
+channel, averaged over RGB (they sum to 1 − the energy ratio, ``metrics.image.
+energy_ratio``'s mean), as its *part of the relative MSE* Σ term · (R − A) / Σ R²
+(they sum to the relative MSE Σ (R − A)² / Σ R²: the projection of each term on the
+total error; a negative part is a term that cancels some of another's error), and
+with its own relative MSE Σ term² / Σ R².
+
+Noise. Every image but R comes as K *paired* batch images: batch k of each is the
+caustic of the same emission texels (photon subset k of one seed, times K), so the
+terms, which difference images of the same photons, keep their small noise. A
+delete-one jackknife over the paired batches gives the standard error of every
+number (it sees the correlation of neighbouring pixels that one splat shares); R's
+own noise (its per-pixel variance, pixels taken as independent) is added in
+quadrature where R enters (the total and the residual). For the residual's debiased
+relative MSE, a degenerate U-statistic when the residual is pure noise, the delete-one
+jackknife overstates the noise×noise part of the variance by 2(K−1)/(K−2) (the
+Efron–Stein bias): its SE is then up to 1.5× too large (measured 1.47–1.54 at K = 8),
+so the test is conservative. *Noise* is not a term but
+how much of the total noise alone explains: the relative MSE of the reference's floor
+plus A's variance, and the standard deviation of the energy difference.
 """
 
 from __future__ import annotations
@@ -43,6 +55,7 @@ from __future__ import annotations
 import numpy as np
 
 IMAGES = ("approx", "exact_steps", "exact_all_same", "exact_all", "exact_all_small", "reference")
+BATCHED = IMAGES[:-1]  # every image but the reference comes as paired batches
 TERMS = {  # name: (closer to R, farther from R)
     "intersection": ("exact_steps", "approx"),
     "truncation": ("exact_all_same", "exact_steps"),
@@ -50,173 +63,164 @@ TERMS = {  # name: (closer to R, farther from R)
     "kernel_blur": ("exact_all_small", "exact_all"),
     "residual": ("reference", "exact_all_small"),
 }
-CHANNEL_WEIGHTS = np.full(3, 1.0 / 3.0)  # energy shares average R, G and B
-
-
-def _image(images, name, shape=None):
-    if name not in images:
-        raise ValueError(f"images: missing {name!r} (expected {', '.join(IMAGES)})")
-    a = np.asarray(images[name], dtype=np.float64)
-    if a.ndim != 3 or a.shape[2] != 3:
-        raise ValueError(f"images[{name!r}]: shape {a.shape}, expected H×W×3")
-    if shape is not None and a.shape != shape:
-        raise ValueError(f"images[{name!r}]: shape {a.shape}, expected {shape} like 'reference'")
-    if not np.all(np.isfinite(a)):
-        raise ValueError(f"images[{name!r}]: not finite everywhere")
-    return a
-
-
-def caustic_terms(images: dict) -> dict:
-    """The five terms as H×W×3 float64 images (they sum to reference − approx)."""
-    shape = _image(images, "reference").shape
-    full = {name: _image(images, name, shape) for name in IMAGES}
-    return {term: full[near] - full[far] for term, (near, far) in TERMS.items()}
-
-
-def _total_sigma(var_total, var_pixels, keep) -> float:
-    """σ of the RGB-averaged sum over the kept pixels: from ``var_total`` (RGB, the
-    variances of the sums, covariance of pixels included) when given, else from the
-    sums of the per-pixel variances (pixels taken as independent). The channels of
-    one photon are strongly correlated, so their σ add (an upper bound) rather than
-    their variances."""
-    if var_total is None:
-        if var_pixels is None:
-            return 0.0
-        var_total = np.asarray(var_pixels, np.float64)[keep].sum(axis=0)
-    return float(np.sqrt(np.maximum(np.asarray(var_total, np.float64), 0.0)) @ CHANNEL_WEIGHTS)
-
-
-def decompose_caustic(images: dict, small_batches, *, keep=None, reference_var=None, reference_total_var=None,
-                      approx_var=None, approx_total_var=None, z_limit: float = 3.0) -> dict:
-    """Split the caustic's error R − A into the terms of this module.
-
-    Parameters
-    ----------
-    images : dict of H×W×3 linear radiance images named as ``IMAGES``, except
-        ``exact_all_small``, which is the mean of ``small_batches``.
-    small_batches : K×H×W×3, K ≥ 4 independent estimates of E_∞,s (photon subsets):
-        its mean, its noise, and delete-one jackknife standard errors of every
-        number that involves it (its splats spread over neighbouring pixels, so
-        pixels are not independent; the jackknife over whole images sees that).
-    keep : H×W bool, the pixels compared (default all): not glass in either renderer.
-    reference_var, approx_var : H×W×3 variances of the means R and A per pixel (None:
-        unknown, taken as 0; A's needs ≥ 2 seeds).
-    reference_total_var, approx_total_var : RGB variances of the sums over ``keep``
-        (covariance of pixels included); when None, the sums of per-pixel variances.
-    z_limit : the residual is within noise when both its energy and its debiased
-        relative MSE are within ``z_limit`` standard errors of 0.
-
-    Returns
-    -------
-    dict with
-      ``terms``: name → H×W×3 image (the five terms);
-      ``images``: the six images (``exact_all_small`` the batches' mean);
-      ``rows``: one dict per term — ``term``, ``energy_share``, ``relmse_part``,
-        ``relmse_own`` and their standard errors ``*_se`` (0 where E_∞,s is not
-        involved: those terms' noise is A's and the replay's, shared photons) —
-        then ``total`` (R − A: 1 − energy ratio, the relative MSE) and ``noise``
-        (``energy_share``: σ of Σ(R − A) / Σ R; ``relmse_part``: the relative MSE
-        noise alone gives, reference floor + A's variance);
-      ``residual``: ``energy_share``, ``energy_z``, ``debiased_relmse`` (Σ(R − E_∞,s)²
-        less both noises, over Σ R²), ``relmse_z``, ``within_noise`` and a
-        ``message`` saying which renderers disagree when it is not;
-      ``options``: what was used.
-    """
-    batches = np.asarray(small_batches, np.float64)
-    if batches.ndim != 4 or len(batches) < 4:
-        raise ValueError(f"small_batches: shape {batches.shape}, expected K×H×W×3 with K ≥ 4")
-    images = {**images, "exact_all_small": batches.mean(axis=0)}
-    reference = _image(images, "reference")
-    keep = np.ones(reference.shape[:2], bool) if keep is None else np.asarray(keep, bool)
-    if keep.shape != reference.shape[:2]:
-        raise ValueError(f"keep: shape {keep.shape}, expected {reference.shape[:2]}")
-    if not keep.any():
-        raise ValueError("keep selects no pixel")
-    terms = caustic_terms(images)
-    r = reference[keep]
-    energy = float(r.sum(axis=0) @ CHANNEL_WEIGHTS)
-    energy2 = float(np.sum(r * r))
-    if not (energy > 0 and energy2 > 0):
-        raise ValueError("reference caustic is zero over the compared pixels: shares are undefined")
-    d = (reference - _image(images, "approx"))[keep]
-    rv = np.zeros_like(r) if reference_var is None else np.asarray(reference_var, np.float64)[keep]
-    kept = {name: images[name][keep] for name in IMAGES}
-
-    def numbers(small):
-        """Energy share, relMSE part and own relMSE of every term, and the residual's
-        debiased relMSE, for one estimate of E_∞,s (N×3 kept pixels)."""
-        full = {**kept, "exact_all_small": small}
-        out = {}
-        for name, (near, far) in TERMS.items():
-            t = full[near] - full[far]
-            out[name] = (float(t.sum(axis=0) @ CHANNEL_WEIGHTS) / energy, float(np.sum(t * d)) / energy2,
-                         float(np.sum(t * t)) / energy2)
-        return out
-
-    small_kept = batches[:, keep]
-    k = len(batches)
-    value = numbers(small_kept.mean(axis=0))
-    small_var = small_kept.var(axis=0, ddof=1) / k
-    residual_sq = float(np.sum((r - small_kept.mean(axis=0)) ** 2))
-    debiased = (residual_sq - float(rv.sum()) - float(small_var.sum())) / energy2
-    # delete-one jackknife over E_∞,s's batches
-    leave_out = []
-    for i in range(k):
-        rest = np.delete(small_kept, i, axis=0)
-        nums = numbers(rest.mean(axis=0))
-        rest_var = rest.var(axis=0, ddof=1) / (k - 1)
-        nums["debiased"] = ((float(np.sum((r - rest.mean(axis=0)) ** 2)) - float(rv.sum()) - float(rest_var.sum()))
-                            / energy2,)
-        leave_out.append(nums)
-
-    def se(name, i):
-        v = np.array([x[name][i] for x in leave_out])
-        return float(np.sqrt((k - 1) / k * np.sum((v - v.mean()) ** 2)))
-
-    rows = []
-    for name in TERMS:
-        row = {"term": name}
-        for i, field in enumerate(("energy_share", "relmse_part", "relmse_own")):
-            row[field] = value[name][i]
-            row[f"{field}_se"] = se(name, i)
-        rows.append(row)
-    rows.append({"term": "total", "energy_share": float(d.sum(axis=0) @ CHANNEL_WEIGHTS) / energy,
-                 "relmse_part": float(np.sum(d * d)) / energy2, "relmse_own": float(np.sum(d * d)) / energy2})
-
-    def var_sum(v):
-        return 0.0 if v is None else float(np.asarray(v, np.float64)[keep].sum())
-
-    noise_sigma = np.hypot(_total_sigma(reference_total_var, reference_var, keep),
-                           _total_sigma(approx_total_var, approx_var, keep))
-    noise_relmse = (var_sum(reference_var) + var_sum(approx_var)) / energy2
-    rows.append({"term": "noise", "energy_share": float(noise_sigma) / energy, "relmse_part": noise_relmse,
-                 "relmse_own": noise_relmse})
-
-    # the residual: R's noise adds to the jackknife's (E_∞,s only) in quadrature
-    ref_sigma = _total_sigma(reference_total_var, reference_var, keep) / energy
-    energy_se = float(np.hypot(se("residual", 0), ref_sigma))
-    relmse_se = float(np.hypot(se("debiased", 0), np.sqrt(2.0 * np.sum(rv * rv)) / energy2))
-    residual = {"energy_share": value["residual"][0], "energy_se": energy_se,
-                "energy_z": _z(value["residual"][0], energy_se), "debiased_relmse": debiased,
-                "relmse_se": relmse_se, "relmse_z": _z(debiased, relmse_se)}
-    residual["within_noise"] = bool(abs(residual["energy_z"]) <= z_limit and residual["relmse_z"] <= z_limit)
-    residual["message"] = "" if residual["within_noise"] else (
-        f"the reference and the exact photons through the approximation's splatter disagree beyond their noise "
-        f"(residual energy {100 * residual['energy_share']:+.2f}% of the reference, z = {residual['energy_z']:+.1f}; "
-        f"debiased relative MSE {debiased:.2e}, z = {residual['relmse_z']:+.1f}; limit {z_limit:g}): one of them is "
-        f"wrong — the reference light tracer, or the exact tracer and the splatter (tests/cross/test_v6.py checks "
-        f"them against each other), and the terms do not explain the whole error")
-    options = {"z_limit": z_limit, "pixels": int(keep.sum()), "small_batches": k,
-               "approx_variance_known": approx_var is not None, "blur_sign": "exact_all_small - exact_all",
-               "standard_errors": "delete-one jackknife over small_batches; reference noise in quadrature"}
-    return {"terms": terms, "images": images, "rows": rows, "residual": residual, "options": options}
-
-
 ROUNDING = 1e-12  # relative values (shares of the reference) this small are float64 rounding, not a difference
 
 
 def _z(value: float, se: float) -> float:
-    """value / se; with no noise at all (se 0), ±inf unless value is rounding."""
+    """value / se; 0 for a value at rounding level (whatever the SE, itself rounding
+    then), ±inf for a real difference without noise."""
+    if abs(value) <= ROUNDING:
+        return 0.0
     if se > 0:
         return value / se
-    return 0.0 if abs(value) <= ROUNDING else float(np.copysign(np.inf, value))
+    return float(np.copysign(np.inf, value))
+
+
+def _stack(batches, name, shape=None):
+    if name not in batches:
+        raise ValueError(f"batches: missing {name!r} (expected {', '.join(BATCHED)})")
+    a = np.asarray(batches[name], dtype=np.float64)
+    if a.ndim != 4 or a.shape[3] != 3:
+        raise ValueError(f"batches[{name!r}]: shape {a.shape}, expected K×H×W×3")
+    if shape is not None and a.shape != shape:
+        raise ValueError(f"batches[{name!r}]: shape {a.shape}, expected {shape} like {BATCHED[0]!r} (paired batches)")
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"batches[{name!r}]: not finite everywhere")
+    return a
+
+
+def caustic_terms(images: dict) -> dict:
+    """The five terms as H×W×3 float64 images of the six ``IMAGES`` (they sum to
+    reference − approx)."""
+    for name in IMAGES:
+        if name not in images:
+            raise ValueError(f"images: missing {name!r} (expected {', '.join(IMAGES)})")
+    full = {name: np.asarray(images[name], np.float64) for name in IMAGES}
+    return {term: full[near] - full[far] for term, (near, far) in TERMS.items()}
+
+
+def decompose_caustic(batches: dict, reference, *, keep=None, reference_var=None, z_limit: float = 3.0) -> dict:
+    """Split the caustic's error R − A into the terms of this module.
+
+    Parameters
+    ----------
+    batches : name → K×H×W×3 paired batch images (K ≥ 4) for every name of ``BATCHED``
+        (all images but the reference): batch k of each is the caustic of the same
+        photons (emission texels of one subset and seed) times K, so that the mean
+        over k is the image.
+    reference : H×W×3, R (linear radiance).
+    keep : H×W bool, the pixels compared (default all): not glass in either renderer.
+    reference_var : H×W×3 variance of R per pixel (None: taken as 0).
+    z_limit : the residual is within noise when its energy and its debiased relative
+        MSE are within ``z_limit`` standard errors of 0.
+
+    Returns
+    -------
+    dict with
+      ``images``: the six images (means of the batches, and R);
+      ``terms``: name → H×W×3 image (the five terms);
+      ``rows``: one dict per term and for ``total`` (R − A) — ``term``,
+        ``energy_share``, ``relmse_part``, ``relmse_own`` and their standard errors
+        ``*_se`` — then ``noise``: ``energy_sigma`` (σ of the total's energy share)
+        and ``relmse`` (the relative MSE noise alone gives: R's floor + A's variance);
+      ``residual``: ``energy_share`` and ``energy_se``, ``energy_z``,
+        ``debiased_relmse`` (Σ(R − E_∞,s)² less both noises, over Σ R²) and
+        ``relmse_se``, ``relmse_z``, ``within_noise`` and a ``message`` saying which
+        renderers disagree when it is not;
+      ``options``: what was used.
+    """
+    first = _stack(batches, BATCHED[0])
+    stacks = {name: _stack(batches, name, first.shape) for name in BATCHED}
+    k = len(first)
+    if k < 4:
+        raise ValueError(f"batches: {k} per image, expected at least 4 (the jackknife)")
+    r_full = np.asarray(reference, np.float64)
+    if r_full.shape != first.shape[1:] or not np.all(np.isfinite(r_full)):
+        raise ValueError(f"reference: shape {r_full.shape}, expected finite {first.shape[1:]}")
+    keep = np.ones(r_full.shape[:2], bool) if keep is None else np.asarray(keep, bool)
+    if keep.shape != r_full.shape[:2]:
+        raise ValueError(f"keep: shape {keep.shape}, expected {r_full.shape[:2]}")
+    if not keep.any():
+        raise ValueError("keep selects no pixel")
+    r = r_full[keep]
+    if reference_var is None:
+        rv = np.zeros_like(r)
+    else:
+        rv_full = np.asarray(reference_var, np.float64)
+        if rv_full.shape != r_full.shape or not np.all(np.isfinite(rv_full)) or np.any(rv_full < 0):
+            raise ValueError(f"reference_var: shape {rv_full.shape}, expected finite values ≥ 0 of shape "
+                             f"{r_full.shape}")
+        rv = rv_full[keep]
+    channel_energy = r.sum(axis=0)
+    energy2 = float(np.sum(r * r))
+    if not (np.all(channel_energy > 0) and energy2 > 0):
+        raise ValueError("reference caustic is zero over the compared pixels (in some channel): shares are undefined")
+
+    kept = {name: s[:, keep] for name, s in stacks.items()}  # K×N×3
+    sums = {name: s.sum(axis=0) for name, s in kept.items()}
+
+    def numbers(means):
+        """Every reported number for one set of mean images (N×3 kept pixels)."""
+        full = {**means, "reference": r}
+        d = r - means["approx"]
+        out = {}
+        for name, (near, far) in list(TERMS.items()) + [("total", ("reference", "approx"))]:
+            t = full[near] - full[far]
+            out[name] = (float(np.mean(t.sum(axis=0) / channel_energy)), float(np.sum(t * d)) / energy2,
+                         float(np.sum(t * t)) / energy2)
+        small = means["exact_all_small"]
+        out["small_noise"] = float(np.sum(means["_small_var"])) if "_small_var" in means else 0.0
+        out["debiased"] = (float(np.sum((r - small) ** 2)) - float(rv.sum()) - out["small_noise"]) / energy2
+        return out
+
+    def means_without(i):
+        m = {name: (sums[name] - (kept[name][i] if i is not None else 0.0)) / (k - (i is not None))
+             for name in BATCHED}
+        rest = kept["exact_all_small"] if i is None else np.delete(kept["exact_all_small"], i, axis=0)
+        m["_small_var"] = rest.var(axis=0, ddof=1) / len(rest)
+        return m
+
+    value = numbers(means_without(None))
+    leave_out = [numbers(means_without(i)) for i in range(k)]
+
+    def se(name, i=None):
+        v = np.array([x[name] if i is None else x[name][i] for x in leave_out])
+        return float(np.sqrt((k - 1) / k * np.sum((v - v.mean()) ** 2)))
+
+    # R's noise where R enters (total, residual): Σ var per channel, pixels independent
+    # (channels of one photon are strongly correlated: their σ add, an upper bound)
+    ref_share_sigma = float(np.mean(np.sqrt(rv.sum(axis=0)) / channel_energy))
+    rows = []
+    for name in list(TERMS) + ["total"]:
+        row = {"term": name}
+        for i, field in enumerate(("energy_share", "relmse_part", "relmse_own")):
+            row[field] = value[name][i]
+            row[f"{field}_se"] = se(name, i)
+        if name in ("total", "residual"):
+            row["energy_share_se"] = float(np.hypot(row["energy_share_se"], ref_share_sigma))
+        rows.append(row)
+    approx_var = kept["approx"].var(axis=0, ddof=1) / k
+    rows.append({"term": "noise", "energy_sigma": next(x for x in rows if x["term"] == "total")["energy_share_se"],
+                 "relmse": (float(rv.sum()) + float(approx_var.sum())) / energy2})
+
+    res_row = next(x for x in rows if x["term"] == "residual")
+    relmse_se = float(np.hypot(se("debiased"), np.sqrt(2.0 * np.sum(rv * rv)) / energy2))
+    residual = {"energy_share": res_row["energy_share"], "energy_se": res_row["energy_share_se"],
+                "energy_z": _z(res_row["energy_share"], res_row["energy_share_se"]),
+                "debiased_relmse": value["debiased"], "relmse_se": relmse_se,
+                "relmse_z": _z(value["debiased"], relmse_se)}
+    residual["within_noise"] = bool(abs(residual["energy_z"]) <= z_limit and residual["relmse_z"] <= z_limit)
+    residual["message"] = "" if residual["within_noise"] else (
+        f"the reference and the exact photons through the approximation's splatter disagree beyond their noise "
+        f"(residual energy {100 * residual['energy_share']:+.2f}% of the reference, z = {residual['energy_z']:+.1f}; "
+        f"debiased relative MSE {value['debiased']:.2e}, z = {residual['relmse_z']:+.1f}; limit {z_limit:g}): one of "
+        f"them is wrong — the reference light tracer, or the exact tracer and the splatter (tests/cross/test_v6.py "
+        f"checks them against each other), and the terms do not explain the whole error")
+    images = {name: stacks[name].mean(axis=0) for name in BATCHED}
+    images["reference"] = r_full
+    options = {"z_limit": z_limit, "pixels": int(keep.sum()), "batches": k,
+               "blur_sign": "exact_all_small - exact_all", "energy_share": "per channel, averaged over RGB",
+               "standard_errors": "delete-one jackknife over the paired batches; the reference's noise (pixels "
+                                  "independent) in quadrature where it enters"}
+    return {"images": images, "terms": caustic_terms(images), "rows": rows, "residual": residual,
+            "options": options}

@@ -99,6 +99,14 @@ def _approx_params(args):
     return dataclasses.replace(base, **changes)
 
 
+def _pct(x) -> str:
+    return "   n/a" if x is None else f"{100 * x:6.2f}%"
+
+
+def _num(x) -> str:
+    return "n/a" if x is None else f"{x:.3f}"
+
+
 def _cmd_approx(args) -> int:
     from scenes import resolve_scene
 
@@ -150,7 +158,7 @@ def _check_output_dir(path: str, option: str = "-o") -> None:
 def _cmd_measure(args) -> int:
     from scenes import resolve_scene
 
-    from .experiment import run_experiment, write_experiment
+    from .experiment import plain, run_experiment, write_experiment
 
     _check_output_dir(args.output)
     scene = resolve_scene(args.scene)
@@ -160,20 +168,21 @@ def _cmd_measure(args) -> int:
     experiment = run_experiment(scene, params, seeds=args.seeds, reference_settings=settings,
                                 progress=not args.quiet)
     paths = write_experiment(experiment, args.output)
-    s = experiment.summary
-    images = s["images"]
-    print(f"measure {scene.name}: {len(s['seeds'])} seed(s), {s['experiment_seconds']['total']:.1f} s -> "
+    s = plain(experiment.summary)  # NaN → None
+    print(f"measure {scene.name}: {s['seeds']} seed(s), {s['experiment_seconds']['total']:.1f} s -> "
           f"{paths['summary.json']}")
-    for component, m in images.items():
-        if "relative_mse" not in m:
-            continue
-        ci = m["relative_mse"]["interval"]
-        ci_text = f" [{100 * ci[0]:.2f}, {100 * ci[1]:.2f}]" if ci else ""
-        print(f"  {component:<9} relative MSE debiased {100 * m['relative_mse']['debiased']:6.2f}%{ci_text}, "
-              f"energy ratio {m['energy_ratio']['value']:.3f}, HDR-FLIP {m['hdr_flip']['mean']:.3f}")
-    print("  caustic decomposition (energy share of the reference, part of the relative MSE):")
+    for component, m in s["images"].items():
+        relmse, ratio, flip = m["relative_mse"], m["energy_ratio"], m["hdr_flip"]
+        ci = f" [{100 * relmse['ci_low']:.2f}, {100 * relmse['ci_high']:.2f}]" if relmse["ci_low"] is not None else ""
+        print(f"  {component:<9} relative MSE debiased {_pct(relmse['debiased'])}{ci}, "
+              f"energy ratio {_num(ratio['value'])}, HDR-FLIP {_num(flip['value'])}")
+    print("  caustic error decomposed: energy share of the reference ± SE, part of the relative MSE ± SE")
     for row in s["decomposition"]["rows"]:
-        print(f"    {row['term']:<13} {100 * row['energy_share']:+7.2f}%  {100 * row['relmse_part']:+7.2f}%")
+        if row["term"] == "noise":
+            print(f"    {'noise':<13} ±{100 * row['energy_sigma']:6.2f}%            {100 * row['relmse']:6.2f}%")
+            continue
+        print(f"    {row['term']:<13} {100 * row['energy_share']:+7.2f}% ± {100 * row['energy_share_se']:.2f}  "
+              f"{100 * row['relmse_part']:+7.2f}% ± {100 * row['relmse_part_se']:.2f}")
     for warning in s["warnings"]:
         print(f"  warning: {warning}")
     return 0
@@ -295,9 +304,9 @@ def build_parser() -> argparse.ArgumentParser:
                                        "summary.json")
     p.add_argument("scene", metavar="SCENE", help="built-in scene name or path to a .toml scene file")
     p.add_argument("-o", "--output", required=True, metavar="DIR", help="output folder (created if missing)")
-    p.add_argument("--seeds", type=int, default=2,
-                   help="frames with seeds --seed … --seed + N − 1: the approximation's own noise and bootstrap "
-                        "intervals need N ≥ 2 (default 2)")
+    p.add_argument("--seeds", type=int, default=4,
+                   help="frames with seeds --seed … --seed + N − 1: the approximation's own noise needs N ≥ 2, "
+                        "intervals N ≥ 4 (default 4)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     _add_approx_params(p, default_preset="quick")
     _add_report_reference(p)
@@ -318,10 +327,12 @@ def main(argv=None) -> int:
     from reference.settings import SettingsError
     from scenes import SceneError
 
+    from .experiment import ExperimentError
+
     args = build_parser().parse_args(argv)
     try:
         return args.func(args)
-    except (SceneError, ParamError, SettingsError, UsageError) as exc:
+    except (SceneError, ParamError, SettingsError, UsageError, ExperimentError) as exc:
         print(f"volcaustics: error: {exc}", file=sys.stderr)
         return EXIT_USAGE
     except KeyboardInterrupt:

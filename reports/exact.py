@@ -209,6 +209,21 @@ def box_downsample(image: np.ndarray, factor: int, reduce=np.mean) -> np.ndarray
     return reduce(blocks, axis=(1, 3)).astype(image.dtype)
 
 
+def subset_images(renderer, splats, photon, photon_res: int, batches: int, params, scene=None, *,
+                  supersample: int = 1) -> np.ndarray:
+    """K × H × W × 3 float32: photon subset k's caustic (:func:`interleaved_subsets`)
+    times K, through ``renderer``'s splatter: K independent unbiased estimates of the
+    caustic of all the photons (their mean). Subsets of different photon sets of one
+    emission grid (the approximation's, its exact replays) are paired: subset k holds
+    the same emission texels in each. ``supersample``: splat at S× the size and average
+    S×S blocks (the reference's box filter)."""
+    p = params.resolved(scene or renderer.scene)
+    fine = dataclasses.replace(p, width=p.width * supersample, height=p.height * supersample)
+    subset = interleaved_subsets(photon, photon_res, batches)
+    images = renderer.splat_many([splats[subset == k] for k in range(batches)], fine, scene)
+    return np.stack([box_downsample(image, supersample) * np.float32(batches) for image in images]).astype(np.float32)
+
+
 def exact_caustic(scene, params, *, steps: int, fresnel: str, batches: int = 8, supersample: int = 1,
                   renderer=None, oracle=None, photons: ExactPhotons | None = None,
                   with_mask: bool = True) -> ExactCaustic:
@@ -251,9 +266,8 @@ def exact_caustic(scene, params, *, steps: int, fresnel: str, batches: int = 8, 
     try:
         if photons is None:
             photons = exact_photons(scene, fine, steps=steps, fresnel=fresnel, renderer=renderer, oracle=oracle)
-        subset = interleaved_subsets(photons.photon, photons.params["photon_res"], batches)
-        images = np.stack([box_downsample(image, supersample) for image in
-                           renderer.splat_many([photons.splats[subset == k] for k in range(batches)], fine, scene)])
+        images = subset_images(renderer, photons.splats, photons.photon, photons.params["photon_res"], batches, p,
+                               scene, supersample=supersample)
         mask = photons.mask_specular
         if mask is not None and mask.shape[:2] != (fine.height, fine.width):
             mask = None
@@ -267,7 +281,7 @@ def exact_caustic(scene, params, *, steps: int, fresnel: str, batches: int = 8, 
     used = {**photons.params, "batches": batches, "supersample": supersample, "splat_radius": p.splat_radius,
             "width": p.width, "height": p.height, "phase": phase.kind,
             "g": float(phase.g) if phase.kind == "hg" else 0.0}
-    return ExactCaustic(batch_images=(images * np.float32(batches)).astype(np.float32),
+    return ExactCaustic(batch_images=images,
                         mask_specular=None if mask is None else box_downsample(mask, supersample, np.max),
                         photons=photons, params=used)
 

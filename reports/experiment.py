@@ -32,22 +32,29 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from scenes.formats import COLOUR_LAYERS, MASK_LAYER
+from metrics.noise import MIN_SEEDS_FOR_INTERVAL
+from scenes.formats import COLOUR_LAYERS, MASK_LAYER, STATUS_COLLIDED
 
 EXACT_STEPS = 128            # E_∞: < 0.1% of the power alive after them on every built-in (V6; feline 0.03%)
 ALIVE_BUDGET = 1e-3          # above it, summary.json warns that E_∞ is truncated
 SMALL_SUPERSAMPLE = 4        # E_∞,s: splatted at 4× and box-averaged (the reference's pixel filter)
 SMALL_KERNEL_FINE_PIXELS = 0.6  # its σ in fine pixels (0.15 pixel): aliasing 2·exp(−2π²·0.36) ≈ 0.2%; at 2×
                                 # (0.3 pixel) its own blur left sphere2's residual 4σ from 0 (tests/cross/test_v6.py)
-SMALL_BATCHES = 8            # interleaved photon subsets per seed: E_∞,s's variance
+SUBSET_BATCHES = 8           # paired photon subsets per seed of A and the E images: the decomposition's noise
 BEYOND_SKIP = 10.0           # a self re-hit's re-query starts this many oracle epsilons past the surface
-RESAMPLES = 2000             # bootstrap resamples over the seeds
+RESAMPLES = 2000             # bootstrap resamples over the seeds (per-frame metrics)
+FLOOR_DRAWS = 2              # noisy copies averaged for a non-quadratic metric's floor
 LEVEL = 0.95                 # bootstrap interval level
 FLOOR_SEED = 12345           # noise draw of the non-quadratic metrics' floors (metrics.noise.noisy_copy)
 SEGMENT_GROUPINGS = (("step", "map", "inside"), ("step", "inside"), ("step",), ())
 IMAGE_METRICS = ("relative_mse", "per_pixel_relative_mse", "ssim", "hdr_flip", "delta_e2000", "energy_ratio")
 DECOMPOSITION_IMAGES = {"approx": "A", "exact_steps": "E_k", "exact_all_same": "E_inf(A's fresnel)",
                         "exact_all": "E_inf", "exact_all_small": "E_inf,s", "reference": "R"}
+
+
+class ExperimentError(ValueError):
+    """The experiment cannot say anything about this scene (e.g. no caustic reaches the
+    pixels it compares); the message names the scene and the reason."""
 
 
 @dataclass
@@ -117,7 +124,7 @@ def run_experiment(scene, params, *, seeds: int = 1, reference_settings=None, pr
     clock["reference"] = time.perf_counter() - t0
     bar.update()
 
-    own_renderer, own_oracle = renderer is None, oracle is None
+    own_renderer = renderer is None
     renderer = renderer or Renderer(scene)
     try:
         t = time.perf_counter()
@@ -147,7 +154,10 @@ def run_experiment(scene, params, *, seeds: int = 1, reference_settings=None, pr
     t = time.perf_counter()
     keep = _keep(reference, frames)
     image_rows, headline = _image_rows(frames, reference, keep, columns)
-    decomposition = _decompose(frames, exact, reference, keep)
+    try:
+        decomposition = _decompose(exact, reference, keep)
+    except ValueError as exc:
+        raise ExperimentError(f"{scene.name}: cannot decompose the caustic's error: {exc}") from None
     image_rows += _decomposition_rows(decomposition, columns)
     clock["metrics"] = time.perf_counter() - t
     bar.update()
@@ -306,37 +316,44 @@ def _small_radius(scene, p) -> float:
 
 
 def _exact_images(scene, p, frames, replays, seeds, renderer, oracle) -> dict:
-    """E_k, E_∞ (A's Fresnel), E_∞ (stochastic) per seed as images, E_∞,s as batches."""
+    """Per seed, SUBSET_BATCHES paired subset images (``reports.exact.subset_images``)
+    of A, E_k, E_∞ (A's Fresnel), E_∞ (stochastic) and E_∞,s; all seeds' batches
+    concatenated (batch j of every image: the same emission texels of one seed)."""
+    from approx.splat import splats_from_arrays
     from reference.oracle import exact_photon_records
 
-    from .exact import exact_caustic, exact_photons, photons_from_records
+    from .exact import exact_photons, photons_from_records, subset_images
 
-    out = {"exact_steps": [], "exact_all_same": [], "exact_all": [], "small_batches": [], "alive": {}}
+    out = {name: [] for name in ("approx", "exact_steps", "exact_all_same", "exact_all", "exact_all_small")}
+    alive = {}
     small = dataclasses.replace(p, splat_radius=_small_radius(scene, p))
+
+    def batches(photons_or_rows, params, supersample=1):
+        return subset_images(renderer, photons_or_rows[0], photons_or_rows[1], p.photon_res, SUBSET_BATCHES, params,
+                             scene, supersample=supersample)
+
     for frame, replay, seed in zip(frames, replays, seeds):
         ps = dataclasses.replace(p, seed=seed)
         first = frame.records[0]
+        collided = np.concatenate([r[r["status"] == STATUS_COLLIDED] for r in frame.records])
+        out["approx"].append(batches((splats_from_arrays(collided["end"], collided["direction"], collided["power"]),
+                                      collided["photon"]), ps))
         e_k = photons_from_records(replay, first, ps, steps=p.steps, fresnel=p.fresnel)
-        out["exact_steps"].append(renderer.splat(e_k.splats, ps, scene))
+        out["exact_steps"].append(batches((e_k.splats, e_k.photon), ps))
         records = exact_photon_records(scene, first, steps=EXACT_STEPS, seed=seed, fresnel=p.fresnel, oracle=oracle)
         same = photons_from_records(records, first, ps, steps=EXACT_STEPS, fresnel=p.fresnel)
-        out["exact_all_same"].append(renderer.splat(same.splats, ps, scene))
-        if p.fresnel == "stochastic":
-            everything = same
-            out["exact_all"].append(out["exact_all_same"][-1])
-        else:
+        out["exact_all_same"].append(batches((same.splats, same.photon), ps))
+        everything = same
+        if p.fresnel != "stochastic":
             everything = exact_photons(scene, ps, steps=EXACT_STEPS, fresnel="stochastic", renderer=renderer,
                                        oracle=oracle)
-            out["exact_all"].append(renderer.splat(everything.splats, ps, scene))
-        for fresnel, photons in ((p.fresnel, same), ("stochastic", everything)):
-            out["alive"].setdefault(fresnel, []).append(photons.alive_fraction)
-        caustic = exact_caustic(scene, dataclasses.replace(small, seed=seed), steps=EXACT_STEPS,
-                                fresnel="stochastic", batches=SMALL_BATCHES, supersample=SMALL_SUPERSAMPLE,
-                                renderer=renderer, photons=everything, with_mask=False)
-        out["small_batches"].append(caustic.batch_images)
-    out["small_batches"] = np.concatenate(out["small_batches"])
-    out["small_radius"] = small.splat_radius
-    return out
+        out["exact_all"].append(batches((everything.splats, everything.photon), ps))
+        out["exact_all_small"].append(batches((everything.splats, everything.photon),
+                                              dataclasses.replace(small, seed=seed), SMALL_SUPERSAMPLE))
+        for fresnel, photons in {p.fresnel: same, "stochastic": everything}.items():
+            alive.setdefault(fresnel, []).append(photons.alive_fraction)
+    result = {name: np.concatenate(images) for name, images in out.items()}
+    return {"batches": result, "alive": alive, "small_radius": small.splat_radius}
 
 
 # --- image metrics -------------------------------------------------------------------
@@ -353,12 +370,15 @@ _FLOORS: dict = {}
 
 
 def _floor(metric, reference_key, component, keep, r, rv, compute) -> float:
-    """A non-quadratic metric's value for the reference against its noisy copy, cached
-    in-process and on disk per (reference, component, metric, compared pixels)."""
+    """A non-quadratic metric's value for the reference against its noisy copy
+    (``metrics.noise.noisy_copy``, the mean over FLOOR_DRAWS draws), cached in-process
+    and on disk per (reference, component, metric, compared pixels, code version)."""
     from scenes.storage import atomic_write_text, cache_dir
 
-    ident = hashlib.sha256(f"{reference_key}/{component}/{metric}/{FLOOR_SEED}/".encode() +
-                           np.packbits(keep).tobytes()).hexdigest()[:24]
+    from .versions import code_version
+
+    ident = hashlib.sha256(f"{reference_key}/{component}/{metric}/{FLOOR_SEED}/{FLOOR_DRAWS}/{code_version()}/"
+                           .encode() + np.packbits(keep).tobytes()).hexdigest()[:24]
     if ident in _FLOORS:
         return _FLOORS[ident]
     path = os.path.join(cache_dir("metric-floors"), ident + ".json")
@@ -368,100 +388,128 @@ def _floor(metric, reference_key, component, keep, r, rv, compute) -> float:
     except (OSError, ValueError, KeyError, TypeError):
         from metrics.noise import noisy_copy
 
-        value = float(compute(r, noisy_copy(r, rv, seed=FLOOR_SEED)))
+        value = float(np.mean([compute(r, noisy_copy(r, rv, seed=FLOOR_SEED + i)) for i in range(FLOOR_DRAWS)]))
         atomic_write_text(path, json.dumps({"value": value, "metric": metric, "component": component,
                                             "reference_key": reference_key}))
     _FLOORS[ident] = value
     return value
 
 
+NAN = float("nan")
+IMAGE_COLUMNS = {"value": NAN, "reference_floor": NAN, "approx_noise": NAN, "debiased": NAN,
+                 "approx_noise_removed": False, "standard_error": NAN, "ci_low": NAN, "ci_high": NAN,
+                 "reference_sigma": NAN, "note": "", "options": "{}"}
+
+
 def _image_rows(frames, reference, keep, columns) -> tuple:
-    """One row per (component, metric): value (over the seeds), debiased value, the
-    reference's floor, the approximation's own noise where known, bootstrap interval."""
+    """One row per (component, metric) with the columns of IMAGE_COLUMNS:
+
+    * ``relative_mse``: value = raw relative MSE of the seeds' mean; debiased = less
+      the reference's floor and the approximation's own noise over seeds
+      (``approx_noise_removed``), with its standard error and Student-t interval;
+    * ``per_pixel_relative_mse``, ``ssim``, ``hdr_flip``, ``delta_e2000``: value = the
+      mean over frames of one frame's metric; debiased = less the reference's floor
+      (its value for the reference against a noisy copy of itself; for SSIM, 1 − SSIM
+      less 1 − floor): one frame's own noise remains; bootstrap interval of the mean;
+    * ``energy_ratio``: Σ approx / Σ reference per channel, averaged, of the seeds'
+      mean (unbiased: debiased = value); ``reference_sigma``: the reference total's
+      relative σ (pixels independent); bootstrap interval over the frames' ratios.
+
+    A metric that cannot be computed (a reference black in some channel) gets NaN
+    and a ``note``."""
     from metrics import image as im
     from metrics.noise import seed_mean_interval, seed_relative_mse
 
     per_frame = {  # metric: (value of one frame, debias: (mean, floor) -> debiased)
-        "per_pixel_relative_mse": (lambda r, a: im.per_pixel_relative_mse(r, a, mask=keep), lambda m, f: m - f),
-        "ssim": (lambda r, a: im.ssim(r, a, mask=keep), lambda m, f: m + (1.0 - f)),
-        "hdr_flip": (lambda r, a: im.hdr_flip(r, a, mask=keep), lambda m, f: m - f),
-        "delta_e2000": (lambda r, a: im.delta_e2000(r, a, mask=keep), lambda m, f: m - f),
+        "per_pixel_relative_mse": (im.per_pixel_relative_mse, lambda m, f: m - f),
+        "ssim": (im.ssim, lambda m, f: 1.0 - ((1.0 - m) - (1.0 - f))),
+        "hdr_flip": (im.hdr_flip, lambda m, f: m - f),
+        "delta_e2000": (im.delta_e2000, lambda m, f: m - f),
     }
     rows, headline = [], {}
     for component in COLOUR_LAYERS:
         r = reference.mean[component]
         rv = reference.var[component]
         stack = np.stack([f.images[component] for f in frames])
-        base = {"component": component, "term": None, **columns}
         head = headline.setdefault(component, {})
-        if not float(r[keep].sum()) > 0:
-            for metric in IMAGE_METRICS:
-                rows.append({**base, "metric": metric, "value": float("nan"), "debiased": float("nan"),
-                             "note": "reference is black over the compared pixels"})
-            continue
-        err = seed_relative_mse(r, rv, stack, mask=keep, resamples=RESAMPLES, level=LEVEL)
-        rows.append({**base, "metric": "relative_mse", "value": err.raw, "debiased": err.debiased,
-                     "reference_floor": err.reference_floor, "approx_noise": err.approx_noise,
-                     **_ci(err.interval), "options": json.dumps({"resamples": err.resamples, "level": LEVEL,
-                                                                "pixels": err.pixels})})
-        head["relative_mse"] = {"raw": err.raw, "debiased": err.debiased, "interval": err.interval,
-                                "reference_floor": err.reference_floor, "approx_noise": err.approx_noise}
+
+        def add(metric, **values):
+            row = {"component": component, "metric": metric, "term": None, **IMAGE_COLUMNS, **values, **columns}
+            rows.append(row)
+            head[metric] = {k: row[k] for k in ("value", "debiased", "standard_error", "ci_low", "ci_high",
+                                                "reference_floor", "approx_noise", "reference_sigma", "note")}
+
+        def measured(metric, compute):
+            try:
+                compute()
+            except ValueError as exc:  # e.g. a reference black in a channel over the compared pixels
+                add(metric, note=str(exc))
+
+        def relative_mse():
+            err = seed_relative_mse(r, rv, stack, mask=keep, level=LEVEL)
+            add("relative_mse", value=err.raw, reference_floor=err.reference_floor, approx_noise=err.approx_noise,
+                debiased=err.debiased, approx_noise_removed=err.seeds >= 2, standard_error=err.standard_error,
+                **_ci(err.interval), options=json.dumps({"interval": "jackknife over seeds, Student t",
+                                                         "level": LEVEL, "pixels": err.pixels}))
+
+        measured("relative_mse", relative_mse)
         for metric, (fn, debias) in per_frame.items():
-            results = [fn(r, a) for a in stack]
-            floor = _floor(metric, columns["reference_key"], component, keep, r, rv, lambda x, y: fn(x, y)["value"])
-            stat = seed_mean_interval([x["value"] for x in results], resamples=RESAMPLES, level=LEVEL)
-            interval = None if stat["interval"] is None else tuple(debias(v, floor) for v in stat["interval"])
-            options = {k: v for k, v in results[0].items() if k != "value"}
-            rows.append({**base, "metric": metric, "value": stat["mean"], "debiased": debias(stat["mean"], floor),
-                         "reference_floor": floor, **_ci(interval),
-                         "options": json.dumps({**options, "resamples": stat["resamples"], "level": LEVEL},
-                                               default=float)})
-            head[metric] = {"mean": stat["mean"], "debiased": debias(stat["mean"], floor), "interval": interval}
-        ratios = [im.energy_ratio(r, a, mask=keep)["mean"] for a in stack]
-        mean_ratio = im.energy_ratio(r, stack.mean(axis=0), mask=keep)["mean"]
-        stat = seed_mean_interval(ratios, resamples=RESAMPLES, level=LEVEL)
-        sigma = float(np.sqrt(rv[keep].sum(axis=0)).mean() / r[keep].sum(axis=0).mean())
-        rows.append({**base, "metric": "energy_ratio", "value": mean_ratio, "debiased": mean_ratio,
-                     "reference_floor": sigma, **_ci(stat["interval"]),
-                     "options": json.dumps({"reference_floor": "relative σ of the reference's total",
-                                            "resamples": stat["resamples"], "level": LEVEL})})
-        head["energy_ratio"] = {"value": mean_ratio, "interval": stat["interval"], "reference_sigma": sigma}
+            def one(metric=metric, fn=fn, debias=debias):
+                results = [fn(r, a, mask=keep) for a in stack]
+                floor = _floor(metric, columns["reference_key"], component, keep, r, rv,
+                               lambda x, y: fn(x, y, mask=keep)["value"])
+                stat = seed_mean_interval([x["value"] for x in results], resamples=RESAMPLES, level=LEVEL)
+                interval = None if stat["interval"] is None else tuple(debias(v, floor) for v in stat["interval"])
+                options = {k: v for k, v in results[0].items() if k != "value"}
+                add(metric, value=stat["mean"], reference_floor=floor, debiased=debias(stat["mean"], floor),
+                    **_ci(interval), options=json.dumps({**options, "interval": "percentile bootstrap of the mean",
+                                                         "resamples": stat["resamples"], "level": LEVEL},
+                                                        default=float))
+            measured(metric, one)
+
+        def energy():
+            mean_ratio = im.energy_ratio(r, stack.mean(axis=0), mask=keep)["mean"]
+            stat = seed_mean_interval([im.energy_ratio(r, a, mask=keep)["mean"] for a in stack],
+                                      resamples=RESAMPLES, level=LEVEL)
+            sigma = float(np.mean(np.sqrt(rv[keep].sum(axis=0)) / r[keep].sum(axis=0)))
+            add("energy_ratio", value=mean_ratio, debiased=mean_ratio, reference_sigma=sigma, **_ci(stat["interval"]),
+                options=json.dumps({"channels": "per-channel ratios averaged", "interval": "percentile bootstrap",
+                                    "resamples": stat["resamples"], "level": LEVEL}))
+
+        measured("energy_ratio", energy)
     return rows, headline
 
 
 def _ci(interval) -> dict:
-    return {"ci_low": interval[0] if interval else float("nan"), "ci_high": interval[1] if interval else float("nan"),
-            "level": LEVEL}
+    return {"ci_low": interval[0] if interval else NAN, "ci_high": interval[1] if interval else NAN, "level": LEVEL}
 
 
 # --- decomposition -------------------------------------------------------------------
 
-def _decompose(frames, exact, reference, keep) -> dict:
+def _decompose(exact, reference, keep) -> dict:
     from metrics.decomposition import decompose_caustic
 
-    approx = np.stack([f.images["caustic"] for f in frames]).astype(np.float64)
-    images = {"approx": approx.mean(axis=0), "reference": reference.mean["caustic"]}
-    for name in ("exact_steps", "exact_all_same", "exact_all"):
-        images[name] = np.mean(np.stack(exact[name]).astype(np.float64), axis=0)
-    approx_var = approx_total_var = None
-    if len(approx) >= 2:
-        approx_var = approx.var(axis=0, ddof=1) / len(approx)
-        approx_total_var = approx[:, keep].sum(axis=1).var(axis=0, ddof=1) / len(approx)
-    return decompose_caustic(images, exact["small_batches"], keep=keep, reference_var=reference.var["caustic"],
-                             approx_var=approx_var, approx_total_var=approx_total_var)
+    return decompose_caustic(exact["batches"], reference.mean["caustic"], keep=keep,
+                             reference_var=reference.var["caustic"])
 
 
 def _decomposition_rows(decomposition, columns) -> list:
+    """The decomposition as image rows (component ``caustic``, ``term`` set): per term
+    and the total, energy_share, relmse_part, relmse_own with standard errors; the
+    noise row's energy_sigma and relmse; the residual's z-scores and verdict."""
+    def row(term, metric, value, se=NAN):
+        return {"component": "caustic", "metric": metric, "term": term, **IMAGE_COLUMNS, "value": float(value),
+                "standard_error": float(se), **columns}
+
     rows = []
-    for row in decomposition["rows"]:
-        for metric in ("energy_share", "relmse_part", "relmse_own"):
-            rows.append({"component": "caustic", "metric": metric, "term": row["term"], "value": row[metric],
-                         "debiased": float("nan"), "standard_error": row.get(f"{metric}_se", float("nan")),
-                         **columns})
+    for r in decomposition["rows"]:
+        for metric, value in r.items():
+            if metric != "term" and not metric.endswith("_se"):
+                rows.append(row(r["term"], metric, value, r.get(f"{metric}_se", NAN)))
     res = decomposition["residual"]
-    for metric in ("energy_share", "energy_z", "debiased_relmse", "relmse_z", "within_noise"):
-        rows.append({"component": "caustic", "metric": f"residual_{metric}", "term": "residual",
-                     "value": float(res[metric]), "debiased": float("nan"), **columns})
+    rows += [row("residual", "energy_z", res["energy_z"]), row("residual", "debiased_relmse", res["debiased_relmse"],
+                                                                res["relmse_se"]),
+             row("residual", "relmse_z", res["relmse_z"]), row("residual", "within_noise", res["within_noise"])]
     return rows
 
 
@@ -478,20 +526,22 @@ def _summary(scene, p, seeds, reference, frames, exact, headline, decomposition,
                 if v > ALIVE_BUDGET]
     if not decomposition["residual"]["within_noise"]:
         warnings.append(decomposition["residual"]["message"])
-    if len(seeds) < 2:
-        warnings.append("one seed: the approximation's own noise is not estimated (not subtracted) and there are "
-                        "no bootstrap intervals; use --seeds 2 or more")
+    if len(seeds) < MIN_SEEDS_FOR_INTERVAL:
+        warnings.append(f"{len(seeds)} seed(s): no intervals (they need {MIN_SEEDS_FOR_INTERVAL})"
+                        + ("" if len(seeds) >= 2 else "; the approximation's own noise is not estimated, not "
+                           "subtracted") + f"; use --seeds {MIN_SEEDS_FOR_INTERVAL} or more")
     m = reference.manifest
     return {
         "kind": "experiment", "scene": scene.name, "scene_hash": scene.scene_hash(),
-        "description": scene.description, "params": p.to_dict(), "seeds": seeds,
+        "description": scene.description, "params": p.to_dict(), "seeds": len(seeds), "seed_values": seeds,
         "reference": {"key": reference.key, "settings": m.get("settings"), "photons": m.get("photons"),
                       "batches": m.get("batches"), "camera_batches": m.get("camera_batches"),
                       "noise_floor": m.get("noise_floor"), "stopped_by": m.get("stopped_by"),
                       "mitsuba_variant": m.get("mitsuba_variant"), "cached": reference.cached,
                       "reference_code_version": m.get("reference_code_version")},
         "exact": {"steps": EXACT_STEPS, "alive_after": alive, "small_splat_radius": exact["small_radius"],
-                  "small_supersample": SMALL_SUPERSAMPLE, "small_batches": int(len(exact["small_batches"]))},
+                  "small_supersample": SMALL_SUPERSAMPLE,
+                  "batches": int(len(exact["batches"]["approx"]))},
         "compared_pixels": int(keep.sum()),
         "images": headline,
         "decomposition": {"rows": decomposition["rows"], "residual": decomposition["residual"],
@@ -541,6 +591,8 @@ def write_experiment(experiment: Experiment, out_dir: str) -> dict:
 
     os.makedirs(out_dir, exist_ok=True)
     paths = output_paths(out_dir)
+    if os.path.exists(paths["summary.json"]):  # an earlier result's manifest must not outlive its data
+        os.unlink(paths["summary.json"])
     for name in TABLES:
         frame = table(getattr(experiment, name))
         with atomic_path(paths[f"{name}.parquet"]) as tmp:

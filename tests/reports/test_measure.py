@@ -14,6 +14,7 @@ from approx.params import QUICK, ApproxParams
 from metrics.intersection import CLASS_NAMES
 from reference.settings import ReferenceSettings
 from reports.cli import main
+from reports.experiment import IMAGE_METRICS
 from scenes import load_builtin
 from scenes.catalogue import BUILTIN_NAMES
 from scenes.formats import COLOUR_LAYERS
@@ -76,9 +77,9 @@ def test_measure_writes_tidy_tables_exr_and_summary(cache, tmp_path, capsys):
             "--photon-res", "64", "--light-res", "64", "--layers", "2", "--photons", "65536", "--spp", "8",
             "--batches", "4", "--target-noise", "none"]
     assert main(args) == 0
-    assert "caustic decomposition" in capsys.readouterr().out
+    assert "caustic error decomposed" in capsys.readouterr().out
     summary = _strict_json(out / "summary.json")
-    assert summary["params"]["layers"] == 2 and summary["seeds"] == [0, 1]
+    assert summary["params"]["layers"] == 2 and summary["seeds"] == 2 and summary["seed_values"] == [0, 1]
     assert summary["reference"]["key"] and summary["code_version"] and summary["versions"]["mitsuba"]
 
     for name in ("segments", "photons", "images"):
@@ -110,11 +111,17 @@ def test_measure_writes_tidy_tables_exr_and_summary(cache, tmp_path, capsys):
     images = pd.read_parquet(out / "images.parquet")
     for component in COLOUR_LAYERS:
         metrics = set(images[(images["component"] == component) & images["term"].isna()]["metric"])
-        assert metrics == {"relative_mse", "per_pixel_relative_mse", "ssim", "hdr_flip", "delta_e2000",
-                           "energy_ratio"}
+        assert metrics == set(IMAGE_METRICS)
     relmse = images[(images["component"] == "caustic") & (images["metric"] == "relative_mse")].iloc[0]
-    assert relmse["ci_low"] <= relmse["debiased"] <= relmse["ci_high"]  # two seeds: an interval exists
+    assert np.isnan(relmse["ci_low"])  # two seeds: no interval (it needs MIN_SEEDS_FOR_INTERVAL)
     assert relmse["debiased"] == pytest.approx(relmse["value"] - relmse["reference_floor"] - relmse["approx_noise"])
+    assert relmse["approx_noise"] > 0 and relmse["approx_noise_removed"]
+    terms = images[(images["metric"] == "energy_share") & images["term"].notna()].set_index("term")
+    parts = ["intersection", "truncation", "reflections", "kernel_blur", "residual"]
+    assert terms.loc[parts, "value"].sum() == pytest.approx(terms.loc["total", "value"], abs=1e-9)
+    assert (terms["standard_error"] >= 0).all()
+    ratio = images[(images["component"] == "caustic") & (images["metric"] == "energy_ratio")].iloc[0]
+    assert terms.loc["total", "value"] == pytest.approx(1 - ratio["value"], abs=1e-6)  # one convention for both
 
     with OpenEXR.File(str(out / "decomposition.exr")) as exr:
         channels = set(exr.channels())
