@@ -79,7 +79,9 @@ def _z(value: float, se: float) -> float:
 def _stack(batches, name, shape=None):
     if name not in batches:
         raise ValueError(f"batches: missing {name!r} (expected {', '.join(BATCHED)})")
-    a = np.asarray(batches[name], dtype=np.float64)
+    a = np.asarray(batches[name])
+    if a.dtype not in (np.float32, np.float64):
+        a = a.astype(np.float64)
     if a.ndim != 4 or a.shape[3] != 3:
         raise ValueError(f"batches[{name!r}]: shape {a.shape}, expected K×H×W×3")
     if shape is not None and a.shape != shape:
@@ -156,8 +158,10 @@ def decompose_caustic(batches: dict, reference, *, keep=None, reference_var=None
     if not (np.all(channel_energy > 0) and energy2 > 0):
         raise ValueError("reference caustic is zero over the compared pixels (in some channel): shares are undefined")
 
-    kept = {name: s[:, keep] for name, s in stacks.items()}  # K×N×3
-    sums = {name: s.sum(axis=0) for name, s in kept.items()}
+    kept = {name: s[:, keep] for name, s in stacks.items()}  # K×N×3, as given (float32 or float64)
+    sums = {name: s.sum(axis=0, dtype=np.float64) for name, s in kept.items()}
+    small = kept["exact_all_small"]
+    small_squares = np.square(small, dtype=np.float64).sum(axis=0)
 
     def numbers(means):
         """Every reported number for one set of mean images (N×3 kept pixels)."""
@@ -168,16 +172,18 @@ def decompose_caustic(batches: dict, reference, *, keep=None, reference_var=None
             t = full[near] - full[far]
             out[name] = (float(np.mean(t.sum(axis=0) / channel_energy)), float(np.sum(t * d)) / energy2,
                          float(np.sum(t * t)) / energy2)
-        small = means["exact_all_small"]
-        out["small_noise"] = float(np.sum(means["_small_var"])) if "_small_var" in means else 0.0
-        out["debiased"] = (float(np.sum((r - small) ** 2)) - float(rv.sum()) - out["small_noise"]) / energy2
+        out["debiased"] = (float(np.sum((r - means["exact_all_small"]) ** 2)) - float(rv.sum())
+                           - means["_small_noise"]) / energy2
         return out
 
     def means_without(i):
-        m = {name: (sums[name] - (kept[name][i] if i is not None else 0.0)) / (k - (i is not None))
-             for name in BATCHED}
-        rest = kept["exact_all_small"] if i is None else np.delete(kept["exact_all_small"], i, axis=0)
-        m["_small_var"] = rest.var(axis=0, ddof=1) / len(rest)
+        """The batches' means (and Σ of E_∞,s's variance of the mean) without batch i
+        (None: all), from running sums."""
+        n = k - (i is not None)
+        m = {name: (sums[name] - kept[name][i]) / n if i is not None else sums[name] / n for name in BATCHED}
+        s1 = sums["exact_all_small"] - (small[i] if i is not None else 0.0)
+        s2 = small_squares - (np.square(small[i], dtype=np.float64) if i is not None else 0.0)
+        m["_small_noise"] = float(np.sum(s2 - s1 * s1 / n)) / (n - 1) / n
         return m
 
     value = numbers(means_without(None))
@@ -199,7 +205,7 @@ def decompose_caustic(batches: dict, reference, *, keep=None, reference_var=None
         if name in ("total", "residual"):
             row["energy_share_se"] = float(np.hypot(row["energy_share_se"], ref_share_sigma))
         rows.append(row)
-    approx_var = kept["approx"].var(axis=0, ddof=1) / k
+    approx_var = kept["approx"].var(axis=0, ddof=1, dtype=np.float64) / k
     rows.append({"term": "noise", "energy_sigma": next(x for x in rows if x["term"] == "total")["energy_share_se"],
                  "relmse": (float(rv.sum()) + float(approx_var.sum())) / energy2})
 
@@ -216,7 +222,7 @@ def decompose_caustic(batches: dict, reference, *, keep=None, reference_var=None
         f"debiased relative MSE {value['debiased']:.2e}, z = {residual['relmse_z']:+.1f}; limit {z_limit:g}): one of "
         f"them is wrong — the reference light tracer, or the exact tracer and the splatter (tests/cross/test_v6.py "
         f"checks them against each other), and the terms do not explain the whole error")
-    images = {name: stacks[name].mean(axis=0) for name in BATCHED}
+    images = {name: stacks[name].mean(axis=0, dtype=np.float64) for name in BATCHED}
     images["reference"] = r_full
     options = {"z_limit": z_limit, "pixels": int(keep.sum()), "batches": k,
                "blur_sign": "exact_all_small - exact_all", "energy_share": "per channel, averaged over RGB",
