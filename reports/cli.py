@@ -207,6 +207,40 @@ def _add_budget(p, *, target: str | None, max_seconds: float) -> None:
                    help=f"time cap of a --target-noise render, seconds (default {max_seconds:g})")
 
 
+def _cmd_sweep(args) -> int:
+    from .executors import default_workers, parse_dask
+    from .sweep import SweepError, run_sweep, spec_from_args, spec_from_toml
+
+    _check_output_dir(args.output)
+    if args.spec and (args.vary or args.set or args.scenes is not None):
+        raise UsageError("SPEC.toml", args.spec, "give the grid in the file or on the command line, not both")
+    if args.workers is not None and args.workers < 1:
+        raise UsageError("--workers", args.workers, "expected at least 1 worker process")
+    if args.dask:
+        try:
+            parse_dask(args.dask)
+        except ValueError as exc:
+            raise UsageError("--dask", args.dask, str(exc).split(": ", 1)[-1]) from None
+    if args.spec:
+        spec = spec_from_toml(args.spec)
+    else:
+        spec = spec_from_args(args.scenes, args.vary, args.set, preset=args.preset, seeds=args.seeds)
+    result = run_sweep(spec, args.output, workers=args.workers or default_workers(), dask=args.dask,
+                       progress=not args.quiet)
+    print(f"sweep: {result.total} points: {result.done_before} already in the store, {result.computed} computed, "
+          f"{len(result.failed)} failed, {result.seconds:.1f} s -> {args.output}/")
+    suffice = result.tables.get("suffice")
+    if suffice is not None and len(suffice):
+        print(f"settings that suffice (caustic relative MSE within {suffice['factor'].iloc[0]:g}x the best):")
+        for _, row in suffice.iterrows():
+            print(f"  {row['scene']:<12} {row['layer_strategy']:<9} {row['parameter']:<12} {row['suffices']:g} "
+                  f"(of {row['largest']:g}): {100 * row['caustic_relmse_debiased']:.2f}% vs best "
+                  f"{100 * row['best']:.2f}%, frame {row['frame_time_s']:.3f} s")
+    for failure in result.failed:
+        print(f"  failed: {failure['key'][:12]}: {failure['error']}", file=sys.stderr)
+    return 1 if result.failed else 0
+
+
 def _add_report_reference(p) -> None:
     """The reference options of ``report`` and ``measure`` (default: the report's budget)."""
     from .defaults import REPORT_REFERENCE, REPORT_TARGET
@@ -312,6 +346,21 @@ def build_parser() -> argparse.ArgumentParser:
     _add_report_reference(p)
     p.set_defaults(func=_cmd_measure)
 
+    p = sub.add_parser("sweep", help="a grid of experiments over approximation parameters, resumable, on local "
+                                     "processes or Dask -> DIR (store, tables, figures)")
+    p.add_argument("spec", nargs="?", metavar="SPEC.toml", help="the sweep as a TOML file (else the options below)")
+    p.add_argument("-o", "--output", required=True, metavar="DIR", help="the store folder (resumed when it exists)")
+    p.add_argument("--scenes", help="comma-separated SCENE arguments (default: every built-in)")
+    p.add_argument("--vary", action="append", metavar="NAME=V1,V2,...", help="a grid axis (repeatable)")
+    p.add_argument("--set", action="append", metavar="NAME=VALUE", help="a fixed parameter (repeatable)")
+    p.add_argument("--preset", choices=("quick", "paper"), default="quick", help="the parameters not named (default quick)")
+    p.add_argument("--seeds", type=int, default=1, help="seeds per point (default 1)")
+    p.add_argument("--workers", type=int, help="local worker processes (default: the core count)")
+    p.add_argument("--dask", metavar="tcp://HOST:PORT|local:N",
+                   help="run on Dask distributed: a running scheduler, or a LocalCluster of N process workers")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=_cmd_sweep)
+
     p = sub.add_parser("report", help="the main job: approximation vs ground truth on the built-in scenes")
     p.add_argument("--out", default="runs/report", help="output folder (default runs/report)")
     p.add_argument("--scenes", help="comma-separated built-in scene names (default: all)")
@@ -328,11 +377,12 @@ def main(argv=None) -> int:
     from scenes import SceneError
 
     from .experiment import ExperimentError
+    from .sweep import SweepError
 
     args = build_parser().parse_args(argv)
     try:
         return args.func(args)
-    except (SceneError, ParamError, SettingsError, UsageError, ExperimentError) as exc:
+    except (SceneError, ParamError, SettingsError, UsageError, ExperimentError, SweepError) as exc:
         print(f"volcaustics: error: {exc}", file=sys.stderr)
         return EXIT_USAGE
     except KeyboardInterrupt:

@@ -1,0 +1,109 @@
+"""Where a sweep's points run: local worker processes (default) or Dask distributed.
+
+GL contexts and Mitsuba variants belong to a process, so every executor runs one
+task per worker process at a time: a local pool of ``spawn``ed processes (a fork
+would inherit the parent's Dr.Jit and GL state), or Dask workers with one thread
+each (``--dask local:N`` starts a ``LocalCluster`` of N such processes; for
+``--dask tcp://HOST:PORT`` start the workers with ``--nthreads 1``, and
+``reports.sweep.run_point`` also serialises the tasks of one process). Results come
+back as they finish; Ctrl-C cancels what has not started, stops the workers and
+re-raises KeyboardInterrupt (finished points are already in the store).
+"""
+
+from __future__ import annotations
+
+import os
+
+
+def default_workers() -> int:
+    return max(1, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1))
+
+
+def parse_dask(address: str) -> tuple:
+    """("local", N) for ``local:N``, ("tcp", address) for ``tcp://HOST:PORT``; ValueError else."""
+    if address.startswith("local:"):
+        try:
+            n = int(address.split(":", 1)[1])
+        except ValueError:
+            n = 0
+        if n < 1:
+            raise ValueError(f"--dask {address!r}: expected local:N with N ≥ 1 worker processes")
+        return "local", n
+    if address.startswith("tcp://") and len(address) > len("tcp://"):
+        return "tcp", address
+    raise ValueError(f"--dask {address!r}: expected tcp://HOST:PORT (a running scheduler) or local:N")
+
+
+def run_tasks(fn, tasks: list, *, total: int, done: int = 0, workers: int | None = None, dask: str | None = None,
+              progress: bool = True):
+    """Yield ``fn(task)``'s results (dicts; a failed task gives {"key", "error"}) as
+    they finish, with one progress bar of points done / ``total`` (``done`` already)."""
+    from tqdm import tqdm
+
+    bar = tqdm(total=total, initial=done, desc="sweep", unit="point", disable=not progress, smoothing=0.1)
+    try:
+        if not tasks:
+            return
+        runner = _dask if dask else _local
+        for result in runner(fn, tasks, workers=workers, dask=dask):
+            bar.update()
+            if result.get("error"):
+                bar.write(f"sweep: point {result['key'][:12]} failed: {result['error']}")
+            yield result
+    finally:
+        bar.close()
+
+
+def _describe(exc: BaseException) -> str:
+    return f"{type(exc).__name__}: {exc}"
+
+
+def _local(fn, tasks, *, workers, dask):
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+
+    n = min(workers or default_workers(), len(tasks))
+    pool = ProcessPoolExecutor(max_workers=n, mp_context=multiprocessing.get_context("spawn"))
+    futures = {pool.submit(fn, task): task["key"] for task in tasks}
+    try:
+        for future in as_completed(futures):
+            try:
+                yield future.result()
+            except Exception as exc:  # a point that fails is reported; the others go on
+                yield {"key": futures[future], "error": _describe(exc)}
+    except BaseException:
+        for future in futures:
+            future.cancel()
+        for process in list(getattr(pool, "_processes", {}).values()):
+            process.terminate()
+        pool.shutdown(wait=False, cancel_futures=True)
+        raise
+    pool.shutdown(wait=True)
+
+
+def _dask(fn, tasks, *, workers, dask):
+    from dask.distributed import Client, LocalCluster, as_completed
+
+    kind, value = parse_dask(dask)
+    cluster = None
+    if kind == "local":
+        cluster = LocalCluster(n_workers=value, threads_per_worker=1, processes=True, dashboard_address=None)
+        client = Client(cluster)
+    else:
+        client = Client(value, timeout="10s")
+    try:
+        futures = [client.submit(fn, task, key=f"volcaustics-point-{task['key']}", pure=False, retries=0)
+                   for task in tasks]
+        keys = {f.key: t["key"] for f, t in zip(futures, tasks)}
+        for future in as_completed(futures):
+            try:
+                yield future.result()
+            except Exception as exc:
+                yield {"key": keys[future.key], "error": _describe(exc)}
+    except BaseException:
+        client.cancel(futures) if "futures" in locals() else None
+        raise
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()

@@ -1,0 +1,241 @@
+"""Figures and summary tables of a sweep, from its consolidated tables only
+(``reports.store.Store.consolidate``): no computation but grouping and plotting.
+
+Every figure is written as PNG and SVG, with the Okabe–Ito palette (distinguishable
+with the common colour-vision deficiencies), axes named with DESIGN.md's parameter
+names and units. Where several parameters vary, a plot over one of them holds the
+others at their largest value (the most accurate setting), and says so.
+"""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+
+OKABE_ITO = ("#E69F00", "#56B4E9", "#009E73", "#D55E00", "#0072B2", "#CC79A7", "#F0E442", "#000000")
+LINESTYLES = {"threshold": "-", "peel": "--"}
+NUMERIC = ("photon_res", "layers", "iterations", "peak_samples", "steps", "splat_radius", "light_res", "fog_steps")
+UNITS = {"splat_radius": "splat_radius (m)", "photon_res": "photon_res (texels per side)",
+         "light_res": "light_res (texels per side)"}
+CLASS_GROUPS = {"true_hit": ("true_hit",), "wrong_surface": ("wrong_surface",), "false_hit": ("false_hit",),
+                "missed": ("missed_inside", "missed_medium")}
+FATES = ("surface", "collided", "lost", "left_scene")
+SUFFICE_FACTOR = 1.1
+
+
+def _plt():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def _save(fig, folder: str, name: str) -> list:
+    from scenes.storage import atomic_path
+
+    os.makedirs(folder, exist_ok=True)
+    paths = []
+    for ext in ("png", "svg"):
+        path = os.path.join(folder, f"{name}.{ext}")
+        with atomic_path(path) as tmp:
+            fig.savefig(tmp, format=ext, dpi=110, bbox_inches="tight")
+        paths.append(path)
+    _plt().close(fig)
+    return paths
+
+
+def _colours(scenes) -> dict:
+    return {s: OKABE_ITO[i % len(OKABE_ITO)] for i, s in enumerate(sorted(scenes))}
+
+
+def _at_best(points, varied, x):
+    """The points with every varied numeric parameter but ``x`` at its largest value
+    (per scene), and a note saying so."""
+    others = [v for v in varied if v != x and v in NUMERIC]
+    keep = np.ones(len(points), bool)
+    for name in others:
+        largest = points.groupby("scene")[name].transform("max")
+        keep &= (points[name] == largest).to_numpy()
+    note = ", ".join(f"{n} at its largest" for n in others)
+    return points[keep], note
+
+
+def _axis(ax, x, values) -> None:
+    """Powers-of-two parameters on a log2 axis, ticks at the swept values, plain labels."""
+    from matplotlib.ticker import NullFormatter
+
+    ticks = sorted(set(float(v) for v in values))
+    if x in ("layers", "iterations", "peak_samples", "photon_res", "light_res") and min(ticks) > 0:
+        ax.set_xscale("log", base=2)
+    ax.set_xticks(ticks)
+    ax.set_xticklabels([f"{t:g}" for t in ticks])
+    ax.xaxis.set_minor_formatter(NullFormatter())
+
+
+def _series(points):
+    """(label, colour, linestyle, rows) per scene and layer strategy."""
+    colours = _colours(points["scene"].unique())
+    for (scene, strategy), rows in points.groupby(["scene", "layer_strategy"], sort=True):
+        yield f"{scene} ({strategy})", colours[scene], LINESTYLES.get(strategy, ":"), rows
+
+
+def draw_figures(tables: dict, folder: str, *, varied) -> list:
+    """Every figure for the sweep's tables; returns the paths written."""
+    points = tables.get("points")
+    if points is None or len(points) == 0:
+        return []
+    paths = []
+    numeric = [v for v in varied if v in NUMERIC and points[v].nunique() > 1]
+    for x in numeric:
+        paths += _intersection_vs(tables, points, varied, x, folder)
+        paths += _error_vs(points, varied, x, folder)
+    paths += _time_vs_error(points, folder)
+    paths += _power_budget(tables, points, varied, folder)
+    return paths
+
+
+def _step_rows(tables, points):
+    seg = tables["segments"]
+    seg = seg[seg["grouping"] == "step"].copy()
+    for name in CLASS_GROUPS:
+        count = sum(seg[f"count_{c}"] + seg.get(f"count_beyond_self_rehit_{c}", 0) for c in CLASS_GROUPS[name])
+        seg[f"class_{name}"] = 100.0 * count / seg["segments"]
+    return seg[seg["point"].isin(points["point"])]
+
+
+def _intersection_vs(tables, points, varied, x, folder) -> list:
+    plt = _plt()
+    chosen, note = _at_best(points, varied, x)
+    seg = _step_rows(tables, chosen)
+    steps = sorted(int(s) for s in seg["step"].dropna().unique())
+    if not steps:
+        return []
+    fig, axes = plt.subplots(len(steps), len(CLASS_GROUPS) + 1, figsize=(3.1 * (len(CLASS_GROUPS) + 1),
+                                                                         2.4 * len(steps)), squeeze=False)
+    for label, colour, style, rows in _series(chosen):
+        own = seg[seg["point"].isin(rows["point"])].sort_values(x)  # segments rows carry every parameter
+        for i, step in enumerate(steps):
+            at = own[own["step"] == step]
+            for j, name in enumerate(CLASS_GROUPS):
+                axes[i, j].plot(at[x], at[f"class_{name}"], style, color=colour, marker="o", ms=3,
+                                label=label if (i, j) == (0, 0) else None)
+            axes[i, -1].plot(at[x], 1000.0 * at["abs_dt_p90"], style, color=colour, marker="o", ms=3)
+    for i, step in enumerate(steps):
+        for j, name in enumerate(CLASS_GROUPS):
+            axes[i, j].set_title(f"step {step}: {name}", fontsize=9)
+            axes[i, j].set_ylabel("segments (%)")
+        axes[i, -1].set_title(f"step {step}: |Δt| p90 of true hits", fontsize=9)
+        axes[i, -1].set_ylabel("|Δt| p90 (mm)")
+    for ax in axes[-1]:
+        ax.set_xlabel(UNITS.get(x, x))
+    for ax in axes.flat:
+        _axis(ax, x, chosen[x])
+    fig.legend(loc="upper center", ncol=4, fontsize=8, bbox_to_anchor=(0.5, 1.02))
+    fig.suptitle(f"Intersection classes and |Δt| vs {x}" + (f" ({note})" if note else "")
+                 + "; self re-hits counted by their class beyond the re-hit surface", y=1.06, fontsize=10)
+    fig.tight_layout()
+    return _save(fig, folder, f"intersection_vs_{x}")
+
+
+def _error_vs(points, varied, x, folder) -> list:
+    plt = _plt()
+    chosen, note = _at_best(points, varied, x)
+    fig, ax = plt.subplots(figsize=(6.4, 4.2))
+    for label, colour, style, rows in _series(chosen):
+        rows = rows.sort_values(x)
+        ax.errorbar(rows[x], 100.0 * rows["caustic_relmse_debiased"], yerr=100.0 * rows["caustic_relmse_se"].fillna(0),
+                    fmt=style, color=colour, marker="o", ms=3, capsize=2, label=label)
+    ax.set_xlabel(UNITS.get(x, x))
+    ax.set_ylabel("caustic relative MSE, debiased (%)")
+    _axis(ax, x, chosen[x])
+    ax.set_title(f"Caustic error vs {x}" + (f" ({note})" if note else ""), fontsize=10)
+    ax.legend(fontsize=7, ncol=2)
+    ax.grid(alpha=0.3)
+    return _save(fig, folder, f"caustic_error_vs_{x}")
+
+
+def pareto_front(times, errors) -> np.ndarray:
+    """Indices of the points no other point beats in both frame time and error, by time."""
+    order = np.lexsort((errors, times))
+    front, best = [], np.inf
+    for i in order:
+        if errors[i] < best:
+            front.append(i)
+            best = errors[i]
+    return np.asarray(front, int)
+
+
+def _time_vs_error(points, folder) -> list:
+    plt = _plt()
+    fig, ax = plt.subplots(figsize=(6.4, 4.2))
+    colours = _colours(points["scene"].unique())
+    for scene, rows in points.groupby("scene"):
+        t = rows["frame_time_s"].to_numpy(float)
+        e = 100.0 * rows["caustic_relmse_debiased"].to_numpy(float)
+        ax.scatter(t, e, s=12, color=colours[scene], alpha=0.6, label=scene)
+        front = pareto_front(t, e)
+        ax.step(t[front], e[front], where="post", color=colours[scene], lw=1.5)
+    ax.set_xlabel("frame time (s, this machine)")
+    ax.set_ylabel("caustic relative MSE, debiased (%)")
+    ax.set_title("Frame time vs caustic error; lines: the Pareto front per scene", fontsize=10)
+    ax.legend(fontsize=7)
+    ax.grid(alpha=0.3)
+    return _save(fig, folder, "time_vs_error")
+
+
+def _power_budget(tables, points, varied, folder) -> list:
+    """Power by fate per step at each scene's most accurate point, both tracers."""
+    plt = _plt()
+    photons = tables["photons"]
+    numeric = [v for v in varied if v in NUMERIC]
+    scenes = sorted(points["scene"].unique())
+    fig, axes = plt.subplots(1, len(scenes), figsize=(3.0 * len(scenes), 3.4), squeeze=False, sharey=True)
+    for ax, scene in zip(axes[0], scenes):
+        rows = points[points["scene"] == scene]
+        if numeric:
+            rows = rows.sort_values(numeric, ascending=False)
+        point = rows.iloc[0]["point"]
+        budget = photons[photons["point"] == point]
+        width = 0.4
+        for k, tracer in enumerate(("approx", "exact")):
+            b = budget[budget["tracer"] == tracer].sort_values("step")
+            bottom = np.zeros(len(b))
+            for f, fate in enumerate(FATES):
+                values = 100.0 * b[f"share_{fate}"].to_numpy(float)
+                ax.bar(b["step"].to_numpy(float) + (k - 0.5) * width, values, width, bottom=bottom,
+                       color=OKABE_ITO[f], hatch="" if tracer == "approx" else "//", edgecolor="white",
+                       label=f"{fate} ({tracer})" if ax is axes[0, 0] else None)
+                bottom += values
+        ax.set_title(scene, fontsize=9)
+        ax.set_xlabel("steps (interaction step)")
+    axes[0, 0].set_ylabel("power, % of step 1's")
+    fig.legend(loc="upper center", ncol=4, fontsize=7, bbox_to_anchor=(0.5, 1.08))
+    fig.suptitle("Power by fate per step, approximation (plain) and exact replay (hatched), at each scene's "
+                 "most accurate point", y=1.14, fontsize=10)
+    fig.tight_layout()
+    return _save(fig, folder, "power_budget")
+
+
+def settings_that_suffice(points, varied, factor: float = SUFFICE_FACTOR):
+    """Per scene and layer strategy, for each varied numeric parameter: the smallest
+    value whose debiased caustic relative MSE is within ``factor`` × the best over that
+    parameter (the others at their largest), with that error and the frame time."""
+    import pandas as pd
+
+    rows = []
+    for x in (v for v in varied if v in NUMERIC):
+        chosen, _ = _at_best(points, varied, x)
+        for (scene, strategy), group in chosen.groupby(["scene", "layer_strategy"]):
+            errors = group["caustic_relmse_debiased"].to_numpy(float)
+            if not np.isfinite(errors).any():
+                continue
+            best = np.nanmin(errors)
+            ok = group[errors <= best + (factor - 1.0) * abs(best) + 1e-12].sort_values(x)
+            first = ok.iloc[0]
+            rows.append({"scene": scene, "layer_strategy": strategy, "parameter": x, "suffices": first[x],
+                         "caustic_relmse_debiased": first["caustic_relmse_debiased"], "best": best,
+                         "largest": group[x].max(), "frame_time_s": first["frame_time_s"], "factor": factor})
+    return pd.DataFrame(rows)

@@ -1,0 +1,218 @@
+"""A resumable result store of experiments (DESIGN.md "Results, sweeps, gate, report").
+
+Layout of a store folder::
+
+    points/<key>/segments.parquet, photons.parquet, images.parquet
+    points/<key>/summary.json     written last: the experiment's summary, the key's
+                                  document and the SHA-256 of every table
+    segments.parquet, photons.parquet, images.parquet, points.parquet
+                                  all complete points in one table each
+                                  (:meth:`Store.consolidate`)
+
+A point's key hashes everything that determines its result (:func:`point_key`): the
+scene's hash, the resolved approximation parameters, the seeds, the reference's cache
+key and the code version of what measures. One point is one folder, written under a
+temporary name and renamed into place, so a point is there whole or not at all: an
+interrupted sweep leaves at most a temporary folder (removed on the next run when its
+process is gone), two sweeps writing one store never write one file (the second
+rename finds the point there and drops its own copy), and a point whose files do not
+match the hashes in its summary (a damaged file) counts as missing and is recomputed.
+
+Parquet (pyarrow) is the format: columnar, typed, compressed, read by pandas
+(``pd.read_parquet(DIR/"images.parquet")``) and by DuckDB directly, also across the
+per-point files (``SELECT * FROM 'DIR/points/*/images.parquet'``); one file per point
+and table is what makes writing append-safe without a database server.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import socket
+import uuid
+
+from scenes.storage import atomic_path, atomic_write_text, file_sha256
+
+TABLES = ("segments", "photons", "images")
+SUMMARY = "summary.json"
+STORE_FORMAT = 1
+
+
+def point_key(document: dict) -> str:
+    """The key of a point: SHA-256 (32 hex digits) of its key document."""
+    import hashlib
+
+    text = json.dumps(document, sort_keys=True, separators=(",", ":"), allow_nan=False)
+    return hashlib.sha256(text.encode()).hexdigest()[:32]
+
+
+def key_document(scene, params, seeds: int, reference_key: str) -> dict:
+    """Everything that determines a point's result."""
+    from .versions import code_version
+
+    return {"format": STORE_FORMAT, "scene_hash": scene.scene_hash(), "params": params.resolved(scene).to_dict(),
+            "seeds": seeds, "reference_key": reference_key, "code_version": code_version()}
+
+
+class Store:
+    """The points of one store folder (created when missing)."""
+
+    def __init__(self, root: str):
+        self.root = root
+        self.points = os.path.join(root, "points")
+        os.makedirs(self.points, exist_ok=True)
+
+    def point_dir(self, key: str) -> str:
+        return os.path.join(self.points, key)
+
+    def summary(self, key: str) -> dict | None:
+        """The point's summary if the point is complete and undamaged, else None."""
+        folder = self.point_dir(key)
+        try:
+            with open(os.path.join(folder, SUMMARY)) as fh:
+                summary = json.load(fh)
+            if not isinstance(summary, dict) or summary.get("key") != key:
+                return None
+            hashes = summary.get("files")
+            if not isinstance(hashes, dict) or set(hashes) != {f"{t}.parquet" for t in TABLES}:
+                return None
+            for name, digest in hashes.items():
+                if file_sha256(os.path.join(folder, name)) != digest:
+                    return None
+            return summary
+        except (OSError, ValueError):
+            return None
+
+    def status(self, key: str) -> str:
+        """"done" (complete and undamaged), "damaged" (a folder that is not) or "missing"."""
+        if self.summary(key) is not None:
+            return "done"
+        return "damaged" if os.path.isdir(self.point_dir(key)) else "missing"
+
+    def write_point(self, key: str, document: dict, experiment) -> str:
+        """Write a point whole, or not at all; returns "written", or "kept" when a
+        complete copy appeared meanwhile (another sweep)."""
+        from .experiment import plain, table
+
+        tmp = os.path.join(self.points, f".tmp-{key}-{socket.gethostname()}-{os.getpid()}-{uuid.uuid4().hex[:8]}")
+        os.makedirs(tmp)
+        try:
+            files = {}
+            for name in TABLES:
+                path = os.path.join(tmp, f"{name}.parquet")
+                table(getattr(experiment, name)).to_parquet(path, index=False)
+                files[f"{name}.parquet"] = file_sha256(path)
+            summary = {**plain(experiment.summary), "key": key, "key_document": document, "files": files}
+            atomic_write_text(os.path.join(tmp, SUMMARY), json.dumps(summary, indent=1, allow_nan=False))
+            return self._commit(tmp, key)
+        finally:
+            if os.path.isdir(tmp):
+                shutil.rmtree(tmp, ignore_errors=True)
+
+    def _commit(self, tmp: str, key: str) -> str:
+        final = self.point_dir(key)
+        for _ in range(3):
+            try:
+                os.rename(tmp, final)
+                return "written"
+            except OSError:
+                if self.summary(key) is not None:
+                    return "kept"
+                # a damaged or half-removed copy: move it aside, then retry
+                aside = f"{final}.damaged-{uuid.uuid4().hex[:8]}"
+                try:
+                    os.rename(final, aside)
+                    shutil.rmtree(aside, ignore_errors=True)
+                except OSError:
+                    pass
+        raise OSError(f"{final}: cannot put the point in place")
+
+    def remove_damaged(self, key: str) -> None:
+        folder = self.point_dir(key)
+        if os.path.isdir(folder) and self.summary(key) is None:
+            aside = f"{folder}.damaged-{uuid.uuid4().hex[:8]}"
+            try:
+                os.rename(folder, aside)
+            except OSError:
+                return
+            shutil.rmtree(aside, ignore_errors=True)
+
+    def clean_stale(self) -> int:
+        """Remove temporary folders of processes on this host that no longer run, and
+        damaged copies set aside; returns how many were removed."""
+        host = socket.gethostname()
+        removed = 0
+        for name in os.listdir(self.points):
+            path = os.path.join(self.points, name)
+            stale = ".damaged-" in name
+            if name.startswith(".tmp-"):
+                parts = name.split("-")
+                try:
+                    pid_host, pid = "-".join(parts[2:-2]), int(parts[-2])
+                except ValueError:
+                    continue
+                stale = pid_host == host and not _alive(pid)
+            if stale:
+                shutil.rmtree(path, ignore_errors=True)
+                removed += 1
+        return removed
+
+    def consolidate(self, keys) -> dict:
+        """One table per kind over the complete points of ``keys``, plus points.parquet
+        (one row per point), written atomically at the top of the store; returns the
+        DataFrames."""
+        import pandas as pd
+
+        from .experiment import table
+
+        frames = {name: [] for name in TABLES}
+        points = []
+        for key in keys:
+            summary = self.summary(key)
+            if summary is None:
+                continue
+            for name in TABLES:
+                frame = pd.read_parquet(os.path.join(self.point_dir(key), f"{name}.parquet"))
+                frame.insert(0, "point", key)
+                frames[name].append(frame)
+            points.append(point_row(key, summary))
+        out = {name: (pd.concat(parts, ignore_index=True) if parts else pd.DataFrame())
+               for name, parts in frames.items()}
+        out["points"] = table(points) if points else pd.DataFrame()
+        for name, frame in out.items():
+            with atomic_path(os.path.join(self.root, f"{name}.parquet")) as tmp:
+                frame.to_parquet(tmp, index=False)
+        return out
+
+
+def point_row(key: str, summary: dict) -> dict:
+    """The headline numbers of one point: parameters, frame time, errors."""
+    images = summary.get("images", {})
+    caustic, combined = images.get("caustic", {}), images.get("combined", {})
+    decomposition = {r["term"]: r for r in summary.get("decomposition", {}).get("rows", [])}
+    timings = summary.get("approx_timings_s", {})
+    row = {"point": key, "scene": summary["scene"], "scene_hash": summary["scene_hash"], **summary["params"],
+           "seeds": summary["seeds"], "reference_key": summary["reference"]["key"],
+           "code_version": summary["code_version"], "frame_time_s": timings.get("frame_wall"),
+           "trace_time_s": timings.get("trace"), "splat_time_s": timings.get("splat")}
+    for name, metrics in (("caustic", caustic), ("combined", combined)):
+        relmse = metrics.get("relative_mse", {})
+        row[f"{name}_relmse_debiased"] = relmse.get("debiased")
+        row[f"{name}_relmse_se"] = relmse.get("standard_error")
+        row[f"{name}_energy_ratio"] = metrics.get("energy_ratio", {}).get("value")
+        row[f"{name}_hdr_flip"] = metrics.get("hdr_flip", {}).get("value")
+    for term in ("intersection", "truncation", "reflections", "kernel_blur", "residual"):
+        row[f"share_{term}"] = decomposition.get(term, {}).get("energy_share")
+    row["residual_within_noise"] = summary.get("decomposition", {}).get("residual", {}).get("within_noise")
+    return {k: (float("nan") if v is None and k not in ("point",) else v) for k, v in row.items()}
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True

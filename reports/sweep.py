@@ -1,0 +1,373 @@
+"""Sweeps: a grid over the approximation's parameters, one experiment per point,
+resumable in a store (``reports.store``), on local processes or Dask
+(``reports.executors``).
+
+A sweep is given on the command line (``--scenes a,b --vary layers=1,2,4 --set
+photon_res=256 --seeds N``) or in a TOML file with the same names::
+
+    scenes = ["bunny", "skull"]      # built-in names or .toml paths
+    preset = "quick"                 # the parameters not named below
+    seeds = 1
+    [vary]                           # the grid: every combination, per scene
+    layers = [1, 2, 4, 8]
+    iterations = [4, 8, 16, 30]
+    [set]                            # fixed parameters
+    photon_res = 256
+    [reference]                      # optional: the reference budget (report's by default)
+    target_noise = "caustic=0.005,fog=0.002,direct=0.002"
+
+Every name is an ``ApproxParams`` field (DESIGN.md); every point is validated before
+anything renders. The reference of each scene (and image size) is rendered once, in
+this process, before the points run; workers read it from the cache.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import itertools
+import os
+import time
+from dataclasses import dataclass, field
+
+from approx.params import ApproxParams, ParamError
+
+SPEC_KEYS = ("scenes", "preset", "seeds", "vary", "set", "reference")
+REFERENCE_KEYS = ("photons", "spp", "batches", "target_noise", "max_photons", "max_seconds")
+
+
+class SweepError(ValueError):
+    """A sweep specification that cannot run; the message names where, what and the fix."""
+
+
+@dataclass(frozen=True)
+class SweepSpec:
+    """scenes: SCENE arguments; vary: ((name, values), ...) in grid order; fixed:
+    name → value; preset: "quick" or "paper"; seeds per point; reference: settings
+    overrides (REFERENCE_KEYS)."""
+
+    scenes: tuple
+    vary: tuple
+    fixed: dict = field(default_factory=dict)
+    preset: str = "quick"
+    seeds: int = 1
+    reference: dict = field(default_factory=dict)
+
+    def to_dict(self) -> dict:
+        return {"scenes": list(self.scenes), "vary": {k: list(v) for k, v in self.vary}, "set": dict(self.fixed),
+                "preset": self.preset, "seeds": self.seeds, "reference": dict(self.reference)}
+
+
+@dataclass(frozen=True)
+class Point:
+    scene: str          # the SCENE argument (built-in name or path)
+    params: ApproxParams
+
+
+# --- parsing -------------------------------------------------------------------------
+
+def _field_types() -> dict:
+    return {f.name: f.type for f in dataclasses.fields(ApproxParams)}
+
+
+def parse_value(name: str, text, where: str):
+    """A parameter value from text (CLI) or TOML, typed as ApproxParams declares it."""
+    types = _field_types()
+    if name not in types:
+        raise SweepError(f"{where}: unknown parameter {name!r}; expected one of {', '.join(types)}")
+    kind = str(types[name])
+    if isinstance(text, str):
+        text = text.strip()
+    try:
+        if "int" in kind:
+            if isinstance(text, bool) or (isinstance(text, float) and not text.is_integer()):
+                raise ValueError
+            return int(text)
+        if "float" in kind:
+            if isinstance(text, bool):
+                raise ValueError
+            return float(text)
+    except (TypeError, ValueError):
+        raise SweepError(f"{where}: {name} = {text!r}: expected {'an integer' if 'int' in kind else 'a number'}") \
+            from None
+    if not isinstance(text, str) or not text:
+        raise SweepError(f"{where}: {name} = {text!r}: expected a name")
+    return text
+
+
+def _parse_assignment(text: str, where: str) -> tuple:
+    name, sep, values = text.partition("=")
+    name = name.strip().replace("-", "_")
+    if not sep or not name:
+        raise SweepError(f"{where} {text!r}: expected NAME=VALUE[,VALUE...]")
+    items = [v for v in values.split(",")]
+    if any(not v.strip() for v in items):
+        raise SweepError(f"{where} {text!r}: an empty value")
+    return name, [parse_value(name, v, where) for v in items]
+
+
+def spec_from_args(scenes: str | None, vary: list, fixed: list, *, preset: str, seeds: int) -> SweepSpec:
+    """A spec from ``--scenes a,b``, ``--vary NAME=V1,V2`` and ``--set NAME=V``."""
+    from scenes import BUILTIN_NAMES
+
+    names = [s.strip() for s in scenes.split(",")] if scenes is not None else list(BUILTIN_NAMES)
+    grid, settled = [], {}
+    for text in vary or []:
+        name, values = _parse_assignment(text, "--vary")
+        if name in dict(grid):
+            raise SweepError(f"--vary {text!r}: {name} is varied twice")
+        grid.append((name, tuple(values)))
+    for text in fixed or []:
+        name, values = _parse_assignment(text, "--set")
+        if len(values) != 1:
+            raise SweepError(f"--set {text!r}: one value (use --vary for several)")
+        settled[name] = values[0]
+    return _checked(SweepSpec(tuple(names), tuple(grid), settled, preset, seeds), "command line")
+
+
+def spec_from_toml(path: str) -> SweepSpec:
+    """A spec from a TOML file (see the module's docstring)."""
+    try:
+        import tomllib
+    except ModuleNotFoundError:  # Python 3.10
+        import tomli as tomllib
+    try:
+        with open(path, "rb") as fh:
+            doc = tomllib.load(fh)
+    except OSError as exc:
+        raise SweepError(f"{path}: cannot read ({exc.strerror})") from None
+    except (tomllib.TOMLDecodeError, RecursionError) as exc:
+        raise SweepError(f"{path}: not valid TOML ({exc})") from None
+    unknown = sorted(set(doc) - set(SPEC_KEYS))
+    if unknown:
+        raise SweepError(f"{path}: unknown key {unknown[0]!r}; expected {', '.join(SPEC_KEYS)}")
+    scenes = doc.get("scenes")
+    if scenes is None:
+        from scenes import BUILTIN_NAMES
+
+        scenes = list(BUILTIN_NAMES)
+    if not isinstance(scenes, list) or not all(isinstance(s, str) for s in scenes):
+        raise SweepError(f"{path}: scenes = {scenes!r}: expected a list of scene names or paths")
+    base = os.path.dirname(os.path.abspath(path))
+    scenes = [s if not s.endswith(".toml") or os.path.isabs(s) else os.path.join(base, s) for s in scenes]
+    grid = []
+    for name, values in _table(doc, "vary", path).items():
+        if not isinstance(values, list) or not values:
+            raise SweepError(f"{path}: vary.{name} = {values!r}: expected a non-empty list")
+        grid.append((name, tuple(parse_value(name, v, f"{path}: vary") for v in values)))
+    settled = {name: parse_value(name, v, f"{path}: set") for name, v in _table(doc, "set", path).items()}
+    reference = _table(doc, "reference", path)
+    for key in reference:
+        if key not in REFERENCE_KEYS:
+            raise SweepError(f"{path}: reference.{key}: unknown; expected {', '.join(REFERENCE_KEYS)}")
+    seeds = doc.get("seeds", 1)
+    preset = doc.get("preset", "quick")
+    return _checked(SweepSpec(tuple(scenes), tuple(grid), settled, preset, seeds, dict(reference)), path)
+
+
+def _table(doc, key, path) -> dict:
+    value = doc.get(key, {})
+    if not isinstance(value, dict):
+        raise SweepError(f"{path}: {key} = {value!r}: expected a table [{key}]")
+    return value
+
+
+def _checked(spec: SweepSpec, where: str) -> SweepSpec:
+    """Validate everything that can be checked before rendering: scenes exist, names,
+    the preset, the seeds, every point's parameters, overlaps of vary and set."""
+    from scenes import SceneError, resolve_scene
+
+    if spec.preset not in ("quick", "paper"):
+        raise SweepError(f"{where}: preset = {spec.preset!r}: expected \"quick\" or \"paper\"")
+    if isinstance(spec.seeds, bool) or not isinstance(spec.seeds, int) or not 1 <= spec.seeds <= 1024:
+        raise SweepError(f"{where}: seeds = {spec.seeds!r}: expected an integer in [1, 1024]")
+    if not spec.scenes or any(not s for s in spec.scenes):
+        raise SweepError(f"{where}: scenes = {list(spec.scenes)!r}: expected at least one scene, none empty")
+    if len(set(spec.scenes)) != len(spec.scenes):
+        raise SweepError(f"{where}: scenes = {list(spec.scenes)!r}: a scene is listed twice")
+    both = sorted(set(dict(spec.vary)) & set(spec.fixed))
+    if both:
+        raise SweepError(f"{where}: {both[0]} is both varied and set")
+    if "seed" in dict(spec.vary):
+        raise SweepError(f"{where}: seed cannot be varied; use seeds = N (points with seeds seed … seed + N − 1)")
+    for scene in spec.scenes:
+        try:
+            resolve_scene(scene)
+        except SceneError as exc:
+            raise SweepError(f"{where}: {exc}") from None
+    for point in points(spec):
+        last = point.params.seed + spec.seeds - 1
+        if last > 2**32 - 1:
+            raise SweepError(f"{where}: seed {point.params.seed} with seeds = {spec.seeds} exceeds 2^32 − 1")
+    return spec
+
+
+def points(spec: SweepSpec) -> list:
+    """Every point of the grid, per scene, in grid order (ParamError → SweepError)."""
+    from approx.params import PAPER, QUICK
+
+    try:
+        base = dataclasses.replace({"quick": QUICK, "paper": PAPER}[spec.preset], **spec.fixed)
+    except ParamError as exc:
+        raise SweepError(f"set: {exc}") from None
+    names = [name for name, _ in spec.vary]
+    out = []
+    for scene in spec.scenes:
+        for combo in itertools.product(*(values for _, values in spec.vary)):
+            changes = dict(zip(names, combo))
+            try:
+                params = dataclasses.replace(base, **changes)
+            except ParamError as exc:
+                raise SweepError(f"point {scene}, {changes}: {exc}") from None
+            out.append(Point(scene, params))
+    return out
+
+
+# --- running -------------------------------------------------------------------------
+
+def reference_settings(spec: SweepSpec):
+    """The reference budget: the report's, with the spec's overrides."""
+    from reference.settings import SettingsError
+
+    from .defaults import REPORT_REFERENCE
+
+    changes = dict(spec.reference)
+    if isinstance(changes.get("target_noise"), str) and changes["target_noise"].strip().lower() == "none":
+        changes["target_noise"] = None  # render exactly `batches` batches
+    try:
+        return dataclasses.replace(REPORT_REFERENCE, **changes) if changes else REPORT_REFERENCE
+    except (SettingsError, TypeError) as exc:
+        raise SweepError(f"reference: {exc}") from None
+
+
+def run_point(task: dict) -> dict:
+    """One point in a worker process (picklable: plain data in and out). Tasks of one
+    process run one at a time, whatever the executor's threads (GL and Mitsuba are
+    per process)."""
+    with _PROCESS_LOCK:
+        return _run_point(task)
+
+
+def _run_point(task: dict) -> dict:
+    from reference.render import render_reference
+    from scenes import resolve_scene
+
+    from .experiment import run_experiment
+    from .store import Store
+
+    t0 = time.perf_counter()
+    store = Store(task["store"])
+    if store.summary(task["key"]) is not None:
+        return {"key": task["key"], "status": "done", "seconds": 0.0}
+    scene = resolve_scene(task["scene"])
+    params = ApproxParams(**task["params"])
+    settings = _settings_from_dict(task["reference_settings"])
+    reference = render_reference(scene, settings, progress=False)
+    if reference.key != task["reference_key"]:
+        raise RuntimeError(f"{task['scene']}: the worker's reference is {reference.key}, the sweep's "
+                           f"{task['reference_key']}: the workers need the sweep's cache (VOLCAUSTICS_CACHE)")
+    renderer, oracle = _worker_tools(scene)
+    experiment = run_experiment(scene, params, seeds=task["seeds"], reference=reference, renderer=renderer,
+                                oracle=oracle)
+    status = store.write_point(task["key"], task["key_document"], experiment)
+    return {"key": task["key"], "status": status, "seconds": time.perf_counter() - t0}
+
+
+def _settings_from_dict(d: dict):
+    from reference.settings import ReferenceSettings
+
+    d = dict(d)
+    if isinstance(d.get("target_noise"), list):
+        d["target_noise"] = tuple(tuple(x) for x in d["target_noise"])
+    return ReferenceSettings(**d)
+
+
+import threading  # noqa: E402  (module state of worker processes)
+
+_PROCESS_LOCK = threading.Lock()
+_TOOLS: dict = {}
+
+
+def _worker_tools(scene) -> tuple:
+    """A renderer and an oracle per scene, kept for the worker process's life (shader
+    compilation and the oracle's scene build are paid once per scene)."""
+    from approx import Renderer
+    from reference.oracle import Oracle
+
+    key = scene.scene_hash()
+    if key not in _TOOLS:
+        _TOOLS[key] = (Renderer(scene), Oracle(scene))
+    return _TOOLS[key]
+
+
+@dataclass
+class SweepResult:
+    total: int
+    done_before: int
+    computed: int
+    failed: list
+    seconds: float
+    tables: dict
+    figures: list
+
+
+def run_sweep(spec: SweepSpec, out_dir: str, *, workers: int | None = None, dask: str | None = None,
+              progress: bool = True) -> SweepResult:
+    """Run every point not yet in the store at ``out_dir``; then consolidate the tables
+    and draw the figures. Ctrl-C stops it with the finished points kept."""
+    import json
+
+    from reference.render import render_reference
+    from scenes import resolve_scene
+    from scenes.storage import atomic_path, atomic_write_text
+
+    from .executors import run_tasks
+    from .experiment import plain
+    from .figures import draw_figures, settings_that_suffice
+    from .store import Store, key_document, point_key
+
+    t0 = time.perf_counter()
+    store = Store(out_dir)
+    store.clean_stale()
+    settings = reference_settings(spec)
+    grid = points(spec)
+    scenes = {name: resolve_scene(name) for name in spec.scenes}
+    references = {}
+    tasks, keys = [], []
+    for point in grid:
+        scene = scenes[point.scene]
+        p = point.params.resolved(scene)
+        size = (point.scene, p.width, p.height)
+        if size not in references:
+            references[size] = render_reference(scene, dataclasses.replace(settings, width=p.width, height=p.height),
+                                                progress=progress)
+        reference = references[size]
+        document = key_document(scene, point.params, spec.seeds, reference.key)
+        key = point_key(document)
+        keys.append(key)
+        if store.status(key) == "done":
+            continue
+        store.remove_damaged(key)
+        tasks.append({"key": key, "key_document": document, "scene": point.scene, "params": p.to_dict(),
+                      "seeds": spec.seeds, "reference_key": reference.key, "store": os.path.abspath(out_dir),
+                      "reference_settings": plain(dataclasses.replace(settings, width=p.width,
+                                                                      height=p.height).to_dict())})
+    unique_tasks = list({t["key"]: t for t in tasks}.values())
+    done_before = len(set(keys)) - len(unique_tasks)
+    manifest = {"spec": spec.to_dict(), "points": len(set(keys)), "keys": sorted(set(keys))}
+    atomic_write_text(os.path.join(out_dir, "sweep.json"), json.dumps(manifest, indent=1))
+    failed, computed = [], 0
+    for result in run_tasks(run_point, unique_tasks, total=len(set(keys)), done=done_before, workers=workers,
+                            dask=dask, progress=progress):
+        if result.get("error"):
+            failed.append(result)
+        else:
+            computed += 1
+    tables = store.consolidate(sorted(set(keys)))
+    varied = [name for name, _ in spec.vary]
+    figures = draw_figures(tables, os.path.join(out_dir, "figures"), varied=varied)
+    if len(tables["points"]):
+        tables["suffice"] = settings_that_suffice(tables["points"], varied)
+        with atomic_path(os.path.join(out_dir, "suffice.csv")) as tmp:
+            tables["suffice"].to_csv(tmp, index=False)
+    return SweepResult(total=len(set(keys)), done_before=done_before, computed=computed, failed=failed,
+                       seconds=time.perf_counter() - t0, tables=tables, figures=figures)
