@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 OUT ?= runs/report
 
-.PHONY: setup report test doctor clean
+.PHONY: setup report test doctor sweep clean
 
 setup:
 	@bash scripts/setup.sh
@@ -17,6 +17,10 @@ test: setup
 
 doctor: setup
 	$(BIN)/volcaustics doctor
+
+# The standard sweep: every built-in x layers x iterations at the quick preset, one seed.
+sweep: setup
+	$(BIN)/volcaustics sweep --vary layers=1,2,4,8 --vary iterations=4,8,16,30 -o runs/sweep
 
 clean:
 	rm -rf runs test-output .pytest_cache .hypothesis

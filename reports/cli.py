@@ -231,11 +231,12 @@ def _cmd_sweep(args) -> int:
           f"{len(result.failed)} failed, {result.seconds:.1f} s -> {args.output}/")
     suffice = result.tables.get("suffice")
     if suffice is not None and len(suffice):
-        print(f"settings that suffice (caustic relative MSE within {suffice['factor'].iloc[0]:g}x the best):")
+        print(f"settings that suffice (error within {suffice['factor'].iloc[0]:g}x the best; caustic: debiased "
+              f"relative MSE, intersection: the intersection term's own relative MSE):")
         for _, row in suffice.iterrows():
-            print(f"  {row['scene']:<12} {row['layer_strategy']:<9} {row['parameter']:<12} {row['suffices']:g} "
-                  f"(of {row['largest']:g}): {100 * row['caustic_relmse_debiased']:.2f}% vs best "
-                  f"{100 * row['best']:.2f}%, frame {row['frame_time_s']:.3f} s")
+            print(f"  {row['scene']:<12} {row['layer_strategy']:<9} {row['parameter']:<12} "
+                  f"{row['criterion'].split('_')[0]:<12} {row['suffices']:g} (of {row['largest']:g}): "
+                  f"{100 * row['error']:.2f}% vs best {100 * row['best']:.2f}%, frame {row['frame_time_s']:.3f} s")
     for failure in result.failed:
         print(f"  failed: {failure['key'][:12]}: {failure['error']}", file=sys.stderr)
     return 1 if result.failed else 0

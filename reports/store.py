@@ -47,12 +47,16 @@ def point_key(document: dict) -> str:
     return hashlib.sha256(text.encode()).hexdigest()[:32]
 
 
-def key_document(scene, params, seeds: int, reference_key: str) -> dict:
-    """Everything that determines a point's result."""
+def key_document(scene, params, seeds: int, reference) -> dict:
+    """Everything that determines a point's result: the scene, the resolved parameters,
+    the seeds, the reference (``reference.render.ReferenceResult``: its cache key and,
+    since an entry can be continued with more batches under one key, the hash of its
+    content) and the code version."""
     from .versions import code_version
 
     return {"format": STORE_FORMAT, "scene_hash": scene.scene_hash(), "params": params.resolved(scene).to_dict(),
-            "seeds": seeds, "reference_key": reference_key, "code_version": code_version()}
+            "seeds": seeds, "reference_key": reference.key,
+            "reference_content": reference.manifest.get("exr_sha256"), "code_version": code_version()}
 
 
 class Store:
@@ -204,6 +208,8 @@ def point_row(key: str, summary: dict) -> dict:
         row[f"{name}_hdr_flip"] = metrics.get("hdr_flip", {}).get("value")
     for term in ("intersection", "truncation", "reflections", "kernel_blur", "residual"):
         row[f"share_{term}"] = decomposition.get(term, {}).get("energy_share")
+    # the intersection estimate's own error: Σ(E_k − A)² / Σ R², what layers and iterations change
+    row["intersection_relmse_own"] = decomposition.get("intersection", {}).get("relmse_own")
     row["residual_within_noise"] = summary.get("decomposition", {}).get("residual", {}).get("within_noise")
     return {k: (float("nan") if v is None and k not in ("point",) else v) for k, v in row.items()}
 

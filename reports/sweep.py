@@ -248,8 +248,9 @@ def run_point(task: dict) -> dict:
 
 
 def _run_point(task: dict) -> dict:
-    from reference.render import render_reference
+    from reference.lookup import cached_reference
     from scenes import resolve_scene
+    from scenes.storage import cache_dir
 
     from .experiment import run_experiment
     from .store import Store
@@ -260,25 +261,16 @@ def _run_point(task: dict) -> dict:
         return {"key": task["key"], "status": "done", "seconds": 0.0}
     scene = resolve_scene(task["scene"])
     params = ApproxParams(**task["params"])
-    settings = _settings_from_dict(task["reference_settings"])
-    reference = render_reference(scene, settings, progress=False)
-    if reference.key != task["reference_key"]:
-        raise RuntimeError(f"{task['scene']}: the worker's reference is {reference.key}, the sweep's "
-                           f"{task['reference_key']}: the workers need the sweep's cache (VOLCAUSTICS_CACHE)")
+    reference = cached_reference(task["reference_key"], scene)  # the sweep's own, never rendered here
+    if reference is None:
+        raise RuntimeError(f"{task['scene']}: reference {task['reference_key']} is not in this worker's cache "
+                           f"({cache_dir('reference')}): the workers need the sweep's cache (VOLCAUSTICS_CACHE on "
+                           f"a shared file system)")
     renderer, oracle = _worker_tools(scene)
     experiment = run_experiment(scene, params, seeds=task["seeds"], reference=reference, renderer=renderer,
                                 oracle=oracle)
     status = store.write_point(task["key"], task["key_document"], experiment)
     return {"key": task["key"], "status": status, "seconds": time.perf_counter() - t0}
-
-
-def _settings_from_dict(d: dict):
-    from reference.settings import ReferenceSettings
-
-    d = dict(d)
-    if isinstance(d.get("target_noise"), list):
-        d["target_noise"] = tuple(tuple(x) for x in d["target_noise"])
-    return ReferenceSettings(**d)
 
 
 import threading  # noqa: E402  (module state of worker processes)
@@ -308,6 +300,7 @@ class SweepResult:
     seconds: float
     tables: dict
     figures: list
+    point_seconds: list = field(default_factory=list)  # each computed point's own seconds, in its worker
 
 
 def run_sweep(spec: SweepSpec, out_dir: str, *, workers: int | None = None, dask: str | None = None,
@@ -316,12 +309,12 @@ def run_sweep(spec: SweepSpec, out_dir: str, *, workers: int | None = None, dask
     and draw the figures. Ctrl-C stops it with the finished points kept."""
     import json
 
+    from reference.lookup import existing_reference
     from reference.render import render_reference
     from scenes import resolve_scene
     from scenes.storage import atomic_path, atomic_write_text
 
     from .executors import run_tasks
-    from .experiment import plain
     from .figures import draw_figures, settings_that_suffice
     from .store import Store, key_document, point_key
 
@@ -338,30 +331,31 @@ def run_sweep(spec: SweepSpec, out_dir: str, *, workers: int | None = None, dask
         p = point.params.resolved(scene)
         size = (point.scene, p.width, p.height)
         if size not in references:
-            references[size] = render_reference(scene, dataclasses.replace(settings, width=p.width, height=p.height),
-                                                progress=progress)
+            sized = dataclasses.replace(settings, width=p.width, height=p.height)
+            # rendered once: an existing entry is used as it is (not continued), so a resumed
+            # sweep measures against the reference its first points had
+            references[size] = existing_reference(scene, sized) or render_reference(scene, sized, progress=progress)
         reference = references[size]
-        document = key_document(scene, point.params, spec.seeds, reference.key)
+        document = key_document(scene, point.params, spec.seeds, reference)
         key = point_key(document)
         keys.append(key)
         if store.status(key) == "done":
             continue
         store.remove_damaged(key)
         tasks.append({"key": key, "key_document": document, "scene": point.scene, "params": p.to_dict(),
-                      "seeds": spec.seeds, "reference_key": reference.key, "store": os.path.abspath(out_dir),
-                      "reference_settings": plain(dataclasses.replace(settings, width=p.width,
-                                                                      height=p.height).to_dict())})
+                      "seeds": spec.seeds, "reference_key": reference.key, "store": os.path.abspath(out_dir)})
     unique_tasks = list({t["key"]: t for t in tasks}.values())
     done_before = len(set(keys)) - len(unique_tasks)
     manifest = {"spec": spec.to_dict(), "points": len(set(keys)), "keys": sorted(set(keys))}
     atomic_write_text(os.path.join(out_dir, "sweep.json"), json.dumps(manifest, indent=1))
-    failed, computed = [], 0
+    failed, computed, point_seconds = [], 0, []
     for result in run_tasks(run_point, unique_tasks, total=len(set(keys)), done=done_before, workers=workers,
                             dask=dask, progress=progress):
         if result.get("error"):
             failed.append(result)
         else:
             computed += 1
+            point_seconds.append(result["seconds"])
     tables = store.consolidate(sorted(set(keys)))
     varied = [name for name, _ in spec.vary]
     figures = draw_figures(tables, os.path.join(out_dir, "figures"), varied=varied)
@@ -370,4 +364,4 @@ def run_sweep(spec: SweepSpec, out_dir: str, *, workers: int | None = None, dask
         with atomic_path(os.path.join(out_dir, "suffice.csv")) as tmp:
             tables["suffice"].to_csv(tmp, index=False)
     return SweepResult(total=len(set(keys)), done_before=done_before, computed=computed, failed=failed,
-                       seconds=time.perf_counter() - t0, tables=tables, figures=figures)
+                       seconds=time.perf_counter() - t0, tables=tables, figures=figures, point_seconds=point_seconds)

@@ -1,0 +1,227 @@
+"""`volcaustics sweep`: specs validated before rendering, a resumable store that loses
+nothing on SIGINT and recomputes a damaged point, and a real Dask LocalCluster."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from reports.cli import main
+from reports.store import SUMMARY, Store
+
+# tiny points: 32², photon_res 64, light_res 64; a reference of 4 batches
+SPEC = """
+scenes = ["refocus"]
+seeds = 1
+[vary]
+layers = [1, 2]
+iterations = [4, 8]
+[set]
+width = 32
+height = 32
+photon_res = 64
+light_res = 64
+[reference]
+photons = 65536
+spp = 8
+batches = 4
+target_noise = "none"
+"""
+
+
+@pytest.fixture
+def env(tmp_path, monkeypatch):
+    cache = tmp_path / "cache"
+    monkeypatch.setenv("VOLCAUSTICS_CACHE", str(cache))
+    monkeypatch.setenv("VOLCAUSTICS_MI_VARIANT", "llvm_ad_rgb")
+    return cache
+
+
+def _spec(tmp_path, text=SPEC, name="sweep.toml") -> str:
+    path = tmp_path / name
+    path.write_text(text)
+    return str(path)
+
+
+def _complete(store: Path) -> dict:
+    """key → mtime of summary.json of every complete point."""
+    s = Store(str(store))
+    return {p.name: (p / SUMMARY).stat().st_mtime_ns for p in (store / "points").iterdir()
+            if not p.name.startswith(".") and s.summary(p.name) is not None}
+
+
+def test_dask_local_cluster_runs_a_sweep_and_writes_tables_and_figures(env, tmp_path, capsys):
+    out = tmp_path / "store"
+    assert main(["sweep", _spec(tmp_path), "-o", str(out), "--dask", "local:2", "--quiet"]) == 0
+    printed = capsys.readouterr().out
+    assert "4 points: 0 already in the store, 4 computed, 0 failed" in printed
+    assert len(_complete(out)) == 4
+    points = pd.read_parquet(out / "points.parquet")
+    assert sorted(zip(points["layers"], points["iterations"])) == [(1, 4), (1, 8), (2, 4), (2, 8)]
+    assert (points["scene"] == "refocus").all() and np.isfinite(points["caustic_relmse_debiased"]).all()
+    images = pd.read_parquet(out / "images.parquet")
+    assert set(images["point"]) == set(points["point"])
+    for name in ("intersection_vs_layers", "intersection_vs_iterations", "caustic_error_vs_layers",
+                 "time_vs_error", "power_budget"):
+        assert (out / "figures" / f"{name}.png").read_bytes().startswith(b"\x89PNG")
+        assert b"<svg" in (out / "figures" / f"{name}.svg").read_bytes()[:500]
+    suffice = pd.read_csv(out / "suffice.csv")
+    assert set(suffice["parameter"]) == {"layers", "iterations"}
+    # warm: everything is in the store, nothing is recomputed
+    before = _complete(out)
+    assert main(["sweep", _spec(tmp_path), "-o", str(out), "--quiet"]) == 0
+    assert "4 already in the store, 0 computed" in capsys.readouterr().out
+    assert _complete(out) == before
+
+
+def test_a_damaged_point_is_detected_and_recomputed(env, tmp_path, capsys):
+    out = tmp_path / "store"
+    spec = _spec(tmp_path, SPEC.replace("iterations = [4, 8]", "iterations = [4]"))
+    assert main(["sweep", spec, "-o", str(out), "--workers", "1", "--quiet"]) == 0
+    before = _complete(out)
+    assert len(before) == 2
+    damaged, kept = sorted(before)
+    table = out / "points" / damaged / "images.parquet"
+    table.write_bytes(table.read_bytes()[:-100] + b"\0" * 100)  # a torn write
+    capsys.readouterr()
+    assert main(["sweep", spec, "-o", str(out), "--workers", "1", "--quiet"]) == 0
+    assert "1 already in the store, 1 computed" in capsys.readouterr().out
+    after = _complete(out)
+    assert after[kept] == before[kept] and after[damaged] != before[damaged]
+    pd.read_parquet(table)  # whole again
+
+
+def test_sigint_keeps_finished_points_and_the_rerun_computes_only_the_rest(env, tmp_path):
+    """SIGINT after the first point is in the store: exit 130, no partial point, and
+    the rerun computes exactly the points missing (none twice, none lost)."""
+    out = tmp_path / "store"
+    spec = _spec(tmp_path, SPEC.replace("layers = [1, 2]", "layers = [1, 2, 3, 4]"))  # 8 points
+    command = [sys.executable, "-m", "reports.cli", "sweep", spec, "-o", str(out), "--workers", "1", "--quiet"]
+    process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=os.environ.copy(),
+                               cwd=Path(__file__).resolve().parents[2])
+    deadline = time.time() + 300
+    while time.time() < deadline and process.poll() is None:
+        if (out / "points").exists() and len(_complete(out)) >= 1:
+            break
+        time.sleep(0.2)
+    assert process.poll() is None, process.communicate()
+    process.send_signal(signal.SIGINT)
+    _, err = process.communicate(timeout=120)
+    assert process.returncode == 130, err.decode()[-2000:]
+    finished = _complete(out)
+    assert 1 <= len(finished) < 8
+    # no half point: every folder is complete, temporaries only
+    for folder in (out / "points").iterdir():
+        assert folder.name.startswith(".tmp-") or folder.name in finished
+    rerun = subprocess.run(command, capture_output=True, text=True, env=os.environ.copy(),
+                           cwd=Path(__file__).resolve().parents[2], timeout=600)
+    assert rerun.returncode == 0, rerun.stderr[-2000:]
+    assert f"8 points: {len(finished)} already in the store, {8 - len(finished)} computed" in rerun.stdout
+    after = _complete(out)
+    assert len(after) == 8
+    assert all(after[k] == finished[k] for k in finished)  # none recomputed
+    assert not [f for f in (out / "points").iterdir() if f.name.startswith(".")]  # stale temporaries removed
+
+
+@pytest.mark.parametrize("spec, message", [
+    (SPEC.replace("layers = [1, 2]", "layer = [1, 2]"), "unknown parameter 'layer'"),
+    (SPEC.replace("layers = [1, 2]", "layers = [1, 99]"), "layers = 99"),
+    (SPEC.replace("layers = [1, 2]", "layers = [1, 2.5]"), "expected an integer"),
+    (SPEC.replace("seeds = 1", "seeds = 0"), "seeds = 0"),
+    (SPEC.replace('scenes = ["refocus"]', 'scenes = ["nosuch"]'), "nosuch"),
+    (SPEC + "\n[extra]\n", "unknown key 'extra'"),
+    (SPEC.replace("[reference]", "[reference]\nphotonz = 3"), "reference.photonz"),
+    ("scenes = [", "not valid TOML"),
+])
+def test_bad_spec_exits_2_and_renders_nothing(env, tmp_path, capsys, spec, message):
+    out = tmp_path / "store"
+    assert main(["sweep", _spec(tmp_path, spec), "-o", str(out), "--quiet"]) == 2
+    assert message in capsys.readouterr().err
+    assert not out.exists()
+    assert not env.exists() or not any(env.rglob("*.exr"))
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--vary", "layerz=1,2"], "unknown parameter 'layerz'"),
+    (["--vary", "layers=1,,2"], "an empty value"),
+    (["--vary", "layers=1", "--set", "layers=2"], "both varied and set"),
+    (["--set", "fresnel=maybe"], "fresnel"),
+    (["--vary", "seed=1,2"], "seed cannot be varied"),
+    (["--workers", "0"], "--workers"),
+    (["--dask", "udp://x"], "--dask"),
+])
+def test_bad_command_line_exits_2(env, tmp_path, capsys, args, message):
+    out = tmp_path / "store"
+    assert main(["sweep", "--scenes", "refocus", *args, "-o", str(out), "--quiet"]) == 2
+    assert message in capsys.readouterr().err
+    assert not out.exists()
+
+
+def test_store_commit_keeps_a_complete_copy_and_replaces_a_damaged_one(tmp_path):
+    """Two writers of one point: the second finds it complete and keeps it; a damaged
+    copy in the way is replaced."""
+    store = Store(str(tmp_path / "s"))
+    key = "k" * 32
+
+    def fake_point(marker):
+        tmp = tmp_path / f"tmp-{marker}"
+        tmp.mkdir()
+        files = {}
+        for name in ("segments", "photons", "images"):
+            pd.DataFrame({"x": [marker]}).to_parquet(tmp / f"{name}.parquet")
+            from scenes.storage import file_sha256
+
+            files[f"{name}.parquet"] = file_sha256(str(tmp / f"{name}.parquet"))
+        (tmp / SUMMARY).write_text(json.dumps({"key": key, "files": files}))
+        return str(tmp)
+
+    assert store._commit(fake_point(1), key) == "written"
+    assert store._commit(fake_point(2), key) == "kept"
+    assert pd.read_parquet(Path(store.point_dir(key)) / "images.parquet")["x"].tolist() == [1]
+    (Path(store.point_dir(key)) / "photons.parquet").write_bytes(b"garbage")
+    assert store.status(key) == "damaged"
+    assert store._commit(fake_point(3), key) == "written"
+    assert pd.read_parquet(Path(store.point_dir(key)) / "images.parquet")["x"].tolist() == [3]
+
+
+def test_two_sweeps_writing_one_store_do_not_corrupt_it(env, tmp_path):
+    """Two sweeps of one spec started together on one store: both succeed, every point
+    is there once and whole, and the consolidated tables hold each point once."""
+    out = tmp_path / "store"
+    spec = _spec(tmp_path)
+    command = [sys.executable, "-m", "reports.cli", "sweep", spec, "-o", str(out), "--workers", "1", "--quiet"]
+    root = Path(__file__).resolve().parents[2]
+    # the reference first, so that the two do not render it twice at once (the cache is
+    # atomic too, but two renders would only cost time)
+    assert main(["sweep", _spec(tmp_path, SPEC.replace("iterations = [4, 8]", "iterations = [4]")
+                                .replace("layers = [1, 2]", "layers = [1]"), "first.toml"), "-o", str(tmp_path / "warm"),
+                 "--quiet"]) == 0
+    runs = [subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                             env=os.environ.copy(), cwd=root) for _ in range(2)]
+    outputs = [r.communicate(timeout=600) for r in runs]
+    assert [r.returncode for r in runs] == [0, 0], [o[1][-1500:] for o in outputs]
+    complete = _complete(out)
+    assert len(complete) == 4
+    assert not [f for f in (out / "points").iterdir() if f.name.startswith(".") or "damaged" in f.name]
+    points = pd.read_parquet(out / "points.parquet")
+    assert sorted(points["point"]) == sorted(complete)
+
+
+def test_a_worker_without_the_sweeps_reference_fails_its_point_with_the_fix(env):
+    """Workers never render references: one that does not find the sweep's in its cache
+    (another VOLCAUSTICS_CACHE on a cluster node) fails the point and says what to share."""
+    from reports.sweep import _run_point
+
+    task = {"key": "0" * 32, "key_document": {}, "scene": "refocus", "params": {}, "seeds": 1,
+            "reference_key": "f" * 32, "store": str(env.parent / "store")}
+    with pytest.raises(RuntimeError, match="VOLCAUSTICS_CACHE"):
+        _run_point(task)
