@@ -242,6 +242,39 @@ def _cmd_sweep(args) -> int:
     return 1 if result.failed else 0
 
 
+def _cmd_gate(args) -> int:
+    from scenes.storage import atomic_write_text
+
+    from .gate import console_table, default_budgets_path, junit_xml, load_budgets, run_gate
+    from .sweep import _parse_assignment
+
+    _check_output_dir(args.out, "--out")
+    if args.update_baseline and not args.baseline:
+        raise UsageError("--update-baseline", True, "needs --baseline DIR (where to write it)")
+    overrides = {}
+    for text in args.set or []:
+        name, values = _parse_assignment(text, "--set")
+        if len(values) != 1:
+            raise UsageError("--set", text, "one value per parameter")
+        if name == "seed":
+            raise UsageError("--set", text, "use --seed (the first of the --seeds seeds)")
+        overrides[name] = values[0]
+    budgets = load_budgets(args.budgets or default_budgets_path())
+    scenes = [s.strip() for s in args.scenes.split(",")] if args.scenes else None
+    result = run_gate(budgets, overrides=overrides, baseline_dir=args.baseline, update_baseline=args.update_baseline,
+                      out_dir=args.out, scenes=scenes, seeds=args.seeds, seed=args.seed,
+                      render_references=args.render_references, progress=not args.quiet)
+    print(console_table(result.checks))
+    if args.junit:
+        atomic_write_text(args.junit, junit_xml(result.checks, result.seconds))
+    failed = sum(not c.passed for c in result.checks)
+    verdict = "FAILED" if failed else "passed"
+    print(f"gate {verdict}: {failed} of {len(result.checks)} checks failed, {result.seconds:.1f} s -> "
+          f"{args.out}/gate.json" + (f", {args.junit}" if args.junit else "")
+          + (f"; baseline written: {result.updated_baseline}" if result.updated_baseline else ""))
+    return result.exit_code
+
+
 def _add_report_reference(p) -> None:
     """The reference options of ``report`` and ``measure`` (default: the report's budget)."""
     from .defaults import REPORT_REFERENCE, REPORT_TARGET
@@ -362,6 +395,23 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=_cmd_sweep)
 
+    p = sub.add_parser("gate", help="fail (exit 1) when the approximation exceeds its budgets or regresses against "
+                                    "the baseline; exit 2 on bad input or missing data")
+    p.add_argument("--budgets", metavar="FILE.toml", help="budgets per scene (default: reports/budgets.toml)")
+    p.add_argument("--baseline", metavar="DIR", help="the last accepted results (DIR/baseline.json)")
+    p.add_argument("--update-baseline", dest="update_baseline", action="store_true",
+                   help="accept this run's results as the baseline (written atomically), no regression test")
+    p.add_argument("--set", action="append", metavar="NAME=VALUE", help="override an approximation parameter")
+    p.add_argument("--scenes", help="comma-separated budgeted scenes (default: all in the budgets)")
+    p.add_argument("--seeds", type=int, help="frames per scene (default: the budgets' seeds)")
+    p.add_argument("--seed", type=int, default=0, help="the first seed (default 0)")
+    p.add_argument("--junit", metavar="OUT.xml", help="also write a JUnit XML report")
+    p.add_argument("--out", default="runs/gate", help="gate.json and failure images (default runs/gate)")
+    p.add_argument("--render-references", dest="render_references", action="store_true",
+                   help="render missing references (else a missing one is an error, exit 2)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=_cmd_gate)
+
     p = sub.add_parser("report", help="the main job: approximation vs ground truth on the built-in scenes")
     p.add_argument("--out", default="runs/report", help="output folder (default runs/report)")
     p.add_argument("--scenes", help="comma-separated built-in scene names (default: all)")
@@ -378,12 +428,13 @@ def main(argv=None) -> int:
     from scenes import SceneError
 
     from .experiment import ExperimentError
+    from .gate import GateError
     from .sweep import SweepError
 
     args = build_parser().parse_args(argv)
     try:
         return args.func(args)
-    except (SceneError, ParamError, SettingsError, UsageError, ExperimentError, SweepError) as exc:
+    except (SceneError, ParamError, SettingsError, UsageError, ExperimentError, SweepError, GateError) as exc:
         print(f"volcaustics: error: {exc}", file=sys.stderr)
         return EXIT_USAGE
     except KeyboardInterrupt:

@@ -451,6 +451,8 @@ def _image_rows(frames, reference, keep, columns) -> tuple:
                 debiased=err.debiased, approx_noise_removed=err.seeds >= 2, standard_error=err.standard_error,
                 **_ci(err.interval), options=json.dumps({"interval": "jackknife over seeds, Student t",
                                                          "level": LEVEL, "pixels": err.pixels}))
+            # each frame's own relative MSE, in seed order: what a regression test over seeds compares
+            head["relative_mse"]["per_seed"] = [im.relative_mse(r, a, mask=keep) for a in stack]
 
         measured("relative_mse", relative_mse)
         for metric, (fn, debias) in per_frame.items():
