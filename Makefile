@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 OUT ?= runs/report
 
-.PHONY: setup report test doctor sweep clean
+.PHONY: setup report test doctor sweep gate gate-baseline clean
 
 setup:
 	@bash scripts/setup.sh
@@ -17,6 +17,16 @@ test: setup
 
 doctor: setup
 	$(BIN)/volcaustics doctor
+
+# The regression gate on the built-ins: budgets (reports/budgets.toml) and, once a
+# baseline is accepted (`make gate-baseline`), the regression test against it.
+GATE_BASELINE ?= gate-baseline
+gate: setup
+	$(BIN)/volcaustics gate --render-references --junit runs/gate/junit.xml \
+	  $$( [ -f $(GATE_BASELINE)/baseline.json ] && echo --baseline $(GATE_BASELINE) )
+
+gate-baseline: setup
+	$(BIN)/volcaustics gate --render-references --baseline $(GATE_BASELINE) --update-baseline
 
 # The standard sweep: every built-in x layers x iterations at the quick preset, one seed.
 sweep: setup

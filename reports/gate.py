@@ -42,7 +42,7 @@ POWER = 0.95            # for the stated detectable increase
 RESOLVE_SIGMAS = 3.0    # a budget must lie this many standard errors beyond the noise
 COMPONENT_KEYS = ("relmse_max", "energy_ratio", "hdr_flip_max")
 SEGMENT_KEYS = ("missed_step2_max", "dt_p90_step2_max")
-TOP_KEYS = ("preset", "seeds", "scene")
+TOP_KEYS = ("preset", "seeds", "scene", "reference")
 
 
 class GateError(ValueError):
@@ -115,7 +115,16 @@ def load_budgets(path: str) -> dict:
                     raise GateError(f"{where} = {limit!r}: expected a positive number")
                 checks[f"{group}.{key}"] = limit
         out[name] = checks
-    return {"preset": preset, "seeds": seeds, "scenes": out, "path": path}
+    from .sweep import REFERENCE_KEYS, SweepError, SweepSpec, reference_settings
+
+    reference = doc.get("reference", {})
+    if not isinstance(reference, dict) or any(k not in REFERENCE_KEYS for k in reference):
+        raise GateError(f"{path}: reference = {reference!r}: expected a table of {', '.join(REFERENCE_KEYS)}")
+    try:
+        settings = reference_settings(SweepSpec(scenes=(), vary=(), reference=reference))
+    except SweepError as exc:
+        raise GateError(f"{path}: {exc}") from None
+    return {"preset": preset, "seeds": seeds, "scenes": out, "path": path, "reference_settings": settings}
 
 
 # --- measuring -----------------------------------------------------------------------
@@ -316,7 +325,8 @@ def run_gate(budgets: dict, *, overrides: dict, baseline_dir: str | None, update
             raise GateError(f"{baseline_dir}/baseline.json: no entry for {absent[0]!r}: update the baseline")
     checks, entries = [], {}
     for name in tqdm(names, desc="gate", unit="scene", disable=not progress):
-        experiment = measure_scene(name, params, n_seeds, render_references=render_references)
+        experiment = measure_scene(name, params, n_seeds, render_references=render_references,
+                                   reference_settings=budgets["reference_settings"])
         scene_checks = budget_checks(name, budgets["scenes"][name], experiment)
         entry = baseline_entry(experiment)
         entries[name] = entry
@@ -330,8 +340,9 @@ def run_gate(budgets: dict, *, overrides: dict, baseline_dir: str | None, update
             if not check.passed:
                 check.images = _failure_images(out_dir, name, check, experiment)
         checks += scene_checks
-    updated = write_baseline(baseline_dir, entries) if update_baseline and baseline_dir else None
     failed = [c for c in checks if not c.passed]
+    # only results that pass their budgets are accepted as the baseline
+    updated = write_baseline(baseline_dir, entries) if update_baseline and baseline_dir and not failed else None
     result = GateResult(checks=checks, exit_code=1 if failed else 0, seconds=time.perf_counter() - t0,
                         baseline=baseline_dir, updated_baseline=updated)
     _write_json(out_dir, result, params, n_seeds, budgets)

@@ -1,0 +1,142 @@
+"""`volcaustics gate`: budgets, a regression test against a baseline, exit codes that
+fail closed, JUnit XML that validates."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from reports.cli import main
+
+SIZE = ["--set", "width=48", "--set", "height=48", "--set", "photon_res=128", "--set", "light_res=128"]
+REFERENCE = """
+[reference]
+photons = 262144
+spp = 16
+batches = 4
+target_noise = "none"
+"""
+
+
+def budgets(tmp_path, scene_tables: str, seeds: int = 2, name: str = "budgets.toml") -> str:
+    path = tmp_path / name
+    path.write_text(f'preset = "quick"\nseeds = {seeds}\n{REFERENCE}\n{scene_tables}')
+    return str(path)
+
+
+# Limits at this size (48², photon_res 128, light_res 128, 2 seeds), from measurement on
+# bunny: unmodified, step-2 |Δt| p90 11.1–11.3 mm and missed 2.71–2.77% over seeds
+# 0, 7, 100, 1000; iterations = 2: 14.5 mm and 4.4%; peak_samples = 0: 4.8% missed;
+# layers = 1: 7.1% missed (bunny needs two levels). The limits sit between: 13 mm, 3.6%.
+BUNNY = """
+[scene.bunny]
+caustic = { relmse_max = 0.6, energy_ratio = [0.2, 0.7], hdr_flip_max = 0.99 }
+segments = { missed_step2_max = 0.036, dt_p90_step2_max = 0.013 }
+"""
+
+
+@pytest.fixture
+def env(tmp_path, monkeypatch):
+    monkeypatch.setenv("VOLCAUSTICS_CACHE", str(tmp_path / "cache"))
+    monkeypatch.setenv("VOLCAUSTICS_MI_VARIANT", "llvm_ad_rgb")
+    return tmp_path
+
+
+def gate(tmp_path, *args, out="gate"):
+    return main(["gate", "--out", str(tmp_path / out), "--quiet", *SIZE, *args])
+
+
+def test_unmodified_passes_and_degraded_fail_the_right_check(env, capsys):
+    tmp = env
+    spec = budgets(tmp, BUNNY)
+    baseline = str(tmp / "baseline")
+    assert gate(tmp, "--budgets", spec, "--baseline", baseline, "--update-baseline", "--render-references") == 0
+    assert (tmp / "baseline" / "baseline.json").exists()
+    capsys.readouterr()
+    # unchanged, same seeds: identical frames, the regression check passes with p = 1
+    assert gate(tmp, "--budgets", spec, "--baseline", baseline, "--junit", str(tmp / "j.xml")) == 0
+    out = capsys.readouterr().out
+    assert "regression.caustic_relmse" in out and "gate passed" in out
+    doc = json.loads((tmp / "gate" / "gate.json").read_text())
+    assert doc["passed"] and {c["name"] for c in doc["checks"]} >= {"caustic.relmse_max", "regression.caustic_relmse"}
+    # other seeds: a two-sample test, still a pass
+    assert gate(tmp, "--budgets", spec, "--baseline", baseline, "--seed", "7") == 0
+    capsys.readouterr()
+    # degraded: the binary search with 2 iterations misplaces hits
+    assert gate(tmp, "--budgets", spec, "--set", "iterations=2", out="it2") == 1
+    out = capsys.readouterr().out
+    assert "FAIL     bunny        segments.dt_p90_step2_max" in out
+    failure = [c for c in json.loads((tmp / "it2" / "gate.json").read_text())["checks"] if not c["passed"]]
+    assert failure[0]["images"] and all(Path(p).read_bytes().startswith(b"\x89PNG")
+                                        for p in failure[0]["images"].values())
+    # degraded: no peak samples, no sign change found: hits are missed
+    assert gate(tmp, "--budgets", spec, "--set", "peak_samples=0", out="ps0") == 1
+    assert "FAIL     bunny        segments.missed_step2_max" in capsys.readouterr().out
+    # degraded: one level where bunny needs two
+    assert gate(tmp, "--budgets", spec, "--set", "layers=1", out="l1") == 1
+    assert "FAIL     bunny        segments.missed_step2_max" in capsys.readouterr().out
+    # a failing run is not accepted as the baseline
+    assert gate(tmp, "--budgets", spec, "--set", "layers=1", "--baseline", str(tmp / "b2"), "--update-baseline",
+                out="l1b") == 1
+    assert not (tmp / "b2" / "baseline.json").exists()
+
+
+def test_junit_validates_against_the_junit_schema(env, capsys):
+    import xmlschema
+
+    from reports.gate import Check, junit_xml
+
+    checks = [Check("bunny", "caustic.relmse_max", 0.2, "≤ 0.3", True),
+              Check("bunny", "segments.missed_step2_max", 0.09, "≤ 0.06", False, "bunny: missed <&> 0.09",
+                    {"approx": "/x/a.png", "reference": "/x/r.png", "error": "/x/e.png"})]
+    text = junit_xml(checks, 1.5)
+    schema = xmlschema.XMLSchema(str(Path(__file__).with_name("junit.xsd")))
+    schema.validate(text)
+    doc = schema.to_dict(text)
+    assert doc["testsuite"][0]["@failures"] == 1 and len(doc["testsuite"][0]["testcase"]) == 2
+    assert "/x/e.png" in text and "&lt;&amp;&gt;" in text
+
+
+@pytest.mark.parametrize("case", ["no_baseline", "baseline_without_scene", "unknown_scene", "missing_reference",
+                                  "too_tight", "bad_budget", "unknown_set"])
+def test_fail_closed_cases_exit_2(env, capsys, case):
+    tmp = env
+    spec = budgets(tmp, BUNNY)
+    args = ["--budgets", spec]
+    if case == "no_baseline":
+        args += ["--baseline", str(tmp / "nowhere"), "--render-references"]
+    elif case == "baseline_without_scene":
+        (tmp / "b").mkdir()
+        (tmp / "b" / "baseline.json").write_text(json.dumps({"format": 1, "scenes": {"skull": {}}}))
+        args += ["--baseline", str(tmp / "b"), "--render-references"]
+    elif case == "unknown_scene":
+        args = ["--budgets", budgets(tmp, BUNNY.replace("scene.bunny", "scene.nosuch"), name="u.toml"),
+                "--render-references"]
+    elif case == "missing_reference":
+        pass  # an empty cache and no --render-references
+    elif case == "too_tight":
+        args = ["--budgets", budgets(tmp, BUNNY.replace("energy_ratio = [0.2, 0.7]", "energy_ratio = [0.4, 0.4000001]"),
+                                     name="t.toml"), "--render-references"]
+    elif case == "bad_budget":
+        args = ["--budgets", budgets(tmp, BUNNY.replace("relmse_max = 0.6", "relmse_maxx = 0.6"), name="b.toml")]
+    elif case == "unknown_set":
+        args += ["--set", "layerz=2"]
+    assert gate(tmp, *args) == 2
+    err = capsys.readouterr().err
+    expected = {"no_baseline": "no baseline", "baseline_without_scene": "no entry for 'bunny'",
+                "unknown_scene": "nosuch", "missing_reference": "no reference in the cache",
+                "too_tight": "narrower than", "bad_budget": "relmse_maxx", "unknown_set": "layerz"}[case]
+    assert expected in err
+
+
+def test_a_nan_metric_is_an_error_not_a_pass():
+    from reports.gate import GateError, budget_checks
+
+    class Fake:
+        summary = {"images": {"caustic": {"hdr_flip": {"value": float("nan")}}}}
+        segments = []
+
+    with pytest.raises(GateError, match="NaN"):
+        budget_checks("bunny", {"caustic.hdr_flip_max": 0.9}, Fake())
