@@ -140,3 +140,12 @@ def test_a_nan_metric_is_an_error_not_a_pass():
 
     with pytest.raises(GateError, match="NaN"):
         budget_checks("bunny", {"caustic.hdr_flip_max": 0.9}, Fake())
+
+
+def test_the_unmodified_approximation_passes_the_default_budgets(env, capsys):
+    """The shipped budgets (reports/budgets.toml, quick preset, 4 seeds) on two built-ins
+    with the report's references rendered here; `make gate` runs all seven."""
+    assert main(["gate", "--scenes", "sphere1,bunny", "--render-references", "--out", str(env / "g"),
+                 "--quiet"]) == 0
+    out = capsys.readouterr().out
+    assert "gate passed: 0 of 12 checks failed" in out
