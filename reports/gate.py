@@ -69,20 +69,9 @@ def default_budgets_path() -> str:
 
 def load_budgets(path: str) -> dict:
     """{"preset", "seeds", "scenes": {name: {check: limit}}}, validated."""
-    try:
-        import tomllib
-    except ModuleNotFoundError:  # Python 3.10
-        import tomli as tomllib
-    try:
-        with open(path, "rb") as fh:
-            doc = tomllib.load(fh)
-    except OSError as exc:
-        raise GateError(f"{path}: cannot read the budgets ({exc.strerror})") from None
-    except (tomllib.TOMLDecodeError, RecursionError) as exc:
-        raise GateError(f"{path}: not valid TOML ({exc})") from None
-    unknown = sorted(set(doc) - set(TOP_KEYS))
-    if unknown:
-        raise GateError(f"{path}: unknown key {unknown[0]!r}; expected {', '.join(TOP_KEYS)}")
+    from .tomlfile import load_toml
+
+    doc = load_toml(path, keys=TOP_KEYS, error=GateError, what="budgets")
     seeds = doc.get("seeds", 4)
     if isinstance(seeds, bool) or not isinstance(seeds, int) or not 2 <= seeds <= 256:
         raise GateError(f"{path}: seeds = {seeds!r}: expected an integer in [2, 256] (the regression test needs 2)")

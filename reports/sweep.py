@@ -126,20 +126,9 @@ def spec_from_args(scenes: str | None, vary: list, fixed: list, *, preset: str, 
 
 def spec_from_toml(path: str) -> SweepSpec:
     """A spec from a TOML file (see the module's docstring)."""
-    try:
-        import tomllib
-    except ModuleNotFoundError:  # Python 3.10
-        import tomli as tomllib
-    try:
-        with open(path, "rb") as fh:
-            doc = tomllib.load(fh)
-    except OSError as exc:
-        raise SweepError(f"{path}: cannot read ({exc.strerror})") from None
-    except (tomllib.TOMLDecodeError, RecursionError) as exc:
-        raise SweepError(f"{path}: not valid TOML ({exc})") from None
-    unknown = sorted(set(doc) - set(SPEC_KEYS))
-    if unknown:
-        raise SweepError(f"{path}: unknown key {unknown[0]!r}; expected {', '.join(SPEC_KEYS)}")
+    from .tomlfile import load_toml
+
+    doc = load_toml(path, keys=SPEC_KEYS, error=SweepError, what="sweep spec")
     scenes = doc.get("scenes")
     if scenes is None:
         from scenes import BUILTIN_NAMES

@@ -1,0 +1,24 @@
+"""Reading the TOML files of the reports (sweep specs, gate budgets): the document, or
+the caller's error type naming the file and what is wrong — never a traceback."""
+
+from __future__ import annotations
+
+
+def load_toml(path: str, *, keys, error, what: str) -> dict:
+    """The TOML document at ``path`` whose top-level keys are among ``keys``; ``error``
+    (an exception type) for an unreadable file, bad TOML or an unknown key."""
+    try:
+        import tomllib
+    except ModuleNotFoundError:  # Python 3.10
+        import tomli as tomllib
+    try:
+        with open(path, "rb") as fh:
+            doc = tomllib.load(fh)
+    except OSError as exc:
+        raise error(f"{path}: cannot read the {what} ({exc.strerror})") from None
+    except (tomllib.TOMLDecodeError, RecursionError) as exc:
+        raise error(f"{path}: not valid TOML ({exc})") from None
+    unknown = sorted(set(doc) - set(keys))
+    if unknown:
+        raise error(f"{path}: unknown key {unknown[0]!r}; expected {', '.join(keys)}")
+    return doc
