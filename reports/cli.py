@@ -428,13 +428,15 @@ def main(argv=None) -> int:
     from scenes import SceneError
 
     from .experiment import ExperimentError
+    from .executors import ExecutorError
     from .gate import GateError
     from .sweep import SweepError
 
     args = build_parser().parse_args(argv)
     try:
         return args.func(args)
-    except (SceneError, ParamError, SettingsError, UsageError, ExperimentError, SweepError, GateError) as exc:
+    except (SceneError, ParamError, SettingsError, UsageError, ExperimentError, SweepError, GateError,
+            ExecutorError) as exc:
         print(f"volcaustics: error: {exc}", file=sys.stderr)
         return EXIT_USAGE
     except KeyboardInterrupt:

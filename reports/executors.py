@@ -15,6 +15,10 @@ from __future__ import annotations
 import os
 
 
+class ExecutorError(ValueError):
+    """An executor that cannot start (an unreachable scheduler, Dask missing): exit 2."""
+
+
 def default_workers() -> int:
     return max(1, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1))
 
@@ -82,15 +86,21 @@ def _local(fn, tasks, *, workers, dask):
 
 
 def _dask(fn, tasks, *, workers, dask):
-    from dask.distributed import Client, LocalCluster, as_completed
+    try:
+        from dask.distributed import Client, LocalCluster, as_completed
+    except ImportError as exc:
+        raise ExecutorError(f"--dask: dask.distributed is not installed ({exc})") from None
 
     kind, value = parse_dask(dask)
     cluster = None
-    if kind == "local":
-        cluster = LocalCluster(n_workers=value, threads_per_worker=1, processes=True, dashboard_address=None)
-        client = Client(cluster)
-    else:
-        client = Client(value, timeout="10s")
+    try:
+        if kind == "local":
+            cluster = LocalCluster(n_workers=value, threads_per_worker=1, processes=True, dashboard_address=None)
+            client = Client(cluster)
+        else:
+            client = Client(value, timeout="10s")
+    except (OSError, TimeoutError) as exc:
+        raise ExecutorError(f"--dask {dask}: cannot reach the scheduler ({exc})") from None
     try:
         futures = [client.submit(fn, task, key=f"volcaustics-point-{task['key']}", pure=False, retries=0)
                    for task in tasks]

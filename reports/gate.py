@@ -83,6 +83,8 @@ def load_budgets(path: str) -> dict:
         raise GateError(f"{path}: no [scene.NAME] table: nothing to gate")
     out = {}
     for name, table in scenes.items():
+        if not isinstance(table, dict) or not table:
+            raise GateError(f"{path}: scene.{name} = {table!r}: expected a table of budgets")
         checks = {}
         for group, values in table.items():
             if not isinstance(values, dict):
@@ -229,16 +231,22 @@ def regression_check(scene: str, current: dict, baseline: dict) -> Check:
         p = float(student_t.sf(increase / se, dof))
     else:
         p = 1.0 if increase <= 0 else 0.0
-    # smallest relative increase detected with POWER at ALPHA, from the seeds' spread (unpaired: conservative)
-    spread = float(np.sqrt(old.var(ddof=1) / len(old) + new.var(ddof=1) / len(new)))
-    k = len(old) + len(new) - 2
-    detectable = (student_t.ppf(1 - ALPHA, k) + student_t.ppf(POWER, k)) * spread / mean_old if mean_old > 0 else math.inf
+    # smallest relative increase detected with POWER at ALPHA by this very test (its SE and dof); a paired
+    # comparison of identical frames has no spread: then the unpaired figure, an upper bound
+    basis = "this test"
+    if se == 0:
+        va, vb = new.var(ddof=1) / len(new), old.var(ddof=1) / len(old)
+        se = float(np.sqrt(va + vb))
+        dof = (va + vb) ** 2 / (va**2 / (len(new) - 1) + vb**2 / (len(old) - 1)) if se > 0 else 1
+        basis = "unpaired, an upper bound"
+    detectable = ((student_t.ppf(1 - ALPHA, dof) + student_t.ppf(POWER, dof)) * se / mean_old
+                  if mean_old > 0 else math.inf)
     passed = not (p < ALPHA and increase > 0)
     relative = increase / mean_old if mean_old > 0 else math.inf
     check = Check(scene, "regression.caustic_relmse", relative, f"p ≥ {ALPHA:g} (one-sided)", passed)
     check.message = (f"{scene}: caustic relative MSE {'+' if relative >= 0 else ''}{100 * relative:.2f}% over the "
                      f"baseline ({'paired' if paired else 'Welch'}, p = {p:.2g}; detectable ≥ {100 * detectable:.1f}% "
-                     f"at {len(new)} seeds)")
+                     f"at {len(new)} seeds, {basis})")
     check.detail = {"p": p, "detectable_relative_increase": detectable, "paired": paired,
                     "seeds": len(new), "baseline_seeds": len(old)}
     return check
@@ -246,9 +254,12 @@ def regression_check(scene: str, current: dict, baseline: dict) -> Check:
 
 def baseline_entry(experiment) -> dict:
     s = experiment.summary
+    per_seed = s["images"]["caustic"].get("relative_mse", {}).get("per_seed")
+    if not per_seed:
+        raise GateError(f"{s['scene']}: no per-frame caustic relative MSE "
+                        f"({s['images']['caustic'].get('relative_mse', {}).get('note') or 'not computed'})")
     return {"params": s["params"], "seeds": s["seed_values"], "reference_key": s["reference"]["key"],
-            "caustic_relmse_per_seed": s["images"]["caustic"]["relative_mse"]["per_seed"],
-            "code_version": s["code_version"]}
+            "caustic_relmse_per_seed": per_seed, "code_version": s["code_version"]}
 
 
 def load_baseline(folder: str) -> dict:
@@ -263,6 +274,15 @@ def load_baseline(folder: str) -> dict:
         raise GateError(f"{path}: unreadable baseline ({exc})") from None
     if not isinstance(doc, dict) or not isinstance(doc.get("scenes"), dict):
         raise GateError(f"{path}: not a baseline (no \"scenes\" object)")
+    for name, entry in doc["scenes"].items():
+        ok = (isinstance(entry, dict) and isinstance(entry.get("reference_key"), str)
+              and isinstance(entry.get("seeds"), list) and all(isinstance(x, int) for x in entry["seeds"])
+              and isinstance(entry.get("caustic_relmse_per_seed"), list)
+              and len(entry["caustic_relmse_per_seed"]) >= 2
+              and all(isinstance(x, (int, float)) for x in entry["caustic_relmse_per_seed"]))
+        if not ok:
+            raise GateError(f"{path}: the entry of {name!r} is damaged (reference_key, seeds and at least two "
+                            f"caustic_relmse_per_seed values expected): update the baseline")
     return doc
 
 
@@ -306,7 +326,11 @@ def run_gate(budgets: dict, *, overrides: dict, baseline_dir: str | None, update
         params = dataclasses.replace({"quick": QUICK, "paper": PAPER}[budgets["preset"]], seed=seed, **overrides)
     except ParamError as exc:
         raise GateError(f"--set: {exc}") from None
-    n_seeds = seeds or budgets["seeds"]
+    n_seeds = budgets["seeds"] if seeds is None else seeds
+    if isinstance(n_seeds, bool) or not isinstance(n_seeds, int) or not 2 <= n_seeds <= 256:
+        raise GateError(f"--seeds = {n_seeds!r}: expected an integer in [2, 256] (the regression test needs 2)")
+    if not 0 <= seed <= 2**32 - n_seeds:
+        raise GateError(f"--seed = {seed}: expected 0 ≤ seed and seed + seeds − 1 < 2^32")
     baseline = load_baseline(baseline_dir) if baseline_dir and not update_baseline else None
     if baseline is not None:
         absent = [n for n in names if n not in baseline["scenes"]]
@@ -356,8 +380,7 @@ def _failure_images(out_dir, scene, check, experiment) -> dict:
     paths = {}
     for label, image in (("approx", a), ("reference", r), ("error", np.abs(a - r))):
         path = os.path.join(folder, f"{check.name.replace('.', '_')}_{label}.png")
-        if not os.path.exists(path):
-            write_png(path, image, exposure=exposure)
+        write_png(path, image, exposure=exposure)  # this run's, never an earlier run's
         paths[label] = os.path.abspath(path)
     return paths
 

@@ -16,7 +16,7 @@ def load_toml(path: str, *, keys, error, what: str) -> dict:
             doc = tomllib.load(fh)
     except OSError as exc:
         raise error(f"{path}: cannot read the {what} ({exc.strerror})") from None
-    except (tomllib.TOMLDecodeError, RecursionError) as exc:
+    except (tomllib.TOMLDecodeError, RecursionError, UnicodeDecodeError) as exc:
         raise error(f"{path}: not valid TOML ({exc})") from None
     unknown = sorted(set(doc) - set(keys))
     if unknown:

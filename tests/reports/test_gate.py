@@ -99,8 +99,8 @@ def test_junit_validates_against_the_junit_schema(env, capsys):
     assert "/x/e.png" in text and "&lt;&amp;&gt;" in text
 
 
-@pytest.mark.parametrize("case", ["no_baseline", "baseline_without_scene", "unknown_scene", "missing_reference",
-                                  "too_tight", "bad_budget", "unknown_set"])
+@pytest.mark.parametrize("case", ["no_baseline", "baseline_without_scene", "damaged_baseline", "one_seed",
+                                  "unknown_scene", "missing_reference", "too_tight", "bad_budget", "unknown_set"])
 def test_fail_closed_cases_exit_2(env, capsys, case):
     tmp = env
     spec = budgets(tmp, BUNNY)
@@ -109,8 +109,15 @@ def test_fail_closed_cases_exit_2(env, capsys, case):
         args += ["--baseline", str(tmp / "nowhere"), "--render-references"]
     elif case == "baseline_without_scene":
         (tmp / "b").mkdir()
-        (tmp / "b" / "baseline.json").write_text(json.dumps({"format": 1, "scenes": {"skull": {}}}))
+        entry = {"reference_key": "k", "seeds": [0, 1], "caustic_relmse_per_seed": [0.1, 0.1]}
+        (tmp / "b" / "baseline.json").write_text(json.dumps({"format": 1, "scenes": {"skull": entry}}))
         args += ["--baseline", str(tmp / "b"), "--render-references"]
+    elif case == "damaged_baseline":
+        (tmp / "d").mkdir()
+        (tmp / "d" / "baseline.json").write_text(json.dumps({"scenes": {"bunny": {"caustic_relmse_per_seed": 3}}}))
+        args += ["--baseline", str(tmp / "d")]
+    elif case == "one_seed":
+        args += ["--seeds", "1"]
     elif case == "unknown_scene":
         args = ["--budgets", budgets(tmp, BUNNY.replace("scene.bunny", "scene.nosuch"), name="u.toml"),
                 "--render-references"]
@@ -126,7 +133,7 @@ def test_fail_closed_cases_exit_2(env, capsys, case):
     assert gate(tmp, *args) == 2
     err = capsys.readouterr().err
     expected = {"no_baseline": "no baseline", "baseline_without_scene": "no entry for 'bunny'",
-                "unknown_scene": "nosuch", "missing_reference": "no reference in the cache",
+                "damaged_baseline": "is damaged", "one_seed": "--seeds = 1", "unknown_scene": "nosuch", "missing_reference": "no reference in the cache",
                 "too_tight": "narrower than", "bad_budget": "relmse_maxx", "unknown_set": "layerz"}[case]
     assert expected in err
 
