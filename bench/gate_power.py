@@ -46,11 +46,11 @@ def main(argv=None) -> int:
     if reference is None:
         print("no cached reference: run `make report` first", file=sys.stderr)
         return 2
-    from reports.sweep import _parse_assignment
+    from reports.sweep import parse_assignment
 
     factors = []
     for text in args.degrade or ["splat_radius=0.0175"]:
-        name, values = _parse_assignment(text, "--degrade")
+        name, values = parse_assignment(text, "--degrade")
         factors.append((text, {name: values[0]}))
 
     def entry(seed0, change=None):

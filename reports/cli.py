@@ -246,14 +246,14 @@ def _cmd_gate(args) -> int:
     from scenes.storage import atomic_write_text
 
     from .gate import console_table, default_budgets_path, junit_xml, load_budgets, run_gate
-    from .sweep import _parse_assignment
+    from .sweep import parse_assignment
 
     _check_output_dir(args.out, "--out")
     if args.update_baseline and not args.baseline:
         raise UsageError("--update-baseline", True, "needs --baseline DIR (where to write it)")
     overrides = {}
     for text in args.set or []:
-        name, values = _parse_assignment(text, "--set")
+        name, values = parse_assignment(text, "--set")
         if len(values) != 1:
             raise UsageError("--set", text, "one value per parameter")
         if name == "seed":

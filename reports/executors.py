@@ -48,8 +48,8 @@ def run_tasks(fn, tasks: list, *, total: int, done: int = 0, workers: int | None
     try:
         if not tasks:
             return
-        runner = _dask if dask else _local
-        for result in runner(fn, tasks, workers=workers, dask=dask):
+        results = _dask(fn, tasks, dask) if dask else _local(fn, tasks, workers)
+        for result in results:
             bar.update()
             if result.get("error"):
                 bar.write(f"sweep: point {result['key'][:12]} failed: {result['error']}")
@@ -62,7 +62,7 @@ def _describe(exc: BaseException) -> str:
     return f"{type(exc).__name__}: {exc}"
 
 
-def _local(fn, tasks, *, workers, dask):
+def _local(fn, tasks, workers):
     import multiprocessing
     from concurrent.futures import ProcessPoolExecutor, as_completed
 
@@ -85,7 +85,7 @@ def _local(fn, tasks, *, workers, dask):
     pool.shutdown(wait=True)
 
 
-def _dask(fn, tasks, *, workers, dask):
+def _dask(fn, tasks, dask):
     try:
         from dask.distributed import Client, LocalCluster, as_completed
     except ImportError as exc:
@@ -101,6 +101,7 @@ def _dask(fn, tasks, *, workers, dask):
             client = Client(value, timeout="10s")
     except (OSError, TimeoutError) as exc:
         raise ExecutorError(f"--dask {dask}: cannot reach the scheduler ({exc})") from None
+    futures = []
     try:
         futures = [client.submit(fn, task, key=f"volcaustics-point-{task['key']}", pure=False, retries=0)
                    for task in tasks]
@@ -111,7 +112,7 @@ def _dask(fn, tasks, *, workers, dask):
             except Exception as exc:
                 yield {"key": keys[future.key], "error": _describe(exc)}
     except BaseException:
-        client.cancel(futures) if "futures" in locals() else None
+        client.cancel(futures)
         raise
     finally:
         client.close()

@@ -106,13 +106,13 @@ def load_budgets(path: str) -> dict:
                     raise GateError(f"{where} = {limit!r}: expected a positive number")
                 checks[f"{group}.{key}"] = limit
         out[name] = checks
-    from .sweep import REFERENCE_KEYS, SweepError, SweepSpec, reference_settings
+    from .sweep import REFERENCE_KEYS, SweepError, reference_settings
 
     reference = doc.get("reference", {})
     if not isinstance(reference, dict) or any(k not in REFERENCE_KEYS for k in reference):
         raise GateError(f"{path}: reference = {reference!r}: expected a table of {', '.join(REFERENCE_KEYS)}")
     try:
-        settings = reference_settings(SweepSpec(scenes=(), vary=(), reference=reference))
+        settings = reference_settings(reference)
     except SweepError as exc:
         raise GateError(f"{path}: {exc}") from None
     return {"preset": preset, "seeds": seeds, "scenes": out, "path": path, "reference_settings": settings}

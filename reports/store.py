@@ -211,7 +211,7 @@ def point_row(key: str, summary: dict) -> dict:
     # the intersection estimate's own error: Σ(E_k − A)² / Σ R², what layers and iterations change
     row["intersection_relmse_own"] = decomposition.get("intersection", {}).get("relmse_own")
     row["residual_within_noise"] = summary.get("decomposition", {}).get("residual", {}).get("within_noise")
-    return {k: (float("nan") if v is None and k not in ("point",) else v) for k, v in row.items()}
+    return {k: (float("nan") if v is None else v) for k, v in row.items()}
 
 
 def _alive(pid: int) -> bool:
@@ -219,6 +219,4 @@ def _alive(pid: int) -> bool:
         os.kill(pid, 0)
     except ProcessLookupError:
         return False
-    except PermissionError:
-        return True
-    return True
+    return True  # running (PermissionError: running as another user)

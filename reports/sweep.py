@@ -26,6 +26,7 @@ from __future__ import annotations
 import dataclasses
 import itertools
 import os
+import threading
 import time
 from dataclasses import dataclass, field
 
@@ -94,12 +95,13 @@ def parse_value(name: str, text, where: str):
     return text
 
 
-def _parse_assignment(text: str, where: str) -> tuple:
+def parse_assignment(text: str, where: str) -> tuple:
+    """NAME=V1,V2 → (name, typed values); SweepError naming ``where`` otherwise."""
     name, sep, values = text.partition("=")
     name = name.strip().replace("-", "_")
     if not sep or not name:
         raise SweepError(f"{where} {text!r}: expected NAME=VALUE[,VALUE...]")
-    items = [v for v in values.split(",")]
+    items = values.split(",")
     if any(not v.strip() for v in items):
         raise SweepError(f"{where} {text!r}: an empty value")
     return name, [parse_value(name, v, where) for v in items]
@@ -112,12 +114,12 @@ def spec_from_args(scenes: str | None, vary: list, fixed: list, *, preset: str, 
     names = [s.strip() for s in scenes.split(",")] if scenes is not None else list(BUILTIN_NAMES)
     grid, settled = [], {}
     for text in vary or []:
-        name, values = _parse_assignment(text, "--vary")
+        name, values = parse_assignment(text, "--vary")
         if name in dict(grid):
             raise SweepError(f"--vary {text!r}: {name} is varied twice")
         grid.append((name, tuple(values)))
     for text in fixed or []:
-        name, values = _parse_assignment(text, "--set")
+        name, values = parse_assignment(text, "--set")
         if len(values) != 1:
             raise SweepError(f"--set {text!r}: one value (use --vary for several)")
         settled[name] = values[0]
@@ -213,13 +215,14 @@ def points(spec: SweepSpec) -> list:
 
 # --- running -------------------------------------------------------------------------
 
-def reference_settings(spec: SweepSpec):
-    """The reference budget: the report's, with the spec's overrides."""
+def reference_settings(overrides: dict):
+    """The reference budget: the report's, with ``overrides`` (REFERENCE_KEYS; a
+    target_noise of "none" renders exactly ``batches``)."""
     from reference.settings import SettingsError
 
     from .defaults import REPORT_REFERENCE
 
-    changes = dict(spec.reference)
+    changes = dict(overrides)
     if isinstance(changes.get("target_noise"), str) and changes["target_noise"].strip().lower() == "none":
         changes["target_noise"] = None  # render exactly `batches` batches
     try:
@@ -261,8 +264,6 @@ def _run_point(task: dict) -> dict:
     status = store.write_point(task["key"], task["key_document"], experiment)
     return {"key": task["key"], "status": status, "seconds": time.perf_counter() - t0}
 
-
-import threading  # noqa: E402  (module state of worker processes)
 
 _PROCESS_LOCK = threading.Lock()
 _TOOLS: dict = {}
@@ -310,7 +311,7 @@ def run_sweep(spec: SweepSpec, out_dir: str, *, workers: int | None = None, dask
     t0 = time.perf_counter()
     store = Store(out_dir)
     store.clean_stale()
-    settings = reference_settings(spec)
+    settings = reference_settings(spec.reference)
     grid = points(spec)
     scenes = {name: resolve_scene(name) for name in spec.scenes}
     references = {}
