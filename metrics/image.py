@@ -54,7 +54,7 @@ def _images(reference, test):
     return r, t
 
 
-def per_pixel_relative_mse(reference, test, *, mask=None, epsilon: float = 1e-2) -> dict:
+def per_pixel_relative_mse(reference, test, *, mask=None, epsilon: float = 1e-2, full: bool = False) -> dict:
     """Mean over pixels of (test − reference)² / (reference² + ε), ε = ``epsilon`` times
     the mean of reference² over the compared pixels (so the floor scales with the image):
     large errors in dark pixels count without dividing by zero.
@@ -64,19 +64,25 @@ def per_pixel_relative_mse(reference, test, *, mask=None, epsilon: float = 1e-2)
     reference, test : H×W×3 arrays, linear radiance.
     mask : optional H×W boolean array of the pixels to compare.
     epsilon : the floor, relative to the mean of reference².
+    full : also return the error map (as scikit-image's ``full=True``).
 
     Returns
     -------
-    dict: ``value`` and the options used (``epsilon``, ``epsilon_absolute``, ``pixels``).
+    dict: ``value`` and the options used (``epsilon``, ``epsilon_absolute``, ``pixels``);
+    with ``full``, ``map``: H×W float64, each pixel's error averaged over its channels
+    (its mean over the compared pixels is ``value``), NaN where not compared.
     """
     r, t = _images(reference, test)
     keep = _keep(r, mask)
-    r, t = r[keep], t[keep]
-    floor = epsilon * float(np.mean(r * r))
+    floor = epsilon * float(np.mean(r[keep] ** 2))
     if not floor > 0:
         raise ValueError("reference is zero everywhere: relative error undefined")
-    value = float(np.mean((t - r) ** 2 / (r * r + floor)))
-    return {"value": value, "epsilon": epsilon, "epsilon_absolute": floor, "pixels": int(keep.sum())}
+    per_pixel = np.mean((t - r) ** 2 / (r * r + floor), axis=2)
+    out = {"value": float(per_pixel[keep].mean()), "epsilon": epsilon, "epsilon_absolute": floor,
+           "pixels": int(keep.sum())}
+    if full:
+        out["map"] = np.where(keep, per_pixel, np.nan)
+    return out
 
 
 def reference_exposure(reference, *, mask=None, percentile: float = 99.5) -> float:
@@ -137,13 +143,15 @@ def delta_e2000(reference, test, *, mask=None, exposure: float | None = None) ->
 
 
 def hdr_flip(reference, test, *, mask=None, start_exposure: float | None = None,
-             stop_exposure: float | None = None, ppd: float = 67.0) -> dict:
+             stop_exposure: float | None = None, ppd: float = 67.0, full: bool = False) -> dict:
     """HDR-FLIP (NVIDIA's ``flip-evaluator``; Andersson et al. 2021) over the compared
     pixels; 0 for identical images.
 
     FLIP's automatic exposure range fails on dark images, so it is chosen from the
     reference: from the exposure that maps its bright pixels (99.5th percentile of the
     nonzero luminance) to 1 up to the one that maps its median nonzero pixel to 1.
+    With ``full``, ``map`` is FLIP's error map (H×W float64 in [0, 1], NaN where not
+    compared; its mean over the compared pixels is ``value``).
     """
     import flip_evaluator
 
@@ -160,9 +168,12 @@ def hdr_flip(reference, test, *, mask=None, start_exposure: float | None = None,
                                                  parameters={"startExposure": start, "stopExposure": stop,
                                                              "ppd": float(ppd)})
     error = np.asarray(error_map, np.float64).reshape(r.shape[:2] + (-1,))[..., 0]
-    return {"value": float(error[keep].mean()), "start_exposure": start, "stop_exposure": stop,
-            "num_exposures": int(used.get("numExposures", 0)) if isinstance(used, dict) else None,
-            "ppd": float(ppd), "pixels": int(keep.sum())}
+    out = {"value": float(error[keep].mean()), "start_exposure": start, "stop_exposure": stop,
+           "num_exposures": int(used.get("numExposures", 0)) if isinstance(used, dict) else None,
+           "ppd": float(ppd), "pixels": int(keep.sum())}
+    if full:
+        out["map"] = np.where(keep, error, np.nan)
+    return out
 
 
 def energy_ratio(reference, test, *, mask=None) -> dict:

@@ -60,13 +60,15 @@ class ExperimentError(ValueError):
 @dataclass
 class Experiment:
     """What :func:`run_experiment` measured: tidy rows and what ``summary.json`` holds,
-    and the decomposition images (name → H×W×3 float32) for the EXR."""
+    the decomposition images (name → H×W×3 float32) for the EXR, and the images a
+    report shows (:data:`VIEWS`)."""
 
     segments: list
     photons: list
     images: list
     summary: dict
     layers: dict = field(default_factory=dict)
+    views: dict = field(default_factory=dict)
 
 
 def parameter_columns(scene, params, seeds: list, reference_key: str) -> dict:
@@ -153,7 +155,8 @@ def run_experiment(scene, params, *, seeds: int = 1, reference_settings=None, pr
             renderer.release()
     t = time.perf_counter()
     keep = _keep(reference, frames)
-    image_rows, headline = _image_rows(frames, reference, keep, columns)
+    maps = {}
+    image_rows, headline = _image_rows(frames, reference, keep, columns, maps)
     try:
         decomposition = _decompose(exact, reference, keep)
     except ValueError as exc:
@@ -168,7 +171,30 @@ def run_experiment(scene, params, *, seeds: int = 1, reference_settings=None, pr
                        keep)
     layers = {name: np.asarray(img, np.float32) for name, img in decomposition["images"].items()}
     layers.update({f"term.{name}": np.asarray(img, np.float32) for name, img in decomposition["terms"].items()})
-    return Experiment(segments=segments, photons=photons, images=image_rows, summary=summary, layers=layers)
+    return Experiment(segments=segments, photons=photons, images=image_rows, summary=summary, layers=layers,
+                      views=_views(frames, reference, keep, layers, maps))
+
+
+VIEWS = {"approx.<component>": "the approximation, mean over the seeds (H×W×3)",
+         "reference.<component>": "the reference's mean (H×W×3)",
+         "exact_steps": "E_k: the approximation's photons replayed exactly, same steps and Fresnel (caustic)",
+         "map.per_pixel_relative_mse.<component>": "per-pixel relative MSE of the first seed's frame (H×W, NaN: "
+                                                   "not compared)",
+         "map.hdr_flip.<component>": "HDR-FLIP error of the first seed's frame (H×W in [0, 1], NaN: not compared)",
+         "compared": "1 where pixels are compared (neither renderer sees glass), else 0 (H×W)"}
+
+
+def _views(frames, reference, keep, layers, maps) -> dict:
+    """The images a report shows (:data:`VIEWS`), float32."""
+    out = {}
+    for component in COLOUR_LAYERS:
+        out[f"approx.{component}"] = np.mean([f.images[component] for f in frames], axis=0)
+        out[f"reference.{component}"] = reference.mean[component]
+    out["exact_steps"] = layers["exact_steps"]
+    for (metric, component), image in maps.items():
+        out[f"map.{metric}.{component}"] = image
+    out["compared"] = keep
+    return {name: np.asarray(image, np.float32) for name, image in out.items()}
 
 
 # --- approximation frames ----------------------------------------------------------
@@ -401,7 +427,10 @@ IMAGE_COLUMNS = {"value": NAN, "reference_floor": NAN, "approx_noise": NAN, "deb
                  "reference_sigma": NAN, "note": "", "options": "{}"}
 
 
-def _image_rows(frames, reference, keep, columns) -> tuple:
+MAP_METRICS = ("per_pixel_relative_mse", "hdr_flip")   # whose first-frame error map a report shows
+
+
+def _image_rows(frames, reference, keep, columns, maps=None) -> tuple:
     """One row per (component, metric) with the columns of IMAGE_COLUMNS:
 
     * ``relative_mse``: value = raw relative MSE of the seeds' mean; debiased = less
@@ -416,7 +445,8 @@ def _image_rows(frames, reference, keep, columns) -> tuple:
       relative σ (pixels independent); bootstrap interval over the frames' ratios.
 
     A metric that cannot be computed (a reference black in some channel) gets NaN
-    and a ``note``."""
+    and a ``note``. ``maps`` (a dict) receives the first frame's error map of each
+    of MAP_METRICS per component: (metric, component) → H×W."""
     from metrics import image as im
     from metrics.noise import seed_mean_interval, seed_relative_mse
 
@@ -457,7 +487,10 @@ def _image_rows(frames, reference, keep, columns) -> tuple:
         measured("relative_mse", relative_mse)
         for metric, (fn, debias) in per_frame.items():
             def one(metric=metric, fn=fn, debias=debias):
-                results = [fn(r, a, mask=keep) for a in stack]
+                results = [fn(r, a, mask=keep, **({"full": True} if i == 0 and metric in MAP_METRICS else {}))
+                           for i, a in enumerate(stack)]
+                if maps is not None and "map" in results[0]:
+                    maps[(metric, component)] = results[0].pop("map")
                 floor = _floor(metric, columns["reference_key"], component, keep, r, rv,
                                lambda x, y: fn(x, y, mask=keep)["value"])
                 stat = seed_mean_interval([x["value"] for x in results], resamples=RESAMPLES, level=LEVEL)

@@ -3,8 +3,10 @@
 Layout of a store folder::
 
     points/<key>/segments.parquet, photons.parquet, images.parquet
+    points/<key>/views.exr        optional: the images a report shows
+                                  (``reports.experiment.VIEWS``; the report's store)
     points/<key>/summary.json     written last: the experiment's summary, the key's
-                                  document and the SHA-256 of every table
+                                  document and the SHA-256 of every file
     segments.parquet, photons.parquet, images.parquet, points.parquet
                                   all complete points in one table each
                                   (:meth:`Store.consolidate`)
@@ -35,6 +37,8 @@ import uuid
 from scenes.storage import atomic_path, atomic_write_text, file_sha256
 
 TABLES = ("segments", "photons", "images")
+TABLE_FILES = tuple(f"{name}.parquet" for name in TABLES)
+VIEWS = "views.exr"
 SUMMARY = "summary.json"
 STORE_FORMAT = 1
 
@@ -79,7 +83,8 @@ class Store:
             if not isinstance(summary, dict) or summary.get("key") != key:
                 return None
             hashes = summary.get("files")
-            if not isinstance(hashes, dict) or set(hashes) != {f"{t}.parquet" for t in TABLES}:
+            if not isinstance(hashes, dict) or not set(hashes) <= {*TABLE_FILES, VIEWS} \
+                    or not set(TABLE_FILES) <= set(hashes):
                 return None
             for name, digest in hashes.items():
                 if file_sha256(os.path.join(folder, name)) != digest:
@@ -88,15 +93,27 @@ class Store:
         except (OSError, ValueError):
             return None
 
-    def status(self, key: str) -> str:
-        """"done" (complete and undamaged), "damaged" (a folder that is not) or "missing"."""
-        if self.summary(key) is not None:
+    def status(self, key: str, *, views: bool = False) -> str:
+        """"done" (complete and undamaged, with views.exr if ``views``), "damaged" (a
+        folder that is not) or "missing"."""
+        summary = self.summary(key)
+        if summary is not None and (not views or VIEWS in summary["files"]):
             return "done"
         return "damaged" if os.path.isdir(self.point_dir(key)) else "missing"
 
-    def write_point(self, key: str, document: dict, experiment) -> str:
-        """Write a point whole, or not at all; returns "written", or "kept" when a
-        complete copy appeared meanwhile (another sweep)."""
+    def views(self, key: str) -> dict:
+        """The point's views (name → array; ``reports.experiment.VIEWS``)."""
+        from scenes.imageio import read_exr
+
+        layers, _ = read_exr(os.path.join(self.point_dir(key), VIEWS))
+        return layers
+
+    def write_point(self, key: str, document: dict, experiment, *, views: bool = False) -> str:
+        """Write a point whole, or not at all, with the experiment's views when ``views``;
+        returns "written", or "kept" when a complete copy appeared meanwhile (another
+        sweep)."""
+        from scenes.imageio import write_exr
+
         from .experiment import plain, table
 
         tmp = os.path.join(self.points, f".tmp-{key}-{socket.gethostname()}-{os.getpid()}-{uuid.uuid4().hex[:8]}")
@@ -107,6 +124,11 @@ class Store:
                 path = os.path.join(tmp, f"{name}.parquet")
                 table(getattr(experiment, name)).to_parquet(path, index=False)
                 files[f"{name}.parquet"] = file_sha256(path)
+            if views:
+                path = os.path.join(tmp, VIEWS)
+                write_exr(path, experiment.views, {"volcaustics_renderer": "experiment views",
+                                                   "volcaustics_scene": experiment.summary["scene"]})
+                files[VIEWS] = file_sha256(path)
             summary = {**plain(experiment.summary), "key": key, "key_document": document, "files": files}
             atomic_write_text(os.path.join(tmp, SUMMARY), json.dumps(summary, indent=1, allow_nan=False))
             return self._commit(tmp, key)
@@ -132,9 +154,11 @@ class Store:
                     pass
         raise OSError(f"{final}: cannot put the point in place")
 
-    def remove_damaged(self, key: str) -> None:
+    def remove_damaged(self, key: str, *, views: bool = False) -> None:
+        """Set aside and remove the point's folder unless it is done (with views, if
+        ``views``)."""
         folder = self.point_dir(key)
-        if os.path.isdir(folder) and self.summary(key) is None:
+        if os.path.isdir(folder) and self.status(key, views=views) != "done":
             aside = f"{folder}.damaged-{uuid.uuid4().hex[:8]}"
             try:
                 os.rename(folder, aside)
