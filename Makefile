@@ -9,8 +9,11 @@ OUT ?= runs/report
 setup:
 	@bash scripts/setup.sh
 
+# The accuracy report; with the gate's baseline and the standard sweep when they exist.
 report: setup
-	$(BIN)/volcaustics report --out $(OUT)
+	$(BIN)/volcaustics report --out $(OUT) \
+	  $$( [ -f $(GATE_BASELINE)/baseline.json ] && echo --baseline $(GATE_BASELINE) ) \
+	  $$( [ -f runs/sweep/sweep.json ] && [ -f runs/sweep/points.parquet ] && echo --sweep runs/sweep )
 
 test: setup
 	@bash scripts/run_tests.sh

@@ -63,29 +63,65 @@ def _cmd_scenes(args) -> int:
 
 
 def _cmd_report(args) -> int:
-    from scenes import BUILTIN_NAMES
-    from scenes.formats import COLOUR_LAYERS
+    from .collect import run_report
+    from .gate import default_budgets_path, load_budgets
 
-    from .report import build_report
+    _check_output_dir(args.out, "--out")
+    names = _scene_list(args.scenes, "--scenes")
+    budgets = load_budgets(args.budgets or default_budgets_path())
+    if names is None:
+        from scenes import BUILTIN_NAMES
 
-    names = args.scenes.split(",") if args.scenes else list(BUILTIN_NAMES)
-    unknown = [n for n in names if n not in BUILTIN_NAMES]
-    if unknown:
-        from scenes import SceneError
-
-        raise SceneError(None, "--scenes", unknown[0], f"expected built-in scene names ({', '.join(BUILTIN_NAMES)})")
-    settings = _report_settings(args)
-    summary = build_report(args.out, names, width=args.width, height=args.height, reference_settings=settings)
-    for row in summary["scenes"]:
-        e = row["errors"]
-        floors = row["reference"]["noise_floor"]
-        print(f"{row['scene']:<12} relative MSE: " + ", ".join(
-            f"{k} {100 * e[k]['relative_mse']:.2f}%" for k in COLOUR_LAYERS
-            if e[k]["relative_mse"] is not None) + "; reference floor: " + ", ".join(
-            f"{k} {100 * floors[k]:.2f}%" for k in COLOUR_LAYERS if floors.get(k) is not None)
-            + f" ({row['reference']['stopped_by']})")
-    print(f"report: {len(summary['scenes'])} scenes -> {args.out}/index.html")
+        names = list(BUILTIN_NAMES)
+    summary = run_report(args.out, names, overrides=_overrides(args.set), seeds=args.seeds, seed=args.seed,
+                         reference_settings=_report_settings(args), budgets=budgets, baseline_dir=args.baseline,
+                         sweep_dir=args.sweep, progress=not args.quiet)
+    for page in summary["scenes"]:
+        c = page["components"]
+        failed = [ch["name"] for ch in page["gate"]["checks"] if not ch["passed"]]
+        gate = ("FAIL " + ", ".join(failed)) if failed else ("pass" if page["gate"]["checks"] else "not checked")
+        print(f"{page['scene']:<12} caustic relMSE {_percent(c['caustic']['relative_mse'].get('debiased'))}, "
+              f"energy {_plain(c['caustic']['energy_ratio'].get('value'))}; combined relMSE "
+              f"{_percent(c['combined']['relative_mse'].get('debiased'))}; gate {gate}")
+    gate = summary["gate"]
+    print(f"report: {len(summary['scenes'])} scenes, gate {'passed' if gate['passed'] else 'FAILED' if gate['failed'] else 'not checked'} "
+          f"({gate['failed']} of {gate['checks']} checks failed), {summary['seconds']['total']:.0f} s -> "
+          f"{args.out}/index.html")
     return 0
+
+
+def _percent(value) -> str:
+    return "–" if value is None else f"{100 * value:.2f}%"
+
+
+def _plain(value) -> str:
+    return "–" if value is None else f"{value:.3f}"
+
+
+def _scene_list(text, option: str):
+    """A comma-separated list of SCENE arguments; None when not given; an empty list
+    or an empty name is an error (not "everything")."""
+    if text is None:
+        return None
+    names = [s.strip() for s in text.split(",")]
+    if not names or any(not n for n in names):
+        raise UsageError(option, text, "expected comma-separated scene names (built-in names or .toml files)")
+    return names
+
+
+def _overrides(assignments) -> dict:
+    """``--set NAME=VALUE`` (repeatable) as approximation parameters; ``seed`` has its own option."""
+    from .sweep import parse_assignment
+
+    overrides = {}
+    for text in assignments or []:
+        name, values = parse_assignment(text, "--set")
+        if len(values) != 1:
+            raise UsageError("--set", text, "one value per parameter")
+        if name == "seed":
+            raise UsageError("--set", text, "use --seed (the first of the --seeds seeds)")
+        overrides[name] = values[0]
+    return overrides
 
 
 def _approx_params(args):
@@ -246,21 +282,13 @@ def _cmd_gate(args) -> int:
     from scenes.storage import atomic_write_text
 
     from .gate import console_table, default_budgets_path, junit_xml, load_budgets, run_gate
-    from .sweep import parse_assignment
 
     _check_output_dir(args.out, "--out")
     if args.update_baseline and not args.baseline:
         raise UsageError("--update-baseline", True, "needs --baseline DIR (where to write it)")
-    overrides = {}
-    for text in args.set or []:
-        name, values = parse_assignment(text, "--set")
-        if len(values) != 1:
-            raise UsageError("--set", text, "one value per parameter")
-        if name == "seed":
-            raise UsageError("--set", text, "use --seed (the first of the --seeds seeds)")
-        overrides[name] = values[0]
+    overrides = _overrides(args.set)
     budgets = load_budgets(args.budgets or default_budgets_path())
-    scenes = [s.strip() for s in args.scenes.split(",")] if args.scenes else None
+    scenes = _scene_list(args.scenes, "--scenes")
     result = run_gate(budgets, overrides=overrides, baseline_dir=args.baseline, update_baseline=args.update_baseline,
                       out_dir=args.out, scenes=scenes, seeds=args.seeds, seed=args.seed,
                       render_references=args.render_references, progress=not args.quiet)
@@ -412,11 +440,18 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=_cmd_gate)
 
-    p = sub.add_parser("report", help="the main job: approximation vs ground truth on the built-in scenes")
+    p = sub.add_parser("report", help="the main job: the accuracy report (one HTML page + summary.json) of the "
+                                      "approximation against ground truth, with the gate's verdicts")
     p.add_argument("--out", default="runs/report", help="output folder (default runs/report)")
-    p.add_argument("--scenes", help="comma-separated built-in scene names (default: all)")
-    p.add_argument("--width", type=int, default=256, help="image width in pixels (default 256)")
-    p.add_argument("--height", type=int, default=256, help="image height in pixels (default 256)")
+    p.add_argument("--scenes", help="comma-separated SCENE arguments (default: every built-in)")
+    p.add_argument("--set", action="append", metavar="NAME=VALUE",
+                   help="an approximation parameter over the budgets' preset (repeatable)")
+    p.add_argument("--seeds", type=int, help="frames per scene (default: the budgets' seeds, 4)")
+    p.add_argument("--seed", type=int, default=0, help="the first seed (default 0)")
+    p.add_argument("--budgets", metavar="FILE.toml", help="the gate's budgets (default: reports/budgets.toml)")
+    p.add_argument("--baseline", metavar="DIR", help="also test for a regression against DIR/baseline.json")
+    p.add_argument("--sweep", metavar="DIR", help="add a sweep store's figures and settings that suffice")
+    p.add_argument("--quiet", action="store_true", help="no progress bars")
     _add_report_reference(p)
     p.set_defaults(func=_cmd_report)
     return parser
@@ -428,6 +463,7 @@ def main(argv=None) -> int:
     from scenes import SceneError
 
     from .experiment import ExperimentError
+    from .collect import ReportError
     from .executors import ExecutorError
     from .gate import GateError
     from .sweep import SweepError
@@ -436,7 +472,7 @@ def main(argv=None) -> int:
     try:
         return args.func(args)
     except (SceneError, ParamError, SettingsError, UsageError, ExperimentError, SweepError, GateError,
-            ExecutorError) as exc:
+            ExecutorError, ReportError) as exc:
         print(f"volcaustics: error: {exc}", file=sys.stderr)
         return EXIT_USAGE
     except KeyboardInterrupt:

@@ -198,3 +198,40 @@ def load_sweep(folder: str) -> SweepTables:
     if len(tables["points"]) == 0:
         raise ReportError(f"--sweep {folder}: the sweep holds no finished point")
     return SweepTables(folder=folder, tables=tables, varied=list(spec["vary"]), spec=spec)
+
+
+def run_report(out_dir: str, names, *, overrides: dict, seeds: int | None, seed: int, reference_settings,
+               budgets: dict, baseline_dir: str | None = None, sweep_dir: str | None = None,
+               progress: bool = True) -> dict:
+    """Gather every scene's results and the sweep's, then draw the report into
+    ``out_dir`` (``reports.report``). Returns the report's summary.
+
+    The approximation's parameters are the budgets' preset with ``overrides``; the
+    seeds ``seed`` … ``seed + seeds − 1`` (``seeds`` default: the budgets')."""
+    from approx.params import PAPER, QUICK, ParamError
+
+    from .gate import load_baseline
+    from .report import report_summary, write_report
+
+    t0 = time.perf_counter()
+    try:
+        params = dataclasses.replace({"quick": QUICK, "paper": PAPER}[budgets["preset"]], seed=seed, **overrides)
+    except ParamError as exc:
+        raise ReportError(f"--set: {exc}") from None
+    seeds = budgets["seeds"] if seeds is None else seeds
+    if isinstance(seeds, bool) or not isinstance(seeds, int) or not 1 <= seeds <= 256:
+        raise ReportError(f"--seeds = {seeds!r}: expected an integer in [1, 256] (intervals need 4)")
+    if not 0 <= seed <= 2**32 - seeds:
+        raise ReportError(f"--seed = {seed}: expected 0 ≤ seed and seed + seeds − 1 < 2^32")
+    sweep = load_sweep(sweep_dir) if sweep_dir else None      # bad input fails before anything renders
+    baseline = load_baseline(baseline_dir) if baseline_dir else None
+    clock = {}
+    results = collect_scenes(names, params, seeds=seeds, reference_settings=reference_settings, budgets=budgets,
+                             baseline=baseline, progress=progress, clock=clock)
+    t = time.perf_counter()
+    summary = report_summary(results, params=params, seeds=seeds, reference_settings=reference_settings,
+                             budgets=budgets, baseline_dir=baseline_dir, sweep=sweep, clock=clock)
+    write_report(out_dir, results, summary, sweep, progress=progress)
+    clock["page"] = time.perf_counter() - t
+    clock["total"] = time.perf_counter() - t0
+    return summary

@@ -1,136 +1,218 @@
-"""The main job's report: every built-in scene rendered by both renderers, side by
-side, with the error of the approximation per component.
+"""The accuracy report (``volcaustics report``, ``make report``): one self-contained
+HTML page and ``summary.json``, drawn from results only (``reports.collect`` gathers
+them; nothing here renders or measures).
 
-It renders what exists today — the approximation (``--preset quick`` sizes by
-default) and the cached ground truth at the same image size — and measures, over
-the pixels that do not see glass (``mask_specular``), each component's relative
-MSE (Σ(a − r)² / Σ r²) and energy ratio (Σ a / Σ r). Later work extends it into
-the full accuracy report (intersection errors, sweeps, gate).
+:func:`report_summary` picks and groups what the page shows — every number on the
+page comes from it, and it is written as ``summary.json`` — and :func:`write_report`
+draws the page from it (``reports.html``) with the images of each scene's views.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import html
 import json
 import os
 import time
 
 import numpy as np
 
-from scenes.formats import COLOUR_LAYERS, MASK_LAYER
-from scenes.imageio import write_png
-from scenes.storage import atomic_write_text
+from scenes.formats import COLOUR_LAYERS
+
+# Wang, Wang & Chen: intersection estimation takes about 70% of a frame and splatting about 23% on their GPU
+PAPER_SHARES = {"trace": 0.70, "splat": 0.23}
+PASSES = ("layers", "emission", "camera", "trace", "splat", "fog", "direct")
+HEADLINE = ("relative_mse", "energy_ratio", "hdr_flip", "per_pixel_relative_mse")
 
 
-def scene_errors(approx_images: dict, reference_mean: dict) -> dict:
-    """Per layer: relative MSE and energy ratio of the approximation over non-glass pixels."""
-    from metrics.image import relative_mse
+def _finite(value):
+    return value if isinstance(value, (int, float)) and np.isfinite(value) else None
 
-    keep = reference_mean[MASK_LAYER][..., 0] < 0.5
-    out = {}
-    for layer in COLOUR_LAYERS:
-        a, r = approx_images[layer], reference_mean[layer]
-        energy = float(r[keep].sum())
-        out[layer] = {"relative_mse": relative_mse(r, a, mask=keep) if energy > 0 else None,
-                      "energy_ratio": float(a[keep].sum()) / energy if energy > 0 else None}
+
+def _pct(count, total) -> float:
+    return 100.0 * float(count) / float(total) if total else float("nan")
+
+
+def hit_classes(segments) -> dict:
+    """Segment classes as % of each step's segments: per step and light-map layer of the
+    approximation's hit (``"none"`` when it found none), and per step with the |Δt|
+    percentiles of true hits (mm). Self re-hits are counted by their class beyond the
+    re-hit surface and given apart as ``self_rehit`` (DESIGN.md)."""
+    from .scene_figures import HIT_CLASSES
+
+    def classes(frame, total):
+        out = {}
+        for name in HIT_CLASSES:
+            count = frame[f"count_{name}"].sum()
+            if f"count_beyond_self_rehit_{name}" in frame:
+                count += frame[f"count_beyond_self_rehit_{name}"].sum()
+            out[name] = _pct(count, total)
+        out["self_rehit"] = _pct(frame["count_self_rehit"].sum(), total)
+        return out
+
+    by_map = segments[segments["grouping"] == "step,map,inside"]
+    by_step = segments[segments["grouping"] == "step"]
+    totals = {int(r["step"]): int(r["segments"]) for _, r in by_step.iterrows()}
+    rows = []
+    layer = by_map["layer"].astype("Int64").astype(object).where(by_map["layer"].notna(), "none")
+    for (step, name), frame in by_map.groupby([by_map["step"].astype(int), layer], sort=False):
+        rows.append({"step": int(step), "layer": name if name == "none" else int(name),
+                     "segments": int(frame["segments"].sum()), **classes(frame, totals[int(step)])})
+    rows.sort(key=lambda r: (r["step"], r["layer"] == "none", r["layer"] if r["layer"] != "none" else 0))
+    steps = []
+    for _, r in by_step.sort_values("step").iterrows():
+        frame = by_step[by_step["step"] == r["step"]]
+        steps.append({"step": int(r["step"]), "segments": int(r["segments"]), **classes(frame, int(r["segments"])),
+                      "abs_dt_mm": {q: _finite(1000.0 * float(r[f"abs_dt_{q}"])) for q in ("median", "p90", "p99")}})
+    return {"rows": rows, "by_step": steps}
+
+
+def power_budget(photons) -> list:
+    """Power by fate per (tracer, step), % of the power entering step 1."""
+    from .figures import FATES
+
+    out = []
+    for _, r in photons.sort_values(["tracer", "step"]).iterrows():
+        out.append({"tracer": r["tracer"], "step": int(r["step"]),
+                    **{fate: 100.0 * float(r[f"share_{fate}"]) for fate in FATES},
+                    "alive_after_last": _finite(100.0 * float(r["share_alive_after_last"]))})
     return out
 
 
-def build_report(out_dir: str, scene_names, *, width: int = 256, height: int = 256, approx_params=None,
-                 reference_settings=None, progress: bool = True) -> dict:
-    """Render, measure and write ``index.html``, ``summary.json`` and ``images/`` under ``out_dir``.
+def timing(summary: dict) -> dict:
+    """The frame's time per pass (median over the seeds) and its share of the frame."""
+    t = summary["approx_timings_s"]
+    frame = t["frame_wall"]
+    passes = [{"pass": name, "seconds": t[name], "share": t[name] / frame} for name in PASSES if name in t]
+    other = frame - sum(p["seconds"] for p in passes)
+    passes.append({"pass": "other", "seconds": other, "share": other / frame})
+    return {"method": summary["timing_method"], "frame_s": frame, "passes": passes, "paper_shares": PAPER_SHARES}
 
-    Returns the summary (also written as JSON), including the parameters used.
-    """
-    from tqdm import tqdm
 
-    from approx import Renderer
+def scene_page(result, *, exposures: dict) -> dict:
+    """Everything the page shows of one scene (``result``: ``reports.collect.SceneResult``)."""
+    s = result.summary
+    components = {}
+    for component in COLOUR_LAYERS:
+        metrics = s["images"][component]
+        components[component] = {name: metrics.get(name, {}) for name in HEADLINE}
+        components[component]["reference_noise_floor"] = s["reference"]["noise_floor"].get(component)
+    rows = {r["term"]: r for r in s["decomposition"]["rows"]}
+    checks = sorted(result.checks, key=lambda c: (c.passed, c.name))
+    return {
+        "scene": result.name, "description": s["description"], "scene_hash": s["scene_hash"], "point": result.key,
+        "measured_in_this_run": result.measured, "params": s["params"], "seed_values": s["seed_values"],
+        "reference": s["reference"], "compared_pixels": s["compared_pixels"], "components": components,
+        "gate": {"passed": None if not checks else all(c.passed for c in checks), "note": result.gate_note,
+                 "checks": [dataclasses.asdict(c) for c in checks]},
+        "timing": timing(s), "hit_classes": hit_classes(result.tables["segments"]),
+        "power_budget": power_budget(result.tables["photons"]),
+        "decomposition": {"terms": [rows[t] for t in ("intersection", "truncation", "reflections", "kernel_blur",
+                                                      "residual")],
+                          "total": rows["total"], "noise": rows["noise"], "residual": s["decomposition"]["residual"]},
+        "paths": s["paths"], "exposure": exposures, "warnings": s["warnings"],
+    }
+
+
+def exposures(result) -> dict:
+    """One exposure per shown component: the reference's (its bright pixels to 1)."""
+    from metrics.image import reference_exposure
+
+    keep = result.views["compared"][..., 0] > 0.5
+    out = {}
+    for component in ("caustic", "combined"):
+        try:
+            out[component] = reference_exposure(result.views[f"reference.{component}"], mask=keep)
+        except ValueError:  # a black reference
+            out[component] = 1.0
+    return out
+
+
+def report_summary(results: list, *, params, seeds: int, reference_settings, budgets: dict,
+                   baseline_dir: str | None, sweep=None, clock: dict) -> dict:
     from approx.context import gl_info, shared_context
-    from approx.params import QUICK
-    from reference.render import render_reference
-    from scenes import load_builtin
 
-    from .defaults import REPORT_REFERENCE
+    from .pictures import SCALES
+    from .versions import code_version, library_versions
 
-    approx_params = dataclasses.replace(approx_params or QUICK, width=width, height=height)
-    reference_settings = dataclasses.replace(
-        reference_settings or REPORT_REFERENCE, width=width, height=height)
-    rows = []
-    for name in tqdm(scene_names, desc="report", unit="scene", disable=not progress):
-        scene = load_builtin(name)  # the image size is in approx_params and reference_settings only
-        t0 = time.perf_counter()
-        renderer = Renderer(scene)
-        renderer.render(approx_params, keep_records=False)  # compile shaders; time the second frame
-        frame = renderer.render(approx_params, keep_records=False)
-        renderer.release()
-        reference = render_reference(scene, reference_settings, progress=progress)
-        ref = reference.mean
-        exposure = 1.0 / max(float(np.percentile(ref["combined"][ref["combined"] > 0], 99.5)), 1e-12) \
-            if (ref["combined"] > 0).any() else 1.0
-        images = {}
-        for label, image in (("approx_combined", frame.images["combined"]), ("reference_combined", ref["combined"]),
-                             ("approx_caustic", frame.images["caustic"]), ("reference_caustic", ref["caustic"]),
-                             ("error_combined", np.abs(frame.images["combined"] - ref["combined"]))):
-            rel = os.path.join("images", f"{name}_{label}.png")
-            write_png(os.path.join(out_dir, rel), image, exposure=exposure)
-            images[label] = rel
-        rows.append({"scene": name, "description": scene.description,
-                     "specular_triangles": scene.specular_triangle_count(), "scene_hash": scene.scene_hash(),
-                     "errors": scene_errors(frame.images, ref), "approx_timings_s": frame.timings,
-                     "approx_timing_method": frame.timing_method, "reference": reference.manifest,
-                     "images": images, "seconds": round(time.perf_counter() - t0, 3)})
-    summary = {"kind": "approx vs reference", "gl": gl_info(shared_context()),
-               "approx_params": approx_params.to_dict(), "reference_settings": reference_settings.to_dict(),
-               "scenes": rows}
-    atomic_write_text(os.path.join(out_dir, "summary.json"), json.dumps(summary, indent=2, default=float))
-    atomic_write_text(os.path.join(out_dir, "index.html"), _html(summary))
+    pages = [scene_page(r, exposures=exposures(r)) for r in results]
+    checks = [c for p in pages for c in p["gate"]["checks"]]
+    failed = [c for c in checks if not c["passed"]]
+    unchecked = [p["scene"] for p in pages if p["gate"]["note"] and not p["gate"]["checks"]]
+    summary = {
+        "kind": "accuracy report", "created": time.strftime("%Y-%m-%d %H:%M:%S %Z"),
+        "params": params.to_dict(), "seeds": seeds, "reference_settings": reference_settings.to_dict(),
+        "budgets": budgets["path"], "baseline": baseline_dir,
+        "gate": {"passed": not failed and bool(checks), "checks": len(checks), "failed": len(failed),
+                 "unchecked_scenes": unchecked},
+        "scales": {name: scale.to_dict() for name, scale in SCALES.items()},
+        "exposure_rule": "per scene and component: the reference's 99.5th percentile of lit luminance over the "
+                         "compared pixels maps to 1 (metrics.image.reference_exposure); all images of that "
+                         "component share it",
+        "scenes": pages, "sweep": _sweep_summary(sweep) if sweep is not None else None,
+        "gl": gl_info(shared_context()), "code_version": code_version(), "versions": library_versions(),
+        "seconds": clock,
+    }
     return summary
 
 
-def _floors(floors: dict) -> str:
-    return ", ".join(f"{name} {100 * v:.3f}%" for name, v in floors.items() if v is not None)
+def _sweep_summary(sweep) -> dict:
+    from .figures import settings_that_suffice
+
+    suffice = settings_that_suffice(sweep.tables["points"], sweep.varied)
+    wanted = suffice[suffice["parameter"].isin(("layers", "iterations", "peak_samples"))] if len(suffice) else suffice
+    return {"folder": os.path.abspath(sweep.folder), "varied": sweep.varied, "spec": sweep.spec,
+            "points": int(len(sweep.tables["points"])), "suffice": wanted.to_dict("records"),
+            "suffice_factor": float(wanted["factor"].iloc[0]) if len(wanted) else None, "figures": []}
 
 
-def _fmt(x, pct=False):
-    if x is None:
-        return "–"
-    return f"{100 * x:.2f}%" if pct else f"{x:.3f}"
+def write_report(out_dir: str, results: list, summary: dict, sweep=None, *, progress: bool = False) -> dict:
+    """Draw ``index.html`` from ``summary`` (and each scene's views), write it and,
+    last, ``summary.json``; the sweep's figures also as files under ``figures/``."""
+    from tqdm import tqdm
+
+    from scenes.storage import atomic_write_text
+
+    from .experiment import plain
+    from .html import render_page
+
+    os.makedirs(out_dir, exist_ok=True)
+    pairs = list(zip(results, summary["scenes"]))
+    images = {page["scene"]: scene_images(result, page)
+              for result, page in tqdm(pairs, desc="page", unit="scene", disable=not progress)}
+    sweep_figures = {}
+    if sweep is not None:
+        from .figures import draw_figures
+        from .pictures import data_uri
+
+        paths = draw_figures(sweep.tables, os.path.join(out_dir, "figures"), varied=sweep.varied)
+        for path in paths:
+            if path.endswith(".png"):
+                with open(path, "rb") as fh:
+                    sweep_figures[os.path.splitext(os.path.basename(path))[0]] = data_uri(fh.read())
+        summary["sweep"]["figures"] = [os.path.relpath(p, out_dir) for p in paths]
+    page = render_page(summary, images, sweep_figures)
+    atomic_write_text(os.path.join(out_dir, "index.html"), page)
+    atomic_write_text(os.path.join(out_dir, "summary.json"), json.dumps(plain(summary), indent=1, allow_nan=False))
+    return {"index.html": os.path.join(out_dir, "index.html"), "summary.json": os.path.join(out_dir, "summary.json")}
 
 
-def _html(summary: dict) -> str:
-    blocks = []
-    for r in summary["scenes"]:
-        e = r["errors"]
-        table = "".join(
-            f"<tr><td>{layer}</td><td>{_fmt(e[layer]['relative_mse'], pct=True)}</td>"
-            f"<td>{_fmt(e[layer]['energy_ratio'])}</td></tr>" for layer in COLOUR_LAYERS)
-        imgs = "".join(f"<figure><img src='{html.escape(path)}' width=256><figcaption>{html.escape(label)}"
-                       f"</figcaption></figure>" for label, path in r["images"].items())
-        t = r["approx_timings_s"]
-        blocks.append(
-            f"<section id='{html.escape(r['scene'])}'><h2>{html.escape(r['scene'])}</h2>"
-            f"<p>{html.escape(r['description'])} — {r['specular_triangles']:,} specular triangles, "
-            f"scene_hash <code>{r['scene_hash'][:12]}</code></p>"
-            f"<div class='imgs'>{imgs}</div>"
-            f"<table><tr><th>layer</th><th>relative MSE</th><th>energy ratio (approx / reference)</th></tr>{table}</table>"
-            f"<p>approx frame {t['frame_wall']:.3f} s ({html.escape(r['approx_timing_method'])}): trace "
-            f"{t['trace']:.3f} s, splat {t['splat']:.3f} s. Reference: {r['reference']['photons']:,} photons, "
-            f"{r['reference']['batches']} + {r['reference']['camera_batches']} batches, "
-            f"{html.escape(r['reference']['mitsuba_variant'])}{' (cached)' if r['reference']['cached'] else ''}; "
-            f"noise floor {html.escape(_floors(r['reference']['noise_floor']))} "
-            f"(stopped by {html.escape(r['reference']['stopped_by'])}).</p></section>")
-    params = html.escape(json.dumps(summary["approx_params"]))
-    ref = html.escape(json.dumps(summary["reference_settings"]))
-    return f"""<!doctype html>
-<html><head><meta charset="utf-8"><title>volcaustics report</title>
-<style>body{{font-family:sans-serif;margin:2em;max-width:1400px}} td,th{{padding:3px 10px;text-align:left}}
-.imgs{{display:flex;flex-wrap:wrap;gap:8px}} figure{{margin:0}} figcaption{{font-size:80%}}</style>
-</head><body>
-<h1>volcaustics — approximation vs ground truth</h1>
-<p>GL: {html.escape(summary['gl']['renderer'])}. Errors over pixels that do not see glass. Images share the
-reference's exposure; <i>error_combined</i> is |approx − reference|.</p>
-<p>approx parameters: <code>{params}</code><br>reference settings: <code>{ref}</code></p>
-{''.join(blocks)}
-</body></html>
-"""
+def scene_images(result, page: dict) -> dict:
+    """Data URIs of one scene: renders at the page's exposures, error maps on the fixed
+    scales, charts."""
+    from . import scene_figures as charts
+    from .pictures import SCALES, data_uri, heatmap_uri, render_uri
+
+    v = result.views
+    out = {}
+    for component in ("caustic", "combined"):
+        exposure = page["exposure"][component]
+        out[f"approx.{component}"] = render_uri(v[f"approx.{component}"], exposure)
+        out[f"reference.{component}"] = render_uri(v[f"reference.{component}"], exposure)
+        for metric, scale in SCALES.items():
+            out[f"map.{metric}.{component}"] = heatmap_uri(v[f"map.{metric}.{component}"], scale)
+    out["exact_steps"] = render_uri(v["exact_steps"], page["exposure"]["caustic"])
+    out["chart.hit_classes"] = data_uri(charts.hit_classes_chart(page["hit_classes"]))
+    out["chart.power_budget"] = data_uri(charts.power_budget_chart(page["power_budget"]))
+    out["chart.decomposition"] = data_uri(charts.decomposition_chart(page["decomposition"]))
+    out["chart.pass_times"] = data_uri(charts.pass_times_chart(page["timing"]))
+    return out

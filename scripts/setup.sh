@@ -25,6 +25,20 @@ done
 if ! "$PYTHON" -c 'import venv, ensurepip' >/dev/null 2>&1; then
   need+=(python3-venv)
 fi
+# chromium + chromium-driver: the report's browser test (headless). Optional: without
+# them that test is skipped and says why; everything else runs.
+browser=()
+for pkg in chromium chromium-driver; do
+  dpkg -s "$pkg" >/dev/null 2>&1 || browser+=("$pkg")
+done
+if [ ${#browser[@]} -gt 0 ]; then
+  if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null; then
+    need+=("${browser[@]}")
+  else
+    echo "setup: optional ${browser[*]} missing (the report's browser test will be skipped); to install:" >&2
+    echo "  sudo apt-get install -y ${browser[*]}" >&2
+  fi
+fi
 if [ ${#need[@]} -gt 0 ]; then
   if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null; then
     echo "setup: installing system packages: ${need[*]}"

@@ -1,0 +1,318 @@
+"""The report page: one self-contained HTML file (images as data URIs, inline CSS and
+script, nothing fetched), drawn from the report's summary (``reports.report``).
+
+Verdicts are words and symbols on a coloured ground, never colour alone. Renders
+are drawn with ``image-rendering: pixelated``; hovering an approximation shows the
+reference in its place, clicking keeps it (Blender's render report does this).
+"""
+
+from __future__ import annotations
+
+import json
+from html import escape
+
+from scenes.formats import COLOUR_LAYERS
+
+CSS = """
+body{font-family:system-ui,-apple-system,"Segoe UI",sans-serif;margin:0 auto;padding:12px 20px;max-width:1320px;
+     color:#222;font-size:14px;line-height:1.4}
+h1{font-size:22px;margin:4px 0} h2{font-size:18px;margin:28px 0 6px;border-bottom:1px solid #ccc}
+h3{font-size:15px;margin:14px 0 4px}
+table{border-collapse:collapse;margin:6px 0;font-size:13px} td,th{padding:2px 8px;border-bottom:1px solid #e4e4e4;
+     text-align:right;vertical-align:top} th{background:#f3f3f3} #overview td{white-space:nowrap} td.l,th.l{text-align:left}
+.fail{background:#fde0dc;color:#8b1a10} .pass{background:#dff3e4;color:#14532d} .none{background:#eee;color:#444}
+.verdict{font-weight:600;padding:1px 6px;border-radius:3px;display:inline-block;margin:1px 0;white-space:nowrap}
+.banner{font-size:16px;padding:8px 12px;border-radius:4px;margin:8px 0}
+.row{display:flex;flex-wrap:wrap;gap:12px;align-items:flex-start}
+figure{margin:0} figcaption{font-size:12px;color:#444;max-width:300px}
+img.render{image-rendering:pixelated;image-rendering:crisp-edges;display:block;border:1px solid #bbb}
+img.swap{cursor:pointer} img.chart{display:block;max-width:100%}
+.bar{height:12px;width:256px;border:1px solid #999} .ticks{display:flex;justify-content:space-between;width:258px;
+     font-size:11px;color:#333}
+.note{color:#555;font-size:12px} code{font-size:12px} .warn{color:#8b1a10}
+nav a{margin-right:10px} details{margin:4px 0}
+"""
+
+SCRIPT = """
+document.querySelectorAll('img.swap').forEach(function (img) {
+  var own = img.src, other = document.getElementById(img.dataset.other);
+  var label = document.getElementById(img.dataset.label), locked = false;
+  function show(ref) {
+    img.src = ref ? other.src : own;
+    if (label) label.textContent = ref ? 'showing: reference (hover off or click to return)'
+                                       : 'showing: approximation (hover or click: reference)';
+  }
+  img.addEventListener('mouseenter', function () { if (!locked) show(true); });
+  img.addEventListener('mouseleave', function () { if (!locked) show(false); });
+  img.addEventListener('click', function () { locked = !locked; show(locked); });
+});
+"""
+
+
+def _num(value, fmt="{:.3g}", missing="–") -> str:
+    if value is None or (isinstance(value, float) and value != value):
+        return missing
+    return fmt.format(value)
+
+
+def _pct(value, digits=2) -> str:
+    return _num(None if value is None else 100.0 * value, "{:.%df}%%" % digits)
+
+
+def _verdict(passed, text) -> str:
+    if passed is None:
+        return f"<span class='verdict none'>– {escape(text)}</span>"
+    return (f"<span class='verdict {'pass' if passed else 'fail'}'>{'✓ pass' if passed else '✗ FAIL'} "
+            f"{escape(text)}</span>")
+
+
+def _check_text(check: dict) -> str:
+    if check["name"].startswith("regression"):
+        return f"{check['name']} {100 * check['value']:+.2f}% ({check['limit']})"
+    return f"{check['name']} {check['value']:.4g} ({check['limit']})"
+
+
+def _gate_cell(gate: dict) -> str:
+    parts = [_verdict(c["passed"], _check_text(c)) for c in gate["checks"]]
+    if gate["note"]:
+        parts.append(f"<span class='note'>{escape(gate['note'])}</span>")
+    return "<br>".join(parts) or _verdict(None, "no checks")
+
+
+def _gate_line(gate: dict) -> str:
+    """The scene's gate in one line: its failures, else one pass for all checks."""
+    failed = [c for c in gate["checks"] if not c["passed"]]
+    if failed:
+        return "Gate: " + " ".join(_verdict(False, _check_text(c)) for c in failed)
+    if gate["checks"]:
+        return "Gate: " + _verdict(True, f"all {len(gate['checks'])} checks") + (
+            f" <span class='note'>{escape(gate['note'])}</span>" if gate["note"] else "")
+    return "Gate: " + _verdict(None, gate["note"] or "no checks")
+
+
+def _overview(summary: dict) -> str:
+    head = ("<tr><th class='l'>scene</th><th class='l'>component</th><th>relative MSE, debiased [95% interval]</th>"
+            "<th>reference noise floor</th><th>energy ratio [95%]</th><th>HDR-FLIP (mean)</th>"
+            "<th class='l'>gate (failures first)</th><th>frame time</th></tr>")
+    body = []
+    for page in summary["scenes"]:
+        for k, component in enumerate(COLOUR_LAYERS):
+            c = page["components"][component]
+            relmse, energy, flip = c["relative_mse"], c["energy_ratio"], c["hdr_flip"]
+            interval = (f" [{_pct(relmse.get('ci_low'))}, {_pct(relmse.get('ci_high'))}]"
+                        if relmse.get("ci_low") is not None else "")
+            cells = [f"<td class='l'>{component}</td>",
+                     f"<td>{_pct(relmse.get('debiased'))}{interval}</td>",
+                     f"<td>{_pct(c['reference_noise_floor'], 3)}</td>",
+                     f"<td>{_num(energy.get('value'), '{:.3f}')}"
+                     + (f" [{_num(energy.get('ci_low'), '{:.3f}')}, {_num(energy.get('ci_high'), '{:.3f}')}]"
+                        if energy.get("ci_low") is not None else "") + "</td>",
+                     f"<td>{_num(flip.get('value'))}</td>"]
+            if k == 0:
+                n = len(COLOUR_LAYERS)
+                cells.insert(0, f"<td class='l' rowspan={n}><a href='#scene-{escape(page['scene'])}'>"
+                                f"{escape(page['scene'])}</a></td>")
+                cells += [f"<td class='l' rowspan={n}>{_gate_cell(page['gate'])}</td>",
+                          f"<td rowspan={n}>{page['timing']['frame_s'] * 1000:.0f} ms</td>"]
+            body.append(f"<tr class='overview-row' data-scene='{escape(page['scene'])}'>{''.join(cells)}</tr>")
+    return f"<table id='overview'>{head}{''.join(body)}</table>"
+
+
+def _banner(summary: dict) -> str:
+    gate = summary["gate"]
+    if not gate["checks"]:
+        return "<div class='banner none'>Gate: nothing checked (no budgets for these scenes).</div>"
+    failed = [c for p in summary["scenes"] for c in p["gate"]["checks"] if not c["passed"]]
+    items = "".join(f"<li>{escape(p)}: {escape(_check_text(c))}</li>" for p, c in
+                    ((c["scene"], c) for c in failed))
+    status = "pass" if not failed else "fail"
+    text = (f"✓ Gate passed: all {gate['checks']} checks within their budgets" if not failed else
+            f"✗ Gate FAILED: {gate['failed']} of {gate['checks']} checks")
+    extra = (f" (not checked: {escape(', '.join(gate['unchecked_scenes']))})" if gate["unchecked_scenes"] else "")
+    return f"<div class='banner {status}'>{text}{extra}.{'<ul>' + items + '</ul>' if items else ''}</div>"
+
+
+def _figure(uri: str, caption: str, *, ident: str = "", cls: str = "render", width: int | None = None,
+            extra: str = "") -> str:
+    attributes = (f" width={width}" if width else "") + (f" id='{ident}'" if ident else "") + extra
+    return (f"<figure><img class='{cls}' src='{uri}'{attributes} alt='{escape(caption)}'>"
+            f"<figcaption>{caption}</figcaption></figure>")
+
+
+def _colour_bar(scale: dict, css: str) -> str:
+    ticks = "".join(f"<span>{escape(label)}</span>" for _, label in scale["ticks"])
+    return (f"<div class='bar' style='background:{css}'></div><div class='ticks'>{ticks}</div>"
+            f"<div class='note'>{escape(scale['label'])}; grey: not compared (glass)</div>")
+
+
+def _renders(page: dict, images: dict, width: int) -> str:
+    name = page["scene"]
+    out = []
+    for component in ("caustic", "combined"):
+        a, r = f"{name}-approx-{component}", f"{name}-reference-{component}"
+        label = f"{a}-label"
+        items = [_figure(images[f"approx.{component}"], f"approximation, {component} (seed mean) — "
+                         f"<span id='{label}'>showing: approximation (hover or click: reference)</span>",
+                         ident=a, cls="render swap", width=width, extra=f" data-other='{r}' data-label='{label}'")]
+        if component == "caustic":
+            items.append(_figure(images["exact_steps"], "exact photons E_k: the same photons and random numbers, "
+                                                        "exact intersections", width=width))
+        items.append(_figure(images[f"reference.{component}"], f"reference (Mitsuba 3), {component}",
+                             ident=r, width=width))
+        out.append(f"<div class='row'>{''.join(items)}</div>")
+    exposure = page["exposure"]
+    return ("".join(out) + f"<p class='note'>One exposure per component for every image of it: caustic ×"
+            f"{exposure['caustic']:.4g}, combined ×{exposure['combined']:.4g} (linear, then sRGB).</p>")
+
+
+def _maps(page: dict, images: dict, summary: dict, bars: dict, width: int) -> str:
+    out = []
+    for metric, scale in summary["scales"].items():
+        items = []
+        for component in ("caustic", "combined"):
+            mean = page["components"][component].get(metric, {}).get("value")
+            items.append(_figure(images[f"map.{metric}.{component}"],
+                                 f"{escape(scale['label'])}, {component}: the first seed's frame (mean over the "
+                                 f"frames {_num(mean)})", width=width))
+        items.append(f"<div>{_colour_bar({**scale, 'ticks': bars[metric]['ticks']}, bars[metric]['css'])}</div>")
+        out.append(f"<div class='row'>{''.join(items)}</div>")
+    return "".join(out)
+
+
+def _hit_table(hits: dict) -> str:
+    from .scene_figures import HIT_CLASSES
+
+    head = ("<tr><th>step</th><th>segments</th>" + "".join(f"<th>{c.replace('_', ' ')}</th>" for c in HIT_CLASSES)
+            + "<th>of which self re-hits</th><th>|Δt| median</th><th>|Δt| p90</th><th>|Δt| p99</th></tr>")
+    rows = []
+    for r in hits["by_step"]:
+        dt = r["abs_dt_mm"]
+        rows.append(f"<tr><td>{r['step']}</td><td>{r['segments']:,}</td>"
+                    + "".join(f"<td>{r[c]:.1f}%</td>" for c in HIT_CLASSES)
+                    + f"<td>{r['self_rehit']:.1f}%</td>"
+                    + "".join(f"<td>{_num(dt[q], '{:.2f} mm')}</td>" for q in ("median", "p90", "p99")) + "</tr>")
+    layer_head = ("<tr><th>step</th><th>layer</th><th>segments</th>"
+                  + "".join(f"<th>{c.replace('_', ' ')}</th>" for c in HIT_CLASSES) + "<th>self re-hits</th></tr>")
+    layer_rows = "".join(f"<tr><td>{r['step']}</td><td>{r['layer']}</td><td>{r['segments']:,}</td>"
+                         + "".join(f"<td>{r[c]:.1f}%</td>" for c in HIT_CLASSES)
+                         + f"<td>{r['self_rehit']:.1f}%</td></tr>" for r in hits["rows"])
+    return (f"<table class='hits'>{head}{''.join(rows)}</table>"
+            f"<details><summary>by step and layer (% of the step's segments)</summary>"
+            f"<table>{layer_head}{layer_rows}</table></details>")
+
+
+def _decomposition_table(d: dict) -> str:
+    rows = "".join(f"<tr><td class='l'>{t['term'].replace('_', ' ')}</td>"
+                   f"<td>{100 * t['energy_share']:+.1f}% ± {100 * t['energy_share_se']:.1f}</td>"
+                   f"<td>{100 * t['relmse_part']:.2f} ± {100 * t['relmse_part_se']:.2f}</td></tr>"
+                   for t in d["terms"] + [d["total"]])
+    res = d["residual"]
+    verdict = _verdict(res["within_noise"], f"residual within noise (energy z {res['energy_z']:+.1f}, "
+                                            f"relMSE z {res['relmse_z']:+.1f})")
+    msg = f"<p class='warn'>{escape(res['message'])}</p>" if res.get("message") else ""
+    return (f"<table><tr><th class='l'>term</th><th>energy share (% of R) ± SE</th>"
+            f"<th>part of the relative MSE (% points) ± SE</th></tr>{rows}</table><p>{verdict}</p>{msg}")
+
+
+def _timing_table(t: dict) -> str:
+    paper = t["paper_shares"]
+    rows = "".join(f"<tr><td class='l'>{p['pass']}</td><td>{1000 * p['seconds']:.1f} ms</td>"
+                   f"<td>{100 * p['share']:.0f}%</td><td>{_pct(paper.get(p['pass']), 0)}</td></tr>"
+                   for p in t["passes"])
+    return (f"<table><tr><th class='l'>pass</th><th>time</th><th>share</th><th>paper's share</th></tr>{rows}"
+            f"<tr><td class='l'>frame</td><td>{1000 * t['frame_s']:.1f} ms</td><td></td><td></td></tr></table>"
+            f"<p class='note'>Median over the seeds; measured by {escape(t['method'])}.</p>")
+
+
+def _scene_section(page: dict, images: dict, summary: dict, bars: dict) -> str:
+    name = page["scene"]
+    width = max(256, page["params"]["width"]) if page["params"]["width"] >= 256 else \
+        page["params"]["width"] * max(1, 256 // page["params"]["width"])
+    ref = page["reference"]
+    floors = ", ".join(f"{k} {_pct(v, 3)}" for k, v in (ref.get("noise_floor") or {}).items())
+    warnings = "".join(f"<li class='warn'>{escape(w)}</li>" for w in page["warnings"])
+    return f"""
+<section id='scene-{escape(name)}'>
+<h2>{escape(name)}</h2>
+<p>{escape(page['description'])}.</p><p>{_gate_line(page['gate'])}</p>
+<p class='note'>Reference <code>{escape(ref['key'])}</code>: {ref['photons']:,} photons, {ref['batches']} caustic and
+{ref['camera_batches']} camera batches, noise floor {escape(floors)} (stopped by {escape(str(ref['stopped_by']))});
+seeds {escape(', '.join(str(s) for s in page['seed_values']))}; {page['compared_pixels']:,} pixels compared.
+Result <code>{escape(page['point'])}</code> {'measured in this run' if page['measured_in_this_run'] else 'from the result store'}.</p>
+{'<ul>' + warnings + '</ul>' if warnings else ''}
+<h3>Images</h3>
+{_renders(page, images, width)}
+<h3>Error maps (fixed scales)</h3>
+{_maps(page, images, summary, bars, width)}
+<h3>Intersection: hit classes by step and layer</h3>
+<div class='row'><div>{_hit_table(page['hit_classes'])}</div>
+<img class='chart' src='{images['chart.hit_classes']}' alt='hit classes of {escape(name)} by step and layer'></div>
+<h3>Power by fate per step (both tracers)</h3>
+<img class='chart' src='{images['chart.power_budget']}' alt='power budget of {escape(name)}'>
+<h3>The caustic's error, decomposed</h3>
+<div class='row'><img class='chart' src='{images['chart.decomposition']}' alt='decomposition of {escape(name)}'>
+<div>{_decomposition_table(page['decomposition'])}</div></div>
+<h3>Time per pass</h3>
+<div class='row'><img class='chart' src='{images['chart.pass_times']}' alt='pass times of {escape(name)}'>
+<div>{_timing_table(page['timing'])}</div></div>
+</section>"""
+
+
+def _sweep_section(sweep: dict, figures: dict) -> str:
+    if sweep is None:
+        return ""
+    figs = "".join(f"<figure><img class='chart' src='{uri}' alt='{escape(name)}'><figcaption>{escape(name)}"
+                   f"</figcaption></figure>" for name, uri in figures.items())
+    head = ("<tr><th class='l'>scene</th><th class='l'>layer_strategy</th><th class='l'>parameter</th>"
+            "<th class='l'>criterion</th><th>suffices</th><th>its error</th><th>best</th><th>largest tried</th>"
+            "<th>frame time</th></tr>")
+    rows = "".join(f"<tr><td class='l'>{escape(r['scene'])}</td><td class='l'>{escape(r['layer_strategy'])}</td>"
+                   f"<td class='l'>{escape(r['parameter'])}</td><td class='l'>{escape(r['criterion'])}</td>"
+                   f"<td>{r['suffices']:g}</td><td>{_pct(r['error'])}</td><td>{_pct(r['best'])}</td>"
+                   f"<td>{r['largest']:g}</td><td>{_num(r['frame_time_s'], '{:.3f} s')}</td></tr>"
+                   for r in sweep["suffice"])
+    factor = sweep["suffice_factor"]
+    return f"""
+<section id='sweep'><h2>Sweep</h2>
+<p class='note'>Store <code>{escape(sweep['folder'])}</code>: {sweep['points']} points; varied
+{escape(', '.join(sweep['varied']))}.</p>
+<h3>Settings that suffice</h3>
+<p class='note'>Per scene: the fewest layers / iterations / peak_samples whose error is within
+{_num(factor, '{:g}')}× the best over that parameter (the other varied parameters at their largest).</p>
+<table id='suffice'>{head}{rows}</table>
+{figs}
+</section>"""
+
+
+def render_page(summary: dict, images: dict, sweep_figures: dict) -> str:
+    """The page; ``images``: scene → name → data URI (``reports.report.scene_images``)."""
+    from .pictures import SCALES, colour_bar_css
+
+    bars = {name: {"css": colour_bar_css(scale), "ticks": scale.ticks()} for name, scale in SCALES.items()}
+    params = summary["params"]
+    nav = "".join(f"<a href='#scene-{escape(p['scene'])}'>{escape(p['scene'])}</a>" for p in summary["scenes"])
+    if summary["sweep"] is not None:
+        nav += "<a href='#sweep'>sweep</a>"
+    sections = "".join(_scene_section(p, images[p["scene"]], summary, bars) for p in summary["scenes"])
+    return f"""<!doctype html>
+<html lang='en'><head><meta charset='utf-8'><meta name='viewport' content='width=device-width, initial-scale=1'>
+<title>volcaustics accuracy report</title><style>{CSS}</style></head><body>
+<h1>volcaustics — accuracy of image-based photon tracing against ground truth</h1>
+<p class='note'>{escape(summary['created'])}; GL: {escape(summary['gl'].get('renderer', '?'))};
+code {escape(summary['code_version'])}; every number here is in <code>summary.json</code> beside this page.</p>
+{_banner(summary)}
+<nav>{nav}</nav>
+<h2>Overview</h2>
+<p class='note'>Errors over the pixels where neither renderer sees glass. Relative MSE Σ(A − R)²/ΣR² of the seeds'
+mean, debiased (less the reference's noise floor and the approximation's own noise over
+{summary['seeds']} seeds; jackknife interval, Student t). Energy ratio ΣA/ΣR (1 = same energy). HDR-FLIP: mean over
+frames (0 = identical, 1 = worst). Budgets: <code>{escape(summary['budgets'])}</code>
+{'; baseline <code>' + escape(summary['baseline']) + '</code>' if summary['baseline'] else '; no baseline (no regression test)'}.</p>
+{_overview(summary)}
+<details><summary>parameters used</summary><p>approximation: <code>{escape(json.dumps(params))}</code><br>
+reference: <code>{escape(json.dumps(summary['reference_settings']))}</code></p></details>
+{sections}
+{_sweep_section(summary['sweep'], sweep_figures)}
+<script>{SCRIPT}</script>
+</body></html>
+"""
