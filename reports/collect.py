@@ -96,7 +96,7 @@ def collect_scenes(names, params, *, seeds: int, reference_settings, budgets: di
     for name in _stage(names, "references", progress):
         p = params.resolved(scenes[name])
         settings = dataclasses.replace(reference_settings, width=p.width, height=p.height)
-        references[name] = render_reference(scenes[name], settings, progress=False)
+        references[name] = render_reference(scenes[name], settings, progress=progress)
     clock["references"] = time.perf_counter() - t
 
     t = time.perf_counter()
@@ -104,7 +104,7 @@ def collect_scenes(names, params, *, seeds: int, reference_settings, budgets: di
     store.clean_stale()
     results = []
     for name in _stage(names, "experiments", progress):
-        results.append(_scene_result(store, scenes[name], name, params, seeds, references[name]))
+        results.append(_scene_result(store, scenes[name], name, params, seeds, references[name], progress))
     clock["experiments"] = time.perf_counter() - t
 
     t = time.perf_counter()
@@ -114,7 +114,7 @@ def collect_scenes(names, params, *, seeds: int, reference_settings, budgets: di
     return results
 
 
-def _scene_result(store, scene, name, params, seeds, reference) -> SceneResult:
+def _scene_result(store, scene, name, params, seeds, reference, progress: bool = False) -> SceneResult:
     import pandas as pd
 
     from .experiment import run_experiment
@@ -125,7 +125,7 @@ def _scene_result(store, scene, name, params, seeds, reference) -> SceneResult:
     measured = store.status(key, views=True) != "done"
     if measured:
         store.remove_damaged(key, views=True)
-        experiment = run_experiment(scene, params, seeds=seeds, reference=reference)
+        experiment = run_experiment(scene, params, seeds=seeds, reference=reference, progress=progress)
         store.write_point(key, document, experiment, views=True)
     summary = store.summary(key)
     if summary is None:

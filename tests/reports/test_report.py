@@ -1,72 +1,320 @@
-"""`volcaustics report` renders what exists: catalogue previews and an HTML page."""
+"""`volcaustics report`: a self-contained page and summary.json drawn from results, the
+gate's verdicts on it, a warm rerun that measures nothing, a sweep section, bad input
+that exits 2 before rendering, and the page opened in a real headless Chromium."""
 
 from __future__ import annotations
 
 import json
+import os
+import re
+import shutil
+from html.parser import HTMLParser
+from pathlib import Path
 
 import numpy as np
+import pytest
 
 from reports.cli import main
-from scenes.imageio import png_bytes, tonemap_srgb8
+
+REPO = Path(__file__).resolve().parents[2]
+SCENES = ("refocus", "sphere1")
+# tiny experiments: 40², photon_res/light_res 64, 2 seeds; references of 4 fixed batches
+SMALL = ["--set", "width=40", "--set", "height=40", "--set", "photon_res=64", "--set", "light_res=64",
+         "--seeds", "2", "--photons", "65536", "--spp", "8", "--batches", "4", "--target-noise", "none", "--quiet"]
+# refocus passes everything; sphere1's HDR-FLIP budget is far below what any frame gets (≈ 0.8): one failure
+BUDGETS = """
+preset = "quick"
+seeds = 2
+[scene.refocus]
+caustic = { energy_ratio = [0.0, 10.0], hdr_flip_max = 1.0 }
+segments = { missed_step2_max = 1.0 }
+[scene.sphere1]
+caustic = { hdr_flip_max = 0.001 }
+combined = { energy_ratio = [0.0, 10.0] }
+"""
+SWEEP = """
+scenes = ["refocus"]
+seeds = 1
+[vary]
+layers = [1, 2]
+[set]
+width = 32
+height = 32
+photon_res = 64
+light_res = 64
+[reference]
+photons = 65536
+spp = 8
+batches = 4
+target_noise = "none"
+"""
 
 
-def test_report_renders_both_and_measures(tmp_path, capsys, monkeypatch):
-    monkeypatch.setenv("VOLCAUSTICS_CACHE", str(tmp_path / "cache"))
+@pytest.fixture(scope="module")
+def built(tmp_path_factory):
+    """One sweep store and one report over it (cold), then the same report again (warm)."""
+    root = tmp_path_factory.mktemp("report")
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv("VOLCAUSTICS_CACHE", str(root / "cache"))
+        mp.setenv("VOLCAUSTICS_MI_VARIANT", "llvm_ad_rgb")
+        (root / "sweep.toml").write_text(SWEEP)
+        (root / "budgets.toml").write_text(BUDGETS)
+        assert main(["sweep", str(root / "sweep.toml"), "-o", str(root / "sweep"), "--workers", "1", "--quiet"]) == 0
+        args = ["report", "--scenes", ",".join(SCENES), "--budgets", str(root / "budgets.toml"),
+                "--sweep", str(root / "sweep"), *SMALL]
+        assert main([*args, "--out", str(root / "cold")]) == 0
+        cold = json.loads((root / "cold" / "summary.json").read_text())
+        assert main([*args, "--out", str(root / "warm")]) == 0
+        warm = json.loads((root / "warm" / "summary.json").read_text())
+        yield {"root": root, "args": args, "cold": cold, "warm": warm, "page": (root / "cold" / "index.html").read_text()}
+
+
+class _Page(HTMLParser):
+    """The overview's cells per row, every <img> and every external reference."""
+
+    def __init__(self):
+        super().__init__()
+        self.rows, self.images, self.external, self._cell, self._in_overview = [], [], [], None, False
+
+    def handle_starttag(self, tag, attrs):
+        a = dict(attrs)
+        if tag == "table" and a.get("id") == "overview":
+            self._in_overview = True
+        if self._in_overview and tag == "tr" and "data-scene" in a:
+            self.rows.append({"scene": a["data-scene"], "cells": []})
+        if self._in_overview and tag == "td" and self.rows:
+            self._cell = []
+        if tag == "img":
+            self.images.append(a)
+        for key in ("src", "href"):
+            value = a.get(key) or ""
+            if tag in ("script", "link", "img", "iframe") and value and not value.startswith(("data:", "#")):
+                self.external.append((tag, value))
+
+    def handle_endtag(self, tag):
+        if tag == "td" and self._cell is not None:
+            self.rows[-1]["cells"].append("".join(self._cell).strip())
+            self._cell = None
+        if tag == "table":
+            self._in_overview = False
+
+    def handle_data(self, data):
+        if self._cell is not None:
+            self._cell.append(data)
+
+
+def _parse(page: str) -> _Page:
+    parser = _Page()
+    parser.feed(page)
+    return parser
+
+
+def test_summary_holds_every_scene_and_the_gate_verdicts(built):
+    s = built["cold"]
+    assert [p["scene"] for p in s["scenes"]] == list(SCENES)
+    assert s["seeds"] == 2 and s["params"]["width"] == 40 and s["reference_settings"]["batches"] == 4
+    by_scene = {p["scene"]: p for p in s["scenes"]}
+    assert by_scene["refocus"]["gate"]["passed"] is True
+    failed = [c for c in by_scene["sphere1"]["gate"]["checks"] if not c["passed"]]
+    assert [c["name"] for c in failed] == ["caustic.hdr_flip_max"]
+    # failures first within a scene
+    assert by_scene["sphere1"]["gate"]["checks"][0]["passed"] is False
+    assert s["gate"] == {"passed": False, "checks": 5, "failed": 1, "unchecked_scenes": []}
+    for page in s["scenes"]:
+        assert page["measured_in_this_run"] is True
+        # the decomposition's terms telescope to its total (an identity of the estimator, to rounding)
+        terms = page["decomposition"]["terms"]
+        assert sum(t["energy_share"] for t in terms) == pytest.approx(page["decomposition"]["total"]["energy_share"],
+                                                                       abs=1e-9)
+        # hit classes of a step (self re-hits counted by their class beyond) are every segment of it
+        for step in page["hit_classes"]["by_step"]:
+            shares = [step[c] for c in ("true_hit", "wrong_surface", "false_hit", "missed_inside", "missed_medium",
+                                        "correct_miss")]
+            assert sum(shares) == pytest.approx(100.0, abs=1e-9)
+        by_layer = {}
+        for row in page["hit_classes"]["rows"]:
+            by_layer[row["step"]] = by_layer.get(row["step"], 0) + row["segments"]
+        assert by_layer == {r["step"]: r["segments"] for r in page["hit_classes"]["by_step"]}
+        assert {p["pass"] for p in page["timing"]["passes"]} >= {"trace", "splat"}
+        assert sum(p["share"] for p in page["timing"]["passes"]) == pytest.approx(1.0)
+
+
+def test_the_page_shows_the_summary_numbers(built):
+    """Every overview cell is the summary's number as the page formats it."""
+    s, parsed = built["cold"], _parse(built["page"])
+    assert [r["scene"] for r in parsed.rows] == [p["scene"] for p in s["scenes"] for _ in range(4)]
+    rows = iter(parsed.rows)
+    for page in s["scenes"]:
+        for component in ("caustic", "fog", "direct", "combined"):
+            cells = next(rows)["cells"]
+            if component == "caustic":
+                assert cells[0] == page["scene"]
+                cells = cells[1:]
+            c = page["components"][component]
+            assert cells[0] == component
+            debiased = c["relative_mse"]["debiased"]
+            assert cells[1].startswith(f"{100 * debiased:.2f}%")
+            assert cells[2] == f"{100 * c['reference_noise_floor']:.3f}%"
+            assert cells[3].startswith(f"{c['energy_ratio']['value']:.3f}")
+            assert cells[4] == f"{c['hdr_flip']['value']:.3g}"
+    # the failure is spelled out, not only coloured, and comes first in its cell and in the banner
+    assert "✗ Gate FAILED: 1 of 5 checks" in built["page"]
+    sphere = next(r for r in parsed.rows if r["scene"] == "sphere1" and len(r["cells"]) > 6)
+    assert sphere["cells"][6].startswith("✗ FAIL caustic.hdr_flip_max")
+
+
+def test_the_page_is_self_contained(built):
+    parsed = _parse(built["page"])
+    assert parsed.external == []
+    assert not re.search(r"https?://", built["page"])
+    assert len(parsed.images) >= 2 * (7 + 4 + 4)    # per scene: 5 renders, 4 maps, 4 charts; plus sweep figures
+    assert all(img["src"].startswith("data:image/png;base64,") for img in parsed.images)
+    renders = [img for img in parsed.images if "render" in img.get("class", "")]
+    assert renders and all("swap" not in img["class"] or img.get("data-other") for img in renders)
+    assert "image-rendering:pixelated" in built["page"]
+
+
+def test_the_sweep_section(built):
+    sweep = built["cold"]["sweep"]
+    assert sweep["varied"] == ["layers"] and sweep["points"] == 2
+    assert {r["parameter"] for r in sweep["suffice"]} == {"layers"}
+    assert {r["suffices"] for r in sweep["suffice"]} <= {1, 2}
+    assert all(r["error"] <= 1.1 * r["best"] + 1e-12 for r in sweep["suffice"])
+    for rel in sweep["figures"]:
+        assert (built["root"] / "cold" / rel).stat().st_size > 0
+    assert "Settings that suffice" in built["page"] and "id='suffice'" in built["page"]
+
+
+def test_a_warm_report_measures_nothing_and_says_the_same(built):
+    cold, warm = built["cold"], built["warm"]
+    assert [p["measured_in_this_run"] for p in warm["scenes"]] == [False, False]
+    strip = ("measured_in_this_run",)
+    for a, b in zip(cold["scenes"], warm["scenes"]):
+        assert {k: v for k, v in a.items() if k not in strip} == {k: v for k, v in b.items() if k not in strip}
+
+
+def test_a_damaged_stored_result_is_measured_again(built, monkeypatch):
+    root = built["root"]
+    monkeypatch.setenv("VOLCAUSTICS_CACHE", str(root / "cache"))
     monkeypatch.setenv("VOLCAUSTICS_MI_VARIANT", "llvm_ad_rgb")
-    out = tmp_path / "rep"
-    assert main(["report", "--out", str(out), "--scenes", "refocus", "--width", "48", "--height", "40",
-                 "--photons", "100000", "--spp", "8", "--batches", "2"]) == 0
-    summary = json.loads((out / "summary.json").read_text())
-    assert summary["approx_params"]["width"] == 48 and summary["reference_settings"]["height"] == 40
-    row = summary["scenes"][0]
-    assert row["scene"] == "refocus"
-    errors = row["errors"]
-    # the fog is the part both renderers compute almost identically (see test_cross_renderers)
-    assert 0.9 < errors["fog"]["energy_ratio"] < 1.1
-    assert errors["caustic"]["relative_mse"] > 0
-    for path in row["images"].values():
-        assert (out / path).read_bytes().startswith(b"\x89PNG\r\n\x1a\n")
-    page = (out / "index.html").read_text()
-    assert "refocus" in page and "relative MSE" in page
-    assert "refocus" in capsys.readouterr().out
-    assert not list(out.rglob(".*tmp*"))  # no temporary files left behind
+    key = next(p["point"] for p in built["cold"]["scenes"] if p["scene"] == "refocus")
+    views = root / "cache" / "report-results" / "points" / key / "views.exr"
+    views.write_bytes(views.read_bytes()[:1000])        # torn
+    assert main([*built["args"], "--out", str(root / "again")]) == 0
+    again = json.loads((root / "again" / "summary.json").read_text())
+    assert {p["scene"]: p["measured_in_this_run"] for p in again["scenes"]} == {"refocus": True, "sphere1": False}
+    first = next(p for p in built["cold"]["scenes"] if p["scene"] == "refocus")
+    second = next(p for p in again["scenes"] if p["scene"] == "refocus")
+    assert second["components"] == first["components"]   # same seeds, same reference: the same numbers
 
 
-def test_scene_check_writes_a_preview(tmp_path, write_scene, capsys):
-    path = write_scene()
-    assert main(["scenes", "--check", path, "--preview", str(tmp_path / "p")]) == 0
-    assert (tmp_path / "p" / "base.png").read_bytes().startswith(b"\x89PNG")
-    assert "preview ->" in capsys.readouterr().out
+@pytest.mark.parametrize("argv, fragment", [
+    (["--scenes", ""], "--scenes"),
+    (["--scenes", "refocus,"], "--scenes"),
+    (["--scenes", "no_such_scene"], "no_such_scene"),
+    (["--seeds", "0"], "--seeds"),
+    (["--set", "layers=0"], "layers"),
+    (["--set", "seed=3"], "--seed"),
+    (["--sweep", "/nonexistent/sweep"], "sweep.json"),
+    (["--baseline", "/nonexistent/baseline"], "baseline"),
+])
+def test_bad_input_exits_2_before_rendering(tmp_path, monkeypatch, capsys, argv, fragment):
+    monkeypatch.setenv("VOLCAUSTICS_CACHE", str(tmp_path / "cache"))
+    assert main(["report", "--out", str(tmp_path / "out"), "--scenes", "refocus", *argv, "--quiet"]) == 2
+    assert fragment in capsys.readouterr().err
+    assert not (tmp_path / "cache" / "reference").exists() or not list((tmp_path / "cache" / "reference").iterdir())
 
 
-def test_preview_shows_the_objects(ctx):
-    from approx.preview import render_preview
-    from scenes import load_builtin
-
-    image = render_preview(ctx, load_builtin("refocus"), 64, 64)
-    assert image.shape == (64, 64, 3) and np.isfinite(image).all() and image.min() >= 0
-    # The sphere (centre projected near the image centre, slightly above) is lit; the top rows are sky.
-    assert image[20:30, 28:36].mean() > 0 and image[:4].max() == 0
+def test_an_output_that_is_a_file_exits_2(tmp_path, capsys):
+    target = tmp_path / "file"
+    target.write_text("x")
+    assert main(["report", "--out", str(target), "--quiet"]) == 2
+    assert "--out" in capsys.readouterr().err
 
 
-def test_png_encoding_round_trip():
-    zlib_image = tonemap_srgb8(np.full((3, 2, 3), 0.5, np.float32), exposure=1.0)
-    assert zlib_image[0, 0, 0] == 188  # sRGB OETF(0.5) = 0.7354 -> 188
-    import zlib
+# --- the page in a real browser ----------------------------------------------------------
 
-    data = png_bytes(zlib_image)
-    idat = data[data.index(b"IDAT") + 4:]
-    raw = zlib.decompress(idat[: int.from_bytes(data[data.index(b"IDAT") - 4:data.index(b"IDAT")], "big")])
-    assert raw == b"".join(b"\x00" + bytes([188] * 6) for _ in range(3))
+def _browser():
+    """A headless Chromium driven by Selenium, or the reason there is none."""
+    chromium = shutil.which("chromium") or shutil.which("chromium-browser")
+    driver = shutil.which("chromedriver")
+    if not chromium or not driver:
+        return None, ("Chromium or chromedriver not installed (Debian packages chromium, chromium-driver; "
+                      "scripts/setup.sh installs them when run as root)")
+    try:
+        from selenium import webdriver
+        from selenium.webdriver.chrome.service import Service
+    except ImportError as exc:
+        return None, f"selenium not importable ({exc}): pip install -e '.[test]'"
+    options = webdriver.ChromeOptions()
+    options.binary_location = chromium
+    for flag in ("--headless=new", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage",
+                 "--window-size=1366,768", "--allow-file-access-from-files"):
+        options.add_argument(flag)
+    options.set_capability("goog:loggingPrefs", {"browser": "ALL"})
+    try:
+        return webdriver.Chrome(service=Service(driver), options=options), None
+    except Exception as exc:  # a driver that cannot start is a reason to skip, stated
+        return None, f"Chromium did not start under chromedriver: {exc}"
 
 
-def test_srgb_encoding_matches_colour_science():
-    import colour
+def test_the_report_in_headless_chromium(built):
+    """Opens the page at 1366×768: no console errors, every image decodes, the overview
+    lists every scene, hovering an approximation shows the reference; a screenshot is
+    kept under test-output/."""
+    browser, reason = _browser()
+    if browser is None:
+        pytest.skip(reason)
+    from selenium.webdriver.common.action_chains import ActionChains
+    from selenium.webdriver.common.by import By
 
-    from scenes.imageio import srgb_encode
+    try:
+        browser.get((built["root"] / "cold" / "index.html").as_uri())
+        browser.execute_script("return document.readyState")
+        undecoded = browser.execute_script(
+            "return Array.from(document.images).filter(i => !(i.complete && i.naturalWidth > 0)).map(i => i.alt)")
+        assert undecoded == []
+        assert browser.execute_script("return document.images.length") == len(_parse(built["page"]).images)
+        listed = browser.execute_script(
+            "return Array.from(new Set(Array.from(document.querySelectorAll('#overview tr[data-scene]'))"
+            ".map(r => r.dataset.scene)))")
+        assert listed == list(SCENES)
+        # readable at 1366×768: nothing wider than the window
+        assert browser.execute_script("return document.documentElement.scrollWidth") <= 1366
+        approx = browser.find_element(By.ID, "refocus-approx-caustic")
+        reference = browser.find_element(By.ID, "refocus-reference-caustic")
+        own = approx.get_attribute("src")
+        assert own != reference.get_attribute("src")
+        browser.execute_script("arguments[0].scrollIntoView()", approx)
+        ActionChains(browser).move_to_element(approx).perform()
+        assert approx.get_attribute("src") == reference.get_attribute("src")
+        ActionChains(browser).move_to_element(browser.find_element(By.TAG_NAME, "h1")).perform()
+        browser.execute_script("window.scrollTo(0, 0)")
+        assert approx.get_attribute("src") == own
+        browser.execute_script("window.scrollTo(0, 0)")
+        out = REPO / "test-output"
+        out.mkdir(exist_ok=True)
+        assert browser.save_screenshot(str(out / "report.png"))
+        errors = [e for e in browser.get_log("browser") if e["level"] == "SEVERE"]
+        assert errors == []
+    finally:
+        browser.quit()
 
-    x = np.concatenate([np.linspace(0, 0.01, 101), np.linspace(0.01, 1, 1000)])
-    assert np.allclose(srgb_encode(x), colour.cctf_encoding(x, function="sRGB"), atol=1e-12)
+
+def test_error_maps_average_to_their_metric():
+    """full=True maps: their mean over the compared pixels is the metric's value."""
+    from metrics.image import hdr_flip, per_pixel_relative_mse
+
+    rng = np.random.default_rng(4)
+    r = rng.uniform(0.1, 1.0, (24, 32, 3))
+    t = r * rng.uniform(0.8, 1.25, r.shape)
+    keep = np.ones((24, 32), bool)
+    keep[:6] = False
+    for metric in (per_pixel_relative_mse, hdr_flip):
+        out = metric(r, t, mask=keep, full=True)
+        assert out["map"].shape == (24, 32) and np.isnan(out["map"][:6]).all()
+        assert np.nanmean(out["map"]) == pytest.approx(out["value"], rel=1e-12)
+        assert metric(r, t, mask=keep)["value"] == out["value"] and "map" not in metric(r, t, mask=keep)
 
 
 def test_report_and_reference_cli_share_one_cache_entry(tmp_path, monkeypatch):
@@ -76,11 +324,14 @@ def test_report_and_reference_cli_share_one_cache_entry(tmp_path, monkeypatch):
     cache = tmp_path / "cache"
     monkeypatch.setenv("VOLCAUSTICS_CACHE", str(cache))
     monkeypatch.setenv("VOLCAUSTICS_MI_VARIANT", "llvm_ad_rgb")
-    size_and_budget = ["--width", "24", "--height", "24", "--photons", "100000", "--spp", "8", "--batches", "2"]
-    assert main(["report", "--out", str(tmp_path / "rep"), "--scenes", "refocus", *size_and_budget]) == 0
+    budget = ["--photons", "100000", "--spp", "8", "--batches", "2"]
+    assert main(["report", "--out", str(tmp_path / "rep"), "--scenes", "refocus", "--seeds", "1", "--quiet",
+                 "--set", "width=24", "--set", "height=24", "--set", "photon_res=32", "--set", "light_res=32",
+                 *budget, "--target-noise", "none"]) == 0
     from_report = json.loads((tmp_path / "rep" / "summary.json").read_text())["scenes"][0]["reference"]
-    assert main(["reference", "refocus", *size_and_budget, "-o", str(tmp_path / "r.exr")]) == 0
+    assert main(["reference", "refocus", "--width", "24", "--height", "24", *budget, "-o", str(tmp_path / "r.exr")]) == 0
     from_cli = json.loads((tmp_path / "r.json").read_text())
     assert from_cli["key"] == from_report["key"]
     assert from_report["cached"] is False and from_cli["cached"] is True
     assert len(list((cache / "reference").glob("*.json"))) == 1
+    assert os.path.exists(tmp_path / "rep" / "index.html")
