@@ -16,6 +16,7 @@ report: setup
 	  $$( [ -f runs/sweep/sweep.json ] && [ -f runs/sweep/points.parquet ] && echo --sweep runs/sweep )
 
 test: setup
+	@bash scripts/setup.sh --browser
 	@bash scripts/run_tests.sh
 
 doctor: setup

@@ -43,6 +43,8 @@ SELF_REHIT = 6
 CLASS_NAMES = {TRUE_HIT: "true_hit", WRONG_SURFACE: "wrong_surface", FALSE_HIT: "false_hit",
                MISSED_INSIDE: "missed_inside", MISSED_MEDIUM: "missed_medium",
                CORRECT_MISS: "correct_miss", SELF_REHIT: "self_rehit"}
+# what a segment's search came to; a self re-hit is resolved into one of these beyond its surface
+OUTCOME_CLASSES = tuple(name for code, name in CLASS_NAMES.items() if code != SELF_REHIT)
 
 RECORD_FIELDS = ("step", "start", "direction", "search_length", "start_offset", "t", "hit", "map",
                  "normal", "inside")

@@ -106,6 +106,9 @@ def _scene_list(text, option: str):
     names = [s.strip() for s in text.split(",")]
     if not names or any(not n for n in names):
         raise UsageError(option, text, "expected comma-separated scene names (built-in names or .toml files)")
+    repeated = sorted({n for n in names if names.count(n) > 1})
+    if repeated:
+        raise UsageError(option, text, f"{repeated[0]!r} is named twice: name each scene once")
     return names
 
 

@@ -9,7 +9,8 @@ budgets and, with a baseline, the regression test). With a sweep store, its
 consolidated tables. Everything is read back from the stores, so a report drawn from
 a cold run and one drawn from a warm run see the same data.
 
-This is the only part of the report that computes (:mod:`reports.report` draws).
+This is the only part of the report that renders or measures (:mod:`reports.report`
+draws from what it returns).
 """
 
 from __future__ import annotations
@@ -39,6 +40,7 @@ class SceneResult:
     views: dict              # reports.experiment.VIEWS name → H×W×3 float32
     checks: list = field(default_factory=list)   # reports.gate.Check
     gate_note: str = ""      # why the gate could not check this scene (no budgets, a GateError)
+    budgeted: bool = False   # the budgets have this scene
     measured: bool = False   # measured in this run (False: from the store)
 
 
@@ -150,23 +152,27 @@ def _gate(result: SceneResult, budgets: dict, baseline: dict | None) -> None:
     if limits is None:
         result.gate_note = f"no budgets for {result.summary['scene']} in {budgets['path']}"
         return
+    result.budgeted = True
     stored = _Stored(result)
     try:
-        checks = budget_checks(result.name, limits, stored)
-        if baseline is not None:
-            base = baseline["scenes"].get(result.summary["scene"])
-            entry = baseline_entry(stored)
-            if base is None:
-                result.gate_note = "the baseline has no entry for this scene: no regression test"
-            elif base.get("reference_key") != entry["reference_key"]:
-                result.gate_note = ("the baseline was measured against another reference: no regression test "
-                                    "(update the baseline)")
-            else:
-                checks.append(regression_check(result.name, entry, base))
+        result.checks = budget_checks(result.name, limits, stored)
     except GateError as exc:
-        result.gate_note = f"not checked: {exc}"
+        result.gate_note = f"budgets not checked: {exc}"
+    if baseline is None:
         return
-    result.checks = checks
+    base = baseline["scenes"].get(result.summary["scene"])
+    try:
+        entry = baseline_entry(stored)
+        if base is None:
+            note = "the baseline has no entry for this scene: no regression test"
+        elif base.get("reference_key") != entry["reference_key"]:
+            note = "the baseline was measured against another reference: no regression test (update the baseline)"
+        else:
+            result.checks.append(regression_check(result.name, entry, base))
+            return
+    except GateError as exc:
+        note = f"regression not tested: {exc}"
+    result.gate_note = "; ".join(n for n in (result.gate_note, note) if n)
 
 
 def load_sweep(folder: str) -> SweepTables:
@@ -228,10 +234,6 @@ def run_report(out_dir: str, names, *, overrides: dict, seeds: int | None, seed:
     clock = {}
     results = collect_scenes(names, params, seeds=seeds, reference_settings=reference_settings, budgets=budgets,
                              baseline=baseline, progress=progress, clock=clock)
-    t = time.perf_counter()
     summary = report_summary(results, params=params, seeds=seeds, reference_settings=reference_settings,
                              budgets=budgets, baseline_dir=baseline_dir, sweep=sweep, clock=clock)
-    write_report(out_dir, results, summary, sweep, progress=progress)
-    clock["page"] = time.perf_counter() - t
-    clock["total"] = time.perf_counter() - t0
-    return summary
+    return write_report(out_dir, results, summary, sweep, progress=progress, started=t0)

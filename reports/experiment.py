@@ -40,6 +40,7 @@ ALIVE_BUDGET = 1e-3          # above it, summary.json warns that E_∞ is trunca
 SMALL_SUPERSAMPLE = 4        # E_∞,s: splatted at 4× and box-averaged (the reference's pixel filter)
 SMALL_KERNEL_FINE_PIXELS = 0.6  # its σ in fine pixels (0.15 pixel): aliasing 2·exp(−2π²·0.36) ≈ 0.2%; at 2×
                                 # (0.3 pixel) its own blur left sphere2's residual 4σ from 0 (tests/cross/test_v6.py)
+TIMED_FRAMES = 3             # frames without records timed per experiment (the median one is reported)
 SUBSET_BATCHES = 8           # paired photon subsets per seed of A and the E images: the decomposition's noise
 BEYOND_SKIP = 10.0           # a self re-hit's re-query starts this many oracle epsilons past the surface
 RESAMPLES = 2000             # bootstrap resamples over the seeds (per-frame metrics)
@@ -133,7 +134,7 @@ def run_experiment(scene, params, *, seeds: int = 1, reference_settings=None, pr
         oracle = oracle or Oracle(scene)
         clock["oracle"] = time.perf_counter() - t
         t = time.perf_counter()
-        frames = _frames(renderer, scene, p, seed_list, warm_up=own_renderer)
+        frames, timed = _frames(renderer, scene, p, seed_list, warm_up=own_renderer)
         clock["approx"] = time.perf_counter() - t
         bar.update()
         t = time.perf_counter()
@@ -168,7 +169,7 @@ def run_experiment(scene, params, *, seeds: int = 1, reference_settings=None, pr
     clock["total"] = time.perf_counter() - t0
 
     summary = _summary(scene, p, seed_list, reference, frames, exact, headline, decomposition, divergence, clock,
-                       keep)
+                       keep, timed)
     layers = {name: np.asarray(img, np.float32) for name, img in decomposition["images"].items()}
     layers.update({f"term.{name}": np.asarray(img, np.float32) for name, img in decomposition["terms"].items()})
     return Experiment(segments=segments, photons=photons, images=image_rows, summary=summary, layers=layers,
@@ -199,18 +200,24 @@ def _views(frames, reference, keep, layers, maps) -> dict:
 
 # --- approximation frames ----------------------------------------------------------
 
-def _frames(renderer, scene, p, seeds, *, warm_up: bool) -> list:
-    """One frame per seed, with records. A fresh renderer compiles its shaders in its
-    first frame, so it renders one frame first that is not timed."""
+def _frames(renderer, scene, p, seeds, *, warm_up: bool) -> tuple:
+    """One frame per seed, with records, and the pass times of TIMED_FRAMES frames
+    rendered as a user would (no records: reading them back is the harness's cost, not
+    the method's). A fresh renderer compiles its shaders in its first frame, so it
+    renders one frame first that is not timed."""
     if warm_up:
         renderer.render(dataclasses.replace(p, seed=seeds[0]), scene, keep_records=False)
-    return [renderer.render(dataclasses.replace(p, seed=s), scene, keep_records=True) for s in seeds]
+    frames = [renderer.render(dataclasses.replace(p, seed=s), scene, keep_records=True) for s in seeds]
+    timed = [renderer.render(dataclasses.replace(p, seed=seeds[i % len(seeds)]), scene, keep_records=False).timings
+             for i in range(TIMED_FRAMES)]
+    return frames, timed
 
 
-def _timings(frames) -> dict:
-    """Median seconds per pass over the frames."""
-    names = frames[0].timings.keys()
-    return {name: float(np.median([f.timings[name] for f in frames])) for name in names}
+def _timings(timed: list) -> dict:
+    """The pass times of the timed frame with the median frame time (one frame's, so
+    its passes add up to at most its frame time)."""
+    order = sorted(range(len(timed)), key=lambda i: timed[i]["frame_wall"])
+    return {name: float(v) for name, v in timed[order[len(order) // 2]].items()}
 
 
 # --- segments ----------------------------------------------------------------------
@@ -550,7 +557,8 @@ def _decomposition_rows(decomposition, columns) -> list:
 
 # --- summary -------------------------------------------------------------------------
 
-def _summary(scene, p, seeds, reference, frames, exact, headline, decomposition, divergence, clock, keep) -> dict:
+def _summary(scene, p, seeds, reference, frames, exact, headline, decomposition, divergence, clock, keep,
+             timed) -> dict:
     from approx.context import gl_info, shared_context
 
     from .versions import code_version, library_versions
@@ -582,7 +590,7 @@ def _summary(scene, p, seeds, reference, frames, exact, headline, decomposition,
         "decomposition": {"rows": decomposition["rows"], "residual": decomposition["residual"],
                           "options": decomposition["options"]},
         "paths": divergence,
-        "approx_timings_s": _timings(frames), "timing_method": frames[0].timing_method,
+        "approx_timings_s": _timings(timed), "timed_frames": len(timed), "timing_method": frames[0].timing_method,
         "experiment_seconds": clock, "gl": gl_info(shared_context()),
         "code_version": code_version(), "versions": library_versions(), "warnings": warnings,
     }

@@ -29,7 +29,8 @@ img.render{image-rendering:pixelated;image-rendering:crisp-edges;display:block;b
 img.swap{cursor:pointer} img.chart{display:block;max-width:100%}
 .bar{height:12px;width:256px;border:1px solid #999} .ticks{display:flex;justify-content:space-between;width:258px;
      font-size:11px;color:#333}
-.note{color:#555;font-size:12px} code{font-size:12px} .warn{color:#8b1a10}
+.note{color:#555;font-size:12px} .missing{display:flex;align-items:center;justify-content:center;
+     background:#eee;color:#444;border:1px dashed #999} code{font-size:12px} .warn{color:#8b1a10}
 nav a{margin-right:10px} details{margin:4px 0}
 """
 
@@ -68,8 +69,9 @@ def _verdict(passed, text) -> str:
 
 def _check_text(check: dict) -> str:
     if check["name"].startswith("regression"):
-        return f"{check['name']} {100 * check['value']:+.2f}% ({check['limit']})"
-    return f"{check['name']} {check['value']:.4g} ({check['limit']})"
+        value = None if check["value"] is None else 100 * check["value"]
+        return f"{check['name']} {_num(value, '{:+.2f}%')} ({check['limit']})"
+    return f"{check['name']} {_num(check['value'], '{:.4g}')} ({check['limit']})"
 
 
 def _gate_cell(gate: dict) -> str:
@@ -90,12 +92,19 @@ def _gate_line(gate: dict) -> str:
     return "Gate: " + _verdict(None, gate["note"] or "no checks")
 
 
+def _params_cell(params: dict) -> str:
+    p = dict(params)
+    size = f"{p.pop('width')}×{p.pop('height')}"
+    return "<span class='note'>" + "<br>".join([size] + [f"{escape(k)} {escape(str(v))}" for k, v in p.items()]) \
+        + "</span>"
+
+
 def _overview(summary: dict) -> str:
     head = ("<tr><th class='l'>scene</th><th class='l'>component</th><th>relative MSE, debiased [95% interval]</th>"
             "<th>reference noise floor</th><th>energy ratio [95%]</th><th>HDR-FLIP (mean)</th>"
-            "<th class='l'>gate (failures first)</th><th>frame time</th></tr>")
+            "<th class='l'>gate (failures first)</th><th>frame time</th><th class='l'>parameters</th></tr>")
     body = []
-    for page in summary["scenes"]:
+    for index, page in enumerate(summary["scenes"]):
         for k, component in enumerate(COLOUR_LAYERS):
             c = page["components"][component]
             relmse, energy, flip = c["relative_mse"], c["energy_ratio"], c["hdr_flip"]
@@ -110,30 +119,40 @@ def _overview(summary: dict) -> str:
                      f"<td>{_num(flip.get('value'))}</td>"]
             if k == 0:
                 n = len(COLOUR_LAYERS)
-                cells.insert(0, f"<td class='l' rowspan={n}><a href='#scene-{escape(page['scene'])}'>"
-                                f"{escape(page['scene'])}</a></td>")
+                frame = page["timing"]["frame_s"]
+                cells.insert(0, f"<td class='l' rowspan={n}><a href='#scene-{index}'>{escape(page['scene'])}</a></td>")
                 cells += [f"<td class='l' rowspan={n}>{_gate_cell(page['gate'])}</td>",
-                          f"<td rowspan={n}>{page['timing']['frame_s'] * 1000:.0f} ms</td>"]
+                          f"<td rowspan={n}>{_num(None if frame is None else 1000 * frame, '{:.0f} ms')}</td>",
+                          f"<td class='l' rowspan={n}>{_params_cell(page['shown_params'])}</td>"]
             body.append(f"<tr class='overview-row' data-scene='{escape(page['scene'])}'>{''.join(cells)}</tr>")
     return f"<table id='overview'>{head}{''.join(body)}</table>"
 
 
 def _banner(summary: dict) -> str:
     gate = summary["gate"]
-    if not gate["checks"]:
-        return "<div class='banner none'>Gate: nothing checked (no budgets for these scenes).</div>"
     failed = [c for p in summary["scenes"] for c in p["gate"]["checks"] if not c["passed"]]
-    items = "".join(f"<li>{escape(p)}: {escape(_check_text(c))}</li>" for p, c in
-                    ((c["scene"], c) for c in failed))
-    status = "pass" if not failed else "fail"
-    text = (f"✓ Gate passed: all {gate['checks']} checks within their budgets" if not failed else
-            f"✗ Gate FAILED: {gate['failed']} of {gate['checks']} checks")
-    extra = (f" (not checked: {escape(', '.join(gate['unchecked_scenes']))})" if gate["unchecked_scenes"] else "")
-    return f"<div class='banner {status}'>{text}{extra}.{'<ul>' + items + '</ul>' if items else ''}</div>"
+    items = "".join(f"<li>{escape(c['scene'])}: {escape(_check_text(c))}</li>" for c in failed)
+    unchecked = [p for p in summary["scenes"] if p["scene"] in gate["unchecked_scenes"]]
+    items += "".join(f"<li>{escape(p['scene'])}: {escape(p['gate']['note'])}</li>" for p in unchecked)
+    if gate["passed"] is True:
+        status, text = "pass", f"✓ Gate passed: all {gate['checks']} checks within their budgets"
+    elif gate["passed"] is False:
+        status, text = "fail", f"✗ Gate FAILED: {gate['failed']} of {gate['checks']} checks"
+    elif gate["unchecked_scenes"]:
+        status, text = "fail", (f"✗ Gate not fully checked: {len(gate['unchecked_scenes'])} scene(s) with budgets "
+                                f"could not be checked (`volcaustics gate` exits 2 on them)")
+    else:
+        status, text = "none", "– Gate: nothing checked (no budgets for these scenes)"
+    if gate["scenes_without_budgets"]:
+        text += f"; no budgets: {', '.join(gate['scenes_without_budgets'])}"
+    return f"<div class='banner {status}'>{escape(text)}.{'<ul>' + items + '</ul>' if items else ''}</div>"
 
 
-def _figure(uri: str, caption: str, *, ident: str = "", cls: str = "render", width: int | None = None,
+def _figure(uri: str | None, caption: str, *, ident: str = "", cls: str = "render", width: int | None = None,
             extra: str = "") -> str:
+    if uri is None:  # e.g. an error map whose metric could not be computed
+        return (f"<figure><div class='missing' style='width:{width or 256}px;height:{width or 256}px'>not computed"
+                f"</div><figcaption>{caption}</figcaption></figure>")
     attributes = (f" width={width}" if width else "") + (f" id='{ident}'" if ident else "") + extra
     return (f"<figure><img class='{cls}' src='{uri}'{attributes} alt='{escape(caption)}'>"
             f"<figcaption>{caption}</figcaption></figure>")
@@ -145,11 +164,10 @@ def _colour_bar(scale: dict, css: str) -> str:
             f"<div class='note'>{escape(scale['label'])}; grey: not compared (glass)</div>")
 
 
-def _renders(page: dict, images: dict, width: int) -> str:
-    name = page["scene"]
+def _renders(index: int, page: dict, images: dict, width: int) -> str:
     out = []
     for component in ("caustic", "combined"):
-        a, r = f"{name}-approx-{component}", f"{name}-reference-{component}"
+        a, r = f"s{index}-approx-{component}", f"s{index}-reference-{component}"
         label = f"{a}-label"
         items = [_figure(images[f"approx.{component}"], f"approximation, {component} (seed mean) — "
                          f"<span id='{label}'>showing: approximation (hover or click: reference)</span>",
@@ -162,7 +180,8 @@ def _renders(page: dict, images: dict, width: int) -> str:
         out.append(f"<div class='row'>{''.join(items)}</div>")
     exposure = page["exposure"]
     return ("".join(out) + f"<p class='note'>One exposure per component for every image of it: caustic ×"
-            f"{exposure['caustic']:.4g}, combined ×{exposure['combined']:.4g} (linear, then sRGB).</p>")
+            f"{_num(exposure['caustic'], '{:.4g}')}, combined ×{_num(exposure['combined'], '{:.4g}')} (linear, "
+            f"then sRGB).</p>")
 
 
 def _maps(page: dict, images: dict, summary: dict, bars: dict, width: int) -> str:
@@ -180,35 +199,43 @@ def _maps(page: dict, images: dict, summary: dict, bars: dict, width: int) -> st
 
 
 def _hit_table(hits: dict) -> str:
-    from .scene_figures import HIT_CLASSES
+    from metrics.intersection import OUTCOME_CLASSES
 
-    head = ("<tr><th>step</th><th>segments</th>" + "".join(f"<th>{c.replace('_', ' ')}</th>" for c in HIT_CLASSES)
+    share = "{:.1f}%"
+    head = ("<tr><th>step</th><th>segments</th>" + "".join(f"<th>{c.replace('_', ' ')}</th>" for c in OUTCOME_CLASSES)
             + "<th>of which self re-hits</th><th>|Δt| median</th><th>|Δt| p90</th><th>|Δt| p99</th></tr>")
     rows = []
     for r in hits["by_step"]:
         dt = r["abs_dt_mm"]
         rows.append(f"<tr><td>{r['step']}</td><td>{r['segments']:,}</td>"
-                    + "".join(f"<td>{r[c]:.1f}%</td>" for c in HIT_CLASSES)
-                    + f"<td>{r['self_rehit']:.1f}%</td>"
+                    + "".join(f"<td>{_num(r[c], share)}</td>" for c in OUTCOME_CLASSES)
+                    + f"<td>{_num(r['self_rehit'], share)}</td>"
                     + "".join(f"<td>{_num(dt[q], '{:.2f} mm')}</td>" for q in ("median", "p90", "p99")) + "</tr>")
     layer_head = ("<tr><th>step</th><th>layer</th><th>segments</th>"
-                  + "".join(f"<th>{c.replace('_', ' ')}</th>" for c in HIT_CLASSES) + "<th>self re-hits</th></tr>")
+                  + "".join(f"<th>{c.replace('_', ' ')}</th>" for c in OUTCOME_CLASSES) + "<th>self re-hits</th></tr>")
     layer_rows = "".join(f"<tr><td>{r['step']}</td><td>{r['layer']}</td><td>{r['segments']:,}</td>"
-                         + "".join(f"<td>{r[c]:.1f}%</td>" for c in HIT_CLASSES)
-                         + f"<td>{r['self_rehit']:.1f}%</td></tr>" for r in hits["rows"])
+                         + "".join(f"<td>{_num(r[c], share)}</td>" for c in OUTCOME_CLASSES)
+                         + f"<td>{_num(r['self_rehit'], share)}</td></tr>" for r in hits["rows"])
     return (f"<table class='hits'>{head}{''.join(rows)}</table>"
             f"<details><summary>by step and layer (% of the step's segments)</summary>"
             f"<table>{layer_head}{layer_rows}</table></details>")
 
 
+def _hundred(value):
+    return None if value is None else 100.0 * value
+
+
 def _decomposition_table(d: dict) -> str:
     rows = "".join(f"<tr><td class='l'>{t['term'].replace('_', ' ')}</td>"
-                   f"<td>{100 * t['energy_share']:+.1f}% ± {100 * t['energy_share_se']:.1f}</td>"
-                   f"<td>{100 * t['relmse_part']:.2f} ± {100 * t['relmse_part_se']:.2f}</td></tr>"
+                   f"<td>{_num(_hundred(t['energy_share']), '{:+.1f}%')} ± "
+                   f"{_num(_hundred(t['energy_share_se']), '{:.1f}')}</td>"
+                   f"<td>{_num(_hundred(t['relmse_part']), '{:.2f}')} ± "
+                   f"{_num(_hundred(t['relmse_part_se']), '{:.2f}')}</td></tr>"
                    for t in d["terms"] + [d["total"]])
     res = d["residual"]
-    verdict = _verdict(res["within_noise"], f"residual within noise (energy z {res['energy_z']:+.1f}, "
-                                            f"relMSE z {res['relmse_z']:+.1f})")
+    text = (f"residual {'within' if res['within_noise'] else 'NOT within'} noise (energy z "
+            f"{_num(res['energy_z'], '{:+.1f}', '±∞')}, relMSE z {_num(res['relmse_z'], '{:+.1f}', '±∞')})")
+    verdict = _verdict(bool(res["within_noise"]), text)
     msg = f"<p class='warn'>{escape(res['message'])}</p>" if res.get("message") else ""
     return (f"<table><tr><th class='l'>term</th><th>energy share (% of R) ± SE</th>"
             f"<th>part of the relative MSE (% points) ± SE</th></tr>{rows}</table><p>{verdict}</p>{msg}")
@@ -216,32 +243,37 @@ def _decomposition_table(d: dict) -> str:
 
 def _timing_table(t: dict) -> str:
     paper = t["paper_shares"]
-    rows = "".join(f"<tr><td class='l'>{p['pass']}</td><td>{1000 * p['seconds']:.1f} ms</td>"
-                   f"<td>{100 * p['share']:.0f}%</td><td>{_pct(paper.get(p['pass']), 0)}</td></tr>"
+    rows = "".join(f"<tr><td class='l'>{p['pass']}</td><td>{_num(_thousand(p['seconds']), '{:.1f} ms')}</td>"
+                   f"<td>{_pct(p['share'], 0)}</td><td>{_pct(paper.get(p['pass']), 0)}</td></tr>"
                    for p in t["passes"])
     return (f"<table><tr><th class='l'>pass</th><th>time</th><th>share</th><th>paper's share</th></tr>{rows}"
-            f"<tr><td class='l'>frame</td><td>{1000 * t['frame_s']:.1f} ms</td><td></td><td></td></tr></table>"
-            f"<p class='note'>Median over the seeds; measured by {escape(t['method'])}.</p>")
+            f"<tr><td class='l'>frame</td><td>{_num(_thousand(t['frame_s']), '{:.1f} ms')}</td><td></td><td></td>"
+            f"</tr></table><p class='note'>One frame without records, the median of {_num(t['timed_frames'], '{}')}; "
+            f"measured by {escape(t['method'])} on {escape(str(t['gl_renderer']))}.</p>")
 
 
-def _scene_section(page: dict, images: dict, summary: dict, bars: dict) -> str:
+def _thousand(value):
+    return None if value is None else 1000.0 * value
+
+
+def _scene_section(index: int, page: dict, images: dict, summary: dict, bars: dict) -> str:
     name = page["scene"]
-    width = max(256, page["params"]["width"]) if page["params"]["width"] >= 256 else \
-        page["params"]["width"] * max(1, 256 // page["params"]["width"])
+    width = page["params"]["width"] * max(1, 256 // page["params"]["width"])  # small renders magnified, pixelated
     ref = page["reference"]
     floors = ", ".join(f"{k} {_pct(v, 3)}" for k, v in (ref.get("noise_floor") or {}).items())
     warnings = "".join(f"<li class='warn'>{escape(w)}</li>" for w in page["warnings"])
     return f"""
-<section id='scene-{escape(name)}'>
+<section id='scene-{index}'>
 <h2>{escape(name)}</h2>
 <p>{escape(page['description'])}.</p><p>{_gate_line(page['gate'])}</p>
-<p class='note'>Reference <code>{escape(ref['key'])}</code>: {ref['photons']:,} photons, {ref['batches']} caustic and
-{ref['camera_batches']} camera batches, noise floor {escape(floors)} (stopped by {escape(str(ref['stopped_by']))});
+<p class='note'>Reference <code>{escape(ref['key'])}</code>: {_num(ref['photons'], '{:,}')} photons,
+{_num(ref['batches'], '{}')} caustic and {_num(ref['camera_batches'], '{}')} camera batches, noise floor
+{escape(floors)} over its own non-glass pixels (stopped by {escape(str(ref['stopped_by']))});
 seeds {escape(', '.join(str(s) for s in page['seed_values']))}; {page['compared_pixels']:,} pixels compared.
 Result <code>{escape(page['point'])}</code> {'measured in this run' if page['measured_in_this_run'] else 'from the result store'}.</p>
 {'<ul>' + warnings + '</ul>' if warnings else ''}
 <h3>Images</h3>
-{_renders(page, images, width)}
+{_renders(index, page, images, width)}
 <h3>Error maps (fixed scales)</h3>
 {_maps(page, images, summary, bars, width)}
 <h3>Intersection: hit classes by step and layer</h3>
@@ -290,15 +322,16 @@ def render_page(summary: dict, images: dict, sweep_figures: dict) -> str:
 
     bars = {name: {"css": colour_bar_css(scale), "ticks": scale.ticks()} for name, scale in SCALES.items()}
     params = summary["params"]
-    nav = "".join(f"<a href='#scene-{escape(p['scene'])}'>{escape(p['scene'])}</a>" for p in summary["scenes"])
+    nav = "".join(f"<a href='#scene-{i}'>{escape(p['scene'])}</a>" for i, p in enumerate(summary["scenes"]))
     if summary["sweep"] is not None:
         nav += "<a href='#sweep'>sweep</a>"
-    sections = "".join(_scene_section(p, images[p["scene"]], summary, bars) for p in summary["scenes"])
+    sections = "".join(_scene_section(i, p, images[p["scene"]], summary, bars)
+                       for i, p in enumerate(summary["scenes"]))
     return f"""<!doctype html>
 <html lang='en'><head><meta charset='utf-8'><meta name='viewport' content='width=device-width, initial-scale=1'>
 <title>volcaustics accuracy report</title><style>{CSS}</style></head><body>
 <h1>volcaustics — accuracy of image-based photon tracing against ground truth</h1>
-<p class='note'>{escape(summary['created'])}; GL: {escape(summary['gl'].get('renderer', '?'))};
+<p class='note'>{escape(summary['created'])}; measured with GL {escape(', '.join(summary['gl_renderers']))};
 code {escape(summary['code_version'])}; every number here is in <code>summary.json</code> beside this page.</p>
 {_banner(summary)}
 <nav>{nav}</nav>

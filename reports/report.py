@@ -1,10 +1,11 @@
 """The accuracy report (``volcaustics report``, ``make report``): one self-contained
-HTML page and ``summary.json``, drawn from results only (``reports.collect`` gathers
-them; nothing here renders or measures).
+HTML page and ``summary.json``, drawn from results only (``reports.collect`` renders
+and measures; nothing here does).
 
-:func:`report_summary` picks and groups what the page shows — every number on the
-page comes from it, and it is written as ``summary.json`` — and :func:`write_report`
-draws the page from it (``reports.html``) with the images of each scene's views.
+:func:`report_summary` picks, groups and converts what the page shows (shares to
+percent, pass times to shares of the frame) — every number on the page comes from it,
+and it is written as ``summary.json`` — and :func:`write_report` draws the page from
+that very data (``reports.html``) with the images of each scene's views.
 """
 
 from __future__ import annotations
@@ -16,20 +17,24 @@ import time
 
 import numpy as np
 
+from metrics.decomposition import TERMS
 from scenes.formats import COLOUR_LAYERS
 
 # Wang, Wang & Chen: intersection estimation takes about 70% of a frame and splatting about 23% on their GPU
-PAPER_SHARES = {"trace": 0.70, "splat": 0.23}
+PAPER_SHARES = {"trace": 0.70, "splat": 0.23, "other": 0.07}
 PASSES = ("layers", "emission", "camera", "trace", "splat", "fog", "direct")
 HEADLINE = ("relative_mse", "energy_ratio", "hdr_flip", "per_pixel_relative_mse")
+SHOWN_PARAMS = ("width", "height", "photon_res", "light_res", "layers", "layer_strategy", "iterations",
+                "peak_samples", "steps", "splat_radius", "fresnel", "fog_steps")
 
 
 def _finite(value):
     return value if isinstance(value, (int, float)) and np.isfinite(value) else None
 
 
-def _pct(count, total) -> float:
-    return 100.0 * float(count) / float(total) if total else float("nan")
+def _percent_of(count, total):
+    """100 · count / total; None without a total."""
+    return 100.0 * float(count) / float(total) if total else None
 
 
 def hit_classes(segments) -> dict:
@@ -37,16 +42,16 @@ def hit_classes(segments) -> dict:
     approximation's hit (``"none"`` when it found none), and per step with the |Δt|
     percentiles of true hits (mm). Self re-hits are counted by their class beyond the
     re-hit surface and given apart as ``self_rehit`` (DESIGN.md)."""
-    from .scene_figures import HIT_CLASSES
+    from metrics.intersection import OUTCOME_CLASSES
 
     def classes(frame, total):
         out = {}
-        for name in HIT_CLASSES:
+        for name in OUTCOME_CLASSES:
             count = frame[f"count_{name}"].sum()
             if f"count_beyond_self_rehit_{name}" in frame:
                 count += frame[f"count_beyond_self_rehit_{name}"].sum()
-            out[name] = _pct(count, total)
-        out["self_rehit"] = _pct(frame["count_self_rehit"].sum(), total)
+            out[name] = _percent_of(count, total)
+        out["self_rehit"] = _percent_of(frame["count_self_rehit"].sum(), total)
         return out
 
     by_map = segments[segments["grouping"] == "step,map,inside"]
@@ -79,13 +84,16 @@ def power_budget(photons) -> list:
 
 
 def timing(summary: dict) -> dict:
-    """The frame's time per pass (median over the seeds) and its share of the frame."""
+    """One frame's time per pass (the experiment's timed frame with the median frame
+    time, rendered without records) and its share of that frame; ``other``: the frame's
+    time outside the passes (reading images back, the host's work)."""
     t = summary["approx_timings_s"]
     frame = t["frame_wall"]
     passes = [{"pass": name, "seconds": t[name], "share": t[name] / frame} for name in PASSES if name in t]
-    other = frame - sum(p["seconds"] for p in passes)
+    other = max(frame - sum(p["seconds"] for p in passes), 0.0)
     passes.append({"pass": "other", "seconds": other, "share": other / frame})
-    return {"method": summary["timing_method"], "frame_s": frame, "passes": passes, "paper_shares": PAPER_SHARES}
+    return {"method": summary["timing_method"], "frame_s": frame, "passes": passes, "paper_shares": PAPER_SHARES,
+            "timed_frames": summary.get("timed_frames"), "gl_renderer": (summary.get("gl") or {}).get("renderer")}
 
 
 def scene_page(result, *, exposures: dict) -> dict:
@@ -95,19 +103,20 @@ def scene_page(result, *, exposures: dict) -> dict:
     for component in COLOUR_LAYERS:
         metrics = s["images"][component]
         components[component] = {name: metrics.get(name, {}) for name in HEADLINE}
-        components[component]["reference_noise_floor"] = s["reference"]["noise_floor"].get(component)
+        # the floor over the compared pixels: what the debiased error had subtracted
+        components[component]["reference_noise_floor"] = metrics.get("relative_mse", {}).get("reference_floor")
     rows = {r["term"]: r for r in s["decomposition"]["rows"]}
     checks = sorted(result.checks, key=lambda c: (c.passed, c.name))
     return {
         "scene": result.name, "description": s["description"], "scene_hash": s["scene_hash"], "point": result.key,
-        "measured_in_this_run": result.measured, "params": s["params"], "seed_values": s["seed_values"],
+        "measured_in_this_run": result.measured, "params": s["params"],
+        "shown_params": {k: s["params"][k] for k in SHOWN_PARAMS}, "seed_values": s["seed_values"],
         "reference": s["reference"], "compared_pixels": s["compared_pixels"], "components": components,
         "gate": {"passed": None if not checks else all(c.passed for c in checks), "note": result.gate_note,
-                 "checks": [dataclasses.asdict(c) for c in checks]},
+                 "budgeted": result.budgeted, "checks": [dataclasses.asdict(c) for c in checks]},
         "timing": timing(s), "hit_classes": hit_classes(result.tables["segments"]),
         "power_budget": power_budget(result.tables["photons"]),
-        "decomposition": {"terms": [rows[t] for t in ("intersection", "truncation", "reflections", "kernel_blur",
-                                                      "residual")],
+        "decomposition": {"terms": [rows[t] for t in TERMS],
                           "total": rows["total"], "noise": rows["noise"], "residual": s["decomposition"]["residual"]},
         "paths": s["paths"], "exposure": exposures, "warnings": s["warnings"],
     }
@@ -129,28 +138,29 @@ def exposures(result) -> dict:
 
 def report_summary(results: list, *, params, seeds: int, reference_settings, budgets: dict,
                    baseline_dir: str | None, sweep=None, clock: dict) -> dict:
-    from approx.context import gl_info, shared_context
-
     from .pictures import SCALES
     from .versions import code_version, library_versions
 
     pages = [scene_page(r, exposures=exposures(r)) for r in results]
     checks = [c for p in pages for c in p["gate"]["checks"]]
     failed = [c for c in checks if not c["passed"]]
-    unchecked = [p["scene"] for p in pages if p["gate"]["note"] and not p["gate"]["checks"]]
+    # a scene with budgets that could not be checked: the gate would fail closed (exit 2), never pass
+    unchecked = [p["scene"] for p in pages if p["gate"]["budgeted"] and not p["gate"]["checks"]]
+    unbudgeted = [p["scene"] for p in pages if not p["gate"]["budgeted"]]
+    passed = False if failed else (None if unchecked or not checks else True)
     summary = {
         "kind": "accuracy report", "created": time.strftime("%Y-%m-%d %H:%M:%S %Z"),
         "params": params.to_dict(), "seeds": seeds, "reference_settings": reference_settings.to_dict(),
         "budgets": budgets["path"], "baseline": baseline_dir,
-        "gate": {"passed": not failed and bool(checks), "checks": len(checks), "failed": len(failed),
-                 "unchecked_scenes": unchecked},
+        "gate": {"passed": passed, "checks": len(checks), "failed": len(failed), "unchecked_scenes": unchecked,
+                 "scenes_without_budgets": unbudgeted},
         "scales": {name: scale.to_dict() for name, scale in SCALES.items()},
         "exposure_rule": "per scene and component: the reference's 99.5th percentile of lit luminance over the "
                          "compared pixels maps to 1 (metrics.image.reference_exposure); all images of that "
                          "component share it",
         "scenes": pages, "sweep": _sweep_summary(sweep) if sweep is not None else None,
-        "gl": gl_info(shared_context()), "code_version": code_version(), "versions": library_versions(),
-        "seconds": clock,
+        "gl_renderers": sorted({str((r.summary.get("gl") or {}).get("renderer")) for r in results}),
+        "code_version": code_version(), "versions": library_versions(), "seconds": clock,
     }
     return summary
 
@@ -165,9 +175,12 @@ def _sweep_summary(sweep) -> dict:
             "suffice_factor": float(wanted["factor"].iloc[0]) if len(wanted) else None, "figures": []}
 
 
-def write_report(out_dir: str, results: list, summary: dict, sweep=None, *, progress: bool = False) -> dict:
+def write_report(out_dir: str, results: list, summary: dict, sweep=None, *, progress: bool = False,
+                 started: float | None = None) -> dict:
     """Draw ``index.html`` from ``summary`` (and each scene's views), write it and,
-    last, ``summary.json``; the sweep's figures also as files under ``figures/``."""
+    last, ``summary.json``; the sweep's figures also as files under ``figures/``. The
+    page is drawn from the same strict-JSON data that ``summary.json`` holds (NaN as
+    null). ``started``: the run's ``time.perf_counter()`` at its start, for the total."""
     from tqdm import tqdm
 
     from scenes.storage import atomic_write_text
@@ -175,7 +188,9 @@ def write_report(out_dir: str, results: list, summary: dict, sweep=None, *, prog
     from .experiment import plain
     from .html import render_page
 
+    t0 = time.perf_counter()
     os.makedirs(out_dir, exist_ok=True)
+    summary = plain(summary)
     pairs = list(zip(results, summary["scenes"]))
     images = {page["scene"]: scene_images(result, page)
               for result, page in tqdm(pairs, desc="page", unit="scene", disable=not progress)}
@@ -192,8 +207,11 @@ def write_report(out_dir: str, results: list, summary: dict, sweep=None, *, prog
         summary["sweep"]["figures"] = [os.path.relpath(p, out_dir) for p in paths]
     page = render_page(summary, images, sweep_figures)
     atomic_write_text(os.path.join(out_dir, "index.html"), page)
-    atomic_write_text(os.path.join(out_dir, "summary.json"), json.dumps(plain(summary), indent=1, allow_nan=False))
-    return {"index.html": os.path.join(out_dir, "index.html"), "summary.json": os.path.join(out_dir, "summary.json")}
+    summary["seconds"]["page"] = time.perf_counter() - t0
+    if started is not None:
+        summary["seconds"]["total"] = time.perf_counter() - started
+    atomic_write_text(os.path.join(out_dir, "summary.json"), json.dumps(summary, indent=1, allow_nan=False))
+    return summary
 
 
 def scene_images(result, page: dict) -> dict:
@@ -209,7 +227,8 @@ def scene_images(result, page: dict) -> dict:
         out[f"approx.{component}"] = render_uri(v[f"approx.{component}"], exposure)
         out[f"reference.{component}"] = render_uri(v[f"reference.{component}"], exposure)
         for metric, scale in SCALES.items():
-            out[f"map.{metric}.{component}"] = heatmap_uri(v[f"map.{metric}.{component}"], scale)
+            name = f"map.{metric}.{component}"
+            out[name] = heatmap_uri(v[name], scale) if name in v else None   # None: the metric had no value
     out["exact_steps"] = render_uri(v["exact_steps"], page["exposure"]["caustic"])
     out["chart.hit_classes"] = data_uri(charts.hit_classes_chart(page["hit_classes"]))
     out["chart.power_budget"] = data_uri(charts.power_budget_chart(page["power_budget"]))

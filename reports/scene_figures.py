@@ -11,11 +11,12 @@ import io
 
 import numpy as np
 
+from metrics.decomposition import TERMS
+from metrics.intersection import OUTCOME_CLASSES
+
 from .figures import FATES, OKABE_ITO, _plt
 
-HIT_CLASSES = ("true_hit", "wrong_surface", "false_hit", "missed_inside", "missed_medium", "correct_miss")
-CLASS_COLOURS = dict(zip(HIT_CLASSES, ("#009E73", "#E69F00", "#D55E00", "#CC79A7", "#0072B2", "#BBBBBB")))
-TERMS = ("intersection", "truncation", "reflections", "kernel_blur", "residual")
+CLASS_COLOURS = dict(zip(OUTCOME_CLASSES, ("#009E73", "#E69F00", "#D55E00", "#CC79A7", "#0072B2", "#BBBBBB")))
 PASS_COLOURS = {"trace": "#D55E00", "splat": "#0072B2", "layers": "#E69F00", "emission": "#56B4E9",
                 "camera": "#CC79A7", "fog": "#009E73", "direct": "#F0E442", "other": "#BBBBBB"}
 
@@ -38,7 +39,7 @@ def hit_classes_chart(hit_classes: dict) -> bytes:
         at = [r for r in rows if r["step"] == step]
         x = np.arange(len(at))
         bottom = np.zeros(len(at))
-        for name in HIT_CLASSES:
+        for name in OUTCOME_CLASSES:
             values = np.array([r[name] for r in at], float)
             ax.bar(x, values, 0.7, bottom=bottom, color=CLASS_COLOURS[name], edgecolor="white", linewidth=0.3,
                    label=name.replace("_", " ") if ax is axes[0, 0] else None)
@@ -102,13 +103,14 @@ def decomposition_chart(decomposition: dict) -> bytes:
     plt = _plt()
     terms = {t["term"]: t for t in decomposition["terms"]}
     colours = [OKABE_ITO[i] for i in range(len(TERMS))]
+    number = lambda v: 0.0 if v is None else v  # noqa: E731  (a term the store holds as null: drawn as 0)
     fig, axes = plt.subplots(2, 1, figsize=(5.6, 2.3))
     for ax, (key, title, scale) in zip(axes, (("energy_share", "energy share (% of R's caustic energy)", 100.0),
                                              ("relmse_part", "part of the relative MSE (% points)", 100.0))):
-        values = [scale * terms[t][key] for t in TERMS]
+        values = [scale * number(terms[t][key]) for t in TERMS]
         _signed_stack(ax, 0, values, colours, [t.replace("_", " ") for t in TERMS] if ax is axes[0] else
                       [None] * len(TERMS), lambda v: f"{v:+.1f}")
-        total = scale * decomposition["total"][key]
+        total = scale * number(decomposition["total"][key])
         ax.axvline(total, color="black", lw=1, ls="--")
         ax.text(total, 0.42, f"total {total:+.1f}", fontsize=6.5, ha="left", va="bottom")
         ax.axvline(0, color="black", lw=0.5)
@@ -127,7 +129,6 @@ def pass_times_chart(timing: dict) -> bytes:
     fig, ax = plt.subplots(figsize=(5.6, 1.5))
     measured = {p["pass"]: 100.0 * p["share"] for p in timing["passes"]}
     paper = {name: 100.0 * share for name, share in timing["paper_shares"].items()}
-    paper["other"] = 100.0 - sum(paper.values())
     for y, shares in ((1, measured), (0, paper)):
         left = 0.0
         for name, value in shares.items():

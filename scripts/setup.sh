@@ -25,12 +25,14 @@ done
 if ! "$PYTHON" -c 'import venv, ensurepip' >/dev/null 2>&1; then
   need+=(python3-venv)
 fi
-# chromium + chromium-driver: the report's browser test (headless). Optional: without
-# them that test is skipped and says why; everything else runs.
+# chromium + chromium-driver: the report's browser test (headless), with --browser
+# (make test). Optional: without them that test is skipped and says why.
 browser=()
-for pkg in chromium chromium-driver; do
-  dpkg -s "$pkg" >/dev/null 2>&1 || browser+=("$pkg")
-done
+if [ "${1:-}" = "--browser" ]; then
+  for pkg in chromium chromium-driver; do
+    dpkg -s "$pkg" >/dev/null 2>&1 || browser+=("$pkg")
+  done
+fi
 if [ ${#browser[@]} -gt 0 ]; then
   if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null; then
     echo "setup: installing ${browser[*]} (the report's browser test)"
