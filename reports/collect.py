@@ -179,16 +179,16 @@ def load_sweep(folder: str) -> SweepTables:
     """A sweep store's consolidated tables (``volcaustics sweep -o DIR`` wrote them)."""
     import pandas as pd
 
-    manifest = os.path.join(folder, "sweep.json")
+    from scenes.storage import read_json_object
+
     try:
-        with open(manifest) as fh:
-            doc = json.load(fh)
+        doc = read_json_object(os.path.join(folder, "sweep.json"))
     except FileNotFoundError:
         raise ReportError(f"--sweep {folder}: no sweep.json: not a sweep store (run `volcaustics sweep ... -o "
                           f"{folder}` first)") from None
-    except (OSError, ValueError) as exc:
-        raise ReportError(f"--sweep {folder}: sweep.json unreadable ({exc})") from None
-    spec = doc.get("spec") if isinstance(doc, dict) else None
+    except ValueError as exc:
+        raise ReportError(f"--sweep: {exc}: rerun the sweep") from None
+    spec = doc.get("spec")
     if not isinstance(spec, dict) or not isinstance(spec.get("vary"), dict):
         raise ReportError(f"--sweep {folder}: sweep.json has no spec with a \"vary\" table: rerun the sweep")
     tables = {}

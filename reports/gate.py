@@ -263,16 +263,17 @@ def baseline_entry(experiment) -> dict:
 
 
 def load_baseline(folder: str) -> dict:
+    from scenes.storage import read_json_object
+
     path = os.path.join(folder, "baseline.json")
     try:
-        with open(path) as fh:
-            doc = json.load(fh)
+        doc = read_json_object(path)
     except FileNotFoundError:
         raise GateError(f"{path}: no baseline: run the gate with --update-baseline to accept the current "
                         f"results") from None
-    except (OSError, ValueError) as exc:
-        raise GateError(f"{path}: unreadable baseline ({exc})") from None
-    if not isinstance(doc, dict) or not isinstance(doc.get("scenes"), dict):
+    except ValueError as exc:
+        raise GateError(f"unreadable baseline: {exc}") from None
+    if not isinstance(doc.get("scenes"), dict):
         raise GateError(f"{path}: not a baseline (no \"scenes\" object)")
     for name, entry in doc["scenes"].items():
         ok = (isinstance(entry, dict) and isinstance(entry.get("reference_key"), str)

@@ -62,3 +62,23 @@ def file_sha256(path: str) -> str:
         for chunk in iter(lambda: fh.read(1 << 20), b""):
             h.update(chunk)
     return h.hexdigest()
+
+
+def read_json_object(path: str) -> dict:
+    """The JSON object stored in ``path``.
+
+    FileNotFoundError when there is no file; ValueError naming the path when it cannot
+    be read, is not UTF-8 JSON, or holds something other than an object (``null``, a
+    list): a manifest of that kind is damaged, never data to index into."""
+    import json
+
+    try:
+        with open(path, encoding="utf-8") as fh:
+            doc = json.load(fh)
+    except FileNotFoundError:
+        raise
+    except (OSError, ValueError) as exc:  # UnicodeDecodeError and JSONDecodeError are ValueErrors
+        raise ValueError(f"{path}: unreadable ({exc})") from None
+    if not isinstance(doc, dict):
+        raise ValueError(f"{path}: expected a JSON object, found {type(doc).__name__}")
+    return doc
