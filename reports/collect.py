@@ -16,7 +16,6 @@ draws from what it returns).
 from __future__ import annotations
 
 import dataclasses
-import json
 import os
 import time
 from dataclasses import dataclass, field
