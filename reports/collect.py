@@ -140,8 +140,9 @@ class _Stored:
 
     def __init__(self, result: SceneResult):
         self.summary = result.summary
-        self.segments = result.tables["segments"].astype(object).where(result.tables["segments"].notna(), None) \
-            .to_dict("records")
+        from .report import _records
+
+        self.segments = _records(result.tables["segments"])
 
 
 def _gate(result: SceneResult, budgets: dict, baseline: dict | None) -> None:

@@ -19,7 +19,8 @@ body{font-family:system-ui,-apple-system,"Segoe UI",sans-serif;margin:0 auto;pad
 h1{font-size:22px;margin:4px 0} h2{font-size:18px;margin:28px 0 6px;border-bottom:1px solid #ccc}
 h3{font-size:15px;margin:14px 0 4px}
 table{border-collapse:collapse;margin:6px 0;font-size:13px} td,th{padding:2px 8px;border-bottom:1px solid #e4e4e4;
-     text-align:right;vertical-align:top} th{background:#f3f3f3} #overview td{white-space:nowrap} td.l,th.l{text-align:left}
+     text-align:right;vertical-align:top} th{background:#f3f3f3} #overview{font-size:12.5px} #overview td{white-space:nowrap}
+#overview td.gate{white-space:normal;min-width:260px} #overview td.gate .verdict{white-space:normal} td.l,th.l{text-align:left}
 .fail{background:#fde0dc;color:#8b1a10} .pass{background:#dff3e4;color:#14532d} .none{background:#eee;color:#444}
 .verdict{font-weight:600;padding:1px 6px;border-radius:3px;display:inline-block;margin:1px 0;white-space:nowrap}
 .banner{font-size:16px;padding:8px 12px;border-radius:4px;margin:8px 0}
@@ -121,7 +122,7 @@ def _overview(summary: dict) -> str:
                 n = len(COLOUR_LAYERS)
                 frame = page["timing"]["frame_s"]
                 cells.insert(0, f"<td class='l' rowspan={n}><a href='#scene-{index}'>{escape(page['scene'])}</a></td>")
-                cells += [f"<td class='l' rowspan={n}>{_gate_cell(page['gate'])}</td>",
+                cells += [f"<td class='l gate' rowspan={n}>{_gate_cell(page['gate'])}</td>",
                           f"<td rowspan={n}>{_num(None if frame is None else 1000 * frame, '{:.0f} ms')}</td>",
                           f"<td class='l' rowspan={n}>{_params_cell(page['shown_params'])}</td>"]
             body.append(f"<tr class='overview-row' data-scene='{escape(page['scene'])}'>{''.join(cells)}</tr>")
