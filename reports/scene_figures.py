@@ -57,7 +57,8 @@ def hit_classes_chart(hit_classes: dict) -> bytes:
 
 def power_budget_chart(budget: list) -> bytes:
     """Per step, the power by fate: approximation (plain) and exact replay (hatched),
-    as % of the power emitted into step 1."""
+    as % of the power emitted into step 1; on the last step also the power still
+    alive after it."""
     plt = _plt()
     fig, ax = plt.subplots(figsize=(4.4, 2.5))
     width = 0.38
@@ -65,8 +66,8 @@ def power_budget_chart(budget: list) -> bytes:
         rows = sorted((r for r in budget if r["tracer"] == tracer), key=lambda r: r["step"])
         x = np.array([r["step"] for r in rows], float) + (k - 0.5) * width
         bottom = np.zeros(len(rows))
-        for f, fate in enumerate(FATES):
-            values = np.array([r[fate] for r in rows], float)
+        for f, fate in enumerate(FATES + ("alive_after_last",)):
+            values = np.array([r.get(fate) or 0.0 for r in rows], float)   # alive: the last step's only
             ax.bar(x, values, width, bottom=bottom, color=OKABE_ITO[f], hatch="" if tracer == "approx" else "///",
                    edgecolor="white", linewidth=0.3, label=f"{fate.replace('_', ' ')}" if k == 0 else None)
             bottom += values
