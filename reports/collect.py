@@ -140,9 +140,9 @@ class _Stored:
 
     def __init__(self, result: SceneResult):
         self.summary = result.summary
-        from .report import _records
+        from .store import rows_of
 
-        self.segments = _records(result.tables["segments"])
+        self.segments = rows_of(result.tables["segments"])
 
 
 def _gate(result: SceneResult, budgets: dict, baseline: dict | None) -> None:

@@ -165,21 +165,17 @@ def report_summary(results: list, *, params, seeds: int, reference_settings, bud
     return summary
 
 
-def _records(frame) -> list:
-    """A DataFrame's rows as dicts with None for every missing value (NaN, pd.NA)."""
-    return frame.astype(object).where(frame.notna(), None).to_dict("records")
-
-
 def _sweep_summary(sweep) -> dict:
     from .figures import settings_that_suffice
+    from .store import rows_of
 
     suffice = settings_that_suffice(sweep.tables["points"], sweep.varied)
     wanted = suffice[suffice["parameter"].isin(("layers", "iterations", "peak_samples"))] if len(suffice) else suffice
     return {"folder": os.path.abspath(sweep.folder), "varied": sweep.varied, "spec": sweep.spec,
-            "points": int(len(sweep.tables["points"])), "suffice": _records(wanted),
+            "points": int(len(sweep.tables["points"])), "suffice": rows_of(wanted),
             # what the sweep's figures plot (one row per point: parameters, errors, frame time); the segment and
             # photon tables they also draw stay in the store (DIR/segments.parquet, DIR/photons.parquet)
-            "point_rows": _records(sweep.tables["points"]),
+            "point_rows": rows_of(sweep.tables["points"]),
             "suffice_factor": float(wanted["factor"].iloc[0]) if len(wanted) else None, "figures": []}
 
 

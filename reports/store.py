@@ -214,6 +214,12 @@ class Store:
         return out
 
 
+def rows_of(frame) -> list:
+    """A table's rows as dicts, None for every missing value (NaN, pd.NA): the inverse
+    of ``reports.experiment.table`` for code that reads rows."""
+    return frame.astype(object).where(frame.notna(), None).to_dict("records")
+
+
 def point_row(key: str, summary: dict) -> dict:
     """The headline numbers of one point: parameters, frame time, errors."""
     images = summary.get("images", {})
