@@ -151,6 +151,9 @@ def _cmd_approx(args) -> int:
 
     from .approx_job import run_approx
 
+    _check_output_file(args.output, "-o", ".exr", (".png", ".json", ".records.npz"))
+    if args.records_max < -1:
+        raise UsageError("--records-max", args.records_max, "expected 0 (none), -1 (all) or a positive count")
     scene = resolve_scene(args.scene)
     params = _approx_params(args)
     summary = run_approx(scene, params, args.output, records_max=args.records_max)
@@ -166,6 +169,7 @@ def _cmd_reference(args) -> int:
 
     from .reference_job import run_reference
 
+    _check_output_file(args.output, "-o", ".exr", (".png", ".json"))
     scene = resolve_scene(args.scene)
     settings = ReferenceSettings(photons=args.photons, spp=args.spp, batches=args.batches,
                                  max_scatter=args.max_scatter, width=args.width, height=args.height, seed=args.seed,
@@ -177,6 +181,26 @@ def _cmd_reference(args) -> int:
           f"{summary['camera_batches']} batches ({source}, {summary['mitsuba_variant']}; stopped by "
           f"{summary['stopped_by']}); noise floor {floors} -> {summary['outputs']['exr']}")
     return 0
+
+
+def _check_output_file(path: str, option: str, extension: str, siblings: tuple = ()) -> None:
+    """Fail before any work when the output file ``path`` (and the sibling outputs named
+    after it, ``siblings``: suffixes replacing ``extension``) cannot be written: an empty
+    name, a folder, a name without a stem or with another extension, a parent that cannot
+    be (or become) a writable folder."""
+    import os
+
+    name = os.path.basename(path or "")
+    if not path or path.endswith(("/", os.sep)) or name in (".", ".."):
+        raise UsageError(option, path, f"expected a file name ending in {extension}")
+    if not name.lower().endswith(extension) or len(name) == len(extension):
+        raise UsageError(option, path, f"expected a file name ending in {extension}, e.g. out{extension} (the "
+                                       f"other outputs take its stem)")
+    stem = path[: -len(extension)]
+    for candidate in (path, *(stem + suffix for suffix in siblings)):
+        if os.path.isdir(candidate):
+            raise UsageError(option, path, f"{candidate} is a folder: choose another file name")
+    _check_output_dir(os.path.dirname(os.path.abspath(path)), option)
 
 
 def _check_output_dir(path: str, option: str = "-o") -> None:
@@ -329,6 +353,13 @@ def _cmd_export(args) -> int:
     from reference.export import export_xml
     from scenes import resolve_scene
 
+    import os
+
+    _check_output_file(args.mitsuba_xml, "--mitsuba-xml", ".xml")
+    meshes = args.mitsuba_xml[: -len(".xml")] + "_meshes"
+    if os.path.exists(meshes) and not os.path.isdir(meshes):
+        raise UsageError("--mitsuba-xml", args.mitsuba_xml, f"{meshes} (where its meshes go) is a file: move it or "
+                                                            f"choose another name")
     scene = resolve_scene(args.scene)
     export_xml(scene, args.mitsuba_xml)
     print(f"export {scene.name} -> {args.mitsuba_xml}")
@@ -486,6 +517,10 @@ def main(argv=None) -> int:
 
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0
+    except OSError as exc:  # a file or folder the checks up front could not foresee (disk full, permissions)
+        where = f"{exc.filename}: " if getattr(exc, "filename", None) else ""
+        print(f"volcaustics: error: {where}{exc.strerror or exc}", file=sys.stderr)
+        return EXIT_USAGE
 
 
 if __name__ == "__main__":

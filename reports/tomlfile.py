@@ -11,6 +11,11 @@ def load_toml(path: str, *, keys, error, what: str) -> dict:
         import tomllib
     except ModuleNotFoundError:  # Python 3.10
         import tomli as tomllib
+    from scenes.storage import special_file_kind
+
+    kind = special_file_kind(path)
+    if kind:
+        raise error(f"{path}: cannot read the {what} (it is {kind})")
     try:
         with open(path, "rb") as fh:
             doc = tomllib.load(fh)

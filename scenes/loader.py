@@ -54,7 +54,7 @@ except ModuleNotFoundError:  # Python 3.10
 from .errors import SceneError
 from .generators import GENERATORS
 from .mesh import MeshReadError, closedness_problem, winding_number
-from .storage import file_sha256
+from .storage import CacheError, file_sha256, special_file_kind
 from .model import Camera, DiffuseSurface, MeshSpec, Medium, Phase, Scene, SpecularObject, SpotLight, Transform
 
 _REQUIRED = object()
@@ -244,6 +244,9 @@ def _mesh(ctx, key, value, transform: Transform) -> MeshSpec:
         rel = t.get("path", _string)
         t.finish()
         path = os.path.normpath(os.path.join(ctx.base_dir, os.path.expanduser(rel)))
+        kind = special_file_kind(path)
+        if kind:  # a device (/dev/zero) would be hashed forever, a FIFO would block
+            raise ctx.error(f"{key}.path", rel, f"a readable PLY or OBJ file ({path} is {kind})")
         try:
             digest = file_sha256(path)
         except OSError as exc:
@@ -266,6 +269,8 @@ def _load_checked(ctx, key, spec: MeshSpec, closed: bool):
         mesh = spec.load()
     except MeshReadError as exc:
         raise ctx.error(key, spec.label, f"a readable PLY or OBJ mesh ({exc})") from None
+    except CacheError:  # the cache's problem, not the mesh's
+        raise
     except Exception as exc:  # generator failure on odd but in-range parameters
         raise ctx.error(key, spec.label, f"mesh could not be built ({type(exc).__name__}: {exc})") from None
     if len(mesh.faces) == 0:
@@ -337,6 +342,9 @@ def parse_scene(data: dict, *, file: str | None = None, base_dir: str = ".", sou
 def load_scene(path: str) -> Scene:
     """Read and validate a TOML scene file; raises :class:`SceneError` for any problem."""
     label = str(path)
+    kind = special_file_kind(path)
+    if kind:
+        raise SceneError(label, None, None, f"is {kind}, expected a .toml scene file")
     try:
         with open(path, "rb") as fh:
             data = tomllib.load(fh)
@@ -348,4 +356,6 @@ def load_scene(path: str) -> Scene:
         raise SceneError(label, None, None, f"cannot read scene file ({exc.strerror or exc})") from None
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
         raise SceneError(label, None, None, f"invalid TOML ({exc})") from None
+    except RecursionError:
+        raise SceneError(label, None, None, "invalid TOML (nested too deeply)") from None
     return parse_scene(data, file=label, base_dir=os.path.dirname(os.path.abspath(path)), source=os.path.abspath(path))

@@ -12,13 +12,26 @@ import os
 import tempfile
 
 
+class CacheError(OSError):
+    """The cache folder cannot be used (it is a file, or not writable); the message
+    names it and the fix."""
+
+
 def cache_dir(*parts: str) -> str:
     """``$VOLCAUSTICS_CACHE``, else ``$XDG_CACHE_HOME/volcaustics``, else
-    ``~/.cache/volcaustics``; joined with ``parts`` and created."""
+    ``~/.cache/volcaustics``; joined with ``parts``, created, and checked to be a
+    writable folder (:class:`CacheError` if not)."""
+    variable = "VOLCAUSTICS_CACHE" if os.environ.get("VOLCAUSTICS_CACHE") else None
     root = os.environ.get("VOLCAUSTICS_CACHE") or os.path.join(
         os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache"), "volcaustics")
     path = os.path.join(root, *parts)
-    os.makedirs(path, exist_ok=True)
+    fix = f"point {variable or 'VOLCAUSTICS_CACHE'} at a writable folder"
+    try:
+        os.makedirs(path, exist_ok=True)
+    except OSError as exc:
+        raise CacheError(f"cache folder {path} cannot be created ({exc.strerror or exc}): {fix}") from None
+    if not os.path.isdir(path) or not os.access(path, os.W_OK | os.X_OK):
+        raise CacheError(f"cache folder {path} is not a writable folder: {fix}")
     return path
 
 
@@ -82,3 +95,19 @@ def read_json_object(path: str) -> dict:
     if not isinstance(doc, dict):
         raise ValueError(f"{path}: expected a JSON object, found {type(doc).__name__}")
     return doc
+
+
+def special_file_kind(path: str) -> str | None:
+    """What ``path`` is when it exists and is not a regular file ("a folder", or "not a
+    regular file (a device, FIFO or socket)"), else None. Check before reading: a device
+    such as /dev/zero never ends and opening a FIFO blocks. A missing file gives None
+    (whoever opens it reports that)."""
+    import stat
+
+    try:
+        mode = os.stat(path).st_mode
+    except OSError:
+        return None
+    if stat.S_ISREG(mode):
+        return None
+    return "a folder" if stat.S_ISDIR(mode) else "not a regular file (a device, FIFO or socket)"
