@@ -89,10 +89,11 @@ def paths(key: str) -> tuple[str, str]:
 
 def load(key: str):
     """The manifest if a complete, matching entry exists (EXR hash checked), else None."""
+    from scenes.storage import read_json_object
+
     exr, manifest_path = paths(key)
     try:
-        with open(manifest_path) as fh:
-            manifest = json.load(fh)
+        manifest = read_json_object(manifest_path)  # `null` or a list is a damaged entry, like torn JSON
         if manifest.get("key") != key or manifest.get("exr_sha256") != file_sha256(exr):
             return None
         if not os.path.exists(exr[:-4] + ".png"):

@@ -15,9 +15,28 @@ import os
 VARIANT_ENV = "VOLCAUSTICS_MI_VARIANT"
 
 
+class VariantError(ValueError):
+    """The environment asks for a Mitsuba variant or libLLVM the reference cannot use;
+    the message names the variable, its value and the fix."""
+
+
+def _override() -> str | None:
+    """``VOLCAUSTICS_MI_VARIANT`` when set, checked: the light tracer is a Dr.Jit
+    ``AdjointIntegrator`` in RGB, so only the JIT RGB variants render it."""
+    from .variant import PREFERRED
+
+    variant = os.environ.get(VARIANT_ENV)
+    if not variant:
+        return None
+    if variant not in PREFERRED:
+        raise VariantError(f"{VARIANT_ENV} = {variant!r}: expected one of {', '.join(PREFERRED)} (the reference's "
+                           f"integrators need a JIT RGB variant); unset it to let volcaustics choose")
+    return variant
+
+
 def render_variant() -> str:
     """The variant this process renders with: the override, else the probed choice."""
-    variant = os.environ.get(VARIANT_ENV)
+    variant = _override()
     if variant:
         return variant
     from .variant import reference_variant
@@ -29,7 +48,7 @@ def served_variants() -> tuple[str, ...]:
     """Variants whose cached references this process serves, in order of preference:
     the override alone when set, else every variant the reference may render with
     (so a cache hit needs no probe)."""
-    variant = os.environ.get(VARIANT_ENV)
+    variant = _override()
     if variant:
         return (variant,)
     from .variant import PREFERRED
@@ -40,10 +59,14 @@ def served_variants() -> tuple[str, ...]:
 @functools.lru_cache(maxsize=1)
 def mitsuba():
     """The ``mitsuba`` module with the reference variant set."""
-    from .llvm import ensure_libllvm
+    from .llvm import MIN_MAJOR, ensure_libllvm, libllvm_major
 
-    ensure_libllvm()
+    path, how = ensure_libllvm()
     variant = render_variant()
+    if variant.startswith("llvm") and how == "environment" and (
+            not os.path.isfile(path) or (libllvm_major(path) or MIN_MAJOR) < MIN_MAJOR):
+        raise VariantError(f"DRJIT_LIBLLVM_PATH = {path!r}: not a libLLVM {MIN_MAJOR} or newer file (Dr.Jit's LLVM "
+                           f"backend needs one); unset it to let volcaustics find one, or apt-get install libllvm19")
     import mitsuba as mi
 
     mi.set_variant(variant)

@@ -497,6 +497,8 @@ def main(argv=None) -> int:
     from scenes import SceneError
 
     from .experiment import ExperimentError
+    from reference.mi_setup import VariantError
+
     from .collect import ReportError
     from .executors import ExecutorError
     from .gate import GateError
@@ -506,7 +508,7 @@ def main(argv=None) -> int:
     try:
         return args.func(args)
     except (SceneError, ParamError, SettingsError, UsageError, ExperimentError, SweepError, GateError,
-            ExecutorError, ReportError) as exc:
+            ExecutorError, ReportError, VariantError) as exc:
         print(f"volcaustics: error: {exc}", file=sys.stderr)
         return EXIT_USAGE
     except KeyboardInterrupt:

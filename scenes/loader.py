@@ -44,6 +44,7 @@ from __future__ import annotations
 
 import math
 import os
+import re
 from typing import Any, Callable
 
 try:
@@ -135,6 +136,19 @@ def _integer(low, high):
 def _string(ctx, key, v):
     if not isinstance(v, str):
         raise ctx.error(key, v, "expected a string")
+    return v
+
+
+_NAME = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.-]{0,63}")
+
+
+def _name(ctx, key, v):
+    """A scene's name: it becomes a file name (previews, reports), so letters, digits,
+    '_', '.', '-' only, not starting with '.' or '-', at most 64 characters."""
+    v = _string(ctx, key, v)
+    if not _NAME.fullmatch(v):
+        raise ctx.error(key, v, "expected a name of letters, digits, '_', '.' and '-' (not starting with '.' or "
+                                "'-', at most 64 characters): it becomes a file name")
     return v
 
 
@@ -317,7 +331,8 @@ def parse_scene(data: dict, *, file: str | None = None, base_dir: str = ".", sou
     """Validate a parsed TOML document (a dict) and build the :class:`Scene`."""
     ctx = _Ctx(file, base_dir)
     t = _Table(ctx, "", data)
-    name = t.get("name", _string, os.path.splitext(os.path.basename(file))[0] if file else "scene")
+    stem = os.path.splitext(os.path.basename(file))[0] if file else "scene"
+    name = t.get("name", _name, stem if _NAME.fullmatch(stem) else "scene")
     description = t.get("description", _string, "")
     camera = t.get("camera", _camera)
     light = t.get("light", _light)

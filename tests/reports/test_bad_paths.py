@@ -72,13 +72,17 @@ def test_a_read_only_output_folder(tmp_path, capsys):
         folder.chmod(0o755)
 
 
-def test_a_cache_that_is_a_file_is_named_as_such(tmp_path, capsys, monkeypatch):
-    """Not "an error in the scene's mesh": the cache folder, and the variable to fix."""
+def test_a_cache_that_is_a_file_is_named_as_such(tmp_path):
+    """Not "an error in the scene's mesh": the cache folder, and the variable to fix (in a
+    fresh process: this one may hold the generated meshes in memory already)."""
     cache = tmp_path / "cache"
     cache.write_text("not a folder")
-    monkeypatch.setenv("VOLCAUSTICS_CACHE", str(cache))
-    err = _fails_fast(capsys, ["scenes"], "cache folder")
-    assert "VOLCAUSTICS_CACHE" in err and "could not be built" not in err and "specular" not in err
+    done = subprocess.run([sys.executable, "-m", "reports.cli", "scenes"], capture_output=True, text=True,
+                          timeout=120, env={**os.environ, "VOLCAUSTICS_CACHE": str(cache)})
+    assert done.returncode == 2, done.stderr[-2000:]
+    err = done.stderr
+    assert "cache folder" in err and "VOLCAUSTICS_CACHE" in err and "Traceback" not in err
+    assert "could not be built" not in err and "specular" not in err
 
 
 def test_a_mesh_path_that_is_a_device_or_fifo(tmp_path, write_scene):
@@ -113,3 +117,37 @@ def test_budgets_that_are_a_fifo(tmp_path, capsys):
     fifo = tmp_path / "budgets.toml"
     os.mkfifo(fifo)
     _fails_fast(capsys, ["gate", "--budgets", str(fifo), "--out", str(tmp_path / "g")], "not a regular file")
+
+
+@pytest.mark.parametrize("variable, value, fragment", [
+    ("VOLCAUSTICS_MI_VARIANT", "scalar_rgb", "VOLCAUSTICS_MI_VARIANT = 'scalar_rgb'"),
+    ("VOLCAUSTICS_MI_VARIANT", "no_such_variant", "expected one of"),
+    ("DRJIT_LIBLLVM_PATH", "/nonexistent/libLLVM-19.so", "DRJIT_LIBLLVM_PATH"),
+    ("DRJIT_LIBLLVM_PATH", "/usr/lib/x86_64-linux-gnu/libLLVM-15.so.1", "libLLVM 16 or newer"),
+])
+def test_unsuitable_environment_variables(tmp_path, variable, value, fragment):
+    """A variant the reference cannot render with, a libLLVM that is missing or too old:
+    exit 2 naming the variable and the fix (in a subprocess: the variables are read
+    when Mitsuba is first imported)."""
+    env = {**os.environ, "VOLCAUSTICS_CACHE": str(tmp_path / "cache"), variable: value}
+    if variable == "DRJIT_LIBLLVM_PATH":
+        env["VOLCAUSTICS_MI_VARIANT"] = "llvm_ad_rgb"
+    done = subprocess.run([sys.executable, "-m", "reports.cli", "reference", "sphere1", "-o", str(tmp_path / "r.exr"),
+                           "--width", "16", "--height", "16", "--photons", "1000", "--spp", "2", "--batches", "2"],
+                          capture_output=True, text=True, timeout=120, env=env)
+    assert done.returncode == 2, done.stderr[-2000:]
+    assert fragment in done.stderr and "Traceback" not in done.stderr
+    assert not (tmp_path / "r.exr").exists()
+
+
+@pytest.mark.parametrize("name", ["../x", "/tmp/abs", "a/b", ".hidden", "", "x" * 65])
+def test_a_scene_name_that_is_no_file_name(tmp_path, write_scene, capsys, name):
+    """The name becomes the preview's file name: one that would write outside the folder
+    (or hide the file) is refused, and nothing is written anywhere."""
+    text = open(write_scene()).read().replace('name = "base"', f'name = "{name}"')
+    scene = tmp_path / "named.toml"
+    scene.write_text(text)
+    previews = tmp_path / "p" / "q"
+    assert main(["scenes", "--check", str(scene), "--preview", str(previews)]) == 2
+    assert "name" in capsys.readouterr().err
+    assert not (tmp_path / "p").exists() and not (tmp_path / "x").exists()
