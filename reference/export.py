@@ -90,7 +90,15 @@ def export_xml(scene, path: str) -> None:
     mesh_dir = os.path.join(folder, os.path.splitext(os.path.basename(path))[0] + "_meshes")
     os.makedirs(mesh_dir, exist_ok=True)
     d = to_mitsuba(scene, mesh_dir=mesh_dir)
-    lines = ['<scene version="3.0.0">']
+    film, sampler = d["sensor"]["film"], d["sensor"]["sampler"]
+    lines = ['<scene version="3.0.0">',
+             "    <!-- Exported by volcaustics. Stock Mitsuba integrators cannot render this scene's volume caustic:",
+             "         its light reaches the medium only through glass from a delta (spot) light, which no camera",
+             "         path can connect to. volcaustics renders it with its own light tracer (reference/integrators.py);",
+             "         volpath below renders the fog and direct light. Override the defaults with",
+             "         mitsuba.load_file(path, resx=..., resy=..., spp=...) or mitsuba -D resx=... -->"]
+    defaults = {"resx": film["width"], "resy": film["height"], "spp": sampler["sample_count"]}
+    lines += [f'    <default name="{name}" value="{value}"/>' for name, value in defaults.items()]
     lines += _xml_object("integrator", d["integrator"], 1, folder)
     if FOG_ID in d:
         lines += _xml_object("medium", d[FOG_ID], 1, folder, name_id=FOG_ID)
@@ -105,6 +113,8 @@ def export_xml(scene, path: str) -> None:
             fh.write("\n".join(lines) + "\n")
 
 
+# values the XML takes from its <default>s (tag, key) → parameter name
+PARAMETERS = {("film", "width"): "resx", ("film", "height"): "resy", ("sampler", "sample_count"): "spp"}
 _TAGS = {"bsdf": "bsdf", "film": "film", "rfilter": "rfilter", "sampler": "sampler", "phase": "phase",
          "interior": "medium", "exterior": "medium", "medium": "medium", "material": "bsdf"}
 
@@ -137,7 +147,8 @@ def _xml_object(tag, obj, depth, folder, name_id=None):
         elif isinstance(value, bool):
             lines.append(f'{inner}<boolean name="{key}" value="{str(value).lower()}"/>')
         elif isinstance(value, int):
-            lines.append(f'{inner}<integer name="{key}" value="{value}"/>')
+            shown = f"${PARAMETERS[(tag, key)]}" if (tag, key) in PARAMETERS else value
+            lines.append(f'{inner}<integer name="{key}" value="{shown}"/>')
         elif isinstance(value, float):
             lines.append(f'{inner}<float name="{key}" value="{value!r}"/>')
         elif isinstance(value, str):

@@ -16,6 +16,8 @@ import zlib
 import numpy as np
 
 from .formats import MASK_LAYER
+
+BEAUTY_LAYER = "combined"  # also written as the root R, G, B channels
 from .storage import atomic_path, atomic_write_bytes
 
 
@@ -23,7 +25,10 @@ def write_exr(path: str, layers: dict, metadata: dict | None = None) -> None:
     """Write a multi-layer OpenEXR file atomically (ZIP compression, float32).
 
     layers: name → H×W×3 array (channels ``name.R/G/B``) or H×W array (``name.Y``);
-    ``mask_specular`` is written as one ``.Y`` channel. metadata: name → str header attributes.
+    ``mask_specular`` is written as one ``.Y`` channel. A ``combined`` layer is also
+    written as the root ``R``, ``G``, ``B`` channels, so that viewers (tev, OpenEXR's
+    exrdisplay) open on the beauty image, as Mitsuba's AOV films do. metadata: name →
+    str header attributes.
     """
     import OpenEXR
 
@@ -39,6 +44,9 @@ def write_exr(path: str, layers: dict, metadata: dict | None = None) -> None:
                 channels[f"{name}.{c}"] = np.ascontiguousarray(image[..., k])
         else:
             raise ValueError(f"layer {name!r}: expected H×W or H×W×3, got shape {image.shape}")
+        if name == BEAUTY_LAYER and image.ndim == 3:
+            for k, c in enumerate("RGB"):
+                channels[c] = np.ascontiguousarray(image[..., k])
     header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
     for key, value in (metadata or {}).items():
         header[key] = str(value)
@@ -49,14 +57,15 @@ def write_exr(path: str, layers: dict, metadata: dict | None = None) -> None:
 
 def read_exr(path: str) -> tuple[dict, dict]:
     """(layers, header) of a file written by :func:`write_exr`: layers are H×W×3
-    float32 (``.Y`` layers broadcast to 3 channels)."""
+    float32 (``.Y`` layers broadcast to 3 channels); the root channels (the beauty
+    image's copy of ``combined``) are not a layer of their own."""
     import OpenEXR
 
     with OpenEXR.File(path, separate_channels=True) as f:
         channels = {name: np.asarray(ch.pixels, dtype=np.float32) for name, ch in f.channels().items()}
         header = dict(f.header())
     layers = {}
-    for name in sorted({c.rsplit(".", 1)[0] for c in channels}):
+    for name in sorted({c.rsplit(".", 1)[0] for c in channels if "." in c}):
         if f"{name}.Y" in channels:
             layers[name] = np.repeat(channels[f"{name}.Y"][..., None], 3, axis=2)
         else:

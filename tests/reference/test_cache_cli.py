@@ -89,6 +89,12 @@ def test_export_xml_loads_in_mitsuba(tmp_path):
     assert len(scene.shapes()) == 4  # two glass spheres, the floor, the medium box
     image = np.asarray(mi.render(scene, spp=4))
     assert image.shape == (512, 512, 3) and np.isfinite(image).all() and image.mean() > 0
+    # the XML declares its size and sample count as <default>s, which a caller overrides
+    small = mi.load_file(str(out), resx=32, resy=24, spp=2)
+    assert tuple(small.sensors()[0].film().size()) == (32, 24)
+    assert small.sensors()[0].sampler().sample_count() == 2
+    text = out.read_text()
+    assert '<default name="spp" value="16"/>' in text and "cannot render this scene's volume caustic" in text
 
 
 def test_image_size_has_one_place_in_the_key():

@@ -18,6 +18,12 @@ def test_approx_cli_outputs(tmp_path, capsys):
     assert rc == 0
     layers, header = read_exr(str(out))
     assert set(layers) == set(LAYER_NAMES)
+    # viewers open on the beauty image: `combined` is also the root R, G, B (as Mitsuba's AOV films write it)
+    import OpenEXR
+
+    with OpenEXR.File(str(out), separate_channels=True) as exr:
+        root = {c: np.asarray(exr.channels()[c].pixels) for c in "RGB"}
+    assert all(np.array_equal(root[c], layers["combined"][..., k]) for k, c in enumerate("RGB"))
     assert layers["combined"].shape == (40, 48, 3)
     assert np.allclose(layers["combined"], layers["caustic"] + layers["fog"] + layers["direct"], rtol=1e-6, atol=1e-9)
     assert set(np.unique(layers["mask_specular"])) <= {0.0, 1.0} and layers["mask_specular"].max() == 1.0
