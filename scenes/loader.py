@@ -100,12 +100,23 @@ class _Table:
 
 # --- value parsers (ctx, key, value) -> python value ----------------------------
 
+# What the renderers represent: both compute in float32 (GLSL, Mitsuba's scalar types), where
+# 1e300 is inf and products of two values near 1e19 overflow. Every number stays within
+# MAGNITUDE_LIMIT; coordinates (positions, translations) and scales within COORDINATE_LIMIT m,
+# so that squared distances (≤ 4e12 m²) and float32's 7 digits (0.1 m at 1e6 m) keep meaning.
+MAGNITUDE_LIMIT = 1e12
+COORDINATE_LIMIT = 1e6
+
+
 def _number(ctx, key, v, what="a number"):
     if isinstance(v, bool) or not isinstance(v, (int, float)):
         raise ctx.error(key, v, f"expected {what}")
     v = float(v)
     if not math.isfinite(v):
         raise ctx.error(key, v, f"expected a finite number ({what})")
+    if abs(v) > MAGNITUDE_LIMIT:
+        raise ctx.error(key, v, f"expected {what} of magnitude at most {MAGNITUDE_LIMIT:g} (the renderers compute "
+                                f"in float32)")
     return v
 
 
@@ -152,10 +163,13 @@ def _name(ctx, key, v):
     return v
 
 
+_coordinate = _ranged(-COORDINATE_LIMIT, COORDINATE_LIMIT, unit="m")
+
+
 def _vec3(ctx, key, v):
     if not isinstance(v, list) or len(v) != 3:
         raise ctx.error(key, v, "expected a list of 3 numbers [x, y, z]")
-    return tuple(_number(ctx, f"{key}[{i}]", x) for i, x in enumerate(v))
+    return tuple(_coordinate(ctx, f"{key}[{i}]", x) for i, x in enumerate(v))
 
 
 def _rgb(low=0.0, high=None, unit=""):
@@ -242,7 +256,7 @@ def _transform(ctx, key, value) -> Transform:
     tr = Transform(
         translate=t.get("translate", _vec3, (0.0, 0.0, 0.0)),
         rotate=t.get("rotate", _vec3, (0.0, 0.0, 0.0)),
-        scale=t.get("scale", _ranged(0, None, low_open=True), 1.0),
+        scale=t.get("scale", _ranged(1.0 / COORDINATE_LIMIT, COORDINATE_LIMIT), 1.0),
     )
     t.finish()
     return tr

@@ -151,3 +151,22 @@ def test_a_scene_name_that_is_no_file_name(tmp_path, write_scene, capsys, name):
     assert main(["scenes", "--check", str(scene), "--preview", str(previews)]) == 2
     assert "name" in capsys.readouterr().err
     assert not (tmp_path / "p").exists() and not (tmp_path / "x").exists()
+
+
+@pytest.mark.parametrize("old, new, fragment", [
+    ("intensity = [5.0, 5.0, 5.0]", "intensity = [1e308, 5.0, 5.0]", "light.intensity[0]"),
+    ("translate = [0.0, 1.0, 0.0]", "translate = [1e300, 1.0, 0.0]", "translate[0]"),
+    ("translate = [0.0, 1.0, 0.0] }", "translate = [0.0, 1.0, 0.0], scale = 1e300 }", "scale"),
+    ("sigma_s = 0.2", "sigma_s = 1e200", "medium.sigma_s"),
+    ("position = [0.0, 1.0, 4.0]", "position = [0.0, 1.0, 4e7]", "camera.position[2]"),
+])
+def test_values_the_renderers_cannot_represent(tmp_path, write_scene, capsys, old, new, fragment):
+    """Values that passed validation and then made inf/NaN images or crashed Mitsuba:
+    refused when the scene is read (float32 limits, scenes/loader.py)."""
+    text = open(write_scene()).read()
+    assert old in text
+    scene = tmp_path / "big.toml"
+    scene.write_text(text.replace(old, new, 1))
+    assert main(["scenes", "--check", str(scene)]) == 2
+    err = capsys.readouterr().err
+    assert fragment in err and "Traceback" not in err
