@@ -104,7 +104,7 @@ class Renderer:
         frustum = LightFrustum.for_scene(scene, *box)
         tracer = self._cached(("tracer", p.layers, p.peak_samples, p.iterations, p.fresnel),
                               lambda: PhotonTracer(ctx, p))
-        tracer.check_limits(p)
+        tracer.check_limits(p, keep_records=keep_records)
         camera_passes, splatter = self._shading_programs(scene, p)
         released = []
 

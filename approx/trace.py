@@ -72,11 +72,21 @@ class PhotonTracer:
         self._solid_angles = {}
         self._max_groups = int(ctx.info["GL_MAX_COMPUTE_WORK_GROUP_COUNT"][0])
 
-    def check_limits(self, params) -> None:
-        """Raise ParamError when ``params`` need more compute work groups in one dispatch
-        than the GL driver runs (GL_MAX_COMPUTE_WORK_GROUP_COUNT; 65,535 on Mesa): the
-        dispatch would silently do nothing."""
+    def check_limits(self, params, *, keep_records: bool = False) -> None:
+        """Raise ParamError, before any GL work, when ``params`` need more compute work
+        groups in one dispatch than the GL driver runs (GL_MAX_COMPUTE_WORK_GROUP_COUNT;
+        65,535 on Mesa: the dispatch would silently do nothing), or buffers beyond
+        :func:`memory_budget` (photon, record and splat buffers, and with ``keep_records``
+        every step's records read back): photon_res 8192 asked for 7.5 GB of records."""
         from .params import ParamError
+
+        need = frame_bytes(params.photon_res, params.steps, keep_records=keep_records)
+        budget = memory_budget()
+        if need > budget:
+            fits = math.isqrt(int(budget / frame_bytes(1, params.steps, keep_records=keep_records)))
+            raise ParamError(f"photon_res = {params.photon_res}: a frame needs {need / 2**30:.1f} GiB of photon, "
+                             f"record and splat buffers{' and records read back' if keep_records else ''}, more than "
+                             f"half of this machine's memory ({budget / 2**30:.1f} GiB); photon_res ≤ {fits} fits")
 
         for name, res, per_group in (("photon_res", params.photon_res, 64), ("light_res", params.light_res, 256)):
             if math.ceil(res * res / per_group) > self._max_groups:
@@ -205,3 +215,26 @@ def read_raw_records(buf: moderngl.Buffer, count: int) -> np.ndarray:
 
 def read_photons(buf: moderngl.Buffer, count: int) -> np.ndarray:
     return np.frombuffer(buf.read(size=count * PHOTON_DTYPE.itemsize), dtype=PHOTON_DTYPE)
+
+
+def frame_bytes(photon_res: int, steps: int, *, keep_records: bool = False) -> int:
+    """Bytes a frame allocates per photon_res: photon, raw record and splat buffers (one
+    slot per photon), and with ``keep_records`` each step's records read back (raw and
+    converted)."""
+    from scenes.formats import PHOTON_DTYPE, RAW_RECORD_DTYPE, RECORD_DTYPE, SPLAT_DTYPE
+
+    per_photon = PHOTON_DTYPE.itemsize + RAW_RECORD_DTYPE.itemsize + SPLAT_DTYPE.itemsize
+    if keep_records:
+        per_photon += steps * (RAW_RECORD_DTYPE.itemsize + RECORD_DTYPE.itemsize)
+    return photon_res * photon_res * per_photon
+
+
+def memory_budget() -> int:
+    """Half of this machine's physical memory: llvmpipe's buffers live there, and the
+    records a frame reads back do on any driver."""
+    import os
+
+    try:
+        return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") // 2
+    except (ValueError, OSError, AttributeError):  # not a POSIX sysconf: do not guess
+        return 1 << 62

@@ -170,3 +170,29 @@ def test_values_the_renderers_cannot_represent(tmp_path, write_scene, capsys, ol
     assert main(["scenes", "--check", str(scene)]) == 2
     err = capsys.readouterr().err
     assert fragment in err and "Traceback" not in err
+
+
+def test_a_photon_map_beyond_memory_fails_before_rendering(tmp_path, capsys):
+    """photon_res 8192 (in range) asked for 7.5 GB of records and failed after 33 s with
+    "cannot map the buffer": refused before any GL work, saying what fits."""
+    from approx.trace import frame_bytes, memory_budget
+
+    assert frame_bytes(8192, 4) > memory_budget() or pytest.skip("this machine holds a photon_res 8192 frame")
+    err = _fails_fast(capsys, ["approx", "sphere1", "--preset", "quick", "--photon-res", "8192",
+                               "-o", str(tmp_path / "o.exr")], "photon_res = 8192", within=30.0)
+    assert "fits" in err
+    assert not list(tmp_path.iterdir())
+
+
+def test_frame_bytes_counts_every_buffer():
+    from approx.trace import frame_bytes
+    from scenes.formats import PHOTON_DTYPE, RAW_RECORD_DTYPE, RECORD_DTYPE, SPLAT_DTYPE
+
+    slots = PHOTON_DTYPE.itemsize + RAW_RECORD_DTYPE.itemsize + SPLAT_DTYPE.itemsize
+    assert frame_bytes(10, 4) == 100 * slots
+    assert frame_bytes(10, 4, keep_records=True) == 100 * (slots + 4 * (RAW_RECORD_DTYPE.itemsize +
+                                                                        RECORD_DTYPE.itemsize))
+
+
+def test_a_reference_seed_out_of_range(tmp_path, capsys):
+    _fails_fast(capsys, ["reference", "sphere1", "-o", str(tmp_path / "r.exr"), "--seed", str(2**32)], "seed")
