@@ -1,7 +1,7 @@
 """`volcaustics approx`: render one scene with the paper's method and write
 OUT.exr (all layers), OUT.png (tonemapped combined), OUT.records.npz (segment
-records) and OUT.json (timings, parameters, scene hash). Every file is written
-atomically."""
+records) and OUT.json (timings, parameters, scene hash), written as one unit
+(``scenes.storage.atomic_set``)."""
 
 from __future__ import annotations
 
@@ -10,9 +10,8 @@ import os
 
 import numpy as np
 
-from scenes.storage import atomic_path, atomic_write_text
-
 from scenes.imageio import write_exr, write_png
+from scenes.storage import atomic_set
 
 
 def output_paths(out: str) -> dict:
@@ -38,16 +37,19 @@ def run_approx(scene, params, out: str, *, records_max: int = 200_000) -> dict:
     paths = output_paths(out)
     metadata = {"volcaustics_scene": scene.name, "volcaustics_scene_hash": scene.scene_hash(),
                 "volcaustics_renderer": "approx", "volcaustics_params": json.dumps(frame.params, sort_keys=True)}
-    write_exr(paths["exr"], frame.images, metadata)
-    write_png(paths["png"], frame.images["combined"])
     recs, stride = subsample_records(frame.records, records_max)
-    with atomic_path(paths["records"]) as tmp:
-        np.savez(tmp, records=recs, stride=np.int64(stride))
     summary = {
         "scene": scene.name, "scene_hash": scene.scene_hash(), "params": frame.params,
         "timings_s": frame.timings, "timing_method": frame.timing_method, "gl": frame.gl,
         "photons_emitted": frame.photons_emitted, "records_stride": stride,
         "outputs": {k: os.path.abspath(v) for k, v in paths.items()},
     }
-    atomic_write_text(paths["json"], json.dumps(summary, indent=2, default=float))
+    # one unit: an interrupted run leaves the last complete set, never files of two runs
+    with atomic_set([paths["exr"], paths["png"], paths["records"], paths["json"]]) as (exr, png, records, manifest):
+        write_exr(exr, frame.images, metadata)
+        write_png(png, frame.images["combined"])
+        with open(records, "wb") as fh:
+            np.savez(fh, records=recs, stride=np.int64(stride))
+        with open(manifest, "w") as fh:
+            fh.write(json.dumps(summary, indent=2, default=float))
     return summary

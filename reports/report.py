@@ -187,7 +187,7 @@ def write_report(out_dir: str, results: list, summary: dict, sweep=None, *, prog
     null). ``started``: the run's ``time.perf_counter()`` at its start, for the total."""
     from tqdm import tqdm
 
-    from scenes.storage import atomic_write_text
+    from scenes.storage import atomic_set
 
     from .experiment import plain
     from .html import render_page
@@ -210,11 +210,15 @@ def write_report(out_dir: str, results: list, summary: dict, sweep=None, *, prog
                     sweep_figures[os.path.splitext(os.path.basename(path))[0]] = data_uri(fh.read())
         summary["sweep"]["figures"] = [os.path.relpath(p, out_dir) for p in paths]
     page = render_page(summary, images, sweep_figures)
-    atomic_write_text(os.path.join(out_dir, "index.html"), page)
     summary["seconds"]["page"] = time.perf_counter() - t0
     if started is not None:
         summary["seconds"]["total"] = time.perf_counter() - started
-    atomic_write_text(os.path.join(out_dir, "summary.json"), json.dumps(summary, indent=1, allow_nan=False))
+    # one unit: an interrupted run never leaves a page beside another run's summary
+    with atomic_set([os.path.join(out_dir, "index.html"), os.path.join(out_dir, "summary.json")]) as (html, doc):
+        with open(html, "w", encoding="utf-8") as fh:
+            fh.write(page)
+        with open(doc, "w", encoding="utf-8") as fh:
+            fh.write(json.dumps(summary, indent=1, allow_nan=False))
     return summary
 
 

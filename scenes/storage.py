@@ -58,6 +58,58 @@ def atomic_path(path: str):
             os.unlink(tmp)
 
 
+@contextlib.contextmanager
+def sigint_held():
+    """Hold Ctrl-C (SIGINT) back for the block; one that came meanwhile is delivered
+    (as KeyboardInterrupt) right after it. Only the main thread can do this; elsewhere
+    the block runs as is."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread() or not hasattr(signal, "pthread_sigmask"):
+        yield
+        return
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+
+
+@contextlib.contextmanager
+def atomic_set(paths: list):
+    """Write several files as one unit: yields temporary paths (in ``paths``' order) to
+    write; when the block succeeds they replace ``paths`` together, with Ctrl-C held
+    back: the last path (the set's manifest) is removed first and put in place last, so
+    no reader finds a manifest beside data of another run. When the block fails (an
+    error, Ctrl-C) the temporaries go and every old file stays as it was."""
+    temps = []
+    for path in paths:
+        folder = os.path.dirname(os.path.abspath(path))
+        os.makedirs(folder, exist_ok=True)
+        base, ext = os.path.splitext(os.path.basename(path))
+        fd, tmp = tempfile.mkstemp(prefix=f".{base}.", suffix=f".tmp{ext}", dir=folder)
+        os.close(fd)
+        temps.append(tmp)
+    try:
+        yield list(temps)
+        umask = os.umask(0)
+        os.umask(umask)
+        with sigint_held():
+            for tmp in temps:
+                os.chmod(tmp, 0o666 & ~umask)
+            try:
+                os.unlink(paths[-1])
+            except FileNotFoundError:
+                pass
+            for tmp, path in zip(temps, paths):
+                os.replace(tmp, path)
+    finally:
+        for tmp in temps:
+            if os.path.exists(tmp):
+                os.unlink(tmp)
+
+
 def atomic_write_bytes(path: str, data: bytes) -> None:
     with atomic_path(path) as tmp:
         with open(tmp, "wb") as fh:

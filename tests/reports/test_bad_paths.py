@@ -196,3 +196,23 @@ def test_frame_bytes_counts_every_buffer():
 
 def test_a_reference_seed_out_of_range(tmp_path, capsys):
     _fails_fast(capsys, ["reference", "sphere1", "-o", str(tmp_path / "r.exr"), "--seed", str(2**32)], "seed")
+
+
+def test_an_interrupted_approx_keeps_the_last_complete_set(tmp_path, monkeypatch):
+    """Ctrl-C while the outputs are written (here: inside the PNG writer of the second
+    run) leaves the first run's EXR, PNG, records and JSON, byte for byte, and no
+    temporary files (issue 13, class B)."""
+    import reports.approx_job as job
+
+    out = tmp_path / "o.exr"
+    small = ["--preset", "quick", "--photon-res", "32", "--light-res", "32", "--width", "24", "--height", "24"]
+    assert main(["approx", "refocus", *small, "-o", str(out)]) == 0
+    first = {p.name: p.read_bytes() for p in tmp_path.iterdir()}
+    assert set(first) == {"o.exr", "o.png", "o.records.npz", "o.json"}
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(job, "write_png", interrupted)
+    assert main(["approx", "refocus", *small, "--seed", "7", "-o", str(out)]) == 130
+    assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == first
