@@ -491,6 +491,19 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _interrupted(exc: BaseException) -> bool:
+    """Whether ``exc`` is Ctrl-C as Dr.Jit/Mitsuba pass it on: a KeyboardInterrupt raised
+    in Python code that C++ called (an integrator's method, a symbolic loop's body)
+    comes back as a RuntimeError naming it or chained to it."""
+    seen = set()
+    while exc is not None and id(exc) not in seen:
+        seen.add(id(exc))
+        if isinstance(exc, KeyboardInterrupt) or "KeyboardInterrupt" in str(exc):
+            return True
+        exc = exc.__cause__ or exc.__context__
+    return False
+
+
 def main(argv=None) -> int:
     from approx.params import ParamError
     from reference.settings import SettingsError
@@ -512,6 +525,11 @@ def main(argv=None) -> int:
         print(f"volcaustics: error: {exc}", file=sys.stderr)
         return EXIT_USAGE
     except KeyboardInterrupt:
+        print("volcaustics: interrupted", file=sys.stderr)
+        return 130
+    except RuntimeError as exc:
+        if not _interrupted(exc):
+            raise
         print("volcaustics: interrupted", file=sys.stderr)
         return 130
     except BrokenPipeError:  # output piped into `head` and closed: not an error of ours

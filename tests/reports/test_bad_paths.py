@@ -216,3 +216,34 @@ def test_an_interrupted_approx_keeps_the_last_complete_set(tmp_path, monkeypatch
     monkeypatch.setattr(job, "write_png", interrupted)
     assert main(["approx", "refocus", *small, "--seed", "7", "-o", str(out)]) == 130
     assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == first
+
+
+@pytest.mark.parametrize("wrapped", ["message", "chained"])
+def test_ctrl_c_inside_mitsuba_exits_130(tmp_path, monkeypatch, capsys, wrapped):
+    """Ctrl-C during Mitsuba's render reaches Python as a RuntimeError from C++ (naming
+    KeyboardInterrupt, or chained to it): exit 130 and "interrupted", not a traceback
+    with exit 1 (issue 13, class F). The interrupt is injected where the render runs."""
+    import reports.reference_job as job
+
+    def render(*args, **kwargs):
+        if wrapped == "message":
+            raise RuntimeError("drjit.while_loop(): the loop body raised an exception: KeyboardInterrupt")
+        try:
+            raise KeyboardInterrupt
+        except KeyboardInterrupt as exc:
+            raise RuntimeError("render failed") from exc
+
+    import reference.render
+
+    monkeypatch.setattr(reference.render, "render_reference", render)
+    assert main(["reference", "sphere1", "-o", str(tmp_path / "r.exr")]) == 130
+    assert "interrupted" in capsys.readouterr().err
+    assert not list(tmp_path.iterdir())
+    assert job  # the job imports render_reference at call time, so the patch is what it runs
+
+
+def test_other_runtime_errors_are_not_taken_for_interrupts():
+    from reports.cli import _interrupted
+
+    assert not _interrupted(RuntimeError("out of memory"))
+    assert _interrupted(RuntimeError("x: KeyboardInterrupt"))
