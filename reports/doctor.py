@@ -90,13 +90,18 @@ def run_doctor() -> DoctorReport:
     except Exception as exc:
         report.add("mitsuba", False, f"not installed ({exc})", "make setup (pip install -e '.[test]')")
 
+    from reference.variant import PREFERRED
+
     rendering = []
     for variant in ("scalar_rgb", "llvm_ad_rgb", "cuda_ad_rgb"):
         ok, detail, seconds = probe(variant)
         if ok:
             rendering.append(variant)
-        report.add(f"variant {variant}", True, f"{'renders' if ok else 'unavailable'}: {detail} ({seconds:.1f} s)")
-    usable = [v for v in ("cuda_ad_rgb", "llvm_ad_rgb") if v in rendering]
+        role = ("usable for the reference" if variant in PREFERRED else
+                "not usable for the reference (its integrators need a JIT RGB variant)")
+        report.add(f"variant {variant}", True,
+                   f"{'renders' if ok else 'unavailable'}, {role}: {detail} ({seconds:.1f} s)")
+    usable = [v for v in PREFERRED if v in rendering]
     report.add("reference variant", bool(usable), usable[0] if usable else "none",
                "" if usable else "llvm_ad_rgb must render: apt-get install libllvm19 and unset DRJIT_LIBLLVM_PATH "
                                  "(volcaustics then finds libLLVM-19 by itself)")

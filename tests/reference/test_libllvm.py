@@ -47,6 +47,9 @@ def test_doctor_passes_here():
     proc = _doctor({})
     assert proc.returncode == 0, proc.stdout + proc.stderr
     assert "llvm_ad_rgb  renders" in proc.stdout and "opengl" in proc.stdout
+    # scalar_rgb renders Mitsuba's own integrators, not the reference's: the doctor says so (issue 13, I)
+    scalar = next(line for line in proc.stdout.splitlines() if "variant scalar_rgb" in line)
+    assert "not usable for the reference" in scalar
 
 
 @pytest.mark.skipif(not OLD_LLVM, reason="no stock libLLVM 14/15 on this machine to demonstrate the crash")
