@@ -80,22 +80,14 @@ def _cmd_report(args) -> int:
         c = page["components"]
         failed = [ch["name"] for ch in page["gate"]["checks"] if not ch["passed"]]
         gate = ("FAIL " + ", ".join(failed)) if failed else ("pass" if page["gate"]["checks"] else "not checked")
-        print(f"{page['scene']:<12} caustic relMSE {_percent(c['caustic']['relative_mse'].get('debiased'))}, "
-              f"energy {_plain(c['caustic']['energy_ratio'].get('value'))}; combined relMSE "
-              f"{_percent(c['combined']['relative_mse'].get('debiased'))}; gate {gate}")
+        print(f"{page['scene']:<12} caustic relMSE {_pct(c['caustic']['relative_mse'].get('debiased'))}, "
+              f"energy {_num(c['caustic']['energy_ratio'].get('value'))}; combined relMSE "
+              f"{_pct(c['combined']['relative_mse'].get('debiased'))}; gate {gate}")
     gate = summary["gate"]
     print(f"report: {len(summary['scenes'])} scenes, gate {'passed' if gate['passed'] else 'FAILED' if gate['failed'] else 'not checked'} "
           f"({gate['failed']} of {gate['checks']} checks failed), {summary['seconds']['total']:.0f} s -> "
           f"{args.out}/index.html")
     return 0
-
-
-def _percent(value) -> str:
-    return "–" if value is None else f"{100 * value:.2f}%"
-
-
-def _plain(value) -> str:
-    return "–" if value is None else f"{value:.3f}"
 
 
 def _scene_list(text, option: str):
@@ -330,6 +322,19 @@ def _cmd_gate(args) -> int:
     return result.exit_code
 
 
+def _add_gate_inputs(p, *, scenes: str) -> None:
+    """What the gate and the report measure and check: scenes, parameters over the
+    budgets' preset, seeds, budgets and the baseline."""
+    p.add_argument("--scenes", help=scenes)
+    p.add_argument("--set", action="append", metavar="NAME=VALUE",
+                   help="an approximation parameter over the budgets' preset (repeatable)")
+    p.add_argument("--seeds", type=int, help="frames per scene (default: the budgets' seeds, 4)")
+    p.add_argument("--seed", type=int, default=0, help="the first seed (default 0)")
+    p.add_argument("--budgets", metavar="FILE.toml", help="budgets per scene (default: reports/budgets.toml)")
+    p.add_argument("--baseline", metavar="DIR",
+                   help="the last accepted results (DIR/baseline.json): also test for a regression against them")
+
+
 def _add_report_reference(p) -> None:
     """The reference options of ``report`` and ``measure`` (default: the report's budget)."""
     from .defaults import REPORT_REFERENCE, REPORT_TARGET
@@ -459,14 +464,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("gate", help="fail (exit 1) when the approximation exceeds its budgets or regresses against "
                                     "the baseline; exit 2 on bad input or missing data")
-    p.add_argument("--budgets", metavar="FILE.toml", help="budgets per scene (default: reports/budgets.toml)")
-    p.add_argument("--baseline", metavar="DIR", help="the last accepted results (DIR/baseline.json)")
+    _add_gate_inputs(p, scenes="comma-separated budgeted scenes (default: all in the budgets)")
     p.add_argument("--update-baseline", dest="update_baseline", action="store_true",
                    help="accept this run's results as the baseline (written atomically), no regression test")
-    p.add_argument("--set", action="append", metavar="NAME=VALUE", help="override an approximation parameter")
-    p.add_argument("--scenes", help="comma-separated budgeted scenes (default: all in the budgets)")
-    p.add_argument("--seeds", type=int, help="frames per scene (default: the budgets' seeds)")
-    p.add_argument("--seed", type=int, default=0, help="the first seed (default 0)")
     p.add_argument("--junit", metavar="OUT.xml", help="also write a JUnit XML report")
     p.add_argument("--out", default="runs/gate", help="gate.json and failure images (default runs/gate)")
     p.add_argument("--render-references", dest="render_references", action="store_true",
@@ -477,13 +477,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("report", help="the main job: the accuracy report (one HTML page + summary.json) of the "
                                       "approximation against ground truth, with the gate's verdicts")
     p.add_argument("--out", default="runs/report", help="output folder (default runs/report)")
-    p.add_argument("--scenes", help="comma-separated SCENE arguments (default: every built-in)")
-    p.add_argument("--set", action="append", metavar="NAME=VALUE",
-                   help="an approximation parameter over the budgets' preset (repeatable)")
-    p.add_argument("--seeds", type=int, help="frames per scene (default: the budgets' seeds, 4)")
-    p.add_argument("--seed", type=int, default=0, help="the first seed (default 0)")
-    p.add_argument("--budgets", metavar="FILE.toml", help="the gate's budgets (default: reports/budgets.toml)")
-    p.add_argument("--baseline", metavar="DIR", help="also test for a regression against DIR/baseline.json")
+    _add_gate_inputs(p, scenes="comma-separated SCENE arguments (default: every built-in)")
     p.add_argument("--sweep", metavar="DIR", help="add a sweep store's figures and settings that suffice")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     _add_report_reference(p)

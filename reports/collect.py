@@ -214,21 +214,12 @@ def run_report(out_dir: str, names, *, overrides: dict, seeds: int | None, seed:
 
     The approximation's parameters are the budgets' preset with ``overrides``; the
     seeds ``seed`` … ``seed + seeds − 1`` (``seeds`` default: the budgets')."""
-    from approx.params import PAPER, QUICK, ParamError
-
-    from .gate import load_baseline
+    from .gate import load_baseline, measured_settings
     from .report import report_summary, write_report
 
     t0 = time.perf_counter()
-    try:
-        params = dataclasses.replace({"quick": QUICK, "paper": PAPER}[budgets["preset"]], seed=seed, **overrides)
-    except ParamError as exc:
-        raise ReportError(f"--set: {exc}") from None
-    seeds = budgets["seeds"] if seeds is None else seeds
-    if isinstance(seeds, bool) or not isinstance(seeds, int) or not 1 <= seeds <= 256:
-        raise ReportError(f"--seeds = {seeds!r}: expected an integer in [1, 256] (intervals need 4)")
-    if not 0 <= seed <= 2**32 - seeds:
-        raise ReportError(f"--seed = {seed}: expected 0 ≤ seed and seed + seeds − 1 < 2^32")
+    params, seeds = measured_settings(budgets, overrides, seeds=seeds, seed=seed, min_seeds=1,
+                                      why="intervals need 4")
     sweep = load_sweep(sweep_dir) if sweep_dir else None      # bad input fails before anything renders
     baseline = load_baseline(baseline_dir) if baseline_dir else None
     clock = {}

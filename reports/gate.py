@@ -298,6 +298,25 @@ def write_baseline(folder: str, entries: dict) -> str:
 
 # --- the run -------------------------------------------------------------------------
 
+def measured_settings(budgets: dict, overrides: dict, *, seeds: int | None, seed: int, min_seeds: int,
+                      why: str) -> tuple:
+    """(params, seeds) of the gate's experiments: the budgets' preset with ``overrides``
+    and first seed ``seed``; ``seeds`` (default: the budgets') at least ``min_seeds``
+    (``why`` says why). GateError for a bad override, seed count or seed."""
+    from approx.params import PAPER, QUICK, ParamError
+
+    try:
+        params = dataclasses.replace({"quick": QUICK, "paper": PAPER}[budgets["preset"]], seed=seed, **overrides)
+    except ParamError as exc:
+        raise GateError(f"--set: {exc}") from None
+    n_seeds = budgets["seeds"] if seeds is None else seeds
+    if isinstance(n_seeds, bool) or not isinstance(n_seeds, int) or not min_seeds <= n_seeds <= 256:
+        raise GateError(f"--seeds = {n_seeds!r}: expected an integer in [{min_seeds}, 256] ({why})")
+    if not 0 <= seed <= 2**32 - n_seeds:
+        raise GateError(f"--seed = {seed}: expected 0 ≤ seed and seed + seeds − 1 < 2^32")
+    return params, n_seeds
+
+
 @dataclass
 class GateResult:
     checks: list
@@ -316,22 +335,13 @@ def run_gate(budgets: dict, *, overrides: dict, baseline_dir: str | None, update
 
     from tqdm import tqdm
 
-    from approx.params import PAPER, QUICK, ParamError
-
     t0 = time.perf_counter()
     names = list(scenes) if scenes else list(budgets["scenes"])
     missing = [n for n in names if n not in budgets["scenes"]]
     if missing:
         raise GateError(f"--scenes: {missing[0]!r} has no budgets in {budgets['path']}")
-    try:
-        params = dataclasses.replace({"quick": QUICK, "paper": PAPER}[budgets["preset"]], seed=seed, **overrides)
-    except ParamError as exc:
-        raise GateError(f"--set: {exc}") from None
-    n_seeds = budgets["seeds"] if seeds is None else seeds
-    if isinstance(n_seeds, bool) or not isinstance(n_seeds, int) or not 2 <= n_seeds <= 256:
-        raise GateError(f"--seeds = {n_seeds!r}: expected an integer in [2, 256] (the regression test needs 2)")
-    if not 0 <= seed <= 2**32 - n_seeds:
-        raise GateError(f"--seed = {seed}: expected 0 ≤ seed and seed + seeds − 1 < 2^32")
+    params, n_seeds = measured_settings(budgets, overrides, seeds=seeds, seed=seed, min_seeds=2,
+                                        why="the regression test needs 2")
     baseline = load_baseline(baseline_dir) if baseline_dir and not update_baseline else None
     if baseline is not None:
         absent = [n for n in names if n not in baseline["scenes"]]

@@ -64,9 +64,10 @@ def hit_classes(segments) -> dict:
                      "segments": int(frame["segments"].sum()), **classes(frame, totals[int(step)])})
     rows.sort(key=lambda r: (r["step"], r["layer"] == "none", r["layer"] if r["layer"] != "none" else 0))
     steps = []
-    for _, r in by_step.sort_values("step").iterrows():
-        frame = by_step[by_step["step"] == r["step"]]
-        steps.append({"step": int(r["step"]), "segments": int(r["segments"]), **classes(frame, int(r["segments"])),
+    for index in by_step.sort_values("step").index:
+        r = by_step.loc[index]
+        steps.append({"step": int(r["step"]), "segments": int(r["segments"]),
+                      **classes(by_step.loc[[index]], int(r["segments"])),
                       "abs_dt_mm": {q: _finite(1000.0 * float(r[f"abs_dt_{q}"])) for q in ("median", "p90", "p99")}})
     return {"rows": rows, "by_step": steps}
 

@@ -42,20 +42,32 @@ def atomic_path(path: str):
     On an exception the temporary file is removed and ``path`` is untouched. The
     temporary name keeps the extension, so writers that look at it still work.
     """
+    tmp = _temporary_beside(path)
+    try:
+        yield tmp
+        _usual_mode(tmp)
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+
+
+def _temporary_beside(path: str) -> str:
+    """A new empty hidden file in ``path``'s folder (created if missing), named after it
+    and keeping its extension, so writers that look at the extension still work."""
     folder = os.path.dirname(os.path.abspath(path))
     os.makedirs(folder, exist_ok=True)
     base, ext = os.path.splitext(os.path.basename(path))
     fd, tmp = tempfile.mkstemp(prefix=f".{base}.", suffix=f".tmp{ext}", dir=folder)
     os.close(fd)
-    try:
-        yield tmp
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)  # mkstemp creates 0600; give the usual file mode
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
+    return tmp
+
+
+def _usual_mode(path: str) -> None:
+    """mkstemp creates 0600; give the usual file mode (0666 less the umask)."""
+    umask = os.umask(0)
+    os.umask(umask)
+    os.chmod(path, 0o666 & ~umask)
 
 
 @contextlib.contextmanager
@@ -83,21 +95,12 @@ def atomic_set(paths: list):
     back: the last path (the set's manifest) is removed first and put in place last, so
     no reader finds a manifest beside data of another run. When the block fails (an
     error, Ctrl-C) the temporaries go and every old file stays as it was."""
-    temps = []
-    for path in paths:
-        folder = os.path.dirname(os.path.abspath(path))
-        os.makedirs(folder, exist_ok=True)
-        base, ext = os.path.splitext(os.path.basename(path))
-        fd, tmp = tempfile.mkstemp(prefix=f".{base}.", suffix=f".tmp{ext}", dir=folder)
-        os.close(fd)
-        temps.append(tmp)
+    temps = [_temporary_beside(path) for path in paths]
     try:
         yield list(temps)
-        umask = os.umask(0)
-        os.umask(umask)
         with sigint_held():
             for tmp in temps:
-                os.chmod(tmp, 0o666 & ~umask)
+                _usual_mode(tmp)
             try:
                 os.unlink(paths[-1])
             except FileNotFoundError:
