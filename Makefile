@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 OUT ?= runs/report
 
-.PHONY: setup report test doctor sweep gate gate-baseline clean
+.PHONY: setup report test doctor sweep gate gate-baseline lower-bounds clean
 
 setup:
 	@bash scripts/setup.sh
@@ -35,6 +35,11 @@ gate-baseline: setup
 # The standard sweep: every built-in x layers x iterations at the quick preset, one seed.
 sweep: setup
 	$(BIN)/volcaustics sweep --vary layers=1,2,4,8 --vary iterations=4,8,16,30 -o runs/sweep
+
+# The dependency ranges at their lower bounds: a second venv (.venv-lower) with every
+# pyproject requirement pinned to its ">=" version, pip check, then the test suite there.
+lower-bounds: setup
+	$(BIN)/python bench/lower_bounds.py
 
 clean:
 	rm -rf runs test-output .pytest_cache .hypothesis

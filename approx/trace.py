@@ -73,26 +73,8 @@ class PhotonTracer:
         self._max_groups = int(ctx.info["GL_MAX_COMPUTE_WORK_GROUP_COUNT"][0])
 
     def check_limits(self, params, *, keep_records: bool = False) -> None:
-        """Raise ParamError, before any GL work, when ``params`` need more compute work
-        groups in one dispatch than the GL driver runs (GL_MAX_COMPUTE_WORK_GROUP_COUNT;
-        65,535 on Mesa: the dispatch would silently do nothing), or buffers beyond
-        :func:`memory_budget` (photon, record and splat buffers, and with ``keep_records``
-        every step's records read back): photon_res 8192 asked for 7.5 GB of records."""
-        from .params import ParamError
-
-        need = frame_bytes(params.photon_res, params.steps, keep_records=keep_records)
-        budget = memory_budget()
-        if need > budget:
-            fits = math.isqrt(int(budget / frame_bytes(1, params.steps, keep_records=keep_records)))
-            raise ParamError(f"photon_res = {params.photon_res}: a frame needs {need / 2**30:.1f} GiB of photon, "
-                             f"record and splat buffers{' and records read back' if keep_records else ''}, more than "
-                             f"half of this machine's memory ({budget / 2**30:.1f} GiB); photon_res ≤ {fits} fits")
-
-        for name, res, per_group in (("photon_res", params.photon_res, 64), ("light_res", params.light_res, 256)):
-            if math.ceil(res * res / per_group) > self._max_groups:
-                limit = math.isqrt(self._max_groups * per_group)
-                raise ParamError(f"{name} = {res}: this GL driver runs at most {self._max_groups} work groups of "
-                                 f"{per_group} in one dispatch, so {name} must be at most {limit}")
+        """:func:`check_fits` with this tracer's GL driver."""
+        check_fits(params, keep_records=keep_records, max_groups=self._max_groups)
 
     def _solid_angle_buffer(self, frustum, res: int) -> moderngl.Buffer:
         key = (res, round(frustum.tan_half, 12))
@@ -215,6 +197,34 @@ def read_raw_records(buf: moderngl.Buffer, count: int) -> np.ndarray:
 
 def read_photons(buf: moderngl.Buffer, count: int) -> np.ndarray:
     return np.frombuffer(buf.read(size=count * PHOTON_DTYPE.itemsize), dtype=PHOTON_DTYPE)
+
+
+def check_fits(params, *, keep_records: bool = False, max_groups: int | None = None) -> None:
+    """Raise ParamError, before any GL work, when ``params`` need buffers beyond
+    :func:`memory_budget` (photon, record and splat buffers, and with ``keep_records``
+    every step's records read back: photon_res 8192 asked for 7.5 GB of records), or more
+    compute work groups in one dispatch than the GL driver runs (``max_groups``,
+    GL_MAX_COMPUTE_WORK_GROUP_COUNT; 65,535 on Mesa: the dispatch would silently do
+    nothing; default: the process's shared context's). Commands that render references
+    first call this before them, so a frame that cannot run fails at once."""
+    from .params import ParamError
+
+    need = frame_bytes(params.photon_res, params.steps, keep_records=keep_records)
+    budget = memory_budget()
+    if need > budget:
+        fits = math.isqrt(int(budget / frame_bytes(1, params.steps, keep_records=keep_records)))
+        raise ParamError(f"photon_res = {params.photon_res}: a frame needs {need / 2**30:.1f} GiB of photon, "
+                         f"record and splat buffers{' and records read back' if keep_records else ''}, more than "
+                         f"half of this machine's memory ({budget / 2**30:.1f} GiB); photon_res ≤ {fits} fits")
+    if max_groups is None:
+        from .context import shared_context
+
+        max_groups = int(shared_context().info["GL_MAX_COMPUTE_WORK_GROUP_COUNT"][0])
+    for name, res, per_group in (("photon_res", params.photon_res, 64), ("light_res", params.light_res, 256)):
+        if math.ceil(res * res / per_group) > max_groups:
+            limit = math.isqrt(max_groups * per_group)
+            raise ParamError(f"{name} = {res}: this GL driver runs at most {max_groups} work groups of "
+                             f"{per_group} in one dispatch, so {name} must be at most {limit}")
 
 
 def frame_bytes(photon_res: int, steps: int, *, keep_records: bool = False) -> int:

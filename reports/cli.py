@@ -43,6 +43,8 @@ def _write_preview(scene, folder: str) -> str:
 def _cmd_scenes(args) -> int:
     from scenes import BUILTIN_NAMES, load_builtin, load_scene
 
+    if args.preview is not None:
+        _check_output_dir(args.preview, "--preview")
     if args.check:
         scene = load_scene(args.check)
         tris = scene.specular_triangle_count()
@@ -298,16 +300,22 @@ def _cmd_sweep(args) -> int:
 
 
 def _cmd_gate(args) -> int:
-    from scenes.storage import atomic_write_text
+    from scenes.storage import atomic_write_text, remove_file
 
     from .gate import console_table, default_budgets_path, junit_xml, load_budgets, run_gate
 
     _check_output_dir(args.out, "--out")
+    if args.junit is not None:
+        _check_output_file(args.junit, "--junit", ".xml")
     if args.update_baseline and not args.baseline:
         raise UsageError("--update-baseline", True, "needs --baseline DIR (where to write it)")
+    if args.update_baseline:
+        _check_output_dir(args.baseline, "--baseline")
     overrides = _overrides(args.set)
     budgets = load_budgets(args.budgets or default_budgets_path())
     scenes = _scene_list(args.scenes, "--scenes")
+    if args.junit:  # an earlier run's verdict must not stand for this one if it stops early
+        remove_file(args.junit)
     result = run_gate(budgets, overrides=overrides, baseline_dir=args.baseline, update_baseline=args.update_baseline,
                       out_dir=args.out, scenes=scenes, seeds=args.seeds, seed=args.seed,
                       render_references=args.render_references, progress=not args.quiet)

@@ -106,6 +106,7 @@ def run_experiment(scene, params, *, seeds: int = 1, reference_settings=None, pr
     """
     from approx import Renderer
     from approx.params import ParamError
+    from approx.trace import check_fits
     from reference.oracle import Oracle
 
     from .defaults import REPORT_REFERENCE
@@ -116,6 +117,7 @@ def run_experiment(scene, params, *, seeds: int = 1, reference_settings=None, pr
     if p.seed + seeds - 1 > 2**32 - 1:
         raise ParamError(f"seed = {p.seed} with seeds = {seeds}: the last seed exceeds 2^32 − 1")
     seed_list = [p.seed + i for i in range(seeds)]
+    check_fits(p, keep_records=True)  # before the reference: a frame that cannot run fails at once
     clock = {}
     bar = _progress(6, progress)
     t0 = time.perf_counter()
@@ -628,28 +630,28 @@ def table(rows: list):
 
 def write_experiment(experiment: Experiment, out_dir: str) -> dict:
     """Write the tables (Parquet + CSV), ``decomposition.exr`` and, last,
-    ``summary.json`` into ``out_dir``; every file atomically. Returns the paths."""
+    ``summary.json`` into ``out_dir`` as one set (``scenes.storage.atomic_set``: an
+    interrupted write leaves the last complete set). Returns the paths."""
     from scenes.imageio import write_exr
-    from scenes.storage import atomic_path, atomic_write_text
+    from scenes.storage import atomic_set
 
     os.makedirs(out_dir, exist_ok=True)
-    paths = output_paths(out_dir)
-    if os.path.exists(paths["summary.json"]):  # an earlier result's manifest must not outlive its data
-        os.unlink(paths["summary.json"])
-    for name in TABLES:
-        frame = table(getattr(experiment, name))
-        with atomic_path(paths[f"{name}.parquet"]) as tmp:
-            frame.to_parquet(tmp, index=False)
-        with atomic_path(paths[f"{name}.csv"]) as tmp:
-            frame.to_csv(tmp, index=False)
+    paths = output_paths(out_dir)  # summary.json last: the set's manifest
     s = experiment.summary
-    write_exr(paths["decomposition.exr"], experiment.layers,
-              {"volcaustics_scene": s["scene"], "volcaustics_scene_hash": s["scene_hash"],
-               "volcaustics_renderer": "experiment",
-               "volcaustics_layers": json.dumps({**DECOMPOSITION_IMAGES, "term.*": "the decomposition's terms"}),
-               "volcaustics_params": json.dumps(s["params"], sort_keys=True)})
-    summary = {**s, "outputs": {k: os.path.abspath(v) for k, v in paths.items()}}
-    atomic_write_text(paths["summary.json"], json.dumps(plain(summary), indent=2, allow_nan=False))
+    with atomic_set(list(paths.values())) as temps:
+        tmp = dict(zip(paths, temps))
+        for name in TABLES:
+            frame = table(getattr(experiment, name))
+            frame.to_parquet(tmp[f"{name}.parquet"], index=False)
+            frame.to_csv(tmp[f"{name}.csv"], index=False)
+        write_exr(tmp["decomposition.exr"], experiment.layers,
+                  {"volcaustics_scene": s["scene"], "volcaustics_scene_hash": s["scene_hash"],
+                   "volcaustics_renderer": "experiment",
+                   "volcaustics_layers": json.dumps({**DECOMPOSITION_IMAGES, "term.*": "the decomposition's terms"}),
+                   "volcaustics_params": json.dumps(s["params"], sort_keys=True)})
+        summary = {**s, "outputs": {k: os.path.abspath(v) for k, v in paths.items()}}
+        with open(tmp["summary.json"], "w", encoding="utf-8") as fh:
+            fh.write(json.dumps(plain(summary), indent=2, allow_nan=False))
     return paths
 
 

@@ -304,6 +304,7 @@ def measured_settings(budgets: dict, overrides: dict, *, seeds: int | None, seed
     and first seed ``seed``; ``seeds`` (default: the budgets') at least ``min_seeds``
     (``why`` says why). GateError for a bad override, seed count or seed."""
     from approx.params import PAPER, QUICK, ParamError
+    from approx.trace import check_fits
 
     try:
         params = dataclasses.replace({"quick": QUICK, "paper": PAPER}[budgets["preset"]], seed=seed, **overrides)
@@ -314,6 +315,10 @@ def measured_settings(budgets: dict, overrides: dict, *, seeds: int | None, seed
         raise GateError(f"--seeds = {n_seeds!r}: expected an integer in [{min_seeds}, 256] ({why})")
     if not 0 <= seed <= 2**32 - n_seeds:
         raise GateError(f"--seed = {seed}: expected 0 ≤ seed and seed + seeds − 1 < 2^32")
+    try:
+        check_fits(params, keep_records=True)  # before any reference renders
+    except ParamError as exc:
+        raise GateError(f"--set: {exc}") from None
     return params, n_seeds
 
 
@@ -335,6 +340,8 @@ def run_gate(budgets: dict, *, overrides: dict, baseline_dir: str | None, update
 
     from tqdm import tqdm
 
+    from scenes.storage import remove_file
+
     t0 = time.perf_counter()
     names = list(scenes) if scenes else list(budgets["scenes"])
     missing = [n for n in names if n not in budgets["scenes"]]
@@ -347,6 +354,7 @@ def run_gate(budgets: dict, *, overrides: dict, baseline_dir: str | None, update
         absent = [n for n in names if n not in baseline["scenes"]]
         if absent:
             raise GateError(f"{baseline_dir}/baseline.json: no entry for {absent[0]!r}: update the baseline")
+    remove_file(os.path.join(out_dir, "gate.json"))  # an earlier verdict must not stand for this run
     checks, entries = [], {}
     for name in tqdm(names, desc="gate", unit="scene", disable=not progress):
         experiment = measure_scene(name, params, n_seeds, render_references=render_references,

@@ -9,7 +9,9 @@ Layout of a store folder::
                                   document and the SHA-256 of every file
     segments.parquet, photons.parquet, images.parquet, points.parquet
                                   all complete points in one table each
-                                  (:meth:`Store.consolidate`)
+                                  (:meth:`Store.tables`), written by a sweep
+                                  with its suffice.csv and, last, sweep.json
+                                  as one set (``reports.sweep``)
 
 A point's key hashes everything that determines its result (:func:`point_key`): the
 scene's hash, the resolved approximation parameters, the seeds, the reference's cache
@@ -34,7 +36,7 @@ import shutil
 import socket
 import uuid
 
-from scenes.storage import atomic_path, atomic_write_text, file_sha256
+from scenes.storage import atomic_write_text, file_sha256
 
 TABLES = ("segments", "photons", "images")
 TABLE_FILES = tuple(f"{name}.parquet" for name in TABLES)
@@ -186,10 +188,10 @@ class Store:
                 removed += 1
         return removed
 
-    def consolidate(self, keys) -> dict:
-        """One table per kind over the complete points of ``keys``, plus points.parquet
-        (one row per point), written atomically at the top of the store; returns the
-        DataFrames."""
+    def tables(self, keys) -> dict:
+        """One DataFrame per kind over the complete points of ``keys`` (a ``point``
+        column first), plus "points" (one row per point); written by the caller
+        (``reports.sweep`` writes them with its manifest as one set)."""
         import pandas as pd
 
         from .experiment import table
@@ -208,9 +210,6 @@ class Store:
         out = {name: (pd.concat(parts, ignore_index=True) if parts else pd.DataFrame())
                for name, parts in frames.items()}
         out["points"] = table(points) if points else pd.DataFrame()
-        for name, frame in out.items():
-            with atomic_path(os.path.join(self.root, f"{name}.parquet")) as tmp:
-                frame.to_parquet(tmp, index=False)
         return out
 
 

@@ -32,7 +32,10 @@ from dataclasses import dataclass, field
 
 from approx.params import ApproxParams, ParamError
 
+from .store import TABLES
+
 SPEC_KEYS = ("scenes", "preset", "seeds", "vary", "set", "reference")
+MANIFEST = "sweep.json"  # the spec and the points the store's tables hold; written last
 REFERENCE_KEYS = ("photons", "spp", "batches", "target_noise", "max_photons", "max_seconds")
 
 
@@ -165,6 +168,7 @@ def _table(doc, key, path) -> dict:
 def _checked(spec: SweepSpec, where: str) -> SweepSpec:
     """Validate everything that can be checked before rendering: scenes exist, names,
     the preset, the seeds, every point's parameters, overlaps of vary and set."""
+    from approx.trace import check_fits
     from scenes import SceneError, resolve_scene
 
     if spec.preset not in ("quick", "paper"):
@@ -185,10 +189,18 @@ def _checked(spec: SweepSpec, where: str) -> SweepSpec:
             resolve_scene(scene)
         except SceneError as exc:
             raise SweepError(f"{where}: {exc}") from None
+    fits = set()
     for point in points(spec):
         last = point.params.seed + spec.seeds - 1
         if last > 2**32 - 1:
             raise SweepError(f"{where}: seed {point.params.seed} with seeds = {spec.seeds} exceeds 2^32 − 1")
+        size = (point.params.photon_res, point.params.light_res, point.params.steps)
+        if size not in fits:  # what a frame allocates and dispatches, before any reference renders
+            try:
+                check_fits(point.params, keep_records=True)
+            except ParamError as exc:
+                raise SweepError(f"{where}: point {point.scene}: {exc}") from None
+            fits.add(size)
     return spec
 
 
@@ -297,12 +309,9 @@ def run_sweep(spec: SweepSpec, out_dir: str, *, workers: int | None = None, dask
               progress: bool = True) -> SweepResult:
     """Run every point not yet in the store at ``out_dir``; then consolidate the tables
     and draw the figures. Ctrl-C stops it with the finished points kept."""
-    import json
-
     from reference.lookup import existing_reference
     from reference.render import render_reference
     from scenes import resolve_scene
-    from scenes.storage import atomic_path, atomic_write_text
 
     from .executors import run_tasks
     from .figures import draw_figures, settings_that_suffice
@@ -336,8 +345,6 @@ def run_sweep(spec: SweepSpec, out_dir: str, *, workers: int | None = None, dask
                       "seeds": spec.seeds, "reference_key": reference.key, "store": os.path.abspath(out_dir)})
     unique_tasks = list({t["key"]: t for t in tasks}.values())
     done_before = len(set(keys)) - len(unique_tasks)
-    manifest = {"spec": spec.to_dict(), "points": len(set(keys)), "keys": sorted(set(keys))}
-    atomic_write_text(os.path.join(out_dir, "sweep.json"), json.dumps(manifest, indent=1))
     failed, computed, point_seconds = [], 0, []
     for result in run_tasks(run_point, unique_tasks, total=len(set(keys)), done=done_before, workers=workers,
                             dask=dask, progress=progress):
@@ -346,12 +353,34 @@ def run_sweep(spec: SweepSpec, out_dir: str, *, workers: int | None = None, dask
         else:
             computed += 1
             point_seconds.append(result["seconds"])
-    tables = store.consolidate(sorted(set(keys)))
     varied = [name for name, _ in spec.vary]
+    tables = store.tables(sorted(set(keys)))
+    tables["suffice"] = settings_that_suffice(tables["points"], varied) if len(tables["points"]) else None
+    manifest = {"spec": spec.to_dict(), "points": len(set(keys)), "keys": sorted(set(keys))}
+    _write_tables(out_dir, tables, manifest)
     figures = draw_figures(tables, os.path.join(out_dir, "figures"), varied=varied)
-    if len(tables["points"]):
-        tables["suffice"] = settings_that_suffice(tables["points"], varied)
-        with atomic_path(os.path.join(out_dir, "suffice.csv")) as tmp:
-            tables["suffice"].to_csv(tmp, index=False)
     return SweepResult(total=len(set(keys)), done_before=done_before, computed=computed, failed=failed,
                        seconds=time.perf_counter() - t0, tables=tables, figures=figures, point_seconds=point_seconds)
+
+
+def _write_tables(out_dir: str, tables: dict, manifest: dict) -> None:
+    """The consolidated tables, suffice.csv and, last, sweep.json as one set
+    (``scenes.storage.atomic_set``): an interrupted sweep leaves the last complete set,
+    never a manifest beside another run's tables (what ``report --sweep`` reads)."""
+    import json
+
+    from scenes.storage import atomic_set, remove_file
+
+    names = [f"{name}.parquet" for name in (*TABLES, "points")]
+    if tables["suffice"] is not None:
+        names.append("suffice.csv")
+    else:  # a stale one would describe other points
+        remove_file(os.path.join(out_dir, "suffice.csv"))
+    with atomic_set([os.path.join(out_dir, name) for name in (*names, MANIFEST)]) as temps:
+        for name, tmp in zip(names, temps):
+            if name == "suffice.csv":
+                tables["suffice"].to_csv(tmp, index=False)
+            else:
+                tables[name[: -len(".parquet")]].to_parquet(tmp, index=False)
+        with open(temps[-1], "w", encoding="utf-8") as fh:
+            fh.write(json.dumps(manifest, indent=1))

@@ -101,16 +101,22 @@ def atomic_set(paths: list):
         with sigint_held():
             for tmp in temps:
                 _usual_mode(tmp)
-            try:
-                os.unlink(paths[-1])
-            except FileNotFoundError:
-                pass
+            remove_file(paths[-1])
             for tmp, path in zip(temps, paths):
                 os.replace(tmp, path)
     finally:
         for tmp in temps:
             if os.path.exists(tmp):
                 os.unlink(tmp)
+
+
+def remove_file(path: str) -> None:
+    """Remove the file ``path`` if it is there (an earlier run's manifest or verdict that
+    must not outlive its data or stand for a run that stopped early)."""
+    try:
+        os.unlink(path)
+    except FileNotFoundError:
+        pass
 
 
 def atomic_write_bytes(path: str, data: bytes) -> None:
@@ -135,11 +141,14 @@ def file_sha256(path: str) -> str:
 def read_json_object(path: str) -> dict:
     """The JSON object stored in ``path``.
 
-    FileNotFoundError when there is no file; ValueError naming the path when it cannot
-    be read, is not UTF-8 JSON, or holds something other than an object (``null``, a
+    FileNotFoundError when there is no file; ValueError naming the path when it is a
+    folder or a special file (never opened), cannot be read, is not UTF-8 JSON, or holds something other than an object (``null``, a
     list): a manifest of that kind is damaged, never data to index into."""
     import json
 
+    special = special_file_kind(path)
+    if special:  # opening a FIFO blocks, a device never ends
+        raise ValueError(f"{path}: {special}, expected a JSON file")
     try:
         with open(path, encoding="utf-8") as fh:
             doc = json.load(fh)

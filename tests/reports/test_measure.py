@@ -68,7 +68,7 @@ def _strict_json(path):
     return json.loads(path.read_text(), parse_constant=no_constant)
 
 
-def test_measure_writes_tidy_tables_exr_and_summary(cache, tmp_path, capsys):
+def test_measure_writes_tidy_tables_exr_and_summary(cache, tmp_path, capsys, monkeypatch):
     import OpenEXR
     import pandas as pd
 
@@ -128,6 +128,20 @@ def test_measure_writes_tidy_tables_exr_and_summary(cache, tmp_path, capsys):
     for layer in ("approx", "reference", "exact_all_small", "term.intersection", "term.residual"):
         assert f"{layer}.R" in channels or layer in channels, (layer, sorted(channels)[:8])
     assert not [p for p in out.iterdir() if p.name.startswith(".")]  # no temporary files left
+
+    # Ctrl-C while a second run writes its set (inside the EXR writer, after the tables):
+    # the first run's eight files stay, byte for byte, and no temporaries (issue 13, B)
+    import scenes.imageio
+
+    first = {p.name: p.read_bytes() for p in out.iterdir()}
+    assert len(first) == 8
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(scenes.imageio, "write_exr", interrupted)
+    assert main([*args, "--seed", "5"]) == 130
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == first
 
 
 @pytest.mark.parametrize("args, message", [

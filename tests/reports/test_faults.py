@@ -1,0 +1,278 @@
+"""Faults at chosen points in measure, sweep, gate, report and scenes (issue 13): limits
+checked before any reference renders (class D), writes interrupted midway that leave
+the last complete set and no earlier verdict standing for a run that stopped (B),
+Ctrl-C inside the reference render (F), damaged and special manifests (E, H), output
+options checked up front (A). Each test injects the fault where the command meets it."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+from reports.cli import main
+
+REPO = Path(__file__).resolve().parents[2]
+# a frame of photon_res 8192 with 32 steps reads back ~0.5 TB of records
+HUGE = ["--set", "photon_res=8192", "--set", "steps=32"]
+# tiny points: 32², photon_res 64, light_res 64; a reference of 4 batches
+SWEEP = """
+scenes = ["refocus"]
+seeds = 1
+[vary]
+layers = {layers}
+[set]
+width = 32
+height = 32
+photon_res = 64
+light_res = 64
+iterations = 4
+[reference]
+photons = 65536
+spp = 8
+batches = 4
+target_noise = "none"
+"""
+
+
+@pytest.fixture
+def cache(tmp_path, monkeypatch):
+    monkeypatch.setenv("VOLCAUSTICS_CACHE", str(tmp_path / "cache"))
+    monkeypatch.setenv("VOLCAUSTICS_MI_VARIANT", "llvm_ad_rgb")
+    return tmp_path / "cache"
+
+
+def _nothing_rendered(cache: Path) -> bool:
+    return not cache.exists() or not any(cache.rglob("*.exr"))
+
+
+def _exit_2(capsys, argv, fragment, *, within=20.0) -> str:
+    t0 = time.perf_counter()
+    assert main(argv) == 2
+    # nothing rendered: the smallest reference takes longer than this on any machine we know
+    assert time.perf_counter() - t0 < within
+    err = capsys.readouterr().err
+    assert fragment in err and "Traceback" not in err, err
+    return err
+
+
+# --- D: limits before the references ------------------------------------------------
+
+@pytest.mark.parametrize("command", ["measure", "sweep", "gate", "report"])
+def test_a_frame_beyond_memory_fails_before_any_reference_renders(cache, tmp_path, capsys, command):
+    """photon_res passes its range but the frame cannot run: measure, sweep, gate and
+    report rendered the references first (minutes at the report's budget) and failed in
+    the approximation after them; now they exit 2 at once, saying what fits."""
+    from approx.trace import frame_bytes, memory_budget
+
+    if frame_bytes(8192, 32, keep_records=True) <= memory_budget():
+        pytest.skip("this machine holds a photon_res 8192, 32-step frame")
+    argv = {"measure": ["measure", "sphere1", "-o", str(tmp_path / "m"), "--photon-res", "8192", "--steps", "32"],
+            "sweep": ["sweep", "-o", str(tmp_path / "s"), "--scenes", "sphere1", "--vary", "layers=1,2", *HUGE],
+            "gate": ["gate", "--out", str(tmp_path / "g"), "--scenes", "sphere1", "--render-references", *HUGE],
+            "report": ["report", "--out", str(tmp_path / "r"), "--scenes", "sphere1", *HUGE]}[command]
+    err = _exit_2(capsys, [*argv, "--quiet"], "photon_res = 8192")
+    assert "fits" in err
+    assert _nothing_rendered(cache)
+
+
+def test_check_fits_names_the_driver_limit():
+    """The work-group limit part, with a driver limit given (Mesa's 65,535): photon_res
+    2048 needs 65,536 groups of 64."""
+    import dataclasses
+
+    from approx.params import QUICK, ParamError
+    from approx.trace import check_fits
+
+    check_fits(dataclasses.replace(QUICK, photon_res=2047), max_groups=65535)
+    with pytest.raises(ParamError, match="photon_res = 2048: .* at most 2047"):
+        check_fits(dataclasses.replace(QUICK, photon_res=2048), max_groups=65535)
+    with pytest.raises(ParamError, match="light_res = 4096: .* at most 4095"):
+        check_fits(dataclasses.replace(QUICK, light_res=4096), max_groups=65535)
+
+
+# --- F: Ctrl-C inside the reference render ------------------------------------------
+
+@pytest.mark.parametrize("command", ["measure", "sweep", "gate", "report"])
+def test_ctrl_c_inside_the_reference_render_exits_130(cache, tmp_path, monkeypatch, capsys, command):
+    """Dr.Jit hands a KeyboardInterrupt raised during its loops back as a RuntimeError
+    chained to it; every command that renders a reference exits 130 with "interrupted"."""
+    import reference.render
+
+    def render(*args, **kwargs):
+        try:
+            raise KeyboardInterrupt
+        except KeyboardInterrupt as exc:
+            raise RuntimeError("drjit.while_loop(): the loop body raised an exception") from exc
+
+    monkeypatch.setattr(reference.render, "render_reference", render)
+    small = ["--set", "width=32", "--set", "height=32", "--set", "photon_res=64", "--set", "light_res=64"]
+    argv = {"measure": ["measure", "sphere1", "-o", str(tmp_path / "m"), "--width", "32", "--height", "32"],
+            "sweep": ["sweep", "-o", str(tmp_path / "s"), "--scenes", "sphere1", "--vary", "layers=1,2", *small],
+            "gate": ["gate", "--out", str(tmp_path / "g"), "--scenes", "sphere1", "--render-references", *small],
+            "report": ["report", "--out", str(tmp_path / "r"), "--scenes", "sphere1", *small]}[command]
+    assert main([*argv, "--quiet"]) == 130
+    err = capsys.readouterr().err
+    assert "interrupted" in err and "Traceback" not in err
+
+
+# --- B: interrupted writes ----------------------------------------------------------
+
+def _files(folder: Path) -> dict:
+    return {p.name: p.read_bytes() for p in folder.iterdir() if p.is_file()}
+
+
+def test_an_interrupted_sweep_keeps_its_last_complete_set_of_tables(cache, tmp_path, monkeypatch, capsys):
+    """Ctrl-C while the second sweep writes its tables (after its points are stored):
+    sweep.json, the four tables and suffice.csv stay the first sweep's, byte for byte, so
+    `report --sweep` never reads one run's manifest beside another's tables (sweep.json
+    was written before the points, and each table on its own); the rerun completes the
+    set from the store without recomputing."""
+    out = tmp_path / "store"
+    first_spec, second_spec = tmp_path / "one.toml", tmp_path / "two.toml"
+    first_spec.write_text(SWEEP.format(layers="[1]"))
+    second_spec.write_text(SWEEP.format(layers="[1, 2]"))
+    assert main(["sweep", str(first_spec), "-o", str(out), "--workers", "1", "--quiet"]) == 0
+    first = _files(out)
+    assert {"sweep.json", "points.parquet", "images.parquet", "suffice.csv"} <= set(first)
+
+    real = pd.DataFrame.to_parquet
+    calls = []
+
+    def to_parquet(self, path, *args, **kwargs):  # the points are written in worker processes
+        calls.append(path)
+        if len(calls) == 2:
+            raise KeyboardInterrupt
+        return real(self, path, *args, **kwargs)
+
+    monkeypatch.setattr(pd.DataFrame, "to_parquet", to_parquet)
+    assert main(["sweep", str(second_spec), "-o", str(out), "--workers", "1", "--quiet"]) == 130
+    assert len(calls) == 2
+    assert _files(out) == first  # no temporaries either
+    monkeypatch.setattr(pd.DataFrame, "to_parquet", real)
+
+    capsys.readouterr()
+    assert main(["sweep", str(second_spec), "-o", str(out), "--workers", "1", "--quiet"]) == 0
+    assert "2 points: 2 already in the store, 0 computed" in capsys.readouterr().out
+    manifest = json.loads((out / "sweep.json").read_text())
+    assert manifest["spec"]["vary"] == {"layers": [1, 2]}
+    assert sorted(pd.read_parquet(out / "points.parquet")["point"]) == manifest["keys"]
+
+
+def test_an_interrupted_gate_leaves_no_earlier_verdict(cache, tmp_path, monkeypatch):
+    """A stopped gate must not leave the last run's gate.json or JUnit file for CI to
+    read as this run's verdict: both are removed when the run starts measuring."""
+    import reports.gate as gate
+
+    out, junit = tmp_path / "gate", tmp_path / "junit.xml"
+    out.mkdir()
+    (out / "gate.json").write_text(json.dumps({"passed": True, "exit_code": 0}))
+    junit.write_text('<testsuite name="volcaustics-gate" tests="1" failures="0"/>')
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(gate, "measure_scene", interrupted)
+    assert main(["gate", "--out", str(out), "--junit", str(junit), "--scenes", "sphere1", "--quiet"]) == 130
+    assert not (out / "gate.json").exists() and not junit.exists()
+
+
+# --- A: output options checked up front -----------------------------------------------
+
+@pytest.mark.parametrize("argv, fragment", [
+    (["gate", "--junit", "{a_file}/junit.xml"], "--junit"),
+    (["gate", "--junit", "{tmp}/junit.txt"], "ending in .xml"),
+    (["gate", "--junit", ""], "ending in .xml"),
+    (["gate", "--baseline", "{a_file}", "--update-baseline"], "--baseline"),
+    (["scenes", "--preview", "{a_file}"], "--preview"),
+    (["scenes", "--preview", "{a_file}/sub"], "--preview"),
+])
+def test_bad_output_options_fail_before_any_work(cache, tmp_path, capsys, argv, fragment):
+    a_file = tmp_path / "a_file"
+    a_file.write_text("keep me")
+    argv = [a.format(a_file=a_file, tmp=tmp_path) for a in argv]
+    if argv[0] == "gate":
+        argv += ["--out", str(tmp_path / "g"), "--scenes", "sphere1", "--render-references", "--quiet"]
+    _exit_2(capsys, argv, fragment)
+    assert a_file.read_text() == "keep me"
+    assert _nothing_rendered(cache)
+
+
+# --- E, H: damaged and special manifests -------------------------------------------
+
+@pytest.mark.parametrize("content", ["null", "[]", "\0\xff garbage", "{"])
+def test_a_damaged_baseline_or_sweep_manifest_exits_2(cache, tmp_path, capsys, content):
+    baseline, sweep = tmp_path / "baseline", tmp_path / "sweep"
+    baseline.mkdir()
+    sweep.mkdir()
+    (baseline / "baseline.json").write_text(content, encoding="latin-1")
+    (sweep / "sweep.json").write_text(content, encoding="latin-1")
+    _exit_2(capsys, ["gate", "--out", str(tmp_path / "g"), "--scenes", "sphere1", "--baseline", str(baseline),
+                     "--quiet"], "baseline")
+    _exit_2(capsys, ["report", "--out", str(tmp_path / "r"), "--scenes", "sphere1", "--sweep", str(sweep),
+                     "--quiet"], "sweep.json")
+    assert _nothing_rendered(cache)
+
+
+@pytest.mark.parametrize("case", ["gate-baseline", "report-sweep"])
+def test_a_manifest_that_is_a_fifo_does_not_hang(tmp_path, case):
+    """Opening a FIFO blocks until a writer comes: a fresh process with a time limit, so
+    a hang fails the test instead of stopping the suite."""
+    folder = tmp_path / "m"
+    folder.mkdir()
+    name = {"gate-baseline": "baseline.json", "report-sweep": "sweep.json"}[case]
+    os.mkfifo(folder / name)
+    argv = {"gate-baseline": ["gate", "--out", str(tmp_path / "g"), "--scenes", "sphere1", "--baseline",
+                              str(folder)],
+            "report-sweep": ["report", "--out", str(tmp_path / "r"), "--scenes", "sphere1", "--sweep", str(folder)]}
+    env = {**os.environ, "VOLCAUSTICS_CACHE": str(tmp_path / "cache"), "VOLCAUSTICS_MI_VARIANT": "llvm_ad_rgb"}
+    done = subprocess.run([sys.executable, "-m", "reports.cli", *argv[case], "--quiet"], capture_output=True,
+                          text=True, env=env, cwd=REPO, timeout=120)
+    assert done.returncode == 2, done.stderr[-2000:]
+    assert "not a regular file" in done.stderr and "Traceback" not in done.stderr
+
+
+@pytest.mark.parametrize("damage", ["summary null", "summary list", "summary garbage", "summary of another key",
+                                    "table missing", "table truncated", "unknown file listed"])
+def test_a_damaged_store_point_counts_as_damaged(tmp_path, damage):
+    """A point whose summary is not its own object, or whose files do not match the
+    hashes it lists, is "damaged" (recomputed by the sweep and the report), never read."""
+    from reports.store import SUMMARY, TABLE_FILES, Store
+    from scenes.storage import file_sha256
+
+    store = Store(str(tmp_path / "store"))
+    key = "0123456789abcdef0123456789abcdef"
+    folder = Path(store.point_dir(key))
+    folder.mkdir()
+    files = {}
+    for name in TABLE_FILES:
+        pd.DataFrame({"x": [1.0, 2.0]}).to_parquet(folder / name, index=False)
+        files[name] = file_sha256(str(folder / name))
+    summary = {"key": key, "files": files}
+    (folder / SUMMARY).write_text(json.dumps(summary))
+    assert store.status(key) == "done"
+
+    table = folder / TABLE_FILES[0]
+    if damage == "summary null":
+        (folder / SUMMARY).write_text("null")
+    elif damage == "summary list":
+        (folder / SUMMARY).write_text("[]")
+    elif damage == "summary garbage":
+        (folder / SUMMARY).write_bytes(b"\0\xff{")
+    elif damage == "summary of another key":
+        (folder / SUMMARY).write_text(json.dumps({**summary, "key": "f" * 32}))
+    elif damage == "table missing":
+        table.unlink()
+    elif damage == "table truncated":
+        table.write_bytes(table.read_bytes()[:-10])
+    else:
+        (folder / SUMMARY).write_text(json.dumps({**summary, "files": {**files, "../outside": "0" * 64}}))
+    assert store.status(key) == "damaged"
+    store.remove_damaged(key)
+    assert store.status(key) == "missing" and not list(Path(store.points).iterdir())
