@@ -20,7 +20,7 @@ class VariantError(ValueError):
     the message names the variable, its value and the fix."""
 
 
-def _override() -> str | None:
+def variant_override() -> str | None:
     """``VOLCAUSTICS_MI_VARIANT`` when set, checked: the light tracer is a Dr.Jit
     ``AdjointIntegrator`` in RGB, so only the JIT RGB variants render it."""
     from .variant import PREFERRED
@@ -36,7 +36,7 @@ def _override() -> str | None:
 
 def render_variant() -> str:
     """The variant this process renders with: the override, else the probed choice."""
-    variant = _override()
+    variant = variant_override()
     if variant:
         return variant
     from .variant import reference_variant
@@ -48,7 +48,7 @@ def served_variants() -> tuple[str, ...]:
     """Variants whose cached references this process serves, in order of preference:
     the override alone when set, else every variant the reference may render with
     (so a cache hit needs no probe)."""
-    variant = _override()
+    variant = variant_override()
     if variant:
         return (variant,)
     from .variant import PREFERRED
@@ -62,15 +62,28 @@ def mitsuba():
     from .llvm import MIN_MAJOR, ensure_libllvm, libllvm_major
 
     path, how = ensure_libllvm()
-    variant = render_variant()
-    if variant.startswith("llvm") and how == "environment" and (
-            not os.path.isfile(path) or (libllvm_major(path) or MIN_MAJOR) < MIN_MAJOR):
+    override = variant_override()
+    # checked before the probe, which would only report that no variant renders
+    if how == "environment" and not (override or "llvm").startswith("cuda") and (
+            not _shared_library(path) or (libllvm_major(path) or MIN_MAJOR) < MIN_MAJOR):
         raise VariantError(f"DRJIT_LIBLLVM_PATH = {path!r}: not a libLLVM {MIN_MAJOR} or newer file (Dr.Jit's LLVM "
                            f"backend needs one); unset it to let volcaustics find one, or apt-get install libllvm19")
+    variant = override or render_variant()
     import mitsuba as mi
 
     mi.set_variant(variant)
     return mi
+
+
+def _shared_library(path: str) -> bool:
+    """A regular file that starts as an ELF object does (what Dr.Jit can load)."""
+    try:
+        if not os.path.isfile(path):
+            return False
+        with open(path, "rb") as fh:
+            return fh.read(4) == b"\x7fELF"
+    except OSError:
+        return False
 
 
 def variant_name() -> str:

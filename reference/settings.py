@@ -8,6 +8,7 @@ from dataclasses import asdict, dataclass, replace
 
 MODES = ("caustic", "fog", "all", "surface")  # which light paths the light tracer counts (reference.integrators)
 NOISE_COMPONENTS = ("caustic", "fog", "direct")  # colour components with a noise floor (combined is their sum)
+MAX_SAMPLES_PER_RENDER = 2**32  # Mitsuba's limit for one render (its wavefront sample index is 32-bit)
 # Size-independent settings: they say how long to render, not what one batch is, so they
 # are not part of a cache entry's identity (an entry is continued batch by batch).
 BUDGET_FIELDS = ("photons", "spp", "batches", "target_noise", "max_photons", "max_seconds")
@@ -64,7 +65,27 @@ class ReferenceSettings:
         if self.target_noise is not None:
             object.__setattr__(self, "target_noise", parse_target_noise(self.target_noise))
 
+        if self.width is not None and self.height is not None:
+            self._check_samples_per_render()
+
+    def _check_samples_per_render(self) -> None:
+        """One batch is one Mitsuba render of width × height × its samples per pixel,
+        which must stay within MAX_SAMPLES_PER_RENDER (2^32: Mitsuba splits a larger
+        render into passes that its sampler then refuses, a RuntimeError after the first
+        batch)."""
+        for what, spp in (("photons", self.photon_spp_per_batch()), ("spp", self.camera_spp_per_batch())):
+            samples = spp * self.width * self.height
+            if samples > MAX_SAMPLES_PER_RENDER:
+                per_pixel = MAX_SAMPLES_PER_RENDER // (self.width * self.height)  # a batch's samples per pixel
+                most = per_pixel * self.batches * (self.width * self.height if what == "photons" else 1)
+                raise SettingsError(f"{what} = {getattr(self, what)}: one batch of {what} / batches at "
+                                    f"{self.width}x{self.height} is {samples:,} samples, more than Mitsuba renders "
+                                    f"at once (2^32); use at most {most:,} {what} over {self.batches} batches, or "
+                                    f"more batches")
+
     def resolved(self, scene) -> "ReferenceSettings":
+        """The settings with width/height filled from the scene camera (SettingsError
+        when a batch is then too large to render)."""
         return replace(self, width=self.width or scene.camera.width, height=self.height or scene.camera.height)
 
     def to_dict(self) -> dict:

@@ -62,7 +62,10 @@ def reference_variant() -> str:
     for variant in PREFERRED:
         if probe(variant)[0]:
             return variant
-    raise RuntimeError("no Mitsuba variant renders here; run `volcaustics doctor` for the fix")
+    from .mi_setup import VariantError
+
+    raise VariantError("no Mitsuba variant renders here (cuda_ad_rgb and llvm_ad_rgb both failed a tiny render); "
+                       "run `volcaustics doctor` for the fix")
 
 
 def _main(variant: str) -> int:

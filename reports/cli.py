@@ -67,8 +67,9 @@ def _cmd_scenes(args) -> int:
 def _cmd_report(args) -> int:
     from .collect import run_report
     from .gate import default_budgets_path, load_budgets
+    from .report import OUTPUT_FILES
 
-    _check_output_dir(args.out, "--out")
+    _check_output_set(args.out, "--out", files=OUTPUT_FILES, folders=("figures",))
     names = _scene_list(args.scenes, "--scenes")
     budgets = load_budgets(args.budgets or default_budgets_path())
     if names is None:
@@ -115,6 +116,8 @@ def _overrides(assignments) -> dict:
         name, values = parse_assignment(text, "--set")
         if len(values) != 1:
             raise UsageError("--set", text, "one value per parameter")
+        if name in overrides:
+            raise UsageError("--set", text, f"{name} is set twice: set it once")
         if name == "seed":
             raise UsageError("--set", text, "use --seed (the first of the --seeds seeds)")
         overrides[name] = values[0]
@@ -188,13 +191,36 @@ def _check_output_file(path: str, option: str, extension: str, siblings: tuple =
     if not path or path.endswith(("/", os.sep)) or name in (".", ".."):
         raise UsageError(option, path, f"expected a file name ending in {extension}")
     if not name.lower().endswith(extension) or len(name) == len(extension):
-        raise UsageError(option, path, f"expected a file name ending in {extension}, e.g. out{extension} (the "
-                                       f"other outputs take its stem)")
+        raise UsageError(option, path, f"expected a file name ending in {extension}, e.g. out{extension}"
+                                       + (" (the other outputs take its stem)" if siblings else ""))
     stem = path[: -len(extension)]
-    for candidate in (path, *(stem + suffix for suffix in siblings)):
-        if os.path.isdir(candidate):
-            raise UsageError(option, path, f"{candidate} is a folder: choose another file name")
+    _check_no_folder_at([path, *(stem + suffix for suffix in siblings)], option, path)
     _check_output_dir(os.path.dirname(os.path.abspath(path)), option)
+
+
+def _check_no_folder_at(files, option: str, value) -> None:
+    """Fail before any work when a folder is where one of the output ``files`` goes (the
+    set's last rename would fail after the work, halfway through the set)."""
+    import os
+
+    for path in files:
+        if os.path.isdir(path):
+            raise UsageError(option, value, f"{path} is a folder where an output file goes: move it or choose "
+                                            f"another name")
+
+
+def _check_output_set(folder: str, option: str, files=(), folders=()) -> None:
+    """``folder`` must be (or become) a writable folder holding no folder where one of
+    its output ``files`` goes and no file where one of its ``folders`` goes."""
+    import os
+
+    _check_output_dir(folder, option)
+    _check_no_folder_at([os.path.join(folder, name) for name in files], option, folder)
+    for name in folders:
+        path = os.path.join(folder, name)
+        if os.path.exists(path) and not os.path.isdir(path):
+            raise UsageError(option, folder, f"{path} is a file where a folder goes: move it or choose another "
+                                             f"folder")
 
 
 def _check_output_dir(path: str, option: str = "-o") -> None:
@@ -215,9 +241,9 @@ def _check_output_dir(path: str, option: str = "-o") -> None:
 def _cmd_measure(args) -> int:
     from scenes import resolve_scene
 
-    from .experiment import plain, run_experiment, write_experiment
+    from .experiment import OUTPUT_FILES, plain, run_experiment, write_experiment
 
-    _check_output_dir(args.output)
+    _check_output_set(args.output, "-o", files=OUTPUT_FILES)
     scene = resolve_scene(args.scene)
     params = _approx_params(args)
     p = params.resolved(scene)
@@ -266,9 +292,9 @@ def _add_budget(p, *, target: str | None, max_seconds: float) -> None:
 
 def _cmd_sweep(args) -> int:
     from .executors import default_workers, parse_dask
-    from .sweep import SweepError, run_sweep, spec_from_args, spec_from_toml
+    from .sweep import OUTPUT_FILES, OUTPUT_FOLDERS, SweepError, run_sweep, spec_from_args, spec_from_toml
 
-    _check_output_dir(args.output)
+    _check_output_set(args.output, "-o", files=OUTPUT_FILES, folders=OUTPUT_FOLDERS)
     if args.spec and (args.vary or args.set or args.scenes is not None):
         raise UsageError("SPEC.toml", args.spec, "give the grid in the file or on the command line, not both")
     if args.workers is not None and args.workers < 1:
@@ -300,34 +326,35 @@ def _cmd_sweep(args) -> int:
 
 
 def _cmd_gate(args) -> int:
-    from scenes.storage import atomic_write_text, remove_file
+    from .gate import BASELINE, VERDICT, console_table, default_budgets_path, load_budgets, run_gate
 
-    from .gate import console_table, default_budgets_path, junit_xml, load_budgets, run_gate
-
-    _check_output_dir(args.out, "--out")
+    _check_output_set(args.out, "--out", files=(VERDICT,))
     if args.junit is not None:
         _check_output_file(args.junit, "--junit", ".xml")
     if args.update_baseline and not args.baseline:
         raise UsageError("--update-baseline", True, "needs --baseline DIR (where to write it)")
     if args.update_baseline:
-        _check_output_dir(args.baseline, "--baseline")
+        _check_output_set(args.baseline, "--baseline", files=(BASELINE,))
     overrides = _overrides(args.set)
     budgets = load_budgets(args.budgets or default_budgets_path())
     scenes = _scene_list(args.scenes, "--scenes")
-    if args.junit:  # an earlier run's verdict must not stand for this one if it stops early
-        remove_file(args.junit)
     result = run_gate(budgets, overrides=overrides, baseline_dir=args.baseline, update_baseline=args.update_baseline,
                       out_dir=args.out, scenes=scenes, seeds=args.seeds, seed=args.seed,
-                      render_references=args.render_references, progress=not args.quiet)
+                      render_references=args.render_references, junit=args.junit, progress=not args.quiet)
     print(console_table(result.checks))
-    if args.junit:
-        atomic_write_text(args.junit, junit_xml(result.checks, result.seconds))
     failed = sum(not c.passed for c in result.checks)
     verdict = "FAILED" if failed else "passed"
     print(f"gate {verdict}: {failed} of {len(result.checks)} checks failed, {result.seconds:.1f} s -> "
-          f"{args.out}/gate.json" + (f", {args.junit}" if args.junit else "")
+          f"{args.out}/{VERDICT}" + (f", {args.junit}" if args.junit else "")
           + (f"; baseline written: {result.updated_baseline}" if result.updated_baseline else ""))
     return result.exit_code
+
+
+def _path(text: str) -> str:
+    """An argparse type: a path, never the empty string (which would mean "not given")."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("expected a path, not an empty string")
+    return text
 
 
 def _add_gate_inputs(p, *, scenes: str) -> None:
@@ -338,8 +365,9 @@ def _add_gate_inputs(p, *, scenes: str) -> None:
                    help="an approximation parameter over the budgets' preset (repeatable)")
     p.add_argument("--seeds", type=int, help="frames per scene (default: the budgets' seeds, 4)")
     p.add_argument("--seed", type=int, default=0, help="the first seed (default 0)")
-    p.add_argument("--budgets", metavar="FILE.toml", help="budgets per scene (default: reports/budgets.toml)")
-    p.add_argument("--baseline", metavar="DIR",
+    p.add_argument("--budgets", type=_path, metavar="FILE.toml",
+                   help="budgets per scene (default: reports/budgets.toml)")
+    p.add_argument("--baseline", type=_path, metavar="DIR",
                    help="the last accepted results (DIR/baseline.json): also test for a regression against them")
 
 
@@ -486,7 +514,7 @@ def build_parser() -> argparse.ArgumentParser:
                                       "approximation against ground truth, with the gate's verdicts")
     p.add_argument("--out", default="runs/report", help="output folder (default runs/report)")
     _add_gate_inputs(p, scenes="comma-separated SCENE arguments (default: every built-in)")
-    p.add_argument("--sweep", metavar="DIR", help="add a sweep store's figures and settings that suffice")
+    p.add_argument("--sweep", type=_path, metavar="DIR", help="add a sweep store's figures and settings that suffice")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     _add_report_reference(p)
     p.set_defaults(func=_cmd_report)
@@ -507,15 +535,44 @@ def _interrupted(exc: BaseException) -> bool:
 
 
 def main(argv=None) -> int:
+    """Run the command; exit 130 whenever Ctrl-C came, also during the imports and when
+    Python dropped the KeyboardInterrupt ("Exception ignored in ...": raised inside a
+    finalizer or weakref callback)."""
+    import signal
+
+    came = []
+
+    def on_sigint(signum, frame):
+        came.append(signum)
+        signal.default_int_handler(signum, frame)
+
+    try:
+        previous = signal.signal(signal.SIGINT, on_sigint)
+    except ValueError:  # not the main thread: signals are not ours to handle
+        previous = None
+    try:
+        code = _run(argv)
+    except KeyboardInterrupt:
+        code = None
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGINT, previous)
+    if code is None or (came and code != 130):
+        print("volcaustics: interrupted", file=sys.stderr)
+        return 130
+    return code
+
+
+def _run(argv) -> int | None:
+    """The command's exit code; None when it was interrupted."""
     from approx.params import ParamError
+    from reference.mi_setup import VariantError
     from reference.settings import SettingsError
     from scenes import SceneError
 
-    from .experiment import ExperimentError
-    from reference.mi_setup import VariantError
-
     from .collect import ReportError
     from .executors import ExecutorError
+    from .experiment import ExperimentError
     from .gate import GateError
     from .sweep import SweepError
 
@@ -526,14 +583,10 @@ def main(argv=None) -> int:
             ExecutorError, ReportError, VariantError) as exc:
         print(f"volcaustics: error: {exc}", file=sys.stderr)
         return EXIT_USAGE
-    except KeyboardInterrupt:
-        print("volcaustics: interrupted", file=sys.stderr)
-        return 130
     except RuntimeError as exc:
         if not _interrupted(exc):
             raise
-        print("volcaustics: interrupted", file=sys.stderr)
-        return 130
+        return None
     except BrokenPipeError:  # output piped into `head` and closed: not an error of ours
         import os
 

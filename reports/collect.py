@@ -179,7 +179,7 @@ def load_sweep(folder: str) -> SweepTables:
     """A sweep store's consolidated tables (``volcaustics sweep -o DIR`` wrote them)."""
     import pandas as pd
 
-    from scenes.storage import read_json_object
+    from scenes.storage import read_json_object, special_file_kind
 
     try:
         doc = read_json_object(os.path.join(folder, "sweep.json"))
@@ -194,6 +194,9 @@ def load_sweep(folder: str) -> SweepTables:
     tables = {}
     for name in ("segments", "photons", "images", "points"):
         path = os.path.join(folder, f"{name}.parquet")
+        special = special_file_kind(path)
+        if special:  # never opened: a FIFO would block
+            raise ReportError(f"--sweep {folder}: {name}.parquet is {special}: rerun the sweep")
         try:
             tables[name] = pd.read_parquet(path)
         except FileNotFoundError:

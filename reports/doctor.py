@@ -105,7 +105,24 @@ def run_doctor() -> DoctorReport:
     report.add("reference variant", bool(usable), usable[0] if usable else "none",
                "" if usable else "llvm_ad_rgb must render: apt-get install libllvm19 and unset DRJIT_LIBLLVM_PATH "
                                  "(volcaustics then finds libLLVM-19 by itself)")
+    _variant_override(report, rendering)
     return report
+
+
+def _variant_override(report: DoctorReport, rendering: list) -> None:
+    """VOLCAUSTICS_MI_VARIANT, when set, as every rendering command reads it."""
+    from reference.mi_setup import VARIANT_ENV, VariantError, variant_override
+
+    try:
+        variant = variant_override()
+    except VariantError as exc:
+        report.add(VARIANT_ENV, False, str(exc).split(": expected")[0], str(exc).split(": ", 1)[1])
+        return
+    if variant is None:
+        return
+    ok = variant in rendering
+    report.add(VARIANT_ENV, ok, f"{variant} ({'renders' if ok else 'does not render here'})",
+               "" if ok else f"unset {VARIANT_ENV} to let volcaustics choose a variant that renders")
 
 
 def format_report(report: DoctorReport) -> str:

@@ -62,12 +62,21 @@ def _describe(exc: BaseException) -> str:
     return f"{type(exc).__name__}: {exc}"
 
 
+def _ignore_sigint() -> None:
+    """Worker start-up: Ctrl-C at the terminal goes to the whole process group; the
+    parent alone handles it (it stops the workers and clears their temporaries)."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
 def _local(fn, tasks, workers):
     import multiprocessing
     from concurrent.futures import ProcessPoolExecutor, as_completed
 
     n = min(workers or default_workers(), len(tasks))
-    pool = ProcessPoolExecutor(max_workers=n, mp_context=multiprocessing.get_context("spawn"))
+    pool = ProcessPoolExecutor(max_workers=n, mp_context=multiprocessing.get_context("spawn"),
+                               initializer=_ignore_sigint)
     futures = {pool.submit(fn, task): task["key"] for task in tasks}
     try:
         for future in as_completed(futures):
@@ -78,8 +87,11 @@ def _local(fn, tasks, workers):
     except BaseException:
         for future in futures:
             future.cancel()
-        for process in list(getattr(pool, "_processes", {}).values()):
+        processes = list(getattr(pool, "_processes", {}).values())
+        for process in processes:
             process.terminate()
+        for process in processes:  # gone before the caller clears their temporaries
+            process.join(timeout=30)
         pool.shutdown(wait=False, cancel_futures=True)
         raise
     pool.shutdown(wait=True)

@@ -603,14 +603,12 @@ def _summary(scene, p, seeds, reference, frames, exact, headline, decomposition,
 TABLES = ("segments", "photons", "images")
 
 
+OUTPUT_FILES = (*(f"{name}.{ext}" for name in TABLES for ext in ("parquet", "csv")), "decomposition.exr",
+                "summary.json")  # what `measure -o DIR` writes; the manifest, summary.json, last
+
+
 def output_paths(out_dir: str) -> dict:
-    paths = {}
-    for name in TABLES:
-        paths[f"{name}.parquet"] = os.path.join(out_dir, f"{name}.parquet")
-        paths[f"{name}.csv"] = os.path.join(out_dir, f"{name}.csv")
-    paths["decomposition.exr"] = os.path.join(out_dir, "decomposition.exr")
-    paths["summary.json"] = os.path.join(out_dir, "summary.json")
-    return paths
+    return {name: os.path.join(out_dir, name) for name in OUTPUT_FILES}
 
 
 def table(rows: list):

@@ -58,7 +58,7 @@ def _at_best(points, varied, x):
     keep = np.ones(len(points), bool)
     for name in others:
         largest = points.groupby("scene")[name].transform("max")
-        keep &= (points[name] == largest).to_numpy()
+        keep &= (points[name] == largest).to_numpy(dtype=bool, na_value=False)  # nullable Int64 in pandas 2.1
     note = ", ".join(f"{n} at its largest" for n in others)
     return points[keep], note
 

@@ -43,6 +43,8 @@ RESOLVE_SIGMAS = 3.0    # a budget must lie this many standard errors beyond the
 COMPONENT_KEYS = ("relmse_max", "energy_ratio", "hdr_flip_max")
 SEGMENT_KEYS = ("missed_step2_max", "dt_p90_step2_max")
 TOP_KEYS = ("preset", "seeds", "scene", "reference")
+VERDICT = "gate.json"      # in --out; written last, with the baseline and the JUnit file
+BASELINE = "baseline.json"  # in --baseline
 
 
 class GateError(ValueError):
@@ -265,7 +267,7 @@ def baseline_entry(experiment) -> dict:
 def load_baseline(folder: str) -> dict:
     from scenes.storage import read_json_object
 
-    path = os.path.join(folder, "baseline.json")
+    path = os.path.join(folder, BASELINE)
     try:
         doc = read_json_object(path)
     except FileNotFoundError:
@@ -279,21 +281,17 @@ def load_baseline(folder: str) -> dict:
         ok = (isinstance(entry, dict) and isinstance(entry.get("reference_key"), str)
               and isinstance(entry.get("seeds"), list) and all(isinstance(x, int) for x in entry["seeds"])
               and isinstance(entry.get("caustic_relmse_per_seed"), list)
-              and len(entry["caustic_relmse_per_seed"]) >= 2
-              and all(isinstance(x, (int, float)) for x in entry["caustic_relmse_per_seed"]))
+              and len(entry["caustic_relmse_per_seed"]) == len(entry["seeds"]) >= 2
+              and all(isinstance(x, (int, float)) and not isinstance(x, bool)
+                      for x in entry["caustic_relmse_per_seed"]))
         if not ok:
-            raise GateError(f"{path}: the entry of {name!r} is damaged (reference_key, seeds and at least two "
-                            f"caustic_relmse_per_seed values expected): update the baseline")
+            raise GateError(f"{path}: the entry of {name!r} is damaged (reference_key, seeds and one "
+                            f"caustic_relmse_per_seed value per seed, at least two, expected): update the baseline")
     return doc
 
 
-def write_baseline(folder: str, entries: dict) -> str:
-    from scenes.storage import atomic_write_text
-
-    os.makedirs(folder, exist_ok=True)
-    path = os.path.join(folder, "baseline.json")
-    atomic_write_text(path, json.dumps({"format": 1, "scenes": entries}, indent=1, allow_nan=False))
-    return path
+def baseline_text(entries: dict) -> str:
+    return json.dumps({"format": 1, "scenes": entries}, indent=1, allow_nan=False)
 
 
 # --- the run -------------------------------------------------------------------------
@@ -306,15 +304,15 @@ def measured_settings(budgets: dict, overrides: dict, *, seeds: int | None, seed
     from approx.params import PAPER, QUICK, ParamError
     from approx.trace import check_fits
 
-    try:
-        params = dataclasses.replace({"quick": QUICK, "paper": PAPER}[budgets["preset"]], seed=seed, **overrides)
-    except ParamError as exc:
-        raise GateError(f"--set: {exc}") from None
     n_seeds = budgets["seeds"] if seeds is None else seeds
     if isinstance(n_seeds, bool) or not isinstance(n_seeds, int) or not min_seeds <= n_seeds <= 256:
         raise GateError(f"--seeds = {n_seeds!r}: expected an integer in [{min_seeds}, 256] ({why})")
     if not 0 <= seed <= 2**32 - n_seeds:
         raise GateError(f"--seed = {seed}: expected 0 ≤ seed and seed + seeds − 1 < 2^32")
+    try:
+        params = dataclasses.replace({"quick": QUICK, "paper": PAPER}[budgets["preset"]], seed=seed, **overrides)
+    except ParamError as exc:
+        raise GateError(f"--set: {exc}") from None
     try:
         check_fits(params, keep_records=True)  # before any reference renders
     except ParamError as exc:
@@ -333,9 +331,10 @@ class GateResult:
 
 def run_gate(budgets: dict, *, overrides: dict, baseline_dir: str | None, update_baseline: bool, out_dir: str,
              scenes=None, seeds: int | None = None, seed: int = 0, render_references: bool = False,
-             progress: bool = True) -> GateResult:
+             junit: str | None = None, progress: bool = True) -> GateResult:
     """Measure every budgeted scene (or ``scenes``), check budgets and the baseline, write
-    gate.json and the failure images under ``out_dir``."""
+    the failure images under ``out_dir`` and then, as one set, the accepted baseline,
+    the JUnit file ``junit`` and ``out_dir``/gate.json."""
     import time
 
     from tqdm import tqdm
@@ -354,7 +353,9 @@ def run_gate(budgets: dict, *, overrides: dict, baseline_dir: str | None, update
         absent = [n for n in names if n not in baseline["scenes"]]
         if absent:
             raise GateError(f"{baseline_dir}/baseline.json: no entry for {absent[0]!r}: update the baseline")
-    remove_file(os.path.join(out_dir, "gate.json"))  # an earlier verdict must not stand for this run
+    for stale in (os.path.join(out_dir, VERDICT), junit):  # an earlier verdict must not stand for this run
+        if stale:
+            remove_file(stale)
     checks, entries = [], {}
     for name in tqdm(names, desc="gate", unit="scene", disable=not progress):
         experiment = measure_scene(name, params, n_seeds, render_references=render_references,
@@ -374,10 +375,11 @@ def run_gate(budgets: dict, *, overrides: dict, baseline_dir: str | None, update
         checks += scene_checks
     failed = [c for c in checks if not c.passed]
     # only results that pass their budgets are accepted as the baseline
-    updated = write_baseline(baseline_dir, entries) if update_baseline and baseline_dir and not failed else None
+    updated = os.path.join(baseline_dir, BASELINE) if update_baseline and baseline_dir and not failed else None
     result = GateResult(checks=checks, exit_code=1 if failed else 0, seconds=time.perf_counter() - t0,
                         baseline=baseline_dir, updated_baseline=updated)
-    _write_json(out_dir, result, params, n_seeds, budgets)
+    _write_outputs(out_dir, result, params, n_seeds, budgets, baseline=baseline_text(entries) if updated else None,
+                   junit=junit)
     return result
 
 
@@ -404,8 +406,12 @@ def _failure_images(out_dir, scene, check, experiment) -> dict:
     return paths
 
 
-def _write_json(out_dir, result: GateResult, params, seeds, budgets) -> None:
-    from scenes.storage import atomic_write_text
+def _write_outputs(out_dir, result: GateResult, params, seeds, budgets, *, baseline: str | None,
+                   junit: str | None) -> None:
+    """The new baseline (when accepted), the JUnit file and, last, gate.json as one set
+    (``scenes.storage.atomic_set``): an interrupted gate never leaves a new baseline
+    without its verdict."""
+    from scenes.storage import atomic_set
 
     from .experiment import plain
 
@@ -413,8 +419,16 @@ def _write_json(out_dir, result: GateResult, params, seeds, budgets) -> None:
            "budgets": budgets["path"], "params": params.to_dict(), "seeds": seeds, "baseline": result.baseline,
            "updated_baseline": result.updated_baseline,
            "checks": [dataclasses.asdict(c) for c in sorted(result.checks, key=lambda c: (c.passed, c.scene, c.name))]}
-    os.makedirs(out_dir, exist_ok=True)
-    atomic_write_text(os.path.join(out_dir, "gate.json"), json.dumps(plain(doc), indent=1, allow_nan=False))
+    texts = {}
+    if baseline is not None:
+        texts[result.updated_baseline] = baseline
+    if junit:
+        texts[junit] = junit_xml(result.checks, result.seconds)
+    texts[os.path.join(out_dir, VERDICT)] = json.dumps(plain(doc), indent=1, allow_nan=False)
+    with atomic_set(list(texts)) as temps:
+        for tmp, text in zip(temps, texts.values()):
+            with open(tmp, "w", encoding="utf-8") as fh:
+                fh.write(text)
 
 
 def console_table(checks: list) -> str:

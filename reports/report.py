@@ -21,6 +21,8 @@ from metrics.decomposition import TERMS
 from scenes.formats import COLOUR_LAYERS
 
 # Wang, Wang & Chen: intersection estimation takes about 70% of a frame and splatting about 23% on their GPU
+OUTPUT_FILES = ("index.html", "summary.json")  # in --out; the manifest, summary.json, last
+
 PAPER_SHARES = {"trace": 0.70, "splat": 0.23, "other": 0.07}
 PASSES = ("layers", "emission", "camera", "trace", "splat", "fog", "direct")
 HEADLINE = ("relative_mse", "energy_ratio", "hdr_flip", "per_pixel_relative_mse")
@@ -215,7 +217,7 @@ def write_report(out_dir: str, results: list, summary: dict, sweep=None, *, prog
     if started is not None:
         summary["seconds"]["total"] = time.perf_counter() - started
     # one unit: an interrupted run never leaves a page beside another run's summary
-    with atomic_set([os.path.join(out_dir, "index.html"), os.path.join(out_dir, "summary.json")]) as (html, doc):
+    with atomic_set([os.path.join(out_dir, name) for name in OUTPUT_FILES]) as (html, doc):
         with open(html, "w", encoding="utf-8") as fh:
             fh.write(page)
         with open(doc, "w", encoding="utf-8") as fh:

@@ -36,7 +36,7 @@ import shutil
 import socket
 import uuid
 
-from scenes.storage import atomic_write_text, file_sha256
+from scenes.storage import atomic_write_text, file_sha256, read_json_object
 
 TABLES = ("segments", "photons", "images")
 TABLE_FILES = tuple(f"{name}.parquet" for name in TABLES)
@@ -80,9 +80,8 @@ class Store:
         """The point's summary if the point is complete and undamaged, else None."""
         folder = self.point_dir(key)
         try:
-            with open(os.path.join(folder, SUMMARY)) as fh:
-                summary = json.load(fh)
-            if not isinstance(summary, dict) or summary.get("key") != key:
+            summary = read_json_object(os.path.join(folder, SUMMARY))
+            if summary.get("key") != key:
                 return None
             hashes = summary.get("files")
             if not isinstance(hashes, dict) or not set(hashes) <= {*TABLE_FILES, VIEWS} \

@@ -36,6 +36,8 @@ from .store import TABLES
 
 SPEC_KEYS = ("scenes", "preset", "seeds", "vary", "set", "reference")
 MANIFEST = "sweep.json"  # the spec and the points the store's tables hold; written last
+OUTPUT_FILES = (*(f"{name}.parquet" for name in (*TABLES, "points")), "suffice.csv", MANIFEST)
+OUTPUT_FOLDERS = ("points", "figures")
 REFERENCE_KEYS = ("photons", "spp", "batches", "target_noise", "max_photons", "max_seconds")
 
 
@@ -125,6 +127,8 @@ def spec_from_args(scenes: str | None, vary: list, fixed: list, *, preset: str, 
         name, values = parse_assignment(text, "--set")
         if len(values) != 1:
             raise SweepError(f"--set {text!r}: one value (use --vary for several)")
+        if name in settled:
+            raise SweepError(f"--set {text!r}: {name} is set twice")
         settled[name] = values[0]
     return _checked(SweepSpec(tuple(names), tuple(grid), settled, preset, seeds), "command line")
 
@@ -179,6 +183,9 @@ def _checked(spec: SweepSpec, where: str) -> SweepSpec:
         raise SweepError(f"{where}: scenes = {list(spec.scenes)!r}: expected at least one scene, none empty")
     if len(set(spec.scenes)) != len(spec.scenes):
         raise SweepError(f"{where}: scenes = {list(spec.scenes)!r}: a scene is listed twice")
+    for name, values in spec.vary:
+        if len(set(values)) != len(values):
+            raise SweepError(f"{where}: vary.{name} = {list(values)!r}: a value is listed twice")
     both = sorted(set(dict(spec.vary)) & set(spec.fixed))
     if both:
         raise SweepError(f"{where}: {both[0]} is both varied and set")
@@ -346,13 +353,17 @@ def run_sweep(spec: SweepSpec, out_dir: str, *, workers: int | None = None, dask
     unique_tasks = list({t["key"]: t for t in tasks}.values())
     done_before = len(set(keys)) - len(unique_tasks)
     failed, computed, point_seconds = [], 0, []
-    for result in run_tasks(run_point, unique_tasks, total=len(set(keys)), done=done_before, workers=workers,
-                            dask=dask, progress=progress):
-        if result.get("error"):
-            failed.append(result)
-        else:
-            computed += 1
-            point_seconds.append(result["seconds"])
+    try:
+        for result in run_tasks(run_point, unique_tasks, total=len(set(keys)), done=done_before, workers=workers,
+                                dask=dask, progress=progress):
+            if result.get("error"):
+                failed.append(result)
+            else:
+                computed += 1
+                point_seconds.append(result["seconds"])
+    except BaseException:  # Ctrl-C: the stopped workers' half-written points go now, not on the next run
+        store.clean_stale()
+        raise
     varied = [name for name, _ in spec.vary]
     tables = store.tables(sorted(set(keys)))
     tables["suffice"] = settings_that_suffice(tables["points"], varied) if len(tables["points"]) else None
@@ -369,13 +380,13 @@ def _write_tables(out_dir: str, tables: dict, manifest: dict) -> None:
     never a manifest beside another run's tables (what ``report --sweep`` reads)."""
     import json
 
-    from scenes.storage import atomic_set, remove_file
+    import pandas as pd
 
-    names = [f"{name}.parquet" for name in (*TABLES, "points")]
-    if tables["suffice"] is not None:
-        names.append("suffice.csv")
-    else:  # a stale one would describe other points
-        remove_file(os.path.join(out_dir, "suffice.csv"))
+    from scenes.storage import atomic_set
+
+    names = [name for name in OUTPUT_FILES if name != MANIFEST]
+    if tables["suffice"] is None:  # no point finished: an empty table, not an earlier one
+        tables["suffice"] = pd.DataFrame()
     with atomic_set([os.path.join(out_dir, name) for name in (*names, MANIFEST)]) as temps:
         for name, tmp in zip(names, temps):
             if name == "suffice.csv":

@@ -42,6 +42,7 @@ def atomic_path(path: str):
     On an exception the temporary file is removed and ``path`` is untouched. The
     temporary name keeps the extension, so writers that look at it still work.
     """
+    _not_a_folder(path)
     tmp = _temporary_beside(path)
     try:
         yield tmp
@@ -50,6 +51,15 @@ def atomic_path(path: str):
     finally:
         if os.path.exists(tmp):
             os.unlink(tmp)
+
+
+def _not_a_folder(path: str) -> None:
+    """IsADirectoryError naming ``path`` when a folder is where that file goes (checked
+    before anything is written: a rename onto it would fail halfway through a set)."""
+    import errno
+
+    if os.path.isdir(path):
+        raise IsADirectoryError(errno.EISDIR, "a folder is where this output file goes: move it away", path)
 
 
 def _temporary_beside(path: str) -> str:
@@ -95,8 +105,12 @@ def atomic_set(paths: list):
     back: the last path (the set's manifest) is removed first and put in place last, so
     no reader finds a manifest beside data of another run. When the block fails (an
     error, Ctrl-C) the temporaries go and every old file stays as it was."""
-    temps = [_temporary_beside(path) for path in paths]
+    for path in paths:
+        _not_a_folder(path)
+    temps = []
     try:
+        for path in paths:
+            temps.append(_temporary_beside(path))
         yield list(temps)
         with sigint_held():
             for tmp in temps:
@@ -130,7 +144,11 @@ def atomic_write_text(path: str, text: str) -> None:
 
 
 def file_sha256(path: str) -> str:
-    """SHA-256 (hex) of a file's bytes, read in 1 MiB chunks."""
+    """SHA-256 (hex) of a file's bytes, read in 1 MiB chunks; OSError for a folder or a
+    special file (a FIFO would block, a device never end)."""
+    special = special_file_kind(path)
+    if special:
+        raise OSError(f"{path}: {special}, expected a file")
     h = hashlib.sha256()
     with open(path, "rb") as fh:
         for chunk in iter(lambda: fh.read(1 << 20), b""):

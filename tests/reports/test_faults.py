@@ -276,3 +276,228 @@ def test_a_damaged_store_point_counts_as_damaged(tmp_path, damage):
     assert store.status(key) == "damaged"
     store.remove_damaged(key)
     assert store.status(key) == "missing" and not list(Path(store.points).iterdir())
+
+
+# --- re-run of the hostile-user pass: what it still found ---------------------------
+
+def test_a_reference_batch_beyond_mitsubas_sample_limit_is_refused(cache, tmp_path, capsys):
+    """One batch is one Mitsuba render; beyond 2^32 samples Mitsuba splits it into passes
+    its sampler refuses (a RuntimeError traceback after the first batch): refused up
+    front, saying how many photons fit (class D)."""
+    from reference.settings import ReferenceSettings, SettingsError
+
+    ReferenceSettings(photons=2**32 * 2, batches=2, spp=4, width=32, height=32)  # exactly 2^32 per batch
+    with pytest.raises(SettingsError, match="photons = 17179869184: .* at most 8,589,934,592 photons"):
+        ReferenceSettings(photons=2**34, batches=2, spp=4, width=32, height=32)
+    with pytest.raises(SettingsError, match="spp = 1048576: .* at most 32,768 spp"):
+        ReferenceSettings(photons=65536, batches=2, spp=2**20, width=512, height=512)
+    _exit_2(capsys, ["measure", "sphere1", "-o", str(tmp_path / "m"), "--width", "32", "--height", "32",
+                     "--photons", str(2**34), "--batches", "2", "--spp", "4", "--target-noise", "none", "--quiet"],
+            "more than Mitsuba renders at once")
+    assert _nothing_rendered(cache)
+
+
+@pytest.mark.parametrize("value", ["/nonexistent/libLLVM-19.so", "text file"])
+def test_a_bad_libllvm_path_exits_2_in_the_commands_that_render_references(tmp_path, value):
+    """The variant probe ran before the DRJIT_LIBLLVM_PATH check and ended in "no Mitsuba
+    variant renders here" as a traceback (class I). A fresh process: this one has
+    Mitsuba loaded already."""
+    if value == "text file":
+        value = str(tmp_path / "libLLVM-19.so")
+        Path(value).write_text("not a library")
+    env = {k: v for k, v in os.environ.items() if k != "VOLCAUSTICS_MI_VARIANT"}
+    env.update(DRJIT_LIBLLVM_PATH=value, VOLCAUSTICS_CACHE=str(tmp_path / "cache"))
+    done = subprocess.run([sys.executable, "-m", "reports.cli", "measure", "sphere1", "-o", str(tmp_path / "m"),
+                           "--width", "16", "--height", "16", "--quiet"], capture_output=True, text=True, env=env,
+                          cwd=REPO, timeout=300)
+    assert done.returncode == 2, done.stderr[-2000:]
+    assert "DRJIT_LIBLLVM_PATH" in done.stderr and "Traceback" not in done.stderr
+
+
+@pytest.mark.parametrize("where", ["summary.json", "images.parquet"])
+def test_a_fifo_inside_a_store_point_is_damage_not_a_hang(tmp_path, where):
+    """Store.summary opened summary.json and hashed the tables without looking: a FIFO
+    there blocked the sweep and the report forever (class H). A fresh process with a time
+    limit, so a hang fails instead of stopping the suite."""
+    from reports.store import SUMMARY, TABLE_FILES, Store
+    from scenes.storage import file_sha256
+
+    store = Store(str(tmp_path / "store"))
+    key = "0123456789abcdef0123456789abcdef"
+    folder = Path(store.point_dir(key))
+    folder.mkdir()
+    files = {}
+    for name in TABLE_FILES:
+        pd.DataFrame({"x": [1.0]}).to_parquet(folder / name, index=False)
+        files[name] = file_sha256(str(folder / name))
+    (folder / SUMMARY).write_text(json.dumps({"key": key, "files": files}))
+    (folder / where).unlink()
+    os.mkfifo(folder / where)
+    code = (f"from reports.store import Store; s = Store({str(store.root)!r}); print(s.status({key!r})); "
+            f"s.remove_damaged({key!r}); print(s.status({key!r}))")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=REPO, timeout=60)
+    assert done.stdout.split() == ["damaged", "missing"], done.stderr[-2000:]
+
+
+def test_a_sweep_table_that_is_a_fifo_is_refused_by_the_report(tmp_path):
+    folder = tmp_path / "sweep"
+    folder.mkdir()
+    (folder / "sweep.json").write_text(json.dumps({"spec": {"vary": {"layers": [1]}}}))
+    for name in ("segments", "photons", "images"):
+        pd.DataFrame({"x": [1.0]}).to_parquet(folder / f"{name}.parquet")
+    os.mkfifo(folder / "points.parquet")
+    code = f"from reports.collect import load_sweep; load_sweep({str(folder)!r})"
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=REPO, timeout=60)
+    assert "points.parquet is not a regular file" in done.stderr
+
+
+def test_a_baseline_with_more_values_than_seeds_is_damaged(tmp_path):
+    """The paired regression test broadcast (2,) against (3,): a traceback after measuring."""
+    from reports.gate import GateError, load_baseline
+
+    entry = {"reference_key": "k", "seeds": [0, 1], "caustic_relmse_per_seed": [0.1, 0.2, 0.3]}
+    (tmp_path / "baseline.json").write_text(json.dumps({"format": 1, "scenes": {"sphere1": entry}}))
+    with pytest.raises(GateError, match="one caustic_relmse_per_seed value per seed"):
+        load_baseline(str(tmp_path))
+    entry["caustic_relmse_per_seed"] = [0.1, True]
+    (tmp_path / "baseline.json").write_text(json.dumps({"format": 1, "scenes": {"sphere1": entry}}))
+    with pytest.raises(GateError, match="damaged"):
+        load_baseline(str(tmp_path))
+
+
+@pytest.mark.parametrize("command, folder_at", [
+    ("measure", "summary.json"), ("measure", "images.csv"), ("report", "index.html"), ("report", "summary.json"),
+    ("gate", "gate.json"), ("gate-baseline", "baseline.json"), ("sweep", "suffice.csv"), ("sweep", "sweep.json"),
+    ("sweep", "points.parquet"),
+])
+def test_a_folder_where_an_output_file_goes_fails_before_any_work(cache, tmp_path, capsys, command, folder_at):
+    """These failed after the work, at the set's renames, naming a temporary file, and
+    left the set half replaced (class A)."""
+    out = tmp_path / "out"
+    (out / folder_at).mkdir(parents=True)
+    argv = {"measure": ["measure", "sphere1", "-o", str(out)],
+            "report": ["report", "--out", str(out), "--scenes", "sphere1"],
+            "gate": ["gate", "--out", str(out), "--scenes", "sphere1", "--render-references"],
+            "gate-baseline": ["gate", "--out", str(tmp_path / "g"), "--scenes", "sphere1", "--render-references",
+                              "--baseline", str(out), "--update-baseline"],
+            "sweep": ["sweep", "-o", str(out), "--scenes", "sphere1", "--vary", "layers=1,2"]}[command]
+    _exit_2(capsys, [*argv, "--quiet"], f"{out / folder_at} is a folder where an output file goes")
+    assert _nothing_rendered(cache)
+
+
+def test_a_set_with_a_folder_in_place_of_one_file_is_left_untouched(tmp_path):
+    from scenes.storage import atomic_set
+
+    (tmp_path / "a.txt").write_text("old a")
+    (tmp_path / "b.txt").mkdir()
+    (tmp_path / "manifest.json").write_text("old manifest")
+    with pytest.raises(IsADirectoryError):
+        with atomic_set([str(tmp_path / n) for n in ("a.txt", "b.txt", "manifest.json")]) as temps:
+            for tmp in temps:
+                Path(tmp).write_text("new")
+    assert (tmp_path / "a.txt").read_text() == "old a" and (tmp_path / "manifest.json").read_text() == "old manifest"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.txt", "b.txt", "manifest.json"]
+
+
+def test_ctrl_c_during_the_commands_imports_exits_130(monkeypatch, capsys):
+    """The imports sat outside the handler: Ctrl-C in the first ~0.2 s printed a
+    KeyboardInterrupt traceback (class F)."""
+    import builtins
+
+    real = builtins.__import__
+
+    def importing(name, *args, **kwargs):
+        if name == "approx.params":
+            raise KeyboardInterrupt
+        return real(name, *args, **kwargs)
+
+    monkeypatch.setattr(builtins, "__import__", importing)
+    assert main(["doctor"]) == 130
+    assert "interrupted" in capsys.readouterr().err
+
+
+@pytest.mark.filterwarnings("ignore::pytest.PytestUnraisableExceptionWarning")  # the dropped interrupt, on purpose
+def test_ctrl_c_that_python_drops_in_a_finalizer_still_exits_130(monkeypatch, capsys):
+    """A KeyboardInterrupt raised inside a finalizer is printed as "Exception ignored"
+    and dropped: the command went on and exited 0 (class F)."""
+    import signal
+
+    import reports.cli as cli
+
+    class Finaliser:
+        def __del__(self):
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(0.05)  # the handler runs here, inside the finalizer
+
+    def command(args):
+        Finaliser()  # dropped at once
+        return 0
+
+    monkeypatch.setattr(cli, "_cmd_doctor", command)
+    assert main(["doctor"]) == 130
+    assert "interrupted" in capsys.readouterr().err
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler  # put back
+
+
+LOOSE = """preset = "quick"
+seeds = 2
+[reference]
+photons = 65536
+spp = 8
+batches = 4
+target_noise = "none"
+[scene.sphere1]
+caustic = { relmse_max = 100.0, energy_ratio = [0.0, 10.0], hdr_flip_max = 1.0 }
+segments = { missed_step2_max = 1.0, dt_p90_step2_max = 10.0 }
+"""
+
+
+def test_an_interrupted_gate_writes_no_baseline_without_its_verdict(cache, tmp_path, monkeypatch):
+    """The accepted baseline, the JUnit file and gate.json are one set: Ctrl-C while it is
+    written (here: drawing the JUnit XML) keeps the old baseline byte for byte and writes
+    no verdict; the baseline used to be written first and the JUnit file last (class B)."""
+    import reports.gate as gate
+
+    budgets = tmp_path / "budgets.toml"
+    budgets.write_text(LOOSE)
+    baseline = tmp_path / "baseline"
+    baseline.mkdir()
+    (baseline / "baseline.json").write_text("the accepted baseline")
+    argv = ["gate", "--budgets", str(budgets), "--scenes", "sphere1", "--render-references", "--out",
+            str(tmp_path / "g"), "--junit", str(tmp_path / "j.xml"), "--baseline", str(baseline),
+            "--update-baseline", "--set", "width=32", "--set", "height=32", "--set", "photon_res=64",
+            "--set", "light_res=64", "--quiet"]
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    real = gate.junit_xml
+    monkeypatch.setattr(gate, "junit_xml", interrupted)
+    assert main(argv) == 130
+    assert (baseline / "baseline.json").read_text() == "the accepted baseline"
+    assert not (tmp_path / "g" / "gate.json").exists() and not (tmp_path / "j.xml").exists()
+    assert not [p for p in (*baseline.iterdir(), *tmp_path.iterdir()) if p.name.startswith(".")]
+    monkeypatch.setattr(gate, "junit_xml", real)
+    assert main(argv) == 0
+    assert json.loads((baseline / "baseline.json").read_text())["scenes"]["sphere1"]["seeds"] == [0, 1]
+    assert json.loads((tmp_path / "g" / "gate.json").read_text())["passed"]
+
+
+@pytest.mark.parametrize("argv, fragment", [
+    (["gate", "--seed", "-1"], "--seed = -1"),
+    (["gate", "--set", "width=32", "--set", "width=64"], "set twice"),
+    (["sweep", "-o", "{tmp}/s", "--scenes", "sphere1", "--vary", "iterations=4,4"], "listed twice"),
+    (["sweep", "-o", "{tmp}/s", "--scenes", "sphere1", "--vary", "layers=1,2", "--set", "width=32",
+      "--set", "width=64"], "set twice"),
+])
+def test_lenient_options_are_refused(cache, tmp_path, capsys, argv, fragment):
+    _exit_2(capsys, [a.format(tmp=tmp_path) for a in argv] + ["--quiet"], fragment)
+    assert _nothing_rendered(cache)
+
+
+@pytest.mark.parametrize("option", ["--baseline", "--sweep", "--budgets"])
+def test_an_empty_path_is_not_taken_for_no_option(tmp_path, capsys, option):
+    with pytest.raises(SystemExit) as exit_:
+        main(["report", "--out", str(tmp_path / "r"), option, ""])
+    assert exit_.value.code == 2
+    assert "expected a path, not an empty string" in capsys.readouterr().err

@@ -101,27 +101,28 @@ def test_a_damaged_point_is_detected_and_recomputed(env, tmp_path, capsys):
 
 
 def test_sigint_keeps_finished_points_and_the_rerun_computes_only_the_rest(env, tmp_path):
-    """SIGINT after the first point is in the store: exit 130, no partial point, and
-    the rerun computes exactly the points missing (none twice, none lost)."""
+    """SIGINT to the whole process group (Ctrl-C at a terminal) after the first point is
+    in the store: exit 130, no partial point and no temporary left (the workers ignore
+    SIGINT; the parent stops them and clears their temporaries), and the rerun computes
+    exactly the points missing (none twice, none lost)."""
     out = tmp_path / "store"
     spec = _spec(tmp_path, SPEC.replace("layers = [1, 2]", "layers = [1, 2, 3, 4]"))  # 8 points
     command = [sys.executable, "-m", "reports.cli", "sweep", spec, "-o", str(out), "--workers", "1", "--quiet"]
     process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=os.environ.copy(),
-                               cwd=Path(__file__).resolve().parents[2])
+                               cwd=Path(__file__).resolve().parents[2], start_new_session=True)
     deadline = time.time() + 300
     while time.time() < deadline and process.poll() is None:
         if (out / "points").exists() and len(_complete(out)) >= 1:
             break
         time.sleep(0.2)
     assert process.poll() is None, process.communicate()
-    process.send_signal(signal.SIGINT)
+    os.killpg(process.pid, signal.SIGINT)
     _, err = process.communicate(timeout=120)
     assert process.returncode == 130, err.decode()[-2000:]
     finished = _complete(out)
     assert 1 <= len(finished) < 8
-    # no half point: every folder is complete, temporaries only
-    for folder in (out / "points").iterdir():
-        assert folder.name.startswith(".tmp-") or folder.name in finished
+    # no half point and no temporary: every folder is a complete point
+    assert sorted(folder.name for folder in (out / "points").iterdir()) == sorted(finished)
     rerun = subprocess.run(command, capture_output=True, text=True, env=os.environ.copy(),
                            cwd=Path(__file__).resolve().parents[2], timeout=600)
     assert rerun.returncode == 0, rerun.stderr[-2000:]
