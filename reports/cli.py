@@ -546,10 +546,12 @@ def main(argv=None) -> int:
         came.append(signum)
         signal.default_int_handler(signum, frame)
 
+    previous = None
     try:
-        previous = signal.signal(signal.SIGINT, on_sigint)
+        if signal.getsignal(signal.SIGINT) is not signal.SIG_IGN:  # ignored (nohup, `cmd &`): leave it so
+            previous = signal.signal(signal.SIGINT, on_sigint)
     except ValueError:  # not the main thread: signals are not ours to handle
-        previous = None
+        pass
     try:
         code = _run(argv)
     except KeyboardInterrupt:

@@ -434,9 +434,13 @@ def test_ctrl_c_that_python_drops_in_a_finalizer_still_exits_130(monkeypatch, ca
         return 0
 
     monkeypatch.setattr(cli, "_cmd_doctor", command)
-    assert main(["doctor"]) == 130
+    before = signal.signal(signal.SIGINT, signal.default_int_handler)  # as at a terminal (not under nohup)
+    try:
+        assert main(["doctor"]) == 130
+        assert signal.getsignal(signal.SIGINT) is signal.default_int_handler  # put back
+    finally:
+        signal.signal(signal.SIGINT, before)
     assert "interrupted" in capsys.readouterr().err
-    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler  # put back
 
 
 LOOSE = """preset = "quick"

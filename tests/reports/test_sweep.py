@@ -108,8 +108,11 @@ def test_sigint_keeps_finished_points_and_the_rerun_computes_only_the_rest(env, 
     out = tmp_path / "store"
     spec = _spec(tmp_path, SPEC.replace("layers = [1, 2]", "layers = [1, 2, 3, 4]"))  # 8 points
     command = [sys.executable, "-m", "reports.cli", "sweep", spec, "-o", str(out), "--workers", "1", "--quiet"]
+    # SIGINT as at a terminal: a suite started in the background (nohup, `make test &`) ignores it,
+    # and an ignored SIGINT is inherited and respected
     process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=os.environ.copy(),
-                               cwd=Path(__file__).resolve().parents[2], start_new_session=True)
+                               cwd=Path(__file__).resolve().parents[2], start_new_session=True,
+                               preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     deadline = time.time() + 300
     while time.time() < deadline and process.poll() is None:
         if (out / "points").exists() and len(_complete(out)) >= 1:
