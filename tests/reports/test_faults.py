@@ -18,27 +18,11 @@ import pytest
 
 from reports.cli import main
 
+from .test_sweep import SPEC  # tiny points: 32², photon_res 64, light_res 64; a reference of 4 batches
+
 REPO = Path(__file__).resolve().parents[2]
 # a frame of photon_res 8192 with 32 steps reads back ~0.5 TB of records
 HUGE = ["--set", "photon_res=8192", "--set", "steps=32"]
-# tiny points: 32², photon_res 64, light_res 64; a reference of 4 batches
-SWEEP = """
-scenes = ["refocus"]
-seeds = 1
-[vary]
-layers = {layers}
-[set]
-width = 32
-height = 32
-photon_res = 64
-light_res = 64
-iterations = 4
-[reference]
-photons = 65536
-spp = 8
-batches = 4
-target_noise = "none"
-"""
 
 
 @pytest.fixture
@@ -136,8 +120,9 @@ def test_an_interrupted_sweep_keeps_its_last_complete_set_of_tables(cache, tmp_p
     set from the store without recomputing."""
     out = tmp_path / "store"
     first_spec, second_spec = tmp_path / "one.toml", tmp_path / "two.toml"
-    first_spec.write_text(SWEEP.format(layers="[1]"))
-    second_spec.write_text(SWEEP.format(layers="[1, 2]"))
+    one_iteration = SPEC.replace("iterations = [4, 8]", "iterations = [4]")
+    first_spec.write_text(one_iteration.replace("layers = [1, 2]", "layers = [1]"))
+    second_spec.write_text(one_iteration)
     assert main(["sweep", str(first_spec), "-o", str(out), "--workers", "1", "--quiet"]) == 0
     first = _files(out)
     assert {"sweep.json", "points.parquet", "images.parquet", "suffice.csv"} <= set(first)
@@ -161,7 +146,7 @@ def test_an_interrupted_sweep_keeps_its_last_complete_set_of_tables(cache, tmp_p
     assert main(["sweep", str(second_spec), "-o", str(out), "--workers", "1", "--quiet"]) == 0
     assert "2 points: 2 already in the store, 0 computed" in capsys.readouterr().out
     manifest = json.loads((out / "sweep.json").read_text())
-    assert manifest["spec"]["vary"] == {"layers": [1, 2]}
+    assert manifest["spec"]["vary"] == {"layers": [1, 2], "iterations": [4]}
     assert sorted(pd.read_parquet(out / "points.parquet")["point"]) == manifest["keys"]
 
 
@@ -238,11 +223,9 @@ def test_a_manifest_that_is_a_fifo_does_not_hang(tmp_path, case):
     assert "not a regular file" in done.stderr and "Traceback" not in done.stderr
 
 
-@pytest.mark.parametrize("damage", ["summary null", "summary list", "summary garbage", "summary of another key",
-                                    "table missing", "table truncated", "unknown file listed"])
-def test_a_damaged_store_point_counts_as_damaged(tmp_path, damage):
-    """A point whose summary is not its own object, or whose files do not match the
-    hashes it lists, is "damaged" (recomputed by the sweep and the report), never read."""
+def _a_complete_point(tmp_path):
+    """A store holding one complete point (real Parquet tables, their hashes in its
+    summary): (store, key, summary)."""
     from reports.store import SUMMARY, TABLE_FILES, Store
     from scenes.storage import file_sha256
 
@@ -256,6 +239,18 @@ def test_a_damaged_store_point_counts_as_damaged(tmp_path, damage):
         files[name] = file_sha256(str(folder / name))
     summary = {"key": key, "files": files}
     (folder / SUMMARY).write_text(json.dumps(summary))
+    return store, key, summary
+
+
+@pytest.mark.parametrize("damage", ["summary null", "summary list", "summary garbage", "summary of another key",
+                                    "table missing", "table truncated", "unknown file listed"])
+def test_a_damaged_store_point_counts_as_damaged(tmp_path, damage):
+    """A point whose summary is not its own object, or whose files do not match the
+    hashes it lists, is "damaged" (recomputed by the sweep and the report), never read."""
+    from reports.store import SUMMARY, TABLE_FILES
+
+    store, key, summary = _a_complete_point(tmp_path)
+    folder, files = Path(store.point_dir(key)), summary["files"]
     assert store.status(key) == "done"
 
     table = folder / TABLE_FILES[0]
@@ -319,18 +314,8 @@ def test_a_fifo_inside_a_store_point_is_damage_not_a_hang(tmp_path, where):
     """Store.summary opened summary.json and hashed the tables without looking: a FIFO
     there blocked the sweep and the report forever (class H). A fresh process with a time
     limit, so a hang fails instead of stopping the suite."""
-    from reports.store import SUMMARY, TABLE_FILES, Store
-    from scenes.storage import file_sha256
-
-    store = Store(str(tmp_path / "store"))
-    key = "0123456789abcdef0123456789abcdef"
+    store, key, _ = _a_complete_point(tmp_path)
     folder = Path(store.point_dir(key))
-    folder.mkdir()
-    files = {}
-    for name in TABLE_FILES:
-        pd.DataFrame({"x": [1.0]}).to_parquet(folder / name, index=False)
-        files[name] = file_sha256(str(folder / name))
-    (folder / SUMMARY).write_text(json.dumps({"key": key, "files": files}))
     (folder / where).unlink()
     os.mkfifo(folder / where)
     code = (f"from reports.store import Store; s = Store({str(store.root)!r}); print(s.status({key!r})); "
