@@ -16,6 +16,8 @@ import pytest
 
 from reports.cli import main
 
+from .test_sweep import SPEC
+
 REPO = Path(__file__).resolve().parents[2]
 SCENES = ("refocus", "sphere1")
 # tiny experiments: 40², photon_res/light_res 64, 2 seeds; references of 4 fixed batches
@@ -32,22 +34,7 @@ segments = { missed_step2_max = 1.0 }
 caustic = { hdr_flip_max = 0.001 }
 combined = { energy_ratio = [0.0, 10.0] }
 """
-SWEEP = """
-scenes = ["refocus"]
-seeds = 1
-[vary]
-layers = [1, 2]
-[set]
-width = 32
-height = 32
-photon_res = 64
-light_res = 64
-[reference]
-photons = 65536
-spp = 8
-batches = 4
-target_noise = "none"
-"""
+SWEEP = SPEC.replace("iterations = [4, 8]\n", "")  # tiny points over layers 1, 2
 
 
 @pytest.fixture(scope="module")
