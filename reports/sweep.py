@@ -316,6 +316,8 @@ def run_sweep(spec: SweepSpec, out_dir: str, *, workers: int | None = None, dask
               progress: bool = True) -> SweepResult:
     """Run every point not yet in the store at ``out_dir``; then consolidate the tables
     and draw the figures. Ctrl-C stops it with the finished points kept."""
+    import pandas as pd
+
     from reference.lookup import existing_reference
     from reference.render import render_reference
     from scenes import resolve_scene
@@ -366,7 +368,8 @@ def run_sweep(spec: SweepSpec, out_dir: str, *, workers: int | None = None, dask
         raise
     varied = [name for name, _ in spec.vary]
     tables = store.tables(sorted(set(keys)))
-    tables["suffice"] = settings_that_suffice(tables["points"], varied) if len(tables["points"]) else None
+    # no point finished: an empty table, never an earlier run's
+    tables["suffice"] = settings_that_suffice(tables["points"], varied) if len(tables["points"]) else pd.DataFrame()
     manifest = {"spec": spec.to_dict(), "points": len(set(keys)), "keys": sorted(set(keys))}
     _write_tables(out_dir, tables, manifest)
     figures = draw_figures(tables, os.path.join(out_dir, "figures"), varied=varied)
@@ -380,13 +383,9 @@ def _write_tables(out_dir: str, tables: dict, manifest: dict) -> None:
     never a manifest beside another run's tables (what ``report --sweep`` reads)."""
     import json
 
-    import pandas as pd
-
     from scenes.storage import atomic_set
 
     names = [name for name in OUTPUT_FILES if name != MANIFEST]
-    if tables["suffice"] is None:  # no point finished: an empty table, not an earlier one
-        tables["suffice"] = pd.DataFrame()
     with atomic_set([os.path.join(out_dir, name) for name in (*names, MANIFEST)]) as temps:
         for name, tmp in zip(names, temps):
             if name == "suffice.csv":
