@@ -68,7 +68,7 @@ def mitsuba():
             not _shared_library(path) or (libllvm_major(path) or MIN_MAJOR) < MIN_MAJOR):
         raise VariantError(f"DRJIT_LIBLLVM_PATH = {path!r}: not a libLLVM {MIN_MAJOR} or newer file (Dr.Jit's LLVM "
                            f"backend needs one); unset it to let volcaustics find one, or apt-get install libllvm19")
-    variant = override or render_variant()
+    variant = render_variant()
     import mitsuba as mi
 
     mi.set_variant(variant)

@@ -217,10 +217,7 @@ def _check_output_set(folder: str, option: str, files=(), folders=()) -> None:
     _check_output_dir(folder, option)
     _check_no_folder_at([os.path.join(folder, name) for name in files], option, folder)
     for name in folders:
-        path = os.path.join(folder, name)
-        if os.path.exists(path) and not os.path.isdir(path):
-            raise UsageError(option, folder, f"{path} is a file where a folder goes: move it or choose another "
-                                             f"folder")
+        _check_output_dir(os.path.join(folder, name), option)
 
 
 def _check_output_dir(path: str, option: str = "-o") -> None:

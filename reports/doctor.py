@@ -116,7 +116,7 @@ def _variant_override(report: DoctorReport, rendering: list) -> None:
     try:
         variant = variant_override()
     except VariantError as exc:
-        report.add(VARIANT_ENV, False, str(exc).split(": expected")[0], str(exc).split(": ", 1)[1])
+        report.add(VARIANT_ENV, False, repr(os.environ[VARIANT_ENV]), str(exc))
         return
     if variant is None:
         return

@@ -311,9 +311,6 @@ def measured_settings(budgets: dict, overrides: dict, *, seeds: int | None, seed
         raise GateError(f"--seed = {seed}: expected 0 ≤ seed and seed + seeds − 1 < 2^32")
     try:
         params = dataclasses.replace({"quick": QUICK, "paper": PAPER}[budgets["preset"]], seed=seed, **overrides)
-    except ParamError as exc:
-        raise GateError(f"--set: {exc}") from None
-    try:
         check_fits(params, keep_records=True)  # before any reference renders
     except ParamError as exc:
         raise GateError(f"--set: {exc}") from None
@@ -411,7 +408,7 @@ def _write_outputs(out_dir, result: GateResult, params, seeds, budgets, *, basel
     """The new baseline (when accepted), the JUnit file and, last, gate.json as one set
     (``scenes.storage.atomic_set``): an interrupted gate never leaves a new baseline
     without its verdict."""
-    from scenes.storage import atomic_set
+    from scenes.storage import atomic_write_texts
 
     from .experiment import plain
 
@@ -425,10 +422,7 @@ def _write_outputs(out_dir, result: GateResult, params, seeds, budgets, *, basel
     if junit:
         texts[junit] = junit_xml(result.checks, result.seconds)
     texts[os.path.join(out_dir, VERDICT)] = json.dumps(plain(doc), indent=1, allow_nan=False)
-    with atomic_set(list(texts)) as temps:
-        for tmp, text in zip(temps, texts.values()):
-            with open(tmp, "w", encoding="utf-8") as fh:
-                fh.write(text)
+    atomic_write_texts(texts)
 
 
 def console_table(checks: list) -> str:

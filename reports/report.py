@@ -190,7 +190,7 @@ def write_report(out_dir: str, results: list, summary: dict, sweep=None, *, prog
     null). ``started``: the run's ``time.perf_counter()`` at its start, for the total."""
     from tqdm import tqdm
 
-    from scenes.storage import atomic_set
+    from scenes.storage import atomic_write_texts
 
     from .experiment import plain
     from .html import render_page
@@ -217,11 +217,8 @@ def write_report(out_dir: str, results: list, summary: dict, sweep=None, *, prog
     if started is not None:
         summary["seconds"]["total"] = time.perf_counter() - started
     # one unit: an interrupted run never leaves a page beside another run's summary
-    with atomic_set([os.path.join(out_dir, name) for name in OUTPUT_FILES]) as (html, doc):
-        with open(html, "w", encoding="utf-8") as fh:
-            fh.write(page)
-        with open(doc, "w", encoding="utf-8") as fh:
-            fh.write(json.dumps(summary, indent=1, allow_nan=False))
+    html, doc = (os.path.join(out_dir, name) for name in OUTPUT_FILES)
+    atomic_write_texts({html: page, doc: json.dumps(summary, indent=1, allow_nan=False)})
     return summary
 
 

@@ -124,6 +124,15 @@ def atomic_set(paths: list):
                 os.unlink(tmp)
 
 
+def atomic_write_texts(texts: dict) -> None:
+    """Write text files (path → text; the last one the set's manifest) as one unit
+    (:func:`atomic_set`)."""
+    with atomic_set(list(texts)) as temps:
+        for tmp, text in zip(temps, texts.values()):
+            with open(tmp, "w", encoding="utf-8") as fh:
+                fh.write(text)
+
+
 def remove_file(path: str) -> None:
     """Remove the file ``path`` if it is there (an earlier run's manifest or verdict that
     must not outlive its data or stand for a run that stopped early)."""
