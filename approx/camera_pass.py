@@ -5,7 +5,7 @@ from __future__ import annotations
 import moderngl
 import numpy as np
 
-from scenes.formats import KIND_DIFFUSE, KIND_SPECULAR
+from volcaustics.scenes.formats import KIND_DIFFUSE, KIND_SPECULAR
 
 from .context import bound
 from .glsl import program, set_uniforms as _set

@@ -18,7 +18,7 @@ import re
 
 import moderngl
 
-from scenes.formats import FLAG_BITS, SHAPE_KINDS, STATUS_CODES
+from volcaustics.scenes.formats import FLAG_BITS, SHAPE_KINDS, STATUS_CODES
 
 SHADER_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "shaders")
 GLSL_VERSION = "#version 430 core"

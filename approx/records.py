@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from scenes.formats import RECORD_DTYPE, STATUS_DEAD
+from volcaustics.scenes.formats import RECORD_DTYPE, STATUS_DEAD
 
 
 def records_from_raw(raw: np.ndarray, step: int, *, active_only: bool = True) -> np.ndarray:

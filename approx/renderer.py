@@ -17,8 +17,8 @@ from dataclasses import dataclass, field
 import moderngl
 import numpy as np
 
-from scenes.bounds import medium_bounds
-from scenes.formats import KIND_SPECULAR, RAW_RECORD_DTYPE, SPLAT_DTYPE
+from volcaustics.scenes.bounds import medium_bounds
+from volcaustics.scenes.formats import KIND_SPECULAR, RAW_RECORD_DTYPE, SPLAT_DTYPE
 
 from .camera_pass import CameraPasses, CameraView
 from .context import gl_info, shared_context

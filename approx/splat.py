@@ -10,7 +10,7 @@ from __future__ import annotations
 import moderngl
 import numpy as np
 
-from scenes.formats import SPLAT_DTYPE, STATUS_COLLIDED
+from volcaustics.scenes.formats import SPLAT_DTYPE, STATUS_COLLIDED
 
 from .context import bound
 from .glsl import attribute_layout, program

@@ -18,7 +18,7 @@ import math
 import moderngl
 import numpy as np
 
-from scenes.formats import PHOTON_DTYPE, RAW_RECORD_DTYPE
+from volcaustics.scenes.formats import PHOTON_DTYPE, RAW_RECORD_DTYPE
 
 from .glsl import compute_shader, set_uniforms
 from .light import spot_constants
@@ -231,7 +231,7 @@ def frame_bytes(photon_res: int, steps: int, *, keep_records: bool = False) -> i
     """Bytes a frame allocates per photon_res: photon, raw record and splat buffers (one
     slot per photon), and with ``keep_records`` each step's records read back (raw and
     converted)."""
-    from scenes.formats import PHOTON_DTYPE, RAW_RECORD_DTYPE, RECORD_DTYPE, SPLAT_DTYPE
+    from volcaustics.scenes.formats import PHOTON_DTYPE, RAW_RECORD_DTYPE, RECORD_DTYPE, SPLAT_DTYPE
 
     per_photon = PHOTON_DTYPE.itemsize + RAW_RECORD_DTYPE.itemsize + SPLAT_DTYPE.itemsize
     if keep_records:

@@ -44,13 +44,13 @@ def main(argv=None) -> int:
 
     import numpy as np
 
-    import reference  # noqa: F401  (libLLVM before drjit)
-    from approx import ApproxParams, Renderer, trace
-    from reference.oracle import Oracle, exact_photon_records
-    from reference.render import render_reference
-    from reference.settings import ReferenceSettings
-    from scenes import load_builtin
-    from scenes.formats import FLAG_LEFT_FRUSTUM, STATUS_LOST
+    import volcaustics.reference  # noqa: F401  (libLLVM before drjit)
+    from volcaustics.approx import ApproxParams, Renderer, trace
+    from volcaustics.reference.oracle import Oracle, exact_photon_records
+    from volcaustics.reference.render import render_reference
+    from volcaustics.reference.settings import ReferenceSettings
+    from volcaustics.scenes import load_builtin
+    from volcaustics.scenes.formats import FLAG_LEFT_FRUSTUM, STATUS_LOST
 
     trace.CLIP_TO_OBJECTS = args.clip_to_objects
     settings = ReferenceSettings(photons=1 << 22, spp=64, batches=4, width=args.size, height=args.size)

@@ -24,9 +24,9 @@ def main(argv=None) -> int:
     parser.add_argument("--presets", default="quick,paper")
     args = parser.parse_args(argv)
 
-    from approx import Renderer
-    from approx.params import PAPER, QUICK
-    from scenes import resolve_scene
+    from volcaustics.approx import Renderer
+    from volcaustics.approx.params import PAPER, QUICK
+    from volcaustics.scenes import resolve_scene
 
     scene = resolve_scene(args.scene)
     renderer = Renderer(scene)

@@ -19,10 +19,10 @@ import time
 
 
 def main(argv=None) -> int:
-    from approx.params import QUICK
-    from reports.experiment import run_experiment
-    from scenes import load_builtin
-    from scenes.catalogue import BUILTIN_NAMES
+    from volcaustics.approx.params import QUICK
+    from volcaustics.reports.experiment.run import run_experiment
+    from volcaustics.scenes import load_builtin
+    from volcaustics.scenes.catalogue import BUILTIN_NAMES
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("scenes", nargs="*", default=list(BUILTIN_NAMES))

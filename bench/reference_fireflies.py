@@ -42,12 +42,12 @@ SCENES = ("sphere1", "sphere2", "bunny", "feline", "skull", "two_spheres", "refo
 
 
 def measure(name: str, photons: int, batches: int, size: int, geometry_per_connection: float | None) -> dict:
-    from reference.export import mitsuba_dict
-    from reference.integrators import SingleScatterIntegrator, VolumetricLightTracer, configure
-    from reference.mi_setup import mitsuba
-    from reference.request import resolve
-    from reference.settings import ReferenceSettings
-    from scenes import load_builtin
+    from volcaustics.reference.render.export import mitsuba_dict
+    from volcaustics.reference.render.integrators import SingleScatterIntegrator, VolumetricLightTracer, configure
+    from volcaustics.reference.mi_setup import mitsuba
+    from volcaustics.reference.request import resolve
+    from volcaustics.reference.settings import ReferenceSettings
+    from volcaustics.scenes import load_builtin
 
     mi = mitsuba()
     settings = ReferenceSettings(photons=photons, spp=batches, batches=batches, width=size, height=size)
@@ -85,12 +85,12 @@ def cause(name: str, photons: int, batches: int, size: int) -> list:
     """Energy and Σ var shares of the single-connection estimator's segment classes."""
     import drjit as dr
 
-    from reference.export import mitsuba_dict
-    from reference.integrators import SingleScatterIntegrator, VolumetricLightTracer, configure, subtended_angle
-    from reference.mi_setup import mitsuba
-    from reference.request import resolve
-    from reference.settings import ReferenceSettings
-    from scenes import load_builtin
+    from volcaustics.reference.render.export import mitsuba_dict
+    from volcaustics.reference.render.integrators import SingleScatterIntegrator, VolumetricLightTracer, configure, subtended_angle
+    from volcaustics.reference.mi_setup import mitsuba
+    from volcaustics.reference.request import resolve
+    from volcaustics.reference.settings import ReferenceSettings
+    from volcaustics.scenes import load_builtin
 
     mi = mitsuba()
 
@@ -145,7 +145,7 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     values = [None] if args.geometry_per_connection is None else [float(v) for v in
                                                                  args.geometry_per_connection.split(",")]
-    from reference.mi_setup import mitsuba
+    from volcaustics.reference.mi_setup import mitsuba
 
     print(f"caustic of the light tracer, {args.size}x{args.size}, {args.photons:,} photons in {args.batches} "
           f"batches, {mitsuba().variant()}, {os.cpu_count()} CPUs, load {os.getloadavg()[0]:.1f}")

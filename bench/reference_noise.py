@@ -19,7 +19,7 @@ import sys
 
 
 def main(argv=None) -> int:
-    from reports.defaults import REPORT_REFERENCE, REPORT_TARGET
+    from volcaustics.reports.core.sizing import REPORT_REFERENCE, REPORT_TARGET
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("scenes", nargs="*",
@@ -31,9 +31,9 @@ def main(argv=None) -> int:
     parser.add_argument("--batches", type=int, default=REPORT_REFERENCE.batches)
     args = parser.parse_args(argv)
 
-    import reference  # noqa: F401  (libLLVM before drjit)
-    from reference.render import render_batches
-    from scenes import load_builtin
+    import volcaustics.reference  # noqa: F401  (libLLVM before drjit)
+    from volcaustics.reference.render import render_batches
+    from volcaustics.scenes import load_builtin
 
     target = None if args.target_noise.lower() == "none" else args.target_noise
     settings = dataclasses.replace(REPORT_REFERENCE, width=args.size, height=args.size, target_noise=target,

@@ -29,10 +29,10 @@ def _timed(mi, scene, integrator, spp, seed):
 
 
 def throughput():
-    from reference.export import to_mitsuba
-    from reference.integrators import VolumetricLightTracer, configure
-    from reference.mi_setup import mitsuba
-    from scenes.model import Camera, DiffuseSurface, MeshSpec, Scene, SpotLight, Transform
+    from volcaustics.reference.render.export import to_mitsuba
+    from volcaustics.reference.render.integrators import VolumetricLightTracer, configure
+    from volcaustics.reference.mi_setup import mitsuba
+    from volcaustics.scenes.model import Camera, DiffuseSurface, MeshSpec, Scene, SpotLight, Transform
 
     mi = mitsuba()
     cam = Camera(position=(0.0, 1.6, 3.0), target=(0.0, 0.3, 0.0), fov_y=40.0, width=256, height=256)
@@ -62,10 +62,10 @@ def throughput():
 def convergence():
     import dataclasses
 
-    from metrics.image import relative_mse
-    from reference.render import render_batches
-    from reference.settings import ReferenceSettings
-    from scenes import load_builtin
+    from volcaustics.metrics.image import relative_mse
+    from volcaustics.reference.render import render_batches
+    from volcaustics.reference.settings import ReferenceSettings
+    from volcaustics.scenes import load_builtin
 
     scene = load_builtin("refocus")
     base = ReferenceSettings(photons=1 << 20, spp=8, batches=2, width=256, height=256)

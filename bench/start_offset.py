@@ -66,12 +66,12 @@ def main(argv=None) -> int:
 
     import numpy as np
 
-    import reference  # noqa: F401  (libLLVM before drjit)
-    from approx import ApproxParams, Renderer, trace
-    from approx.light import LightFrustum
-    from reference.oracle import Oracle
-    from scenes import load_builtin
-    from scenes.bounds import medium_bounds
+    import volcaustics.reference  # noqa: F401  (libLLVM before drjit)
+    from volcaustics.approx import ApproxParams, Renderer, trace
+    from volcaustics.approx.light import LightFrustum
+    from volcaustics.reference.oracle import Oracle
+    from volcaustics.scenes import load_builtin
+    from volcaustics.scenes.bounds import medium_bounds
 
     new_rule = dict(trace.START_OFFSET)
     rules = []

@@ -28,9 +28,9 @@ STANDARD_VARY = {"layers": (1, 2, 4, 8), "iterations": (4, 8, 16, 30)}
 def main(argv=None) -> int:
     import numpy as np
 
-    from reports.executors import default_workers
-    from reports.sweep import SweepSpec, run_sweep
-    from scenes.catalogue import BUILTIN_NAMES
+    from volcaustics.reports.core.executors import default_workers
+    from volcaustics.reports.sweep.run import SweepSpec, run_sweep
+    from volcaustics.scenes.catalogue import BUILTIN_NAMES
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", default="runs/bench-sweep")

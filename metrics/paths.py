@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from scenes.formats import STATUS_COLLIDED, STATUS_LEFT_SCENE, STATUS_LOST, STATUS_NAMES, STATUS_SURFACE
+from volcaustics.scenes.formats import STATUS_COLLIDED, STATUS_LEFT_SCENE, STATUS_LOST, STATUS_NAMES, STATUS_SURFACE
 
 FATES = {STATUS_SURFACE: "surface", STATUS_COLLIDED: "collided", STATUS_LOST: "lost", STATUS_LEFT_SCENE: "left_scene"}
 CAUSE_FATE, CAUSE_PLACE = "fate", "place"

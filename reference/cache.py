@@ -20,25 +20,24 @@ import os
 
 import numpy as np
 
-from scenes.canonical import canonical_dict
-from scenes.imageio import read_exr, write_exr
-from scenes.storage import atomic_path, atomic_write_bytes, atomic_write_text, cache_dir, file_sha256
+from volcaustics.scenes.canonical import canonical_dict
+from volcaustics.scenes.sources import source_hash
+from volcaustics.scenes.imageio import read_exr, write_exr
+from volcaustics.scenes.storage import atomic_path, atomic_write_bytes, atomic_write_text, cache_dir, file_sha256
 
 from . import mi_setup
 
-KEY_FORMAT = "volcaustics-reference-key/2"
-# The code that turns a description into pixels. The exporter's *output* is in the
-# key itself; export.py is here for its conversion of descriptions to Mitsuba objects.
-_SOURCES = ("integrators.py", "render.py", "shapes.py", "export.py")
+KEY_FORMAT = "volcaustics-reference-key/3"
+# The code that turns a description into pixels is the folder reference/render/ (the
+# integrators, their shape table, the conversion to Mitsuba objects, the batches and
+# their seeds); the exporter's *output* is in the key itself. What finds, reads and
+# writes entries (this module) lies outside it and changes no key.
+RENDER_FOLDER = os.path.join(os.path.dirname(os.path.abspath(__file__)), "render")
 
 
 def code_version() -> str:
-    here = os.path.dirname(os.path.abspath(__file__))
-    h = hashlib.sha256()
-    for name in _SOURCES:
-        with open(os.path.join(here, name), "rb") as fh:
-            h.update(fh.read())
-    return h.hexdigest()[:16]
+    """Hash of the sources under reference/render/ (``scenes.sources.source_hash``)."""
+    return source_hash({"reference/render": RENDER_FOLDER})
 
 
 def key_document(request, variant: str) -> dict:
@@ -89,7 +88,7 @@ def paths(key: str) -> tuple[str, str]:
 
 def load(key: str):
     """The manifest if a complete, matching entry exists (EXR hash checked), else None."""
-    from scenes.storage import read_json_object
+    from volcaustics.scenes.storage import read_json_object
 
     exr, manifest_path = paths(key)
     try:
@@ -137,3 +136,56 @@ def read_state(key: str, manifest: dict) -> dict | None:
 
 def read_layers(key: str) -> dict:
     return read_exr(paths(key)[0])[0]
+
+
+class ReferenceResult:
+    """A cached reference: ``manifest`` (photons, batches, seed, wall time, variant,
+    versions, the caller's scene name and hash, settings, cached), ``exr_path``/``png_path`` of the cache
+    files, and the images, read on first use: ``mean`` (layer → H×W×3 float32;
+    mask_specular 0/1) and ``var`` (layer → variance of the mean)."""
+
+    def __init__(self, key: str, manifest: dict, cached: bool, layers: dict | None = None):
+        self.key, self.manifest, self.cached = key, {**manifest, "cached": cached}, cached
+        self.exr_path, _ = paths(key)
+        self.png_path = self.exr_path[:-4] + ".png"
+        self._layers = layers
+
+    def _load(self) -> dict:
+        if self._layers is None:
+            self._layers = read_layers(self.key)
+        return self._layers
+
+    @property
+    def mean(self) -> dict:
+        return {k: v for k, v in self._load().items() if not k.endswith("_var")}
+
+    @property
+    def var(self) -> dict:
+        return {k[:-4]: v for k, v in self._load().items() if k.endswith("_var")}
+
+
+def for_caller(manifest: dict, scene) -> dict:
+    """A cached manifest with the caller's scene name and hash: one entry serves every
+    scene that renders the same (other labels, another camera size with settings naming
+    the size), and the caller is told about the scene it passed."""
+    return {**manifest, "scene": scene.name, "scene_hash": scene.scene_hash()}
+
+
+def cached_reference(key: str, scene) -> ReferenceResult | None:
+    """The complete cache entry ``key`` (EXR hash checked) as a result for ``scene``,
+    or None if this cache does not hold it (a sweep's workers use exactly the reference
+    the sweep resolved)."""
+    manifest = load(key)
+    return None if manifest is None else ReferenceResult(key, for_caller(manifest, scene), cached=True)
+
+
+def existing_reference(scene, settings=None, *, mode: str = "caustic") -> ReferenceResult | None:
+    """The cache entry for ``scene`` and ``settings`` as it is (whatever its batches or
+    floors, never continued), or None when there is none."""
+    from .request import resolve
+
+    served = lookup(resolve(scene, settings, mode))
+    if served is None:
+        return None
+    key, manifest = served
+    return ReferenceResult(key, for_caller(manifest, scene), cached=True)

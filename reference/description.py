@@ -30,7 +30,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from scenes.bounds import medium_bounds
+from volcaustics.scenes.bounds import medium_bounds
 
 FOG_ID = "fog"
 

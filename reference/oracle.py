@@ -16,19 +16,19 @@ from __future__ import annotations
 
 import numpy as np
 
-from scenes.bounds import box_exit, medium_bounds
-from scenes.formats import (FLAG_REFLECTED, FLAG_TIR, RECORD_DTYPE, STATUS_COLLIDED, STATUS_LEFT_SCENE, STATUS_LOST,
+from volcaustics.scenes.bounds import box_exit, medium_bounds
+from volcaustics.scenes.formats import (FLAG_REFLECTED, FLAG_TIR, RECORD_DTYPE, STATUS_COLLIDED, STATUS_LEFT_SCENE, STATUS_LOST,
                             STATUS_SURFACE)
-from scenes.rng import uniform
+from volcaustics.scenes.rng import uniform
 
 
 class Oracle:
     """Exact segment queries against one scene's specular objects."""
 
     def __init__(self, scene):
-        from .export import mesh_file
+        from .render.export import mesh_file
         from .mi_setup import mitsuba
-        from scenes.storage import cache_dir
+        from volcaustics.scenes.storage import cache_dir
 
         mi = self.mi = mitsuba()
         import drjit as dr

@@ -41,7 +41,7 @@ def probe(variant: str, timeout: float = 120.0) -> tuple[bool, str, float]:
 
     t0 = time.perf_counter()
     try:
-        proc = subprocess.run([sys.executable, "-m", "reference.variant", variant],
+        proc = subprocess.run([sys.executable, "-m", "volcaustics.reference.variant", variant],
                               capture_output=True, text=True, timeout=timeout)
     except subprocess.TimeoutExpired:
         return False, f"timed out after {timeout:.0f} s", time.perf_counter() - t0
@@ -69,7 +69,7 @@ def reference_variant() -> str:
 
 
 def _main(variant: str) -> int:
-    from reference.llvm import ensure_libllvm
+    from volcaustics.reference.llvm import ensure_libllvm
 
     ensure_libllvm()
     try:

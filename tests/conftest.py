@@ -8,12 +8,12 @@ import textwrap
 
 import pytest
 
-import reference  # noqa: F401  (chooses DRJIT_LIBLLVM_PATH before anything imports drjit)
+import volcaustics.reference  # noqa: F401  (chooses DRJIT_LIBLLVM_PATH before anything imports drjit)
 
 
 @pytest.fixture(scope="session")
 def gl_context():
-    from approx.context import shared_context
+    from volcaustics.approx.context import shared_context
 
     return shared_context()
 

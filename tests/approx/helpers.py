@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from scenes.model import (Camera, DiffuseSurface, Medium, MeshSpec, Phase, Scene, SpecularObject, SpotLight,
+from volcaustics.scenes.model import (Camera, DiffuseSurface, Medium, MeshSpec, Phase, Scene, SpecularObject, SpotLight,
                           Transform)
 
 

@@ -7,16 +7,16 @@ import dataclasses
 import numpy as np
 import pytest
 
-from approx.geometry import SceneGeometry
-from approx.layers import LightMapRenderer
-from approx.light import LightFrustum
-from approx.params import ApproxParams
-from approx.records import records_from_raw
-from approx.trace import PhotonTracer
-from scenes.formats import FLAG_LEFT_FRUSTUM, FLAG_WITHIN_OFFSET, PHOTON_DTYPE, RAW_RECORD_DTYPE, STATUS_COLLIDED, STATUS_SURFACE
-from scenes.model import Medium
-from scenes.bounds import medium_bounds
-from scenes.rng import uniform
+from volcaustics.approx.geometry import SceneGeometry
+from volcaustics.approx.layers import LightMapRenderer
+from volcaustics.approx.light import LightFrustum
+from volcaustics.approx.params import ApproxParams
+from volcaustics.approx.records import records_from_raw
+from volcaustics.approx.trace import PhotonTracer
+from volcaustics.scenes.formats import FLAG_LEFT_FRUSTUM, FLAG_WITHIN_OFFSET, PHOTON_DTYPE, RAW_RECORD_DTYPE, STATUS_COLLIDED, STATUS_SURFACE
+from volcaustics.scenes.model import Medium
+from volcaustics.scenes.bounds import medium_bounds
+from volcaustics.scenes.rng import uniform
 from tests.approx.helpers import make_scene, ray_sphere, shell_spec, sphere_spec
 
 LIGHT_RES = 512
@@ -229,7 +229,7 @@ def _ray_sphere_rows(o, d, radius):
 def _first_step_agreement(ctx, specular, light_res, true_t, tolerance):
     """Share of the photons entering the glass whose first segment (from the entry point,
     inside) ends where ``true_t(start, direction)`` says, within ``tolerance`` metres."""
-    from approx import Renderer
+    from volcaustics.approx import Renderer
 
     scene = make_scene(specular, cutoff=25.0, width=16, height=16)
     renderer = Renderer(scene, ctx)

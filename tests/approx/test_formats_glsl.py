@@ -10,10 +10,10 @@ import re
 import numpy as np
 import pytest
 
-from approx import glsl
-from approx.glsl import SHADER_DIR, SHARED_DEFINES, build_source
-from scenes.bounds import box_exit
-from scenes.formats import FLAG_BITS, PHOTON_DTYPE, RAW_RECORD_DTYPE, SHAPE_KINDS, SPLAT_DTYPE, STATUS_CODES
+from volcaustics.approx import glsl
+from volcaustics.approx.glsl import SHADER_DIR, SHARED_DEFINES, build_source
+from volcaustics.scenes.bounds import box_exit
+from volcaustics.scenes.formats import FLAG_BITS, PHOTON_DTYPE, RAW_RECORD_DTYPE, SHAPE_KINDS, SPLAT_DTYPE, STATUS_CODES
 
 STRUCTS = [("Photon", PHOTON_DTYPE), ("Record", RAW_RECORD_DTYPE), ("Splat", SPLAT_DTYPE)]
 # numpy kind → (GLSL scalar type, vector prefix, literal suffix)

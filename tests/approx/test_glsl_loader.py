@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import pytest
 
-from approx.context import GL_REQUIRE, gl_info
-from approx.glsl import SHADER_DIR, build_source, load_source
+from volcaustics.approx.context import GL_REQUIRE, gl_info
+from volcaustics.approx.glsl import SHADER_DIR, build_source, load_source
 
 
 def test_context_is_gl43_or_newer(ctx):
@@ -39,7 +39,7 @@ def test_missing_include_is_an_error():
 
 def test_framebuffers_can_be_released_and_recreated(ctx):
     """Releasing the last-bound framebuffer must not break the next one (see approx.context.bound)."""
-    from approx.context import bound
+    from volcaustics.approx.context import bound
 
     for _ in range(3):
         color = ctx.texture((4, 4), 4, dtype="f4")

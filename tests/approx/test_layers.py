@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from approx.geometry import SceneGeometry
-from approx.layers import LightMapRenderer, decode_normals, read_map
-from approx.light import LightFrustum
-from scenes.bounds import medium_bounds
+from volcaustics.approx.geometry import SceneGeometry
+from volcaustics.approx.layers import LightMapRenderer, decode_normals, read_map
+from volcaustics.approx.light import LightFrustum
+from volcaustics.scenes.bounds import medium_bounds
 from tests.approx.helpers import make_scene, ray_sphere, shell_spec, sphere_spec
 
 RES = 128
@@ -114,8 +114,8 @@ def test_peel_separates_nested_surfaces(ctx):
 def test_packed_distances_and_exact_map_ranges(ctx):
     """The tracer's packed distance buffer equals the maps' distance channel, and the
     per-map ranges (GPU reduction with uint atomics) equal numpy's min/max over covered texels."""
-    from approx.params import ApproxParams
-    from approx.trace import PhotonTracer
+    from volcaustics.approx.params import ApproxParams
+    from volcaustics.approx.trace import PhotonTracer
 
     scene, geo, lm, frustum = _setup(ctx, [(shell_spec(0.5, 0.3, CENTER, 16), 1.5, (0, 0, 0))])
     textures = lm.render_layers(frustum, RES, 2, "peel")
@@ -139,8 +139,8 @@ def test_geometric_normals_are_the_outward_triangle_normals(ctx, strategy):
     rounding), the normal matches the face's within octahedral float precision, and it
     points outward from the glass (away from the centre on the outer sphere of a shell,
     towards it on the inner one). It also reaches the tracer's storage buffer unchanged."""
-    from approx.params import ApproxParams
-    from approx.trace import PhotonTracer
+    from volcaustics.approx.params import ApproxParams
+    from volcaustics.approx.trace import PhotonTracer
 
     spec = shell_spec(0.5, 0.3, CENTER, 6)  # coarse: faces clearly differ from the shading normals
     scene, geo, lm, frustum = _setup(ctx, [(spec, 1.5, (0, 0, 0))])

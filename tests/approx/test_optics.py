@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from approx.glsl import build_source
+from volcaustics.approx.glsl import build_source
 
 SHADER = """
 #include "common/optics.glsl"

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from approx.glsl import build_source
-from scenes.rng import hash4, uniform
+from volcaustics.approx.glsl import build_source
+from volcaustics.scenes.rng import hash4, uniform
 
 # Test fixture shader (inline by design): one invocation per (seed, photon, step, dim) tuple.
 RNG_CHECK = """

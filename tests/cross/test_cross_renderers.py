@@ -13,11 +13,11 @@ import dataclasses
 import numpy as np
 import pytest
 
-from approx import ApproxParams, render
-from reference.render import render_batches
-from reference.settings import ReferenceSettings
-from scenes import load_builtin
-from scenes.model import Phase
+from volcaustics.approx import ApproxParams, render
+from volcaustics.reference.render import render_batches
+from volcaustics.reference.settings import ReferenceSettings
+from volcaustics.scenes import load_builtin
+from volcaustics.scenes.model import Phase
 
 
 @pytest.mark.parametrize("g,absorption", [(None, (0.0, 0.0, 0.0)), (0.5, (0.0, 0.0, 0.0)), (None, (2.0, 0.1, 1.0))],

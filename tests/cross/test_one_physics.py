@@ -11,9 +11,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from approx.glsl import build_source
-from reference.oracle import surface_interaction
-from scenes.formats import FLAG_REFLECTED, FLAG_TIR
+from volcaustics.approx.glsl import build_source
+from volcaustics.reference.oracle import surface_interaction
+from volcaustics.scenes.formats import FLAG_REFLECTED, FLAG_TIR
 
 IOR = (1.5, 1.33)
 SHADER = """
@@ -96,7 +96,7 @@ def test_inside_follows_the_geometric_normal_in_both_tracers(ctx, stochastic):
     # boundary — a Fresnel sample at R, a direction on the geometric plane — excluded)
     robust = np.abs(np.einsum("ij,ij->i", d_np, n_geo)) > 1e-4
     if stochastic:
-        from reference.oracle import fresnel_dielectric
+        from volcaustics.reference.oracle import fresnel_dielectric
 
         cos_i = np.abs(np.einsum("ij,ij->i", d, n_sh))
         eta = np.where(from_outside, np.asarray(IOR)[material], 1 / np.asarray(IOR)[material])
@@ -115,10 +115,10 @@ def test_exact_tracer_loses_nothing_inside_glass(gl_context):
     lost power on bunny (smooth shading normals over 10k faces) was 1.45% at 16
     stochastic steps before; now nothing (a photon can only be lost by the Embree float32
     self-intersection epsilon: < 0.05% allowed)."""
-    from approx import ApproxParams, render
-    from reference.oracle import exact_photon_records
-    from scenes import load_builtin
-    from scenes.formats import STATUS_LOST
+    from volcaustics.approx import ApproxParams, render
+    from volcaustics.reference.oracle import exact_photon_records
+    from volcaustics.scenes import load_builtin
+    from volcaustics.scenes.formats import STATUS_LOST
 
     scene = load_builtin("bunny")
     frame = render(scene, ApproxParams(photon_res=192, light_res=256, width=16, height=16, steps=1,

@@ -65,13 +65,13 @@ from dataclasses import dataclass
 import numpy as np
 import pytest
 
-from approx import ApproxParams, Renderer
-from metrics.noise import debiased_relative_mse, energy_ratio
-from reference.settings import ReferenceSettings
-from reports.exact import exact_caustic, pixel_footprint, reference_caustic
-from scenes import load_builtin
-from scenes.catalogue import BUILTIN_NAMES
-from scenes.model import Phase
+from volcaustics.approx import ApproxParams, Renderer
+from volcaustics.metrics.noise import debiased_relative_mse, energy_ratio
+from volcaustics.reference.settings import ReferenceSettings
+from volcaustics.reports.experiment.exact import exact_caustic, pixel_footprint, reference_caustic
+from volcaustics.scenes import load_builtin
+from volcaustics.scenes.catalogue import BUILTIN_NAMES
+from volcaustics.scenes.model import Phase
 from tests.failure_images import write_compared_images
 
 SIZE = 64                 # image width and height (pixels)

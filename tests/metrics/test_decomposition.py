@@ -10,8 +10,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from metrics.decomposition import BATCHED, IMAGES, TERMS, caustic_terms, decompose_caustic
-from metrics.image import energy_ratio, relative_mse
+from volcaustics.metrics.decomposition import BATCHED, IMAGES, TERMS, caustic_terms, decompose_caustic
+from volcaustics.metrics.image import energy_ratio, relative_mse
 
 H, W, K = 16, 16, 16
 FIVE = tuple(TERMS)

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from metrics.image import delta_e2000, energy_ratio, hdr_flip, per_pixel_relative_mse, ssim
+from volcaustics.metrics.image import delta_e2000, energy_ratio, hdr_flip, per_pixel_relative_mse, ssim
 
 
 def _image(seed=0, size=48):

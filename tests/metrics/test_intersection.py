@@ -6,8 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from metrics import intersection as ix
-from scenes.formats import RECORD_DTYPE
+from volcaustics.metrics import intersection as ix
+from volcaustics.scenes.formats import RECORD_DTYPE
 
 LIGHT = (0.0, 0.0, 0.0)
 TEXEL = 1e-3         # rad per texel

@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from metrics.noise import debiased_relative_mse, energy_ratio, noise_floor
+from volcaustics.metrics.noise import debiased_relative_mse, energy_ratio, noise_floor
 
 H, W, K, L = 24, 32, 16, 8
 

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from metrics.paths import path_divergence, power_budget
-from scenes.formats import RECORD_DTYPE, STATUS_COLLIDED, STATUS_LEFT_SCENE, STATUS_LOST, STATUS_SURFACE
+from volcaustics.metrics.paths import path_divergence, power_budget
+from volcaustics.scenes.formats import RECORD_DTYPE, STATUS_COLLIDED, STATUS_LEFT_SCENE, STATUS_LOST, STATUS_SURFACE
 
 
 def _step(step, photons, statuses, power_start, power, ends=None):

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from metrics.stats import sidak_alpha, z_test
+from volcaustics.metrics.stats import sidak_alpha, z_test
 
 
 def _estimates(rng, truth, sigma, n_batches):
@@ -43,7 +43,7 @@ def test_identity_and_input_checks():
 
 
 def test_relative_mse_identities():
-    from metrics.image import relative_mse
+    from volcaustics.metrics.image import relative_mse
 
     rng = np.random.default_rng(0)
     x = rng.random((8, 8, 3))
@@ -65,7 +65,7 @@ def test_few_batches_need_students_t():
     than 5% of the pixels get p < 0.05 (the variance estimate itself is noisy); with
     Student's t and the Welch–Satterthwaite degrees of freedom they are near uniform.
     Tolerances: 200,000 pixels, so a rate's standard deviation is 0.05 % points."""
-    from metrics.stats import p_values, welch_dof
+    from volcaustics.metrics.stats import p_values, welch_dof
 
     rng = np.random.default_rng(3)
     a = rng.normal(size=(4, 200_000))

@@ -9,13 +9,13 @@ import os
 import numpy as np
 import pytest
 
-from reference import cache
-from reference.render import render_reference
-from reference.settings import ReferenceSettings, SettingsError
-from reports.cli import main
-from scenes import load_builtin
-from scenes.formats import LAYER_NAMES
-from scenes.imageio import read_exr
+from volcaustics.reference import cache
+from volcaustics.reference.render import render_reference
+from volcaustics.reference.settings import ReferenceSettings, SettingsError
+from volcaustics.reports.cli import main
+from volcaustics.scenes import load_builtin
+from volcaustics.scenes.formats import LAYER_NAMES
+from volcaustics.scenes.imageio import read_exr
 
 SMALL = ["--width", "24", "--height", "24", "--photons", "200000", "--spp", "16", "--batches", "4"]
 
@@ -80,7 +80,7 @@ def test_bad_settings_exit_2(tmp_path, capsys):
 
 
 def test_export_xml_loads_in_mitsuba(tmp_path):
-    from reference.mi_setup import mitsuba
+    from volcaustics.reference.mi_setup import mitsuba
 
     mi = mitsuba()
     out = tmp_path / "two.xml"
@@ -116,7 +116,7 @@ def test_a_cache_hit_needs_no_variant_probe(private_cache, monkeypatch):
     """Without VOLCAUSTICS_MI_VARIANT a cached reference of any preferred variant is
     served (its manifest says which), so a hit never probes variants or imports Mitsuba
     in a fresh process (both cost seconds on a cold machine)."""
-    from reference import variant
+    from volcaustics.reference import variant
 
     scene = load_builtin("refocus")
     settings = ReferenceSettings(photons=100000, spp=8, batches=2, width=16, height=16)

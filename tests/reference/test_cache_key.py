@@ -13,12 +13,12 @@ import sys
 import numpy as np
 import pytest
 
-import scenes.bounds
-from reference import cache
-from reference.export import mesh_file
-from reference.settings import ReferenceSettings, SettingsError
-from scenes import load_builtin
-from scenes.mesh import Mesh
+import volcaustics.scenes.bounds
+from volcaustics.reference import cache
+from volcaustics.reference.render.export import mesh_file
+from volcaustics.reference.settings import ReferenceSettings, SettingsError
+from volcaustics.scenes import load_builtin
+from volcaustics.scenes.mesh import Mesh
 
 SETTINGS = ReferenceSettings(photons=100000, spp=8, batches=2, width=24, height=24)
 
@@ -78,7 +78,7 @@ def test_mode_size_variant_and_versions_change_the_key(monkeypatch):
             _key(settings=dataclasses.replace(SETTINGS, height=25))}
     assert len(keys) == 6
     assert _key(mode="caustic") == base and _key(variant="llvm_ad_rgb") == base  # the defaults here
-    from reference import mi_setup
+    from volcaustics.reference import mi_setup
 
     monkeypatch.setattr(mi_setup, "library_versions", lambda: {"mitsuba": "0.0.1", "drjit": "0.0.1"})
     assert _key() != base
@@ -89,7 +89,7 @@ def test_mode_size_variant_and_versions_change_the_key(monkeypatch):
 def test_the_key_document_names_what_determines_the_image():
     """The hashed document itself: the Mitsuba scene with meshes as PLY digests and
     transforms as plain data (no file paths, no Mitsuba objects)."""
-    from reference.request import resolve
+    from volcaustics.reference.request import resolve
 
     request = resolve(load_builtin("refocus"), SETTINGS, "fog")
     doc = cache.key_document(request, "llvm_ad_rgb")
@@ -105,6 +105,6 @@ def test_the_key_document_names_what_determines_the_image():
 def test_versions_read_without_import_match_the_package_metadata():
     from importlib.metadata import version
 
-    from reference import mi_setup
+    from volcaustics.reference import mi_setup
 
     assert mi_setup.library_versions() == {"mitsuba": version("mitsuba"), "drjit": version("drjit")}

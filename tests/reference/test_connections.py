@@ -18,12 +18,12 @@ import drjit as dr
 import numpy as np
 import pytest
 
-from metrics.stats import z_test
-from reference.export import to_mitsuba
-from reference.integrators import (SingleScatterIntegrator, ViewPyramid, VolumetricLightTracer, configure,
+from volcaustics.metrics.stats import z_test
+from volcaustics.reference.render.export import to_mitsuba
+from volcaustics.reference.render.integrators import (SingleScatterIntegrator, ViewPyramid, VolumetricLightTracer, configure,
                                    subtended_angle)
-from reference.mi_setup import mitsuba
-from scenes.model import Camera
+from volcaustics.reference.mi_setup import mitsuba
+from volcaustics.scenes.model import Camera
 from tests.approx.helpers import make_scene, sphere_spec
 
 mi = mitsuba()

@@ -10,8 +10,8 @@ import sys
 
 import pytest
 
-from reference.llvm import MIN_MAJOR, find_libllvm, libllvm_major
-from reference.variant import probe
+from volcaustics.reference.llvm import MIN_MAJOR, find_libllvm, libllvm_major
+from volcaustics.reference.variant import probe
 
 
 @pytest.mark.parametrize("name,major", [

@@ -10,12 +10,12 @@ import json
 import numpy as np
 import pytest
 
-from metrics.noise import noise_floor
-from reference import render as render_module
-from reference.render import render_batches, render_reference
-from reference.settings import ReferenceSettings, SettingsError
-from reports.cli import main
-from scenes import load_builtin
+from volcaustics.metrics.noise import noise_floor
+from volcaustics.reference import render as render_module
+from volcaustics.reference.render import render_batches, render_reference
+from volcaustics.reference.settings import ReferenceSettings, SettingsError
+from volcaustics.reports.cli import main
+from volcaustics.scenes import load_builtin
 
 # 32², 2^14 photons and 4 camera samples per pixel a batch: a batch takes milliseconds
 BASE = ReferenceSettings(photons=1 << 16, spp=16, batches=4, width=32, height=32)

@@ -8,8 +8,8 @@ import dataclasses
 import numpy as np
 import pytest
 
-from reference.oracle import Oracle, exact_photon_records, fresnel_dielectric
-from scenes import load_builtin
+from volcaustics.reference.oracle import Oracle, exact_photon_records, fresnel_dielectric
+from volcaustics.scenes import load_builtin
 
 
 def brute_force_first_hit(vertices, faces, o, d, L):
@@ -79,7 +79,7 @@ def test_fresnel_twin_normal_incidence_and_tir():
 
 
 def test_exact_tracer_replays_approx_photons(gl_context):
-    from approx import ApproxParams, render
+    from volcaustics.approx import ApproxParams, render
 
     scene = load_builtin("refocus")
     params = ApproxParams(photon_res=64, light_res=512, width=32, height=32, steps=3)

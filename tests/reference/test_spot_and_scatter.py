@@ -6,11 +6,11 @@ import math
 
 import numpy as np
 
-from approx.glsl import build_source
-from approx.light import spot_constants
-from reference.export import to_mitsuba
-from reference.integrators import VolumetricLightTracer, configure
-from reference.mi_setup import mitsuba
+from volcaustics.approx.glsl import build_source
+from volcaustics.approx.light import spot_constants
+from volcaustics.reference.render.export import to_mitsuba
+from volcaustics.reference.render.integrators import VolumetricLightTracer, configure
+from volcaustics.reference.mi_setup import mitsuba
 from tests.approx.helpers import make_scene, sphere_spec
 
 mi = mitsuba()
@@ -99,7 +99,7 @@ def test_multiple_scattering_adds_light():
 
 
 def test_registered_integrators_load_by_name():
-    from reference.integrators import SingleScatterIntegrator
+    from volcaustics.reference.render.integrators import SingleScatterIntegrator
 
     tracer = mi.load_dict({"type": "vc_lighttracer", "mode": "fog", "max_scatter": 2})
     assert isinstance(tracer, VolumetricLightTracer) and tracer.mode == "fog" and tracer.max_scatter == 2

@@ -14,11 +14,11 @@ import math
 import numpy as np
 import pytest
 
-from metrics.stats import z_test
-from reference.export import to_mitsuba
-from reference.integrators import SingleScatterIntegrator, VolumetricLightTracer, configure
-from reference.mi_setup import mitsuba
-from scenes.model import Camera, DiffuseSurface, Medium, MeshSpec, Phase, Scene, SpotLight, Transform
+from volcaustics.metrics.stats import z_test
+from volcaustics.reference.render.export import to_mitsuba
+from volcaustics.reference.render.integrators import SingleScatterIntegrator, VolumetricLightTracer, configure
+from volcaustics.reference.mi_setup import mitsuba
+from volcaustics.scenes.model import Camera, DiffuseSurface, Medium, MeshSpec, Phase, Scene, SpotLight, Transform
 from tests.approx.helpers import fog_quadrature, make_scene, pixel_ray, sphere_spec
 
 mi = mitsuba()

@@ -10,7 +10,7 @@ import time
 
 import pytest
 
-from reports.cli import main
+from volcaustics.reports.cli import main
 
 ROOT = os.geteuid() == 0 if hasattr(os, "geteuid") else False
 
@@ -77,7 +77,7 @@ def test_a_cache_that_is_a_file_is_named_as_such(tmp_path):
     fresh process: this one may hold the generated meshes in memory already)."""
     cache = tmp_path / "cache"
     cache.write_text("not a folder")
-    done = subprocess.run([sys.executable, "-m", "reports.cli", "scenes"], capture_output=True, text=True,
+    done = subprocess.run([sys.executable, "-m", "volcaustics.reports.cli", "scenes"], capture_output=True, text=True,
                           timeout=120, env={**os.environ, "VOLCAUSTICS_CACHE": str(cache)})
     assert done.returncode == 2, done.stderr[-2000:]
     err = done.stderr
@@ -95,7 +95,7 @@ def test_a_mesh_path_that_is_a_device_or_fifo(tmp_path, write_scene):
                                                   f'mesh = "{mesh}"')
         scene = tmp_path / "special.toml"
         scene.write_text(text)
-        done = subprocess.run([sys.executable, "-m", "reports.cli", "scenes", "--check", str(scene)],
+        done = subprocess.run([sys.executable, "-m", "volcaustics.reports.cli", "scenes", "--check", str(scene)],
                               capture_output=True, text=True, timeout=60)
         assert done.returncode == 2, done.stderr
         assert "not a regular file" in done.stderr and "Traceback" not in done.stderr
@@ -107,7 +107,7 @@ def test_a_scene_file_that_is_a_fifo_or_nested_too_deeply(tmp_path):
     deep = tmp_path / "deep.toml"
     deep.write_text("a = " + "[" * 100_000 + "]" * 100_000 + "\n")
     for path, fragment in ((fifo, "not a regular file"), (deep, "invalid TOML")):
-        done = subprocess.run([sys.executable, "-m", "reports.cli", "scenes", "--check", str(path)],
+        done = subprocess.run([sys.executable, "-m", "volcaustics.reports.cli", "scenes", "--check", str(path)],
                               capture_output=True, text=True, timeout=60)
         assert done.returncode == 2, done.stderr
         assert fragment in done.stderr and "Traceback" not in done.stderr
@@ -132,7 +132,7 @@ def test_unsuitable_environment_variables(tmp_path, variable, value, fragment):
     env = {**os.environ, "VOLCAUSTICS_CACHE": str(tmp_path / "cache"), variable: value}
     if variable == "DRJIT_LIBLLVM_PATH":
         env["VOLCAUSTICS_MI_VARIANT"] = "llvm_ad_rgb"
-    done = subprocess.run([sys.executable, "-m", "reports.cli", "reference", "sphere1", "-o", str(tmp_path / "r.exr"),
+    done = subprocess.run([sys.executable, "-m", "volcaustics.reports.cli", "reference", "sphere1", "-o", str(tmp_path / "r.exr"),
                            "--width", "16", "--height", "16", "--photons", "1000", "--spp", "2", "--batches", "2"],
                           capture_output=True, text=True, timeout=120, env=env)
     assert done.returncode == 2, done.stderr[-2000:]
@@ -175,7 +175,7 @@ def test_values_the_renderers_cannot_represent(tmp_path, write_scene, capsys, ol
 def test_a_photon_map_beyond_memory_fails_before_rendering(tmp_path, capsys):
     """photon_res 8192 (in range) asked for 7.5 GB of records and failed after 33 s with
     "cannot map the buffer": refused before any GL work, saying what fits."""
-    from approx.trace import frame_bytes, memory_budget
+    from volcaustics.approx.trace import frame_bytes, memory_budget
 
     assert frame_bytes(8192, 4) > memory_budget() or pytest.skip("this machine holds a photon_res 8192 frame")
     err = _fails_fast(capsys, ["approx", "sphere1", "--preset", "quick", "--photon-res", "8192",
@@ -185,8 +185,8 @@ def test_a_photon_map_beyond_memory_fails_before_rendering(tmp_path, capsys):
 
 
 def test_frame_bytes_counts_every_buffer():
-    from approx.trace import frame_bytes
-    from scenes.formats import PHOTON_DTYPE, RAW_RECORD_DTYPE, RECORD_DTYPE, SPLAT_DTYPE
+    from volcaustics.approx.trace import frame_bytes
+    from volcaustics.scenes.formats import PHOTON_DTYPE, RAW_RECORD_DTYPE, RECORD_DTYPE, SPLAT_DTYPE
 
     slots = PHOTON_DTYPE.itemsize + RAW_RECORD_DTYPE.itemsize + SPLAT_DTYPE.itemsize
     assert frame_bytes(10, 4) == 100 * slots
@@ -202,7 +202,7 @@ def test_an_interrupted_approx_keeps_the_last_complete_set(tmp_path, monkeypatch
     """Ctrl-C while the outputs are written (here: inside the PNG writer of the second
     run) leaves the first run's EXR, PNG, records and JSON, byte for byte, and no
     temporary files (issue 13, class B)."""
-    import reports.approx_job as job
+    import volcaustics.reports.render.approx as job
 
     out = tmp_path / "o.exr"
     small = ["--preset", "quick", "--photon-res", "32", "--light-res", "32", "--width", "24", "--height", "24"]
@@ -223,7 +223,7 @@ def test_ctrl_c_inside_mitsuba_exits_130(tmp_path, monkeypatch, capsys, wrapped)
     """Ctrl-C during Mitsuba's render reaches Python as a RuntimeError from C++ (naming
     KeyboardInterrupt, or chained to it): exit 130 and "interrupted", not a traceback
     with exit 1 (issue 13, class F). The interrupt is injected where the render runs."""
-    import reports.reference_job as job
+    import volcaustics.reports.render.reference as job
 
     def render(*args, **kwargs):
         if wrapped == "message":
@@ -233,7 +233,7 @@ def test_ctrl_c_inside_mitsuba_exits_130(tmp_path, monkeypatch, capsys, wrapped)
         except KeyboardInterrupt as exc:
             raise RuntimeError("render failed") from exc
 
-    import reference.render
+    import volcaustics.reference.render
 
     monkeypatch.setattr(reference.render, "render_reference", render)
     assert main(["reference", "sphere1", "-o", str(tmp_path / "r.exr")]) == 130
@@ -243,7 +243,7 @@ def test_ctrl_c_inside_mitsuba_exits_130(tmp_path, monkeypatch, capsys, wrapped)
 
 
 def test_other_runtime_errors_are_not_taken_for_interrupts():
-    from reports.cli import _interrupted
+    from volcaustics.reports.cli import _interrupted
 
     assert not _interrupted(RuntimeError("out of memory"))
     assert _interrupted(RuntimeError("x: KeyboardInterrupt"))

@@ -11,9 +11,9 @@ import os
 import numpy as np
 import pytest
 
-from approx import ApproxParams, Renderer
-from reports.exact import box_downsample, exact_caustic, exact_photons, interleaved_subsets, pixel_footprint
-from scenes import load_builtin
+from volcaustics.approx import ApproxParams, Renderer
+from volcaustics.reports.experiment.exact import box_downsample, exact_caustic, exact_photons, interleaved_subsets, pixel_footprint
+from volcaustics.scenes import load_builtin
 from tests.approx.helpers import make_scene, sphere_spec
 from tests.failure_images import write_compared_images
 

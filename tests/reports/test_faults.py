@@ -16,7 +16,7 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from reports.cli import main
+from volcaustics.reports.cli import main
 
 from .test_sweep import SPEC  # tiny points: 32², photon_res 64, light_res 64; a reference of 4 batches
 
@@ -53,7 +53,7 @@ def test_a_frame_beyond_memory_fails_before_any_reference_renders(cache, tmp_pat
     """photon_res passes its range but the frame cannot run: measure, sweep, gate and
     report rendered the references first (minutes at the report's budget) and failed in
     the approximation after them; now they exit 2 at once, saying what fits."""
-    from approx.trace import frame_bytes, memory_budget
+    from volcaustics.approx.trace import frame_bytes, memory_budget
 
     if frame_bytes(8192, 32, keep_records=True) <= memory_budget():
         pytest.skip("this machine holds a photon_res 8192, 32-step frame")
@@ -71,8 +71,8 @@ def test_check_fits_names_the_driver_limit():
     2048 needs 65,536 groups of 64."""
     import dataclasses
 
-    from approx.params import QUICK, ParamError
-    from approx.trace import check_fits
+    from volcaustics.approx.params import QUICK, ParamError
+    from volcaustics.approx.trace import check_fits
 
     check_fits(dataclasses.replace(QUICK, photon_res=2047), max_groups=65535)
     with pytest.raises(ParamError, match="photon_res = 2048: .* at most 2047"):
@@ -87,7 +87,7 @@ def test_check_fits_names_the_driver_limit():
 def test_ctrl_c_inside_the_reference_render_exits_130(cache, tmp_path, monkeypatch, capsys, command):
     """Dr.Jit hands a KeyboardInterrupt raised during its loops back as a RuntimeError
     chained to it; every command that renders a reference exits 130 with "interrupted"."""
-    import reference.render
+    import volcaustics.reference.render
 
     def render(*args, **kwargs):
         try:
@@ -153,7 +153,7 @@ def test_an_interrupted_sweep_keeps_its_last_complete_set_of_tables(cache, tmp_p
 def test_an_interrupted_gate_leaves_no_earlier_verdict(cache, tmp_path, monkeypatch):
     """A stopped gate must not leave the last run's gate.json or JUnit file for CI to
     read as this run's verdict: both are removed when the run starts measuring."""
-    import reports.gate as gate
+    import volcaustics.reports.gate.run as gate
 
     out, junit = tmp_path / "gate", tmp_path / "junit.xml"
     out.mkdir()
@@ -217,7 +217,7 @@ def test_a_manifest_that_is_a_fifo_does_not_hang(tmp_path, case):
                               str(folder)],
             "report-sweep": ["report", "--out", str(tmp_path / "r"), "--scenes", "sphere1", "--sweep", str(folder)]}
     env = {**os.environ, "VOLCAUSTICS_CACHE": str(tmp_path / "cache"), "VOLCAUSTICS_MI_VARIANT": "llvm_ad_rgb"}
-    done = subprocess.run([sys.executable, "-m", "reports.cli", *argv[case], "--quiet"], capture_output=True,
+    done = subprocess.run([sys.executable, "-m", "volcaustics.reports.cli", *argv[case], "--quiet"], capture_output=True,
                           text=True, env=env, cwd=REPO, timeout=120)
     assert done.returncode == 2, done.stderr[-2000:]
     assert "not a regular file" in done.stderr and "Traceback" not in done.stderr
@@ -226,8 +226,8 @@ def test_a_manifest_that_is_a_fifo_does_not_hang(tmp_path, case):
 def _a_complete_point(tmp_path):
     """A store holding one complete point (real Parquet tables, their hashes in its
     summary): (store, key, summary)."""
-    from reports.store import SUMMARY, TABLE_FILES, Store
-    from scenes.storage import file_sha256
+    from volcaustics.reports.core.store import SUMMARY, TABLE_FILES, Store
+    from volcaustics.scenes.storage import file_sha256
 
     store = Store(str(tmp_path / "store"))
     key = "0123456789abcdef0123456789abcdef"
@@ -247,7 +247,7 @@ def _a_complete_point(tmp_path):
 def test_a_damaged_store_point_counts_as_damaged(tmp_path, damage):
     """A point whose summary is not its own object, or whose files do not match the
     hashes it lists, is "damaged" (recomputed by the sweep and the report), never read."""
-    from reports.store import SUMMARY, TABLE_FILES
+    from volcaustics.reports.core.store import SUMMARY, TABLE_FILES
 
     store, key, summary = _a_complete_point(tmp_path)
     folder, files = Path(store.point_dir(key)), summary["files"]
@@ -279,7 +279,7 @@ def test_a_reference_batch_beyond_mitsubas_sample_limit_is_refused(cache, tmp_pa
     """One batch is one Mitsuba render; beyond 2^32 samples Mitsuba splits it into passes
     its sampler refuses (a RuntimeError traceback after the first batch): refused up
     front, saying how many photons fit (class D)."""
-    from reference.settings import ReferenceSettings, SettingsError
+    from volcaustics.reference.settings import ReferenceSettings, SettingsError
 
     ReferenceSettings(photons=2**32 * 2, batches=2, spp=4, width=32, height=32)  # exactly 2^32 per batch
     with pytest.raises(SettingsError, match="photons = 17179869184: .* at most 8,589,934,592 photons"):
@@ -302,7 +302,7 @@ def test_a_bad_libllvm_path_exits_2_in_the_commands_that_render_references(tmp_p
         Path(value).write_text("not a library")
     env = {k: v for k, v in os.environ.items() if k != "VOLCAUSTICS_MI_VARIANT"}
     env.update(DRJIT_LIBLLVM_PATH=value, VOLCAUSTICS_CACHE=str(tmp_path / "cache"))
-    done = subprocess.run([sys.executable, "-m", "reports.cli", "measure", "sphere1", "-o", str(tmp_path / "m"),
+    done = subprocess.run([sys.executable, "-m", "volcaustics.reports.cli", "measure", "sphere1", "-o", str(tmp_path / "m"),
                            "--width", "16", "--height", "16", "--quiet"], capture_output=True, text=True, env=env,
                           cwd=REPO, timeout=300)
     assert done.returncode == 2, done.stderr[-2000:]
@@ -338,7 +338,7 @@ def test_a_sweep_table_that_is_a_fifo_is_refused_by_the_report(tmp_path):
 
 def test_a_baseline_with_more_values_than_seeds_is_damaged(tmp_path):
     """The paired regression test broadcast (2,) against (3,): a traceback after measuring."""
-    from reports.gate import GateError, load_baseline
+    from volcaustics.reports.gate.run import GateError, load_baseline
 
     entry = {"reference_key": "k", "seeds": [0, 1], "caustic_relmse_per_seed": [0.1, 0.2, 0.3]}
     (tmp_path / "baseline.json").write_text(json.dumps({"format": 1, "scenes": {"sphere1": entry}}))
@@ -371,7 +371,7 @@ def test_a_folder_where_an_output_file_goes_fails_before_any_work(cache, tmp_pat
 
 
 def test_a_set_with_a_folder_in_place_of_one_file_is_left_untouched(tmp_path):
-    from scenes.storage import atomic_set
+    from volcaustics.scenes.storage import atomic_set
 
     (tmp_path / "a.txt").write_text("old a")
     (tmp_path / "b.txt").mkdir()
@@ -407,7 +407,7 @@ def test_ctrl_c_that_python_drops_in_a_finalizer_still_exits_130(monkeypatch, ca
     and dropped: the command went on and exited 0 (class F)."""
     import signal
 
-    import reports.cli as cli
+    import volcaustics.reports.cli as cli
 
     class Finaliser:
         def __del__(self):
@@ -445,7 +445,7 @@ def test_an_interrupted_gate_writes_no_baseline_without_its_verdict(cache, tmp_p
     """The accepted baseline, the JUnit file and gate.json are one set: Ctrl-C while it is
     written (here: drawing the JUnit XML) keeps the old baseline byte for byte and writes
     no verdict; the baseline used to be written first and the JUnit file last (class B)."""
-    import reports.gate as gate
+    import volcaustics.reports.gate.run as gate
 
     budgets = tmp_path / "budgets.toml"
     budgets.write_text(LOOSE)

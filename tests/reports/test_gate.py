@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from reports.cli import main
+from volcaustics.reports.cli import main
 
 SIZE = ["--set", "width=48", "--set", "height=48", "--set", "photon_res=128", "--set", "light_res=128"]
 REFERENCE = """
@@ -86,7 +86,7 @@ def test_unmodified_passes_and_degraded_fail_the_right_check(env, capsys):
 def test_junit_validates_against_the_junit_schema(env, capsys):
     import xmlschema
 
-    from reports.gate import Check, junit_xml
+    from volcaustics.reports.gate.run import Check, junit_xml
 
     checks = [Check("bunny", "caustic.relmse_max", 0.2, "≤ 0.3", True),
               Check("bunny", "segments.missed_step2_max", 0.09, "≤ 0.06", False, "bunny: missed <&> 0.09",
@@ -139,7 +139,7 @@ def test_fail_closed_cases_exit_2(env, capsys, case):
 
 
 def test_a_nan_metric_is_an_error_not_a_pass():
-    from reports.gate import GateError, budget_checks
+    from volcaustics.reports.gate.run import GateError, budget_checks
 
     class Fake:
         summary = {"images": {"caustic": {"hdr_flip": {"value": float("nan")}}}}

@@ -10,14 +10,14 @@ import math
 import numpy as np
 import pytest
 
-from approx.params import QUICK, ApproxParams
-from metrics.intersection import CLASS_NAMES
-from reference.settings import ReferenceSettings
-from reports.cli import main
-from reports.experiment import IMAGE_METRICS
-from scenes import load_builtin
-from scenes.catalogue import BUILTIN_NAMES
-from scenes.formats import COLOUR_LAYERS
+from volcaustics.approx.params import QUICK, ApproxParams
+from volcaustics.metrics.intersection import CLASS_NAMES
+from volcaustics.reference.settings import ReferenceSettings
+from volcaustics.reports.cli import main
+from volcaustics.reports.experiment.run import IMAGE_METRICS
+from volcaustics.scenes import load_builtin
+from volcaustics.scenes.catalogue import BUILTIN_NAMES
+from volcaustics.scenes.formats import COLOUR_LAYERS
 
 SIZE = 64
 # the reference's noise is 10–100× below E_∞,s's at this size (caustic floors 0–0.09%)
@@ -39,7 +39,7 @@ def test_decomposition_explains_the_error_on_every_builtin(cache):
     relative MSE; the standard errors are jackknifed over E_∞,s's photon subsets),
     and E_∞ must have < 0.1% of the power alive. Measured at this size: |energy z| ≤
     2.0 (bunny, −3.7%: photon_res 256 emits one photon per coarse texel), relMSE z ≤ 1.1."""
-    from reports.experiment import run_experiment
+    from volcaustics.reports.experiment.run import run_experiment
 
     failures = []
     for name in BUILTIN_NAMES:
@@ -131,7 +131,7 @@ def test_measure_writes_tidy_tables_exr_and_summary(cache, tmp_path, capsys, mon
 
     # Ctrl-C while a second run writes its set (inside the EXR writer, after the tables):
     # the first run's eight files stay, byte for byte, and no temporaries (issue 13, B)
-    import scenes.imageio
+    import volcaustics.scenes.imageio
 
     first = {p.name: p.read_bytes() for p in out.iterdir()}
     assert len(first) == 8
@@ -170,8 +170,8 @@ def test_measure_output_that_is_a_file_exits_2_before_rendering(cache, tmp_path,
 def test_start_normals_follow_the_photon_across_steps():
     """Step k's start normal is step k−1's hit normal of the same photon (records are
     not in photon order after compaction), nan at step 1 and where there was no hit."""
-    from reports.experiment import _start_normals
-    from scenes.formats import RECORD_DTYPE
+    from volcaustics.reports.experiment.run import _start_normals
+    from volcaustics.scenes.formats import RECORD_DTYPE
 
     step1 = np.zeros(3, RECORD_DTYPE)
     step1["photon"] = [7, 3, 5]

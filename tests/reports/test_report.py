@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from reports.cli import main
+from volcaustics.reports.cli import main
 
 from .test_sweep import SPEC
 
@@ -205,7 +205,7 @@ def test_the_page_survives_missing_numbers_and_odd_names(built):
     and keeps its ids and swaps working (ids are by position, not by name)."""
     import copy
 
-    from reports.html import render_page
+    from volcaustics.reports.page.html import render_page
 
     summary = copy.deepcopy(built["cold"])
     page = summary["scenes"][0]
@@ -364,7 +364,7 @@ def test_the_report_in_headless_chromium(built):
 
 def test_error_maps_average_to_their_metric():
     """full=True maps: their mean over the compared pixels is the metric's value."""
-    from metrics.image import hdr_flip, per_pixel_relative_mse
+    from volcaustics.metrics.image import hdr_flip, per_pixel_relative_mse
 
     rng = np.random.default_rng(4)
     r = rng.uniform(0.1, 1.0, (24, 32, 3))

@@ -15,8 +15,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from reports.cli import main
-from reports.store import SUMMARY, Store
+from volcaustics.reports.cli import main
+from volcaustics.reports.core.store import SUMMARY, Store
 
 # tiny points: 32², photon_res 64, light_res 64; a reference of 4 batches
 SPEC = """
@@ -107,7 +107,7 @@ def test_sigint_keeps_finished_points_and_the_rerun_computes_only_the_rest(env, 
     exactly the points missing (none twice, none lost)."""
     out = tmp_path / "store"
     spec = _spec(tmp_path, SPEC.replace("layers = [1, 2]", "layers = [1, 2, 3, 4]"))  # 8 points
-    command = [sys.executable, "-m", "reports.cli", "sweep", spec, "-o", str(out), "--workers", "1", "--quiet"]
+    command = [sys.executable, "-m", "volcaustics.reports.cli", "sweep", spec, "-o", str(out), "--workers", "1", "--quiet"]
     # SIGINT as at a terminal: a suite started in the background (nohup, `make test &`) ignores it,
     # and an ignored SIGINT is inherited and respected
     process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=os.environ.copy(),
@@ -182,7 +182,7 @@ def test_store_commit_keeps_a_complete_copy_and_replaces_a_damaged_one(tmp_path)
         files = {}
         for name in ("segments", "photons", "images"):
             pd.DataFrame({"x": [marker]}).to_parquet(tmp / f"{name}.parquet")
-            from scenes.storage import file_sha256
+            from volcaustics.scenes.storage import file_sha256
 
             files[f"{name}.parquet"] = file_sha256(str(tmp / f"{name}.parquet"))
         (tmp / SUMMARY).write_text(json.dumps({"key": key, "files": files}))
@@ -202,7 +202,7 @@ def test_two_sweeps_writing_one_store_do_not_corrupt_it(env, tmp_path):
     is there once and whole, and the consolidated tables hold each point once."""
     out = tmp_path / "store"
     spec = _spec(tmp_path)
-    command = [sys.executable, "-m", "reports.cli", "sweep", spec, "-o", str(out), "--workers", "1", "--quiet"]
+    command = [sys.executable, "-m", "volcaustics.reports.cli", "sweep", spec, "-o", str(out), "--workers", "1", "--quiet"]
     root = Path(__file__).resolve().parents[2]
     # the reference first, so that the two do not render it twice at once (the cache is
     # atomic too, but two renders would only cost time)
@@ -223,7 +223,7 @@ def test_two_sweeps_writing_one_store_do_not_corrupt_it(env, tmp_path):
 def test_a_worker_without_the_sweeps_reference_fails_its_point_with_the_fix(env):
     """Workers never render references: one that does not find the sweep's in its cache
     (another VOLCAUSTICS_CACHE on a cluster node) fails the point and says what to share."""
-    from reports.sweep import _run_point
+    from volcaustics.reports.sweep.run import _run_point
 
     task = {"key": "0" * 32, "key_document": {}, "scene": "refocus", "params": {}, "seeds": 1,
             "reference_key": "f" * 32, "store": str(env.parent / "store")}

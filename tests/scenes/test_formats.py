@@ -5,11 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from scenes import formats
-from scenes.bounds import box_exit
-from scenes.formats import (FLAG_BITS, KIND_NONE, LAYER_NAMES, MASK_LAYER, RAW_RECORD_DTYPE, RECORD_DTYPE,
+from volcaustics.scenes import formats
+from volcaustics.scenes.bounds import box_exit
+from volcaustics.scenes.formats import (FLAG_BITS, KIND_NONE, LAYER_NAMES, MASK_LAYER, RAW_RECORD_DTYPE, RECORD_DTYPE,
                             SHAPE_KINDS, STATUS_CODES, STATUS_NAMES)
-from scenes.model import Medium
+from volcaustics.scenes.model import Medium
 
 
 def test_code_tables_name_every_constant_once():

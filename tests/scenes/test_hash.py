@@ -11,8 +11,8 @@ import sys
 
 import pytest
 
-from scenes import load_builtin, load_scene
-from scenes.model import Medium, Phase, Transform
+from volcaustics.scenes import load_builtin, load_scene
+from volcaustics.scenes.model import Medium, Phase, Transform
 
 # Frozen once: the canonical-JSON format is a cache key, so an accidental change to
 # it (or to float formatting on another machine) must fail here. Update only on
@@ -34,7 +34,7 @@ def test_hash_same_in_fresh_process_with_other_hash_seed():
 
 def test_moving_scene_and_mesh_files_keeps_hash(tmp_path):
     """File meshes enter the hash by content, not location; labels do not enter."""
-    from scenes.catalogue import builtin_path
+    from volcaustics.scenes.catalogue import builtin_path
 
     original = load_builtin("bunny")
     (tmp_path / "assets").mkdir()
@@ -52,7 +52,7 @@ def test_mesh_file_content_changes_hash(tmp_path):
     """One vertex moved by 1 µm in the PLY file changes the hash."""
     from plyfile import PlyData
 
-    from scenes.catalogue import builtin_path
+    from volcaustics.scenes.catalogue import builtin_path
 
     original = load_builtin("bunny")
     ply = PlyData.read(original.specular[0].mesh.path)

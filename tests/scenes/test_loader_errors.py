@@ -15,8 +15,8 @@ try:
 except ModuleNotFoundError:
     import tomli as tomllib
 
-from reports.cli import main
-from scenes import SceneError, load_scene
+from volcaustics.reports.cli import main
+from volcaustics.scenes import SceneError, load_scene
 from tests.conftest import BASE_SCENE
 
 

@@ -19,7 +19,7 @@ try:
 except ModuleNotFoundError:
     import tomli as tomllib
 
-from scenes import Scene, SceneError, load_scene
+from volcaustics.scenes import Scene, SceneError, load_scene
 from tests.conftest import BASE_SCENE
 
 BASE = tomllib.loads(BASE_SCENE)

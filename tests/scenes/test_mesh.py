@@ -7,9 +7,9 @@ import math
 import numpy as np
 import pytest
 
-from scenes.generators import quad, skull_standin, sphere
-from scenes.mesh import Mesh, closedness_problem, read_mesh_file, winding_number
-from scenes.model import Transform
+from volcaustics.scenes.generators import quad, skull_standin, sphere
+from volcaustics.scenes.mesh import Mesh, closedness_problem, read_mesh_file, winding_number
+from volcaustics.scenes.model import Transform
 
 
 @pytest.mark.parametrize("n", [1, 2, 5, 13])

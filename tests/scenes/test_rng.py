@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 from scipy import stats
 
-from scenes.rng import hash4, pcg_hash, uniform
+from volcaustics.scenes.rng import hash4, pcg_hash, uniform
 
 M = 0xFFFFFFFF
 

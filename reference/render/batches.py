@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from scenes.rng import pcg_hash
+from volcaustics.scenes.rng import pcg_hash
 
 LIGHT, CAMERA = "light", "camera"
 STREAM_IMAGES = {LIGHT: ("caustic",), CAMERA: ("fog", "direct", "fog_direct")}

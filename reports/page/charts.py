@@ -11,10 +11,10 @@ import io
 
 import numpy as np
 
-from metrics.decomposition import TERMS
-from metrics.intersection import OUTCOME_CLASSES
+from volcaustics.metrics.decomposition import TERMS
+from volcaustics.metrics.intersection import OUTCOME_CLASSES
 
-from .figures import FATES, OKABE_ITO, _plt
+from volcaustics.reports.sweep.figures import FATES, OKABE_ITO, _plt
 
 CLASS_COLOURS = dict(zip(OUTCOME_CLASSES, ("#009E73", "#E69F00", "#D55E00", "#CC79A7", "#0072B2", "#BBBBBB")))
 PASS_COLOURS = {"trace": "#D55E00", "splat": "#0072B2", "layers": "#E69F00", "emission": "#56B4E9",

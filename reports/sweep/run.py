@@ -30,9 +30,9 @@ import threading
 import time
 from dataclasses import dataclass, field
 
-from approx.params import ApproxParams, ParamError
+from volcaustics.approx.params import ApproxParams, ParamError
 
-from .store import TABLES
+from volcaustics.reports.core.store import TABLES
 
 SPEC_KEYS = ("scenes", "preset", "seeds", "vary", "set", "reference")
 MANIFEST = "sweep.json"  # the spec and the points the store's tables hold; written last
@@ -114,7 +114,7 @@ def parse_assignment(text: str, where: str) -> tuple:
 
 def spec_from_args(scenes: str | None, vary: list, fixed: list, *, preset: str, seeds: int) -> SweepSpec:
     """A spec from ``--scenes a,b``, ``--vary NAME=V1,V2`` and ``--set NAME=V``."""
-    from scenes import BUILTIN_NAMES
+    from volcaustics.scenes import BUILTIN_NAMES
 
     names = [s.strip() for s in scenes.split(",")] if scenes is not None else list(BUILTIN_NAMES)
     grid, settled = [], {}
@@ -135,12 +135,12 @@ def spec_from_args(scenes: str | None, vary: list, fixed: list, *, preset: str, 
 
 def spec_from_toml(path: str) -> SweepSpec:
     """A spec from a TOML file (see the module's docstring)."""
-    from .tomlfile import load_toml
+    from volcaustics.reports.core.tomlfile import load_toml
 
     doc = load_toml(path, keys=SPEC_KEYS, error=SweepError, what="sweep spec")
     scenes = doc.get("scenes")
     if scenes is None:
-        from scenes import BUILTIN_NAMES
+        from volcaustics.scenes import BUILTIN_NAMES
 
         scenes = list(BUILTIN_NAMES)
     if not isinstance(scenes, list) or not all(isinstance(s, str) for s in scenes):
@@ -172,8 +172,8 @@ def _table(doc, key, path) -> dict:
 def _checked(spec: SweepSpec, where: str) -> SweepSpec:
     """Validate everything that can be checked before rendering: scenes exist, names,
     the preset, the seeds, every point's parameters, overlaps of vary and set."""
-    from approx.trace import check_fits
-    from scenes import SceneError, resolve_scene
+    from volcaustics.approx.trace import check_fits
+    from volcaustics.scenes import SceneError, resolve_scene
 
     if spec.preset not in ("quick", "paper"):
         raise SweepError(f"{where}: preset = {spec.preset!r}: expected \"quick\" or \"paper\"")
@@ -209,7 +209,7 @@ def _checked(spec: SweepSpec, where: str) -> SweepSpec:
 
 def points(spec: SweepSpec) -> list:
     """Every point of the grid, per scene, in grid order (ParamError → SweepError)."""
-    from approx.params import PAPER, QUICK
+    from volcaustics.approx.params import PAPER, QUICK
 
     try:
         base = dataclasses.replace({"quick": QUICK, "paper": PAPER}[spec.preset], **spec.fixed)
@@ -233,9 +233,9 @@ def points(spec: SweepSpec) -> list:
 def reference_settings(overrides: dict):
     """The reference budget: the report's, with ``overrides`` (REFERENCE_KEYS; a
     target_noise of "none" renders exactly ``batches``)."""
-    from reference.settings import SettingsError
+    from volcaustics.reference.settings import SettingsError
 
-    from .defaults import REPORT_REFERENCE
+    from volcaustics.reports.core.sizing import REPORT_REFERENCE
 
     changes = dict(overrides)
     if isinstance(changes.get("target_noise"), str) and changes["target_noise"].strip().lower() == "none":
@@ -255,12 +255,12 @@ def run_point(task: dict) -> dict:
 
 
 def _run_point(task: dict) -> dict:
-    from reference.lookup import cached_reference
-    from scenes import resolve_scene
-    from scenes.storage import cache_dir
+    from volcaustics.reference.cache import cached_reference
+    from volcaustics.scenes import resolve_scene
+    from volcaustics.scenes.storage import cache_dir
 
-    from .experiment import run_experiment
-    from .store import Store
+    from volcaustics.reports.experiment.run import run_experiment
+    from volcaustics.reports.core.store import Store
 
     t0 = time.perf_counter()
     store = Store(task["store"])
@@ -287,8 +287,8 @@ _TOOLS: dict = {}
 def _worker_tools(scene) -> tuple:
     """A renderer and an oracle per scene, kept for the worker process's life (shader
     compilation and the oracle's scene build are paid once per scene)."""
-    from approx import Renderer
-    from reference.oracle import Oracle
+    from volcaustics.approx import Renderer
+    from volcaustics.reference.oracle import Oracle
 
     key = scene.scene_hash()
     if key not in _TOOLS:
@@ -314,13 +314,13 @@ def run_sweep(spec: SweepSpec, out_dir: str, *, workers: int | None = None, dask
     and draw the figures. Ctrl-C stops it with the finished points kept."""
     import pandas as pd
 
-    from reference.lookup import existing_reference
-    from reference.render import render_reference
-    from scenes import resolve_scene
+    from volcaustics.reference.cache import existing_reference
+    from volcaustics.reference.render import render_reference
+    from volcaustics.scenes import resolve_scene
 
-    from .executors import run_tasks
-    from .figures import draw_figures, settings_that_suffice
-    from .store import Store, key_document, point_key
+    from volcaustics.reports.core.executors import run_tasks
+    from volcaustics.reports.sweep.figures import draw_figures, settings_that_suffice
+    from volcaustics.reports.core.store import Store, key_document, point_key
 
     t0 = time.perf_counter()
     store = Store(out_dir)
@@ -379,7 +379,7 @@ def _write_tables(out_dir: str, tables: dict, manifest: dict) -> None:
     never a manifest beside another run's tables (what ``report --sweep`` reads)."""
     import json
 
-    from scenes.storage import atomic_set
+    from volcaustics.scenes.storage import atomic_set
 
     names = [name for name in OUTPUT_FILES if name != MANIFEST]
     with atomic_set([os.path.join(out_dir, name) for name in (*names, MANIFEST)]) as temps:

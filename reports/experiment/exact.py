@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from scenes.formats import STATUS_COLLIDED, STATUS_SURFACE
+from volcaustics.scenes.formats import STATUS_COLLIDED, STATUS_SURFACE
 
 
 @dataclass
@@ -132,8 +132,8 @@ def exact_photons(scene, params, *, steps: int, fresnel: str, renderer=None, ora
     first_records : the emission state to replay (step-1 records, RECORD_DTYPE) when
         already at hand; else a one-step frame is rendered for it.
     """
-    from approx import Renderer
-    from reference.oracle import Oracle, exact_photon_records
+    from volcaustics.approx import Renderer
+    from volcaustics.reference.oracle import Oracle, exact_photon_records
 
     p = dataclasses.replace(params, fresnel=fresnel).resolved(scene)
     mask = None
@@ -158,7 +158,7 @@ def photons_from_records(records: list, first_records: np.ndarray, params, *, st
     """The medium collisions of an exact replay's per-step records
     (``reference.oracle.exact_photon_records``) as :class:`ExactPhotons`, for callers
     that also use the records (power budgets, divergence)."""
-    from approx.splat import splats_from_arrays
+    from volcaustics.approx.splat import splats_from_arrays
 
     collided = [r[r["status"] == STATUS_COLLIDED] for r in records]
     collided_power = np.zeros((steps, 3))
@@ -253,7 +253,7 @@ def exact_caustic(scene, params, *, steps: int, fresnel: str, batches: int = 8, 
     the mean, the glass mask (1 where any fine sample sees glass), the photons (alive
     power after the last step) and the parameters used.
     """
-    from approx import Renderer
+    from volcaustics.approx import Renderer
 
     if batches < 2:
         raise ValueError(f"batches = {batches}: expected at least 2 (the variance needs two)")
@@ -312,7 +312,7 @@ def reference_caustic(scene, settings, *, mode: str = "caustic") -> ReferenceCau
     """
     import time
 
-    from reference.render import render_batches
+    from volcaustics.reference.render import render_batches
 
     calls = settings.batches
     t0 = time.perf_counter()

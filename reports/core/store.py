@@ -36,7 +36,7 @@ import shutil
 import socket
 import uuid
 
-from scenes.storage import atomic_write_text, file_sha256, read_json_object
+from volcaustics.scenes.storage import atomic_write_text, file_sha256, read_json_object
 
 TABLES = ("segments", "photons", "images")
 TABLE_FILES = tuple(f"{name}.parquet" for name in TABLES)
@@ -58,7 +58,7 @@ def key_document(scene, params, seeds: int, reference) -> dict:
     the seeds, the reference (``reference.render.ReferenceResult``: its cache key and,
     since an entry can be continued with more batches under one key, the hash of its
     content) and the code version."""
-    from .versions import code_version
+    from volcaustics.reports.core.versions import code_version
 
     return {"format": STORE_FORMAT, "scene_hash": scene.scene_hash(), "params": params.resolved(scene).to_dict(),
             "seeds": seeds, "reference_key": reference.key,
@@ -104,7 +104,7 @@ class Store:
 
     def views(self, key: str) -> dict:
         """The point's views (name → array; ``reports.experiment.VIEWS``)."""
-        from scenes.imageio import read_exr
+        from volcaustics.scenes.imageio import read_exr
 
         layers, _ = read_exr(os.path.join(self.point_dir(key), VIEWS))
         return layers
@@ -113,9 +113,9 @@ class Store:
         """Write a point whole, or not at all, with the experiment's views when ``views``;
         returns "written", or "kept" when a complete copy appeared meanwhile (another
         sweep)."""
-        from scenes.imageio import write_exr
+        from volcaustics.scenes.imageio import write_exr
 
-        from .experiment import plain, table
+        from volcaustics.reports.experiment.run import plain, table
 
         tmp = os.path.join(self.points, f".tmp-{key}-{socket.gethostname()}-{os.getpid()}-{uuid.uuid4().hex[:8]}")
         os.makedirs(tmp)
@@ -193,7 +193,7 @@ class Store:
         (``reports.sweep`` writes them with its manifest as one set)."""
         import pandas as pd
 
-        from .experiment import table
+        from volcaustics.reports.experiment.run import table
 
         frames = {name: [] for name in TABLES}
         points = []

@@ -14,9 +14,9 @@ from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
-from scenes.storage import atomic_path, atomic_write_bytes, cache_dir
+from volcaustics.scenes.storage import atomic_path, atomic_write_bytes, cache_dir
 
-from .description import FOG_ID, Description, describe, ply_bytes, ply_digest
+from ..description import FOG_ID, Description, describe, ply_bytes, ply_digest
 
 PLY_NAME_DIGITS = 32  # hex digits of the content hash in a PLY file name
 
@@ -56,7 +56,7 @@ def _transform(mi, ops):
 def mitsuba_dict(description: Description, mesh_dir: str | None = None) -> dict:
     """The ``mi.load_dict`` input of a description; ``mesh_dir`` (default: the cache)
     receives the PLY files."""
-    from .mi_setup import mitsuba
+    from ..mi_setup import mitsuba
 
     mi = mitsuba()
     mesh_dir = mesh_dir or cache_dir("mitsuba-meshes")

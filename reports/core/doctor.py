@@ -57,10 +57,10 @@ def _cpu() -> str:
 
 def run_doctor() -> DoctorReport:
     """Probe GL, libLLVM and Mitsuba variants; every failing check carries its fix."""
-    import reference  # chooses libLLVM before drjit is imported
-    from approx.context import ContextError, GL_REQUIRE, gl_info, shared_context
-    from reference.llvm import MIN_MAJOR, libllvm_major
-    from reference.variant import probe
+    import volcaustics.reference  # chooses libLLVM before drjit is imported
+    from volcaustics.approx.context import ContextError, GL_REQUIRE, gl_info, shared_context
+    from volcaustics.reference.llvm import MIN_MAJOR, libllvm_major
+    from volcaustics.reference.variant import probe
 
     report = DoctorReport()
     report.add("python", True, f"{platform.python_version()} ({sys.executable})")
@@ -90,7 +90,7 @@ def run_doctor() -> DoctorReport:
     except Exception as exc:
         report.add("mitsuba", False, f"not installed ({exc})", "make setup (pip install -e '.[test]')")
 
-    from reference.variant import PREFERRED
+    from volcaustics.reference.variant import PREFERRED
 
     rendering = []
     for variant in ("scalar_rgb", "llvm_ad_rgb", "cuda_ad_rgb"):
@@ -111,7 +111,7 @@ def run_doctor() -> DoctorReport:
 
 def _variant_override(report: DoctorReport, rendering: list) -> None:
     """VOLCAUSTICS_MI_VARIANT, when set, as every rendering command reads it."""
-    from reference.mi_setup import VARIANT_ENV, VariantError, variant_override
+    from volcaustics.reference.mi_setup import VARIANT_ENV, VariantError, variant_override
 
     try:
         variant = variant_override()

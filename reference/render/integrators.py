@@ -32,10 +32,10 @@ import math
 
 import drjit as dr
 
-from scenes.formats import KIND_DIFFUSE, KIND_SPECULAR
+from volcaustics.scenes.formats import KIND_DIFFUSE, KIND_SPECULAR
 
-from .mi_setup import mitsuba
-from .settings import MODES
+from ..mi_setup import mitsuba
+from ..settings import MODES
 from .shapes import ShapeTable
 
 mi = mitsuba()

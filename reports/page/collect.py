@@ -54,7 +54,7 @@ class SweepTables:
 
 
 def store_dir() -> str:
-    from scenes.storage import cache_dir
+    from volcaustics.scenes.storage import cache_dir
 
     return cache_dir(STORE_NAME)
 
@@ -80,10 +80,10 @@ def collect_scenes(names, params, *, seeds: int, reference_settings, budgets: di
     baseline : ``reports.gate.load_baseline``'s result, for the regression test.
     clock : receives the seconds of each stage.
     """
-    from reference.render import render_reference
-    from scenes import SceneError, resolve_scene
+    from volcaustics.reference.render import render_reference
+    from volcaustics.scenes import SceneError, resolve_scene
 
-    from .store import Store
+    from volcaustics.reports.core.store import Store
 
     clock = {} if clock is None else clock
     scenes = {}
@@ -118,8 +118,8 @@ def collect_scenes(names, params, *, seeds: int, reference_settings, budgets: di
 def _scene_result(store, scene, name, params, seeds, reference, progress: bool = False) -> SceneResult:
     import pandas as pd
 
-    from .experiment import run_experiment
-    from .store import TABLES, key_document, point_key
+    from volcaustics.reports.experiment.run import run_experiment
+    from volcaustics.reports.core.store import TABLES, key_document, point_key
 
     document = key_document(scene, params, seeds, reference)
     key = point_key(document)
@@ -140,13 +140,13 @@ class _Stored:
 
     def __init__(self, result: SceneResult):
         self.summary = result.summary
-        from .store import rows_of
+        from volcaustics.reports.core.store import rows_of
 
         self.segments = rows_of(result.tables["segments"])
 
 
 def _gate(result: SceneResult, budgets: dict, baseline: dict | None) -> None:
-    from .gate import GateError, baseline_entry, budget_checks, regression_check
+    from volcaustics.reports.gate.run import GateError, baseline_entry, budget_checks, regression_check
 
     limits = budgets["scenes"].get(result.summary["scene"])
     if limits is None:
@@ -179,7 +179,7 @@ def load_sweep(folder: str) -> SweepTables:
     """A sweep store's consolidated tables (``volcaustics sweep -o DIR`` wrote them)."""
     import pandas as pd
 
-    from scenes.storage import read_json_object, special_file_kind
+    from volcaustics.scenes.storage import read_json_object, special_file_kind
 
     try:
         doc = read_json_object(os.path.join(folder, "sweep.json"))
@@ -217,8 +217,8 @@ def run_report(out_dir: str, names, *, overrides: dict, seeds: int | None, seed:
 
     The approximation's parameters are the budgets' preset with ``overrides``; the
     seeds ``seed`` … ``seed + seeds − 1`` (``seeds`` default: the budgets')."""
-    from .gate import load_baseline, measured_settings
-    from .report import report_summary, write_report
+    from volcaustics.reports.gate.run import load_baseline, measured_settings
+    from volcaustics.reports.page.summary import report_summary, write_report
 
     t0 = time.perf_counter()
     params, seeds = measured_settings(budgets, overrides, seeds=seeds, seed=seed, min_seeds=1,

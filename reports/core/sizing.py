@@ -9,7 +9,7 @@ per scene pass.
 
 from __future__ import annotations
 
-from reference.settings import ReferenceSettings
+from volcaustics.reference.settings import ReferenceSettings
 
 REPORT_TARGET = "caustic=0.005,fog=0.002,direct=0.002"
 REPORT_REFERENCE = ReferenceSettings(photons=1 << 22, spp=64, batches=16, target_noise=REPORT_TARGET,

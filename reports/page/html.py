@@ -11,7 +11,7 @@ from __future__ import annotations
 import json
 from html import escape
 
-from scenes.formats import COLOUR_LAYERS
+from volcaustics.scenes.formats import COLOUR_LAYERS
 
 CSS = """
 body{font-family:system-ui,-apple-system,"Segoe UI",sans-serif;margin:0 auto;padding:12px 20px;max-width:1320px;
@@ -200,7 +200,7 @@ def _maps(page: dict, images: dict, summary: dict, bars: dict, width: int) -> st
 
 
 def _hit_table(hits: dict) -> str:
-    from metrics.intersection import OUTCOME_CLASSES
+    from volcaustics.metrics.intersection import OUTCOME_CLASSES
 
     share = "{:.1f}%"
     head = ("<tr><th>step</th><th>segments</th>" + "".join(f"<th>{c.replace('_', ' ')}</th>" for c in OUTCOME_CLASSES)
@@ -319,7 +319,7 @@ def _sweep_section(sweep: dict, figures: dict) -> str:
 
 def render_page(summary: dict, images: dict, sweep_figures: dict) -> str:
     """The page; ``images``: scene → name → data URI (``reports.report.scene_images``)."""
-    from .pictures import SCALES, colour_bar_css
+    from volcaustics.reports.page.images import SCALES, colour_bar_css
 
     bars = {name: {"css": colour_bar_css(scale), "ticks": scale.ticks()} for name, scale in SCALES.items()}
     params = summary["params"]

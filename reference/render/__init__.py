@@ -20,39 +20,14 @@ import time
 
 import numpy as np
 
-from scenes.formats import COLOUR_LAYERS, MASK_LAYER
-from scenes.imageio import png_bytes, tonemap_srgb8
+from volcaustics.scenes.formats import COLOUR_LAYERS, MASK_LAYER
+from volcaustics.scenes.imageio import png_bytes, tonemap_srgb8
 
-from . import cache
+from .. import cache
+from ..cache import ReferenceResult, for_caller
 from .batches import CAMERA, LIGHT, STREAM_IMAGES, BatchStats, batch_seed, noise_floor
-from .request import RenderRequest, resolve
-from .settings import ReferenceSettings
-
-
-class ReferenceResult:
-    """A cached reference: ``manifest`` (photons, batches, seed, wall time, variant,
-    versions, the caller's scene name and hash, settings, cached), ``exr_path``/``png_path`` of the cache
-    files, and the images, read on first use: ``mean`` (layer → H×W×3 float32;
-    mask_specular 0/1) and ``var`` (layer → variance of the mean)."""
-
-    def __init__(self, key: str, manifest: dict, cached: bool, layers: dict | None = None):
-        self.key, self.manifest, self.cached = key, {**manifest, "cached": cached}, cached
-        self.exr_path, _ = cache.paths(key)
-        self.png_path = self.exr_path[:-4] + ".png"
-        self._layers = layers
-
-    def _load(self) -> dict:
-        if self._layers is None:
-            self._layers = cache.read_layers(self.key)
-        return self._layers
-
-    @property
-    def mean(self) -> dict:
-        return {k: v for k, v in self._load().items() if not k.endswith("_var")}
-
-    @property
-    def var(self) -> dict:
-        return {k[:-4]: v for k, v in self._load().items() if k.endswith("_var")}
+from ..request import RenderRequest, resolve
+from ..settings import ReferenceSettings
 
 
 class RenderState:
@@ -158,7 +133,7 @@ def _render(request: RenderRequest, state: RenderState | None = None, *, progres
 
     from .export import mitsuba_dict
     from .integrators import SingleScatterIntegrator, VolumetricLightTracer, configure
-    from .mi_setup import mitsuba
+    from ..mi_setup import mitsuba
 
     mi = mitsuba()
     scene, settings = request.scene, request.settings
@@ -248,7 +223,7 @@ def render_reference(scene, settings: ReferenceSettings | None = None, *, mode: 
     ``target_noise``) is continued batch by batch, never thrown away; else rendered and
     stored. The image is ``settings.width × height`` (unset: the scene camera's).
     ``mode``: which light paths the caustic layer counts (settings.MODES)."""
-    from .mi_setup import drjit_version, mitsuba_version, variant_name
+    from ..mi_setup import drjit_version, mitsuba_version, variant_name
 
     request = resolve(scene, settings, mode)
     settings = request.settings
@@ -259,7 +234,7 @@ def render_reference(scene, settings: ReferenceSettings | None = None, *, mode: 
         if served is not None:
             served_key, manifest = served
             if _satisfied(manifest, settings):
-                return ReferenceResult(served_key, _for_caller(manifest, scene), cached=True)
+                return ReferenceResult(served_key, for_caller(manifest, scene), cached=True)
             arrays = cache.read_state(served_key, manifest) if served_key == key else None
             state = RenderState.from_arrays(arrays) if arrays is not None else None
     state, stopped_by, seconds = _render(request, state, progress=progress)
@@ -285,10 +260,3 @@ def render_reference(scene, settings: ReferenceSettings | None = None, *, mode: 
     manifest = cache.store(key, layers, manifest, header, png_bytes(tonemap_srgb8(layers["combined"])),
                            state=state.arrays())
     return ReferenceResult(key, manifest, cached=False, layers=layers)
-
-
-def _for_caller(manifest: dict, scene) -> dict:
-    """A cached manifest with the caller's scene name and hash: one entry serves every
-    scene that renders the same (other labels, another camera size with settings naming
-    the size), and the caller is told about the scene it passed."""
-    return {**manifest, "scene": scene.name, "scene_hash": scene.scene_hash()}

@@ -11,7 +11,7 @@ def load_toml(path: str, *, keys, error, what: str) -> dict:
         import tomllib
     except ModuleNotFoundError:  # Python 3.10
         import tomli as tomllib
-    from scenes.storage import special_file_kind
+    from volcaustics.scenes.storage import special_file_kind
 
     kind = special_file_kind(path)
     if kind:

@@ -71,7 +71,7 @@ def default_budgets_path() -> str:
 
 def load_budgets(path: str) -> dict:
     """{"preset", "seeds", "scenes": {name: {check: limit}}}, validated."""
-    from .tomlfile import load_toml
+    from volcaustics.reports.core.tomlfile import load_toml
 
     doc = load_toml(path, keys=TOP_KEYS, error=GateError, what="budgets")
     seeds = doc.get("seeds", 4)
@@ -108,7 +108,7 @@ def load_budgets(path: str) -> dict:
                     raise GateError(f"{where} = {limit!r}: expected a positive number")
                 checks[f"{group}.{key}"] = limit
         out[name] = checks
-    from .sweep import REFERENCE_KEYS, SweepError, reference_settings
+    from volcaustics.reports.sweep.run import REFERENCE_KEYS, SweepError, reference_settings
 
     reference = doc.get("reference", {})
     if not isinstance(reference, dict) or any(k not in REFERENCE_KEYS for k in reference):
@@ -125,12 +125,12 @@ def load_budgets(path: str) -> dict:
 def measure_scene(name: str, params, seeds: int, *, render_references: bool, reference_settings=None):
     """The experiment of one gated scene (quick preset sizes), with its reference from
     the cache (GateError when missing, unless ``render_references``)."""
-    from reference.lookup import existing_reference
-    from reference.render import render_reference
-    from scenes import SceneError, resolve_scene
+    from volcaustics.reference.cache import existing_reference
+    from volcaustics.reference.render import render_reference
+    from volcaustics.scenes import SceneError, resolve_scene
 
-    from .defaults import REPORT_REFERENCE
-    from .experiment import run_experiment
+    from volcaustics.reports.core.sizing import REPORT_REFERENCE
+    from volcaustics.reports.experiment.run import run_experiment
 
     try:
         scene = resolve_scene(name)
@@ -265,7 +265,7 @@ def baseline_entry(experiment) -> dict:
 
 
 def load_baseline(folder: str) -> dict:
-    from scenes.storage import read_json_object
+    from volcaustics.scenes.storage import read_json_object
 
     path = os.path.join(folder, BASELINE)
     try:
@@ -301,8 +301,8 @@ def measured_settings(budgets: dict, overrides: dict, *, seeds: int | None, seed
     """(params, seeds) of the gate's experiments: the budgets' preset with ``overrides``
     and first seed ``seed``; ``seeds`` (default: the budgets') at least ``min_seeds``
     (``why`` says why). GateError for a bad override, seed count or seed."""
-    from approx.params import PAPER, QUICK, ParamError
-    from approx.trace import check_fits
+    from volcaustics.approx.params import PAPER, QUICK, ParamError
+    from volcaustics.approx.trace import check_fits
 
     n_seeds = budgets["seeds"] if seeds is None else seeds
     if isinstance(n_seeds, bool) or not isinstance(n_seeds, int) or not min_seeds <= n_seeds <= 256:
@@ -336,7 +336,7 @@ def run_gate(budgets: dict, *, overrides: dict, baseline_dir: str | None, update
 
     from tqdm import tqdm
 
-    from scenes.storage import remove_file
+    from volcaustics.scenes.storage import remove_file
 
     t0 = time.perf_counter()
     names = list(scenes) if scenes else list(budgets["scenes"])
@@ -385,8 +385,8 @@ def _failure_images(out_dir, scene, check, experiment) -> dict:
     reference's exposure (PNG) — what a reader of the failure looks at first."""
     import numpy as np
 
-    from metrics.image import reference_exposure
-    from scenes.imageio import write_png
+    from volcaustics.metrics.image import reference_exposure
+    from volcaustics.scenes.imageio import write_png
 
     layers = experiment.layers
     a, r = np.asarray(layers["approx"]), np.asarray(layers["reference"])
@@ -408,9 +408,9 @@ def _write_outputs(out_dir, result: GateResult, params, seeds, budgets, *, basel
     """The new baseline (when accepted), the JUnit file and, last, gate.json as one set
     (``scenes.storage.atomic_set``): an interrupted gate never leaves a new baseline
     without its verdict."""
-    from scenes.storage import atomic_write_texts
+    from volcaustics.scenes.storage import atomic_write_texts
 
-    from .experiment import plain
+    from volcaustics.reports.experiment.run import plain
 
     doc = {"passed": result.exit_code == 0, "exit_code": result.exit_code, "seconds": result.seconds,
            "budgets": budgets["path"], "params": params.to_dict(), "seeds": seeds, "baseline": result.baseline,

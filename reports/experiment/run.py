@@ -32,8 +32,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from metrics.noise import MIN_SEEDS_FOR_INTERVAL
-from scenes.formats import COLOUR_LAYERS, MASK_LAYER, STATUS_COLLIDED
+from volcaustics.metrics.noise import MIN_SEEDS_FOR_INTERVAL
+from volcaustics.scenes.formats import COLOUR_LAYERS, MASK_LAYER, STATUS_COLLIDED
 
 EXACT_STEPS = 128            # E_∞: < 0.1% of the power alive after them on every built-in (V6; feline 0.03%)
 ALIVE_BUDGET = 1e-3          # above it, summary.json warns that E_∞ is truncated
@@ -76,7 +76,7 @@ def parameter_columns(scene, params, seeds: list, reference_key: str) -> dict:
     """The columns every row of every table carries: scene, its hash, every
     approximation parameter (``seed``: the first seed), the seeds, the reference's
     cache key and the code version."""
-    from .versions import code_version
+    from volcaustics.reports.core.versions import code_version
 
     return {"scene": scene.name, "scene_hash": scene.scene_hash(), **params.to_dict(), "seeds": len(seeds),
             "reference_key": reference_key, "code_version": code_version()}
@@ -104,12 +104,12 @@ def run_experiment(scene, params, *, seeds: int = 1, reference_settings=None, pr
     renderer, oracle, reference : reused when given (a ``reference.render.ReferenceResult``
         at the frames' size).
     """
-    from approx import Renderer
-    from approx.params import ParamError
-    from approx.trace import check_fits
-    from reference.oracle import Oracle
+    from volcaustics.approx import Renderer
+    from volcaustics.approx.params import ParamError
+    from volcaustics.approx.trace import check_fits
+    from volcaustics.reference.oracle import Oracle
 
-    from .defaults import REPORT_REFERENCE
+    from volcaustics.reports.core.sizing import REPORT_REFERENCE
 
     if isinstance(seeds, bool) or not isinstance(seeds, int) or not 1 <= seeds <= 1024:
         raise ParamError(f"seeds = {seeds!r}: expected an integer in [1, 1024]")
@@ -122,7 +122,7 @@ def run_experiment(scene, params, *, seeds: int = 1, reference_settings=None, pr
     bar = _progress(6, progress)
     t0 = time.perf_counter()
     if reference is None:
-        from reference.render import render_reference
+        from volcaustics.reference.render import render_reference
 
         settings = dataclasses.replace(reference_settings or REPORT_REFERENCE, width=p.width, height=p.height)
         reference = render_reference(scene, settings, progress=progress)
@@ -242,9 +242,9 @@ def _start_normals(records: list) -> list:
 
 
 def _segment_rows(scene, p, frames, oracle, columns) -> list:
-    from approx.light import LightFrustum
-    from metrics.intersection import SELF_REHIT, classify_segments, intersection_table
-    from scenes.bounds import medium_bounds
+    from volcaustics.approx.light import LightFrustum
+    from volcaustics.metrics.intersection import SELF_REHIT, classify_segments, intersection_table
+    from volcaustics.scenes.bounds import medium_bounds
 
     records = np.concatenate([r for f in frames for r in f.records])
     start_normal = np.concatenate([n for f in frames for n in _start_normals(f.records)])
@@ -284,7 +284,7 @@ def _beyond(records, exact, self_rehit, oracle) -> dict:
 
 def _replay(scene, p, frame, seed, oracle) -> list:
     """The frame's photons replayed exactly with its steps and Fresnel."""
-    from reference.oracle import exact_photon_records
+    from volcaustics.reference.oracle import exact_photon_records
 
     return exact_photon_records(scene, frame.records[0], steps=p.steps, seed=seed, fresnel=p.fresnel, oracle=oracle)
 
@@ -292,7 +292,7 @@ def _replay(scene, p, frame, seed, oracle) -> list:
 def _photon_rows(frames, replays, columns) -> tuple:
     """Power budget per (tracer, step), the shares averaged over seeds, and the paths'
     first divergence per step (all seeds' photons pooled)."""
-    from metrics.paths import path_divergence, power_budget
+    from volcaustics.metrics.paths import path_divergence, power_budget
 
     budgets = {}
     for tracer, runs in (("approx", [f.records for f in frames]), ("exact", replays)):
@@ -345,7 +345,7 @@ def _percentile(v, q):
 # --- exact images --------------------------------------------------------------------
 
 def _small_radius(scene, p) -> float:
-    from .exact import pixel_footprint
+    from volcaustics.reports.experiment.exact import pixel_footprint
 
     return SMALL_KERNEL_FINE_PIXELS * pixel_footprint(scene.camera, p.height * SMALL_SUPERSAMPLE)
 
@@ -354,10 +354,10 @@ def _exact_images(scene, p, frames, replays, seeds, renderer, oracle) -> dict:
     """Per seed, SUBSET_BATCHES paired subset images (``reports.exact.subset_images``)
     of A, E_k, E_∞ (A's Fresnel), E_∞ (stochastic) and E_∞,s; all seeds' batches
     concatenated (batch j of every image: the same emission texels of one seed)."""
-    from approx.splat import splats_from_arrays
-    from reference.oracle import exact_photon_records
+    from volcaustics.approx.splat import splats_from_arrays
+    from volcaustics.reference.oracle import exact_photon_records
 
-    from .exact import exact_photons, photons_from_records, subset_images
+    from volcaustics.reports.experiment.exact import exact_photons, photons_from_records, subset_images
 
     out = {name: [] for name in ("approx", "exact_steps", "exact_all_same", "exact_all", "exact_all_small")}
     alive = {}
@@ -408,9 +408,9 @@ def _floor(metric, reference_key, component, keep, r, rv, compute) -> float:
     """A non-quadratic metric's value for the reference against its noisy copy
     (``metrics.noise.noisy_copy``, the mean over FLOOR_DRAWS draws), cached in-process
     and on disk per (reference, component, metric, compared pixels, code version)."""
-    from scenes.storage import atomic_write_text, cache_dir
+    from volcaustics.scenes.storage import atomic_write_text, cache_dir
 
-    from .versions import code_version
+    from volcaustics.reports.core.versions import code_version
 
     ident = hashlib.sha256(f"{reference_key}/{component}/{metric}/{FLOOR_SEED}/{FLOOR_DRAWS}/{code_version()}/"
                            .encode() + np.packbits(keep).tobytes()).hexdigest()[:24]
@@ -421,7 +421,7 @@ def _floor(metric, reference_key, component, keep, r, rv, compute) -> float:
         with open(path) as fh:
             value = float(json.load(fh)["value"])
     except (OSError, ValueError, KeyError, TypeError):
-        from metrics.noise import noisy_copy
+        from volcaustics.metrics.noise import noisy_copy
 
         value = float(np.mean([compute(r, noisy_copy(r, rv, seed=FLOOR_SEED + i)) for i in range(FLOOR_DRAWS)]))
         atomic_write_text(path, json.dumps({"value": value, "metric": metric, "component": component,
@@ -456,8 +456,8 @@ def _image_rows(frames, reference, keep, columns, maps=None) -> tuple:
     A metric that cannot be computed (a reference black in some channel) gets NaN
     and a ``note``. ``maps`` (a dict) receives the first frame's error map of each
     of MAP_METRICS per component: (metric, component) → H×W."""
-    from metrics import image as im
-    from metrics.noise import seed_mean_interval, seed_relative_mse
+    from volcaustics.metrics import image as im
+    from volcaustics.metrics.noise import seed_mean_interval, seed_relative_mse
 
     per_frame = {  # metric: (value of one frame, debias: (mean, floor) -> debiased)
         "per_pixel_relative_mse": (im.per_pixel_relative_mse, lambda m, f: m - f),
@@ -531,7 +531,7 @@ def _ci(interval) -> dict:
 # --- decomposition -------------------------------------------------------------------
 
 def _decompose(exact, reference, keep) -> dict:
-    from metrics.decomposition import decompose_caustic
+    from volcaustics.metrics.decomposition import decompose_caustic
 
     return decompose_caustic(exact["batches"], reference.mean["caustic"], keep=keep,
                              reference_var=reference.var["caustic"])
@@ -561,9 +561,9 @@ def _decomposition_rows(decomposition, columns) -> list:
 
 def _summary(scene, p, seeds, reference, frames, exact, headline, decomposition, divergence, clock, keep,
              timed) -> dict:
-    from approx.context import gl_info, shared_context
+    from volcaustics.approx.context import gl_info, shared_context
 
-    from .versions import code_version, library_versions
+    from volcaustics.reports.core.versions import code_version, library_versions
 
     alive = {k: float(max(v)) for k, v in exact["alive"].items()}
     warnings = [f"E_inf ({k} Fresnel) keeps {100 * v:.2f}% of the power alive after {EXACT_STEPS} steps "
@@ -630,8 +630,8 @@ def write_experiment(experiment: Experiment, out_dir: str) -> dict:
     """Write the tables (Parquet + CSV), ``decomposition.exr`` and, last,
     ``summary.json`` into ``out_dir`` as one set (``scenes.storage.atomic_set``: an
     interrupted write leaves the last complete set). Returns the paths."""
-    from scenes.imageio import write_exr
-    from scenes.storage import atomic_set
+    from volcaustics.scenes.imageio import write_exr
+    from volcaustics.scenes.storage import atomic_set
 
     os.makedirs(out_dir, exist_ok=True)
     paths = output_paths(out_dir)  # summary.json last: the set's manifest

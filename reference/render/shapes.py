@@ -7,7 +7,7 @@ index in our scene model and the glass absorption coefficient.
 
 from __future__ import annotations
 
-from scenes.formats import KIND_BOUNDARY, KIND_DIFFUSE, KIND_NONE, KIND_SPECULAR
+from volcaustics.scenes.formats import KIND_BOUNDARY, KIND_DIFFUSE, KIND_NONE, KIND_SPECULAR
 
 
 class ShapeTable:

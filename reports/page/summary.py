@@ -17,8 +17,8 @@ import time
 
 import numpy as np
 
-from metrics.decomposition import TERMS
-from scenes.formats import COLOUR_LAYERS
+from volcaustics.metrics.decomposition import TERMS
+from volcaustics.scenes.formats import COLOUR_LAYERS
 
 # Wang, Wang & Chen: intersection estimation takes about 70% of a frame and splatting about 23% on their GPU
 OUTPUT_FILES = ("index.html", "summary.json")  # in --out; the manifest, summary.json, last
@@ -44,7 +44,7 @@ def hit_classes(segments) -> dict:
     approximation's hit (``"none"`` when it found none), and per step with the |Δt|
     percentiles of true hits (mm). Self re-hits are counted by their class beyond the
     re-hit surface and given apart as ``self_rehit`` (DESIGN.md)."""
-    from metrics.intersection import OUTCOME_CLASSES
+    from volcaustics.metrics.intersection import OUTCOME_CLASSES
 
     def classes(frame, total):
         out = {}
@@ -76,7 +76,7 @@ def hit_classes(segments) -> dict:
 
 def power_budget(photons) -> list:
     """Power by fate per (tracer, step), % of the power entering step 1."""
-    from .figures import FATES
+    from volcaustics.reports.sweep.figures import FATES
 
     out = []
     for _, r in photons.sort_values(["tracer", "step"]).iterrows():
@@ -127,7 +127,7 @@ def scene_page(result, *, exposures: dict) -> dict:
 
 def exposures(result) -> dict:
     """One exposure per shown component: the reference's (its bright pixels to 1)."""
-    from metrics.image import reference_exposure
+    from volcaustics.metrics.image import reference_exposure
 
     keep = result.views["compared"][..., 0] > 0.5
     out = {}
@@ -141,8 +141,8 @@ def exposures(result) -> dict:
 
 def report_summary(results: list, *, params, seeds: int, reference_settings, budgets: dict,
                    baseline_dir: str | None, sweep=None, clock: dict) -> dict:
-    from .pictures import SCALES
-    from .versions import code_version, library_versions
+    from volcaustics.reports.page.images import SCALES
+    from volcaustics.reports.core.versions import code_version, library_versions
 
     pages = [scene_page(r, exposures=exposures(r)) for r in results]
     checks = [c for p in pages for c in p["gate"]["checks"]]
@@ -169,8 +169,8 @@ def report_summary(results: list, *, params, seeds: int, reference_settings, bud
 
 
 def _sweep_summary(sweep) -> dict:
-    from .figures import settings_that_suffice
-    from .store import rows_of
+    from volcaustics.reports.sweep.figures import settings_that_suffice
+    from volcaustics.reports.core.store import rows_of
 
     suffice = settings_that_suffice(sweep.tables["points"], sweep.varied)
     wanted = suffice[suffice["parameter"].isin(("layers", "iterations", "peak_samples"))] if len(suffice) else suffice
@@ -190,10 +190,10 @@ def write_report(out_dir: str, results: list, summary: dict, sweep=None, *, prog
     null). ``started``: the run's ``time.perf_counter()`` at its start, for the total."""
     from tqdm import tqdm
 
-    from scenes.storage import atomic_write_texts
+    from volcaustics.scenes.storage import atomic_write_texts
 
-    from .experiment import plain
-    from .html import render_page
+    from volcaustics.reports.experiment.run import plain
+    from volcaustics.reports.page.html import render_page
 
     t0 = time.perf_counter()
     os.makedirs(out_dir, exist_ok=True)
@@ -203,8 +203,8 @@ def write_report(out_dir: str, results: list, summary: dict, sweep=None, *, prog
               for result, page in tqdm(pairs, desc="page", unit="scene", disable=not progress)}
     sweep_figures = {}
     if sweep is not None:
-        from .figures import draw_figures
-        from .pictures import data_uri
+        from volcaustics.reports.sweep.figures import draw_figures
+        from volcaustics.reports.page.images import data_uri
 
         paths = draw_figures(sweep.tables, os.path.join(out_dir, "figures"), varied=sweep.varied)
         for path in paths:
@@ -225,8 +225,8 @@ def write_report(out_dir: str, results: list, summary: dict, sweep=None, *, prog
 def scene_images(result, page: dict) -> dict:
     """Data URIs of one scene: renders at the page's exposures, error maps on the fixed
     scales, charts."""
-    from . import scene_figures as charts
-    from .pictures import SCALES, data_uri, heatmap_uri, render_uri
+    import volcaustics.reports.page.charts as charts
+    from volcaustics.reports.page.images import SCALES, data_uri, heatmap_uri, render_uri
 
     v = result.views
     out = {}

@@ -34,7 +34,7 @@ def _plt():
 
 
 def _save(fig, folder: str, name: str) -> list:
-    from scenes.storage import atomic_path
+    from volcaustics.scenes.storage import atomic_path
 
     os.makedirs(folder, exist_ok=True)
     paths = []

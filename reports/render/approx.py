@@ -10,8 +10,8 @@ import os
 
 import numpy as np
 
-from scenes.imageio import write_exr, write_png
-from scenes.storage import atomic_set
+from volcaustics.scenes.imageio import write_exr, write_png
+from volcaustics.scenes.storage import atomic_set
 
 
 def output_paths(out: str) -> dict:
@@ -31,7 +31,7 @@ def subsample_records(records: list, max_per_step: int) -> tuple[np.ndarray, int
 
 def run_approx(scene, params, out: str, *, records_max: int = 200_000) -> dict:
     """Render and write the outputs; returns the JSON summary written."""
-    from approx import render
+    from volcaustics.approx import render
 
     frame = render(scene, params, keep_records=records_max != 0)
     paths = output_paths(out)

@@ -21,7 +21,7 @@ class UsageError(ValueError):
 
 
 def _cmd_doctor(args) -> int:
-    from .doctor import format_report, run_doctor
+    from volcaustics.reports.core.doctor import format_report, run_doctor
 
     report = run_doctor()
     print(format_report(report))
@@ -31,9 +31,9 @@ def _cmd_doctor(args) -> int:
 def _write_preview(scene, folder: str) -> str:
     import os
 
-    from approx.context import shared_context
-    from approx.preview import render_preview
-    from scenes.imageio import write_png
+    from volcaustics.approx.context import shared_context
+    from volcaustics.approx.preview import render_preview
+    from volcaustics.scenes.imageio import write_png
 
     path = os.path.join(folder, f"{scene.name}.png")
     write_png(path, render_preview(shared_context(), scene))
@@ -41,7 +41,7 @@ def _write_preview(scene, folder: str) -> str:
 
 
 def _cmd_scenes(args) -> int:
-    from scenes import BUILTIN_NAMES, load_builtin, load_scene
+    from volcaustics.scenes import BUILTIN_NAMES, load_builtin, load_scene
 
     if args.preview is not None:
         _check_output_dir(args.preview, "--preview")
@@ -65,15 +65,15 @@ def _cmd_scenes(args) -> int:
 
 
 def _cmd_report(args) -> int:
-    from .collect import run_report
-    from .gate import default_budgets_path, load_budgets
-    from .report import OUTPUT_FILES
+    from volcaustics.reports.page.collect import run_report
+    from volcaustics.reports.gate.run import default_budgets_path, load_budgets
+    from volcaustics.reports.page.summary import OUTPUT_FILES
 
     _check_output_set(args.out, "--out", files=OUTPUT_FILES, folders=("figures",))
     names = _scene_list(args.scenes, "--scenes")
     budgets = load_budgets(args.budgets or default_budgets_path())
     if names is None:
-        from scenes import BUILTIN_NAMES
+        from volcaustics.scenes import BUILTIN_NAMES
 
         names = list(BUILTIN_NAMES)
     summary = run_report(args.out, names, overrides=_overrides(args.set), seeds=args.seeds, seed=args.seed,
@@ -109,7 +109,7 @@ def _scene_list(text, option: str):
 
 def _overrides(assignments) -> dict:
     """``--set NAME=VALUE`` (repeatable) as approximation parameters; ``seed`` has its own option."""
-    from .sweep import parse_assignment
+    from volcaustics.reports.sweep.run import parse_assignment
 
     overrides = {}
     for text in assignments or []:
@@ -127,7 +127,7 @@ def _overrides(assignments) -> dict:
 def _approx_params(args):
     import dataclasses
 
-    from approx.params import QUICK, ApproxParams
+    from volcaustics.approx.params import QUICK, ApproxParams
 
     base = {"paper": ApproxParams(), "quick": QUICK}[args.preset]
     changes = {name: getattr(args, name) for name in ApproxParams.names()
@@ -144,9 +144,9 @@ def _num(x) -> str:
 
 
 def _cmd_approx(args) -> int:
-    from scenes import resolve_scene
+    from volcaustics.scenes import resolve_scene
 
-    from .approx_job import run_approx
+    from volcaustics.reports.render.approx import run_approx
 
     _check_output_file(args.output, "-o", ".exr", (".png", ".json", ".records.npz"))
     if args.records_max < -1:
@@ -161,10 +161,10 @@ def _cmd_approx(args) -> int:
 
 
 def _cmd_reference(args) -> int:
-    from reference.settings import ReferenceSettings
-    from scenes import resolve_scene
+    from volcaustics.reference.settings import ReferenceSettings
+    from volcaustics.scenes import resolve_scene
 
-    from .reference_job import run_reference
+    from volcaustics.reports.render.reference import run_reference
 
     _check_output_file(args.output, "-o", ".exr", (".png", ".json"))
     scene = resolve_scene(args.scene)
@@ -236,9 +236,9 @@ def _check_output_dir(path: str, option: str = "-o") -> None:
 
 
 def _cmd_measure(args) -> int:
-    from scenes import resolve_scene
+    from volcaustics.scenes import resolve_scene
 
-    from .experiment import OUTPUT_FILES, plain, run_experiment, write_experiment
+    from volcaustics.reports.experiment.run import OUTPUT_FILES, plain, run_experiment, write_experiment
 
     _check_output_set(args.output, "-o", files=OUTPUT_FILES)
     scene = resolve_scene(args.scene)
@@ -288,8 +288,8 @@ def _add_budget(p, *, target: str | None, max_seconds: float) -> None:
 
 
 def _cmd_sweep(args) -> int:
-    from .executors import default_workers, parse_dask
-    from .sweep import OUTPUT_FILES, OUTPUT_FOLDERS, SweepError, run_sweep, spec_from_args, spec_from_toml
+    from volcaustics.reports.core.executors import default_workers, parse_dask
+    from volcaustics.reports.sweep.run import OUTPUT_FILES, OUTPUT_FOLDERS, SweepError, run_sweep, spec_from_args, spec_from_toml
 
     _check_output_set(args.output, "-o", files=OUTPUT_FILES, folders=OUTPUT_FOLDERS)
     if args.spec and (args.vary or args.set or args.scenes is not None):
@@ -323,7 +323,7 @@ def _cmd_sweep(args) -> int:
 
 
 def _cmd_gate(args) -> int:
-    from .gate import BASELINE, VERDICT, console_table, default_budgets_path, load_budgets, run_gate
+    from volcaustics.reports.gate.run import BASELINE, VERDICT, console_table, default_budgets_path, load_budgets, run_gate
 
     _check_output_set(args.out, "--out", files=(VERDICT,))
     if args.junit is not None:
@@ -370,7 +370,7 @@ def _add_gate_inputs(p, *, scenes: str) -> None:
 
 def _add_report_reference(p) -> None:
     """The reference options of ``report`` and ``measure`` (default: the report's budget)."""
-    from .defaults import REPORT_REFERENCE, REPORT_TARGET
+    from volcaustics.reports.core.sizing import REPORT_REFERENCE, REPORT_TARGET
 
     p.add_argument("--photons", type=int, default=REPORT_REFERENCE.photons,
                    help="reference photons over --batches batches: with the target, the size of a batch (default 2^22)")
@@ -382,14 +382,14 @@ def _add_report_reference(p) -> None:
 
 
 def _report_settings(args, **size):
-    from reference.settings import ReferenceSettings
+    from volcaustics.reference.settings import ReferenceSettings
 
     return ReferenceSettings(photons=args.photons, spp=args.spp, batches=args.batches, **size, **_budget(args))
 
 
 def _cmd_export(args) -> int:
-    from reference.export import export_xml
-    from scenes import resolve_scene
+    from volcaustics.reference.render.export import export_xml
+    from volcaustics.scenes import resolve_scene
 
     import os
 
@@ -564,16 +564,16 @@ def main(argv=None) -> int:
 
 def _run(argv) -> int | None:
     """The command's exit code; None when it was interrupted."""
-    from approx.params import ParamError
-    from reference.mi_setup import VariantError
-    from reference.settings import SettingsError
-    from scenes import SceneError
+    from volcaustics.approx.params import ParamError
+    from volcaustics.reference.mi_setup import VariantError
+    from volcaustics.reference.settings import SettingsError
+    from volcaustics.scenes import SceneError
 
-    from .collect import ReportError
-    from .executors import ExecutorError
-    from .experiment import ExperimentError
-    from .gate import GateError
-    from .sweep import SweepError
+    from volcaustics.reports.page.collect import ReportError
+    from volcaustics.reports.core.executors import ExecutorError
+    from volcaustics.reports.experiment.run import ExperimentError
+    from volcaustics.reports.gate.run import GateError
+    from volcaustics.reports.sweep.run import SweepError
 
     args = build_parser().parse_args(argv)
     try:
