@@ -36,13 +36,14 @@ class CameraView:
 
 
 class CameraPasses:
-    """G-buffer, fog and direct programs for one fog_steps setting and phase function."""
+    """G-buffer, fog and direct programs for one setting of the fog program's defines
+    (``approx.params.defines(params, "fog")``: FOG_STEPS) and the phase function."""
 
-    def __init__(self, ctx: moderngl.Context, scene, fog_steps: int):
+    def __init__(self, ctx: moderngl.Context, scene, fog_defines: dict):
         self.ctx = ctx
         phase = {"PHASE_G": repr(float(scene.medium.phase.g))} if scene.medium.phase.kind == "hg" else {}
         self.gbuffer = program(ctx, "camera/gbuffer.vert.glsl", "camera/gbuffer.frag.glsl")
-        self.fog = program(ctx, "shade/fullscreen.vert.glsl", "shade/fog.frag.glsl", {"FOG_STEPS": fog_steps, **phase})
+        self.fog = program(ctx, "shade/fullscreen.vert.glsl", "shade/fog.frag.glsl", {**fog_defines, **phase})
         self.direct = program(ctx, "shade/fullscreen.vert.glsl", "shade/direct.frag.glsl", {"MAX_DIFFUSE": MAX_DIFFUSE})
         self.empty_vao = ctx.vertex_array(self.fog, [])
         self.empty_vao_direct = ctx.vertex_array(self.direct, [])

@@ -1,8 +1,20 @@
-"""Parameters of the approximation, named as everywhere (DESIGN.md): CLI, tables, sweeps."""
+"""The approximation's parameters, declared once (DESIGN.md "One parameter table").
+
+Each :class:`Param` of :data:`PARAMS` states its name (as everywhere: CLI, tables,
+sweeps, plots), type, range or choices, unit, help, default, and how it reaches the
+shaders: as a ``define`` of one program (it selects the program: a new value compiles
+another) or as a ``uniform`` (set per frame), or neither (``host``: the Python side
+uses it, e.g. to size a dispatch). From the table come :class:`ApproxParams`
+(validation in its constructor), every command's flags and the sweep's value parsing
+(``reports.core.params_cli``), figure labels (:func:`label`) and the programs' cache
+keys (:func:`defines`). Adding a parameter is a table entry and the code that uses it.
+"""
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, fields, replace
+import dataclasses
+from dataclasses import dataclass, field, replace
+from typing import Callable
 
 
 class ParamError(ValueError):
@@ -10,67 +22,186 @@ class ParamError(ValueError):
 
 
 @dataclass(frozen=True)
-class ApproxParams:
-    """Paper defaults (Wang, Wang & Chen): photon_res 1500, layers 4, steps 4,
-    iterations 30, peak_samples 8; width/height None take the scene camera's.
+class Param:
+    """One approximation parameter.
 
-    photon_res      photon map resolution (photons = covered texels of photon_res²)
-    layers          light-map levels; each level is a front-face and a back-face map
-    layer_strategy  "threshold" (paper §4.2) or "peel" (depth peeling per facing)
-    iterations      binary-search iterations per detected crossing
-    peak_samples    interior samples per segment and map to find the first sign change
-    steps           interaction steps (photon maps) traced
-    splat_radius    standard deviation of the splatted 3D Gaussian (m)
-    light_res       resolution of the light layer maps and shadow map
-    width, height   image size (pixels)
-    fog_steps       ray-marching samples of the fog integral per pixel
-    fresnel         "deterministic" (refracted power × (1 − R)) or "stochastic" (choose by R)
-    seed            seed of the shared RNG
+    kind        int, float or str
+    default     the paper's value (Wang, Wang & Chen); None for width/height: the scene camera's
+    help        one line for ``--help`` and the README
+    unit        "" when dimensionless
+    low, high   inclusive range of an int; open range (low, high) of a float
+    choices     the allowed names of a str parameter
+    unset       what None means (None: not allowed)
+    program     the shader program the define selects ("trace", "fog"), with ``glsl`` "define"
+    glsl        "define", "uniform" or "host"
+    to_defines  value → the program's #defines (default: {NAME_IN_CAPITALS: value})
     """
 
-    photon_res: int = 1500
-    layers: int = 4
-    layer_strategy: str = "threshold"
-    iterations: int = 30
-    peak_samples: int = 8
-    steps: int = 4
-    splat_radius: float = 0.01
-    light_res: int = 1024
-    width: int | None = None
-    height: int | None = None
-    fog_steps: int = 64
-    fresnel: str = "deterministic"
-    seed: int = 0
+    name: str
+    kind: type
+    default: object
+    help: str
+    unit: str = ""
+    low: float | None = None
+    high: float | None = None
+    choices: tuple = ()
+    unset: str | None = None
+    program: str | None = None
+    glsl: str = "host"
+    to_defines: Callable | None = None
 
-    def __post_init__(self):
-        ranges = {"photon_res": (1, 8192), "layers": (1, 8), "iterations": (0, 64), "peak_samples": (0, 256),
-                  "steps": (1, 32), "light_res": (16, 8192), "fog_steps": (1, 4096), "seed": (0, 2**32 - 1)}
-        for name, (lo, hi) in ranges.items():
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int) or not lo <= value <= hi:
-                raise ParamError(f"{name} = {value!r}: expected an integer in [{lo}, {hi}]")
-        for name in ("width", "height"):
-            value = getattr(self, name)
-            if value is not None and (isinstance(value, bool) or not isinstance(value, int) or not 1 <= value <= 16384):
-                raise ParamError(f"{name} = {value!r}: expected an integer in [1, 16384] (or unset: the scene's)")
-        if not isinstance(self.splat_radius, (int, float)) or not 0 < self.splat_radius < 10:
-            raise ParamError(f"splat_radius = {self.splat_radius!r}: expected a number in (0, 10) metres")
-        if self.layer_strategy not in ("threshold", "peel"):
-            raise ParamError(f'layer_strategy = {self.layer_strategy!r}: expected "threshold" or "peel"')
-        if self.fresnel not in ("deterministic", "stochastic"):
-            raise ParamError(f'fresnel = {self.fresnel!r}: expected "deterministic" or "stochastic"')
+    def expected(self) -> str:
+        """What a value must be, as error messages and ``--help`` say it."""
+        if self.choices:
+            return " or ".join(f'"{c}"' for c in self.choices)
+        if self.kind is float:
+            text = f"a number in ({self.low:g}, {self.high:g})" + (f" {self.unit}" if self.unit else "")
+        else:
+            text = f"an integer in [{self.low}, {self.high}]"
+        return text + (f" (or unset: {self.unset})" if self.unset else "")
 
-    def resolved(self, scene) -> "ApproxParams":
-        """The parameters with width/height filled from the scene camera."""
-        return replace(self, width=self.width or scene.camera.width, height=self.height or scene.camera.height)
+    def check(self, value) -> None:
+        """Raise ParamError unless ``value`` is allowed."""
+        if value is None and self.unset:
+            return
+        if self.choices:
+            ok = value in self.choices
+        elif self.kind is float:
+            ok = isinstance(value, (int, float)) and not isinstance(value, bool) and self.low < value < self.high
+        else:
+            ok = isinstance(value, int) and not isinstance(value, bool) and self.low <= value <= self.high
+        if not ok:
+            raise ParamError(f"{self.name} = {value!r}: expected {self.expected()}")
 
-    def to_dict(self) -> dict:
-        return asdict(self)
+    def parse(self, text):
+        """A value from command-line text or a TOML value, typed as declared (ParamError
+        naming what is expected otherwise; the range is checked by :meth:`check`)."""
+        if isinstance(text, str):
+            text = text.strip()
+        try:
+            if self.kind is int:
+                if isinstance(text, bool) or (isinstance(text, float) and not text.is_integer()):
+                    raise ValueError
+                return int(text)
+            if self.kind is float:
+                if isinstance(text, bool):
+                    raise ValueError
+                return float(text)
+        except (TypeError, ValueError):
+            raise ParamError(f"{self.name} = {text!r}: expected {self.expected()}") from None
+        if not isinstance(text, str) or not text:
+            raise ParamError(f"{self.name} = {text!r}: expected {self.expected()}")
+        return text
 
-    @classmethod
-    def names(cls) -> list[str]:
-        return [f.name for f in fields(cls)]
+    def defines(self, value) -> dict:
+        """The #defines this value gives its program (``glsl`` "define" only)."""
+        return self.to_defines(value) if self.to_defines else {self.name.upper(): value}
+
+    def label(self) -> str:
+        """Axis label: the name, with the unit when it has one."""
+        return f"{self.name} ({self.unit})" if self.unit else self.name
 
 
-QUICK = ApproxParams(photon_res=256, light_res=256, width=256, height=256, fog_steps=48, splat_radius=0.02)
-PAPER = ApproxParams(width=800, height=800)
+PARAMS: tuple = (
+    Param("photon_res", int, 1500, "photon map resolution N: one photon per covered texel of N²", "texels per side",
+          1, 8192),
+    Param("layers", int, 4, "light-map levels, each a front-face and a back-face map", "", 1, 8, program="trace",
+          glsl="define", to_defines=lambda v: {"MAPS": 2 * v}),
+    Param("layer_strategy", str, "threshold", "threshold (paper §4.2: levels beyond uniform thresholds along the "
+          "spot axis) or peel (depth peeling per facing)", choices=("threshold", "peel")),
+    Param("iterations", int, 30, "binary-search iterations per detected crossing", "", 0, 64, program="trace",
+          glsl="define"),
+    Param("peak_samples", int, 8, "samples per segment and map to find the first sign change", "", 0, 256,
+          program="trace", glsl="define"),
+    Param("steps", int, 4, "interaction steps (photon maps) traced", "", 1, 32),
+    Param("splat_radius", float, 0.01, "standard deviation of the splatted 3D Gaussian", "m", 0, 10,
+          glsl="uniform"),
+    Param("light_res", int, 1024, "resolution of the light layer maps and the shadow map", "texels per side", 16,
+          8192, glsl="uniform"),
+    Param("width", int, None, "image width", "pixels", 1, 16384, unset="the scene's"),
+    Param("height", int, None, "image height", "pixels", 1, 16384, unset="the scene's"),
+    Param("fog_steps", int, 64, "ray-marching samples of the fog integral per pixel", "", 1, 4096, program="fog",
+          glsl="define"),
+    Param("fresnel", str, "deterministic", "deterministic (refracted power × (1 − R)) or stochastic (choose by R)",
+          choices=("deterministic", "stochastic"), program="trace", glsl="define",
+          to_defines=lambda v: {"FRESNEL_STOCHASTIC": 1} if v == "stochastic" else {}),
+    Param("seed", int, 0, "seed of the shared RNG", "", 0, 2**32 - 1, glsl="uniform"),
+)
+
+
+def _validate(self) -> None:
+    for param in self.TABLE:
+        param.check(getattr(self, param.name))
+
+
+def _resolved(self, scene):
+    """The parameters with width/height filled from the scene camera."""
+    return replace(self, width=self.width or scene.camera.width, height=self.height or scene.camera.height)
+
+
+def _to_dict(self) -> dict:
+    return dataclasses.asdict(self)
+
+
+def _names(cls) -> list:
+    return [p.name for p in cls.TABLE]
+
+
+def params_class(table: tuple = PARAMS, name: str = "ApproxParams") -> type:
+    """A frozen dataclass with one field per parameter of ``table`` (defaults from it),
+    validated on construction: :class:`ApproxParams` is ``params_class(PARAMS)``."""
+    cls = dataclasses.make_dataclass(
+        name, [(p.name, p.kind if p.unset is None else p.kind | None, field(default=p.default)) for p in table],
+        frozen=True,
+        namespace={"TABLE": table, "__post_init__": _validate, "resolved": _resolved, "to_dict": _to_dict,
+                   "names": classmethod(_names)})
+    cls.__module__ = __name__  # picklable by name (what make_dataclass does from Python 3.12 on)
+    cls.__doc__ = f"The approximation's parameters (paper defaults; {', '.join(p.name for p in table)})."
+    return cls
+
+
+ApproxParams = params_class()
+
+
+def param(name: str, table: tuple = PARAMS) -> Param:
+    """The table's entry ``name`` (ParamError listing the names otherwise)."""
+    for p in table:
+        if p.name == name:
+            return p
+    raise ParamError(f"unknown parameter {name!r}; expected one of {', '.join(p.name for p in table)}")
+
+
+def defines(params, program: str) -> dict:
+    """The #defines that ``params`` give ``program`` ("trace", "fog"): what selects a
+    compiled program, so also its cache key."""
+    out = {}
+    for p in params.TABLE:
+        if p.glsl == "define" and p.program == program:
+            out.update(p.defines(getattr(params, p.name)))
+    return out
+
+
+def label(name: str) -> str:
+    """A column's axis label: a parameter's name with its unit, else the name."""
+    try:
+        return param(name).label()
+    except ParamError:
+        return name
+
+
+# The presets, one meaning in every command (README "Presets"). paper: the paper's
+# parameters at its image size (800×800, Table 1); quick: small enough for tests and the
+# report on 2 cores.
+PRESETS = {
+    "paper": ApproxParams(width=800, height=800),
+    "quick": ApproxParams(photon_res=256, light_res=256, width=256, height=256, fog_steps=48, splat_radius=0.02),
+}
+QUICK = PRESETS["quick"]
+PAPER = PRESETS["paper"]
+
+
+def preset(name: str, **changes):
+    """The preset ``name`` with ``changes`` (ParamError for an unknown preset or value)."""
+    if name not in PRESETS:
+        raise ParamError(f"preset = {name!r}: expected {' or '.join(repr(n) for n in PRESETS)}")
+    return replace(PRESETS[name], **changes)

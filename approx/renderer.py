@@ -25,7 +25,7 @@ from .context import gl_info, shared_context
 from .geometry import SceneGeometry
 from .layers import BOTH, LightMapRenderer
 from .light import LightFrustum
-from .params import ApproxParams
+from .params import ApproxParams, defines
 from .records import records_from_raw
 from .splat import Splatter
 from .timing import PassTimer, timer_queries_work
@@ -77,9 +77,10 @@ class Renderer:
         return self._programs[key]
 
     def _shading_programs(self, scene, p: ApproxParams) -> tuple:
-        """(CameraPasses, Splatter) for this fog_steps setting and phase function."""
+        """(CameraPasses, Splatter) for the fog program's defines and the phase function."""
         phase_key = (scene.medium.phase.kind, scene.medium.phase.g)
-        camera = self._cached(("camera", p.fog_steps, phase_key), lambda: CameraPasses(self.ctx, scene, p.fog_steps))
+        fog = defines(p, "fog")
+        camera = self._cached(("camera", *sorted(fog.items()), phase_key), lambda: CameraPasses(self.ctx, scene, fog))
         splatter = self._cached(("splat", phase_key), lambda: Splatter(self.ctx, scene.medium))
         return camera, splatter
 
@@ -91,9 +92,10 @@ class Renderer:
         fbo.release()
         return image
 
-    def render(self, params: ApproxParams | None = None, scene=None, *, keep_records: bool = True) -> Frame:
-        """Render one frame. ``scene`` may replace light, medium, camera or materials
-        of the scene given at construction (same meshes)."""
+    def render(self, scene=None, params: ApproxParams | None = None, *, keep_records: bool = True) -> Frame:
+        """Render one frame. ``scene`` (None: the construction's) may replace light,
+        medium, camera or materials of the scene given at construction (same meshes);
+        ``params`` None: the paper's defaults."""
         ctx = self.ctx
         scene = scene or self.scene
         p = (params or ApproxParams()).resolved(scene)
@@ -102,8 +104,7 @@ class Renderer:
         geo = self.geometry
         box = medium_bounds(scene)  # holds light and camera: this frame's, not the construction's
         frustum = LightFrustum.for_scene(scene, *box)
-        tracer = self._cached(("tracer", p.layers, p.peak_samples, p.iterations, p.fresnel),
-                              lambda: PhotonTracer(ctx, p))
+        tracer = self._cached(("tracer", *sorted(PhotonTracer.defines(p).items())), lambda: PhotonTracer(ctx, p))
         tracer.check_limits(p, keep_records=keep_records)
         camera_passes, splatter = self._shading_programs(scene, p)
         released = []
@@ -139,8 +140,7 @@ class Renderer:
             with timer.measure("splat"):
                 n_splats = tracer.compact_splats(record_buf, count, splat_buf)
                 step_image = self._black_image(p)
-                splatter.splat(splat_buf, n_splats, view, scene.medium, p.splat_radius, scene.medium.sigma_bar,
-                               gbuf_geo, step_image)
+                splatter.splat(splat_buf, n_splats, view, scene.medium, p.splat_radius, gbuf_geo, step_image)
             caustic_steps.append(_read_rgb(step_image))
             step_image.release()
             if keep_records:
@@ -168,7 +168,7 @@ class Renderer:
             caustic_steps=caustic_steps, records=records, timings=timings, timing_method=timer.method,
             params=p.to_dict(), photons_emitted=emitted, gl=gl_info(ctx))
 
-    def splat(self, splats: np.ndarray, params: ApproxParams | None = None, scene=None) -> np.ndarray:
+    def splat(self, splats: np.ndarray, scene=None, params: ApproxParams | None = None) -> np.ndarray:
         """The caustic image of photons from any source, through this frame's own
         splatting (paper §3, Eq. 5, §4.3): the same view, G-buffer depth test,
         ``splat_radius``, medium weights and phase as :meth:`render`.
@@ -180,10 +180,10 @@ class Renderer:
             power in W after transmittance), e.g. from
             :func:`approx.splat.splats_from_arrays`. Rows whose status is not
             STATUS_COLLIDED draw nothing.
-        params : the approximation's parameters; only width, height and
-            splat_radius matter (width/height unset take the scene camera's).
         scene : replaces light, camera or medium of the construction's scene (same
             meshes), as in :meth:`render`.
+        params : the approximation's parameters; only width, height and
+            splat_radius matter (width/height unset take the scene camera's).
 
         Returns
         -------
@@ -191,9 +191,9 @@ class Renderer:
         single-scattered radiance of the splats as the camera sees it, the
         ``caustic`` layer of :meth:`render` for the same photons.
         """
-        return self.splat_many([splats], params, scene)[0]
+        return self.splat_many([splats], scene, params)[0]
 
-    def splat_many(self, splat_sets, params: ApproxParams | None = None, scene=None) -> list:
+    def splat_many(self, splat_sets, scene=None, params: ApproxParams | None = None) -> list:
         """:meth:`splat` for several photon sets in one view: one image per set, the
         G-buffer rendered once (independent photon subsets, batches)."""
         sets = [np.ascontiguousarray(s) for s in splat_sets]
@@ -214,8 +214,7 @@ class Renderer:
                     if len(splats):
                         buf = ctx.buffer(splats.tobytes())
                         try:
-                            splatter.splat(buf, len(splats), view, scene.medium, p.splat_radius,
-                                           scene.medium.sigma_bar, gbuf_geo, image)
+                            splatter.splat(buf, len(splats), view, scene.medium, p.splat_radius, gbuf_geo, image)
                         finally:
                             buf.release()
                     images.append(_read_rgb(image))
@@ -242,6 +241,6 @@ def render(scene, params: ApproxParams | None = None, **kwargs) -> Frame:
     """Render one frame of ``scene`` with the paper's method (see :class:`Renderer`)."""
     renderer = Renderer(scene)
     try:
-        return renderer.render(params, **kwargs)
+        return renderer.render(scene, params, **kwargs)
     finally:
         renderer.release()

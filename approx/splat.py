@@ -42,16 +42,18 @@ class Splatter:
         corners = np.array([[-1, -1], [1, -1], [-1, 1], [1, 1]], np.float32)
         self.corners = ctx.buffer(corners.tobytes())
 
-    def splat(self, splats: moderngl.Buffer, count: int, view, medium, splat_radius: float, sigma_bar: float,
+    def splat(self, splats: moderngl.Buffer, count: int, view, medium, splat_radius: float,
               scene_distance: moderngl.Texture, target: moderngl.Texture) -> None:
-        """Add ``count`` splats (SPLAT_DTYPE rows of ``splats``) into ``target`` (RGBA32F)."""
+        """Add ``count`` splats (SPLAT_DTYPE rows of ``splats``) into ``target`` (RGBA32F);
+        each collision weighs sigma_s / sigma_bar (the tracer's free-flight rate)."""
+        sigma_bar = medium.sigma_bar
         if count == 0 or sigma_bar <= 0:
             return
         ctx, prog = self.ctx, self.program
         view.set_uniforms(prog)
         prog["scatter_weight"].value = tuple(s / sigma_bar for s in medium.sigma_s)
         prog["sigma_t"].value = tuple(medium.sigma_t)
-        prog["sigma"].value = float(splat_radius)
+        prog["splat_radius"].value = float(splat_radius)
         scene_distance.use(location=0)
         prog["scene_distance"].value = 0
         fmt, names = attribute_layout(prog, INSTANCE_PARTS, per_instance=True)

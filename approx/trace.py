@@ -21,6 +21,7 @@ import numpy as np
 from volcaustics.scenes.formats import PHOTON_DTYPE, RAW_RECORD_DTYPE
 
 from .glsl import compute_shader, set_uniforms
+from .params import defines as table_defines
 from .light import spot_constants
 from .transforms import gl_matrix
 
@@ -52,25 +53,28 @@ def _materials(scene):
 
 
 class PhotonTracer:
-    """Holds the compute programs for one (layers, peak_samples, iterations, fresnel) setting."""
+    """Holds the compute programs for one setting of the trace program's defines
+    (:meth:`defines`: the parameter table's ``program="trace"`` entries)."""
 
     def __init__(self, ctx: moderngl.Context, params):
         self.ctx = ctx
-        defines = {"MAX_MATERIALS": MAX_MATERIALS, **START_OFFSET}
-        if params.fresnel == "stochastic":
-            defines["FRESNEL_STOCHASTIC"] = 1
-        if CLIP_TO_OBJECTS:
-            defines["CLIP_TO_OBJECTS"] = 1
+        defines = self.defines(params)
         self.emit = compute_shader(ctx, "emission/emit.comp.glsl", defines)
-        maps = 2 * params.layers
-        self.trace = compute_shader(ctx, "trace/trace.comp.glsl", {
-            **defines, "MAPS": maps, "PEAK_SAMPLES": params.peak_samples, "ITERATIONS": params.iterations})
+        self.trace = compute_shader(ctx, "trace/trace.comp.glsl", defines)
         self.pack = compute_shader(ctx, "trace/pack_distances.comp.glsl")
         self.compact_count = compute_shader(ctx, "splat/compact.comp.glsl", {"PASS_COUNT": 1})
         self.compact_write = compute_shader(ctx, "splat/compact.comp.glsl")
-        self.maps = 2 * params.layers
+        self.maps = defines["MAPS"]
         self._solid_angles = {}
         self._max_groups = int(ctx.info["GL_MAX_COMPUTE_WORK_GROUP_COUNT"][0])
+
+    @staticmethod
+    def defines(params) -> dict:
+        """The #defines of the emission and trace programs for ``params``: the fixed
+        ones and those the parameter table derives (``approx.params.defines``). Equal
+        defines, equal programs: the renderer's cache key."""
+        fixed = {"MAX_MATERIALS": MAX_MATERIALS, **START_OFFSET, **({"CLIP_TO_OBJECTS": 1} if CLIP_TO_OBJECTS else {})}
+        return {**fixed, **table_defines(params, "trace")}
 
     def check_limits(self, params, *, keep_records: bool = False) -> None:
         """:func:`check_fits` with this tracer's GL driver."""

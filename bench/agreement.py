@@ -69,8 +69,8 @@ def main(argv=None) -> int:
         for fresnel, steps in (("deterministic", 4), ("stochastic", 16)):
             params = ApproxParams(photon_res=args.photon_res, light_res=args.light_res, width=args.size,
                                   height=args.size, steps=steps, fresnel=fresnel, splat_radius=0.02)
-            renderer.render(params, keep_records=False)  # compile shaders; time the next frame
-            frame = renderer.render(params)
+            renderer.render(params=params, keep_records=False)  # compile shaders; time the next frame
+            frame = renderer.render(params=params)
             exact = exact_photon_records(scene, frame.records[0], steps=steps, seed=params.seed, fresnel=fresnel,
                                          oracle=oracle)
             flagged = sum(int(((r["flags"] & FLAG_LEFT_FRUSTUM) > 0).sum()) for r in frame.records)

@@ -35,9 +35,9 @@ def main(argv=None) -> int:
     for name in args.presets.split(","):
         params = presets[name]
         t0 = time.perf_counter()
-        renderer.render(params, keep_records=False)
+        renderer.render(params=params, keep_records=False)
         warm = time.perf_counter() - t0
-        frames = [renderer.render(params, keep_records=False) for _ in range(args.frames)]
+        frames = [renderer.render(params=params, keep_records=False) for _ in range(args.frames)]
         passes = [k for k in frames[0].timings if not k.startswith("trace_step")]
         med = {k: statistics.median(f.timings[k] for f in frames) for k in passes}
         frame = med["frame_wall"]

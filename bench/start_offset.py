@@ -95,7 +95,7 @@ def main(argv=None) -> int:
                 renderer = Renderer(scene)
                 params = ApproxParams(photon_res=args.photon_res, light_res=light_res, width=32, height=32, steps=6,
                                       fresnel="stochastic")
-                frame = renderer.render(params)
+                frame = renderer.render(params=params)
                 renderer.release()
                 c = classify(frame.records, oracle, texel_angle, np.asarray(scene.light.position))
                 n = max(c["segments"], 1)

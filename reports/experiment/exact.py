@@ -142,7 +142,7 @@ def exact_photons(scene, params, *, steps: int, fresnel: str, renderer=None, ora
         renderer = renderer or Renderer(scene)
         try:
             # one step: its records hold the emission state; fog_steps 1: the frame's images are unused
-            frame = renderer.render(dataclasses.replace(p, steps=1, fog_steps=1), scene, keep_records=True)
+            frame = renderer.render(scene, dataclasses.replace(p, steps=1, fog_steps=1), keep_records=True)
         finally:
             if own:
                 renderer.release()
@@ -220,7 +220,7 @@ def subset_images(renderer, splats, photon, photon_res: int, batches: int, param
     p = params.resolved(scene or renderer.scene)
     fine = dataclasses.replace(p, width=p.width * supersample, height=p.height * supersample)
     subset = interleaved_subsets(photon, photon_res, batches)
-    images = renderer.splat_many([splats[subset == k] for k in range(batches)], fine, scene)
+    images = renderer.splat_many([splats[subset == k] for k in range(batches)], scene, fine)
     return np.stack([box_downsample(image, supersample) * np.float32(batches) for image in images]).astype(np.float32)
 
 
@@ -272,7 +272,7 @@ def exact_caustic(scene, params, *, steps: int, fresnel: str, batches: int = 8, 
         if mask is not None and mask.shape[:2] != (fine.height, fine.width):
             mask = None
         if with_mask and mask is None:
-            mask = renderer.render(dataclasses.replace(fine, steps=1, photon_res=1, fog_steps=1), scene,
+            mask = renderer.render(scene, dataclasses.replace(fine, steps=1, photon_res=1, fog_steps=1),
                                    keep_records=False).images["mask_specular"]
     finally:
         if own:

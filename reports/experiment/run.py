@@ -208,9 +208,9 @@ def _frames(renderer, scene, p, seeds, *, warm_up: bool) -> tuple:
     the method's). A fresh renderer compiles its shaders in its first frame, so it
     renders one frame first that is not timed."""
     if warm_up:
-        renderer.render(dataclasses.replace(p, seed=seeds[0]), scene, keep_records=False)
-    frames = [renderer.render(dataclasses.replace(p, seed=s), scene, keep_records=True) for s in seeds]
-    timed = [renderer.render(dataclasses.replace(p, seed=seeds[i % len(seeds)]), scene, keep_records=False).timings
+        renderer.render(scene, dataclasses.replace(p, seed=seeds[0]), keep_records=False)
+    frames = [renderer.render(scene, dataclasses.replace(p, seed=s), keep_records=True) for s in seeds]
+    timed = [renderer.render(scene, dataclasses.replace(p, seed=seeds[i % len(seeds)]), keep_records=False).timings
              for i in range(TIMED_FRAMES)]
     return frames, timed
 

@@ -233,7 +233,7 @@ def _first_step_agreement(ctx, specular, light_res, true_t, tolerance):
 
     scene = make_scene(specular, cutoff=25.0, width=16, height=16)
     renderer = Renderer(scene, ctx)
-    frame = renderer.render(ApproxParams(photon_res=128, light_res=light_res, steps=1, layers=2))
+    frame = renderer.render(params=ApproxParams(photon_res=128, light_res=light_res, steps=1, layers=2))
     renderer.release()
     rec = frame.records[0]
     rec = rec[rec["inside"] == 0]

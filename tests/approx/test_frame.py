@@ -77,7 +77,7 @@ def test_single_splat_integrates_to_analytic_value(ctx):
     records = ctx.buffer(raw.tobytes())
     target = ctx.texture((cam.width, cam.height), 4, dtype="f4")
     empty = ctx.texture((cam.width, cam.height), 4, dtype="f4")  # G-buffer: nothing hit
-    splatter.splat(records, 1, view, scene.medium, sigma_k, sigma_t, empty, target)
+    splatter.splat(records, 1, view, scene.medium, sigma_k, empty, target)
     image = np.frombuffer(target.read(), np.float32).reshape(cam.height, cam.width, 4)[..., 0].astype(np.float64)
     # exact pixel solid angles of the image plane at unit distance
     half = math.tan(math.radians(cam.fov_y) / 2)
@@ -112,7 +112,7 @@ def test_small_far_splat_matches_the_kernel_per_pixel(ctx):
     records = ctx.buffer(raw.tobytes())
     target = ctx.texture((cam.width, cam.height), 4, dtype="f4")
     empty = ctx.texture((cam.width, cam.height), 4, dtype="f4")  # G-buffer: nothing hit
-    splatter.splat(records, 1, view, scene.medium, sigma_k, sigma_t, empty, target)
+    splatter.splat(records, 1, view, scene.medium, sigma_k, empty, target)
     image = np.frombuffer(target.read(), np.float32).reshape(cam.height, cam.width, 4)[::-1, :, 0]
     ys, xs = np.mgrid[0:size, 0:size] + 0.5
     dirs = np.stack([pixel_ray(cam, x, y) for x, y in zip(xs.ravel(), ys.ravel())]).reshape(size, size, 3)
@@ -135,15 +135,15 @@ def test_renderer_splat_reproduces_the_frame_caustic(ctx):
     records) is the frame's caustic: the same view, depth test, kernel and weights."""
     scene = make_scene([(sphere_spec(0.4, (0, 1.5, 0), 16), 1.5, (0, 0, 0))], cutoff=20.0)
     renderer = Renderer(scene, ctx)
-    frame = renderer.render(dataclasses.replace(SMALL, steps=3))
+    frame = renderer.render(params=dataclasses.replace(SMALL, steps=3))
     rows = np.concatenate(frame.records)
     rows = rows[rows["status"] == STATUS_COLLIDED]
-    image = renderer.splat(splats_from_arrays(rows["end"], rows["direction"], rows["power"]), SMALL)
+    image = renderer.splat(splats_from_arrays(rows["end"], rows["direction"], rows["power"]), params=SMALL)
     caustic = frame.images["caustic"]
     assert len(rows) > 100 and caustic.sum() > 0
     np.testing.assert_allclose(image, caustic, rtol=1e-5, atol=1e-6 * caustic.max())
     with pytest.raises(ValueError, match="SPLAT_DTYPE"):
-        renderer.splat(rows, SMALL)
+        renderer.splat(rows, params=SMALL)
     renderer.release()
 
 
@@ -153,16 +153,16 @@ def test_splat_many_equals_one_splat_per_subset_and_sums_to_the_whole(ctx):
     image of all photons, within float32 summation order."""
     scene = make_scene([(sphere_spec(0.4, (0, 1.5, 0), 16), 1.5, (0, 0, 0))], cutoff=20.0)
     renderer = Renderer(scene, ctx)
-    frame = renderer.render(dataclasses.replace(SMALL, steps=3))
+    frame = renderer.render(params=dataclasses.replace(SMALL, steps=3))
     rows = np.concatenate(frame.records)
     rows = rows[rows["status"] == STATUS_COLLIDED]
     splats = splats_from_arrays(rows["end"], rows["direction"], rows["power"])
     subsets = [splats[0::3], splats[1::3], splats[2::3], splats[:0]]
-    images = renderer.splat_many(subsets, SMALL)
+    images = renderer.splat_many(subsets, params=SMALL)
     assert len(images) == 4 and not images[3].any()
     for subset, image in zip(subsets[:3], images):
-        np.testing.assert_array_equal(image, renderer.splat(subset, SMALL))
-    whole = renderer.splat(splats, SMALL)
+        np.testing.assert_array_equal(image, renderer.splat(subset, params=SMALL))
+    whole = renderer.splat(splats, params=SMALL)
     np.testing.assert_allclose(sum(images), whole, rtol=1e-5, atol=1e-6 * whole.max())
     renderer.release()
 
@@ -170,9 +170,9 @@ def test_splat_many_equals_one_splat_per_subset_and_sums_to_the_whole(ctx):
 def test_same_seed_bit_identical_other_seed_differs(ctx):
     scene = make_scene([(sphere_spec(0.4, (0, 1.5, 0), 16), 1.5, (0, 0, 0))], cutoff=20.0)
     renderer = Renderer(scene, ctx)
-    a = renderer.render(SMALL, keep_records=False)
-    b = renderer.render(SMALL, keep_records=False)
-    c = renderer.render(dataclasses.replace(SMALL, seed=1), keep_records=False)
+    a = renderer.render(params=SMALL, keep_records=False)
+    b = renderer.render(params=SMALL, keep_records=False)
+    c = renderer.render(params=dataclasses.replace(SMALL, seed=1), keep_records=False)
     renderer.release()
     for name in a.images:
         assert np.array_equal(a.images[name], b.images[name]), name
@@ -195,7 +195,7 @@ def test_fog_converges_to_quadrature():
     renderer = Renderer(scene)
     for steps in (8, 64, 512):
         params = dataclasses.replace(SMALL, fog_steps=steps, width=48, height=48)
-        fog = renderer.render(params, keep_records=False).images["fog"][row, col, 0]
+        fog = renderer.render(params=params, keep_records=False).images["fog"][row, col, 0]
         errors.append(abs(fog - expected) / expected)
     renderer.release()
     print("fog relative errors", errors)
@@ -208,9 +208,9 @@ def test_renderer_retraces_with_a_new_light_without_rebuilding(ctx):
     scene = make_scene([(sphere_spec(0.4, (0, 1.5, 0), 16), 1.5, (0, 0, 0))], cutoff=20.0)
     renderer = Renderer(scene, ctx)
     geometry = renderer.geometry
-    a = renderer.render(SMALL, keep_records=False)
+    a = renderer.render(params=SMALL, keep_records=False)
     brighter = dataclasses.replace(scene, light=dataclasses.replace(scene.light, intensity=(20.0, 20.0, 20.0)))
-    b = renderer.render(SMALL, scene=brighter, keep_records=False)
+    b = renderer.render(brighter, SMALL, keep_records=False)
     assert renderer.geometry is geometry
     for name in ("caustic", "fog", "direct"):
         assert np.allclose(b.images[name], 2 * a.images[name], rtol=1e-5, atol=1e-9), name
@@ -231,11 +231,11 @@ def test_moved_light_or_camera_renders_like_a_fresh_renderer(ctx, move):
         moved = r(scene, camera=r(scene.camera, position=(0.0, 1.2, 6.5)))
     params = ApproxParams(photon_res=64, light_res=64, width=32, height=32, fog_steps=16, splat_radius=0.03)
     renderer = Renderer(scene, ctx)
-    renderer.render(params, keep_records=False)
-    reused = renderer.render(params, scene=moved, keep_records=False)
+    renderer.render(params=params, keep_records=False)
+    reused = renderer.render(moved, params, keep_records=False)
     renderer.release()
     fresh_renderer = Renderer(moved, ctx)
-    fresh = fresh_renderer.render(params, keep_records=False)
+    fresh = fresh_renderer.render(params=params, keep_records=False)
     fresh_renderer.release()
     assert fresh.images["caustic"].max() > 0 and fresh.images["fog"].max() > 0
     for name in fresh.images:

@@ -54,7 +54,7 @@ def test_exact_caustic_batches_add_up_to_all_photons(gl_context):
         assert photons.collided_power.shape == (32, 3) and photons.params["steps"] == 32
         result = exact_caustic(scene, params, steps=32, fresnel="stochastic", batches=4, supersample=2,
                                renderer=renderer, photons=photons)
-        whole = box_downsample(renderer.splat(photons.splats, fine), 2)
+        whole = box_downsample(renderer.splat(photons.splats, params=fine), 2)
         np.testing.assert_allclose(result.mean, whole, rtol=1e-4, atol=1e-6 * whole.max())
         assert result.batch_images.shape == (4, 32, 32, 3) and result.var.shape == (32, 32, 3)
         assert result.mask_specular.shape == (32, 32, 3) and result.mask_specular.max() == 1.0

@@ -13,7 +13,7 @@ uniform mat4 view_proj;
 uniform vec3 eye;
 uniform vec3 scatter_weight;  // sigma_s / sigma_bar (RGB)
 uniform vec3 sigma_t;
-uniform float sigma;          // kernel standard deviation (m) = splat_radius
+uniform float splat_radius;   // kernel standard deviation (m)
 
 in vec2 in_corner;            // per vertex: (±1, ±1)
 in vec4 in_dir_t;             // per instance: record.dir_t
@@ -38,7 +38,7 @@ void main() {
     vec3 w = to_eye / dist;
     v_weight = in_power.rgb * scatter_weight * phase_eval(dot(in_dir_t.xyz, w)) * exp(-sigma_t * dist);
     v_center = c;
-    float R = TRUNCATION * sigma;
+    float R = TRUNCATION * splat_radius;
     float extent = R * dist / sqrt(max(dist * dist - R * R, 1e-4 * R * R));
     vec3 helper = abs(w.y) < 0.99 ? vec3(0.0, 1.0, 0.0) : vec3(1.0, 0.0, 0.0);
     vec3 right = normalize(cross(helper, w));
