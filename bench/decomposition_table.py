@@ -18,7 +18,8 @@ import sys
 def main(argv=None) -> int:
     from volcaustics.approx.params import QUICK
     from volcaustics.metrics.intersection import CLASS_NAMES
-    from volcaustics.reports.experiment.run import run_experiment, write_experiment
+    from volcaustics.reports.experiment.run import run_experiment
+    from volcaustics.reports.experiment.write import write_experiment
     from volcaustics.scenes import load_builtin
     from volcaustics.scenes.catalogue import BUILTIN_NAMES
 

@@ -1,16 +1,43 @@
-"""The main job's reference budget (``make report``, ``volcaustics report``).
+"""The reference's budget and size: the one place that turns an image size into
+reference settings.
 
-Batches of 2^18 photons (4 per pixel at 256²) and 4 camera samples per pixel,
-at least 16 per stream (15 degrees of freedom for the per-pixel variance: a
-z-test on 3, from 4 batches, means little), then more until the noise floors
-meet the issue's targets — caustic 0.5%, fog and direct 0.2% — or 2 minutes
-per scene pass.
+The main job's budget (``make report``, ``volcaustics report``, ``measure``, the gate's
+and a sweep's default): batches of 2^22 photons and 64 camera samples per pixel, at
+least 16 per stream (15 degrees of freedom for the per-pixel variance: a z-test on 3,
+from 4 batches, means little), then more until the noise floors meet the targets —
+caustic 0.5%, fog and direct 0.2% — or 2 minutes per scene pass.
 """
 
 from __future__ import annotations
 
-from volcaustics.reference.settings import ReferenceSettings
+import dataclasses
+
+from volcaustics.reference.settings import ReferenceSettings, SettingsError
 
 REPORT_TARGET = "caustic=0.005,fog=0.002,direct=0.002"
 REPORT_REFERENCE = ReferenceSettings(photons=1 << 22, spp=64, batches=16, target_noise=REPORT_TARGET,
                                      max_seconds=120.0)
+# what a sweep spec's or the budgets' [reference] table may change
+REFERENCE_KEYS = ("photons", "spp", "batches", "target_noise", "max_photons", "max_seconds")
+
+
+def reference_settings(overrides: dict, error=ValueError) -> ReferenceSettings:
+    """The report's budget with ``overrides`` (REFERENCE_KEYS; a target_noise of
+    "none" renders exactly ``batches``); ``error`` (the caller's class) for a bad one."""
+    changes = dict(overrides)
+    unknown = [key for key in changes if key not in REFERENCE_KEYS]
+    if unknown:
+        raise error(f"reference.{unknown[0]}: unknown; expected {', '.join(REFERENCE_KEYS)}")
+    if isinstance(changes.get("target_noise"), str) and changes["target_noise"].strip().lower() == "none":
+        changes["target_noise"] = None  # render exactly `batches` batches
+    try:
+        return dataclasses.replace(REPORT_REFERENCE, **changes) if changes else REPORT_REFERENCE
+    except (SettingsError, TypeError) as exc:
+        raise error(f"reference: {exc}") from None
+
+
+def sized(settings: ReferenceSettings, scene, params) -> ReferenceSettings:
+    """``settings`` at the image size of the approximation's ``params`` on ``scene``
+    (width/height unset: the scene camera's): one render, one cache key."""
+    p = params.resolved(scene)
+    return dataclasses.replace(settings, width=p.width, height=p.height)

@@ -4,7 +4,7 @@ Layout of a store folder::
 
     points/<key>/segments.parquet, photons.parquet, images.parquet
     points/<key>/views.exr        optional: the images a report shows
-                                  (``reports.experiment.VIEWS``; the report's store)
+                                  (``reports.experiment.summary.VIEWS``; the report's store)
     points/<key>/summary.json     written last: the experiment's summary, the key's
                                   document and the SHA-256 of every file
     segments.parquet, photons.parquet, images.parquet, points.parquet
@@ -36,7 +36,14 @@ import shutil
 import socket
 import uuid
 
+import hashlib
+
+import pandas as pd
+
+from volcaustics.scenes.imageio import read_exr, write_exr
 from volcaustics.scenes.storage import atomic_write_text, file_sha256, read_json_object
+from volcaustics.reports.core.tables import plain, table
+from volcaustics.reports.core.versions import code_version
 
 TABLES = ("segments", "photons", "images")
 TABLE_FILES = tuple(f"{name}.parquet" for name in TABLES)
@@ -47,8 +54,6 @@ STORE_FORMAT = 1
 
 def point_key(document: dict) -> str:
     """The key of a point: SHA-256 (32 hex digits) of its key document."""
-    import hashlib
-
     text = json.dumps(document, sort_keys=True, separators=(",", ":"), allow_nan=False)
     return hashlib.sha256(text.encode()).hexdigest()[:32]
 
@@ -58,8 +63,6 @@ def key_document(scene, params, seeds: int, reference) -> dict:
     the seeds, the reference (``reference.render.ReferenceResult``: its cache key and,
     since an entry can be continued with more batches under one key, the hash of its
     content) and the code version."""
-    from volcaustics.reports.core.versions import code_version
-
     return {"format": STORE_FORMAT, "scene_hash": scene.scene_hash(), "params": params.resolved(scene).to_dict(),
             "seeds": seeds, "reference_key": reference.key,
             "reference_content": reference.manifest.get("exr_sha256"), "code_version": code_version()}
@@ -104,8 +107,6 @@ class Store:
 
     def views(self, key: str) -> dict:
         """The point's views (name → array; ``reports.experiment.VIEWS``)."""
-        from volcaustics.scenes.imageio import read_exr
-
         layers, _ = read_exr(os.path.join(self.point_dir(key), VIEWS))
         return layers
 
@@ -113,10 +114,6 @@ class Store:
         """Write a point whole, or not at all, with the experiment's views when ``views``;
         returns "written", or "kept" when a complete copy appeared meanwhile (another
         sweep)."""
-        from volcaustics.scenes.imageio import write_exr
-
-        from volcaustics.reports.experiment.run import plain, table
-
         tmp = os.path.join(self.points, f".tmp-{key}-{socket.gethostname()}-{os.getpid()}-{uuid.uuid4().hex[:8]}")
         os.makedirs(tmp)
         try:
@@ -191,10 +188,6 @@ class Store:
         """One DataFrame per kind over the complete points of ``keys`` (a ``point``
         column first), plus "points" (one row per point); written by the caller
         (``reports.sweep`` writes them with its manifest as one set)."""
-        import pandas as pd
-
-        from volcaustics.reports.experiment.run import table
-
         frames = {name: [] for name in TABLES}
         points = []
         for key in keys:
@@ -210,12 +203,6 @@ class Store:
                for name, parts in frames.items()}
         out["points"] = table(points) if points else pd.DataFrame()
         return out
-
-
-def rows_of(frame) -> list:
-    """A table's rows as dicts, None for every missing value (NaN, pd.NA): the inverse
-    of ``reports.experiment.table`` for code that reads rows."""
-    return frame.astype(object).where(frame.notna(), None).to_dict("records")
 
 
 def point_row(key: str, summary: dict) -> dict:

@@ -7,31 +7,23 @@ Okabe–Ito and every bar carries its number or a legend entry (not colour alone
 
 from __future__ import annotations
 
-import io
-
 import numpy as np
 
 from volcaustics.metrics.decomposition import TERMS
 from volcaustics.metrics.intersection import OUTCOME_CLASSES
 
-from volcaustics.reports.sweep.figures import FATES, OKABE_ITO, _plt
+from volcaustics.reports.core.plotting import OKABE_ITO, png_bytes, pyplot
+from volcaustics.reports.experiment.photons import FATES
 
 CLASS_COLOURS = dict(zip(OUTCOME_CLASSES, ("#009E73", "#E69F00", "#D55E00", "#CC79A7", "#0072B2", "#BBBBBB")))
 PASS_COLOURS = {"trace": "#D55E00", "splat": "#0072B2", "layers": "#E69F00", "emission": "#56B4E9",
                 "camera": "#CC79A7", "fog": "#009E73", "direct": "#F0E442", "other": "#BBBBBB"}
 
 
-def _png(fig) -> bytes:
-    buffer = io.BytesIO()
-    fig.savefig(buffer, format="png", dpi=100, bbox_inches="tight")
-    _plt().close(fig)
-    return buffer.getvalue()
-
-
 def hit_classes_chart(hit_classes: dict) -> bytes:
     """One panel per step: per light-map layer of the approximation's hit ("none": it
     found none), that layer's segments by class, as % of the step's segments."""
-    plt = _plt()
+    plt = pyplot()
     rows = hit_classes["rows"]
     steps = sorted({r["step"] for r in rows})
     fig, axes = plt.subplots(1, len(steps), figsize=(2.1 * len(steps) + 0.6, 2.4), squeeze=False, sharey=True)
@@ -52,14 +44,14 @@ def hit_classes_chart(hit_classes: dict) -> bytes:
     axes[0, 0].set_ylabel("% of the step's segments", fontsize=7)
     fig.legend(loc="upper center", ncol=6, fontsize=6.5, bbox_to_anchor=(0.5, 1.1), frameon=False)
     fig.tight_layout()
-    return _png(fig)
+    return png_bytes(fig)
 
 
 def power_budget_chart(budget: list) -> bytes:
     """Per step, the power by fate: approximation (plain) and exact replay (hatched),
     as % of the power emitted into step 1; on the last step also the power still
     alive after it."""
-    plt = _plt()
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(4.4, 2.5))
     width = 0.38
     for k, tracer in enumerate(("approx", "exact")):
@@ -77,7 +69,7 @@ def power_budget_chart(budget: list) -> bytes:
     ax.tick_params(labelsize=7)
     ax.legend(fontsize=6.5, ncol=2, frameon=False)
     fig.tight_layout()
-    return _png(fig)
+    return png_bytes(fig)
 
 
 def _signed_stack(ax, y, values, colours, labels, fmt) -> None:
@@ -101,7 +93,7 @@ def decomposition_chart(decomposition: dict) -> bytes:
     """The caustic's error split into its causes: energy shares (% of the reference's
     caustic energy; they sum to 1 − energy ratio) and parts of the relative MSE (they
     sum to it), each a stacked bar with its numbers; the total marked."""
-    plt = _plt()
+    plt = pyplot()
     terms = {t["term"]: t for t in decomposition["terms"]}
     colours = [OKABE_ITO[i] for i in range(len(TERMS))]
     number = lambda v: 0.0 if v is None else v  # noqa: E731  (a term the store holds as null: drawn as 0)
@@ -120,13 +112,13 @@ def decomposition_chart(decomposition: dict) -> bytes:
         ax.tick_params(labelsize=7)
     fig.legend(loc="upper center", ncol=5, fontsize=6.5, bbox_to_anchor=(0.5, 1.08), frameon=False)
     fig.tight_layout()
-    return _png(fig)
+    return png_bytes(fig)
 
 
 def pass_times_chart(timing: dict) -> bytes:
     """Shares of the frame per pass, this run beside the paper's (intersection
     estimation ≈ 70%, splatting ≈ 23% on the authors' GPU)."""
-    plt = _plt()
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(5.6, 1.5))
     measured = {p["pass"]: 100.0 * p["share"] for p in timing["passes"]}
     paper = {name: 100.0 * share for name, share in timing["paper_shares"].items()}
@@ -144,4 +136,4 @@ def pass_times_chart(timing: dict) -> bytes:
     ax.tick_params(labelsize=7)
     ax.legend(fontsize=6, ncol=8, loc="upper center", bbox_to_anchor=(0.5, 1.45), frameon=False)
     fig.tight_layout()
-    return _png(fig)
+    return png_bytes(fig)

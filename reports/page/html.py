@@ -11,7 +11,9 @@ from __future__ import annotations
 import json
 from html import escape
 
+from volcaustics.metrics.intersection import OUTCOME_CLASSES
 from volcaustics.scenes.formats import COLOUR_LAYERS
+from volcaustics.reports.page.images import SCALES, colour_bar_css
 
 CSS = """
 body{font-family:system-ui,-apple-system,"Segoe UI",sans-serif;margin:0 auto;padding:12px 20px;max-width:1320px;
@@ -200,8 +202,6 @@ def _maps(page: dict, images: dict, summary: dict, bars: dict, width: int) -> st
 
 
 def _hit_table(hits: dict) -> str:
-    from volcaustics.metrics.intersection import OUTCOME_CLASSES
-
     share = "{:.1f}%"
     head = ("<tr><th>step</th><th>segments</th>" + "".join(f"<th>{c.replace('_', ' ')}</th>" for c in OUTCOME_CLASSES)
             + "<th>of which self re-hits</th><th>|Δt| median</th><th>|Δt| p90</th><th>|Δt| p99</th></tr>")
@@ -319,8 +319,6 @@ def _sweep_section(sweep: dict, figures: dict) -> str:
 
 def render_page(summary: dict, images: dict, sweep_figures: dict) -> str:
     """The page; ``images``: scene → name → data URI (``reports.report.scene_images``)."""
-    from volcaustics.reports.page.images import SCALES, colour_bar_css
-
     bars = {name: {"css": colour_bar_css(scale), "ticks": scale.ticks()} for name, scale in SCALES.items()}
     params = summary["params"]
     nav = "".join(f"<a href='#scene-{i}'>{escape(p['scene'])}</a>" for i, p in enumerate(summary["scenes"]))

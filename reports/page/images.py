@@ -12,6 +12,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from volcaustics.scenes.imageio import png_bytes, tonemap_srgb8
+
 
 @dataclass(frozen=True)
 class Scale:
@@ -60,8 +62,6 @@ def data_uri(png: bytes) -> str:
 
 def render_uri(image: np.ndarray, exposure: float) -> str:
     """A linear H×W×3 image × ``exposure``, clipped, sRGB-encoded, as a PNG data URI."""
-    from volcaustics.scenes.imageio import png_bytes, tonemap_srgb8
-
     return data_uri(png_bytes(tonemap_srgb8(np.asarray(image, np.float32), exposure=exposure)))
 
 
@@ -73,8 +73,6 @@ def _lut(colormap: str, n: int = 256) -> np.ndarray:
 
 def heatmap_uri(values: np.ndarray, scale: Scale) -> str:
     """An H×W map (NaN: not compared) coloured on ``scale``, as a PNG data URI."""
-    from volcaustics.scenes.imageio import png_bytes
-
     v = np.asarray(values, np.float64)
     if v.ndim == 3:
         v = v[..., 0]

@@ -17,8 +17,16 @@ import time
 
 import numpy as np
 
+from volcaustics.approx.params import PARAMS
 from volcaustics.metrics.decomposition import TERMS
+from volcaustics.metrics.image import reference_exposure
+from volcaustics.metrics.intersection import OUTCOME_CLASSES
 from volcaustics.scenes.formats import COLOUR_LAYERS
+from volcaustics.reports.core.tables import rows_of
+from volcaustics.reports.core.versions import code_version, library_versions
+from volcaustics.reports.experiment.photons import FATES
+from volcaustics.reports.page.images import SCALES
+from volcaustics.reports.sweep.suffice import settings_that_suffice
 
 # Wang, Wang & Chen: intersection estimation takes about 70% of a frame and splatting about 23% on their GPU
 OUTPUT_FILES = ("index.html", "summary.json")  # in --out; the manifest, summary.json, last
@@ -26,8 +34,7 @@ OUTPUT_FILES = ("index.html", "summary.json")  # in --out; the manifest, summary
 PAPER_SHARES = {"trace": 0.70, "splat": 0.23, "other": 0.07}
 PASSES = ("layers", "emission", "camera", "trace", "splat", "fog", "direct")
 HEADLINE = ("relative_mse", "energy_ratio", "hdr_flip", "per_pixel_relative_mse")
-SHOWN_PARAMS = ("width", "height", "photon_res", "light_res", "layers", "layer_strategy", "iterations",
-                "peak_samples", "steps", "splat_radius", "fresnel", "fog_steps")
+SHOWN_PARAMS = tuple(p.name for p in PARAMS if p.name != "seed")  # the page's parameter list
 
 
 def _finite(value):
@@ -44,8 +51,6 @@ def hit_classes(segments) -> dict:
     approximation's hit (``"none"`` when it found none), and per step with the |Δt|
     percentiles of true hits (mm). Self re-hits are counted by their class beyond the
     re-hit surface and given apart as ``self_rehit`` (DESIGN.md)."""
-    from volcaustics.metrics.intersection import OUTCOME_CLASSES
-
     def classes(frame, total):
         out = {}
         for name in OUTCOME_CLASSES:
@@ -76,8 +81,6 @@ def hit_classes(segments) -> dict:
 
 def power_budget(photons) -> list:
     """Power by fate per (tracer, step), % of the power entering step 1."""
-    from volcaustics.reports.sweep.figures import FATES
-
     out = []
     for _, r in photons.sort_values(["tracer", "step"]).iterrows():
         out.append({"tracer": r["tracer"], "step": int(r["step"]),
@@ -127,8 +130,6 @@ def scene_page(result, *, exposures: dict) -> dict:
 
 def exposures(result) -> dict:
     """One exposure per shown component: the reference's (its bright pixels to 1)."""
-    from volcaustics.metrics.image import reference_exposure
-
     keep = result.views["compared"][..., 0] > 0.5
     out = {}
     for component in ("caustic", "combined"):
@@ -141,9 +142,6 @@ def exposures(result) -> dict:
 
 def report_summary(results: list, *, params, seeds: int, reference_settings, budgets: dict,
                    baseline_dir: str | None, sweep=None, clock: dict) -> dict:
-    from volcaustics.reports.page.images import SCALES
-    from volcaustics.reports.core.versions import code_version, library_versions
-
     pages = [scene_page(r, exposures=exposures(r)) for r in results]
     checks = [c for p in pages for c in p["gate"]["checks"]]
     failed = [c for c in checks if not c["passed"]]
@@ -169,9 +167,6 @@ def report_summary(results: list, *, params, seeds: int, reference_settings, bud
 
 
 def _sweep_summary(sweep) -> dict:
-    from volcaustics.reports.sweep.figures import settings_that_suffice
-    from volcaustics.reports.core.store import rows_of
-
     suffice = settings_that_suffice(sweep.tables["points"], sweep.varied)
     wanted = suffice[suffice["parameter"].isin(("layers", "iterations", "peak_samples"))] if len(suffice) else suffice
     return {"folder": os.path.abspath(sweep.folder), "varied": sweep.varied, "spec": sweep.spec,
@@ -180,66 +175,3 @@ def _sweep_summary(sweep) -> dict:
             # photon tables they also draw stay in the store (DIR/segments.parquet, DIR/photons.parquet)
             "point_rows": rows_of(sweep.tables["points"]),
             "suffice_factor": float(wanted["factor"].iloc[0]) if len(wanted) else None, "figures": []}
-
-
-def write_report(out_dir: str, results: list, summary: dict, sweep=None, *, progress: bool = False,
-                 started: float | None = None) -> dict:
-    """Draw ``index.html`` from ``summary`` (and each scene's views), write it and,
-    last, ``summary.json``; the sweep's figures also as files under ``figures/``. The
-    page is drawn from the same strict-JSON data that ``summary.json`` holds (NaN as
-    null). ``started``: the run's ``time.perf_counter()`` at its start, for the total."""
-    from tqdm import tqdm
-
-    from volcaustics.scenes.storage import atomic_write_texts
-
-    from volcaustics.reports.experiment.run import plain
-    from volcaustics.reports.page.html import render_page
-
-    t0 = time.perf_counter()
-    os.makedirs(out_dir, exist_ok=True)
-    summary = plain(summary)
-    pairs = list(zip(results, summary["scenes"]))
-    images = {page["scene"]: scene_images(result, page)
-              for result, page in tqdm(pairs, desc="page", unit="scene", disable=not progress)}
-    sweep_figures = {}
-    if sweep is not None:
-        from volcaustics.reports.sweep.figures import draw_figures
-        from volcaustics.reports.page.images import data_uri
-
-        paths = draw_figures(sweep.tables, os.path.join(out_dir, "figures"), varied=sweep.varied)
-        for path in paths:
-            if path.endswith(".png"):
-                with open(path, "rb") as fh:
-                    sweep_figures[os.path.splitext(os.path.basename(path))[0]] = data_uri(fh.read())
-        summary["sweep"]["figures"] = [os.path.relpath(p, out_dir) for p in paths]
-    page = render_page(summary, images, sweep_figures)
-    summary["seconds"]["page"] = time.perf_counter() - t0
-    if started is not None:
-        summary["seconds"]["total"] = time.perf_counter() - started
-    # one unit: an interrupted run never leaves a page beside another run's summary
-    html, doc = (os.path.join(out_dir, name) for name in OUTPUT_FILES)
-    atomic_write_texts({html: page, doc: json.dumps(summary, indent=1, allow_nan=False)})
-    return summary
-
-
-def scene_images(result, page: dict) -> dict:
-    """Data URIs of one scene: renders at the page's exposures, error maps on the fixed
-    scales, charts."""
-    import volcaustics.reports.page.charts as charts
-    from volcaustics.reports.page.images import SCALES, data_uri, heatmap_uri, render_uri
-
-    v = result.views
-    out = {}
-    for component in ("caustic", "combined"):
-        exposure = page["exposure"][component]
-        out[f"approx.{component}"] = render_uri(v[f"approx.{component}"], exposure)
-        out[f"reference.{component}"] = render_uri(v[f"reference.{component}"], exposure)
-        for metric, scale in SCALES.items():
-            name = f"map.{metric}.{component}"
-            out[name] = heatmap_uri(v[name], scale) if name in v else None   # None: the metric had no value
-    out["exact_steps"] = render_uri(v["exact_steps"], page["exposure"]["caustic"])
-    out["chart.hit_classes"] = data_uri(charts.hit_classes_chart(page["hit_classes"]))
-    out["chart.power_budget"] = data_uri(charts.power_budget_chart(page["power_budget"]))
-    out["chart.decomposition"] = data_uri(charts.decomposition_chart(page["decomposition"]))
-    out["chart.pass_times"] = data_uri(charts.pass_times_chart(page["timing"]))
-    return out

@@ -1,5 +1,5 @@
 """Figures and summary tables of a sweep, from its consolidated tables only
-(``reports.store.Store.consolidate``): no computation but grouping and plotting.
+(``reports.core.store.Store.tables``): no computation but grouping and plotting.
 
 Every figure is written as PNG and SVG, with the Okabe–Ito palette (distinguishable
 with the common colour-vision deficiencies), axes named with DESIGN.md's parameter
@@ -13,54 +13,18 @@ import os
 
 import numpy as np
 
-OKABE_ITO = ("#E69F00", "#56B4E9", "#009E73", "#D55E00", "#0072B2", "#CC79A7", "#F0E442", "#000000")
+from volcaustics.approx.params import label as param_label
+from volcaustics.reports.core.plotting import OKABE_ITO, pyplot, save_figure
+from volcaustics.reports.experiment.photons import FATES
+from volcaustics.reports.sweep.suffice import CRITERIA, NUMERIC, at_best
+
 LINESTYLES = {"threshold": "-", "peel": "--"}
-NUMERIC = ("photon_res", "layers", "iterations", "peak_samples", "steps", "splat_radius", "light_res", "fog_steps")
-UNITS = {"splat_radius": "splat_radius (m)", "photon_res": "photon_res (texels per side)",
-         "light_res": "light_res (texels per side)"}
 CLASS_GROUPS = {"true_hit": ("true_hit",), "wrong_surface": ("wrong_surface",), "false_hit": ("false_hit",),
                 "missed": ("missed_inside", "missed_medium")}
-FATES = ("surface", "collided", "lost", "left_scene")
-SUFFICE_FACTOR = 1.1
-
-
-def _plt():
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
-
-
-def _save(fig, folder: str, name: str) -> list:
-    from volcaustics.scenes.storage import atomic_path
-
-    os.makedirs(folder, exist_ok=True)
-    paths = []
-    for ext in ("png", "svg"):
-        path = os.path.join(folder, f"{name}.{ext}")
-        with atomic_path(path) as tmp:
-            fig.savefig(tmp, format=ext, dpi=110, bbox_inches="tight")
-        paths.append(path)
-    _plt().close(fig)
-    return paths
 
 
 def _colours(scenes) -> dict:
     return {s: OKABE_ITO[i % len(OKABE_ITO)] for i, s in enumerate(sorted(scenes))}
-
-
-def _at_best(points, varied, x):
-    """The points with every varied numeric parameter but ``x`` at its largest value
-    (per scene), and a note saying so."""
-    others = [v for v in varied if v != x and v in NUMERIC]
-    keep = np.ones(len(points), bool)
-    for name in others:
-        largest = points.groupby("scene")[name].transform("max")
-        keep &= (points[name] == largest).to_numpy(dtype=bool, na_value=False)  # nullable Int64 in pandas 2.1
-    note = ", ".join(f"{n} at its largest" for n in others)
-    return points[keep], note
 
 
 def _axis(ax, x, values) -> None:
@@ -107,8 +71,8 @@ def _step_rows(tables, points):
 
 
 def _intersection_vs(tables, points, varied, x, folder) -> list:
-    plt = _plt()
-    chosen, note = _at_best(points, varied, x)
+    plt = pyplot()
+    chosen, note = at_best(points, varied, x)
     seg = _step_rows(tables, chosen)
     steps = sorted(int(s) for s in seg["step"].dropna().unique())
     if not steps:
@@ -130,25 +94,23 @@ def _intersection_vs(tables, points, varied, x, folder) -> list:
         axes[i, -1].set_title(f"step {step}: |Δt| p90 of true hits", fontsize=9)
         axes[i, -1].set_ylabel("|Δt| p90 (mm)")
     for ax in axes[-1]:
-        ax.set_xlabel(UNITS.get(x, x))
+        ax.set_xlabel(param_label(x))
     for ax in axes.flat:
         _axis(ax, x, chosen[x])
     fig.legend(loc="upper center", ncol=4, fontsize=8, bbox_to_anchor=(0.5, 1.02))
     fig.suptitle(f"Intersection classes and |Δt| vs {x}" + (f" ({note})" if note else "")
                  + "; self re-hits counted by their class beyond the re-hit surface", y=1.06, fontsize=10)
     fig.tight_layout()
-    return _save(fig, folder, f"intersection_vs_{x}")
+    return save_figure(fig, folder, f"intersection_vs_{x}")
 
 
-CRITERIA = {"caustic_relmse_debiased": "caustic relative MSE, debiased (%)",
-            "intersection_relmse_own": "intersection error Σ(E_k − A)²/ΣR² (%)"}
 
 
 def _error_vs(points, varied, x, folder) -> list:
     """Two panels: the caustic's debiased relative MSE (what a user sees, all causes) and
     the intersection term's own relative MSE (what the intersection estimate costs)."""
-    plt = _plt()
-    chosen, note = _at_best(points, varied, x)
+    plt = pyplot()
+    chosen, note = at_best(points, varied, x)
     fig, axes = plt.subplots(1, 2, figsize=(11.5, 4.2))
     for ax, (column, label) in zip(axes, CRITERIA.items()):
         for name, colour, style, rows in _series(chosen):
@@ -156,14 +118,14 @@ def _error_vs(points, varied, x, folder) -> list:
             se = 100.0 * rows["caustic_relmse_se"].fillna(0) if column == "caustic_relmse_debiased" else None
             ax.errorbar(rows[x], 100.0 * rows[column], yerr=se, fmt=style, color=colour, marker="o", ms=3,
                         capsize=2, label=name)
-        ax.set_xlabel(UNITS.get(x, x))
+        ax.set_xlabel(param_label(x))
         ax.set_ylabel(label)
         _axis(ax, x, chosen[x])
         ax.grid(alpha=0.3)
     axes[1].legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0))
     fig.suptitle(f"Caustic error and intersection error vs {x}" + (f" ({note})" if note else ""), fontsize=10)
     fig.tight_layout()
-    return _save(fig, folder, f"caustic_error_vs_{x}")
+    return save_figure(fig, folder, f"caustic_error_vs_{x}")
 
 
 def pareto_front(times, errors) -> np.ndarray:
@@ -178,7 +140,7 @@ def pareto_front(times, errors) -> np.ndarray:
 
 
 def _time_vs_error(points, folder) -> list:
-    plt = _plt()
+    plt = pyplot()
     fig, ax = plt.subplots(figsize=(6.4, 4.2))
     colours = _colours(points["scene"].unique())
     for scene, rows in points.groupby("scene"):
@@ -192,12 +154,12 @@ def _time_vs_error(points, folder) -> list:
     ax.set_title("Frame time vs caustic error; lines: the Pareto front per scene", fontsize=10)
     ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0))
     ax.grid(alpha=0.3)
-    return _save(fig, folder, "time_vs_error")
+    return save_figure(fig, folder, "time_vs_error")
 
 
 def _power_budget(tables, points, varied, folder) -> list:
     """Power by fate per step at each scene's most accurate point, both tracers."""
-    plt = _plt()
+    plt = pyplot()
     photons = tables["photons"]
     numeric = [v for v in varied if v in NUMERIC]
     scenes = sorted(points["scene"].unique())
@@ -225,28 +187,6 @@ def _power_budget(tables, points, varied, folder) -> list:
     fig.suptitle("Power by fate per step, approximation (plain) and exact replay (hatched), at each scene's "
                  "most accurate point", y=1.14, fontsize=10)
     fig.tight_layout()
-    return _save(fig, folder, "power_budget")
+    return save_figure(fig, folder, "power_budget")
 
 
-def settings_that_suffice(points, varied, factor: float = SUFFICE_FACTOR):
-    """Per scene, layer strategy, varied numeric parameter and criterion (CRITERIA:
-    the caustic's debiased relative MSE, the intersection term's own relative MSE): the
-    smallest value within ``factor`` × the best over that parameter (the other varied
-    parameters at their largest), with that error and its frame time."""
-    import pandas as pd
-
-    rows = []
-    for x in (v for v in varied if v in NUMERIC):
-        chosen, _ = _at_best(points, varied, x)
-        for (scene, strategy), group in chosen.groupby(["scene", "layer_strategy"]):
-            for criterion in CRITERIA:
-                errors = group[criterion].to_numpy(float)
-                if not np.isfinite(errors).any():
-                    continue
-                best = np.nanmin(errors)
-                ok = group[errors <= best + (factor - 1.0) * abs(best) + 1e-12].sort_values(x)
-                first = ok.iloc[0]
-                rows.append({"scene": scene, "layer_strategy": strategy, "parameter": x, "criterion": criterion,
-                             "suffices": first[x], "error": first[criterion], "best": best,
-                             "largest": group[x].max(), "frame_time_s": first["frame_time_s"], "factor": factor})
-    return pd.DataFrame(rows)

@@ -153,7 +153,7 @@ def test_an_interrupted_sweep_keeps_its_last_complete_set_of_tables(cache, tmp_p
 def test_an_interrupted_gate_leaves_no_earlier_verdict(cache, tmp_path, monkeypatch):
     """A stopped gate must not leave the last run's gate.json or JUnit file for CI to
     read as this run's verdict: both are removed when the run starts measuring."""
-    import volcaustics.reports.gate.run as gate
+    import volcaustics.reports.runner as runner
 
     out, junit = tmp_path / "gate", tmp_path / "junit.xml"
     out.mkdir()
@@ -163,7 +163,7 @@ def test_an_interrupted_gate_leaves_no_earlier_verdict(cache, tmp_path, monkeypa
     def interrupted(*args, **kwargs):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(gate, "measure_scene", interrupted)
+    monkeypatch.setattr(runner, "measure", interrupted)
     assert main(["gate", "--out", str(out), "--junit", str(junit), "--scenes", "sphere1", "--quiet"]) == 130
     assert not (out / "gate.json").exists() and not junit.exists()
 
@@ -338,7 +338,8 @@ def test_a_sweep_table_that_is_a_fifo_is_refused_by_the_report(tmp_path):
 
 def test_a_baseline_with_more_values_than_seeds_is_damaged(tmp_path):
     """The paired regression test broadcast (2,) against (3,): a traceback after measuring."""
-    from volcaustics.reports.gate.run import GateError, load_baseline
+    from volcaustics.reports.gate.budgets import GateError
+    from volcaustics.reports.gate.regression import load_baseline
 
     entry = {"reference_key": "k", "seeds": [0, 1], "caustic_relmse_per_seed": [0.1, 0.2, 0.3]}
     (tmp_path / "baseline.json").write_text(json.dumps({"format": 1, "scenes": {"sphere1": entry}}))
@@ -392,7 +393,7 @@ def test_ctrl_c_during_the_commands_imports_exits_130(monkeypatch, capsys):
     real = builtins.__import__
 
     def importing(name, *args, **kwargs):
-        if name == "approx.params":
+        if name == "volcaustics.approx.params":
             raise KeyboardInterrupt
         return real(name, *args, **kwargs)
 
@@ -445,7 +446,7 @@ def test_an_interrupted_gate_writes_no_baseline_without_its_verdict(cache, tmp_p
     """The accepted baseline, the JUnit file and gate.json are one set: Ctrl-C while it is
     written (here: drawing the JUnit XML) keeps the old baseline byte for byte and writes
     no verdict; the baseline used to be written first and the JUnit file last (class B)."""
-    import volcaustics.reports.gate.run as gate
+    import volcaustics.reports.gate.outputs as gate
 
     budgets = tmp_path / "budgets.toml"
     budgets.write_text(LOOSE)

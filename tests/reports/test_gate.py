@@ -86,7 +86,8 @@ def test_unmodified_passes_and_degraded_fail_the_right_check(env, capsys):
 def test_junit_validates_against_the_junit_schema(env, capsys):
     import xmlschema
 
-    from volcaustics.reports.gate.run import Check, junit_xml
+    from volcaustics.reports.gate.budgets import Check
+    from volcaustics.reports.gate.outputs import junit_xml
 
     checks = [Check("bunny", "caustic.relmse_max", 0.2, "≤ 0.3", True),
               Check("bunny", "segments.missed_step2_max", 0.09, "≤ 0.06", False, "bunny: missed <&> 0.09",
@@ -139,7 +140,7 @@ def test_fail_closed_cases_exit_2(env, capsys, case):
 
 
 def test_a_nan_metric_is_an_error_not_a_pass():
-    from volcaustics.reports.gate.run import GateError, budget_checks
+    from volcaustics.reports.gate.budgets import GateError, budget_checks
 
     class Fake:
         summary = {"images": {"caustic": {"hdr_flip": {"value": float("nan")}}}}

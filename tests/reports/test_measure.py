@@ -14,7 +14,7 @@ from volcaustics.approx.params import QUICK, ApproxParams
 from volcaustics.metrics.intersection import CLASS_NAMES
 from volcaustics.reference.settings import ReferenceSettings
 from volcaustics.reports.cli import main
-from volcaustics.reports.experiment.run import IMAGE_METRICS
+from volcaustics.reports.experiment.images import IMAGE_METRICS
 from volcaustics.scenes import load_builtin
 from volcaustics.scenes.catalogue import BUILTIN_NAMES
 from volcaustics.scenes.formats import COLOUR_LAYERS
@@ -170,7 +170,7 @@ def test_measure_output_that_is_a_file_exits_2_before_rendering(cache, tmp_path,
 def test_start_normals_follow_the_photon_across_steps():
     """Step k's start normal is step k−1's hit normal of the same photon (records are
     not in photon order after compaction), nan at step 1 and where there was no hit."""
-    from volcaustics.reports.experiment.run import _start_normals
+    from volcaustics.reports.experiment.segments import start_normals as _start_normals
     from volcaustics.scenes.formats import RECORD_DTYPE
 
     step1 = np.zeros(3, RECORD_DTYPE)

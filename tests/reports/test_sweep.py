@@ -223,9 +223,9 @@ def test_two_sweeps_writing_one_store_do_not_corrupt_it(env, tmp_path):
 def test_a_worker_without_the_sweeps_reference_fails_its_point_with_the_fix(env):
     """Workers never render references: one that does not find the sweep's in its cache
     (another VOLCAUSTICS_CACHE on a cluster node) fails the point and says what to share."""
-    from volcaustics.reports.sweep.run import _run_point
+    from volcaustics.reports.runner import run_point
 
     task = {"key": "0" * 32, "key_document": {}, "scene": "refocus", "params": {}, "seeds": 1,
-            "reference_key": "f" * 32, "store": str(env.parent / "store")}
+            "reference_key": "f" * 32, "store": str(env.parent / "store"), "views": False}
     with pytest.raises(RuntimeError, match="VOLCAUSTICS_CACHE"):
-        _run_point(task)
+        run_point(task)

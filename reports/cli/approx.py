@@ -1,0 +1,30 @@
+"""``volcaustics approx SCENE -o OUT.exr``: one frame of the paper's method and its files."""
+
+from __future__ import annotations
+
+from volcaustics.scenes import resolve_scene
+from volcaustics.reports.cli.common import UsageError, check_output_file
+from volcaustics.reports.core.params import add_param_flags, params_from_args
+from volcaustics.reports.render.approx import run_approx
+
+
+def register(sub) -> None:
+    p = sub.add_parser("approx", help="render SCENE with the paper's method: OUT.exr, .png, .records.npz, .json")
+    p.add_argument("scene", metavar="SCENE", help="built-in scene name or path to a .toml scene file")
+    p.add_argument("-o", "--output", required=True, metavar="OUT.exr", help="output EXR (siblings share its name)")
+    p.add_argument("--records-max", dest="records_max", type=int, default=200_000,
+                   help="segment records kept per step (fixed stride subsample; 0 none, -1 all; default 200000)")
+    add_param_flags(p, default_preset="paper")
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    check_output_file(args.output, "-o", ".exr", (".png", ".json", ".records.npz"))
+    if args.records_max < -1:
+        raise UsageError("--records-max", args.records_max, "expected 0 (none), -1 (all) or a positive count")
+    scene = resolve_scene(args.scene)
+    summary = run_approx(scene, params_from_args(args), args.output, records_max=args.records_max)
+    t = summary["timings_s"]
+    print(f"approx {scene.name}: {t['frame_wall']:.2f} s ({summary['timing_method']}), "
+          f"trace {t['trace']:.2f} s, splat {t['splat']:.2f} s -> {summary['outputs']['exr']}")
+    return 0

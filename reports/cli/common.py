@@ -1,0 +1,148 @@
+"""What the commands share: the usage error, output-path checks made before any work,
+scene lists, and the option groups several commands take."""
+
+from __future__ import annotations
+
+import argparse
+import os
+
+from volcaustics.reference.settings import ReferenceSettings
+from volcaustics.reports.core.sizing import REPORT_REFERENCE, REPORT_TARGET
+
+
+class UsageError(ValueError):
+    """A command-line value that cannot work (an output path, a list of names); the
+    message names the option, the value and the fix."""
+
+    def __init__(self, option: str, value, fix: str):
+        super().__init__(f"{option} = {value!r}: {fix}")
+
+
+def pct(x) -> str:
+    return "   n/a" if x is None else f"{100 * x:6.2f}%"
+
+
+def num(x) -> str:
+    return "n/a" if x is None else f"{x:.3f}"
+
+
+def path_type(text: str) -> str:
+    """An argparse type: a path, never the empty string (which would mean "not given")."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("expected a path, not an empty string")
+    return text
+
+
+def scene_list(text, option: str):
+    """A comma-separated list of SCENE arguments; None when not given; an empty list
+    or an empty name is an error (not "everything")."""
+    if text is None:
+        return None
+    names = [s.strip() for s in text.split(",")]
+    if not names or any(not n for n in names):
+        raise UsageError(option, text, "expected comma-separated scene names (built-in names or .toml files)")
+    repeated = sorted({n for n in names if names.count(n) > 1})
+    if repeated:
+        raise UsageError(option, text, f"{repeated[0]!r} is named twice: name each scene once")
+    return names
+
+
+# --- output paths, checked before any work -------------------------------------------
+
+def check_output_file(path: str, option: str, extension: str, siblings: tuple = ()) -> None:
+    """Fail before any work when the output file ``path`` (and the sibling outputs named
+    after it, ``siblings``: suffixes replacing ``extension``) cannot be written: an empty
+    name, a folder, a name without a stem or with another extension, a parent that cannot
+    be (or become) a writable folder."""
+    name = os.path.basename(path or "")
+    if not path or path.endswith(("/", os.sep)) or name in (".", ".."):
+        raise UsageError(option, path, f"expected a file name ending in {extension}")
+    if not name.lower().endswith(extension) or len(name) == len(extension):
+        raise UsageError(option, path, f"expected a file name ending in {extension}, e.g. out{extension}"
+                                       + (" (the other outputs take its stem)" if siblings else ""))
+    stem = path[: -len(extension)]
+    check_no_folder_at([path, *(stem + suffix for suffix in siblings)], option, path)
+    check_output_dir(os.path.dirname(os.path.abspath(path)), option)
+
+
+def check_no_folder_at(files, option: str, value) -> None:
+    """Fail before any work when a folder is where one of the output ``files`` goes (the
+    set's last rename would fail after the work, halfway through the set)."""
+    for path in files:
+        if os.path.isdir(path):
+            raise UsageError(option, value, f"{path} is a folder where an output file goes: move it or choose "
+                                            f"another name")
+
+
+def check_output_set(folder: str, option: str, files=(), folders=()) -> None:
+    """``folder`` must be (or become) a writable folder holding no folder where one of
+    its output ``files`` goes and no file where one of its ``folders`` goes."""
+    check_output_dir(folder, option)
+    check_no_folder_at([os.path.join(folder, name) for name in files], option, folder)
+    for name in folders:
+        check_output_dir(os.path.join(folder, name), option)
+
+
+def check_output_dir(path: str, option: str = "-o") -> None:
+    """Fail before any work when ``path`` cannot be (or become) a writable folder."""
+    if not path:
+        raise UsageError(option, path, "expected an output folder")
+    if os.path.exists(path) and not os.path.isdir(path):
+        raise UsageError(option, path, "exists and is not a folder: choose a folder path")
+    existing = os.path.abspath(path)
+    while not os.path.exists(existing):
+        existing = os.path.dirname(existing)
+    if not os.path.isdir(existing) or not os.access(existing, os.W_OK | os.X_OK):
+        raise UsageError(option, path, f"cannot write there ({existing} is not a writable folder)")
+
+
+# --- option groups ---------------------------------------------------------------------
+
+def add_budget(p, *, target: str | None, max_seconds: float) -> None:
+    """--target-noise and its caps (the reference's render budget)."""
+    p.add_argument("--target-noise", dest="target_noise", default=target, metavar="F",
+                   help="render batches until every colour component's noise floor (sum var / sum mean^2 over "
+                        "non-glass pixels) is at most F: a number (all components) or caustic=F,fog=F,direct=F; "
+                        f"'none' renders exactly --batches (default: {target or 'none'})")
+    p.add_argument("--max-photons", dest="max_photons", type=int, default=1 << 34,
+                   help="photon cap of a --target-noise render (default 2^34)")
+    p.add_argument("--max-seconds", dest="max_seconds", type=float, default=max_seconds,
+                   help=f"time cap of a --target-noise render, seconds (default {max_seconds:g})")
+
+
+def budget(args) -> dict:
+    """target_noise and its caps from the command line ("none" turns the target off)."""
+    target = args.target_noise
+    if target is not None and target.strip().lower() == "none":
+        target = None
+    return {"target_noise": target, "max_photons": args.max_photons, "max_seconds": args.max_seconds}
+
+
+def add_report_reference(p) -> None:
+    """The reference options of ``report`` and ``measure`` (default: the report's budget)."""
+    p.add_argument("--photons", type=int, default=REPORT_REFERENCE.photons,
+                   help="reference photons over --batches batches: with the target, the size of a batch (default 2^22)")
+    p.add_argument("--spp", type=int, default=REPORT_REFERENCE.spp,
+                   help="reference camera samples per pixel over --batches batches (default 64)")
+    p.add_argument("--batches", type=int, default=REPORT_REFERENCE.batches,
+                   help="reference batches per stream, at least (default 16)")
+    add_budget(p, target=REPORT_TARGET, max_seconds=REPORT_REFERENCE.max_seconds)
+
+
+def report_settings(args) -> ReferenceSettings:
+    """The reference settings of ``report`` and ``measure`` (unsized: the runner sizes them)."""
+    return ReferenceSettings(photons=args.photons, spp=args.spp, batches=args.batches, **budget(args))
+
+
+def add_gate_inputs(p, *, scenes: str) -> None:
+    """What the gate and the report measure and check: scenes, parameters over the
+    budgets' preset, seeds, budgets and the baseline."""
+    p.add_argument("--scenes", help=scenes)
+    p.add_argument("--set", action="append", metavar="NAME=VALUE",
+                   help="an approximation parameter over the budgets' preset (repeatable)")
+    p.add_argument("--seeds", type=int, help="frames per scene (default: the budgets' seeds, 4)")
+    p.add_argument("--seed", type=int, default=0, help="the first seed (default 0)")
+    p.add_argument("--budgets", type=path_type, metavar="FILE.toml",
+                   help="budgets per scene (default: reports/gate/budgets.toml)")
+    p.add_argument("--baseline", type=path_type, metavar="DIR",
+                   help="the last accepted results (DIR/baseline.json): also test for a regression against them")

@@ -1,0 +1,47 @@
+"""``volcaustics gate``: exit 1 when the approximation exceeds its budgets or regresses."""
+
+from __future__ import annotations
+
+from volcaustics.reports.cli.common import (UsageError, add_gate_inputs, check_output_file, check_output_set,
+                                            scene_list)
+from volcaustics.reports.core.params import parse_overrides
+from volcaustics.reports.gate.budgets import GateError, default_budgets_path, load_budgets
+from volcaustics.reports.gate.outputs import VERDICT, console_table
+from volcaustics.reports.gate.regression import BASELINE
+from volcaustics.reports.gate.run import run_gate
+
+
+def register(sub) -> None:
+    p = sub.add_parser("gate", help="fail (exit 1) when the approximation exceeds its budgets or regresses against "
+                                    "the baseline; exit 2 on bad input or missing data")
+    add_gate_inputs(p, scenes="comma-separated budgeted scenes (default: all in the budgets)")
+    p.add_argument("--update-baseline", dest="update_baseline", action="store_true",
+                   help="accept this run's results as the baseline (written atomically), no regression test")
+    p.add_argument("--junit", metavar="OUT.xml", help="also write a JUnit XML report")
+    p.add_argument("--out", default="runs/gate", help="gate.json and failure images (default runs/gate)")
+    p.add_argument("--render-references", dest="render_references", action="store_true",
+                   help="render missing references (else a missing one is an error, exit 2)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    check_output_set(args.out, "--out", files=(VERDICT,))
+    if args.junit is not None:
+        check_output_file(args.junit, "--junit", ".xml")
+    if args.update_baseline and not args.baseline:
+        raise UsageError("--update-baseline", True, "needs --baseline DIR (where to write it)")
+    if args.update_baseline:
+        check_output_set(args.baseline, "--baseline", files=(BASELINE,))
+    overrides = parse_overrides(args.set, error=GateError)
+    budgets = load_budgets(args.budgets or default_budgets_path())
+    result = run_gate(budgets, overrides=overrides, baseline_dir=args.baseline, update_baseline=args.update_baseline,
+                      out_dir=args.out, scenes=scene_list(args.scenes, "--scenes"), seeds=args.seeds, seed=args.seed,
+                      render_references=args.render_references, junit=args.junit, progress=not args.quiet)
+    print(console_table(result.checks))
+    failed = sum(not c.passed for c in result.checks)
+    print(f"gate {'FAILED' if failed else 'passed'}: {failed} of {len(result.checks)} checks failed, "
+          f"{result.measured} point(s) measured, {result.from_store} from the result store, "
+          f"{result.seconds:.1f} s -> {args.out}/{VERDICT}" + (f", {args.junit}" if args.junit else "")
+          + (f"; baseline written: {result.updated_baseline}" if result.updated_baseline else ""))
+    return result.exit_code

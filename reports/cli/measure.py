@@ -1,0 +1,63 @@
+"""``volcaustics measure SCENE -o DIR``: one experiment, its tables and summary."""
+
+from __future__ import annotations
+
+from volcaustics.scenes import resolve_scene
+from volcaustics.reports import runner
+from volcaustics.reports.cli.common import add_report_reference, check_output_set, num, pct, report_settings
+from volcaustics.reports.core.params import add_param_flags, params_from_args
+from volcaustics.reports.core.sizing import sized
+from volcaustics.reports.core.tables import plain
+from volcaustics.reports.experiment.run import run_experiment
+from volcaustics.reports.experiment.write import OUTPUT_FILES, write_experiment
+
+
+def register(sub) -> None:
+    p = sub.add_parser("measure", help="one experiment on SCENE: approximation vs reference, exact replay, all "
+                                       "metrics -> DIR/{segments,photons,images}.{parquet,csv}, decomposition.exr, "
+                                       "summary.json")
+    p.add_argument("scene", metavar="SCENE", help="built-in scene name or path to a .toml scene file")
+    p.add_argument("-o", "--output", required=True, metavar="DIR", help="output folder (created if missing)")
+    p.add_argument("--seeds", type=int, default=4,
+                   help="frames with seeds --seed … --seed + N − 1: the approximation's own noise needs N ≥ 2, "
+                        "intervals N ≥ 4 (default 4)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_param_flags(p, default_preset="quick")
+    add_report_reference(p)
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    check_output_set(args.output, "-o", files=OUTPUT_FILES)
+    scene = resolve_scene(args.scene)
+    params = params_from_args(args)
+    reference = runner.reference_for(scene, sized(report_settings(args), scene, params), "continue",
+                                     progress=not args.quiet)
+    experiment = run_experiment(scene, params, seeds=args.seeds, reference=reference, progress=not args.quiet)
+    paths = write_experiment(experiment, args.output)
+    s = plain(experiment.summary)  # NaN → None
+    print(f"measure {scene.name}: {s['seeds']} seed(s), {s['experiment_seconds']['total']:.1f} s -> "
+          f"{paths['summary.json']}")
+    _print_images(s)
+    _print_decomposition(s)
+    for warning in s["warnings"]:
+        print(f"  warning: {warning}")
+    return 0
+
+
+def _print_images(s: dict) -> None:
+    for component, m in s["images"].items():
+        relmse, ratio, flip = m["relative_mse"], m["energy_ratio"], m["hdr_flip"]
+        ci = f" [{100 * relmse['ci_low']:.2f}, {100 * relmse['ci_high']:.2f}]" if relmse["ci_low"] is not None else ""
+        print(f"  {component:<9} relative MSE debiased {pct(relmse['debiased'])}{ci}, "
+              f"energy ratio {num(ratio['value'])}, HDR-FLIP {num(flip['value'])}")
+
+
+def _print_decomposition(s: dict) -> None:
+    print("  caustic error decomposed: energy share of the reference ± SE, part of the relative MSE ± SE")
+    for row in s["decomposition"]["rows"]:
+        if row["term"] == "noise":
+            print(f"    {'noise':<13} ±{100 * row['energy_sigma']:6.2f}%            {100 * row['relmse']:6.2f}%")
+            continue
+        print(f"    {row['term']:<13} {100 * row['energy_share']:+7.2f}% ± {100 * row['energy_share_se']:.2f}  "
+              f"{100 * row['relmse_part']:+7.2f}% ± {100 * row['relmse_part_se']:.2f}")

@@ -1,0 +1,44 @@
+"""``volcaustics report``: the accuracy report (one HTML page + summary.json)."""
+
+from __future__ import annotations
+
+from volcaustics.scenes import BUILTIN_NAMES
+from volcaustics.reports.cli.common import (add_gate_inputs, add_report_reference, check_output_set, num, path_type,
+                                            pct, report_settings, scene_list)
+from volcaustics.reports.core.params import parse_overrides
+from volcaustics.reports.gate.budgets import default_budgets_path, load_budgets
+from volcaustics.reports.page.collect import ReportError, run_report
+from volcaustics.reports.page.summary import OUTPUT_FILES
+
+
+def register(sub) -> None:
+    p = sub.add_parser("report", help="the main job: the accuracy report (one HTML page + summary.json) of the "
+                                      "approximation against ground truth, with the gate's verdicts")
+    p.add_argument("--out", default="runs/report", help="output folder (default runs/report)")
+    add_gate_inputs(p, scenes="comma-separated SCENE arguments (default: every built-in)")
+    p.add_argument("--sweep", type=path_type, metavar="DIR", help="add a sweep store's figures and settings that suffice")
+    p.add_argument("--quiet", action="store_true", help="no progress bars")
+    add_report_reference(p)
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    check_output_set(args.out, "--out", files=OUTPUT_FILES, folders=("figures",))
+    names = scene_list(args.scenes, "--scenes")
+    budgets = load_budgets(args.budgets or default_budgets_path())
+    summary = run_report(args.out, names if names is not None else list(BUILTIN_NAMES),
+                         overrides=parse_overrides(args.set, error=ReportError), seeds=args.seeds, seed=args.seed,
+                         reference_settings=report_settings(args), budgets=budgets, baseline_dir=args.baseline,
+                         sweep_dir=args.sweep, progress=not args.quiet)
+    for page in summary["scenes"]:
+        c = page["components"]
+        failed = [ch["name"] for ch in page["gate"]["checks"] if not ch["passed"]]
+        gate = ("FAIL " + ", ".join(failed)) if failed else ("pass" if page["gate"]["checks"] else "not checked")
+        print(f"{page['scene']:<12} caustic relMSE {pct(c['caustic']['relative_mse'].get('debiased'))}, "
+              f"energy {num(c['caustic']['energy_ratio'].get('value'))}; combined relMSE "
+              f"{pct(c['combined']['relative_mse'].get('debiased'))}; gate {gate}")
+    gate = summary["gate"]
+    verdict = "passed" if gate["passed"] else "FAILED" if gate["failed"] else "not checked"
+    print(f"report: {len(summary['scenes'])} scenes, gate {verdict} ({gate['failed']} of {gate['checks']} checks "
+          f"failed), {summary['seconds']['total']:.0f} s -> {args.out}/index.html")
+    return 0

@@ -1,0 +1,66 @@
+"""``volcaustics sweep``: a grid of experiments, resumable, on local processes or Dask."""
+
+from __future__ import annotations
+
+import sys
+
+from volcaustics.approx.params import PARAMS, PRESETS
+from volcaustics.reports.cli.common import UsageError, check_output_set
+from volcaustics.reports.core.executors import default_workers, parse_dask
+from volcaustics.reports.sweep.run import OUTPUT_FILES, OUTPUT_FOLDERS, run_sweep
+from volcaustics.reports.sweep.spec import spec_from_args, spec_from_toml
+
+
+def register(sub) -> None:
+    names = ", ".join(p.name for p in PARAMS)
+    p = sub.add_parser("sweep", help="a grid of experiments over approximation parameters, resumable, on local "
+                                     "processes or Dask -> DIR (store, tables, figures)")
+    p.add_argument("spec", nargs="?", metavar="SPEC.toml", help="the sweep as a TOML file (else the options below)")
+    p.add_argument("-o", "--output", required=True, metavar="DIR", help="the store folder (resumed when it exists)")
+    p.add_argument("--scenes", help="comma-separated SCENE arguments (default: every built-in)")
+    p.add_argument("--vary", action="append", metavar="NAME=V1,V2,...",
+                   help=f"a grid axis (repeatable); NAME one of {names}")
+    p.add_argument("--set", action="append", metavar="NAME=VALUE", help="a fixed parameter (repeatable)")
+    p.add_argument("--preset", choices=tuple(PRESETS), default="quick", help="the parameters not named (default quick)")
+    p.add_argument("--seeds", type=int, default=1, help="seeds per point (default 1)")
+    p.add_argument("--workers", type=int, help="local worker processes (default: the core count)")
+    p.add_argument("--dask", metavar="tcp://HOST:PORT|local:N",
+                   help="run on Dask distributed: a running scheduler, or a LocalCluster of N process workers")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    check_output_set(args.output, "-o", files=OUTPUT_FILES, folders=OUTPUT_FOLDERS)
+    if args.spec and (args.vary or args.set or args.scenes is not None):
+        raise UsageError("SPEC.toml", args.spec, "give the grid in the file or on the command line, not both")
+    if args.workers is not None and args.workers < 1:
+        raise UsageError("--workers", args.workers, "expected at least 1 worker process")
+    if args.dask:
+        try:
+            parse_dask(args.dask)
+        except ValueError as exc:
+            raise UsageError("--dask", args.dask, str(exc).split(": ", 1)[-1]) from None
+    if args.spec:
+        spec = spec_from_toml(args.spec)
+    else:
+        spec = spec_from_args(args.scenes, args.vary, args.set, preset=args.preset, seeds=args.seeds)
+    result = run_sweep(spec, args.output, workers=args.workers or default_workers(), dask=args.dask,
+                       progress=not args.quiet)
+    print(f"sweep: {result.total} points: {result.done_before} already in the store, {result.computed} computed, "
+          f"{len(result.failed)} failed, {result.seconds:.1f} s -> {args.output}/")
+    _print_suffice(result.tables.get("suffice"))
+    for failure in result.failed:
+        print(f"  failed: {failure['key'][:12]}: {failure['error']}", file=sys.stderr)
+    return 1 if result.failed else 0
+
+
+def _print_suffice(suffice) -> None:
+    if suffice is None or not len(suffice):
+        return
+    print(f"settings that suffice (error within {suffice['factor'].iloc[0]:g}x the best; caustic: debiased "
+          f"relative MSE, intersection: the intersection term's own relative MSE):")
+    for _, row in suffice.iterrows():
+        print(f"  {row['scene']:<12} {row['layer_strategy']:<9} {row['parameter']:<12} "
+              f"{row['criterion'].split('_')[0]:<12} {row['suffices']:g} (of {row['largest']:g}): "
+              f"{100 * row['error']:.2f}% vs best {100 * row['best']:.2f}%, frame {row['frame_time_s']:.3f} s")

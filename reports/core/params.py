@@ -1,0 +1,107 @@
+"""The parameter table's command-line side: every command's flags, ``NAME=VALUE``
+assignments (``--set``, ``--vary``, sweep specs) and presets with overrides, all
+derived from ``approx.params.PARAMS``."""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+
+from volcaustics.approx.params import PARAMS, PRESETS, ApproxParams, ParamError, param
+from volcaustics.approx.trace import check_fits
+
+
+def flag(name: str) -> str:
+    """The command-line flag of a parameter: ``photon_res`` → ``--photon-res``."""
+    return "--" + name.replace("_", "-")
+
+
+def add_param_flags(parser, *, default_preset: str, table: tuple = PARAMS) -> None:
+    """``--preset`` and one flag per parameter of ``table``, typed, with its range,
+    unit and the presets' values in the help."""
+    group = parser.add_argument_group("approximation parameters (DESIGN.md names; default: --preset)")
+    presets = "; ".join(f"{name}: {_preset_text(p)}" for name, p in PRESETS.items())
+    group.add_argument("--preset", choices=tuple(PRESETS), default=default_preset,
+                       help=f"{presets} (default {default_preset})")
+    for entry in table:
+        group.add_argument(flag(entry.name), dest=entry.name, metavar=entry.name.upper(), type=_parser(entry),
+                           help=f"{entry.help}: {entry.expected()}; default: the preset's")
+
+
+def _preset_text(params) -> str:
+    base = ApproxParams()
+    changed = [f"{p.name} {getattr(params, p.name)}" for p in PARAMS if getattr(params, p.name) != getattr(base, p.name)]
+    return "the paper's values" + (" with " + ", ".join(changed) if changed else "")
+
+
+def _parser(entry):
+    """argparse ``type``: the table's parsing; the error names what is expected."""
+    def parse(text):
+        try:
+            value = entry.parse(text)
+            entry.check(value)
+        except ParamError as exc:
+            raise argparse.ArgumentTypeError(str(exc)) from None
+        return value
+
+    parse.__name__ = entry.name  # argparse names the type in its message
+    return parse
+
+
+def params_from_args(args, table: tuple = PARAMS):
+    """The preset of ``args.preset`` with every parameter flag given."""
+    changes = {p.name: getattr(args, p.name) for p in table if getattr(args, p.name, None) is not None}
+    return dataclasses.replace(PRESETS[args.preset], **changes)
+
+
+def parse_assignment(text: str, where: str, *, table: tuple = PARAMS, error=ParamError) -> tuple:
+    """``NAME=V1,V2`` → (name, typed values); ``error`` naming ``where`` otherwise."""
+    name, sep, values = text.partition("=")
+    name = name.strip().replace("-", "_")
+    if not sep or not name:
+        raise error(f"{where} {text!r}: expected NAME=VALUE[,VALUE...]")
+    items = values.split(",")
+    if any(not v.strip() for v in items):
+        raise error(f"{where} {text!r}: an empty value")
+    return name, [parse_value(name, v, where, table=table, error=error) for v in items]
+
+
+def parse_value(name: str, text, where: str, *, table: tuple = PARAMS, error=ParamError):
+    """A parameter value from text (CLI) or TOML, typed as the table declares it."""
+    try:
+        return param(name, table).parse(text)
+    except ParamError as exc:
+        raise error(f"{where}: {exc}") from None
+
+
+def parse_overrides(assignments, *, error=ParamError) -> dict:
+    """``--set NAME=VALUE`` (repeatable) as parameters; ``seed`` has its own option."""
+    overrides = {}
+    for text in assignments or []:
+        name, values = parse_assignment(text, "--set", error=error)
+        if len(values) != 1:
+            raise error(f"--set {text!r}: one value per parameter")
+        if name in overrides:
+            raise error(f"--set {text!r}: {name} is set twice: set it once")
+        if name == "seed":
+            raise error(f"--set {text!r}: use --seed (the first of the --seeds seeds)")
+        overrides[name] = values[0]
+    return overrides
+
+
+def measured_settings(preset: str, overrides: dict, *, seeds: int, seed: int, min_seeds: int, why: str,
+                      error=ParamError) -> tuple:
+    """(params, seeds) of a gate's or a report's experiments: the preset with
+    ``overrides`` and first seed ``seed``; ``seeds`` at least ``min_seeds`` (``why``
+    says why). ``error`` for a bad override, seed count or seed; a frame that cannot
+    run fails here, before any reference renders."""
+    if isinstance(seeds, bool) or not isinstance(seeds, int) or not min_seeds <= seeds <= 256:
+        raise error(f"--seeds = {seeds!r}: expected an integer in [{min_seeds}, 256] ({why})")
+    if not 0 <= seed <= 2**32 - seeds:
+        raise error(f"--seed = {seed}: expected 0 ≤ seed and seed + seeds − 1 < 2^32")
+    try:
+        params = dataclasses.replace(PRESETS[preset], seed=seed, **overrides)
+        check_fits(params, keep_records=True)
+    except ParamError as exc:
+        raise error(f"--set: {exc}") from None
+    return params, seeds

@@ -1,0 +1,42 @@
+"""What every figure shares: matplotlib without a display, the palette, saving."""
+
+from __future__ import annotations
+
+import io
+import os
+
+from volcaustics.scenes.storage import atomic_path
+
+# Okabe & Ito's colour-blind-safe palette
+OKABE_ITO = ("#E69F00", "#56B4E9", "#009E73", "#D55E00", "#0072B2", "#CC79A7", "#F0E442", "#000000")
+
+
+def pyplot():
+    """matplotlib.pyplot on the Agg backend (no display; imported on first use: slow)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def save_figure(fig, folder: str, name: str) -> list:
+    """``folder``/``name``.png and .svg, each written whole; the figure is closed."""
+    os.makedirs(folder, exist_ok=True)
+    paths = []
+    for ext in ("png", "svg"):
+        path = os.path.join(folder, f"{name}.{ext}")
+        with atomic_path(path) as tmp:
+            fig.savefig(tmp, format=ext, dpi=110, bbox_inches="tight")
+        paths.append(path)
+    pyplot().close(fig)
+    return paths
+
+
+def png_bytes(fig, dpi: int = 100) -> bytes:
+    """The figure as PNG bytes; the figure is closed."""
+    buffer = io.BytesIO()
+    fig.savefig(buffer, format="png", dpi=dpi, bbox_inches="tight")
+    pyplot().close(fig)
+    return buffer.getvalue()

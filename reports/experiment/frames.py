@@ -1,0 +1,28 @@
+"""The approximation's frames of an experiment: one per seed with its segment records,
+and the pass times of frames rendered as a user would (no records)."""
+
+from __future__ import annotations
+
+import dataclasses
+
+TIMED_FRAMES = 3             # frames without records timed per experiment (the median one is reported)
+
+
+def render_frames(renderer, scene, p, seeds, *, warm_up: bool) -> tuple:
+    """One frame per seed, with records, and the pass times of TIMED_FRAMES frames
+    rendered as a user would (no records: reading them back is the harness's cost, not
+    the method's). A fresh renderer compiles its shaders in its first frame, so it
+    renders one frame first that is not timed."""
+    if warm_up:
+        renderer.render(scene, dataclasses.replace(p, seed=seeds[0]), keep_records=False)
+    frames = [renderer.render(scene, dataclasses.replace(p, seed=s), keep_records=True) for s in seeds]
+    timed = [renderer.render(scene, dataclasses.replace(p, seed=seeds[i % len(seeds)]), keep_records=False).timings
+             for i in range(TIMED_FRAMES)]
+    return frames, timed
+
+
+def median_timings(timed: list) -> dict:
+    """The pass times of the timed frame with the median frame time (one frame's, so
+    its passes add up to at most its frame time)."""
+    order = sorted(range(len(timed)), key=lambda i: timed[i]["frame_wall"])
+    return {name: float(v) for name, v in timed[order[len(order) // 2]].items()}

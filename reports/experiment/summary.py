@@ -1,0 +1,78 @@
+"""What an experiment's ``summary.json`` holds, the columns every table row carries, and
+the images a report shows (:data:`VIEWS`)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from volcaustics.approx.context import gl_info, shared_context
+from volcaustics.metrics.noise import MIN_SEEDS_FOR_INTERVAL
+from volcaustics.scenes.formats import COLOUR_LAYERS
+from volcaustics.reports.core.versions import code_version, library_versions
+from volcaustics.reports.experiment.exact_images import EXACT_STEPS, SMALL_SUPERSAMPLE
+from volcaustics.reports.experiment.frames import median_timings
+
+ALIVE_BUDGET = 1e-3          # above it, summary.json warns that E_∞ is truncated
+VIEWS = {"approx.<component>": "the approximation, mean over the seeds (H×W×3)",
+         "reference.<component>": "the reference's mean (H×W×3)",
+         "exact_steps": "E_k: the approximation's photons replayed exactly, same steps and Fresnel (caustic)",
+         "map.per_pixel_relative_mse.<component>": "per-pixel relative MSE of the first seed's frame (H×W, NaN: "
+                                                   "not compared)",
+         "map.hdr_flip.<component>": "HDR-FLIP error of the first seed's frame (H×W in [0, 1], NaN: not compared)",
+         "compared": "1 where pixels are compared (neither renderer sees glass), else 0 (H×W)"}
+
+
+def parameter_columns(scene, params, seeds: list, reference_key: str) -> dict:
+    """The columns every row of every table carries: scene, its hash, every
+    approximation parameter (``seed``: the first seed), the seeds, the reference's
+    cache key and the code version."""
+    return {"scene": scene.name, "scene_hash": scene.scene_hash(), **params.to_dict(), "seeds": len(seeds),
+            "reference_key": reference_key, "code_version": code_version()}
+
+
+def experiment_views(frames, reference, keep, layers, maps) -> dict:
+    """The images a report shows (:data:`VIEWS`), float32."""
+    out = {}
+    for component in COLOUR_LAYERS:
+        out[f"approx.{component}"] = np.mean([f.images[component] for f in frames], axis=0)
+        out[f"reference.{component}"] = reference.mean[component]
+    out["exact_steps"] = layers["exact_steps"]
+    for (metric, component), image in maps.items():
+        out[f"map.{metric}.{component}"] = image
+    out["compared"] = keep
+    return {name: np.asarray(image, np.float32) for name, image in out.items()}
+
+
+def experiment_summary(scene, p, seeds, reference, frames, exact, headline, decomposition, divergence, clock, keep,
+             timed) -> dict:
+    alive = {k: float(max(v)) for k, v in exact["alive"].items()}
+    warnings = [f"E_inf ({k} Fresnel) keeps {100 * v:.2f}% of the power alive after {EXACT_STEPS} steps "
+                f"(> {100 * ALIVE_BUDGET:.1f}%): the truncation term is understated" for k, v in alive.items()
+                if v > ALIVE_BUDGET]
+    if not decomposition["residual"]["within_noise"]:
+        warnings.append(decomposition["residual"]["message"])
+    if len(seeds) < MIN_SEEDS_FOR_INTERVAL:
+        warnings.append(f"{len(seeds)} seed(s): no intervals (they need {MIN_SEEDS_FOR_INTERVAL})"
+                        + ("" if len(seeds) >= 2 else "; the approximation's own noise is not estimated, not "
+                           "subtracted") + f"; use --seeds {MIN_SEEDS_FOR_INTERVAL} or more")
+    m = reference.manifest
+    return {
+        "kind": "experiment", "scene": scene.name, "scene_hash": scene.scene_hash(),
+        "description": scene.description, "params": p.to_dict(), "seeds": len(seeds), "seed_values": seeds,
+        "reference": {"key": reference.key, "settings": m.get("settings"), "photons": m.get("photons"),
+                      "batches": m.get("batches"), "camera_batches": m.get("camera_batches"),
+                      "noise_floor": m.get("noise_floor"), "stopped_by": m.get("stopped_by"),
+                      "mitsuba_variant": m.get("mitsuba_variant"), "cached": reference.cached,
+                      "reference_code_version": m.get("reference_code_version")},
+        "exact": {"steps": EXACT_STEPS, "alive_after": alive, "small_splat_radius": exact["small_radius"],
+                  "small_supersample": SMALL_SUPERSAMPLE,
+                  "batches": int(len(exact["batches"]["approx"]))},
+        "compared_pixels": int(keep.sum()),
+        "images": headline,
+        "decomposition": {"rows": decomposition["rows"], "residual": decomposition["residual"],
+                          "options": decomposition["options"]},
+        "paths": divergence,
+        "approx_timings_s": median_timings(timed), "timed_frames": len(timed), "timing_method": frames[0].timing_method,
+        "experiment_seconds": clock, "gl": gl_info(shared_context()),
+        "code_version": code_version(), "versions": library_versions(), "warnings": warnings,
+    }

@@ -1,0 +1,167 @@
+"""The gate's budgets and checks: fail when the approximation gets worse — budgets per scene and a
+regression test against the last accepted results (the baseline).
+
+Budgets (TOML; ``reports/budgets.toml`` is the default for the built-ins)::
+
+    preset = "quick"            # the approximation's parameters (``--set`` overrides)
+    seeds = 4                   # frames per scene: seeds 0 … seeds − 1
+    [scene.bunny]
+    caustic.relmse_max = 0.30         # debiased relative MSE (metrics.noise.seed_relative_mse)
+    caustic.energy_ratio = [0.3, 0.5] # Σ approx / Σ reference, averaged over RGB
+    caustic.hdr_flip_max = 0.95       # mean HDR-FLIP over frames
+    combined.relmse_max = 0.02
+    segments.missed_step2_max = 0.05  # step-2 segments missed (inside glass or in the medium)
+    segments.dt_p90_step2_max = 0.006 # |Δt| p90 of step-2 true hits, m
+
+A budget tighter than the measurement can resolve — a relative-MSE limit below the
+reference's floor plus 3 standard errors, an energy band narrower than 3 σ of the
+reference's total — is refused (exit 2), naming it.
+
+Regression: per scene, each frame's caustic relative MSE against the baseline's
+(``--baseline DIR``, written by ``--update-baseline`` with the reference keys it was
+measured against). Same seeds: a paired one-sided t-test (an unchanged approximation
+gives identical frames: no false alarm at all); other seeds: Welch's. A regression is
+an increase significant at ``ALPHA``; the gate states the smallest relative increase
+it detects with 95% power at its seed count.
+
+Exit codes (DESIGN.md): 0 pass, 1 a budget exceeded or a regression, 2 bad input or
+missing data — a missing reference or baseline entry, a NaN metric, a scene that does
+not exist — never a pass.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass, field
+
+from volcaustics.approx.params import PRESETS
+from volcaustics.reports.core.sizing import REFERENCE_KEYS, reference_settings
+from volcaustics.reports.core.tomlfile import load_toml
+
+RESOLVE_SIGMAS = 3.0    # a budget must lie this many standard errors beyond the noise
+COMPONENT_KEYS = ("relmse_max", "energy_ratio", "hdr_flip_max")
+SEGMENT_KEYS = ("missed_step2_max", "dt_p90_step2_max")
+TOP_KEYS = ("preset", "seeds", "scene", "reference")
+
+
+class GateError(ValueError):
+    """Bad budgets, a missing reference or baseline, a NaN metric: exit 2."""
+
+
+@dataclass
+class Check:
+    scene: str
+    name: str        # e.g. "caustic.relmse_max", "regression.caustic_relmse"
+    value: float
+    limit: str       # the limit as text ("≤ 0.30", "[0.3, 0.5]", "p < 0.01")
+    passed: bool
+    message: str = ""
+    images: dict = field(default_factory=dict)   # label → path of the images written for a failure
+    detail: dict = field(default_factory=dict)   # e.g. p-value, detectable increase
+
+
+def default_budgets_path() -> str:
+    return os.path.join(os.path.dirname(os.path.abspath(__file__)), "budgets.toml")
+
+
+def load_budgets(path: str) -> dict:
+    """{"preset", "seeds", "scenes": {name: {check: limit}}}, validated."""
+    doc = load_toml(path, keys=TOP_KEYS, error=GateError, what="budgets")
+    seeds = doc.get("seeds", 4)
+    if isinstance(seeds, bool) or not isinstance(seeds, int) or not 2 <= seeds <= 256:
+        raise GateError(f"{path}: seeds = {seeds!r}: expected an integer in [2, 256] (the regression test needs 2)")
+    preset = doc.get("preset", "quick")
+    if preset not in PRESETS:
+        raise GateError(f"{path}: preset = {preset!r}: expected {' or '.join(repr(n) for n in PRESETS)}")
+    scenes = doc.get("scene")
+    if not isinstance(scenes, dict) or not scenes:
+        raise GateError(f"{path}: no [scene.NAME] table: nothing to gate")
+    out = {}
+    for name, table in scenes.items():
+        if not isinstance(table, dict) or not table:
+            raise GateError(f"{path}: scene.{name} = {table!r}: expected a table of budgets")
+        checks = {}
+        for group, values in table.items():
+            if not isinstance(values, dict):
+                raise GateError(f"{path}: scene.{name}.{group}: expected a table of limits")
+            allowed = SEGMENT_KEYS if group == "segments" else COMPONENT_KEYS
+            if group not in ("segments", "caustic", "fog", "direct", "combined"):
+                raise GateError(f"{path}: scene.{name}.{group}: expected caustic, fog, direct, combined or segments")
+            for key, limit in values.items():
+                where = f"{path}: scene.{name}.{group}.{key}"
+                if key not in allowed:
+                    raise GateError(f"{where}: unknown; expected {', '.join(allowed)}")
+                if key == "energy_ratio":
+                    if (not isinstance(limit, list) or len(limit) != 2
+                            or not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in limit)
+                            or not 0 <= limit[0] < limit[1]):
+                        raise GateError(f"{where} = {limit!r}: expected [low, high] with 0 ≤ low < high")
+                elif isinstance(limit, bool) or not isinstance(limit, (int, float)) or not limit > 0 \
+                        or not math.isfinite(limit):
+                    raise GateError(f"{where} = {limit!r}: expected a positive number")
+                checks[f"{group}.{key}"] = limit
+        out[name] = checks
+    reference = doc.get("reference", {})
+    if not isinstance(reference, dict) or any(k not in REFERENCE_KEYS for k in reference):
+        raise GateError(f"{path}: reference = {reference!r}: expected a table of {', '.join(REFERENCE_KEYS)}")
+    settings = reference_settings(reference, error=lambda message: GateError(f"{path}: {message}"))
+    return {"preset": preset, "seeds": seeds, "scenes": out, "path": path, "reference_settings": settings}
+
+
+def _number(value, scene, what) -> float:
+    if value is None or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise GateError(f"{scene}: {what} is {value!r}: a metric the gate needs is missing or NaN")
+    return float(value)
+
+
+def _step2(segments: list, scene: str) -> dict:
+    rows = [r for r in segments if r.get("grouping") == "step" and r.get("step") == 2]
+    if not rows:
+        raise GateError(f"{scene}: no step-2 segments (steps < 2?): the segment budgets cannot be checked")
+    return rows[0]
+
+
+def budget_checks(scene: str, limits: dict, experiment) -> list:
+    """The scene's budgets against its experiment; GateError for a budget the noise
+    cannot resolve or a NaN metric."""
+    s = experiment.summary
+    checks = []
+    for name, limit in limits.items():
+        group, key = name.split(".", 1)
+        if group == "segments":
+            row = _step2(experiment.segments, scene)
+            if key == "missed_step2_max":
+                missed = sum(row.get(f"count_{c}", 0) + row.get(f"count_beyond_self_rehit_{c}", 0)
+                             for c in ("missed_inside", "missed_medium"))
+                value = _number(missed / row["segments"], scene, name)
+            else:
+                value = _number(row["abs_dt_p90"], scene, name)
+            checks.append(Check(scene, name, value, f"≤ {limit:g}", value <= limit))
+            continue
+        metrics = s["images"][group]
+        if key == "relmse_max":
+            m = metrics["relative_mse"]
+            value = _number(m["debiased"], scene, f"{group} relative MSE")
+            se = m.get("standard_error")
+            resolvable = (m.get("reference_floor") or 0.0) + RESOLVE_SIGMAS * (se if se and math.isfinite(se) else 0)
+            if limit < resolvable:
+                raise GateError(f"{scene}: {name} = {limit:g} is tighter than the noise can resolve (the reference's "
+                                f"floor {m.get('reference_floor', 0):.2e} + {RESOLVE_SIGMAS:g} SE = {resolvable:.2e}): "
+                                f"raise it or render a finer reference / more seeds")
+            checks.append(Check(scene, name, value, f"≤ {limit:g}", value <= limit))
+        elif key == "energy_ratio":
+            m = metrics["energy_ratio"]
+            value = _number(m["value"], scene, f"{group} energy ratio")
+            sigma = m.get("reference_sigma") or 0.0
+            if (limit[1] - limit[0]) / 2 < RESOLVE_SIGMAS * sigma:
+                raise GateError(f"{scene}: {name} = {limit} is narrower than {RESOLVE_SIGMAS:g} σ of the reference's "
+                                f"total ({sigma:.2e}): widen it")
+            checks.append(Check(scene, name, value, f"in [{limit[0]:g}, {limit[1]:g}]", limit[0] <= value <= limit[1]))
+        else:
+            value = _number(metrics["hdr_flip"]["value"], scene, f"{group} HDR-FLIP")
+            checks.append(Check(scene, name, value, f"≤ {limit:g}", value <= limit))
+    for c in checks:
+        if not c.passed:
+            c.message = f"{scene}: {c.name} = {c.value:.4g}, limit {c.limit}"
+    return checks

@@ -1,0 +1,68 @@
+"""Writing the accuracy report: ``index.html`` drawn from the summary's strict-JSON data
+with each scene's pictures, and, last, ``summary.json``; a sweep's figures as files."""
+
+from __future__ import annotations
+
+import json
+import os
+import time
+
+from tqdm import tqdm
+
+from volcaustics.scenes.storage import atomic_write_texts
+from volcaustics.reports.core.tables import plain
+from volcaustics.reports.page import charts
+from volcaustics.reports.page.html import render_page
+from volcaustics.reports.page.images import SCALES, data_uri, heatmap_uri, render_uri
+from volcaustics.reports.page.summary import OUTPUT_FILES
+from volcaustics.reports.sweep.figures import draw_figures
+
+
+def write_report(out_dir: str, results: list, summary: dict, sweep=None, *, progress: bool = False,
+                 started: float | None = None) -> dict:
+    """Draw ``index.html`` from ``summary`` (and each scene's views), write it and,
+    last, ``summary.json``; the sweep's figures also as files under ``figures/``. The
+    page is drawn from the same strict-JSON data that ``summary.json`` holds (NaN as
+    null). ``started``: the run's ``time.perf_counter()`` at its start, for the total."""
+    t0 = time.perf_counter()
+    os.makedirs(out_dir, exist_ok=True)
+    summary = plain(summary)
+    pairs = list(zip(results, summary["scenes"]))
+    images = {page["scene"]: scene_images(result, page)
+              for result, page in tqdm(pairs, desc="page", unit="scene", disable=not progress)}
+    sweep_figures = {}
+    if sweep is not None:
+        paths = draw_figures(sweep.tables, os.path.join(out_dir, "figures"), varied=sweep.varied)
+        for path in paths:
+            if path.endswith(".png"):
+                with open(path, "rb") as fh:
+                    sweep_figures[os.path.splitext(os.path.basename(path))[0]] = data_uri(fh.read())
+        summary["sweep"]["figures"] = [os.path.relpath(p, out_dir) for p in paths]
+    page = render_page(summary, images, sweep_figures)
+    summary["seconds"]["page"] = time.perf_counter() - t0
+    if started is not None:
+        summary["seconds"]["total"] = time.perf_counter() - started
+    # one unit: an interrupted run never leaves a page beside another run's summary
+    html, doc = (os.path.join(out_dir, name) for name in OUTPUT_FILES)
+    atomic_write_texts({html: page, doc: json.dumps(summary, indent=1, allow_nan=False)})
+    return summary
+
+
+def scene_images(result, page: dict) -> dict:
+    """Data URIs of one scene: renders at the page's exposures, error maps on the fixed
+    scales, charts."""
+    v = result.views
+    out = {}
+    for component in ("caustic", "combined"):
+        exposure = page["exposure"][component]
+        out[f"approx.{component}"] = render_uri(v[f"approx.{component}"], exposure)
+        out[f"reference.{component}"] = render_uri(v[f"reference.{component}"], exposure)
+        for metric, scale in SCALES.items():
+            name = f"map.{metric}.{component}"
+            out[name] = heatmap_uri(v[name], scale) if name in v else None   # None: the metric had no value
+    out["exact_steps"] = render_uri(v["exact_steps"], page["exposure"]["caustic"])
+    out["chart.hit_classes"] = data_uri(charts.hit_classes_chart(page["hit_classes"]))
+    out["chart.power_budget"] = data_uri(charts.power_budget_chart(page["power_budget"]))
+    out["chart.decomposition"] = data_uri(charts.decomposition_chart(page["decomposition"]))
+    out["chart.pass_times"] = data_uri(charts.pass_times_chart(page["timing"]))
+    return out

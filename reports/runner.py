@@ -1,0 +1,220 @@
+"""The one measurement runner (DESIGN.md): points → references by a stated policy →
+result-store lookup → experiments on an executor → results. The sweep, the gate and
+the report measure through it; nothing else renders a point or measures it.
+
+A point is a scene, the approximation's parameters and a number of seeds. Its key
+(``reports.core.store.point_key``) hashes everything that determines its result, so
+a point any command has stored is never measured again: the gate right after the
+report reads the report's results.
+
+Reference policies:
+
+* ``cached`` — the cached reference as it is; a missing one is an error (the gate
+  without ``--render-references``);
+* ``missing`` — the cached reference as it is, a missing one rendered (a sweep: a
+  resumed sweep measures against the reference its first points had);
+* ``continue`` — rendered to the budget: a cached entry that does not meet it is
+  continued batch by batch (the report, ``measure``).
+"""
+
+from __future__ import annotations
+
+import os
+import threading
+import time
+from dataclasses import dataclass, field
+
+from tqdm import tqdm
+
+from volcaustics.approx import Renderer
+from volcaustics.approx.params import ApproxParams
+from volcaustics.reference.cache import cached_reference, existing_reference
+from volcaustics.reference.oracle import Oracle
+from volcaustics.reference.render import render_reference
+from volcaustics.scenes import resolve_scene
+from volcaustics.scenes.storage import cache_dir
+from volcaustics.reports.core.executors import run_tasks
+from volcaustics.reports.core.sizing import sized
+from volcaustics.reports.core.store import TABLES, Store, key_document, point_key
+from volcaustics.reports.core.tables import rows_of
+from volcaustics.reports.experiment.run import run_experiment
+
+POLICIES = ("cached", "missing", "continue")
+RESULTS_STORE = "report-results"  # $VOLCAUSTICS_CACHE/report-results: the report's and the gate's results
+
+
+class RunnerError(ValueError):
+    """A point that cannot be measured here (a missing reference under ``cached``)."""
+
+
+def results_store() -> Store:
+    """The result store the report and the gate share (with the views a report shows)."""
+    return Store(cache_dir(RESULTS_STORE))
+
+
+@dataclass(frozen=True)
+class Point:
+    scene: str               # the SCENE argument (built-in name or path)
+    params: ApproxParams     # unresolved: width/height unset take the scene camera's
+    seeds: int = 1           # frames with seeds params.seed … params.seed + seeds − 1
+
+
+@dataclass
+class PointResult:
+    """One point as the store holds it (``tables``: "segments", "photons", "images" →
+    DataFrame; ``views``: name → image, when the store keeps them)."""
+
+    point: Point
+    key: str
+    summary: dict
+    tables: dict
+    views: dict
+    measured: bool           # measured in this run (False: from the store)
+
+    @property
+    def segments(self) -> list:
+        return rows_of(self.tables["segments"])
+
+
+@dataclass
+class Measured:
+    """What a run did: ``results`` per point in order (read back when asked), the keys,
+    how many were in the store before, computed now, or failed (with the error)."""
+
+    keys: list
+    done_before: int
+    computed: int
+    failed: list
+    seconds: float
+    point_seconds: list = field(default_factory=list)   # each computed point's own seconds
+    results: list = field(default_factory=list)
+
+
+def reference_for(scene, settings, policy: str, *, progress: bool = False, hint: str = "", error=RunnerError):
+    """The reference of ``scene`` at ``settings`` (already sized) under ``policy``."""
+    if policy not in POLICIES:
+        raise ValueError(f"policy = {policy!r}: expected one of {', '.join(POLICIES)}")
+    if policy == "continue":
+        return render_reference(scene, settings, progress=progress)
+    found = existing_reference(scene, settings)
+    if found is None:
+        if policy == "cached":
+            size = f"{settings.width}x{settings.height}" if settings.width else "the scene's size"
+            raise error(f"{scene.name}: no reference in the cache for {size}" + (f": {hint}" if hint else ""))
+        found = render_reference(scene, settings, progress=progress)
+    return found
+
+
+def measure(points: list, store: Store, *, reference_settings, policy: str, views: bool = False,
+            workers: int | None = None, dask: str | None = None, progress: bool = True, read_back: bool = True,
+            hint: str = "", error=RunnerError) -> Measured:
+    """Measure every point not in ``store`` yet and return them all.
+
+    References are resolved once per scene and image size, in this process, before any
+    point runs. Points run in this process one after another (``workers`` and ``dask``
+    None: the report, the gate) or on ``reports.core.executors`` (a sweep: a failed
+    point is reported in ``failed``, the others go on). ``views``: the store keeps the
+    images a report shows (a point without them counts as missing). ``read_back``:
+    ``results`` holds every point as the store has it."""
+    t0 = time.perf_counter()
+    store.clean_stale()
+    tasks, keys = _tasks(points, store, reference_settings, policy, views=views, progress=progress, hint=hint,
+                         error=error)
+    unique = list({t["key"]: t for t in tasks}.values())
+    done_before = len(set(keys)) - len(unique)
+    if workers is None and dask is None:
+        outcomes = [run_point(task, progress=progress)
+                    for task in tqdm(unique, desc="experiments", unit="point", disable=not progress)]
+    else:
+        outcomes = _on_executor(unique, store, total=len(set(keys)), done=done_before, workers=workers, dask=dask,
+                                progress=progress)
+    failed = [o for o in outcomes if o.get("error")]
+    run = Measured(keys=keys, done_before=done_before, computed=len(outcomes) - len(failed), failed=failed,
+                   seconds=0.0, point_seconds=[o["seconds"] for o in outcomes if not o.get("error")])
+    if read_back:
+        computed = {o["key"] for o in outcomes if not o.get("error")}
+        run.results = [_read_back(store, point, key, views, key in computed, error)
+                       for point, key in zip(points, keys)]
+    run.seconds = time.perf_counter() - t0
+    return run
+
+
+def _tasks(points, store, settings, policy, *, views, progress, hint, error) -> tuple:
+    """The plain-data task of every point not done, and every point's key."""
+    scenes, references, tasks, keys = {}, {}, [], []
+    for point in points:
+        scene = scenes.setdefault(point.scene, resolve_scene(point.scene))
+        wanted = sized(settings, scene, point.params)
+        size = (point.scene, wanted.width, wanted.height)
+        if size not in references:
+            references[size] = reference_for(scene, wanted, policy, progress=progress, hint=hint, error=error)
+        reference = references[size]
+        document = key_document(scene, point.params, point.seeds, reference)
+        key = point_key(document)
+        keys.append(key)
+        if store.status(key, views=views) == "done":
+            continue
+        store.remove_damaged(key, views=views)
+        tasks.append({"key": key, "key_document": document, "scene": point.scene,
+                      "params": point.params.resolved(scene).to_dict(), "seeds": point.seeds,
+                      "reference_key": reference.key, "store": os.path.abspath(store.root), "views": views})
+    return tasks, keys
+
+
+def _on_executor(tasks, store, **options) -> list:
+    try:
+        return list(run_tasks(run_point, tasks, **options))
+    except BaseException:  # Ctrl-C: the stopped workers' half-written points go now, not on the next run
+        store.clean_stale()
+        raise
+
+
+def _read_back(store, point, key, views, measured, error) -> PointResult | None:
+    summary = store.summary(key)
+    if summary is None:
+        return None  # a failed point (reported in Measured.failed)
+    folder = store.point_dir(key)
+    import pandas as pd
+
+    try:
+        tables = {t: pd.read_parquet(os.path.join(folder, f"{t}.parquet")) for t in TABLES}
+    except Exception as exc:  # pyarrow raises its own types for a damaged file
+        raise error(f"{folder}: the result of {point.scene} could not be read back ({exc})") from None
+    return PointResult(point=point, key=key, summary=summary, tables=tables,
+                       views=store.views(key) if views else {}, measured=measured)
+
+
+# --- one point, in whichever process runs it ------------------------------------------
+
+_PROCESS_LOCK = threading.Lock()
+_TOOLS: dict = {}
+
+
+def run_point(task: dict, *, progress: bool = False) -> dict:
+    """One point (picklable: plain data in and out). Tasks of one process run one at a
+    time, whatever the executor's threads (GL and Mitsuba are per process)."""
+    with _PROCESS_LOCK:
+        t0 = time.perf_counter()
+        store = Store(task["store"])
+        if store.status(task["key"], views=task["views"]) == "done":
+            return {"key": task["key"], "status": "done", "seconds": 0.0}
+        scene = resolve_scene(task["scene"])
+        reference = cached_reference(task["reference_key"], scene)  # the run's own, never rendered here
+        if reference is None:
+            raise RuntimeError(f"{task['scene']}: reference {task['reference_key']} is not in this worker's cache "
+                               f"({cache_dir('reference')}): the workers need the run's cache (VOLCAUSTICS_CACHE "
+                               f"on a shared file system)")
+        renderer, oracle = _tools(scene)
+        experiment = run_experiment(scene, ApproxParams(**task["params"]), seeds=task["seeds"], reference=reference,
+                                    renderer=renderer, oracle=oracle, progress=progress)
+        status = store.write_point(task["key"], task["key_document"], experiment, views=task["views"])
+        return {"key": task["key"], "status": status, "seconds": time.perf_counter() - t0}
+
+
+def _tools(scene) -> tuple:
+    """A renderer and an oracle per scene, kept for the process's life (shader
+    compilation and the oracle's scene build are paid once per scene)."""
+    key = scene.scene_hash()
+    if key not in _TOOLS:
+        _TOOLS[key] = (Renderer(scene), Oracle(scene))
+    return _TOOLS[key]

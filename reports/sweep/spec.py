@@ -1,0 +1,164 @@
+"""A sweep's specification: a grid over the approximation's parameters, one experiment per point
+(run by ``reports.sweep.run``).
+
+A sweep is given on the command line (``--scenes a,b --vary layers=1,2,4 --set
+photon_res=256 --seeds N``) or in a TOML file with the same names::
+
+    scenes = ["bunny", "skull"]      # built-in names or .toml paths
+    preset = "quick"                 # the parameters not named below
+    seeds = 1
+    [vary]                           # the grid: every combination, per scene
+    layers = [1, 2, 4, 8]
+    iterations = [4, 8, 16, 30]
+    [set]                            # fixed parameters
+    photon_res = 256
+    [reference]                      # optional: the reference budget (report's by default)
+    target_noise = "caustic=0.005,fog=0.002,direct=0.002"
+
+Every name is an ``ApproxParams`` field (DESIGN.md); every point is validated before
+anything renders. The reference of each scene (and image size) is rendered once, in
+this process, before the points run; workers read it from the cache.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import itertools
+import os
+from dataclasses import dataclass, field
+
+from volcaustics.approx.params import PRESETS, ParamError
+from volcaustics.approx.trace import check_fits
+from volcaustics.scenes import BUILTIN_NAMES, SceneError, resolve_scene
+from volcaustics.reports.core.params import parse_assignment, parse_value
+from volcaustics.reports.core.sizing import reference_settings
+from volcaustics.reports.core.tomlfile import load_toml
+from volcaustics.reports.runner import Point
+
+SPEC_KEYS = ("scenes", "preset", "seeds", "vary", "set", "reference")
+
+
+class SweepError(ValueError):
+    """A sweep specification that cannot run; the message names where, what and the fix."""
+
+
+@dataclass(frozen=True)
+class SweepSpec:
+    """scenes: SCENE arguments; vary: ((name, values), ...) in grid order; fixed:
+    name → value; preset: "quick" or "paper"; seeds per point; reference: settings
+    overrides (REFERENCE_KEYS)."""
+
+    scenes: tuple
+    vary: tuple
+    fixed: dict = field(default_factory=dict)
+    preset: str = "quick"
+    seeds: int = 1
+    reference: dict = field(default_factory=dict)
+
+    def to_dict(self) -> dict:
+        return {"scenes": list(self.scenes), "vary": {k: list(v) for k, v in self.vary}, "set": dict(self.fixed),
+                "preset": self.preset, "seeds": self.seeds, "reference": dict(self.reference)}
+
+
+def spec_from_args(scenes: str | None, vary: list, fixed: list, *, preset: str, seeds: int) -> SweepSpec:
+    """A spec from ``--scenes a,b``, ``--vary NAME=V1,V2`` and ``--set NAME=V``."""
+    names = [s.strip() for s in scenes.split(",")] if scenes is not None else list(BUILTIN_NAMES)
+    grid, settled = [], {}
+    for text in vary or []:
+        name, values = parse_assignment(text, "--vary", error=SweepError)
+        if name in dict(grid):
+            raise SweepError(f"--vary {text!r}: {name} is varied twice")
+        grid.append((name, tuple(values)))
+    for text in fixed or []:
+        name, values = parse_assignment(text, "--set", error=SweepError)
+        if len(values) != 1:
+            raise SweepError(f"--set {text!r}: one value (use --vary for several)")
+        if name in settled:
+            raise SweepError(f"--set {text!r}: {name} is set twice")
+        settled[name] = values[0]
+    return _checked(SweepSpec(tuple(names), tuple(grid), settled, preset, seeds), "command line")
+
+
+def spec_from_toml(path: str) -> SweepSpec:
+    """A spec from a TOML file (see the module's docstring)."""
+    doc = load_toml(path, keys=SPEC_KEYS, error=SweepError, what="sweep spec")
+    scenes = doc.get("scenes")
+    if scenes is None:
+        scenes = list(BUILTIN_NAMES)
+    if not isinstance(scenes, list) or not all(isinstance(s, str) for s in scenes):
+        raise SweepError(f"{path}: scenes = {scenes!r}: expected a list of scene names or paths")
+    base = os.path.dirname(os.path.abspath(path))
+    scenes = [s if not s.endswith(".toml") or os.path.isabs(s) else os.path.join(base, s) for s in scenes]
+    grid = []
+    for name, values in _table(doc, "vary", path).items():
+        if not isinstance(values, list) or not values:
+            raise SweepError(f"{path}: vary.{name} = {values!r}: expected a non-empty list")
+        grid.append((name, tuple(parse_value(name, v, f"{path}: vary", error=SweepError) for v in values)))
+    settled = {name: parse_value(name, v, f"{path}: set", error=SweepError) for name, v in _table(doc, "set", path).items()}
+    reference = _table(doc, "reference", path)
+    reference_settings(reference, error=lambda message: SweepError(f"{path}: {message}"))  # checked now
+    seeds = doc.get("seeds", 1)
+    preset = doc.get("preset", "quick")
+    return _checked(SweepSpec(tuple(scenes), tuple(grid), settled, preset, seeds, dict(reference)), path)
+
+
+def _table(doc, key, path) -> dict:
+    value = doc.get(key, {})
+    if not isinstance(value, dict):
+        raise SweepError(f"{path}: {key} = {value!r}: expected a table [{key}]")
+    return value
+
+
+def _checked(spec: SweepSpec, where: str) -> SweepSpec:
+    """Validate everything that can be checked before rendering: scenes exist, names,
+    the preset, the seeds, every point's parameters, overlaps of vary and set."""
+    if spec.preset not in PRESETS:
+        raise SweepError(f"{where}: preset = {spec.preset!r}: expected {' or '.join(repr(n) for n in PRESETS)}")
+    if isinstance(spec.seeds, bool) or not isinstance(spec.seeds, int) or not 1 <= spec.seeds <= 1024:
+        raise SweepError(f"{where}: seeds = {spec.seeds!r}: expected an integer in [1, 1024]")
+    if not spec.scenes or any(not s for s in spec.scenes):
+        raise SweepError(f"{where}: scenes = {list(spec.scenes)!r}: expected at least one scene, none empty")
+    if len(set(spec.scenes)) != len(spec.scenes):
+        raise SweepError(f"{where}: scenes = {list(spec.scenes)!r}: a scene is listed twice")
+    for name, values in spec.vary:
+        if len(set(values)) != len(values):
+            raise SweepError(f"{where}: vary.{name} = {list(values)!r}: a value is listed twice")
+    both = sorted(set(dict(spec.vary)) & set(spec.fixed))
+    if both:
+        raise SweepError(f"{where}: {both[0]} is both varied and set")
+    if "seed" in dict(spec.vary):
+        raise SweepError(f"{where}: seed cannot be varied; use seeds = N (points with seeds seed … seed + N − 1)")
+    for scene in spec.scenes:
+        try:
+            resolve_scene(scene)
+        except SceneError as exc:
+            raise SweepError(f"{where}: {exc}") from None
+    for point in points(spec):
+        last = point.params.seed + spec.seeds - 1
+        if last > 2**32 - 1:
+            raise SweepError(f"{where}: seed {point.params.seed} with seeds = {spec.seeds} exceeds 2^32 − 1")
+        try:  # what a frame allocates and dispatches, before any reference renders
+            check_fits(point.params, keep_records=True)
+        except ParamError as exc:
+            raise SweepError(f"{where}: point {point.scene}: {exc}") from None
+    return spec
+
+
+def points(spec: SweepSpec) -> list:
+    """Every point of the grid (``reports.runner.Point``), per scene, in grid order
+    (ParamError → SweepError)."""
+    try:
+        base = dataclasses.replace(PRESETS[spec.preset], **spec.fixed)
+    except ParamError as exc:
+        raise SweepError(f"set: {exc}") from None
+    names = [name for name, _ in spec.vary]
+    out = []
+    for scene in spec.scenes:
+        for combo in itertools.product(*(values for _, values in spec.vary)):
+            changes = dict(zip(names, combo))
+            try:
+                params = dataclasses.replace(base, **changes)
+            except ParamError as exc:
+                raise SweepError(f"point {scene}, {changes}: {exc}") from None
+            out.append(Point(scene, params, spec.seeds))
+    return out
