@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 OUT ?= runs/report
 
-.PHONY: setup report test doctor sweep gate gate-baseline lower-bounds clean
+.PHONY: setup report test test-fast lint doctor sweep gate gate-baseline lower-bounds clean
 
 setup:
 	@bash scripts/setup.sh
@@ -15,9 +15,18 @@ report: setup
 	  $$( [ -f $(GATE_BASELINE)/baseline.json ] && echo --baseline $(GATE_BASELINE) ) \
 	  $$( [ -f runs/sweep/sweep.json ] && [ -f runs/sweep/points.parquet ] && echo --sweep runs/sweep )
 
+# Everything, the slow statistical and browser tests included (what CI runs).
 test: setup
 	@bash scripts/setup.sh --browser
 	@bash scripts/run_tests.sh
+
+# The inner loop: the suite without the tests marked slow (pytest -m "not slow").
+test-fast: setup
+	@bash scripts/run_tests.sh -m "not slow"
+
+# ruff, configured in pyproject.toml ([tool.ruff]).
+lint: setup
+	$(BIN)/ruff check .
 
 doctor: setup
 	$(BIN)/volcaustics doctor

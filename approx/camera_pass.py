@@ -8,7 +8,8 @@ import numpy as np
 from volcaustics.scenes.formats import KIND_DIFFUSE, KIND_SPECULAR
 
 from .context import bound
-from .glsl import program, set_uniforms as _set
+from .glsl import program
+from .glsl import set_uniforms as _set
 from .light import spot_constants
 from .transforms import gl_matrix, look_at, perspective
 

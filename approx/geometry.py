@@ -56,7 +56,8 @@ class SceneGeometry:
         spec_min = spec_data[:, :3].min(0) if len(spec_data) else np.zeros(3)
         spec_max = spec_data[:, :3].max(0) if len(spec_data) else np.zeros(3)
         return cls(
-            specular=ctx.buffer(spec_data.tobytes() if len(spec_data) else np.zeros(VERTEX_FLOATS, np.float32).tobytes()),
+            specular=ctx.buffer(spec_data.tobytes() if len(spec_data)
+                                else np.zeros(VERTEX_FLOATS, np.float32).tobytes()),
             diffuse=ctx.buffer(np.concatenate(diff).tobytes()) if diff else None,
             specular_vertices=len(spec_data),
             diffuse_ranges=ranges,

@@ -36,7 +36,8 @@ def spot_falloff(light, directions: np.ndarray) -> np.ndarray:
     """Mitsuba's spot falloff for unit world directions (...×3) leaving the light; float32, in [0, 1]."""
     c = spot_constants(light)
     cos_theta = (np.asarray(directions, np.float32) @ np.asarray(light.direction, np.float32)).astype(np.float32)
-    ramp = (np.float32(c["spot_cutoff_angle"]) - np.arccos(np.clip(cos_theta, -1, 1))) * np.float32(c["spot_inv_transition"])
+    ramp = ((np.float32(c["spot_cutoff_angle"]) - np.arccos(np.clip(cos_theta, -1, 1)))
+            * np.float32(c["spot_inv_transition"]))
     beam = np.where(cos_theta >= np.float32(c["spot_cos_beam"]), np.float32(1.0), ramp)
     return np.where(cos_theta > np.float32(c["spot_cos_cutoff"]), beam, np.float32(0.0)).astype(np.float32)
 

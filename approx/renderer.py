@@ -10,7 +10,6 @@ computed per frame from the scene being rendered.
 
 from __future__ import annotations
 
-import dataclasses
 import time
 from dataclasses import dataclass, field
 
@@ -101,14 +100,41 @@ class Renderer:
         p = (params or ApproxParams()).resolved(scene)
         timer = PassTimer(ctx, self._use_queries)
         wall0 = time.perf_counter()
-        geo = self.geometry
         box = medium_bounds(scene)  # holds light and camera: this frame's, not the construction's
         frustum = LightFrustum.for_scene(scene, *box)
         tracer = self._cached(("tracer", *sorted(PhotonTracer.defines(p).items())), lambda: PhotonTracer(ctx, p))
         tracer.check_limits(p, keep_records=keep_records)
         camera_passes, splatter = self._shading_programs(scene, p)
         released = []
+        maps = self._light_maps(timer, tracer, frustum, p, released)
+        with timer.measure("emission"):
+            emission_map = self.light_maps.render_light_map(frustum, p.photon_res, facing=BOTH)
+            photons = tracer.emit_photons(scene, frustum, emission_map, p.photon_res, p.seed)
+        released += [emission_map, photons]
+        view = _camera_view(scene, p, box)
+        with timer.measure("camera"):
+            gbuf_geo, gbuf_nrm = camera_passes.render_gbuffer(self.geometry, view)
+        released += [gbuf_geo, gbuf_nrm]
+        records, caustic_steps = self._trace_and_splat(timer, tracer, splatter, scene, frustum, box, maps, photons,
+                                                       view, gbuf_geo, p, keep_records, released)
+        with timer.measure("fog"):
+            fog_tex = camera_passes.render_fog(scene, view, frustum, box, maps["shadow"], p.light_res, gbuf_geo)
+        with timer.measure("direct"):
+            direct_tex = camera_passes.render_direct(scene, view, frustum, maps["shadow"], p.light_res, gbuf_geo,
+                                                     gbuf_nrm)
+        released += [fog_tex, direct_tex]
+        images = _compose(caustic_steps, _read_rgb(fog_tex), _read_rgb(direct_tex), _read_rgb(gbuf_geo), p)
+        emitted = len(records[0]) if keep_records and records else None  # photons alive after emission
+        for r in released:
+            r.release()
+        timings = dict(timer.seconds)
+        timings["trace"] = sum(v for k, v in timings.items() if k.startswith("trace_step"))
+        timings["frame_wall"] = time.perf_counter() - wall0
+        return Frame(images=images, caustic_steps=caustic_steps, records=records, timings=timings,
+                     timing_method=timer.method, params=p.to_dict(), photons_emitted=emitted, gl=gl_info(ctx))
 
+    def _light_maps(self, timer, tracer, frustum, p: ApproxParams, released: list) -> dict:
+        """The light layers (paper Fig. 1A, 3) packed for the tracer, and the shadow map."""
         with timer.measure("layers"):
             layer_maps = self.light_maps.render_layers(frustum, p.light_res, p.layers, p.layer_strategy)
             map_texels, map_bounds = tracer.map_buffer(layer_maps, p.light_res)
@@ -117,25 +143,21 @@ class Renderer:
                         for b in map_bounds]
             shadow_map = self.light_maps.render_map(frustum, p.light_res, facing=BOTH, include_diffuse=True)
         released += layer_maps + [shadow_map, *map_texels]
+        return {"texels": map_texels, "info": map_info, "shadow": shadow_map}
 
-        with timer.measure("emission"):
-            emission_map = self.light_maps.render_light_map(frustum, p.photon_res, facing=BOTH)
-            photons = tracer.emit_photons(scene, frustum, emission_map, p.photon_res, p.seed)
-        released += [emission_map, photons]
+    def _trace_and_splat(self, timer, tracer, splatter, scene, frustum, box, maps, photons, view, gbuf_geo,
+                         p: ApproxParams, keep_records: bool, released: list) -> tuple:
+        """Every interaction step: trace (paper §4.1), then splat its medium collisions
+        (§4.3) into one image per step; (records per step, caustic image per step)."""
         count = p.photon_res * p.photon_res
-
-        view = _camera_view(scene, p, box)
-        with timer.measure("camera"):
-            gbuf_geo, gbuf_nrm = camera_passes.render_gbuffer(geo, view)
-        released += [gbuf_geo, gbuf_nrm]
-
         records, caustic_steps = [], []
-        record_buf = ctx.buffer(reserve=count * RAW_RECORD_DTYPE.itemsize)
-        splat_buf = ctx.buffer(reserve=count * SPLAT_DTYPE.itemsize)
+        record_buf = self.ctx.buffer(reserve=count * RAW_RECORD_DTYPE.itemsize)
+        splat_buf = self.ctx.buffer(reserve=count * SPLAT_DTYPE.itemsize)
         released += [record_buf, splat_buf]
+        geo = self.geometry
         for step in range(1, p.steps + 1):
             with timer.measure(f"trace_step{step}"):
-                tracer.trace_step(scene, frustum, box, map_texels, map_info, p.light_res, photons, record_buf,
+                tracer.trace_step(scene, frustum, box, maps["texels"], maps["info"], p.light_res, photons, record_buf,
                                   count, step, p.seed, objects_box=(geo.specular_min, geo.specular_max))
             with timer.measure("splat"):
                 n_splats = tracer.compact_splats(record_buf, count, splat_buf)
@@ -145,28 +167,7 @@ class Renderer:
             step_image.release()
             if keep_records:
                 records.append(records_from_raw(read_raw_records(record_buf, count), step))
-
-        with timer.measure("fog"):
-            fog_tex = camera_passes.render_fog(scene, view, frustum, box, shadow_map, p.light_res, gbuf_geo)
-        with timer.measure("direct"):
-            direct_tex = camera_passes.render_direct(scene, view, frustum, shadow_map, p.light_res, gbuf_geo, gbuf_nrm)
-        released += [fog_tex, direct_tex]
-
-        caustic = np.sum(caustic_steps, axis=0).astype(np.float32) if caustic_steps else np.zeros((p.height, p.width, 3), np.float32)
-        fog, direct = _read_rgb(fog_tex), _read_rgb(direct_tex)
-        kind = _read_rgb(gbuf_geo)[:, :, 1]
-        mask = np.repeat((np.round(kind) == KIND_SPECULAR).astype(np.float32)[:, :, None], 3, axis=2)
-        emitted = len(records[0]) if keep_records and records else None  # photons alive after emission
-        for r in released:
-            r.release()
-        timings = dict(timer.seconds)
-        timings["trace"] = sum(v for k, v in timings.items() if k.startswith("trace_step"))
-        timings["frame_wall"] = time.perf_counter() - wall0
-        return Frame(
-            images={"caustic": caustic, "fog": fog, "direct": direct, "combined": caustic + fog + direct,
-                    "mask_specular": mask},
-            caustic_steps=caustic_steps, records=records, timings=timings, timing_method=timer.method,
-            params=p.to_dict(), photons_emitted=emitted, gl=gl_info(ctx))
+        return records, caustic_steps
 
     def splat(self, splats: np.ndarray, scene=None, params: ApproxParams | None = None) -> np.ndarray:
         """The caustic image of photons from any source, through this frame's own
@@ -230,6 +231,16 @@ class Renderer:
             prog.release()
         self.light_maps.release()
         self.geometry.release()
+
+
+def _compose(caustic_steps: list, fog, direct, gbuffer, p: ApproxParams) -> dict:
+    """The frame's layers (``scenes.formats.LAYER_NAMES``) from the passes' images."""
+    caustic = (np.sum(caustic_steps, axis=0).astype(np.float32) if caustic_steps
+               else np.zeros((p.height, p.width, 3), np.float32))
+    kind = gbuffer[:, :, 1]
+    mask = np.repeat((np.round(kind) == KIND_SPECULAR).astype(np.float32)[:, :, None], 3, axis=2)
+    return {"caustic": caustic, "fog": fog, "direct": direct, "combined": caustic + fog + direct,
+            "mask_specular": mask}
 
 
 def _camera_view(scene, p: ApproxParams, box) -> CameraView:

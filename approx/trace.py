@@ -21,34 +21,29 @@ import numpy as np
 from volcaustics.scenes.formats import PHOTON_DTYPE, RAW_RECORD_DTYPE
 
 from .glsl import compute_shader, set_uniforms
-from .params import defines as table_defines
 from .light import spot_constants
+from .params import defines as table_defines
 from .transforms import gl_matrix
 
 MAX_MATERIALS = 16
 COMPACT_BLOCK = 256  # BLOCK of splat/compact.comp.glsl
 
 # Start offset of a segment leaving a surface, in light-map texel footprints
-# (common/start_offset.glsl): footprint · (START_SLOPE·sin θ + START_FLOOR) / |d·n|,
-# at most START_MAX. The texel geometry bounds the slope by √2 (half a texel diagonal,
-# twice: the map and the start point); the typical error is about half that. Chosen by
-# bench/start_offset.py over light_res 256…1024 on bunny and skull (skipped hits + false
-# re-hits lowest, neither above the former constant 5 footprints by more than 0.5 points).
+# (common/start_offset.glsl): footprint · (START_SLOPE·sin θ + START_FLOOR) / |d·n|, at most START_MAX.
+# Fewest skipped hits + false re-hits in bench/start_offset.py: docs/decisions.md "Start offset".
 START_OFFSET = {"START_SLOPE": 0.7, "START_FLOOR": 0.25, "START_MAX": 2.0}
 
-# Also clip each searched segment to the specular objects' bounding box (DESIGN.md
-# allows it; trace.comp.glsl CLIP_TO_OBJECTS). Measured with bench/agreement.py
-# --clip-to-objects (photon_res 512, light_res 1024, stochastic, 16 steps): bunny lost
-# power 9.4% → 8.1%, caustic/reference 0.851 → 0.866; skull 6.7% → 6.6%, 0.987 → 0.979;
-# sphere1 unchanged. Mixed and small, so off: the paper's search is kept.
+# Off: clipping searched segments to the specular objects' box (trace.comp.glsl) changed
+# little and not always for the better (bench/agreement.py): docs/decisions.md "Clip to objects".
 CLIP_TO_OBJECTS = False
 
 
 def _materials(scene):
     if len(scene.specular) > MAX_MATERIALS:
         raise ValueError(f"at most {MAX_MATERIALS} specular objects are supported, scene has {len(scene.specular)}")
-    ior = [o.ior for o in scene.specular] + [1.0] * (MAX_MATERIALS - len(scene.specular))
-    absorption = [tuple(o.absorption) for o in scene.specular] + [(0.0, 0.0, 0.0)] * (MAX_MATERIALS - len(scene.specular))
+    unused = MAX_MATERIALS - len(scene.specular)
+    ior = [o.ior for o in scene.specular] + [1.0] * unused
+    absorption = [tuple(o.absorption) for o in scene.specular] + [(0.0, 0.0, 0.0)] * unused
     return ior, absorption
 
 

@@ -19,13 +19,11 @@ The issue "Agreement" asks for these figures before and after its fixes.
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import sys
 
 
 def power_share(records: list, status: int) -> float:
     """Share of the step-1 power (mean over RGB) that ends a step with ``status``."""
-    import numpy as np
 
     total = float(records[0]["power_start"].mean(axis=1).sum())
     ended = sum(float(r["power_start"][r["status"] == status].mean(axis=1).sum()) for r in records)
@@ -54,7 +52,8 @@ def main(argv=None) -> int:
 
     trace.CLIP_TO_OBJECTS = args.clip_to_objects
     settings = ReferenceSettings(photons=1 << 22, spp=64, batches=4, width=args.size, height=args.size)
-    print(f"photon_res {args.photon_res}, light_res {args.light_res}, {args.size}², reference {settings.photons} photons"
+    print(f"photon_res {args.photon_res}, light_res {args.light_res}, {args.size}², "
+          f"reference {settings.photons} photons"
           f"{', clipped to the objects box' if args.clip_to_objects else ''}")
     print(f"{'scene':10} {'fresnel':13} {'steps':>5} {'lost approx':>11} {'lost exact':>10} "
           f"{'left_frustum':>12} {'caustic approx/ref':>18} {'trace s':>7}")

@@ -42,9 +42,9 @@ SCENES = ("sphere1", "sphere2", "bunny", "feline", "skull", "two_spheres", "refo
 
 
 def measure(name: str, photons: int, batches: int, size: int, geometry_per_connection: float | None) -> dict:
+    from volcaustics.reference.mi_setup import mitsuba
     from volcaustics.reference.render.export import mitsuba_dict
     from volcaustics.reference.render.integrators import SingleScatterIntegrator, VolumetricLightTracer, configure
-    from volcaustics.reference.mi_setup import mitsuba
     from volcaustics.reference.request import resolve
     from volcaustics.reference.settings import ReferenceSettings
     from volcaustics.scenes import load_builtin
@@ -85,9 +85,14 @@ def cause(name: str, photons: int, batches: int, size: int) -> list:
     """Energy and Σ var shares of the single-connection estimator's segment classes."""
     import drjit as dr
 
-    from volcaustics.reference.render.export import mitsuba_dict
-    from volcaustics.reference.render.integrators import SingleScatterIntegrator, VolumetricLightTracer, configure, subtended_angle
     from volcaustics.reference.mi_setup import mitsuba
+    from volcaustics.reference.render.export import mitsuba_dict
+    from volcaustics.reference.render.integrators import (
+        SingleScatterIntegrator,
+        VolumetricLightTracer,
+        configure,
+        subtended_angle,
+    )
     from volcaustics.reference.request import resolve
     from volcaustics.reference.settings import ReferenceSettings
     from volcaustics.scenes import load_builtin

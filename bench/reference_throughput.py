@@ -29,9 +29,9 @@ def _timed(mi, scene, integrator, spp, seed):
 
 
 def throughput():
+    from volcaustics.reference.mi_setup import mitsuba
     from volcaustics.reference.render.export import to_mitsuba
     from volcaustics.reference.render.integrators import VolumetricLightTracer, configure
-    from volcaustics.reference.mi_setup import mitsuba
     from volcaustics.scenes.model import Camera, DiffuseSurface, MeshSpec, Scene, SpotLight, Transform
 
     mi = mitsuba()
@@ -39,7 +39,8 @@ def throughput():
     ball = DiffuseSurface("ball", MeshSpec(generator="sphere", params=(("radius", 0.35), ("subdivisions", 24)),
                                            transform=Transform(translate=(0.0, 0.6, 0.0))), (0.8, 0.5, 0.3))
     floor = DiffuseSurface("floor", MeshSpec(generator="quad", params=(("size_x", 4.0), ("size_z", 4.0))), (0.6,) * 3)
-    scene = Scene(name="bench", camera=cam, light=SpotLight((0.3, 2.5, 0.2), (-0.14, -0.98, -0.1), (10.0,) * 3, 35.0, 25.0),
+    scene = Scene(name="bench", camera=cam,
+                  light=SpotLight((0.3, 2.5, 0.2), (-0.14, -0.98, -0.1), (10.0,) * 3, 35.0, 25.0),
                   diffuse=(ball, floor))
     mi_scene = mi.load_dict(to_mitsuba(scene))
     props = mi.Properties()

@@ -44,8 +44,8 @@ own noise (its per-pixel variance, pixels taken as independent) is added in
 quadrature where R enters (the total and the residual). For the residual's debiased
 relative MSE, a degenerate U-statistic when the residual is pure noise, the delete-one
 jackknife overstates the noise×noise part of the variance by 2(K−1)/(K−2) (the
-Efron–Stein bias): its SE is then up to 1.5× too large (measured 1.47–1.54 at K = 8),
-so the test is conservative. *Noise* is not a term but
+Efron–Stein bias): its SE is then up to 1.5× too large at K = 8 (docs/decisions.md
+"Jackknife calibration"), so the test is conservative. *Noise* is not a term but
 how much of the total noise alone explains: the relative MSE of the reference's floor
 plus A's variance, and the standard deviation of the energy difference.
 """
@@ -220,8 +220,9 @@ def decompose_caustic(batches: dict, reference, *, keep=None, reference_var=None
         f"the reference and the exact photons through the approximation's splatter disagree beyond their noise "
         f"(residual energy {100 * residual['energy_share']:+.2f}% of the reference, z = {residual['energy_z']:+.1f}; "
         f"debiased relative MSE {value['debiased']:.2e}, z = {residual['relmse_z']:+.1f}; limit {z_limit:g}): one of "
-        f"them is wrong — the reference light tracer, or the exact tracer and the splatter (tests/cross/test_v6.py "
-        f"checks them against each other), and the terms do not explain the whole error")
+        f"them is wrong — the reference light tracer, or the exact tracer and the splatter "
+        f"(tests/cross/test_exact_photons_match_the_reference.py checks them against each other), and the terms "
+        f"do not explain the whole error")
     images = {name: stacks[name].mean(axis=0, dtype=np.float64) for name in BATCHED}
     images["reference"] = r_full
     options = {"z_limit": z_limit, "pixels": int(keep.sum()), "batches": k,

@@ -163,7 +163,8 @@ def hdr_flip(reference, test, *, mask=None, start_exposure: float | None = None,
     stop = max(stop, start)
     if not ppd > 0:
         raise ValueError(f"ppd = {ppd!r}: expected pixels per degree > 0")
-    error_map, _, used = flip_evaluator.evaluate(np.ascontiguousarray(r, np.float32), np.ascontiguousarray(t, np.float32),
+    error_map, _, used = flip_evaluator.evaluate(np.ascontiguousarray(r, np.float32),
+                                                 np.ascontiguousarray(t, np.float32),
                                                  "HDR", applyMagma=False, computeMeanError=False,
                                                  parameters={"startExposure": start, "stopExposure": stop,
                                                              "ppd": float(ppd)})

@@ -312,7 +312,7 @@ def intersection_table(records, classes, *, group_by=GROUP_KEYS, parameters=None
         c = cls[sel]
         for code, name in CLASS_NAMES.items():
             row[f"count_{name}"] = int(np.sum(c == code))
-        for code, name in CLASS_NAMES.items():
+        for name in CLASS_NAMES.values():
             row[f"share_{name}"] = row[f"count_{name}"] / row["segments"]
         if beyond is not None:
             b = beyond[sel]

@@ -21,8 +21,8 @@ import os
 import numpy as np
 
 from volcaustics.scenes.canonical import canonical_dict
-from volcaustics.scenes.sources import source_hash
 from volcaustics.scenes.imageio import read_exr, write_exr
+from volcaustics.scenes.sources import source_hash
 from volcaustics.scenes.storage import atomic_path, atomic_write_bytes, atomic_write_text, cache_dir, file_sha256
 
 from . import mi_setup

@@ -139,7 +139,8 @@ def describe(scene, *, integrator: dict | None = None, spp: int = 16, medium_box
             lo, hi = medium_bounds(scene)
             d["medium_box"] = {"type": "cube", "bsdf": {"type": "null"}, "interior": {"type": "ref", "id": FOG_ID},
                                "to_world": {"type": "transform",
-                                            "ops": [["translate", _vec((lo + hi) / 2)], ["scale", _vec((hi - lo) / 2)]]}}
+                                            "ops": [["translate", _vec((lo + hi) / 2)],
+                                                    ["scale", _vec((hi - lo) / 2)]]}}
     for i, obj in enumerate(scene.specular):
         shape = {**ply(obj.mesh.load()), "bsdf": {"type": "dielectric", "int_ior": float(obj.ior), "ext_ior": 1.0}}
         if any(obj.absorption):

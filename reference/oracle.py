@@ -17,8 +17,15 @@ from __future__ import annotations
 import numpy as np
 
 from volcaustics.scenes.bounds import box_exit, medium_bounds
-from volcaustics.scenes.formats import (FLAG_REFLECTED, FLAG_TIR, RECORD_DTYPE, STATUS_COLLIDED, STATUS_LEFT_SCENE, STATUS_LOST,
-                            STATUS_SURFACE)
+from volcaustics.scenes.formats import (
+    FLAG_REFLECTED,
+    FLAG_TIR,
+    RECORD_DTYPE,
+    STATUS_COLLIDED,
+    STATUS_LEFT_SCENE,
+    STATUS_LOST,
+    STATUS_SURFACE,
+)
 from volcaustics.scenes.rng import uniform
 
 
@@ -26,9 +33,10 @@ class Oracle:
     """Exact segment queries against one scene's specular objects."""
 
     def __init__(self, scene):
-        from .render.export import mesh_file
-        from .mi_setup import mitsuba
         from volcaustics.scenes.storage import cache_dir
+
+        from .mi_setup import mitsuba
+        from .render.export import mesh_file
 
         mi = self.mi = mitsuba()
         import drjit as dr
@@ -165,21 +173,30 @@ def exact_photon_records(scene, first_records, *, steps: int, seed: int, fresnel
             dd, pp, ii, ff = surface_interaction(d[hit], new_power[hit], q["normal"][hit],
                                                  q["geometric_normal"][hit], q["shape"][hit], xi, ior, stochastic)
             new_d[hit], new_power[hit], new_inside[hit], flags[hit] = dd, pp, ii, ff
-        rec = np.zeros(n, RECORD_DTYPE)
-        rec["photon"], rec["step"] = idx, step
-        rec["start"], rec["direction"] = o, d
-        rec["max_length"], rec["search_length"] = max_len, search
-        rec["t"], rec["hit"] = np.where(hit, q["t"], np.nan), hit
-        rec["map"] = -1
-        rec["normal"] = q["normal"]
-        rec["material"] = q["shape"]
-        rec["inside"] = inside
-        rec["end"] = end
-        rec["power_start"], rec["power"] = power, new_power
-        rec["status"], rec["flags"] = status, flags
-        out.append(rec)
+        out.append(_step_record(step, idx, o, d, inside, power, max_len=max_len, search=search, q=q, end=end,
+                                new_power=new_power, status=status, flags=flags))
         alive = (status == STATUS_SURFACE) | (status == STATUS_COLLIDED)
         idx, o, d, inside, power = idx[alive], end[alive], new_d[alive], new_inside[alive], new_power[alive]
         if len(idx) == 0:
             break
     return out
+
+
+def _step_record(step, idx, o, d, inside, power, *, max_len, search, q, end, new_power, status, flags):
+    """One step's RECORD_DTYPE rows: the segment of each photon alive at its start (idx,
+    start o, direction d, inside, power) and what the step made of it (``q``: the
+    oracle's first hits)."""
+    hit = q["hit"]
+    rec = np.zeros(len(idx), RECORD_DTYPE)
+    rec["photon"], rec["step"] = idx, step
+    rec["start"], rec["direction"] = o, d
+    rec["max_length"], rec["search_length"] = max_len, search
+    rec["t"], rec["hit"] = np.where(hit, q["t"], np.nan), hit
+    rec["map"] = -1
+    rec["normal"] = q["normal"]
+    rec["material"] = q["shape"]
+    rec["inside"] = inside
+    rec["end"] = end
+    rec["power_start"], rec["power"] = power, new_power
+    rec["status"], rec["flags"] = status, flags
+    return rec

@@ -5,7 +5,6 @@ from __future__ import annotations
 import math
 from dataclasses import asdict, dataclass, replace
 
-
 MODES = ("caustic", "fog", "all", "surface")  # which light paths the light tracer counts (reference.integrators)
 NOISE_COMPONENTS = ("caustic", "fog", "direct")  # colour components with a noise floor (combined is their sum)
 MAX_SAMPLES_PER_RENDER = 2**32  # Mitsuba's limit for one render (its wavefront sample index is 32-bit)

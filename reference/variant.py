@@ -75,7 +75,8 @@ def _main(variant: str) -> int:
     try:
         mean = _render_tiny(variant)
     except Exception as exc:  # reported to the parent, which prints the reason
-        print(json.dumps({"ok": False, "error": f"{type(exc).__name__}: {str(exc).splitlines()[0][:160] if str(exc) else ''}"}))
+        reason = str(exc).splitlines()[0][:160] if str(exc) else ""
+        print(json.dumps({"ok": False, "error": f"{type(exc).__name__}: {reason}"}))
         return 0
     ok = mean == mean and 0.0 < mean < float("inf")
     print(json.dumps({"ok": ok, "mean": mean, "error": "" if ok else f"rendered mean {mean}"}))

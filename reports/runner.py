@@ -31,13 +31,13 @@ from volcaustics.approx.params import ApproxParams
 from volcaustics.reference.cache import cached_reference, existing_reference
 from volcaustics.reference.oracle import Oracle
 from volcaustics.reference.render import render_reference
-from volcaustics.scenes import resolve_scene
-from volcaustics.scenes.storage import cache_dir
 from volcaustics.reports.core.executors import run_tasks
 from volcaustics.reports.core.sizing import sized
 from volcaustics.reports.core.store import TABLES, Store, key_document, point_key
 from volcaustics.reports.core.tables import rows_of
 from volcaustics.reports.experiment.run import run_experiment
+from volcaustics.scenes import resolve_scene
+from volcaustics.scenes.storage import cache_dir
 
 POLICIES = ("cached", "missing", "continue")
 RESULTS_STORE = "report-results"  # $VOLCAUSTICS_CACHE/report-results: the report's and the gate's results

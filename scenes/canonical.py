@@ -27,18 +27,19 @@ def _mesh(spec: MeshSpec) -> dict:
            {"generator": spec.generator, "generator_version": GENERATOR_VERSION,
             "params": {k: v for k, v in spec.params}})
     t = spec.transform
-    return {**src, "transform": {"translate": _floats(t.translate), "rotate": _floats(t.rotate), "scale": float(t.scale)}}
+    return {**src, "transform": {"translate": _floats(t.translate), "rotate": _floats(t.rotate),
+                                 "scale": float(t.scale)}}
 
 
 def canonical_dict(scene: Scene) -> dict:
-    c, l, m = scene.camera, scene.light, scene.medium
+    c, light, m = scene.camera, scene.light, scene.medium
     return {
         "format": FORMAT,
         "camera": {"position": _floats(c.position), "target": _floats(c.target), "up": _floats(c.up),
                    "fov_y": float(c.fov_y), "width": int(c.width), "height": int(c.height)},
-        "light": {"position": _floats(l.position), "direction": _floats(l.direction),
-                  "intensity": _floats(l.intensity), "cutoff_angle": float(l.cutoff_angle),
-                  "beam_width": float(l.beam_width)},
+        "light": {"position": _floats(light.position), "direction": _floats(light.direction),
+                  "intensity": _floats(light.intensity), "cutoff_angle": float(light.cutoff_angle),
+                  "beam_width": float(light.beam_width)},
         "medium": {"sigma_s": _floats(m.sigma_s), "sigma_a": _floats(m.sigma_a),
                    "phase": {"kind": m.phase.kind, "g": float(m.phase.g)}},
         "specular": [{"mesh": _mesh(o.mesh), "ior": float(o.ior), "absorption": _floats(o.absorption)}

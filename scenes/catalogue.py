@@ -34,4 +34,5 @@ def resolve_scene(arg: str) -> Scene:
         return load_builtin(arg)
     if arg.endswith(".toml") or os.sep in arg or os.path.exists(arg):
         return load_scene(arg)
-    raise SceneError(None, "SCENE", arg, f"expected a built-in scene ({', '.join(BUILTIN_NAMES)}) or a path to a .toml file")
+    raise SceneError(None, "SCENE", arg,
+                     f"expected a built-in scene ({', '.join(BUILTIN_NAMES)}) or a path to a .toml file")

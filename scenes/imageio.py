@@ -16,9 +16,9 @@ import zlib
 import numpy as np
 
 from .formats import MASK_LAYER
+from .storage import atomic_path, atomic_write_bytes
 
 BEAUTY_LAYER = "combined"  # also written as the root R, G, B channels
-from .storage import atomic_path, atomic_write_bytes
 
 
 def write_exr(path: str, layers: dict, metadata: dict | None = None) -> None:

@@ -55,8 +55,8 @@ except ModuleNotFoundError:  # Python 3.10
 from .errors import SceneError
 from .generators import GENERATORS
 from .mesh import MeshReadError, closedness_problem, winding_number
+from .model import Camera, DiffuseSurface, Medium, MeshSpec, Phase, Scene, SpecularObject, SpotLight, Transform
 from .storage import CacheError, file_sha256, special_file_kind
-from .model import Camera, DiffuseSurface, MeshSpec, Medium, Phase, Scene, SpecularObject, SpotLight, Transform
 
 _REQUIRED = object()
 
@@ -122,7 +122,8 @@ def _number(ctx, key, v, what="a number"):
 
 def _ranged(low=None, high=None, *, low_open=False, high_open=False, unit=""):
     lo_b, hi_b = ("(" if low_open else "["), (")" if high_open else "]")
-    what = f"a number in {lo_b}{'-inf' if low is None else low}, {'inf' if high is None else high}{hi_b}{' ' + unit if unit else ''}"
+    what = (f"a number in {lo_b}{'-inf' if low is None else low}, {'inf' if high is None else high}{hi_b}"
+            f"{' ' + unit if unit else ''}")
 
     def parse(ctx, key, v):
         x = _number(ctx, key, v, what)
@@ -358,12 +359,14 @@ def parse_scene(data: dict, *, file: str | None = None, base_dir: str = ".", sou
     for kind, objs in (("specular", specular), ("diffuse", diffuse)):
         for i, obj in enumerate(objs):
             if obj.name in seen:
-                raise ctx.error(f"{kind}[{i}].name", obj.name, f"names must be unique (already used by {seen[obj.name]})")
+                raise ctx.error(f"{kind}[{i}].name", obj.name,
+                                f"names must be unique (already used by {seen[obj.name]})")
             seen[obj.name] = f"{kind}[{i}]"
     for i, obj in enumerate(specular):
         if winding_number(obj.mesh.load(), camera.position) > 0.5:
             raise ctx.error("camera.position", list(camera.position),
-                            f"the camera must be outside every specular object (it is inside specular[{i}] '{obj.name}')")
+                            f"the camera must be outside every specular object "
+                            f"(it is inside specular[{i}] '{obj.name}')")
     return Scene(name=name, description=description, camera=camera, light=light, medium=medium,
                  specular=specular, diffuse=diffuse, source=source)
 

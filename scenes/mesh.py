@@ -90,7 +90,8 @@ def closedness_problem(mesh: Mesh) -> str | None:
     directed = a * n + b
     uniq, counts = np.unique(directed, return_counts=True)
     if np.any(counts > 1):
-        return f"{int(np.sum(counts > 1))} edges are used twice in the same direction (non-manifold or inconsistently oriented faces)"
+        return (f"{int(np.sum(counts > 1))} edges are used twice in the same direction "
+                "(non-manifold or inconsistently oriented faces)")
     reverse = b * n + a
     missing = ~np.isin(reverse, uniq)
     if np.any(missing):
@@ -158,7 +159,7 @@ def _read_ply(path: str):
 def _read_obj(path: str):
     vertices, polygons = [], []
     with open(path, encoding="utf-8", errors="replace") as fh:
-        for lineno, line in enumerate(fh, 1):
+        for _lineno, line in enumerate(fh, 1):
             parts = line.split()
             if not parts:
                 continue

@@ -169,8 +169,9 @@ def read_json_object(path: str) -> dict:
     """The JSON object stored in ``path``.
 
     FileNotFoundError when there is no file; ValueError naming the path when it is a
-    folder or a special file (never opened), cannot be read, is not UTF-8 JSON, or holds something other than an object (``null``, a
-    list): a manifest of that kind is damaged, never data to index into."""
+    folder or a special file (never opened), cannot be read, is not UTF-8 JSON, or holds
+    something other than an object (``null``, a list): a manifest of that kind is damaged,
+    never data to index into."""
     import json
 
     special = special_file_kind(path)

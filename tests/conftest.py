@@ -3,7 +3,6 @@ and scene-file helpers. Importing ``reference`` first picks libLLVM for Dr.Jit."
 
 from __future__ import annotations
 
-import os
 import textwrap
 
 import pytest

@@ -20,14 +20,14 @@ import time
 
 import numpy as np
 
-from volcaustics.scenes.formats import COLOUR_LAYERS, MASK_LAYER
+from volcaustics.scenes.formats import MASK_LAYER
 from volcaustics.scenes.imageio import png_bytes, tonemap_srgb8
 
 from .. import cache
 from ..cache import ReferenceResult, for_caller
-from .batches import CAMERA, LIGHT, STREAM_IMAGES, BatchStats, batch_seed, noise_floor
 from ..request import RenderRequest, resolve
 from ..settings import ReferenceSettings
+from .batches import CAMERA, LIGHT, STREAM_IMAGES, BatchStats, batch_seed, noise_floor
 
 
 class RenderState:
@@ -131,9 +131,9 @@ def _render(request: RenderRequest, state: RenderState | None = None, *, progres
     settings are met (module docstring); returns (state, stopped_by, seconds of this call)."""
     from tqdm import tqdm
 
+    from ..mi_setup import mitsuba
     from .export import mitsuba_dict
     from .integrators import SingleScatterIntegrator, VolumetricLightTracer, configure
-    from ..mi_setup import mitsuba
 
     mi = mitsuba()
     scene, settings = request.scene, request.settings

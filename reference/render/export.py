@@ -94,7 +94,8 @@ def export_xml(scene, path: str) -> None:
     lines = ['<scene version="3.0.0">',
              "    <!-- Exported by volcaustics. Stock Mitsuba integrators cannot render this scene's volume caustic:",
              "         its light reaches the medium only through glass from a delta (spot) light, which no camera",
-             "         path can connect to. volcaustics renders it with its own light tracer (reference/integrators.py);",
+             "         path can connect to. volcaustics renders it with its own light tracer "
+             "(reference/integrators.py);",
              "         volpath below renders the fog and direct light. Override the defaults with",
              "         mitsuba.load_file(path, resx=..., resy=..., spp=...) or mitsuba -D resx=... -->"]
     defaults = {"resx": film["width"], "resy": film["height"], "spp": sampler["sample_count"]}
@@ -143,7 +144,8 @@ def _xml_object(tag, obj, depth, folder, name_id=None):
             lines += sub
         elif key == "to_world":
             m = np.asarray(value.matrix, dtype=float).reshape(4, 4)
-            lines.append(f'{inner}<transform name="to_world"><matrix value="{" ".join(repr(float(x)) for x in m.ravel())}"/></transform>')
+            matrix = " ".join(repr(float(x)) for x in m.ravel())
+            lines.append(f'{inner}<transform name="to_world"><matrix value="{matrix}"/></transform>')
         elif isinstance(value, bool):
             lines.append(f'{inner}<boolean name="{key}" value="{str(value).lower()}"/>')
         elif isinstance(value, int):

@@ -226,8 +226,8 @@ class VolumetricLightTracer(mi.AdjointIntegrator):
         volume = self.mode != "surface" and self.has_medium
 
         # --- emission
-        ray, throughput, emitter = scene.sample_emitter_ray(0.0, sampler.next_1d(), sampler.next_2d(), sampler.next_2d(),
-                                                     True)
+        ray, throughput, emitter = scene.sample_emitter_ray(0.0, sampler.next_1d(), sampler.next_2d(),
+                                                            sampler.next_2d(), True)
 
         # --- loop state
         active = mi.Bool(True)             # path alive
@@ -275,7 +275,8 @@ class VolumetricLightTracer(mi.AdjointIntegrator):
                 t_ff = -dr.log(1.0 - sampler.next_1d(in_medium)) / self.sigma_bar
                 scatter = can_scatter & (t_ff < t_end)
                 # analog tracking, weighted for RGB sigma_t sampled with the mean sigma_bar
-                w_scatter = dr.exp(-self.sigma_t * t_ff) * self.sigma_s / (self.sigma_bar * dr.exp(-self.sigma_bar * t_ff))
+                w_scatter = (dr.exp(-self.sigma_t * t_ff) * self.sigma_s
+                             / (self.sigma_bar * dr.exp(-self.sigma_bar * t_ff)))
                 w_pass = dr.exp(-self.sigma_t * t_end) / dr.exp(-self.sigma_bar * t_end)
                 single = in_medium & ~can_scatter
                 throughput[single] *= dr.exp(-self.sigma_t * t_end)

@@ -102,7 +102,6 @@ def _usage_errors() -> tuple:
     from volcaustics.approx.params import ParamError
     from volcaustics.reference.mi_setup import VariantError
     from volcaustics.reference.settings import SettingsError
-    from volcaustics.scenes import SceneError
     from volcaustics.reports.cli.common import UsageError
     from volcaustics.reports.core.executors import ExecutorError
     from volcaustics.reports.experiment.run import ExperimentError
@@ -110,6 +109,7 @@ def _usage_errors() -> tuple:
     from volcaustics.reports.page.collect import ReportError
     from volcaustics.reports.runner import RunnerError
     from volcaustics.reports.sweep.spec import SweepError
+    from volcaustics.scenes import SceneError
 
     return (SceneError, ParamError, SettingsError, UsageError, ExperimentError, SweepError, GateError,
             ExecutorError, ReportError, VariantError, RunnerError)

@@ -2,10 +2,10 @@
 
 from __future__ import annotations
 
-from volcaustics.scenes import resolve_scene
 from volcaustics.reports.cli.common import UsageError, check_output_file
 from volcaustics.reports.core.params import add_param_flags, params_from_args
 from volcaustics.reports.render.approx import run_approx
+from volcaustics.scenes import resolve_scene
 
 
 def register(sub) -> None:

@@ -5,8 +5,8 @@ from __future__ import annotations
 import os
 
 from volcaustics.reference.render.export import export_xml
-from volcaustics.scenes import resolve_scene
 from volcaustics.reports.cli.common import UsageError, check_output_file
+from volcaustics.scenes import resolve_scene
 
 
 def register(sub) -> None:

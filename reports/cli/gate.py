@@ -2,8 +2,7 @@
 
 from __future__ import annotations
 
-from volcaustics.reports.cli.common import (UsageError, add_gate_inputs, check_output_file, check_output_set,
-                                            scene_list)
+from volcaustics.reports.cli.common import UsageError, add_gate_inputs, check_output_file, check_output_set, scene_list
 from volcaustics.reports.core.params import parse_overrides
 from volcaustics.reports.gate.budgets import GateError, default_budgets_path, load_budgets
 from volcaustics.reports.gate.outputs import VERDICT, console_table

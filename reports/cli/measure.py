@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from volcaustics.scenes import resolve_scene
 from volcaustics.reports import runner
 from volcaustics.reports.cli.common import add_report_reference, check_output_set, num, pct, report_settings
 from volcaustics.reports.core.params import add_param_flags, params_from_args
@@ -10,6 +9,7 @@ from volcaustics.reports.core.sizing import sized
 from volcaustics.reports.core.tables import plain
 from volcaustics.reports.experiment.run import run_experiment
 from volcaustics.reports.experiment.write import OUTPUT_FILES, write_experiment
+from volcaustics.scenes import resolve_scene
 
 
 def register(sub) -> None:

@@ -3,9 +3,9 @@
 from __future__ import annotations
 
 from volcaustics.reference.settings import ReferenceSettings
-from volcaustics.scenes import resolve_scene
 from volcaustics.reports.cli.common import add_budget, budget, check_output_file
 from volcaustics.reports.render.reference import run_reference
+from volcaustics.scenes import resolve_scene
 
 
 def register(sub) -> None:

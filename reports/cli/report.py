@@ -2,13 +2,21 @@
 
 from __future__ import annotations
 
-from volcaustics.scenes import BUILTIN_NAMES
-from volcaustics.reports.cli.common import (add_gate_inputs, add_report_reference, check_output_set, num, path_type,
-                                            pct, report_settings, scene_list)
+from volcaustics.reports.cli.common import (
+    add_gate_inputs,
+    add_report_reference,
+    check_output_set,
+    num,
+    path_type,
+    pct,
+    report_settings,
+    scene_list,
+)
 from volcaustics.reports.core.params import parse_overrides
 from volcaustics.reports.gate.budgets import default_budgets_path, load_budgets
 from volcaustics.reports.page.collect import ReportError, run_report
 from volcaustics.reports.page.summary import OUTPUT_FILES
+from volcaustics.scenes import BUILTIN_NAMES
 
 
 def register(sub) -> None:
@@ -16,7 +24,8 @@ def register(sub) -> None:
                                       "approximation against ground truth, with the gate's verdicts")
     p.add_argument("--out", default="runs/report", help="output folder (default runs/report)")
     add_gate_inputs(p, scenes="comma-separated SCENE arguments (default: every built-in)")
-    p.add_argument("--sweep", type=path_type, metavar="DIR", help="add a sweep store's figures and settings that suffice")
+    p.add_argument("--sweep", type=path_type, metavar="DIR",
+                   help="add a sweep store's figures and settings that suffice")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     add_report_reference(p)
     p.set_defaults(func=run)

@@ -6,14 +6,15 @@ import os
 
 from volcaustics.approx.context import shared_context
 from volcaustics.approx.preview import render_preview
+from volcaustics.reports.cli.common import check_output_dir
 from volcaustics.scenes import BUILTIN_NAMES, load_builtin, load_scene
 from volcaustics.scenes.imageio import write_png
-from volcaustics.reports.cli.common import check_output_dir
 
 
 def register(sub) -> None:
     p = sub.add_parser("scenes", help="list the built-in scenes, or validate a scene file with --check")
-    p.add_argument("--check", metavar="FILE.toml", help="validate a scene file: exit 0 and a summary, or exit 2 and the error")
+    p.add_argument("--check", metavar="FILE.toml",
+                   help="validate a scene file: exit 0 and a summary, or exit 2 and the error")
     p.add_argument("--preview", metavar="DIR", help="also write a quick rasterised preview per scene (geometry, "
                                                      "framing, light cone; not physically based) as DIR/NAME.png")
     p.set_defaults(func=run)

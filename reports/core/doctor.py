@@ -57,8 +57,8 @@ def _cpu() -> str:
 
 def run_doctor() -> DoctorReport:
     """Probe GL, libLLVM and Mitsuba variants; every failing check carries its fix."""
-    import volcaustics.reference  # chooses libLLVM before drjit is imported
-    from volcaustics.approx.context import ContextError, GL_REQUIRE, gl_info, shared_context
+    from volcaustics import reference  # chooses libLLVM before drjit is imported
+    from volcaustics.approx.context import GL_REQUIRE, ContextError, gl_info, shared_context
     from volcaustics.reference.llvm import MIN_MAJOR, libllvm_major
     from volcaustics.reference.variant import probe
 

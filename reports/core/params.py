@@ -5,9 +5,8 @@ derived from ``approx.params.PARAMS``."""
 from __future__ import annotations
 
 import argparse
-import dataclasses
 
-from volcaustics.approx.params import PARAMS, PRESETS, ApproxParams, ParamError, param
+from volcaustics.approx.params import PARAMS, PRESETS, ApproxParams, ParamError, param, preset
 from volcaustics.approx.trace import check_fits
 
 
@@ -24,34 +23,36 @@ def add_param_flags(parser, *, default_preset: str, table: tuple = PARAMS) -> No
     group.add_argument("--preset", choices=tuple(PRESETS), default=default_preset,
                        help=f"{presets} (default {default_preset})")
     for entry in table:
-        group.add_argument(flag(entry.name), dest=entry.name, metavar=entry.name.upper(), type=_parser(entry),
+        kind = {"choices": entry.choices} if entry.choices else {"type": _parser(entry), "metavar": "N"}
+        group.add_argument(flag(entry.name), dest=entry.name, **kind,
                            help=f"{entry.help}: {entry.expected()}; default: the preset's")
 
 
 def _preset_text(params) -> str:
     base = ApproxParams()
-    changed = [f"{p.name} {getattr(params, p.name)}" for p in PARAMS if getattr(params, p.name) != getattr(base, p.name)]
+    changed = [f"{p.name} {getattr(params, p.name)}" for p in PARAMS
+               if getattr(params, p.name) != getattr(base, p.name)]
     return "the paper's values" + (" with " + ", ".join(changed) if changed else "")
 
 
 def _parser(entry):
-    """argparse ``type``: the table's parsing; the error names what is expected."""
+    """argparse ``type``: the table's typing (the range is checked with the other
+    parameters, when they are made: a value out of range exits 2 naming it)."""
     def parse(text):
         try:
-            value = entry.parse(text)
-            entry.check(value)
+            return entry.parse(text)
         except ParamError as exc:
             raise argparse.ArgumentTypeError(str(exc)) from None
-        return value
 
     parse.__name__ = entry.name  # argparse names the type in its message
     return parse
 
 
-def params_from_args(args, table: tuple = PARAMS):
-    """The preset of ``args.preset`` with every parameter flag given."""
-    changes = {p.name: getattr(args, p.name) for p in table if getattr(args, p.name, None) is not None}
-    return dataclasses.replace(PRESETS[args.preset], **changes)
+def params_from_args(args, cls: type = ApproxParams):
+    """The preset of ``args.preset`` with every parameter flag given, as ``cls`` (the
+    parameters of ``approx.params.params_class``; ParamError for a value out of range)."""
+    changes = {p.name: getattr(args, p.name) for p in cls.TABLE if getattr(args, p.name, None) is not None}
+    return preset(args.preset, cls, **changes)
 
 
 def parse_assignment(text: str, where: str, *, table: tuple = PARAMS, error=ParamError) -> tuple:
@@ -89,7 +90,7 @@ def parse_overrides(assignments, *, error=ParamError) -> dict:
     return overrides
 
 
-def measured_settings(preset: str, overrides: dict, *, seeds: int, seed: int, min_seeds: int, why: str,
+def measured_settings(preset_name: str, overrides: dict, *, seeds: int, seed: int, min_seeds: int, why: str,
                       error=ParamError) -> tuple:
     """(params, seeds) of a gate's or a report's experiments: the preset with
     ``overrides`` and first seed ``seed``; ``seeds`` at least ``min_seeds`` (``why``
@@ -100,7 +101,7 @@ def measured_settings(preset: str, overrides: dict, *, seeds: int, seed: int, mi
     if not 0 <= seed <= 2**32 - seeds:
         raise error(f"--seed = {seed}: expected 0 ≤ seed and seed + seeds − 1 < 2^32")
     try:
-        params = dataclasses.replace(PRESETS[preset], seed=seed, **overrides)
+        params = preset(preset_name, seed=seed, **overrides)
         check_fits(params, keep_records=True)
     except ParamError as exc:
         raise error(f"--set: {exc}") from None

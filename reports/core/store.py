@@ -30,20 +30,19 @@ and table is what makes writing append-safe without a database server.
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 import shutil
 import socket
 import uuid
 
-import hashlib
-
 import pandas as pd
 
-from volcaustics.scenes.imageio import read_exr, write_exr
-from volcaustics.scenes.storage import atomic_write_text, file_sha256, read_json_object
 from volcaustics.reports.core.tables import plain, table
 from volcaustics.reports.core.versions import code_version
+from volcaustics.scenes.imageio import read_exr, write_exr
+from volcaustics.scenes.storage import atomic_write_text, file_sha256, read_json_object
 
 TABLES = ("segments", "photons", "images")
 TABLE_FILES = tuple(f"{name}.parquet" for name in TABLES)

@@ -9,12 +9,13 @@ import numpy as np
 
 from volcaustics.approx.splat import splats_from_arrays
 from volcaustics.reference.oracle import exact_photon_records
-from volcaustics.scenes.formats import STATUS_COLLIDED
 from volcaustics.reports.experiment.exact import exact_photons, photons_from_records, pixel_footprint, subset_images
+from volcaustics.scenes.formats import STATUS_COLLIDED
 
-EXACT_STEPS = 128            # E_∞: < 0.1% of the power alive after them on every built-in (docs/decisions.md)
+# E_∞ and E_∞,s: docs/decisions.md "Exact steps and the small kernel"
+EXACT_STEPS = 128            # E_∞: < 0.1% of the power alive after them on every built-in
 SMALL_SUPERSAMPLE = 4        # E_∞,s: splatted at 4× and box-averaged (the reference's pixel filter)
-SMALL_KERNEL_FINE_PIXELS = 0.6  # E_∞,s kernel σ in fine pixels: aliasing 2·exp(−2π²·0.36) ≈ 0.2% (docs/decisions.md)
+SMALL_KERNEL_FINE_PIXELS = 0.6  # E_∞,s kernel σ in fine pixels (0.15 pixel): aliasing ≈ 0.2%
 SUBSET_BATCHES = 8           # paired photon subsets per seed of A and the E images: the decomposition's noise
 
 

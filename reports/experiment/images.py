@@ -26,9 +26,9 @@ import numpy as np
 
 from volcaustics.metrics import image as im
 from volcaustics.metrics.noise import noisy_copy, seed_mean_interval, seed_relative_mse
+from volcaustics.reports.core.versions import code_version
 from volcaustics.scenes.formats import COLOUR_LAYERS, MASK_LAYER
 from volcaustics.scenes.storage import atomic_write_text, cache_dir
-from volcaustics.reports.core.versions import code_version
 
 RESAMPLES = 2000             # bootstrap resamples over the seeds (per-frame metrics)
 FLOOR_DRAWS = 2              # noisy copies averaged for a non-quadratic metric's floor

@@ -116,10 +116,7 @@ def run_experiment(scene, params, *, seeds: int = 1, reference_settings=None, pr
     with clock.stage("metrics"):
         keep, maps = keep_mask(reference, frames), {}
         images, headline = image_rows(frames, reference, keep, columns, maps)
-        try:
-            decomposition = decompose(exact, reference, keep)
-        except ValueError as exc:
-            raise ExperimentError(f"{scene.name}: cannot decompose the caustic's error: {exc}") from None
+        decomposition = _decomposed(scene, exact, reference, keep)
         images += decomposition_rows(decomposition, columns)
     bar.update()
     bar.close()
@@ -130,6 +127,13 @@ def run_experiment(scene, params, *, seeds: int = 1, reference_settings=None, pr
     layers.update({f"term.{name}": np.asarray(img, np.float32) for name, img in decomposition["terms"].items()})
     return Experiment(segments=segments, photons=photons, images=images, summary=summary, layers=layers,
                       views=experiment_views(frames, reference, keep, layers, maps))
+
+
+def _decomposed(scene, exact, reference, keep) -> dict:
+    try:
+        return decompose(exact, reference, keep)
+    except ValueError as exc:
+        raise ExperimentError(f"{scene.name}: cannot decompose the caustic's error: {exc}") from None
 
 
 def _checked(scene, params, seeds: int) -> tuple:

@@ -7,10 +7,10 @@ import numpy as np
 
 from volcaustics.approx.context import gl_info, shared_context
 from volcaustics.metrics.noise import MIN_SEEDS_FOR_INTERVAL
-from volcaustics.scenes.formats import COLOUR_LAYERS
 from volcaustics.reports.core.versions import code_version, library_versions
 from volcaustics.reports.experiment.exact_images import EXACT_STEPS, SMALL_SUPERSAMPLE
 from volcaustics.reports.experiment.frames import median_timings
+from volcaustics.scenes.formats import COLOUR_LAYERS
 
 ALIVE_BUDGET = 1e-3          # above it, summary.json warns that E_∞ is truncated
 VIEWS = {"approx.<component>": "the approximation, mean over the seeds (H×W×3)",

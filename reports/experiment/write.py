@@ -6,9 +6,9 @@ from __future__ import annotations
 import json
 import os
 
+from volcaustics.reports.core.tables import plain, table
 from volcaustics.scenes.imageio import write_exr
 from volcaustics.scenes.storage import atomic_set
-from volcaustics.reports.core.tables import plain, table
 
 TABLES = ("segments", "photons", "images")
 OUTPUT_FILES = (*(f"{name}.{ext}" for name in TABLES for ext in ("parquet", "csv")), "decomposition.exr",
@@ -21,7 +21,7 @@ def output_paths(out_dir: str) -> dict:
     return {name: os.path.join(out_dir, name) for name in OUTPUT_FILES}
 
 
-def write_experiment(experiment: Experiment, out_dir: str) -> dict:
+def write_experiment(experiment, out_dir: str) -> dict:
     """Write the tables (Parquet + CSV), ``decomposition.exr`` and, last,
     ``summary.json`` into ``out_dir`` as one set (``scenes.storage.atomic_set``: an
     interrupted write leaves the last complete set). Returns the paths."""

@@ -11,9 +11,9 @@ from xml.sax.saxutils import escape, quoteattr
 import numpy as np
 
 from volcaustics.metrics.image import reference_exposure
+from volcaustics.reports.core.tables import plain
 from volcaustics.scenes.imageio import write_png
 from volcaustics.scenes.storage import atomic_write_texts
-from volcaustics.reports.core.tables import plain
 
 VERDICT = "gate.json"      # in --out; written last, with the baseline and the JUnit file
 
@@ -76,6 +76,7 @@ def junit_xml(checks: list, seconds: float) -> str:
             body = f"<failure message={quoteattr(c.message)} type=\"budget\">{escape(text)}</failure>"
         cases.append(f"  <testcase classname={quoteattr('volcaustics.gate.' + c.scene)} name={quoteattr(c.name)} "
                      f"time=\"0\">{body}</testcase>")
-    return (f"<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<testsuites tests=\"{len(checks)}\" failures=\"{failures}\">\n"
+    return ("<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n"
+            f"<testsuites tests=\"{len(checks)}\" failures=\"{failures}\">\n"
             f"<testsuite name=\"volcaustics gate\" tests=\"{len(checks)}\" failures=\"{failures}\" errors=\"0\" "
             f"skipped=\"0\" time=\"{seconds:.3f}\">\n" + "\n".join(cases) + "\n</testsuite>\n</testsuites>\n")

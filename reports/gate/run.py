@@ -14,14 +14,14 @@ import os
 import time
 from dataclasses import dataclass
 
-from volcaustics.scenes import SceneError, resolve_scene
-from volcaustics.scenes.storage import remove_file
 from volcaustics.reports import runner
 from volcaustics.reports.core.params import measured_settings
 from volcaustics.reports.gate.budgets import GateError
 from volcaustics.reports.gate.outputs import VERDICT, failure_images, write_outputs
 from volcaustics.reports.gate.regression import BASELINE, baseline_text, load_baseline
 from volcaustics.reports.gate.verdict import scene_verdict
+from volcaustics.scenes import SceneError, resolve_scene
+from volcaustics.scenes.storage import remove_file
 
 MISSING_REFERENCE = "run `make report` (or the gate with --render-references) first"
 
@@ -45,8 +45,9 @@ def run_gate(budgets: dict, *, overrides: dict, baseline_dir: str | None, update
     one set, the accepted baseline, the JUnit file ``junit`` and ``out_dir``/gate.json."""
     t0 = time.perf_counter()
     names = _names(budgets, scenes)
-    params, n_seeds = measured_settings(budgets["preset"], overrides, seeds=budgets["seeds"] if seeds is None else seeds,
-                                        seed=seed, min_seeds=2, why="the regression test needs 2", error=GateError)
+    n_seeds = budgets["seeds"] if seeds is None else seeds
+    params, n_seeds = measured_settings(budgets["preset"], overrides, seeds=n_seeds, seed=seed, min_seeds=2,
+                                        why="the regression test needs 2", error=GateError)
     baseline = load_baseline(baseline_dir) if baseline_dir and not update_baseline else None
     absent = [n for n in names if baseline is not None and n not in baseline["scenes"]]
     if absent:

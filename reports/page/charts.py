@@ -11,7 +11,6 @@ import numpy as np
 
 from volcaustics.metrics.decomposition import TERMS
 from volcaustics.metrics.intersection import OUTCOME_CLASSES
-
 from volcaustics.reports.core.plotting import OKABE_ITO, png_bytes, pyplot
 from volcaustics.reports.experiment.photons import FATES
 

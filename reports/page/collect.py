@@ -17,8 +17,6 @@ from dataclasses import dataclass, field
 
 import pandas as pd
 
-from volcaustics.scenes import SceneError, resolve_scene
-from volcaustics.scenes.storage import read_json_object, special_file_kind
 from volcaustics.reports import runner
 from volcaustics.reports.core.params import measured_settings
 from volcaustics.reports.core.timing import Clock
@@ -26,6 +24,8 @@ from volcaustics.reports.gate.regression import load_baseline
 from volcaustics.reports.gate.verdict import scene_verdict
 from volcaustics.reports.page.summary import report_summary
 from volcaustics.reports.page.write import write_report
+from volcaustics.scenes import SceneError, resolve_scene
+from volcaustics.scenes.storage import read_json_object, special_file_kind
 
 
 class ReportError(ValueError):

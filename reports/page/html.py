@@ -12,8 +12,8 @@ import json
 from html import escape
 
 from volcaustics.metrics.intersection import OUTCOME_CLASSES
-from volcaustics.scenes.formats import COLOUR_LAYERS
 from volcaustics.reports.page.images import SCALES, colour_bar_css
+from volcaustics.scenes.formats import COLOUR_LAYERS
 
 CSS = """
 body{font-family:system-ui,-apple-system,"Segoe UI",sans-serif;margin:0 auto;padding:12px 20px;max-width:1320px;

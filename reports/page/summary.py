@@ -11,7 +11,6 @@ that very data (``reports.html``) with the images of each scene's views.
 from __future__ import annotations
 
 import dataclasses
-import json
 import os
 import time
 
@@ -21,12 +20,12 @@ from volcaustics.approx.params import PARAMS
 from volcaustics.metrics.decomposition import TERMS
 from volcaustics.metrics.image import reference_exposure
 from volcaustics.metrics.intersection import OUTCOME_CLASSES
-from volcaustics.scenes.formats import COLOUR_LAYERS
 from volcaustics.reports.core.tables import rows_of
 from volcaustics.reports.core.versions import code_version, library_versions
 from volcaustics.reports.experiment.photons import FATES
 from volcaustics.reports.page.images import SCALES
 from volcaustics.reports.sweep.suffice import settings_that_suffice
+from volcaustics.scenes.formats import COLOUR_LAYERS
 
 # Wang, Wang & Chen: intersection estimation takes about 70% of a frame and splatting about 23% on their GPU
 OUTPUT_FILES = ("index.html", "summary.json")  # in --out; the manifest, summary.json, last

@@ -9,13 +9,13 @@ import time
 
 from tqdm import tqdm
 
-from volcaustics.scenes.storage import atomic_write_texts
 from volcaustics.reports.core.tables import plain
 from volcaustics.reports.page import charts
 from volcaustics.reports.page.html import render_page
 from volcaustics.reports.page.images import SCALES, data_uri, heatmap_uri, render_uri
 from volcaustics.reports.page.summary import OUTPUT_FILES
 from volcaustics.reports.sweep.figures import draw_figures
+from volcaustics.scenes.storage import atomic_write_texts
 
 
 def write_report(out_dir: str, results: list, summary: dict, sweep=None, *, progress: bool = False,

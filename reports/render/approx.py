@@ -10,6 +10,7 @@ import os
 
 import numpy as np
 
+from volcaustics.approx import render
 from volcaustics.scenes.imageio import write_exr, write_png
 from volcaustics.scenes.storage import atomic_set
 
@@ -31,8 +32,6 @@ def subsample_records(records: list, max_per_step: int) -> tuple[np.ndarray, int
 
 def run_approx(scene, params, out: str, *, records_max: int = 200_000) -> dict:
     """Render and write the outputs; returns the JSON summary written."""
-    from volcaustics.approx import render
-
     frame = render(scene, params, keep_records=records_max != 0)
     paths = output_paths(out)
     metadata = {"volcaustics_scene": scene.name, "volcaustics_scene_hash": scene.scene_hash(),

@@ -10,12 +10,11 @@ import json
 import os
 import shutil
 
+from volcaustics.reference.render import render_reference
 from volcaustics.scenes.storage import atomic_set
 
 
 def run_reference(scene, settings, out: str, *, force: bool = False) -> dict:
-    from volcaustics.reference.render import render_reference
-
     result = render_reference(scene, settings, force=force)
     base = out[:-4] if out.lower().endswith(".exr") else out
     paths = {"exr": base + ".exr", "png": base + ".png", "json": base + ".json"}

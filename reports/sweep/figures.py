@@ -9,8 +9,6 @@ others at their largest value (the most accurate setting), and says so.
 
 from __future__ import annotations
 
-import os
-
 import numpy as np
 
 from volcaustics.approx.params import label as param_label

@@ -11,13 +11,13 @@ from dataclasses import dataclass, field
 
 import pandas as pd
 
-from volcaustics.scenes.storage import atomic_set
 from volcaustics.reports import runner
 from volcaustics.reports.core.sizing import reference_settings
 from volcaustics.reports.core.store import TABLES, Store
 from volcaustics.reports.sweep.figures import draw_figures
 from volcaustics.reports.sweep.spec import SweepError, SweepSpec, points
 from volcaustics.reports.sweep.suffice import settings_that_suffice
+from volcaustics.scenes.storage import atomic_set
 
 MANIFEST = "sweep.json"  # the spec and the points the store's tables hold; written last
 OUTPUT_FILES = (*(f"{name}.parquet" for name in (*TABLES, "points")), "suffice.csv", MANIFEST)

@@ -27,13 +27,13 @@ import itertools
 import os
 from dataclasses import dataclass, field
 
-from volcaustics.approx.params import PRESETS, ParamError
+from volcaustics.approx.params import PRESETS, ApproxParams, ParamError, preset
 from volcaustics.approx.trace import check_fits
-from volcaustics.scenes import BUILTIN_NAMES, SceneError, resolve_scene
 from volcaustics.reports.core.params import parse_assignment, parse_value
 from volcaustics.reports.core.sizing import reference_settings
 from volcaustics.reports.core.tomlfile import load_toml
 from volcaustics.reports.runner import Point
+from volcaustics.scenes import BUILTIN_NAMES, SceneError, resolve_scene
 
 SPEC_KEYS = ("scenes", "preset", "seeds", "vary", "set", "reference")
 
@@ -94,7 +94,8 @@ def spec_from_toml(path: str) -> SweepSpec:
         if not isinstance(values, list) or not values:
             raise SweepError(f"{path}: vary.{name} = {values!r}: expected a non-empty list")
         grid.append((name, tuple(parse_value(name, v, f"{path}: vary", error=SweepError) for v in values)))
-    settled = {name: parse_value(name, v, f"{path}: set", error=SweepError) for name, v in _table(doc, "set", path).items()}
+    settled = {name: parse_value(name, v, f"{path}: set", error=SweepError)
+               for name, v in _table(doc, "set", path).items()}
     reference = _table(doc, "reference", path)
     reference_settings(reference, error=lambda message: SweepError(f"{path}: {message}"))  # checked now
     seeds = doc.get("seeds", 1)
@@ -144,11 +145,11 @@ def _checked(spec: SweepSpec, where: str) -> SweepSpec:
     return spec
 
 
-def points(spec: SweepSpec) -> list:
+def points(spec: SweepSpec, cls: type = ApproxParams) -> list:
     """Every point of the grid (``reports.runner.Point``), per scene, in grid order
     (ParamError → SweepError)."""
     try:
-        base = dataclasses.replace(PRESETS[spec.preset], **spec.fixed)
+        base = preset(spec.preset, cls, **spec.fixed)
     except ParamError as exc:
         raise SweepError(f"set: {exc}") from None
     names = [name for name, _ in spec.vary]

@@ -4,8 +4,17 @@ from __future__ import annotations
 
 import numpy as np
 
-from volcaustics.scenes.model import (Camera, DiffuseSurface, Medium, MeshSpec, Phase, Scene, SpecularObject, SpotLight,
-                          Transform)
+from volcaustics.scenes.model import (
+    Camera,
+    DiffuseSurface,
+    Medium,
+    MeshSpec,
+    Phase,
+    Scene,
+    SpecularObject,
+    SpotLight,
+    Transform,
+)
 
 
 def sphere_spec(radius, center, subdivisions=48):

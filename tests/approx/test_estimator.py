@@ -7,17 +7,24 @@ import dataclasses
 import numpy as np
 import pytest
 
+from tests.approx.helpers import make_scene, ray_sphere, shell_spec, sphere_spec
 from volcaustics.approx.geometry import SceneGeometry
 from volcaustics.approx.layers import LightMapRenderer
 from volcaustics.approx.light import LightFrustum
 from volcaustics.approx.params import ApproxParams
 from volcaustics.approx.records import records_from_raw
 from volcaustics.approx.trace import PhotonTracer
-from volcaustics.scenes.formats import FLAG_LEFT_FRUSTUM, FLAG_WITHIN_OFFSET, PHOTON_DTYPE, RAW_RECORD_DTYPE, STATUS_COLLIDED, STATUS_SURFACE
-from volcaustics.scenes.model import Medium
 from volcaustics.scenes.bounds import medium_bounds
+from volcaustics.scenes.formats import (
+    FLAG_LEFT_FRUSTUM,
+    FLAG_WITHIN_OFFSET,
+    PHOTON_DTYPE,
+    RAW_RECORD_DTYPE,
+    STATUS_COLLIDED,
+    STATUS_SURFACE,
+)
+from volcaustics.scenes.model import Medium
 from volcaustics.scenes.rng import uniform
-from tests.approx.helpers import make_scene, ray_sphere, shell_spec, sphere_spec
 
 LIGHT_RES = 512
 SEED = 7
@@ -47,7 +54,8 @@ def trace_one(ctx, scene, start, direction, inside, status, params, offset=0.0):
     return rec, frustum
 
 
-def trace_segment(ctx, scene, start, direction, length, *, layers=2, peak_samples=8, iterations=30, strategy="threshold"):
+def trace_segment(ctx, scene, start, direction, length, *, layers=2, peak_samples=8, iterations=30,
+                  strategy="threshold"):
     """Trace one medium photon over a segment of exactly ``length``: the medium's
     sigma_t is chosen so that the shared RNG's free flight for (SEED, photon 0, step 1)
     equals it. Returns the record (RECORD_DTYPE row)."""

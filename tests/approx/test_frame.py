@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 from scipy import integrate
 
+from tests.approx.helpers import fog_quadrature, make_scene, pixel_ray, sphere_spec
 from volcaustics.approx import ApproxParams, Renderer, render
 from volcaustics.approx.camera_pass import CameraView
 from volcaustics.approx.geometry import SceneGeometry
@@ -18,8 +19,7 @@ from volcaustics.approx.splat import Splatter, splats_from_arrays
 from volcaustics.approx.trace import PhotonTracer, read_photons
 from volcaustics.scenes.bounds import medium_bounds
 from volcaustics.scenes.formats import STATUS_COLLIDED, STATUS_SURFACE
-from volcaustics.scenes.model import Camera, Medium
-from tests.approx.helpers import fog_quadrature, make_scene, pixel_ray, sphere_spec
+from volcaustics.scenes.model import Camera
 
 SMALL = ApproxParams(photon_res=128, light_res=256, width=64, height=64, fog_steps=32, splat_radius=0.03)
 
@@ -248,8 +248,8 @@ def test_resolutions_beyond_the_drivers_dispatch_limit_are_refused(ctx):
     renderer now refuses such parameters with an error naming the limit."""
     import math
 
-    from volcaustics.approx import ParamError, render
     from tests.approx.helpers import make_scene
+    from volcaustics.approx import ParamError
 
     limit = int(ctx.info["GL_MAX_COMPUTE_WORK_GROUP_COUNT"][0])
     largest = math.isqrt(limit * 64)

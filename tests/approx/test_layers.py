@@ -5,11 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from tests.approx.helpers import make_scene, ray_sphere, shell_spec, sphere_spec
 from volcaustics.approx.geometry import SceneGeometry
 from volcaustics.approx.layers import LightMapRenderer, decode_normals, read_map
 from volcaustics.approx.light import LightFrustum
 from volcaustics.scenes.bounds import medium_bounds
-from tests.approx.helpers import make_scene, ray_sphere, shell_spec, sphere_spec
 
 RES = 128
 CENTER = np.array([0.0, 1.2, 0.0])

@@ -41,9 +41,6 @@ def test_index_matched_sphere_energy_agrees(gl_context, g, absorption):
         rel = abs(total_approx - total_ref) / total_ref
         print(f"{layer}: approx/reference = {np.round(total_approx / total_ref, 4)} "
               f"(reference noise {np.round(noise / total_ref, 4)})")
-        # Tolerances from measurement at these settings (128²): caustic −1% (photons that
-        # falsely re-hit the exit surface within the tracer's start offset, see trace.comp),
-        # up to −2% per channel under strong absorption; fog +0.3%; direct −1.1% (the lit
-        # ring on the floor is a few pixels wide: point samples vs the box filter,
-        # shadow-map edges); each bound also covers 3 reference standard deviations.
+        # Tolerances: the differences measured at these settings with room, plus 3 reference
+        # standard deviations (docs/decisions.md "Index-matched sphere")
         assert np.all(rel < tolerance + 3 * noise / total_ref), (layer, rel)

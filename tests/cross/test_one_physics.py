@@ -4,7 +4,7 @@ twin in reference/oracle.py) decide inside or outside by DESIGN.md's one rule â€
 direction below the *geometric* surface is inside â€” like the reference light tracer
 (`enters = dot(wo, si.n) < 0` in reference/integrators.py); with shading normals
 the refraction event and that rule disagree on a few paths, which the exact tracer
-used to lose as "lost inside glass" (1.55% of the power on bunny)."""
+used to lose as "lost inside glass" (docs/decisions.md "One inside rule")."""
 
 from __future__ import annotations
 
@@ -111,10 +111,9 @@ def test_inside_follows_the_geometric_normal_in_both_tracers(ctx, stochastic):
 
 
 def test_exact_tracer_loses_nothing_inside_glass(gl_context):
-    """With the one rule every photon inside glass meets an exit: the exact tracer's
-    lost power on bunny (smooth shading normals over 10k faces) was 1.45% at 16
-    stochastic steps before; now nothing (a photon can only be lost by the Embree float32
-    self-intersection epsilon: < 0.05% allowed)."""
+    """With the one rule every photon inside glass meets an exit, even on bunny's smooth
+    shading normals: a photon can only be lost by the Embree float32 self-intersection
+    epsilon (< 0.05% allowed; before the rule: docs/decisions.md "One inside rule")."""
     from volcaustics.approx import ApproxParams, render
     from volcaustics.reference.oracle import exact_photon_records
     from volcaustics.scenes import load_builtin

@@ -11,8 +11,13 @@ import numpy as np
 import pytest
 from scipy.stats import t as student_t
 
-from volcaustics.metrics.noise import (MIN_SEEDS_FOR_INTERVAL, _bootstrap_weights, noisy_copy, seed_mean_interval,
-                           seed_relative_mse)
+from volcaustics.metrics.noise import (
+    MIN_SEEDS_FOR_INTERVAL,
+    _bootstrap_weights,
+    noisy_copy,
+    seed_mean_interval,
+    seed_relative_mse,
+)
 
 H, W = 32, 32
 

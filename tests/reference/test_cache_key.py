@@ -13,11 +13,10 @@ import sys
 import numpy as np
 import pytest
 
-import volcaustics.scenes.bounds
 from volcaustics.reference import cache
 from volcaustics.reference.render.export import mesh_file
 from volcaustics.reference.settings import ReferenceSettings, SettingsError
-from volcaustics.scenes import load_builtin
+from volcaustics.scenes import bounds, load_builtin
 from volcaustics.scenes.mesh import Mesh
 
 SETTINGS = ReferenceSettings(photons=100000, spp=8, batches=2, width=24, height=24)
@@ -67,7 +66,7 @@ def test_a_change_of_normals_changes_the_key_and_the_ply_file(monkeypatch, tmp_p
 
 def test_the_medium_box_margin_changes_the_key(monkeypatch):
     before = _key()
-    monkeypatch.setattr(scenes.bounds, "MARGIN", 2 * scenes.bounds.MARGIN)
+    monkeypatch.setattr(bounds, "MARGIN", 2 * bounds.MARGIN)
     assert _key() != before
 
 

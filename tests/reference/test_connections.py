@@ -18,13 +18,18 @@ import drjit as dr
 import numpy as np
 import pytest
 
-from volcaustics.metrics.stats import z_test
-from volcaustics.reference.render.export import to_mitsuba
-from volcaustics.reference.render.integrators import (SingleScatterIntegrator, ViewPyramid, VolumetricLightTracer, configure,
-                                   subtended_angle)
-from volcaustics.reference.mi_setup import mitsuba
-from volcaustics.scenes.model import Camera
 from tests.approx.helpers import make_scene, sphere_spec
+from volcaustics.metrics.stats import z_test
+from volcaustics.reference.mi_setup import mitsuba
+from volcaustics.reference.render.export import to_mitsuba
+from volcaustics.reference.render.integrators import (
+    SingleScatterIntegrator,
+    ViewPyramid,
+    VolumetricLightTracer,
+    configure,
+    subtended_angle,
+)
+from volcaustics.scenes.model import Camera
 
 mi = mitsuba()
 W = H = 48
@@ -158,9 +163,8 @@ def test_geometry_per_connection_is_a_property():
 def test_connections_unbiased_near_camera():
     """Where the single connection made fireflies (beams through the eye's neighbourhood),
     the light tracer's fog still matches the camera integrator's fog, an independent
-    estimator (per-pixel z-test, Šidák, α = 0.01, ≥ 99% of pixels: measured pass rate
-    0.9987 at 64 and at 256 photons per pixel and batch; the single connection's own
-    variance estimate misses its fireflies and fails the same test, 0.968 and 0.987)."""
+    estimator (per-pixel z-test, Šidák, α = 0.01, ≥ 99% of pixels), which the single
+    connection fails (docs/decisions.md "Stratified camera connections")."""
     scene = _near_camera_scene()
     mi_scene = mi.load_dict(to_mitsuba(scene))
     camera = configure(SingleScatterIntegrator(), scene, mi_scene)
@@ -168,19 +172,17 @@ def test_connections_unbiased_near_camera():
     light = _batches(mi_scene, _tracer(VolumetricLightTracer, scene, mi_scene, "fog"), 64, 8, slice(0, 3), seed0=0)
     result = z_test(fog.mean(0), fog.var(0, ddof=1) / 8, light.mean(0), light.var(0, ddof=1) / 8)
     assert result.passed, result
-    # the energy too: image totals within 3 standard errors (measured 288.2 ± 0.7 vs 288.0 ± 0.1)
+    # the energy too: image totals within 3 standard errors
     a, b = fog.sum(axis=(1, 2, 3)), light.sum(axis=(1, 2, 3))
     assert abs(a.mean() - b.mean()) < 3 * math.hypot(a.std(ddof=1), b.std(ddof=1)) / math.sqrt(8)
 
 
 def test_connections_remove_the_fireflies():
     """Same photons, same scene: the noise floor Σ var / Σ mean² of the caustic (glass
-    sphere above the camera) and of the fog, single connection vs stratified connections.
-    Measured at 64 photons per pixel, 8 batches: caustic 1.03e-2 → 1.50e-4 (69×), fog
-    3.56e-1 → 4.16e-3 (86×); at 256 photons per pixel the caustic's 3.1e-3 → 3.7e-5 (83×).
-    Asserted ≥ 15×: the single connection's floor estimate is itself heavy-tailed (the
-    fog's without the sphere: 1.55e-1 at 64, 4.26e-2 at 256). Their image totals agree
-    within 3 σ (caustic 157.3 ± 0.7 and 156.1 ± 0.6)."""
+    sphere above the camera) and of the fog, single connection vs stratified connections:
+    ≥ 15× lower (measured 69–86×; the single connection's floor estimate is itself
+    heavy-tailed: docs/decisions.md "Stratified camera connections"). Their image totals
+    agree within 3 σ."""
     scene = _near_camera_scene(glass=True)
     mi_scene = mi.load_dict(to_mitsuba(scene))
     for mode in ("caustic", "fog"):

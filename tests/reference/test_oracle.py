@@ -3,8 +3,6 @@ replay of the approximation's photons."""
 
 from __future__ import annotations
 
-import dataclasses
-
 import numpy as np
 import pytest
 
@@ -35,7 +33,7 @@ def brute_force_first_hit(vertices, faces, o, d, L):
     return best_t, best_f
 
 
-def test_v5_oracle_matches_brute_force():
+def test_oracle_matches_brute_force():
     scene = load_builtin("bunny")
     mesh = scene.specular[0].mesh.load()
     lo, hi = mesh.bounds()

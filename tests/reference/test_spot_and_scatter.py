@@ -6,12 +6,12 @@ import math
 
 import numpy as np
 
+from tests.approx.helpers import make_scene, sphere_spec
 from volcaustics.approx.glsl import build_source
 from volcaustics.approx.light import spot_constants
+from volcaustics.reference.mi_setup import mitsuba
 from volcaustics.reference.render.export import to_mitsuba
 from volcaustics.reference.render.integrators import VolumetricLightTracer, configure
-from volcaustics.reference.mi_setup import mitsuba
-from tests.approx.helpers import make_scene, sphere_spec
 
 mi = mitsuba()
 
@@ -40,7 +40,8 @@ def test_glsl_spot_matches_mitsuba_spot(ctx):
     t1 = np.cross(axis, [0, 0, 1.0])
     t1 /= np.linalg.norm(t1)
     t2 = np.cross(axis, t1)
-    dirs = (np.cos(theta)[:, None] * axis + np.sin(theta)[:, None] * (np.cos(phi)[:, None] * t1 + np.sin(phi)[:, None] * t2))
+    dirs = (np.cos(theta)[:, None] * axis
+            + np.sin(theta)[:, None] * (np.cos(phi)[:, None] * t1 + np.sin(phi)[:, None] * t2))
     # GLSL
     cs = ctx.compute_shader(build_source(FALLOFF_SHADER))
     for name, value in spot_constants(light).items():

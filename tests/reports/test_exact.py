@@ -11,11 +11,17 @@ import os
 import numpy as np
 import pytest
 
-from volcaustics.approx import ApproxParams, Renderer
-from volcaustics.reports.experiment.exact import box_downsample, exact_caustic, exact_photons, interleaved_subsets, pixel_footprint
-from volcaustics.scenes import load_builtin
 from tests.approx.helpers import make_scene, sphere_spec
 from tests.failure_images import write_compared_images
+from volcaustics.approx import ApproxParams, Renderer
+from volcaustics.reports.experiment.exact import (
+    box_downsample,
+    exact_caustic,
+    exact_photons,
+    interleaved_subsets,
+    pixel_footprint,
+)
+from volcaustics.scenes import load_builtin
 
 
 @pytest.mark.parametrize("batches,shape", [(16, (4, 4)), (8, (2, 4)), (6, (2, 3)), (5, (1, 5))])

@@ -87,7 +87,7 @@ def test_check_fits_names_the_driver_limit():
 def test_ctrl_c_inside_the_reference_render_exits_130(cache, tmp_path, monkeypatch, capsys, command):
     """Dr.Jit hands a KeyboardInterrupt raised during its loops back as a RuntimeError
     chained to it; every command that renders a reference exits 130 with "interrupted"."""
-    import volcaustics.reference.render
+    import volcaustics.reports.runner as runner
 
     def render(*args, **kwargs):
         try:
@@ -95,7 +95,7 @@ def test_ctrl_c_inside_the_reference_render_exits_130(cache, tmp_path, monkeypat
         except KeyboardInterrupt as exc:
             raise RuntimeError("drjit.while_loop(): the loop body raised an exception") from exc
 
-    monkeypatch.setattr(reference.render, "render_reference", render)
+    monkeypatch.setattr(runner, "render_reference", render)  # where every command renders its reference
     small = ["--set", "width=32", "--set", "height=32", "--set", "photon_res=64", "--set", "light_res=64"]
     argv = {"measure": ["measure", "sphere1", "-o", str(tmp_path / "m"), "--width", "32", "--height", "32"],
             "sweep": ["sweep", "-o", str(tmp_path / "s"), "--scenes", "sphere1", "--vary", "layers=1,2", *small],
@@ -217,7 +217,7 @@ def test_a_manifest_that_is_a_fifo_does_not_hang(tmp_path, case):
                               str(folder)],
             "report-sweep": ["report", "--out", str(tmp_path / "r"), "--scenes", "sphere1", "--sweep", str(folder)]}
     env = {**os.environ, "VOLCAUSTICS_CACHE": str(tmp_path / "cache"), "VOLCAUSTICS_MI_VARIANT": "llvm_ad_rgb"}
-    done = subprocess.run([sys.executable, "-m", "volcaustics.reports.cli", *argv[case], "--quiet"], capture_output=True,
+    done = subprocess.run([sys.executable, "-m", "volcaustics", *argv[case], "--quiet"], capture_output=True,
                           text=True, env=env, cwd=REPO, timeout=120)
     assert done.returncode == 2, done.stderr[-2000:]
     assert "not a regular file" in done.stderr and "Traceback" not in done.stderr
@@ -302,7 +302,7 @@ def test_a_bad_libllvm_path_exits_2_in_the_commands_that_render_references(tmp_p
         Path(value).write_text("not a library")
     env = {k: v for k, v in os.environ.items() if k != "VOLCAUSTICS_MI_VARIANT"}
     env.update(DRJIT_LIBLLVM_PATH=value, VOLCAUSTICS_CACHE=str(tmp_path / "cache"))
-    done = subprocess.run([sys.executable, "-m", "volcaustics.reports.cli", "measure", "sphere1", "-o", str(tmp_path / "m"),
+    done = subprocess.run([sys.executable, "-m", "volcaustics", "measure", "sphere1", "-o", str(tmp_path / "m"),
                            "--width", "16", "--height", "16", "--quiet"], capture_output=True, text=True, env=env,
                           cwd=REPO, timeout=300)
     assert done.returncode == 2, done.stderr[-2000:]

@@ -134,7 +134,8 @@ def test_fail_closed_cases_exit_2(env, capsys, case):
     assert gate(tmp, *args) == 2
     err = capsys.readouterr().err
     expected = {"no_baseline": "no baseline", "baseline_without_scene": "no entry for 'bunny'",
-                "damaged_baseline": "is damaged", "one_seed": "--seeds = 1", "unknown_scene": "nosuch", "missing_reference": "no reference in the cache",
+                "damaged_baseline": "is damaged", "one_seed": "--seeds = 1", "unknown_scene": "nosuch",
+                "missing_reference": "no reference in the cache",
                 "too_tight": "narrower than", "bad_budget": "relmse_maxx", "unknown_set": "layerz"}[case]
     assert expected in err
 

@@ -131,7 +131,7 @@ def test_measure_writes_tidy_tables_exr_and_summary(cache, tmp_path, capsys, mon
 
     # Ctrl-C while a second run writes its set (inside the EXR writer, after the tables):
     # the first run's eight files stay, byte for byte, and no temporaries (issue 13, B)
-    import volcaustics.scenes.imageio
+    import volcaustics.reports.experiment.write as write
 
     first = {p.name: p.read_bytes() for p in out.iterdir()}
     assert len(first) == 8
@@ -139,7 +139,7 @@ def test_measure_writes_tidy_tables_exr_and_summary(cache, tmp_path, capsys, mon
     def interrupted(*args, **kwargs):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(scenes.imageio, "write_exr", interrupted)
+    monkeypatch.setattr(write, "write_exr", interrupted)
     assert main([*args, "--seed", "5"]) == 130
     assert {p.name: p.read_bytes() for p in out.iterdir()} == first
 

@@ -53,7 +53,8 @@ def built(tmp_path_factory):
         cold = json.loads((root / "cold" / "summary.json").read_text())
         assert main([*args, "--out", str(root / "warm")]) == 0
         warm = json.loads((root / "warm" / "summary.json").read_text())
-        yield {"root": root, "args": args, "cold": cold, "warm": warm, "page": (root / "cold" / "index.html").read_text()}
+        yield {"root": root, "args": args, "cold": cold, "warm": warm,
+               "page": (root / "cold" / "index.html").read_text()}
 
 
 class _Page(HTMLParser):
@@ -106,7 +107,8 @@ def test_summary_holds_every_scene_and_the_gate_verdicts(built):
     assert [c["name"] for c in failed] == ["caustic.hdr_flip_max"]
     # failures first within a scene
     assert by_scene["sphere1"]["gate"]["checks"][0]["passed"] is False
-    assert s["gate"] == {"passed": False, "checks": 5, "failed": 1, "unchecked_scenes": [], "scenes_without_budgets": []}
+    assert s["gate"] == {"passed": False, "checks": 5, "failed": 1, "unchecked_scenes": [],
+                         "scenes_without_budgets": []}
     for page in s["scenes"]:
         assert page["measured_in_this_run"] is True
         # the decomposition's terms telescope to its total (an identity of the estimator, to rounding)
@@ -390,7 +392,8 @@ def test_report_and_reference_cli_share_one_cache_entry(tmp_path, monkeypatch):
                  "--set", "width=24", "--set", "height=24", "--set", "photon_res=32", "--set", "light_res=32",
                  *budget, "--target-noise", "none"]) == 0
     from_report = json.loads((tmp_path / "rep" / "summary.json").read_text())["scenes"][0]["reference"]
-    assert main(["reference", "refocus", "--width", "24", "--height", "24", *budget, "-o", str(tmp_path / "r.exr")]) == 0
+    argv = ["reference", "refocus", "--width", "24", "--height", "24", *budget, "-o", str(tmp_path / "r.exr")]
+    assert main(argv) == 0
     from_cli = json.loads((tmp_path / "r.json").read_text())
     assert from_cli["key"] == from_report["key"]
     assert from_report["cached"] is False and from_cli["cached"] is True

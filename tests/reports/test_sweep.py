@@ -107,7 +107,7 @@ def test_sigint_keeps_finished_points_and_the_rerun_computes_only_the_rest(env, 
     exactly the points missing (none twice, none lost)."""
     out = tmp_path / "store"
     spec = _spec(tmp_path, SPEC.replace("layers = [1, 2]", "layers = [1, 2, 3, 4]"))  # 8 points
-    command = [sys.executable, "-m", "volcaustics.reports.cli", "sweep", spec, "-o", str(out), "--workers", "1", "--quiet"]
+    command = [sys.executable, "-m", "volcaustics", "sweep", spec, "-o", str(out), "--workers", "1", "--quiet"]
     # SIGINT as at a terminal: a suite started in the background (nohup, `make test &`) ignores it,
     # and an ignored SIGINT is inherited and respected
     process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=os.environ.copy(),
@@ -202,13 +202,13 @@ def test_two_sweeps_writing_one_store_do_not_corrupt_it(env, tmp_path):
     is there once and whole, and the consolidated tables hold each point once."""
     out = tmp_path / "store"
     spec = _spec(tmp_path)
-    command = [sys.executable, "-m", "volcaustics.reports.cli", "sweep", spec, "-o", str(out), "--workers", "1", "--quiet"]
+    command = [sys.executable, "-m", "volcaustics", "sweep", spec, "-o", str(out), "--workers", "1", "--quiet"]
     root = Path(__file__).resolve().parents[2]
     # the reference first, so that the two do not render it twice at once (the cache is
     # atomic too, but two renders would only cost time)
-    assert main(["sweep", _spec(tmp_path, SPEC.replace("iterations = [4, 8]", "iterations = [4]")
-                                .replace("layers = [1, 2]", "layers = [1]"), "first.toml"), "-o", str(tmp_path / "warm"),
-                 "--quiet"]) == 0
+    first = _spec(tmp_path, SPEC.replace("iterations = [4, 8]", "iterations = [4]")
+                  .replace("layers = [1, 2]", "layers = [1]"), "first.toml")
+    assert main(["sweep", first, "-o", str(tmp_path / "warm"), "--quiet"]) == 0
     runs = [subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                              env=os.environ.copy(), cwd=root) for _ in range(2)]
     outputs = [r.communicate(timeout=600) for r in runs]

@@ -108,7 +108,7 @@ def test_cli_lists_seven_scenes(capsys):
 
 
 def test_bunny_attribution_vendored():
-    import volcaustics.scenes
+    from volcaustics import scenes
 
     folder = os.path.join(os.path.dirname(scenes.__file__), "assets")
     text = open(os.path.join(folder, "ATTRIBUTION.md")).read()

@@ -7,8 +7,17 @@ import pytest
 
 from volcaustics.scenes import formats
 from volcaustics.scenes.bounds import box_exit
-from volcaustics.scenes.formats import (FLAG_BITS, KIND_NONE, LAYER_NAMES, MASK_LAYER, RAW_RECORD_DTYPE, RECORD_DTYPE,
-                            SHAPE_KINDS, STATUS_CODES, STATUS_NAMES)
+from volcaustics.scenes.formats import (
+    FLAG_BITS,
+    KIND_NONE,
+    LAYER_NAMES,
+    MASK_LAYER,
+    RAW_RECORD_DTYPE,
+    RECORD_DTYPE,
+    SHAPE_KINDS,
+    STATUS_CODES,
+    STATUS_NAMES,
+)
 from volcaustics.scenes.model import Medium
 
 

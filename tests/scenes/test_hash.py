@@ -9,8 +9,6 @@ import shutil
 import subprocess
 import sys
 
-import pytest
-
 from volcaustics.scenes import load_builtin, load_scene
 from volcaustics.scenes.model import Medium, Phase, Transform
 
@@ -84,9 +82,12 @@ def _variants(scene):
     yield "medium.g", r(scene, medium=r(med, phase=Phase("hg", 0.3)))
     yield "specular.ior", r(scene, specular=(r(obj, ior=1.51),))
     yield "specular.absorption", r(scene, specular=(r(obj, absorption=(0.0, 0.1, 0.0)),))
-    yield "specular.mesh.params", r(scene, specular=(r(obj, mesh=r(spec, params=(("radius", 0.41), ("subdivisions", 32)))),))
-    yield "specular.mesh.translate", r(scene, specular=(r(obj, mesh=r(spec, transform=Transform(translate=(0, 1.41, 0)))),))
-    yield "specular.mesh.rotate", r(scene, specular=(r(obj, mesh=r(spec, transform=r(spec.transform, rotate=(0, 1, 0)))),))
+    yield "specular.mesh.params", r(scene, specular=(
+        r(obj, mesh=r(spec, params=(("radius", 0.41), ("subdivisions", 32)))),))
+    yield "specular.mesh.translate", r(scene, specular=(
+        r(obj, mesh=r(spec, transform=Transform(translate=(0, 1.41, 0)))),))
+    yield "specular.mesh.rotate", r(scene, specular=(
+        r(obj, mesh=r(spec, transform=r(spec.transform, rotate=(0, 1, 0)))),))
     yield "specular.mesh.scale", r(scene, specular=(r(obj, mesh=r(spec, transform=r(spec.transform, scale=1.01))),))
     yield "specular.count", r(scene, specular=(obj, obj))
     yield "diffuse.albedo", r(scene, diffuse=(r(flo, albedo=(0.6, 0.6, 0.61)),))

@@ -15,9 +15,9 @@ try:
 except ModuleNotFoundError:
     import tomli as tomllib
 
+from tests.conftest import BASE_SCENE
 from volcaustics.reports.cli import main
 from volcaustics.scenes import SceneError, load_scene
-from tests.conftest import BASE_SCENE
 
 
 def _set(path, value):
@@ -67,9 +67,12 @@ CASES = [
     ("g without hg", _set(["medium", "g"], 0.3), "medium.g", "0.3"),
     ("nan coefficient", _set(["medium", "sigma_s"], float("nan")), "medium.sigma_s", "nan"),
     ("albedo above one", _set(["diffuse", 0, "albedo"], 1.5), "diffuse[0].albedo", "1.5"),
-    ("unknown generator", _set(["specular", 0, "mesh"], {"generator": "teapot"}), "specular[0].mesh.generator", "'teapot'"),
-    ("generator param too big", _set(["specular", 0, "mesh", "subdivisions"], 10**6), "specular[0].mesh.subdivisions", "1000000"),
-    ("missing mesh file", _set(["specular", 0, "mesh"], "nowhere/bunny.ply"), "specular[0].mesh.path", "'nowhere/bunny.ply'"),
+    ("unknown generator", _set(["specular", 0, "mesh"], {"generator": "teapot"}), "specular[0].mesh.generator",
+     "'teapot'"),
+    ("generator param too big", _set(["specular", 0, "mesh", "subdivisions"], 10**6), "specular[0].mesh.subdivisions",
+     "1000000"),
+    ("missing mesh file", _set(["specular", 0, "mesh"], "nowhere/bunny.ply"), "specular[0].mesh.path",
+     "'nowhere/bunny.ply'"),
     ("duplicate names", _set(["diffuse", 0, "name"], "ball"), "diffuse[0].name", "'ball'"),
 ]
 

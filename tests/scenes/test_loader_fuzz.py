@@ -19,8 +19,8 @@ try:
 except ModuleNotFoundError:
     import tomli as tomllib
 
-from volcaustics.scenes import Scene, SceneError, load_scene
 from tests.conftest import BASE_SCENE
+from volcaustics.scenes import Scene, SceneError, load_scene
 
 BASE = tomllib.loads(BASE_SCENE)
 
@@ -54,7 +54,8 @@ def _check(tmp_path, text: str):
     assert isinstance(result, Scene)
 
 
-@settings(max_examples=int(os.environ.get("FUZZ_EXAMPLES", 150)), deadline=None, derandomize=not os.environ.get("FUZZ_EXAMPLES"),
+@settings(max_examples=int(os.environ.get("FUZZ_EXAMPLES", 150)), deadline=None,
+          derandomize=not os.environ.get("FUZZ_EXAMPLES"),
           suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(edits=st.lists(st.tuples(st.sampled_from(PATHS), st.sampled_from(["set", "delete", "add"]), values),
                       min_size=1, max_size=3))
@@ -80,14 +81,16 @@ def test_mutated_documents_fail_cleanly(tmp_path, edits):
     _check(tmp_path, text)
 
 
-@settings(max_examples=int(os.environ.get("FUZZ_EXAMPLES", 150)), deadline=None, derandomize=not os.environ.get("FUZZ_EXAMPLES"),
+@settings(max_examples=int(os.environ.get("FUZZ_EXAMPLES", 150)), deadline=None,
+          derandomize=not os.environ.get("FUZZ_EXAMPLES"),
           suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(cut=st.integers(min_value=0, max_value=len(BASE_SCENE)), junk=st.text(max_size=30))
 def test_truncated_and_spliced_text_fails_cleanly(tmp_path, cut, junk):
     _check(tmp_path, BASE_SCENE[:cut] + junk + BASE_SCENE[cut:][: len(BASE_SCENE) // 3])
 
 
-@settings(max_examples=int(os.environ.get("FUZZ_EXAMPLES", 100)), deadline=None, derandomize=not os.environ.get("FUZZ_EXAMPLES"),
+@settings(max_examples=int(os.environ.get("FUZZ_EXAMPLES", 100)), deadline=None,
+          derandomize=not os.environ.get("FUZZ_EXAMPLES"),
           suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(text=st.text(max_size=200))
 def test_arbitrary_text_fails_cleanly(tmp_path, text):

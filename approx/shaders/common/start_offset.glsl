@@ -11,7 +11,7 @@
 // with START_SLOPE at most 2 · (√2 / 2) (both errors at their bound). START_FLOOR
 // covers what the plane model leaves out (curvature across a texel, float rounding);
 // START_MAX caps grazing departures, where no offset both avoids the start surface
-// and keeps nearby hits. Values: approx/trace.py START_OFFSET (measured, see there).
+// and keeps nearby hits. Values: approx/trace.py START_OFFSET (docs/decisions.md "Start offset").
 #ifndef VOLCAUSTICS_START_OFFSET_GLSL
 #define VOLCAUSTICS_START_OFFSET_GLSL
 

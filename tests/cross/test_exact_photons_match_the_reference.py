@@ -1,4 +1,5 @@
-"""V6: exact photons through the approximation's splatter reproduce the reference caustic.
+"""Exact photons through the approximation's splatter reproduce the reference caustic
+(the README's V6).
 
 E (DESIGN.md E_∞,s): the approximation's photons — its emission state, one photon
 per covered texel of a photon_res² map, from its step-1 records — replayed with
@@ -16,15 +17,11 @@ phase, depth test), the exact tracer and the light tracer against each other.
 Pixel filter and kernel. The reference box-filters pixels; the splatter
 point-samples the pixel-centre ray through a Gaussian of standard deviation
 splat_radius. A kernel narrower than the sample spacing aliases (a Gaussian of
-σ sampled at spacing h sums to 1 ± 2·exp(−2π²σ²/h²): ±38% at σ = 0.29 h, the
-box's own standard deviation), a wide one blurs. Measured on sphere1 / sphere2 at
-64², one sample per pixel: σ = 0.15 pixel: energy −3.2% / −0.1%, debiased relMSE
-0.015 / 0.043; σ = 0.29 pixel: 1.5e-3 / 2.7e-3; σ = 0.5 pixel: 5.8e-3 / 1.9e-2.
-So E is splatted at SUPERSAMPLE× the resolution and box-averaged (the reference's
-filter), with σ = KERNEL_FINE_PIXELS fine pixels at the camera's target distance:
-the fine sampling aliases < 0.2%, the blur adds σ² = 0.0056 pixel² to the box's
-1/12. Measured (8×, same photons): debiased relMSE 2.0e-4 / 6e-5 at σ = 0.075
-pixel, 1.7e-4 / 1.6e-4 at 0.0375 (16×), 3.7e-4 / 5.1e-4 at 0.15 pixel.
+σ sampled at spacing h sums to 1 ± 2·exp(−2π²σ²/h²)), a wide one blurs. So E is
+splatted at SUPERSAMPLE× the resolution and box-averaged (the reference's filter),
+with σ = KERNEL_FINE_PIXELS fine pixels at the camera's target distance: the fine
+sampling aliases < 0.2%, the blur adds σ² = 0.0056 pixel² to the box's 1/12
+(figures: docs/decisions.md "Exact photons: pixel filter and kernel").
 
 Noise and tolerances. E's noise: 16 interleaved photon subsets (independent: each
 photon has its own random numbers); R's: 8 independent batch images. From them
@@ -32,28 +29,17 @@ photon has its own random numbers); R's: 8 independent batch images. From them
 batches' totals) and the debiased relative MSE, raw − Σ(var_E + var_R)/ΣR², with
 a distribution-free standard error SE. ``metrics.noise`` takes pixels as
 independent; E's are not (a photon's successive collisions splat along its path),
-which did not matter while R's single-pixel fireflies dominated the noise: over 8
-seeds each (sphere1, bunny) z = debiased/SE had standard deviation 1.3 and 1.0.
-Since the light tracer draws each beam along its image (issue 8) R's noise is
-10²–10³× lower, E's dominates, and z had standard deviation 2.3 over 4 E seeds
-on each of bunny, feline, skull, sphere1, two_spheres (mean −0.5: no sign of a
-bias). So SE is the larger of that and a delete-one jackknife over whole batch
-images (E's subsets and R's batches), which sees the correlation: z = 3.0, 0.1,
-0.8, −1.6 on bunny and 0.3, −0.3, −1.9, 0.7 on skull for the same seeds. The
-energy σ stated 0.41% on sphere1 against a spread of 0.20% over seeds
-(conservative), on bunny 1.0% against 0.95%. The checks, per case and colour channel:
-  energy   |E/R − 1| ≤ 1% + 3σ  (1%: the budget for what is not noise; measured
-           |E/R − 1| ≤ 0.8%, σ 0.3–1.7%)
-Photon noise is heavy-tailed: a collision close to the eye splats energy growing
-as 1/d² (bunny: one E subset +19%); before issue 8 the light tracer had fireflies
-too (bunny: one R batch held 92% of R's per-pixel variance). The batches' spread
-includes them when they occur, so σ and SE vary from seed to seed more than a
-Gaussian's would.
-  relMSE   debiased ≤ 3·SE + BLUR_ALLOWANCE (the kernel's residual blur: sphere2,
-           the sharpest caustic, gained 4.4e-4 from σ = 0.075 to 0.15 pixel; blur
-           at sharp edges grows as σ², so ≤ 1.5e-4 at 0.075)
-Measured values per case (64², this file's settings) are in the README (V6) and
-printed with ``pytest -s``. On failure the compared images go to
+so SE is the larger of that and a delete-one jackknife over whole batch images
+(E's subsets and R's batches), which sees the correlation. Photon noise is
+heavy-tailed (a collision close to the eye splats energy growing as 1/d²), so σ
+and SE vary from seed to seed more than a Gaussian's would. The checks, per case
+and colour channel:
+  energy   |E/R − 1| ≤ 1% + 3σ  (1%: the budget for what is not noise)
+  relMSE   debiased ≤ 3·SE + BLUR_ALLOWANCE (the kernel's residual blur, which
+           grows as σ² at sharp edges)
+The measurements behind them: docs/decisions.md "Exact photons: noise and
+tolerances". Measured values per case (64², this file's settings) are in the
+README (V6) and printed with ``pytest -s``. On failure the compared images go to
 ``test-output/<test>/``.
 """
 
@@ -65,6 +51,7 @@ from dataclasses import dataclass
 import numpy as np
 import pytest
 
+from tests.failure_images import write_compared_images
 from volcaustics.approx import ApproxParams, Renderer
 from volcaustics.metrics.noise import debiased_relative_mse, energy_ratio
 from volcaustics.reference.settings import ReferenceSettings
@@ -72,19 +59,18 @@ from volcaustics.reports.experiment.exact import exact_caustic, pixel_footprint,
 from volcaustics.scenes import load_builtin
 from volcaustics.scenes.catalogue import BUILTIN_NAMES
 from volcaustics.scenes.model import Phase
-from tests.failure_images import write_compared_images
 
 SIZE = 64                 # image width and height (pixels)
 SUPERSAMPLE = 8           # E splatted at 512² and box-averaged to 64²
-KERNEL_FINE_PIXELS = 0.6  # splat_radius in fine pixels at the target distance (0.075 pixel, 3.4 mm)
-STEPS = 128               # exact interaction steps: < 0.1% of the power alive after them (feline: 0.03%)
+KERNEL_FINE_PIXELS = 0.6  # splat_radius in fine pixels at the target distance (0.075 pixel, 3.4 mm): see the docstring
+STEPS = 128               # exact interaction steps: < 0.1% of the power alive after them (asserted)
 EXACT_BATCHES = 16
 REFERENCE_BATCHES = 8
 SEED = 1                  # the approximation's RNG seed (emission and replay)
 ALIVE_BUDGET = 1e-3
-ENERGY_TOLERANCE = 0.01
+ENERGY_TOLERANCE = 0.01   # |E/R − 1| allowed beyond 3σ (docs/decisions.md "Exact photons: noise and tolerances")
 Z_LIMIT = 3.0
-BLUR_ALLOWANCE = 1.5e-4   # relMSE
+BLUR_ALLOWANCE = 1.5e-4   # relMSE: the blur of 0.075 pixel (docs/decisions.md "Exact photons: noise and tolerances")
 
 
 def _phase(scene, g):
@@ -92,11 +78,10 @@ def _phase(scene, g):
 
 
 def _hg(scene):
-    """Henyey–Greenstein g = −0.6. With g = +0.6 the photons that fly towards the camera
-    and collide near it carry 10× the isotropic weight, and a splat's image energy grows
-    as 1/d² with its distance d to the eye (variance ∫ d⁻² dd: unbounded): one collision
-    8.6 cm from the eye held 4% of refocus's caustic (E/R 1.037 ± 0.047). Backward
-    scattering weights those photons 0.16× the isotropic value (E/R 1.005 ± 0.003)."""
+    """Henyey–Greenstein g = −0.6: backward scattering, so the photons that fly towards
+    the camera and collide near it, whose splats grow as 1/d² with their distance d to
+    the eye, weigh little; with g = +0.6 the energy's variance is unbounded (docs/decisions.md
+    "Exact photons: noise and tolerances")."""
     return _phase(scene, -0.6)
 
 
@@ -110,7 +95,7 @@ class Case:
 
     base: str
     photon_res: int = 1024
-    reference_photons: int = 1 << 21  # R's noise is 0.5–2% of E's (2^23–2^24 while R had fireflies)
+    reference_photons: int = 1 << 21  # R's noise is 0.5–2% of E's
     variant: object = None
 
     def scene(self):
@@ -175,7 +160,7 @@ def jackknife_standard_error(reference_batches, exact_batches, keep) -> float:
 
 
 def verdict(reference_batches, exact_batches, keep):
-    """(energy, relmse, failures): the two V6 checks on batch images; relmse's
+    """(energy, relmse, failures): the two checks on batch images; relmse's
     standard_error and z are the module docstring's (the larger SE)."""
     energy = energy_ratio(reference_batches, exact_batches, mask=keep)
     relmse = debiased_relative_mse(reference_batches, exact_batches, mask=keep)
@@ -205,7 +190,7 @@ def _write_failure(test_name, reference, exact_batches, keep, info):
 
 
 @pytest.mark.parametrize("name", list(CASES))
-def test_v6_exact_photons_through_the_splatter_match_the_reference(gl_context, name, request):
+def test_exact_photons_through_the_splatter_match_the_reference(gl_context, name, request):
     c = computed(name)
     photons = c.exact.photons
     assert photons.alive_fraction < ALIVE_BUDGET, f"{photons.alive_fraction:.2e} of the power alive after {STEPS} steps"
@@ -221,8 +206,8 @@ def test_v6_exact_photons_through_the_splatter_match_the_reference(gl_context, n
         pytest.fail("; ".join(failures) + f" (images: {folder})")
 
 
-def test_v6_wrong_variants_fail(gl_context):
-    """Every V6 check can fail: power × 1.05 (energy), the phase's g = −0.5 or +0.6
+def test_wrong_power_phase_or_pixel_sampling_fail(gl_context):
+    """Every check can fail: power × 1.05 (energy), the phase's g = −0.5 or +0.6
     instead of −0.6, and the approximation's own pixel sampling, one pixel-centre
     sample with the quick preset's 2 cm kernel (relMSE: aliasing and blur)."""
     refocus = computed("refocus")

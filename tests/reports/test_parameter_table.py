@@ -1,0 +1,121 @@
+"""The parameter table (approx/params.py) drives every command: each parameter is a flag
+of `approx` and `measure`, a `sweep --vary` axis, and a value out of range is refused
+with the range the table declares. A parameter added to a copy of the table reaches the
+flags, the sweep's grid and the tracer's program key with no other edit."""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+
+import pytest
+
+from volcaustics.approx.params import PARAMS, ApproxParams, Param, ParamError, params_class, preset
+from volcaustics.approx.trace import PhotonTracer
+from volcaustics.reports.cli import build_parser, main
+from volcaustics.reports.core.params import add_param_flags, flag, params_from_args, parse_assignment
+from volcaustics.reports.sweep.spec import SweepSpec, points
+
+
+def _bad_value(entry: Param):
+    """A value of the right type just outside the table's range (or not a choice)."""
+    if entry.choices:
+        return "nosuch"
+    return entry.high + 1 if entry.kind is int else entry.high * 2
+
+
+def _good_value(entry: Param):
+    """An allowed value other than the default."""
+    if entry.choices:
+        return entry.choices[-1]
+    return entry.low if entry.kind is int else entry.high / 4
+
+
+def _help(command: str) -> str:
+    parser = build_parser()
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    return sub.choices[command].format_help()
+
+
+@pytest.mark.parametrize("command", ["approx", "measure"])
+def test_every_parameter_is_a_flag_with_its_range(command):
+    text = " ".join(_help(command).split())  # argparse wraps lines
+    for entry in PARAMS:
+        assert flag(entry.name) in text, entry.name
+        assert entry.expected() in text, (entry.name, entry.expected())
+
+
+@pytest.mark.parametrize("entry", PARAMS, ids=[p.name for p in PARAMS])
+def test_every_parameter_is_a_sweep_axis_and_a_bad_value_names_the_range(entry, tmp_path, capsys, monkeypatch):
+    monkeypatch.setenv("VOLCAUSTICS_CACHE", str(tmp_path / "cache"))
+    name, values = parse_assignment(f"{entry.name}={_good_value(entry)}", "--vary")
+    assert name == entry.name and values == [_good_value(entry)]
+    # seed is not a grid axis (a point has seeds seed … seed + seeds − 1): it is set, and checked the same way
+    option = "--set" if entry.name == "seed" else "--vary"
+    argv = ["sweep", "-o", str(tmp_path / "s"), "--scenes", "sphere1", option, f"{entry.name}={_bad_value(entry)}",
+            "--quiet"]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert entry.name in err and entry.expected() in err, err
+    assert not (tmp_path / "cache" / "reference").exists()  # refused before any reference renders
+
+
+def test_a_flag_out_of_range_exits_2_naming_the_range(tmp_path, capsys):
+    entry = next(p for p in PARAMS if p.name == "layers")
+    assert main(["approx", "sphere1", "-o", str(tmp_path / "a.exr"), "--layers", str(_bad_value(entry))]) == 2
+    assert entry.expected() in capsys.readouterr().err
+
+
+def test_presets_mean_one_thing_everywhere():
+    assert preset("paper") == ApproxParams(width=800, height=800)
+    args = build_parser().parse_args(["approx", "sphere1", "-o", "x.exr", "--preset", "paper"])
+    assert params_from_args(args) == preset("paper")
+    spec = SweepSpec(scenes=("sphere1",), vary=(), preset="paper")
+    assert [p.params for p in points(spec)] == [preset("paper")]
+
+
+# a parameter no code uses yet: a define of the trace program, as a new search variant would be
+DUMMY = Param("search_budget", int, 3, "a parameter added by a test", "", 0, 9, program="trace", glsl="define")
+
+
+@pytest.fixture
+def table():
+    """A copy of the table with one more parameter, and its parameter class."""
+    extended = (*PARAMS, DUMMY)
+    return extended, params_class(extended)
+
+
+def test_an_added_parameter_reaches_the_flags(table):
+    extended, cls = table
+    parser = argparse.ArgumentParser()
+    add_param_flags(parser, default_preset="quick", table=extended)
+    assert "--search-budget" in parser.format_help() and "an integer in [0, 9]" in parser.format_help()
+    params = params_from_args(parser.parse_args(["--search-budget", "5"]), cls)
+    assert params.search_budget == 5 and params.photon_res == preset("quick").photon_res
+    with pytest.raises(ParamError, match=r"search_budget = 10: expected an integer in \[0, 9\]"):
+        params_from_args(parser.parse_args(["--search-budget", "10"]), cls)
+
+
+def test_an_added_parameter_reaches_the_sweep(table):
+    extended, cls = table
+    name, values = parse_assignment("search_budget=1,7", "--vary", table=extended)
+    spec = SweepSpec(scenes=("sphere1",), vary=((name, tuple(values)),), preset="quick")
+    grid = points(spec, cls)
+    assert [p.params.search_budget for p in grid] == [1, 7]
+    assert all(dataclasses.replace(p.params, search_budget=3) == preset("quick", cls) for p in grid)
+    with pytest.raises(ParamError, match="search_budget"):
+        parse_assignment("search_budget=x", "--vary", table=extended)
+
+
+def test_an_added_parameter_reaches_the_program_key(table):
+    _, cls = table
+    one, other = PhotonTracer.defines(cls(search_budget=1)), PhotonTracer.defines(cls(search_budget=2))
+    assert one["SEARCH_BUDGET"] == 1 and other["SEARCH_BUDGET"] == 2
+    assert {k: v for k, v in one.items() if k != "SEARCH_BUDGET"} == PhotonTracer.defines(ApproxParams())
+
+
+def test_the_program_key_follows_the_define_parameters_only():
+    base = PhotonTracer.defines(ApproxParams())
+    for entry in PARAMS:
+        changed = PhotonTracer.defines(dataclasses.replace(ApproxParams(), **{entry.name: _good_value(entry)}))
+        assert (changed != base) == (entry.glsl == "define" and entry.program == "trace"), entry.name

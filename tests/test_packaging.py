@@ -1,0 +1,44 @@
+"""The wheel installs one top-level package, ``volcaustics`` (with its shaders, scenes
+and budgets), never the bare folder names that belong to other PyPI distributions."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+import zipfile
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+FOLDERS = ("scenes", "approx", "reference", "metrics", "reports")
+
+
+def test_the_wheel_installs_only_the_volcaustics_package(tmp_path):
+    # built from a copy: setuptools writes build/ and *.egg-info/ beside the sources
+    source = tmp_path / "source"
+    shutil.copytree(ROOT, source, ignore=shutil.ignore_patterns(".venv*", ".git", "build", "*.egg-info", "runs",
+                                                                  "__pycache__", ".pytest_cache", "test-output"))
+    done = subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "-q",
+                           "-w", str(tmp_path), str(source)], capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr[-3000:]
+    wheel = next(tmp_path.glob("volcaustics-*.whl"))
+    names = zipfile.ZipFile(wheel).namelist()
+    tops = {n.split("/")[0] for n in names}
+    assert {t for t in tops if not t.endswith(".dist-info")} == {"volcaustics"}, sorted(tops)
+    for folder in FOLDERS:  # every folder's modules, under the namespace
+        assert f"volcaustics/{folder}/__init__.py" in names, folder
+    assert "volcaustics/reports/cli/__init__.py" in names and "volcaustics/reports/runner.py" in names
+    data = [n for n in names if n.endswith((".glsl", ".toml", ".ply"))]
+    assert any(n.startswith("volcaustics/approx/shaders/") and n.endswith(".glsl") for n in data)
+    assert any(n.startswith("volcaustics/scenes/builtin/") and n.endswith(".toml") for n in data)
+    assert "volcaustics/scenes/assets/bunny10k.ply" in names
+    assert "volcaustics/reports/gate/budgets.toml" in names
+    assert not [n for n in names if n.startswith(("volcaustics/tests", "volcaustics/bench"))]
+    target = tmp_path / "site"
+    done = subprocess.run([sys.executable, "-m", "pip", "install", "--no-deps", "-q", "--target", str(target),
+                           str(wheel)], capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr[-3000:]
+    installed = {p.name for p in target.iterdir() if not p.name.endswith(".dist-info") and p.name != "bin"}
+    assert installed == {"volcaustics"}, sorted(installed)
+    entry = next(n for n in names if n.endswith("entry_points.txt"))
+    assert "volcaustics = volcaustics.reports.cli:main" in zipfile.ZipFile(wheel).read(entry).decode()
