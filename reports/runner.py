@@ -118,12 +118,12 @@ def measure(points: list, store: Store, *, reference_settings, policy: str, view
     ``results`` holds every point as the store has it."""
     t0 = time.perf_counter()
     store.clean_stale()
-    tasks, keys = _tasks(points, store, reference_settings, policy, views=views, progress=progress, hint=hint,
-                         error=error)
+    tasks, keys, references = _tasks(points, store, reference_settings, policy, views=views, progress=progress,
+                                     hint=hint, error=error)
     unique = list({t["key"]: t for t in tasks}.values())
     done_before = len(set(keys)) - len(unique)
-    if workers is None and dask is None:
-        outcomes = [run_point(task, progress=progress)
+    if workers is None and dask is None:  # this process: the references as resolved (rendered or cached)
+        outcomes = [run_point(task, progress=progress, reference=references[task["reference_key"]])
                     for task in tqdm(unique, desc="experiments", unit="point", disable=not progress)]
     else:
         outcomes = _on_executor(unique, store, total=len(set(keys)), done=done_before, workers=workers, dask=dask,
@@ -140,7 +140,8 @@ def measure(points: list, store: Store, *, reference_settings, policy: str, view
 
 
 def _tasks(points, store, settings, policy, *, views, progress, hint, error) -> tuple:
-    """The plain-data task of every point not done, and every point's key."""
+    """The plain-data task of every point not done, every point's key, and the
+    references by key."""
     scenes, references, tasks, keys = {}, {}, [], []
     for point in points:
         scene = scenes.setdefault(point.scene, resolve_scene(point.scene))
@@ -158,7 +159,7 @@ def _tasks(points, store, settings, policy, *, views, progress, hint, error) -> 
         tasks.append({"key": key, "key_document": document, "scene": point.scene,
                       "params": point.params.resolved(scene).to_dict(), "seeds": point.seeds,
                       "reference_key": reference.key, "store": os.path.abspath(store.root), "views": views})
-    return tasks, keys
+    return tasks, keys, {r.key: r for r in references.values()}
 
 
 def _on_executor(tasks, store, **options) -> list:
@@ -190,16 +191,18 @@ _PROCESS_LOCK = threading.Lock()
 _TOOLS: dict = {}
 
 
-def run_point(task: dict, *, progress: bool = False) -> dict:
+def run_point(task: dict, *, progress: bool = False, reference=None) -> dict:
     """One point (picklable: plain data in and out). Tasks of one process run one at a
-    time, whatever the executor's threads (GL and Mitsuba are per process)."""
+    time, whatever the executor's threads (GL and Mitsuba are per process). A worker
+    reads the run's reference from the cache by key; this process passes it
+    (``reference``: as resolved, rendered in this run or cached)."""
     with _PROCESS_LOCK:
         t0 = time.perf_counter()
         store = Store(task["store"])
         if store.status(task["key"], views=task["views"]) == "done":
             return {"key": task["key"], "status": "done", "seconds": 0.0}
         scene = resolve_scene(task["scene"])
-        reference = cached_reference(task["reference_key"], scene)  # the run's own, never rendered here
+        reference = reference or cached_reference(task["reference_key"], scene)  # the run's own, never rendered here
         if reference is None:
             raise RuntimeError(f"{task['scene']}: reference {task['reference_key']} is not in this worker's cache "
                                f"({cache_dir('reference')}): the workers need the run's cache (VOLCAUSTICS_CACHE "

@@ -7,7 +7,7 @@ from volcaustics.reports.cli.common import add_report_reference, check_output_se
 from volcaustics.reports.core.params import add_param_flags, params_from_args
 from volcaustics.reports.core.sizing import sized
 from volcaustics.reports.core.tables import plain
-from volcaustics.reports.experiment.run import run_experiment
+from volcaustics.reports.experiment.run import checked_settings, run_experiment
 from volcaustics.reports.experiment.write import OUTPUT_FILES, write_experiment
 from volcaustics.scenes import resolve_scene
 
@@ -31,6 +31,7 @@ def run(args) -> int:
     check_output_set(args.output, "-o", files=OUTPUT_FILES)
     scene = resolve_scene(args.scene)
     params = params_from_args(args)
+    checked_settings(scene, params, args.seeds)  # a bad seed count or a frame that cannot run: before the reference
     reference = runner.reference_for(scene, sized(report_settings(args), scene, params), "continue",
                                      progress=not args.quiet)
     experiment = run_experiment(scene, params, seeds=args.seeds, reference=reference, progress=not args.quiet)

@@ -83,7 +83,7 @@ def run_experiment(scene, params, *, seeds: int = 1, reference_settings=None, pr
     renderer, oracle, reference : reused when given (a ``reference.render.ReferenceResult``
         at the frames' size).
     """
-    p, seed_list = _checked(scene, params, seeds)
+    p, seed_list = checked_settings(scene, params, seeds)
     clock = Clock()
     bar = tqdm(total=len(STAGES), desc="measure", unit="stage", disable=not progress, leave=False)
     with clock.stage("reference"):
@@ -136,7 +136,7 @@ def _decomposed(scene, exact, reference, keep) -> dict:
         raise ExperimentError(f"{scene.name}: cannot decompose the caustic's error: {exc}") from None
 
 
-def _checked(scene, params, seeds: int) -> tuple:
+def checked_settings(scene, params, seeds: int) -> tuple:
     """(resolved params, seed list); ParamError before any work for a bad seed count
     or a frame that cannot run."""
     if isinstance(seeds, bool) or not isinstance(seeds, int) or not 1 <= seeds <= 1024:

@@ -60,6 +60,9 @@ from volcaustics.scenes import load_builtin
 from volcaustics.scenes.catalogue import BUILTIN_NAMES
 from volcaustics.scenes.model import Phase
 
+# a statistical validation on every built-in (about 75 s): `make test-fast` skips it
+pytestmark = pytest.mark.slow
+
 SIZE = 64                 # image width and height (pixels)
 SUPERSAMPLE = 8           # E splatted at 512² and box-averaged to 64²
 KERNEL_FINE_PIXELS = 0.6  # splat_radius in fine pixels at the target distance (0.075 pixel, 3.4 mm): see the docstring

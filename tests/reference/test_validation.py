@@ -20,6 +20,9 @@ from volcaustics.reference.render.export import to_mitsuba
 from volcaustics.reference.render.integrators import SingleScatterIntegrator, VolumetricLightTracer, configure
 from volcaustics.scenes.model import Camera, DiffuseSurface, Medium, MeshSpec, Phase, Scene, SpotLight, Transform
 
+# statistical validations (z-tests over batches of renders): minutes; `make test-fast` skips them
+pytestmark = pytest.mark.slow
+
 mi = mitsuba()
 W = H = 48
 

@@ -318,8 +318,8 @@ def test_a_fifo_inside_a_store_point_is_damage_not_a_hang(tmp_path, where):
     folder = Path(store.point_dir(key))
     (folder / where).unlink()
     os.mkfifo(folder / where)
-    code = (f"from reports.store import Store; s = Store({str(store.root)!r}); print(s.status({key!r})); "
-            f"s.remove_damaged({key!r}); print(s.status({key!r}))")
+    code = (f"from volcaustics.reports.core.store import Store; s = Store({str(store.root)!r}); "
+            f"print(s.status({key!r})); s.remove_damaged({key!r}); print(s.status({key!r}))")
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=REPO, timeout=60)
     assert done.stdout.split() == ["damaged", "missing"], done.stderr[-2000:]
 
@@ -331,7 +331,7 @@ def test_a_sweep_table_that_is_a_fifo_is_refused_by_the_report(tmp_path):
     for name in ("segments", "photons", "images"):
         pd.DataFrame({"x": [1.0]}).to_parquet(folder / f"{name}.parquet")
     os.mkfifo(folder / "points.parquet")
-    code = f"from reports.collect import load_sweep; load_sweep({str(folder)!r})"
+    code = f"from volcaustics.reports.page.collect import load_sweep; load_sweep({str(folder)!r})"
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=REPO, timeout=60)
     assert "points.parquet is not a regular file" in done.stderr
 
@@ -408,7 +408,7 @@ def test_ctrl_c_that_python_drops_in_a_finalizer_still_exits_130(monkeypatch, ca
     and dropped: the command went on and exited 0 (class F)."""
     import signal
 
-    import volcaustics.reports.cli as cli
+    import volcaustics.reports.cli.doctor as doctor
 
     class Finaliser:
         def __del__(self):
@@ -419,7 +419,7 @@ def test_ctrl_c_that_python_drops_in_a_finalizer_still_exits_130(monkeypatch, ca
         Finaliser()  # dropped at once
         return 0
 
-    monkeypatch.setattr(cli, "_cmd_doctor", command)
+    monkeypatch.setattr(doctor, "run", command)
     before = signal.signal(signal.SIGINT, signal.default_int_handler)  # as at a terminal (not under nohup)
     try:
         assert main(["doctor"]) == 130

@@ -309,6 +309,7 @@ def _browser():
         return None, f"Chromium did not start under chromedriver: {exc}"
 
 
+@pytest.mark.slow  # a browser: `make test-fast` skips it
 def test_the_report_in_headless_chromium(built):
     """Opens the page at 1366×768: no console errors, every image decodes, the overview
     lists every scene, hovering an approximation shows the reference; a screenshot is
