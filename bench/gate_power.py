@@ -28,7 +28,7 @@ def main(argv=None) -> int:
 
     from volcaustics.approx.params import QUICK
     from volcaustics.reference.cache import existing_reference
-    from volcaustics.reports.core.sizing import REPORT_REFERENCE
+    from volcaustics.reports.core.sizing import REPORT_REFERENCE, sized
     from volcaustics.reports.experiment.run import run_experiment
     from volcaustics.reports.gate.regression import baseline_entry, regression_check
     from volcaustics.scenes import load_builtin
@@ -42,7 +42,7 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     scene = load_builtin(args.scene)
     p = QUICK.resolved(scene)
-    reference = existing_reference(scene, dataclasses.replace(REPORT_REFERENCE, width=p.width, height=p.height))
+    reference = existing_reference(scene, sized(REPORT_REFERENCE, scene, p))
     if reference is None:
         print("no cached reference: run `make report` first", file=sys.stderr)
         return 2

@@ -29,7 +29,8 @@ def main(argv=None) -> int:
     import numpy as np
 
     from volcaustics.reports.core.executors import default_workers
-    from volcaustics.reports.sweep.run import SweepSpec, run_sweep
+    from volcaustics.reports.sweep.run import run_sweep
+    from volcaustics.reports.sweep.spec import SweepSpec
     from volcaustics.scenes.catalogue import BUILTIN_NAMES
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])

@@ -24,6 +24,7 @@ import threading
 import time
 from dataclasses import dataclass, field
 
+import pandas as pd
 from tqdm import tqdm
 
 from volcaustics.approx import Renderer
@@ -175,8 +176,6 @@ def _read_back(store, point, key, views, measured, error) -> PointResult | None:
     if summary is None:
         return None  # a failed point (reported in Measured.failed)
     folder = store.point_dir(key)
-    import pandas as pd
-
     try:
         tables = {t: pd.read_parquet(os.path.join(folder, f"{t}.parquet")) for t in TABLES}
     except Exception as exc:  # pyarrow raises its own types for a damaged file

@@ -56,7 +56,8 @@ def _cpu() -> str:
 
 
 def run_doctor() -> DoctorReport:
-    """Probe GL, libLLVM and Mitsuba variants; every failing check carries its fix."""
+    """Probe GL, libLLVM and Mitsuba variants; every failing check carries its fix.
+    Imports here: a broken install is what the doctor reports on, not a crash at import."""
     from volcaustics import reference  # chooses libLLVM before drjit is imported
     from volcaustics.approx.context import GL_REQUIRE, ContextError, gl_info, shared_context
     from volcaustics.reference.llvm import MIN_MAJOR, libllvm_major

@@ -11,7 +11,7 @@ Layout of a store folder::
                                   all complete points in one table each
                                   (:meth:`Store.tables`), written by a sweep
                                   with its suffice.csv and, last, sweep.json
-                                  as one set (``reports.sweep``)
+                                  as one set (``reports.sweep.run``)
 
 A point's key hashes everything that determines its result (:func:`point_key`): the
 scene's hash, the resolved approximation parameters, the seeds, the reference's cache
@@ -186,7 +186,7 @@ class Store:
     def tables(self, keys) -> dict:
         """One DataFrame per kind over the complete points of ``keys`` (a ``point``
         column first), plus "points" (one row per point); written by the caller
-        (``reports.sweep`` writes them with its manifest as one set)."""
+        (``reports.sweep.run`` writes them with its manifest as one set)."""
         frames = {name: [] for name in TABLES}
         points = []
         for key in keys:

@@ -3,16 +3,17 @@ the caller's error type naming the file and what is wrong — never a traceback.
 
 from __future__ import annotations
 
+try:
+    import tomllib
+except ModuleNotFoundError:  # Python 3.10
+    import tomli as tomllib
+
+from volcaustics.scenes.storage import special_file_kind
+
 
 def load_toml(path: str, *, keys, error, what: str) -> dict:
     """The TOML document at ``path`` whose top-level keys are among ``keys``; ``error``
     (an exception type) for an unreadable file, bad TOML or an unknown key."""
-    try:
-        import tomllib
-    except ModuleNotFoundError:  # Python 3.10
-        import tomli as tomllib
-    from volcaustics.scenes.storage import special_file_kind
-
     kind = special_file_kind(path)
     if kind:
         raise error(f"{path}: cannot read the {what} (it is {kind})")

@@ -22,10 +22,15 @@ two with their noise.
 from __future__ import annotations
 
 import dataclasses
+import time
 from dataclasses import dataclass, field
 
 import numpy as np
 
+from volcaustics.approx import Renderer
+from volcaustics.approx.splat import splats_from_arrays
+from volcaustics.reference.oracle import Oracle, exact_photon_records
+from volcaustics.reference.render import render_batches
 from volcaustics.scenes.formats import STATUS_COLLIDED, STATUS_SURFACE
 
 
@@ -132,9 +137,6 @@ def exact_photons(scene, params, *, steps: int, fresnel: str, renderer=None, ora
     first_records : the emission state to replay (step-1 records, RECORD_DTYPE) when
         already at hand; else a one-step frame is rendered for it.
     """
-    from volcaustics.approx import Renderer
-    from volcaustics.reference.oracle import Oracle, exact_photon_records
-
     p = dataclasses.replace(params, fresnel=fresnel).resolved(scene)
     mask = None
     if first_records is None:
@@ -158,8 +160,6 @@ def photons_from_records(records: list, first_records: np.ndarray, params, *, st
     """The medium collisions of an exact replay's per-step records
     (``reference.oracle.exact_photon_records``) as :class:`ExactPhotons`, for callers
     that also use the records (power budgets, divergence)."""
-    from volcaustics.approx.splat import splats_from_arrays
-
     collided = [r[r["status"] == STATUS_COLLIDED] for r in records]
     collided_power = np.zeros((steps, 3))
     for k, c in enumerate(collided):
@@ -253,8 +253,6 @@ def exact_caustic(scene, params, *, steps: int, fresnel: str, batches: int = 8, 
     the mean, the glass mask (1 where any fine sample sees glass), the photons (alive
     power after the last step) and the parameters used.
     """
-    from volcaustics.approx import Renderer
-
     if batches < 2:
         raise ValueError(f"batches = {batches}: expected at least 2 (the variance needs two)")
     if isinstance(supersample, bool) or not isinstance(supersample, int) or supersample < 1:
@@ -310,10 +308,6 @@ def reference_caustic(scene, settings, *, mode: str = "caustic") -> ReferenceCau
     ``settings.spp`` shared among them, with seeds that never repeat
     (call ℓ: ``settings.seed · L + ℓ``).
     """
-    import time
-
-    from volcaustics.reference.render import render_batches
-
     calls = settings.batches
     t0 = time.perf_counter()
     per_call = dataclasses.replace(settings, batches=2, photons=max(1, settings.photons // calls),

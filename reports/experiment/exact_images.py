@@ -24,7 +24,7 @@ def small_radius(scene, p) -> float:
 
 
 def exact_images(scene, p, frames, replays, seeds, renderer, oracle) -> dict:
-    """Per seed, SUBSET_BATCHES paired subset images (``reports.exact.subset_images``)
+    """Per seed, SUBSET_BATCHES paired subset images (``reports.experiment.exact.subset_images``)
     of A, E_k, E_∞ (A's Fresnel), E_∞ (stochastic) and E_∞,s; all seeds' batches
     concatenated (batch j of every image: the same emission texels of one seed)."""
     out = {name: [] for name in ("approx", "exact_steps", "exact_all_same", "exact_all", "exact_all_small")}

@@ -1,1 +1,2 @@
-"""gate"""
+"""The regression gate: budgets, the regression test against a baseline, the verdict on
+one result as a pure function (shared with the report), and what the gate writes."""

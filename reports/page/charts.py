@@ -1,5 +1,5 @@
 """The small charts of one scene in the accuracy report, drawn from its entry in the
-report's summary only (``reports.report.scene_page``): hit classes by step and layer,
+report's summary only (``page.summary.scene_page``): hit classes by step and layer,
 power by fate per step for both tracers, the caustic error decomposition, and the
 per-pass times beside the paper's shares. Each returns PNG bytes; colours are
 Okabe–Ito and every bar carries its number or a legend entry (not colour alone).

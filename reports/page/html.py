@@ -1,5 +1,5 @@
 """The report page: one self-contained HTML file (images as data URIs, inline CSS and
-script, nothing fetched), drawn from the report's summary (``reports.report``).
+script, nothing fetched), drawn from the report's summary (``page.summary``).
 
 Verdicts are words and symbols on a coloured ground, never colour alone. Renders
 are drawn with ``image-rendering: pixelated``; hovering an approximation shows the
@@ -318,7 +318,7 @@ def _sweep_section(sweep: dict, figures: dict) -> str:
 
 
 def render_page(summary: dict, images: dict, sweep_figures: dict) -> str:
-    """The page; ``images``: scene → name → data URI (``reports.report.scene_images``)."""
+    """The page; ``images``: scene → name → data URI (``page.write.scene_images``)."""
     bars = {name: {"css": colour_bar_css(scale), "ticks": scale.ticks()} for name, scale in SCALES.items()}
     params = summary["params"]
     nav = "".join(f"<a href='#scene-{i}'>{escape(p['scene'])}</a>" for i, p in enumerate(summary["scenes"]))

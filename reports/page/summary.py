@@ -1,11 +1,11 @@
 """The accuracy report (``volcaustics report``, ``make report``): one self-contained
-HTML page and ``summary.json``, drawn from results only (``reports.collect`` renders
+HTML page and ``summary.json``, drawn from results only (``page.collect`` renders
 and measures; nothing here does).
 
 :func:`report_summary` picks, groups and converts what the page shows (shares to
 percent, pass times to shares of the frame) — every number on the page comes from it,
 and it is written as ``summary.json`` — and :func:`write_report` draws the page from
-that very data (``reports.html``) with the images of each scene's views.
+that very data (``page.html``, ``page.write``) with the images of each scene's views.
 """
 
 from __future__ import annotations
@@ -102,7 +102,7 @@ def timing(summary: dict) -> dict:
 
 
 def scene_page(result, *, exposures: dict) -> dict:
-    """Everything the page shows of one scene (``result``: ``reports.collect.SceneResult``)."""
+    """Everything the page shows of one scene (``result``: ``page.collect.SceneResult``)."""
     s = result.summary
     components = {}
     for component in COLOUR_LAYERS:

@@ -1,1 +1,1 @@
-"""render"""
+"""One render and its files: the ``approx`` and ``reference`` commands' outputs."""

@@ -7,8 +7,8 @@ exact intersections and the same random numbers (``reference.oracle``, stochasti
 Fresnel, STEPS interaction steps: < 0.1% of the power is alive afterwards, asserted),
 every medium collision splatted by the approximation's own splatter
 (``approx.Renderer.splat``: view, G-buffer depth test, kernel, σs/σ̄, phase,
-transmittance to the eye), through ``reports.exact.exact_caustic``. R: the
-reference light tracer's caustic (``reports.exact.reference_caustic``). Both are
+transmittance to the eye), through ``reports.experiment.exact.exact_caustic``. R: the
+reference light tracer's caustic (``reports.experiment.exact.reference_caustic``). Both are
 single-scattered light after ≥ 1 specular interaction, the replay's photons all
 start at the glass, so E and R are unbiased estimates of one image and must agree
 within their noise: this checks the splatter (kernel normalisation, weights,
@@ -117,8 +117,8 @@ CASES["sphere1_absorbing"] = Case("sphere1", variant=_absorbing)  # Beer–Lambe
 class Computed:
     scene: object
     params: ApproxParams
-    exact: object      # reports.exact.ExactCaustic
-    reference: object  # reports.exact.ReferenceCaustic
+    exact: object      # reports.experiment.exact.ExactCaustic
+    reference: object  # reports.experiment.exact.ReferenceCaustic
     keep: np.ndarray   # H×W bool: pixels where neither renderer sees glass
 
 

@@ -1,4 +1,4 @@
-"""reports.exact: subsets, the box filter, and the exact caustic's batches adding up to
+"""reports.experiment.exact: subsets, the box filter, and the exact caustic's batches adding up to
 the caustic of all photons (the splatter is linear in the photons)."""
 
 from __future__ import annotations
