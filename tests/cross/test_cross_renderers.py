@@ -19,6 +19,9 @@ from volcaustics.reference.settings import ReferenceSettings
 from volcaustics.scenes import load_builtin
 from volcaustics.scenes.model import Phase
 
+# statistical energy agreement against the reference: `make test-fast` skips it
+pytestmark = pytest.mark.slow
+
 
 @pytest.mark.parametrize("g,absorption", [(None, (0.0, 0.0, 0.0)), (0.5, (0.0, 0.0, 0.0)), (None, (2.0, 0.1, 1.0))],
                          ids=["isotropic", "hg0.5", "absorbing"])

@@ -151,6 +151,7 @@ def test_a_nan_metric_is_an_error_not_a_pass():
         budget_checks("bunny", {"caustic.hdr_flip_max": 0.9}, Fake())
 
 
+@pytest.mark.slow  # the report's references rendered to their noise targets (about a minute)
 def test_the_unmodified_approximation_passes_the_default_budgets(env, capsys):
     """The shipped budgets (reports/budgets.toml, quick preset, 4 seeds) on two built-ins
     with the report's references rendered here; `make gate` runs all seven."""

@@ -32,6 +32,7 @@ def cache(tmp_path, monkeypatch):
     return tmp_path / "cache"
 
 
+@pytest.mark.slow  # statistical, every built-in (about 90 s)
 def test_decomposition_explains_the_error_on_every_builtin(cache):
     """The terms telescope to R − A by construction; what can fail is the residual
     R − E_∞,s: the reference and the exact photons through the approximation's
