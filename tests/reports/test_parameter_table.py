@@ -119,3 +119,21 @@ def test_the_program_key_follows_the_define_parameters_only():
     for entry in PARAMS:
         changed = PhotonTracer.defines(dataclasses.replace(ApproxParams(), **{entry.name: _good_value(entry)}))
         assert (changed != base) == (entry.glsl == "define" and entry.program == "trace"), entry.name
+
+
+def test_the_readme_lists_every_parameter_with_its_default():
+    """The README's parameter table (a copy for readers) follows the table: a parameter
+    added, renamed or given another default fails here until the README says so."""
+    import os
+    import re
+
+    readme = open(os.path.join(os.path.dirname(__file__), "..", "..", "README.md"), encoding="utf-8").read()
+    rows = {}
+    for names, default in re.findall(r"^\| (`[a-z_]+`(?:, `[a-z_]+`)*) \| ([^|]+) \|", readme, flags=re.M):
+        for name in re.findall(r"`([a-z_]+)`", names):
+            rows[name] = default.strip()
+    for entry in PARAMS:
+        assert entry.name in rows, entry.name
+        if entry.default is not None:
+            assert rows[entry.name].split()[0] == f"{entry.default:g}" if entry.kind is float else \
+                rows[entry.name].split()[0] == str(entry.default), (entry.name, rows[entry.name])
