@@ -85,7 +85,7 @@ class CameraPasses:
         for name, value in spot_constants(scene.light).items():
             _set(prog, **{name: value})
         prog["light_view_proj"].write(gl_matrix(frustum.view_proj))
-        _set(prog, shadow_res=shadow_res, sigma_t=tuple(scene.medium.sigma_t))
+        _set(prog, light_res=shadow_res, sigma_t=tuple(scene.medium.sigma_t))
         shadow_map.use(location=0)
         gbuffer_geometry.use(location=1)
         _set(prog, shadow_map=0, gbuffer_geometry=1)
