@@ -1,7 +1,7 @@
-"""The gate's budgets and checks: fail when the approximation gets worse — budgets per scene and a
-regression test against the last accepted results (the baseline).
+"""The gate's budgets: per scene, limits on the debiased relative MSE, the energy ratio,
+HDR-FLIP and the step-2 segment classes, and their checks on one result.
 
-Budgets (TOML; ``reports/budgets.toml`` is the default for the built-ins)::
+Budgets (TOML; ``reports/gate/budgets.toml`` is the default for the built-ins)::
 
     preset = "quick"            # the approximation's parameters (``--set`` overrides)
     seeds = 4                   # frames per scene: seeds 0 … seeds − 1
@@ -15,18 +15,8 @@ Budgets (TOML; ``reports/budgets.toml`` is the default for the built-ins)::
 
 A budget tighter than the measurement can resolve — a relative-MSE limit below the
 reference's floor plus 3 standard errors, an energy band narrower than 3 σ of the
-reference's total — is refused (exit 2), naming it.
-
-Regression: per scene, each frame's caustic relative MSE against the baseline's
-(``--baseline DIR``, written by ``--update-baseline`` with the reference keys it was
-measured against). Same seeds: a paired one-sided t-test (an unchanged approximation
-gives identical frames: no false alarm at all); other seeds: Welch's. A regression is
-an increase significant at ``ALPHA``; the gate states the smallest relative increase
-it detects with 95% power at its seed count.
-
-Exit codes (DESIGN.md): 0 pass, 1 a budget exceeded or a regression, 2 bad input or
-missing data — a missing reference or baseline entry, a NaN metric, a scene that does
-not exist — never a pass.
+reference's total — is refused (exit 2), naming it. The regression test is
+``gate.regression``; the verdict on one result, ``gate.verdict``.
 """
 
 from __future__ import annotations
