@@ -39,4 +39,5 @@ def records_from_raw(raw: np.ndarray, step: int, *, active_only: bool = True) ->
     out["power"] = r["power_inside"][:, :3]
     out["status"] = r["end_status"][:, 3]
     out["flags"] = r["extra"][:, 0]
+    out["map_reads"] = r["power_start"][:, 3]
     return out

@@ -72,7 +72,7 @@ SPLAT_DTYPE = np.dtype([("center_status", "<f4", 4), ("dir", "<f4", 4), ("power"
 #   power_inside  rgb power after the step (W); w: specular object inside at the start, -1 in the medium
 #   extra         x: FLAG_* bits; y: specular object hit (-1 none); z: segment length searched (m);
 #                 w: start offset (m)
-#   power_start   rgb power at the segment start (W); w unused
+#   power_start   rgb power at the segment start (W); w: map texels the search read (map_reads)
 RAW_RECORD_DTYPE = np.dtype([("start_maxlen", "<f4", 4), ("dir_t", "<f4", 4), ("normal_map", "<f4", 4),
                              ("end_status", "<f4", 4), ("power_inside", "<f4", 4), ("extra", "<f4", 4),
                              ("power_start", "<f4", 4)])
@@ -98,4 +98,5 @@ RECORD_DTYPE = np.dtype([
     ("power", "<f4", 3),        # power after the step (W, RGB)
     ("status", "<u1"),          # STATUS_* after the step
     ("flags", "<u1"),           # FLAG_* bits
+    ("map_reads", "<u4"),       # light-map texels the search read (0 for the exact tracer): cost across hardware
 ])

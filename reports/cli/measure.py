@@ -39,6 +39,9 @@ def run(args) -> int:
     s = plain(experiment.summary)  # NaN → None
     print(f"measure {scene.name}: {s['seeds']} seed(s), {s['experiment_seconds']['total']:.1f} s -> "
           f"{paths['summary.json']}")
+    reads = s["map_reads"]
+    print(f"  frame {1000 * s['approx_timings_s']['frame_wall']:.0f} ms ({s['timing_method']}), "
+          f"{reads['per_frame'] / 1e6:.2f} M map reads ({reads['per_segment']:.1f} per segment)")
     _print_images(s)
     _print_decomposition(s)
     for warning in s["warnings"]:

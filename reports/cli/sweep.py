@@ -63,4 +63,5 @@ def _print_suffice(suffice) -> None:
     for _, row in suffice.iterrows():
         print(f"  {row['scene']:<12} {row['layer_strategy']:<9} {row['parameter']:<12} "
               f"{row['criterion'].split('_')[0]:<12} {row['suffices']:g} (of {row['largest']:g}): "
-              f"{100 * row['error']:.2f}% vs best {100 * row['best']:.2f}%, frame {row['frame_time_s']:.3f} s")
+              f"{100 * row['error']:.2f}% vs best {100 * row['best']:.2f}%, frame {row['frame_time_s']:.3f} s, "
+              f"{row['map_reads_per_frame'] / 1e6:.2f} M map reads")

@@ -213,7 +213,9 @@ def point_row(key: str, summary: dict) -> dict:
     row = {"point": key, "scene": summary["scene"], "scene_hash": summary["scene_hash"], **summary["params"],
            "seeds": summary["seeds"], "reference_key": summary["reference"]["key"],
            "code_version": summary["code_version"], "frame_time_s": timings.get("frame_wall"),
-           "trace_time_s": timings.get("trace"), "splat_time_s": timings.get("splat")}
+           "trace_time_s": timings.get("trace"), "splat_time_s": timings.get("splat"),
+           "map_reads_per_frame": summary.get("map_reads", {}).get("per_frame"),
+           "map_reads_per_segment": summary.get("map_reads", {}).get("per_segment")}
     for name, metrics in (("caustic", caustic), ("combined", combined)):
         relmse = metrics.get("relative_mse", {})
         row[f"{name}_relmse_debiased"] = relmse.get("debiased")

@@ -30,6 +30,17 @@ def parameter_columns(scene, params, seeds: list, reference_key: str) -> dict:
             "reference_key": reference_key, "code_version": code_version()}
 
 
+def map_reads(frames) -> dict:
+    """Light-map texels the search read (the cost that travels across hardware): per
+    frame (mean over the seeds), per searched segment, and per segment at each step."""
+    steps = len(frames[0].records)
+    reads = [[int(r["map_reads"].sum()) for r in f.records] for f in frames]
+    segments = [[len(r) for r in f.records] for f in frames]
+    per_step = [sum(x[k] for x in reads) / max(sum(n[k] for n in segments), 1) for k in range(steps)]
+    return {"per_frame": float(np.mean([sum(x) for x in reads])),
+            "per_segment": sum(map(sum, reads)) / max(sum(map(sum, segments)), 1), "per_step": per_step}
+
+
 def experiment_views(frames, reference, keep, layers, maps) -> dict:
     """The images a report shows (:data:`VIEWS`), float32."""
     out = {}
@@ -72,7 +83,8 @@ def experiment_summary(scene, p, seeds, reference, frames, exact, headline, deco
         "decomposition": {"rows": decomposition["rows"], "residual": decomposition["residual"],
                           "options": decomposition["options"]},
         "paths": divergence,
-        "approx_timings_s": median_timings(timed), "timed_frames": len(timed), "timing_method": frames[0].timing_method,
+        "map_reads": map_reads(frames), "approx_timings_s": median_timings(timed), "timed_frames": len(timed),
+        "timing_method": frames[0].timing_method,
         "experiment_seconds": clock, "gl": gl_info(shared_context()),
         "code_version": code_version(), "versions": library_versions(), "warnings": warnings,
     }

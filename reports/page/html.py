@@ -105,7 +105,7 @@ def _params_cell(params: dict) -> str:
 def _overview(summary: dict) -> str:
     head = ("<tr><th class='l'>scene</th><th class='l'>component</th><th>relative MSE, debiased [95% interval]</th>"
             "<th>reference noise floor</th><th>energy ratio [95%]</th><th>HDR-FLIP (mean)</th>"
-            "<th class='l'>gate (failures first)</th><th>frame time</th><th class='l'>parameters</th></tr>")
+            "<th class='l'>gate (failures first)</th><th>frame time<br>map reads</th><th class='l'>parameters</th></tr>")
     body = []
     for index, page in enumerate(summary["scenes"]):
         for k, component in enumerate(COLOUR_LAYERS):
@@ -123,9 +123,11 @@ def _overview(summary: dict) -> str:
             if k == 0:
                 n = len(COLOUR_LAYERS)
                 frame = page["timing"]["frame_s"]
+                reads = (page["timing"].get("map_reads") or {}).get("per_frame")
                 cells.insert(0, f"<td class='l' rowspan={n}><a href='#scene-{index}'>{escape(page['scene'])}</a></td>")
                 cells += [f"<td class='l gate' rowspan={n}>{_gate_cell(page['gate'])}</td>",
-                          f"<td rowspan={n}>{_num(None if frame is None else 1000 * frame, '{:.0f} ms')}</td>",
+                          f"<td rowspan={n}>{_num(None if frame is None else 1000 * frame, '{:.0f} ms')}<br>"
+                          f"{_num(None if reads is None else reads / 1e6, '{:.2f} M')}</td>",
                           f"<td class='l' rowspan={n}>{_params_cell(page['shown_params'])}</td>"]
             body.append(f"<tr class='overview-row' data-scene='{escape(page['scene'])}'>{''.join(cells)}</tr>")
     return f"<table id='overview'>{head}{''.join(body)}</table>"
@@ -298,11 +300,12 @@ def _sweep_section(sweep: dict, figures: dict) -> str:
                    f"</figcaption></figure>" for name, uri in figures.items())
     head = ("<tr><th class='l'>scene</th><th class='l'>layer_strategy</th><th class='l'>parameter</th>"
             "<th class='l'>criterion</th><th>suffices</th><th>its error</th><th>best</th><th>largest tried</th>"
-            "<th>frame time</th></tr>")
+            "<th>frame time</th><th>map reads</th></tr>")
     rows = "".join(f"<tr><td class='l'>{escape(r['scene'])}</td><td class='l'>{escape(r['layer_strategy'])}</td>"
                    f"<td class='l'>{escape(r['parameter'])}</td><td class='l'>{escape(r['criterion'])}</td>"
                    f"<td>{r['suffices']:g}</td><td>{_pct(r['error'])}</td><td>{_pct(r['best'])}</td>"
-                   f"<td>{r['largest']:g}</td><td>{_num(r['frame_time_s'], '{:.3f} s')}</td></tr>"
+                   f"<td>{r['largest']:g}</td><td>{_num(r['frame_time_s'], '{:.3f} s')}</td>"
+                   f"<td>{_num((r.get('map_reads_per_frame') or 0) / 1e6 or None, '{:.2f} M')}</td></tr>"
                    for r in sweep["suffice"])
     factor = sweep["suffice_factor"]
     return f"""

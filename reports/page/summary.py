@@ -98,7 +98,8 @@ def timing(summary: dict) -> dict:
     other = max(frame - sum(p["seconds"] for p in passes), 0.0)
     passes.append({"pass": "other", "seconds": other, "share": other / frame})
     return {"method": summary["timing_method"], "frame_s": frame, "passes": passes, "paper_shares": PAPER_SHARES,
-            "timed_frames": summary.get("timed_frames"), "gl_renderer": (summary.get("gl") or {}).get("renderer")}
+            "timed_frames": summary.get("timed_frames"), "gl_renderer": (summary.get("gl") or {}).get("renderer"),
+            "map_reads": summary.get("map_reads")}
 
 
 def scene_page(result, *, exposures: dict) -> dict:

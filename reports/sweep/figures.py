@@ -137,21 +137,27 @@ def pareto_front(times, errors) -> np.ndarray:
     return np.asarray(front, int)
 
 
+COSTS = {"frame_time_s": "frame time (s, this machine; contended when several workers ran)",
+         "map_reads_per_frame": "map reads per frame (texels the search read; hardware-independent)"}
+
+
 def _time_vs_error(points, folder) -> list:
+    """Caustic error against both costs: llvmpipe frame time and map reads."""
     plt = pyplot()
-    fig, ax = plt.subplots(figsize=(6.4, 4.2))
+    fig, axes = plt.subplots(1, len(COSTS), figsize=(11.5, 4.2), squeeze=False)
     colours = _colours(points["scene"].unique())
-    for scene, rows in points.groupby("scene"):
-        t = rows["frame_time_s"].to_numpy(float)
-        e = 100.0 * rows["caustic_relmse_debiased"].to_numpy(float)
-        ax.scatter(t, e, s=12, color=colours[scene], alpha=0.6, label=scene)
-        front = pareto_front(t, e)
-        ax.step(t[front], e[front], where="post", color=colours[scene], lw=1.5)
-    ax.set_xlabel("frame time (s, this machine; contended when several workers ran)")
-    ax.set_ylabel("caustic relative MSE, debiased (%)")
-    ax.set_title("Frame time vs caustic error; lines: the Pareto front per scene", fontsize=10)
-    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0))
-    ax.grid(alpha=0.3)
+    for ax, (cost, xlabel) in zip(axes[0], COSTS.items()):
+        for scene, rows in points.groupby("scene"):
+            t = rows[cost].to_numpy(float) if cost in rows else np.full(len(rows), np.nan)
+            e = 100.0 * rows["caustic_relmse_debiased"].to_numpy(float)
+            ax.scatter(t, e, s=12, color=colours[scene], alpha=0.6, label=scene)
+            front = pareto_front(t, e)
+            ax.step(t[front], e[front], where="post", color=colours[scene], lw=1.5)
+        ax.set_xlabel(xlabel, fontsize=8)
+        ax.set_ylabel("caustic relative MSE, debiased (%)")
+        ax.grid(alpha=0.3)
+    fig.suptitle("Cost vs caustic error; lines: the Pareto front per scene", fontsize=10)
+    axes[0, -1].legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0))
     return save_figure(fig, folder, "time_vs_error")
 
 

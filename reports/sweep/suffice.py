@@ -45,5 +45,6 @@ def settings_that_suffice(points, varied, factor: float = SUFFICE_FACTOR):
                 first = ok.iloc[0]
                 rows.append({"scene": scene, "layer_strategy": strategy, "parameter": x, "criterion": criterion,
                              "suffices": first[x], "error": first[criterion], "best": best,
-                             "largest": group[x].max(), "frame_time_s": first["frame_time_s"], "factor": factor})
+                             "largest": group[x].max(), "frame_time_s": first["frame_time_s"],
+                             "map_reads_per_frame": first.get("map_reads_per_frame", np.nan), "factor": factor})
     return pd.DataFrame(rows)

@@ -288,3 +288,31 @@ def test_exit_within_the_start_offset_is_found(ctx):
     assert abs(rec["t"] - t_exit) < _exit_tolerance(frustum, start + d * t_exit, CENTER, radius)
     far, _ = trace_one(ctx, scene, CENTER, d, 0, STATUS_SURFACE, ApproxParams(layers=2), offset=2.0)
     assert far["hit"] and not far["flags"] & FLAG_WITHIN_OFFSET
+
+
+def test_map_reads_of_a_segment_beside_the_sphere_are_its_samples(ctx):
+    """map_reads counts the map texels a search reads. A segment beside the sphere lies
+    over no covered texel: each map whose distance range it meets (k of the 2 maps,
+    layers=1, fixed by the geometry) is sampled at the segment's ends and peak_samples
+    points between, and no bisection runs; so k·(peak_samples + 2) reads, whatever the
+    iterations."""
+    start = np.array([0.9, 2.0, 0.0])
+    reads = {(p, it): int(trace_segment(ctx, _sphere_scene(), start, [0.0, -1.0, 0.0], 1.5, layers=1,
+                                        peak_samples=p, iterations=it)[0]["map_reads"])
+             for p in (3, 8) for it in (5, 30)}
+    maps = {p: reads[(p, 5)] / (p + 2) for p in (3, 8)}
+    assert maps[3] == maps[8] in (1.0, 2.0), reads
+    assert all(reads[(p, 5)] == reads[(p, 30)] for p in (3, 8)), reads
+
+
+def test_map_reads_grow_by_the_iterations_of_each_bisection(ctx):
+    """Through the sphere the search bisects (crossings, coverage edges): each bisection
+    reads one texel per iteration, so 25 more iterations add a positive multiple of 25;
+    the hit itself is unchanged but for the refinement."""
+    start = np.array([0.3, 2.2, 0.1])
+    d = np.array([-0.2, -1.0, 0.05])
+    d /= np.linalg.norm(d)
+    few, many = (trace_segment(ctx, _sphere_scene(), start, d, 1.0, layers=1, iterations=it)[0] for it in (5, 30))
+    extra = int(many["map_reads"]) - int(few["map_reads"])
+    assert extra > 0 and extra % 25 == 0, (few["map_reads"], many["map_reads"])
+    assert few["hit"] and many["hit"] and few["map"] == many["map"]

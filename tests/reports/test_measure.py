@@ -82,6 +82,10 @@ def test_measure_writes_tidy_tables_exr_and_summary(cache, tmp_path, capsys, mon
     summary = _strict_json(out / "summary.json")
     assert summary["params"]["layers"] == 2 and summary["seeds"] == 2 and summary["seed_values"] == [0, 1]
     assert summary["reference"]["key"] and summary["code_version"] and summary["versions"]["mitsuba"]
+    reads = summary["map_reads"]  # the search's cost in texels: step 1 leaves the glass through the maps
+    assert reads["per_frame"] > 0 and len(reads["per_step"]) == summary["params"]["steps"]
+    assert reads["per_step"][0] > 0 and min(reads["per_step"]) >= 0
+    assert min(reads["per_step"]) <= reads["per_segment"] <= max(reads["per_step"])
 
     for name in ("segments", "photons", "images"):
         table = pd.read_parquet(out / f"{name}.parquet")

@@ -50,7 +50,7 @@ struct Record {
     vec4 end_status;    // xyz end position; w: status after the step
     vec4 power_inside;  // rgb power after the step; w: material id inside at the start, -1 in the medium
     vec4 extra;         // x: flags; y: material id hit (-1 none); z: segment length searched; w: start offset (m)
-    vec4 power_start;   // rgb power at the segment start; w unused
+    vec4 power_start;   // rgb power at the segment start; w: map texels the search read (map_reads)
 };
 
 // A photon to splat (compacted list of this step's medium collisions).

@@ -70,6 +70,7 @@ layout(std430, binding = 3) readonly buffer LightMapDistances { float map_dist[]
 layout(std430, binding = 4) readonly buffer LightMapGeometric { vec2 map_geometric[]; };
 
 uint g_flags;
+uint g_map_reads;  // map texels the search read for this segment (map_reads: cost that travels across hardware)
 
 // A segment o + t·d, t in [t0, t1], with its light-clip coordinates at both ends
 // (clip coordinates are affine in t, so no matrix product per sample).
@@ -96,6 +97,7 @@ int segment_texel_index(int map, Segment s, float t) {
 // 0 if none; and its octahedral geometric normal.
 vec4 segment_texel(int map, Segment s, float t, out vec2 geometric) {
     int index = segment_texel_index(map, s, t);
+    if (index >= 0) ++g_map_reads;
     geometric = index < 0 ? vec2(0.0) : map_geometric[index];
     return index < 0 ? vec4(0.0) : map_texels[index];
 }
@@ -103,6 +105,7 @@ vec4 segment_texel(int map, Segment s, float t, out vec2 geometric) {
 // f(t) = (distance to the light) − (map distance); valid = covered texel.
 float segment_f(int map, Segment s, float t, out bool valid) {
     int index = segment_texel_index(map, s, t);
+    if (index >= 0) ++g_map_reads;
     float map_distance = index < 0 ? 0.0 : map_dist[index];
     valid = map_distance > 0.0;
     return length(s.q + s.d * t) - map_distance;
@@ -272,6 +275,7 @@ void main() {
     vec3 power = ph.power.rgb;
     int inside = int(round(ph.pos.w));
     g_flags = 0u;
+    g_map_reads = 0u;
 
     // --- segment: free flight in the medium, or the way out of the glass
     float span = box_exit(o, d, scene_min, scene_max);
@@ -347,5 +351,6 @@ void main() {
     rec.end_status = vec4(end, float(status));
     rec.power_inside.rgb = power;
     rec.extra = vec4(float(g_flags), float(material_hit), search, t_eps);
+    rec.power_start.w = float(g_map_reads);
     records[i] = rec;
 }
