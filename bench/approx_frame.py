@@ -49,6 +49,10 @@ def main(argv=None) -> int:
             print(f"  {k:<12} {med[k]:8.3f} s  {100 * med[k] / frame:5.1f}%")
         print(f"  intersection estimation (trace) {100 * med['trace'] / frame:.0f}% vs splatting "
               f"{100 * med['splat'] / frame:.0f}% of the frame (paper: 70% / 23%)")
+        records = renderer.render(params=params, keep_records=True).records  # map_reads: untimed
+        reads, segments = sum(int(r["map_reads"].sum()) for r in records), sum(len(r) for r in records)
+        print(f"  map reads {reads / 1e6:.2f} M per frame, {reads / max(segments, 1):.1f} per segment "
+              f"({segments:,} segments)")
     renderer.release()
     return 0
 
