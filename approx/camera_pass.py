@@ -80,12 +80,12 @@ class CameraPasses:
         depth.release()
         return geo, nrm
 
-    def _common(self, prog, scene, view, frustum, shadow_map, shadow_res, gbuffer_geometry):
+    def _common(self, prog, scene, view, frustum, shadow_map, light_res, gbuffer_geometry):
         view.set_uniforms(prog)
         for name, value in spot_constants(scene.light).items():
             _set(prog, **{name: value})
         prog["light_view_proj"].write(gl_matrix(frustum.view_proj))
-        _set(prog, light_res=shadow_res, sigma_t=tuple(scene.medium.sigma_t))
+        _set(prog, light_res=light_res, sigma_t=tuple(scene.medium.sigma_t))
         shadow_map.use(location=0)
         gbuffer_geometry.use(location=1)
         _set(prog, shadow_map=0, gbuffer_geometry=1)
@@ -100,21 +100,21 @@ class CameraPasses:
         fbo.release()
         return out
 
-    def render_fog(self, scene, view, frustum, box, shadow_map, shadow_res, gbuffer_geometry) -> moderngl.Texture:
+    def render_fog(self, scene, view, frustum, box, shadow_map, light_res, gbuffer_geometry) -> moderngl.Texture:
         """Fog of ``scene`` inside ``box``, the (min, max) corners of its medium (scenes.bounds)."""
         prog = self.fog
-        self._common(prog, scene, view, frustum, shadow_map, shadow_res, gbuffer_geometry)
+        self._common(prog, scene, view, frustum, shadow_map, light_res, gbuffer_geometry)
         _set(prog, sigma_s=tuple(scene.medium.sigma_s), scene_min=tuple(box[0]),
              scene_max=tuple(box[1]))
         return self._draw(self.empty_vao, view)
 
-    def render_direct(self, scene, view, frustum, shadow_map, shadow_res, gbuffer_geometry, gbuffer_normal):
+    def render_direct(self, scene, view, frustum, shadow_map, light_res, gbuffer_geometry, gbuffer_normal):
         prog = self.direct
-        self._common(prog, scene, view, frustum, shadow_map, shadow_res, gbuffer_geometry)
+        self._common(prog, scene, view, frustum, shadow_map, light_res, gbuffer_geometry)
         gbuffer_normal.use(location=2)
         albedo = [tuple(o.albedo) for o in scene.diffuse][:MAX_DIFFUSE]
         albedo += [(0.0, 0.0, 0.0)] * (MAX_DIFFUSE - len(albedo))
-        _set(prog, gbuffer_normal=2, albedo=albedo, texel_angle=2.0 * frustum.tan_half / shadow_res)
+        _set(prog, gbuffer_normal=2, albedo=albedo, texel_angle=2.0 * frustum.tan_half / light_res)
         return self._draw(self.empty_vao_direct, view)
 
     def release(self):

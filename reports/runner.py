@@ -130,14 +130,12 @@ def measure(points: list, store: Store, *, reference_settings, policy: str, view
         outcomes = _on_executor(unique, store, total=len(set(keys)), done=done_before, workers=workers, dask=dask,
                                 progress=progress)
     failed = [o for o in outcomes if o.get("error")]
-    run = Measured(keys=keys, done_before=done_before, computed=len(outcomes) - len(failed), failed=failed,
-                   seconds=0.0, point_seconds=[o["seconds"] for o in outcomes if not o.get("error")])
-    if read_back:
-        computed = {o["key"] for o in outcomes if not o.get("error")}
-        run.results = [_read_back(store, point, key, views, key in computed, error)
-                       for point, key in zip(points, keys)]
-    run.seconds = time.perf_counter() - t0
-    return run
+    done = [o for o in outcomes if not o.get("error")]
+    computed = {o["key"] for o in done}
+    results = [_read_back(store, point, key, views, key in computed, error)
+               for point, key in zip(points, keys)] if read_back else []
+    return Measured(keys=keys, done_before=done_before, computed=len(done), failed=failed,
+                    seconds=time.perf_counter() - t0, point_seconds=[o["seconds"] for o in done], results=results)
 
 
 def _tasks(points, store, settings, policy, *, views, progress, hint, error) -> tuple:

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import argparse
 
-from volcaustics.approx.params import PARAMS, PRESETS, ApproxParams, ParamError, param, preset
+from volcaustics.approx.params import PARAMS, PRESET_VALUES, PRESETS, ApproxParams, ParamError, param, preset
 from volcaustics.approx.trace import check_fits
 
 
@@ -19,20 +19,14 @@ def add_param_flags(parser, *, default_preset: str, table: tuple = PARAMS) -> No
     """``--preset`` and one flag per parameter of ``table``, typed, with its range,
     unit and the presets' values in the help."""
     group = parser.add_argument_group("approximation parameters (DESIGN.md names; default: --preset)")
-    presets = "; ".join(f"{name}: {_preset_text(p)}" for name, p in PRESETS.items())
+    presets = "; ".join(f"{name}: the paper's values with " + ", ".join(f"{k} {v}" for k, v in changes.items())
+                        for name, changes in PRESET_VALUES.items())
     group.add_argument("--preset", choices=tuple(PRESETS), default=default_preset,
                        help=f"{presets} (default {default_preset})")
     for entry in table:
         kind = {"choices": entry.choices} if entry.choices else {"type": _parser(entry), "metavar": "N"}
         group.add_argument(flag(entry.name), dest=entry.name, **kind,
                            help=f"{entry.help}: {entry.expected()}; default: the preset's")
-
-
-def _preset_text(params) -> str:
-    base = ApproxParams()
-    changed = [f"{p.name} {getattr(params, p.name)}" for p in PARAMS
-               if getattr(params, p.name) != getattr(base, p.name)]
-    return "the paper's values" + (" with " + ", ".join(changed) if changed else "")
 
 
 def _parser(entry):
@@ -75,16 +69,17 @@ def parse_value(name: str, text, where: str, *, table: tuple = PARAMS, error=Par
         raise error(f"{where}: {exc}") from None
 
 
-def parse_overrides(assignments, *, error=ParamError) -> dict:
-    """``--set NAME=VALUE`` (repeatable) as parameters; ``seed`` has its own option."""
+def parse_overrides(assignments, *, error=ParamError, seed_option: bool = True) -> dict:
+    """``--set NAME=VALUE`` (repeatable) as parameters; with ``seed_option`` (the gate,
+    the report) ``seed`` is refused: it has its own option there."""
     overrides = {}
     for text in assignments or []:
         name, values = parse_assignment(text, "--set", error=error)
         if len(values) != 1:
-            raise error(f"--set {text!r}: one value per parameter")
+            raise error(f"--set {text!r}: one value per parameter (a sweep varies with --vary)")
         if name in overrides:
             raise error(f"--set {text!r}: {name} is set twice: set it once")
-        if name == "seed":
+        if seed_option and name == "seed":
             raise error(f"--set {text!r}: use --seed (the first of the --seeds seeds)")
         overrides[name] = values[0]
     return overrides

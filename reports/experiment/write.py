@@ -6,11 +6,11 @@ from __future__ import annotations
 import json
 import os
 
+from volcaustics.reports.core.store import TABLES
 from volcaustics.reports.core.tables import plain, table
 from volcaustics.scenes.imageio import write_exr
 from volcaustics.scenes.storage import atomic_set
 
-TABLES = ("segments", "photons", "images")
 OUTPUT_FILES = (*(f"{name}.{ext}" for name in TABLES for ext in ("parquet", "csv")), "decomposition.exr",
                 "summary.json")  # what `measure -o DIR` writes; the manifest, summary.json, last
 DECOMPOSITION_IMAGES = {"approx": "A", "exact_steps": "E_k", "exact_all_same": "E_inf(A's fresnel)",

@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 
 from volcaustics.approx.params import PRESETS, ApproxParams, ParamError, preset
 from volcaustics.approx.trace import check_fits
-from volcaustics.reports.core.params import parse_assignment, parse_value
+from volcaustics.reports.core.params import parse_assignment, parse_overrides, parse_value
 from volcaustics.reports.core.sizing import reference_settings
 from volcaustics.reports.core.tomlfile import load_toml
 from volcaustics.reports.runner import Point
@@ -63,19 +63,13 @@ class SweepSpec:
 def spec_from_args(scenes: str | None, vary: list, fixed: list, *, preset: str, seeds: int) -> SweepSpec:
     """A spec from ``--scenes a,b``, ``--vary NAME=V1,V2`` and ``--set NAME=V``."""
     names = [s.strip() for s in scenes.split(",")] if scenes is not None else list(BUILTIN_NAMES)
-    grid, settled = [], {}
+    grid = []
     for text in vary or []:
         name, values = parse_assignment(text, "--vary", error=SweepError)
         if name in dict(grid):
             raise SweepError(f"--vary {text!r}: {name} is varied twice")
         grid.append((name, tuple(values)))
-    for text in fixed or []:
-        name, values = parse_assignment(text, "--set", error=SweepError)
-        if len(values) != 1:
-            raise SweepError(f"--set {text!r}: one value (use --vary for several)")
-        if name in settled:
-            raise SweepError(f"--set {text!r}: {name} is set twice")
-        settled[name] = values[0]
+    settled = parse_overrides(fixed, error=SweepError, seed_option=False)
     return _checked(SweepSpec(tuple(names), tuple(grid), settled, preset, seeds), "command line")
 
 
