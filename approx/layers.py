@@ -3,8 +3,8 @@ material id and normal of surfaces seen from the spot light.
 
 Map m = 2·level + facing (0 front faces, 1 back faces); each texel holds
 (distance, material, octahedral shading normal), 0 where empty, and a second
-texture beside it the octahedral outward geometric normal of the triangle
-(:class:`LightMap`). Strategies:
+texture beside it the octahedral outward geometric normal of the triangle and
+the triangle's primitive id + 1 (:class:`LightMap`). Strategies:
 
 * ``threshold`` (the paper): the specular objects' extent along the spot axis is
   divided uniformly into ``layers`` levels; level i keeps the nearest front face
@@ -30,7 +30,8 @@ FRONT, BACK, BOTH = 1, -1, 0
 
 class LightMap(NamedTuple):
     """One light map: ``surface`` RGBA32F (distance, material, octahedral shading
-    normal; 0 = empty) and ``geometric`` RG32F (octahedral outward geometric normal)."""
+    normal; 0 = empty) and ``geometric`` RGBA32F (octahedral outward geometric normal,
+    primitive id + 1 of the triangle, 0)."""
 
     surface: moderngl.Texture
     geometric: moderngl.Texture
@@ -58,7 +59,7 @@ class LightMapRenderer:
                    include_diffuse: bool = False, target: moderngl.Texture | None = None,
                    geometric: moderngl.Texture | None = None) -> moderngl.Texture:
         """One map at res×res; returns the texture (``target`` reused if given). The
-        geometric normals go to ``geometric`` (RG32F, res×res) when given.
+        geometric normals and primitive ids go to ``geometric`` (RGBA32F, res×res) when given.
 
         ``self.last_samples`` holds the number of fragments that passed (occlusion
         query): 0 means the map is empty."""
@@ -96,7 +97,7 @@ class LightMapRenderer:
 
     def render_light_map(self, frustum, res: int, **filters) -> LightMap:
         """One map with its geometric normals (``filters`` as :meth:`render_map`)."""
-        geometric = self.ctx.texture((res, res), 2, dtype="f4")
+        geometric = self.ctx.texture((res, res), 4, dtype="f4")
         geometric.filter = (moderngl.NEAREST, moderngl.NEAREST)
         return LightMap(self.render_map(frustum, res, geometric=geometric, **filters), geometric)
 

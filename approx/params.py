@@ -113,6 +113,15 @@ PARAMS: tuple = (
           glsl="define"),
     Param("peak_samples", int, 8, "samples per segment and map to find the first sign change", "", 0, 256,
           program="trace", glsl="define"),
+    Param("search", str, "bisection", "how a segment's first crossing is found on one map: bisection (paper §4.1: "
+          "peak_samples uniform samples, then iterations halvings), secant (the same samples, then regula falsi), "
+          "dda (every texel the segment crosses: exact at the maps' resolution) or hiz (dda skipping min-max "
+          "pyramid cells)", choices=("bisection", "secant", "dda", "hiz"), program="trace", glsl="define",
+          to_defines=lambda v: {f"SEARCH_{v.upper()}": 1}),
+    Param("start_rule", str, "offset", "how a segment avoids re-finding the surface it leaves: offset (start the "
+          "search a few texel footprints out) or id (the maps carry primitive ids; crossings onto the start "
+          "triangle are passed over)", choices=("offset", "id"), program="trace", glsl="define",
+          to_defines=lambda v: {"START_RULE_ID": 1} if v == "id" else {}),
     Param("steps", int, 4, "interaction steps (photon maps) traced", "", 1, 32),
     Param("splat_radius", float, 0.01, "standard deviation of the splatted 3D Gaussian", "m", 0, 10,
           glsl="uniform"),

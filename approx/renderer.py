@@ -142,7 +142,7 @@ class Renderer:
             map_info = [(b is not None, b[0] * (1 - 1e-5), b[1] * (1 + 1e-5)) if b else (False, 0.0, 0.0)
                         for b in map_bounds]
             shadow_map = self.light_maps.render_map(frustum, p.light_res, facing=BOTH, include_diffuse=True)
-        released += layer_maps + [shadow_map, *map_texels]
+        released += layer_maps + [shadow_map, map_texels]
         return {"texels": map_texels, "info": map_info, "shadow": shadow_map}
 
     def _trace_and_splat(self, timer, tracer, splatter, scene, frustum, box, maps, photons, view, gbuf_geo,

@@ -14,6 +14,7 @@ paper's σs/σt.
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import moderngl
 import numpy as np
@@ -38,6 +39,40 @@ START_OFFSET = {"START_SLOPE": 0.7, "START_FLOOR": 0.25, "START_MAX": 2.0}
 CLIP_TO_OBJECTS = False
 
 
+class MapBuffers(NamedTuple):
+    """The light maps as the tracer reads them (storage buffers, map-major, rows
+    bottom-up): every texel (RGBA32F: distance, material, octahedral shading normal),
+    the distances alone (R32F), the octahedral geometric normals (2 floats), the
+    primitive ids + 1 (R32F; 0 = none) and, for the ``hiz`` search only, the min–max
+    pyramid (:func:`pyramid_layout`; None otherwise)."""
+
+    texels: moderngl.Buffer
+    distances: moderngl.Buffer
+    geometric: moderngl.Buffer
+    primitive: moderngl.Buffer
+    pyramid: moderngl.Buffer | None
+
+    def release(self):
+        for buf in self:
+            if buf is not None:
+                buf.release()
+
+
+def pyramid_layout(light_res: int) -> tuple:
+    """The min–max pyramid of one map (trace/pyramid.comp.glsl): level L >= 1 has
+    ((light_res − 1) >> L) + 1 cells per side, the top level one; returns (offsets,
+    stride): the cell offset of each level within a map's block (index L; 0 unused) and
+    the cells of one map's block."""
+    offsets, total, level = [0], 0, 1
+    while True:
+        offsets.append(total)
+        n = ((light_res - 1) >> level) + 1
+        total += n * n
+        if n == 1:
+            return offsets, total
+        level += 1
+
+
 def _materials(scene):
     if len(scene.specular) > MAX_MATERIALS:
         raise ValueError(f"at most {MAX_MATERIALS} specular objects are supported, scene has {len(scene.specular)}")
@@ -57,6 +92,8 @@ class PhotonTracer:
         self.emit = compute_shader(ctx, "emission/emit.comp.glsl", defines)
         self.trace = compute_shader(ctx, "trace/trace.comp.glsl", defines)
         self.pack = compute_shader(ctx, "trace/pack_distances.comp.glsl")
+        self.hiz = "SEARCH_HIZ" in defines
+        self.pyramid = compute_shader(ctx, "trace/pyramid.comp.glsl") if self.hiz else None
         self.compact_count = compute_shader(ctx, "splat/compact.comp.glsl", {"PASS_COUNT": 1})
         self.compact_write = compute_shader(ctx, "splat/compact.comp.glsl")
         self.maps = defines["MAPS"]
@@ -103,21 +140,24 @@ class PhotonTracer:
         return photons
 
     def map_buffer(self, light_maps, light_res: int) -> tuple:
-        """The light maps (:class:`approx.layers.LightMap`) copied into storage buffers
-        (map-major, rows bottom-up): all texels (RGBA32F), their distances alone (R32F)
-        and their geometric normals (2 floats, octahedral), release all three; and per
-        map the exact (min, max) of its surface distances, None for an empty map."""
+        """The light maps (:class:`approx.layers.LightMap`) copied into the tracer's
+        storage buffers (:class:`MapBuffers`, release them); and per map the exact (min,
+        max) of its surface distances, None for an empty map. With the ``hiz`` search
+        the min–max pyramid is built here too (once per frame, like the maps)."""
         count = light_res * light_res
-        texels = self.ctx.buffer(reserve=16 * count * len(light_maps))
-        distances = self.ctx.buffer(reserve=4 * count * len(light_maps))
-        geometric = self.ctx.buffer(reserve=8 * count * len(light_maps))
-        init = np.zeros((len(light_maps), 2), np.uint32)
+        n = len(light_maps)
+        texels = self.ctx.buffer(reserve=16 * count * n)
+        distances = self.ctx.buffer(reserve=4 * count * n)
+        geometric = self.ctx.buffer(reserve=8 * count * n)
+        primitive = self.ctx.buffer(reserve=4 * count * n)
+        init = np.zeros((n, 2), np.uint32)
         init[:, 0] = 0xFFFFFFFF
         ranges = self.ctx.buffer(init.tobytes())
         texels.bind_to_storage_buffer(0)
         distances.bind_to_storage_buffer(1)
         ranges.bind_to_storage_buffer(2)
         geometric.bind_to_storage_buffer(3)
+        primitive.bind_to_storage_buffer(4)
         self.pack["res"].value = light_res
         self.pack["map_texture"].value = 0
         self.pack["geometric_texture"].value = 1
@@ -130,9 +170,24 @@ class PhotonTracer:
         ranges.release()
         values = bits.view(np.float32)
         bounds = [None if b[1] == 0 else (float(v[0]), float(v[1])) for b, v in zip(bits, values)]
-        return (texels, distances, geometric), bounds
+        pyramid = self._build_pyramid(distances, n, light_res) if self.hiz else None
+        return MapBuffers(texels, distances, geometric, primitive, pyramid), bounds
 
-    def trace_step(self, scene, frustum, box, map_texels: tuple, map_info, light_res: int,
+    def _build_pyramid(self, distances: moderngl.Buffer, maps: int, light_res: int) -> moderngl.Buffer:
+        """The min–max pyramid of every map (trace/pyramid.comp.glsl), level by level."""
+        offsets, stride = pyramid_layout(light_res)
+        pyramid = self.ctx.buffer(reserve=8 * stride * maps)
+        distances.bind_to_storage_buffer(0)
+        pyramid.bind_to_storage_buffer(1)
+        prog = self.pyramid
+        set_uniforms(prog, light_res=light_res, map_stride=stride)
+        for level in range(1, len(offsets)):
+            cells = ((light_res - 1) >> level) + 1
+            set_uniforms(prog, level=level, source_offset=offsets[level - 1], target_offset=offsets[level])
+            prog.run(group_x=math.ceil(cells / 8), group_y=math.ceil(cells / 8), group_z=maps)
+        return pyramid
+
+    def trace_step(self, scene, frustum, box, map_texels: MapBuffers, map_info, light_res: int,
                    photons: moderngl.Buffer,
                    records: moderngl.Buffer, count: int, step: int, seed: int, objects_box=None) -> None:
         """Advance every photon by one interaction step, writing one raw record per slot.
@@ -158,9 +213,15 @@ class PhotonTracer:
                      scene_max=tuple(box[1]), seed=seed, step_index=step, photon_count=count)
         photons.bind_to_storage_buffer(0)
         records.bind_to_storage_buffer(1)
-        map_texels[0].bind_to_storage_buffer(2)
-        map_texels[1].bind_to_storage_buffer(3)
-        map_texels[2].bind_to_storage_buffer(4)
+        map_texels.texels.bind_to_storage_buffer(2)
+        map_texels.distances.bind_to_storage_buffer(3)
+        map_texels.geometric.bind_to_storage_buffer(4)
+        map_texels.primitive.bind_to_storage_buffer(5)
+        if map_texels.pyramid is not None:
+            offsets, stride = pyramid_layout(light_res)
+            map_texels.pyramid.bind_to_storage_buffer(6)
+            set_uniforms(prog, pyramid_offset=offsets + [0] * (16 - len(offsets)), pyramid_stride=stride,
+                         pyramid_top=len(offsets) - 1)
         prog.run(group_x=math.ceil(count / 64))
 
     def compact_splats(self, records: moderngl.Buffer, count: int, splats: moderngl.Buffer) -> int:
@@ -184,8 +245,9 @@ class PhotonTracer:
         return total
 
     def release(self):
-        for prog in (self.emit, self.trace, self.pack, self.compact_count, self.compact_write):
-            prog.release()
+        for prog in (self.emit, self.trace, self.pack, self.pyramid, self.compact_count, self.compact_write):
+            if prog is not None:
+                prog.release()
         for buf in self._solid_angles.values():
             buf.release()
 

@@ -48,7 +48,7 @@ def trace_one(ctx, scene, start, direction, inside, status, params, offset=0.0):
     info = [(b is not None, *(b or (0.0, 0.0))) for b in bounds]
     tracer.trace_step(scene, frustum, medium_bounds(scene), texels, info, LIGHT_RES, pbuf, rbuf, 1, 1, SEED)
     rec = records_from_raw(np.frombuffer(rbuf.read(), RAW_RECORD_DTYPE), 1)[0]
-    for r in (*maps, pbuf, rbuf, *texels):
+    for r in (*maps, pbuf, rbuf, texels):
         r.release()
     tracer.release(), lm.release(), geo.release()
     return rec, frustum

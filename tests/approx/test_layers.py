@@ -121,7 +121,7 @@ def test_packed_distances_and_exact_map_ranges(ctx):
     textures = lm.render_layers(frustum, RES, 2, "peel")
     maps = [read_map(m.surface) for m in textures]
     tracer = PhotonTracer(ctx, ApproxParams(layers=2))
-    (texels, distances, geometric), bounds = tracer.map_buffer(textures, RES)
+    (texels, distances, geometric, *_), bounds = tracer.map_buffer(textures, RES)
     packed = np.frombuffer(distances.read(), np.float32).reshape(len(maps), RES, RES)
     for m, (a, b) in enumerate(zip(maps, bounds)):
         assert np.array_equal(packed[m], a[..., 0])
@@ -149,13 +149,13 @@ def test_geometric_normals_are_the_outward_triangle_normals(ctx, strategy):
     offsets = np.einsum("ij,ij->i", faces, mesh.vertices[mesh.faces[:, 0]])
     light_maps = lm.render_layers(frustum, RES, 2, strategy)
     tracer = PhotonTracer(ctx, ApproxParams(layers=2))
-    (texels, distances, geometric), _ = tracer.map_buffer(light_maps, RES)
+    (texels, distances, geometric, *_), _ = tracer.map_buffer(light_maps, RES)
     packed = np.frombuffer(geometric.read(), np.float32).reshape(len(light_maps), RES, RES, 2)
     dirs = frustum.texel_directions(RES)
     differs_from_shading = 0
     for m, light_map in enumerate(light_maps):
         surface = read_map(light_map.surface)
-        geo_tex = np.frombuffer(light_map.geometric.read(), np.float32).reshape(RES, RES, 2)
+        geo_tex = np.frombuffer(light_map.geometric.read(), np.float32).reshape(RES, RES, 4)[..., :2]
         assert np.array_equal(packed[m], geo_tex)
         covered = surface[..., 0] > 0
         points = frustum.position + dirs[covered] * surface[covered][:, :1].astype(np.float64)

@@ -41,6 +41,7 @@ struct Photon {
     vec4 pos;    // xyz position; w: material id of the glass it is inside, -1 in the medium
     vec4 dir;    // xyz unit direction; w: status
     vec4 power;  // rgb power (W); w: start offset of the next segment in light-map texel footprints
+                 // (start rule `id`: primitive id + 1 of the triangle it leaves, 0 none)
 };
 
 struct Record {

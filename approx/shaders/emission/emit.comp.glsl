@@ -15,7 +15,7 @@ uniform float ior[MAX_MATERIALS];
 #include "common/interaction.glsl"
 
 uniform sampler2D emission_map;  // nearest surface: (distance, material, octahedral shading normal)
-uniform sampler2D emission_geometric;  // its octahedral outward geometric normal
+uniform sampler2D emission_geometric;  // its octahedral outward geometric normal, primitive id + 1
 uniform int photon_res;
 uniform float tan_half;          // tan(cutoff): the map's image plane spans [-tan_half, tan_half]²
 uniform mat3 light_basis;        // columns: light right, up, spot axis (world)
@@ -42,13 +42,18 @@ void main() {
     if (map.r > 0.0 && falloff > 0.0) {
         vec3 power = light_intensity * falloff * solid_angle[index] * exp(-sigma_t * map.r);
         int inside = -1;
-        vec3 geometric = octa_decode(texelFetch(emission_geometric, texel, 0).xy);
+        vec4 geometric_id = texelFetch(emission_geometric, texel, 0);
+        vec3 geometric = octa_decode(geometric_id.xy);
         surface_interaction(d, power, inside, octa_decode(map.ba), geometric, int(map.g + 0.5),
                             rng_uniform(seed, index, 0u, 1u));
         vec3 from_light = normalize(light_basis * vec3(plane, 1.0)) * map.r;
         ph.pos = vec4(light_position + from_light, float(inside));
         ph.dir = vec4(d, float(STATUS_SURFACE));
+#ifdef START_RULE_ID
+        ph.power = vec4(power, geometric_id.z);  // the start rule `id`: the triangle left
+#else
         ph.power = vec4(power, start_offset(from_light, d, geometric));
+#endif
     }
     photons[index] = ph;
 }

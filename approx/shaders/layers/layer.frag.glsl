@@ -1,8 +1,11 @@
 // One light map: per texel the nearest surface that passes this map's filter.
 // Outputs: location 0 (RGBA32F) distance to the light (not z), material id,
-// octahedral world shading normal; cleared to 0 = no surface. Location 1 (RG32F,
+// octahedral world shading normal; cleared to 0 = no surface. Location 1 (RGBA32F,
 // attached only where needed) the octahedral outward geometric normal of the
-// triangle, which decides inside/outside after a specular interaction (DESIGN.md).
+// triangle, which decides inside/outside after a specular interaction (DESIGN.md),
+// and the triangle's primitive id + 1 (one draw holds every specular object, so
+// the id names one triangle of the scene): the start rule `id` ignores crossings
+// onto the triangle a segment leaves.
 //
 // Filters (uniforms):
 //   facing        +1 front faces only, -1 back faces only, 0 both
@@ -26,7 +29,7 @@ flat in vec3 v_face_normal;
 flat in float v_material;
 
 layout(location = 0) out vec4 out_map;
-layout(location = 1) out vec2 out_geometric;
+layout(location = 1) out vec4 out_geometric;
 
 void main() {
     if (facing > 0 && !gl_FrontFacing) discard;
@@ -39,5 +42,5 @@ void main() {
         if (prev <= 0.0 || dist <= prev + peel_epsilon) discard;
     }
     out_map = vec4(dist, v_material, octa_encode(normalize(v_normal)));
-    out_geometric = octa_encode(normalize(v_face_normal));
+    out_geometric = vec4(octa_encode(normalize(v_face_normal)), float(gl_PrimitiveID + 1), 0.0);
 }

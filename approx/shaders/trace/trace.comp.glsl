@@ -6,32 +6,37 @@
 // (DESIGN.md): the segment is clipped to the light frustum first (Liang–Barsky
 // on its light clip coordinates, which are affine in t), so no sample is wasted
 // outside. The first hit on the clipped segment is *estimated* from the light
-// maps: per map, PEAK_SAMPLES interior samples, uniform along the segment's
-// projection in the light's image, look for the first sign change of (distance
-// to the light − map distance) between covered samples; where a map's coverage
-// ends or begins between two samples (a silhouette), the covered end at the
-// edge is found by binary search and tested too. None means no hit on that map;
-// else ITERATIONS steps of binary search refine it. The smallest t over the maps
-// wins. A hit applies the specular interaction; no hit in the medium moves the
-// photon to the collision point (direction kept: single scattering) where it is
-// splatted (splat/compact.comp.glsl gathers these from the records). Power
-// follows the deterministic transmittance of every distance travelled (medium
-// sigma_t, glass absorption), which together with collisions at rate sigma_bar
-// makes the splatted power unbiased (see approx/trace.py).
+// maps, per map by the search the parameter `search` selects: `bisection` (paper
+// §4.1) or `secant` (trace/search_samples.glsl), `dda` or `hiz`
+// (trace/search_texels.glsl). The smallest t over the maps wins. A hit applies
+// the specular interaction; no hit in the medium moves the photon to the
+// collision point (direction kept: single scattering) where it is splatted
+// (splat/compact.comp.glsl gathers these from the records). Power follows the
+// deterministic transmittance of every distance travelled (medium sigma_t, glass
+// absorption), which together with collisions at rate sigma_bar makes the
+// splatted power unbiased (see approx/trace.py).
 //
 // Maps that cannot hold a crossing are skipped (same result, less work): maps
 // with no surface at all, and maps whose surfaces' distance range from the light
 // [map_min_dist, map_max_dist] misses the segment's distance range. The maps are
-// read as one storage buffer of texels (copied from the rendered textures):
-// plain loads, several times faster than texture fetches on llvmpipe.
+// read as storage buffers of texels (copied from the rendered textures): plain
+// loads, several times faster than texture fetches on llvmpipe.
 //
-// The search starts a little way from the surface a photon leaves (the start
-// offset, common/start_offset.glsl): its distance to the maps' picture of that
-// surface must first exceed the maps' own error there. Inside glass, a segment
-// with nothing beyond its offset searches within it (FLAG_WITHIN_OFFSET).
+// A segment must not find the surface it leaves again (`start_rule`). `offset`
+// (the default): the search starts a little way from it (the start offset,
+// common/start_offset.glsl): its distance to the maps' picture of that surface
+// must first exceed the maps' own error there; inside glass, a segment with
+// nothing beyond its offset searches within it (FLAG_WITHIN_OFFSET). `id`
+// (START_RULE_ID): the search starts at the surface and passes over crossings
+// onto the triangle it leaves (the maps carry primitive ids; photon.power.w
+// carries the start triangle's id + 1 instead of the offset).
 //
-// Defines: MAPS (2 × layers), PEAK_SAMPLES, ITERATIONS, MAX_MATERIALS, the
-// start-offset constants, FRESNEL_STOCHASTIC and CLIP_TO_OBJECTS when chosen.
+// Defines: MAPS (2 × layers), PEAK_SAMPLES, ITERATIONS, MAX_MATERIALS, SEARCH_*
+// (one of BISECTION, SECANT, DDA, HIZ), the start-offset constants, START_RULE_ID,
+// FRESNEL_STOCHASTIC and CLIP_TO_OBJECTS when chosen.
+#if !defined(SEARCH_BISECTION) && !defined(SEARCH_SECANT) && !defined(SEARCH_DDA) && !defined(SEARCH_HIZ)
+#define SEARCH_BISECTION 1
+#endif
 #include "common/rng.glsl"
 #include "common/optics.glsl"
 #include "common/octahedral.glsl"
@@ -68,9 +73,12 @@ layout(std430, binding = 2) readonly buffer LightMaps { vec4 map_texels[]; };
 layout(std430, binding = 3) readonly buffer LightMapDistances { float map_dist[]; };
 // the same maps' outward geometric normals (octahedral): inside/outside after a hit
 layout(std430, binding = 4) readonly buffer LightMapGeometric { vec2 map_geometric[]; };
+// the same maps' primitive ids + 1 (0 = none): the start rule `id`
+layout(std430, binding = 5) readonly buffer LightMapPrimitive { float map_primitive[]; };
 
 uint g_flags;
 uint g_map_reads;  // map texels the search read for this segment (map_reads: cost that travels across hardware)
+float g_start_id;  // start rule `id`: primitive id + 1 of the triangle the segment leaves (0 none)
 
 // A segment o + t·d, t in [t0, t1], with its light-clip coordinates at both ends
 // (clip coordinates are affine in t, so no matrix product per sample).
@@ -93,90 +101,38 @@ int segment_texel_index(int map, Segment s, float t) {
     return (map * light_res + texel.y) * light_res + texel.x;
 }
 
-// Texel under the segment point at t: (distance, material, octahedral shading normal),
-// 0 if none; and its octahedral geometric normal.
-vec4 segment_texel(int map, Segment s, float t, out vec2 geometric) {
-    int index = segment_texel_index(map, s, t);
-    if (index >= 0) ++g_map_reads;
-    geometric = index < 0 ? vec2(0.0) : map_geometric[index];
-    return index < 0 ? vec4(0.0) : map_texels[index];
-}
-
-// f(t) = (distance to the light) − (map distance); valid = covered texel.
-float segment_f(int map, Segment s, float t, out bool valid) {
-    int index = segment_texel_index(map, s, t);
+// f(t) = (distance to the light) − (map distance); valid = covered texel; index: the
+// texel read (-1 none).
+float segment_f(int map, Segment s, float t, out bool valid, out int index) {
+    index = segment_texel_index(map, s, t);
     if (index >= 0) ++g_map_reads;
     float map_distance = index < 0 ? 0.0 : map_dist[index];
     valid = map_distance > 0.0;
     return length(s.q + s.d * t) - map_distance;
 }
 
-// Segment parameter for a fraction lam of the segment's projection in the light
-// image (perspective-correct: clip w is linear in t, screen position is not).
-float screen_uniform_t(float lam, Segment s) {
-    float mu = (lam / s.c1.w) / ((1.0 - lam) / s.c0.w + lam / s.c1.w);
-    return mix(s.t0, s.t1, mu);
+float segment_f(int map, Segment s, float t, out bool valid) {
+    int index;
+    return segment_f(map, s, t, valid, index);
 }
 
-// Binary search between a covered and an uncovered point of the map for where its
-// coverage ends; returns the covered end.
-float coverage_edge(int map, Segment s, float covered, float uncovered) {
-    for (int k = 0; k < ITERATIONS; ++k) {
-        float mid = 0.5 * (covered + uncovered);
-        bool v;
-        segment_f(map, s, mid, v);
-        if (v) covered = mid; else uncovered = mid;
-    }
-    return covered;
+// The start rule `id`: is the texel (index) the triangle the segment leaves? Reading
+// the texel's primitive id is one more map read. Under `offset` never (no read).
+bool is_start_surface(int index) {
+#ifdef START_RULE_ID
+    if (g_start_id <= 0.0 || index < 0) return false;
+    ++g_map_reads;
+    return map_primitive[index] == g_start_id;
+#else
+    return false;
+#endif
 }
 
-// Binary search for the crossing in [a, b] (f changes sign between them, a's side
-// given); returns t and the map texel beyond the crossing (the surface crossed).
-float refine_crossing(int map, Segment s, float a, float b, bool a_positive, out vec4 texel, out vec2 geometric) {
-    for (int k = 0; k < ITERATIONS; ++k) {
-        float mid = 0.5 * (a + b);
-        bool v;
-        float fm = segment_f(map, s, mid, v);
-        // An uncovered midpoint counts as the start's side: the crossing is beyond it.
-        if (v && ((fm > 0.0) != a_positive)) b = mid; else a = mid;
-    }
-    texel = segment_texel(map, s, b, geometric);
-    return 0.5 * (a + b);
-}
-
-// First sign change on the map within [t0, t1]; returns t or -1, and the map texel
-// at t (the surface crossed) with its geometric normal. A crossing counts between two
-// covered points. Where the map's coverage begins or ends between two samples (a
-// silhouette seen from the light: photons inside glass often leave next to one), the
-// covered end nearest the edge is found by binary search and tested too, so a
-// crossing between the last covered sample and the edge is not missed.
-float estimate_on_map(int map, Segment s, out vec4 texel, out vec2 geometric) {
-    texel = vec4(0.0);
-    geometric = vec2(0.0);
-    bool prev_valid;
-    float prev_t = s.t0;
-    float prev_f = segment_f(map, s, s.t0, prev_valid);
-    for (int j = 1; j <= PEAK_SAMPLES + 1; ++j) {
-        float t = j == PEAK_SAMPLES + 1 ? s.t1 : screen_uniform_t(float(j) / float(PEAK_SAMPLES + 1), s);
-        bool valid;
-        float f = segment_f(map, s, t, valid);
-        if (valid && prev_valid) {
-            if ((f > 0.0) != (prev_f > 0.0)) return refine_crossing(map, s, prev_t, t, prev_f > 0.0, texel, geometric);
-        } else if (valid || prev_valid) {
-            float edge = prev_valid ? coverage_edge(map, s, prev_t, t) : coverage_edge(map, s, t, prev_t);
-            bool v;
-            float f_edge = segment_f(map, s, edge, v);
-            if (prev_valid && (f_edge > 0.0) != (prev_f > 0.0))
-                return refine_crossing(map, s, prev_t, edge, prev_f > 0.0, texel, geometric);
-            if (valid && (f_edge > 0.0) != (f > 0.0))
-                return refine_crossing(map, s, edge, t, f_edge > 0.0, texel, geometric);
-        }
-        prev_t = t;
-        prev_f = f;
-        prev_valid = valid;
-    }
-    return -1.0;
-}
+#if defined(SEARCH_DDA) || defined(SEARCH_HIZ)
+#include "trace/search_texels.glsl"
+#else
+#include "trace/search_samples.glsl"
+#endif
 
 // Keep the part of [lo, hi] where a + b·t >= 0 (one plane of Liang–Barsky clipping).
 void clip_plane(float a, float b, inout float lo, inout float hi) {
@@ -216,13 +172,12 @@ void clip_to_objects(vec3 o, vec3 d, inout float lo, inout float hi) {
 #endif
 
 // Smallest estimated hit over all maps on [t0, t1] of o + t·d (light clip coordinates
-// c0 at t = 0, c1 at t = search); -1 if none, with the map, its texel and geometric normal.
+// c0 at t = 0, c1 at t = search); -1 if none, with the map and the index of its texel.
 float search_maps(vec3 o, vec3 d, vec4 c0, vec4 c1, float search, float t0, float t1,
-                  out int best_map, out vec4 best_texel, out vec2 best_geometric) {
+                  out int best_map, out int best_index) {
     float best_t = -1.0;
     best_map = -1;
-    best_texel = vec4(0.0);
-    best_geometric = vec2(0.0);
+    best_index = -1;
     if (!(t1 > t0)) return best_t;
     Segment seg;
     seg.q = o - light_position;
@@ -237,14 +192,12 @@ float search_maps(vec3 o, vec3 d, vec4 c0, vec4 c1, float search, float t0, floa
     float r_max = max(length(seg.q + d * t0), length(seg.q + d * t1));
     for (int m = 0; m < MAPS; ++m) {
         if (!map_used[m] || r_max < map_min_dist[m] || r_min > map_max_dist[m]) continue;
-        vec4 texel;
-        vec2 geometric;
-        float t = estimate_on_map(m, seg, texel, geometric);
+        int index;
+        float t = estimate_on_map(m, seg, index);
         if (t >= 0.0 && (best_t < 0.0 || t < best_t)) {
             best_t = t;
             best_map = m;
-            best_texel = texel;
-            best_geometric = geometric;
+            best_index = index;
         }
     }
     return best_t;
@@ -289,7 +242,13 @@ void main() {
     // inside the light frustum (and the objects' box); ph.power.w carries the start
     // offset in light-map texel footprints (0 after a medium collision)
     float footprint = texel_angle * length(o - light_position);
+#ifdef START_RULE_ID
+    g_start_id = ph.power.w;
+    float t_eps = 0.0;
+#else
+    g_start_id = 0.0;
     float t_eps = ph.power.w * footprint;
+#endif
     vec4 c0 = light_view_proj * vec4(o, 1.0);
     vec4 c1 = light_view_proj * vec4(o + d * search, 1.0);
     float w_min = 1e-4 * max(max(c0.w, c1.w), 1e-3);
@@ -299,26 +258,28 @@ void main() {
 #ifdef CLIP_TO_OBJECTS
     clip_to_objects(o, d, t0, t1);
 #endif
-    int best_map;
-    vec4 best_texel;
-    vec2 best_geometric;
-    float best_t = search_maps(o, d, c0, c1, search, t0, t1, best_map, best_texel, best_geometric);
+    int best_map, best_index;
+    float best_t = search_maps(o, d, c0, c1, search, t0, t1, best_map, best_index);
     // A photon inside glass must leave it: when nothing was found beyond the start offset,
     // the exit may lie within it (a thin wedge of glass entered at a grazing angle next to
     // a silhouette): search there as well, from a hundredth of the offset.
     if (best_t < 0.0 && inside >= 0 && t_eps > 0.0 && search > 0.0) {
         float u0 = 0.01 * t_eps, u1 = min(t_eps, search);
         clip_to_frustum(c0, c1, search, w_min, u0, u1);
-        best_t = search_maps(o, d, c0, c1, search, u0, u1, best_map, best_texel, best_geometric);
+        best_t = search_maps(o, d, c0, c1, search, u0, u1, best_map, best_index);
         if (best_t >= 0.0) g_flags |= FLAG_WITHIN_OFFSET;
     }
 
     // --- outcome
     vec3 end;
-    float next_offset = 0.0;  // start offset of the next segment (texel footprints)
+    float next_offset = 0.0;  // start offset of the next segment (texel footprints); `id`: its start triangle
     int material_hit = -1;
     vec3 normal = vec3(0.0);
     if (best_t >= 0.0) {
+        // the surface crossed: its texel (one map read)
+        if (best_index >= 0) ++g_map_reads;
+        vec4 best_texel = best_index >= 0 ? map_texels[best_index] : vec4(0.0);
+        vec2 best_geometric = best_index >= 0 ? map_geometric[best_index] : vec2(0.0);
         end = o + d * best_t;
         power *= exp(-(inside >= 0 ? absorption[inside] : sigma_t) * best_t);
         normal = octa_decode(best_texel.ba);
@@ -326,7 +287,11 @@ void main() {
         material_hit = int(best_texel.g + 0.5);
         g_flags |= surface_interaction(d, power, inside, normal, geometric, material_hit,
                                        rng_uniform(seed, i, step_index, 1u));
+#ifdef START_RULE_ID
+        next_offset = best_index >= 0 ? map_primitive[best_index] : 0.0;
+#else
         next_offset = start_offset(end - light_position, d, geometric);
+#endif
         status = STATUS_SURFACE;
     } else if (inside >= 0) {
         end = o + d * search;
