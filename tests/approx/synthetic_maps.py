@@ -19,9 +19,13 @@ from .helpers import make_scene, sphere_spec
 BOX = (np.array([-2.0, -0.5, -2.0]), np.array([2.0, 4.0, 2.0]))
 
 
+SPHERE = (np.array([0.0, 1.0, 0.0]), 0.3)  # centre, radius of the scene's glass sphere
+
+
 def scene():
-    """A vacuum scene (segments run to the box) with one glass material for the hits."""
-    return make_scene([(sphere_spec(0.3, (0.0, 1.0, 0.0), 8), 1.5, (0, 0, 0))], sigma_s=0.0)
+    """A vacuum scene (segments run to the box) with one glass sphere (finely
+    tessellated: its light maps are the exact-chord test's)."""
+    return make_scene([(sphere_spec(SPHERE[1], SPHERE[0], 96), 1.5, (0, 0, 0))], sigma_s=0.0)
 
 
 def frustum():
@@ -44,17 +48,19 @@ def light_maps(ctx, distances: np.ndarray, primitive: np.ndarray | None = None) 
     return maps
 
 
-def trace_segments(ctx, distances, starts, directions, *, primitive=None, start_ids=None, **params) -> np.ndarray:
+def trace_segments(ctx, distances, starts, directions, *, primitive=None, start_ids=None, rendered=None,
+                   **params) -> np.ndarray:
     """One interaction step of the real tracer for medium photons at ``starts`` (N×3)
-    along unit ``directions`` over the maps ``distances`` (2·layers maps); returns the
-    N records (RECORD_DTYPE). ``start_ids``: per photon the start triangle (id + 1)
-    under the start rule ``id``."""
+    along unit ``directions`` over the maps ``distances`` (2·layers maps of res×res),
+    or over ``rendered`` LightMaps of :func:`scene` (``distances`` then gives their
+    count and resolution); returns the N records (RECORD_DTYPE). ``start_ids``: per
+    photon the start triangle (id + 1) under the start rule ``id``."""
     distances = np.asarray(distances, np.float32)
     res = distances.shape[1]
     p = ApproxParams(layers=len(distances) // 2, light_res=res, **params)
     sc, fr = scene(), frustum()
     tracer = PhotonTracer(ctx, p)
-    maps = light_maps(ctx, distances, primitive)
+    maps = rendered or light_maps(ctx, distances, primitive)
     buffers, bounds = tracer.map_buffer(maps, res)
     info = [(b is not None, b[0] * (1 - 1e-5), b[1] * (1 + 1e-5)) if b else (False, 0.0, 0.0) for b in bounds]
     n = len(starts)
@@ -69,7 +75,7 @@ def trace_segments(ctx, distances, starts, directions, *, primitive=None, start_
     pbuf, rbuf = ctx.buffer(photons.tobytes()), ctx.buffer(reserve=n * RAW_RECORD_DTYPE.itemsize)
     tracer.trace_step(sc, fr, BOX, buffers, info, res, pbuf, rbuf, n, 1, 0)
     records = records_from_raw(np.frombuffer(rbuf.read(), RAW_RECORD_DTYPE), 1, active_only=False)
-    for r in (*maps, buffers, pbuf, rbuf, tracer):
+    for r in ((*maps,) if rendered is None else ()) + (buffers, pbuf, rbuf, tracer):
         r.release()
     return records
 

@@ -33,10 +33,9 @@ float coverage_edge(int map, Segment s, float covered, float uncovered) {
 // fb beyond); returns t and the map texel beyond the crossing (the surface crossed).
 float refine_crossing(int map, Segment s, float a, float b, float fa, float fb, out int index) {
     int side = 0;  // the end the last step replaced: -1 b, +1 a (Illinois: the other's f is halved)
-    float t = b;
     for (int k = 0; k < ITERATIONS; ++k) {
-        t = fb != fa ? b - fb * (b - a) / (fb - fa) : 0.5 * (a + b);
-        if (!(t > a && t < b)) t = 0.5 * (a + b);
+        float t = b - fb * (b - a) / (fb - fa);
+        if (!(t > a && t < b)) break;  // on an end of the bracket: converged to rounding
         bool v;
         float ft = segment_f(map, s, t, v);
         // An uncovered point counts as the start's side: the crossing is beyond it.
@@ -52,6 +51,7 @@ float refine_crossing(int map, Segment s, float a, float b, float fa, float fb, 
             side = 1;
         }
     }
+    float t = clamp(b - fb * (b - a) / (fb - fa), a, b);
     // The texel beyond the crossing: at the last estimate when it lies beyond, else at b.
     bool v;
     float ft = segment_f(map, s, t, v, index);
