@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 OUT ?= runs/report
 
-.PHONY: setup report test test-fast lint doctor sweep gate gate-baseline lower-bounds clean
+.PHONY: setup report test test-fast lint doctor sweep sweep-variants gate gate-baseline lower-bounds clean
 
 setup:
 	@bash scripts/setup.sh
@@ -44,6 +44,11 @@ gate-baseline: setup
 # The standard sweep: every built-in x layers x iterations at the quick preset, one seed.
 sweep: setup
 	$(BIN)/volcaustics sweep --vary layers=1,2,4,8 --vary iterations=4,8,16,30 -o runs/sweep
+
+# The variants sweep: every built-in x search x start_rule x layer_strategy x budgets
+# (reports/sweep/variants.toml), quick preset, 4 seeds; resumable. The report shows it.
+sweep-variants: setup
+	$(BIN)/volcaustics sweep reports/sweep/variants.toml -o runs/sweep-variants
 
 # The dependency ranges at their lower bounds: a second venv (.venv-lower) with every
 # pyproject requirement pinned to its ">=" version, pip check, then the test suite there.

@@ -224,6 +224,11 @@ def point_row(key: str, summary: dict) -> dict:
         row[f"{name}_hdr_flip"] = metrics.get("hdr_flip", {}).get("value")
     for term in ("intersection", "truncation", "reflections", "kernel_blur", "residual"):
         row[f"share_{term}"] = decomposition.get(term, {}).get("energy_share")
+    # the intersection term's parts of the caustic error, with standard errors over seeds
+    intersection = decomposition.get("intersection", {})
+    row["share_intersection_se"] = intersection.get("energy_share_se")
+    row["intersection_relmse_part"] = intersection.get("relmse_part")
+    row["intersection_relmse_part_se"] = intersection.get("relmse_part_se")
     # the intersection estimate's own error: Σ(E_k − A)² / Σ R², what layers and iterations change
     row["intersection_relmse_own"] = decomposition.get("intersection", {}).get("relmse_own")
     row["residual_within_noise"] = summary.get("decomposition", {}).get("residual", {}).get("within_noise")

@@ -15,6 +15,7 @@ from volcaustics.reports.page.html import render_page
 from volcaustics.reports.page.images import SCALES, data_uri, heatmap_uri, render_uri
 from volcaustics.reports.page.summary import OUTPUT_FILES
 from volcaustics.reports.sweep.figures import draw_figures
+from volcaustics.reports.sweep.variants import draw_variants, is_variants_sweep, variant_table
 from volcaustics.scenes.storage import atomic_write_texts
 
 
@@ -33,6 +34,8 @@ def write_report(out_dir: str, results: list, summary: dict, sweep=None, *, prog
     sweep_figures = {}
     if sweep is not None:
         paths = draw_figures(sweep.tables, os.path.join(out_dir, "figures"), varied=sweep.varied)
+        if is_variants_sweep(sweep.varied):  # a variants sweep: its Pareto figures per scene too
+            paths += draw_variants(variant_table(sweep.tables), os.path.join(out_dir, "figures"))
         for path in paths:
             if path.endswith(".png"):
                 with open(path, "rb") as fh:

@@ -17,11 +17,13 @@ from volcaustics.reports.core.store import TABLES, Store
 from volcaustics.reports.sweep.figures import draw_figures
 from volcaustics.reports.sweep.spec import SweepError, SweepSpec, points
 from volcaustics.reports.sweep.suffice import settings_that_suffice
+from volcaustics.reports.sweep.variants import best_variants, draw_variants, is_variants_sweep, variant_table
 from volcaustics.scenes.storage import atomic_set
 
 MANIFEST = "sweep.json"  # the spec and the points the store's tables hold; written last
 OUTPUT_FILES = (*(f"{name}.parquet" for name in (*TABLES, "points")), "suffice.csv", MANIFEST)
 OUTPUT_FOLDERS = ("points", "figures")
+VARIANT_FILES = ("variants.csv", "variants_best.csv")  # beside them when the sweep varies search or start_rule
 
 
 @dataclass
@@ -52,22 +54,29 @@ def run_sweep(spec: SweepSpec, out_dir: str, *, workers: int | None = None, dask
     tables = store.tables(keys)
     # no point finished: an empty table, never an earlier run's
     tables["suffice"] = settings_that_suffice(tables["points"], varied) if len(tables["points"]) else pd.DataFrame()
-    _write_tables(out_dir, tables, {"spec": spec.to_dict(), "points": len(keys), "keys": keys})
+    variants = is_variants_sweep(varied) and len(tables["points"]) > 0
+    if variants:
+        tables["variants"] = variant_table(tables)
+        tables["variants_best"] = best_variants(tables["variants"])
+    _write_tables(out_dir, tables, {"spec": spec.to_dict(), "points": len(keys), "keys": keys},
+                  extra=VARIANT_FILES if variants else ())
     figures = draw_figures(tables, os.path.join(out_dir, "figures"), varied=varied)
+    if variants:
+        figures += draw_variants(tables["variants"], os.path.join(out_dir, "figures"))
     return SweepResult(total=len(keys), done_before=run.done_before, computed=run.computed, failed=run.failed,
                        seconds=time.perf_counter() - t0, tables=tables, figures=figures,
                        point_seconds=run.point_seconds)
 
 
-def _write_tables(out_dir: str, tables: dict, manifest: dict) -> None:
+def _write_tables(out_dir: str, tables: dict, manifest: dict, extra: tuple = ()) -> None:
     """The consolidated tables, suffice.csv and, last, sweep.json as one set
     (``scenes.storage.atomic_set``): an interrupted sweep leaves the last complete set,
     never a manifest beside another run's tables (what ``report --sweep`` reads)."""
-    names = [name for name in OUTPUT_FILES if name != MANIFEST]
+    names = [name for name in OUTPUT_FILES if name != MANIFEST] + list(extra)
     with atomic_set([os.path.join(out_dir, name) for name in (*names, MANIFEST)]) as temps:
         for name, tmp in zip(names, temps):
-            if name == "suffice.csv":
-                tables["suffice"].to_csv(tmp, index=False)
+            if name.endswith(".csv"):
+                tables[name[: -len(".csv")]].to_csv(tmp, index=False)
             else:
                 tables[name[: -len(".parquet")]].to_parquet(tmp, index=False)
         with open(temps[-1], "w", encoding="utf-8") as fh:

@@ -15,6 +15,11 @@ photon_res=256 --seeds N``) or in a TOML file with the same names::
     [reference]                      # optional: the reference budget (report's by default)
     target_noise = "caustic=0.005,fog=0.002,direct=0.002"
 
+``vary`` may also be an array of tables (``[[vary]]``): several grids, whose points are
+joined in order, a point named twice run once (e.g. the variants sweep,
+``reports/sweep/variants.toml``: each search with its own knobs). The figures see
+every varied name with all its values.
+
 Every name is an ``ApproxParams`` field (DESIGN.md); every point is validated before
 anything renders. The reference of each scene (and image size) is rendered once, in
 this process, before the points run; workers read it from the cache.
@@ -44,9 +49,10 @@ class SweepError(ValueError):
 
 @dataclass(frozen=True)
 class SweepSpec:
-    """scenes: SCENE arguments; vary: ((name, values), ...) in grid order; fixed:
-    name → value; preset: "quick" or "paper"; seeds per point; reference: settings
-    overrides (REFERENCE_KEYS)."""
+    """scenes: SCENE arguments; vary: ((name, values), ...) in grid order (of all grids:
+    every varied name, every value); fixed: name → value; preset: "quick" or "paper";
+    seeds per point; reference: settings overrides (REFERENCE_KEYS); grids: the grids
+    when there are several (each like ``vary``), else empty."""
 
     scenes: tuple
     vary: tuple
@@ -54,10 +60,14 @@ class SweepSpec:
     preset: str = "quick"
     seeds: int = 1
     reference: dict = field(default_factory=dict)
+    grids: tuple = ()
 
     def to_dict(self) -> dict:
-        return {"scenes": list(self.scenes), "vary": {k: list(v) for k, v in self.vary}, "set": dict(self.fixed),
-                "preset": self.preset, "seeds": self.seeds, "reference": dict(self.reference)}
+        out = {"scenes": list(self.scenes), "vary": {k: list(v) for k, v in self.vary}, "set": dict(self.fixed),
+               "preset": self.preset, "seeds": self.seeds, "reference": dict(self.reference)}
+        if self.grids:
+            out["grids"] = [{k: list(v) for k, v in grid} for grid in self.grids]
+        return out
 
 
 def spec_from_args(scenes: str | None, vary: list, fixed: list, *, preset: str, seeds: int) -> SweepSpec:
@@ -83,18 +93,38 @@ def spec_from_toml(path: str) -> SweepSpec:
         raise SweepError(f"{path}: scenes = {scenes!r}: expected a list of scene names or paths")
     base = os.path.dirname(os.path.abspath(path))
     scenes = [s if not s.endswith(".toml") or os.path.isabs(s) else os.path.join(base, s) for s in scenes]
-    grid = []
-    for name, values in _table(doc, "vary", path).items():
-        if not isinstance(values, list) or not values:
-            raise SweepError(f"{path}: vary.{name} = {values!r}: expected a non-empty list")
-        grid.append((name, tuple(parse_value(name, v, f"{path}: vary", error=SweepError) for v in values)))
+    tables = doc.get("vary", {})
+    several = isinstance(tables, list)
+    if several and (not tables or not all(isinstance(t, dict) for t in tables)):
+        raise SweepError(f"{path}: vary = {tables!r}: expected a table [vary] or tables [[vary]]")
+    grids = []
+    for k, table in enumerate(tables if several else [_table(doc, "vary", path)]):
+        where = f"vary[{k}]" if several else "vary"
+        grid = []
+        for name, values in table.items():
+            if not isinstance(values, list) or not values:
+                raise SweepError(f"{path}: {where}.{name} = {values!r}: expected a non-empty list")
+            grid.append((name, tuple(parse_value(name, v, f"{path}: {where}", error=SweepError) for v in values)))
+        grids.append(tuple(grid))
+    grid = _merged(grids)
     settled = {name: parse_value(name, v, f"{path}: set", error=SweepError)
                for name, v in _table(doc, "set", path).items()}
     reference = _table(doc, "reference", path)
     reference_settings(reference, error=lambda message: SweepError(f"{path}: {message}"))  # checked now
     seeds = doc.get("seeds", 1)
     preset = doc.get("preset", "quick")
-    return _checked(SweepSpec(tuple(scenes), tuple(grid), settled, preset, seeds, dict(reference)), path)
+    return _checked(SweepSpec(tuple(scenes), grid, settled, preset, seeds, dict(reference),
+                              tuple(grids) if several else ()), path)
+
+
+def _merged(grids: list) -> tuple:
+    """Every varied name of ``grids`` (first-seen order) with all its values."""
+    merged = {}
+    for grid in grids:
+        for name, values in grid:
+            merged.setdefault(name, [])
+            merged[name] += [v for v in values if v not in merged[name]]
+    return tuple((name, tuple(values)) for name, values in merged.items())
 
 
 def _table(doc, key, path) -> dict:
@@ -115,9 +145,10 @@ def _checked(spec: SweepSpec, where: str) -> SweepSpec:
         raise SweepError(f"{where}: scenes = {list(spec.scenes)!r}: expected at least one scene, none empty")
     if len(set(spec.scenes)) != len(spec.scenes):
         raise SweepError(f"{where}: scenes = {list(spec.scenes)!r}: a scene is listed twice")
-    for name, values in spec.vary:
-        if len(set(values)) != len(values):
-            raise SweepError(f"{where}: vary.{name} = {list(values)!r}: a value is listed twice")
+    for grid in spec.grids or (spec.vary,):
+        for name, values in grid:
+            if len(set(values)) != len(values):
+                raise SweepError(f"{where}: vary.{name} = {list(values)!r}: a value is listed twice")
     both = sorted(set(dict(spec.vary)) & set(spec.fixed))
     if both:
         raise SweepError(f"{where}: {both[0]} is both varied and set")
@@ -146,14 +177,17 @@ def points(spec: SweepSpec, cls: type = ApproxParams) -> list:
         base = preset(spec.preset, cls, **spec.fixed)
     except ParamError as exc:
         raise SweepError(f"set: {exc}") from None
-    names = [name for name, _ in spec.vary]
-    out = []
+    out, seen = [], set()
     for scene in spec.scenes:
-        for combo in itertools.product(*(values for _, values in spec.vary)):
-            changes = dict(zip(names, combo))
-            try:
-                params = dataclasses.replace(base, **changes)
-            except ParamError as exc:
-                raise SweepError(f"point {scene}, {changes}: {exc}") from None
-            out.append(Point(scene, params, spec.seeds))
+        for grid in spec.grids or (spec.vary,):
+            names = [name for name, _ in grid]
+            for combo in itertools.product(*(values for _, values in grid)):
+                changes = dict(zip(names, combo))
+                try:
+                    params = dataclasses.replace(base, **changes)
+                except ParamError as exc:
+                    raise SweepError(f"point {scene}, {changes}: {exc}") from None
+                if (scene, params) not in seen:
+                    seen.add((scene, params))
+                    out.append(Point(scene, params, spec.seeds))
     return out
