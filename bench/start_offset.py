@@ -1,6 +1,6 @@
 """The tracer's start offset: false re-hits against skipped hits across light_res.
 
-    .venv/bin/python bench/start_offset.py [SCENE ...] [--light-res 256,512,1024]
+    .venv/bin/python bench/start_offset.py [SCENE ...] [--light-res 256,512,1024] [--rules old,new,id]
 
 A segment that leaves a surface starts its search a little way out (the start
 offset, approx/shaders/common/start_offset.glsl). Too short and the search finds
@@ -17,8 +17,12 @@ surface, the exact oracle answers on the same interval, and:
 * false re-hit: the approximation hits the surface it started on (normal within
   18° of the start's) where the exact first hit is not within 3 texel footprints.
 
-Shares are of those segments, for the rule in approx/trace.py (``new``) and the
-former constant offset of 5 texel footprints (``old``), stochastic Fresnel, 6 steps.
+Shares are of those segments, for the rule in approx/trace.py (``new``), the
+former constant offset of 5 texel footprints (``old``) and the start rule ``id``
+(no offset; crossings onto the start triangle passed over: ``start_rule = "id"``),
+stochastic Fresnel, 6 steps. Under ``id`` a skipped hit is counted within the
+offset the ``new`` rule would have used (from the start's shading normal), so the
+rules are compared over the same near range.
 """
 
 from __future__ import annotations
@@ -30,8 +34,24 @@ SAME_SURFACE = 0.95  # cosine between normals: the same surface (18°)
 OLD_RULE = {"START_SLOPE": 0.0, "START_FLOOR": 1e9, "START_MAX": 5.0}  # always 5 footprints
 
 
-def classify(records: list, oracle, texel_angle: float, light_position) -> dict:
-    """Counts of surface-start segments, skipped hits and false re-hits over steps ≥ 2."""
+def new_rule_offset(seg, start_normal, texel_angle, light_position, rule):
+    """The start offset (m) the offset rule ``rule`` (START_SLOPE/FLOOR/MAX) gives these
+    segments (common/start_offset.glsl, with the start's shading normal)."""
+    import numpy as np
+
+    to_start = seg["start"] - light_position
+    distance = np.linalg.norm(to_start, axis=1)
+    cos_theta = np.abs(np.einsum("ij,ij->i", to_start / distance[:, None], start_normal))
+    sin_theta = np.sqrt(np.maximum(1.0 - cos_theta**2, 0.0))
+    away = np.maximum(np.abs(np.einsum("ij,ij->i", seg["direction"], start_normal)), 1e-6)
+    footprints = np.minimum((rule["START_SLOPE"] * sin_theta + rule["START_FLOOR"]) / away, rule["START_MAX"])
+    return footprints * texel_angle * distance
+
+
+def classify(records: list, oracle, texel_angle: float, light_position, window_rule=None) -> dict:
+    """Counts of surface-start segments, skipped hits and false re-hits over steps ≥ 2.
+    ``window_rule``: count skips within that offset rule's offset (start rule ``id``,
+    which has none) instead of the segment's own."""
     import numpy as np
 
     counts = {"segments": 0, "skipped": 0, "false_rehit": 0}
@@ -47,7 +67,9 @@ def classify(records: list, oracle, texel_angle: float, light_position) -> dict:
         hit_point = seg["start"] + seg["direction"] * np.nan_to_num(seg["t"])[:, None]
         tolerance = 3.0 * texel_angle * np.linalg.norm(hit_point - light_position, axis=1)
         agrees = q["hit"] & seg["hit"] & (np.abs(np.nan_to_num(q["t"]) - np.nan_to_num(seg["t"])) <= tolerance)
-        skipped = q["hit"] & (q["t"] < seg["start_offset"]) & ~exact_same & ~agrees
+        window = seg["start_offset"] if window_rule is None else new_rule_offset(
+            seg, start_normal, texel_angle, light_position, window_rule)
+        skipped = q["hit"] & (q["t"] < window) & ~exact_same & ~agrees
         rehit = seg["hit"] & approx_same & ~agrees
         counts["segments"] += len(seg)
         counts["skipped"] += int(skipped.sum())
@@ -61,7 +83,7 @@ def main(argv=None) -> int:
     parser.add_argument("--light-res", default="256,512,1024")
     parser.add_argument("--photon-res", type=int, default=256)
     parser.add_argument("--rules", default="old,new",
-                        help="comma-separated: old, new, or SLOPE:FLOOR:MAX in texel footprints")
+                        help="comma-separated: old, new, id (the start rule), or SLOPE:FLOOR:MAX in texel footprints")
     args = parser.parse_args(argv)
 
     import numpy as np
@@ -78,6 +100,8 @@ def main(argv=None) -> int:
     for text in args.rules.split(","):
         if text in ("old", "new"):
             rules.append((text, OLD_RULE if text == "old" else new_rule))
+        elif text == "id":
+            rules.append((text, None))
         else:
             slope, floor, cap = (float(x) for x in text.split(":"))
             rules.append((text, {"START_SLOPE": slope, "START_FLOOR": floor, "START_MAX": cap}))
@@ -91,13 +115,14 @@ def main(argv=None) -> int:
             texel_angle = 2.0 * frustum.tan_half / light_res
             for label, rule in rules:
                 trace.START_OFFSET.clear()
-                trace.START_OFFSET.update(rule)
+                trace.START_OFFSET.update(rule or new_rule)
                 renderer = Renderer(scene)
                 params = ApproxParams(photon_res=args.photon_res, light_res=light_res, width=32, height=32, steps=6,
-                                      fresnel="stochastic")
+                                      fresnel="stochastic", start_rule="offset" if rule else "id")
                 frame = renderer.render(params=params)
                 renderer.release()
-                c = classify(frame.records, oracle, texel_angle, np.asarray(scene.light.position))
+                c = classify(frame.records, oracle, texel_angle, np.asarray(scene.light.position),
+                             window_rule=None if rule else new_rule)
                 n = max(c["segments"], 1)
                 print(f"{name:8} {light_res:9d} {label:13} {c['segments']:9d} {100 * c['skipped'] / n:7.2f}% "
                       f"{100 * c['false_rehit'] / n:11.2f}%", flush=True)

@@ -50,6 +50,7 @@ def run(args) -> int:
     print(f"sweep: {result.total} points: {result.done_before} already in the store, {result.computed} computed, "
           f"{len(result.failed)} failed, {result.seconds:.1f} s -> {args.output}/")
     _print_suffice(result.tables.get("suffice"))
+    _print_variants(result.tables.get("variants_best"))
     for failure in result.failed:
         print(f"  failed: {failure['key'][:12]}: {failure['error']}", file=sys.stderr)
     return 1 if result.failed else 0
@@ -61,7 +62,22 @@ def _print_suffice(suffice) -> None:
     print(f"settings that suffice (error within {suffice['factor'].iloc[0]:g}x the best; caustic: debiased "
           f"relative MSE, intersection: the intersection term's own relative MSE):")
     for _, row in suffice.iterrows():
-        print(f"  {row['scene']:<12} {row['layer_strategy']:<9} {row['parameter']:<12} "
+        variant = " / ".join(str(row[k]) for k in ("layer_strategy", "search", "start_rule") if k in row)
+        print(f"  {row['scene']:<12} {variant:<9} {row['parameter']:<12} "
               f"{row['criterion'].split('_')[0]:<12} {row['suffices']:g} (of {row['largest']:g}): "
               f"{100 * row['error']:.2f}% vs best {100 * row['best']:.2f}%, frame {row['frame_time_s']:.3f} s, "
               f"{row['map_reads_per_frame'] / 1e6:.2f} M map reads")
+
+
+def _print_variants(best) -> None:
+    if best is None or not len(best):
+        return
+    print("variants: per scene the paper's method and the smallest intersection term at no more map reads per "
+          "segment (variants_best.csv):")
+    for _, r in best.iterrows():
+        print(f"  {r['scene']:<12} {r['role']:<6} {r['layer_strategy']}/{r['search']}/{r['start_rule']} "
+              f"layers {r['layers']} peak_samples {r['peak_samples']} iterations {r['iterations']}: "
+              f"{r['map_reads_per_segment']:.1f} reads/segment, frame {r['frame_time_s']:.2f} s, intersection "
+              f"{100 * r['share_intersection']:+.1f}% ± {100 * r['share_intersection_se']:.1f} "
+              f"(×{r['share_ratio']:.2f} of the paper's |term|), step 2 wrong surface {r['step2_wrong_surface']:.1f}%, "
+              f"missed {r['step2_missed']:.1f}%")

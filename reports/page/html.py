@@ -298,10 +298,10 @@ def _sweep_section(sweep: dict, figures: dict) -> str:
         return ""
     figs = "".join(f"<figure><img class='chart' src='{uri}' alt='{escape(name)}'><figcaption>{escape(name)}"
                    f"</figcaption></figure>" for name, uri in figures.items())
-    head = ("<tr><th class='l'>scene</th><th class='l'>layer_strategy</th><th class='l'>parameter</th>"
+    head = ("<tr><th class='l'>scene</th><th class='l'>variant</th><th class='l'>parameter</th>"
             "<th class='l'>criterion</th><th>suffices</th><th>its error</th><th>best</th><th>largest tried</th>"
             "<th>frame time</th><th>map reads</th></tr>")
-    rows = "".join(f"<tr><td class='l'>{escape(r['scene'])}</td><td class='l'>{escape(r['layer_strategy'])}</td>"
+    rows = "".join(f"<tr><td class='l'>{escape(r['scene'])}</td><td class='l'>{escape(_variant_name(r))}</td>"
                    f"<td class='l'>{escape(r['parameter'])}</td><td class='l'>{escape(r['criterion'])}</td>"
                    f"<td>{r['suffices']:g}</td><td>{_pct(r['error'])}</td><td>{_pct(r['best'])}</td>"
                    f"<td>{r['largest']:g}</td><td>{_num(r['frame_time_s'], '{:.3f} s')}</td>"
@@ -316,8 +316,47 @@ def _sweep_section(sweep: dict, figures: dict) -> str:
 <p class='note'>Per scene: the fewest layers / iterations / peak_samples whose error is within
 {_num(factor, '{:g}')}× the best over that parameter (the other varied parameters at their largest).</p>
 <table id='suffice'>{head}{rows}</table>
+{_variants_table(sweep.get('variants'))}
 {figs}
 </section>"""
+
+
+VARIANT_NAME = ("layer_strategy", "search", "start_rule")
+
+
+def _variant_name(row: dict) -> str:
+    """layer_strategy / search / start_rule of a row, those it has."""
+    return " / ".join(str(row[k]) for k in VARIANT_NAME if row.get(k) is not None)
+
+
+def _pm(value, se) -> str:
+    """A share in % with its standard error."""
+    if value is None:
+        return "–"
+    return f"{100 * value:+.1f}%" + (f" ± {100 * se:.1f}" if se is not None else "")
+
+
+def _variants_table(variants: dict | None) -> str:
+    if not variants:
+        return ""
+    head = ("<tr><th class='l'>scene</th><th class='l'></th><th class='l'>variant</th><th>layers</th>"
+            "<th>peak_samples</th><th>iterations</th><th>map reads / segment</th><th>frame time</th>"
+            "<th>intersection term (energy)</th><th>its relMSE part</th><th>step 2 wrong surface</th>"
+            "<th>step 2 missed</th><th>|term| vs the paper's</th></tr>")
+    rows = "".join(
+        f"<tr><td class='l'>{escape(r['scene'])}</td><td class='l'>{escape(r['role'])}</td>"
+        f"<td class='l'>{escape(_variant_name(r))}</td><td>{r['layers']}</td><td>{r['peak_samples']}</td>"
+        f"<td>{r['iterations']}</td><td>{_num(r['map_reads_per_segment'], '{:.1f}')}</td>"
+        f"<td>{_num(r['frame_time_s'], '{:.2f} s')}</td>"
+        f"<td>{_pm(r['share_intersection'], r.get('share_intersection_se'))}</td>"
+        f"<td>{_pm(r.get('intersection_relmse_part'), r.get('intersection_relmse_part_se'))}</td>"
+        f"<td>{_num(r.get('step2_wrong_surface'), '{:.1f}%')}</td><td>{_num(r.get('step2_missed'), '{:.1f}%')}</td>"
+        f"<td>{_num(r.get('share_ratio'), '{:.2f}×')}</td></tr>" for r in variants["best"])
+    return f"""<h3 id='variants'>Variants</h3>
+<p class='note'>Per scene: the paper's method and the variant with the smallest intersection term (E_k − A) at no
+more map reads per segment than the paper's search (hardware-independent cost; llvmpipe frame time beside it).
+Figures <code>variants_&lt;scene&gt;</code> below: every variant, the Pareto front, the paper's point circled.</p>
+<table id='variants-best'>{head}{rows}</table>"""
 
 
 def render_page(summary: dict, images: dict, sweep_figures: dict) -> str:

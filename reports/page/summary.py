@@ -25,6 +25,7 @@ from volcaustics.reports.core.versions import code_version, library_versions
 from volcaustics.reports.experiment.photons import FATES
 from volcaustics.reports.page.images import SCALES
 from volcaustics.reports.sweep.suffice import settings_that_suffice
+from volcaustics.reports.sweep.variants import best_variants, is_variants_sweep, variant_table
 from volcaustics.scenes.formats import COLOUR_LAYERS
 
 # Wang, Wang & Chen: intersection estimation takes about 70% of a frame and splatting about 23% on their GPU
@@ -174,4 +175,14 @@ def _sweep_summary(sweep) -> dict:
             # what the sweep's figures plot (one row per point: parameters, errors, frame time); the segment and
             # photon tables they also draw stay in the store (DIR/segments.parquet, DIR/photons.parquet)
             "point_rows": rows_of(sweep.tables["points"]),
-            "suffice_factor": float(wanted["factor"].iloc[0]) if len(wanted) else None, "figures": []}
+            "suffice_factor": float(wanted["factor"].iloc[0]) if len(wanted) else None, "figures": [],
+            "variants": _variants_summary(sweep)}
+
+
+def _variants_summary(sweep) -> dict | None:
+    """A variants sweep's table per point and, per scene, the paper's point and the best
+    variant at no more map reads per segment (reports/sweep/variants.py); else None."""
+    if not is_variants_sweep(sweep.varied):
+        return None
+    table = variant_table(sweep.tables)
+    return {"best": rows_of(best_variants(table)), "points": rows_of(table)}
