@@ -9,11 +9,13 @@ OUT ?= runs/report
 setup:
 	@bash scripts/setup.sh
 
-# The accuracy report; with the gate's baseline and the standard sweep when they exist.
+# The accuracy report; with the gate's baseline and a sweep (SWEEP, default the standard
+# sweep's store) when they exist.
+SWEEP ?= runs/sweep
 report: setup
 	$(BIN)/volcaustics report --out $(OUT) \
 	  $$( [ -f $(GATE_BASELINE)/baseline.json ] && echo --baseline $(GATE_BASELINE) ) \
-	  $$( [ -f runs/sweep/sweep.json ] && [ -f runs/sweep/points.parquet ] && echo --sweep runs/sweep )
+	  $$( [ -f $(SWEEP)/sweep.json ] && [ -f $(SWEEP)/points.parquet ] && echo --sweep $(SWEEP) )
 
 # Everything, the slow statistical and browser tests included (what CI runs).
 test: setup
