@@ -29,16 +29,16 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 CHILD = """
 import json, sys, time
 namespace = sys.argv[1]
-if namespace == "old":
+if namespace == "old":  # before the namespace and the PRESETS dict: PAPER / QUICK constants
     from approx import Renderer
-    from approx.params import PRESETS
+    from approx import params as table
     from scenes import resolve_scene
 else:
     from volcaustics.approx import Renderer
-    from volcaustics.approx.params import PRESETS
+    from volcaustics.approx import params as table
     from volcaustics.scenes import resolve_scene
 import dataclasses
-params = PRESETS[sys.argv[3]]
+params = getattr(table, sys.argv[3].upper())
 changes = json.loads(sys.argv[4])
 params = dataclasses.replace(params, **changes)
 scene = resolve_scene(sys.argv[2])

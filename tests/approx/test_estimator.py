@@ -305,14 +305,17 @@ def test_map_reads_of_a_segment_beside_the_sphere_are_its_samples(ctx):
     assert all(reads[(p, 5)] == reads[(p, 30)] for p in (3, 8)), reads
 
 
-def test_map_reads_grow_by_the_iterations_of_each_bisection(ctx):
-    """Through the sphere the search bisects (crossings, coverage edges): each bisection
-    reads one texel per iteration, so 25 more iterations add a positive multiple of 25;
-    the hit itself is unchanged but for the refinement."""
+def test_map_reads_of_a_bisection_stop_growing_within_a_texel(ctx):
+    """Through the sphere the search bisects (crossings, coverage edges). A halving that
+    lands in one of the two texels read last reads no memory (they are kept in
+    registers), and halving stops at float precision: so 25 more iterations add at most
+    a few reads per bisection (its bracket's texels, log2 of the texels between two
+    samples: < 8 at light_res 512), never 25; the hit is unchanged but for the refinement."""
     start = np.array([0.3, 2.2, 0.1])
     d = np.array([-0.2, -1.0, 0.05])
     d /= np.linalg.norm(d)
     few, many = (trace_segment(ctx, _sphere_scene(), start, d, 1.0, layers=1, iterations=it)[0] for it in (5, 30))
     extra = int(many["map_reads"]) - int(few["map_reads"])
-    assert extra > 0 and extra % 25 == 0, (few["map_reads"], many["map_reads"])
+    bisections = 2  # the two maps' crossings (front face; back face beyond it)
+    assert 0 <= extra <= 8 * bisections, (few["map_reads"], many["map_reads"])
     assert few["hit"] and many["hit"] and few["map"] == many["map"]

@@ -9,6 +9,7 @@
 // ch. 17; the secant refinement of Bevy's raymarch.wgsl). f jumps at texel edges, so
 // a secant step that leaves the bracket's interior falls back to its midpoint.
 
+
 // Segment parameter for a fraction lam of the segment's projection in the light
 // image (perspective-correct: clip w is linear in t, screen position is not).
 float screen_uniform_t(float lam, Segment s) {
@@ -21,11 +22,23 @@ float screen_uniform_t(float lam, Segment s) {
 float coverage_edge(int map, Segment s, float covered, float uncovered) {
     for (int k = 0; k < ITERATIONS; ++k) {
         float mid = 0.5 * (covered + uncovered);
+        // At float precision the bracket no longer changes (a covered point never moves
+        // the uncovered end, nor the reverse): the remaining steps would repeat this one.
+        if (mid == covered || mid == uncovered) break;
         bool v;
         segment_f(map, s, mid, v);
         if (v) covered = mid; else uncovered = mid;
     }
     return covered;
+}
+
+// Can f change sign on [a, b]? Not when the segment's distance to the light there stays
+// below the nearest or above the farthest surface of the map (then f keeps one sign at
+// every covered point): a coverage edge there needs no search.
+bool may_cross(int map, Segment s, float a, float b) {
+    float r_min = length(s.q + s.d * clamp(-dot(s.q, s.d), a, b));
+    float r_max = max(length(s.q + s.d * a), length(s.q + s.d * b));
+    return r_max >= map_min_dist[map] && r_min <= map_max_dist[map];
 }
 
 #ifdef SEARCH_SECANT
@@ -65,6 +78,9 @@ float refine_crossing(int map, Segment s, float a, float b, float fa, float fb, 
     bool a_positive = fa > 0.0;
     for (int k = 0; k < ITERATIONS; ++k) {
         float mid = 0.5 * (a + b);
+        // At float precision the bracket no longer changes (a's side never moves b, b's
+        // side never moves a): the remaining steps would repeat this one.
+        if (mid == a || mid == b) break;
         bool v;
         float fm = segment_f(map, s, mid, v);
         // An uncovered midpoint counts as the start's side: the crossing is beyond it.
@@ -94,7 +110,7 @@ float estimate_on_map(int map, Segment s, out int hit_index) {
         float found = -1.0;
         if (valid && prev_valid) {
             if ((f > 0.0) != (prev_f > 0.0)) found = refine_crossing(map, s, prev_t, t, prev_f, f, hit_index);
-        } else if (valid || prev_valid) {
+        } else if ((valid || prev_valid) && may_cross(map, s, prev_t, t)) {
             float edge = prev_valid ? coverage_edge(map, s, prev_t, t) : coverage_edge(map, s, t, prev_t);
             bool v;
             float f_edge = segment_f(map, s, edge, v);

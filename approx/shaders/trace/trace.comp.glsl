@@ -101,12 +101,29 @@ int segment_texel_index(int map, Segment s, float t) {
     return (map * light_res + texel.y) * light_res + texel.x;
 }
 
+// The two latest texels read, kept in registers: a search that comes back to one (a
+// bisection's last steps alternate between the two texels beside the crossing) reads
+// no memory for it, so map_reads does not count it.
+int g_kept_index[2] = int[2](-1, -1);
+float g_kept_dist[2];
+
+// The map distance of texel index (>= 0): from the registers, else one map read.
+float map_distance_at(int index) {
+    if (index == g_kept_index[0]) return g_kept_dist[0];
+    if (index == g_kept_index[1]) return g_kept_dist[1];
+    ++g_map_reads;
+    g_kept_index[1] = g_kept_index[0];
+    g_kept_dist[1] = g_kept_dist[0];
+    g_kept_index[0] = index;
+    g_kept_dist[0] = map_dist[index];
+    return g_kept_dist[0];
+}
+
 // f(t) = (distance to the light) − (map distance); valid = covered texel; index: the
 // texel read (-1 none).
 float segment_f(int map, Segment s, float t, out bool valid, out int index) {
     index = segment_texel_index(map, s, t);
-    if (index >= 0) ++g_map_reads;
-    float map_distance = index < 0 ? 0.0 : map_dist[index];
+    float map_distance = index < 0 ? 0.0 : map_distance_at(index);
     valid = map_distance > 0.0;
     return length(s.q + s.d * t) - map_distance;
 }
@@ -128,6 +145,7 @@ bool is_start_surface(int index) {
 #endif
 }
 
+#include "trace/texel_lines.glsl"
 #if defined(SEARCH_DDA) || defined(SEARCH_HIZ)
 #include "trace/search_texels.glsl"
 #else
