@@ -81,3 +81,16 @@ def test_the_shipped_variants_spec_loads():
     paper = {name: getattr(PAPER, name) for name in ("search", "start_rule", "layer_strategy", "layers",
                                                      "peak_samples", "iterations")}
     assert any(all(getattr(p.params, k) == v for k, v in paper.items()) for p in points(spec))
+
+
+def test_the_report_shows_the_best_variants():
+    """The page's Variants table (reports/page/html.py) shows each scene's paper point and
+    best variant with their numbers; a sweep that varies no variant choice shows none."""
+    from volcaustics.reports.core.tables import rows_of
+    from volcaustics.reports.page.html import _variants_table
+
+    best = rows_of(best_variants(variant_table(_tables(ROWS))))
+    html = _variants_table({"best": best, "points": []})
+    assert "id='variants-best'" in html and "threshold / secant / offset" in html
+    assert "+5.0% ± 0.5" in html and "0.42×" in html  # the best's term and its ratio to the paper's
+    assert _variants_table(None) == ""
