@@ -107,18 +107,27 @@ float estimate_on_map(int map, Segment s, out int hit_index) {
         float t = j == PEAK_SAMPLES + 1 ? s.t1 : screen_uniform_t(float(j) / float(PEAK_SAMPLES + 1), s);
         bool valid;
         float f = segment_f(map, s, t, valid);
-        float found = -1.0;
+        // The bracket to refine, if any: one refinement call site per sample step (lanes
+        // run in step on SIMD hardware: every call site costs all of them its loop).
+        bool bracket = false;
+        float a = prev_t, b = t, fa = prev_f, fb = f;
         if (valid && prev_valid) {
-            if ((f > 0.0) != (prev_f > 0.0)) found = refine_crossing(map, s, prev_t, t, prev_f, f, hit_index);
+            bracket = (f > 0.0) != (prev_f > 0.0);
         } else if ((valid || prev_valid) && may_cross(map, s, prev_t, t)) {
-            float edge = prev_valid ? coverage_edge(map, s, prev_t, t) : coverage_edge(map, s, t, prev_t);
+            float edge = coverage_edge(map, s, prev_valid ? prev_t : t, prev_valid ? t : prev_t);
             bool v;
             float f_edge = segment_f(map, s, edge, v);
-            if (prev_valid && (f_edge > 0.0) != (prev_f > 0.0))
-                found = refine_crossing(map, s, prev_t, edge, prev_f, f_edge, hit_index);
-            else if (valid && (f_edge > 0.0) != (f > 0.0))
-                found = refine_crossing(map, s, edge, t, f_edge, f, hit_index);
+            if (prev_valid && (f_edge > 0.0) != (prev_f > 0.0)) {
+                bracket = true;
+                b = edge;
+                fb = f_edge;
+            } else if (valid && (f_edge > 0.0) != (f > 0.0)) {
+                bracket = true;
+                a = edge;
+                fa = f_edge;
+            }
         }
+        float found = bracket ? refine_crossing(map, s, a, b, fa, fb, hit_index) : -1.0;
         if (found >= 0.0 && !is_start_surface(hit_index)) return found;
         prev_t = t;
         prev_f = f;
