@@ -229,3 +229,35 @@ def test_a_worker_without_the_sweeps_reference_fails_its_point_with_the_fix(env)
             "reference_key": "f" * 32, "store": str(env.parent / "store"), "views": False}
     with pytest.raises(RuntimeError, match="VOLCAUSTICS_CACHE"):
         run_point(task)
+
+
+VARIANTS_SPEC = SPEC.replace("""[vary]
+layers = [1, 2]
+iterations = [4, 8]""", """[[vary]]
+search = ["bisection", "hiz"]
+[[vary]]
+search = ["dda"]
+start_rule = ["id"]""")
+
+
+def test_a_variants_sweep_writes_its_tables_and_figures_and_the_report_shows_it(env, tmp_path, capsys):
+    """search / start_rule varied over two grids: variants.csv (the paper's point marked,
+    map reads and the intersection term per point), variants_best.csv, the Pareto figure,
+    the console table; `report --sweep` with the store shows the Variants table."""
+    out = tmp_path / "store"
+    assert main(["sweep", _spec(tmp_path, VARIANTS_SPEC), "-o", str(out), "--workers", "1", "--quiet"]) == 0
+    assert "variants: per scene the paper's method" in capsys.readouterr().out
+    table = pd.read_csv(out / "variants.csv")
+    assert sorted(zip(table["search"], table["start_rule"])) == [("bisection", "offset"), ("dda", "id"),
+                                                                  ("hiz", "offset")]
+    assert table.loc[table["paper"], "search"].tolist() == ["bisection"]  # iterations 30, layers 4, peak 8
+    assert (table["map_reads_per_segment"] > 0).all() and np.isfinite(table["share_intersection"]).all()
+    best = pd.read_csv(out / "variants_best.csv")
+    assert list(best["role"]) == ["paper", "best"]
+    assert (out / "figures" / "variants_refocus.png").read_bytes().startswith(b"\x89PNG")
+    report = tmp_path / "report"
+    assert main(["report", "--scenes", "refocus", "--out", str(report), "--sweep", str(out), "--set", "width=32",
+                 "--set", "height=32", "--set", "photon_res=64", "--set", "light_res=64", "--photons", "65536",
+                 "--spp", "8", "--batches", "4", "--target-noise", "none", "--seeds", "2", "--quiet"]) == 0
+    html = (report / "index.html").read_text()
+    assert "id='variants-best'" in html and "variants_refocus" in html
