@@ -119,9 +119,12 @@ PARAMS: tuple = (
           "pyramid cells)", choices=("bisection", "secant", "dda", "hiz"), program="trace", glsl="define",
           to_defines=lambda v: {f"SEARCH_{v.upper()}": 1}),
     Param("start_rule", str, "offset", "how a segment avoids re-finding the surface it leaves: offset (start the "
-          "search a few texel footprints out) or id (the maps carry primitive ids; crossings onto the start "
-          "triangle are passed over)", choices=("offset", "id"), program="trace", glsl="define",
-          to_defines=lambda v: {"START_RULE_ID": 1} if v == "id" else {}),
+          "search a few texel footprints out), id (the maps carry primitive ids; crossings onto the start "
+          "triangle are passed over) or facing (crossings onto faces the photon cannot meet from its side, "
+          "outside along their outward normal or inside against it, are passed over)",
+          choices=("offset", "id", "facing"), program="trace", glsl="define",
+          to_defines=lambda v: {"START_RULE_ID": 1} if v == "id" else {"START_RULE_FACING": 1} if v == "facing"
+          else {}),
     Param("steps", int, 4, "interaction steps (photon maps) traced", "", 1, 32),
     Param("splat_radius", float, 0.01, "standard deviation of the splatted 3D Gaussian", "m", 0, 10,
           glsl="uniform"),

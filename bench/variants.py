@@ -17,7 +17,7 @@ import argparse
 import statistics
 import sys
 
-DEFAULT = ",".join(f"{s}/{r}" for r in ("offset", "id") for s in ("bisection", "secant", "dda", "hiz"))
+DEFAULT = ",".join(f"{s}/{r}" for r in ("offset", "id", "facing") for s in ("bisection", "secant", "dda", "hiz"))
 
 
 def main(argv=None) -> int:

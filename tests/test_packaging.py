@@ -33,6 +33,7 @@ def test_the_wheel_installs_only_the_volcaustics_package(tmp_path):
     assert any(n.startswith("volcaustics/scenes/builtin/") and n.endswith(".toml") for n in data)
     assert "volcaustics/scenes/assets/bunny10k.ply" in names
     assert "volcaustics/reports/gate/budgets.toml" in names
+    assert "volcaustics/reports/sweep/variants.toml" in names  # the variants sweep (make sweep-variants)
     assert not [n for n in names if n.startswith(("volcaustics/tests", "volcaustics/bench"))]
     target = tmp_path / "site"
     done = subprocess.run([sys.executable, "-m", "pip", "install", "--no-deps", "-q", "--target", str(target),

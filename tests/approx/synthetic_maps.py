@@ -11,7 +11,7 @@ from volcaustics.approx.light import LightFrustum
 from volcaustics.approx.params import ApproxParams
 from volcaustics.approx.records import records_from_raw
 from volcaustics.approx.trace import PhotonTracer
-from volcaustics.scenes.formats import PHOTON_DTYPE, RAW_RECORD_DTYPE, STATUS_COLLIDED
+from volcaustics.scenes.formats import PHOTON_DTYPE, RAW_RECORD_DTYPE, STATUS_COLLIDED, STATUS_SURFACE
 
 from .helpers import make_scene, sphere_spec
 
@@ -32,9 +32,11 @@ def frustum():
     return LightFrustum.for_scene(scene(), *BOX)
 
 
-def light_maps(ctx, distances: np.ndarray, primitive: np.ndarray | None = None) -> list:
-    """LightMap textures from M×res×res distances (0 = uncovered; rows bottom-up) and
-    optional primitive ids + 1 of the same shape."""
+def light_maps(ctx, distances: np.ndarray, primitive: np.ndarray | None = None,
+               geometric_normals: np.ndarray | None = None) -> list:
+    """LightMap textures from M×res×res distances (0 = uncovered; rows bottom-up),
+    optional primitive ids + 1 of the same shape and octahedral geometric normals
+    (M×res×res×2, common/octahedral.glsl)."""
     maps = []
     for m, dist in enumerate(np.asarray(distances, np.float32)):
         res = dist.shape[0]
@@ -43,13 +45,15 @@ def light_maps(ctx, distances: np.ndarray, primitive: np.ndarray | None = None) 
         geometric = np.zeros((res, res, 4), np.float32)
         if primitive is not None:
             geometric[..., 2] = primitive[m]
+        if geometric_normals is not None:
+            geometric[..., :2] = geometric_normals[m]
         maps.append(LightMap(ctx.texture((res, res), 4, surface.tobytes(), dtype="f4"),
                              ctx.texture((res, res), 4, geometric.tobytes(), dtype="f4")))
     return maps
 
 
 def trace_segments(ctx, distances, starts, directions, *, primitive=None, start_ids=None, rendered=None,
-                   **params) -> np.ndarray:
+                   geometric_normals=None, inside=-1, **params) -> np.ndarray:
     """One interaction step of the real tracer for medium photons at ``starts`` (N×3)
     along unit ``directions`` over the maps ``distances`` (2·layers maps of res×res),
     or over ``rendered`` LightMaps of :func:`scene` (``distances`` then gives their
@@ -60,15 +64,15 @@ def trace_segments(ctx, distances, starts, directions, *, primitive=None, start_
     p = ApproxParams(layers=len(distances) // 2, light_res=res, **params)
     sc, fr = scene(), frustum()
     tracer = PhotonTracer(ctx, p)
-    maps = rendered or light_maps(ctx, distances, primitive)
+    maps = rendered or light_maps(ctx, distances, primitive, geometric_normals)
     buffers, bounds = tracer.map_buffer(maps, res)
     info = [(b is not None, b[0] * (1 - 1e-5), b[1] * (1 + 1e-5)) if b else (False, 0.0, 0.0) for b in bounds]
     n = len(starts)
     photons = np.zeros(n, PHOTON_DTYPE)
     photons["pos"][:, :3] = starts
-    photons["pos"][:, 3] = -1.0
+    photons["pos"][:, 3] = float(inside)
     photons["dir"][:, :3] = directions
-    photons["dir"][:, 3] = STATUS_COLLIDED
+    photons["dir"][:, 3] = STATUS_COLLIDED if inside < 0 else STATUS_SURFACE
     photons["power"] = [1.0, 1.0, 1.0, 0.0]
     if start_ids is not None:
         photons["power"][:, 3] = start_ids

@@ -306,3 +306,30 @@ def test_hit_point_error_within_texel_footprints_of_the_exact_chord(ctx, search)
     error = np.abs(r_hit - r_true)
     assert steep.sum() > 800
     assert np.all(error[steep] <= bound[steep]), (error - bound)[steep].max()
+
+
+UP, DOWN = (0.0, 1.0), (0.0, -1.0)  # octahedral codes of the world normals ±y (towards / away from the light)
+
+
+@pytest.mark.parametrize("search", SEARCHES)
+@pytest.mark.parametrize("inside", [-1, 0])
+def test_start_rule_facing_passes_over_faces_the_photon_cannot_meet(search, inside):
+    """Start rule `facing`: a photon 1 mm before a surface at 2 m, moving away from the
+    light. Map 0 holds it with its outward normal pointing away from the light (a face
+    the photon leaves from inside, or meets from outside only against its normal: from
+    outside, d·n > 0 cannot be met), map 1 a surface at 2.4 m facing the light (from
+    outside it is met against its normal). Outside: map 0 is passed over and map 1 hit;
+    inside glass the roles swap (an exit is along the outward normal: map 0 is the exit).
+    The offset rule (no offset here) takes the first crossing whatever its facing."""
+    normals = np.zeros((2, RES, RES, 2), np.float32)
+    normals[0] = DOWN
+    normals[1] = UP
+    start, d = _light_point(1.999, x=0.05), _unit([0.1, -1.0, 0.05])
+    run = dict(geometric_normals=normals, search=search, inside=inside)
+    maps = _maps(np.full((RES, RES), 2.0), np.full((RES, RES), 2.4))
+    facing = sm.trace_segments(_ctx(), maps, np.array([start]), np.array([d]), start_rule="facing", **run)[0]
+    offset = sm.trace_segments(_ctx(), maps, np.array([start]), np.array([d]), **run)[0]
+    assert offset["hit"] and offset["map"] == 0
+    assert facing["hit"] and facing["map"] == (1 if inside < 0 else 0)
+    radius = 2.4 if inside < 0 else 2.0
+    assert facing["t"] == pytest.approx(_surface_t(start, d, radius)[1], abs=1e-4)

@@ -78,6 +78,7 @@ def test_the_shipped_variants_spec_loads():
     spec = spec_from_toml(path)
     searches = {p.params.search for p in points(spec)}
     assert searches == {"bisection", "secant", "dda", "hiz"}
+    assert {p.params.start_rule for p in points(spec)} == {"offset", "id", "facing"}
     paper = {name: getattr(PAPER, name) for name in ("search", "start_rule", "layer_strategy", "layers",
                                                      "peak_samples", "iterations")}
     assert any(all(getattr(p.params, k) == v for k, v in paper.items()) for p in points(spec))

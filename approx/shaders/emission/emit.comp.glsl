@@ -49,8 +49,10 @@ void main() {
         vec3 from_light = normalize(light_basis * vec3(plane, 1.0)) * map.r;
         ph.pos = vec4(light_position + from_light, float(inside));
         ph.dir = vec4(d, float(STATUS_SURFACE));
-#ifdef START_RULE_ID
+#if defined(START_RULE_ID)
         ph.power = vec4(power, geometric_id.z);  // the start rule `id`: the triangle left
+#elif defined(START_RULE_FACING)
+        ph.power = vec4(power, 0.0);             // the start rule `facing`: no offset
 #else
         ph.power = vec4(power, start_offset(from_light, d, geometric));
 #endif

@@ -29,10 +29,13 @@
 // nothing beyond its offset searches within it (FLAG_WITHIN_OFFSET). `id`
 // (START_RULE_ID): the search starts at the surface and passes over crossings
 // onto the triangle it leaves (the maps carry primitive ids; photon.power.w
-// carries the start triangle's id + 1 instead of the offset).
+// carries the start triangle's id + 1 instead of the offset). `facing`
+// (START_RULE_FACING): no offset either; crossings onto faces the photon cannot meet
+// from its side (outside: along their outward normal; inside: against it) are passed
+// over, which the surface left and its smooth neighbours always are.
 //
 // Defines: MAPS (2 × layers), PEAK_SAMPLES, ITERATIONS, MAX_MATERIALS, SEARCH_*
-// (one of BISECTION, SECANT, DDA, HIZ), the start-offset constants, START_RULE_ID,
+// (one of BISECTION, SECANT, DDA, HIZ), the start-offset constants, START_RULE_ID or START_RULE_FACING,
 // FRESNEL_STOCHASTIC and CLIP_TO_OBJECTS when chosen.
 #if !defined(SEARCH_BISECTION) && !defined(SEARCH_SECANT) && !defined(SEARCH_DDA) && !defined(SEARCH_HIZ)
 #define SEARCH_BISECTION 1
@@ -79,6 +82,8 @@ layout(std430, binding = 5) readonly buffer LightMapPrimitive { float map_primit
 uint g_flags;
 uint g_map_reads;  // map texels the search read for this segment (map_reads: cost that travels across hardware)
 float g_start_id;  // start rule `id`: primitive id + 1 of the triangle the segment leaves (0 none)
+vec3 g_dir;        // start rule `facing`: the segment's direction ...
+bool g_inside;     // ... and whether it runs inside glass
 
 // A segment o + t·d, t in [t0, t1], with its light-clip coordinates at both ends
 // (clip coordinates are affine in t, so no matrix product per sample).
@@ -133,13 +138,21 @@ float segment_f(int map, Segment s, float t, out bool valid) {
     return segment_f(map, s, t, valid, index);
 }
 
-// The start rule `id`: is the texel (index) the triangle the segment leaves? Reading
-// the texel's primitive id is one more map read. Under `offset` never (no read).
+// Does the start rule pass over a crossing onto the texel (index)? `id`: it is the
+// triangle the segment leaves (its primitive id: one more map read). `facing`: the
+// photon cannot meet that face from its side — a closed surface is met from outside
+// against its outward geometric normal and from inside along it — which the surface
+// just left and its neighbours always fail (its geometric normal: one more map read).
+// Under `offset` never (no read).
 bool is_start_surface(int index) {
-#ifdef START_RULE_ID
+#if defined(START_RULE_ID)
     if (g_start_id <= 0.0 || index < 0) return false;
     ++g_map_reads;
     return map_primitive[index] == g_start_id;
+#elif defined(START_RULE_FACING)
+    if (index < 0) return false;
+    ++g_map_reads;
+    return (dot(g_dir, octa_decode(map_geometric[index])) > 0.0) != g_inside;
 #else
     return false;
 #endif
@@ -260,8 +273,13 @@ void main() {
     // inside the light frustum (and the objects' box); ph.power.w carries the start
     // offset in light-map texel footprints (0 after a medium collision)
     float footprint = texel_angle * length(o - light_position);
-#ifdef START_RULE_ID
+    g_dir = d;
+    g_inside = inside >= 0;
+#if defined(START_RULE_ID)
     g_start_id = ph.power.w;
+    float t_eps = 0.0;
+#elif defined(START_RULE_FACING)
+    g_start_id = 0.0;
     float t_eps = 0.0;
 #else
     g_start_id = 0.0;
@@ -305,8 +323,10 @@ void main() {
         material_hit = int(best_texel.g + 0.5);
         g_flags |= surface_interaction(d, power, inside, normal, geometric, material_hit,
                                        rng_uniform(seed, i, step_index, 1u));
-#ifdef START_RULE_ID
+#if defined(START_RULE_ID)
         next_offset = best_index >= 0 ? map_primitive[best_index] : 0.0;
+#elif defined(START_RULE_FACING)
+        next_offset = 0.0;
 #else
         next_offset = start_offset(end - light_position, d, geometric);
 #endif
