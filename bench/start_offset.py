@@ -18,11 +18,12 @@ surface, the exact oracle answers on the same interval, and:
   18° of the start's) where the exact first hit is not within 3 texel footprints.
 
 Shares are of those segments, for the rule in approx/trace.py (``new``), the
-former constant offset of 5 texel footprints (``old``) and the start rule ``id``
-(no offset; crossings onto the start triangle passed over: ``start_rule = "id"``),
-stochastic Fresnel, 6 steps. Under ``id`` a skipped hit is counted within the
-offset the ``new`` rule would have used (from the start's shading normal), so the
-rules are compared over the same near range.
+former constant offset of 5 texel footprints (``old``) and the start rules ``id``
+(no offset; crossings onto the start triangle passed over) and ``facing`` (no
+offset; crossings onto faces the photon cannot meet from its side passed over),
+stochastic Fresnel, 6 steps. Under ``id`` and ``facing`` a skipped hit is counted
+within the offset the ``new`` rule would have used (from the start's shading
+normal), so the rules are compared over the same near range.
 """
 
 from __future__ import annotations
@@ -83,7 +84,7 @@ def main(argv=None) -> int:
     parser.add_argument("--light-res", default="256,512,1024")
     parser.add_argument("--photon-res", type=int, default=256)
     parser.add_argument("--rules", default="old,new",
-                        help="comma-separated: old, new, id (the start rule), or SLOPE:FLOOR:MAX in texel footprints")
+                        help="comma-separated: old, new, id, facing (start rules), SLOPE:FLOOR:MAX (texel footprints)")
     args = parser.parse_args(argv)
 
     import numpy as np
@@ -100,7 +101,7 @@ def main(argv=None) -> int:
     for text in args.rules.split(","):
         if text in ("old", "new"):
             rules.append((text, OLD_RULE if text == "old" else new_rule))
-        elif text == "id":
+        elif text in ("id", "facing"):
             rules.append((text, None))
         else:
             slope, floor, cap = (float(x) for x in text.split(":"))
@@ -118,7 +119,7 @@ def main(argv=None) -> int:
                 trace.START_OFFSET.update(rule or new_rule)
                 renderer = Renderer(scene)
                 params = ApproxParams(photon_res=args.photon_res, light_res=light_res, width=32, height=32, steps=6,
-                                      fresnel="stochastic", start_rule="offset" if rule else "id")
+                                      fresnel="stochastic", start_rule="offset" if rule else label)
                 frame = renderer.render(params=params)
                 renderer.release()
                 c = classify(frame.records, oracle, texel_angle, np.asarray(scene.light.position),
