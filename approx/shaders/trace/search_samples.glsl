@@ -9,12 +9,6 @@
 // ch. 17; the secant refinement of Bevy's raymarch.wgsl). f jumps at texel edges, so
 // a secant step that leaves the bracket's interior falls back to its midpoint.
 
-#if defined(START_RULE_ID) || defined(START_RULE_FACING)
-#define START_PASSES 4  // crossings passed over per sample interval, at most (then the next interval)
-#else
-#define START_PASSES 1
-#endif
-
 
 // Segment parameter for a fraction lam of the segment's projection in the light
 // image (perspective-correct: clip w is linear in t, screen position is not).
@@ -49,10 +43,8 @@ bool may_cross(int map, Segment s, float a, float b) {
 
 #ifdef SEARCH_SECANT
 // Regula falsi (Illinois) for the crossing in [a, b] (f changes sign: fa on a's side,
-// fb beyond); returns t and the map texel beyond the crossing (the surface crossed),
-// and the bracket's end beyond it with its f (where a search passing over it goes on).
-float refine_crossing(int map, Segment s, float a, float b, float fa, float fb, out int index,
-                      out float beyond_t, out float beyond_f) {
+// fb beyond); returns t and the map texel beyond the crossing (the surface crossed).
+float refine_crossing(int map, Segment s, float a, float b, float fa, float fb, out int index) {
     int side = 0;  // the end the last step replaced: -1 b, +1 a (Illinois: the other's f is halved)
     for (int k = 0; k < ITERATIONS; ++k) {
         float t = b - fb * (b - a) / (fb - fa);
@@ -77,16 +69,12 @@ float refine_crossing(int map, Segment s, float a, float b, float fa, float fb, 
     bool v;
     float ft = segment_f(map, s, t, v, index);
     if (!(v && ((ft > 0.0) == (fb > 0.0)))) index = segment_texel_index(map, s, b);
-    beyond_t = b;
-    beyond_f = fb;
     return t;
 }
 #else
 // Binary search for the crossing in [a, b] (f changes sign between them, a's side
-// given by fa); returns t and the map texel beyond the crossing (the surface crossed),
-// and the bracket's end beyond it with its f (where a search passing over it goes on).
-float refine_crossing(int map, Segment s, float a, float b, float fa, float fb, out int index,
-                      out float beyond_t, out float beyond_f) {
+// given by fa); returns t and the map texel beyond the crossing (the surface crossed).
+float refine_crossing(int map, Segment s, float a, float b, float fa, float fb, out int index) {
     bool a_positive = fa > 0.0;
     for (int k = 0; k < ITERATIONS; ++k) {
         float mid = 0.5 * (a + b);
@@ -96,16 +84,9 @@ float refine_crossing(int map, Segment s, float a, float b, float fa, float fb, 
         bool v;
         float fm = segment_f(map, s, mid, v);
         // An uncovered midpoint counts as the start's side: the crossing is beyond it.
-        if (v && ((fm > 0.0) != a_positive)) {
-            b = mid;
-            fb = fm;
-        } else {
-            a = mid;
-        }
+        if (v && ((fm > 0.0) != a_positive)) b = mid; else a = mid;
     }
     index = segment_texel_index(map, s, b);
-    beyond_t = b;
-    beyond_f = fb;
     return 0.5 * (a + b);
 }
 #endif
@@ -126,37 +107,28 @@ float estimate_on_map(int map, Segment s, out int hit_index) {
         float t = j == PEAK_SAMPLES + 1 ? s.t1 : screen_uniform_t(float(j) / float(PEAK_SAMPLES + 1), s);
         bool valid;
         float f = segment_f(map, s, t, valid);
-        // A crossing the start rule passes over leaves the rest of this interval to search,
-        // from just beyond it (up to START_PASSES times; once without a start rule).
-        for (int pass = 0; pass < START_PASSES; ++pass) {
-            // The bracket to refine, if any: one refinement call site per sample step (lanes
-            // run in step on SIMD hardware: every call site costs all of them its loop).
-            bool bracket = false;
-            float a = prev_t, b = t, fa = prev_f, fb = f;
-            if (valid && prev_valid) {
-                bracket = (f > 0.0) != (prev_f > 0.0);
-            } else if ((valid || prev_valid) && may_cross(map, s, prev_t, t)) {
-                float edge = coverage_edge(map, s, prev_valid ? prev_t : t, prev_valid ? t : prev_t);
-                bool v;
-                float f_edge = segment_f(map, s, edge, v);
-                if (prev_valid && (f_edge > 0.0) != (prev_f > 0.0)) {
-                    bracket = true;
-                    b = edge;
-                    fb = f_edge;
-                } else if (valid && (f_edge > 0.0) != (f > 0.0)) {
-                    bracket = true;
-                    a = edge;
-                    fa = f_edge;
-                }
+        // The bracket to refine, if any: one refinement call site per sample step (lanes
+        // run in step on SIMD hardware: every call site costs all of them its loop).
+        bool bracket = false;
+        float a = prev_t, b = t, fa = prev_f, fb = f;
+        if (valid && prev_valid) {
+            bracket = (f > 0.0) != (prev_f > 0.0);
+        } else if ((valid || prev_valid) && may_cross(map, s, prev_t, t)) {
+            float edge = coverage_edge(map, s, prev_valid ? prev_t : t, prev_valid ? t : prev_t);
+            bool v;
+            float f_edge = segment_f(map, s, edge, v);
+            if (prev_valid && (f_edge > 0.0) != (prev_f > 0.0)) {
+                bracket = true;
+                b = edge;
+                fb = f_edge;
+            } else if (valid && (f_edge > 0.0) != (f > 0.0)) {
+                bracket = true;
+                a = edge;
+                fa = f_edge;
             }
-            if (!bracket) break;
-            float beyond_t, beyond_f;
-            float found = refine_crossing(map, s, a, b, fa, fb, hit_index, beyond_t, beyond_f);
-            if (!is_start_surface(hit_index)) return found;
-            prev_t = beyond_t;
-            prev_f = beyond_f;
-            prev_valid = true;
         }
+        float found = bracket ? refine_crossing(map, s, a, b, fa, fb, hit_index) : -1.0;
+        if (found >= 0.0 && !is_start_surface(hit_index)) return found;
         prev_t = t;
         prev_f = f;
         prev_valid = valid;
