@@ -1,6 +1,5 @@
 // Where a segment's projection in the light image crosses texel lines (part of
-// trace/trace.comp.glsl; used by the texel walks and by the sampled searches' coverage
-// edges). The projection's crossing of a line x = X solves an affine equation in the
+// trace/trace.comp.glsl; used by the texel walks, trace/search_texels.glsl). The projection's crossing of a line x = X solves an affine equation in the
 // segment's clip coordinates (McGuire & Mara, JCGT 2014, step in screen space so).
 
 // u (segment fraction) where the projection crosses the texel line X (texel units) of
