@@ -42,14 +42,14 @@ CLIP_TO_OBJECTS = False
 class MapBuffers(NamedTuple):
     """The light maps as the tracer reads them (storage buffers, map-major, rows
     bottom-up): every texel (RGBA32F: distance, material, octahedral shading normal),
-    the distances alone (R32F), the octahedral geometric normals (2 floats), the
-    primitive ids + 1 (R32F; 0 = none) and, for the ``hiz`` search only, the min–max
-    pyramid (:func:`pyramid_layout`; None otherwise)."""
+    the distances alone (R32F), the octahedral geometric normals (2 floats), for the
+    start rule ``id`` only the primitive ids + 1 (R32F; 0 = none) and for the ``hiz``
+    search only the min–max pyramid (:func:`pyramid_layout`); None where not needed."""
 
     texels: moderngl.Buffer
     distances: moderngl.Buffer
     geometric: moderngl.Buffer
-    primitive: moderngl.Buffer
+    primitive: moderngl.Buffer | None
     pyramid: moderngl.Buffer | None
 
     def release(self):
@@ -58,15 +58,21 @@ class MapBuffers(NamedTuple):
                 buf.release()
 
 
+def pyramid_cells(light_res: int, level: int) -> int:
+    """Cells per side of a min–max pyramid level (cell = texel >> level; as cells() of
+    trace/pyramid.comp.glsl)."""
+    return ((light_res - 1) >> level) + 1
+
+
 def pyramid_layout(light_res: int) -> tuple:
     """The min–max pyramid of one map (trace/pyramid.comp.glsl): level L >= 1 has
-    ((light_res − 1) >> L) + 1 cells per side, the top level one; returns (offsets,
-    stride): the cell offset of each level within a map's block (index L; 0 unused) and
-    the cells of one map's block."""
+    :func:`pyramid_cells` cells per side, the top level one; returns (offsets, stride):
+    the cell offset of each level within a map's block (index L; 0 unused) and the
+    cells of one map's block."""
     offsets, total, level = [0], 0, 1
     while True:
         offsets.append(total)
-        n = ((light_res - 1) >> level) + 1
+        n = pyramid_cells(light_res, level)
         total += n * n
         if n == 1:
             return offsets, total
@@ -91,7 +97,8 @@ class PhotonTracer:
         defines = self.defines(params)
         self.emit = compute_shader(ctx, "emission/emit.comp.glsl", defines)
         self.trace = compute_shader(ctx, "trace/trace.comp.glsl", defines)
-        self.pack = compute_shader(ctx, "trace/pack_distances.comp.glsl")
+        self.id_rule = "START_RULE_ID" in defines
+        self.pack = compute_shader(ctx, "trace/pack_distances.comp.glsl", {"PACK_PRIMITIVE": 1} if self.id_rule else {})
         self.hiz = "SEARCH_HIZ" in defines
         self.pyramid = compute_shader(ctx, "trace/pyramid.comp.glsl") if self.hiz else None
         self.compact_count = compute_shader(ctx, "splat/compact.comp.glsl", {"PASS_COUNT": 1})
@@ -149,7 +156,7 @@ class PhotonTracer:
         texels = self.ctx.buffer(reserve=16 * count * n)
         distances = self.ctx.buffer(reserve=4 * count * n)
         geometric = self.ctx.buffer(reserve=8 * count * n)
-        primitive = self.ctx.buffer(reserve=4 * count * n)
+        primitive = self.ctx.buffer(reserve=4 * count * n) if self.id_rule else None
         init = np.zeros((n, 2), np.uint32)
         init[:, 0] = 0xFFFFFFFF
         ranges = self.ctx.buffer(init.tobytes())
@@ -157,7 +164,8 @@ class PhotonTracer:
         distances.bind_to_storage_buffer(1)
         ranges.bind_to_storage_buffer(2)
         geometric.bind_to_storage_buffer(3)
-        primitive.bind_to_storage_buffer(4)
+        if primitive is not None:
+            primitive.bind_to_storage_buffer(4)
         self.pack["res"].value = light_res
         self.pack["map_texture"].value = 0
         self.pack["geometric_texture"].value = 1
@@ -182,9 +190,10 @@ class PhotonTracer:
         prog = self.pyramid
         set_uniforms(prog, light_res=light_res, map_stride=stride)
         for level in range(1, len(offsets)):
-            cells = ((light_res - 1) >> level) + 1
+            cells = pyramid_cells(light_res, level)
             set_uniforms(prog, level=level, source_offset=offsets[level - 1], target_offset=offsets[level])
             prog.run(group_x=math.ceil(cells / 8), group_y=math.ceil(cells / 8), group_z=maps)
+            self.ctx.memory_barrier()  # the next level (and the trace) read what this one wrote
         return pyramid
 
     def trace_step(self, scene, frustum, box, map_texels: MapBuffers, map_info, light_res: int,
@@ -216,7 +225,8 @@ class PhotonTracer:
         map_texels.texels.bind_to_storage_buffer(2)
         map_texels.distances.bind_to_storage_buffer(3)
         map_texels.geometric.bind_to_storage_buffer(4)
-        map_texels.primitive.bind_to_storage_buffer(5)
+        if map_texels.primitive is not None:
+            map_texels.primitive.bind_to_storage_buffer(5)
         if map_texels.pyramid is not None:
             offsets, stride = pyramid_layout(light_res)
             map_texels.pyramid.bind_to_storage_buffer(6)

@@ -9,6 +9,7 @@ from volcaustics.reports.cli.common import UsageError, check_output_set
 from volcaustics.reports.core.executors import default_workers, parse_dask
 from volcaustics.reports.sweep.run import OUTPUT_FILES, OUTPUT_FOLDERS, run_sweep
 from volcaustics.reports.sweep.spec import spec_from_args, spec_from_toml
+from volcaustics.reports.sweep.variants import variant_name
 
 
 def register(sub) -> None:
@@ -62,8 +63,7 @@ def _print_suffice(suffice) -> None:
     print(f"settings that suffice (error within {suffice['factor'].iloc[0]:g}x the best; caustic: debiased "
           f"relative MSE, intersection: the intersection term's own relative MSE):")
     for _, row in suffice.iterrows():
-        variant = " / ".join(str(row[k]) for k in ("layer_strategy", "search", "start_rule") if k in row)
-        print(f"  {row['scene']:<12} {variant:<9} {row['parameter']:<12} "
+        print(f"  {row['scene']:<12} {variant_name(row):<9} {row['parameter']:<12} "
               f"{row['criterion'].split('_')[0]:<12} {row['suffices']:g} (of {row['largest']:g}): "
               f"{100 * row['error']:.2f}% vs best {100 * row['best']:.2f}%, frame {row['frame_time_s']:.3f} s, "
               f"{row['map_reads_per_frame'] / 1e6:.2f} M map reads")
@@ -75,7 +75,7 @@ def _print_variants(best) -> None:
     print("variants: per scene the paper's method and the smallest intersection term at no more map reads per "
           "segment (variants_best.csv):")
     for _, r in best.iterrows():
-        print(f"  {r['scene']:<12} {r['role']:<6} {r['layer_strategy']}/{r['search']}/{r['start_rule']} "
+        print(f"  {r['scene']:<12} {r['role']:<6} {variant_name(r)} "
               f"layers {r['layers']} peak_samples {r['peak_samples']} iterations {r['iterations']}: "
               f"{r['map_reads_per_segment']:.1f} reads/segment, frame {r['frame_time_s']:.2f} s, intersection "
               f"{100 * r['share_intersection']:+.1f}% ± {100 * r['share_intersection_se']:.1f} "

@@ -13,6 +13,7 @@ from html import escape
 
 from volcaustics.metrics.intersection import OUTCOME_CLASSES
 from volcaustics.reports.page.images import SCALES, colour_bar_css
+from volcaustics.reports.sweep.variants import variant_name
 from volcaustics.scenes.formats import COLOUR_LAYERS
 
 CSS = """
@@ -301,7 +302,7 @@ def _sweep_section(sweep: dict, figures: dict) -> str:
     head = ("<tr><th class='l'>scene</th><th class='l'>variant</th><th class='l'>parameter</th>"
             "<th class='l'>criterion</th><th>suffices</th><th>its error</th><th>best</th><th>largest tried</th>"
             "<th>frame time</th><th>map reads</th></tr>")
-    rows = "".join(f"<tr><td class='l'>{escape(r['scene'])}</td><td class='l'>{escape(_variant_name(r))}</td>"
+    rows = "".join(f"<tr><td class='l'>{escape(r['scene'])}</td><td class='l'>{escape(variant_name(r))}</td>"
                    f"<td class='l'>{escape(r['parameter'])}</td><td class='l'>{escape(r['criterion'])}</td>"
                    f"<td>{r['suffices']:g}</td><td>{_pct(r['error'])}</td><td>{_pct(r['best'])}</td>"
                    f"<td>{r['largest']:g}</td><td>{_num(r['frame_time_s'], '{:.3f} s')}</td>"
@@ -321,14 +322,6 @@ def _sweep_section(sweep: dict, figures: dict) -> str:
 </section>"""
 
 
-VARIANT_NAME = ("layer_strategy", "search", "start_rule")
-
-
-def _variant_name(row: dict) -> str:
-    """layer_strategy / search / start_rule of a row, those it has."""
-    return " / ".join(str(row[k]) for k in VARIANT_NAME if row.get(k) is not None)
-
-
 def _pm(value, se) -> str:
     """A share in % with its standard error."""
     if value is None:
@@ -345,7 +338,7 @@ def _variants_table(variants: dict | None) -> str:
             "<th>step 2 missed</th><th>|term| vs the paper's</th></tr>")
     rows = "".join(
         f"<tr><td class='l'>{escape(r['scene'])}</td><td class='l'>{escape(r['role'])}</td>"
-        f"<td class='l'>{escape(_variant_name(r))}</td><td>{r['layers']}</td><td>{r['peak_samples']}</td>"
+        f"<td class='l'>{escape(variant_name(r))}</td><td>{r['layers']}</td><td>{r['peak_samples']}</td>"
         f"<td>{r['iterations']}</td><td>{_num(r['map_reads_per_segment'], '{:.1f}')}</td>"
         f"<td>{_num(r['frame_time_s'], '{:.2f} s')}</td>"
         f"<td>{_pm(r['share_intersection'], r.get('share_intersection_se'))}</td>"

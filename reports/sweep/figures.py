@@ -59,7 +59,9 @@ def draw_figures(tables: dict, folder: str, *, varied) -> list:
     return paths
 
 
-def _step_rows(tables, points):
+def step_rows(tables, points):
+    """The segments table's per-step rows of ``points`` with class shares (% of the
+    step's segments, CLASS_GROUPS; self re-hits counted by their class beyond)."""
     seg = tables["segments"]
     seg = seg[seg["grouping"] == "step"].copy()
     for name in CLASS_GROUPS:
@@ -71,7 +73,7 @@ def _step_rows(tables, points):
 def _intersection_vs(tables, points, varied, x, folder) -> list:
     plt = pyplot()
     chosen, note = at_best(points, varied, x)
-    seg = _step_rows(tables, chosen)
+    seg = step_rows(tables, chosen)
     steps = sorted(int(s) for s in seg["step"].dropna().unique())
     if not steps:
         return []

@@ -12,7 +12,7 @@ from volcaustics.approx.params import PARAMS
 NUMERIC = tuple(p.name for p in PARAMS if p.kind in (int, float) and p.name != "seed")
 # the choices that make a variant of the method (layer_strategy, search, start_rule, ...):
 # the settings that suffice are found per variant, never across them
-VARIANT_CHOICES = tuple(p.name for p in PARAMS if p.choices and p.program == "trace" or p.name == "layer_strategy")
+VARIANT_CHOICES = tuple(p.name for p in PARAMS if p.choices)
 SUFFICE_FACTOR = 1.1
 CRITERIA = {"caustic_relmse_debiased": "caustic relative MSE, debiased (%)",
             "intersection_relmse_own": "intersection error Σ(E_k − A)²/ΣR² (%)"}

@@ -16,12 +16,18 @@ import pandas as pd
 
 from volcaustics.approx.params import PAPER
 from volcaustics.reports.core.plotting import OKABE_ITO, pyplot, save_figure
-from volcaustics.reports.sweep.figures import _step_rows, pareto_front
+from volcaustics.reports.sweep.figures import pareto_front, step_rows
 
 VARIANT_PARAMS = ("search", "start_rule", "layer_strategy", "layers", "peak_samples", "iterations")
-COLUMNS = ("map_reads_per_segment", "frame_time_s", "share_intersection", "share_intersection_se",
-           "intersection_relmse_part", "intersection_relmse_part_se", "step2_wrong_surface", "step2_missed")
+POINT_COLUMNS = ("map_reads_per_segment", "frame_time_s", "share_intersection", "share_intersection_se",
+                 "intersection_relmse_part", "intersection_relmse_part_se")  # from the points table
+VARIANT_NAME = ("layer_strategy", "search", "start_rule")
 SEARCH_MARKERS = {"bisection": "o", "secant": "s", "dda": "^", "hiz": "D"}
+
+
+def variant_name(row) -> str:
+    """layer_strategy / search / start_rule of a row (a dict or a table row), those it has."""
+    return " / ".join(str(row[k]) for k in VARIANT_NAME if k in row and row[k] is not None)
 
 
 def is_variants_sweep(varied) -> bool:
@@ -39,14 +45,15 @@ def paper_mask(points: pd.DataFrame) -> pd.Series:
 
 
 def variant_table(tables: dict) -> pd.DataFrame:
-    """One row per point: scene, the variant parameters, COLUMNS, whether it is the
+    """One row per point: scene, the variant parameters, POINT_COLUMNS, the step-2
+    wrong-surface and missed shares (%), whether it is the
     paper's method (``paper``) and on its scene's Pareto front of |intersection share|
     against map reads per segment (``pareto``)."""
     points = tables["points"]
-    step2 = _step_rows(tables, points)
+    step2 = step_rows(tables, points)
     step2 = step2[step2["step"] == 2].set_index("point")
     out = points[["point", "scene", *[p for p in VARIANT_PARAMS if p in points]]].copy()
-    for column in COLUMNS[:6]:
+    for column in POINT_COLUMNS:
         out[column] = points[column] if column in points else np.nan
     out["step2_wrong_surface"] = out["point"].map(step2["class_wrong_surface"])
     out["step2_missed"] = out["point"].map(step2["class_missed"])

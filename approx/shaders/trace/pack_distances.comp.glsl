@@ -1,6 +1,6 @@
 // One light map copied into the tracer's storage buffers: all texels (vec4), the
-// geometric normals (vec2, octahedral), the primitive ids (+ 1; 0 = none: the start
-// rule `id`) and the distance channel alone as a compact
+// geometric normals (vec2, octahedral), with PACK_PRIMITIVE the primitive ids (+ 1;
+// 0 = none: only the start rule `id` reads them) and the distance channel alone as a compact
 // float array (the intersection search reads only distances: 4 bytes instead of
 // 16 per texel), plus the exact range of
 // the map's surface distances (texels > 0), which lets the tracer skip maps a
@@ -16,7 +16,9 @@ layout(std430, binding = 0) writeonly buffer Texels { vec4 map_texels[]; };
 layout(std430, binding = 1) writeonly buffer Distances { float map_dist[]; };
 layout(std430, binding = 2) buffer Ranges { uvec2 map_range[]; };  // (min bits, max bits) per map
 layout(std430, binding = 3) writeonly buffer Geometric { vec2 map_geometric[]; };
+#ifdef PACK_PRIMITIVE
 layout(std430, binding = 4) writeonly buffer Primitive { float map_primitive[]; };
+#endif
 
 shared uint lo[BLOCK];
 shared uint hi[BLOCK];
@@ -30,7 +32,9 @@ void main() {
         map_texels[map_index * count + i] = texel;
         vec4 geometric = texelFetch(geometric_texture, ivec2(int(i) % res, int(i) / res), 0);
         map_geometric[map_index * count + i] = geometric.xy;
+#ifdef PACK_PRIMITIVE
         map_primitive[map_index * count + i] = geometric.z;
+#endif
         map_dist[map_index * count + i] = texel.x;
     }
     float d = texel.x;

@@ -31,6 +31,18 @@ uniform int pyramid_stride;      // cells of one map's levels
 uniform int pyramid_top;         // the level with one cell
 #endif
 
+// u (segment fraction) where the projection crosses the texel line X (texel units) of
+// axis a (0: x, 1: y); 2 when never. A solution with clip w <= 0 lies on the other
+// branch of the projection (behind the light): the line is never reached.
+float line_u(Segment s, int a, float X) {
+    float ndc = 2.0 * X / float(light_res) - 1.0;
+    float c = s.c0[a] - ndc * s.c0.w;
+    float slope = (s.c1[a] - s.c0[a]) - ndc * (s.c1.w - s.c0.w);
+    if (slope == 0.0) return 2.0;
+    float u = -c / slope;
+    return mix(s.c0.w, s.c1.w, u) > 0.0 ? u : 2.0;
+}
+
 // The texel under the segment at u, clamped into [lo, hi].
 ivec2 texel_at(Segment s, float u, ivec2 lo, ivec2 hi) {
     vec4 clip = mix(s.c0, s.c1, u);

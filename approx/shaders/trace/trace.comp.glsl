@@ -76,8 +76,10 @@ layout(std430, binding = 2) readonly buffer LightMaps { vec4 map_texels[]; };
 layout(std430, binding = 3) readonly buffer LightMapDistances { float map_dist[]; };
 // the same maps' outward geometric normals (octahedral): inside/outside after a hit
 layout(std430, binding = 4) readonly buffer LightMapGeometric { vec2 map_geometric[]; };
+#ifdef START_RULE_ID
 // the same maps' primitive ids + 1 (0 = none): the start rule `id`
 layout(std430, binding = 5) readonly buffer LightMapPrimitive { float map_primitive[]; };
+#endif
 
 uint g_flags;
 uint g_map_reads;  // map texels the search read for this segment (map_reads: cost that travels across hardware)
@@ -158,7 +160,6 @@ bool is_start_surface(int index) {
 #endif
 }
 
-#include "trace/texel_lines.glsl"
 #if defined(SEARCH_DDA) || defined(SEARCH_HIZ)
 #include "trace/search_texels.glsl"
 #else
