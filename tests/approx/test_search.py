@@ -125,6 +125,34 @@ def test_case_d_peak_between_samples(search):
     assert rec["t"] == pytest.approx(t_oracle, abs=2e-4)
 
 
+@pytest.mark.parametrize("search", SAMPLED)
+def test_crossing_at_a_later_coverage_edge_before_a_sign_change(search):
+    """Three islands of coverage along the segment, one sample gap between each (the
+    segment runs at about 1.4 m): the first (2 m) holds no crossing at its edges; the
+    second holds one between its last sample and where its coverage ends (1 m in its
+    last rows); the third a sign change between two samples (2 m, then 1 m). The
+    second island's crossing is first and is found (the scan's edges are searched in
+    order; a search that took the first sign change between samples finds the third)."""
+    start, d = _light_point(1.4, x=-0.45), _unit([1.0, -0.05, 0.0])
+    ys = _samples_image_y(start, d)
+    def past(y):  # the texel rows past image y along the segment
+        return np.sign(ys[1] - ys[0]) * (np.arange(RES) + 0.5 - y) >= 0
+
+    mid = 0.5 * (ys[:-1] + ys[1:])  # halfway between samples k and k + 1
+    front = np.zeros((RES, RES))
+    front[past(mid[0]) & ~past(mid[2])] = 2.0                         # island one: samples 1, 2
+    front[past(mid[3]) & ~past(mid[4])] = 2.0                         # island two: sample 4 ...
+    front[past(0.5 * (ys[4] + mid[4])) & ~past(mid[4])] = 1.0        # ... 1 m in its last rows
+    front[past(mid[5])] = 2.0                                         # island three: 6, 7 ...
+    front[past(mid[6])] = 1.0                                         # ... 1 m from halfway
+    for k in (0, 3, 5):
+        assert front[int(ys[k]), 0] == 0.0  # a sample in every gap
+    t_oracle, _, y = sm.first_crossing(front, start, d, sm.box_exit(start[None], d[None])[0])
+    assert past(ys[4])[y] and not past(mid[4])[y]  # the oracle's first crossing: island two's
+    rec = _one(_maps(front), start, d, search)
+    assert rec["hit"] and rec["t"] == pytest.approx(t_oracle, abs=2e-4)
+
+
 @pytest.mark.parametrize("search", SEARCHES)
 def test_thin_wall_front_map_first(search):
     """A shell wall thinner than a texel footprint: front map at 2 m, back map 1 mm

@@ -25,9 +25,8 @@ float coverage_edge(int map, Segment s, float covered, float uncovered) {
         // At float precision the bracket no longer changes (a covered point never moves
         // the uncovered end, nor the reverse): the remaining steps would repeat this one.
         if (mid == covered || mid == uncovered) break;
-        bool v;
-        segment_f(map, s, mid, v);
-        if (v) covered = mid; else uncovered = mid;
+        int index = segment_texel_index(map, s, mid);
+        if (index >= 0 && map_distance_at(index) > 0.0) covered = mid; else uncovered = mid;
     }
     return covered;
 }
@@ -91,47 +90,87 @@ float refine_crossing(int map, Segment s, float a, float b, float fa, float fb, 
 }
 #endif
 
+// Segment parameter of sample k of a scan (0: the segment's start, PEAK_SAMPLES + 1 its end).
+float sample_t(int k, Segment s) {
+    if (k == 0) return s.t0;
+    return k == PEAK_SAMPLES + 1 ? s.t1 : screen_uniform_t(float(k) / float(PEAK_SAMPLES + 1), s);
+}
+
 // First sign change on the map within [t0, t1]; returns t or -1, and the index of the
 // map texel at t (the surface crossed). A crossing counts between two covered points.
 // Where the map's coverage begins or ends between two samples (a silhouette seen from
 // the light: photons inside glass often leave next to one), the covered end nearest
 // the edge is found by binary search and tested too, so a crossing between the last
 // covered sample and the edge is not missed. A crossing onto the start surface (start
-// rule `id`) is passed over.
+// rule `id` or `facing`) is passed over.
+//
+// The work is ordered for SIMD hardware, where lanes run in step and a loop inside a
+// branch costs every lane its trip count as soon as one lane enters it: a scan reads the
+// samples up to the first sign change, noting the first coverage edge before it; one
+// edge search and one refinement follow, outside the sample loop, so lanes whose edges
+// and crossings lie at different samples search together. The result is that of testing
+// the sample steps in order: a scan that finds nothing to return (its edge held no
+// crossing and another edge follows; the crossing was the start surface) is resumed
+// from the sample step it tested last.
 float estimate_on_map(int map, Segment s, out int hit_index) {
     hit_index = -1;
+    int j = 0;  // the sample the scan starts from
     bool prev_valid;
     float prev_t = s.t0;
     float prev_f = segment_f(map, s, s.t0, prev_valid);
-    for (int j = 1; j <= PEAK_SAMPLES + 1; ++j) {
-        float t = j == PEAK_SAMPLES + 1 ? s.t1 : screen_uniform_t(float(j) / float(PEAK_SAMPLES + 1), s);
-        bool valid;
-        float f = segment_f(map, s, t, valid);
-        // The bracket to refine, if any: one refinement call site per sample step (lanes
-        // run in step on SIMD hardware: every call site costs all of them its loop).
-        bool bracket = false;
-        float a = prev_t, b = t, fa = prev_f, fb = f;
-        if (valid && prev_valid) {
-            bracket = (f > 0.0) != (prev_f > 0.0);
-        } else if ((valid || prev_valid) && may_cross(map, s, prev_t, t)) {
-            float edge = coverage_edge(map, s, prev_valid ? prev_t : t, prev_valid ? t : prev_t);
+    while (true) {
+        // sample steps k = j+1, ... ([t(k−1), t(k)]) up to the first sign change between
+        // covered samples (its bracket a, b); the first coverage edge's step on the way
+        int k_bracket = 0, k_edge = 0;
+        bool more_edges = false;
+        float a, b, fa, fb;
+        float edge_a, edge_b, edge_f;  // the edge's step and its covered end's f
+        bool edge_at_a;                // ... covered at its start
+        for (int k = j + 1; k <= PEAK_SAMPLES + 1; ++k) {
+            float t = sample_t(k, s);
+            bool valid;
+            float f = segment_f(map, s, t, valid);
+            if (valid && prev_valid) {
+                if ((f > 0.0) != (prev_f > 0.0)) {
+                    k_bracket = k;
+                    a = prev_t; b = t; fa = prev_f; fb = f;
+                    break;
+                }
+            } else if ((valid || prev_valid) && may_cross(map, s, prev_t, t)) {
+                more_edges = k_edge > 0;
+                if (k_edge == 0) {
+                    k_edge = k;
+                    edge_a = prev_t; edge_b = t; edge_at_a = prev_valid;
+                    edge_f = prev_valid ? prev_f : f;
+                }
+            }
+            prev_t = t;
+            prev_f = f;
+            prev_valid = valid;
+        }
+        // the edge: a sign change between its covered end and where coverage ends?
+        bool edge_bracket = false;
+        if (k_edge > 0) {
+            float edge = coverage_edge(map, s, edge_at_a ? edge_a : edge_b, edge_at_a ? edge_b : edge_a);
             bool v;
             float f_edge = segment_f(map, s, edge, v);
-            if (prev_valid && (f_edge > 0.0) != (prev_f > 0.0)) {
-                bracket = true;
-                b = edge;
-                fb = f_edge;
-            } else if (valid && (f_edge > 0.0) != (f > 0.0)) {
-                bracket = true;
-                a = edge;
-                fa = f_edge;
+            edge_bracket = (f_edge > 0.0) != (edge_f > 0.0);
+            if (edge_bracket) {
+                a = edge_at_a ? edge_a : edge;
+                b = edge_at_a ? edge : edge_b;
+                fa = edge_at_a ? edge_f : f_edge;
+                fb = edge_at_a ? f_edge : edge_f;
             }
         }
-        float found = bracket ? refine_crossing(map, s, a, b, fa, fb, hit_index) : -1.0;
-        if (found >= 0.0 && !is_start_surface(hit_index)) return found;
-        prev_t = t;
-        prev_f = f;
-        prev_valid = valid;
+        int k_resume = edge_bracket || more_edges ? k_edge : k_bracket;
+        if (k_resume == 0) break;
+        if (edge_bracket || !more_edges) {
+            float found = refine_crossing(map, s, a, b, fa, fb, hit_index);
+            if (!is_start_surface(hit_index)) return found;
+        }
+        j = k_resume;
+        prev_t = sample_t(j, s);
+        prev_f = segment_f(map, s, prev_t, prev_valid);
     }
     hit_index = -1;
     return -1.0;
