@@ -30,8 +30,9 @@ FRONT, BACK, BOTH = 1, -1, 0
 
 class LightMap(NamedTuple):
     """One light map: ``surface`` RGBA32F (distance, material, octahedral shading
-    normal; 0 = empty) and ``geometric`` RGBA32F (octahedral outward geometric normal,
-    primitive id + 1 of the triangle, 0)."""
+    normal; 0 = empty) and ``geometric``: the octahedral outward geometric normal, RG32F,
+    or RGBA32F with the triangle's primitive id + 1 in its third channel (only the start
+    rule ``id`` reads it: the wider target costs every frame's map passes)."""
 
     surface: moderngl.Texture
     geometric: moderngl.Texture
@@ -59,7 +60,7 @@ class LightMapRenderer:
                    include_diffuse: bool = False, target: moderngl.Texture | None = None,
                    geometric: moderngl.Texture | None = None) -> moderngl.Texture:
         """One map at res×res; returns the texture (``target`` reused if given). The
-        geometric normals and primitive ids go to ``geometric`` (RGBA32F, res×res) when given.
+        geometric normals (and primitive ids) go to ``geometric`` (res×res, :class:`LightMap`) when given.
 
         ``self.last_samples`` holds the number of fragments that passed (occlusion
         query): 0 means the map is empty."""
@@ -95,9 +96,10 @@ class LightMapRenderer:
         fbo.release()
         return tex
 
-    def render_light_map(self, frustum, res: int, **filters) -> LightMap:
-        """One map with its geometric normals (``filters`` as :meth:`render_map`)."""
-        geometric = self.ctx.texture((res, res), 4, dtype="f4")
+    def render_light_map(self, frustum, res: int, *, primitive_ids: bool = True, **filters) -> LightMap:
+        """One map with its geometric normals, and with the primitive ids when
+        ``primitive_ids`` (``filters`` as :meth:`render_map`)."""
+        geometric = self.ctx.texture((res, res), 4 if primitive_ids else 2, dtype="f4")
         geometric.filter = (moderngl.NEAREST, moderngl.NEAREST)
         return LightMap(self.render_map(frustum, res, geometric=geometric, **filters), geometric)
 
@@ -115,8 +117,10 @@ class LightMapRenderer:
         lo, hi = float(along.min()), float(along.max())
         return [-np.inf] + [lo + i * (hi - lo) / layers for i in range(1, layers)]
 
-    def render_layers(self, frustum, res: int, layers: int, strategy: str) -> list["LightMap"]:
-        """The 2·layers maps in map order (2·level + facing).
+    def render_layers(self, frustum, res: int, layers: int, strategy: str, *,
+                      primitive_ids: bool = True) -> list["LightMap"]:
+        """The 2·layers maps in map order (2·level + facing), with the primitive ids when
+        ``primitive_ids``.
 
         Also sets ``self.layer_used``: per map, whether any fragment was written."""
         maps, used = [], []
@@ -125,11 +129,12 @@ class LightMapRenderer:
         for level in range(layers):
             for k, facing in enumerate((FRONT, BACK)):
                 if strategy == "threshold":
-                    m = self.render_light_map(frustum, res, facing=facing, threshold=thresholds[level])
+                    m = self.render_light_map(frustum, res, facing=facing, threshold=thresholds[level],
+                                              primitive_ids=primitive_ids)
                 else:
                     previous = maps[2 * (level - 1) + k].surface if level > 0 else None
                     m = self.render_light_map(frustum, res, facing=facing, previous=previous,
-                                              peel_epsilon=peel_epsilon)
+                                              peel_epsilon=peel_epsilon, primitive_ids=primitive_ids)
                 maps.append(m)
                 used.append(self.last_samples > 0)
         self.layer_used = used

@@ -108,7 +108,8 @@ class Renderer:
         released = []
         maps = self._light_maps(timer, tracer, frustum, p, released)
         with timer.measure("emission"):
-            emission_map = self.light_maps.render_light_map(frustum, p.photon_res, facing=BOTH)
+            emission_map = self.light_maps.render_light_map(frustum, p.photon_res, facing=BOTH,
+                                                            primitive_ids=tracer.id_rule)
             photons = tracer.emit_photons(scene, frustum, emission_map, p.photon_res, p.seed)
         released += [emission_map, photons]
         view = _camera_view(scene, p, box)
@@ -136,7 +137,8 @@ class Renderer:
     def _light_maps(self, timer, tracer, frustum, p: ApproxParams, released: list) -> dict:
         """The light layers (paper Fig. 1A, 3) packed for the tracer, and the shadow map."""
         with timer.measure("layers"):
-            layer_maps = self.light_maps.render_layers(frustum, p.light_res, p.layers, p.layer_strategy)
+            layer_maps = self.light_maps.render_layers(frustum, p.light_res, p.layers, p.layer_strategy,
+                                                       primitive_ids=tracer.id_rule)
             map_texels, map_bounds = tracer.map_buffer(layer_maps, p.light_res)
             # exact distance range of each map's surfaces (a little slack for float rounding)
             map_info = [(b is not None, b[0] * (1 - 1e-5), b[1] * (1 + 1e-5)) if b else (False, 0.0, 0.0)
