@@ -76,6 +76,9 @@ def test_the_shipped_variants_spec_loads():
 
     path = os.path.join(os.path.dirname(spec_module.__file__), "variants.toml")
     spec = spec_from_toml(path)
+    from volcaustics.scenes import BUILTIN_NAMES
+
+    assert sorted(spec.scenes) == sorted(BUILTIN_NAMES)  # every built-in (in the order worth waiting for)
     searches = {p.params.search for p in points(spec)}
     assert searches == {"bisection", "secant", "dda", "hiz"}
     assert {p.params.start_rule for p in points(spec)} == {"offset", "id", "facing"}
