@@ -125,6 +125,12 @@ PARAMS: tuple = (
           choices=("offset", "id", "facing"), program="trace", glsl="define",
           to_defines=lambda v: {"START_RULE_ID": 1} if v == "id" else {"START_RULE_FACING": 1} if v == "facing"
           else {}),
+    Param("crossing", str, "sign", "what a search takes for a crossing: sign (paper: any change of sign of f "
+          "between covered points) or surface (only where the segment is at the crossed texel's surface, within "
+          "2 footprints · (1 + tan θ) of its distance: a change of sign between texels of two surfaces is passed "
+          "over, like a screen-space ray tracer's thickness test)", choices=("sign", "surface"), program="trace",
+          glsl="define", to_defines=lambda v: {"CROSSING_SURFACE": 1, "CROSSING_TEXELS": "2.0"} if v == "surface"
+          else {}),
     Param("steps", int, 4, "interaction steps (photon maps) traced", "", 1, 32),
     Param("splat_radius", float, 0.01, "standard deviation of the splatted 3D Gaussian", "m", 0, 10,
           glsl="uniform"),

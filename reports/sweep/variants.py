@@ -18,21 +18,22 @@ from volcaustics.approx.params import PAPER
 from volcaustics.reports.core.plotting import OKABE_ITO, pyplot, save_figure
 from volcaustics.reports.sweep.figures import pareto_front, step_rows
 
-VARIANT_PARAMS = ("search", "start_rule", "layer_strategy", "layers", "peak_samples", "iterations")
+VARIANT_PARAMS = ("search", "start_rule", "crossing", "layer_strategy", "layers", "peak_samples", "iterations")
 POINT_COLUMNS = ("map_reads_per_segment", "frame_time_s", "share_intersection", "share_intersection_se",
                  "intersection_relmse_part", "intersection_relmse_part_se")  # from the points table
-VARIANT_NAME = ("layer_strategy", "search", "start_rule")
+VARIANT_NAME = ("layer_strategy", "search", "start_rule", "crossing")
 SEARCH_MARKERS = {"bisection": "o", "secant": "s", "dda": "^", "hiz": "D"}
 
 
 def variant_name(row) -> str:
-    """layer_strategy / search / start_rule of a row (a dict or a table row), those it has."""
+    """layer_strategy / search / start_rule / crossing of a row (a dict or a table row),
+    those it has."""
     return " / ".join(str(row[k]) for k in VARIANT_NAME if k in row and row[k] is not None)
 
 
 def is_variants_sweep(varied) -> bool:
-    """A sweep varies a variant choice (search or start_rule)."""
-    return bool({"search", "start_rule"} & set(varied))
+    """A sweep varies a variant choice (search, start_rule or crossing)."""
+    return bool({"search", "start_rule", "crossing"} & set(varied))
 
 
 def paper_mask(points: pd.DataFrame) -> pd.Series:

@@ -154,6 +154,36 @@ def test_crossing_at_a_later_coverage_edge_before_a_sign_change(search):
 
 
 @pytest.mark.parametrize("search", SEARCHES)
+def test_crossing_surface_passes_over_a_jump_between_two_surfaces(search):
+    """One map, along a segment at about 1.4 m: a near surface (1 m: the segment runs
+    behind it), then a far one (2 m: in front of it), then a surface sloping from 1.7 m
+    towards the light, 0.02 m per texel, facing it. f changes sign where the near
+    surface ends, at no surface: `crossing` = sign (the paper) takes that jump;
+    `surface` passes it over and finds where the segment meets the slope."""
+    start, d = _light_point(1.4, x=-0.45), _unit([1.0, -0.05, 0.0])
+    ys = _samples_image_y(start, d)
+    along = np.sign(ys[1] - ys[0]) * (np.arange(RES) + 0.5)  # each texel row's position along the segment
+    mid = np.sign(ys[1] - ys[0]) * 0.5 * (ys[:-1] + ys[1:])  # ... of the points halfway between samples
+    front = np.ones((RES, RES))                                            # samples 1, 2
+    front[along >= mid[1]] = 2.0                                           # samples 3, 4, 5
+    slope = along >= mid[4]                                                # samples 6, 7, 8
+    front[slope] = (1.7 - 0.02 * (along - mid[4]))[slope, None]
+    facing_light = np.zeros((2, RES, RES, 2), np.float32)
+    facing_light[..., 1] = 1.0  # octahedral (0, 1, 0): up, towards the light
+    length = sm.box_exit(start[None], d[None])[0]
+    t_jump, _, y_jump = sm.first_crossing(front, start, d, length)
+    t_slope, _, y_slope = sm.first_crossing(np.where(slope[:, None], front, 0.0), start, d, length)
+    assert not slope[y_jump] and slope[y_slope] and t_jump < t_slope  # a jump first, then the slope
+    maps = _maps(front, front * 0.0)
+    paper = sm.trace_segments(_ctx(), maps, np.array([start]), np.array([d]), search=search,
+                              geometric_normals=facing_light)[0]
+    surface = sm.trace_segments(_ctx(), maps, np.array([start]), np.array([d]), search=search, crossing="surface",
+                                geometric_normals=facing_light)[0]
+    assert paper["hit"] and paper["t"] == pytest.approx(t_jump, abs=2e-4)
+    assert surface["hit"] and surface["t"] == pytest.approx(t_slope, abs=2e-4)
+
+
+@pytest.mark.parametrize("search", SEARCHES)
 def test_thin_wall_front_map_first(search):
     """A shell wall thinner than a texel footprint: front map at 2 m, back map 1 mm
     beyond. The front crossing wins, on map 0."""

@@ -102,7 +102,7 @@ float sample_t(int k, Segment s) {
 // the light: photons inside glass often leave next to one), the covered end nearest
 // the edge is found by binary search and tested too, so a crossing between the last
 // covered sample and the edge is not missed. A crossing onto the start surface (start
-// rule `id` or `facing`) is passed over.
+// rule `id` or `facing`), or not at a surface (`crossing` = surface), is passed over.
 //
 // The work is ordered for SIMD hardware, where lanes run in step and a loop inside a
 // branch costs every lane its trip count as soon as one lane enters it: a scan reads the
@@ -110,7 +110,7 @@ float sample_t(int k, Segment s) {
 // edge search and one refinement follow, outside the sample loop, so lanes whose edges
 // and crossings lie at different samples search together. The result is that of testing
 // the sample steps in order: a scan that finds nothing to return (its edge held no
-// crossing and another edge follows; the crossing was the start surface) is resumed
+// crossing and another edge follows; the crossing was passed over) is resumed
 // from the sample step it tested last.
 float estimate_on_map(int map, Segment s, out int hit_index) {
     hit_index = -1;
@@ -166,7 +166,7 @@ float estimate_on_map(int map, Segment s, out int hit_index) {
         if (k_resume == 0) break;
         if (edge_bracket || !more_edges) {
             float found = refine_crossing(map, s, a, b, fa, fb, hit_index);
-            if (!is_start_surface(hit_index)) return found;
+            if (!passed_over(hit_index, s, found)) return found;
         }
         j = k_resume;
         prev_t = sample_t(j, s);

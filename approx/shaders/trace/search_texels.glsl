@@ -106,7 +106,7 @@ float texel_crossing(int map, Segment s, inout Walk w, float u_out, out int inde
     return -1.0;
 }
 
-// After a crossing passed over (start rule `id`): the run continues beyond it.
+// After a crossing passed over: the run continues beyond it.
 void continue_after(Segment s, inout Walk w, float u_out, int index) {
     w.run = true;
     w.positive = length(s.q + s.d * mix(s.t0, s.t1, u_out)) > map_dist[index];
@@ -137,8 +137,8 @@ bool skip_cell(int map, Segment s, inout Walk w, int L, float u_out) {
 #endif
 
 // First crossing on the map within [t0, t1]; returns t or -1, and the index of the map
-// texel at t (the surface crossed). A crossing onto the start surface (start rule `id`)
-// is passed over.
+// texel at t (the surface crossed). A crossing onto the start surface (start rule `id`
+// or `facing`), or not at a surface (`crossing` = surface), is passed over.
 float estimate_on_map(int map, Segment s, out int hit_index) {
     hit_index = -1;
     Walk w;
@@ -166,7 +166,7 @@ float estimate_on_map(int map, Segment s, out int hit_index) {
         int index;
         float t = texel_crossing(map, s, w, u_out, index);
         if (t >= 0.0) {
-            if (!is_start_surface(index)) {
+            if (!passed_over(index, s, t)) {
                 hit_index = index;
                 return t;
             }

@@ -36,7 +36,7 @@
 //
 // Defines: MAPS (2 × layers), PEAK_SAMPLES, ITERATIONS, MAX_MATERIALS, SEARCH_*
 // (one of BISECTION, SECANT, DDA, HIZ), the start-offset constants, START_RULE_ID or START_RULE_FACING,
-// FRESNEL_STOCHASTIC and CLIP_TO_OBJECTS when chosen.
+// CROSSING_SURFACE (with CROSSING_TEXELS), FRESNEL_STOCHASTIC and CLIP_TO_OBJECTS when chosen.
 #if !defined(SEARCH_BISECTION) && !defined(SEARCH_SECANT) && !defined(SEARCH_DDA) && !defined(SEARCH_HIZ)
 #define SEARCH_BISECTION 1
 #endif
@@ -155,6 +155,31 @@ bool is_start_surface(int index) {
     if (index < 0) return false;
     ++g_map_reads;
     return (dot(g_dir, octa_decode(map_geometric[index])) > 0.0) != g_inside;
+#else
+    return false;
+#endif
+}
+
+// Is a crossing at t onto the texel (index) passed over? Onto the start surface (the
+// start rule), or — `crossing` = surface — where the segment is not at the texel's
+// surface: f changed sign between texels of two surfaces (a jump in the map, e.g. at a
+// silhouette over a farther surface), not at a surface. The segment is at it when its
+// distance to the light is within CROSSING_TEXELS footprints · (1 + tan θ) of the
+// texel's (θ: between the light ray and the texel's geometric normal; the surface's
+// distance changes by about tan θ footprints across one texel): the thickness test of
+// screen-space ray tracers (McGuire & Mara, JCGT 2014), here from the surface's own
+// slope. One more map read (the geometric normal). Under `sign` (the paper) never.
+bool passed_over(int index, Segment s, float t) {
+    if (is_start_surface(index)) return true;
+#ifdef CROSSING_SURFACE
+    if (index < 0) return false;
+    ++g_map_reads;
+    float D = map_dist[index];
+    vec3 to_point = s.q + s.d * t;
+    float r = length(to_point);
+    float cos_theta = clamp(abs(dot(to_point / r, octa_decode(map_geometric[index]))), 0.1, 1.0);
+    float tan_theta = sqrt(1.0 - cos_theta * cos_theta) / cos_theta;
+    return abs(r - D) > CROSSING_TEXELS * texel_angle * D * (1.0 + tan_theta);
 #else
     return false;
 #endif
