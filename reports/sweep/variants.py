@@ -87,8 +87,9 @@ def best_variants(table: pd.DataFrame) -> pd.DataFrame:
 
 def draw_variants(table: pd.DataFrame, folder: str) -> list:
     """Per scene: |intersection share| against map reads per segment and against frame
-    time, a marker per search, filled for start rule `offset`, hollow for `id`; the
-    Pareto front (map reads) drawn, the paper's point circled. Returns the paths."""
+    time, a marker per search, filled for start rule `offset`, hollow for the others,
+    larger with a thick edge for crossing `surface`; the Pareto front (map reads) drawn,
+    the paper's point circled. Returns the paths."""
     plt = pyplot()
     paths = []
     colours = {s: OKABE_ITO[i % len(OKABE_ITO)] for i, s in enumerate(SEARCH_MARKERS)}
@@ -96,11 +97,16 @@ def draw_variants(table: pd.DataFrame, folder: str) -> list:
         fig, axes = plt.subplots(1, 2, figsize=(11.0, 4.2))
         for ax, cost, xlabel in ((axes[0], "map_reads_per_segment", "map reads per segment (hardware-independent)"),
                                  (axes[1], "frame_time_s", "frame time (s, llvmpipe)")):
-            for (search, rule), own in rows.groupby(["search", "start_rule"]):
-                colour = colours.get(search, "grey")
-                ax.scatter(own[cost], 100 * own["share_intersection"].abs(), marker=SEARCH_MARKERS.get(search, "o"),
-                           s=28, edgecolors=colour, facecolors=colour if rule == "offset" else "none",
-                           label=f"{search} / {rule}")
+            kinds = [k for k in ("search", "start_rule", "crossing") if k in rows]
+            for values, own in rows.groupby(kinds):
+                kind = dict(zip(kinds, values))
+                colour = colours.get(kind["search"], "grey")
+                surface = kind.get("crossing") == "surface"
+                ax.scatter(own[cost], 100 * own["share_intersection"].abs(),
+                           marker=SEARCH_MARKERS.get(kind["search"], "o"), s=60 if surface else 28,
+                           linewidths=2.0 if surface else 1.0, edgecolors=colour,
+                           facecolors=colour if kind.get("start_rule") == "offset" else "none",
+                           label=" / ".join(str(v) for v in values))
             paper = rows[rows["paper"]]
             ax.scatter(paper[cost], 100 * paper["share_intersection"].abs(), s=160, facecolors="none",
                        edgecolors="black", lw=1.5, label="the paper's method")
