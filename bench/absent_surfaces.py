@@ -2,6 +2,7 @@
 light map holds.
 
     .venv/bin/python bench/absent_surfaces.py [SCENE ...] [--strategies threshold,peel] [--layers 4,8]
+        [--set NAME=VALUE ...]
 
 A search reads the light maps; a surface no map holds at the point where the segment
 meets it cannot be found by any search (`search`) or start rule, only by other maps
@@ -59,13 +60,15 @@ def main(argv=None) -> int:
     parser.add_argument("scenes", nargs="*", default=["bunny", "feline", "skull"])
     parser.add_argument("--strategies", default="threshold,peel")
     parser.add_argument("--layers", default="4,8")
+    parser.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                        help="another parameter for every run, e.g. crossing=surface")
     args = parser.parse_args(argv)
     import numpy as np
 
     from volcaustics.approx import Renderer
     from volcaustics.approx.layers import read_map
     from volcaustics.approx.light import LightFrustum
-    from volcaustics.approx.params import preset
+    from volcaustics.approx.params import param, preset
     from volcaustics.metrics.intersection import (
         MISSED_INSIDE,
         MISSED_MEDIUM,
@@ -79,8 +82,12 @@ def main(argv=None) -> int:
     from volcaustics.scenes import load_builtin
     from volcaustics.scenes.bounds import medium_bounds
 
-    print("quick preset, seed 0; step 2: class shares of its segments (self: re-hits of the start surface, "
-          "classed by what lies beyond); "
+    changes = {}
+    for text in args.set:
+        name, _, value = text.partition("=")
+        changes[name] = param(name).parse(value)
+    print(f"quick preset {changes or ''}, seed 0; step 2: class shares of its segments (self: re-hits of the "
+          "start surface, classed by what lies beyond); "
           "all steps: wrong-surface (W) and missed (M) segments whose exact surface no map holds")
     print(f"{'scene':8} {'strategy':9} {'layers':>6} | {'step 2: true':>12} {'wrong':>6} {'missed':>6} "
           f"{'self':>6} | {'W':>6} {'absent':>7} {'early':>7} {'start':>7} {'jump':>7} | {'M':>6} {'absent':>7} | "
@@ -92,7 +99,7 @@ def main(argv=None) -> int:
         frustum = LightFrustum.for_scene(scene, *medium_bounds(scene))
         for strategy in args.strategies.split(","):
             for layers in (int(x) for x in args.layers.split(",")):
-                p = preset("quick", layer_strategy=strategy, layers=layers).resolved(scene)
+                p = preset("quick", layer_strategy=strategy, layers=layers, **changes).resolved(scene)
                 frame = renderer.render(params=p)
                 maps = [read_map(m.surface)[..., 0] for m in
                         renderer.light_maps.render_layers(frustum, p.light_res, p.layers, p.layer_strategy)]
