@@ -1,9 +1,9 @@
 """Frame time and map reads per search variant (issue "Variants"), one process.
 
     .venv/bin/python bench/variants.py [SCENE] [--frames 3] [--preset paper]
-        [--variants bisection/offset,secant/offset,dda/offset,hiz/offset,...]
+        [--variants bisection/offset,secant/offset,dda/offset,hiz/offset,bisection/offset/surface,...]
 
-Each variant (search/start_rule, other parameters at the preset) renders one
+Each variant (search/start_rule[/crossing], other parameters at the preset) renders one
 warm-up frame (shader compilation), then FRAMES timed frames, interleaved round
 robin so that the machine's drift spreads over all variants; the median frame and
 trace time are printed with the map reads per segment and per frame of one
@@ -35,7 +35,7 @@ def main(argv=None) -> int:
     scene = resolve_scene(args.scene)
     renderer = Renderer(scene)
     variants = [tuple(v.split("/")) for v in args.variants.split(",")]
-    params = {v: preset(args.preset, search=v[0], start_rule=v[1]) for v in variants}
+    params = {v: preset(args.preset, **dict(zip(("search", "start_rule", "crossing"), v))) for v in variants}
     print(f"scene {scene.name}; preset {args.preset}; GL: {renderer.ctx.info['GL_RENDERER']}")
     for v in variants:
         renderer.render(params=params[v], keep_records=False)  # warm-up: compiles
@@ -44,7 +44,7 @@ def main(argv=None) -> int:
         for v in variants:
             times[v].append(renderer.render(params=params[v], keep_records=False).timings)
     base = None
-    print(f"{'variant':<20} {'frame s':>8} {'ratio':>6} {'trace s':>8} {'ratio':>6} {'reads/seg':>10} "
+    print(f"{'variant':<26} {'frame s':>8} {'ratio':>6} {'trace s':>8} {'ratio':>6} {'reads/seg':>10} "
           f"{'M reads/frame':>14}")
     for v in variants:
         frame = statistics.median(t["frame_wall"] for t in times[v])
@@ -52,7 +52,7 @@ def main(argv=None) -> int:
         records = renderer.render(params=params[v], keep_records=True).records
         reads, segments = sum(int(r["map_reads"].sum()) for r in records), sum(len(r) for r in records)
         base = base or (frame, trace)
-        print(f"{'/'.join(v):<20} {frame:8.2f} {frame / base[0]:6.2f} {trace:8.2f} {trace / base[1]:6.2f} "
+        print(f"{'/'.join(v):<26} {frame:8.2f} {frame / base[0]:6.2f} {trace:8.2f} {trace / base[1]:6.2f} "
               f"{reads / max(segments, 1):10.1f} {reads / 1e6:14.1f}", flush=True)
     renderer.release()
     return 0
