@@ -8,7 +8,7 @@ from volcaustics.approx.params import PARAMS, PRESETS
 from volcaustics.reports.cli.common import UsageError, check_output_set
 from volcaustics.reports.core.executors import default_workers, parse_dask
 from volcaustics.reports.sweep.run import OUTPUT_FILES, OUTPUT_FOLDERS, run_sweep
-from volcaustics.reports.sweep.spec import spec_from_args, spec_from_toml
+from volcaustics.reports.sweep.spec import MAX_POINTS, spec_from_args, spec_from_toml
 from volcaustics.reports.sweep.variants import variant_name
 
 
@@ -27,6 +27,9 @@ def register(sub) -> None:
     p.add_argument("--workers", type=int, help="local worker processes (default: the core count)")
     p.add_argument("--dask", metavar="tcp://HOST:PORT|local:N",
                    help="run on Dask distributed: a running scheduler, or a LocalCluster of N process workers")
+    p.add_argument("--yes", action="store_true",
+                   help=f"run a grid of more than {MAX_POINTS:,} points (refused without it: a typo more often than a "
+                        f"plan)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
 
@@ -42,10 +45,12 @@ def run(args) -> int:
             parse_dask(args.dask)
         except ValueError as exc:
             raise UsageError("--dask", args.dask, str(exc).split(": ", 1)[-1]) from None
+    max_points = None if args.yes else MAX_POINTS
     if args.spec:
-        spec = spec_from_toml(args.spec)
+        spec = spec_from_toml(args.spec, max_points)
     else:
-        spec = spec_from_args(args.scenes, args.vary, args.set, preset=args.preset, seeds=args.seeds)
+        spec = spec_from_args(args.scenes, args.vary, args.set, preset=args.preset, seeds=args.seeds,
+                              max_points=max_points)
     result = run_sweep(spec, args.output, workers=args.workers or default_workers(), dask=args.dask,
                        progress=not args.quiet)
     print(f"sweep: {result.total} points: {result.done_before} already in the store, {result.computed} computed, "

@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import dataclasses
 import itertools
+import math
 import os
 from dataclasses import dataclass, field
 
@@ -41,6 +42,11 @@ from volcaustics.reports.runner import Point
 from volcaustics.scenes import BUILTIN_NAMES, SceneError, resolve_scene
 
 SPEC_KEYS = ("scenes", "preset", "seeds", "vary", "set", "reference")
+# Points a sweep runs without --yes: about 3 days at the quick preset's 25 s a point on 2
+# cores (README "Sweeps"); a larger grid is a typo more often than a plan, and expanding
+# and checking 10^6 points alone takes minutes.
+MAX_POINTS = 10_000
+SECONDS_PER_POINT = 25.0  # quick preset, 4 seeds, 2 cores (the variants sweep, docs/decisions.md)
 
 
 class SweepError(ValueError):
@@ -70,8 +76,10 @@ class SweepSpec:
         return out
 
 
-def spec_from_args(scenes: str | None, vary: list, fixed: list, *, preset: str, seeds: int) -> SweepSpec:
-    """A spec from ``--scenes a,b``, ``--vary NAME=V1,V2`` and ``--set NAME=V``."""
+def spec_from_args(scenes: str | None, vary: list, fixed: list, *, preset: str, seeds: int,
+                   max_points: int | None = MAX_POINTS) -> SweepSpec:
+    """A spec from ``--scenes a,b``, ``--vary NAME=V1,V2`` and ``--set NAME=V``; more
+    than ``max_points`` points (None: no limit) is refused."""
     names = [s.strip() for s in scenes.split(",")] if scenes is not None else list(BUILTIN_NAMES)
     grid = []
     for text in vary or []:
@@ -80,11 +88,12 @@ def spec_from_args(scenes: str | None, vary: list, fixed: list, *, preset: str, 
             raise SweepError(f"--vary {text!r}: {name} is varied twice")
         grid.append((name, tuple(values)))
     settled = parse_overrides(fixed, error=SweepError, seed_option=False)
-    return _checked(SweepSpec(tuple(names), tuple(grid), settled, preset, seeds), "command line")
+    return _checked(SweepSpec(tuple(names), tuple(grid), settled, preset, seeds), "command line", max_points)
 
 
-def spec_from_toml(path: str) -> SweepSpec:
-    """A spec from a TOML file (see the module's docstring)."""
+def spec_from_toml(path: str, max_points: int | None = MAX_POINTS) -> SweepSpec:
+    """A spec from a TOML file (see the module's docstring); more than ``max_points``
+    points (None: no limit) is refused."""
     doc = load_toml(path, keys=SPEC_KEYS, error=SweepError, what="sweep spec")
     scenes = doc.get("scenes")
     if scenes is None:
@@ -114,7 +123,7 @@ def spec_from_toml(path: str) -> SweepSpec:
     seeds = doc.get("seeds", 1)
     preset = doc.get("preset", "quick")
     return _checked(SweepSpec(tuple(scenes), grid, settled, preset, seeds, dict(reference),
-                              tuple(grids) if several else ()), path)
+                              tuple(grids) if several else ()), path, max_points)
 
 
 def _merged(grids: list) -> tuple:
@@ -134,9 +143,15 @@ def _table(doc, key, path) -> dict:
     return value
 
 
-def _checked(spec: SweepSpec, where: str) -> SweepSpec:
-    """Validate everything that can be checked before rendering: scenes exist, names,
-    the preset, the seeds, every point's parameters, overlaps of vary and set."""
+def grid_size(spec: SweepSpec) -> int:
+    """The points of the spec's grids over its scenes, before a point named twice is
+    merged (counted, not expanded)."""
+    return len(spec.scenes) * sum(math.prod(len(values) for _, values in grid) for grid in spec.grids or (spec.vary,))
+
+
+def _checked(spec: SweepSpec, where: str, max_points: int | None = MAX_POINTS) -> SweepSpec:
+    """Validate everything that can be checked before rendering: the grid's size, scenes
+    exist, names, the preset, the seeds, every point's parameters, overlaps of vary and set."""
     if spec.preset not in PRESETS:
         raise SweepError(f"{where}: preset = {spec.preset!r}: expected {' or '.join(repr(n) for n in PRESETS)}")
     if isinstance(spec.seeds, bool) or not isinstance(spec.seeds, int) or not 1 <= spec.seeds <= 1024:
@@ -149,6 +164,11 @@ def _checked(spec: SweepSpec, where: str) -> SweepSpec:
         for name, values in grid:
             if len(set(values)) != len(values):
                 raise SweepError(f"{where}: vary.{name} = {list(values)!r}: a value is listed twice")
+    size = grid_size(spec)
+    if max_points is not None and size > max_points:
+        days = size * SECONDS_PER_POINT / 86400.0
+        raise SweepError(f"{where}: {size:,} points (scenes × grid), more than {max_points:,}: about {days:,.0f} days "
+                         f"at {SECONDS_PER_POINT:g} s a point; narrow the grid, or pass --yes to run it")
     both = sorted(set(dict(spec.vary)) & set(spec.fixed))
     if both:
         raise SweepError(f"{where}: {both[0]} is both varied and set")

@@ -162,12 +162,29 @@ def test_bad_spec_exits_2_and_renders_nothing(env, tmp_path, capsys, spec, messa
     (["--vary", "seed=1,2"], "seed cannot be varied"),
     (["--workers", "0"], "--workers"),
     (["--dask", "udp://x"], "--dask"),
+    (["--vary", f"iterations={','.join(map(str, range(65)))}", "--vary",  # 16,705 points
+      f"peak_samples={','.join(map(str, range(257)))}"], "pass --yes to run it"),
 ])
 def test_bad_command_line_exits_2(env, tmp_path, capsys, args, message):
     out = tmp_path / "store"
     assert main(["sweep", "--scenes", "refocus", *args, "-o", str(out), "--quiet"]) == 2
     assert message in capsys.readouterr().err
     assert not out.exists()
+
+
+def test_a_grid_above_the_limit_is_refused_before_it_is_expanded_unless_asked_for():
+    """Counted, not expanded: 10^12 points are refused at once (expanding them would never
+    end); at or below the limit, or with max_points None (--yes), the spec stands."""
+    from volcaustics.reports.sweep.spec import SweepError, grid_size, spec_from_args
+
+    huge = [f"{name}={','.join(map(str, range(1, 9 if name == 'layers' else 60)))}"
+            for name in ("layers", "iterations", "peak_samples", "steps", "fog_steps", "light_res")]
+    with pytest.raises(SweepError, match=r"points \(scenes × grid\), more than 10,000.*--yes"):
+        spec_from_args("refocus", huge, [], preset="quick", seeds=1)
+    with pytest.raises(SweepError, match="3 points"):
+        spec_from_args("refocus", ["layers=1,2,3"], [], preset="quick", seeds=1, max_points=2)
+    spec = spec_from_args("refocus", ["layers=1,2,3"], [], preset="quick", seeds=1, max_points=None)
+    assert grid_size(spec) == 3
 
 
 def test_store_commit_keeps_a_complete_copy_and_replaces_a_damaged_one(tmp_path):
