@@ -204,8 +204,20 @@ class Store:
         return out
 
 
+# What a store's points table holds besides the parameters (point_row writes exactly these):
+# its schema, which ``report --sweep`` checks a store against.
+POINT_COLUMNS = ("point", "scene", "scene_hash", "seeds", "reference_key", "code_version", "frame_time_s",
+                 "trace_time_s", "splat_time_s", "map_reads_per_frame", "map_reads_per_segment",
+                 *(f"{name}_{metric}" for name in ("caustic", "combined")
+                   for metric in ("relmse_debiased", "relmse_se", "energy_ratio", "hdr_flip")),
+                 *(f"share_{term}" for term in
+                   ("intersection", "truncation", "reflections", "kernel_blur", "residual")),
+                 "share_intersection_se", "intersection_relmse_part", "intersection_relmse_part_se",
+                 "intersection_relmse_own", "residual_within_noise")
+
+
 def point_row(key: str, summary: dict) -> dict:
-    """The headline numbers of one point: parameters, frame time, errors."""
+    """The headline numbers of one point: parameters, frame time, errors (POINT_COLUMNS)."""
     images = summary.get("images", {})
     caustic, combined = images.get("caustic", {}), images.get("combined", {})
     decomposition = {r["term"]: r for r in summary.get("decomposition", {}).get("rows", [])}

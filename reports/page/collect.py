@@ -17,9 +17,12 @@ from dataclasses import dataclass, field
 
 import pandas as pd
 
+from volcaustics.approx.params import PARAMS, ApproxParams
 from volcaustics.reports import runner
 from volcaustics.reports.core.params import measured_settings
+from volcaustics.reports.core.store import POINT_COLUMNS
 from volcaustics.reports.core.timing import Clock
+from volcaustics.reports.core.versions import code_version
 from volcaustics.reports.gate.regression import load_baseline
 from volcaustics.reports.gate.verdict import scene_verdict
 from volcaustics.reports.page.summary import report_summary
@@ -56,6 +59,7 @@ class SweepTables:
     tables: dict             # "segments", "photons", "images", "points" → DataFrame
     varied: list
     spec: dict
+    notes: list = field(default_factory=list)  # what differs from this code (shown on the page)
 
 
 def collect_scenes(names, params, *, seeds: int, reference_settings, budgets: dict, baseline: dict | None = None,
@@ -115,7 +119,35 @@ def load_sweep(folder: str) -> SweepTables:
     tables = {name: _sweep_table(folder, name) for name in ("segments", "photons", "images", "points")}
     if len(tables["points"]) == 0:
         raise ReportError(f"--sweep {folder}: the sweep holds no finished point")
-    return SweepTables(folder=folder, tables=tables, varied=list(spec["vary"]), spec=spec)
+    notes = _check_schema(folder, tables["points"])
+    return SweepTables(folder=folder, tables=tables, varied=list(spec["vary"]), spec=spec, notes=notes)
+
+
+def _check_schema(folder: str, points: pd.DataFrame) -> list:
+    """Check a store's points table against this code's (``store.POINT_COLUMNS`` and the
+    parameter table); returns the notes the page shows. A column of numbers missing: an
+    older store, refused (ReportError naming them). A parameter missing: the store
+    predates it, so its points ran the parameter's default, which is filled in and noted.
+    Points of another code version: noted (their numbers may differ from this code's)."""
+    versions = sorted({str(v) for v in points["code_version"]}) if "code_version" in points else ["unknown"]
+    missing = [c for c in POINT_COLUMNS if c not in points]
+    if missing:
+        raise ReportError(f"--sweep {folder}: its points table lacks {', '.join(missing)}: written by an older "
+                          f"volcaustics (code version {', '.join(versions)}); rerun the sweep with this code "
+                          f"(`volcaustics sweep SPEC -o {folder}` keeps nothing it cannot use)")
+    notes = []
+    defaults = ApproxParams()
+    absent = [p.name for p in PARAMS if p.name not in points]
+    for name in absent:
+        points[name] = getattr(defaults, name)
+    if absent:
+        notes.append(f"the store predates the parameter{'s' if len(absent) > 1 else ''} {', '.join(absent)}: its "
+                     f"points ran the default ({', '.join(f'{n} = {getattr(defaults, n)}' for n in absent)})")
+    current = code_version()
+    if versions != [current]:
+        notes.append(f"measured by code version {', '.join(versions)}, not this code's {current}: its numbers may "
+                     f"differ from what this code measures; rerun the sweep to refresh them")
+    return notes
 
 
 def _sweep_table(folder: str, name: str) -> pd.DataFrame:

@@ -313,6 +313,7 @@ def _sweep_section(sweep: dict, figures: dict) -> str:
 <section id='sweep'><h2>Sweep</h2>
 <p class='note'>Store <code>{escape(sweep['folder'])}</code>: {sweep['points']} points; varied
 {escape(', '.join(sweep['varied']))}.</p>
+{"".join(f"<p class='warn sweep-note'>{escape(n)}.</p>" for n in sweep.get('notes') or [])}
 <h3>Settings that suffice</h3>
 <p class='note'>Per scene: the fewest layers / iterations / peak_samples whose error is within
 {_num(factor, '{:g}')}× the best over that parameter (the other varied parameters at their largest).</p>

@@ -176,7 +176,7 @@ def _sweep_summary(sweep) -> dict:
             # photon tables they also draw stay in the store (DIR/segments.parquet, DIR/photons.parquet)
             "point_rows": rows_of(sweep.tables["points"]),
             "suffice_factor": float(wanted["factor"].iloc[0]) if len(wanted) else None, "figures": [],
-            "variants": _variants_summary(sweep)}
+            "variants": _variants_summary(sweep), "notes": list(getattr(sweep, "notes", []))}
 
 
 def _variants_summary(sweep) -> dict | None:

@@ -1,0 +1,56 @@
+"""``report --sweep`` on stores from elsewhere: an older schema is refused naming what it
+lacks; a store that predates a parameter, or was measured by another code version, is
+read and marked on the page (issue "Reliability, second pass", H)."""
+
+from __future__ import annotations
+
+import json
+
+import pandas as pd
+import pytest
+
+from volcaustics.approx.params import PARAMS, ApproxParams
+from volcaustics.reports.core.store import POINT_COLUMNS, point_row
+from volcaustics.reports.core.versions import code_version
+from volcaustics.reports.page.collect import ReportError, load_sweep
+from volcaustics.reports.page.html import _sweep_section
+
+
+def _store(folder, drop=(), version=None):
+    """A sweep store of two points with this code's schema, less the columns ``drop``."""
+    params = ApproxParams().to_dict()
+    rows = [{**{c: 0.5 for c in POINT_COLUMNS}, **params, "point": f"p{k}", "scene": "refocus", "layers": k + 1,
+             "code_version": version or code_version()} for k in range(2)]
+    folder.mkdir()
+    pd.DataFrame(rows).drop(columns=list(drop)).to_parquet(folder / "points.parquet")
+    for name in ("segments", "photons", "images"):
+        pd.DataFrame({"point": ["p0"]}).to_parquet(folder / f"{name}.parquet")
+    (folder / "sweep.json").write_text(json.dumps({"spec": {"vary": {"layers": [1, 2]}}, "points": 2}))
+    return str(folder)
+
+
+def test_the_schema_is_what_point_row_writes():
+    summary = {"scene": "s", "scene_hash": "h", "params": ApproxParams().to_dict(), "seeds": 1,
+               "reference": {"key": "k"}, "code_version": "c"}
+    assert set(point_row("key", summary)) == set(POINT_COLUMNS) | {p.name for p in PARAMS}
+
+
+def test_a_store_of_this_code_reads_without_a_note(tmp_path):
+    assert load_sweep(_store(tmp_path / "s")).notes == []
+
+
+def test_an_older_store_is_refused_naming_what_it_lacks(tmp_path):
+    folder = _store(tmp_path / "s", drop=("map_reads_per_segment", "share_intersection_se"), version="0ld")
+    with pytest.raises(ReportError, match="lacks map_reads_per_segment, share_intersection_se: written by an older "
+                                          r"volcaustics \(code version 0ld\); rerun the sweep"):
+        load_sweep(folder)
+
+
+def test_a_store_before_a_parameter_and_of_another_code_version_is_marked(tmp_path):
+    sweep = load_sweep(_store(tmp_path / "s", drop=("crossing",), version="0ld"))
+    assert list(sweep.tables["points"]["crossing"]) == ["sign", "sign"]  # what its points ran
+    assert any("predates the parameter crossing" in n and "crossing = sign" in n for n in sweep.notes)
+    assert any(n.startswith("measured by code version 0ld, not this code's") for n in sweep.notes)
+    html = _sweep_section({"folder": "s", "points": 2, "varied": ["layers"], "suffice": [], "suffice_factor": None,
+                           "notes": sweep.notes}, {})
+    assert html.count("class='warn sweep-note'") == 2 and "predates the parameter crossing" in html
