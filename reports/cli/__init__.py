@@ -44,14 +44,28 @@ def _interrupted(exc: BaseException) -> bool:
 def main(argv=None) -> int:
     """Run the command; exit 130 whenever Ctrl-C came, also during the imports and when
     Python dropped the KeyboardInterrupt ("Exception ignored in ...": raised inside a
-    finalizer or weakref callback)."""
+    finalizer or weakref callback).
+
+    Start-up (the command modules, the libraries and the native extensions the command
+    declares in ``NATIVE``: Dr.Jit, Mitsuba, moderngl) runs with Ctrl-C held: SIGINT
+    (SIGINT reaches the process, whichever thread takes it) is recorded, not raised, so
+    no interrupt lands inside an extension's initialisation (it surfaced there as an
+    ImportError, a NameError or a SystemError, or aborted the interpreter); once
+    start-up is done, one that came ends the run with 130."""
     import signal
 
     came = []
+    holding = [True]
 
     def on_sigint(signum, frame):
         came.append(signum)
-        signal.default_int_handler(signum, frame)
+        if not holding[0]:
+            signal.default_int_handler(signum, frame)
+
+    def started():
+        holding[0] = False
+        if came:
+            raise KeyboardInterrupt
 
     previous = None
     try:
@@ -59,9 +73,15 @@ def main(argv=None) -> int:
             previous = signal.signal(signal.SIGINT, on_sigint)
     except ValueError:  # not the main thread: signals are not ours to handle
         pass
+    if previous is None:
+        holding[0] = False
     try:
-        code = _run(argv)
+        code = _run(argv, started)
     except KeyboardInterrupt:
+        code = None
+    except Exception:
+        if not came:  # an error of an interrupted start-up or shutdown is the interrupt's
+            raise
         code = None
     finally:
         if previous is not None:
@@ -72,11 +92,18 @@ def main(argv=None) -> int:
     return code
 
 
-def _run(argv) -> int | None:
-    """The command's exit code; None when it was interrupted. The command modules and
-    the libraries (about a second of imports) load here, under the Ctrl-C handler."""
+def _run(argv, started=lambda: None) -> int | None:
+    """The command's exit code; None when it was interrupted. The command modules, the
+    libraries (about a second of imports) and the native extensions the command's
+    module names in ``NATIVE`` load here; then ``started()`` (main: Ctrl-C no longer
+    held)."""
+    import importlib
+
     errors = _usage_errors()
     args = build_parser().parse_args(argv)
+    for name in getattr(sys.modules[args.func.__module__], "NATIVE", ()):
+        importlib.import_module(name)
+    started()
     try:
         return args.func(args)
     except errors as exc:

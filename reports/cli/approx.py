@@ -7,6 +7,9 @@ from volcaustics.reports.core.params import add_param_flags, params_from_args
 from volcaustics.reports.render.approx import run_approx
 from volcaustics.scenes import resolve_scene
 
+# native extensions loaded at start-up, with Ctrl-C held (cli.main)
+NATIVE = ("moderngl",)
+
 
 def register(sub) -> None:
     p = sub.add_parser("approx", help="render SCENE with the paper's method: OUT.exr, .png, .records.npz, .json")

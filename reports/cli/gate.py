@@ -9,6 +9,9 @@ from volcaustics.reports.gate.outputs import VERDICT, console_table
 from volcaustics.reports.gate.regression import BASELINE
 from volcaustics.reports.gate.run import run_gate
 
+# native extensions loaded at start-up, with Ctrl-C held (cli.main)
+NATIVE = ("drjit", "mitsuba", "moderngl")
+
 
 def register(sub) -> None:
     p = sub.add_parser("gate", help="fail (exit 1) when the approximation exceeds its budgets or regresses against "

@@ -11,6 +11,9 @@ from volcaustics.reports.experiment.run import checked_settings, run_experiment
 from volcaustics.reports.experiment.write import OUTPUT_FILES, write_experiment
 from volcaustics.scenes import resolve_scene
 
+# native extensions loaded at start-up, with Ctrl-C held (cli.main)
+NATIVE = ("drjit", "mitsuba", "moderngl")
+
 
 def register(sub) -> None:
     p = sub.add_parser("measure", help="one experiment on SCENE: approximation vs reference, exact replay, all "

@@ -7,6 +7,9 @@ from volcaustics.reports.cli.common import add_budget, budget, check_output_file
 from volcaustics.reports.render.reference import run_reference
 from volcaustics.scenes import resolve_scene
 
+# native extensions loaded at start-up, with Ctrl-C held (cli.main)
+NATIVE = ("drjit", "mitsuba")
+
 
 def register(sub) -> None:
     p = sub.add_parser("reference", help="ground truth of SCENE with Mitsuba 3 (cached): OUT.exr, .png, .json")

@@ -18,6 +18,9 @@ from volcaustics.reports.page.collect import ReportError, run_report
 from volcaustics.reports.page.summary import OUTPUT_FILES
 from volcaustics.scenes import BUILTIN_NAMES
 
+# native extensions loaded at start-up, with Ctrl-C held (cli.main)
+NATIVE = ("drjit", "mitsuba", "moderngl")
+
 
 def register(sub) -> None:
     p = sub.add_parser("report", help="the main job: the accuracy report (one HTML page + summary.json) of the "

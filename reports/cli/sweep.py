@@ -11,6 +11,9 @@ from volcaustics.reports.sweep.run import OUTPUT_FILES, OUTPUT_FOLDERS, run_swee
 from volcaustics.reports.sweep.spec import MAX_POINTS, spec_from_args, spec_from_toml
 from volcaustics.reports.sweep.variants import variant_name
 
+# native extensions loaded at start-up, with Ctrl-C held (cli.main)
+NATIVE = ("drjit", "mitsuba", "moderngl")
+
 
 def register(sub) -> None:
     names = ", ".join(p.name for p in PARAMS)
