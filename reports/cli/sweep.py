@@ -6,7 +6,7 @@ import sys
 
 from volcaustics.approx.params import PARAMS, PRESETS
 from volcaustics.reports.cli.common import UsageError, check_output_set
-from volcaustics.reports.core.executors import default_workers, parse_dask
+from volcaustics.reports.core.executors import check_reachable, default_workers, parse_dask
 from volcaustics.reports.sweep.run import OUTPUT_FILES, OUTPUT_FOLDERS, run_sweep
 from volcaustics.reports.sweep.spec import MAX_POINTS, spec_from_args, spec_from_toml
 from volcaustics.reports.sweep.variants import variant_name
@@ -48,6 +48,7 @@ def run(args) -> int:
             parse_dask(args.dask)
         except ValueError as exc:
             raise UsageError("--dask", args.dask, str(exc).split(": ", 1)[-1]) from None
+        check_reachable(args.dask)  # before any reference renders
     max_points = None if args.yes else MAX_POINTS
     if args.spec:
         spec = spec_from_toml(args.spec, max_points)

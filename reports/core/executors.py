@@ -38,6 +38,31 @@ def parse_dask(address: str) -> tuple:
     raise ValueError(f"--dask {address!r}: expected tcp://HOST:PORT (a running scheduler) or local:N")
 
 
+def check_reachable(address: str, timeout: float = 5.0) -> None:
+    """For ``tcp://HOST:PORT``: ExecutorError unless a TCP connection to the scheduler
+    opens within ``timeout`` s — checked before anything renders (connecting the Dask
+    client waits until the points are submitted, after the references). ``local:N``
+    needs nothing."""
+    import socket
+    from urllib.parse import urlsplit
+
+    kind, value = parse_dask(address)
+    if kind != "tcp":
+        return
+    try:
+        url = urlsplit(value)
+        host, port = url.hostname, url.port
+    except ValueError as exc:
+        raise ExecutorError(f"--dask {address}: {exc}") from None
+    if not host or port is None:
+        raise ExecutorError(f"--dask {address!r}: expected tcp://HOST:PORT")
+    try:
+        socket.create_connection((host, port), timeout=timeout).close()
+    except OSError as exc:
+        raise ExecutorError(f"--dask {address}: cannot reach the scheduler ({exc.strerror or exc}): start it "
+                            f"(`dask scheduler`, workers with --nthreads 1) or use --dask local:N") from None
+
+
 def run_tasks(fn, tasks: list, *, total: int, done: int = 0, workers: int | None = None, dask: str | None = None,
               progress: bool = True):
     """Yield ``fn(task)``'s results (dicts; a failed task gives {"key", "error"}) as

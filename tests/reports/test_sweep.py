@@ -172,6 +172,19 @@ def test_bad_command_line_exits_2(env, tmp_path, capsys, args, message):
     assert not out.exists()
 
 
+def test_an_unreachable_scheduler_is_refused_before_any_reference_renders(env, tmp_path, capsys):
+    import socket
+
+    with socket.socket() as s:  # a port nothing listens on: bound, never listening
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+        out = tmp_path / "store"
+        assert main(["sweep", "--scenes", "refocus", "--dask", f"tcp://127.0.0.1:{port}", "-o", str(out),
+                     "--quiet"]) == 2
+    assert "cannot reach the scheduler" in capsys.readouterr().err
+    assert not out.exists() and (not env.exists() or not any(env.rglob("*.exr")))
+
+
 def test_a_grid_above_the_limit_is_refused_before_it_is_expanded_unless_asked_for():
     """Counted, not expanded: 10^12 points are refused at once (expanding them would never
     end); at or below the limit, or with max_points None (--yes), the spec stands."""
