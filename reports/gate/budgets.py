@@ -99,6 +99,16 @@ def load_budgets(path: str) -> dict:
     return {"preset": preset, "seeds": seeds, "scenes": out, "path": path, "reference_settings": settings}
 
 
+def check_measurable(budgets: dict, names, params) -> None:
+    """GateError, before anything is measured, for a budget these parameters leave nothing
+    to check: segment budgets (step 2) with steps < 2."""
+    for name in names:
+        segments = [key for key in budgets["scenes"][name] if key.startswith("segments.")]
+        if segments and params.steps < 2:
+            raise GateError(f"{budgets['path']}: scene.{name}.{segments[0]} checks the step-2 segments, but steps = "
+                            f"{params.steps}: set steps ≥ 2, or gate with budgets without segment limits")
+
+
 def _number(value, scene, what) -> float:
     if value is None or not isinstance(value, (int, float)) or not math.isfinite(value):
         raise GateError(f"{scene}: {what} is {value!r}: a metric the gate needs is missing or NaN")

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 from volcaustics.reports import runner
 from volcaustics.reports.core.params import measured_settings
-from volcaustics.reports.gate.budgets import GateError
+from volcaustics.reports.gate.budgets import GateError, check_measurable
 from volcaustics.reports.gate.outputs import VERDICT, failure_images, write_outputs
 from volcaustics.reports.gate.regression import BASELINE, baseline_text, load_baseline
 from volcaustics.reports.gate.verdict import scene_verdict
@@ -48,6 +48,7 @@ def run_gate(budgets: dict, *, overrides: dict, baseline_dir: str | None, update
     n_seeds = budgets["seeds"] if seeds is None else seeds
     params, n_seeds = measured_settings(budgets["preset"], overrides, seeds=n_seeds, seed=seed, min_seeds=2,
                                         why="the regression test needs 2", error=GateError)
+    check_measurable(budgets, names, params)
     baseline = load_baseline(baseline_dir) if baseline_dir and not update_baseline else None
     absent = [n for n in names if baseline is not None and n not in baseline["scenes"]]
     if absent:

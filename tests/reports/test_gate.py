@@ -101,7 +101,8 @@ def test_junit_validates_against_the_junit_schema(env, capsys):
 
 
 @pytest.mark.parametrize("case", ["no_baseline", "baseline_without_scene", "damaged_baseline", "one_seed",
-                                  "unknown_scene", "missing_reference", "too_tight", "bad_budget", "unknown_set"])
+                                  "unknown_scene", "missing_reference", "too_tight", "bad_budget", "unknown_set",
+                                  "unmeasurable_set"])
 def test_fail_closed_cases_exit_2(env, capsys, case):
     tmp = env
     spec = budgets(tmp, BUNNY)
@@ -131,13 +132,18 @@ def test_fail_closed_cases_exit_2(env, capsys, case):
         args = ["--budgets", budgets(tmp, BUNNY.replace("relmse_max = 0.6", "relmse_maxx = 0.6"), name="b.toml")]
     elif case == "unknown_set":
         args += ["--set", "layerz=2"]
+    elif case == "unmeasurable_set":  # refused before measuring: no reference rendered
+        args += ["--set", "steps=1", "--render-references"]
     assert gate(tmp, *args) == 2
     err = capsys.readouterr().err
     expected = {"no_baseline": "no baseline", "baseline_without_scene": "no entry for 'bunny'",
                 "damaged_baseline": "is damaged", "one_seed": "--seeds = 1", "unknown_scene": "nosuch",
                 "missing_reference": "no reference in the cache",
-                "too_tight": "narrower than", "bad_budget": "relmse_maxx", "unknown_set": "layerz"}[case]
+                "too_tight": "narrower than", "bad_budget": "relmse_maxx", "unknown_set": "layerz",
+                "unmeasurable_set": "checks the step-2 segments, but steps = 1"}[case]
     assert expected in err
+    if case == "unmeasurable_set":
+        assert not any(tmp.rglob("*.exr"))
 
 
 def test_a_nan_metric_is_an_error_not_a_pass():
