@@ -22,7 +22,8 @@ from volcaustics.scenes.storage import atomic_write_texts
 def write_report(out_dir: str, results: list, summary: dict, sweep=None, *, progress: bool = False,
                  started: float | None = None) -> dict:
     """Draw ``index.html`` from ``summary`` (and each scene's views), write it and,
-    last, ``summary.json``; the sweep's figures also as files under ``figures/``. The
+    last, ``summary.json``; the sweep's figures also as files under ``figures/`` (an
+    earlier run's figures removed). The
     page is drawn from the same strict-JSON data that ``summary.json`` holds (NaN as
     null). ``started``: the run's ``time.perf_counter()`` at its start, for the total."""
     t0 = time.perf_counter()
@@ -31,11 +32,14 @@ def write_report(out_dir: str, results: list, summary: dict, sweep=None, *, prog
     pairs = list(zip(results, summary["scenes"]))
     images = {page["scene"]: scene_images(result, page)
               for result, page in tqdm(pairs, desc="page", unit="scene", disable=not progress)}
-    sweep_figures = {}
+    sweep_figures, paths = {}, []
+    figures_dir = os.path.join(out_dir, "figures")
     if sweep is not None:
-        paths = draw_figures(sweep.tables, os.path.join(out_dir, "figures"), varied=sweep.varied)
+        paths = draw_figures(sweep.tables, figures_dir, varied=sweep.varied)
         if is_variants_sweep(sweep.varied):  # a variants sweep: its Pareto figures per scene too
-            paths += draw_variants(variant_table(sweep.tables), os.path.join(out_dir, "figures"))
+            paths += draw_variants(variant_table(sweep.tables), figures_dir)
+    remove_stale_figures(figures_dir, keep=paths)
+    if sweep is not None:
         for path in paths:
             if path.endswith(".png"):
                 with open(path, "rb") as fh:
@@ -49,6 +53,21 @@ def write_report(out_dir: str, results: list, summary: dict, sweep=None, *, prog
     html, doc = (os.path.join(out_dir, name) for name in OUTPUT_FILES)
     atomic_write_texts({html: page, doc: json.dumps(summary, indent=1, allow_nan=False)})
     return summary
+
+
+def remove_stale_figures(folder: str, keep: list) -> None:
+    """Remove the figures (.png, .svg) in ``folder`` that this run did not draw (an
+    earlier ``--sweep``'s, or all of them without one), and the folder when nothing is
+    left; other files are left alone."""
+    if not os.path.isdir(folder):
+        return
+    kept = {os.path.abspath(p) for p in keep}
+    for name in os.listdir(folder):
+        path = os.path.join(folder, name)
+        if name.endswith((".png", ".svg")) and os.path.abspath(path) not in kept and os.path.isfile(path):
+            os.unlink(path)
+    if not os.listdir(folder):
+        os.rmdir(folder)
 
 
 def scene_images(result, page: dict) -> dict:

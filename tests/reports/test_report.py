@@ -178,6 +178,25 @@ def test_the_sweep_section(built):
     assert "Settings that suffice" in built["page"] and "id='suffice'" in built["page"]
 
 
+def test_a_report_keeps_only_its_own_figures(built):
+    """An earlier --sweep's figures do not outlive it: a report rewritten with a sweep keeps
+    just this sweep's figures (and files that are not figures); without one, none."""
+    out = built["root"] / "figures-rerun"
+    (out / "figures").mkdir(parents=True)
+    (out / "figures" / "variants_old.png").write_bytes(b"stale")
+    (out / "figures" / "notes.txt").write_text("mine")
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv("VOLCAUSTICS_CACHE", str(built["root"] / "cache"))
+        mp.setenv("VOLCAUSTICS_MI_VARIANT", "llvm_ad_rgb")
+        assert main([*built["args"], "--out", str(out)]) == 0
+        drawn = json.loads((out / "summary.json").read_text())["sweep"]["figures"]
+        assert sorted(p.name for p in (out / "figures").iterdir()) == sorted(
+            [Path(rel).name for rel in drawn] + ["notes.txt"])
+        args = [a for i, a in enumerate(built["args"]) if a != "--sweep" and built["args"][i - 1] != "--sweep"]
+        assert main([*args, "--out", str(out)]) == 0
+    assert sorted(p.name for p in (out / "figures").iterdir()) == ["notes.txt"]
+
+
 def test_a_warm_report_measures_nothing_and_says_the_same(built):
     cold, warm = built["cold"], built["warm"]
     assert [p["measured_in_this_run"] for p in warm["scenes"]] == [False, False]
