@@ -11,13 +11,13 @@ import os
 import numpy as np
 
 from volcaustics.approx import render
+from volcaustics.reports.render.outputs import render_outputs
 from volcaustics.scenes.imageio import write_exr, write_png
 from volcaustics.scenes.storage import atomic_set
 
 
 def output_paths(out: str) -> dict:
-    base = out[:-4] if out.lower().endswith(".exr") else out
-    return {"exr": base + ".exr", "png": base + ".png", "records": base + ".records.npz", "json": base + ".json"}
+    return render_outputs(out, {"png": ".png", "records": ".records.npz", "json": ".json"})
 
 
 def subsample_records(records: list, max_per_step: int) -> tuple[np.ndarray, int]:

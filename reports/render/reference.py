@@ -11,13 +11,13 @@ import os
 import shutil
 
 from volcaustics.reference.render import render_reference
+from volcaustics.reports.render.outputs import render_outputs
 from volcaustics.scenes.storage import atomic_set
 
 
 def run_reference(scene, settings, out: str, *, force: bool = False) -> dict:
     result = render_reference(scene, settings, force=force)
-    base = out[:-4] if out.lower().endswith(".exr") else out
-    paths = {"exr": base + ".exr", "png": base + ".png", "json": base + ".json"}
+    paths = render_outputs(out, {"png": ".png", "json": ".json"})
     summary = {**result.manifest, "outputs": {k: os.path.abspath(v) for k, v in paths.items()}}
     with atomic_set([paths["exr"], paths["png"], paths["json"]]) as (exr, png, manifest):  # one unit
         shutil.copyfile(result.exr_path, exr)

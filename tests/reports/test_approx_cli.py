@@ -55,3 +55,11 @@ def test_bad_parameter_exits_2(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "peak_samples = -1" in err and "Traceback" not in err
     assert not (tmp_path / "x.exr").exists()
+
+
+def test_an_upper_case_extension_is_kept(tmp_path, capsys):
+    """`-o shot.EXR` writes shot.EXR and its siblings after the stem, not shot.exr."""
+    assert main(["approx", "refocus", "--preset", "quick", "--photon-res", "32", "--light-res", "32", "--width", "16",
+                 "--height", "16", "-o", str(tmp_path / "shot.EXR")]) == 0
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["shot.EXR", "shot.json", "shot.png", "shot.records.npz"]
+    assert json.loads((tmp_path / "shot.json").read_text())["outputs"]["exr"].endswith("shot.EXR")
