@@ -28,6 +28,7 @@ from dataclasses import dataclass, field
 from volcaustics.approx.params import PRESETS
 from volcaustics.reports.core.sizing import REFERENCE_KEYS, reference_settings
 from volcaustics.reports.core.tomlfile import load_toml
+from volcaustics.scenes import SceneError, resolve_scene
 
 RESOLVE_SIGMAS = 3.0    # a budget must lie this many standard errors beyond the noise
 COMPONENT_KEYS = ("relmse_max", "energy_ratio", "hdr_flip_max")
@@ -71,6 +72,10 @@ def load_budgets(path: str) -> dict:
     for name, table in scenes.items():
         if not isinstance(table, dict) or not table:
             raise GateError(f"{path}: scene.{name} = {table!r}: expected a table of budgets")
+        try:  # a scene that does not exist is a typo found now, not after the others were measured
+            resolve_scene(name)
+        except SceneError as exc:
+            raise GateError(f"{path}: scene.{name}: {exc}") from None
         checks = {}
         for group, values in table.items():
             if not isinstance(values, dict):

@@ -287,9 +287,13 @@ def test_the_gate_with_a_baseline_keeps_budget_failures(built, monkeypatch, tmp_
     (["--set", "seed=3"], "--seed"),
     (["--sweep", "/nonexistent/sweep"], "sweep.json"),
     (["--baseline", "/nonexistent/baseline"], "baseline"),
+    (["--budgets", "BUDGETS_NAMING_NOSUCH"], "scene.nosuch"),  # a budgets file with an unknown scene
 ])
 def test_bad_input_exits_2_before_rendering(tmp_path, monkeypatch, capsys, argv, fragment):
     monkeypatch.setenv("VOLCAUSTICS_CACHE", str(tmp_path / "cache"))
+    if "BUDGETS_NAMING_NOSUCH" in argv:
+        (tmp_path / "b.toml").write_text(BUDGETS + "[scene.nosuch]\ncaustic = { hdr_flip_max = 1.0 }\n")
+        argv = [str(tmp_path / "b.toml") if a == "BUDGETS_NAMING_NOSUCH" else a for a in argv]
     assert main(["report", "--out", str(tmp_path / "out"), "--scenes", "refocus", *argv, "--quiet"]) == 2
     assert fragment in capsys.readouterr().err
     assert not (tmp_path / "cache" / "reference").exists() or not list((tmp_path / "cache" / "reference").iterdir())
