@@ -81,12 +81,12 @@ def _print_suffice(suffice) -> None:
 def _print_variants(best) -> None:
     if best is None or not len(best):
         return
-    print("variants: per scene the paper's method and the smallest intersection term at no more map reads per "
-          "segment (variants_best.csv):")
+    print("variants: per scene the paper's method and the smallest intersection term (both parts) at no more map "
+          "reads per segment (variants_best.csv):")
     for _, r in best.iterrows():
         print(f"  {r['scene']:<12} {r['role']:<6} {variant_name(r)} "
               f"layers {r['layers']} peak_samples {r['peak_samples']} iterations {r['iterations']}: "
               f"{r['map_reads_per_segment']:.1f} reads/segment, frame {r['frame_time_s']:.2f} s, intersection "
-              f"{100 * r['share_intersection']:+.1f}% ± {100 * r['share_intersection_se']:.1f} "
-              f"(×{r['share_ratio']:.2f} of the paper's |term|), step 2 wrong surface {r['step2_wrong_surface']:.1f}%, "
-              f"missed {r['step2_missed']:.1f}%")
+              f"{100 * r['share_intersection']:+.1f}% ± {100 * r['share_intersection_se']:.1f}, relMSE part "
+              f"{100 * r['intersection_relmse_part']:.2f}% (×{r['share_ratio']:.2f} and ×{r['relmse_ratio']:.2f} of "
+              f"the paper's), step 2 wrong surface {r['step2_wrong_surface']:.1f}%, missed {r['step2_missed']:.1f}%")

@@ -12,14 +12,16 @@ from volcaustics.reports.sweep.variants import best_variants, draw_variants, var
 
 
 def _tables(rows):
-    """points and segments tables for (point, search, start_rule, reads, share, wrong, missed)."""
+    """points and segments tables for (point, search, start_rule, reads, share, wrong, missed[,
+    relMSE part: else share / 2])."""
     points, segments = [], []
-    for key, search, rule, reads, share, wrong, missed in rows:
+    for key, search, rule, reads, share, wrong, missed, *relmse in rows:
         points.append({"point": key, "scene": "bunny", "search": search, "start_rule": rule,
                        "layer_strategy": PAPER.layer_strategy, "layers": PAPER.layers,
                        "peak_samples": PAPER.peak_samples, "iterations": PAPER.iterations,
                        "map_reads_per_segment": reads, "frame_time_s": 1.0, "share_intersection": share,
-                       "share_intersection_se": 0.005, "intersection_relmse_part": share / 2,
+                       "share_intersection_se": 0.005,
+                       "intersection_relmse_part": relmse[0] if relmse else abs(share) / 2,
                        "intersection_relmse_part_se": 0.001})
         segments.append({"point": key, "grouping": "step", "step": 2, "segments": 100,
                          "count_true_hit": 100 - wrong - missed, "count_wrong_surface": wrong,
@@ -40,7 +42,18 @@ def test_best_variant_is_the_smallest_term_within_the_papers_reads():
     best = best_variants(table).set_index("role")
     assert best.loc["best", "point"] == "a"  # not b: more map reads than the paper's
     assert best.loc["best", "share_ratio"] == pytest.approx(0.05 / 0.12)
+    assert best.loc["best", "relmse_ratio"] == pytest.approx(0.025 / 0.06)
     assert set(table.loc[table["pareto"], "point"]) == {"a", "b"}
+
+
+def test_a_small_energy_share_from_cancelling_errors_is_not_the_best():
+    """Negative control: a variant whose energy share is near zero but whose relative-MSE part
+    exceeds the paper's (lost photons cancelling surplus hits) is not chosen over one that
+    lowers both parts."""
+    rows = [*ROWS, ("d", "bisection", "facing", 160.0, 0.005, 15, 35, 0.08)]
+    best = best_variants(variant_table(_tables(rows))).set_index("role")
+    assert best.loc["best", "point"] == "a"
+    assert best.loc["best", "worse_ratio"] == pytest.approx(max(0.05 / 0.12, 0.025 / 0.06))
 
 
 def test_negative_control_a_dearer_better_variant_is_not_chosen():
