@@ -19,6 +19,7 @@ REPO = Path(__file__).resolve().parents[2]
 TRIP = """
 import importlib.abc, os, signal, sys, threading, time
 target, delay = sys.argv[1], float(sys.argv[2])
+signal.signal(signal.SIGINT, signal.default_int_handler)  # as at a terminal (CI may start us with it ignored)
 
 class Trip(importlib.abc.MetaPathFinder):
     def find_spec(self, name, path, target_module=None):
