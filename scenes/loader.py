@@ -11,7 +11,7 @@ Every problem raises :class:`scenes.errors.SceneError` naming the file, the key
     position = [0, 1.2, 4]        # metres
     target = [0, 0.9, 0]
     up = [0, 1, 0]                # optional
-    fov_y = 40                    # vertical field of view, degrees
+    fov_y = 40                    # vertical field of view, degrees, 0.1 <= fov_y < 180
     width = 512
     height = 512
 
@@ -19,8 +19,8 @@ Every problem raises :class:`scenes.errors.SceneError` naming the file, the key
     position = [0, 2.5, 0]
     direction = [0, -1, 0]        # any length > 0
     intensity = [20, 20, 20]      # W/sr (a number means grey)
-    cutoff_angle = 25             # degrees, 0 < cutoff_angle < 90
-    beam_width = 20               # degrees, 0 < beam_width <= cutoff_angle (default 3/4 cutoff)
+    cutoff_angle = 25             # degrees, 0.1 <= cutoff_angle < 90
+    beam_width = 20               # degrees, 0.1 <= beam_width <= cutoff_angle (default 3/4 cutoff)
 
     [medium]                      # optional; absent = vacuum
     sigma_s = 0.3                 # 1/m, number or RGB list
@@ -165,6 +165,12 @@ def _name(ctx, key, v):
 
 
 _coordinate = _ranged(-COORDINATE_LIMIT, COORDINATE_LIMIT, unit="m")
+# The smallest angle (degrees) of a view or a spot cone: float32 resolves angles near 0
+# through cos/acos only to ~0.02 degrees (sqrt(2 * 6e-8) rad); below it the reference's
+# spot profile divides by zero and its camera rays degenerate (fov_y 1e-30 hung Mitsuba).
+ANGLE_MIN = 0.1
+_view_angle = _ranged(ANGLE_MIN, 180, high_open=True, unit="degrees")
+_cone_angle = _ranged(ANGLE_MIN, 90, high_open=True, unit="degrees")
 
 
 def _vec3(ctx, key, v):
@@ -208,7 +214,7 @@ def _camera(ctx, key, value) -> Camera:
         position=t.get("position", _vec3),
         target=t.get("target", _vec3),
         up=t.get("up", _direction, (0.0, 1.0, 0.0)),
-        fov_y=t.get("fov_y", _ranged(0, 180, low_open=True, high_open=True, unit="degrees")),
+        fov_y=t.get("fov_y", _view_angle),
         width=t.get("width", _integer(1, 16384), 512),
         height=t.get("height", _integer(1, 16384), 512),
     )
@@ -230,8 +236,8 @@ def _light(ctx, key, value) -> SpotLight:
     position = t.get("position", _vec3)
     direction = t.get("direction", _direction)
     intensity = t.get("intensity", _rgb(0.0, unit="W/sr"))
-    cutoff = t.get("cutoff_angle", _ranged(0, 90, low_open=True, high_open=True, unit="degrees"), 20.0)
-    beam = t.get("beam_width", _ranged(0, 90, low_open=True, high_open=True, unit="degrees"), 0.75 * cutoff)
+    cutoff = t.get("cutoff_angle", _cone_angle, 20.0)
+    beam = t.get("beam_width", _cone_angle, max(0.75 * cutoff, ANGLE_MIN))
     t.finish()
     if beam > cutoff:
         raise ctx.error("light.beam_width", beam, f"must be <= light.cutoff_angle ({cutoff:g} degrees)")

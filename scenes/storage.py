@@ -9,7 +9,11 @@ from __future__ import annotations
 import contextlib
 import hashlib
 import os
+import re
+import socket
 import tempfile
+
+from .interrupts import interrupts_held
 
 
 class CacheError(OSError):
@@ -63,14 +67,58 @@ def _not_a_folder(path: str) -> None:
 
 
 def _temporary_beside(path: str) -> str:
-    """A new empty hidden file in ``path``'s folder (created if missing), named after it
-    and keeping its extension, so writers that look at the extension still work."""
+    """A new empty hidden file in ``path``'s folder (created if missing), named after it,
+    this host and process (:func:`remove_stale_temporaries`), and keeping its extension,
+    so writers that look at the extension still work."""
     folder = os.path.dirname(os.path.abspath(path))
     os.makedirs(folder, exist_ok=True)
+    remove_stale_temporaries(folder)
     base, ext = os.path.splitext(os.path.basename(path))
-    fd, tmp = tempfile.mkstemp(prefix=f".{base}.", suffix=f".tmp{ext}", dir=folder)
+    fd, tmp = tempfile.mkstemp(prefix=f".{base}.{_owner()}-", suffix=f".tmp{ext}", dir=folder)
     os.close(fd)
     return tmp
+
+
+# mkstemp's random part: 8 of [a-z0-9_]
+_TEMPORARY = re.compile(r"^\..*\.(?P<host>[^./]+)-(?P<pid>\d+)-[a-z0-9_]{8}\.tmp(\.[^/]*)?$")
+
+
+def _owner() -> str:
+    """``host-pid`` of this process, as temporaries carry it (dots in the host name dropped)."""
+    return f"{socket.gethostname().replace('.', '_').replace('-', '_')}-{os.getpid()}"
+
+
+def remove_stale_temporaries(folder: str) -> int:
+    """Remove the temporaries in ``folder`` that a process of this host left when it was
+    killed (SIGKILL, a power cut: no ``finally`` ran) and that no running process owns;
+    returns how many went. Called before every temporary is made in a folder, so each
+    output folder and the cache clean up after the next run that writes there."""
+    host = _owner().rsplit("-", 1)[0]
+    removed = 0
+    try:
+        names = os.listdir(folder)
+    except OSError:
+        return 0
+    for name in names:
+        match = _TEMPORARY.match(name)
+        if match and match["host"] == host and not process_alive(int(match["pid"])):
+            try:
+                os.unlink(os.path.join(folder, name))
+                removed += 1
+            except OSError:
+                pass
+    return removed
+
+
+def process_alive(pid: int) -> bool:
+    """Whether a process ``pid`` runs on this host (one of another user counts as running)."""
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
 
 
 def _usual_mode(path: str) -> None:
@@ -81,29 +129,12 @@ def _usual_mode(path: str) -> None:
 
 
 @contextlib.contextmanager
-def sigint_held():
-    """Hold Ctrl-C (SIGINT) back for the block; one that came meanwhile is delivered
-    (as KeyboardInterrupt) right after it. Only the main thread can do this; elsewhere
-    the block runs as is."""
-    import signal
-    import threading
-
-    if threading.current_thread() is not threading.main_thread() or not hasattr(signal, "pthread_sigmask"):
-        yield
-        return
-    old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
-    try:
-        yield
-    finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, old)
-
-
-@contextlib.contextmanager
 def atomic_set(paths: list):
     """Write several files as one unit: yields temporary paths (in ``paths``' order) to
-    write; when the block succeeds they replace ``paths`` together, with Ctrl-C held
-    back: the last path (the set's manifest) is removed first and put in place last, so
-    no reader finds a manifest beside data of another run. When the block fails (an
+    write; when the block succeeds they replace ``paths`` together, with interrupts
+    (SIGINT, SIGTERM: ``scenes.interrupts.interrupts_held``) held back: the last path
+    (the set's manifest) is removed first and put in place last, so no reader finds a
+    manifest beside data of another run. When the block fails (an
     error, Ctrl-C) the temporaries go and every old file stays as it was."""
     for path in paths:
         _not_a_folder(path)
@@ -112,7 +143,7 @@ def atomic_set(paths: list):
         for path in paths:
             temps.append(_temporary_beside(path))
         yield list(temps)
-        with sigint_held():
+        with interrupts_held():
             for tmp in temps:
                 _usual_mode(tmp)
             remove_file(paths[-1])

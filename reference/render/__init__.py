@@ -22,6 +22,7 @@ import numpy as np
 
 from volcaustics.scenes.formats import MASK_LAYER
 from volcaustics.scenes.imageio import png_bytes, tonemap_srgb8
+from volcaustics.scenes.interrupts import interruptible
 
 from .. import cache
 from ..cache import ReferenceResult, for_caller
@@ -162,11 +163,11 @@ def _render(request: RenderRequest, state: RenderState | None = None, *, progres
         for stream in streams:
             if stream == LIGHT:
                 seed = batch_seed(settings.seed, LIGHT, state.light.n)
-                image = np.asarray(mi.render(mi_scene, integrator=tracer, seed=seed, spp=photon_spp))[..., :3]
+                image = _rendered(mi, mi_scene, tracer, seed, photon_spp)[..., :3]
                 state.light.add({"caustic": image})
             else:
                 seed = batch_seed(settings.seed, CAMERA, state.camera.n)
-                cam = np.asarray(mi.render(mi_scene, integrator=camera, seed=seed, spp=camera_spp))
+                cam = _rendered(mi, mi_scene, camera, seed, camera_spp)
                 fog, direct = cam[..., 3:6], cam[..., 6:9]
                 state.camera.add({"fog": fog, "direct": direct, "fog_direct": fog + direct})
                 seen = cam[..., 9] > 0.5
@@ -179,6 +180,12 @@ def _render(request: RenderRequest, state: RenderState | None = None, *, progres
     seconds = time.perf_counter() - t0
     state.seconds += seconds
     return state, _stop_reason(state, settings, timed_out), seconds
+
+
+def _rendered(mi, mi_scene, integrator, seed: int, spp: int) -> np.ndarray:
+    """One batch as an array, rendered where an interrupt does not wait for it
+    (``scenes.interrupts.interruptible``: a batch can run for minutes, or forever)."""
+    return interruptible(lambda: np.asarray(mi.render(mi_scene, integrator=integrator, seed=seed, spp=spp)))
 
 
 def render_batches(scene, settings: ReferenceSettings, *, mode: str = "caustic", progress: bool = True) -> dict:

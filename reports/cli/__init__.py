@@ -2,7 +2,7 @@
 ``register`` adds its parser, ``run`` parses nothing more and calls the libraries).
 
 Typed errors of bad input (a scene, a parameter, settings, a path, a spec) print on one
-or two lines and exit 2, never a traceback; Ctrl-C exits 130.
+or two lines and exit 2, never a traceback; Ctrl-C exits 130, SIGTERM 143.
 """
 
 from __future__ import annotations
@@ -35,45 +35,60 @@ def _interrupted(exc: BaseException) -> bool:
     seen = set()
     while exc is not None and id(exc) not in seen:
         seen.add(id(exc))
-        if isinstance(exc, KeyboardInterrupt) or "KeyboardInterrupt" in str(exc):
+        if isinstance(exc, KeyboardInterrupt) or any(name in str(exc) for name in ("KeyboardInterrupt", "Interrupted")):
             return True
         exc = exc.__cause__ or exc.__context__
     return False
 
 
-def main(argv=None) -> int:
-    """Run the command; exit 130 whenever Ctrl-C came, also during the imports and when
-    Python dropped the KeyboardInterrupt ("Exception ignored in ...": raised inside a
-    finalizer or weakref callback).
+class Interrupted(KeyboardInterrupt):
+    """SIGINT or SIGTERM came (``signum``): raised where the command was, so every
+    ``finally`` and every handler of KeyboardInterrupt (a sweep stopping its workers)
+    runs as for Ctrl-C; the exit code is 128 + signum (130, 143)."""
 
-    Start-up (the command modules, the libraries and the native extensions the command
-    declares in ``NATIVE``: Dr.Jit, Mitsuba, moderngl) runs with Ctrl-C held: SIGINT
-    (SIGINT reaches the process, whichever thread takes it) is recorded, not raised, so
-    no interrupt lands inside an extension's initialisation (it surfaced there as an
-    ImportError, a NameError or a SystemError, or aborted the interpreter); once
-    start-up is done, one that came ends the run with 130."""
+    def __init__(self, signum: int):
+        super().__init__(signum)
+        self.signum = signum
+
+
+def main(argv=None) -> int:
+    """Run the command; exit 130 whenever Ctrl-C came (143 for SIGTERM), also during
+    the imports and when Python dropped the KeyboardInterrupt ("Exception ignored in
+    ...": raised inside a finalizer or weakref callback).
+
+    SIGINT and SIGTERM (whichever thread takes them, Python handles them here) raise
+    :class:`Interrupted` where the command is, so its temporaries go and the previous
+    outputs stay. Start-up (the command modules, the libraries and the native
+    extensions the command declares in ``NATIVE``: Dr.Jit, Mitsuba, moderngl) holds
+    them: one that came is recorded, not raised, so no interrupt lands inside an
+    extension's initialisation (it surfaced there as an ImportError, a NameError or a
+    SystemError, or aborted the interpreter); once start-up is done it ends the run.
+    A signal ignored when the command starts (``nohup``, ``cmd &``) stays ignored. When
+    an interrupt left a native call running (``scenes.interrupts.interruptible``), the
+    process ends with ``os._exit`` after the command's cleanup."""
     import signal
 
     came = []
     holding = [True]
 
-    def on_sigint(signum, frame):
+    def on_signal(signum, frame):
         came.append(signum)
         if not holding[0]:
-            signal.default_int_handler(signum, frame)
+            raise Interrupted(signum)
 
     def started():
         holding[0] = False
         if came:
-            raise KeyboardInterrupt
+            raise Interrupted(came[0])
 
-    previous = None
-    try:
-        if signal.getsignal(signal.SIGINT) is not signal.SIG_IGN:  # ignored (nohup, `cmd &`): leave it so
-            previous = signal.signal(signal.SIGINT, on_sigint)
-    except ValueError:  # not the main thread: signals are not ours to handle
-        pass
-    if previous is None:
+    previous = {}
+    for number in (signal.SIGINT, signal.SIGTERM):
+        try:
+            if signal.getsignal(number) is not signal.SIG_IGN:
+                previous[number] = signal.signal(number, on_signal)
+        except ValueError:  # not the main thread: signals are not ours to handle
+            break
+    if not previous:
         holding[0] = False
     try:
         code = _run(argv, started)
@@ -84,11 +99,25 @@ def main(argv=None) -> int:
             raise
         code = None
     finally:
-        if previous is not None:
-            signal.signal(signal.SIGINT, previous)
-    if code is None or (came and code != 130):
+        for number, handler in previous.items():
+            signal.signal(number, handler)
+    if code is None or (came and code < 128):
         print("volcaustics: interrupted", file=sys.stderr)
-        return 130
+        code = 128 + (came[0] if came else signal.SIGINT)
+    return _ending(code)
+
+
+def _ending(code: int) -> int:
+    """``code``; but when an interrupt left a native call running, end the process
+    here (the interpreter's shutdown would wait for it, or tear down under it)."""
+    from volcaustics.scenes.interrupts import native_work_abandoned
+
+    if native_work_abandoned():
+        import os
+
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(code)
     return code
 
 

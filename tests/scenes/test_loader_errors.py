@@ -44,6 +44,10 @@ CASES = [
     ("unknown camera key", _set(["camera", "fov"], 40), "camera.fov", "40"),
     ("unknown medium key", _set(["medium", "density"], 1.0), "medium.density", "1.0"),
     ("fov wrong type", _set(["camera", "fov_y"], "wide"), "camera.fov_y", "'wide'"),
+    ("fov far below float32", _set(["camera", "fov_y"], 1e-30), "camera.fov_y", "1e-30"),  # hung the reference
+    ("fov below the minimum", _set(["camera", "fov_y"], 0.05), "camera.fov_y", "0.05"),
+    ("cutoff far below float32", _set(["light", "cutoff_angle"], 1e-30), "light.cutoff_angle", "1e-30"),
+    ("beam below the minimum", _set(["light", "beam_width"], 1e-12), "light.beam_width", "1e-12"),
     ("width not integer", _set(["camera", "width"], 64.5), "camera.width", "64.5"),
     ("width boolean", _set(["camera", "width"], True), "camera.width", "True"),
     ("intensity two entries", _set(["light", "intensity"], [1.0, 2.0]), "light.intensity", "[1.0, 2.0]"),
