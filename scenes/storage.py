@@ -49,12 +49,43 @@ def atomic_path(path: str):
     _not_a_folder(path)
     tmp = _temporary_beside(path)
     try:
-        yield tmp
+        with _errors_naming([tmp], [path]):
+            yield tmp
         _usual_mode(tmp)
         os.replace(tmp, path)
     finally:
         if os.path.exists(tmp):
             os.unlink(tmp)
+
+
+@contextlib.contextmanager
+def _errors_naming(temps: list, paths: list):
+    """An OSError raised while ``temps`` are written names the output it was for (the
+    path in ``paths`` whose temporary it was, or whose temporary's own temporary), not a
+    hidden name; one that names no file (a full disk in a library's writer) names the
+    first output. OpenEXR reports a failed write as a RuntimeError: an OSError too."""
+    import errno
+
+    try:
+        yield
+    except OSError as exc:
+        raise OSError(exc.errno, exc.strerror or str(exc), _output_of(exc.filename, temps, paths)) from exc
+    except RuntimeError as exc:
+        if "write" not in str(exc).lower():
+            raise
+        code = errno.ENOSPC if "No space" in str(exc) else errno.EIO
+        raise OSError(code, os.strerror(code), _output_of(None, temps, paths)) from exc
+
+
+def _output_of(filename, temps: list, paths: list) -> str:
+    """The output in ``paths`` that ``filename`` was written for (see :func:`_errors_naming`)."""
+    if filename:
+        name = os.path.basename(str(filename))
+        for tmp, path in zip(temps, paths):
+            if name == os.path.basename(tmp) or name.startswith("." + os.path.splitext(os.path.basename(tmp))[0]):
+                return path
+        return str(filename)
+    return paths[0]
 
 
 def _not_a_folder(path: str) -> None:
@@ -142,7 +173,8 @@ def atomic_set(paths: list):
     try:
         for path in paths:
             temps.append(_temporary_beside(path))
-        yield list(temps)
+        with _errors_naming(temps, paths):
+            yield list(temps)
         with interrupts_held():
             for tmp in temps:
                 _usual_mode(tmp)

@@ -201,3 +201,34 @@ sys.exit(main(sys.argv[4:]))
     assert [p.name for p in files] == ["shot.exr", "shot.json", "shot.png", "shot.records.npz"]
     assert all(p.stat().st_mtime_ns > old for p in files)  # all of the new run (seconds later)
     assert '"seed": 2' in (out / "shot.json").read_text()
+
+
+MEASURE = ["measure", "refocus", "--preset", "quick", "--width", "32", "--height", "32", "--photon-res", "64",
+           "--light-res", "64", "--seeds", "2", "--photons", "65536", "--spp", "8", "--batches", "4",
+           "--target-noise", "none", "--quiet"]
+
+
+@pytest.mark.slow  # three tiny measurements, ~50 s
+@pytest.mark.parametrize("at,name,code", [(3, "SIGINT", 130), (8, "SIGTERM", 143)])
+def test_measure_interrupted_in_its_commit_leaves_its_new_set(tmp_path, at, name, code):
+    """The issue's case: ``measure`` with Ctrl-C at the third step of its commit (2 of 2
+    tries destroyed the previous set), and SIGTERM at its last (the manifest)."""
+    out = tmp_path / "out"
+    body = """
+from volcaustics.reports.cli import main
+from volcaustics.scenes import storage
+storage.remove_file, os.replace = tripping(storage.remove_file), tripping(os.replace)
+sys.exit(main(sys.argv[4:]))
+"""
+    os.environ["VOLCAUSTICS_CACHE"] = str(tmp_path / "cache")
+    try:
+        first = _inject(tmp_path, body, 0, name, *MEASURE, "-o", str(out), "--seed", "1")
+        assert first.returncode == 0, first.stderr[-2000:]
+        old = {p.name: p.stat().st_mtime_ns for p in out.iterdir()}
+        result = _inject(tmp_path, body, at, name, *MEASURE, "-o", str(out), "--seed", "2")
+    finally:
+        os.environ.pop("VOLCAUSTICS_CACHE")
+    assert result.returncode == code, result.stderr[-2000:]
+    new = {p.name: p.stat().st_mtime_ns for p in out.iterdir()}
+    assert set(new) == set(old) and len(new) >= at  # the same set, no temporary; the step was in it
+    assert all(new[n] > max(old.values()) for n in new)  # all of the new run
