@@ -87,12 +87,14 @@ def _describe(exc: BaseException) -> str:
     return f"{type(exc).__name__}: {exc}"
 
 
-def _ignore_sigint() -> None:
-    """Worker start-up: Ctrl-C at the terminal goes to the whole process group; the
-    parent alone handles it (it stops the workers and clears their temporaries)."""
+def _ignore_interrupts() -> None:
+    """Worker start-up: Ctrl-C at the terminal (and ``kill`` of a job, ``timeout``) goes
+    to the whole process group; the parent alone handles SIGINT and SIGTERM (it stops the
+    workers with SIGKILL and clears their temporaries)."""
     import signal
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
 
 
 def _local(fn, tasks, workers):
@@ -101,7 +103,7 @@ def _local(fn, tasks, workers):
 
     n = min(workers or default_workers(), len(tasks))
     pool = ProcessPoolExecutor(max_workers=n, mp_context=multiprocessing.get_context("spawn"),
-                               initializer=_ignore_sigint)
+                               initializer=_ignore_interrupts)
     futures = {pool.submit(fn, task): task["key"] for task in tasks}
     try:
         for future in as_completed(futures):
@@ -110,14 +112,14 @@ def _local(fn, tasks, workers):
             except Exception as exc:  # a point that fails is reported; the others go on
                 yield {"key": futures[future], "error": _describe(exc)}
     except BaseException:
-        for future in futures:
-            future.cancel()
+        # Kill first, cancel nothing: the pool then fails every pending future itself (a
+        # future cancelled before made its manager thread raise InvalidStateError, 3.11).
         processes = list(getattr(pool, "_processes", {}).values())
         for process in processes:
-            process.terminate()
+            process.kill()
         for process in processes:  # gone before the caller clears their temporaries
             process.join(timeout=30)
-        pool.shutdown(wait=False, cancel_futures=True)
+        pool.shutdown(wait=True)  # the manager thread fails the pending futures and frees the queues
         raise
     pool.shutdown(wait=True)
 
