@@ -90,3 +90,4 @@ def test_an_edited_point_summary_counts_as_damaged(tmp_path, damage):
     assert len(store.tables([key])["points"]) == 0
     assert store.write_point(key, {"format": 1}, _Experiment(0.5)) == "written"  # the damaged copy is replaced
     assert store.status(key) == "done"
+
