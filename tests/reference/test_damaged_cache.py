@@ -105,10 +105,11 @@ def test_an_entry_with_bad_layers_is_rerendered_never_served(private_cache, edit
     assert render_reference(scene, SETTINGS, progress=False).cached
 
 
-@pytest.mark.parametrize("damage", ["garbage", "truncated", "another entry's state"])
+@pytest.mark.parametrize("damage", ["garbage", "truncated", "another entry's state", "another size, hash matching"])
 def test_a_damaged_batch_state_restarts_the_render(private_cache, damage):
-    """A continued entry whose batch state does not match its manifest is rendered
-    afresh (the state is never added to)."""
+    """A continued entry whose batch state does not match its manifest, or is not a
+    state of its image (another size: before, adding a batch to it raised), is
+    rendered afresh (the state is never added to)."""
     scene = load_builtin("refocus")
     first = render_reference(scene, SETTINGS, progress=False)
     states = sorted((private_cache / "reference").glob("*.npz"))
@@ -118,21 +119,26 @@ def test_a_damaged_batch_state_restarts_the_render(private_cache, damage):
     elif damage == "truncated":
         states[0].write_bytes(states[0].read_bytes()[:100])
     else:
-        other = render_reference(scene, ReferenceSettings(photons=100000, spp=8, batches=2, width=16, height=12,
-                                                          seed=7), progress=False)
+        size = {"width": 8, "height": 6} if damage.startswith("another size") else {"width": 16, "height": 12}
+        other = render_reference(scene, ReferenceSettings(photons=100000, spp=8, batches=2, seed=7, **size),
+                                 progress=False)
         other_state = [p for p in (private_cache / "reference").glob("*.npz") if other.key in p.name]
         states[0].write_bytes(other_state[0].read_bytes())
+        if damage.startswith("another size"):  # a manifest that agrees: damage its hash cannot see
+            path = _manifest_path(private_cache, first.key)
+            path.write_text(json.dumps({**json.loads(path.read_text()), "state_sha256": file_sha256(str(states[0]))}))
     more = render_reference(scene, ReferenceSettings(photons=150000, spp=12, batches=3, width=16, height=12),
                             progress=False)
     assert more.key == first.key and more.manifest["batches"] == 3
     assert more.manifest["wall_seconds"] == pytest.approx(more.manifest["seconds_this_call"])  # started afresh
 
 
-def test_an_interrupted_continuation_keeps_the_entry_it_continued(private_cache, monkeypatch):
-    """Ctrl-C while a continued entry is written (here: as its manifest is about to be
-    written, the latest moment) leaves the old entry valid, with its render time
-    and batch state, and no stray files (before: its EXR was already overwritten, so
-    the entry was damaged and its render time lost)."""
+@pytest.mark.parametrize("writer", ["atomic_write_bytes", "atomic_write_text"])
+def test_an_interrupted_continuation_keeps_the_entry_it_continued(private_cache, monkeypatch, writer):
+    """Ctrl-C while a continued entry is written (as its PNG is written, after the EXR;
+    as its manifest is written, the latest moment) leaves the old entry valid, with its
+    render time and batch state, and no stray files (before: its EXR was already
+    overwritten, so the entry was damaged and its render time lost)."""
     scene = load_builtin("refocus")
     first = render_reference(scene, SETTINGS, progress=False)
     folder = private_cache / "reference"
@@ -143,7 +149,7 @@ def test_an_interrupted_continuation_keeps_the_entry_it_continued(private_cache,
 
     more = ReferenceSettings(photons=200000, spp=16, batches=4, width=16, height=12)  # same batches, more of them
     with monkeypatch.context() as patch:
-        patch.setattr(cache, "atomic_write_text", interrupted)
+        patch.setattr(cache, writer, interrupted)
         with pytest.raises(KeyboardInterrupt):
             render_reference(scene, more, progress=False)
     assert sorted(os.listdir(folder)) == before
