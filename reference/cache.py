@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 import os
 import uuid
 import zipfile
@@ -110,7 +111,8 @@ def entry_file(key: str, manifest: dict, kind: str) -> str:
     """Path of the entry's file of ``kind`` (FILE_KINDS) that ``manifest`` names;
     ValueError when it names none, or a name not of the form ``<key>.<tag><ext>`` (a
     manifest names only its own entry's files)."""
-    name = (manifest.get("files") or {}).get(kind)
+    files = manifest.get("files")
+    name = files.get(kind) if isinstance(files, dict) else None
     if not isinstance(name, str) or not name.startswith(f"{key}.") or not name.endswith(FILE_KINDS[kind]) \
             or os.path.basename(name) != name:
         raise ValueError(f"cache entry {key}: its manifest names no {kind} file of its own ({name!r})")
@@ -119,9 +121,10 @@ def entry_file(key: str, manifest: dict, kind: str) -> str:
 
 def load(key: str, size: tuple | None = None):
     """(manifest, layers) of a complete, undamaged entry, else None: the manifest is a
-    JSON object of this key naming its files, the EXR and PNG match its SHA-256s, and
-    the layers are those a reference has, finite, variances ≥ 0, of ``size`` ((width,
-    height); default the manifest's settings). A damaged entry is re-rendered, never
+    JSON object of this key naming its files, with fields of the types the cache writes
+    (:func:`_manifest_size`), the EXR and PNG match its SHA-256s, and the layers are
+    those a reference has, finite, variances ≥ 0, of ``size`` ((width, height); default
+    the manifest's settings). A damaged entry is re-rendered, never
     served. An entry of the layout before issue 21 (a manifest naming no files) counts
     as missing."""
     try:
@@ -131,12 +134,39 @@ def load(key: str, size: tuple | None = None):
         for kind in ("exr", "png"):
             if manifest.get(f"{kind}_sha256") != file_sha256(entry_file(key, manifest, kind)):
                 return None
-        settings = manifest.get("settings") or {}
-        layers = _verified(read_exr(entry_file(key, manifest, "exr"))[0],
-                           size or (settings.get("width"), settings.get("height")))
+        size = _manifest_size(manifest, size)
+        if size is None:
+            return None
+        layers = _verified(read_exr(entry_file(key, manifest, "exr"))[0], size)
     except (OSError, ValueError, KeyError, TypeError, RuntimeError):  # OpenEXR raises RuntimeError
         return None
     return None if layers is None else (manifest, layers)
+
+
+def _manifest_size(manifest: dict, size: tuple | None) -> tuple | None:
+    """The image size (width, height) of a manifest whose fields that callers read have
+    the types the cache writes (settings a table of this size, when ``size`` is given;
+    counts whole numbers ≥ 0; noise floors finite or None; seconds finite ≥ 0), else None."""
+    settings = manifest.get("settings")
+    if not isinstance(settings, dict):
+        return None
+    own = (settings.get("width"), settings.get("height"))
+    counts = [manifest.get(name) for name in ("photons", "batches", "camera_batches")]
+    floors = manifest.get("noise_floor")
+    if (size is not None and own != tuple(size)) or not all(_count(v) for v in (*own, *counts)) \
+            or not isinstance(floors, dict) or not all(v is None or _number(v) for v in floors.values()) \
+            or not _number(manifest.get("wall_seconds")):
+        return None
+    return own
+
+
+def _count(value) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool) and value >= 0
+
+
+def _number(value) -> bool:
+    """A finite number ≥ 0 (JSON gives NaN and Infinity as floats)."""
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value) and value >= 0
 
 
 def _verified(layers: dict, size: tuple) -> dict | None:

@@ -165,3 +165,23 @@ def test_an_interrupted_continuation_keeps_the_entry_it_continued(private_cache,
     assert len([n for n in names if n.endswith(".json")]) == 1
     assert len([n for n in names if n.endswith(".exr")]) == 1 and os.path.basename(continued.exr_path) in names
     assert render_reference(scene, more, progress=False).cached
+
+
+@pytest.mark.parametrize("edit", [{"files": ["a list"]}, {"files": {"exr": "../elsewhere.exr"}}, {"files": None},
+                                  {"settings": 5}, {"settings": {"width": 8, "height": 6}}, {"exr_sha256": None},
+                                  {"batches": "2"}, {"noise_floor": [0.1]}, {"noise_floor": {"caustic": float("nan")}},
+                                  {"wall_seconds": None}])
+def test_a_manifest_of_the_wrong_shape_is_a_damaged_entry(private_cache, edit):
+    """A manifest whose fields are not what the cache writes (files not a table of this
+    entry's own file names, settings not a table of its size, counts, floors or seconds
+    not numbers) is a damaged entry: re-rendered, never a crash (before: a list of
+    floors raised), and never a reason to read or remove a file outside the entry."""
+    scene = load_builtin("refocus")
+    first = render_reference(scene, SETTINGS, progress=False)
+    path = _manifest_path(private_cache, first.key)
+    path.write_text(json.dumps({**json.loads(path.read_text()), **edit}))
+    outside = private_cache / "elsewhere.exr"
+    outside.write_bytes(b"not the cache's")
+    assert cache.cached_reference(first.key, scene) is None
+    assert not render_reference(scene, SETTINGS, progress=False).cached
+    assert outside.read_bytes() == b"not the cache's"
