@@ -6,24 +6,42 @@ Key: SHA-256 of a JSON document of everything that determines the image
 normals included, transforms as plain data), the scene model the integrators
 read (its canonical form, camera at the image size), the resolved settings, the
 light tracer's mode, the integrator code (a hash of its sources) and the Mitsuba
-and Dr.Jit versions and variant. Computing it imports no Mitsuba. A result is an
-EXR (mean and variance layers) plus a manifest JSON written after it; the
-manifest records the EXR's SHA-256, so a truncated or mismatching file is
-detected and re-rendered, never trusted.
+and Dr.Jit versions and variant. Computing it imports no Mitsuba.
+
+An entry is data files ``<key>.<tag>.exr`` (mean and variance layers), ``.png``
+(preview) and ``.npz`` (batch state), ``<tag>`` new for every write, and the
+manifest ``<key>.json`` written after them, naming them and recording their
+SHA-256. Reading checks the hashes and the layers (:func:`load`): a truncated,
+swapped or non-finite entry is re-rendered, never served. Continuing an entry
+writes new files and switches the manifest over in one rename, so an interrupted
+continuation leaves the entry it continued as it was (:func:`store`).
 """
 
 from __future__ import annotations
 
 import hashlib
 import json
+import math
 import os
+import uuid
+import zipfile
 
 import numpy as np
 
 from volcaustics.scenes.canonical import canonical_dict
+from volcaustics.scenes.formats import COLOUR_LAYERS, LAYER_NAMES, MASK_LAYER
 from volcaustics.scenes.imageio import read_exr, write_exr
 from volcaustics.scenes.sources import source_hash
-from volcaustics.scenes.storage import atomic_path, atomic_write_bytes, atomic_write_text, cache_dir, file_sha256
+from volcaustics.scenes.storage import (
+    atomic_path,
+    atomic_write_bytes,
+    atomic_write_text,
+    cache_dir,
+    file_sha256,
+    read_json_object,
+    remove_file,
+    sigint_held,
+)
 
 from . import mi_setup
 
@@ -33,6 +51,8 @@ KEY_FORMAT = "volcaustics-reference-key/3"
 # their seeds); the exporter's *output* is in the key itself. What finds, reads and
 # writes entries (this module) lies outside it and changes no key.
 RENDER_FOLDER = os.path.join(os.path.dirname(os.path.abspath(__file__)), "render")
+FILE_KINDS = {"exr": ".exr", "png": ".png", "state": ".npz"}  # an entry's data files, named by its manifest
+LAYERS = (*LAYER_NAMES, *(f"{name}_var" for name in COLOUR_LAYERS))  # what a reference's EXR holds
 
 
 def code_version() -> str:
@@ -70,98 +90,182 @@ def cache_key(scene, settings=None, *, mode: str = "caustic", variant: str | Non
 
 
 def lookup(request):
-    """(key, manifest) of a complete cache entry for ``request`` rendered with one of
-    the variants this process serves (mi_setup.served_variants, in order), else None."""
+    """(key, manifest, layers) of a complete, verified cache entry for ``request``
+    rendered with one of the variants this process serves (mi_setup.served_variants,
+    in order), else None."""
+    size = (request.settings.width, request.settings.height)
     for variant in mi_setup.served_variants():
         key = request_key(request, variant)
-        manifest = load(key)
-        if manifest is not None:
-            return key, manifest
+        entry = load(key, size)
+        if entry is not None:
+            return (key, *entry)
     return None
 
 
-def paths(key: str) -> tuple[str, str]:
-    """(EXR, manifest) paths of a cache entry; the PNG preview sits beside as <key>.png."""
-    folder = cache_dir("reference")
-    return os.path.join(folder, f"{key}.exr"), os.path.join(folder, f"{key}.json")
+def manifest_path(key: str) -> str:
+    """The manifest of a cache entry, ``<key>.json``: it names the entry's data files."""
+    return os.path.join(cache_dir("reference"), f"{key}.json")
 
 
-def load(key: str):
-    """The manifest if a complete, matching entry exists (EXR hash checked), else None."""
-    from volcaustics.scenes.storage import read_json_object
+def entry_file(key: str, manifest: dict, kind: str) -> str:
+    """Path of the entry's file of ``kind`` (FILE_KINDS) that ``manifest`` names;
+    ValueError when it names none, or a name not of the form ``<key>.<tag><ext>`` (a
+    manifest names only its own entry's files)."""
+    files = manifest.get("files")
+    name = files.get(kind) if isinstance(files, dict) else None
+    if not isinstance(name, str) or not name.startswith(f"{key}.") or not name.endswith(FILE_KINDS[kind]) \
+            or os.path.basename(name) != name:
+        raise ValueError(f"cache entry {key}: its manifest names no {kind} file of its own ({name!r})")
+    return os.path.join(cache_dir("reference"), name)
 
-    exr, manifest_path = paths(key)
+
+def load(key: str, size: tuple | None = None):
+    """(manifest, layers) of a complete, undamaged entry, else None: the manifest is a
+    JSON object of this key naming its files, with fields of the types the cache writes
+    (:func:`_manifest_size`), the EXR and PNG match its SHA-256s, and the layers are
+    those a reference has, finite, variances ≥ 0, of ``size`` ((width, height); default
+    the manifest's settings). A damaged entry is re-rendered, never
+    served. An entry of the layout before issue 21 (a manifest naming no files) counts
+    as missing."""
     try:
-        manifest = read_json_object(manifest_path)  # `null` or a list is a damaged entry, like torn JSON
-        if manifest.get("key") != key or manifest.get("exr_sha256") != file_sha256(exr):
+        manifest = read_json_object(manifest_path(key))  # `null` or a list is a damaged entry, like torn JSON
+        if manifest.get("key") != key:
             return None
-        if not os.path.exists(exr[:-4] + ".png"):
+        for kind in ("exr", "png"):
+            if manifest.get(f"{kind}_sha256") != file_sha256(entry_file(key, manifest, kind)):
+                return None
+        size = _manifest_size(manifest, size)
+        if size is None:
             return None
-        return manifest
-    except (OSError, ValueError, KeyError):
+        layers = _verified(read_exr(entry_file(key, manifest, "exr"))[0], size)
+    except (OSError, ValueError, KeyError, TypeError, RuntimeError):  # OpenEXR raises RuntimeError
         return None
+    return None if layers is None else (manifest, layers)
+
+
+def _manifest_size(manifest: dict, size: tuple | None) -> tuple | None:
+    """The image size (width, height) of a manifest whose fields that callers read have
+    the types the cache writes (settings a table of this size, when ``size`` is given;
+    counts whole numbers ≥ 0; noise floors finite or None; seconds finite ≥ 0), else None."""
+    settings = manifest.get("settings")
+    if not isinstance(settings, dict):
+        return None
+    own = (settings.get("width"), settings.get("height"))
+    counts = [manifest.get(name) for name in ("photons", "batches", "camera_batches")]
+    floors = manifest.get("noise_floor")
+    if (size is not None and own != tuple(size)) or not all(_count(v) for v in (*own, *counts)) \
+            or not isinstance(floors, dict) or not all(v is None or _number(v) for v in floors.values()) \
+            or not _number(manifest.get("wall_seconds")):
+        return None
+    return own
+
+
+def _count(value) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool) and value >= 0
+
+
+def _number(value) -> bool:
+    """A finite number ≥ 0 (JSON gives NaN and Infinity as floats)."""
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value) and value >= 0
+
+
+def _verified(layers: dict, size: tuple) -> dict | None:
+    """``layers`` if they are exactly a reference's (LAYERS), each H×W×3 of ``size``
+    (width, height), finite, variances ≥ 0 and the mask 0 or 1; else None."""
+    width, height = size
+    if set(layers) != set(LAYERS):
+        return None
+    for name, image in layers.items():
+        if image.shape != (height, width, 3) or not np.isfinite(image).all():
+            return None
+        if name.endswith("_var") and (image < 0).any():
+            return None
+    mask = layers[MASK_LAYER]
+    return layers if ((mask == 0) | (mask == 1)).all() else None
 
 
 def store(key: str, layers: dict, manifest: dict, header: dict, png: bytes, state: dict | None = None) -> dict:
-    """Write EXR, PNG preview and the batch state (``state``: arrays of float64 batch
-    sums, to continue the render; ``<key>.npz``), then the manifest (the commit marker)."""
-    exr, manifest_path = paths(key)
-    write_exr(exr, layers, {**header, "volcaustics_reference_key": key})
-    atomic_write_bytes(exr[:-4] + ".png", png)
-    manifest = {**manifest, "key": key, "exr_sha256": file_sha256(exr)}
-    if state is not None:
-        with atomic_path(state_path(key)) as tmp:
-            np.savez(tmp, **state)
-        manifest["state_sha256"] = file_sha256(state_path(key))
-    atomic_write_text(manifest_path, json.dumps(manifest, indent=2, default=float))
+    """Write the EXR, the PNG preview and the batch state (``state``: arrays of float64
+    batch sums, to continue the render) into new files ``<key>.<tag>.{exr,png,npz}``,
+    then the manifest naming them (the switch: one rename, Ctrl-C held back), then
+    remove the files the previous manifest named. An entry being continued stays
+    valid until the switch; an interrupted write removes its new files."""
+    folder = cache_dir("reference")
+    tag = uuid.uuid4().hex[:12]
+    kinds = ("exr", "png", "state") if state is not None else ("exr", "png")
+    names = {kind: f"{key}.{tag}{FILE_KINDS[kind]}" for kind in kinds}
+    paths = {kind: os.path.join(folder, name) for kind, name in names.items()}
+    previous = _named_files(key)
+    committed = False
+    try:
+        write_exr(paths["exr"], layers, {**header, "volcaustics_reference_key": key})
+        atomic_write_bytes(paths["png"], png)
+        if state is not None:
+            with atomic_path(paths["state"]) as tmp:
+                np.savez(tmp, **state)
+        manifest = {**manifest, "key": key, "files": names,
+                    **{f"{kind}_sha256": file_sha256(path) for kind, path in paths.items()}}
+        with sigint_held():
+            atomic_write_text(manifest_path(key), json.dumps(manifest, indent=2, default=float))
+            committed = True
+    finally:
+        if not committed:
+            for path in paths.values():
+                remove_file(path)
+    for path in previous - set(paths.values()):
+        remove_file(path)
     return manifest
 
 
-def state_path(key: str) -> str:
-    """The batch state of a cache entry (float64 sums per stream, see reference.batches)."""
-    return paths(key)[0][:-4] + ".npz"
+def _named_files(key: str) -> set:
+    """The data files the entry's current manifest names (none when it is missing or
+    damaged)."""
+    try:
+        manifest = read_json_object(manifest_path(key))
+    except (OSError, ValueError):
+        return set()
+    out = set()
+    for kind in FILE_KINDS:
+        try:
+            out.add(entry_file(key, manifest, kind))
+        except ValueError:
+            pass
+    return out
 
 
 def read_state(key: str, manifest: dict) -> dict | None:
-    """The entry's batch state if present and matching its manifest, else None."""
-    path = state_path(key)
+    """The entry's batch state (float64 sums per stream, see reference.batches) if
+    present and matching its manifest, else None."""
     try:
+        path = entry_file(key, manifest, "state")
         if manifest.get("state_sha256") != file_sha256(path):
             return None
         with np.load(path) as data:
             return {name: data[name] for name in data.files}
-    except (OSError, ValueError, KeyError):
+    except (OSError, ValueError, KeyError, zipfile.BadZipFile):
         return None
-
-
-def read_layers(key: str) -> dict:
-    return read_exr(paths(key)[0])[0]
 
 
 class ReferenceResult:
     """A cached reference: ``manifest`` (photons, batches, seed, wall time, variant,
     versions, the caller's scene name and hash, settings, cached), ``exr_path``/``png_path`` of the cache
-    files, and the images, read on first use: ``mean`` (layer → H×W×3 float32;
-    mask_specular 0/1) and ``var`` (layer → variance of the mean)."""
+    files (removed when the entry is continued later: copy them at once), and the
+    verified images: ``mean`` (layer → H×W×3 float32; mask_specular 0/1) and ``var``
+    (layer → variance of the mean)."""
 
-    def __init__(self, key: str, manifest: dict, cached: bool, layers: dict | None = None):
+    def __init__(self, key: str, manifest: dict, cached: bool, layers: dict):
         self.key, self.manifest, self.cached = key, {**manifest, "cached": cached}, cached
-        self.exr_path, _ = paths(key)
-        self.png_path = self.exr_path[:-4] + ".png"
+        self.exr_path = entry_file(key, manifest, "exr")
+        self.png_path = entry_file(key, manifest, "png")
         self._layers = layers
-
-    def _load(self) -> dict:
-        if self._layers is None:
-            self._layers = read_layers(self.key)
-        return self._layers
 
     @property
     def mean(self) -> dict:
-        return {k: v for k, v in self._load().items() if not k.endswith("_var")}
+        return {k: v for k, v in self._layers.items() if not k.endswith("_var")}
 
     @property
     def var(self) -> dict:
-        return {k[:-4]: v for k, v in self._load().items() if k.endswith("_var")}
+        return {k[:-4]: v for k, v in self._layers.items() if k.endswith("_var")}
 
 
 def for_caller(manifest: dict, scene) -> dict:
@@ -172,11 +276,11 @@ def for_caller(manifest: dict, scene) -> dict:
 
 
 def cached_reference(key: str, scene) -> ReferenceResult | None:
-    """The complete cache entry ``key`` (EXR hash checked) as a result for ``scene``,
-    or None if this cache does not hold it (a sweep's workers use exactly the reference
-    the sweep resolved)."""
-    manifest = load(key)
-    return None if manifest is None else ReferenceResult(key, for_caller(manifest, scene), cached=True)
+    """The complete, verified cache entry ``key`` as a result for ``scene``, or None if
+    this cache does not hold it (a sweep's workers use exactly the reference the sweep
+    resolved)."""
+    entry = load(key)
+    return None if entry is None else ReferenceResult(key, for_caller(entry[0], scene), cached=True, layers=entry[1])
 
 
 def existing_reference(scene, settings=None, *, mode: str = "caustic") -> ReferenceResult | None:
@@ -187,5 +291,5 @@ def existing_reference(scene, settings=None, *, mode: str = "caustic") -> Refere
     served = lookup(resolve(scene, settings, mode))
     if served is None:
         return None
-    key, manifest = served
-    return ReferenceResult(key, for_caller(manifest, scene), cached=True)
+    key, manifest, layers = served
+    return ReferenceResult(key, for_caller(manifest, scene), cached=True, layers=layers)

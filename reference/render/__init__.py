@@ -223,6 +223,24 @@ def _satisfied(manifest: dict, settings: ReferenceSettings) -> bool:
     return True
 
 
+def _resumable(arrays: dict | None, settings: ReferenceSettings) -> RenderState | None:
+    """The batch state ``arrays`` (cache.read_state) to continue, or None (render afresh)
+    when there is none or it is not a state of this image: arrays missing, of another
+    size, or not finite. A damaged state is never added to."""
+    if arrays is None:
+        return None
+    try:
+        state = RenderState.from_arrays(arrays)
+    except (KeyError, ValueError, TypeError):
+        return None
+    shape = (settings.height, settings.width, 3)
+    images = [*state.light.sums.values(), *state.light.squares.values(), *state.camera.sums.values(),
+              *state.camera.squares.values()]
+    if state.mask is None or state.mask.shape != shape[:2] or not np.isfinite(state.seconds) or state.seconds < 0:
+        return None
+    return state if all(a.shape == shape and np.isfinite(a).all() for a in images) else None
+
+
 def render_reference(scene, settings: ReferenceSettings | None = None, *, mode: str = "caustic",
                      force: bool = False, progress: bool = True) -> ReferenceResult:
     """The reference for ``scene``: from the cache when a valid entry meets ``settings``
@@ -239,11 +257,11 @@ def render_reference(scene, settings: ReferenceSettings | None = None, *, mode: 
     if not force:
         served = cache.lookup(request)
         if served is not None:
-            served_key, manifest = served
+            served_key, manifest, layers = served
             if _satisfied(manifest, settings):
-                return ReferenceResult(served_key, for_caller(manifest, scene), cached=True)
-            arrays = cache.read_state(served_key, manifest) if served_key == key else None
-            state = RenderState.from_arrays(arrays) if arrays is not None else None
+                return ReferenceResult(served_key, for_caller(manifest, scene), cached=True, layers=layers)
+            if served_key == key:
+                state = _resumable(cache.read_state(served_key, manifest), settings)
     state, stopped_by, seconds = _render(request, state, progress=progress)
     info = _info(state, settings, stopped_by, seconds)
     layers = {}

@@ -4,7 +4,7 @@ What Mitsuba gets is described, as plain data, by ``reference.description``;
 this module turns a description into Mitsuba's objects: transforms through
 Mitsuba's ``ScalarTransform4f``, meshes into PLY files named by the SHA-256 of
 their content (positions, normals, faces: a change of any of them writes a new
-file, never reuses an old one).
+file, never reuses an old one), checked byte for byte whenever they are used.
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
-from volcaustics.scenes.storage import atomic_path, atomic_write_bytes, cache_dir
+from volcaustics.scenes.storage import atomic_path, atomic_write_bytes, cache_dir, special_file_kind
 
 from ..description import FOG_ID, Description, describe, ply_bytes, ply_digest
 
@@ -22,12 +22,24 @@ PLY_NAME_DIGITS = 32  # hex digits of the content hash in a PLY file name
 
 
 def ply_file(data: bytes, folder: str, digest: str | None = None) -> str:
-    """Path of the PLY file holding ``data`` in ``folder``, named by its content
-    hash; written (atomically) only if it is not there yet."""
+    """Path of the PLY file holding ``data`` in ``folder``, named by its content hash;
+    written (atomically) unless a file of exactly these bytes is there: one that is
+    not (truncated, garbage, another mesh's bytes) is rewritten, never given to Mitsuba."""
     path = os.path.join(folder, f"mesh-{(digest or ply_digest(data))[:PLY_NAME_DIGITS]}.ply")
-    if not os.path.exists(path):
+    if not _holds(path, data):
         atomic_write_bytes(path, data)
     return path
+
+
+def _holds(path: str, data: bytes) -> bool:
+    """Whether the regular file ``path`` holds exactly ``data`` (a FIFO or device is never opened)."""
+    if special_file_kind(path):
+        return False
+    try:
+        with open(path, "rb") as fh:
+            return fh.read(len(data) + 1) == data
+    except OSError:
+        return False
 
 
 def mesh_file(mesh, folder: str) -> str:

@@ -6,7 +6,8 @@ Layout of a store folder::
     points/<key>/views.exr        optional: the images a report shows
                                   (``reports.experiment.summary.VIEWS``; the report's store)
     points/<key>/summary.json     written last: the experiment's summary, the key's
-                                  document and the SHA-256 of every file
+                                  document, the SHA-256 of every file and of
+                                  itself (``summary_sha256``)
     segments.parquet, photons.parquet, images.parquet, points.parquet
                                   all complete points in one table each
                                   (:meth:`Store.tables`), written by a sweep
@@ -20,7 +21,8 @@ temporary name and renamed into place, so a point is there whole or not at all: 
 interrupted sweep leaves at most a temporary folder (removed on the next run when its
 process is gone), two sweeps writing one store never write one file (the second
 rename finds the point there and drops its own copy), and a point whose files do not
-match the hashes in its summary (a damaged file) counts as missing and is recomputed.
+match the hashes in its summary (a damaged file), or whose summary does not match its
+own hash (an edited number), counts as missing and is recomputed.
 
 Parquet (pyarrow) is the format: columnar, typed, compressed, read by pandas
 (``pd.read_parquet(DIR/"images.parquet")``) and by DuckDB directly, also across the
@@ -48,6 +50,7 @@ TABLES = ("segments", "photons", "images")
 TABLE_FILES = tuple(f"{name}.parquet" for name in TABLES)
 VIEWS = "views.exr"
 SUMMARY = "summary.json"
+SEAL = "summary_sha256"  # a summary's field holding the SHA-256 of the rest of it (summary_sha256)
 STORE_FORMAT = 1
 
 
@@ -67,6 +70,20 @@ def key_document(scene, params, seeds: int, reference) -> dict:
             "reference_content": reference.manifest.get("exr_sha256"), "code_version": code_version()}
 
 
+def summary_sha256(summary: dict) -> str:
+    """SHA-256 of a point's summary without its own hash (the field SEAL): of its
+    canonical JSON (sorted keys, no spaces), so reading it back and hashing again gives
+    the same digest."""
+    content = {k: v for k, v in summary.items() if k != SEAL}
+    text = json.dumps(content, sort_keys=True, separators=(",", ":"), allow_nan=False)
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def sealed(summary: dict) -> dict:
+    """``summary`` with the SHA-256 of its content under SEAL (checked by :meth:`Store.summary`)."""
+    return {**summary, SEAL: summary_sha256(summary)}
+
+
 class Store:
     """The points of one store folder (created when missing)."""
 
@@ -79,11 +96,14 @@ class Store:
         return os.path.join(self.points, key)
 
     def summary(self, key: str) -> dict | None:
-        """The point's summary if the point is complete and undamaged, else None."""
+        """The point's summary if the point is complete and undamaged (its summary of this
+        key, matching its own SHA-256, its files matching theirs), else None. A summary
+        edited by hand, or written before summaries carried their hash (a store from
+        before issue 21), counts as damaged: a sweep or the report recomputes the point."""
         folder = self.point_dir(key)
         try:
             summary = read_json_object(os.path.join(folder, SUMMARY))
-            if summary.get("key") != key:
+            if summary.get("key") != key or summary.get(SEAL) != summary_sha256(summary):
                 return None
             hashes = summary.get("files")
             if not isinstance(hashes, dict) or not set(hashes) <= {*TABLE_FILES, VIEWS} \
@@ -126,7 +146,7 @@ class Store:
                 write_exr(path, experiment.views, {"volcaustics_renderer": "experiment views",
                                                    "volcaustics_scene": experiment.summary["scene"]})
                 files[VIEWS] = file_sha256(path)
-            summary = {**plain(experiment.summary), "key": key, "key_document": document, "files": files}
+            summary = sealed({**plain(experiment.summary), "key": key, "key_document": document, "files": files})
             atomic_write_text(os.path.join(tmp, SUMMARY), json.dumps(summary, indent=1, allow_nan=False))
             return self._commit(tmp, key)
         finally:

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 import os
 
 import numpy as np
@@ -28,7 +29,7 @@ from volcaustics.metrics import image as im
 from volcaustics.metrics.noise import noisy_copy, seed_mean_interval, seed_relative_mse
 from volcaustics.reports.core.versions import code_version
 from volcaustics.scenes.formats import COLOUR_LAYERS, MASK_LAYER
-from volcaustics.scenes.storage import atomic_write_text, cache_dir
+from volcaustics.scenes.storage import atomic_write_text, cache_dir, read_json_object
 
 RESAMPLES = 2000             # bootstrap resamples over the seeds (per-frame metrics)
 FLOOR_DRAWS = 2              # noisy copies averaged for a non-quadratic metric's floor
@@ -136,18 +137,33 @@ def _ci(interval) -> dict:
 def metric_floor(metric, reference_key, component, keep, r, rv, compute) -> float:
     """A non-quadratic metric's value for the reference against its noisy copy
     (``metrics.noise.noisy_copy``, the mean over FLOOR_DRAWS draws), cached in-process
-    and on disk per (reference, component, metric, compared pixels, code version)."""
+    and on disk per (reference, component, metric, compared pixels, code version); a
+    damaged file on disk is recomputed (:func:`_cached_floor`)."""
     ident = hashlib.sha256(f"{reference_key}/{component}/{metric}/{FLOOR_SEED}/{FLOOR_DRAWS}/{code_version()}/"
                            .encode() + np.packbits(keep).tobytes()).hexdigest()[:24]
     if ident in _FLOORS:
         return _FLOORS[ident]
     path = os.path.join(cache_dir("metric-floors"), ident + ".json")
-    try:
-        with open(path) as fh:
-            value = float(json.load(fh)["value"])
-    except (OSError, ValueError, KeyError, TypeError):
+    value = _cached_floor(path, ident)
+    if value is None:
         value = float(np.mean([compute(r, noisy_copy(r, rv, seed=FLOOR_SEED + i)) for i in range(FLOOR_DRAWS)]))
-        atomic_write_text(path, json.dumps({"value": value, "metric": metric, "component": component,
-                                            "reference_key": reference_key}))
+        if math.isfinite(value):
+            atomic_write_text(path, json.dumps({"value": value, "ident": ident, "metric": metric,
+                                                "component": component, "reference_key": reference_key},
+                                               allow_nan=False))
     _FLOORS[ident] = value
     return value
+
+
+def _cached_floor(path: str, ident: str) -> float | None:
+    """The floor stored in ``path`` if it is the entry ``ident`` and a finite number,
+    else None (recomputed): a floor of NaN, ∞, a string, garbage or another entry's
+    file is never used. Files from before the ``ident`` field count as damaged."""
+    try:
+        doc = read_json_object(path)
+    except (OSError, ValueError):
+        return None
+    value = doc.get("value")
+    if doc.get("ident") != ident or isinstance(value, bool) or not isinstance(value, (int, float)):
+        return None
+    return float(value) if math.isfinite(value) else None

@@ -28,7 +28,7 @@ from volcaustics.reports.gate.verdict import scene_verdict
 from volcaustics.reports.page.summary import report_summary
 from volcaustics.reports.page.write import write_report
 from volcaustics.scenes import SceneError, resolve_scene
-from volcaustics.scenes.storage import read_json_object, special_file_kind
+from volcaustics.scenes.storage import file_sha256, read_json_object, special_file_kind
 
 
 class ReportError(ValueError):
@@ -116,11 +116,36 @@ def load_sweep(folder: str) -> SweepTables:
     spec = doc.get("spec")
     if not isinstance(spec, dict) or not isinstance(spec.get("vary"), dict):
         raise ReportError(f"--sweep {folder}: sweep.json has no spec with a \"vary\" table: rerun the sweep")
-    tables = {name: _sweep_table(folder, name) for name in ("segments", "photons", "images", "points")}
+    names = ("segments", "photons", "images", "points")
+    hashes = _check_hashes(folder, doc, names)
+    tables = {name: _sweep_table(folder, name) for name in names}
     if len(tables["points"]) == 0:
         raise ReportError(f"--sweep {folder}: the sweep holds no finished point")
-    notes = _check_schema(folder, tables["points"])
+    notes = hashes + _check_schema(folder, tables["points"])
     return SweepTables(folder=folder, tables=tables, varied=list(spec["vary"]), spec=spec, notes=notes)
+
+
+def _check_hashes(folder: str, doc: dict, names) -> list:
+    """Check the tables ``names`` against the SHA-256s sweep.json records (``files``):
+    ReportError naming a table edited or damaged since the sweep wrote it. A store from
+    before sweep.json recorded them is drawn unchecked: returns the note the page shows."""
+    files = doc.get("files")
+    if not isinstance(files, dict):
+        return ["its sweep.json records no SHA-256 of its tables (written by an older volcaustics), so they are "
+                "shown unchecked: rerun the sweep to record them"]
+    for name in names:
+        path = os.path.join(folder, f"{name}.parquet")
+        try:
+            digest = file_sha256(path)
+        except FileNotFoundError:
+            continue  # _sweep_table says what is missing
+        except OSError as exc:
+            raise ReportError(f"--sweep {folder}: {name}.parquet unreadable ({exc}): rerun the sweep") from None
+        if files.get(f"{name}.parquet") != digest:
+            raise ReportError(f"--sweep {folder}: {name}.parquet does not match the SHA-256 its sweep.json records "
+                              f"(edited or damaged since the sweep wrote it): rerun the sweep (`volcaustics sweep "
+                              f"SPEC -o {folder}` keeps every undamaged point)")
+    return []
 
 
 def _check_schema(folder: str, points: pd.DataFrame) -> list:

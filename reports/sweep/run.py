@@ -18,9 +18,9 @@ from volcaustics.reports.sweep.figures import draw_figures
 from volcaustics.reports.sweep.spec import SweepError, SweepSpec, points
 from volcaustics.reports.sweep.suffice import settings_that_suffice
 from volcaustics.reports.sweep.variants import best_variants, draw_variants, is_variants_sweep, variant_table
-from volcaustics.scenes.storage import atomic_set
+from volcaustics.scenes.storage import atomic_set, file_sha256
 
-MANIFEST = "sweep.json"  # the spec and the points the store's tables hold; written last
+MANIFEST = "sweep.json"  # the spec, the points the store's tables hold, their SHA-256s; written last
 OUTPUT_FILES = (*(f"{name}.parquet" for name in (*TABLES, "points")), "suffice.csv", MANIFEST)
 OUTPUT_FOLDERS = ("points", "figures")
 VARIANT_FILES = ("variants.csv", "variants_best.csv")  # beside them when the sweep varies search or start_rule
@@ -71,13 +71,16 @@ def run_sweep(spec: SweepSpec, out_dir: str, *, workers: int | None = None, dask
 def _write_tables(out_dir: str, tables: dict, manifest: dict, extra: tuple = ()) -> None:
     """The consolidated tables, suffice.csv and, last, sweep.json as one set
     (``scenes.storage.atomic_set``): an interrupted sweep leaves the last complete set,
-    never a manifest beside another run's tables (what ``report --sweep`` reads)."""
+    never a manifest beside another run's tables (what ``report --sweep`` reads). The
+    manifest records each file's SHA-256 (``files``), which the report checks."""
     names = [name for name in OUTPUT_FILES if name != MANIFEST] + list(extra)
     with atomic_set([os.path.join(out_dir, name) for name in (*names, MANIFEST)]) as temps:
+        files = {}
         for name, tmp in zip(names, temps):
             if name.endswith(".csv"):
                 tables[name[: -len(".csv")]].to_csv(tmp, index=False)
             else:
                 tables[name[: -len(".parquet")]].to_parquet(tmp, index=False)
+            files[name] = file_sha256(tmp)
         with open(temps[-1], "w", encoding="utf-8") as fh:
-            fh.write(json.dumps(manifest, indent=1))
+            fh.write(json.dumps({**manifest, "files": files}, indent=1))

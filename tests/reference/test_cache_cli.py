@@ -46,7 +46,7 @@ def test_truncated_cache_entry_is_rerendered(private_cache):
     scene = load_builtin("refocus")
     settings = ReferenceSettings(photons=100000, spp=8, batches=2, width=16, height=16)
     first = render_reference(scene, settings, progress=False)
-    exr, manifest = cache.paths(cache.cache_key(scene, settings.resolved(scene)))
+    exr, manifest = first.exr_path, cache.manifest_path(first.key)
     data = open(exr, "rb").read()
     open(exr, "wb").write(data[: len(data) // 2])  # a crash mid-write elsewhere, or disk trouble
     second = render_reference(scene, settings, progress=False)

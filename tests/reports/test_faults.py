@@ -226,7 +226,7 @@ def test_a_manifest_that_is_a_fifo_does_not_hang(tmp_path, case):
 def _a_complete_point(tmp_path):
     """A store holding one complete point (real Parquet tables, their hashes in its
     summary): (store, key, summary)."""
-    from volcaustics.reports.core.store import SUMMARY, TABLE_FILES, Store
+    from volcaustics.reports.core.store import SUMMARY, TABLE_FILES, Store, sealed
     from volcaustics.scenes.storage import file_sha256
 
     store = Store(str(tmp_path / "store"))
@@ -237,7 +237,7 @@ def _a_complete_point(tmp_path):
     for name in TABLE_FILES:
         pd.DataFrame({"x": [1.0, 2.0]}).to_parquet(folder / name, index=False)
         files[name] = file_sha256(str(folder / name))
-    summary = {"key": key, "files": files}
+    summary = sealed({"key": key, "files": files})
     (folder / SUMMARY).write_text(json.dumps(summary))
     return store, key, summary
 
@@ -247,7 +247,7 @@ def _a_complete_point(tmp_path):
 def test_a_damaged_store_point_counts_as_damaged(tmp_path, damage):
     """A point whose summary is not its own object, or whose files do not match the
     hashes it lists, is "damaged" (recomputed by the sweep and the report), never read."""
-    from volcaustics.reports.core.store import SUMMARY, TABLE_FILES
+    from volcaustics.reports.core.store import SUMMARY, TABLE_FILES, sealed
 
     store, key, summary = _a_complete_point(tmp_path)
     folder, files = Path(store.point_dir(key)), summary["files"]
@@ -261,13 +261,13 @@ def test_a_damaged_store_point_counts_as_damaged(tmp_path, damage):
     elif damage == "summary garbage":
         (folder / SUMMARY).write_bytes(b"\0\xff{")
     elif damage == "summary of another key":
-        (folder / SUMMARY).write_text(json.dumps({**summary, "key": "f" * 32}))
+        (folder / SUMMARY).write_text(json.dumps(sealed({**summary, "key": "f" * 32})))
     elif damage == "table missing":
         table.unlink()
     elif damage == "table truncated":
         table.write_bytes(table.read_bytes()[:-10])
     else:
-        (folder / SUMMARY).write_text(json.dumps({**summary, "files": {**files, "../outside": "0" * 64}}))
+        (folder / SUMMARY).write_text(json.dumps(sealed({**summary, "files": {**files, "../outside": "0" * 64}})))
     assert store.status(key) == "damaged"
     store.remove_damaged(key)
     assert store.status(key) == "missing" and not list(Path(store.points).iterdir())

@@ -16,7 +16,7 @@ import pandas as pd
 import pytest
 
 from volcaustics.reports.cli import main
-from volcaustics.reports.core.store import SUMMARY, Store
+from volcaustics.reports.core.store import SUMMARY, Store, sealed
 
 # tiny points: 32², photon_res 64, light_res 64; a reference of 4 batches
 SPEC = """
@@ -215,7 +215,7 @@ def test_store_commit_keeps_a_complete_copy_and_replaces_a_damaged_one(tmp_path)
             from volcaustics.scenes.storage import file_sha256
 
             files[f"{name}.parquet"] = file_sha256(str(tmp / f"{name}.parquet"))
-        (tmp / SUMMARY).write_text(json.dumps({"key": key, "files": files}))
+        (tmp / SUMMARY).write_text(json.dumps(sealed({"key": key, "files": files})))
         return str(tmp)
 
     assert store._commit(fake_point(1), key) == "written"

@@ -14,6 +14,7 @@ from volcaustics.reports.core.store import POINT_COLUMNS, point_row
 from volcaustics.reports.core.versions import code_version
 from volcaustics.reports.page.collect import ReportError, load_sweep
 from volcaustics.reports.page.html import _sweep_section
+from volcaustics.scenes.storage import file_sha256
 
 
 def _store(folder, drop=(), version=None):
@@ -25,7 +26,9 @@ def _store(folder, drop=(), version=None):
     pd.DataFrame(rows).drop(columns=list(drop)).to_parquet(folder / "points.parquet")
     for name in ("segments", "photons", "images"):
         pd.DataFrame({"point": ["p0"]}).to_parquet(folder / f"{name}.parquet")
-    (folder / "sweep.json").write_text(json.dumps({"spec": {"vary": {"layers": [1, 2]}}, "points": 2}))
+    files = {p.name: file_sha256(str(p)) for p in folder.glob("*.parquet")}  # as the sweep records them
+    (folder / "sweep.json").write_text(json.dumps({"spec": {"vary": {"layers": [1, 2]}}, "points": 2,
+                                                   "files": files}))
     return str(folder)
 
 
@@ -54,3 +57,26 @@ def test_a_store_before_a_parameter_and_of_another_code_version_is_marked(tmp_pa
     html = _sweep_section({"folder": "s", "points": 2, "varied": ["layers"], "suffice": [], "suffice_factor": None,
                            "notes": sweep.notes}, {})
     assert html.count("class='warn sweep-note'") == 2 and "predates the parameter crossing" in html
+
+
+@pytest.mark.parametrize("table", ["points", "images"])
+def test_a_table_edited_after_the_sweep_is_refused(tmp_path, table):
+    """sweep.json records the SHA-256 of each consolidated table: `report --sweep`
+    refuses one edited since (before: its numbers were drawn on the page)."""
+    folder = _store(tmp_path / "s")
+    path = tmp_path / "s" / f"{table}.parquet"
+    frame = pd.read_parquet(path)
+    frame["caustic_relmse_debiased" if table == "points" else "value"] = 0.25  # a number edited by hand
+    frame.to_parquet(path)
+    with pytest.raises(ReportError, match=rf"{table}\.parquet does not match.*sweep\.json.*rerun the sweep"):
+        load_sweep(folder)
+
+
+def test_a_store_without_table_hashes_is_marked(tmp_path):
+    """A store written before sweep.json recorded its tables' hashes is drawn, with a
+    note on the page saying its tables are unchecked."""
+    folder = _store(tmp_path / "s")
+    doc = json.loads((tmp_path / "s" / "sweep.json").read_text())
+    del doc["files"]
+    (tmp_path / "s" / "sweep.json").write_text(json.dumps(doc))
+    assert [n for n in load_sweep(folder).notes if "no SHA-256" in n and "rerun the sweep" in n]

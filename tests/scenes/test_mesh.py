@@ -79,3 +79,49 @@ def test_obj_and_ply_readers_agree(tmp_path):
 def test_obj_quads_are_triangulated(tmp_path):
     (tmp_path / "q.obj").write_text("v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n")
     assert read_mesh_file(str(tmp_path / "q.obj")).triangle_count == 2
+
+
+BIG_SPHERE = (("radius", 1.0), ("subdivisions", 51))  # 52,020 triangles: above the size that is cached on disk
+
+
+def _save_mesh(path, vertices, faces):
+    with open(path, "wb") as fh:
+        np.savez(fh, vertices=vertices, faces=faces)
+
+
+@pytest.mark.parametrize("damage", ["truncated", "garbage", "another mesh", "nan vertex", "face out of range",
+                                    "faces missing", "flat vertices"])
+def test_a_damaged_generated_mesh_cache_is_regenerated(tmp_path, monkeypatch, damage):
+    """A generated-mesh cache file that is truncated, garbage, another generator's mesh
+    or not a valid mesh is regenerated and rewritten (before: a truncated file raised,
+    reported as a bad scene file on every run; the others were used as the mesh)."""
+    from volcaustics.scenes.mesh import generated_mesh
+
+    monkeypatch.setenv("VOLCAUSTICS_CACHE", str(tmp_path))
+    good = generated_mesh("sphere", BIG_SPHERE)
+    [path] = (tmp_path / "meshes").glob("*.npz")
+    data = path.read_bytes()
+    other = sphere(radius=2.0, subdivisions=51)
+    if damage == "truncated":
+        path.write_bytes(data[: len(data) // 2])
+    elif damage == "garbage":
+        path.write_bytes(b"PK\x03\x04" + b"\xff" * 64)
+    elif damage == "another mesh":
+        _save_mesh(path, other.vertices, other.faces)
+    elif damage == "nan vertex":
+        vertices = good.vertices.copy()
+        vertices[5, 1] = np.nan
+        _save_mesh(path, vertices, good.faces)
+    elif damage == "face out of range":
+        faces = good.faces.copy()
+        faces[7, 2] = len(good.vertices)
+        _save_mesh(path, good.vertices, faces)
+    elif damage == "faces missing":
+        with open(path, "wb") as fh:
+            np.savez(fh, vertices=good.vertices)
+    else:
+        _save_mesh(path, good.vertices[:, :2], good.faces)
+    again = generated_mesh("sphere", BIG_SPHERE)
+    assert np.array_equal(again.vertices, good.vertices) and np.array_equal(again.faces, good.faces)
+    with np.load(path) as saved:  # rewritten, so the next run reads it
+        assert np.array_equal(saved["vertices"], good.vertices) and np.array_equal(saved["faces"], good.faces)

@@ -1,0 +1,93 @@
+"""Damaged caches of the reports (issue 21 C): metric noise floors and store points
+are verified when read; a damaged one is recomputed, never used or shown."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from volcaustics.metrics import image as im
+from volcaustics.reports.experiment import images
+
+FLOOR_DAMAGES = {
+    "NaN": '{"value": NaN}', "Infinity": '{"value": Infinity}', "null value": '{"value": null}',
+    "a string": '{"value": "0.5"}', "true": '{"value": true}', "no value": "{}", "null": "null", "a list": "[1]",
+    "garbage": "\0\xff{", "empty": "",
+}
+
+
+def _floor(keep, r, rv, component="caustic"):
+    def compute(x, y):
+        return im.per_pixel_relative_mse(x, y, mask=keep)["value"]
+
+    return images.metric_floor("per_pixel_relative_mse", "k" * 32, component, keep, r, rv, compute)
+
+
+@pytest.mark.parametrize("damage", [*FLOOR_DAMAGES, "another floor's file"])
+def test_a_damaged_metric_floor_is_recomputed(tmp_path, monkeypatch, damage):
+    """A cached floor holding NaN, ∞, no number, garbage or another floor's value is
+    recomputed and rewritten (before: NaN made every debiased metric NaN, a string or
+    another floor's number was used)."""
+    monkeypatch.setenv("VOLCAUSTICS_CACHE", str(tmp_path))
+    monkeypatch.setattr(images, "_FLOORS", {})
+    rng = np.random.default_rng(1)
+    r = rng.uniform(0.1, 1.0, (12, 16, 3)).astype(np.float32)
+    rv = (1e-2 * r).astype(np.float32)
+    keep = np.ones((12, 16), bool)
+    first = _floor(keep, r, rv)
+    [path] = (tmp_path / "metric-floors").glob("*.json")
+    if damage == "another floor's file":
+        _floor(keep, r, 3 * rv, component="fog")
+        [other] = [p for p in (tmp_path / "metric-floors").glob("*.json") if p != path]
+        path.write_bytes(other.read_bytes())
+        assert json.loads(other.read_text())["value"] != first
+    else:
+        path.write_text(FLOOR_DAMAGES[damage], encoding="utf-8", errors="surrogateescape")
+    monkeypatch.setattr(images, "_FLOORS", {})  # a later process
+    assert _floor(keep, r, rv) == first  # the floor's noise draws are seeded (FLOOR_SEED)
+    assert json.loads(path.read_text())["value"] == first  # rewritten
+
+
+class _Experiment:
+    """What ``Store.write_point`` stores: three tables of rows and a summary."""
+
+    def __init__(self, value: float):
+        self.segments = [{"step": 0, "count": 10}]
+        self.photons = [{"photons": 1000}]
+        self.images = [{"component": "caustic", "metric": "relative_mse", "value": value}]
+        self.summary = {"scene": "refocus", "images": {"caustic": {"relative_mse": {"value": value}}}}
+
+
+@pytest.mark.parametrize("damage", ["a number edited", "a key added", "the hash edited", "the hash removed",
+                                    "the hash not text"])
+def test_an_edited_point_summary_counts_as_damaged(tmp_path, damage):
+    """A point's summary.json carries the SHA-256 of its own content: one edited by
+    hand (a number, a key), or without that hash (a store written before it), is
+    damaged: recomputed by a sweep or the report, never read (before: an edited number
+    was shown on the page)."""
+    from volcaustics.reports.core.store import SUMMARY, Store
+
+    store = Store(str(tmp_path / "store"))
+    key = "0123456789abcdef0123456789abcdef"
+    assert store.write_point(key, {"format": 1}, _Experiment(0.5)) == "written"
+    assert store.status(key) == "done" and store.summary(key)["images"]["caustic"]["relative_mse"]["value"] == 0.5
+    path = tmp_path / "store" / "points" / key / SUMMARY
+    summary = json.loads(path.read_text())
+    if damage == "a number edited":
+        summary["images"]["caustic"]["relative_mse"]["value"] = 0.05
+    elif damage == "a key added":
+        summary["note"] = "checked by hand"
+    elif damage == "the hash edited":
+        summary["summary_sha256"] = "0" * 64
+    elif damage == "the hash removed":
+        del summary["summary_sha256"]
+    else:
+        summary["summary_sha256"] = None
+    path.write_text(json.dumps(summary, indent=1))
+    assert store.summary(key) is None and store.status(key) == "damaged"
+    assert len(store.tables([key])["points"]) == 0
+    assert store.write_point(key, {"format": 1}, _Experiment(0.5)) == "written"  # the damaged copy is replaced
+    assert store.status(key) == "done"
+
