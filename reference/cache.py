@@ -23,6 +23,7 @@ import hashlib
 import json
 import math
 import os
+import re
 import uuid
 import zipfile
 
@@ -38,9 +39,11 @@ from volcaustics.scenes.storage import (
     atomic_write_text,
     cache_dir,
     file_sha256,
+    interrupts_held,
+    orphaned,
+    owner,
     read_json_object,
     remove_file,
-    sigint_held,
 )
 
 from . import mi_setup
@@ -191,7 +194,8 @@ def store(key: str, layers: dict, manifest: dict, header: dict, png: bytes, stat
     remove the files the previous manifest named. An entry being continued stays
     valid until the switch; an interrupted write removes its new files."""
     folder = cache_dir("reference")
-    tag = uuid.uuid4().hex[:12]
+    _remove_orphans(folder)
+    tag = f"{owner()}-{uuid.uuid4().hex[:12]}"  # whose: a killed writer's files are found by the next
     kinds = ("exr", "png", "state") if state is not None else ("exr", "png")
     names = {kind: f"{key}.{tag}{FILE_KINDS[kind]}" for kind in kinds}
     paths = {kind: os.path.join(folder, name) for kind, name in names.items()}
@@ -205,7 +209,7 @@ def store(key: str, layers: dict, manifest: dict, header: dict, png: bytes, stat
                 np.savez(tmp, **state)
         manifest = {**manifest, "key": key, "files": names,
                     **{f"{kind}_sha256": file_sha256(path) for kind, path in paths.items()}}
-        with sigint_held():
+        with interrupts_held():
             atomic_write_text(manifest_path(key), json.dumps(manifest, indent=2, default=float))
             committed = True
     finally:
@@ -215,6 +219,21 @@ def store(key: str, layers: dict, manifest: dict, header: dict, png: bytes, stat
     for path in previous - set(paths.values()):
         remove_file(path)
     return manifest
+
+
+# A data file: <key>.<host>-<pid>-<12 hex>.<ext> (store's tag)
+_DATA_FILE = re.compile(r"^(?P<key>[0-9a-f]{32})\.(?P<host>[^./]+)-(?P<pid>\d+)-[0-9a-f]{12}\.(exr|png|npz)$")
+
+
+def _remove_orphans(folder: str) -> None:
+    """Remove data files that a killed writer (SIGKILL between its files and its
+    manifest: no ``finally`` ran) left and no manifest names."""
+    for name in os.listdir(folder):
+        match = _DATA_FILE.match(name)
+        if match and orphaned(match["host"], int(match["pid"])):
+            path = os.path.join(folder, name)
+            if path not in _named_files(match["key"]):
+                remove_file(path)
 
 
 def _named_files(key: str) -> set:

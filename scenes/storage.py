@@ -105,7 +105,7 @@ def _temporary_beside(path: str) -> str:
     os.makedirs(folder, exist_ok=True)
     remove_stale_temporaries(folder)
     base, ext = os.path.splitext(os.path.basename(path))
-    fd, tmp = tempfile.mkstemp(prefix=f".{base}.{_owner()}-", suffix=f".tmp{ext}", dir=folder)
+    fd, tmp = tempfile.mkstemp(prefix=f".{base}.{owner()}-", suffix=f".tmp{ext}", dir=folder)
     os.close(fd)
     return tmp
 
@@ -114,8 +114,9 @@ def _temporary_beside(path: str) -> str:
 _TEMPORARY = re.compile(r"^\..*\.(?P<host>[^./]+)-(?P<pid>\d+)-[a-z0-9_]{8}\.tmp(\.[^/]*)?$")
 
 
-def _owner() -> str:
-    """``host-pid`` of this process, as temporaries carry it (dots in the host name dropped)."""
+def owner() -> str:
+    """``host-pid`` of this process, as temporaries carry it (``.`` and ``-`` in the host
+    name become ``_``): :func:`orphaned` tells whether its process is gone."""
     return f"{socket.gethostname().replace('.', '_').replace('-', '_')}-{os.getpid()}"
 
 
@@ -124,7 +125,6 @@ def remove_stale_temporaries(folder: str) -> int:
     killed (SIGKILL, a power cut: no ``finally`` ran) and that no running process owns;
     returns how many went. Called before every temporary is made in a folder, so each
     output folder and the cache clean up after the next run that writes there."""
-    host = _owner().rsplit("-", 1)[0]
     removed = 0
     try:
         names = os.listdir(folder)
@@ -132,13 +132,19 @@ def remove_stale_temporaries(folder: str) -> int:
         return 0
     for name in names:
         match = _TEMPORARY.match(name)
-        if match and match["host"] == host and not process_alive(int(match["pid"])):
+        if match and orphaned(match["host"], int(match["pid"])):
             try:
                 os.unlink(os.path.join(folder, name))
                 removed += 1
             except OSError:
                 pass
     return removed
+
+
+def orphaned(host: str, pid: int) -> bool:
+    """Whether a file marked by :func:`owner` as ``host-pid``'s was left by a process of
+    this host that no longer runs (a file of another host is never judged)."""
+    return host == owner().rsplit("-", 1)[0] and not process_alive(pid)
 
 
 def process_alive(pid: int) -> bool:

@@ -44,7 +44,7 @@ import pandas as pd
 from volcaustics.reports.core.tables import plain, table
 from volcaustics.reports.core.versions import code_version
 from volcaustics.scenes.imageio import read_exr, write_exr
-from volcaustics.scenes.storage import atomic_write_text, file_sha256, read_json_object
+from volcaustics.scenes.storage import atomic_write_text, file_sha256, process_alive, read_json_object
 
 TABLES = ("segments", "photons", "images")
 TABLE_FILES = tuple(f"{name}.parquet" for name in TABLES)
@@ -197,7 +197,7 @@ class Store:
                     pid_host, pid = "-".join(parts[2:-2]), int(parts[-2])
                 except ValueError:
                     continue
-                stale = pid_host == host and not _alive(pid)
+                stale = pid_host == host and not process_alive(pid)
             if stale:
                 shutil.rmtree(path, ignore_errors=True)
                 removed += 1
@@ -265,13 +265,3 @@ def point_row(key: str, summary: dict) -> dict:
     row["intersection_relmse_own"] = decomposition.get("intersection", {}).get("relmse_own")
     row["residual_within_noise"] = summary.get("decomposition", {}).get("residual", {}).get("within_noise")
     return {k: (float("nan") if v is None else v) for k, v in row.items()}
-
-
-def _alive(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:
-        return True  # running as another user
-    return True

@@ -167,6 +167,32 @@ def test_an_interrupted_continuation_keeps_the_entry_it_continued(private_cache,
     assert render_reference(scene, more, progress=False).cached
 
 
+def test_files_a_killed_writer_left_go_with_the_next_write(private_cache):
+    """SIGKILL between an entry's data files and its manifest runs no ``finally``: its
+    new files stayed for ever. The next write removes those of a process that is gone
+    and that no manifest names; a running writer's files and the entry's own stay."""
+    import subprocess
+    import sys
+
+    from volcaustics.scenes.storage import owner
+
+    scene = load_builtin("refocus")
+    first = render_reference(scene, SETTINGS, progress=False)
+    folder = private_cache / "reference"
+    dead = subprocess.Popen([sys.executable, "-c", "pass"])
+    dead.wait()
+    host = owner().rsplit("-", 1)[0]
+    orphan = folder / f"{first.key}.{host}-{dead.pid}-0123456789ab.exr"
+    running = folder / f"{first.key}.{host}-{os.getpid()}-0123456789ab.exr"
+    for path in (orphan, running):
+        path.write_bytes(b"half")
+    render_reference(scene, ReferenceSettings(photons=150000, spp=12, batches=3, width=16, height=12),
+                     progress=False)  # continues the entry: a write
+    names = os.listdir(folder)
+    assert orphan.name not in names and running.name in names
+    assert len([n for n in names if n.endswith(".exr")]) == 2  # the running writer's and the entry's
+
+
 @pytest.mark.parametrize("edit", [{"files": ["a list"]}, {"files": {"exr": "../elsewhere.exr"}}, {"files": None},
                                   {"settings": 5}, {"settings": {"width": 8, "height": 6}}, {"exr_sha256": None},
                                   {"batches": "2"}, {"noise_floor": [0.1]}, {"noise_floor": {"caustic": float("nan")}},

@@ -135,11 +135,11 @@ sys.exit(main(["doctor"]))
 def test_temporaries_of_killed_processes_go_with_the_next_write_in_their_folder(tmp_path):
     """SIGKILL runs no ``finally``: the killed run's hidden temporaries stayed for ever.
     The next write into that folder removes those whose process is gone, and only those."""
-    from volcaustics.scenes.storage import _owner, atomic_write_text
+    from volcaustics.scenes.storage import atomic_write_text, owner
 
     dead = subprocess.Popen([sys.executable, "-c", "pass"])
     dead.wait()
-    host = _owner().rsplit("-", 1)[0]
+    host = owner().rsplit("-", 1)[0]
     stale = tmp_path / f".summary.{host}-{dead.pid}-abcd1234.tmp.json"
     running = tmp_path / f".summary.{host}-{os.getpid()}-abcd1234.tmp.json"
     elsewhere = tmp_path / f".summary.otherhost-{dead.pid}-abcd1234.tmp.json"
