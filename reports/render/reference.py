@@ -18,8 +18,19 @@ from volcaustics.scenes.storage import atomic_set
 def run_reference(scene, settings, out: str, *, force: bool = False) -> dict:
     result = render_reference(scene, settings, force=force)
     paths = render_outputs(out, {"png": ".png", "json": ".json"})
+    try:
+        return _copy_out(result, paths)
+    except FileNotFoundError:
+        if os.path.exists(result.exr_path) and os.path.exists(result.png_path):
+            raise
+        # another process continued the entry meanwhile (its files replaced): serve that one
+        return _copy_out(render_reference(scene, settings), paths)
+
+
+def _copy_out(result, paths: dict) -> dict:
+    """Copy the entry's files and write its manifest to ``paths``, as one unit."""
     summary = {**result.manifest, "outputs": {k: os.path.abspath(v) for k, v in paths.items()}}
-    with atomic_set([paths["exr"], paths["png"], paths["json"]]) as (exr, png, manifest):  # one unit
+    with atomic_set([paths["exr"], paths["png"], paths["json"]]) as (exr, png, manifest):
         shutil.copyfile(result.exr_path, exr)
         shutil.copyfile(result.png_path, png)
         with open(manifest, "w") as fh:

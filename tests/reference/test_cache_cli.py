@@ -42,6 +42,32 @@ def test_reference_cli_renders_then_serves_from_cache(tmp_path, private_cache, c
     assert all(np.array_equal(layers[k], again[k]) for k in layers)
 
 
+def test_an_entry_continued_by_another_process_while_copied_out_is_served_anew(tmp_path, private_cache,
+                                                                              monkeypatch):
+    """Another process continued the entry between the lookup and the copy (its files
+    replaced by the continuation's): ``reference -o`` failed with FileNotFoundError on a
+    cache file; it now serves the continued entry."""
+    import shutil
+
+    import volcaustics.reports.render.reference as command
+
+    scene = load_builtin("refocus")
+    small = ReferenceSettings(photons=100000, spp=8, batches=2, width=16, height=12)
+    render_reference(scene, small, progress=False)
+    real = shutil.copyfile
+    raced = []
+
+    def racing(src, dst):
+        if not raced:  # the other process: more batches of the same entry, committed now
+            raced.append(render_reference(scene, dataclasses.replace(small, photons=150000, spp=12, batches=3),
+                                          progress=False))
+        return real(src, dst)
+
+    monkeypatch.setattr(command.shutil, "copyfile", racing)
+    summary = command.run_reference(scene, small, str(tmp_path / "r.exr"))
+    assert summary["batches"] == 3 and summary["exr_sha256"] == raced[0].manifest["exr_sha256"]
+
+
 def test_truncated_cache_entry_is_rerendered(private_cache):
     scene = load_builtin("refocus")
     settings = ReferenceSettings(photons=100000, spp=8, batches=2, width=16, height=16)
