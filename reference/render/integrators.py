@@ -115,8 +115,12 @@ class ViewPyramid:
         for a, b in zip(corners, corners[1:] + corners[:1]):
             n = dr.cross(a, b)
             self.normals.append(dr.select(dr.dot(n, centre) < 0.0, -n, n))
-        rows = sensor.film().crop_size().y
-        self.pixel_angle = dr.acos(dr.dot(centre, direction(0.5, 0.5 + 1.0 / rows)))
+        size = sensor.film().crop_size()
+        below = direction(0.5, 0.5 + 1.0 / size.y)
+        # atan2, not acos of the dot: float32 acos near 1 resolves only ~3.5e-4 rad (0 for
+        # a narrow view, which made the count of connections infinite)
+        self.pixel_angle = dr.atan2(dr.norm(dr.cross(centre, below)), dr.dot(centre, below))
+        self.pixels = mi.Float(size.x + size.y)  # the most pixels a segment's image crosses
 
     def clip(self, origin, d, length):
         """Part [s_in, s_out] of origin + s·d, s in [0, length], inside the pyramid: the
@@ -187,7 +191,8 @@ class VolumetricLightTracer(mi.AdjointIntegrator):
     ∫ dt / |x(t) − eye|² = Δθ / D (the angle it subtends at the eye over its line's
     distance to the eye) that one camera connection carries. A segment is clipped to
     the view pyramid and gets n = ⌈Δθ / (D · geometry_per_connection)⌉ connections,
-    stratified in θ, at most one per pixel its image crosses; each is weighted 1/n.
+    stratified in θ, at most one per pixel its image crosses (and never more than the film's
+    width + height); each is weighted 1/n.
     The sensor must be a pinhole camera (``perspective``).
     """
 
@@ -210,6 +215,7 @@ class VolumetricLightTracer(mi.AdjointIntegrator):
         s_in, s_out, seen = view.clip(ray.o, ray.d, t_end)
         angle, dist = subtended_angle(ray(s_in), ray.d, s_out - s_in, view.eye)
         n = dr.minimum(angle / (dist * self.geometry_per_connection), angle / view.pixel_angle)
+        n = dr.minimum(n, view.pixels)  # also where a degenerate segment gave inf or NaN
         return s_in, s_out, seen, mi.UInt32(dr.maximum(dr.ceil(n), 1.0))
 
     def _counts(self, specular):

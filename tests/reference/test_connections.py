@@ -103,6 +103,27 @@ def test_view_pyramid_clip_matches_the_sensor():
     assert float(np.asarray(view.pixel_angle)[0]) == pytest.approx(2 * math.tan(math.radians(20.0)) / 48, rel=1e-3)
 
 
+def test_a_narrow_view_keeps_its_pixel_angle_and_a_bounded_count_of_connections():
+    """fov_y 0.1° over 12 rows: the pixel angle by acos of a float32 dot was 0 (cos of
+    1.5e-4 rad rounds to 1), so every segment got an unbounded count of connections (a
+    batch of a 16×12 image ran 147 s; at 1e-30° it never ended). Now the angle is right
+    to float32 (atan2) and a segment gets at most width + height connections."""
+    sensor = mi.load_dict({"type": "perspective", "fov": 0.1, "fov_axis": "y", "near_clip": 1e-3,
+                           "to_world": mi.ScalarTransform4f().look_at(origin=[0.0, 1.2, 4.5], target=[0.0, 1.0, 0.0],
+                                                                      up=[0.0, 1.0, 0.0]),
+                           "film": {"type": "hdrfilm", "width": 16, "height": 12, "rfilter": {"type": "box"}}})
+    view = ViewPyramid(sensor)
+    assert float(np.asarray(view.pixel_angle)[0]) == pytest.approx(2 * math.tan(math.radians(0.05)) / 12, rel=1e-3)
+    scene = _near_camera_scene()
+    tracer = _tracer(VolumetricLightTracer, scene, mi.load_dict(to_mitsuba(scene)), "fog",
+                     geometry_per_connection=1e-9)  # the geometric term asks for millions
+    eye, target = np.array([0.0, 1.2, 4.5]), np.array([0.0, 1.0, 0.0])
+    forward = (target - eye) / np.linalg.norm(target - eye)
+    ray = mi.Ray3f(mi.Point3f(*(eye + 2.0 * forward - [0.01, 0.0, 0.0]).tolist()), mi.Vector3f(1.0, 0.0, 0.0))
+    _, _, seen, n = tracer.connections(view, ray, mi.Float(0.02))  # across the whole view
+    assert bool(np.asarray(seen)[0]) and 1 <= int(np.asarray(n)[0]) <= 16 + 12
+
+
 def test_subtended_angle_is_the_geometric_term():
     """Δθ / D = ∫ dt / |x(t) − eye|² (composite Simpson, 20,001 points, on segments whose
     line passes 1 mm to 3 m from the eye)."""
