@@ -15,7 +15,7 @@ import time
 from dataclasses import dataclass
 
 from volcaustics.reports import runner
-from volcaustics.reports.core.params import measured_settings
+from volcaustics.reports.experiment.settings import measured_settings
 from volcaustics.reports.gate.budgets import GateError, check_measurable
 from volcaustics.reports.gate.outputs import VERDICT, failure_images, write_outputs
 from volcaustics.reports.gate.regression import BASELINE, baseline_text, load_baseline

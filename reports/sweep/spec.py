@@ -34,10 +34,10 @@ import os
 from dataclasses import dataclass, field
 
 from volcaustics.approx.params import PRESETS, ApproxParams, ParamError, preset
-from volcaustics.approx.trace import check_fits
 from volcaustics.reports.core.params import parse_assignment, parse_overrides, parse_value
 from volcaustics.reports.core.sizing import reference_settings
 from volcaustics.reports.core.tomlfile import load_toml
+from volcaustics.reports.experiment.settings import check_frame
 from volcaustics.reports.runner import Point
 from volcaustics.scenes import BUILTIN_NAMES, SceneError, resolve_scene
 
@@ -183,8 +183,8 @@ def _checked(spec: SweepSpec, where: str, max_points: int | None = MAX_POINTS) -
         last = point.params.seed + spec.seeds - 1
         if last > 2**32 - 1:
             raise SweepError(f"{where}: seed {point.params.seed} with seeds = {spec.seeds} exceeds 2^32 − 1")
-        try:  # what a frame allocates and dispatches, before any reference renders
-            check_fits(point.params, keep_records=True)
+        try:  # what a frame allocates and dispatches and a measurement holds, before any reference renders
+            check_frame(point.params, spec.seeds)
         except ParamError as exc:
             raise SweepError(f"{where}: point {point.scene}: {exc}") from None
     return spec
