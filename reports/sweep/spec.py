@@ -30,7 +30,6 @@ from __future__ import annotations
 import dataclasses
 import itertools
 import math
-import os
 from dataclasses import dataclass, field
 
 from volcaustics.approx.params import PRESETS, ApproxParams, ParamError, preset
@@ -40,6 +39,7 @@ from volcaustics.reports.core.tomlfile import load_toml
 from volcaustics.reports.experiment.settings import check_frame
 from volcaustics.reports.runner import Point
 from volcaustics.scenes import BUILTIN_NAMES, SceneError, resolve_scene
+from volcaustics.scenes.catalogue import scene_relative_to
 
 SPEC_KEYS = ("scenes", "preset", "seeds", "vary", "set", "reference")
 # Points a sweep runs without --yes: about 3 days at the quick preset's 25 s a point on 2
@@ -100,8 +100,7 @@ def spec_from_toml(path: str, max_points: int | None = MAX_POINTS) -> SweepSpec:
         scenes = list(BUILTIN_NAMES)
     if not isinstance(scenes, list) or not all(isinstance(s, str) for s in scenes):
         raise SweepError(f"{path}: scenes = {scenes!r}: expected a list of scene names or paths")
-    base = os.path.dirname(os.path.abspath(path))
-    scenes = [s if not s.endswith(".toml") or os.path.isabs(s) else os.path.join(base, s) for s in scenes]
+    scenes = [scene_relative_to(s, path) for s in scenes]
     tables = doc.get("vary", {})
     several = isinstance(tables, list)
     if several and (not tables or not all(isinstance(t, dict) for t in tables)):
