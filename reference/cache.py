@@ -23,7 +23,14 @@ import numpy as np
 from volcaustics.scenes.canonical import canonical_dict
 from volcaustics.scenes.imageio import read_exr, write_exr
 from volcaustics.scenes.sources import source_hash
-from volcaustics.scenes.storage import atomic_path, atomic_write_bytes, atomic_write_text, cache_dir, file_sha256
+from volcaustics.scenes.storage import (
+    atomic_path,
+    atomic_write_bytes,
+    atomic_write_text,
+    cache_dir,
+    cache_path,
+    file_sha256,
+)
 
 from . import mi_setup
 
@@ -80,9 +87,11 @@ def lookup(request):
     return None
 
 
-def paths(key: str) -> tuple[str, str]:
-    """(EXR, manifest) paths of a cache entry; the PNG preview sits beside as <key>.png."""
-    folder = cache_dir("reference")
+def paths(key: str, *, write: bool = False) -> tuple[str, str]:
+    """(EXR, manifest) paths of a cache entry; the PNG preview sits beside as <key>.png.
+    To ``write``, the folder is made and must be writable (CacheError); to read, a
+    read-only cache serves what it holds."""
+    folder = cache_dir("reference") if write else cache_path("reference")
     return os.path.join(folder, f"{key}.exr"), os.path.join(folder, f"{key}.json")
 
 
@@ -105,7 +114,7 @@ def load(key: str):
 def store(key: str, layers: dict, manifest: dict, header: dict, png: bytes, state: dict | None = None) -> dict:
     """Write EXR, PNG preview and the batch state (``state``: arrays of float64 batch
     sums, to continue the render; ``<key>.npz``), then the manifest (the commit marker)."""
-    exr, manifest_path = paths(key)
+    exr, manifest_path = paths(key, write=True)
     write_exr(exr, layers, {**header, "volcaustics_reference_key": key})
     atomic_write_bytes(exr[:-4] + ".png", png)
     manifest = {**manifest, "key": key, "exr_sha256": file_sha256(exr)}

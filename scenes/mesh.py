@@ -206,17 +206,19 @@ def generated_mesh(name: str, params: tuple) -> Mesh:
     parameters and generator version. A corrupt cache file is rebuilt."""
     from .canonical import GENERATOR_VERSION
     from .generators import generate
-    from .storage import atomic_path, cache_dir
+    from .storage import CacheError, atomic_path, cache_dir, cache_path
 
-    key = hashlib.sha256(repr((name, GENERATOR_VERSION, tuple(params))).encode()).hexdigest()[:24]
-    path = os.path.join(cache_dir("meshes"), f"{name}-{key}.npz")
+    file = f"{name}-{hashlib.sha256(repr((name, GENERATOR_VERSION, tuple(params))).encode()).hexdigest()[:24]}.npz"
     try:
-        with np.load(path) as data:
+        with np.load(os.path.join(cache_path("meshes"), file)) as data:
             return Mesh(data["vertices"], data["faces"])
     except (OSError, KeyError, ValueError, EOFError):
         pass
     mesh = generate(name, dict(params))
     if len(mesh.faces) > 50_000:
-        with atomic_path(path) as tmp:
-            np.savez(tmp, vertices=mesh.vertices, faces=mesh.faces)
+        try:
+            with atomic_path(os.path.join(cache_dir("meshes"), file)) as tmp:
+                np.savez(tmp, vertices=mesh.vertices, faces=mesh.faces)
+        except CacheError:  # a read-only cache: the mesh is built again next time
+            pass
     return mesh

@@ -237,6 +237,7 @@ def render_reference(scene, settings: ReferenceSettings | None = None, *, mode: 
                 return ReferenceResult(served_key, for_caller(manifest, scene), cached=True)
             arrays = cache.read_state(served_key, manifest) if served_key == key else None
             state = RenderState.from_arrays(arrays) if arrays is not None else None
+    cache.paths(key, write=True)  # a render is stored: a read-only cache is refused before it, not after
     state, stopped_by, seconds = _render(request, state, progress=progress)
     info = _info(state, settings, stopped_by, seconds)
     layers = {}

@@ -28,7 +28,7 @@ from volcaustics.metrics import image as im
 from volcaustics.metrics.noise import noisy_copy, seed_mean_interval, seed_relative_mse
 from volcaustics.reports.core.versions import code_version
 from volcaustics.scenes.formats import COLOUR_LAYERS, MASK_LAYER
-from volcaustics.scenes.storage import atomic_write_text, cache_dir
+from volcaustics.scenes.storage import CacheError, atomic_write_text, cache_dir, cache_path
 
 RESAMPLES = 2000             # bootstrap resamples over the seeds (per-frame metrics)
 FLOOR_DRAWS = 2              # noisy copies averaged for a non-quadratic metric's floor
@@ -141,13 +141,16 @@ def metric_floor(metric, reference_key, component, keep, r, rv, compute) -> floa
                            .encode() + np.packbits(keep).tobytes()).hexdigest()[:24]
     if ident in _FLOORS:
         return _FLOORS[ident]
-    path = os.path.join(cache_dir("metric-floors"), ident + ".json")
     try:
-        with open(path) as fh:
+        with open(os.path.join(cache_path("metric-floors"), ident + ".json")) as fh:
             value = float(json.load(fh)["value"])
     except (OSError, ValueError, KeyError, TypeError):
         value = float(np.mean([compute(r, noisy_copy(r, rv, seed=FLOOR_SEED + i)) for i in range(FLOOR_DRAWS)]))
-        atomic_write_text(path, json.dumps({"value": value, "metric": metric, "component": component,
-                                            "reference_key": reference_key}))
+        try:
+            atomic_write_text(os.path.join(cache_dir("metric-floors"), ident + ".json"),
+                              json.dumps({"value": value, "metric": metric, "component": component,
+                                          "reference_key": reference_key}))
+        except CacheError:  # a read-only cache: computed again next time
+            pass
     _FLOORS[ident] = value
     return value
