@@ -20,6 +20,7 @@ import moderngl
 import numpy as np
 
 from volcaustics.scenes.formats import PHOTON_DTYPE, RAW_RECORD_DTYPE
+from volcaustics.scenes.memory import image_fits, memory_budget
 
 from .glsl import compute_shader, set_uniforms
 from .light import spot_constants
@@ -37,6 +38,11 @@ START_OFFSET = {"START_SLOPE": 0.7, "START_FLOOR": 0.25, "START_MAX": 2.0}
 # Off: clipping searched segments to the specular objects' box (trace.comp.glsl) changed
 # little and not always for the better (bench/agreement.py): docs/decisions.md "Clip to objects".
 CLIP_TO_OBJECTS = False
+
+# The approximation's image buffers per pixel (G-buffer, fog, direct, per-step caustic
+# targets and their read-backs): 264 B measured as peak RSS per pixel, rounded up
+# (bench/image_memory.py, docs/decisions.md "Image sizes against memory").
+IMAGE_BYTES_PER_PIXEL = 300
 
 
 class MapBuffers(NamedTuple):
@@ -106,6 +112,7 @@ class PhotonTracer:
         self.maps = defines["MAPS"]
         self._solid_angles = {}
         self._max_groups = int(ctx.info["GL_MAX_COMPUTE_WORK_GROUP_COUNT"][0])
+        self._max_size = _max_image_size(ctx.info)
 
     @staticmethod
     def defines(params) -> dict:
@@ -117,7 +124,7 @@ class PhotonTracer:
 
     def check_limits(self, params, *, keep_records: bool = False) -> None:
         """:func:`check_fits` with this tracer's GL driver."""
-        check_fits(params, keep_records=keep_records, max_groups=self._max_groups)
+        check_fits(params, keep_records=keep_records, max_groups=self._max_groups, max_size=self._max_size)
 
     def _solid_angle_buffer(self, frustum, res: int) -> moderngl.Buffer:
         key = (res, round(frustum.tan_half, 12))
@@ -270,14 +277,18 @@ def read_photons(buf: moderngl.Buffer, count: int) -> np.ndarray:
     return np.frombuffer(buf.read(size=count * PHOTON_DTYPE.itemsize), dtype=PHOTON_DTYPE)
 
 
-def check_fits(params, *, keep_records: bool = False, max_groups: int | None = None) -> None:
+def check_fits(params, *, keep_records: bool = False, max_groups: int | None = None, max_size: int | None = None,
+               supersample: int = 1) -> None:
     """Raise ParamError, before any GL work, when ``params`` need buffers beyond
     :func:`memory_budget` (photon, record and splat buffers, and with ``keep_records``
     every step's records read back: photon_res 8192 asked for 7.5 GB of records), or more
     compute work groups in one dispatch than the GL driver runs (``max_groups``,
     GL_MAX_COMPUTE_WORK_GROUP_COUNT; 65,535 on Mesa: the dispatch would silently do
-    nothing; default: the process's shared context's). Commands that render references
-    first call this before them, so a frame that cannot run fails at once."""
+    nothing), or, with width and height set, an image the driver cannot draw or this
+    machine cannot hold (:func:`check_image_fits`; ``supersample``: pixels per side of
+    the largest image drawn, 4 for the measurement's small-kernel image). ``max_groups``
+    and ``max_size`` default to the process's shared context's. Commands that render
+    references first call this before them, so a frame that cannot run fails at once."""
     from .params import ParamError
 
     need = frame_bytes(params.photon_res, params.steps, keep_records=keep_records)
@@ -288,14 +299,46 @@ def check_fits(params, *, keep_records: bool = False, max_groups: int | None = N
                          f"record and splat buffers{' and records read back' if keep_records else ''}, more than "
                          f"half of this machine's memory ({budget / 2**30:.1f} GiB); photon_res ≤ {fits} fits")
     if max_groups is None:
-        from .context import shared_context
-
-        max_groups = int(shared_context().info["GL_MAX_COMPUTE_WORK_GROUP_COUNT"][0])
+        max_groups = gl_limits()[0]
     for name, res, per_group in (("photon_res", params.photon_res, 64), ("light_res", params.light_res, 256)):
         if math.ceil(res * res / per_group) > max_groups:
             limit = math.isqrt(max_groups * per_group)
             raise ParamError(f"{name} = {res}: this GL driver runs at most {max_groups} work groups of "
                              f"{per_group} in one dispatch, so {name} must be at most {limit}")
+    if params.width is not None and params.height is not None:
+        check_image_fits(params.width, params.height, max_size=max_size, supersample=supersample)
+
+
+def check_image_fits(width: int, height: int, *, max_size: int | None = None, supersample: int = 1) -> None:
+    """ParamError when an image of width × height pixels, drawn at up to ``supersample``
+    pixels per side (a splat-only image: ``Renderer.splat``), exceeds the GL driver's
+    largest texture and viewport (``max_size``, the least of GL_MAX_TEXTURE_SIZE and
+    GL_MAX_VIEWPORT_DIMS; default the shared context's), or a frame's image buffers
+    (IMAGE_BYTES_PER_PIXEL per pixel) exceed :func:`memory_budget`."""
+    from .params import ParamError
+
+    max_size = gl_limits()[1] if max_size is None else max_size
+    drawn = "the image" if supersample == 1 else f"the image drawn at {supersample}× per side"
+    for name, size in (("width", width), ("height", height)):
+        if size * supersample > max_size:
+            raise ParamError(f"{name} = {size}: {drawn} is {size * supersample} pixels, beyond this GL driver's "
+                             f"largest texture and viewport ({max_size}); {name} ≤ {max_size // supersample} fits")
+    reason = image_fits(width, height, IMAGE_BYTES_PER_PIXEL, "the approximation's image buffers")
+    if reason:
+        raise ParamError(reason)
+
+
+def gl_limits() -> tuple:
+    """(GL_MAX_COMPUTE_WORK_GROUP_COUNT in x, the largest image side: the least of
+    GL_MAX_TEXTURE_SIZE and GL_MAX_VIEWPORT_DIMS) of the process's shared context."""
+    from .context import shared_context
+
+    info = shared_context().info
+    return int(info["GL_MAX_COMPUTE_WORK_GROUP_COUNT"][0]), _max_image_size(info)
+
+
+def _max_image_size(info) -> int:
+    return int(min(info["GL_MAX_TEXTURE_SIZE"], *info["GL_MAX_VIEWPORT_DIMS"]))
 
 
 def frame_bytes(photon_res: int, steps: int, *, keep_records: bool = False) -> int:
@@ -310,12 +353,3 @@ def frame_bytes(photon_res: int, steps: int, *, keep_records: bool = False) -> i
     return photon_res * photon_res * per_photon
 
 
-def memory_budget() -> int:
-    """Half of this machine's physical memory: llvmpipe's buffers live there, and the
-    records a frame reads back do on any driver."""
-    import os
-
-    try:
-        return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") // 2
-    except (ValueError, OSError, AttributeError):  # not a POSIX sysconf: do not guess
-        return 1 << 62

@@ -108,6 +108,11 @@ def _display(rgb, exposure):
     return srgb_encode(np.clip(rgb * exposure, 0.0, 1.0))
 
 
+SSIM_SIGMA = 1.5  # Wang et al. 2004's Gaussian weights
+# scikit-image's Gaussian window: 2·int(3.5·σ + 0.5) + 1 pixels; a smaller image is refused
+SSIM_WINDOW = 2 * int(3.5 * SSIM_SIGMA + 0.5) + 1
+
+
 def ssim(reference, test, *, mask=None, exposure: float | None = None) -> dict:
     """SSIM (scikit-image, Gaussian weights as Wang et al. 2004) of the two images shown
     with one exposure (the reference's, :func:`reference_exposure`, unless given),
@@ -118,9 +123,9 @@ def ssim(reference, test, *, mask=None, exposure: float | None = None) -> dict:
     keep = _keep(r, mask)
     exposure = exposure if exposure is not None else reference_exposure(r, mask=mask)
     _, full = structural_similarity(_display(r, exposure), _display(t, exposure), channel_axis=2, data_range=1.0,
-                                    gaussian_weights=True, sigma=1.5, use_sample_covariance=False, full=True)
+                                    gaussian_weights=True, sigma=SSIM_SIGMA, use_sample_covariance=False, full=True)
     return {"value": float(full.mean(axis=2)[keep].mean()), "exposure": exposure, "gaussian_weights": True,
-            "sigma": 1.5, "pixels": int(keep.sum())}
+            "sigma": SSIM_SIGMA, "pixels": int(keep.sum())}
 
 
 def delta_e2000(reference, test, *, mask=None, exposure: float | None = None) -> dict:

@@ -39,7 +39,9 @@ def _check(records) -> list:
 
 
 def _power(x) -> np.ndarray:
-    return np.asarray(x, np.float64).reshape(len(x), -1).mean(axis=1)
+    """Mean over RGB per photon (N, or N×3 → N); a step no photon reached gives N = 0."""
+    x = np.asarray(x, np.float64)
+    return x.reshape(len(x), int(np.prod(x.shape[1:]))).mean(axis=1)
 
 
 def power_budget(records, *, tracer: str = "approx") -> list:

@@ -38,6 +38,7 @@ from volcaustics.scenes.storage import (
     atomic_write_bytes,
     atomic_write_text,
     cache_dir,
+    cache_path,
     file_sha256,
     interrupts_held,
     orphaned,
@@ -105,9 +106,11 @@ def lookup(request):
     return None
 
 
-def manifest_path(key: str) -> str:
-    """The manifest of a cache entry, ``<key>.json``: it names the entry's data files."""
-    return os.path.join(cache_dir("reference"), f"{key}.json")
+def manifest_path(key: str, *, write: bool = False) -> str:
+    """The manifest of a cache entry, ``<key>.json``: it names the entry's data files.
+    To ``write``, the folder is made and must be writable (CacheError); to read, a
+    read-only cache serves what it holds."""
+    return os.path.join(cache_dir("reference") if write else cache_path("reference"), f"{key}.json")
 
 
 def entry_file(key: str, manifest: dict, kind: str) -> str:
@@ -119,7 +122,7 @@ def entry_file(key: str, manifest: dict, kind: str) -> str:
     if not isinstance(name, str) or not name.startswith(f"{key}.") or not name.endswith(FILE_KINDS[kind]) \
             or os.path.basename(name) != name:
         raise ValueError(f"cache entry {key}: its manifest names no {kind} file of its own ({name!r})")
-    return os.path.join(cache_dir("reference"), name)
+    return os.path.join(cache_path("reference"), name)
 
 
 def load(key: str, size: tuple | None = None):
@@ -210,7 +213,7 @@ def store(key: str, layers: dict, manifest: dict, header: dict, png: bytes, stat
         manifest = {**manifest, "key": key, "files": names,
                     **{f"{kind}_sha256": file_sha256(path) for kind, path in paths.items()}}
         with interrupts_held():
-            atomic_write_text(manifest_path(key), json.dumps(manifest, indent=2, default=float))
+            atomic_write_text(manifest_path(key, write=True), json.dumps(manifest, indent=2, default=float))
             committed = True
     finally:
         if not committed:

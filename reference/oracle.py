@@ -33,8 +33,6 @@ class Oracle:
     """Exact segment queries against one scene's specular objects."""
 
     def __init__(self, scene):
-        from volcaustics.scenes.storage import cache_dir
-
         from .mi_setup import mitsuba
         from .render.export import mesh_file
 
@@ -43,7 +41,7 @@ class Oracle:
 
         d = {"type": "scene"}
         for i, obj in enumerate(scene.specular):
-            d[f"specular_{i}"] = {"type": "ply", "filename": mesh_file(obj.mesh.load(), cache_dir("mitsuba-meshes")),
+            d[f"specular_{i}"] = {"type": "ply", "filename": mesh_file(obj.mesh.load()),
                                   "face_normals": False}
         self.mi_scene = mi.load_dict(d)
         table = {}

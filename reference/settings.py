@@ -5,9 +5,14 @@ from __future__ import annotations
 import math
 from dataclasses import asdict, dataclass, replace
 
+from volcaustics.scenes.memory import image_fits
+
 MODES = ("caustic", "fog", "all", "surface")  # which light paths the light tracer counts (reference.integrators)
 NOISE_COMPONENTS = ("caustic", "fog", "direct")  # colour components with a noise floor (combined is their sum)
 MAX_SAMPLES_PER_RENDER = 2**32  # Mitsuba's limit for one render (its wavefront sample index is 32-bit)
+# The reference's film, batch sums, mean/variance layers and EXR per pixel: 642 B measured
+# as peak RSS per pixel, rounded up (bench/image_memory.py, docs/decisions.md "Image sizes against memory").
+IMAGE_BYTES_PER_PIXEL = 700
 # Size-independent settings: they say how long to render, not what one batch is, so they
 # are not part of a cache entry's identity (an entry is continued batch by batch).
 BUDGET_FIELDS = ("photons", "spp", "batches", "target_noise", "max_photons", "max_seconds")
@@ -65,6 +70,9 @@ class ReferenceSettings:
             object.__setattr__(self, "target_noise", parse_target_noise(self.target_noise))
 
         if self.width is not None and self.height is not None:
+            reason = image_fits(self.width, self.height, IMAGE_BYTES_PER_PIXEL, "the reference's film and layers")
+            if reason:
+                raise SettingsError(reason)
             self._check_samples_per_render()
 
     def _check_samples_per_render(self) -> None:

@@ -28,11 +28,26 @@ def load_builtin(name: str) -> Scene:
     return load_scene(builtin_path(name))
 
 
+def is_scene_path(arg: str) -> bool:
+    """Whether a SCENE argument names a scene file (else a built-in name)."""
+    return arg not in BUILTIN_NAMES and (arg.endswith(".toml") or os.sep in arg)
+
+
+def scene_relative_to(arg: str, named_in: str) -> str:
+    """A SCENE named in the file ``named_in`` (a sweep spec, a budgets file): a scene
+    file's relative path is relative to that file's folder, as a scene file's mesh
+    paths are to it; built-in names and absolute paths stay as they are."""
+    if not is_scene_path(arg):
+        return arg
+    base = os.path.dirname(os.path.abspath(named_in))
+    return os.path.normpath(os.path.join(base, os.path.expanduser(arg)))
+
+
 def resolve_scene(arg: str) -> Scene:
     """A SCENE argument: a built-in name or a path to a TOML scene file."""
     if arg in BUILTIN_NAMES:
         return load_builtin(arg)
-    if arg.endswith(".toml") or os.sep in arg or os.path.exists(arg):
+    if is_scene_path(arg) or os.path.exists(arg):
         return load_scene(arg)
     raise SceneError(None, "SCENE", arg,
                      f"expected a built-in scene ({', '.join(BUILTIN_NAMES)}) or a path to a .toml file")

@@ -314,6 +314,11 @@ def _load_checked(ctx, key, spec: MeshSpec, closed: bool):
         problem = closedness_problem(mesh)
         if problem is not None:
             raise ctx.error(key, spec.label, f"specular meshes must be closed (watertight): {problem}")
+        volume = mesh.signed_volume()
+        if not volume > 0:  # inward-wound: inside and outside swap (the caustic came out 147× the reference's)
+            raise ctx.error(key, spec.label, f"specular meshes must wind outward (counter-clockwise seen from "
+                                             f"outside); this one encloses a signed volume of {volume:.3g} m³: "
+                                             f"reverse every face's vertex order")
     return mesh
 
 

@@ -207,18 +207,21 @@ def generated_mesh(name: str, params: tuple) -> Mesh:
     (:func:`_read_cached_mesh`)."""
     from .canonical import GENERATOR_VERSION
     from .generators import generate
-    from .storage import atomic_path, cache_dir
+    from .storage import CacheError, atomic_path, cache_dir, cache_path
 
     key = hashlib.sha256(repr((name, GENERATOR_VERSION, tuple(params))).encode()).hexdigest()[:24]
-    path = os.path.join(cache_dir("meshes"), f"{name}-{key}.npz")
-    cached = _read_cached_mesh(path, key)
+    file = f"{name}-{key}.npz"
+    cached = _read_cached_mesh(os.path.join(cache_path("meshes"), file), key)
     if cached is not None:
         return cached
     mesh = generate(name, dict(params))
     if len(mesh.faces) > 50_000:
-        with atomic_path(path) as tmp:
-            np.savez(tmp, vertices=mesh.vertices, faces=mesh.faces, key=np.asarray(key),
-                     digest=np.asarray(_mesh_digest(mesh.vertices, mesh.faces)))
+        try:
+            with atomic_path(os.path.join(cache_dir("meshes"), file)) as tmp:
+                np.savez(tmp, vertices=mesh.vertices, faces=mesh.faces, key=np.asarray(key),
+                         digest=np.asarray(_mesh_digest(mesh.vertices, mesh.faces)))
+        except CacheError:  # a read-only cache: the mesh is built again next time
+            pass
     return mesh
 
 

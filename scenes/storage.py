@@ -26,9 +26,7 @@ def cache_dir(*parts: str) -> str:
     ``~/.cache/volcaustics``; joined with ``parts``, created, and checked to be a
     writable folder (:class:`CacheError` if not)."""
     variable = "VOLCAUSTICS_CACHE" if os.environ.get("VOLCAUSTICS_CACHE") else None
-    root = os.environ.get("VOLCAUSTICS_CACHE") or os.path.join(
-        os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache"), "volcaustics")
-    path = os.path.join(root, *parts)
+    path = cache_path(*parts)
     fix = f"point {variable or 'VOLCAUSTICS_CACHE'} at a writable folder"
     try:
         os.makedirs(path, exist_ok=True)
@@ -37,6 +35,15 @@ def cache_dir(*parts: str) -> str:
     if not os.path.isdir(path) or not os.access(path, os.W_OK | os.X_OK):
         raise CacheError(f"cache folder {path} is not a writable folder: {fix}")
     return path
+
+
+def cache_path(*parts: str) -> str:
+    """The cache folder (as :func:`cache_dir` finds it) joined with ``parts``, neither
+    created nor checked: where a cached file is read. A read-only cache serves what it
+    holds; :func:`cache_dir` checks the folder only when something must be written."""
+    root = os.environ.get("VOLCAUSTICS_CACHE") or os.path.join(
+        os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache"), "volcaustics")
+    return os.path.join(root, *parts)
 
 
 @contextlib.contextmanager

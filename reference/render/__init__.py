@@ -262,6 +262,7 @@ def render_reference(scene, settings: ReferenceSettings | None = None, *, mode: 
                 return ReferenceResult(served_key, for_caller(manifest, scene), cached=True, layers=layers)
             if served_key == key:
                 state = _resumable(cache.read_state(served_key, manifest), settings)
+    cache.manifest_path(key, write=True)  # a render is stored: a read-only cache is refused before it, not after
     state, stopped_by, seconds = _render(request, state, progress=progress)
     info = _info(state, settings, stopped_by, seconds)
     layers = {}

@@ -14,19 +14,23 @@ from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
-from volcaustics.scenes.storage import atomic_path, atomic_write_bytes, cache_dir, special_file_kind
+from volcaustics.scenes.storage import atomic_path, atomic_write_bytes, cache_dir, cache_path, special_file_kind
 
 from ..description import FOG_ID, Description, describe, ply_bytes, ply_digest
 
 PLY_NAME_DIGITS = 32  # hex digits of the content hash in a PLY file name
+MESH_FOLDER = "mitsuba-meshes"  # the cache's folder of PLY files
 
 
-def ply_file(data: bytes, folder: str, digest: str | None = None) -> str:
-    """Path of the PLY file holding ``data`` in ``folder``, named by its content hash;
-    written (atomically) unless a file of exactly these bytes is there: one that is
-    not (truncated, garbage, another mesh's bytes) is rewritten, never given to Mitsuba."""
-    path = os.path.join(folder, f"mesh-{(digest or ply_digest(data))[:PLY_NAME_DIGITS]}.ply")
+def ply_file(data: bytes, folder: str | None = None, digest: str | None = None) -> str:
+    """Path of the PLY file holding ``data`` in ``folder`` (default: the cache's
+    MESH_FOLDER, which serves what it holds when read-only), named by its content hash;
+    written (atomically) unless a file of exactly these bytes is there: one that is not
+    (truncated, garbage, another mesh's bytes) is rewritten, never given to Mitsuba."""
+    name = f"mesh-{(digest or ply_digest(data))[:PLY_NAME_DIGITS]}.ply"
+    path = os.path.join(folder or cache_path(MESH_FOLDER), name)
     if not _holds(path, data):
+        path = os.path.join(folder or cache_dir(MESH_FOLDER), name)
         atomic_write_bytes(path, data)
     return path
 
@@ -42,8 +46,9 @@ def _holds(path: str, data: bytes) -> bool:
         return False
 
 
-def mesh_file(mesh, folder: str) -> str:
-    """PLY of ``mesh`` (positions, vertex normals, faces) in ``folder``, named by its content."""
+def mesh_file(mesh, folder: str | None = None) -> str:
+    """PLY of ``mesh`` (positions, vertex normals, faces) in ``folder`` (default: the
+    cache), named by its content."""
     return ply_file(ply_bytes(mesh), folder)
 
 
@@ -71,7 +76,6 @@ def mitsuba_dict(description: Description, mesh_dir: str | None = None) -> dict:
     from ..mi_setup import mitsuba
 
     mi = mitsuba()
-    mesh_dir = mesh_dir or cache_dir("mitsuba-meshes")
 
     def convert(node):
         if not isinstance(node, dict):

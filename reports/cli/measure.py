@@ -7,7 +7,8 @@ from volcaustics.reports.cli.common import add_report_reference, check_output_se
 from volcaustics.reports.core.params import add_param_flags, params_from_args
 from volcaustics.reports.core.sizing import sized
 from volcaustics.reports.core.tables import plain
-from volcaustics.reports.experiment.run import checked_settings, run_experiment
+from volcaustics.reports.experiment.run import run_experiment
+from volcaustics.reports.experiment.settings import checked_settings
 from volcaustics.reports.experiment.write import OUTPUT_FILES, write_experiment
 from volcaustics.scenes import resolve_scene
 

@@ -7,7 +7,6 @@ from __future__ import annotations
 import argparse
 
 from volcaustics.approx.params import PARAMS, PRESET_VALUES, PRESETS, ApproxParams, ParamError, param, preset
-from volcaustics.approx.trace import check_fits
 
 
 def flag(name: str) -> str:
@@ -83,21 +82,3 @@ def parse_overrides(assignments, *, error=ParamError, seed_option: bool = True) 
             raise error(f"--set {text!r}: use --seed (the first of the --seeds seeds)")
         overrides[name] = values[0]
     return overrides
-
-
-def measured_settings(preset_name: str, overrides: dict, *, seeds: int, seed: int, min_seeds: int, why: str,
-                      error=ParamError) -> tuple:
-    """(params, seeds) of a gate's or a report's experiments: the preset with
-    ``overrides`` and first seed ``seed``; ``seeds`` at least ``min_seeds`` (``why``
-    says why). ``error`` for a bad override, seed count or seed; a frame that cannot
-    run fails here, before any reference renders."""
-    if isinstance(seeds, bool) or not isinstance(seeds, int) or not min_seeds <= seeds <= 256:
-        raise error(f"--seeds = {seeds!r}: expected an integer in [{min_seeds}, 256] ({why})")
-    if not 0 <= seed <= 2**32 - seeds:
-        raise error(f"--seed = {seed}: expected 0 ≤ seed and seed + seeds − 1 < 2^32")
-    try:
-        params = preset(preset_name, seed=seed, **overrides)
-        check_fits(params, keep_records=True)
-    except ParamError as exc:
-        raise error(f"--set: {exc}") from None
-    return params, seeds

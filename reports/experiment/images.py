@@ -29,7 +29,7 @@ from volcaustics.metrics import image as im
 from volcaustics.metrics.noise import noisy_copy, seed_mean_interval, seed_relative_mse
 from volcaustics.reports.core.versions import code_version
 from volcaustics.scenes.formats import COLOUR_LAYERS, MASK_LAYER
-from volcaustics.scenes.storage import atomic_write_text, cache_dir, read_json_object
+from volcaustics.scenes.storage import CacheError, atomic_write_text, cache_dir, cache_path, read_json_object
 
 RESAMPLES = 2000             # bootstrap resamples over the seeds (per-frame metrics)
 FLOOR_DRAWS = 2              # noisy copies averaged for a non-quadratic metric's floor
@@ -143,14 +143,17 @@ def metric_floor(metric, reference_key, component, keep, r, rv, compute) -> floa
                            .encode() + np.packbits(keep).tobytes()).hexdigest()[:24]
     if ident in _FLOORS:
         return _FLOORS[ident]
-    path = os.path.join(cache_dir("metric-floors"), ident + ".json")
-    value = _cached_floor(path, ident)
+    value = _cached_floor(os.path.join(cache_path("metric-floors"), ident + ".json"), ident)
     if value is None:
         value = float(np.mean([compute(r, noisy_copy(r, rv, seed=FLOOR_SEED + i)) for i in range(FLOOR_DRAWS)]))
         if math.isfinite(value):
-            atomic_write_text(path, json.dumps({"value": value, "ident": ident, "metric": metric,
-                                                "component": component, "reference_key": reference_key},
-                                               allow_nan=False))
+            try:
+                atomic_write_text(os.path.join(cache_dir("metric-floors"), ident + ".json"),
+                                  json.dumps({"value": value, "ident": ident, "metric": metric,
+                                              "component": component, "reference_key": reference_key},
+                                             allow_nan=False))
+            except CacheError:  # a read-only cache: computed again next time
+                pass
     _FLOORS[ident] = value
     return value
 

@@ -31,8 +31,6 @@ import numpy as np
 from tqdm import tqdm
 
 from volcaustics.approx import Renderer
-from volcaustics.approx.params import ParamError
-from volcaustics.approx.trace import check_fits
 from volcaustics.reference.oracle import Oracle
 from volcaustics.reference.render import render_reference
 from volcaustics.reports.core.sizing import REPORT_REFERENCE, sized
@@ -43,6 +41,7 @@ from volcaustics.reports.experiment.frames import render_frames
 from volcaustics.reports.experiment.images import image_rows, keep_mask
 from volcaustics.reports.experiment.photons import photon_rows, replay
 from volcaustics.reports.experiment.segments import segment_rows
+from volcaustics.reports.experiment.settings import checked_settings
 from volcaustics.reports.experiment.summary import experiment_summary, experiment_views, parameter_columns
 
 STAGES = ("reference", "oracle", "approx", "segments", "photons", "exact_images", "metrics")
@@ -134,15 +133,3 @@ def _decomposed(scene, exact, reference, keep) -> dict:
         return decompose(exact, reference, keep)
     except ValueError as exc:
         raise ExperimentError(f"{scene.name}: cannot decompose the caustic's error: {exc}") from None
-
-
-def checked_settings(scene, params, seeds: int) -> tuple:
-    """(resolved params, seed list); ParamError before any work for a bad seed count
-    or a frame that cannot run."""
-    if isinstance(seeds, bool) or not isinstance(seeds, int) or not 1 <= seeds <= 1024:
-        raise ParamError(f"seeds = {seeds!r}: expected an integer in [1, 1024]")
-    p = params.resolved(scene)
-    if p.seed + seeds - 1 > 2**32 - 1:
-        raise ParamError(f"seed = {p.seed} with seeds = {seeds}: the last seed exceeds 2^32 − 1")
-    check_fits(p, keep_records=True)  # before the reference: a frame that cannot run fails at once
-    return p, [p.seed + i for i in range(seeds)]

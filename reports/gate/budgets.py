@@ -29,6 +29,7 @@ from volcaustics.approx.params import PRESETS
 from volcaustics.reports.core.sizing import REFERENCE_KEYS, reference_settings
 from volcaustics.reports.core.tomlfile import load_toml
 from volcaustics.scenes import SceneError, resolve_scene
+from volcaustics.scenes.catalogue import scene_relative_to
 
 RESOLVE_SIGMAS = 3.0    # a budget must lie this many standard errors beyond the noise
 COMPONENT_KEYS = ("relmse_max", "energy_ratio", "hdr_flip_max")
@@ -57,7 +58,9 @@ def default_budgets_path() -> str:
 
 
 def load_budgets(path: str) -> dict:
-    """{"preset", "seeds", "scenes": {name: {check: limit}}}, validated."""
+    """{"preset", "seeds", "scenes": {name: {check: limit}}, "scene_args": {name: SCENE
+    argument}, "path", "reference_settings"}, validated. A scene file named by a relative
+    path is relative to the budgets file (``scenes.catalogue.scene_relative_to``)."""
     doc = load_toml(path, keys=TOP_KEYS, error=GateError, what="budgets")
     seeds = doc.get("seeds", 4)
     if isinstance(seeds, bool) or not isinstance(seeds, int) or not 2 <= seeds <= 256:
@@ -68,12 +71,13 @@ def load_budgets(path: str) -> dict:
     scenes = doc.get("scene")
     if not isinstance(scenes, dict) or not scenes:
         raise GateError(f"{path}: no [scene.NAME] table: nothing to gate")
-    out = {}
+    out, args = {}, {}
     for name, table in scenes.items():
         if not isinstance(table, dict) or not table:
             raise GateError(f"{path}: scene.{name} = {table!r}: expected a table of budgets")
+        args[name] = scene_relative_to(name, path)  # a scene file: relative to this file, as in a sweep spec
         try:  # a scene that does not exist is a typo found now, not after the others were measured
-            resolve_scene(name)
+            resolve_scene(args[name])
         except SceneError as exc:
             raise GateError(f"{path}: scene.{name}: {exc}") from None
         checks = {}
@@ -101,7 +105,8 @@ def load_budgets(path: str) -> dict:
     if not isinstance(reference, dict) or any(k not in REFERENCE_KEYS for k in reference):
         raise GateError(f"{path}: reference = {reference!r}: expected a table of {', '.join(REFERENCE_KEYS)}")
     settings = reference_settings(reference, error=lambda message: GateError(f"{path}: {message}"))
-    return {"preset": preset, "seeds": seeds, "scenes": out, "path": path, "reference_settings": settings}
+    return {"preset": preset, "seeds": seeds, "scenes": out, "scene_args": args, "path": path,
+            "reference_settings": settings}
 
 
 def check_measurable(budgets: dict, names, params) -> None:

@@ -15,7 +15,7 @@ import time
 from dataclasses import dataclass
 
 from volcaustics.reports import runner
-from volcaustics.reports.core.params import measured_settings
+from volcaustics.reports.experiment.settings import measured_settings
 from volcaustics.reports.gate.budgets import GateError, check_measurable
 from volcaustics.reports.gate.outputs import VERDICT, failure_images, write_outputs
 from volcaustics.reports.gate.regression import BASELINE, baseline_text, load_baseline
@@ -56,7 +56,8 @@ def run_gate(budgets: dict, *, overrides: dict, baseline_dir: str | None, update
     for stale in (os.path.join(out_dir, VERDICT), junit):  # an earlier verdict must not stand for this run
         if stale:
             remove_file(stale)
-    run = runner.measure([runner.Point(name, params, n_seeds) for name in names], runner.results_store(),
+    points = [runner.Point(budgets["scene_args"][name], params, n_seeds) for name in names]
+    run = runner.measure(points, runner.results_store(),
                          reference_settings=budgets["reference_settings"],
                          policy="missing" if render_references else "cached", views=True, progress=progress,
                          hint=MISSING_REFERENCE, error=GateError)
@@ -87,7 +88,7 @@ def _names(budgets: dict, scenes) -> list:
         raise GateError(f"--scenes: {missing[0]!r} has no budgets in {budgets['path']}")
     for name in names:
         try:
-            resolve_scene(name)
+            resolve_scene(budgets["scene_args"][name])
         except SceneError as exc:
             raise GateError(f"budgets: scene {name!r}: {exc}") from None
     return names

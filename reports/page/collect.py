@@ -19,10 +19,10 @@ import pandas as pd
 
 from volcaustics.approx.params import PARAMS, ApproxParams
 from volcaustics.reports import runner
-from volcaustics.reports.core.params import measured_settings
 from volcaustics.reports.core.store import POINT_COLUMNS
 from volcaustics.reports.core.timing import Clock
 from volcaustics.reports.core.versions import code_version
+from volcaustics.reports.experiment.settings import measured_settings
 from volcaustics.reports.gate.regression import load_baseline
 from volcaustics.reports.gate.verdict import scene_verdict
 from volcaustics.reports.page.summary import report_summary

@@ -30,16 +30,16 @@ from __future__ import annotations
 import dataclasses
 import itertools
 import math
-import os
 from dataclasses import dataclass, field
 
 from volcaustics.approx.params import PRESETS, ApproxParams, ParamError, preset
-from volcaustics.approx.trace import check_fits
 from volcaustics.reports.core.params import parse_assignment, parse_overrides, parse_value
 from volcaustics.reports.core.sizing import reference_settings
 from volcaustics.reports.core.tomlfile import load_toml
+from volcaustics.reports.experiment.settings import check_frame
 from volcaustics.reports.runner import Point
 from volcaustics.scenes import BUILTIN_NAMES, SceneError, resolve_scene
+from volcaustics.scenes.catalogue import scene_relative_to
 
 SPEC_KEYS = ("scenes", "preset", "seeds", "vary", "set", "reference")
 # Points a sweep runs without --yes: about 3 days at the quick preset's 25 s a point on 2
@@ -100,8 +100,7 @@ def spec_from_toml(path: str, max_points: int | None = MAX_POINTS) -> SweepSpec:
         scenes = list(BUILTIN_NAMES)
     if not isinstance(scenes, list) or not all(isinstance(s, str) for s in scenes):
         raise SweepError(f"{path}: scenes = {scenes!r}: expected a list of scene names or paths")
-    base = os.path.dirname(os.path.abspath(path))
-    scenes = [s if not s.endswith(".toml") or os.path.isabs(s) else os.path.join(base, s) for s in scenes]
+    scenes = [scene_relative_to(s, path) for s in scenes]
     tables = doc.get("vary", {})
     several = isinstance(tables, list)
     if several and (not tables or not all(isinstance(t, dict) for t in tables)):
@@ -183,8 +182,8 @@ def _checked(spec: SweepSpec, where: str, max_points: int | None = MAX_POINTS) -
         last = point.params.seed + spec.seeds - 1
         if last > 2**32 - 1:
             raise SweepError(f"{where}: seed {point.params.seed} with seeds = {spec.seeds} exceeds 2^32 − 1")
-        try:  # what a frame allocates and dispatches, before any reference renders
-            check_fits(point.params, keep_records=True)
+        try:  # what a frame allocates and dispatches and a measurement holds, before any reference renders
+            check_frame(point.params, spec.seeds)
         except ParamError as exc:
             raise SweepError(f"{where}: point {point.scene}: {exc}") from None
     return spec

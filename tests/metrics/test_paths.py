@@ -40,6 +40,17 @@ def test_power_budget_shares():
     assert after["step"] == "after" and after["share_alive"] == pytest.approx(0.7 / 4)
 
 
+def test_a_step_no_photon_reached_has_zero_shares():
+    """Step 3 after every photon's path ended (photon_res 1, steps 32): zero rows, not
+    "cannot reshape array of size 0" (issue 21 E)."""
+    history = _history() + [_step(3, [], [], [], [])]
+    rows = power_budget(history)
+    assert rows[2]["step"] == 3 and rows[2]["share_entering"] == 0
+    assert all(rows[2][f"share_{fate}"] == 0 for fate in ("surface", "collided", "lost", "left_scene"))
+    assert rows[3] == {"tracer": "approx", "step": "after", "share_alive": 0.0}
+    assert np.all(path_divergence(history, history)["step"] == 0)
+
+
 def test_identical_paths_never_diverge():
     h = _history()
     d = path_divergence(h, h)

@@ -153,6 +153,21 @@ def test_closed_obj_mesh_loads(write_scene, tmp_path):
     assert load_scene(path).specular[0].mesh.load().triangle_count == 4
 
 
+def test_inward_wound_specular_mesh(write_scene, tmp_path):
+    """The closed tetrahedron above with every face reversed was accepted and the
+    approximation's caustic came out 147× the reference's (issue 21 I): refused when the
+    scene is read, naming the file (refused, not flipped: a file that winds inward may hold
+    inward normals too, and the scene's author should know)."""
+    (tmp_path / "inward.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\nf 1 4 2\nf 2 4 3\n"
+                                         "f 1 3 4\n")
+    path = _mesh_scene(write_scene, "inward.obj")
+    with pytest.raises(SceneError) as info:
+        load_scene(path)
+    assert info.value.key == "specular[0].mesh" and "inward.obj" in str(info.value)
+    assert "wind outward" in str(info.value) and "-0.167 m³" in str(info.value)
+    assert main(["scenes", "--check", path]) == 2
+
+
 def test_invalid_toml_syntax(write_scene):
     path = write_scene("[camera\nposition = [0, 1, 2]\n")
     with pytest.raises(SceneError) as info:

@@ -1,0 +1,64 @@
+"""What an experiment can measure, checked before any reference renders: the seeds, a
+frame that fits the GL driver and this machine (``approx.trace.check_fits``, with the
+small-kernel image drawn at ``SMALL_SUPERSAMPLE``× per side), an image every metric can
+read and the memory a whole measurement holds (issue 21 E, G, I)."""
+
+from __future__ import annotations
+
+from volcaustics.approx.params import ParamError, preset
+from volcaustics.approx.trace import check_fits
+from volcaustics.metrics.image import SSIM_WINDOW
+from volcaustics.reports.experiment.exact_images import SMALL_SUPERSAMPLE
+from volcaustics.scenes.memory import image_fits
+
+# What a measurement holds per pixel (both renders, the reference, the decomposition's
+# subset images at 16× the pixels, every metric): 2.9 kB + 0.65–0.84 kB per seed measured
+# as peak RSS per pixel, rounded up (bench/image_memory.py, docs/decisions.md "Image sizes
+# against memory").
+BYTES_PER_PIXEL = 3000
+BYTES_PER_PIXEL_PER_SEED = 850
+
+
+def check_frame(p, seeds: int) -> None:
+    """ParamError unless ``p`` (width/height resolved) can be measured with ``seeds`` seeds."""
+    for name in ("width", "height"):
+        size = getattr(p, name)
+        if size < SSIM_WINDOW:
+            raise ParamError(f"{name} = {size}: a measurement needs images of at least {SSIM_WINDOW} × "
+                             f"{SSIM_WINDOW} pixels (SSIM's Gaussian window, σ 1.5); {name} ≥ {SSIM_WINDOW}")
+    check_fits(p, keep_records=True, supersample=SMALL_SUPERSAMPLE)
+    reason = image_fits(p.width, p.height, BYTES_PER_PIXEL + BYTES_PER_PIXEL_PER_SEED * seeds,
+                        f"the images of a measurement with {seeds} seed(s) (both renders, the reference, "
+                        f"the error decomposition's at {SMALL_SUPERSAMPLE}× per side)")
+    if reason:
+        raise ParamError(f"{reason}, or fewer seeds")
+
+
+def checked_settings(scene, params, seeds: int) -> tuple:
+    """(resolved params, seed list); ParamError before any work for a bad seed count
+    or a frame that cannot be measured."""
+    if isinstance(seeds, bool) or not isinstance(seeds, int) or not 1 <= seeds <= 1024:
+        raise ParamError(f"seeds = {seeds!r}: expected an integer in [1, 1024]")
+    p = params.resolved(scene)
+    if p.seed + seeds - 1 > 2**32 - 1:
+        raise ParamError(f"seed = {p.seed} with seeds = {seeds}: the last seed exceeds 2^32 − 1")
+    check_frame(p, seeds)  # before the reference: a frame that cannot run fails at once
+    return p, [p.seed + i for i in range(seeds)]
+
+
+def measured_settings(preset_name: str, overrides: dict, *, seeds: int, seed: int, min_seeds: int, why: str,
+                      error=ParamError) -> tuple:
+    """(params, seeds) of a gate's or a report's experiments: the preset with
+    ``overrides`` and first seed ``seed``; ``seeds`` at least ``min_seeds`` (``why``
+    says why). ``error`` for a bad override, seed count or seed; a frame that cannot
+    be measured fails here, before any reference renders."""
+    if isinstance(seeds, bool) or not isinstance(seeds, int) or not min_seeds <= seeds <= 256:
+        raise error(f"--seeds = {seeds!r}: expected an integer in [{min_seeds}, 256] ({why})")
+    if not 0 <= seed <= 2**32 - seeds:
+        raise error(f"--seed = {seed}: expected 0 ≤ seed and seed + seeds − 1 < 2^32")
+    try:
+        params = preset(preset_name, seed=seed, **overrides)
+        check_frame(params, seeds)
+    except ParamError as exc:
+        raise error(f"--set: {exc}") from None
+    return params, seeds
