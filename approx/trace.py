@@ -43,6 +43,11 @@ CLIP_TO_OBJECTS = False
 # targets and their read-backs): 264 B measured as peak RSS per pixel, rounded up
 # (bench/image_memory.py, docs/decisions.md "Image sizes against memory").
 IMAGE_BYTES_PER_PIXEL = 300
+# The light maps' bytes per texel of one map, from what is allocated (not measured): the
+# RGBA32F map 16, its geometric target 8 (16 with the id rule's primitive ids), the depth
+# renderbuffer 4, the packed texel, distance, geometric and primitive buffers 16 + 4 + 8 + 4,
+# the min-max pyramid 8 · 4/3: 71, rounded up.
+LIGHT_MAP_BYTES_PER_TEXEL = 80
 
 
 class MapBuffers(NamedTuple):
@@ -298,6 +303,13 @@ def check_fits(params, *, keep_records: bool = False, max_groups: int | None = N
         raise ParamError(f"photon_res = {params.photon_res}: a frame needs {need / 2**30:.1f} GiB of photon, "
                          f"record and splat buffers{' and records read back' if keep_records else ''}, more than "
                          f"half of this machine's memory ({budget / 2**30:.1f} GiB); photon_res ≤ {fits} fits")
+    maps = light_map_bytes(params.light_res, params.layers)
+    if maps > budget - need:
+        fits = math.isqrt(int(max(budget - need, 0) / light_map_bytes(1, params.layers)))
+        raise ParamError(f"light_res = {params.light_res}: {2 * params.layers} light maps (layers = "
+                         f"{params.layers}) need {maps / 2**30:.1f} GiB beside the frame's "
+                         f"{need / 2**30:.1f} GiB, more than half of this machine's memory "
+                         f"({budget / 2**30:.1f} GiB); light_res ≤ {fits} fits")
     if max_groups is None:
         max_groups = gl_limits()[0]
     for name, res, per_group in (("photon_res", params.photon_res, 64), ("light_res", params.light_res, 256)):
@@ -339,6 +351,12 @@ def gl_limits() -> tuple:
 
 def _max_image_size(info) -> int:
     return int(min(info["GL_MAX_TEXTURE_SIZE"], *info["GL_MAX_VIEWPORT_DIMS"]))
+
+
+def light_map_bytes(light_res: int, layers: int) -> int:
+    """Bytes of the 2·layers light maps at light_res² and what is built from them
+    (LIGHT_MAP_BYTES_PER_TEXEL)."""
+    return 2 * layers * light_res * light_res * LIGHT_MAP_BYTES_PER_TEXEL
 
 
 def frame_bytes(photon_res: int, steps: int, *, keep_records: bool = False) -> int:

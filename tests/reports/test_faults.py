@@ -81,6 +81,22 @@ def test_check_fits_names_the_driver_limit():
         check_fits(dataclasses.replace(QUICK, light_res=4096), max_groups=65535)
 
 
+def test_check_fits_counts_the_light_maps(monkeypatch):
+    """light_res was checked against the work-group limit only: 16 maps at 4095² need
+    ~20 GiB (LIGHT_MAP_BYTES_PER_TEXEL), an allocation failure deep in GL. With a 4 GiB
+    budget, light_res 4095 at 8 layers is refused up front, naming what fits, and 1024
+    (1.25 GiB of maps) passes."""
+    import dataclasses
+
+    import volcaustics.approx.trace as trace
+    from volcaustics.approx.params import QUICK, ParamError
+
+    monkeypatch.setattr(trace, "memory_budget", lambda: 4 * 2**30)
+    trace.check_fits(dataclasses.replace(QUICK, light_res=1024, layers=8), max_groups=65535)
+    with pytest.raises(ParamError, match=r"light_res = 4095: 16 light maps .* light_res ≤ 18\d\d fits"):
+        trace.check_fits(dataclasses.replace(QUICK, light_res=4095, layers=8), max_groups=65535)
+
+
 # --- F: Ctrl-C inside the reference render ------------------------------------------
 
 @pytest.mark.parametrize("command", ["measure", "sweep", "gate", "report"])
