@@ -45,7 +45,9 @@ def run(args) -> int:
     for page in summary["scenes"]:
         c = page["components"]
         failed = [ch["name"] for ch in page["gate"]["checks"] if not ch["passed"]]
-        gate = ("FAIL " + ", ".join(failed)) if failed else ("pass" if page["gate"]["checks"] else "not checked")
+        note = page["gate"].get("note")
+        gate = ("FAIL " + ", ".join(failed)) if failed else ("pass" if page["gate"]["checks"] else
+                                                             f"not checked ({note})" if note else "not checked")
         print(f"{page['scene']:<12} caustic relMSE {pct(c['caustic']['relative_mse'].get('debiased'))}, "
               f"energy {num(c['caustic']['energy_ratio'].get('value'))}; combined relMSE "
               f"{pct(c['combined']['relative_mse'].get('debiased'))}; gate {gate}")

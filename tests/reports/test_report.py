@@ -404,7 +404,7 @@ def test_error_maps_average_to_their_metric():
         assert metric(r, t, mask=keep)["value"] == out["value"] and "map" not in metric(r, t, mask=keep)
 
 
-def test_report_and_reference_cli_share_one_cache_entry(tmp_path, monkeypatch):
+def test_report_and_reference_cli_share_one_cache_entry(tmp_path, monkeypatch, capsys):
     """Image size lives in the settings (DESIGN.md): the report's reference and
     `volcaustics reference --width/--height` at the same size are one render, one key,
     one cache entry — whichever path comes first, the other is served from the cache."""
@@ -412,9 +412,12 @@ def test_report_and_reference_cli_share_one_cache_entry(tmp_path, monkeypatch):
     monkeypatch.setenv("VOLCAUSTICS_CACHE", str(cache))
     monkeypatch.setenv("VOLCAUSTICS_MI_VARIANT", "llvm_ad_rgb")
     budget = ["--photons", "100000", "--spp", "8", "--batches", "2"]
+    budgets = tmp_path / "budgets.toml"  # none for refocus: the terminal says why the gate did not check it
+    budgets.write_text('preset = "quick"\n[scene.sphere1]\ncaustic = { hdr_flip_max = 1.0 }\n')
     assert main(["report", "--out", str(tmp_path / "rep"), "--scenes", "refocus", "--seeds", "1", "--quiet",
                  "--set", "width=24", "--set", "height=24", "--set", "photon_res=32", "--set", "light_res=32",
-                 *budget, "--target-noise", "none"]) == 0
+                 *budget, "--target-noise", "none", "--budgets", str(budgets)]) == 0
+    assert f"gate not checked (no budgets for refocus in {budgets})" in capsys.readouterr().out
     from_report = json.loads((tmp_path / "rep" / "summary.json").read_text())["scenes"][0]["reference"]
     argv = ["reference", "refocus", "--width", "24", "--height", "24", *budget, "-o", str(tmp_path / "r.exr")]
     assert main(argv) == 0
