@@ -71,10 +71,16 @@ def key_document(scene, params, seeds: int, reference) -> dict:
 
 
 def summary_sha256(summary: dict) -> str:
-    """SHA-256 of a point's summary without its own hash (the field SEAL): of its
-    canonical JSON (sorted keys, no spaces), so reading it back and hashing again gives
-    the same digest."""
-    content = {k: v for k, v in summary.items() if k != SEAL}
+    """SHA-256 of a point's summary without its own hash (the field SEAL)
+    (:func:`document_sha256`)."""
+    return document_sha256(summary, SEAL)
+
+
+def document_sha256(doc: dict, field: str) -> str:
+    """SHA-256 of a JSON document without its field ``field`` (where it keeps this
+    digest): of its canonical JSON (sorted keys, no spaces), so reading it back and
+    hashing again gives the same digest."""
+    content = {k: v for k, v in doc.items() if k != field}
     text = json.dumps(content, sort_keys=True, separators=(",", ":"), allow_nan=False)
     return hashlib.sha256(text.encode()).hexdigest()
 

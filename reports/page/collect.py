@@ -19,7 +19,7 @@ import pandas as pd
 
 from volcaustics.approx.params import PARAMS, ApproxParams
 from volcaustics.reports import runner
-from volcaustics.reports.core.store import POINT_COLUMNS
+from volcaustics.reports.core.store import POINT_COLUMNS, document_sha256
 from volcaustics.reports.core.timing import Clock
 from volcaustics.reports.core.versions import code_version
 from volcaustics.reports.experiment.settings import measured_settings
@@ -27,6 +27,7 @@ from volcaustics.reports.gate.regression import load_baseline
 from volcaustics.reports.gate.verdict import scene_verdict
 from volcaustics.reports.page.summary import report_summary
 from volcaustics.reports.page.write import write_report
+from volcaustics.reports.sweep.run import MANIFEST_SEAL
 from volcaustics.scenes import SceneError, resolve_scene
 from volcaustics.scenes.storage import file_sha256, read_json_object, special_file_kind
 
@@ -126,9 +127,14 @@ def load_sweep(folder: str) -> SweepTables:
 
 
 def _check_hashes(folder: str, doc: dict, names) -> list:
-    """Check the tables ``names`` against the SHA-256s sweep.json records (``files``):
-    ReportError naming a table edited or damaged since the sweep wrote it. A store from
+    """Check sweep.json against the SHA-256 it records of itself, and the tables
+    ``names`` against those it records (``files``): ReportError naming a file edited or
+    damaged since the sweep wrote it. A store from
     before sweep.json recorded them is drawn unchecked: returns the note the page shows."""
+    if MANIFEST_SEAL in doc and doc[MANIFEST_SEAL] != document_sha256(doc, MANIFEST_SEAL):
+        raise ReportError(f"--sweep {folder}: sweep.json does not match the SHA-256 it records of itself (edited "
+                          f"or damaged since the sweep wrote it): rerun the sweep (`volcaustics sweep SPEC -o "
+                          f"{folder}` keeps every undamaged point)")
     files = doc.get("files")
     if not isinstance(files, dict):
         return ["its sweep.json records no SHA-256 of its tables (written by an older volcaustics), so they are "

@@ -13,7 +13,7 @@ import pandas as pd
 
 from volcaustics.reports import runner
 from volcaustics.reports.core.sizing import reference_settings
-from volcaustics.reports.core.store import TABLES, Store
+from volcaustics.reports.core.store import TABLES, Store, document_sha256
 from volcaustics.reports.sweep.figures import draw_figures
 from volcaustics.reports.sweep.spec import SweepError, SweepSpec, points
 from volcaustics.reports.sweep.suffice import settings_that_suffice
@@ -21,6 +21,7 @@ from volcaustics.reports.sweep.variants import best_variants, draw_variants, is_
 from volcaustics.scenes.storage import atomic_set, file_sha256
 
 MANIFEST = "sweep.json"  # the spec, the points the store's tables hold, their SHA-256s; written last
+MANIFEST_SEAL = "sweep_sha256"  # sweep.json's field holding the SHA-256 of the rest of it
 OUTPUT_FILES = (*(f"{name}.parquet" for name in (*TABLES, "points")), "suffice.csv", MANIFEST)
 OUTPUT_FOLDERS = ("points", "figures")
 VARIANT_FILES = ("variants.csv", "variants_best.csv")  # beside them when the sweep varies search or start_rule
@@ -72,7 +73,8 @@ def _write_tables(out_dir: str, tables: dict, manifest: dict, extra: tuple = ())
     """The consolidated tables, suffice.csv and, last, sweep.json as one set
     (``scenes.storage.atomic_set``): an interrupted sweep leaves the last complete set,
     never a manifest beside another run's tables (what ``report --sweep`` reads). The
-    manifest records each file's SHA-256 (``files``), which the report checks."""
+    manifest records each file's SHA-256 (``files``) and its own (MANIFEST_SEAL), which
+    the report checks."""
     names = [name for name in OUTPUT_FILES if name != MANIFEST] + list(extra)
     with atomic_set([os.path.join(out_dir, name) for name in (*names, MANIFEST)]) as temps:
         files = {}
@@ -82,5 +84,7 @@ def _write_tables(out_dir: str, tables: dict, manifest: dict, extra: tuple = ())
             else:
                 tables[name[: -len(".parquet")]].to_parquet(tmp, index=False)
             files[name] = file_sha256(tmp)
+        doc = {**manifest, "files": files}
+        doc[MANIFEST_SEAL] = document_sha256(doc, MANIFEST_SEAL)
         with open(temps[-1], "w", encoding="utf-8") as fh:
-            fh.write(json.dumps({**manifest, "files": files}, indent=1))
+            fh.write(json.dumps(doc, indent=1))

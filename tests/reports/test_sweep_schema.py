@@ -10,10 +10,11 @@ import pandas as pd
 import pytest
 
 from volcaustics.approx.params import PARAMS, ApproxParams
-from volcaustics.reports.core.store import POINT_COLUMNS, point_row
+from volcaustics.reports.core.store import POINT_COLUMNS, document_sha256, point_row
 from volcaustics.reports.core.versions import code_version
 from volcaustics.reports.page.collect import ReportError, load_sweep
 from volcaustics.reports.page.html import _sweep_section
+from volcaustics.reports.sweep.run import MANIFEST_SEAL
 from volcaustics.scenes.storage import file_sha256
 
 
@@ -27,8 +28,9 @@ def _store(folder, drop=(), version=None):
     for name in ("segments", "photons", "images"):
         pd.DataFrame({"point": ["p0"]}).to_parquet(folder / f"{name}.parquet")
     files = {p.name: file_sha256(str(p)) for p in folder.glob("*.parquet")}  # as the sweep records them
-    (folder / "sweep.json").write_text(json.dumps({"spec": {"vary": {"layers": [1, 2]}}, "points": 2,
-                                                   "files": files}))
+    doc = {"spec": {"vary": {"layers": [1, 2]}}, "points": 2, "files": files}
+    doc[MANIFEST_SEAL] = document_sha256(doc, MANIFEST_SEAL)  # as the sweep seals it
+    (folder / "sweep.json").write_text(json.dumps(doc))
     return str(folder)
 
 
@@ -72,11 +74,22 @@ def test_a_table_edited_after_the_sweep_is_refused(tmp_path, table):
         load_sweep(folder)
 
 
+@pytest.mark.parametrize("edit", [{"points": 3}, {"spec": {"vary": {"iterations": [4, 8]}}}, {"files": {}}])
+def test_an_edited_sweep_manifest_is_refused(tmp_path, edit):
+    """sweep.json carries the SHA-256 of itself: one edited by hand (its spec, its
+    count, its table hashes) is refused, never drawn with the wrong labels."""
+    folder = _store(tmp_path / "s")
+    path = tmp_path / "s" / "sweep.json"
+    path.write_text(json.dumps({**json.loads(path.read_text()), **edit}))
+    with pytest.raises(ReportError, match=r"sweep\.json does not match the SHA-256 it records of itself"):
+        load_sweep(folder)
+
+
 def test_a_store_without_table_hashes_is_marked(tmp_path):
     """A store written before sweep.json recorded its tables' hashes is drawn, with a
     note on the page saying its tables are unchecked."""
     folder = _store(tmp_path / "s")
     doc = json.loads((tmp_path / "s" / "sweep.json").read_text())
-    del doc["files"]
+    del doc["files"], doc[MANIFEST_SEAL]  # an older sweep recorded neither
     (tmp_path / "s" / "sweep.json").write_text(json.dumps(doc))
     assert [n for n in load_sweep(folder).notes if "no SHA-256" in n and "rerun the sweep" in n]
