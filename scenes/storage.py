@@ -46,6 +46,20 @@ def cache_path(*parts: str) -> str:
     return os.path.join(root, *parts)
 
 
+_NOTED: set = set()
+
+
+def note_not_cached(exc: CacheError, what: str) -> None:
+    """Say once per process, on stderr, that ``what`` is not cached because the cache
+    folder cannot be written (``exc`` names it and the fix): the run goes on (nothing it
+    needs is missing), but would otherwise redo that work every time without a word."""
+    import sys
+
+    if str(exc) not in _NOTED:
+        _NOTED.add(str(exc))
+        print(f"volcaustics: note: {exc}; {what} are computed again each run, not cached", file=sys.stderr)
+
+
 @contextlib.contextmanager
 def atomic_path(path: str):
     """Yield a temporary path next to ``path``; on success rename it onto ``path``.

@@ -29,7 +29,14 @@ from volcaustics.metrics import image as im
 from volcaustics.metrics.noise import noisy_copy, seed_mean_interval, seed_relative_mse
 from volcaustics.reports.core.versions import code_version
 from volcaustics.scenes.formats import COLOUR_LAYERS, MASK_LAYER
-from volcaustics.scenes.storage import CacheError, atomic_write_text, cache_dir, cache_path, read_json_object
+from volcaustics.scenes.storage import (
+    CacheError,
+    atomic_write_text,
+    cache_dir,
+    cache_path,
+    note_not_cached,
+    read_json_object,
+)
 
 RESAMPLES = 2000             # bootstrap resamples over the seeds (per-frame metrics)
 FLOOR_DRAWS = 2              # noisy copies averaged for a non-quadratic metric's floor
@@ -152,8 +159,8 @@ def metric_floor(metric, reference_key, component, keep, r, rv, compute) -> floa
                                   json.dumps({"value": value, "ident": ident, "metric": metric,
                                               "component": component, "reference_key": reference_key},
                                              allow_nan=False))
-            except CacheError:  # a read-only cache: computed again next time
-                pass
+            except CacheError as exc:  # a read-only cache: computed again next time
+                note_not_cached(exc, "metric noise floors")
     _FLOORS[ident] = value
     return value
 

@@ -74,15 +74,18 @@ def test_a_read_only_output_folder(tmp_path, capsys):
 
 def test_a_cache_that_is_a_file_is_named_as_such(tmp_path):
     """Not "an error in the scene's mesh": the cache folder, and the variable to fix (in a
-    fresh process: this one may hold the generated meshes in memory already)."""
+    fresh process: this one may hold the generated meshes in memory already). Listing
+    the scenes needs nothing from the cache, so it runs (issue 21: a cache that cannot be
+    written is refused only where something must be written), saying once that the
+    generated meshes are not cached."""
     cache = tmp_path / "cache"
     cache.write_text("not a folder")
     done = subprocess.run([sys.executable, "-m", "volcaustics", "scenes"], capture_output=True, text=True,
                           timeout=120, env={**os.environ, "VOLCAUSTICS_CACHE": str(cache)})
-    assert done.returncode == 2, done.stderr[-2000:]
+    assert done.returncode == 0, done.stderr[-2000:]
     err = done.stderr
-    assert "cache folder" in err and "VOLCAUSTICS_CACHE" in err and "Traceback" not in err
-    assert "could not be built" not in err and "specular" not in err
+    assert err.count("cache folder") == 1 and "VOLCAUSTICS_CACHE" in err and "generated meshes" in err
+    assert "Traceback" not in err and "could not be built" not in err and "specular" not in err
 
 
 def test_a_mesh_path_that_is_a_device_or_fifo(tmp_path, write_scene):
