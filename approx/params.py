@@ -134,6 +134,13 @@ PARAMS: tuple = (
     Param("steps", int, 4, "interaction steps (photon maps) traced", "", 1, 32),
     Param("splat_radius", float, 0.01, "standard deviation of the splatted 3D Gaussian", "m", 0, 10,
           glsl="uniform"),
+    Param("splat", str, "fixed", "the splat kernel's width: fixed (paper: splat_radius for every photon) or "
+          "adaptive (splat_footprints × the photon's footprint, its distance to its neighbours' rays carried "
+          "as a ray differential through every refraction and reflection, within [splat_radius/16, "
+          "4·splat_radius] and at least a pixel)", choices=("fixed", "adaptive"), program="trace",
+          glsl="define", to_defines=lambda v: {"SPLAT_ADAPTIVE": 1} if v == "adaptive" else {}),
+    Param("splat_footprints", float, 1.0, "adaptive splats: the kernel's standard deviation in photon footprints",
+          "", 0, 100, glsl="uniform"),
     Param("light_res", int, 1024, "resolution of the light layer maps and the shadow map", "texels per side", 16,
           8192, glsl="uniform"),
     Param("width", int, None, "image width", "pixels", 1, 16384, unset="the scene's"),

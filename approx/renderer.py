@@ -162,7 +162,7 @@ class Renderer:
                 tracer.trace_step(scene, frustum, box, maps["texels"], maps["info"], p.light_res, photons, record_buf,
                                   count, step, p.seed, objects_box=(geo.specular_min, geo.specular_max))
             with timer.measure("splat"):
-                n_splats = tracer.compact_splats(record_buf, count, splat_buf)
+                n_splats = tracer.compact_splats(record_buf, count, splat_buf, photons, p)
                 step_image = self._black_image(p)
                 splatter.splat(splat_buf, n_splats, view, scene.medium, p.splat_radius, gbuf_geo, step_image)
             caustic_steps.append(_read_rgb(step_image))

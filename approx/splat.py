@@ -19,16 +19,19 @@ from .glsl import attribute_layout, program
 INSTANCE_PARTS = [("4f", "in_end"), ("4f", "in_dir_t"), ("4f", "in_power")]
 
 
-def splats_from_arrays(end, direction, power) -> np.ndarray:
+def splats_from_arrays(end, direction, power, sigma=None) -> np.ndarray:
     """Splat rows (SPLAT_DTYPE) from numpy arrays: end (N×3 collision points, m),
     direction (N×3 unit, propagation before scattering), power (N×3 W, RGB, after
-    transmittance)."""
+    transmittance), and optionally each one's kernel standard deviation sigma (N, m;
+    at least a pixel where it is drawn); without it every splat takes splat_radius."""
     end = np.asarray(end, np.float32).reshape(-1, 3)
     out = np.zeros(len(end), dtype=SPLAT_DTYPE)
     out["center_status"][:, :3] = end
     out["center_status"][:, 3] = STATUS_COLLIDED
     out["dir"][:, :3] = np.asarray(direction, np.float32).reshape(-1, 3)
     out["power"][:, :3] = np.asarray(power, np.float32).reshape(-1, 3)
+    if sigma is not None:
+        out["dir"][:, 3] = np.asarray(sigma, np.float32).reshape(-1)
     return out
 
 
@@ -54,6 +57,7 @@ class Splatter:
         prog["scatter_weight"].value = tuple(s / sigma_bar for s in medium.sigma_s)
         prog["sigma_t"].value = tuple(medium.sigma_t)
         prog["splat_radius"].value = float(splat_radius)
+        prog["pixel_angle"].value = 2.0 / (float(view.proj[1, 1]) * view.height)
         scene_distance.use(location=0)
         prog["scene_distance"].value = 0
         fmt, names = attribute_layout(prog, INSTANCE_PARTS, per_instance=True)

@@ -113,7 +113,9 @@ class PhotonTracer:
         self.hiz = "SEARCH_HIZ" in defines
         self.pyramid = compute_shader(ctx, "trace/pyramid.comp.glsl") if self.hiz else None
         self.compact_count = compute_shader(ctx, "splat/compact.comp.glsl", {"PASS_COUNT": 1})
-        self.compact_write = compute_shader(ctx, "splat/compact.comp.glsl")
+        self.adaptive = "SPLAT_ADAPTIVE" in defines
+        self.compact_write = compute_shader(ctx, "splat/compact.comp.glsl",
+                                            {"SPLAT_ADAPTIVE": 1} if self.adaptive else {})
         self.maps = defines["MAPS"]
         self._solid_angles = {}
         self._max_groups = int(ctx.info["GL_MAX_COMPUTE_WORK_GROUP_COUNT"][0])
@@ -225,6 +227,9 @@ class PhotonTracer:
                          objects_max=tuple(np.add(objects_box[1], pad)))
         ior, absorption = _materials(scene)
         prog["light_view_proj"].write(gl_matrix(frustum.view_proj))
+        if "light_basis" in prog:
+            basis = np.stack([frustum.view[0, :3], frustum.view[1, :3], frustum.direction], axis=1)  # columns
+            prog["light_basis"].write(np.asarray(basis, np.float32).T.tobytes())
         set_uniforms(prog, ior=ior, absorption=absorption,
                      map_used=[bool(u) for u, _, _ in map_info], map_min_dist=[float(a) for _, a, _ in map_info],
                      map_max_dist=[float(b) for _, _, b in map_info],
@@ -246,9 +251,12 @@ class PhotonTracer:
                          pyramid_top=len(offsets) - 1)
         prog.run(group_x=math.ceil(count / 64))
 
-    def compact_splats(self, records: moderngl.Buffer, count: int, splats: moderngl.Buffer) -> int:
+    def compact_splats(self, records: moderngl.Buffer, count: int, splats: moderngl.Buffer,
+                       photons: moderngl.Buffer | None = None, params=None) -> int:
         """Gather the medium collisions of one step's records into ``splats`` (SPLAT_DTYPE
-        rows, capacity ``count``) in photon order; returns how many."""
+        rows, capacity ``count``) in photon order; returns how many. With ``splat =
+        adaptive`` each row carries its kernel width from ``photons``' differentials and
+        ``params``' splat_radius and splat_footprints."""
         blocks = math.ceil(count / COMPACT_BLOCK)
         block_buf = self.ctx.buffer(reserve=4 * blocks)
         records.bind_to_storage_buffer(0)
@@ -261,6 +269,10 @@ class PhotonTracer:
         total = int(block_counts.sum(dtype=np.uint64))
         if total:
             block_buf.write(offsets.tobytes())
+            if self.adaptive:
+                photons.bind_to_storage_buffer(3)
+                set_uniforms(self.compact_write, splat_radius=params.splat_radius,
+                             splat_footprints=params.splat_footprints)
             self.compact_write["photon_count"].value = count
             self.compact_write.run(group_x=blocks)
         block_buf.release()

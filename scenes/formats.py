@@ -51,15 +51,19 @@ MASK_LAYER = "mask_specular"                              # H×W×3 float32, 1 w
 LAYER_NAMES = COLOUR_LAYERS + (MASK_LAYER,)
 
 # --- photon arrays
-# One photon slot of the GPU tracer (std430 struct Photon, 48 bytes):
+# One photon slot of the GPU tracer (std430 struct Photon, 64 bytes):
 #   pos    xyz position (m); w: specular object the photon is inside, -1 in the medium
 #   dir    xyz unit direction; w: STATUS_*
 #   power  rgb power (W); w: start offset of the next segment, in light-map texel footprints
-PHOTON_DTYPE = np.dtype([("pos", "<f4", 4), ("dir", "<f4", 4), ("power", "<f4", 4)])
+#   diff   its ray differential (splat = adaptive; zeros otherwise): x the footprint, the
+#          signed distance to its neighbours' rays here (m); y its rate of change along
+#          the ray (m/m); zw unused
+PHOTON_DTYPE = np.dtype([("pos", "<f4", 4), ("dir", "<f4", 4), ("power", "<f4", 4), ("diff", "<f4", 4)])
 
 # One photon to splat, a medium collision (std430 struct Splat, 48 bytes):
 #   center_status  xyz collision point (m); w: STATUS_COLLIDED
-#   dir            xyz propagation direction before scattering (unit); w unused
+#   dir            xyz propagation direction before scattering (unit); w: the kernel's
+#                  standard deviation (m) when splat = adaptive, 0: the uniform splat_radius
 #   power          rgb power at the collision, after transmittance (W); w unused
 SPLAT_DTYPE = np.dtype([("center_status", "<f4", 4), ("dir", "<f4", 4), ("power", "<f4", 4)])
 

@@ -42,6 +42,7 @@ struct Photon {
     vec4 dir;    // xyz unit direction; w: status
     vec4 power;  // rgb power (W); w: start offset of the next segment in light-map texel footprints
                  // (start rule `id`: primitive id + 1 of the triangle it leaves, 0 none)
+    vec4 diff;   // ray differential (SPLAT_ADAPTIVE, else 0): x footprint here (m, signed); y its rate (m/m)
 };
 
 struct Record {
@@ -57,7 +58,7 @@ struct Record {
 // A photon to splat (compacted list of this step's medium collisions).
 struct Splat {
     vec4 center_status;  // xyz collision point; w: STATUS_COLLIDED
-    vec4 dir;            // xyz propagation direction before scattering
+    vec4 dir;            // xyz propagation direction before scattering; w: kernel σ (m), 0: splat_radius
     vec4 power;          // rgb power at the collision (after transmittance)
 };
 

@@ -25,6 +25,31 @@ uniform vec3 sigma_t;            // the medium between the light and the first s
 layout(std430, binding = 0) writeonly buffer Photons { Photon photons[]; };
 layout(std430, binding = 1) readonly buffer SolidAngles { float solid_angle[]; };
 
+vec2 texel_plane(ivec2 texel) {
+    return ((vec2(texel) + 0.5) / float(photon_res) * 2.0 - 1.0) * tan_half;
+}
+
+#ifdef SPLAT_ADAPTIVE
+#include "common/differential.glsl"
+// The first surface's outward curvature at `texel` along `axis`, from the neighbour on
+// +axis or, where that one is empty, of another material or across a jump in depth
+// (a silhouette over a farther surface), the one on -axis; `found` says whether either served.
+float emission_curvature(ivec2 texel, vec4 map, vec3 p0, vec3 n0, ivec2 axis, float spacing, out bool found) {
+    for (int k = 0; k < 2; ++k) {
+        ivec2 t = texel + (k == 0 ? axis : -axis);
+        if (any(lessThan(t, ivec2(0))) || any(greaterThanEqual(t, ivec2(photon_res)))) continue;
+        vec4 m = texelFetch(emission_map, t, 0);
+        if (m.r <= 0.0 || abs(m.g - map.g) > 0.5) continue;
+        vec3 p1 = light_position + normalize(light_basis * vec3(texel_plane(t), 1.0)) * m.r;
+        if (distance(p1, p0) > 8.0 * spacing) continue;
+        found = true;
+        return curvature_between(p0, n0, p1, octa_decode(m.ba));
+    }
+    found = false;
+    return 0.0;
+}
+#endif
+
 void main() {
     ivec2 texel = ivec2(gl_GlobalInvocationID.xy);
     if (texel.x >= photon_res || texel.y >= photon_res) return;
@@ -36,7 +61,8 @@ void main() {
     ph.dir = vec4(0.0, 0.0, 0.0, float(STATUS_DEAD));
     ph.power = vec4(0.0);
 
-    vec2 plane = ((vec2(texel) + 0.5) / float(photon_res) * 2.0 - 1.0) * tan_half;
+    ph.diff = vec4(0.0);
+    vec2 plane = texel_plane(texel);
     vec3 d = normalize(light_basis * vec3(plane, 1.0));
     float falloff = spot_falloff(d);
     if (map.r > 0.0 && falloff > 0.0) {
@@ -44,9 +70,22 @@ void main() {
         int inside = -1;
         vec4 geometric_id = texelFetch(emission_geometric, texel, 0);
         vec3 geometric = octa_decode(geometric_id.xy);
-        surface_interaction(d, power, inside, octa_decode(map.ba), geometric, int(map.g + 0.5),
-                            rng_uniform(seed, index, 0u, 1u));
+        vec3 d_in = d;
+        uint flags = surface_interaction(d, power, inside, octa_decode(map.ba), geometric, int(map.g + 0.5),
+                                         rng_uniform(seed, index, 0u, 1u));
         vec3 from_light = normalize(light_basis * vec3(plane, 1.0)) * map.r;
+#ifdef SPLAT_ADAPTIVE
+        // From the light the photons' rays spread by the grid's angular spacing, 2·tan(cutoff)/N
+        // on the image plane, foreshortened by cos² off the axis.
+        float spread = 2.0 * tan_half / float(photon_res) / dot(vec3(plane, 1.0), vec3(plane, 1.0));
+        float w = spread * map.r;
+        vec3 n0 = octa_decode(map.ba);
+        bool fx, fy;
+        float kx = emission_curvature(texel, map, light_position + from_light, n0, ivec2(1, 0), w, fx);
+        float ky = emission_curvature(texel, map, light_position + from_light, n0, ivec2(0, 1), w, fy);
+        float kappa = (fx || fy) ? (kx + ky) / float(int(fx) + int(fy)) : 0.0;
+        ph.diff = vec4(w, interaction_rate(spread, w, d_in, d, n0, kappa, int(map.g + 0.5), flags), 0.0, 0.0);
+#endif
         ph.pos = vec4(light_position + from_light, float(inside));
         ph.dir = vec4(d, float(STATUS_SURFACE));
 #if defined(START_RULE_ID)

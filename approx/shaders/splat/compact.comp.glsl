@@ -13,6 +13,13 @@ layout(std430, binding = 0) readonly buffer Records { Record records[]; };
 layout(std430, binding = 1) buffer BlockCounts { uint block_value[]; };  // counts, then offsets
 layout(std430, binding = 2) writeonly buffer Splats { Splat splats[]; };
 uniform uint photon_count;
+#ifdef SPLAT_ADAPTIVE
+// The kernel of a collision: splat_footprints × the photon's footprint there (its ray
+// differential, trace.comp.glsl), within [splat_radius / 16, 4 · splat_radius].
+layout(std430, binding = 3) readonly buffer Photons { Photon photons[]; };
+uniform float splat_radius;
+uniform float splat_footprints;
+#endif
 
 shared uint rank[BLOCK];
 
@@ -35,7 +42,12 @@ void main() {
     if (collided) {
         Record r = records[i];
         uint slot = block_value[gl_WorkGroupID.x] + rank[lane] - 1u;
-        splats[slot] = Splat(vec4(r.end_status.xyz, float(STATUS_COLLIDED)), vec4(r.dir_t.xyz, 0.0),
+#ifdef SPLAT_ADAPTIVE
+        float sigma = clamp(splat_footprints * abs(photons[i].diff.x), splat_radius / 16.0, 4.0 * splat_radius);
+#else
+        float sigma = 0.0;  // the uniform splat_radius
+#endif
+        splats[slot] = Splat(vec4(r.end_status.xyz, float(STATUS_COLLIDED)), vec4(r.dir_t.xyz, sigma),
                              vec4(r.power_inside.rgb, 0.0));
     }
 #endif

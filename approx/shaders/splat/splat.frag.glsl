@@ -11,11 +11,11 @@ uniform vec3 eye;
 #include "common/kinds.glsl"
 
 uniform sampler2D scene_distance;  // G-buffer (distance to the first surface, KIND_*, material, 0)
-uniform float splat_radius;
 
 in vec3 v_center;
 in vec3 v_corner;
 flat in vec3 v_weight;
+flat in float v_sigma;  // the splat's kernel standard deviation (m)
 
 out vec4 out_color;
 
@@ -29,12 +29,12 @@ void main() {
     // in float32 (|oc|² ≈ 20 m² has an ulp of 2e-6 m², the size of b² for σ of a few mm).
     vec3 perp = oc - s_c * ray;
     float b2 = dot(perp, perp);
-    float inv_sqrt2_sigma = 0.7071067811865476 / splat_radius;
+    float inv_sqrt2_sigma = 0.7071067811865476 / v_sigma;
     // Both erf terms are 1 to float precision more than 6σ from the ends of [0, s_max].
-    float along = (s_c > 6.0 * splat_radius && s_max - s_c > 6.0 * splat_radius)
+    float along = (s_c > 6.0 * v_sigma && s_max - s_c > 6.0 * v_sigma)
         ? 1.0
         : 0.5 * (erf_approx((s_max - s_c) * inv_sqrt2_sigma) + erf_approx(s_c * inv_sqrt2_sigma));
-    if (b2 > TRUNCATION * TRUNCATION * splat_radius * splat_radius) discard;
-    float k = exp(-b2 / (2.0 * splat_radius * splat_radius)) / (6.283185307179586 * splat_radius * splat_radius * KEPT_MASS) * along;
+    if (b2 > TRUNCATION * TRUNCATION * v_sigma * v_sigma) discard;
+    float k = exp(-b2 / (2.0 * v_sigma * v_sigma)) / (6.283185307179586 * v_sigma * v_sigma * KEPT_MASS) * along;
     out_color = vec4(v_weight * k, 1.0);
 }

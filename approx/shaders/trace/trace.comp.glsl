@@ -57,6 +57,7 @@ uniform bool map_used[MAPS];         // the map holds at least one surface texel
 uniform float map_min_dist[MAPS];    // bounds of the map's distances to the light
 uniform float map_max_dist[MAPS];
 uniform mat4 light_view_proj;
+uniform mat3 light_basis;            // columns: light right, up, spot axis (world): texel directions
 uniform vec3 light_position;
 uniform int light_res;
 uniform float texel_angle;           // 2·tan(cutoff)/light_res: texel footprint per metre of distance
@@ -79,6 +80,10 @@ layout(std430, binding = 4) readonly buffer LightMapGeometric { vec2 map_geometr
 #ifdef START_RULE_ID
 // the same maps' primitive ids + 1 (0 = none): the start rule `id`
 layout(std430, binding = 5) readonly buffer LightMapPrimitive { float map_primitive[]; };
+#endif
+
+#ifdef SPLAT_ADAPTIVE
+#include "common/differential.glsl"
 #endif
 
 uint g_flags;
@@ -260,6 +265,40 @@ float search_maps(vec3 o, vec3 d, vec4 c0, vec4 c1, float search, float t0, floa
     return best_t;
 }
 
+#ifdef SPLAT_ADAPTIVE
+// World position of map texel `index` holding distance r (its ray from the light).
+vec3 map_texel_point(int index, float r) {
+    int x = index % light_res, y = (index / light_res) % light_res;
+    float tan_half = 0.5 * texel_angle * float(light_res);
+    vec2 plane = ((vec2(x, y) + 0.5) / float(light_res) * 2.0 - 1.0) * tan_half;
+    return light_position + normalize(light_basis * vec3(plane, 1.0)) * r;
+}
+
+// The crossed surface's outward curvature at map texel `index` (its texel `texel`) along
+// one axis of the map, from the neighbour on +axis or, where that one is empty, of
+// another material or across a jump in depth, the one on -axis (one map read each);
+// `found` says whether either served.
+float map_curvature(int index, vec4 texel, ivec2 axis, out bool found) {
+    int x = index % light_res, y = (index / light_res) % light_res;
+    vec3 p0 = map_texel_point(index, texel.r);
+    float spacing = texel_angle * texel.r;
+    for (int k = 0; k < 2; ++k) {
+        ivec2 t = ivec2(x, y) + (k == 0 ? axis : -axis);
+        if (any(lessThan(t, ivec2(0))) || any(greaterThanEqual(t, ivec2(light_res)))) continue;
+        int other = index + (t.y - y) * light_res + (t.x - x);
+        ++g_map_reads;
+        vec4 m = map_texels[other];
+        if (m.r <= 0.0 || abs(m.g - texel.g) > 0.5) continue;
+        vec3 p1 = map_texel_point(other, m.r);
+        if (distance(p1, p0) > 8.0 * spacing) continue;
+        found = true;
+        return curvature_between(p0, octa_decode(texel.ba), p1, octa_decode(m.ba));
+    }
+    found = false;
+    return 0.0;
+}
+#endif
+
 void main() {
     uint i = gl_GlobalInvocationID.x;
     if (i >= photon_count) return;
@@ -347,8 +386,21 @@ void main() {
         normal = octa_decode(best_texel.ba);
         vec3 geometric = octa_decode(best_geometric);
         material_hit = int(best_texel.g + 0.5);
-        g_flags |= surface_interaction(d, power, inside, normal, geometric, material_hit,
-                                       rng_uniform(seed, i, step_index, 1u));
+        vec3 d_in = d;
+        uint interaction = surface_interaction(d, power, inside, normal, geometric, material_hit,
+                                               rng_uniform(seed, i, step_index, 1u));
+        g_flags |= interaction;
+#ifdef SPLAT_ADAPTIVE
+        ph.diff.x += ph.diff.y * best_t;
+        float kappa = 0.0;
+        if (best_index >= 0) {
+            bool fx, fy;
+            float kx = map_curvature(best_index, best_texel, ivec2(1, 0), fx);
+            float ky = map_curvature(best_index, best_texel, ivec2(0, 1), fy);
+            kappa = (fx || fy) ? (kx + ky) / float(int(fx) + int(fy)) : 0.0;
+        }
+        ph.diff.y = interaction_rate(ph.diff.y, ph.diff.x, d_in, d, normal, kappa, material_hit, interaction);
+#endif
 #if defined(START_RULE_ID)
         next_offset = best_index >= 0 ? map_primitive[best_index] : 0.0;
 #elif defined(START_RULE_FACING)
@@ -364,6 +416,9 @@ void main() {
         end = o + d * max_len;
         power *= exp(-sigma_t * max_len);
         status = STATUS_COLLIDED;
+#ifdef SPLAT_ADAPTIVE
+        ph.diff.x += ph.diff.y * max_len;  // the footprint where it is splatted (compact.comp.glsl)
+#endif
     } else {
         end = o + d * span;
         status = STATUS_LEFT_SCENE;
