@@ -15,6 +15,7 @@ uniform vec3 scatter_weight;  // sigma_s / sigma_bar (RGB)
 uniform vec3 sigma_t;
 uniform float splat_radius;   // kernel standard deviation (m), unless the splat carries its own
 uniform float pixel_angle;    // 2·tan(fov_y/2)/height: a pixel's width per metre of distance
+uniform vec2 viewport;        // image size (pixels)
 
 in vec2 in_corner;            // per vertex: (±1, ±1)
 in vec4 in_dir_t;             // per instance: record.dir_t
@@ -25,6 +26,8 @@ out vec3 v_center;
 out vec3 v_corner;            // world position on the billboard: the pixel ray passes through it
 flat out vec3 v_weight;
 flat out float v_sigma;       // this splat's kernel standard deviation (m)
+flat out float v_pixel;       // adaptive: a pixel's width at the splat (m), the kernel integrated over it; 0 fixed
+flat out vec2 v_center_px;    // adaptive: the splat centre's window coordinates (pixels)
 
 void main() {
     if (int(in_end.w + 0.5) != STATUS_COLLIDED) {
@@ -33,6 +36,8 @@ void main() {
         v_corner = vec3(0.0);
         v_weight = vec3(0.0);
         v_sigma = splat_radius;
+        v_pixel = 0.0;
+        v_center_px = vec2(0.0);
         return;
     }
     vec3 c = in_end.xyz;
@@ -41,12 +46,16 @@ void main() {
     vec3 w = to_eye / dist;
     v_weight = in_power.rgb * scatter_weight * phase_eval(dot(in_dir_t.xyz, w)) * exp(-sigma_t * dist);
     v_center = c;
-    // splat = adaptive: the photon's own kernel (in_dir_t.w, splat/compact.comp.glsl), at
-    // least a pixel wide where it is, so that the pixel-centre sum of the kernel keeps its
-    // integral (a Gaussian sampled at spacing σ aliases by ~2·exp(−2π²) ≈ 5e-9)
-    float sigma = in_dir_t.w > 0.0 ? max(in_dir_t.w, 2.0 * pixel_angle * dist) : splat_radius;
+    // splat = adaptive: the photon's own kernel (in_dir_t.w, splat/compact.comp.glsl),
+    // integrated over each pixel's area (splat.frag.glsl), so that a kernel of any width,
+    // narrower than a pixel too, keeps its integral; drawn out to 4σ and a pixel
+    bool boxed = in_dir_t.w > 0.0;
+    float sigma = boxed ? in_dir_t.w : splat_radius;
     v_sigma = sigma;
-    float R = TRUNCATION * sigma;
+    v_pixel = boxed ? pixel_angle * dist : 0.0;
+    vec4 centre_clip = view_proj * vec4(c, 1.0);
+    v_center_px = (centre_clip.xy / centre_clip.w * 0.5 + 0.5) * viewport;
+    float R = boxed ? 4.0 * sigma + 1.5 * v_pixel : TRUNCATION * sigma;
     float extent = R * dist / sqrt(max(dist * dist - R * R, 1e-4 * R * R));
     vec3 helper = abs(w.y) < 0.99 ? vec3(0.0, 1.0, 0.0) : vec3(1.0, 0.0, 0.0);
     vec3 right = normalize(cross(helper, w));
