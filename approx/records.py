@@ -13,9 +13,12 @@ import numpy as np
 from volcaustics.scenes.formats import RECORD_DTYPE, STATUS_DEAD
 
 
-def records_from_raw(raw: np.ndarray, step: int, *, active_only: bool = True) -> np.ndarray:
+def records_from_raw(raw: np.ndarray, step: int, *, active_only: bool = True,
+                     footprint: np.ndarray | None = None) -> np.ndarray:
     """Convert one step's raw GPU records (N rows of RAW_RECORD_DTYPE) to RECORD_DTYPE
-    (photons not dead at this step, or every slot when ``active_only`` is false)."""
+    (photons not dead at this step, or every slot when ``active_only`` is false);
+    ``footprint``: per slot, the photons' differential footprint after the step
+    (``PHOTON_DTYPE["diff"][:, 0]``, splat = adaptive), else 0."""
     status = raw["end_status"][:, 3].astype(np.int64)
     index = np.nonzero(status != STATUS_DEAD)[0] if active_only else np.arange(len(raw))
     r = raw[index]
@@ -40,4 +43,5 @@ def records_from_raw(raw: np.ndarray, step: int, *, active_only: bool = True) ->
     out["status"] = r["end_status"][:, 3]
     out["flags"] = r["extra"][:, 0]
     out["map_reads"] = r["power_start"][:, 3]
+    out["footprint"] = 0.0 if footprint is None else footprint[index]
     return out

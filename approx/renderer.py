@@ -28,7 +28,7 @@ from .params import ApproxParams, defines
 from .records import records_from_raw
 from .splat import Splatter
 from .timing import PassTimer, timer_queries_work
-from .trace import PhotonTracer, read_raw_records
+from .trace import PhotonTracer, read_photons, read_raw_records
 
 
 @dataclass
@@ -168,7 +168,8 @@ class Renderer:
             caustic_steps.append(_read_rgb(step_image))
             step_image.release()
             if keep_records:
-                records.append(records_from_raw(read_raw_records(record_buf, count), step))
+                footprint = read_photons(photons, count)["diff"][:, 0] if tracer.adaptive else None
+                records.append(records_from_raw(read_raw_records(record_buf, count), step, footprint=footprint))
         return records, caustic_steps
 
     def splat(self, splats: np.ndarray, scene=None, params: ApproxParams | None = None) -> np.ndarray:

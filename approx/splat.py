@@ -35,6 +35,21 @@ def splats_from_arrays(end, direction, power, sigma=None) -> np.ndarray:
     return out
 
 
+def adaptive_sigma(footprint, params) -> np.ndarray:
+    """The kernel widths (m, float32) that splat = adaptive gives photons of differential
+    ``footprint`` (m): numpy twin of splat/compact.comp.glsl, bit for bit
+    (splat_footprints × |footprint| within [splat_radius/16, 4·splat_radius])."""
+    radius = np.float32(params.splat_radius)
+    scaled = np.float32(params.splat_footprints) * np.abs(np.asarray(footprint, np.float32))
+    return np.clip(scaled, radius / np.float32(16.0), np.float32(4.0) * radius)
+
+
+def record_sigma(records: np.ndarray, params) -> np.ndarray | None:
+    """Per record (RECORD_DTYPE) the kernel its collision was splatted with: None for
+    splat = fixed (splat_radius for all)."""
+    return adaptive_sigma(records["footprint"], params) if params.splat == "adaptive" else None
+
+
 class Splatter:
     """Splat program for one phase function."""
 

@@ -103,4 +103,6 @@ RECORD_DTYPE = np.dtype([
     ("status", "<u1"),          # STATUS_* after the step
     ("flags", "<u1"),           # FLAG_* bits
     ("map_reads", "<u4"),       # light-map texels the search read (0 for the exact tracer): cost across hardware
+    ("footprint", "<f4"),       # splat = adaptive: the photon's ray-differential footprint where the step
+                                # ended (m, signed; Photon.diff.x); 0 otherwise and for the exact tracer
 ])

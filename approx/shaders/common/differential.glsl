@@ -13,6 +13,8 @@
 #ifndef VOLCAUSTICS_DIFFERENTIAL_GLSL
 #define VOLCAUSTICS_DIFFERENTIAL_GLSL
 
+#include "common/photon.glsl"
+
 // The rate s after an interaction: d_in, d_out unit directions before and after, n the
 // shading normal on the incident side (dot(d_in, n) < 0), mu = n_incident / n_transmitted
 // (ignored for a reflection), kappa the curvature on the incident side, w the footprint.
@@ -35,7 +37,7 @@ float curvature_between(vec3 p0, vec3 n0, vec3 p1, vec3 n1) {
 // The rate after surface_interaction (common/interaction.glsl) turned d_in into d_out
 // at a surface of `material` with outward shading normal n and outward curvature kappa,
 // returning `flags`: the incident side and the relative index as that function finds
-// them. Needs the uniform array `ior` and common/photon.glsl.
+// them. Needs the uniform array `ior`.
 float interaction_rate(float s, float w, vec3 d_in, vec3 d_out, vec3 n, float kappa, int material, uint flags) {
     bool from_outside = dot(d_in, n) <= 0.0;
     float mu = from_outside ? 1.0 / ior[material] : ior[material];
