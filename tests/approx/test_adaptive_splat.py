@@ -119,3 +119,39 @@ def test_a_splat_of_any_width_keeps_its_integral(ctx, sigma_px):
         assert spread == pytest.approx(sigma**2 + pixel**2 / 12, rel=2e-2)
     for x in (records, target, empty):
         x.release()
+
+
+def test_the_footprint_through_a_ball_lens_follows_paraxial_optics(ctx):
+    """The trace carries the differential on: along the axis of a glass sphere under the
+    light, the footprint at the exit (step 1's end) is w + s'·2R, with s' from the entry
+    (test above); after the exit the pencil converges at the ball lens's back focus, so
+    the rate there is s'' = n·s' − (n − 1)·w_exit/R (Coddington at the concave-from-inside
+    exit). Checked on step 2's records: a second sphere far below is hit at distance t2,
+    where the footprint is w_exit + s''·t2. 3%: curvature from one texel's neighbours."""
+    radius, dist, ior, res = 0.4, 1.6, 1.5, 256
+    top = 3.0 - dist + radius  # the first sphere's top (light at y = 3)
+    low_centre = top - 2 * radius - 1.5  # a second sphere 1.5 m below the first's bottom
+    scene = make_scene([(sphere_spec(radius, (0, top - radius, 0), 48), ior, (0, 0, 0)),
+                        (sphere_spec(0.5, (0, low_centre, 0), 48), ior, (0, 0, 0))],
+                       cutoff=30.0, beam=28.0, sigma_s=0.0, floor=False)
+    params = dataclasses.replace(SMALL, photon_res=res, light_res=1024, steps=2, splat="adaptive",
+                                 fresnel="stochastic", seed=3)
+    frame = render(scene, params)
+    frustum = LightFrustum.for_scene(scene, *medium_bounds(scene))
+    s = 2 * frustum.tan_half / res
+    u = 3.0 - top
+    w0 = s * u
+    s1 = s * (1 / ior - (ior - 1) * u / (ior * radius))
+    w_exit = w0 + s1 * 2 * radius
+    s2 = ior * s1 - (ior - 1) * w_exit / radius
+    t2 = (top - 2 * radius) - (low_centre + 0.5)
+    step1, step2 = frame.records
+    axis1 = (np.hypot(step1["end"][:, 0], step1["end"][:, 2]) < 0.01) & (step1["status"] == STATUS_SURFACE)
+    axis1 &= step1["end"][:, 1] < top - radius  # ended at the exit, refracted out (not reflected back)
+    assert axis1.sum() >= 3
+    assert np.median(step1["footprint"][axis1]) == pytest.approx(w_exit, rel=3e-2)
+    axis2 = np.isin(step2["photon"], step1["photon"][axis1]) & (step2["status"] == STATUS_SURFACE)
+    axis2 &= np.abs(step2["end"][:, 1] - (low_centre + 0.5)) < 0.01
+    assert axis2.sum() >= 3
+    assert np.median(step2["footprint"][axis2]) == pytest.approx(w_exit + s2 * t2, rel=3e-2)
+    assert w_exit + s2 * t2 < 0  # negative control: past the focus the pencil has turned over
