@@ -139,7 +139,7 @@ PARAMS: tuple = (
           "as a ray differential through every refraction and reflection, within [splat_radius/16, "
           "4·splat_radius] and at least a pixel)", choices=("fixed", "adaptive"), program="trace",
           glsl="define", to_defines=lambda v: {"SPLAT_ADAPTIVE": 1} if v == "adaptive" else {}),
-    Param("splat_footprints", float, 1.0, "adaptive splats: the kernel's standard deviation in photon footprints",
+    Param("splat_footprints", float, 4.0, "adaptive splats: the kernel's standard deviation in photon footprints",
           "", 0, 100, glsl="uniform"),
     Param("light_res", int, 1024, "resolution of the light layer maps and the shadow map", "texels per side", 16,
           8192, glsl="uniform"),
