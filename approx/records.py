@@ -18,7 +18,7 @@ def records_from_raw(raw: np.ndarray, step: int, *, active_only: bool = True,
     """Convert one step's raw GPU records (N rows of RAW_RECORD_DTYPE) to RECORD_DTYPE
     (photons not dead at this step, or every slot when ``active_only`` is false);
     ``footprint``: per slot, the photons' differential footprint after the step
-    (``PHOTON_DTYPE["diff"][:, 0]``, splat = adaptive), else 0."""
+    (``PhotonTracer.footprints``, splat = adaptive), else 0."""
     status = raw["end_status"][:, 3].astype(np.int64)
     index = np.nonzero(status != STATUS_DEAD)[0] if active_only else np.arange(len(raw))
     r = raw[index]

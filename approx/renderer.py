@@ -28,7 +28,7 @@ from .params import ApproxParams, defines
 from .records import records_from_raw
 from .splat import Splatter
 from .timing import PassTimer, timer_queries_work
-from .trace import PhotonTracer, read_photons, read_raw_records
+from .trace import PhotonTracer, read_raw_records
 
 
 @dataclass
@@ -162,14 +162,14 @@ class Renderer:
                 tracer.trace_step(scene, frustum, box, maps["texels"], maps["info"], p.light_res, photons, record_buf,
                                   count, step, p.seed, objects_box=(geo.specular_min, geo.specular_max))
             with timer.measure("splat"):
-                n_splats = tracer.compact_splats(record_buf, count, splat_buf, photons, p)
+                n_splats = tracer.compact_splats(record_buf, count, splat_buf, p)
                 step_image = self._black_image(p)
                 splatter.splat(splat_buf, n_splats, view, scene.medium, p.splat_radius, gbuf_geo, step_image)
             caustic_steps.append(_read_rgb(step_image))
             step_image.release()
             if keep_records:
-                footprint = read_photons(photons, count)["diff"][:, 0] if tracer.adaptive else None
-                records.append(records_from_raw(read_raw_records(record_buf, count), step, footprint=footprint))
+                records.append(records_from_raw(read_raw_records(record_buf, count), step,
+                                                footprint=tracer.footprints(count)))
         return records, caustic_steps
 
     def splat(self, splats: np.ndarray, scene=None, params: ApproxParams | None = None) -> np.ndarray:

@@ -19,7 +19,7 @@ from typing import NamedTuple
 import moderngl
 import numpy as np
 
-from volcaustics.scenes.formats import PHOTON_DTYPE, RAW_RECORD_DTYPE
+from volcaustics.scenes.formats import DIFFERENTIAL_DTYPE, PHOTON_DTYPE, RAW_RECORD_DTYPE
 from volcaustics.scenes.memory import image_fits, memory_budget
 
 from .glsl import compute_shader, set_uniforms
@@ -114,6 +114,7 @@ class PhotonTracer:
         self.pyramid = compute_shader(ctx, "trace/pyramid.comp.glsl") if self.hiz else None
         self.compact_count = compute_shader(ctx, "splat/compact.comp.glsl", {"PASS_COUNT": 1})
         self.adaptive = "SPLAT_ADAPTIVE" in defines
+        self.differentials = None  # splat = adaptive: the photons' DIFFERENTIAL_DTYPE buffer of this frame
         self.compact_write = compute_shader(ctx, "splat/compact.comp.glsl",
                                             {"SPLAT_ADAPTIVE": 1} if self.adaptive else {})
         self.maps = defines["MAPS"]
@@ -157,8 +158,20 @@ class PhotonTracer:
         prog["light_basis"].write(np.asarray(basis, np.float32).T.tobytes())
         photons.bind_to_storage_buffer(0)
         self._solid_angle_buffer(frustum, photon_res).bind_to_storage_buffer(1)
+        if self.adaptive:  # the frame's differentials, beside the photons (emission, trace and compaction use them)
+            if self.differentials is not None:
+                self.differentials.release()
+            self.differentials = ctx.buffer(reserve=n * DIFFERENTIAL_DTYPE.itemsize)
+            self.differentials.bind_to_storage_buffer(2)
         prog.run(group_x=math.ceil(photon_res / 8), group_y=math.ceil(photon_res / 8))
         return photons
+
+    def footprints(self, count: int) -> np.ndarray | None:
+        """The photons' differential footprints (m) now (splat = adaptive), else None."""
+        if not self.adaptive:
+            return None
+        return np.frombuffer(self.differentials.read(size=count * DIFFERENTIAL_DTYPE.itemsize),
+                             DIFFERENTIAL_DTYPE)["footprint"].copy()
 
     def map_buffer(self, light_maps, light_res: int) -> tuple:
         """The light maps (:class:`approx.layers.LightMap`) copied into the tracer's
@@ -244,6 +257,8 @@ class PhotonTracer:
         map_texels.geometric.bind_to_storage_buffer(4)
         if map_texels.primitive is not None:
             map_texels.primitive.bind_to_storage_buffer(5)
+        if self.adaptive:
+            self.differentials.bind_to_storage_buffer(7)
         if map_texels.pyramid is not None:
             offsets, stride = pyramid_layout(light_res)
             map_texels.pyramid.bind_to_storage_buffer(6)
@@ -251,11 +266,10 @@ class PhotonTracer:
                          pyramid_top=len(offsets) - 1)
         prog.run(group_x=math.ceil(count / 64))
 
-    def compact_splats(self, records: moderngl.Buffer, count: int, splats: moderngl.Buffer,
-                       photons: moderngl.Buffer | None = None, params=None) -> int:
+    def compact_splats(self, records: moderngl.Buffer, count: int, splats: moderngl.Buffer, params=None) -> int:
         """Gather the medium collisions of one step's records into ``splats`` (SPLAT_DTYPE
         rows, capacity ``count``) in photon order; returns how many. With ``splat =
-        adaptive`` each row carries its kernel width from ``photons``' differentials and
+        adaptive`` each row carries its kernel width from the photons' differentials and
         ``params``' splat_radius and splat_footprints."""
         blocks = math.ceil(count / COMPACT_BLOCK)
         block_buf = self.ctx.buffer(reserve=4 * blocks)
@@ -270,7 +284,7 @@ class PhotonTracer:
         if total:
             block_buf.write(offsets.tobytes())
             if self.adaptive:
-                photons.bind_to_storage_buffer(3)
+                self.differentials.bind_to_storage_buffer(3)
                 set_uniforms(self.compact_write, splat_radius=params.splat_radius,
                              splat_footprints=params.splat_footprints)
             self.compact_write["photon_count"].value = count
@@ -279,6 +293,8 @@ class PhotonTracer:
         return total
 
     def release(self):
+        if self.differentials is not None:
+            self.differentials.release()
         for prog in (self.emit, self.trace, self.pack, self.pyramid, self.compact_count, self.compact_write):
             if prog is not None:
                 prog.release()

@@ -51,14 +51,16 @@ MASK_LAYER = "mask_specular"                              # H×W×3 float32, 1 w
 LAYER_NAMES = COLOUR_LAYERS + (MASK_LAYER,)
 
 # --- photon arrays
-# One photon slot of the GPU tracer (std430 struct Photon, 64 bytes):
+# One photon slot of the GPU tracer (std430 struct Photon, 48 bytes):
 #   pos    xyz position (m); w: specular object the photon is inside, -1 in the medium
 #   dir    xyz unit direction; w: STATUS_*
 #   power  rgb power (W); w: start offset of the next segment, in light-map texel footprints
-#   diff   its ray differential (splat = adaptive; zeros otherwise): x the footprint, the
-#          signed distance to its neighbours' rays here (m); y its rate of change along
-#          the ray (m/m); zw unused
-PHOTON_DTYPE = np.dtype([("pos", "<f4", 4), ("dir", "<f4", 4), ("power", "<f4", 4), ("diff", "<f4", 4)])
+PHOTON_DTYPE = np.dtype([("pos", "<f4", 4), ("dir", "<f4", 4), ("power", "<f4", 4)])
+
+# A photon's ray differential (splat = adaptive only: a buffer of its own, std430 vec2, so
+# that the paper's program moves no more memory): the footprint, the signed distance to
+# its neighbours' rays where it is (m), and its rate of change along the ray (m/m).
+DIFFERENTIAL_DTYPE = np.dtype([("footprint", "<f4"), ("rate", "<f4")])
 
 # One photon to splat, a medium collision (std430 struct Splat, 48 bytes):
 #   center_status  xyz collision point (m); w: STATUS_COLLIDED
@@ -104,5 +106,5 @@ RECORD_DTYPE = np.dtype([
     ("flags", "<u1"),           # FLAG_* bits
     ("map_reads", "<u4"),       # light-map texels the search read (0 for the exact tracer): cost across hardware
     ("footprint", "<f4"),       # splat = adaptive: the photon's ray-differential footprint where the step
-                                # ended (m, signed; Photon.diff.x); 0 otherwise and for the exact tracer
+                                # ended (m, signed; DIFFERENTIAL_DTYPE); 0 otherwise and for the exact tracer
 ])

@@ -22,7 +22,7 @@ from volcaustics.approx.light import LightFrustum
 from volcaustics.approx.splat import Splatter, splats_from_arrays
 from volcaustics.approx.trace import PhotonTracer, read_photons
 from volcaustics.scenes.bounds import medium_bounds
-from volcaustics.scenes.formats import STATUS_SURFACE
+from volcaustics.scenes.formats import DIFFERENTIAL_DTYPE, STATUS_SURFACE
 from volcaustics.scenes.model import Camera
 
 SMALL = ApproxParams(photon_res=128, light_res=256, width=64, height=64, fog_steps=32, splat_radius=0.03)
@@ -45,8 +45,10 @@ def test_the_footprint_through_one_refraction_is_the_spheres_focal_spread(ctx, r
     geo = SceneGeometry.upload(ctx, scene)
     frustum = LightFrustum.for_scene(scene, *medium_bounds(scene))
     emission_map = LightMapRenderer(ctx, geo).render_light_map(frustum, res, facing=BOTH)
-    buf = PhotonTracer(ctx, params).emit_photons(scene, frustum, emission_map, res, seed=1)
+    tracer = PhotonTracer(ctx, params)
+    buf = tracer.emit_photons(scene, frustum, emission_map, res, seed=1)
     photons = read_photons(buf, res * res)
+    diff = np.frombuffer(tracer.differentials.read(), DIFFERENTIAL_DTYPE)
     alive = photons["dir"][:, 3] == STATUS_SURFACE
     pos = photons["pos"][alive, :3]
     near_axis = np.hypot(pos[:, 0], pos[:, 2]) < 0.05 * radius
@@ -54,11 +56,11 @@ def test_the_footprint_through_one_refraction_is_the_spheres_focal_spread(ctx, r
     u = dist - radius
     s = 2 * frustum.tan_half / res
     expected = s * (1 / ior - (ior - 1) * u / (ior * radius))
-    w, rate = photons["diff"][alive][near_axis, 0], photons["diff"][alive][near_axis, 1]
+    w, rate = diff["footprint"][alive][near_axis], diff["rate"][alive][near_axis]
     assert np.median(w) == pytest.approx(s * u, rel=3e-3)  # the grid's spread over u (cos² ≈ 1 on the axis)
     assert np.median(rate) == pytest.approx(expected, rel=3e-2)
     assert expected < 0  # negative control: the sphere focuses; a flat surface would give s/n > 0
-    for x in (buf, emission_map):
+    for x in (buf, emission_map, tracer):
         x.release()
 
 

@@ -42,7 +42,6 @@ struct Photon {
     vec4 dir;    // xyz unit direction; w: status
     vec4 power;  // rgb power (W); w: start offset of the next segment in light-map texel footprints
                  // (start rule `id`: primitive id + 1 of the triangle it leaves, 0 none)
-    vec4 diff;   // ray differential (SPLAT_ADAPTIVE, else 0): x footprint here (m, signed); y its rate (m/m)
 };
 
 struct Record {

@@ -30,6 +30,8 @@ vec2 texel_plane(ivec2 texel) {
 }
 
 #ifdef SPLAT_ADAPTIVE
+// per photon: (footprint, rate), scenes.formats.DIFFERENTIAL_DTYPE
+layout(std430, binding = 2) writeonly buffer Differentials { vec2 differentials[]; };
 #include "common/differential.glsl"
 // The first surface's outward curvature at `texel` along `axis`, from the neighbour on
 // +axis or, where that one is empty, of another material or across a jump in depth
@@ -61,7 +63,7 @@ void main() {
     ph.dir = vec4(0.0, 0.0, 0.0, float(STATUS_DEAD));
     ph.power = vec4(0.0);
 
-    ph.diff = vec4(0.0);
+    vec2 diff = vec2(0.0);
     vec2 plane = texel_plane(texel);
     vec3 d = normalize(light_basis * vec3(plane, 1.0));
     float falloff = spot_falloff(d);
@@ -84,7 +86,7 @@ void main() {
         float kx = emission_curvature(texel, map, light_position + from_light, n0, ivec2(1, 0), w, fx);
         float ky = emission_curvature(texel, map, light_position + from_light, n0, ivec2(0, 1), w, fy);
         float kappa = (fx || fy) ? (kx + ky) / float(int(fx) + int(fy)) : 0.0;
-        ph.diff = vec4(w, interaction_rate(spread, w, d_in, d, n0, kappa, int(map.g + 0.5), flags), 0.0, 0.0);
+        diff = vec2(w, interaction_rate(spread, w, d_in, d, n0, kappa, int(map.g + 0.5), flags));
 #endif
         ph.pos = vec4(light_position + from_light, float(inside));
         ph.dir = vec4(d, float(STATUS_SURFACE));
@@ -97,4 +99,7 @@ void main() {
 #endif
     }
     photons[index] = ph;
+#ifdef SPLAT_ADAPTIVE
+    differentials[index] = diff;
+#endif
 }

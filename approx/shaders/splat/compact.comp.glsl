@@ -16,7 +16,7 @@ uniform uint photon_count;
 #ifdef SPLAT_ADAPTIVE
 // The kernel of a collision: splat_footprints × the photon's footprint there (its ray
 // differential, trace.comp.glsl), within [splat_radius / 16, 4 · splat_radius].
-layout(std430, binding = 3) readonly buffer Photons { Photon photons[]; };
+layout(std430, binding = 3) readonly buffer Differentials { vec2 differentials[]; };  // (footprint, rate)
 uniform float splat_radius;
 uniform float splat_footprints;
 #endif
@@ -43,7 +43,7 @@ void main() {
         Record r = records[i];
         uint slot = block_value[gl_WorkGroupID.x] + rank[lane] - 1u;
 #ifdef SPLAT_ADAPTIVE
-        float sigma = clamp(splat_footprints * abs(photons[i].diff.x), splat_radius / 16.0, 4.0 * splat_radius);
+        float sigma = clamp(splat_footprints * abs(differentials[i].x), splat_radius / 16.0, 4.0 * splat_radius);
 #else
         float sigma = 0.0;  // the uniform splat_radius
 #endif

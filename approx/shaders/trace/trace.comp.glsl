@@ -83,6 +83,8 @@ layout(std430, binding = 5) readonly buffer LightMapPrimitive { float map_primit
 #endif
 
 #ifdef SPLAT_ADAPTIVE
+// per photon: (footprint, rate), scenes.formats.DIFFERENTIAL_DTYPE
+layout(std430, binding = 7) buffer Differentials { vec2 differentials[]; };
 #include "common/differential.glsl"
 #endif
 
@@ -319,6 +321,9 @@ void main() {
         return;
     }
 
+#ifdef SPLAT_ADAPTIVE
+    vec2 diff = differentials[i];
+#endif
     vec3 o = ph.pos.xyz;
     vec3 d = ph.dir.xyz;
     vec3 power = ph.power.rgb;
@@ -391,7 +396,7 @@ void main() {
                                                rng_uniform(seed, i, step_index, 1u));
         g_flags |= interaction;
 #ifdef SPLAT_ADAPTIVE
-        ph.diff.x += ph.diff.y * best_t;
+        diff.x += diff.y * best_t;
         float kappa = 0.0;
         if (best_index >= 0) {
             bool fx, fy;
@@ -399,7 +404,7 @@ void main() {
             float ky = map_curvature(best_index, best_texel, ivec2(0, 1), fy);
             kappa = (fx || fy) ? (kx + ky) / float(int(fx) + int(fy)) : 0.0;
         }
-        ph.diff.y = interaction_rate(ph.diff.y, ph.diff.x, d_in, d, normal, kappa, material_hit, interaction);
+        diff.y = interaction_rate(diff.y, diff.x, d_in, d, normal, kappa, material_hit, interaction);
 #endif
 #if defined(START_RULE_ID)
         next_offset = best_index >= 0 ? map_primitive[best_index] : 0.0;
@@ -417,7 +422,7 @@ void main() {
         power *= exp(-sigma_t * max_len);
         status = STATUS_COLLIDED;
 #ifdef SPLAT_ADAPTIVE
-        ph.diff.x += ph.diff.y * max_len;  // the footprint where it is splatted (compact.comp.glsl)
+        diff.x += diff.y * max_len;  // the footprint where it is splatted (compact.comp.glsl)
 #endif
     } else {
         end = o + d * span;
@@ -428,6 +433,9 @@ void main() {
     ph.dir = vec4(d, float(status));
     ph.power = vec4(power, next_offset);
     photons[i] = ph;
+#ifdef SPLAT_ADAPTIVE
+    differentials[i] = diff;
+#endif
 
     rec.start_maxlen.w = max_len;
     rec.dir_t.w = best_t;
