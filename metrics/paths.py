@@ -61,12 +61,13 @@ def power_budget(records, *, tracer: str = "approx") -> list:
     RGB), ``share_entering`` (power entering the step), and a last row with step
     ``"after"`` holding ``share_alive`` (power still on its way after the last step).
     The shares of all steps' collided, lost and left_scene plus ``share_alive`` sum to 1
-    minus what the medium and the glass absorbed on the way.
+    minus what the medium and the glass absorbed on the way. When no power enters step 1
+    (a dark light, a spot that misses the glass) every share is NaN: undefined, not an error.
     """
     records = _check(records)
     total = float(_power(records[0]["power_start"]).sum())
-    if not total > 0:
-        raise ValueError("records: the power entering step 1 is zero: shares are undefined")
+    if not total > 0:  # no photon carries power (a dark light, a spot that misses the glass): undefined
+        total = float("nan")
     rows = []
     for r in records:
         step = int(r["step"][0]) if len(r) else len(rows) + 1

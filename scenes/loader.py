@@ -18,8 +18,8 @@ Every problem raises :class:`scenes.errors.SceneError` naming the file, the key
     [light]                       # Mitsuba `spot`
     position = [0, 2.5, 0]
     direction = [0, -1, 0]        # any length > 0
-    intensity = [20, 20, 20]      # W/sr (a number means grey)
-    cutoff_angle = 25             # degrees, 0.1 <= cutoff_angle < 90
+    intensity = [20, 20, 20]      # W/sr (a number means grey; > 0 in some channel)
+    cutoff_angle = 25             # degrees, 0.1 <= cutoff_angle <= 80
     beam_width = 20               # degrees, 0.1 <= beam_width <= cutoff_angle (default 3/4 cutoff)
 
     [medium]                      # optional; absent = vacuum
@@ -170,7 +170,11 @@ _coordinate = _ranged(-COORDINATE_LIMIT, COORDINATE_LIMIT, unit="m")
 # spot profile divides by zero and its camera rays degenerate (fov_y 1e-30 hung Mitsuba).
 ANGLE_MIN = 0.1
 _view_angle = _ranged(ANGLE_MIN, 180, high_open=True, unit="degrees")
-_cone_angle = _ranged(ANGLE_MIN, 90, high_open=True, unit="degrees")
+# The widest spot cone (degrees): the light maps are a perspective projection of the cone,
+# whose edge texels at 80° already subtend cos³ 80° = 0.5% of the centre's solid angle;
+# at 89.99° the projection degenerates (the caustic came out as nothing, the reference not).
+CONE_MAX = 80.0
+_cone_angle = _ranged(ANGLE_MIN, CONE_MAX, unit="degrees")
 
 
 def _vec3(ctx, key, v):
@@ -239,6 +243,9 @@ def _light(ctx, key, value) -> SpotLight:
     cutoff = t.get("cutoff_angle", _cone_angle, 20.0)
     beam = t.get("beam_width", _cone_angle, max(0.75 * cutoff, ANGLE_MIN))
     t.finish()
+    if not max(intensity) > 0:
+        raise ctx.error("light.intensity", list(intensity) if isinstance(intensity, tuple) else intensity,
+                        "must be > 0 in some channel: a dark light lights nothing to render or measure")
     if beam > cutoff:
         raise ctx.error("light.beam_width", beam, f"must be <= light.cutoff_angle ({cutoff:g} degrees)")
     return SpotLight(position, direction, intensity, cutoff, beam)

@@ -51,6 +51,18 @@ def test_a_step_no_photon_reached_has_zero_shares():
     assert np.all(path_divergence(history, history)["step"] == 0)
 
 
+def test_no_power_entering_gives_undefined_shares_not_an_error():
+    """A spot that misses the glass or a tiny sphere no photon meets: no power enters
+    step 1; the measurement crashed with a traceback after the reference had rendered
+    (issue 21, second hostile pass). The shares are NaN (undefined)."""
+    history = _history()
+    for r in history:
+        r["power_start"] = 0.0
+        r["power"] = 0.0
+    rows = power_budget(history)
+    assert all(np.isnan(row["share_entering"]) for row in rows[:-1]) and np.isnan(rows[-1]["share_alive"])
+
+
 def test_identical_paths_never_diverge():
     h = _history()
     d = path_divergence(h, h)

@@ -60,6 +60,8 @@ CASES = [
     ("ior below one", _set(["specular", 0, "ior"], 0.9), "specular[0].ior", "0.9"),
     ("cutoff zero", _set(["light", "cutoff_angle"], 0.0), "light.cutoff_angle", "0.0"),
     ("cutoff ninety", _set(["light", "cutoff_angle"], 90.0), "light.cutoff_angle", "90.0"),
+    ("cutoff beyond the maps", _set(["light", "cutoff_angle"], 89.99), "light.cutoff_angle", "89.99"),
+    ("dark light", _set(["light", "intensity"], 0.0), "light.intensity", "0.0"),
     ("cutoff beyond ninety", _set(["light", "cutoff_angle"], 95.0), "light.cutoff_angle", "95.0"),
     ("cutoff negative", _set(["light", "cutoff_angle"], -5.0), "light.cutoff_angle", "-5.0"),
     ("beam wider than cutoff", _set(["light", "beam_width"], 30.0), "light.beam_width", "30.0"),
