@@ -56,7 +56,8 @@ def interruptible(call, *args, **kwargs):
     """``call(*args, **kwargs)`` in a worker thread while this thread waits where
     signal handlers run; returns its result or raises its exception. An interrupt
     (KeyboardInterrupt, or whatever a SIGTERM handler raises) ends the wait at once and
-    leaves the call running in its daemon thread (:func:`native_work_abandoned`).
+    leaves the call running in its daemon thread (:func:`native_work_abandoned`, also
+    set when it had just returned: the library may be stopping threads of its own).
     Outside the main thread, calls directly (no handler would run there anyway)."""
     if threading.current_thread() is not threading.main_thread():
         return call(*args, **kwargs)
@@ -76,8 +77,10 @@ def interruptible(call, *args, **kwargs):
         while not done.wait(0.05):  # handlers run between waits
             pass
     except BaseException:
-        if not done.is_set():
-            _abandoned.set()
+        # Also when the call has just returned: a library that saw the signal too (Mitsuba's
+        # own SIGINT handler winds its render down) may still be stopping its threads, and
+        # the interpreter's shutdown then aborted ("terminate called without an active exception").
+        _abandoned.set()
         raise
     if "error" in outcome:
         raise outcome["error"]

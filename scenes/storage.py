@@ -68,7 +68,8 @@ def atomic_path(path: str):
     temporary name keeps the extension, so writers that look at it still work.
     """
     _not_a_folder(path)
-    tmp = _temporary_beside(path)
+    with interrupts_held():  # the temporary made is known to the cleanup below
+        tmp = _temporary_beside(path)
     try:
         with _errors_naming([tmp], [path]):
             yield tmp
@@ -90,7 +91,10 @@ def _errors_naming(temps: list, paths: list):
     try:
         yield
     except OSError as exc:
-        raise OSError(exc.errno, exc.strerror or str(exc), _output_of(exc.filename, temps, paths)) from exc
+        # a full disk or quota is the output's, whichever file the writer named (a copy names its source)
+        full = exc.errno in (errno.ENOSPC, errno.EDQUOT)
+        raise OSError(exc.errno, exc.strerror or str(exc),
+                      _output_of(None if full else exc.filename, temps, paths)) from exc
     except RuntimeError as exc:
         if "write" not in str(exc).lower():
             raise
@@ -103,7 +107,8 @@ def _output_of(filename, temps: list, paths: list) -> str:
     if filename:
         name = os.path.basename(str(filename))
         for tmp, path in zip(temps, paths):
-            if name == os.path.basename(tmp) or name.startswith("." + os.path.splitext(os.path.basename(tmp))[0]):
+            stem = os.path.splitext(os.path.basename(tmp))[0]
+            if name == os.path.basename(tmp) or name.startswith(("." + stem)[:121]):  # its own temporary's
                 return path
         return str(filename)
     return paths[0]
@@ -126,7 +131,8 @@ def _temporary_beside(path: str) -> str:
     os.makedirs(folder, exist_ok=True)
     remove_stale_temporaries(folder)
     base, ext = os.path.splitext(os.path.basename(path))
-    fd, tmp = tempfile.mkstemp(prefix=f".{base}.{owner()}-", suffix=f".tmp{ext}", dir=folder)
+    # a name near the file system's limit (255) must leave room for what marks the temporary
+    fd, tmp = tempfile.mkstemp(prefix=f".{base[:120]}.{owner()}-", suffix=f".tmp{ext[:16]}", dir=folder)
     os.close(fd)
     return tmp
 
@@ -198,8 +204,9 @@ def atomic_set(paths: list):
         _not_a_folder(path)
     temps = []
     try:
-        for path in paths:
-            temps.append(_temporary_beside(path))
+        with interrupts_held():  # each temporary made is known to the cleanup below
+            for path in paths:
+                temps.append(_temporary_beside(path))
         with _errors_naming(temps, paths):
             yield list(temps)
         with interrupts_held():

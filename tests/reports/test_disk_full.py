@@ -51,3 +51,29 @@ def test_a_set_whose_writer_fails_without_a_file_name_names_its_output(full_disk
                 fh.write(np.zeros(1 << 16).tobytes())  # 512 KiB onto 12 KiB
     assert info.value.filename == paths[0] and info.value.errno == 28
     assert list(Path(full_disk).iterdir()) == []
+
+
+def test_reference_onto_a_full_disk_names_its_output_not_the_cache(full_disk, tmp_path, monkeypatch, capsys):
+    """The copy out of the cache failed naming its source, the cache file, although the
+    cache's disk had room."""
+    monkeypatch.setenv("VOLCAUSTICS_CACHE", str(tmp_path / "cache"))
+    shot = full_disk / "ref.exr"
+    assert main(["reference", "refocus", "--width", "32", "--height", "32", "--photons", "20000", "--spp", "2",
+                 "--batches", "2", "-o", str(shot)]) == 2
+    err = capsys.readouterr().err
+    assert f"{shot}: No space left on device" in err and "Traceback" not in err, err
+    assert list(Path(full_disk).iterdir()) == []
+
+
+def test_an_output_name_near_the_limit_is_written(tmp_path):
+    """A 254-character file name is legal; its temporary added ~25 characters and failed
+    with "File name too long", naming the temporary."""
+    from volcaustics.scenes.storage import atomic_set, atomic_write_text
+
+    long = "a" * 250
+    paths = [str(tmp_path / f"{long}.exr"), str(tmp_path / f"{long}.json")]
+    with atomic_set(paths) as temps:
+        for tmp in temps:
+            Path(tmp).write_text("new")
+    atomic_write_text(str(tmp_path / f"{long}.txt"), "x")
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted([f"{long}.exr", f"{long}.json", f"{long}.txt"])
