@@ -71,7 +71,12 @@ def mitsuba():
     variant = render_variant()
     import mitsuba as mi
 
-    mi.set_variant(variant)
+    try:
+        mi.set_variant(variant)
+    except (ImportError, RuntimeError) as exc:  # e.g. cuda_ad_rgb where no CUDA driver initialises
+        raise VariantError(f"{'VOLCAUSTICS_MI_VARIANT = ' + repr(override) if override else variant}: Mitsuba "
+                           f"cannot start this variant here ({exc}); unset VOLCAUSTICS_MI_VARIANT or set it to "
+                           f"llvm_ad_rgb") from None
     return mi
 
 

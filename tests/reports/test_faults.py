@@ -507,3 +507,16 @@ def test_an_empty_path_is_not_taken_for_no_option(tmp_path, capsys, option):
         main(["report", "--out", str(tmp_path / "r"), option, ""])
     assert exit_.value.code == 2
     assert "expected a path, not an empty string" in capsys.readouterr().err
+
+
+def test_a_cuda_variant_where_cuda_does_not_start_exits_2(tmp_path):
+    """VOLCAUSTICS_MI_VARIANT=cuda_ad_rgb on a machine without a CUDA driver ended in an
+    ImportError traceback from mi.set_variant (hostile pass); skipped where CUDA works."""
+    env = {**os.environ, "VOLCAUSTICS_CACHE": str(tmp_path / "cache"), "VOLCAUSTICS_MI_VARIANT": "cuda_ad_rgb"}
+    done = subprocess.run([sys.executable, "-m", "volcaustics", "reference", "refocus", "-o", str(tmp_path / "r.exr"),
+                           "--width", "16", "--height", "12", "--photons", "20000", "--spp", "2", "--batches", "2"],
+                          capture_output=True, text=True, timeout=300, env=env)
+    if done.returncode == 0:
+        pytest.skip("CUDA starts on this machine")
+    assert done.returncode == 2, done.stderr[-2000:]
+    assert "VOLCAUSTICS_MI_VARIANT" in done.stderr and "Traceback" not in done.stderr
