@@ -25,8 +25,9 @@ def register(sub) -> None:
     p.add_argument("--vary", action="append", metavar="NAME=V1,V2,...",
                    help=f"a grid axis (repeatable); NAME one of {names}")
     p.add_argument("--set", action="append", metavar="NAME=VALUE", help="a fixed parameter (repeatable)")
-    p.add_argument("--preset", choices=tuple(PRESETS), default="quick", help="the parameters not named (default quick)")
-    p.add_argument("--seeds", type=int, default=1, help="seeds per point (default 1)")
+    p.add_argument("--preset", choices=tuple(PRESETS), help="the parameters not named (default quick; a SPEC "
+                                                            "file says its own)")
+    p.add_argument("--seeds", type=int, help="seeds per point (default 1; a SPEC file says its own)")
     p.add_argument("--workers", type=int, help="local worker processes (default: the core count)")
     p.add_argument("--dask", metavar="tcp://HOST:PORT|local:N",
                    help="run on Dask distributed: a running scheduler, or a LocalCluster of N process workers")
@@ -39,8 +40,9 @@ def register(sub) -> None:
 
 def run(args) -> int:
     check_output_set(args.output, "-o", files=OUTPUT_FILES, folders=OUTPUT_FOLDERS)
-    if args.spec and (args.vary or args.set or args.scenes is not None):
-        raise UsageError("SPEC.toml", args.spec, "give the grid in the file or on the command line, not both")
+    if args.spec and (args.vary or args.set or args.scenes is not None or args.preset or args.seeds is not None):
+        raise UsageError("SPEC.toml", args.spec, "give the grid in the file or on the command line, not both "
+                                                 "(--scenes, --vary, --set, --preset and --seeds belong to the file)")
     if args.workers is not None and args.workers < 1:
         raise UsageError("--workers", args.workers, "expected at least 1 worker process")
     if args.dask:
@@ -53,8 +55,8 @@ def run(args) -> int:
     if args.spec:
         spec = spec_from_toml(args.spec, max_points)
     else:
-        spec = spec_from_args(args.scenes, args.vary, args.set, preset=args.preset, seeds=args.seeds,
-                              max_points=max_points)
+        spec = spec_from_args(args.scenes, args.vary, args.set, preset=args.preset or "quick",
+                              seeds=1 if args.seeds is None else args.seeds, max_points=max_points)
     result = run_sweep(spec, args.output, workers=args.workers or default_workers(), dask=args.dask,
                        progress=not args.quiet)
     print(f"sweep: {result.total} points: {result.done_before} already in the store, {result.computed} computed, "

@@ -172,6 +172,17 @@ def test_bad_command_line_exits_2(env, tmp_path, capsys, args, message):
     assert not out.exists()
 
 
+@pytest.mark.parametrize("option", [["--seeds", "1024"], ["--preset", "paper"], ["--scenes", "refocus"]])
+def test_a_spec_file_with_grid_options_on_the_command_line_exits_2(env, tmp_path, capsys, option):
+    """--seeds and --preset beside a SPEC file were silently ignored (the file's own were
+    run: seeds 1 for --seeds 1024); they are refused like --set and --vary."""
+    spec = tmp_path / "s.toml"
+    spec.write_text(SPEC)
+    out = tmp_path / "store"
+    assert main(["sweep", str(spec), *option, "-o", str(out), "--quiet"]) == 2
+    assert "not both" in capsys.readouterr().err and not out.exists()
+
+
 def test_an_unreachable_scheduler_is_refused_before_any_reference_renders(env, tmp_path, capsys):
     import socket
 
