@@ -39,6 +39,7 @@ from volcaustics.scenes.storage import (
     atomic_write_text,
     cache_dir,
     cache_path,
+    document_sha256,
     file_sha256,
     interrupts_held,
     orphaned,
@@ -57,6 +58,7 @@ KEY_FORMAT = "volcaustics-reference-key/3"
 RENDER_FOLDER = os.path.join(os.path.dirname(os.path.abspath(__file__)), "render")
 FILE_KINDS = {"exr": ".exr", "png": ".png", "state": ".npz"}  # an entry's data files, named by its manifest
 LAYERS = (*LAYER_NAMES, *(f"{name}_var" for name in COLOUR_LAYERS))  # what a reference's EXR holds
+SEAL = "manifest_sha256"  # the manifest's field holding the SHA-256 of the rest of it
 
 
 def code_version() -> str:
@@ -135,8 +137,8 @@ def load(key: str, size: tuple | None = None):
     as missing."""
     try:
         manifest = read_json_object(manifest_path(key))  # `null` or a list is a damaged entry, like torn JSON
-        if manifest.get("key") != key:
-            return None
+        if manifest.get("key") != key or manifest.get(SEAL) != document_sha256(manifest, SEAL):
+            return None  # another entry's, or a number edited (a noise floor, the batches): damaged
         for kind in ("exr", "png"):
             if manifest.get(f"{kind}_sha256") != file_sha256(entry_file(key, manifest, kind)):
                 return None
@@ -210,8 +212,10 @@ def store(key: str, layers: dict, manifest: dict, header: dict, png: bytes, stat
         if state is not None:
             with atomic_path(paths["state"]) as tmp:
                 np.savez(tmp, **state)
-        manifest = {**manifest, "key": key, "files": names,
-                    **{f"{kind}_sha256": file_sha256(path) for kind, path in paths.items()}}
+        manifest = json.loads(json.dumps({**manifest, "key": key, "files": names,
+                                          **{f"{kind}_sha256": file_sha256(path) for kind, path in paths.items()}},
+                                         default=float))
+        manifest[SEAL] = document_sha256(manifest, SEAL)
         with interrupts_held():
             atomic_write_text(manifest_path(key, write=True), json.dumps(manifest, indent=2, default=float))
             committed = True

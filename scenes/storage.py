@@ -249,6 +249,18 @@ def atomic_write_text(path: str, text: str) -> None:
     atomic_write_bytes(path, text.encode("utf-8"))
 
 
+def document_sha256(doc: dict, field: str) -> str:
+    """SHA-256 of a JSON document without its field ``field`` (where it keeps this
+    digest, sealing it: a number edited by hand no longer matches): of its canonical
+    JSON (sorted keys, no spaces), so reading it back and hashing again gives the same
+    digest."""
+    import json
+
+    content = {k: v for k, v in doc.items() if k != field}
+    text = json.dumps(content, sort_keys=True, separators=(",", ":"), allow_nan=False)
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
 def file_sha256(path: str) -> str:
     """SHA-256 (hex) of a file's bytes, read in 1 MiB chunks; OSError for a folder or a
     special file (a FIFO would block, a device never end)."""

@@ -44,7 +44,13 @@ import pandas as pd
 from volcaustics.reports.core.tables import plain, table
 from volcaustics.reports.core.versions import code_version
 from volcaustics.scenes.imageio import read_exr, write_exr
-from volcaustics.scenes.storage import atomic_write_text, file_sha256, process_alive, read_json_object
+from volcaustics.scenes.storage import (
+    atomic_write_text,
+    document_sha256,
+    file_sha256,
+    process_alive,
+    read_json_object,
+)
 
 TABLES = ("segments", "photons", "images")
 TABLE_FILES = tuple(f"{name}.parquet" for name in TABLES)
@@ -74,15 +80,6 @@ def summary_sha256(summary: dict) -> str:
     """SHA-256 of a point's summary without its own hash (the field SEAL)
     (:func:`document_sha256`)."""
     return document_sha256(summary, SEAL)
-
-
-def document_sha256(doc: dict, field: str) -> str:
-    """SHA-256 of a JSON document without its field ``field`` (where it keeps this
-    digest): of its canonical JSON (sorted keys, no spaces), so reading it back and
-    hashing again gives the same digest."""
-    content = {k: v for k, v in doc.items() if k != field}
-    text = json.dumps(content, sort_keys=True, separators=(",", ":"), allow_nan=False)
-    return hashlib.sha256(text.encode()).hexdigest()
 
 
 def sealed(summary: dict) -> dict:

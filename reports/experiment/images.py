@@ -34,9 +34,12 @@ from volcaustics.scenes.storage import (
     atomic_write_text,
     cache_dir,
     cache_path,
+    document_sha256,
     note_not_cached,
     read_json_object,
 )
+
+FLOOR_SEAL = "sha256"  # a floor file's field holding the SHA-256 of the rest of it
 
 RESAMPLES = 2000             # bootstrap resamples over the seeds (per-frame metrics)
 FLOOR_DRAWS = 2              # noisy copies averaged for a non-quadratic metric's floor
@@ -154,26 +157,37 @@ def metric_floor(metric, reference_key, component, keep, r, rv, compute) -> floa
     if value is None:
         value = float(np.mean([compute(r, noisy_copy(r, rv, seed=FLOOR_SEED + i)) for i in range(FLOOR_DRAWS)]))
         if math.isfinite(value):
+            doc = {"value": value, "ident": ident, "metric": metric, "component": component,
+                   "reference_key": reference_key}
+            doc[FLOOR_SEAL] = document_sha256(doc, FLOOR_SEAL)
             try:
                 atomic_write_text(os.path.join(cache_dir("metric-floors"), ident + ".json"),
-                                  json.dumps({"value": value, "ident": ident, "metric": metric,
-                                              "component": component, "reference_key": reference_key},
-                                             allow_nan=False))
+                                  json.dumps(doc, allow_nan=False))
             except CacheError as exc:  # a read-only cache: computed again next time
                 note_not_cached(exc, "metric noise floors")
     _FLOORS[ident] = value
     return value
 
 
+def _seal_of(doc: dict) -> str | None:
+    try:
+        return document_sha256(doc, FLOOR_SEAL)
+    except ValueError:  # NaN or ∞ in it: no canonical JSON
+        return None
+
+
 def _cached_floor(path: str, ident: str) -> float | None:
     """The floor stored in ``path`` if it is the entry ``ident`` and a finite number,
-    else None (recomputed): a floor of NaN, ∞, a string, garbage or another entry's
-    file is never used. Files from before the ``ident`` field count as damaged."""
+    else None (recomputed): a floor of NaN, ∞, a string, garbage, another entry's
+    file or a value that does not match the file's own SHA-256 (FLOOR_SEAL) is never
+    used. Files from before the ``ident`` field or the seal count as damaged."""
     try:
         doc = read_json_object(path)
     except (OSError, ValueError):
         return None
     value = doc.get("value")
     if doc.get("ident") != ident or isinstance(value, bool) or not isinstance(value, (int, float)):
+        return None
+    if doc.get(FLOOR_SEAL) != _seal_of(doc):  # a value edited by hand (or before the seal): recomputed
         return None
     return float(value) if math.isfinite(value) else None

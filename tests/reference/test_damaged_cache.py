@@ -17,7 +17,7 @@ from volcaustics.reference.request import resolve
 from volcaustics.reference.settings import ReferenceSettings
 from volcaustics.scenes import load_builtin
 from volcaustics.scenes.imageio import read_exr, write_exr
-from volcaustics.scenes.storage import file_sha256
+from volcaustics.scenes.storage import document_sha256, file_sha256
 
 SETTINGS = ReferenceSettings(photons=100000, spp=8, batches=2, width=16, height=12)
 
@@ -63,7 +63,7 @@ def _rewrite_entry(private_cache, result, edit) -> None:
     path = _manifest_path(private_cache, result.key)
     manifest = json.loads(path.read_text())
     manifest["exr_sha256"] = file_sha256(result.exr_path)
-    path.write_text(json.dumps(manifest))
+    path.write_text(json.dumps(_resealed(manifest)))
 
 
 def _nan_pixel(layers):
@@ -126,7 +126,8 @@ def test_a_damaged_batch_state_restarts_the_render(private_cache, damage):
         states[0].write_bytes(other_state[0].read_bytes())
         if damage.startswith("another size"):  # a manifest that agrees: damage its hash cannot see
             path = _manifest_path(private_cache, first.key)
-            path.write_text(json.dumps({**json.loads(path.read_text()), "state_sha256": file_sha256(str(states[0]))}))
+            path.write_text(json.dumps(_resealed({**json.loads(path.read_text()),
+                                                  "state_sha256": file_sha256(str(states[0]))})))
     more = render_reference(scene, ReferenceSettings(photons=150000, spp=12, batches=3, width=16, height=12),
                             progress=False)
     assert more.key == first.key and more.manifest["batches"] == 3
@@ -193,6 +194,29 @@ def test_files_a_killed_writer_left_go_with_the_next_write(private_cache):
     assert len([n for n in names if n.endswith(".exr")]) == 2  # the running writer's and the entry's
 
 
+def _resealed(doc: dict) -> dict:
+    """``doc`` with its seal recomputed (as the cache writes it), where it has one (NaN: none)."""
+    try:
+        return {**doc, cache.SEAL: document_sha256(doc, cache.SEAL)}
+    except ValueError:
+        return doc
+
+
+@pytest.mark.parametrize("edit", [{"noise_floor": {"caustic": 1e-9, "fog": 1e-9, "direct": 1e-9, "combined": 1e-9}},
+                                  {"batches": 1000, "photons": 10**9}])
+def test_a_manifest_with_numbers_edited_is_a_damaged_entry(private_cache, edit):
+    """The manifest's numbers were not verified: floors edited to 1e-9 were served as
+    meeting a 0.01% noise target, and 1000 batches were reported (hostile pass). The
+    manifest carries the SHA-256 of itself: an edited one is re-rendered."""
+    scene = load_builtin("refocus")
+    first = render_reference(scene, SETTINGS, progress=False)
+    path = _manifest_path(private_cache, first.key)
+    path.write_text(json.dumps({**json.loads(path.read_text()), **edit}))
+    assert cache.cached_reference(first.key, scene) is None
+    again = render_reference(scene, SETTINGS, progress=False)
+    assert not again.cached and again.manifest["batches"] == SETTINGS.batches
+
+
 @pytest.mark.parametrize("edit", [{"files": ["a list"]}, {"files": {"exr": "../elsewhere.exr"}}, {"files": None},
                                   {"settings": 5}, {"settings": {"width": 8, "height": 6}}, {"exr_sha256": None},
                                   {"batches": "2"}, {"noise_floor": [0.1]}, {"noise_floor": {"caustic": float("nan")}},
@@ -205,7 +229,7 @@ def test_a_manifest_of_the_wrong_shape_is_a_damaged_entry(private_cache, edit):
     scene = load_builtin("refocus")
     first = render_reference(scene, SETTINGS, progress=False)
     path = _manifest_path(private_cache, first.key)
-    path.write_text(json.dumps({**json.loads(path.read_text()), **edit}))
+    path.write_text(json.dumps(_resealed({**json.loads(path.read_text()), **edit})))  # the type checks, not the seal
     outside = private_cache / "elsewhere.exr"
     outside.write_bytes(b"not the cache's")
     assert cache.cached_reference(first.key, scene) is None

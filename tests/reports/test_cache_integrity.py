@@ -25,7 +25,7 @@ def _floor(keep, r, rv, component="caustic"):
     return images.metric_floor("per_pixel_relative_mse", "k" * 32, component, keep, r, rv, compute)
 
 
-@pytest.mark.parametrize("damage", [*FLOOR_DAMAGES, "another floor's file"])
+@pytest.mark.parametrize("damage", [*FLOOR_DAMAGES, "another floor's file", "its value edited"])
 def test_a_damaged_metric_floor_is_recomputed(tmp_path, monkeypatch, damage):
     """A cached floor holding NaN, ∞, no number, garbage or another floor's value is
     recomputed and rewritten (before: NaN made every debiased metric NaN, a string or
@@ -43,6 +43,9 @@ def test_a_damaged_metric_floor_is_recomputed(tmp_path, monkeypatch, damage):
         [other] = [p for p in (tmp_path / "metric-floors").glob("*.json") if p != path]
         path.write_bytes(other.read_bytes())
         assert json.loads(other.read_text())["value"] != first
+    elif damage == "its value edited":  # the hostile pass: 0.073 → 0.5 with the ident kept was served
+        doc = json.loads(path.read_text())
+        path.write_text(json.dumps({**doc, "value": 0.5}))
     else:
         path.write_text(FLOOR_DAMAGES[damage], encoding="utf-8", errors="surrogateescape")
     monkeypatch.setattr(images, "_FLOORS", {})  # a later process
