@@ -40,3 +40,18 @@ def png_bytes(fig, dpi: int = 100) -> bytes:
     fig.savefig(buffer, format="png", dpi=dpi, bbox_inches="tight")
     pyplot().close(fig)
     return buffer.getvalue()
+
+
+def remove_stale_figures(folder: str, keep: list) -> None:
+    """Remove the figures (.png, .svg) in ``folder`` that this run did not draw (an
+    earlier ``--sweep``'s, or all of them without one), and the folder when nothing is
+    left; other files are left alone."""
+    if not os.path.isdir(folder):
+        return
+    kept = {os.path.abspath(p) for p in keep}
+    for name in os.listdir(folder):
+        path = os.path.join(folder, name)
+        if name.endswith((".png", ".svg")) and os.path.abspath(path) not in kept and os.path.isfile(path):
+            os.unlink(path)
+    if not os.listdir(folder):
+        os.rmdir(folder)

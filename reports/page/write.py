@@ -9,6 +9,7 @@ import time
 
 from tqdm import tqdm
 
+from volcaustics.reports.core.plotting import remove_stale_figures
 from volcaustics.reports.core.tables import plain
 from volcaustics.reports.page import charts
 from volcaustics.reports.page.html import render_page
@@ -53,21 +54,6 @@ def write_report(out_dir: str, results: list, summary: dict, sweep=None, *, prog
     html, doc = (os.path.join(out_dir, name) for name in OUTPUT_FILES)
     atomic_write_texts({html: page, doc: json.dumps(summary, indent=1, allow_nan=False)})
     return summary
-
-
-def remove_stale_figures(folder: str, keep: list) -> None:
-    """Remove the figures (.png, .svg) in ``folder`` that this run did not draw (an
-    earlier ``--sweep``'s, or all of them without one), and the folder when nothing is
-    left; other files are left alone."""
-    if not os.path.isdir(folder):
-        return
-    kept = {os.path.abspath(p) for p in keep}
-    for name in os.listdir(folder):
-        path = os.path.join(folder, name)
-        if name.endswith((".png", ".svg")) and os.path.abspath(path) not in kept and os.path.isfile(path):
-            os.unlink(path)
-    if not os.listdir(folder):
-        os.rmdir(folder)
 
 
 def scene_images(result, page: dict) -> dict:

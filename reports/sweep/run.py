@@ -12,13 +12,14 @@ from dataclasses import dataclass, field
 import pandas as pd
 
 from volcaustics.reports import runner
+from volcaustics.reports.core.plotting import remove_stale_figures
 from volcaustics.reports.core.sizing import reference_settings
 from volcaustics.reports.core.store import TABLES, Store, document_sha256
 from volcaustics.reports.sweep.figures import draw_figures
 from volcaustics.reports.sweep.spec import SweepError, SweepSpec, points
 from volcaustics.reports.sweep.suffice import settings_that_suffice
 from volcaustics.reports.sweep.variants import best_variants, draw_variants, is_variants_sweep, variant_table
-from volcaustics.scenes.storage import atomic_set, file_sha256
+from volcaustics.scenes.storage import atomic_set, file_sha256, remove_file
 
 MANIFEST = "sweep.json"  # the spec, the points the store's tables hold, their SHA-256s; written last
 MANIFEST_SEAL = "sweep_sha256"  # sweep.json's field holding the SHA-256 of the rest of it
@@ -59,6 +60,12 @@ def run_sweep(spec: SweepSpec, out_dir: str, *, workers: int | None = None, dask
     if variants:
         tables["variants"] = variant_table(tables)
         tables["variants_best"] = best_variants(tables["variants"])
+    # the earlier run's figures and variant tables go first: interrupted after the new
+    # tables, the folder holds no figure of another run (the report redraws its own)
+    remove_stale_figures(os.path.join(out_dir, "figures"), keep=[])
+    if not variants:
+        for name in VARIANT_FILES:
+            remove_file(os.path.join(out_dir, name))
     _write_tables(out_dir, tables, {"spec": spec.to_dict(), "points": len(keys), "keys": keys},
                   extra=VARIANT_FILES if variants else ())
     figures = draw_figures(tables, os.path.join(out_dir, "figures"), varied=varied)

@@ -302,3 +302,18 @@ def test_a_variants_sweep_writes_its_tables_and_figures_and_the_report_shows_it(
                  "--spp", "8", "--batches", "4", "--target-noise", "none", "--seeds", "2", "--quiet"]) == 0
     html = (report / "index.html").read_text()
     assert "id='variants-best'" in html and "variants_refocus" in html
+
+
+def test_a_later_sweep_into_the_same_folder_leaves_no_output_of_the_earlier(env, tmp_path, capsys):
+    """A variants sweep, then one over layers into the same folder: variants.csv,
+    variants_best.csv and the variants figure of the first stayed beside the second's
+    sweep.json, and an interrupted second run left all of the first's figures
+    (hostile pass). The earlier run's figures and variant tables go before the new set."""
+    out = tmp_path / "store"
+    assert main(["sweep", _spec(tmp_path, VARIANTS_SPEC), "-o", str(out), "--workers", "1", "--quiet"]) == 0
+    assert (out / "variants.csv").exists() and (out / "figures" / "variants_refocus.png").exists()
+    layers = tmp_path / "layers.toml"
+    layers.write_text(SPEC.replace("iterations = [4, 8]\n", ""))
+    assert main(["sweep", str(layers), "-o", str(out), "--workers", "1", "--quiet"]) == 0
+    assert not (out / "variants.csv").exists() and not (out / "variants_best.csv").exists()
+    assert not list((out / "figures").glob("variants_*")) and list((out / "figures").glob("*.png"))
