@@ -207,7 +207,7 @@ def generated_mesh(name: str, params: tuple) -> Mesh:
     (:func:`_read_cached_mesh`)."""
     from .canonical import GENERATOR_VERSION
     from .generators import generate
-    from .storage import CacheError, atomic_path, cache_dir, cache_path, note_not_cached
+    from .storage import atomic_path, cache_dir, cache_path, note_not_cached
 
     key = hashlib.sha256(repr((name, GENERATOR_VERSION, tuple(params))).encode()).hexdigest()[:24]
     file = f"{name}-{key}.npz"
@@ -220,7 +220,7 @@ def generated_mesh(name: str, params: tuple) -> Mesh:
             with atomic_path(os.path.join(cache_dir("meshes"), file)) as tmp:
                 np.savez(tmp, vertices=mesh.vertices, faces=mesh.faces, key=np.asarray(key),
                          digest=np.asarray(_mesh_digest(mesh.vertices, mesh.faces)))
-        except CacheError as exc:  # a read-only cache: the mesh is built again next time
+        except OSError as exc:  # a read-only cache (CacheError), a folder in the entry's place: built again next time
             note_not_cached(exc, "generated meshes")
     return mesh
 

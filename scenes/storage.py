@@ -49,10 +49,11 @@ def cache_path(*parts: str) -> str:
 _NOTED: set = set()
 
 
-def note_not_cached(exc: CacheError, what: str) -> None:
+def note_not_cached(exc: OSError, what: str) -> None:
     """Say once per process, on stderr, that ``what`` is not cached because the cache
-    folder cannot be written (``exc`` names it and the fix): the run goes on (nothing it
-    needs is missing), but would otherwise redo that work every time without a word."""
+    cannot be written (``exc``: a CacheError names the folder and the fix; another
+    OSError the file): the run goes on (nothing it needs is missing), but would
+    otherwise redo that work every time without a word."""
     import sys
 
     if str(exc) not in _NOTED:

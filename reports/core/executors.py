@@ -97,11 +97,24 @@ def _ignore_interrupts() -> None:
     signal.signal(signal.SIGTERM, signal.SIG_IGN)
 
 
+def _quiet_resource_tracker() -> None:
+    """Workers killed on Ctrl-C leave the pool's queue semaphores to multiprocessing's
+    resource tracker, which frees them and then warned about them after "interrupted"
+    (a UserWarning on every interrupted sweep). The tracker process inherits this
+    process's -W options when it starts."""
+    import sys
+
+    option = "ignore::UserWarning:multiprocessing.resource_tracker"
+    if option not in sys.warnoptions:
+        sys.warnoptions.append(option)
+
+
 def _local(fn, tasks, workers):
     import multiprocessing
     from concurrent.futures import ProcessPoolExecutor, as_completed
 
     n = min(workers or default_workers(), len(tasks))
+    _quiet_resource_tracker()
     pool = ProcessPoolExecutor(max_workers=n, mp_context=multiprocessing.get_context("spawn"),
                                initializer=_ignore_interrupts)
     futures = {pool.submit(fn, task): task["key"] for task in tasks}

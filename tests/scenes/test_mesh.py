@@ -125,3 +125,19 @@ def test_a_damaged_generated_mesh_cache_is_regenerated(tmp_path, monkeypatch, da
     assert np.array_equal(again.vertices, good.vertices) and np.array_equal(again.faces, good.faces)
     with np.load(path) as saved:  # rewritten, so the next run reads it
         assert np.array_equal(saved["vertices"], good.vertices) and np.array_equal(saved["faces"], good.faces)
+
+
+def test_a_folder_in_place_of_a_generated_mesh_cache_entry_is_not_the_scenes_fault(tmp_path, monkeypatch, capsys):
+    """A folder where a generated mesh's cache file goes: the mesh is built (and not
+    cached, said once), where before the scene file was blamed ("mesh could not be
+    built", hostile pass)."""
+    from volcaustics.scenes.mesh import generated_mesh
+
+    monkeypatch.setenv("VOLCAUSTICS_CACHE", str(tmp_path))
+    good = generated_mesh("sphere", BIG_SPHERE)
+    [path] = (tmp_path / "meshes").glob("*.npz")
+    path.unlink()
+    path.mkdir()
+    again = generated_mesh("sphere", BIG_SPHERE)
+    np.testing.assert_array_equal(again.vertices, good.vertices)
+    assert path.is_dir() and "generated meshes" in capsys.readouterr().err
