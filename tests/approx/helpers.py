@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from volcaustics.scenes.model import (
@@ -97,3 +99,18 @@ def fog_quadrature(scene, eye, d, s_end):
         return sigma_s * phase * light.intensity[0] * spot_falloff64(light, w) / r**2 * np.exp(-sigma_t * (r + s))
 
     return integrate.quad(integrand, 0.0, s_end, limit=400, points=np.linspace(0, s_end, 40)[1:-1])[0]
+
+
+def pixel_solid_angles(fov_y: float, size: int) -> tuple:
+    """(edges, omega) of a square size × size image of vertical field of view fov_y
+    (degrees): the pixel edges on the image plane at unit distance and each pixel's exact
+    solid angle (size × size, rows bottom-up as GL draws them)."""
+    half = math.tan(math.radians(fov_y) / 2)
+    edges = np.linspace(-half, half, size + 1)
+
+    def f(x, y):
+        return np.arctan2(x * y, np.sqrt(1 + x * x + y * y))
+
+    x0, y0 = np.meshgrid(edges[:-1], edges[:-1])
+    x1, y1 = np.meshgrid(edges[1:], edges[1:])
+    return edges, f(x1, y1) - f(x0, y1) - f(x1, y0) + f(x0, y0)

@@ -13,7 +13,7 @@ import math
 import numpy as np
 import pytest
 
-from tests.approx.helpers import make_scene, sphere_spec
+from tests.approx.helpers import make_scene, pixel_solid_angles, sphere_spec
 from volcaustics.approx import ApproxParams, render
 from volcaustics.approx.camera_pass import CameraView
 from volcaustics.approx.geometry import SceneGeometry
@@ -101,12 +101,7 @@ def test_a_splat_of_any_width_keeps_its_integral(ctx, sigma_px):
     empty = ctx.texture((cam.width, cam.height), 4, dtype="f4")
     splatter.splat(records, 1, view, scene.medium, 1.0, empty, target)  # a 1 m splat_radius: never used
     image = np.frombuffer(target.read(), np.float32).reshape(cam.height, cam.width, 4)[..., 0].astype(np.float64)
-    half = math.tan(math.radians(cam.fov_y) / 2)
-    edges = np.linspace(-half, half, cam.width + 1)
-    f = lambda x, y: np.arctan2(x * y, np.sqrt(1 + x * x + y * y))  # noqa: E731
-    x0, y0 = np.meshgrid(edges[:-1], edges[:-1])
-    x1, y1 = np.meshgrid(edges[1:], edges[1:])
-    omega = f(x1, y1) - f(x0, y1) - f(x1, y0) + f(x0, y0)
+    edges, omega = pixel_solid_angles(cam.fov_y, cam.width)  # exact, of the image plane at unit distance
     expected = power / (4 * math.pi) * math.exp(-sigma_t * z) / z**2
     assert float((image * omega).sum()) == pytest.approx(expected, rel=1e-4)
     # and it is this splat's width that was drawn: across the splat plane the image's

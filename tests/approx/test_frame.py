@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from scipy import integrate
 
-from tests.approx.helpers import fog_quadrature, make_scene, pixel_ray, sphere_spec
+from tests.approx.helpers import fog_quadrature, make_scene, pixel_ray, pixel_solid_angles, sphere_spec
 from volcaustics.approx import ApproxParams, Renderer, render
 from volcaustics.approx.camera_pass import CameraView
 from volcaustics.approx.geometry import SceneGeometry
@@ -79,13 +79,7 @@ def test_single_splat_integrates_to_analytic_value(ctx):
     empty = ctx.texture((cam.width, cam.height), 4, dtype="f4")  # G-buffer: nothing hit
     splatter.splat(records, 1, view, scene.medium, sigma_k, empty, target)
     image = np.frombuffer(target.read(), np.float32).reshape(cam.height, cam.width, 4)[..., 0].astype(np.float64)
-    # exact pixel solid angles of the image plane at unit distance
-    half = math.tan(math.radians(cam.fov_y) / 2)
-    edges = np.linspace(-half, half, cam.width + 1)
-    f = lambda x, y: np.arctan2(x * y, np.sqrt(1 + x * x + y * y))  # noqa: E731
-    x0, y0 = np.meshgrid(edges[:-1], edges[:-1])
-    x1, y1 = np.meshgrid(edges[1:], edges[1:])
-    omega = f(x1, y1) - f(x0, y1) - f(x1, y0) + f(x0, y0)
+    edges, omega = pixel_solid_angles(cam.fov_y, cam.width)  # exact, of the image plane at unit distance
     measured = float((image * omega).sum())
     expected = power / (4 * math.pi) * math.exp(-sigma_t * z) / z**2 * (1 + sigma_k**2 / z**2)
     # 1%: the kernel spans ~25 pixels (midpoint rule error << 1e-3), erf approximation 1.5e-7.
