@@ -80,7 +80,9 @@ class Renderer:
         phase_key = (scene.medium.phase.kind, scene.medium.phase.g)
         fog = defines(p, "fog")
         camera = self._cached(("camera", *sorted(fog.items()), phase_key), lambda: CameraPasses(self.ctx, scene, fog))
-        splatter = self._cached(("splat", phase_key), lambda: Splatter(self.ctx, scene.medium))
+        adaptive = p.splat == "adaptive"
+        splatter = self._cached(("splat", phase_key, adaptive), lambda: Splatter(self.ctx, scene.medium,
+                                                                                 adaptive=adaptive))
         return camera, splatter
 
     def _black_image(self, p: ApproxParams) -> moderngl.Texture:

@@ -13,7 +13,7 @@ import numpy as np
 from volcaustics.scenes.formats import SPLAT_DTYPE, STATUS_COLLIDED
 
 from .context import bound
-from .glsl import attribute_layout, program
+from .glsl import attribute_layout, program, set_uniforms
 
 # Instance attributes of a splat (SPLAT_DTYPE, 48 bytes).
 INSTANCE_PARTS = [("4f", "in_end"), ("4f", "in_dir_t"), ("4f", "in_power")]
@@ -51,12 +51,15 @@ def record_sigma(records: np.ndarray, params) -> np.ndarray | None:
 
 
 class Splatter:
-    """Splat program for one phase function."""
+    """Splat program for one phase function and splat mode (``adaptive``: each splat's
+    own kernel, where it has one)."""
 
-    def __init__(self, ctx: moderngl.Context, medium):
+    def __init__(self, ctx: moderngl.Context, medium, *, adaptive: bool = False):
         self.ctx = ctx
-        phase = {"PHASE_G": repr(float(medium.phase.g))} if medium.phase.kind == "hg" else {}
-        self.program = program(ctx, "splat/splat.vert.glsl", "splat/splat.frag.glsl", phase)
+        defines = {"PHASE_G": repr(float(medium.phase.g))} if medium.phase.kind == "hg" else {}
+        if adaptive:  # per-splat kernels (SPLAT_DTYPE dir.w), integrated over each pixel
+            defines["SPLAT_ADAPTIVE"] = 1
+        self.program = program(ctx, "splat/splat.vert.glsl", "splat/splat.frag.glsl", defines)
         corners = np.array([[-1, -1], [1, -1], [-1, 1], [1, 1]], np.float32)
         self.corners = ctx.buffer(corners.tobytes())
 
@@ -71,8 +74,8 @@ class Splatter:
         view.set_uniforms(prog)
         prog["scatter_weight"].value = tuple(s / sigma_bar for s in medium.sigma_s)
         prog["sigma_t"].value = tuple(medium.sigma_t)
-        prog["splat_radius"].value = float(splat_radius)
-        prog["pixel_angle"].value = 2.0 / (float(view.proj[1, 1]) * view.height)
+        set_uniforms(prog, splat_radius=float(splat_radius),
+                     pixel_angle=2.0 / (float(view.proj[1, 1]) * view.height))
         scene_distance.use(location=0)
         prog["scene_distance"].value = 0
         fmt, names = attribute_layout(prog, INSTANCE_PARTS, per_instance=True)

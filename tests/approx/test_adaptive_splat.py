@@ -93,7 +93,7 @@ def test_a_splat_of_any_width_keeps_its_integral(ctx, sigma_px):
     view = CameraView(cam, cam.width, cam.height, far=100.0)
     pixel = z * 2 * math.tan(math.radians(cam.fov_y) / 2) / cam.height  # a pixel's width at the splat
     sigma = sigma_px * pixel
-    splatter = Splatter(ctx, scene.medium)
+    splatter = Splatter(ctx, scene.medium, adaptive=True)
     centre = [0.3 * pixel, 1.0 + 0.2 * pixel, 0.0]  # off the pixel grid's centres and edges
     raw = splats_from_arrays(end=[centre], direction=[[0.0, -1.0, 0.0]], power=[[power] * 3], sigma=[sigma])
     records = ctx.buffer(raw.tobytes())

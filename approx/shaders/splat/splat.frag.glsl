@@ -15,11 +15,17 @@ uniform sampler2D scene_distance;  // G-buffer (distance to the first surface, K
 in vec3 v_center;
 in vec3 v_corner;
 flat in vec3 v_weight;
+#ifdef SPLAT_ADAPTIVE
 flat in float v_sigma;  // the splat's kernel standard deviation (m)
-flat in float v_pixel;  // adaptive: a pixel's width at the splat (m); 0: the paper's point-sampled kernel
+flat in float v_pixel;  // a pixel's width at the splat (m); 0: the paper's point-sampled kernel
 flat in vec2 v_center_px;
 uniform float pixel_angle;  // 2·tan(fov_y/2)/height
 uniform vec2 viewport;
+#define SIGMA v_sigma
+#else
+uniform float splat_radius;
+#define SIGMA splat_radius
+#endif
 
 out vec4 out_color;
 
@@ -33,27 +39,30 @@ void main() {
     // in float32 (|oc|² ≈ 20 m² has an ulp of 2e-6 m², the size of b² for σ of a few mm).
     vec3 perp = oc - s_c * ray;
     float b2 = dot(perp, perp);
-    float inv_sqrt2_sigma = 0.7071067811865476 / v_sigma;
+    float inv_sqrt2_sigma = 0.7071067811865476 / SIGMA;
     // Both erf terms are 1 to float precision more than 6σ from the ends of [0, s_max].
-    float along = (s_c > 6.0 * v_sigma && s_max - s_c > 6.0 * v_sigma)
+    float along = (s_c > 6.0 * SIGMA && s_max - s_c > 6.0 * SIGMA)
         ? 1.0
         : 0.5 * (erf_approx((s_max - s_c) * inv_sqrt2_sigma) + erf_approx(s_c * inv_sqrt2_sigma));
     float k;
+#ifdef SPLAT_ADAPTIVE
     if (v_pixel > 0.0) {
         // The kernel's mass over this pixel (in window coordinates the splat plane maps to
         // pixels by a similarity: a circular Gaussian of σ / pixel; the masses of all
         // pixels sum to 1), spread over the pixel's solid angle times the splat's distance²
         // (pixel_angle²·cos³θ·d²): Σ L·Ω is the point photon's Φ/d², for any σ.
         vec2 offset = gl_FragCoord.xy - v_center_px;
-        float s = 0.7071067811865476 * v_pixel / v_sigma;  // 1/(√2 σ) in pixels
+        float s = 0.7071067811865476 * v_pixel / SIGMA;  // 1/(√2 σ) in pixels
         vec2 mass = 0.5 * (vec2(erf_approx((offset.x + 0.5) * s), erf_approx((offset.y + 0.5) * s))
                            - vec2(erf_approx((offset.x - 0.5) * s), erf_approx((offset.y - 0.5) * s)));
         vec2 plane = (gl_FragCoord.xy - 0.5 * viewport) * pixel_angle;  // the pixel on the image plane at 1 m
         float cos_theta = inversesqrt(1.0 + dot(plane, plane));
         k = mass.x * mass.y / (v_pixel * v_pixel * cos_theta * cos_theta * cos_theta) * along;
-    } else {
-        if (b2 > TRUNCATION * TRUNCATION * v_sigma * v_sigma) discard;
-        k = exp(-b2 / (2.0 * v_sigma * v_sigma)) / (6.283185307179586 * v_sigma * v_sigma * KEPT_MASS) * along;
+    } else
+#endif
+    {
+        if (b2 > TRUNCATION * TRUNCATION * SIGMA * SIGMA) discard;
+        k = exp(-b2 / (2.0 * SIGMA * SIGMA)) / (6.283185307179586 * SIGMA * SIGMA * KEPT_MASS) * along;
     }
     out_color = vec4(v_weight * k, 1.0);
 }

@@ -25,9 +25,11 @@ in vec4 in_power;             // per instance: record.power_inside
 out vec3 v_center;
 out vec3 v_corner;            // world position on the billboard: the pixel ray passes through it
 flat out vec3 v_weight;
+#ifdef SPLAT_ADAPTIVE
 flat out float v_sigma;       // this splat's kernel standard deviation (m)
-flat out float v_pixel;       // adaptive: a pixel's width at the splat (m), the kernel integrated over it; 0 fixed
-flat out vec2 v_center_px;    // adaptive: the splat centre's window coordinates (pixels)
+flat out float v_pixel;       // a pixel's width at the splat (m), the kernel integrated over it; 0: splat_radius
+flat out vec2 v_center_px;    // the splat centre's window coordinates (pixels)
+#endif
 
 void main() {
     if (int(in_end.w + 0.5) != STATUS_COLLIDED) {
@@ -35,9 +37,11 @@ void main() {
         v_center = vec3(0.0);
         v_corner = vec3(0.0);
         v_weight = vec3(0.0);
+#ifdef SPLAT_ADAPTIVE
         v_sigma = splat_radius;
         v_pixel = 0.0;
         v_center_px = vec2(0.0);
+#endif
         return;
     }
     vec3 c = in_end.xyz;
@@ -46,9 +50,11 @@ void main() {
     vec3 w = to_eye / dist;
     v_weight = in_power.rgb * scatter_weight * phase_eval(dot(in_dir_t.xyz, w)) * exp(-sigma_t * dist);
     v_center = c;
+#ifdef SPLAT_ADAPTIVE
     // splat = adaptive: the photon's own kernel (in_dir_t.w, splat/compact.comp.glsl),
     // integrated over each pixel's area (splat.frag.glsl), so that a kernel of any width,
-    // narrower than a pixel too, keeps its integral; drawn out to 4σ and a pixel
+    // narrower than a pixel too, keeps its integral; drawn out to 4σ and a pixel. A splat
+    // without one (0) takes splat_radius, point-sampled as the paper's.
     bool boxed = in_dir_t.w > 0.0;
     float sigma = boxed ? in_dir_t.w : splat_radius;
     v_sigma = sigma;
@@ -56,6 +62,9 @@ void main() {
     vec4 centre_clip = view_proj * vec4(c, 1.0);
     v_center_px = (centre_clip.xy / centre_clip.w * 0.5 + 0.5) * viewport;
     float R = boxed ? 4.0 * sigma + 1.5 * v_pixel : TRUNCATION * sigma;
+#else
+    float R = TRUNCATION * splat_radius;
+#endif
     float extent = R * dist / sqrt(max(dist * dist - R * R, 1e-4 * R * R));
     vec3 helper = abs(w.y) < 0.99 ? vec3(0.0, 1.0, 0.0) : vec3(1.0, 0.0, 0.0);
     vec3 right = normalize(cross(helper, w));
