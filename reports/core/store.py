@@ -36,7 +36,6 @@ import hashlib
 import json
 import os
 import shutil
-import socket
 import uuid
 
 import pandas as pd
@@ -48,7 +47,8 @@ from volcaustics.scenes.storage import (
     atomic_write_text,
     document_sha256,
     file_sha256,
-    process_alive,
+    orphaned,
+    owner,
     read_json_object,
 )
 
@@ -136,7 +136,7 @@ class Store:
         """Write a point whole, or not at all, with the experiment's views when ``views``;
         returns "written", or "kept" when a complete copy appeared meanwhile (another
         sweep)."""
-        tmp = os.path.join(self.points, f".tmp-{key}-{socket.gethostname()}-{os.getpid()}-{uuid.uuid4().hex[:8]}")
+        tmp = os.path.join(self.points, f".tmp-{key}-{owner()}-{uuid.uuid4().hex[:8]}")
         os.makedirs(tmp)
         try:
             files = {}
@@ -189,18 +189,16 @@ class Store:
     def clean_stale(self) -> int:
         """Remove temporary folders of processes on this host that no longer run, and
         damaged copies set aside; returns how many were removed."""
-        host = socket.gethostname()
         removed = 0
         for name in os.listdir(self.points):
             path = os.path.join(self.points, name)
             stale = ".damaged-" in name
-            if name.startswith(".tmp-"):
+            if name.startswith(".tmp-"):  # .tmp-<key>-<host>-<pid>-<uuid> (scenes.storage.owner)
                 parts = name.split("-")
                 try:
-                    pid_host, pid = "-".join(parts[2:-2]), int(parts[-2])
+                    stale = len(parts) == 5 and orphaned(parts[2], int(parts[3]))
                 except ValueError:
                     continue
-                stale = pid_host == host and not process_alive(pid)
             if stale:
                 shutil.rmtree(path, ignore_errors=True)
                 removed += 1
