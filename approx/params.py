@@ -141,6 +141,11 @@ PARAMS: tuple = (
           glsl="define", to_defines=lambda v: {"SPLAT_ADAPTIVE": 1} if v == "adaptive" else {}),
     Param("splat_footprints", float, 4.0, "adaptive splats: the kernel's standard deviation in photon footprints",
           "", 0, 100, glsl="uniform"),
+    Param("emission", str, "uniform", "where photons start: uniform (paper: one per covered texel of the photon "
+          "map) or adaptive (the photon_res² photons drawn over the texels in proportion to their power times 1 + "
+          "3 where the surface turns sharply or breaks, each weighted by 1/its expected count: unbiased)",
+          choices=("uniform", "adaptive"), program="trace", glsl="define",
+          to_defines=lambda v: {"EMISSION_ADAPTIVE": 1} if v == "adaptive" else {}),
     Param("light_res", int, 1024, "resolution of the light layer maps and the shadow map", "texels per side", 16,
           8192, glsl="uniform"),
     Param("width", int, None, "image width", "pixels", 1, 16384, unset="the scene's"),

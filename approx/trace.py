@@ -22,6 +22,7 @@ import numpy as np
 from volcaustics.scenes.formats import DIFFERENTIAL_DTYPE, PHOTON_DTYPE, RAW_RECORD_DTYPE
 from volcaustics.scenes.memory import image_fits, memory_budget
 
+from .emission import draw_slots
 from .glsl import compute_shader, set_uniforms
 from .light import spot_constants
 from .params import defines as table_defines
@@ -117,6 +118,8 @@ class PhotonTracer:
         self.differentials = None  # splat = adaptive: the photons' DIFFERENTIAL_DTYPE buffer of this frame
         self.compact_write = compute_shader(ctx, "splat/compact.comp.glsl",
                                             {"SPLAT_ADAPTIVE": 1} if self.adaptive else {})
+        self.emission_adaptive = "EMISSION_ADAPTIVE" in defines
+        self.importance = compute_shader(ctx, "emission/importance.comp.glsl") if self.emission_adaptive else None
         self.maps = defines["MAPS"]
         self._solid_angles = {}
         self._max_groups = int(ctx.info["GL_MAX_COMPUTE_WORK_GROUP_COUNT"][0])
@@ -144,18 +147,19 @@ class PhotonTracer:
 
     def emit_photons(self, scene, frustum, emission_map, photon_res: int, seed: int) -> moderngl.Buffer:
         """Photon buffer (photon_res² slots of PHOTON_DTYPE) after emission and the first
-        interaction; ``emission_map`` is a :class:`approx.layers.LightMap` at photon_res."""
+        interaction; ``emission_map`` is a :class:`approx.layers.LightMap` at photon_res.
+        With adaptive emission the slots are drawn first (:meth:`draw_slots`)."""
         ctx, prog = self.ctx, self.emit
         n = photon_res * photon_res
         photons = ctx.buffer(reserve=n * PHOTON_DTYPE.itemsize)
         ior, _ = _materials(scene)
         emission_map.surface.use(location=0)
         emission_map.geometric.use(location=1)
-        set_uniforms(prog, **spot_constants(scene.light), ior=ior, emission_map=0, emission_geometric=1,
-                     photon_res=photon_res,
-                     tan_half=frustum.tan_half, seed=seed, sigma_t=tuple(scene.medium.sigma_t))
-        basis = np.stack([frustum.view[0, :3], frustum.view[1, :3], frustum.direction], axis=1)  # columns
-        prog["light_basis"].write(np.asarray(basis, np.float32).T.tobytes())
+        self._set_emission_map(prog, scene, frustum, photon_res)
+        set_uniforms(prog, ior=ior, emission_geometric=1, seed=seed, sigma_t=tuple(scene.medium.sigma_t))
+        slots = self.draw_slots(scene, frustum, photon_res, seed) if self.emission_adaptive else None
+        if slots is not None:
+            slots.bind_to_storage_buffer(3)
         photons.bind_to_storage_buffer(0)
         self._solid_angle_buffer(frustum, photon_res).bind_to_storage_buffer(1)
         if self.adaptive:  # the frame's differentials, beside the photons (emission, trace and compaction use them)
@@ -164,7 +168,34 @@ class PhotonTracer:
             self.differentials = ctx.buffer(reserve=n * DIFFERENTIAL_DTYPE.itemsize)
             self.differentials.bind_to_storage_buffer(2)
         prog.run(group_x=math.ceil(photon_res / 8), group_y=math.ceil(photon_res / 8))
+        if slots is not None:
+            slots.release()
         return photons
+
+    def _set_emission_map(self, prog, scene, frustum, photon_res: int) -> None:
+        """The uniforms of emission/map.glsl (the map bound at texture unit 0) and the spot."""
+        set_uniforms(prog, **spot_constants(scene.light), emission_map=0, photon_res=photon_res,
+                     tan_half=frustum.tan_half)
+        basis = np.stack([frustum.view[0, :3], frustum.view[1, :3], frustum.direction], axis=1)  # columns
+        prog["light_basis"].write(np.asarray(basis, np.float32).T.tobytes())
+
+    def importance_map(self, scene, frustum, photon_res: int) -> np.ndarray:
+        """photon_res² float32, row-major: adaptive emission's importance per texel
+        (emission/importance.comp.glsl) of the emission map bound at texture unit 0."""
+        prog = self.importance
+        out = self.ctx.buffer(reserve=photon_res * photon_res * 4)
+        self._set_emission_map(prog, scene, frustum, photon_res)
+        out.bind_to_storage_buffer(0)
+        self._solid_angle_buffer(frustum, photon_res).bind_to_storage_buffer(1)
+        prog.run(group_x=math.ceil(photon_res / 8), group_y=math.ceil(photon_res / 8))
+        importance = np.frombuffer(out.read(), np.float32).copy()
+        out.release()
+        return importance
+
+    def draw_slots(self, scene, frustum, photon_res: int, seed: int) -> moderngl.Buffer:
+        """Adaptive emission's slots (``approx.emission.draw_slots`` of
+        :meth:`importance_map`) as a storage buffer."""
+        return self.ctx.buffer(draw_slots(self.importance_map(scene, frustum, photon_res), seed).tobytes())
 
     def footprints(self, count: int) -> np.ndarray | None:
         """The photons' differential footprints (m) now (splat = adaptive), else None."""

@@ -25,6 +25,7 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
 
     from volcaustics.approx import Renderer
+    from volcaustics.approx.cost import frame_cost
     from volcaustics.approx.params import PAPER, QUICK
     from volcaustics.scenes import resolve_scene
 
@@ -49,10 +50,11 @@ def main(argv=None) -> int:
             print(f"  {k:<12} {med[k]:8.3f} s  {100 * med[k] / frame:5.1f}%")
         print(f"  intersection estimation (trace) {100 * med['trace'] / frame:.0f}% vs splatting "
               f"{100 * med['splat'] / frame:.0f}% of the frame (paper: 70% / 23%)")
-        records = renderer.render(params=params, keep_records=True).records  # map_reads: untimed
-        reads, segments = sum(int(r["map_reads"].sum()) for r in records), sum(len(r) for r in records)
-        print(f"  map reads {reads / 1e6:.2f} M per frame, {reads / max(segments, 1):.1f} per segment "
-              f"({segments:,} segments)")
+        records = renderer.render(params=params, keep_records=True).records  # the cost: untimed
+        cost, segments = frame_cost(records, params.resolved(scene)), sum(len(r) for r in records)
+        print(f"  map reads {cost['map_reads'] / 1e6:.2f} M per frame, {cost['map_reads'] / max(segments, 1):.1f} "
+              f"per segment ({segments:,} segments); emission reads {cost['emission_reads'] / 1e6:.2f} M, splats "
+              f"{cost['splats'] / 1e6:.3f} M; frame cost {cost['total'] / 1e6:.2f} M")
     renderer.release()
     return 0
 

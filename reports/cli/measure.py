@@ -45,7 +45,8 @@ def run(args) -> int:
           f"{paths['summary.json']}")
     reads = s["map_reads"]
     print(f"  frame {1000 * s['approx_timings_s']['frame_wall']:.0f} ms ({s['timing_method']}), "
-          f"{reads['per_frame'] / 1e6:.2f} M map reads ({reads['per_segment']:.1f} per segment)")
+          f"{reads['per_frame'] / 1e6:.2f} M map reads ({reads['per_segment']:.1f} per segment), frame cost "
+          f"{s['cost']['total'] / 1e6:.2f} M (map and emission reads + {s['cost']['splats'] / 1e6:.3f} M splats)")
     _print_images(s)
     _print_decomposition(s)
     for warning in s["warnings"]:

@@ -229,6 +229,7 @@ class Store:
 # its schema, which ``report --sweep`` checks a store against.
 POINT_COLUMNS = ("point", "scene", "scene_hash", "seeds", "reference_key", "code_version", "frame_time_s",
                  "trace_time_s", "splat_time_s", "map_reads_per_frame", "map_reads_per_segment",
+                 "emission_reads_per_frame", "splats_per_frame", "frame_cost",
                  *(f"{name}_{metric}" for name in ("caustic", "combined")
                    for metric in ("relmse_debiased", "relmse_se", "energy_ratio", "hdr_flip")),
                  *(f"share_{term}" for term in
@@ -248,7 +249,9 @@ def point_row(key: str, summary: dict) -> dict:
            "code_version": summary["code_version"], "frame_time_s": timings.get("frame_wall"),
            "trace_time_s": timings.get("trace"), "splat_time_s": timings.get("splat"),
            "map_reads_per_frame": summary.get("map_reads", {}).get("per_frame"),
-           "map_reads_per_segment": summary.get("map_reads", {}).get("per_segment")}
+           "map_reads_per_segment": summary.get("map_reads", {}).get("per_segment"),
+           "emission_reads_per_frame": summary.get("cost", {}).get("emission_reads"),
+           "splats_per_frame": summary.get("cost", {}).get("splats"), "frame_cost": summary.get("cost", {}).get("total")}
     for name, metrics in (("caustic", caustic), ("combined", combined)):
         relmse = metrics.get("relative_mse", {})
         row[f"{name}_relmse_debiased"] = relmse.get("debiased")

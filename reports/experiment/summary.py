@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from volcaustics.approx.context import gl_info, shared_context
+from volcaustics.approx.cost import COST_FIELDS, frame_cost
 from volcaustics.metrics.noise import MIN_SEEDS_FOR_INTERVAL
 from volcaustics.reports.core.versions import code_version, library_versions
 from volcaustics.reports.experiment.exact_images import EXACT_STEPS, SMALL_SUPERSAMPLE
@@ -39,6 +40,13 @@ def map_reads(frames) -> dict:
     per_step = [sum(x[k] for x in reads) / max(sum(n[k] for n in segments), 1) for k in range(steps)]
     return {"per_frame": float(np.mean([sum(x) for x in reads])),
             "per_segment": sum(map(sum, reads)) / max(sum(map(sum, segments)), 1), "per_step": per_step}
+
+
+def frame_costs(frames, params) -> dict:
+    """A frame's cost (``approx.cost.frame_cost``: map reads, emission reads, splats and
+    their total), the mean over the seeds' frames."""
+    costs = [frame_cost(f.records, params) for f in frames]
+    return {name: float(np.mean([c[name] for c in costs])) for name in COST_FIELDS}
 
 
 def experiment_views(frames, reference, keep, layers, maps) -> dict:
@@ -83,7 +91,7 @@ def experiment_summary(scene, p, seeds, reference, frames, exact, headline, deco
         "decomposition": {"rows": decomposition["rows"], "residual": decomposition["residual"],
                           "options": decomposition["options"]},
         "paths": divergence,
-        "map_reads": map_reads(frames), "approx_timings_s": median_timings(timed), "timed_frames": len(timed),
+        "map_reads": map_reads(frames), "cost": frame_costs(frames, p), "approx_timings_s": median_timings(timed), "timed_frames": len(timed),
         "timing_method": frames[0].timing_method,
         "experiment_seconds": clock, "gl": gl_info(shared_context()),
         "code_version": code_version(), "versions": library_versions(), "warnings": warnings,

@@ -1,0 +1,31 @@
+"""A frame's cost that travels across hardware (DESIGN.md "approx: variants"): the
+light-map texels it reads and the photons it splats. llvmpipe wall time is reported
+beside it, never instead: the method's claims are about GPUs.
+
+``map_reads`` are the search's (every traced segment's, counted by the trace shader),
+``emission_reads`` the emission's (``approx.emission.emission_reads``: what adaptive
+emission's importance pass and adaptive splats' curvature add), ``splats`` the medium
+collisions splatted over all steps. ``total`` = map reads + emission reads + splats:
+one texel read or one splat, each a unit (the fog, direct and camera passes cost the
+same for every parameter but the image size and fog_steps, and are left out).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from volcaustics.scenes.formats import STATUS_COLLIDED
+
+from .emission import emission_reads
+
+COST_FIELDS = ("map_reads", "emission_reads", "splats", "total")
+
+
+def frame_cost(records: list, params) -> dict:
+    """One frame's cost (COST_FIELDS) from its per-step records (``Frame.records``)
+    and its resolved parameters."""
+    search = sum(int(np.asarray(r["map_reads"], np.int64).sum()) for r in records)
+    splats = sum(int(np.count_nonzero(r["status"] == STATUS_COLLIDED)) for r in records)
+    emitted = len(records[0]) if records else 0
+    emission = emission_reads(params.photon_res, emitted, emission=params.emission, splat=params.splat)
+    return {"map_reads": search, "emission_reads": emission, "splats": splats, "total": search + emission + splats}
