@@ -1,7 +1,7 @@
 // Adaptive emission's importance (params `emission` = adaptive; approx.emission): per
 // texel of the photon_res² grid, the power a uniform photon would carry, I·falloff·ΔΩ,
 // times 1 + EMISSION_GAIN·e, where e in [0, 1] says how much the surface turns there:
-// the largest angle between its shading normal and a neighbour's over EMISSION_TEXELS
+// the largest angle between its shading normal and a neighbour's over EMISSION_TEXELS (8)
 // times the rays' own spread (a sphere of radius R seen from D turns by D/R ray spreads
 // per texel), and 1 at a discontinuity (a neighbour uncovered, of another material or a
 // farther surface behind a silhouette). 0 where nothing is hit or the spot is dark.
@@ -17,7 +17,7 @@ layout(std430, binding = 0) writeonly buffer Importance { float importance[]; };
 #define EMISSION_GAIN 3.0
 #endif
 #ifndef EMISSION_TEXELS
-#define EMISSION_TEXELS 2.0
+#define EMISSION_TEXELS 8.0
 #endif
 
 void main() {
