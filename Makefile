@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 OUT ?= runs/report
 
-.PHONY: setup report test test-fast lint doctor sweep sweep-variants gate gate-baseline lower-bounds clean
+.PHONY: setup report test test-fast lint doctor sweep sweep-variants sweep-best gate gate-baseline lower-bounds clean
 
 setup:
 	@bash scripts/setup.sh
@@ -51,6 +51,11 @@ sweep: setup
 # (reports/sweep/variants.toml), quick preset, 4 seeds; resumable. The report shows it.
 sweep-variants: setup
 	$(BIN)/volcaustics sweep reports/sweep/variants.toml -o runs/sweep-variants
+
+# The best-configuration search (reports/sweep/best.toml): every configuration at the paper
+# configuration's frame cost, coarse grid then refinement, on every built-in; resumable.
+sweep-best: setup
+	$(BIN)/volcaustics sweep --best -o runs/sweep-best
 
 # The dependency ranges at their lower bounds: a second venv (.venv-lower) with every
 # pyproject requirement pinned to its ">=" version, pip check, then the test suite there.

@@ -40,6 +40,10 @@ START_OFFSET = {"START_SLOPE": 0.7, "START_FLOOR": 0.25, "START_MAX": 2.0}
 # little and not always for the better (bench/agreement.py): docs/decisions.md "Clip to objects".
 CLIP_TO_OBJECTS = False
 
+# Defines that only tests set, for negative controls (e.g. DIFFERENTIAL_UNPROPAGATED: photon
+# differentials not propagated through interactions); part of the programs' cache key.
+TEST_DEFINES: dict = {}
+
 # The approximation's image buffers per pixel (G-buffer, fog, direct, per-step caustic
 # targets and their read-backs): 264 B measured as peak RSS per pixel, rounded up
 # (bench/image_memory.py, docs/decisions.md "Image sizes against memory").
@@ -130,7 +134,8 @@ class PhotonTracer:
         """The #defines of the emission and trace programs for ``params``: the fixed
         ones and those the parameter table derives (``approx.params.defines``). Equal
         defines, equal programs: the renderer's cache key."""
-        fixed = {"MAX_MATERIALS": MAX_MATERIALS, **START_OFFSET, **({"CLIP_TO_OBJECTS": 1} if CLIP_TO_OBJECTS else {})}
+        fixed = {"MAX_MATERIALS": MAX_MATERIALS, **START_OFFSET, **({"CLIP_TO_OBJECTS": 1} if CLIP_TO_OBJECTS else {}),
+                 **TEST_DEFINES}
         return {**fixed, **table_defines(params, "trace")}
 
     def check_limits(self, params, *, keep_records: bool = False) -> None:

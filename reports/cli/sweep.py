@@ -3,11 +3,16 @@
 from __future__ import annotations
 
 import sys
+import time
+
+import pandas as pd
 
 from volcaustics.approx.params import PARAMS, PRESETS
 from volcaustics.reports.cli.common import UsageError, check_output_set
 from volcaustics.reports.core.executors import check_reachable, default_workers, parse_dask
-from volcaustics.reports.sweep.run import OUTPUT_FILES, OUTPUT_FOLDERS, run_sweep
+from volcaustics.reports.core.store import Store
+from volcaustics.reports.sweep.best import BEST_SPEC, load_best_spec, run_best, verdict
+from volcaustics.reports.sweep.run import OUTPUT_FILES, OUTPUT_FOLDERS, consolidate, run_sweep
 from volcaustics.reports.sweep.spec import MAX_POINTS, spec_from_args, spec_from_toml
 from volcaustics.reports.sweep.variants import variant_name
 
@@ -34,6 +39,10 @@ def register(sub) -> None:
     p.add_argument("--yes", action="store_true",
                    help=f"run a grid of more than {MAX_POINTS:,} points (refused without it: a typo more often than a "
                         f"plan)")
+    p.add_argument("--best", action="store_true",
+                   help="the best-configuration search instead of a grid: SPEC (default reports/sweep/best.toml) "
+                        "states its coarse and refine axes; every configuration at the paper's frame cost "
+                        "(README \"The best configuration\")")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
 
@@ -52,6 +61,8 @@ def run(args) -> int:
             raise UsageError("--dask", args.dask, str(exc).split(": ", 1)[-1]) from None
         check_reachable(args.dask)  # before any reference renders
     max_points = None if args.yes else MAX_POINTS
+    if args.best:
+        return _run_best(args)
     if args.spec:
         spec = spec_from_toml(args.spec, max_points)
     else:
@@ -66,6 +77,33 @@ def run(args) -> int:
     for failure in result.failed:
         print(f"  failed: {failure['key'][:12]}: {failure['error']}", file=sys.stderr)
     return 1 if result.failed else 0
+
+
+def _run_best(args) -> int:
+    if args.vary or args.set or args.preset or args.seeds is not None:
+        raise UsageError("--best", "", "the search's axes, preset and seeds belong to its SPEC file; only --scenes "
+                                       "may narrow it")
+    scenes = [s.strip() for s in args.scenes.split(",")] if args.scenes is not None else None
+    spec = load_best_spec(args.spec or BEST_SPEC, scenes)
+    t0 = time.perf_counter()
+    table, adopted, failed, keys = run_best(spec, args.output, workers=args.workers or default_workers(),
+                                            dask=args.dask, progress=not args.quiet)
+    result = verdict(table, adopted)
+    consolidate(Store(args.output), args.output, spec.sweep_spec(), sorted(set(keys)), extra={"best": table},
+                manifest={"best": result})
+    print(f"best configuration: {len(keys)} points, {len(failed)} failed, {time.perf_counter() - t0:.1f} s -> "
+          f"{args.output}/best.parquet")
+    for _, r in table[table["role"] != ""].iterrows():
+        se = "" if pd.isna(r["caustic_relmse_se"]) else f" ± {100 * r['caustic_relmse_se']:.2f}"
+        print(f"  {r['scene']:<12} {r['role']:<20} {r['config']}: photon_res {r['photon_res']}, cost "
+              f"{r['cost_ratio']:.3f}x, caustic relMSE {100 * r['caustic_relmse_debiased']:.2f}%{se} "
+              f"({r['relmse_ratio']:.2f}x the paper's)")
+    if adopted is not None:
+        print(f"adopted for every scene: {adopted}; worst ratio {result['worst_ratio']:.2f}x against the goal "
+              f"{result['goal']:g}x: {'met' if result['met'] else 'not met'}")
+    for failure in failed:
+        print(f"  failed: {failure['key'][:12]}: {failure['error']}", file=sys.stderr)
+    return 1 if failed else 0
 
 
 def _print_suffice(suffice) -> None:

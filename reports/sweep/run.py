@@ -26,6 +26,7 @@ MANIFEST_SEAL = "sweep_sha256"  # sweep.json's field holding the SHA-256 of the 
 OUTPUT_FILES = (*(f"{name}.parquet" for name in (*TABLES, "points")), "suffice.csv", MANIFEST)
 OUTPUT_FOLDERS = ("points", "figures")
 VARIANT_FILES = ("variants.csv", "variants_best.csv")  # beside them when the sweep varies search or start_rule
+EXTRA_FILES = ("best.parquet",)  # beside them after the best-configuration search (reports.sweep.best)
 
 
 @dataclass
@@ -52,6 +53,18 @@ def run_sweep(spec: SweepSpec, out_dir: str, *, workers: int | None = None, dask
     run = runner.measure(points(spec), store, reference_settings=reference_settings(spec.reference, error=SweepError),
                          policy="missing", workers=workers, dask=dask, progress=progress, read_back=False)
     keys = sorted(set(run.keys))
+    tables, figures = consolidate(store, out_dir, spec, keys)
+    return SweepResult(total=len(keys), done_before=run.done_before, computed=run.computed, failed=run.failed,
+                       seconds=time.perf_counter() - t0, tables=tables, figures=figures,
+                       point_seconds=run.point_seconds)
+
+
+def consolidate(store: Store, out_dir: str, spec: SweepSpec, keys: list, *, extra: dict | None = None,
+                manifest: dict | None = None) -> tuple:
+    """The store's consolidated tables of ``keys`` (with the variant tables when the
+    sweep varies a variant choice, and ``extra``: name → DataFrame, written as
+    NAME.parquet), written with sweep.json (``manifest`` added to it) as one set; then
+    the figures. Returns (tables, figure paths)."""
     varied = [name for name, _ in spec.vary]
     tables = store.tables(keys)
     # no point finished: an empty table, never an earlier run's
@@ -60,20 +73,18 @@ def run_sweep(spec: SweepSpec, out_dir: str, *, workers: int | None = None, dask
     if variants:
         tables["variants"] = variant_table(tables)
         tables["variants_best"] = best_variants(tables["variants"])
+    tables.update(extra or {})
     # the earlier run's figures and variant tables go first: interrupted after the new
     # tables, the folder holds no figure of another run (the report redraws its own)
     remove_stale_figures(os.path.join(out_dir, "figures"), keep=[])
-    if not variants:
-        for name in VARIANT_FILES:
-            remove_file(os.path.join(out_dir, name))
-    _write_tables(out_dir, tables, {"spec": spec.to_dict(), "points": len(keys), "keys": keys},
-                  extra=VARIANT_FILES if variants else ())
+    for name in (*([] if variants else VARIANT_FILES), *([] if extra else EXTRA_FILES)):
+        remove_file(os.path.join(out_dir, name))
+    _write_tables(out_dir, tables, {"spec": spec.to_dict(), "points": len(keys), "keys": keys, **(manifest or {})},
+                  extra=(*(VARIANT_FILES if variants else ()), *(f"{name}.parquet" for name in extra or {})))
     figures = draw_figures(tables, os.path.join(out_dir, "figures"), varied=varied)
     if variants:
         figures += draw_variants(tables["variants"], os.path.join(out_dir, "figures"))
-    return SweepResult(total=len(keys), done_before=run.done_before, computed=run.computed, failed=run.failed,
-                       seconds=time.perf_counter() - t0, tables=tables, figures=figures,
-                       point_seconds=run.point_seconds)
+    return tables, figures
 
 
 def _write_tables(out_dir: str, tables: dict, manifest: dict, extra: tuple = ()) -> None:

@@ -39,6 +39,9 @@ float curvature_between(vec3 p0, vec3 n0, vec3 p1, vec3 n1) {
 // returning `flags`: the incident side and the relative index as that function finds
 // them. Needs the uniform array `ior`.
 float interaction_rate(float s, float w, vec3 d_in, vec3 d_out, vec3 n, float kappa, int material, uint flags) {
+#ifdef DIFFERENTIAL_UNPROPAGATED
+    return s;  // a negative control (tests only): the rate kept through every interaction
+#endif
     bool from_outside = dot(d_in, n) <= 0.0;
     float mu = from_outside ? 1.0 / ior[material] : ior[material];
     return differential_rate(s, w, d_in, d_out, from_outside ? n : -n, mu, from_outside ? kappa : -kappa,
