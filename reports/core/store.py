@@ -251,7 +251,8 @@ def point_row(key: str, summary: dict) -> dict:
            "map_reads_per_frame": summary.get("map_reads", {}).get("per_frame"),
            "map_reads_per_segment": summary.get("map_reads", {}).get("per_segment"),
            "emission_reads_per_frame": summary.get("cost", {}).get("emission_reads"),
-           "splats_per_frame": summary.get("cost", {}).get("splats"), "frame_cost": summary.get("cost", {}).get("total")}
+           "splats_per_frame": summary.get("cost", {}).get("splats"),
+           "frame_cost": summary.get("cost", {}).get("total")}
     for name, metrics in (("caustic", caustic), ("combined", combined)):
         relmse = metrics.get("relative_mse", {})
         row[f"{name}_relmse_debiased"] = relmse.get("debiased")
