@@ -35,6 +35,15 @@ energy_ratio``'s mean), as its *part of the relative MSE* Σ term · (R − A) /
 total error; a negative part is a term that cancels some of another's error), and
 with its own relative MSE Σ term² / Σ R².
 
+Debiased parts. Σ term · (R − A) also holds the noise the term shares with R − A: the
+exact images replay A's photons, so their noise is correlated with A's, the more so the
+closer their kernels (adaptive splats, whose kernels are narrow where photons are dense,
+put ~3 points of sphere1's relative MSE into the residual's part that way). Each row's
+``relmse_part_debiased`` subtracts that covariance, estimated over the paired batches
+(and R's variance from the residual and the total): the debiased parts sum to the total's,
+Σ(R − A)² less A's variance of the mean and R's floor — the debiased relative MSE. Their
+standard errors are taken as the raw parts' (the correction is a constant of the batches).
+
 Noise. Every image but R comes as K *paired* batch images: batch k of each is the
 caustic of the same emission texels (photon subset k of one seed, times K), so the
 terms, which difference images of the same photons, keep their small noise. A
@@ -123,7 +132,7 @@ def decompose_caustic(batches: dict, reference, *, keep=None, reference_var=None
       ``terms``: name → H×W×3 image (the five terms);
       ``rows``: one dict per term and for ``total`` (R − A) — ``term``,
         ``energy_share``, ``relmse_part``, ``relmse_own`` and their standard errors
-        ``*_se`` — then ``noise``: ``energy_sigma`` (σ of the total's energy share)
+        ``*_se``, and ``relmse_part_debiased`` — then ``noise``: ``energy_sigma`` (σ of the total's energy share)
         and ``relmse`` (the relative MSE noise alone gives: R's floor + A's variance);
       ``residual``: ``energy_share`` and ``energy_se``, ``energy_z``,
         ``debiased_relmse`` (Σ(R − E_∞,s)² less both noises, over Σ R²) and
@@ -205,6 +214,16 @@ def decompose_caustic(batches: dict, reference, *, keep=None, reference_var=None
         if name in ("total", "residual"):
             row["energy_share_se"] = float(np.hypot(row["energy_share_se"], ref_share_sigma))
         rows.append(row)
+    # the parts less the noise each term shares with R − A: per batched image X, C(X) =
+    # Σ cov(X̄, Ā) over the paired batches; a term near − far shares −(C(near) − C(far)),
+    # and R's variance where R is in both (module docstring, "debiased parts")
+    approx_dev = kept["approx"] - sums["approx"] / k
+    shared = {name: float(np.sum((kept[name] - sums[name] / k) * approx_dev)) / (k - 1) / k for name in BATCHED}
+    shared["reference"] = 0.0
+    for row in rows:
+        near, far = TERMS.get(row["term"], ("reference", "approx"))
+        own_reference = float(rv.sum()) if near == "reference" else 0.0
+        row["relmse_part_debiased"] = row["relmse_part"] + (shared[near] - shared[far] - own_reference) / energy2
     approx_var = kept["approx"].var(axis=0, ddof=1, dtype=np.float64) / k
     rows.append({"term": "noise", "energy_sigma": next(x for x in rows if x["term"] == "total")["energy_share_se"],
                  "relmse": (float(rv.sum()) + float(approx_var.sum())) / energy2})

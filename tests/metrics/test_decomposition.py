@@ -402,3 +402,26 @@ def test_residual_relmse_standard_error_matches_the_spread_when_unbiased(referen
     assert np.mean(estimates) == pytest.approx(0.0, abs=4 * spread / np.sqrt(200))
     ratio = spread / np.sqrt(np.mean(np.square(errors)))
     assert 0.55 < ratio < 0.85, f"spread / stated SE = {ratio:.2f}"
+
+
+def test_debiased_parts_remove_the_noise_a_term_shares_with_the_error():
+    """Every exact image is A's photons (the same noise) and R the truth: the error is
+    pure noise. The raw parts carry it (the residual's, R − E_∞,s, shares E_∞,s's noise
+    with A's: its raw part is far from 0, the negative control), the debiased parts do
+    not: each within 4 SE of 0 (tolerance: 4 jackknife SE), and they sum to the total's,
+    the relative MSE less A's variance of the mean."""
+    rng = np.random.default_rng(21)
+    truth = _truth()
+    noise = _blurred_noise(rng, (K, H, W, 3), 0.05)
+    batches = {name: truth + noise for name in BATCHED}
+    result = decompose_caustic(batches, truth)
+    residual, total = _row(result, "residual"), _row(result, "total")
+    assert residual["relmse_part"] > 4 * residual["relmse_part_se"]
+    for term in FIVE:
+        row = _row(result, term)
+        assert abs(row["relmse_part_debiased"]) <= 4 * row["relmse_part_se"] + 1e-15, term
+    a = batches["approx"]
+    debiased_total = (np.sum((truth - a.mean(axis=0)) ** 2) - a.var(axis=0, ddof=1).sum() / K) / np.sum(truth**2)
+    assert total["relmse_part_debiased"] == pytest.approx(debiased_total, rel=1e-9)
+    assert sum(_row(result, t)["relmse_part_debiased"] for t in FIVE) == pytest.approx(
+        total["relmse_part_debiased"], rel=1e-9)
