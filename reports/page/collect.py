@@ -118,6 +118,8 @@ def load_sweep(folder: str) -> SweepTables:
     if not isinstance(spec, dict) or not isinstance(spec.get("vary"), dict):
         raise ReportError(f"--sweep {folder}: sweep.json has no spec with a \"vary\" table: rerun the sweep")
     names = ("segments", "photons", "images", "points")
+    if isinstance(doc.get("files"), dict) and "best.parquet" in doc["files"]:
+        names += ("best",)  # the best-configuration search's table (reports.sweep.best)
     hashes = _check_hashes(folder, doc, names)
     tables = {name: _sweep_table(folder, name) for name in names}
     if len(tables["points"]) == 0:

@@ -13,6 +13,7 @@ from html import escape
 
 from volcaustics.metrics.intersection import OUTCOME_CLASSES
 from volcaustics.reports.page.images import SCALES, colour_bar_css
+from volcaustics.reports.sweep.best import TERMS as BEST_TERMS
 from volcaustics.reports.sweep.variants import variant_name
 from volcaustics.scenes.formats import COLOUR_LAYERS
 
@@ -319,6 +320,7 @@ def _sweep_section(sweep: dict, figures: dict) -> str:
 {_num(factor, '{:g}')}× the best over that parameter (the other varied parameters at their largest).</p>
 <table id='suffice'>{head}{rows}</table>
 {_variants_table(sweep.get('variants'))}
+{_best_table(sweep.get('best'))}
 {figs}
 </section>"""
 
@@ -353,6 +355,46 @@ its parts (the larger of its ratios to the paper's: |energy share| and relative-
 segment than the paper's search (hardware-independent cost; llvmpipe frame time beside it).
 Figures <code>variants_&lt;scene&gt;</code> below: every variant, the Pareto front, the paper's point circled.</p>
 <table id='variants-best'>{head}{rows}</table>"""
+
+
+def _percent_pm(value, se, fmt="{:.2f}") -> str:
+    """A relative MSE in % (two decimals) with its standard error."""
+    if value is None:
+        return "–"
+    return fmt.format(100 * value) + "%" + (f" ± {100 * se:.2f}" if se is not None else "")
+
+
+def _best_table(best: dict | None) -> str:
+    if not best:
+        return ""
+    v = best["verdict"]
+    head = ("<tr><th class='l'>scene</th><th class='l'>role</th><th class='l'>configuration</th><th>photon_res</th>"
+            "<th>frame cost</th><th>vs the paper's</th><th>caustic relMSE</th><th>vs the paper's</th>"
+            + "".join(f"<th>{escape(t)}</th>" for t in BEST_TERMS) + "</tr>")
+    rows = "".join(
+        f"<tr><td class='l'>{escape(r['scene'])}</td><td class='l'>{escape(r['role'])}</td>"
+        f"<td class='l'>{escape(r['config'])}</td><td>{r['photon_res']}</td>"
+        f"<td>{_num((r.get('frame_cost') or 0) / 1e6 or None, '{:.2f} M')}</td><td>{_num(r['cost_ratio'], '{:.3f}×')}</td>"
+        f"<td>{_percent_pm(r['caustic_relmse_debiased'], r.get('caustic_relmse_se'))}</td>"
+        f"<td>{_num(r['relmse_ratio'], '{:.2f}×')}</td>"
+        + "".join(f"<td>{_percent_pm(r.get(f'relmse_{t}'), None, '{:+.2f}')}</td>" for t in BEST_TERMS) + "</tr>"
+        for r in best["rows"])
+    if v.get("adopted") is None:
+        goal = "<p class='warn'>No configuration was measured on every scene.</p>"
+    else:
+        goal = (f"<p class='note' id='best-verdict'>Adopted for every scene: <code>{escape(v['adopted'])}</code>. "
+                f"Its worst caustic relMSE ratio to the paper's configuration is {v['worst_ratio']:.2f}× "
+                f"(goal ≤ {v['goal']:g}×{'' if v['within_cost'] else ', and it costs more somewhere'}): the goal is "
+                f"<b>{'met' if v['met'] else 'not met'}</b>.</p>")
+    return f"""<h3 id='best'>The best configuration at the paper's cost</h3>
+<p class='note'>{best['points']} points of <code>volcaustics sweep --best</code> (reports/sweep/best.py): every
+configuration at the photon_res that makes its frame cost (map and emission reads + splats, hardware-independent) at
+most the paper configuration's on that scene; a coarse grid, then one-axis moves from the configuration with the least
+worst ratio over the scenes. Per scene: the paper's configuration, the adopted one and the scene's own best; the
+decomposition terms are their parts of the caustic's relative MSE, noise removed (figure
+<code>best_configuration</code>).</p>
+{goal}
+<table id='best-table'>{head}{rows}</table>"""
 
 
 def render_page(summary: dict, images: dict, sweep_figures: dict) -> str:

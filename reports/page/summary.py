@@ -24,6 +24,7 @@ from volcaustics.reports.core.tables import rows_of
 from volcaustics.reports.core.versions import code_version, library_versions
 from volcaustics.reports.experiment.photons import FATES
 from volcaustics.reports.page.images import SCALES
+from volcaustics.reports.sweep.best import role_rows, verdict
 from volcaustics.reports.sweep.suffice import settings_that_suffice
 from volcaustics.reports.sweep.variants import best_variants, is_variants_sweep, variant_table
 from volcaustics.scenes.formats import COLOUR_LAYERS
@@ -176,7 +177,18 @@ def _sweep_summary(sweep) -> dict:
             # photon tables they also draw stay in the store (DIR/segments.parquet, DIR/photons.parquet)
             "point_rows": rows_of(sweep.tables["points"]),
             "suffice_factor": float(wanted["factor"].iloc[0]) if len(wanted) else None, "figures": [],
-            "variants": _variants_summary(sweep), "notes": list(getattr(sweep, "notes", []))}
+            "variants": _variants_summary(sweep), "best": _best_summary(sweep),
+            "notes": list(getattr(sweep, "notes", []))}
+
+
+def _best_summary(sweep) -> dict | None:
+    """The best-configuration search's rows with a role (paper, adopted, scene best) and
+    its verdict (reports/sweep/best.py); None for another sweep."""
+    table = sweep.tables.get("best")
+    if table is None or not len(table):
+        return None
+    adopted = next((r["config"] for _, r in table.iterrows() if "adopted" in str(r["role"]).split(", ")), None)
+    return {"rows": rows_of(role_rows(table)), "verdict": verdict(table, adopted), "points": int(len(table))}
 
 
 def _variants_summary(sweep) -> dict | None:

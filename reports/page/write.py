@@ -15,6 +15,7 @@ from volcaustics.reports.page import charts
 from volcaustics.reports.page.html import render_page
 from volcaustics.reports.page.images import SCALES, data_uri, heatmap_uri, render_uri
 from volcaustics.reports.page.summary import OUTPUT_FILES
+from volcaustics.reports.sweep.best import draw_best
 from volcaustics.reports.sweep.figures import draw_figures
 from volcaustics.reports.sweep.variants import draw_variants, is_variants_sweep, variant_table
 from volcaustics.scenes.storage import atomic_write_texts
@@ -39,6 +40,8 @@ def write_report(out_dir: str, results: list, summary: dict, sweep=None, *, prog
         paths = draw_figures(sweep.tables, figures_dir, varied=sweep.varied)
         if is_variants_sweep(sweep.varied):  # a variants sweep: its Pareto figures per scene too
             paths += draw_variants(variant_table(sweep.tables), figures_dir)
+        if "best" in sweep.tables:  # the best-configuration search: paper, adopted and each scene's best
+            paths += draw_best(sweep.tables["best"], figures_dir)
     remove_stale_figures(figures_dir, keep=paths)
     if sweep is not None:
         for path in paths:

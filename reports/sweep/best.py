@@ -54,7 +54,7 @@ from volcaustics.scenes import BUILTIN_NAMES, resolve_scene
 from volcaustics.scenes.storage import atomic_path
 
 BEST_SPEC = os.path.join(os.path.dirname(os.path.abspath(__file__)), "best.toml")
-BEST_KEYS = ("scenes", "preset", "seeds", "coarse", "refine", "rounds", "reference")
+BEST_KEYS = ("scenes", "preset", "seeds", "coarse", "refine", "rounds", "set", "reference")
 TERMS = ("intersection", "truncation", "reflections", "kernel_blur", "residual")
 GOAL = 0.25  # issue 22: the caustic's relative MSE at most a quarter of the paper configuration's on every scene
 MATCHED = "matched.json"  # the cost-matched photon_res per scene and configuration (a memo: recomputed if lost)
@@ -64,7 +64,9 @@ MIN_PHOTON_RES = 16
 @dataclasses.dataclass(frozen=True)
 class BestSpec:
     """scenes; preset (the paper configuration at the harness's size); seeds per point;
-    coarse, refine: ((name, values), ...); rounds of refinement; reference overrides."""
+    coarse, refine: ((name, values), ...); rounds of refinement; reference overrides;
+    fixed: parameters set on the preset (the paper configuration's too, e.g. a smaller
+    image)."""
 
     scenes: tuple
     preset: str
@@ -73,6 +75,7 @@ class BestSpec:
     refine: tuple
     rounds: int
     reference: dict
+    fixed: dict = dataclasses.field(default_factory=dict)
 
     @property
     def searched(self) -> tuple:
@@ -88,8 +91,8 @@ class BestSpec:
             for name, values in grid:
                 merged.setdefault(name, [])
                 merged[name] += [v for v in values if v not in merged[name]]
-        return SweepSpec(self.scenes, tuple((n, tuple(v)) for n, v in merged.items()), {}, self.preset, self.seeds,
-                         dict(self.reference), grids)
+        return SweepSpec(self.scenes, tuple((n, tuple(v)) for n, v in merged.items()), dict(self.fixed), self.preset,
+                         self.seeds, dict(self.reference), grids)
 
 
 def load_best_spec(path: str = BEST_SPEC, scenes: list | None = None) -> BestSpec:
@@ -113,8 +116,18 @@ def load_best_spec(path: str = BEST_SPEC, scenes: list | None = None) -> BestSpe
     if isinstance(rounds, bool) or not isinstance(rounds, int) or not 0 <= rounds <= 10:
         raise SweepError(f"{path}: rounds = {rounds!r}: expected an integer in [0, 10]")
     names = scenes if scenes is not None else doc.get("scenes", list(BUILTIN_NAMES))
+    fixed = doc.get("set", {})
+    if not isinstance(fixed, dict):
+        raise SweepError(f"{path}: set = {fixed!r}: expected a table [set]")
+    fixed = {name: parse_value(name, v, f"{path}: set", error=SweepError) for name, v in fixed.items()}
+    searched = [n for n, _ in axes["coarse"] + axes["refine"]]
+    if set(fixed) & set(searched):
+        raise SweepError(f"{path}: {sorted(set(fixed) & set(searched))[0]} is both searched and set")
+    reference = doc.get("reference", {})
+    if not isinstance(reference, dict):
+        raise SweepError(f"{path}: reference = {reference!r}: expected a table [reference]")
     spec = BestSpec(tuple(names), doc.get("preset", "quick"), doc.get("seeds", 4), tuple(axes["coarse"]),
-                    tuple(axes["refine"]), rounds, dict(doc.get("reference", {})))
+                    tuple(axes["refine"]), rounds, dict(reference), fixed)
     if spec.preset not in PRESETS:
         raise SweepError(f"{path}: preset = {spec.preset!r}: expected {' or '.join(repr(n) for n in PRESETS)}")
     _checked(spec.sweep_spec(), path)
@@ -200,7 +213,7 @@ class BestSearch:
     progress: bool = True
 
     def __post_init__(self):
-        self.base = preset(self.spec.preset)
+        self.base = preset(self.spec.preset, **self.spec.fixed)
         self.store = Store(self.out_dir)
         self.matcher = CostMatcher(self.out_dir)
         self.points = {}        # (scene, config) → Point

@@ -15,6 +15,7 @@ from volcaustics.reports import runner
 from volcaustics.reports.core.plotting import remove_stale_figures
 from volcaustics.reports.core.sizing import reference_settings
 from volcaustics.reports.core.store import TABLES, Store, document_sha256
+from volcaustics.reports.sweep.best import draw_best
 from volcaustics.reports.sweep.figures import draw_figures
 from volcaustics.reports.sweep.spec import SweepError, SweepSpec, points
 from volcaustics.reports.sweep.suffice import settings_that_suffice
@@ -84,6 +85,8 @@ def consolidate(store: Store, out_dir: str, spec: SweepSpec, keys: list, *, extr
     figures = draw_figures(tables, os.path.join(out_dir, "figures"), varied=varied)
     if variants:
         figures += draw_variants(tables["variants"], os.path.join(out_dir, "figures"))
+    if "best" in tables:
+        figures += draw_best(tables["best"], os.path.join(out_dir, "figures"))
     return tables, figures
 
 
