@@ -97,10 +97,15 @@ def _run_best(args) -> int:
         se = "" if pd.isna(r["caustic_relmse_se"]) else f" ± {100 * r['caustic_relmse_se']:.2f}"
         print(f"  {r['scene']:<12} {r['role']:<20} {r['config']}: photon_res {r['photon_res']}, cost "
               f"{r['cost_ratio']:.3f}x, caustic relMSE {100 * r['caustic_relmse_debiased']:.2f}%{se} "
-              f"({r['relmse_ratio']:.2f}x the paper's)")
+              f"({r['relmse_ratio']:.2f}x the paper's); one frame {100 * r['frame_relmse']:.2f}% "
+              f"({r['frame_ratio']:.2f}x)")
     if adopted is not None:
         print(f"adopted for every scene: {adopted}; worst ratio {result['worst_ratio']:.2f}x against the goal "
-              f"{result['goal']:g}x: {'met' if result['met'] else 'not met'}")
+              f"{result['goal']:g}x: {'met' if result['met'] else 'not met'}; one frame: worst ratio "
+              f"{result.get('worst_frame_ratio', float('nan')):.2f}x")
+        if result.get("frame_adopted"):
+            print(f"least worst one-frame ratio: {result['frame_adopted']} "
+                  f"({result['frame_adopted_worst_ratio']:.2f}x)")
     for failure in failed:
         print(f"  failed: {failure['key'][:12]}: {failure['error']}", file=sys.stderr)
     return 1 if failed else 0

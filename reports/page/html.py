@@ -235,7 +235,8 @@ def _decomposition_table(d: dict) -> str:
                    f"<td>{_num(_hundred(t['energy_share']), '{:+.1f}%')} ± "
                    f"{_num(_hundred(t['energy_share_se']), '{:.1f}')}</td>"
                    f"<td>{_num(_hundred(t['relmse_part']), '{:.2f}')} ± "
-                   f"{_num(_hundred(t['relmse_part_se']), '{:.2f}')}</td></tr>"
+                   f"{_num(_hundred(t['relmse_part_se']), '{:.2f}')}</td>"
+                   f"<td>{_num(_hundred(t.get('relmse_part_debiased')), '{:+.2f}')}</td></tr>"
                    for t in d["terms"] + [d["total"]])
     res = d["residual"]
     text = (f"residual {'within' if res['within_noise'] else 'NOT within'} noise (energy z "
@@ -243,7 +244,8 @@ def _decomposition_table(d: dict) -> str:
     verdict = _verdict(bool(res["within_noise"]), text)
     msg = f"<p class='warn'>{escape(res['message'])}</p>" if res.get("message") else ""
     return (f"<table><tr><th class='l'>term</th><th>energy share (% of R) ± SE</th>"
-            f"<th>part of the relative MSE (% points) ± SE</th></tr>{rows}</table><p>{verdict}</p>{msg}")
+            f"<th>part of the relative MSE (% points) ± SE</th><th>its part less the noise it shares with R − A"
+            f"</th></tr>{rows}</table><p>{verdict}</p>{msg}")
 
 
 def _timing_table(t: dict) -> str:
@@ -370,6 +372,7 @@ def _best_table(best: dict | None) -> str:
     v = best["verdict"]
     head = ("<tr><th class='l'>scene</th><th class='l'>role</th><th class='l'>configuration</th><th>photon_res</th>"
             "<th>frame cost</th><th>vs the paper's</th><th>caustic relMSE</th><th>vs the paper's</th>"
+            "<th>one frame's relMSE</th><th>vs the paper's</th>"
             + "".join(f"<th>{escape(t)}</th>" for t in BEST_TERMS) + "</tr>")
     rows = "".join(
         f"<tr><td class='l'>{escape(r['scene'])}</td><td class='l'>{escape(r['role'])}</td>"
@@ -377,6 +380,8 @@ def _best_table(best: dict | None) -> str:
         f"<td>{_num((r.get('frame_cost') or 0) / 1e6 or None, '{:.2f} M')}</td><td>{_num(r['cost_ratio'], '{:.3f}×')}</td>"
         f"<td>{_percent_pm(r['caustic_relmse_debiased'], r.get('caustic_relmse_se'))}</td>"
         f"<td>{_num(r['relmse_ratio'], '{:.2f}×')}</td>"
+        f"<td>{_percent_pm(r.get('frame_relmse'), r.get('frame_relmse_se'))}</td>"
+        f"<td>{_num(r.get('frame_ratio'), '{:.2f}×')}</td>"
         + "".join(f"<td>{_percent_pm(r.get(f'relmse_{t}'), None, '{:+.2f}')}</td>" for t in BEST_TERMS) + "</tr>"
         for r in best["rows"])
     if v.get("adopted") is None:
@@ -385,7 +390,10 @@ def _best_table(best: dict | None) -> str:
         goal = (f"<p class='note' id='best-verdict'>Adopted for every scene: <code>{escape(v['adopted'])}</code>. "
                 f"Its worst caustic relMSE ratio to the paper's configuration is {v['worst_ratio']:.2f}× "
                 f"(goal ≤ {v['goal']:g}×{'' if v['within_cost'] else ', and it costs more somewhere'}): the goal is "
-                f"<b>{'met' if v['met'] else 'not met'}</b>.</p>")
+                f"<b>{'met' if v['met'] else 'not met'}</b>. One frame (bias and the frame's own noise, what a "
+                f"viewer sees): its worst ratio {_num(v.get('worst_frame_ratio'), '{:.2f}×')}"
+                + (f"; the least worst one-frame ratio, {v['frame_adopted_worst_ratio']:.2f}×, is "
+                   f"<code>{escape(v['frame_adopted'])}</code>" if v.get("frame_adopted") else "") + ".</p>")
     return f"""<h3 id='best'>The best configuration at the paper's cost</h3>
 <p class='note'>{best['points']} points of <code>volcaustics sweep --best</code> (reports/sweep/best.py): every
 configuration at the photon_res that makes its frame cost (map and emission reads + splats, hardware-independent) at
