@@ -194,7 +194,7 @@ def _best_summary(sweep) -> dict | None:
 def _variants_summary(sweep) -> dict | None:
     """A variants sweep's table per point and, per scene, the paper's point and the best
     variant at no more map reads per segment (reports/sweep/variants.py); else None."""
-    if not is_variants_sweep(sweep.varied):
+    if not is_variants_sweep(sweep.varied) or "best" in sweep.tables:  # the best search has its own view
         return None
     table = variant_table(sweep.tables)
     return {"best": rows_of(best_variants(table)), "points": rows_of(table)}

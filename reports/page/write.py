@@ -38,7 +38,7 @@ def write_report(out_dir: str, results: list, summary: dict, sweep=None, *, prog
     figures_dir = os.path.join(out_dir, "figures")
     if sweep is not None:
         paths = draw_figures(sweep.tables, figures_dir, varied=sweep.varied)
-        if is_variants_sweep(sweep.varied):  # a variants sweep: its Pareto figures per scene too
+        if is_variants_sweep(sweep.varied) and "best" not in sweep.tables:  # a variants sweep: its Pareto figures
             paths += draw_variants(variant_table(sweep.tables), figures_dir)
         if "best" in sweep.tables:  # the best-configuration search: paper, adopted and each scene's best
             paths += draw_best(sweep.tables["best"], figures_dir)

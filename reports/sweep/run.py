@@ -70,7 +70,8 @@ def consolidate(store: Store, out_dir: str, spec: SweepSpec, keys: list, *, extr
     tables = store.tables(keys)
     # no point finished: an empty table, never an earlier run's
     tables["suffice"] = settings_that_suffice(tables["points"], varied) if len(tables["points"]) else pd.DataFrame()
-    variants = is_variants_sweep(varied) and len(tables["points"]) > 0
+    # the best search's points differ in photon_res and more than the variant: not a variants view
+    variants = is_variants_sweep(varied) and len(tables["points"]) > 0 and "best" not in (extra or {})
     if variants:
         tables["variants"] = variant_table(tables)
         tables["variants_best"] = best_variants(tables["variants"])

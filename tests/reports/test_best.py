@@ -174,3 +174,9 @@ def test_the_search_writes_its_table_and_the_report_shows_it(env, tmp_path, caps
     assert "id='best-table'" in html and "id='best-verdict'" in html and "best_configuration" in html
     summary = json.loads((report / "summary.json").read_text())
     assert summary["sweep"]["best"]["verdict"]["adopted"] == manifest["best"]["adopted"]
+
+
+def test_best_with_grid_options_is_refused_before_anything_runs(tmp_path, capsys):
+    assert main(["sweep", "--best", "-o", str(tmp_path / "out"), "--vary", "layers=1,2"]) == 2
+    assert "belong to its SPEC file" in capsys.readouterr().err
+    assert not (tmp_path / "out").exists()
