@@ -11,6 +11,7 @@ import json
 import pandas as pd
 import pytest
 
+from tests.reports.test_sweep import SMALL_TABLES
 from volcaustics.approx.params import PAPER, QUICK
 from volcaustics.reports.cli import main
 from volcaustics.reports.sweep import best
@@ -25,17 +26,7 @@ rounds = 1
 splat = ["fixed", "adaptive"]
 [refine]
 emission = ["uniform", "adaptive"]
-[set]
-width = 32
-height = 32
-photon_res = 64
-light_res = 64
-[reference]
-photons = 65536
-spp = 8
-batches = 4
-target_noise = "none"
-"""
+""" + SMALL_TABLES
 
 
 @pytest.fixture

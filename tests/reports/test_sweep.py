@@ -19,13 +19,8 @@ from volcaustics.reports.cli import main
 from volcaustics.reports.core.store import SUMMARY, Store, sealed
 
 # tiny points: 32², photon_res 64, light_res 64; a reference of 4 batches
-SPEC = """
-scenes = ["refocus"]
-seeds = 1
-[vary]
-layers = [1, 2]
-iterations = [4, 8]
-[set]
+# a sweep's small image and reference (also the best search's, tests/reports/test_best.py)
+SMALL_TABLES = """[set]
 width = 32
 height = 32
 photon_res = 64
@@ -36,6 +31,13 @@ spp = 8
 batches = 4
 target_noise = "none"
 """
+SPEC = """
+scenes = ["refocus"]
+seeds = 1
+[vary]
+layers = [1, 2]
+iterations = [4, 8]
+""" + SMALL_TABLES
 
 
 @pytest.fixture
