@@ -348,7 +348,7 @@ def with_roles(table: pd.DataFrame, adopted: str | None) -> pd.DataFrame:
 
 
 # The cost is matched at the first seed; the mean over the seeds may exceed the paper's by its
-# seed-to-seed spread (docs/decisions.md "Best configuration": at most 0.4% measured).
+# seed-to-seed spread (docs/decisions.md "The best-configuration search": at most +0.11% measured).
 COST_SLACK = 0.01
 
 
