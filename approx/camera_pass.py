@@ -66,11 +66,13 @@ class CameraPasses:
             fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
             vao = geometry.vertex_array(ctx, prog, "specular")
             if vao is not None:
+                geometry.use(prog, "specular")
                 _set(prog, kind=float(KIND_SPECULAR), material=0.0)
                 vao.render(moderngl.TRIANGLES)
                 vao.release()
             vao = geometry.vertex_array(ctx, prog, "diffuse")
             if vao is not None:
+                geometry.use(prog, "diffuse")
                 for i, (first, count) in enumerate(geometry.diffuse_ranges):
                     _set(prog, kind=float(KIND_DIFFUSE), material=float(i))
                     vao.render(moderngl.TRIANGLES, vertices=count, first=first)

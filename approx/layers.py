@@ -88,8 +88,10 @@ class LightMapRenderer:
             query = ctx.query(samples=True)
             with query:
                 if self.vao_specular is not None:
+                    self.geometry.use(prog, "specular")
                     self.vao_specular.render(moderngl.TRIANGLES)
                 if include_diffuse and self.vao_diffuse is not None:
+                    self.geometry.use(prog, "diffuse")
                     self.vao_diffuse.render(moderngl.TRIANGLES)
             ctx.disable(moderngl.DEPTH_TEST)
         self.last_samples = query.samples
@@ -107,12 +109,12 @@ class LightMapRenderer:
         """Level thresholds along the spot axis: uniform over the specular objects' extent.
 
         Level 0 keeps everything; level i > 0 starts at d_min + i·(d_max − d_min)/layers,
-        with d the distance along the axis over the specular bounding box corners.
+        with d the distance along the axis over the corners of the placed specular
+        objects' bounding box.
         """
-        g = self.geometry
-        corners = np.array([[x, y, z] for x in (g.specular_min[0], g.specular_max[0])
-                            for y in (g.specular_min[1], g.specular_max[1])
-                            for z in (g.specular_min[2], g.specular_max[2])])
+        lo_box, hi_box = self.geometry.objects_box
+        corners = np.array([[x, y, z] for x in (lo_box[0], hi_box[0]) for y in (lo_box[1], hi_box[1])
+                            for z in (lo_box[2], hi_box[2])])
         along = (corners - frustum.position) @ frustum.direction
         lo, hi = float(along.min()), float(along.max())
         return [-np.inf] + [lo + i * (hi - lo) / layers for i in range(1, layers)]

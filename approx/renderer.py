@@ -1,10 +1,11 @@
 """``approx.render(scene, params) -> Frame``: the paper's whole pipeline, one frame.
 
 A :class:`Renderer` keeps the GL context, compiled programs and the scene's
-vertex buffers; changing the light, the camera, the medium or the parameters
-retraces without re-uploading geometry (the paper retraces every frame).
-Everything that depends on the light or the camera — the medium's box, which
-holds both (``scenes.bounds``), the light frustum, the camera's far plane — is
+vertex buffers (object space); changing the light, the camera, the medium, the
+parameters or where the objects are (rigid transforms) retraces without
+re-uploading geometry (the paper retraces every frame). Everything that depends on
+them — the objects' matrices, the medium's box, which holds every mesh, the light
+and the camera (``scenes.bounds``), the light frustum, the camera's far plane — is
 computed per frame from the scene being rendered.
 """
 
@@ -95,11 +96,13 @@ class Renderer:
 
     def render(self, scene=None, params: ApproxParams | None = None, *, keep_records: bool = True) -> Frame:
         """Render one frame. ``scene`` (None: the construction's) may replace light,
-        medium, camera or materials of the scene given at construction (same meshes);
+        medium, camera, materials or object transforms of the scene given at
+        construction (same meshes, in the same order: else ValueError);
         ``params`` None: the paper's defaults."""
         ctx = self.ctx
         scene = scene or self.scene
         p = (params or ApproxParams()).resolved(scene)
+        self.geometry.place(scene)  # this frame's object transforms (meshes stay uploaded)
         timer = PassTimer(ctx, self._use_queries)
         wall0 = time.perf_counter()
         box = medium_bounds(scene)  # holds light and camera: this frame's, not the construction's
@@ -162,7 +165,7 @@ class Renderer:
         for step in range(1, p.steps + 1):
             with timer.measure(f"trace_step{step}"):
                 tracer.trace_step(scene, frustum, box, maps["texels"], maps["info"], p.light_res, photons, record_buf,
-                                  count, step, p.seed, objects_box=(geo.specular_min, geo.specular_max))
+                                  count, step, p.seed, objects_box=geo.objects_box)
             with timer.measure("splat"):
                 n_splats = tracer.compact_splats(record_buf, count, splat_buf, p)
                 step_image = self._black_image(p)
@@ -209,6 +212,7 @@ class Renderer:
         ctx = self.ctx
         scene = scene or self.scene
         p = (params or ApproxParams()).resolved(scene)
+        self.geometry.place(scene)
         view = _camera_view(scene, p, medium_bounds(scene))
         camera_passes, splatter = self._shading_programs(scene, p)
         gbuf_geo, gbuf_nrm = camera_passes.render_gbuffer(self.geometry, view)

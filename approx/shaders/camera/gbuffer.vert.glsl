@@ -1,4 +1,6 @@
 // Camera G-buffer: what the primary ray through each pixel centre hits.
+#include "common/model.glsl"
+
 uniform mat4 view_proj;
 
 in vec3 in_position;
@@ -9,7 +11,9 @@ out vec3 v_position;
 out vec3 v_normal;
 
 void main() {
-    v_position = in_position;
-    v_normal = in_normal;
-    gl_Position = view_proj * vec4(in_position, 1.0);
+    mat4 model = object_to_world(in_material);
+    vec4 world = model * vec4(in_position, 1.0);
+    v_position = world.xyz;
+    v_normal = normalize(mat3(model) * in_normal);
+    gl_Position = view_proj * world;
 }
