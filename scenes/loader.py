@@ -38,6 +38,14 @@ Every problem raises :class:`scenes.errors.SceneError` naming the file, the key
     name = "floor"
     mesh = { generator = "quad", size_x = 8, size_z = 8 }
     albedo = 0.5
+
+    [animation]                   # optional: keyframed tracks (scenes.animation)
+    frames = 24
+    fps = 12
+    [[animation.track]]
+    path = "specular.glass.translate"
+    frame = [0, 23]
+    value = [[0, 0.8, 0], [0, 1.6, 0]]
 """
 
 from __future__ import annotations
@@ -45,6 +53,7 @@ from __future__ import annotations
 import math
 import os
 import re
+from dataclasses import replace
 from typing import Any, Callable
 
 try:
@@ -52,6 +61,7 @@ try:
 except ModuleNotFoundError:  # Python 3.10
     import tomli as tomllib
 
+from .animation import MAX_FRAMES, OBJECT_PATHS, TRACK_PATHS, Animation, Track, aim, track_kind
 from .errors import SceneError
 from .generators import GENERATORS
 from .mesh import MeshReadError, closedness_problem, winding_number
@@ -223,16 +233,22 @@ def _camera(ctx, key, value) -> Camera:
         height=t.get("height", _integer(1, 16384), 512),
     )
     t.finish()
+    _check_view(ctx, cam)
+    return cam
+
+
+def _check_view(ctx, cam: Camera, where: str = "") -> None:
+    """The camera looks somewhere: target ≠ position, up not along the view."""
     forward = [b - a for a, b in zip(cam.position, cam.target)]
     norm = math.sqrt(sum(x * x for x in forward))
     if norm < 1e-9:
-        raise ctx.error("camera.target", list(cam.target), "must differ from camera.position")
+        raise ctx.error("camera.target", list(cam.target), f"must differ from camera.position{where}")
     cross = [forward[1] * cam.up[2] - forward[2] * cam.up[1],
              forward[2] * cam.up[0] - forward[0] * cam.up[2],
              forward[0] * cam.up[1] - forward[1] * cam.up[0]]
     if math.sqrt(sum(x * x for x in cross)) < 1e-6 * norm:
-        raise ctx.error("camera.up", list(cam.up), "must not be parallel to the view direction (target - position)")
-    return cam
+        raise ctx.error("camera.up", list(cam.up),
+                        f"must not be parallel to the view direction (target - position){where}")
 
 
 def _light(ctx, key, value) -> SpotLight:
@@ -358,6 +374,99 @@ def _diffuse(ctx, key, value, index) -> DiffuseSurface:
     return DiffuseSurface(name, mesh, albedo)
 
 
+# --- [animation] (scenes.animation) ------------------------------------------------
+
+def _track_values(kind: str) -> Callable:
+    return {"point": _vec3, "direction": _direction, "rgb": _rgb(0.0, unit="1/m or W/sr"),
+            "angle": lambda c, k, v: (_view_angle(c, k, v),), "euler": _vec3,
+            "scale": lambda c, k, v: (_ranged(1.0 / COORDINATE_LIMIT, COORDINATE_LIMIT)(c, k, v),)}[kind]
+
+
+def _track(ctx, key, value, index, scene: Scene) -> Track:
+    t = _Table(ctx, key, value)
+    path = t.get("path", _string)
+    try:
+        kind, interpolation = track_kind(path)
+    except KeyError:
+        raise ctx.error(f"{key}.path", path, "expected one of " + ", ".join(
+            [*TRACK_PATHS, *(f"specular.NAME.{k}" for k in OBJECT_PATHS)])) from None
+    if path.startswith("specular."):
+        name = path[len("specular."):path.rindex(".")]
+        names = [o.name for o in scene.specular]
+        if name not in names:
+            raise ctx.error(f"{key}.path", path,
+                            f"NAME must be a specular object's name ({', '.join(names) or 'none'})")
+    frames = t.get("frame", _keyframes)
+    values = t.get("value", lambda c, k, v: _key_values(c, k, v, len(frames), kind))
+    t.finish()
+    if path == "light.intensity":
+        for j, v in enumerate(values):
+            if not max(v) > 0:
+                raise ctx.error(f"{key}.value[{j}]", list(v),
+                                "must be > 0 in some channel: a dark light lights nothing")
+    if interpolation == "slerp" and kind == "direction":
+        for j in range(1, len(values)):
+            if sum(a * b for a, b in zip(values[j - 1], values[j])) < -1 + 1e-9:
+                raise ctx.error(f"{key}.value[{j}]", list(values[j]), "must not be opposite to the key before it "
+                                                                     "(the arc between them is not unique)")
+    return Track(path, frames, values)
+
+
+def _keyframes(ctx, key, v):
+    if not isinstance(v, list) or not v:
+        raise ctx.error(key, v, "expected a non-empty list of increasing frame numbers >= 0")
+    frames = tuple(_ranged(0.0, MAX_FRAMES)(ctx, f"{key}[{i}]", x) for i, x in enumerate(v))
+    for i in range(1, len(frames)):
+        if not frames[i] > frames[i - 1]:
+            raise ctx.error(f"{key}[{i}]", v[i], f"expected frame numbers increasing (after {frames[i - 1]:g})")
+    return frames
+
+
+def _key_values(ctx, key, v, count: int, kind: str):
+    if not isinstance(v, list) or len(v) != count:
+        raise ctx.error(key, v, f"expected a list of {count} values, one per keyframe in `frame`")
+    parse = _track_values(kind)
+    return tuple(tuple(parse(ctx, f"{key}[{i}]", x)) for i, x in enumerate(v))
+
+
+def _animation(ctx, value, scene: Scene) -> Animation:
+    t = _Table(ctx, "animation", value)
+    frames = t.get("frames", _integer(1, MAX_FRAMES))
+    fps = t.get("fps", _ranged(0.0, 1000.0, low_open=True, unit="frames per second"), 24.0)
+    tracks = t.get("track", lambda c, k, v: _objects(c, k, v, lambda c2, k2, v2, i: _track(c2, k2, v2, i, scene)), ())
+    t.finish()
+    paths = [tr.path for tr in tracks]
+    for i, path in enumerate(paths):
+        if path in paths[:i]:
+            raise ctx.error(f"animation.track[{i}].path", path, "each path may have one track")
+    if "light.target" in paths and "light.direction" in paths:
+        raise ctx.error(f"animation.track[{paths.index('light.target')}].path", "light.target",
+                        "not with a light.direction track: the target sets the direction")
+    animation = Animation(frames, fps, tracks)
+    _check_frames(ctx, animation, scene)
+    return animation
+
+
+def _check_frames(ctx, animation: Animation, scene: Scene) -> None:
+    """Every frame is a valid scene: the camera looks somewhere from outside the glass,
+    the light aims somewhere."""
+    paths = {tr.path for tr in animation.tracks}
+    moves = any(p.startswith(("camera.", "specular.")) for p in paths)
+    for frame in range(animation.frames):
+        values = {tr.path: tr.at(frame) for tr in animation.tracks}
+        where = f" (animation frame {frame})"
+        if "light.target" in values:
+            position = values.get("light.position", scene.light.position)
+            try:
+                aim(position, values["light.target"])
+            except ValueError:
+                raise ctx.error("light.position", list(position), f"must differ from light.target{where}") from None
+        if moves:
+            at = animation.scene_at(scene, frame)
+            _check_view(ctx, at.camera, where)
+            _check_camera_outside(ctx, at.camera, at.specular, where)
+
+
 # --- entry points -----------------------------------------------------------------
 
 def parse_scene(data: dict, *, file: str | None = None, base_dir: str = ".", source: str | None = None) -> Scene:
@@ -372,6 +481,7 @@ def parse_scene(data: dict, *, file: str | None = None, base_dir: str = ".", sou
     medium = t.get("medium", _medium, Medium())
     specular = t.get("specular", lambda c, k, v: _objects(c, k, v, _specular), ())
     diffuse = t.get("diffuse", lambda c, k, v: _objects(c, k, v, _diffuse), ())
+    animation = t.get("animation", lambda c, k, v: v, None)
     t.finish()
     seen = {}
     for kind, objs in (("specular", specular), ("diffuse", diffuse)):
@@ -380,13 +490,20 @@ def parse_scene(data: dict, *, file: str | None = None, base_dir: str = ".", sou
                 raise ctx.error(f"{kind}[{i}].name", obj.name,
                                 f"names must be unique (already used by {seen[obj.name]})")
             seen[obj.name] = f"{kind}[{i}]"
+    _check_camera_outside(ctx, camera, specular)
+    scene = Scene(name=name, description=description, camera=camera, light=light, medium=medium,
+                  specular=specular, diffuse=diffuse, source=source)
+    if animation is not None:
+        scene = replace(scene, animation=_animation(ctx, animation, scene))
+    return scene
+
+
+def _check_camera_outside(ctx, camera: Camera, specular, where: str = "") -> None:
     for i, obj in enumerate(specular):
         if winding_number(obj.mesh.load(), camera.position) > 0.5:
             raise ctx.error("camera.position", list(camera.position),
                             f"the camera must be outside every specular object "
-                            f"(it is inside specular[{i}] '{obj.name}')")
-    return Scene(name=name, description=description, camera=camera, light=light, medium=medium,
-                 specular=specular, diffuse=diffuse, source=source)
+                            f"(it is inside specular[{i}] '{obj.name}'){where}")
 
 
 def load_scene(path: str) -> Scene:

@@ -166,7 +166,9 @@ class DiffuseSurface:
 @dataclass(frozen=True)
 class Scene:
     """A whole scene. ``name``, ``description`` and ``source`` are labels and do
-    not enter :meth:`scene_hash`; every physical parameter does."""
+    not enter :meth:`scene_hash`; every physical parameter does. ``animation`` (an
+    optional sequence of frames, each a static scene: ``Animation.scene_at``) does not
+    enter it either: it is this scene at rest that renders."""
 
     name: str
     camera: Camera
@@ -176,6 +178,7 @@ class Scene:
     diffuse: tuple[DiffuseSurface, ...] = ()
     description: str = ""
     source: str | None = None
+    animation: Any = None  # scenes.animation.Animation or None: frames of this scene (not in scene_hash)
 
     def canonical_json(self) -> str:
         from .canonical import canonical_json
