@@ -45,6 +45,15 @@ def model_matrices(scene) -> np.ndarray:
     return models
 
 
+def bind_identity_models(ctx: moderngl.Context, program) -> moderngl.Buffer:
+    """For a draw of world-space vertices through the shared vertex stage (the preview):
+    identity matrices bound, model_base 0; returns the buffer (the caller releases it)."""
+    models = ctx.buffer(np.tile(np.eye(4, dtype=np.float32), (MAX_MODELS, 1, 1)).tobytes())
+    models.bind_to_uniform_block(MODELS_BINDING)
+    program["model_base"].value = 0
+    return models
+
+
 def specular_bounds(scene) -> tuple[np.ndarray, np.ndarray]:
     """(min, max) of the specular objects' world vertices (float32-rounded, as the GPU holds
     them up to its own rounding: users pad), each (3,) float64; zeros without objects."""

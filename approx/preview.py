@@ -14,6 +14,7 @@ import moderngl
 import numpy as np
 
 from .context import bound
+from .geometry import bind_identity_models
 from .glsl import program
 from .transforms import gl_matrix, look_at, perspective
 
@@ -58,7 +59,7 @@ def render_preview(ctx: moderngl.Context, scene, width: int | None = None, heigh
     depth = ctx.depth_renderbuffer((width, height))
     fbo = ctx.framebuffer(color_attachments=[color], depth_attachment=depth)
     objects = [(o.mesh, o.albedo) for o in scene.diffuse] + [(o.mesh, SPECULAR_PREVIEW_ALBEDO) for o in scene.specular]
-    resources = []
+    resources = [bind_identity_models(ctx, prog)]  # the vertices below are in world space
     with bound(ctx, fbo):
         ctx.enable(moderngl.DEPTH_TEST)
         fbo.clear(0.0, 0.0, 0.0, 1.0, depth=1.0)
