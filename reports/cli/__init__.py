@@ -11,7 +11,7 @@ import argparse
 import sys
 
 EXIT_USAGE = 2
-COMMANDS = ("doctor", "scenes", "approx", "reference", "export", "measure", "sweep", "gate", "report")
+COMMANDS = ("doctor", "scenes", "approx", "reference", "export", "measure", "animate", "sweep", "gate", "report")
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -71,8 +71,8 @@ def _lut(colormap: str, n: int = 256) -> np.ndarray:
     return (np.asarray(matplotlib.colormaps[colormap](np.linspace(0.0, 1.0, n)))[:, :3] * 255 + 0.5).astype(np.uint8)
 
 
-def heatmap_uri(values: np.ndarray, scale: Scale) -> str:
-    """An H×W map (NaN: not compared) coloured on ``scale``, as a PNG data URI."""
+def heatmap_rgb8(values: np.ndarray, scale: Scale) -> np.ndarray:
+    """An H×W map (NaN: not compared) coloured on ``scale``: H×W×3 uint8."""
     v = np.asarray(values, np.float64)
     if v.ndim == 3:
         v = v[..., 0]
@@ -80,7 +80,12 @@ def heatmap_uri(values: np.ndarray, scale: Scale) -> str:
     lut = _lut(scale.colormap)
     rgb = lut[np.clip(np.nan_to_num(u, nan=0.0) * 255 + 0.5, 0, 255).astype(np.int64)]
     rgb[np.isnan(u)] = scale.nan_colour
-    return data_uri(png_bytes(rgb))
+    return rgb
+
+
+def heatmap_uri(values: np.ndarray, scale: Scale) -> str:
+    """An H×W map (NaN: not compared) coloured on ``scale``, as a PNG data URI."""
+    return data_uri(png_bytes(heatmap_rgb8(values, scale)))
 
 
 def colour_bar_css(scale: Scale, stops: int = 9) -> str:

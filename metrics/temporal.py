@@ -1,0 +1,140 @@
+"""Temporal error: how a sequence's frame-to-frame change differs from the reference's
+(DESIGN.md "Dynamic scenes"). Pure numpy, float64 accumulation.
+
+With ΔX_t = X_t − X_{t−1}, the flicker of a pair is Σ(ΔA − ΔR)² / Σ R² over the compared
+pixels, Σ R² the mean of the two reference frames' energies. A reference frame R̂_t is
+an unbiased estimate with a known per-pixel variance v_t (of its mean), independent
+between frames, so E Σ(ΔA − ΔR̂)² = Σ(ΔA − ΔR)² + Σ(v_t + v_{t−1}): that much is
+subtracted (``reference_noise``). What remains is what a viewer sees change wrongly:
+the approximation's own frame-to-frame noise (a new seed every frame) plus the
+systematic part (caustics that swim over the photon grid, beams that pop). With S ≥ 2
+independent chains of the approximation (each a whole sequence with its own seeds),
+the chains' spread estimates the noise part, and ``systematic`` = flicker − noise is
+what no seed averaging removes. A test sequence that is itself a Monte Carlo estimate
+with known per-pixel variance (a second reference) may pass ``test_var``: its noise is
+then subtracted as well, so two references of the same frames score 0 within noise.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+NAN = float("nan")
+
+
+@dataclass(frozen=True)
+class PairFlicker:
+    """One frame pair (t − 1, t) of :func:`flicker`. Fractions of the pair's Σ R².
+
+    raw: mean over chains of Σ(ΔA − ΔR̂)²; reference_noise: Σ(v_t + v_{t−1});
+    flicker = raw − reference_noise (− the test's own Σ var when ``test_var`` is given);
+    test_noise: the approximation's frame-to-frame noise, Σ var over chains of ΔA
+    (nan with one chain and no test_var); systematic = flicker − test_noise (with
+    ``test_var``: flicker itself); standard_error of ``flicker``, z = flicker / SE.
+    """
+
+    frame: int
+    raw: float
+    reference_noise: float
+    test_noise: float
+    flicker: float
+    systematic: float
+    standard_error: float
+    z: float
+    energy: float
+    pixels: int
+    chains: int
+
+
+def flicker(reference, reference_var, chains, *, test_var=None, mask=None) -> list[PairFlicker]:
+    """Flicker of every frame pair of a sequence against its reference.
+
+    Parameters
+    ----------
+    reference : T×H×W×C reference frames (means), linear radiance.
+    reference_var : T×H×W×C, the variance of each reference pixel's mean.
+    chains : S×T×H×W×C approximation frames: S independent sequences (seeds).
+    test_var : optional T×H×W×C per-pixel variance of a Monte Carlo test's frames
+        (then S must be 1): its noise is subtracted too.
+    mask : optional T×H×W booleans: the pixels compared in each frame (a pair compares
+        the pixels kept in both of its frames).
+
+    Standard error: the chains are independent given R̂, so the spread of the chains'
+    Σ(ΔA − ΔR̂)² over √S gives their part (S ≥ 2); R̂'s own noise, shared by the
+    chains, adds 4 Σ b̂² v + 2 Σ v² (v = v_t + v_{t−1}, b̂² = d̄² − v clipped at 0,
+    Gaussian pixel noise); with ``test_var`` the test's variance joins v. With one chain
+    and no ``test_var`` the SE is conditional on the approximation's frames.
+    """
+    r, rv, a = (np.asarray(x, np.float64) for x in (reference, reference_var, chains))
+    if r.ndim != 4 or rv.shape != r.shape or a.ndim != 5 or a.shape[1:] != r.shape:
+        raise ValueError(f"shapes: reference {r.shape}, reference_var {rv.shape}, chains {a.shape} "
+                         "(expected T×H×W×C, T×H×W×C, S×T×H×W×C)")
+    if len(r) < 2:
+        raise ValueError(f"{len(r)} frame(s): flicker needs at least 2")
+    tv = None if test_var is None else np.asarray(test_var, np.float64)
+    if tv is not None and (tv.shape != r.shape or len(a) != 1):
+        raise ValueError("test_var: expected T×H×W×C like the reference, with one chain")
+    keep = np.ones(r.shape[:3], bool) if mask is None else np.asarray(mask, bool)
+    if keep.shape != r.shape[:3]:
+        raise ValueError(f"mask shape {keep.shape}: expected {r.shape[:3]}")
+    return [_pair(t, r, rv, a, tv, keep[t] & keep[t - 1]) for t in range(1, len(r))]
+
+
+def _pair(t, r, rv, a, tv, keep) -> PairFlicker:
+    s = len(a)
+    energy = 0.5 * float(np.sum(r[t][keep] ** 2) + np.sum(r[t - 1][keep] ** 2))
+    if energy == 0.0:
+        raise ValueError(f"frames {t - 1} and {t}: the reference is zero over the compared pixels")
+    d_ref = (r[t] - r[t - 1])[keep]
+    v = (rv[t] + rv[t - 1])[keep]
+    d = np.stack([(c[t] - c[t - 1])[keep] - d_ref for c in a])  # S×N×C: ΔA − ΔR̂ per chain
+    per_chain = np.sum(d * d, axis=(1, 2))
+    raw, ref_noise = float(per_chain.mean()), float(v.sum())
+    v_test = None if tv is None else (tv[t] + tv[t - 1])[keep]
+    if v_test is not None:
+        test_noise = float(v_test.sum())
+    elif s >= 2:
+        test_noise = float(np.sum(np.var(d, axis=0, ddof=1)))  # the chains' spread: ΔA's own variance
+    else:
+        test_noise = NAN
+    value = raw - ref_noise - (test_noise if v_test is not None else 0.0)
+    systematic = value if v_test is not None else value - test_noise
+    v_all = v + (v_test if v_test is not None else 0.0)
+    bias2 = max(float(np.sum(np.maximum(np.mean(d, axis=0) ** 2 - v_all, 0.0) * v_all)), 0.0)
+    variance = 4.0 * bias2 + 2.0 * float(np.sum(v_all ** 2))
+    if s >= 2:
+        variance += float(per_chain.var(ddof=1)) / s
+    se = float(np.sqrt(variance))
+    z = value / se if se > 0 else (0.0 if value == 0 else float(np.copysign(np.inf, value)))
+    return PairFlicker(frame=t, raw=raw / energy, reference_noise=ref_noise / energy, test_noise=test_noise / energy,
+                       flicker=value / energy, systematic=systematic / energy, standard_error=se / energy, z=z,
+                       energy=energy, pixels=int(keep.sum()), chains=s)
+
+
+def energy_jitter(reference, reference_var, chains, *, mask=None) -> list[dict]:
+    """The energy ratio's frame-to-frame change: per frame t, e_t = Σ Ā_t / Σ R̂_t over the
+    kept pixels (channels averaged, Ā the chains' mean) and per pair Δe = e_t − e_{t−1},
+    with the SE of Δe that the reference totals' noise alone gives (pixels independent)
+    and the chains' spread adds (S ≥ 2). Rows: {"frame", "energy_ratio", "jitter",
+    "jitter_se"} (jitter nan for frame 0)."""
+    r, rv, a = (np.asarray(x, np.float64) for x in (reference, reference_var, chains))
+    keep = np.ones(r.shape[:3], bool) if mask is None else np.asarray(mask, bool)
+    rows, previous = [], None
+    for t in range(len(r)):
+        ref_total = r[t][keep[t]].sum(axis=0)
+        if np.any(ref_total <= 0):
+            raise ValueError(f"frame {t}: the reference total is not positive in every channel")
+        per_chain = np.array([c[t][keep[t]].sum(axis=0) / ref_total for c in a]).mean(axis=1)
+        ratio = float(per_chain.mean())
+        var = float(np.mean(rv[t][keep[t]].sum(axis=0) / ref_total ** 2)) * ratio ** 2
+        if len(a) >= 2:
+            var += float(per_chain.var(ddof=1)) / len(a)
+        if previous is None:
+            jitter, se = NAN, NAN
+        else:
+            jitter, se = ratio - previous[0], float(np.sqrt(var + previous[1]))
+        rows.append({"frame": t, "energy_ratio": ratio, "jitter": jitter, "jitter_se": se})
+        previous = (ratio, var)
+    return rows

@@ -1,0 +1,166 @@
+"""An animation's frames: the approximation through one Renderer (meshes uploaded once,
+each frame's scene and seed), the reference of every frame through the runner's cache
+(``reports.runner.reference_for``, keyed by each frame's ``scene_hash``).
+
+Resumable and interrupt-safe: each rendered frame's approximation images (every seed
+mode and chain) and times go to ``DIR/.animate/frame-NNNN.npz`` at once (written to a
+temporary file, then renamed); a run with the same key (the scene's frames, parameters,
+chains, seed modes, reference settings and code version) reads them back instead of
+rendering again, and a finished reference is in the cache. Another key empties the folder.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import os
+import shutil
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+from tqdm import tqdm
+
+from volcaustics.approx import Renderer
+from volcaustics.reports.animate.settings import chain_seed, sized_reference
+from volcaustics.reports.core.tables import plain
+from volcaustics.reports.core.versions import code_version
+from volcaustics.reports.runner import reference_for
+from volcaustics.scenes.formats import COLOUR_LAYERS, MASK_LAYER
+from volcaustics.scenes.storage import atomic_path, atomic_write_text, read_json_object
+
+WORK = ".animate"  # DIR/.animate: the frames rendered so far
+
+
+@dataclass
+class AnimationFrames:
+    """What :func:`render_animation` produced, frame by frame (``frames``: animation frame
+    numbers). ``approx``: seed mode → layer → S×T×H×W×C float32 (mask_specular H×W×1);
+    ``references``: per frame a ``ReferenceResult``; ``approx_seconds``: per frame the
+    median frame time over its renders; ``reference_seconds``: per frame the wall time
+    of its reference render (the cache's record when it came from the cache)."""
+
+    scene: object
+    params: object
+    frames: list
+    modes: tuple
+    chains: int
+    approx: dict
+    references: list
+    approx_seconds: list
+    reference_seconds: list
+    reference_cached: list
+    resumed: int = 0
+    gl: dict = field(default_factory=dict)
+
+
+def run_key(scene, params, frames, modes, chains, settings) -> str:
+    """SHA-256 of everything that decides the work folder's contents."""
+    animation = scene.animation
+    doc = {"frames": [animation.scene_at(scene, t).scene_hash() for t in frames], "params": params.to_dict(),
+           "modes": list(modes), "chains": chains, "reference": dataclasses.asdict(settings),
+           "code_version": code_version()}
+    return hashlib.sha256(json.dumps(plain(doc), sort_keys=True).encode()).hexdigest()
+
+
+def render_animation(scene, params, *, frames: list, modes: tuple, chains: int, reference_settings, out_dir: str,
+                     progress: bool = True) -> AnimationFrames:
+    """Render (or read back) every frame of ``frames`` of ``scene.animation``.
+
+    ``params``: resolved approximation parameters (width/height set); the reference is
+    rendered at that size with ``reference_settings``."""
+    settings = sized_reference(reference_settings, params.width, params.height)
+    work = _work_folder(out_dir, run_key(scene, params, frames, modes, chains, settings))
+    animation = scene.animation
+    renderer = None
+    images = {mode: {layer: [] for layer in (*COLOUR_LAYERS, MASK_LAYER)} for mode in modes}
+    references, approx_seconds, reference_seconds, cached, resumed, gl = [], [], [], [], 0, {}
+    try:
+        for t in tqdm(frames, desc=f"animate {scene.name}", unit="frame", disable=not progress):
+            at = animation.scene_at(scene, t)
+            t0 = time.perf_counter()
+            reference = reference_for(at, settings, "continue")
+            references.append(reference)
+            cached.append(bool(reference.cached))
+            reference_seconds.append(float(reference.manifest.get("wall_seconds") or time.perf_counter() - t0))
+            stored = _read_frame(work, t, modes, chains)
+            if stored is None:
+                if renderer is None:
+                    renderer = Renderer(at)
+                    renderer.render(at, params, keep_records=False)  # compiles the shaders: not timed
+                stored = _render_frame(renderer, at, params, t, modes, chains)
+                _write_frame(work, t, stored)
+                gl = gl or stored.pop("gl", {})
+            else:
+                resumed += 1
+            for mode in modes:
+                for layer in images[mode]:
+                    images[mode][layer].append(stored[f"{mode}/{layer}"])
+            approx_seconds.append(float(np.median(stored["seconds"])))
+    finally:
+        if renderer is not None:
+            renderer.release()
+    approx = {mode: {layer: np.stack(v, axis=1) for layer, v in layers.items()} for mode, layers in images.items()}
+    return AnimationFrames(scene=scene, params=params, frames=list(frames), modes=tuple(modes), chains=chains,
+                           approx=approx, references=references, approx_seconds=approx_seconds,
+                           reference_seconds=reference_seconds, reference_cached=cached, resumed=resumed, gl=gl)
+
+
+def _render_frame(renderer, scene, params, t: int, modes, chains: int) -> dict:
+    out, seconds = {}, []
+    for mode in modes:
+        per_layer = {layer: [] for layer in (*COLOUR_LAYERS, MASK_LAYER)}
+        for chain in range(chains):
+            p = dataclasses.replace(params, seed=chain_seed(mode, params.seed, chain, chains, t))
+            frame = renderer.render(scene, p, keep_records=False)
+            seconds.append(frame.timings["frame_wall"])
+            out["gl"] = frame.gl
+            for layer in per_layer:
+                image = frame.images[layer]
+                per_layer[layer].append(image[..., :1] if layer == MASK_LAYER else image)
+        for layer, stack in per_layer.items():
+            out[f"{mode}/{layer}"] = np.stack(stack).astype(np.float32)
+    out["seconds"] = np.asarray(seconds, np.float64)
+    return out
+
+
+def _work_folder(out_dir: str, key: str) -> str:
+    work = os.path.join(out_dir, WORK)
+    key_file = os.path.join(work, "key.json")
+    try:
+        same = read_json_object(key_file).get("key") == key
+    except (OSError, ValueError):
+        same = False
+    if not same and os.path.isdir(work):
+        shutil.rmtree(work)
+    os.makedirs(work, exist_ok=True)
+    if not same:
+        atomic_write_text(key_file, json.dumps({"key": key}))
+    return work
+
+
+def _frame_file(work: str, t: int) -> str:
+    return os.path.join(work, f"frame-{t:04d}.npz")
+
+
+def _write_frame(work: str, t: int, arrays: dict) -> None:
+    with atomic_path(_frame_file(work, t)) as tmp:
+        with open(tmp, "wb") as fh:
+            np.savez(fh, **{k: v for k, v in arrays.items() if k != "gl"})
+
+
+def _read_frame(work: str, t: int, modes, chains: int) -> dict | None:
+    """A stored frame, or None (absent or damaged: rendered again)."""
+    path = _frame_file(work, t)
+    if not os.path.isfile(path):
+        return None
+    try:
+        with np.load(path) as data:
+            arrays = {k: np.asarray(data[k]) for k in data.files}
+    except (OSError, ValueError, KeyError, EOFError):
+        return None
+    wanted = [f"{m}/{layer}" for m in modes for layer in (*COLOUR_LAYERS, MASK_LAYER)]
+    if any(k not in arrays or len(arrays[k]) != chains or not np.isfinite(arrays[k]).all() for k in wanted):
+        return None
+    return arrays if "seconds" in arrays else None

@@ -1,0 +1,65 @@
+"""What an animation run renders: its reference budget, image size and seeds.
+
+The budget keeps a built-in's default animation (24 frames) within about five minutes
+cold on a 2-core machine: 128 pixels on the longer side, 2^22 photons and 32 camera
+samples per pixel in 8 batches per frame, no noise target (3–5 s per frame here; the
+caustic's noise floor 0.04–0.1%, the fog's 0.3%: docs/decisions.md "Animation budget").
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+from volcaustics.reference.settings import ReferenceSettings
+
+ANIMATION_SIZE = 128  # pixels on the longer side when no width/height is given
+ANIMATION_REFERENCE = ReferenceSettings(photons=1 << 22, spp=32, batches=8, target_noise=None, max_seconds=600.0)
+SEED_MODES = ("fixed", "per-frame")
+DEFAULT_CHAINS = 2  # independent sequences per seed mode: the approximation's own noise needs 2
+
+
+def chain_seed(mode: str, base: int, chain: int, chains: int, frame: int) -> int:
+    """The approximation's seed of ``chain`` at ``frame``: ``fixed`` keeps one seed per chain
+    (base + chain) over the whole animation; ``per-frame`` advances it every frame
+    (base + chain + chains·(frame + 1)), never a fixed chain's seed."""
+    if mode == "fixed":
+        return base + chain
+    if mode == "per-frame":
+        return base + chain + chains * (frame + 1)
+    raise ValueError(f"seed mode {mode!r}: expected one of {', '.join(SEED_MODES)}")
+
+
+def animation_size(camera) -> tuple[int, int]:
+    """(width, height) with the camera's aspect, ANIMATION_SIZE on the longer side."""
+    scale = ANIMATION_SIZE / max(camera.width, camera.height)
+    return max(1, round(camera.width * scale)), max(1, round(camera.height * scale))
+
+
+def frame_list(text: str | None, frames: int) -> list[int]:
+    """The frames to render: all (None); ``N`` evenly spaced over the animation, first and
+    last included; or a slice ``A:B[:STEP]`` of 0 … frames − 1. ValueError names the fix."""
+    every = list(range(frames))
+    if text is None:
+        return every
+    text = text.strip()
+    try:
+        if ":" in text:
+            parts = [int(p) if p.strip() else None for p in text.split(":")]
+            if len(parts) > 3 or (len(parts) == 3 and parts[2] is not None and parts[2] <= 0):
+                raise ValueError
+            chosen = every[slice(*parts)]
+        else:
+            n = int(text)
+            if n < 1:
+                raise ValueError
+            chosen = sorted({round(i * (frames - 1) / max(n - 1, 1)) for i in range(min(n, frames))})
+    except ValueError:
+        raise ValueError(f"--frames = {text!r}: expected a count N ≥ 1 or a slice A:B[:STEP] of frames "
+                         f"0 … {frames - 1} (STEP > 0)") from None
+    if not chosen:
+        raise ValueError(f"--frames = {text!r}: selects no frame of 0 … {frames - 1}")
+    return chosen
+
+
+def sized_reference(settings: ReferenceSettings, width: int, height: int) -> ReferenceSettings:
+    return dataclasses.replace(settings, width=width, height=height)
