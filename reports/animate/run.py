@@ -1,6 +1,7 @@
 """An animation's frames: the approximation through one Renderer (meshes uploaded once,
 each frame's scene and seed), the reference of every frame through the runner's cache
-(``reports.runner.reference_for``, keyed by each frame's ``scene_hash``).
+(``reports.runner.reference_for``, keyed by each frame's ``scene_hash``), each frame with
+its own reference seed (``settings.reference_seed``: independent noise between frames).
 
 Resumable and interrupt-safe: each rendered frame's approximation images (every seed
 mode and chain) and times go to ``DIR/.animate/frame-NNNN.npz`` at once (written to a
@@ -23,7 +24,7 @@ import numpy as np
 from tqdm import tqdm
 
 from volcaustics.approx import Renderer
-from volcaustics.reports.animate.settings import chain_seed, sized_reference
+from volcaustics.reports.animate.settings import chain_seed, reference_seed, sized_reference
 from volcaustics.reports.core.tables import plain
 from volcaustics.reports.core.versions import code_version
 from volcaustics.reports.runner import reference_for
@@ -80,7 +81,8 @@ def render_animation(scene, params, *, frames: list, modes: tuple, chains: int, 
         for t in tqdm(frames, desc=f"animate {scene.name}", unit="frame", disable=not progress):
             at = animation.scene_at(scene, t)
             t0 = time.perf_counter()
-            reference = reference_for(at, settings, "continue")
+            reference = reference_for(at, dataclasses.replace(settings, seed=reference_seed(settings.seed, t)),
+                                      "continue")
             references.append(reference)
             cached.append(bool(reference.cached))
             reference_seconds.append(float(reference.manifest.get("wall_seconds") or time.perf_counter() - t0))

@@ -1,0 +1,88 @@
+"""Flicker and energy jitter (metrics.temporal) on synthetic sequences with known answers."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from volcaustics.metrics.temporal import energy_jitter, flicker
+
+T, H, W = 6, 24, 24
+
+
+def _truth(rng):
+    """A sequence whose true frames change: a bright blob moving one pixel per frame."""
+    y, x = np.mgrid[0:H, 0:W]
+    frames = [1.0 + 4.0 * np.exp(-((x - 6 - t) ** 2 + (y - 12) ** 2) / 8.0) for t in range(T)]
+    return np.repeat(np.stack(frames)[..., None], 3, axis=3)
+
+
+def _noisy(truth, sigma, rng):
+    return truth + rng.normal(0.0, sigma, truth.shape)
+
+
+def test_two_references_of_the_same_frames_score_zero_within_noise():
+    """Two independent unbiased estimates, each with its per-pixel variance: the flicker of
+    one against the other, less both noises, has |z| < 4 on every pair, over 20 draws."""
+    rng = np.random.default_rng(1)
+    truth = _truth(rng)
+    sigma = 0.3
+    var = np.full(truth.shape, sigma**2)
+    zs = []
+    for _ in range(20):
+        r1, r2 = _noisy(truth, sigma, rng), _noisy(truth, sigma, rng)
+        pairs = flicker(r1, var, r2[None], test_var=var)
+        zs += [p.z for p in pairs]
+        assert all(p.systematic == p.flicker for p in pairs)
+    # 100 pairs: |z| < 4 each (the estimator's own SE; a miscalibrated one would exceed it)
+    assert max(abs(z) for z in zs) < 4, zs
+    assert abs(np.mean(zs)) < 0.5  # unbiased: the mean of 100 z's has SE ≈ 0.1 (pairs share frames)
+
+
+def test_a_wrong_change_is_flagged():
+    """Negative control: the test sequence lags the truth by one frame (a beam that pops
+    late): flicker far above its SE."""
+    rng = np.random.default_rng(2)
+    truth = _truth(rng)
+    var = np.full(truth.shape, 0.01)
+    lagged = np.concatenate([truth[:1], truth[:-1]])
+    pairs = flicker(_noisy(truth, 0.1, rng), var, lagged[None])
+    assert min(p.z for p in pairs[1:]) > 10
+
+
+def test_per_frame_noise_flickers_and_a_fixed_seed_does_not():
+    """Chains with noise e: a fixed seed repeats e every frame (ΔA = Δtruth: flicker 0
+    within noise); a new seed every frame gives E flicker = 2σ²·N / ΣR² (N = pixels × 3)
+    per pair. With two chains the noise part is estimated, and the systematic part is 0
+    within noise in both cases."""
+    rng = np.random.default_rng(3)
+    truth = _truth(rng)
+    sigma = 0.2
+    reference, var = truth, np.zeros(truth.shape)
+    fixed = np.stack([truth + rng.normal(0.0, sigma, truth.shape[1:])[None] for _ in range(2)])
+    moving = np.stack([_noisy(truth, sigma, rng) for _ in range(2)])
+    still = flicker(reference, var, fixed)
+    flicking = flicker(reference, var, moving)
+    for p in still:
+        assert abs(p.flicker) < 1e-12
+    for p in flicking:
+        expected = 2 * sigma**2 * truth[0].size / p.energy
+        assert p.flicker == pytest.approx(expected, rel=0.1)  # 3456 values: the χ² mean's relative SD is 2.4%
+        assert p.test_noise == pytest.approx(expected, rel=0.15)
+        assert abs(p.systematic) < 4 * p.standard_error
+
+
+def test_energy_jitter_by_hand():
+    """Energy ratios 1, 1.1, 0.9 (the chains' mean, one chain scaled): jitters +0.1, −0.2."""
+    truth = np.ones((3, 4, 4, 3))
+    chains = (truth * np.array([1.0, 1.1, 0.9])[:, None, None, None])[None]
+    rows = energy_jitter(truth, np.zeros_like(truth), chains)
+    assert [r["energy_ratio"] for r in rows] == pytest.approx([1.0, 1.1, 0.9])
+    assert np.isnan(rows[0]["jitter"]) and [r["jitter"] for r in rows[1:]] == pytest.approx([0.1, -0.2])
+
+
+def test_bad_shapes_are_refused():
+    with pytest.raises(ValueError, match="at least 2"):
+        flicker(np.ones((1, 2, 2, 3)), np.ones((1, 2, 2, 3)), np.ones((1, 1, 2, 2, 3)))
+    with pytest.raises(ValueError, match="shapes"):
+        flicker(np.ones((2, 2, 2, 3)), np.ones((2, 2, 2, 3)), np.ones((2, 2, 2, 3)))
