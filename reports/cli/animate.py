@@ -7,6 +7,7 @@ import time
 
 from volcaustics.reference.settings import ReferenceSettings
 from volcaustics.reports.animate.metrics import frame_rows, summarize, temporal_rows
+from volcaustics.reports.animate.read import KIND
 from volcaustics.reports.animate.run import WORK, render_animation
 from volcaustics.reports.animate.settings import (
     ANIMATION_REFERENCE,
@@ -85,7 +86,8 @@ def run(args) -> int:
     run_ = render_animation(scene, params, frames=frames, modes=args.modes, chains=args.chains,
                             reference_settings=settings, out_dir=args.output, progress=not args.quiet)
     frames_table, temporal = frame_rows(run_), temporal_rows(run_)
-    summary = {"scene": scene.name, "scene_hash": scene.scene_hash(), "animation": scene.animation.canonical_dict(),
+    summary = {"kind": KIND, "scene": scene.name, "scene_hash": scene.scene_hash(),
+               "animation": scene.animation.canonical_dict(),
                "frames": frames, "seed_modes": list(args.modes), "chains": args.chains, "params": params.to_dict(),
                "reference": {**dataclasses.asdict(settings), "width": params.width, "height": params.height,
                              "keys": [r.key for r in run_.references]},

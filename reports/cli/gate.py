@@ -2,7 +2,14 @@
 
 from __future__ import annotations
 
-from volcaustics.reports.cli.common import UsageError, add_gate_inputs, check_output_file, check_output_set, scene_list
+from volcaustics.reports.cli.common import (
+    UsageError,
+    add_gate_inputs,
+    check_output_file,
+    check_output_set,
+    path_type,
+    scene_list,
+)
 from volcaustics.reports.core.params import parse_overrides
 from volcaustics.reports.gate.budgets import GateError, default_budgets_path, load_budgets
 from volcaustics.reports.gate.outputs import VERDICT, console_table
@@ -23,6 +30,9 @@ def register(sub) -> None:
     p.add_argument("--out", default="runs/gate", help="gate.json and failure images (default runs/gate)")
     p.add_argument("--render-references", dest="render_references", action="store_true",
                    help="render missing references (else a missing one is an error, exit 2)")
+    p.add_argument("--animation", action="append", type=path_type, metavar="DIR",
+                   help="also hold an animation that `volcaustics animate SCENE -o DIR` measured to the budgets' "
+                        "[animation.SCENE] flicker limits (repeatable)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
 
@@ -39,7 +49,8 @@ def run(args) -> int:
     budgets = load_budgets(args.budgets or default_budgets_path())
     result = run_gate(budgets, overrides=overrides, baseline_dir=args.baseline, update_baseline=args.update_baseline,
                       out_dir=args.out, scenes=scene_list(args.scenes, "--scenes"), seeds=args.seeds, seed=args.seed,
-                      render_references=args.render_references, junit=args.junit, progress=not args.quiet)
+                      render_references=args.render_references, junit=args.junit,
+                      animation_dirs=args.animation or (), progress=not args.quiet)
     print(console_table(result.checks))
     failed = sum(not c.passed for c in result.checks)
     print(f"gate {'FAILED' if failed else 'passed'}: {failed} of {len(result.checks)} checks failed, "

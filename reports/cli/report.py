@@ -29,6 +29,9 @@ def register(sub) -> None:
     add_gate_inputs(p, scenes="comma-separated SCENE arguments (default: every built-in)")
     p.add_argument("--sweep", type=path_type, metavar="DIR",
                    help="add a sweep store's figures and settings that suffice")
+    p.add_argument("--animation", action="append", type=path_type, metavar="DIR",
+                   help="add an animation that `volcaustics animate SCENE -o DIR` measured: the 'Over time' section "
+                        "(repeatable)")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     add_report_reference(p)
     p.set_defaults(func=run)
@@ -41,7 +44,7 @@ def run(args) -> int:
     summary = run_report(args.out, names if names is not None else list(BUILTIN_NAMES),
                          overrides=parse_overrides(args.set, error=ReportError), seeds=args.seeds, seed=args.seed,
                          reference_settings=report_settings(args), budgets=budgets, baseline_dir=args.baseline,
-                         sweep_dir=args.sweep, progress=not args.quiet)
+                         sweep_dir=args.sweep, animation_dirs=args.animation or (), progress=not args.quiet)
     for page in summary["scenes"]:
         c = page["components"]
         failed = [ch["name"] for ch in page["gate"]["checks"] if not ch["passed"]]
@@ -53,6 +56,10 @@ def run(args) -> int:
               f"{pct(c['combined']['relative_mse'].get('debiased'))}; gate {gate}")
     gate = summary["gate"]
     verdict = "passed" if gate["passed"] else "FAILED" if gate["failed"] else "not checked"
+    for row in summary["animations"]:
+        m = row["metrics"][row["seed_modes"][0]]["caustic"]
+        print(f"{row['scene']:<12} over time: caustic flicker {pct(m['flicker'])} ({row['seed_modes'][0]} seed), "
+              f"{len(row['frames'])} frames" + (" (measured with other code: rerun animate)" if row["stale"] else ""))
     print(f"report: {len(summary['scenes'])} scenes, gate {verdict} ({gate['failed']} of {gate['checks']} checks "
           f"failed), {summary['seconds']['total']:.0f} s -> {args.out}/index.html")
     return 0

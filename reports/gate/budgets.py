@@ -12,6 +12,9 @@ Budgets (TOML; ``reports/gate/budgets.toml`` is the default for the built-ins)::
     combined.relmse_max = 0.02
     segments.missed_step2_max = 0.05  # step-2 segments missed (inside glass or in the medium)
     segments.dt_p90_step2_max = 0.006 # |Δt| p90 of step-2 true hits, m
+    [animation.refocus]               # checked on `gate --animation DIR` (volcaustics animate)
+    caustic.flicker_max = 0.05        # mean flicker over the frame pairs, fixed seed (metrics.temporal)
+    caustic.flicker_per_frame_max = 0.08  # the same with a new seed every frame
 
 A budget tighter than the measurement can resolve — a relative-MSE limit below the
 reference's floor plus 3 standard errors, an energy band narrower than 3 σ of the
@@ -34,7 +37,9 @@ from volcaustics.scenes.catalogue import scene_relative_to
 RESOLVE_SIGMAS = 3.0    # a budget must lie this many standard errors beyond the noise
 COMPONENT_KEYS = ("relmse_max", "energy_ratio", "hdr_flip_max")
 SEGMENT_KEYS = ("missed_step2_max", "dt_p90_step2_max")
-TOP_KEYS = ("preset", "seeds", "scene", "reference")
+FLICKER_KEYS = {"flicker_max": "fixed", "flicker_per_frame_max": "per-frame"}  # budget → the seed mode it checks
+COMPONENTS = ("caustic", "fog", "direct", "combined")
+TOP_KEYS = ("preset", "seeds", "scene", "reference", "animation")
 
 
 class GateError(ValueError):
@@ -101,12 +106,62 @@ def load_budgets(path: str) -> dict:
                     raise GateError(f"{where} = {limit!r}: expected a positive number")
                 checks[f"{group}.{key}"] = limit
         out[name] = checks
+    animations = _flicker_budgets(path, doc.get("animation", {}))
     reference = doc.get("reference", {})
     if not isinstance(reference, dict) or any(k not in REFERENCE_KEYS for k in reference):
         raise GateError(f"{path}: reference = {reference!r}: expected a table of {', '.join(REFERENCE_KEYS)}")
     settings = reference_settings(reference, error=lambda message: GateError(f"{path}: {message}"))
     return {"preset": preset, "seeds": seeds, "scenes": out, "scene_args": args, "path": path,
-            "reference_settings": settings}
+            "reference_settings": settings, "animations": animations}
+
+
+def _flicker_budgets(path: str, tables) -> dict:
+    """``[animation.NAME]``: scene name → {"component.key": limit} over FLICKER_KEYS."""
+    if not isinstance(tables, dict):
+        raise GateError(f"{path}: animation = {tables!r}: expected [animation.NAME] tables")
+    out = {}
+    for name, table in tables.items():
+        if not isinstance(table, dict) or not table:
+            raise GateError(f"{path}: animation.{name} = {table!r}: expected a table of flicker budgets")
+        limits = {}
+        for group, values in table.items():
+            if group not in COMPONENTS or not isinstance(values, dict):
+                raise GateError(f"{path}: animation.{name}.{group}: expected a table named {', '.join(COMPONENTS)}")
+            for key, limit in values.items():
+                where = f"{path}: animation.{name}.{group}.{key}"
+                if key not in FLICKER_KEYS:
+                    raise GateError(f"{where}: unknown; expected {', '.join(FLICKER_KEYS)}")
+                if isinstance(limit, bool) or not isinstance(limit, (int, float)) or not math.isfinite(limit) \
+                        or not limit > 0:
+                    raise GateError(f"{where} = {limit!r}: expected a positive number")
+                limits[f"{group}.{key}"] = float(limit)
+        out[name] = limits
+    return out
+
+
+def flicker_checks(animation: dict, limits: dict, path: str) -> list:
+    """An animation's flicker (``animate``'s summary) against its budgets; GateError for a
+    budget on a seed mode it did not measure, a NaN, or a limit the noise cannot resolve."""
+    s = animation["summary"]
+    scene, checks = s["scene"], []
+    for name, limit in limits.items():
+        group, key = name.split(".", 1)
+        mode = FLICKER_KEYS[key]
+        if mode not in s["seed_modes"]:
+            raise GateError(f"{path}: animation.{scene}.{name} checks the {mode} seed, which "
+                            f"{animation['folder']} did not measure: rerun animate with both seed modes")
+        m = s["metrics"][mode][group]
+        value = _number(m.get("flicker"), scene, f"{group} flicker ({mode} seed)")
+        se = m.get("flicker_se") or 0.0
+        if limit < RESOLVE_SIGMAS * se:
+            raise GateError(f"{scene}: animation.{scene}.{name} = {limit:g} is tighter than the noise can resolve "
+                            f"({RESOLVE_SIGMAS:g} SE = {RESOLVE_SIGMAS * se:.2e}): raise it or animate more chains")
+        check = Check(scene, f"over_time.{name}", value, f"≤ {limit:g}", value <= limit,
+                      detail={"standard_error": se, "seed_mode": mode, "folder": animation["folder"]})
+        if not check.passed:
+            check.message = f"{scene}: over_time.{name} = {value:.4g}, limit {check.limit}"
+        checks.append(check)
+    return checks
 
 
 def check_measurable(budgets: dict, names, params) -> None:

@@ -15,8 +15,10 @@ import time
 from dataclasses import dataclass
 
 from volcaustics.reports import runner
+from volcaustics.reports.animate.read import load_animation
+from volcaustics.reports.core.versions import code_version
 from volcaustics.reports.experiment.settings import measured_settings
-from volcaustics.reports.gate.budgets import GateError, check_measurable
+from volcaustics.reports.gate.budgets import GateError, check_measurable, flicker_checks
 from volcaustics.reports.gate.outputs import VERDICT, failure_images, write_outputs
 from volcaustics.reports.gate.regression import BASELINE, baseline_text, load_baseline
 from volcaustics.reports.gate.verdict import scene_verdict
@@ -39,12 +41,14 @@ class GateResult:
 
 def run_gate(budgets: dict, *, overrides: dict, baseline_dir: str | None, update_baseline: bool, out_dir: str,
              scenes=None, seeds: int | None = None, seed: int = 0, render_references: bool = False,
-             junit: str | None = None, progress: bool = True) -> GateResult:
+             junit: str | None = None, animation_dirs=(), progress: bool = True) -> GateResult:
     """Measure every budgeted scene (or ``scenes``) not in the result store, check
     budgets and the baseline, write the failure images under ``out_dir`` and then, as
-    one set, the accepted baseline, the JUnit file ``junit`` and ``out_dir``/gate.json."""
+    one set, the accepted baseline, the JUnit file ``junit`` and ``out_dir``/gate.json.
+    ``animation_dirs``: ``volcaustics animate`` outputs held to their flicker budgets."""
     t0 = time.perf_counter()
     names = _names(budgets, scenes)
+    animations = [_animation(budgets, folder) for folder in animation_dirs or ()]  # bad input: before any work
     n_seeds = budgets["seeds"] if seeds is None else seeds
     params, n_seeds = measured_settings(budgets["preset"], overrides, seeds=n_seeds, seed=seed, min_seeds=2,
                                         why="the regression test needs 2", error=GateError)
@@ -69,6 +73,8 @@ def run_gate(budgets: dict, *, overrides: dict, baseline_dir: str | None, update
             if not check.passed:
                 check.images = failure_images(out_dir, name, check, result.views)
         checks += verdict.checks
+    for animation in animations:
+        checks += flicker_checks(animation, budgets["animations"][animation["summary"]["scene"]], budgets["path"])
     failed = [c for c in checks if not c.passed]
     # only results that pass their budgets are accepted as the baseline
     updated = os.path.join(baseline_dir, BASELINE) if update_baseline and baseline_dir and not failed else None
@@ -78,6 +84,19 @@ def run_gate(budgets: dict, *, overrides: dict, baseline_dir: str | None, update
     write_outputs(out_dir, result, params, n_seeds, budgets, baseline=baseline_text(entries) if updated else None,
                   junit=junit)
     return result
+
+
+def _animation(budgets: dict, folder: str) -> dict:
+    """An animate output with flicker budgets, measured with this code."""
+    animation = load_animation(folder, error=GateError)
+    scene = animation["summary"]["scene"]
+    if scene not in budgets["animations"]:
+        raise GateError(f"--animation {folder}: no [animation.{scene}] flicker budgets in {budgets['path']}")
+    if animation["summary"].get("code_version") != code_version():
+        raise GateError(f"--animation {folder}: measured with other code (version "
+                        f"{animation['summary'].get('code_version')}, now {code_version()}): rerun "
+                        f"`volcaustics animate {scene} -o {folder}`")
+    return animation
 
 
 def _names(budgets: dict, scenes) -> list:

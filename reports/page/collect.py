@@ -19,12 +19,14 @@ import pandas as pd
 
 from volcaustics.approx.params import PARAMS, ApproxParams
 from volcaustics.reports import runner
+from volcaustics.reports.animate.read import load_animation
 from volcaustics.reports.core.store import POINT_COLUMNS, document_sha256
 from volcaustics.reports.core.timing import Clock
 from volcaustics.reports.core.versions import code_version
 from volcaustics.reports.experiment.settings import measured_settings
 from volcaustics.reports.gate.regression import load_baseline
 from volcaustics.reports.gate.verdict import scene_verdict
+from volcaustics.reports.page.animations import animation_rows
 from volcaustics.reports.page.summary import report_summary
 from volcaustics.reports.page.write import write_report
 from volcaustics.reports.sweep.run import MANIFEST_SEAL
@@ -199,7 +201,7 @@ def _sweep_table(folder: str, name: str) -> pd.DataFrame:
 
 def run_report(out_dir: str, names, *, overrides: dict, seeds: int | None, seed: int, reference_settings,
                budgets: dict, baseline_dir: str | None = None, sweep_dir: str | None = None,
-               progress: bool = True) -> dict:
+               animation_dirs=(), progress: bool = True) -> dict:
     """Gather every scene's results and the sweep's, then draw the report into
     ``out_dir`` (``page.write``). Returns the report's summary.
 
@@ -209,10 +211,13 @@ def run_report(out_dir: str, names, *, overrides: dict, seeds: int | None, seed:
     params, seeds = measured_settings(budgets["preset"], overrides, seeds=budgets["seeds"] if seeds is None else seeds,
                                       seed=seed, min_seeds=1, why="intervals need 4", error=ReportError)
     sweep = load_sweep(sweep_dir) if sweep_dir else None      # bad input fails before anything renders
+    animations = [load_animation(folder, error=ReportError) for folder in animation_dirs or ()]
     baseline = load_baseline(baseline_dir) if baseline_dir else None
     results = collect_scenes(names, params, seeds=seeds, reference_settings=reference_settings, budgets=budgets,
                              baseline=baseline, progress=progress, clock=clock)
     summary = report_summary(results, params=params, seeds=seeds, reference_settings=reference_settings,
                              budgets=budgets, baseline_dir=baseline_dir, sweep=sweep, clock=clock.seconds)
-    return write_report(out_dir, results, summary, sweep, progress=progress, started=clock.started)
+    summary["animations"] = animation_rows(animations)
+    return write_report(out_dir, results, summary, sweep, progress=progress, started=clock.started,
+                        animation_media=[a["media"] for a in animations])
 

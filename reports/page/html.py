@@ -12,6 +12,7 @@ import json
 from html import escape
 
 from volcaustics.metrics.intersection import OUTCOME_CLASSES
+from volcaustics.reports.page.animations import over_time_section
 from volcaustics.reports.page.images import SCALES, colour_bar_css
 from volcaustics.reports.sweep.best import TERMS as BEST_TERMS
 from volcaustics.reports.sweep.variants import variant_name
@@ -31,6 +32,8 @@ table{border-collapse:collapse;margin:6px 0;font-size:13px} td,th{padding:2px 8p
 .row{display:flex;flex-wrap:wrap;gap:12px;align-items:flex-start}
 figure{margin:0} figcaption{font-size:12px;color:#444;max-width:300px}
 img.render{image-rendering:pixelated;image-rendering:crisp-edges;display:block;border:1px solid #bbb}
+img.animation-video{image-rendering:pixelated;width:768px;max-width:100%;display:block;border:1px solid #bbb}
+img.animation-plot{max-width:100%;display:block;margin:8px 0}
 img.swap{cursor:pointer} img.chart{display:block;max-width:100%}
 .bar{height:12px;width:256px;border:1px solid #999} .ticks{display:flex;justify-content:space-between;width:258px;
      font-size:11px;color:#333}
@@ -405,13 +408,17 @@ decomposition terms are their parts of the caustic's relative MSE, noise removed
 <table id='best-table'>{head}{rows}</table>"""
 
 
-def render_page(summary: dict, images: dict, sweep_figures: dict) -> str:
-    """The page; ``images``: scene → name → data URI (``page.write.scene_images``)."""
+def render_page(summary: dict, images: dict, sweep_figures: dict, animation_media=()) -> str:
+    """The page; ``images``: scene → name → data URI (``page.write.scene_images``);
+    ``animation_media``: per ``summary["animations"]`` row its data URIs."""
     bars = {name: {"css": colour_bar_css(scale), "ticks": scale.ticks()} for name, scale in SCALES.items()}
     params = summary["params"]
     nav = "".join(f"<a href='#scene-{i}'>{escape(p['scene'])}</a>" for i, p in enumerate(summary["scenes"]))
     if summary["sweep"] is not None:
         nav += "<a href='#sweep'>sweep</a>"
+    animations = summary.get("animations") or []
+    if animations:
+        nav += "<a href='#over-time'>over time</a>"
     sections = "".join(_scene_section(i, p, images[p["scene"]], summary, bars)
                        for i, p in enumerate(summary["scenes"]))
     return f"""<!doctype html>
@@ -433,6 +440,7 @@ frames (0 = identical, 1 = worst). Budgets: <code>{escape(summary['budgets'])}</
 reference: <code>{escape(json.dumps(summary['reference_settings']))}</code></p></details>
 {sections}
 {_sweep_section(summary['sweep'], sweep_figures)}
+{over_time_section(animations, list(animation_media))}
 <script>{SCRIPT}</script>
 </body></html>
 """

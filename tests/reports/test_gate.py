@@ -165,3 +165,45 @@ def test_the_unmodified_approximation_passes_the_default_budgets(env, capsys):
                  "--quiet"]) == 0
     out = capsys.readouterr().out
     assert "gate passed: 0 of 12 checks failed" in out
+
+
+ANIMATE = ["--frames", "3", "--width", "32", "--height", "32", "--photon-res", "64", "--light-res", "64",
+           "--photons", "65536", "--spp", "8", "--batches", "4", "--quiet"]
+LENIENT = """
+[scene.refocus]
+caustic = { energy_ratio = [0.0, 10.0] }
+"""
+
+
+def test_flicker_budgets_on_an_animation(env, capsys):
+    """`gate --animation DIR` holds an animation to [animation.SCENE] flicker budgets: a
+    limit above the measured flicker passes, one below it (but resolvable) fails with exit
+    1 naming the check, one tighter than 3 SE exits 2, as does an animation without budgets
+    or a folder that is not one."""
+    tmp = env
+    folder = tmp / "animation"
+    assert main(["animate", "refocus", "-o", str(folder), *ANIMATE]) == 0
+    m = json.loads((folder / "summary.json").read_text())["metrics"]["fixed"]["caustic"]
+    value, se = m["flicker"], m["flicker_se"]
+    assert value > 4.5 * se  # the failing limit below (value − SE) is resolvable (≥ 3 SE); measured 5.2 SE
+    capsys.readouterr()
+
+    def run(limit, name="budgets.toml"):
+        table = f"[animation.refocus]\ncaustic = {{ flicker_max = {limit!r} }}\n"
+        spec = budgets(tmp, LENIENT + table, name=name)
+        return gate(tmp, "--budgets", spec, "--render-references", "--animation", str(folder))
+
+    assert run(2 * value) == 0
+    assert "over_time.caustic.flicker_max" in capsys.readouterr().out
+    assert run(value - se) == 1
+    verdict = json.loads((tmp / "gate" / "gate.json").read_text())
+    failed = [c["name"] for c in verdict["checks"] if not c["passed"]]
+    assert failed == ["over_time.caustic.flicker_max"]
+    capsys.readouterr()
+    assert run(se) == 2
+    assert "tighter than the noise" in capsys.readouterr().err
+    spec = budgets(tmp, LENIENT, name="no_animation.toml")
+    assert gate(tmp, "--budgets", spec, "--animation", str(folder)) == 2
+    assert "[animation.refocus]" in capsys.readouterr().err
+    assert gate(tmp, "--budgets", spec, "--animation", str(tmp)) == 2
+    assert "volcaustics animate" in capsys.readouterr().err

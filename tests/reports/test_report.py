@@ -35,6 +35,9 @@ caustic = { hdr_flip_max = 0.001 }
 combined = { energy_ratio = [0.0, 10.0] }
 """
 SWEEP = SPEC.replace("iterations = [4, 8]\n", "")  # tiny points over layers 1, 2
+# a tiny animation for the "Over time" section: 3 refocus frames at 40²
+ANIMATE = ["--frames", "3", "--width", "40", "--height", "40", "--photon-res", "64", "--light-res", "64",
+           "--photons", "65536", "--spp", "8", "--batches", "4", "--quiet"]
 
 
 @pytest.fixture(scope="module")
@@ -47,8 +50,9 @@ def built(tmp_path_factory):
         (root / "sweep.toml").write_text(SWEEP)
         (root / "budgets.toml").write_text(BUDGETS)
         assert main(["sweep", str(root / "sweep.toml"), "-o", str(root / "sweep"), "--workers", "1", "--quiet"]) == 0
+        assert main(["animate", "refocus", "-o", str(root / "animation"), *ANIMATE]) == 0
         args = ["report", "--scenes", ",".join(SCENES), "--budgets", str(root / "budgets.toml"),
-                "--sweep", str(root / "sweep"), *SMALL]
+                "--sweep", str(root / "sweep"), "--animation", str(root / "animation"), *SMALL]
         assert main([*args, "--out", str(root / "cold")]) == 0
         cold = json.loads((root / "cold" / "summary.json").read_text())
         assert main([*args, "--out", str(root / "warm")]) == 0
@@ -165,6 +169,20 @@ def test_the_page_is_self_contained(built):
     renders = [img for img in parsed.images if "render" in img.get("class", "")]
     assert renders and all("swap" not in img["class"] or img.get("data-other") for img in renders)
     assert "image-rendering:pixelated" in built["page"]
+
+
+def test_the_over_time_section(built):
+    """An animation measured by `animate` shows as "Over time": its embedded animated
+    WebP, its plot and its flicker numbers, the same as its own summary.json."""
+    rows = built["cold"]["animations"]
+    assert [r["scene"] for r in rows] == ["refocus"] and not rows[0]["stale"]
+    own = json.loads((built["root"] / "animation" / "summary.json").read_text())
+    assert rows[0]["metrics"] == own["metrics"]
+    page = built["page"]
+    assert "<section id='over-time'>" in page and "href='#over-time'" in page
+    assert "src='data:image/webp;base64," in page or "src='data:image/gif;base64," in page
+    flicker = own["metrics"]["fixed"]["caustic"]["flicker"]
+    assert f"{100 * flicker:.2f}%" in page
 
 
 def test_the_sweep_section(built):
@@ -286,6 +304,7 @@ def test_the_gate_with_a_baseline_keeps_budget_failures(built, monkeypatch, tmp_
     (["--set", "layers=0"], "layers"),
     (["--set", "seed=3"], "--seed"),
     (["--sweep", "/nonexistent/sweep"], "sweep.json"),
+    (["--animation", "/nonexistent/animation"], "volcaustics animate"),
     (["--baseline", "/nonexistent/baseline"], "baseline"),
     (["--budgets", "BUDGETS_NAMING_NOSUCH"], "scene.nosuch"),  # a budgets file with an unknown scene
 ])
@@ -354,6 +373,10 @@ def test_the_report_in_headless_chromium(built):
             "return Array.from(new Set(Array.from(document.querySelectorAll('#overview tr[data-scene]'))"
             ".map(r => r.dataset.scene)))")
         assert listed == list(SCENES)
+        # the animation plays: an animated image of the 3 frames, decoded, in the "Over time" section
+        video = browser.find_element(By.CSS_SELECTOR, "#over-time img.animation-video")
+        assert browser.execute_script("return arguments[0].naturalWidth", video) > 0
+        assert len(browser.find_elements(By.CSS_SELECTOR, "#over-time table.over-time-table tr")) == 1 + 2 * 2
         # readable at 1366×768: nothing wider than the window
         assert browser.execute_script("return document.documentElement.scrollWidth <= "
                                       "document.documentElement.clientWidth")
