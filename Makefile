@@ -4,18 +4,25 @@ VENV := .venv
 BIN := $(VENV)/bin
 OUT ?= runs/report
 
-.PHONY: setup report test test-fast lint doctor sweep sweep-variants sweep-best gate gate-baseline lower-bounds clean
+.PHONY: setup report test test-fast lint doctor animate sweep sweep-variants sweep-best gate gate-baseline lower-bounds clean
 
 setup:
 	@bash scripts/setup.sh
 
-# The accuracy report; with the gate's baseline and a sweep (SWEEP, default the standard
-# sweep's store) when they exist.
+# The accuracy report; with the gate's baseline, a sweep (SWEEP, default the standard
+# sweep's store) and the animations `make animate` measured (runs/animate/*) when they exist.
 SWEEP ?= runs/sweep
+ANIMATIONS = $$(for d in runs/animate/*/; do [ -f "$$d/summary.json" ] && echo --animation "$$d"; done)
 report: setup
 	$(BIN)/volcaustics report --out $(OUT) \
 	  $$( [ -f $(GATE_BASELINE)/baseline.json ] && echo --baseline $(GATE_BASELINE) ) \
-	  $$( [ -f $(SWEEP)/sweep.json ] && [ -f $(SWEEP)/points.parquet ] && echo --sweep $(SWEEP) )
+	  $$( [ -f $(SWEEP)/sweep.json ] && [ -f $(SWEEP)/points.parquet ] && echo --sweep $(SWEEP) ) \
+	  $(ANIMATIONS)
+
+# The built-in animations over time (bunny, refocus, two_spheres) -> runs/animate/NAME;
+# resumable; about 3 minutes each cold on 2 cores.
+animate: setup
+	for s in bunny refocus two_spheres; do $(BIN)/volcaustics animate $$s -o runs/animate/$$s || exit $$?; done
 
 # Everything, the slow statistical and browser tests included (what CI runs).
 test: setup
@@ -38,7 +45,8 @@ doctor: setup
 GATE_BASELINE ?= gate-baseline
 gate: setup
 	$(BIN)/volcaustics gate --render-references --junit runs/gate/junit.xml \
-	  $$( [ -f $(GATE_BASELINE)/baseline.json ] && echo --baseline $(GATE_BASELINE) )
+	  $$( [ -f $(GATE_BASELINE)/baseline.json ] && echo --baseline $(GATE_BASELINE) ) \
+	  $(ANIMATIONS)
 
 gate-baseline: setup
 	$(BIN)/volcaustics gate --render-references --baseline $(GATE_BASELINE) --update-baseline

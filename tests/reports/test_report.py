@@ -164,8 +164,10 @@ def test_the_page_is_self_contained(built):
     assert parsed.external == []
     assert not re.search(r"https?://", built["page"])
     figures = [f for f in built["cold"]["sweep"]["figures"] if f.endswith(".png")]
-    assert len(parsed.images) == 2 * (5 + 4 + 4) + len(figures)  # per scene: 5 renders, 4 maps, 4 charts
-    assert all(img["src"].startswith("data:image/png;base64,") for img in parsed.images)
+    # per scene: 5 renders, 4 maps, 4 charts; the animation: its video and its plot
+    assert len(parsed.images) == 2 * (5 + 4 + 4) + len(figures) + 2
+    assert all(img["src"].startswith(("data:image/png;base64,", "data:image/webp;base64,", "data:image/gif;base64,"))
+               for img in parsed.images)
     renders = [img for img in parsed.images if "render" in img.get("class", "")]
     assert renders and all("swap" not in img["class"] or img.get("data-other") for img in renders)
     assert "image-rendering:pixelated" in built["page"]
