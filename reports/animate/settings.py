@@ -75,3 +75,10 @@ def frame_list(text: str | None, frames: int) -> list[int]:
 
 def sized_reference(settings: ReferenceSettings, width: int, height: int) -> ReferenceSettings:
     return dataclasses.replace(settings, width=width, height=height)
+
+
+# ColorVideoVDP (issue 23, optional): not installed, and the reason is reported with every run.
+CVVDP_SKIPPED = ("ColorVideoVDP (pip cvvdp 0.5.7) not measured: it needs PyTorch, and PyPI's torch 2.15 brings "
+                 "about 3 GB of CUDA 13 wheels (nvidia-cudnn, cublas, nccl, ...); the CPU-only build is only on "
+                 "download.pytorch.org, outside the registries this project installs from. Run it on "
+                 "DIR/animation.mp4 against a reference video where PyTorch is available.")

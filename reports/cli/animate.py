@@ -12,6 +12,7 @@ from volcaustics.reports.animate.run import WORK, render_animation
 from volcaustics.reports.animate.settings import (
     ANIMATION_REFERENCE,
     ANIMATION_SIZE,
+    CVVDP_SKIPPED,
     DEFAULT_CHAINS,
     SEED_MODES,
     animation_size,
@@ -96,6 +97,7 @@ def run(args) -> int:
                            "reference_frame_median": _median(run_.reference_seconds),
                            "references_cached": sum(run_.reference_cached), "frames_resumed": run_.resumed,
                            "total": time.perf_counter() - t0},
+               "perceptual_video_metric": {"name": "ColorVideoVDP", "measured": False, "reason": CVVDP_SKIPPED},
                "gl": run_.gl, "code_version": code_version()}
     paths = write_animation(run_, frames_table, temporal, summary, args.output)
     _print(summary, paths)
@@ -113,6 +115,7 @@ def _print(s: dict, paths: dict) -> None:
           f"chain(s), {sec['total']:.1f} s -> {paths['summary.json']}")
     print(f"  per frame: approximation {1000 * sec['approx_frame_median']:.0f} ms, reference "
           f"{sec['reference_frame_median']:.1f} s ({sec['references_cached']} of {len(s['frames'])} from the cache)")
+    print(f"  note: {s['perceptual_video_metric']['reason']}")
     for mode, components in s["metrics"].items():
         for component in ("caustic", "combined"):
             m = components[component]

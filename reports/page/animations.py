@@ -20,6 +20,7 @@ def animation_rows(loaded: list) -> list:
              "chains": a["summary"]["chains"], "metrics": a["summary"]["metrics"],
              "seconds": a["summary"]["seconds"], "video": a["summary"]["video"],
              "code_version": a["summary"].get("code_version"),
+             "perceptual_video_metric": a["summary"].get("perceptual_video_metric"),
              "stale": a["summary"].get("code_version") != current} for a in loaded]
 
 
@@ -41,6 +42,11 @@ def _table(row: dict) -> str:
                         f"<td>{_pct(m.get('relative_mse_mean'))}</td><td>{_pct(m.get('relative_mse_worst'))}</td>"
                         f"<td>{'–' if jitter is None else f'{jitter:.4f}'}</td></tr>")
     return f"<table class='over-time-table'>{head}{''.join(body)}</table>"
+
+
+def _cvvdp(rows: list) -> str:
+    reasons = {(r.get("perceptual_video_metric") or {}).get("reason") for r in rows} - {None}
+    return "".join(f"<p class='note cvvdp'>{escape(reason)}</p>" for reason in sorted(reasons))
 
 
 def over_time_section(rows: list, media: list) -> str:
@@ -67,5 +73,5 @@ the combined image. Folder <code>{escape(row['folder'])}</code>.</p>
 <p class='note'>The paper retraces every frame (§6). Flicker of a frame pair: Σ(ΔA − ΔR)²/ΣR² with ΔX the change
 from the frame before, less the references' noise (metrics/temporal.py); its mean over the pairs ± SE. Systematic: what
 remains with the approximation's own frame-to-frame noise (the chains' spread) removed. A fixed seed draws the same
-photons every frame; a per-frame seed draws new ones.</p>
+photons every frame; a per-frame seed draws new ones.</p>{_cvvdp(rows)}
 {''.join(parts)}</section>"""

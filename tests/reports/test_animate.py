@@ -78,6 +78,8 @@ def test_animate_writes_the_set_and_a_new_seed_per_frame_flickers_more(cache, tm
     assert main(["animate", scene, "-o", str(out), *ARGS]) == 0
     summary = json.loads((out / "summary.json").read_text())
     assert summary["frames"] == list(range(FRAMES)) and summary["seed_modes"] == ["fixed", "per-frame"]
+    video_metric = summary["perceptual_video_metric"]  # ColorVideoVDP: skipped, never silently
+    assert video_metric["measured"] is False and "PyTorch" in video_metric["reason"]
     temporal = pd.read_parquet(out / "temporal.parquet")
     frames = pd.read_parquet(out / "frames.parquet")
     assert set(frames["frame"]) == set(range(FRAMES)) and set(frames["seed_mode"]) == {"fixed", "per-frame"}
