@@ -65,7 +65,9 @@ def flicker(reference, reference_var, chains, *, test_var=None, mask=None) -> li
     Σ(ΔA − ΔR̂)² over √S gives their part (S ≥ 2); R̂'s own noise, shared by the
     chains, adds 4 Σ b̂² v + 2 Σ v² (v = v_t + v_{t−1}, b̂² = d̄² − v clipped at 0,
     Gaussian pixel noise); with ``test_var`` the test's variance joins v. With one chain
-    and no ``test_var`` the SE is conditional on the approximation's frames.
+    and no ``test_var`` the SE is conditional on the approximation's frames. A pair whose
+    reference is zero over the compared pixels (a light blocked in both frames) has NaN
+    values: its flicker is undefined.
     """
     r, rv, a = (np.asarray(x, np.float64) for x in (reference, reference_var, chains))
     if r.ndim != 4 or rv.shape != r.shape or a.ndim != 5 or a.shape[1:] != r.shape:
@@ -85,8 +87,9 @@ def flicker(reference, reference_var, chains, *, test_var=None, mask=None) -> li
 def _pair(t, r, rv, a, tv, keep) -> PairFlicker:
     s = len(a)
     energy = 0.5 * float(np.sum(r[t][keep] ** 2) + np.sum(r[t - 1][keep] ** 2))
-    if energy == 0.0:
-        raise ValueError(f"frames {t - 1} and {t}: the reference is zero over the compared pixels")
+    if energy == 0.0:  # nothing to compare against (a light blocked in both frames): undefined, not an error
+        return PairFlicker(frame=t, raw=NAN, reference_noise=NAN, test_noise=NAN, flicker=NAN, systematic=NAN,
+                           standard_error=NAN, z=NAN, energy=0.0, pixels=int(keep.sum()), chains=s)
     d_ref = (r[t] - r[t - 1])[keep]
     v = (rv[t] + rv[t - 1])[keep]
     d = np.stack([(c[t] - c[t - 1])[keep] - d_ref for c in a])  # S×N×C: ΔA − ΔR̂ per chain
@@ -118,14 +121,17 @@ def energy_jitter(reference, reference_var, chains, *, mask=None) -> list[dict]:
     kept pixels (channels averaged, Ā the chains' mean) and per pair Δe = e_t − e_{t−1},
     with the SE of Δe that the reference totals' noise alone gives (pixels independent)
     and the chains' spread adds (S ≥ 2). Rows: {"frame", "energy_ratio", "jitter",
-    "jitter_se"} (jitter nan for frame 0)."""
+    "jitter_se"} (jitter nan for frame 0; all nan where the reference total is not positive
+    in every channel, and the jitter beside such a frame)."""
     r, rv, a = (np.asarray(x, np.float64) for x in (reference, reference_var, chains))
     keep = np.ones(r.shape[:3], bool) if mask is None else np.asarray(mask, bool)
     rows, previous = [], None
     for t in range(len(r)):
         ref_total = r[t][keep[t]].sum(axis=0)
-        if np.any(ref_total <= 0):
-            raise ValueError(f"frame {t}: the reference total is not positive in every channel")
+        if np.any(ref_total <= 0):  # a ratio to nothing: undefined here and in the jitters beside it
+            rows.append({"frame": t, "energy_ratio": NAN, "jitter": NAN, "jitter_se": NAN})
+            previous = (NAN, NAN)
+            continue
         per_chain = np.array([c[t][keep[t]].sum(axis=0) / ref_total for c in a]).mean(axis=1)
         ratio = float(per_chain.mean())
         var = float(np.mean(rv[t][keep[t]].sum(axis=0) / ref_total ** 2)) * ratio ** 2

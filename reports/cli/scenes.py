@@ -27,14 +27,17 @@ def run(args) -> int:
         scene = load_scene(args.check)
         tris = scene.specular_triangle_count()
         print(f"ok: {args.check}: scene '{scene.name}', {len(scene.specular)} specular object(s) "
-              f"({tris:,} triangles), {len(scene.diffuse)} diffuse, scene_hash {scene.scene_hash()[:12]}")
+              f"({tris:,} triangles), {len(scene.diffuse)} diffuse, scene_hash {scene.scene_hash()[:12]}"
+              + (f", animation of {scene.animation.frames} frames ({', '.join(t.path for t in scene.animation.tracks)})"
+                 if scene.animation else ""))
         if args.preview:
             print(f"preview -> {_write_preview(scene, args.preview)}")
         return 0
     print(f"{'name':<12} {'triangles':>10}  description")
     for name in BUILTIN_NAMES:
         scene = load_builtin(name)
-        print(f"{name:<12} {scene.specular_triangle_count():>10,}  {scene.description}")
+        animated = f" [animation: {scene.animation.frames} frames]" if scene.animation else ""
+        print(f"{name:<12} {scene.specular_triangle_count():>10,}  {scene.description}{animated}")
         if args.preview:
             _write_preview(scene, args.preview)
     if args.preview:

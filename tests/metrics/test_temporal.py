@@ -81,6 +81,18 @@ def test_energy_jitter_by_hand():
     assert np.isnan(rows[0]["jitter"]) and [r["jitter"] for r in rows[1:]] == pytest.approx([0.1, -0.2])
 
 
+def test_a_dark_pair_is_undefined_not_an_error():
+    """A light blocked in frames 1 and 2 (reference 0 there): those pairs and ratios are NaN,
+    the others are computed (before, one dark pair left the whole component without numbers)."""
+    truth = np.ones((4, 4, 4, 3))
+    truth[1:3] = 0.0
+    chains = (truth + 0.1)[None]
+    pairs = flicker(truth, np.zeros_like(truth), chains)
+    assert np.isnan(pairs[1].flicker) and np.isfinite(pairs[0].flicker) and np.isfinite(pairs[2].flicker)
+    rows = energy_jitter(truth, np.zeros_like(truth), chains)
+    assert np.isfinite(rows[0]["energy_ratio"]) and np.isnan(rows[1]["energy_ratio"]) and np.isnan(rows[3]["jitter"])
+
+
 def test_bad_shapes_are_refused():
     with pytest.raises(ValueError, match="at least 2"):
         flicker(np.ones((1, 2, 2, 3)), np.ones((1, 2, 2, 3)), np.ones((1, 1, 2, 2, 3)))

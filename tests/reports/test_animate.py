@@ -119,6 +119,17 @@ def test_builtin_animations_run(cache, tmp_path, name):
         assert np.isfinite(summary["metrics"][mode]["combined"]["flicker"])
 
 
+def test_a_bad_animation_table_exits_2_naming_the_key(cache, tmp_path, capsys):
+    """`animate` reads the scene with the loader: a bad [animation] key exits 2 naming it."""
+    text = open(builtin_path("refocus"), encoding="utf-8").read().replace('path = "specular.sphere.translate"',
+                                                                          'path = "specular.ball.translate"')
+    path = tmp_path / "bad.toml"
+    path.write_text(text)
+    assert main(["animate", str(path), "-o", str(tmp_path / "out"), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert "animation.track[0].path" in err and "specular.ball.translate" in err and "Traceback" not in err
+
+
 @pytest.mark.parametrize("args,named", [
     (["sphere1"], "no [animation]"),
     (["refocus", "--frames", "5:2"], "--frames"),
