@@ -5,7 +5,6 @@ from __future__ import annotations
 import dataclasses
 import time
 
-from volcaustics.reference.settings import ReferenceSettings
 from volcaustics.reports.animate.metrics import frame_rows, summarize, temporal_rows
 from volcaustics.reports.animate.read import KIND
 from volcaustics.reports.animate.run import WORK, render_animation
@@ -20,7 +19,7 @@ from volcaustics.reports.animate.settings import (
     frame_list,
 )
 from volcaustics.reports.animate.write import output_files, write_animation
-from volcaustics.reports.cli.common import UsageError, add_budget, budget, check_output_set, pct
+from volcaustics.reports.cli.common import UsageError, add_report_reference, check_output_set, pct, report_settings
 from volcaustics.reports.core.params import add_param_flags, params_from_args
 from volcaustics.reports.core.versions import code_version
 from volcaustics.reports.experiment.settings import checked_settings
@@ -47,13 +46,7 @@ def register(sub) -> None:
     p.add_argument("--chains", type=int, default=DEFAULT_CHAINS,
                    help="independent sequences per seed mode, with seeds --seed, --seed + 1, ...: the "
                         f"approximation's own noise needs 2 (default {DEFAULT_CHAINS})")
-    p.add_argument("--photons", type=int, default=ANIMATION_REFERENCE.photons,
-                   help="reference photons per frame over --batches batches (default 2^22)")
-    p.add_argument("--spp", type=int, default=ANIMATION_REFERENCE.spp,
-                   help="reference camera samples per pixel per frame (default 32)")
-    p.add_argument("--batches", type=int, default=ANIMATION_REFERENCE.batches,
-                   help="reference batches per stream per frame (default 8)")
-    add_budget(p, target=None, max_seconds=ANIMATION_REFERENCE.max_seconds)
+    add_report_reference(p, ANIMATION_REFERENCE, target=None, per=" per frame")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     add_param_flags(p, default_preset="quick")
     p.set_defaults(func=run, modes=SEED_MODES)
@@ -82,7 +75,7 @@ def run(args) -> int:
                    for c in range(args.chains))
     params, _ = checked_settings(scene, dataclasses.replace(params, seed=top_seed), 1)  # fits and seeds: before work
     params = dataclasses.replace(params, seed=base)
-    settings = ReferenceSettings(photons=args.photons, spp=args.spp, batches=args.batches, **budget(args))
+    settings = report_settings(args)
     t0 = time.perf_counter()
     run_ = render_animation(scene, params, frames=frames, modes=args.modes, chains=args.chains,
                             reference_settings=settings, out_dir=args.output, progress=not args.quiet)

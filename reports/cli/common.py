@@ -118,19 +118,25 @@ def budget(args) -> dict:
     return {"target_noise": target, "max_photons": args.max_photons, "max_seconds": args.max_seconds}
 
 
-def add_report_reference(p) -> None:
-    """The reference options of ``report`` and ``measure`` (default: the report's budget)."""
-    p.add_argument("--photons", type=int, default=REPORT_REFERENCE.photons,
-                   help="reference photons over --batches batches: with the target, the size of a batch (default 2^22)")
-    p.add_argument("--spp", type=int, default=REPORT_REFERENCE.spp,
-                   help="reference camera samples per pixel over --batches batches (default 64)")
-    p.add_argument("--batches", type=int, default=REPORT_REFERENCE.batches,
-                   help="reference batches per stream, at least (default 16)")
-    add_budget(p, target=REPORT_TARGET, max_seconds=REPORT_REFERENCE.max_seconds)
+def add_report_reference(p, defaults: ReferenceSettings = REPORT_REFERENCE, target: str | None = REPORT_TARGET,
+                         per: str = "") -> None:
+    """The reference options of ``report`` and ``measure`` (default: the report's budget);
+    ``animate`` passes its own ``defaults`` and ``target`` (``per``: " per frame")."""
+    photons = f"2^{defaults.photons.bit_length() - 1}" if defaults.photons & (defaults.photons - 1) == 0 \
+        else str(defaults.photons)
+    p.add_argument("--photons", type=int, default=defaults.photons,
+                   help=f"reference photons{per} over --batches batches: with the target, the size of a batch "
+                        f"(default {photons})")
+    p.add_argument("--spp", type=int, default=defaults.spp,
+                   help=f"reference camera samples per pixel{per} over --batches batches (default {defaults.spp})")
+    p.add_argument("--batches", type=int, default=defaults.batches,
+                   help=f"reference batches per stream{per}, at least (default {defaults.batches})")
+    add_budget(p, target=target, max_seconds=defaults.max_seconds)
 
 
 def report_settings(args) -> ReferenceSettings:
-    """The reference settings of ``report`` and ``measure`` (unsized: the runner sizes them)."""
+    """The reference settings of ``report``, ``measure`` and ``animate`` (unsized: the
+    runner, or ``animate``, sizes them)."""
     return ReferenceSettings(photons=args.photons, spp=args.spp, batches=args.batches, **budget(args))
 
 
