@@ -21,7 +21,8 @@ FORBIDDEN = {
     "metrics": {"approx", "reference", "reports"},             # arrays and scenes formats only
 }
 # reports' subpackages by level: a module may import its own level's subpackage and lower levels
-REPORTS_LEVELS = (("core",), ("experiment", "render"), ("runner",), ("gate",), ("sweep",), ("page",), ("cli",))
+REPORTS_LEVELS = (("core",), ("experiment", "render"), ("runner",), ("animate",), ("gate",), ("sweep",), ("page",),
+                  ("cli",))
 
 
 def imported_modules(source: str, package: list[str]) -> dict:
