@@ -26,7 +26,6 @@ import math
 from dataclasses import dataclass, replace
 
 import numpy as np
-from scipy.spatial.transform import Rotation, Slerp
 
 # path → (value kind, interpolation). Object paths are "specular.NAME.translate" etc.
 TRACK_PATHS = {
@@ -112,6 +111,8 @@ def interpolate(frames, values, t: float, interpolation: str, kind: str) -> tupl
         return tuple(float(x) for x in (1.0 - u) * a + u * b)
     if kind == "direction":
         return tuple(float(x) for x in slerp_direction(a, b, u))
+    from scipy.spatial.transform import Rotation, Slerp  # on first use: every scene file imports this module
+
     rotations = Rotation.from_euler("xyz", np.stack([a, b]), degrees=True)  # extrinsic x, y, z: Rz·Ry·Rx
     return tuple(float(x) for x in Slerp([0.0, 1.0], rotations)([u]).as_euler("xyz", degrees=True)[0])
 

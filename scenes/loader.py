@@ -56,6 +56,8 @@ import re
 from dataclasses import replace
 from typing import Any, Callable
 
+import numpy as np
+
 try:
     import tomllib
 except ModuleNotFoundError:  # Python 3.10
@@ -464,7 +466,12 @@ def _check_frames(ctx, animation: Animation, scene: Scene) -> None:
         if moves:
             at = animation.scene_at(scene, frame)
             _check_view(ctx, at.camera, where)
-            _check_camera_outside(ctx, at.camera, at.specular, where)
+            for i, obj in enumerate(at.specular):  # in object space: no mesh is built per frame
+                local = np.linalg.solve(obj.mesh.transform.matrix(), [*at.camera.position, 1.0])[:3]
+                if winding_number(replace(obj.mesh, transform=Transform()).load(), local) > 0.5:
+                    raise ctx.error("camera.position", list(at.camera.position),
+                                    f"the camera must be outside every specular object (it is inside specular[{i}] "
+                                    f"'{obj.name}'){where}")
 
 
 # --- entry points -----------------------------------------------------------------
@@ -498,12 +505,12 @@ def parse_scene(data: dict, *, file: str | None = None, base_dir: str = ".", sou
     return scene
 
 
-def _check_camera_outside(ctx, camera: Camera, specular, where: str = "") -> None:
+def _check_camera_outside(ctx, camera: Camera, specular) -> None:
     for i, obj in enumerate(specular):
         if winding_number(obj.mesh.load(), camera.position) > 0.5:
             raise ctx.error("camera.position", list(camera.position),
                             f"the camera must be outside every specular object "
-                            f"(it is inside specular[{i}] '{obj.name}'){where}")
+                            f"(it is inside specular[{i}] '{obj.name}')")
 
 
 def load_scene(path: str) -> Scene:
