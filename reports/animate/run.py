@@ -18,6 +18,7 @@ import json
 import os
 import shutil
 import time
+import zipfile
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -160,7 +161,7 @@ def _read_frame(work: str, t: int, modes, chains: int) -> dict | None:
     try:
         with np.load(path) as data:
             arrays = {k: np.asarray(data[k]) for k in data.files}
-    except (OSError, ValueError, KeyError, EOFError):
+    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile):
         return None
     wanted = [f"{m}/{layer}" for m in modes for layer in (*COLOUR_LAYERS, MASK_LAYER)]
     if any(k not in arrays or len(arrays[k]) != chains or not np.isfinite(arrays[k]).all() for k in wanted):
