@@ -5,9 +5,10 @@ its own reference seed (``settings.reference_seed``: independent noise between f
 
 Resumable and interrupt-safe: each rendered frame's approximation images (every seed
 mode and chain) and times go to ``DIR/.animate/frame-NNNN.npz`` at once (written to a
-temporary file, then renamed); a run with the same key (the scene's frames, parameters,
-chains, seed modes, reference settings and code version) reads them back instead of
-rendering again, and a finished reference is in the cache. Another key empties the folder.
+temporary file, then renamed) with the frame's key (``frame_key``: its scene, the
+parameters, seed modes, chains and code version); a later run reads back every frame
+whose key matches (another ``--frames`` selection included) instead of rendering it
+again, and a finished reference is in the cache.
 """
 
 from __future__ import annotations
@@ -16,7 +17,6 @@ import dataclasses
 import hashlib
 import json
 import os
-import shutil
 import time
 import zipfile
 from dataclasses import dataclass, field
@@ -30,7 +30,7 @@ from volcaustics.reports.core.tables import plain
 from volcaustics.reports.core.versions import code_version
 from volcaustics.reports.runner import reference_for
 from volcaustics.scenes.formats import COLOUR_LAYERS, MASK_LAYER
-from volcaustics.scenes.storage import atomic_path, atomic_write_text, read_json_object
+from volcaustics.scenes.storage import atomic_path
 
 WORK = ".animate"  # DIR/.animate: the frames rendered so far
 
@@ -57,12 +57,11 @@ class AnimationFrames:
     gl: dict = field(default_factory=dict)
 
 
-def run_key(scene, params, frames, modes, chains, settings) -> str:
-    """SHA-256 of everything that decides the work folder's contents."""
-    animation = scene.animation
-    doc = {"frames": [animation.scene_at(scene, t).scene_hash() for t in frames], "params": params.to_dict(),
-           "modes": list(modes), "chains": chains, "reference": dataclasses.asdict(settings),
-           "code_version": code_version()}
+def frame_key(frame_scene, params, modes, chains, frame: int) -> str:
+    """SHA-256 of everything that decides one stored frame: its scene, the parameters, seed
+    modes and chains (its seeds follow from them and the frame number) and the code."""
+    doc = {"scene_hash": frame_scene.scene_hash(), "frame": frame, "params": params.to_dict(), "modes": list(modes),
+           "chains": chains, "code_version": code_version()}
     return hashlib.sha256(json.dumps(plain(doc), sort_keys=True).encode()).hexdigest()
 
 
@@ -73,7 +72,8 @@ def render_animation(scene, params, *, frames: list, modes: tuple, chains: int, 
     ``params``: resolved approximation parameters (width/height set); the reference is
     rendered at that size with ``reference_settings``."""
     settings = sized_reference(reference_settings, params.width, params.height)
-    work = _work_folder(out_dir, run_key(scene, params, frames, modes, chains, settings))
+    work = os.path.join(out_dir, WORK)
+    os.makedirs(work, exist_ok=True)
     animation = scene.animation
     renderer = None
     images = {mode: {layer: [] for layer in (*COLOUR_LAYERS, MASK_LAYER)} for mode in modes}
@@ -87,13 +87,14 @@ def render_animation(scene, params, *, frames: list, modes: tuple, chains: int, 
             references.append(reference)
             cached.append(bool(reference.cached))
             reference_seconds.append(float(reference.manifest.get("wall_seconds") or time.perf_counter() - t0))
-            stored = _read_frame(work, t, modes, chains)
+            key = frame_key(at, params, modes, chains, t)
+            stored = _read_frame(work, t, key, modes, chains)
             if stored is None:
                 if renderer is None:
                     renderer = Renderer(at)
                     renderer.render(at, params, keep_records=False)  # compiles the shaders: not timed
                 stored = _render_frame(renderer, at, params, t, modes, chains)
-                _write_frame(work, t, stored)
+                _write_frame(work, t, {**stored, "key": np.asarray(key)})
                 gl = gl or stored.pop("gl", {})
             else:
                 resumed += 1
@@ -128,21 +129,6 @@ def _render_frame(renderer, scene, params, t: int, modes, chains: int) -> dict:
     return out
 
 
-def _work_folder(out_dir: str, key: str) -> str:
-    work = os.path.join(out_dir, WORK)
-    key_file = os.path.join(work, "key.json")
-    try:
-        same = read_json_object(key_file).get("key") == key
-    except (OSError, ValueError):
-        same = False
-    if not same and os.path.isdir(work):
-        shutil.rmtree(work)
-    os.makedirs(work, exist_ok=True)
-    if not same:
-        atomic_write_text(key_file, json.dumps({"key": key}))
-    return work
-
-
 def _frame_file(work: str, t: int) -> str:
     return os.path.join(work, f"frame-{t:04d}.npz")
 
@@ -153,8 +139,9 @@ def _write_frame(work: str, t: int, arrays: dict) -> None:
             np.savez(fh, **{k: v for k, v in arrays.items() if k != "gl"})
 
 
-def _read_frame(work: str, t: int, modes, chains: int) -> dict | None:
-    """A stored frame, or None (absent or damaged: rendered again)."""
+def _read_frame(work: str, t: int, key: str, modes, chains: int) -> dict | None:
+    """The stored frame ``t`` if it is the one ``key`` names, else None (absent, another
+    run's or damaged: rendered again)."""
     path = _frame_file(work, t)
     if not os.path.isfile(path):
         return None
@@ -166,4 +153,4 @@ def _read_frame(work: str, t: int, modes, chains: int) -> dict | None:
     wanted = [f"{m}/{layer}" for m in modes for layer in (*COLOUR_LAYERS, MASK_LAYER)]
     if any(k not in arrays or len(arrays[k]) != chains or not np.isfinite(arrays[k]).all() for k in wanted):
         return None
-    return arrays if "seconds" in arrays else None
+    return arrays if "seconds" in arrays and str(arrays.get("key", "")) == key else None

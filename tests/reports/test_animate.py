@@ -107,6 +107,9 @@ def test_animate_writes_the_set_and_a_new_seed_per_frame_flickers_more(cache, tm
     assert again["seconds"]["frames_resumed"] == FRAMES - 1
     assert again["seconds"]["references_cached"] == FRAMES
     pd.testing.assert_frame_equal(pd.read_parquet(out / "temporal.parquet"), temporal)
+    # another --frames selection reuses the frames it shares with the runs before
+    assert main(["animate", scene, "-o", str(out), *[a if a != f"0:{FRAMES}" else "1:3" for a in ARGS]]) == 0
+    assert json.loads((out / "summary.json").read_text())["seconds"]["frames_resumed"] == 2
 
 
 @pytest.mark.slow  # every built-in animation, 3 frames at 32² (about 40 s)
