@@ -25,7 +25,8 @@ import numpy as np
 from tqdm import tqdm
 
 from volcaustics.approx import Renderer
-from volcaustics.reports.animate.settings import chain_seed, reference_seed, sized_reference
+from volcaustics.reports.animate.settings import chain_seed, reference_seed
+from volcaustics.reports.core.sizing import sized
 from volcaustics.reports.core.tables import plain
 from volcaustics.reports.core.versions import code_version
 from volcaustics.reports.runner import reference_for
@@ -44,7 +45,6 @@ class AnimationFrames:
     of its reference render (the cache's record when it came from the cache)."""
 
     scene: object
-    params: object
     frames: list
     modes: tuple
     chains: int
@@ -71,7 +71,7 @@ def render_animation(scene, params, *, frames: list, modes: tuple, chains: int, 
 
     ``params``: resolved approximation parameters (width/height set); the reference is
     rendered at that size with ``reference_settings``."""
-    settings = sized_reference(reference_settings, params.width, params.height)
+    settings = sized(reference_settings, scene, params)  # the frames' size (params width/height are set)
     work = os.path.join(out_dir, WORK)
     os.makedirs(work, exist_ok=True)
     animation = scene.animation
@@ -106,7 +106,7 @@ def render_animation(scene, params, *, frames: list, modes: tuple, chains: int, 
         if renderer is not None:
             renderer.release()
     approx = {mode: {layer: np.stack(v, axis=1) for layer, v in layers.items()} for mode, layers in images.items()}
-    return AnimationFrames(scene=scene, params=params, frames=list(frames), modes=tuple(modes), chains=chains,
+    return AnimationFrames(scene=scene, frames=list(frames), modes=tuple(modes), chains=chains,
                            approx=approx, references=references, approx_seconds=approx_seconds,
                            reference_seconds=reference_seconds, reference_cached=cached, resumed=resumed, gl=gl)
 

@@ -8,8 +8,6 @@ caustic's noise floor 0.04–0.1%, the fog's 0.3%: docs/decisions.md "Animation 
 
 from __future__ import annotations
 
-import dataclasses
-
 from volcaustics.reference.settings import ReferenceSettings
 
 ANIMATION_SIZE = 128  # pixels on the longer side when no width/height is given
@@ -71,10 +69,6 @@ def frame_list(text: str | None, frames: int) -> list[int]:
     if not chosen:
         raise ValueError(f"--frames = {text!r}: selects no frame of 0 … {frames - 1}")
     return chosen
-
-
-def sized_reference(settings: ReferenceSettings, width: int, height: int) -> ReferenceSettings:
-    return dataclasses.replace(settings, width=width, height=height)
 
 
 # ColorVideoVDP (issue 23, optional): not installed, and the reason is reported with every run.
