@@ -1,6 +1,6 @@
 """DESIGN.md's one-way flow, read from the source with ``ast``: between the packages,
 scenes → approx | reference → metrics → reports; inside ``reports``, its subpackages
-core ← {experiment, render} ← runner ← gate ← sweep ← page ← cli (the page shows the
+core ← {experiment, render} ← runner ← {animate, compare} ← gate ← sweep ← page ← cli (the page shows the
 gate's verdicts and a sweep's figures). No module imports
 one above it or beside it, and every import is spelled in the installed namespace
 (``volcaustics.<folder>``), never by a bare folder name."""
@@ -21,8 +21,8 @@ FORBIDDEN = {
     "metrics": {"approx", "reference", "reports"},             # arrays and scenes formats only
 }
 # reports' subpackages by level: a module may import its own level's subpackage and lower levels
-REPORTS_LEVELS = (("core",), ("experiment", "render"), ("runner",), ("animate",), ("gate",), ("sweep",), ("page",),
-                  ("cli",))
+REPORTS_LEVELS = (("core",), ("experiment", "render"), ("runner",), ("animate", "compare"), ("gate",), ("sweep",),
+                  ("page",), ("cli",))
 
 
 def imported_modules(source: str, package: list[str]) -> dict:

@@ -11,7 +11,8 @@ import argparse
 import sys
 
 EXIT_USAGE = 2
-COMMANDS = ("doctor", "scenes", "approx", "reference", "export", "measure", "animate", "sweep", "gate", "report")
+COMMANDS = ("doctor", "scenes", "approx", "reference", "export", "measure", "compare", "animate", "sweep", "gate",
+            "report")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -159,6 +160,7 @@ def _usage_errors() -> tuple:
     from volcaustics.reference.mi_setup import VariantError
     from volcaustics.reference.settings import SettingsError
     from volcaustics.reports.cli.common import UsageError
+    from volcaustics.reports.compare.inputs import CompareError
     from volcaustics.reports.core.executors import ExecutorError
     from volcaustics.reports.experiment.run import ExperimentError
     from volcaustics.reports.gate.budgets import GateError
@@ -168,7 +170,7 @@ def _usage_errors() -> tuple:
     from volcaustics.scenes import SceneError
 
     return (SceneError, ParamError, SettingsError, UsageError, ExperimentError, SweepError, GateError,
-            ExecutorError, ReportError, VariantError, RunnerError)
+            ExecutorError, ReportError, VariantError, RunnerError, CompareError)
 
 
 if __name__ == "__main__":

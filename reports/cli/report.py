@@ -12,6 +12,7 @@ from volcaustics.reports.cli.common import (
     report_settings,
     scene_list,
 )
+from volcaustics.reports.compare.read import parse_named
 from volcaustics.reports.core.params import parse_overrides
 from volcaustics.reports.gate.budgets import default_budgets_path, load_budgets
 from volcaustics.reports.page.collect import ReportError, run_report
@@ -32,6 +33,10 @@ def register(sub) -> None:
     p.add_argument("--animation", action="append", type=path_type, metavar="DIR",
                    help="add an animation that `volcaustics animate SCENE -o DIR` measured: the 'Over time' section "
                         "(repeatable)")
+    p.add_argument("--compare", action="append", metavar="NAME=DIR",
+                   help="add another renderer that `volcaustics compare SCENE IMAGE.exr -o DIR` measured (DIR: one "
+                        "such folder or a folder of them, one per scene): a row beside the approximation and its "
+                        "images in each scene it compared (repeatable)")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     add_report_reference(p)
     p.set_defaults(func=run)
@@ -44,7 +49,9 @@ def run(args) -> int:
     summary = run_report(args.out, names if names is not None else list(BUILTIN_NAMES),
                          overrides=parse_overrides(args.set, error=ReportError), seeds=args.seeds, seed=args.seed,
                          reference_settings=report_settings(args), budgets=budgets, baseline_dir=args.baseline,
-                         sweep_dir=args.sweep, animation_dirs=args.animation or (), progress=not args.quiet)
+                         sweep_dir=args.sweep, animation_dirs=args.animation or (),
+                         comparisons=[parse_named(text, "--compare", ReportError) for text in args.compare or ()],
+                         progress=not args.quiet)
     for page in summary["scenes"]:
         c = page["components"]
         failed = [ch["name"] for ch in page["gate"]["checks"] if not ch["passed"]]
@@ -60,6 +67,10 @@ def run(args) -> int:
         m = row["metrics"][row["seed_modes"][0]]["caustic"]
         print(f"{row['scene']:<12} over time: caustic flicker {pct(m['flicker'])} ({row['seed_modes'][0]} seed), "
               f"{len(row['frames'])} frames" + (" (measured with other code: rerun animate)" if row["stale"] else ""))
+    for row in summary["comparisons"]:
+        m = row["images"].get("caustic") or row["images"]["combined"]
+        print(f"{row['scene']:<12} {row['renderer']}: {'caustic' if 'caustic' in row['images'] else 'combined'} "
+              f"relMSE {pct(m['relative_mse'].get('debiased'))}, energy {num(m['energy_ratio'].get('value'))}")
     print(f"report: {len(summary['scenes'])} scenes, gate {verdict} ({gate['failed']} of {gate['checks']} checks "
           f"failed), {summary['seconds']['total']:.0f} s -> {args.out}/index.html")
     return 0

@@ -40,4 +40,10 @@ def sized(settings: ReferenceSettings, scene, params) -> ReferenceSettings:
     """``settings`` at the image size of the approximation's ``params`` on ``scene``
     (width/height unset: the scene camera's): one render, one cache key."""
     p = params.resolved(scene)
-    return dataclasses.replace(settings, width=p.width, height=p.height)
+    return at_size(settings, p.width, p.height)
+
+
+def at_size(settings: ReferenceSettings, width: int, height: int) -> ReferenceSettings:
+    """``settings`` for images of ``width`` × ``height`` pixels (``compare``: the size of
+    the images it is given)."""
+    return dataclasses.replace(settings, width=width, height=height)

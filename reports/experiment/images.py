@@ -71,14 +71,16 @@ def keep_mask(reference, frames) -> np.ndarray:
     return keep
 
 
-def image_rows(frames, reference, keep, columns, maps=None) -> tuple:
+def image_rows(frames, reference, keep, columns, maps=None, components=COLOUR_LAYERS) -> tuple:
     """(rows, headline): one row per (component, metric) with the columns of
     IMAGE_COLUMNS and ``columns``; headline: component → metric → the summary's
     numbers (``relative_mse`` with each frame's own value, ``per_seed``). ``maps`` (a
     dict) receives the first frame's error map of each of MAP_METRICS per component:
-    (metric, component) → H×W."""
+    (metric, component) → H×W. ``frames``: objects with ``images`` (layer name → H×W×3)
+    holding ``components`` (default every colour layer: an approximation's; ``compare``
+    may have only ``combined``)."""
     rows, headline = [], {}
-    for component in COLOUR_LAYERS:
+    for component in components:
         r, rv = reference.mean[component], reference.var[component]
         stack = np.stack([f.images[component] for f in frames])
         head = headline.setdefault(component, {})

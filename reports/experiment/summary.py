@@ -62,6 +62,16 @@ def experiment_views(frames, reference, keep, layers, maps) -> dict:
     return {name: np.asarray(image, np.float32) for name, image in out.items()}
 
 
+def reference_summary(reference) -> dict:
+    """What a summary says of the reference a result was measured against."""
+    m = reference.manifest
+    return {"key": reference.key, "settings": m.get("settings"), "photons": m.get("photons"),
+            "batches": m.get("batches"), "camera_batches": m.get("camera_batches"),
+            "noise_floor": m.get("noise_floor"), "stopped_by": m.get("stopped_by"),
+            "mitsuba_variant": m.get("mitsuba_variant"), "cached": reference.cached,
+            "reference_code_version": m.get("reference_code_version")}
+
+
 def experiment_summary(scene, p, seeds, reference, frames, exact, headline, decomposition, divergence, clock, keep,
              timed) -> dict:
     alive = {k: float(max(v)) for k, v in exact["alive"].items()}
@@ -74,15 +84,10 @@ def experiment_summary(scene, p, seeds, reference, frames, exact, headline, deco
         warnings.append(f"{len(seeds)} seed(s): no intervals (they need {MIN_SEEDS_FOR_INTERVAL})"
                         + ("" if len(seeds) >= 2 else "; the approximation's own noise is not estimated, not "
                            "subtracted") + f"; use --seeds {MIN_SEEDS_FOR_INTERVAL} or more")
-    m = reference.manifest
     return {
         "kind": "experiment", "scene": scene.name, "scene_hash": scene.scene_hash(),
         "description": scene.description, "params": p.to_dict(), "seeds": len(seeds), "seed_values": seeds,
-        "reference": {"key": reference.key, "settings": m.get("settings"), "photons": m.get("photons"),
-                      "batches": m.get("batches"), "camera_batches": m.get("camera_batches"),
-                      "noise_floor": m.get("noise_floor"), "stopped_by": m.get("stopped_by"),
-                      "mitsuba_variant": m.get("mitsuba_variant"), "cached": reference.cached,
-                      "reference_code_version": m.get("reference_code_version")},
+        "reference": reference_summary(reference),
         "exact": {"steps": EXACT_STEPS, "alive_after": alive, "small_splat_radius": exact["small_radius"],
                   "small_supersample": SMALL_SUPERSAMPLE,
                   "batches": int(len(exact["batches"]["approx"]))},

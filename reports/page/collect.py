@@ -20,6 +20,7 @@ import pandas as pd
 from volcaustics.approx.params import PARAMS, ApproxParams
 from volcaustics.reports import runner
 from volcaustics.reports.animate.read import load_animation
+from volcaustics.reports.compare.read import comparison_folders, load_comparison
 from volcaustics.reports.core.store import POINT_COLUMNS, document_sha256
 from volcaustics.reports.core.timing import Clock
 from volcaustics.reports.core.versions import code_version
@@ -27,6 +28,7 @@ from volcaustics.reports.experiment.settings import measured_settings
 from volcaustics.reports.gate.regression import load_baseline
 from volcaustics.reports.gate.verdict import scene_verdict
 from volcaustics.reports.page.animations import animation_rows
+from volcaustics.reports.page.external import comparison_images, comparison_row
 from volcaustics.reports.page.summary import report_summary
 from volcaustics.reports.page.write import write_report
 from volcaustics.reports.sweep.run import MANIFEST_SEAL
@@ -201,23 +203,51 @@ def _sweep_table(folder: str, name: str) -> pd.DataFrame:
 
 def run_report(out_dir: str, names, *, overrides: dict, seeds: int | None, seed: int, reference_settings,
                budgets: dict, baseline_dir: str | None = None, sweep_dir: str | None = None,
-               animation_dirs=(), progress: bool = True) -> dict:
+               animation_dirs=(), comparisons=(), progress: bool = True) -> dict:
     """Gather every scene's results and the sweep's, then draw the report into
     ``out_dir`` (``page.write``). Returns the report's summary.
 
     The approximation's parameters are the budgets' preset with ``overrides``; the
-    seeds ``seed`` … ``seed + seeds − 1`` (``seeds`` default: the budgets')."""
+    seeds ``seed`` … ``seed + seeds − 1`` (``seeds`` default: the budgets').
+    ``comparisons``: (NAME, DIR) pairs of ``report --compare``, each DIR a compare
+    output or a folder of them, shown beside the approximation on their scenes."""
     clock = Clock()
     params, seeds = measured_settings(budgets["preset"], overrides, seeds=budgets["seeds"] if seeds is None else seeds,
                                       seed=seed, min_seeds=1, why="intervals need 4", error=ReportError)
     sweep = load_sweep(sweep_dir) if sweep_dir else None      # bad input fails before anything renders
     animations = [load_animation(folder, error=ReportError) for folder in animation_dirs or ()]
+    compared = load_comparisons(comparisons, names)
     baseline = load_baseline(baseline_dir) if baseline_dir else None
     results = collect_scenes(names, params, seeds=seeds, reference_settings=reference_settings, budgets=budgets,
                              baseline=baseline, progress=progress, clock=clock)
     summary = report_summary(results, params=params, seeds=seeds, reference_settings=reference_settings,
                              budgets=budgets, baseline_dir=baseline_dir, sweep=sweep, clock=clock.seconds)
     summary["animations"] = animation_rows(animations)
+    summary["comparisons"] = [row for row, _ in compared]
     return write_report(out_dir, results, summary, sweep, progress=progress, started=clock.started,
-                        animation_media=[a["media"] for a in animations])
+                        animation_media=[a["media"] for a in animations],
+                        comparison_media=[comparison_images(row, views) for row, views in compared])
+
+
+def load_comparisons(pairs, names) -> list:
+    """(row, views) of every comparison ``report --compare NAME=DIR`` names, each of a
+    scene the report shows (by content: the scene hash), in the order given."""
+    shown = {resolve_scene(name).scene_hash(): name for name in names}
+    out, seen = [], set()
+    for name, folder in pairs:
+        for path in comparison_folders(folder, f"--compare {name}=", error=ReportError):
+            loaded = load_comparison(path, f"--compare {name}=", error=ReportError)
+            s = loaded["summary"]
+            if s["scene_hash"] not in shown:
+                raise ReportError(f"--compare {name}={path}: compares {s['scene']!r} (hash {s['scene_hash'][:12]}), "
+                                  f"which this report does not show (or shows changed): add it to --scenes, or "
+                                  f"rerun compare on the scene as it is now")
+            if (name, s["scene_hash"]) in seen:
+                raise ReportError(f"--compare {name}={path}: a second comparison of {name} on {s['scene']}: give "
+                                  f"each renderer one folder per scene")
+            seen.add((name, s["scene_hash"]))
+            row = comparison_row(loaded, name)
+            row["scene"], row["anchor"] = shown[s["scene_hash"]], f"compare-{len(out)}"
+            out.append((row, loaded["views"]))
+    return out
 

@@ -13,59 +13,16 @@ from html import escape
 
 from volcaustics.metrics.intersection import OUTCOME_CLASSES
 from volcaustics.reports.page.animations import over_time_section
+from volcaustics.reports.page.external import renderers_table, scene_comparisons
 from volcaustics.reports.page.images import SCALES, colour_bar_css
+from volcaustics.reports.page.parts import CSS, SCRIPT
+from volcaustics.reports.page.parts import colour_bar as _colour_bar
+from volcaustics.reports.page.parts import figure as _figure
+from volcaustics.reports.page.parts import num as _num
+from volcaustics.reports.page.parts import pct as _pct
 from volcaustics.reports.sweep.best import TERMS as BEST_TERMS
 from volcaustics.reports.sweep.variants import variant_name
 from volcaustics.scenes.formats import COLOUR_LAYERS
-
-CSS = """
-body{font-family:system-ui,-apple-system,"Segoe UI",sans-serif;margin:0 auto;padding:12px 20px;max-width:1320px;
-     color:#222;font-size:14px;line-height:1.4}
-h1{font-size:22px;margin:4px 0} h2{font-size:18px;margin:28px 0 6px;border-bottom:1px solid #ccc}
-h3{font-size:15px;margin:14px 0 4px}
-table{border-collapse:collapse;margin:6px 0;font-size:13px} td,th{padding:2px 8px;border-bottom:1px solid #e4e4e4;
-     text-align:right;vertical-align:top} th{background:#f3f3f3} #overview{font-size:12.5px} #overview td{white-space:nowrap}
-#overview td.gate{white-space:normal;min-width:260px} #overview td.gate .verdict{white-space:normal} td.l,th.l{text-align:left}
-.fail{background:#fde0dc;color:#8b1a10} .pass{background:#dff3e4;color:#14532d} .none{background:#eee;color:#444}
-.verdict{font-weight:600;padding:1px 6px;border-radius:3px;display:inline-block;margin:1px 0;white-space:nowrap}
-.banner{font-size:16px;padding:8px 12px;border-radius:4px;margin:8px 0}
-.row{display:flex;flex-wrap:wrap;gap:12px;align-items:flex-start}
-figure{margin:0} figcaption{font-size:12px;color:#444;max-width:300px}
-img.render{image-rendering:pixelated;image-rendering:crisp-edges;display:block;border:1px solid #bbb}
-img.animation-video{image-rendering:pixelated;width:768px;max-width:100%;display:block;border:1px solid #bbb}
-img.animation-plot{max-width:100%;display:block;margin:8px 0}
-img.swap{cursor:pointer} img.chart{display:block;max-width:100%}
-.bar{height:12px;width:256px;border:1px solid #999} .ticks{display:flex;justify-content:space-between;width:258px;
-     font-size:11px;color:#333}
-.note{color:#555;font-size:12px} .missing{display:flex;align-items:center;justify-content:center;
-     background:#eee;color:#444;border:1px dashed #999} code{font-size:12px} .warn{color:#8b1a10}
-nav a{margin-right:10px} details{margin:4px 0}
-"""
-
-SCRIPT = """
-document.querySelectorAll('img.swap').forEach(function (img) {
-  var own = img.src, other = document.getElementById(img.dataset.other);
-  var label = document.getElementById(img.dataset.label), locked = false;
-  function show(ref) {
-    img.src = ref ? other.src : own;
-    if (label) label.textContent = ref ? 'showing: reference (hover off or click to return)'
-                                       : 'showing: approximation (hover or click: reference)';
-  }
-  img.addEventListener('mouseenter', function () { if (!locked) show(true); });
-  img.addEventListener('mouseleave', function () { if (!locked) show(false); });
-  img.addEventListener('click', function () { locked = !locked; show(locked); });
-});
-"""
-
-
-def _num(value, fmt="{:.3g}", missing="–") -> str:
-    if value is None or (isinstance(value, float) and value != value):
-        return missing
-    return fmt.format(value)
-
-
-def _pct(value, digits=2) -> str:
-    return _num(None if value is None else 100.0 * value, "{:.%df}%%" % digits)
 
 
 def _verdict(passed, text) -> str:
@@ -156,22 +113,6 @@ def _banner(summary: dict) -> str:
     if gate["scenes_without_budgets"]:
         text += f"; no budgets: {', '.join(gate['scenes_without_budgets'])}"
     return f"<div class='banner {status}'>{escape(text)}.{'<ul>' + items + '</ul>' if items else ''}</div>"
-
-
-def _figure(uri: str | None, caption: str, *, ident: str = "", cls: str = "render", width: int | None = None,
-            extra: str = "") -> str:
-    if uri is None:  # e.g. an error map whose metric could not be computed
-        return (f"<figure><div class='missing' style='width:{width or 256}px;height:{width or 256}px'>not computed"
-                f"</div><figcaption>{caption}</figcaption></figure>")
-    attributes = (f" width={width}" if width else "") + (f" id='{ident}'" if ident else "") + extra
-    return (f"<figure><img class='{cls}' src='{uri}'{attributes} alt='{escape(caption)}'>"
-            f"<figcaption>{caption}</figcaption></figure>")
-
-
-def _colour_bar(scale: dict, css: str) -> str:
-    ticks = "".join(f"<span>{escape(label)}</span>" for _, label in scale["ticks"])
-    return (f"<div class='bar' style='background:{css}'></div><div class='ticks'>{ticks}</div>"
-            f"<div class='note'>{escape(scale['label'])}; grey: not compared (glass)</div>")
 
 
 def _renders(index: int, page: dict, images: dict, width: int) -> str:
@@ -266,7 +207,7 @@ def _thousand(value):
     return None if value is None else 1000.0 * value
 
 
-def _scene_section(index: int, page: dict, images: dict, summary: dict, bars: dict) -> str:
+def _scene_section(index: int, page: dict, images: dict, summary: dict, bars: dict, comparison_media=()) -> str:
     name = page["scene"]
     width = page["params"]["width"] * max(1, 256 // page["params"]["width"])  # small renders magnified, pixelated
     ref = page["reference"]
@@ -286,6 +227,7 @@ Result <code>{escape(page['point'])}</code> {'measured in this run' if page['mea
 {_renders(index, page, images, width)}
 <h3>Error maps (fixed scales)</h3>
 {_maps(page, images, summary, bars, width)}
+{scene_comparisons(page['scene'], summary.get('comparisons') or [], list(comparison_media))}
 <h3>Intersection: hit classes by step and layer</h3>
 <div class='row'><div>{_hit_table(page['hit_classes'])}</div>
 <img class='chart' src='{images['chart.hit_classes']}' alt='hit classes of {escape(name)} by step and layer'></div>
@@ -408,9 +350,11 @@ decomposition terms are their parts of the caustic's relative MSE, noise removed
 <table id='best-table'>{head}{rows}</table>"""
 
 
-def render_page(summary: dict, images: dict, sweep_figures: dict, animation_media=()) -> str:
+def render_page(summary: dict, images: dict, sweep_figures: dict, animation_media=(), comparison_media=()) -> str:
     """The page; ``images``: scene → name → data URI (``page.write.scene_images``);
-    ``animation_media``: per ``summary["animations"]`` row its data URIs."""
+    ``animation_media``: per ``summary["animations"]`` row its data URIs;
+    ``comparison_media``: per ``summary["comparisons"]`` row its data URIs
+    (``page.external.comparison_images``)."""
     bars = {name: {"css": colour_bar_css(scale), "ticks": scale.ticks()} for name, scale in SCALES.items()}
     params = summary["params"]
     nav = "".join(f"<a href='#scene-{i}'>{escape(p['scene'])}</a>" for i, p in enumerate(summary["scenes"]))
@@ -419,7 +363,9 @@ def render_page(summary: dict, images: dict, sweep_figures: dict, animation_medi
     animations = summary.get("animations") or []
     if animations:
         nav += "<a href='#over-time'>over time</a>"
-    sections = "".join(_scene_section(i, p, images[p["scene"]], summary, bars)
+    if summary.get("comparisons"):
+        nav += "<a href='#renderers'>renderers</a>"
+    sections = "".join(_scene_section(i, p, images[p["scene"]], summary, bars, comparison_media)
                        for i, p in enumerate(summary["scenes"]))
     return f"""<!doctype html>
 <html lang='en'><head><meta charset='utf-8'><meta name='viewport' content='width=device-width, initial-scale=1'>
@@ -436,6 +382,7 @@ mean, debiased (less the reference's noise floor and the approximation's own noi
 frames (0 = identical, 1 = worst). Budgets: <code>{escape(summary['budgets'])}</code>
 {'; baseline <code>' + escape(summary['baseline']) + '</code>' if summary['baseline'] else '; no baseline (no regression test)'}.</p>
 {_overview(summary)}
+{renderers_table(summary)}
 <details><summary>parameters used</summary><p>approximation: <code>{escape(json.dumps(params))}</code><br>
 reference: <code>{escape(json.dumps(summary['reference_settings']))}</code></p></details>
 {sections}

@@ -22,13 +22,14 @@ from volcaustics.scenes.storage import atomic_write_texts
 
 
 def write_report(out_dir: str, results: list, summary: dict, sweep=None, *, progress: bool = False,
-                 started: float | None = None, animation_media=()) -> dict:
+                 started: float | None = None, animation_media=(), comparison_media=()) -> dict:
     """Draw ``index.html`` from ``summary`` (and each scene's views), write it and,
     last, ``summary.json``; the sweep's figures also as files under ``figures/`` (an
     earlier run's figures removed). The
     page is drawn from the same strict-JSON data that ``summary.json`` holds (NaN as
     null). ``started``: the run's ``time.perf_counter()`` at its start, for the total;
-    ``animation_media``: per ``summary["animations"]`` row, its data URIs (page.animations)."""
+    ``animation_media``: per ``summary["animations"]`` row, its data URIs (page.animations);
+    ``comparison_media``: per ``summary["comparisons"]`` row, its data URIs (page.external)."""
     t0 = time.perf_counter()
     os.makedirs(out_dir, exist_ok=True)
     summary = plain(summary)
@@ -50,7 +51,7 @@ def write_report(out_dir: str, results: list, summary: dict, sweep=None, *, prog
                 with open(path, "rb") as fh:
                     sweep_figures[os.path.splitext(os.path.basename(path))[0]] = data_uri(fh.read())
         summary["sweep"]["figures"] = [os.path.relpath(p, out_dir) for p in paths]
-    page = render_page(summary, images, sweep_figures, list(animation_media))
+    page = render_page(summary, images, sweep_figures, list(animation_media), list(comparison_media))
     summary["seconds"]["page"] = time.perf_counter() - t0
     if started is not None:
         summary["seconds"]["total"] = time.perf_counter() - started

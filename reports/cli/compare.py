@@ -1,0 +1,56 @@
+"""``volcaustics compare SCENE IMAGE.exr [IMAGE2.exr …] -o DIR``: another renderer's
+images against the reference, measured as the approximation is."""
+
+from __future__ import annotations
+
+import os
+
+from volcaustics.reports.cli.common import UsageError, add_report_reference, check_output_set, num, pct, report_settings
+from volcaustics.reports.compare.run import run_compare
+from volcaustics.reports.compare.write import OUTPUT_FILES, write_comparison
+from volcaustics.reports.core.tables import plain
+from volcaustics.reports.page.external import comparison_images, comparison_page, comparison_row
+from volcaustics.scenes import resolve_scene
+
+# native extensions loaded at start-up, with Ctrl-C held (cli.main)
+NATIVE = ("drjit", "mitsuba")
+
+
+def register(sub) -> None:
+    p = sub.add_parser("compare", help="another renderer's EXRs of SCENE against the reference: the image metrics, "
+                                       "noise debiasing and error maps the approximation gets -> DIR/images.parquet, "
+                                       "views.exr, index.html, summary.json")
+    p.add_argument("scene", metavar="SCENE", help="built-in scene name or path to a .toml scene file")
+    p.add_argument("images", nargs="+", metavar="IMAGE.exr",
+                   help="one OpenEXR file per seed: layers caustic, fog, direct (channels caustic.R, …; optional "
+                        "combined, mask_specular) or root R, G, B (compared as combined); linear radiance, box filter")
+    p.add_argument("-o", "--output", required=True, metavar="DIR", help="output folder (created if missing)")
+    p.add_argument("--name", default=None,
+                   help="the renderer's name on tables and pages (default: the first image's file stem)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_report_reference(p)
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    check_output_set(args.output, "-o", files=OUTPUT_FILES)
+    name = args.name if args.name is not None else os.path.splitext(os.path.basename(args.images[0]))[0]
+    if not name.strip():
+        raise UsageError("--name", args.name, "expected a non-empty name for the renderer")
+    scene = resolve_scene(args.scene)
+    comparison = run_compare(scene, args.images, name=name, reference_settings=report_settings(args),
+                             progress=not args.quiet)
+    loaded = {"folder": os.path.abspath(args.output), "summary": plain(comparison.summary), "views": comparison.views}
+    row = comparison_row(loaded)
+    paths = write_comparison(comparison, args.output, comparison_page(row, comparison_images(row, comparison.views)))
+    s = loaded["summary"]
+    print(f"compare {name} on {scene.name}: {s['seeds']} file(s) at {s['width']}x{s['height']}, "
+          f"{s['compared_pixels']:,} pixels compared, {s['seconds']['total']:.1f} s -> {paths['summary.json']}")
+    for component, m in s["images"].items():
+        relmse, ratio, flip = m["relative_mse"], m["energy_ratio"], m["hdr_flip"]
+        ci = f" [{100 * relmse['ci_low']:.2f}, {100 * relmse['ci_high']:.2f}]" if relmse["ci_low"] is not None else ""
+        print(f"  {component:<9} relative MSE debiased {pct(relmse['debiased'])}{ci}, "
+              f"energy ratio {num(ratio['value'])}, HDR-FLIP {num(flip['value'])}")
+    for warning in s["warnings"]:
+        print(f"  warning: {warning}")
+    return 0
