@@ -10,6 +10,7 @@ from volcaustics.reports.cli.common import (
     path_type,
     scene_list,
 )
+from volcaustics.reports.compare.read import parse_named
 from volcaustics.reports.core.params import parse_overrides
 from volcaustics.reports.gate.budgets import GateError, default_budgets_path, load_budgets
 from volcaustics.reports.gate.outputs import VERDICT, console_table
@@ -33,6 +34,9 @@ def register(sub) -> None:
     p.add_argument("--animation", action="append", type=path_type, metavar="DIR",
                    help="also hold an animation that `volcaustics animate SCENE -o DIR` measured to the budgets' "
                         "[animation.SCENE] flicker limits (repeatable)")
+    p.add_argument("--compare", action="append", metavar="NAME=DIR",
+                   help="also hold another renderer that `volcaustics compare` measured (DIR: one such folder or a "
+                        "folder of them) to the budgets' [compare.NAME.SCENE] limits (repeatable)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
 
@@ -50,7 +54,9 @@ def run(args) -> int:
     result = run_gate(budgets, overrides=overrides, baseline_dir=args.baseline, update_baseline=args.update_baseline,
                       out_dir=args.out, scenes=scene_list(args.scenes, "--scenes"), seeds=args.seeds, seed=args.seed,
                       render_references=args.render_references, junit=args.junit,
-                      animation_dirs=args.animation or (), progress=not args.quiet)
+                      animation_dirs=args.animation or (),
+                      comparisons=[parse_named(text, "--compare", GateError) for text in args.compare or ()],
+                      progress=not args.quiet)
     print(console_table(result.checks))
     failed = sum(not c.passed for c in result.checks)
     print(f"gate {'FAILED' if failed else 'passed'}: {failed} of {len(result.checks)} checks failed, "

@@ -65,7 +65,7 @@ def run_compare(scene, paths, *, name: str, reference_settings, policy: str = "c
     summary = {
         "kind": KIND, "renderer": name, "scene": scene.name, "scene_hash": scene.scene_hash(),
         "description": scene.description, "width": inputs.width, "height": inputs.height,
-        "seeds": len(inputs.frames), "files": inputs.files, "components": list(inputs.components),
+        "seeds": len(inputs.frames), "inputs": inputs.files, "components": list(inputs.components),
         "mask": inputs.mask, "reference": reference_summary(reference), "compared_pixels": int(keep.sum()),
         "images": headline, "seconds": clock.seconds, "code_version": code_version(),
         "versions": library_versions(), "warnings": inputs.warnings + _seed_warnings(len(inputs.frames)),

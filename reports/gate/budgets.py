@@ -15,6 +15,9 @@ Budgets (TOML; ``reports/gate/budgets.toml`` is the default for the built-ins)::
     [animation.refocus]               # checked on `gate --animation DIR` (volcaustics animate)
     caustic.flicker_max = 0.05        # mean flicker over the frame pairs, fixed seed (metrics.temporal)
     caustic.flicker_per_frame_max = 0.08  # the same with a new seed every frame
+    [compare.myengine.bunny]          # checked on `gate --compare myengine=DIR` (volcaustics compare)
+    caustic.relmse_max = 0.40         # the component limits above, on another renderer's images
+    combined.energy_ratio = [0.9, 1.1]
 
 A budget tighter than the measurement can resolve — a relative-MSE limit below the
 reference's floor plus 3 standard errors, an energy band narrower than 3 σ of the
@@ -39,7 +42,7 @@ COMPONENT_KEYS = ("relmse_max", "energy_ratio", "hdr_flip_max")
 SEGMENT_KEYS = ("missed_step2_max", "dt_p90_step2_max")
 FLICKER_KEYS = {"flicker_max": "fixed", "flicker_per_frame_max": "per-frame"}  # budget → the seed mode it checks
 COMPONENTS = ("caustic", "fog", "direct", "combined")
-TOP_KEYS = ("preset", "seeds", "scene", "reference", "animation")
+TOP_KEYS = ("preset", "seeds", "scene", "reference", "animation", "compare")
 
 
 class GateError(ValueError):
@@ -85,34 +88,86 @@ def load_budgets(path: str) -> dict:
             resolve_scene(args[name])
         except SceneError as exc:
             raise GateError(f"{path}: scene.{name}: {exc}") from None
-        checks = {}
-        for group, values in table.items():
-            if not isinstance(values, dict):
-                raise GateError(f"{path}: scene.{name}.{group}: expected a table of limits")
-            allowed = SEGMENT_KEYS if group == "segments" else COMPONENT_KEYS
-            if group not in ("segments", "caustic", "fog", "direct", "combined"):
-                raise GateError(f"{path}: scene.{name}.{group}: expected caustic, fog, direct, combined or segments")
-            for key, limit in values.items():
-                where = f"{path}: scene.{name}.{group}.{key}"
-                if key not in allowed:
-                    raise GateError(f"{where}: unknown; expected {', '.join(allowed)}")
-                if key == "energy_ratio":
-                    if (not isinstance(limit, list) or len(limit) != 2
-                            or not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in limit)
-                            or not 0 <= limit[0] < limit[1]):
-                        raise GateError(f"{where} = {limit!r}: expected [low, high] with 0 ≤ low < high")
-                elif isinstance(limit, bool) or not isinstance(limit, (int, float)) or not limit > 0 \
-                        or not math.isfinite(limit):
-                    raise GateError(f"{where} = {limit!r}: expected a positive number")
-                checks[f"{group}.{key}"] = limit
-        out[name] = checks
+        out[name] = _limits(path, f"scene.{name}", table, ("segments", *COMPONENTS))
     animations = _flicker_budgets(path, doc.get("animation", {}))
+    compared = _compare_budgets(path, doc.get("compare", {}))
     reference = doc.get("reference", {})
     if not isinstance(reference, dict) or any(k not in REFERENCE_KEYS for k in reference):
         raise GateError(f"{path}: reference = {reference!r}: expected a table of {', '.join(REFERENCE_KEYS)}")
     settings = reference_settings(reference, error=lambda message: GateError(f"{path}: {message}"))
     return {"preset": preset, "seeds": seeds, "scenes": out, "scene_args": args, "path": path,
-            "reference_settings": settings, "animations": animations}
+            "reference_settings": settings, "animations": animations, "compare": compared}
+
+
+def _limits(path: str, where: str, table: dict, groups: tuple) -> dict:
+    """A scene's limits ``{group: {key: limit}}`` → {"group.key": limit}, validated:
+    ``groups`` are the component names (COMPONENT_KEYS) and "segments" (SEGMENT_KEYS)."""
+    checks = {}
+    for group, values in table.items():
+        if not isinstance(values, dict):
+            raise GateError(f"{path}: {where}.{group}: expected a table of limits")
+        if group not in groups:
+            raise GateError(f"{path}: {where}.{group}: expected {', '.join(groups)}")
+        allowed = SEGMENT_KEYS if group == "segments" else COMPONENT_KEYS
+        for key, limit in values.items():
+            at = f"{path}: {where}.{group}.{key}"
+            if key not in allowed:
+                raise GateError(f"{at}: unknown; expected {', '.join(allowed)}")
+            if key == "energy_ratio":
+                if (not isinstance(limit, list) or len(limit) != 2
+                        or not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in limit)
+                        or not 0 <= limit[0] < limit[1]):
+                    raise GateError(f"{at} = {limit!r}: expected [low, high] with 0 ≤ low < high")
+            elif isinstance(limit, bool) or not isinstance(limit, (int, float)) or not limit > 0 \
+                    or not math.isfinite(limit):
+                raise GateError(f"{at} = {limit!r}: expected a positive number")
+            checks[f"{group}.{key}"] = limit
+    return checks
+
+
+def _compare_budgets(path: str, tables) -> dict:
+    """``[compare.RENDERER.SCENE]``: renderer → scene name → {"component.key": limit}
+    (the component limits; another renderer has no segment records)."""
+    if not isinstance(tables, dict):
+        raise GateError(f"{path}: compare = {tables!r}: expected [compare.RENDERER.SCENE] tables")
+    out = {}
+    for renderer, scenes in tables.items():
+        if not isinstance(scenes, dict) or not scenes or not all(isinstance(t, dict) for t in scenes.values()):
+            raise GateError(f"{path}: compare.{renderer}: expected [compare.{renderer}.SCENE] tables of limits")
+        out[renderer] = {}
+        for scene, table in scenes.items():
+            if not table:
+                raise GateError(f"{path}: compare.{renderer}.{scene}: expected a table of limits")
+            out[renderer][scene] = _limits(path, f"compare.{renderer}.{scene}", table, COMPONENTS)
+    return out
+
+
+def compare_checks(comparison: dict, renderer: str, limits: dict, path: str) -> list:
+    """Another renderer's comparison (``compare``'s summary) against its budgets, as
+    :func:`budget_checks` holds the approximation to them; checks named
+    ``compare.RENDERER.component.key``."""
+    s = comparison["summary"]
+    for name in limits:
+        group = name.split(".", 1)[0]
+        if group not in s["components"]:
+            raise GateError(f"{path}: compare.{renderer}.{s['scene']}.{name}: {comparison['folder']} has no "
+                            f"{group} (its images gave {', '.join(s['components'])}): drop the limit or compare "
+                            f"images with caustic, fog and direct layers")
+    checks = budget_checks(s["scene"], limits, _Measured(s))
+    for check in checks:
+        check.name = f"compare.{renderer}.{check.name}"
+        check.detail["folder"] = comparison["folder"]
+        if not check.passed:
+            check.message = f"{s['scene']}: {check.name} = {check.value:.4g}, limit {check.limit}"
+    return checks
+
+
+@dataclass
+class _Measured:
+    """What :func:`budget_checks` reads of a result: its summary (no segment records)."""
+
+    summary: dict
+    segments: list = field(default_factory=list)
 
 
 def _flicker_budgets(path: str, tables) -> dict:

@@ -16,9 +16,10 @@ from dataclasses import dataclass
 
 from volcaustics.reports import runner
 from volcaustics.reports.animate.read import load_animation
+from volcaustics.reports.compare.read import comparison_folders, load_comparison
 from volcaustics.reports.core.versions import code_version
 from volcaustics.reports.experiment.settings import measured_settings
-from volcaustics.reports.gate.budgets import GateError, check_measurable, flicker_checks
+from volcaustics.reports.gate.budgets import GateError, check_measurable, compare_checks, flicker_checks
 from volcaustics.reports.gate.outputs import VERDICT, failure_images, write_outputs
 from volcaustics.reports.gate.regression import BASELINE, baseline_text, load_baseline
 from volcaustics.reports.gate.verdict import scene_verdict
@@ -41,14 +42,17 @@ class GateResult:
 
 def run_gate(budgets: dict, *, overrides: dict, baseline_dir: str | None, update_baseline: bool, out_dir: str,
              scenes=None, seeds: int | None = None, seed: int = 0, render_references: bool = False,
-             junit: str | None = None, animation_dirs=(), progress: bool = True) -> GateResult:
+             junit: str | None = None, animation_dirs=(), comparisons=(), progress: bool = True) -> GateResult:
     """Measure every budgeted scene (or ``scenes``) not in the result store, check
     budgets and the baseline, write the failure images under ``out_dir`` and then, as
     one set, the accepted baseline, the JUnit file ``junit`` and ``out_dir``/gate.json.
-    ``animation_dirs``: ``volcaustics animate`` outputs held to their flicker budgets."""
+    ``animation_dirs``: ``volcaustics animate`` outputs held to their flicker budgets;
+    ``comparisons``: (RENDERER, DIR) pairs, ``volcaustics compare`` outputs (DIR: one or a
+    folder of them) held to the budgets' ``[compare.RENDERER.SCENE]`` limits."""
     t0 = time.perf_counter()
     names = _names(budgets, scenes)
     animations = [_animation(budgets, folder) for folder in animation_dirs or ()]  # bad input: before any work
+    compared = [c for name, folder in comparisons or () for c in _comparisons(budgets, name, folder)]
     n_seeds = budgets["seeds"] if seeds is None else seeds
     params, n_seeds = measured_settings(budgets["preset"], overrides, seeds=n_seeds, seed=seed, min_seeds=2,
                                         why="the regression test needs 2", error=GateError)
@@ -75,6 +79,9 @@ def run_gate(budgets: dict, *, overrides: dict, baseline_dir: str | None, update
         checks += verdict.checks
     for animation in animations:
         checks += flicker_checks(animation, budgets["animations"][animation["summary"]["scene"]], budgets["path"])
+    for name, comparison in compared:
+        checks += compare_checks(comparison, name, budgets["compare"][name][comparison["summary"]["scene"]],
+                                 budgets["path"])
     failed = [c for c in checks if not c.passed]
     # only results that pass their budgets are accepted as the baseline
     updated = os.path.join(baseline_dir, BASELINE) if update_baseline and baseline_dir and not failed else None
@@ -97,6 +104,23 @@ def _animation(budgets: dict, folder: str) -> dict:
                         f"{animation['summary'].get('code_version')}, now {code_version()}): rerun "
                         f"`volcaustics animate {scene} -o {folder}`")
     return animation
+
+
+def _comparisons(budgets: dict, name: str, folder: str) -> list:
+    """(RENDERER, comparison) of every compare output in ``folder``, each with budgets
+    and measured with this code."""
+    option = f"--compare {name}="
+    out = []
+    for path in comparison_folders(folder, option, error=GateError):
+        comparison = load_comparison(path, option, error=GateError, views=False)
+        s = comparison["summary"]
+        if s["scene"] not in budgets["compare"].get(name, {}):
+            raise GateError(f"{option}{path}: no [compare.{name}.{s['scene']}] budgets in {budgets['path']}")
+        if s.get("code_version") != code_version():
+            raise GateError(f"{option}{path}: measured with other code (version {s.get('code_version')}, now "
+                            f"{code_version()}): rerun `volcaustics compare {s['scene']} IMAGE.exr … -o {path}`")
+        out.append((name, comparison))
+    return out
 
 
 def _names(budgets: dict, scenes) -> list:
