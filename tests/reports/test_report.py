@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 from volcaustics.reports.cli import main
+from volcaustics.scenes.formats import COLOUR_LAYERS
 
 from .test_sweep import SPEC
 
@@ -35,6 +36,8 @@ caustic = { hdr_flip_max = 0.001 }
 combined = { energy_ratio = [0.0, 10.0] }
 """
 SWEEP = SPEC.replace("iterations = [4, 8]\n", "")  # tiny points over layers 1, 2
+# the frames `compare` is given: the approximation at the report's size, paper preset (another renderer's settings)
+COMPARED = ["--width", "40", "--height", "40", "--photon-res", "64", "--light-res", "64"]
 # a tiny animation for the "Over time" section: 3 refocus frames at 40²
 ANIMATE = ["--frames", "3", "--width", "40", "--height", "40", "--photon-res", "64", "--light-res", "64",
            "--photons", "65536", "--spp", "8", "--batches", "4", "--quiet"]
@@ -51,8 +54,14 @@ def built(tmp_path_factory):
         (root / "budgets.toml").write_text(BUDGETS)
         assert main(["sweep", str(root / "sweep.toml"), "-o", str(root / "sweep"), "--workers", "1", "--quiet"]) == 0
         assert main(["animate", "refocus", "-o", str(root / "animation"), *ANIMATE]) == 0
+        for seed in (0, 1):  # another renderer's files: the approximation's own, through `compare`
+            assert main(["approx", "refocus", "-o", str(root / f"shot{seed}.exr"), *COMPARED, "--seed", str(seed),
+                         "--records-max", "0"]) == 0
+        assert main(["compare", "refocus", str(root / "shot0.exr"), str(root / "shot1.exr"), "-o",
+                     str(root / "compared" / "refocus"), *SMALL[SMALL.index("--photons"):]]) == 0
         args = ["report", "--scenes", ",".join(SCENES), "--budgets", str(root / "budgets.toml"),
-                "--sweep", str(root / "sweep"), "--animation", str(root / "animation"), *SMALL]
+                "--sweep", str(root / "sweep"), "--animation", str(root / "animation"),
+                "--compare", f"files={root / 'compared'}", *SMALL]
         assert main([*args, "--out", str(root / "cold")]) == 0
         cold = json.loads((root / "cold" / "summary.json").read_text())
         assert main([*args, "--out", str(root / "warm")]) == 0
@@ -164,13 +173,31 @@ def test_the_page_is_self_contained(built):
     assert parsed.external == []
     assert not re.search(r"https?://", built["page"])
     figures = [f for f in built["cold"]["sweep"]["figures"] if f.endswith(".png")]
-    # per scene: 5 renders, 4 maps, 4 charts; the animation: its video and its plot
-    assert len(parsed.images) == 2 * (5 + 4 + 4) + len(figures) + 2
+    # per scene: 5 renders, 4 maps, 4 charts; the animation: its video and its plot; the other renderer: its
+    # and the reference's caustic and combined, 4 maps
+    assert len(parsed.images) == 2 * (5 + 4 + 4) + len(figures) + 2 + 8
     assert all(img["src"].startswith(("data:image/png;base64,", "data:image/webp;base64,", "data:image/gif;base64,"))
                for img in parsed.images)
     renders = [img for img in parsed.images if "render" in img.get("class", "")]
     assert renders and all("swap" not in img["class"] or img.get("data-other") for img in renders)
     assert "image-rendering:pixelated" in built["page"]
+
+
+def test_another_renderer_beside_the_approximation(built):
+    """`report --compare files=DIR`: one more row for refocus in the Renderers table, its
+    numbers those `compare` wrote, its images in refocus's section; sphere1 has none."""
+    compared = json.loads((built["root"] / "compared" / "refocus" / "summary.json").read_text())
+    rows = built["cold"]["comparisons"]
+    assert [(r["renderer"], r["scene"]) for r in rows] == [("files", "refocus")]
+    for component in COLOUR_LAYERS:
+        assert rows[0]["images"][component]["relative_mse"] == compared["images"][component]["relative_mse"]
+    page = built["page"]
+    table = page[page.index("id='renderers-table'"):page.index("</table>", page.index("id='renderers-table'"))]
+    assert table.count("class='renderer-row'") == 2 and "data-scene='sphere1'" not in table
+    assert f"{100 * compared['images']['caustic']['relative_mse']['debiased']:.2f}%" in table
+    section = page[page.index("id='scene-0'"):page.index("id='scene-1'")]
+    assert "id='compare-0'" in section and "files on refocus" in section
+    assert "id='compare-0-renderer-caustic'" in section and "id='compare-0'" not in page[page.index("id='scene-1'"):]
 
 
 def test_the_over_time_section(built):
@@ -403,6 +430,13 @@ def test_the_report_in_headless_chromium(built):
         approx.click()
         hover(away)
         assert approx.get_attribute("src") == own
+        other = browser.find_element(By.ID, "compare-0-renderer-caustic")   # another renderer swaps the same way
+        hover(other)
+        assert other.get_attribute("src") == browser.find_element(By.ID, "compare-0-reference-caustic") \
+            .get_attribute("src")
+        assert "reference" in browser.find_element(By.ID, "compare-0-renderer-caustic-label").text
+        hover(away)
+        assert "showing: files" in browser.find_element(By.ID, "compare-0-renderer-caustic-label").text
         browser.execute_script("window.scrollTo(0, 0)")
         out = REPO / "test-output"
         out.mkdir(exist_ok=True)
