@@ -10,14 +10,16 @@ setup:
 	@bash scripts/setup.sh
 
 # The accuracy report; with the gate's baseline, a sweep (SWEEP, default the standard
-# sweep's store) and the animations `make animate` measured (runs/animate/*) when they exist.
+# sweep's store), the animations `make animate` measured (runs/animate/*) and other renderers
+# that `volcaustics compare` measured (runs/compare/NAME/SCENE) when they exist.
 SWEEP ?= runs/sweep
 ANIMATIONS = $$(for d in runs/animate/*/; do [ -f "$$d/summary.json" ] && echo --animation "$$d"; done)
+COMPARISONS = $$(for d in runs/compare/*/; do ls "$$d"*/summary.json >/dev/null 2>&1 && echo --compare "$$(basename "$$d")=$$d"; done)
 report: setup
 	$(BIN)/volcaustics report --out $(OUT) \
 	  $$( [ -f $(GATE_BASELINE)/baseline.json ] && echo --baseline $(GATE_BASELINE) ) \
 	  $$( [ -f $(SWEEP)/sweep.json ] && [ -f $(SWEEP)/points.parquet ] && echo --sweep $(SWEEP) ) \
-	  $(ANIMATIONS)
+	  $(ANIMATIONS) $(COMPARISONS)
 
 # The built-in animations over time (bunny, refocus, two_spheres) -> runs/animate/NAME;
 # resumable; about 3 minutes each cold on 2 cores.

@@ -49,6 +49,16 @@ SHAPE_KINDS = {"KIND_NONE": KIND_NONE, "KIND_SPECULAR": KIND_SPECULAR, "KIND_DIF
 COLOUR_LAYERS = ("caustic", "fog", "direct", "combined")  # H×W×3 float32 radiance, W·m⁻²·sr⁻¹
 MASK_LAYER = "mask_specular"                              # H×W×3 float32, 1 where the camera sees glass, else 0
 LAYER_NAMES = COLOUR_LAYERS + (MASK_LAYER,)
+# What each layer holds (DESIGN.md's table), for files that tell other programs (glTF extras)
+LAYER_MEANINGS = {
+    "caustic": "single-scattered radiance from light that crossed >= 1 specular interface before scattering in the "
+               "medium, seen directly by the camera (the volume caustic)",
+    "fog": "single-scattered radiance from direct (unrefracted) light, with volumetric shadows of all objects",
+    "direct": "direct lighting on diffuse surfaces, attenuated by the medium both ways, shadowed",
+    "combined": "sum of caustic, fog and direct",
+    MASK_LAYER: "1 where the primary camera ray hits a specular object, else 0 (excluded from image metrics: what "
+                "is seen through glass is modelled by neither technique in the same way)",
+}
 
 # --- photon arrays
 # One photon slot of the GPU tracer (std430 struct Photon, 48 bytes):

@@ -43,6 +43,20 @@ if [ ${#browser[@]} -gt 0 ]; then
     echo "  sudo apt-get install -y ${browser[*]}" >&2
   fi
 fi
+# The Khronos glTF-Validator (npm gltf-validator, this exact version) into .tools/ (git-ignored),
+# for the glTF export's test, with --browser (make test). Optional: without Node.js/npm or
+# the registry that test is skipped and says why.
+GLTF_VALIDATOR=2.0.0-dev.3.10
+if [ "${1:-}" = "--browser" ] \
+   && ! grep -qs "\"version\": \"$GLTF_VALIDATOR\"" .tools/node_modules/gltf-validator/package.json; then
+  if command -v npm >/dev/null; then
+    echo "setup: installing gltf-validator@$GLTF_VALIDATOR into .tools/ (the glTF export's test)"
+    npm install --prefix .tools --no-save --no-audit --no-fund --loglevel=error "gltf-validator@$GLTF_VALIDATOR" \
+      >/dev/null || echo "setup: could not install gltf-validator: the glTF validation test will be skipped" >&2
+  else
+    echo "setup: optional npm missing (the glTF validation test will be skipped); install Node.js and npm" >&2
+  fi
+fi
 if [ ${#need[@]} -gt 0 ]; then
   if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null; then
     echo "setup: installing system packages: ${need[*]}"
