@@ -200,6 +200,25 @@ def test_another_renderer_beside_the_approximation(built):
     assert "id='compare-0-renderer-caustic'" in section and "id='compare-0'" not in page[page.index("id='scene-1'"):]
 
 
+def test_a_comparison_the_report_cannot_show_exits_2(built, tmp_path, capsys):
+    """A comparison of a scene the report does not show, or one edited since written
+    (its summary's own SHA-256), exits 2 before anything renders."""
+    folder = built["root"] / "compared" / "refocus"
+    args = [a for a in built["args"] if a != "--compare" and not a.startswith("files=")]
+    scenes = args.index("--scenes") + 1
+    only_sphere = [*args[:scenes], "sphere1", *args[scenes + 1:]]
+    assert main([*only_sphere, "--compare", f"files={folder}", "--out", str(tmp_path / "a")]) == 2
+    assert "which this report does not show" in capsys.readouterr().err
+    edited = tmp_path / "edited"
+    shutil.copytree(folder, edited)
+    doc = json.loads((edited / "summary.json").read_text())
+    doc["images"]["caustic"]["energy_ratio"]["value"] = 1.0
+    (edited / "summary.json").write_text(json.dumps(doc))
+    assert main([*args, "--compare", f"files={edited}", "--out", str(tmp_path / "b")]) == 2
+    assert "SHA-256" in capsys.readouterr().err
+    assert not (tmp_path / "a").exists() and not (tmp_path / "b").exists()
+
+
 def test_the_over_time_section(built):
     """An animation measured by `animate` shows as "Over time": its embedded animated
     WebP, its plot and its flicker numbers, the same as its own summary.json."""
@@ -334,6 +353,8 @@ def test_the_gate_with_a_baseline_keeps_budget_failures(built, monkeypatch, tmp_
     (["--set", "seed=3"], "--seed"),
     (["--sweep", "/nonexistent/sweep"], "sweep.json"),
     (["--animation", "/nonexistent/animation"], "volcaustics animate"),
+    (["--compare", "/nonexistent/compared"], "expected NAME=DIR"),
+    (["--compare", "x=/nonexistent/compared"], "volcaustics compare"),
     (["--baseline", "/nonexistent/baseline"], "baseline"),
     (["--budgets", "BUDGETS_NAMING_NOSUCH"], "scene.nosuch"),  # a budgets file with an unknown scene
 ])
