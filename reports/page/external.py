@@ -8,16 +8,14 @@ from __future__ import annotations
 
 from html import escape
 
-from volcaustics.metrics.image import reference_exposure
 from volcaustics.reports.core.versions import code_version
-from volcaustics.reports.page.images import SCALES, colour_bar_css, heatmap_uri, render_uri
+from volcaustics.reports.page.images import SCALES, colour_bar_css, component_images, exposures
 from volcaustics.reports.page.parts import CSS, SCRIPT
 from volcaustics.reports.page.parts import colour_bar as _colour_bar
 from volcaustics.reports.page.parts import figure as _figure
 from volcaustics.reports.page.parts import num as _num
 from volcaustics.reports.page.parts import pct as _pct
 
-SHOWN = ("caustic", "combined")   # the components whose images and maps are drawn (those the renderer gave)
 COLUMNS = ("relative_mse", "energy_ratio", "hdr_flip", "per_pixel_relative_mse")
 
 
@@ -36,28 +34,9 @@ def comparison_row(loaded: dict, name: str | None = None) -> dict:
             "seconds": s.get("seconds")}
 
 
-def exposures(views: dict, components) -> dict:
-    """One exposure per shown component: the reference's bright pixels to 1 (as the report)."""
-    keep = views["compared"][..., 0] > 0.5 if views["compared"].ndim == 3 else views["compared"] > 0.5
-    out = {}
-    for component in (c for c in SHOWN if c in components):
-        try:
-            out[component] = reference_exposure(views[f"reference.{component}"], mask=keep)
-        except ValueError:  # a black reference
-            out[component] = 1.0
-    return out
-
-
 def comparison_images(row: dict, views: dict) -> dict:
     """Data URIs of one comparison: renders at its exposures, error maps on the fixed scales."""
-    out = {}
-    for component, exposure in row["exposure"].items():
-        out[f"renderer.{component}"] = render_uri(views[f"renderer.{component}"], exposure)
-        out[f"reference.{component}"] = render_uri(views[f"reference.{component}"], exposure)
-        for metric, scale in SCALES.items():
-            name = f"map.{metric}.{component}"
-            out[name] = heatmap_uri(views[name], scale) if name in views else None
-    return out
+    return component_images(views, row["exposure"], "renderer")
 
 
 def _component_table(row: dict) -> str:

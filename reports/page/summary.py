@@ -18,12 +18,11 @@ import numpy as np
 
 from volcaustics.approx.params import PARAMS
 from volcaustics.metrics.decomposition import TERMS
-from volcaustics.metrics.image import reference_exposure
 from volcaustics.metrics.intersection import OUTCOME_CLASSES
 from volcaustics.reports.core.tables import rows_of
 from volcaustics.reports.core.versions import code_version, library_versions
 from volcaustics.reports.experiment.photons import FATES
-from volcaustics.reports.page.images import SCALES
+from volcaustics.reports.page.images import SCALES, exposures
 from volcaustics.reports.sweep.best import role_rows, verdict
 from volcaustics.reports.sweep.suffice import settings_that_suffice
 from volcaustics.reports.sweep.variants import best_variants, is_variants_sweep, variant_table
@@ -130,21 +129,14 @@ def scene_page(result, *, exposures: dict) -> dict:
     }
 
 
-def exposures(result) -> dict:
+def scene_exposures(result) -> dict:
     """One exposure per shown component: the reference's (its bright pixels to 1)."""
-    keep = result.views["compared"][..., 0] > 0.5
-    out = {}
-    for component in ("caustic", "combined"):
-        try:
-            out[component] = reference_exposure(result.views[f"reference.{component}"], mask=keep)
-        except ValueError:  # a black reference
-            out[component] = 1.0
-    return out
+    return exposures(result.views)
 
 
 def report_summary(results: list, *, params, seeds: int, reference_settings, budgets: dict,
                    baseline_dir: str | None, sweep=None, clock: dict) -> dict:
-    pages = [scene_page(r, exposures=exposures(r)) for r in results]
+    pages = [scene_page(r, exposures=scene_exposures(r)) for r in results]
     checks = [c for p in pages for c in p["gate"]["checks"]]
     failed = [c for c in checks if not c["passed"]]
     # a scene with budgets that could not be checked: the gate would fail closed (exit 2), never pass

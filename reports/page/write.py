@@ -13,7 +13,7 @@ from volcaustics.reports.core.plotting import remove_stale_figures
 from volcaustics.reports.core.tables import plain
 from volcaustics.reports.page import charts
 from volcaustics.reports.page.html import render_page
-from volcaustics.reports.page.images import SCALES, data_uri, heatmap_uri, render_uri
+from volcaustics.reports.page.images import component_images, data_uri, render_uri
 from volcaustics.reports.page.summary import OUTPUT_FILES
 from volcaustics.reports.sweep.best import draw_best
 from volcaustics.reports.sweep.figures import draw_figures
@@ -65,14 +65,7 @@ def scene_images(result, page: dict) -> dict:
     """Data URIs of one scene: renders at the page's exposures, error maps on the fixed
     scales, charts."""
     v = result.views
-    out = {}
-    for component in ("caustic", "combined"):
-        exposure = page["exposure"][component]
-        out[f"approx.{component}"] = render_uri(v[f"approx.{component}"], exposure)
-        out[f"reference.{component}"] = render_uri(v[f"reference.{component}"], exposure)
-        for metric, scale in SCALES.items():
-            name = f"map.{metric}.{component}"
-            out[name] = heatmap_uri(v[name], scale) if name in v else None   # None: the metric had no value
+    out = component_images(v, page["exposure"], "approx")
     out["exact_steps"] = render_uri(v["exact_steps"], page["exposure"]["caustic"])
     out["chart.hit_classes"] = data_uri(charts.hit_classes_chart(page["hit_classes"]))
     out["chart.power_budget"] = data_uri(charts.power_budget_chart(page["power_budget"]))
