@@ -30,7 +30,7 @@ import zipfile
 import numpy as np
 
 from volcaustics.scenes.canonical import canonical_dict
-from volcaustics.scenes.formats import COLOUR_LAYERS, LAYER_NAMES, MASK_LAYER
+from volcaustics.scenes.formats import COLOUR_LAYERS, LAYER_NAMES, MASK_LAYER, MODEL_LAYERS
 from volcaustics.scenes.imageio import read_exr, write_exr
 from volcaustics.scenes.sources import source_hash
 from volcaustics.scenes.storage import (
@@ -58,6 +58,7 @@ KEY_FORMAT = "volcaustics-reference-key/3"
 RENDER_FOLDER = os.path.join(os.path.dirname(os.path.abspath(__file__)), "render")
 FILE_KINDS = {"exr": ".exr", "png": ".png", "state": ".npz"}  # an entry's data files, named by its manifest
 LAYERS = (*LAYER_NAMES, *(f"{name}_var" for name in COLOUR_LAYERS))  # what a reference's EXR holds
+MODEL = (*MODEL_LAYERS, *(f"{name}_var" for name in MODEL_LAYERS))  # ... and with max_scatter > 1
 SEAL = "manifest_sha256"  # the manifest's field holding the SHA-256 of the rest of it
 
 
@@ -145,7 +146,8 @@ def load(key: str, size: tuple | None = None):
         size = _manifest_size(manifest, size)
         if size is None:
             return None
-        layers = _verified(read_exr(entry_file(key, manifest, "exr"))[0], size)
+        model = manifest["settings"].get("max_scatter", 1) > 1
+        layers = _verified(read_exr(entry_file(key, manifest, "exr"))[0], size, model)
     except (OSError, ValueError, KeyError, TypeError, RuntimeError):  # OpenEXR raises RuntimeError
         return None
     return None if layers is None else (manifest, layers)
@@ -177,11 +179,12 @@ def _number(value) -> bool:
     return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value) and value >= 0
 
 
-def _verified(layers: dict, size: tuple) -> dict | None:
-    """``layers`` if they are exactly a reference's (LAYERS), each H×W×3 of ``size``
-    (width, height), finite, variances ≥ 0 and the mask 0 or 1; else None."""
+def _verified(layers: dict, size: tuple, model: bool = False) -> dict | None:
+    """``layers`` if they are exactly a reference's (LAYERS, and MODEL when ``model``:
+    rendered with more than one scattering order), each H×W×3 of ``size`` (width, height), finite, variances ≥ 0
+    and the mask 0 or 1; else None."""
     width, height = size
-    if set(layers) != set(LAYERS):
+    if set(layers) != ({*LAYERS, *MODEL} if model else set(LAYERS)):
         return None
     for name, image in layers.items():
         if image.shape != (height, width, 3) or not np.isfinite(image).all():

@@ -7,8 +7,11 @@ from dataclasses import asdict, dataclass, replace
 
 from volcaustics.scenes.memory import image_fits
 
-MODES = ("caustic", "fog", "all", "surface")  # which light paths the light tracer counts (reference.integrators)
-NOISE_COMPONENTS = ("caustic", "fog", "direct")  # colour components with a noise floor (combined is their sum)
+# which light paths the light tracer counts (reference.integrators)
+MODES = ("caustic", "fog", "all", "surface", "orders")
+# components with a noise floor (combined is their sum); the model term's (max_scatter > 1):
+# its variance over Σ R_ms², reference.render.orders
+NOISE_COMPONENTS = ("caustic", "fog", "direct", "caustic_ms", "fog_ms", "direct_ms")
 MAX_SAMPLES_PER_RENDER = 2**32  # Mitsuba's limit for one render (its wavefront sample index is 32-bit)
 # The reference's film, batch sums, mean/variance layers and EXR per pixel: 642 B measured
 # as peak RSS per pixel, rounded up (bench/image_memory.py, docs/decisions.md "Image sizes against memory").
@@ -126,8 +129,10 @@ class ReferenceSettings:
                 "camera_spp_per_batch": self.camera_spp_per_batch()}
 
     def targets(self) -> dict:
-        """component → target floor ({} without target_noise)."""
-        return dict(self.target_noise or ())
+        """component → target floor ({} without target_noise), for the components this
+        render has (the model term's only with max_scatter > 1)."""
+        return {name: floor for name, floor in self.target_noise or ()
+                if self.max_scatter > 1 or not name.endswith("_ms")}
 
 
 def parse_target_noise(value) -> tuple:

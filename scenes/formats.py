@@ -49,6 +49,9 @@ SHAPE_KINDS = {"KIND_NONE": KIND_NONE, "KIND_SPECULAR": KIND_SPECULAR, "KIND_DIF
 COLOUR_LAYERS = ("caustic", "fog", "direct", "combined")  # H×W×3 float32 radiance, W·m⁻²·sr⁻¹
 MASK_LAYER = "mask_specular"                              # H×W×3 float32, 1 where the camera sees glass, else 0
 LAYER_NAMES = COLOUR_LAYERS + (MASK_LAYER,)
+# A reference rendered with K > 1 scattering orders also holds, per colour layer, what the
+# orders beyond the paper's single-scattering model add: R_ms − R_ss, the model term
+MODEL_LAYERS = tuple(f"{name}_ms" for name in COLOUR_LAYERS)
 # What each layer holds (DESIGN.md's table), for files that tell other programs (glTF extras)
 LAYER_MEANINGS = {
     "caustic": "single-scattered radiance from light that crossed >= 1 specular interface before scattering in the "
@@ -56,6 +59,8 @@ LAYER_MEANINGS = {
     "fog": "single-scattered radiance from direct (unrefracted) light, with volumetric shadows of all objects",
     "direct": "direct lighting on diffuse surfaces, attenuated by the medium both ways, shadowed",
     "combined": "sum of caustic, fog and direct",
+    **{f"{name}_ms": f"what scattering orders 2..K in the medium add to {name} (R_ms - R_ss; for direct, light "
+                     "that scattered 1..K times before reaching the surface)" for name in COLOUR_LAYERS},
     MASK_LAYER: "1 where the primary camera ray hits a specular object, else 0 (excluded from image metrics: what "
                 "is seen through glass is modelled by neither technique in the same way)",
 }

@@ -28,36 +28,59 @@ from .. import cache
 from ..cache import ReferenceResult, for_caller
 from ..request import RenderRequest, resolve
 from ..settings import ReferenceSettings
-from .batches import CAMERA, LIGHT, STREAM_IMAGES, BatchStats, batch_seed, noise_floor
+from . import orders as scattering
+from .batches import CAMERA, LIGHT, ORDERS, STREAM_IMAGES, BatchStats, batch_seed, noise_floor
 
 
 class RenderState:
-    """Everything rendered so far for one cache entry: the batch statistics of both
-    streams (reference.batches), the glass mask and the seconds spent (all calls)."""
+    """Everything rendered so far for one cache entry: the batch statistics of its
+    streams (reference.batches; ``orders`` only with K > 1 scattering orders), the glass
+    mask and the seconds spent (all calls)."""
 
     def __init__(self, light: BatchStats | None = None, camera: BatchStats | None = None,
-                 mask: np.ndarray | None = None, seconds: float = 0.0, floor_seconds: dict | None = None):
+                 mask: np.ndarray | None = None, seconds: float = 0.0, floor_seconds: dict | None = None,
+                 orders: BatchStats | None = None):
         self.light = light or BatchStats(STREAM_IMAGES[LIGHT])
         self.camera = camera or BatchStats(STREAM_IMAGES[CAMERA])
+        self.orders = orders
         self.mask = mask
         self.seconds = seconds
         # component -> {"floor": f, "seconds": s}: render time (all calls) at which its noise
         # floor first came down to f, the lowest target asked of it so far
         self.floor_seconds = floor_seconds or {}
 
+    @classmethod
+    def for_settings(cls, settings: ReferenceSettings) -> "RenderState":
+        """An empty state for ``settings``: with the orders stream when max_scatter > 1."""
+        orders = BatchStats(scattering.stream_images(settings.max_scatter)) if settings.max_scatter > 1 else None
+        return cls(orders=orders)
+
+    def streams(self) -> dict:
+        """Stream name → its BatchStats."""
+        out = {LIGHT: self.light, CAMERA: self.camera}
+        if self.orders is not None:
+            out[ORDERS] = self.orders
+        return out
+
     def arrays(self) -> dict:
         out = {**self.light.arrays(LIGHT), **self.camera.arrays(CAMERA), "seconds": np.asarray(self.seconds),
                "floor_seconds": np.asarray(json.dumps(self.floor_seconds))}
+        if self.orders is not None:
+            out.update(self.orders.arrays(ORDERS))
+            out[f"{ORDERS}/names"] = np.asarray(json.dumps(self.orders.names))
         if self.mask is not None:
             out["mask"] = self.mask
         return out
 
     @classmethod
     def from_arrays(cls, arrays: dict) -> "RenderState":
+        orders = None
+        if f"{ORDERS}/names" in arrays:
+            orders = BatchStats.from_arrays(json.loads(str(arrays[f"{ORDERS}/names"])), arrays, ORDERS)
         return cls(BatchStats.from_arrays(STREAM_IMAGES[LIGHT], arrays, LIGHT),
                    BatchStats.from_arrays(STREAM_IMAGES[CAMERA], arrays, CAMERA),
                    np.array(arrays["mask"]) if "mask" in arrays else None, float(arrays["seconds"]),
-                   json.loads(str(arrays["floor_seconds"])) if "floor_seconds" in arrays else None)
+                   json.loads(str(arrays["floor_seconds"])) if "floor_seconds" in arrays else None, orders)
 
     def note_targets(self, targets: dict, floors: dict, elapsed: float) -> None:
         """Record when each target component's floor (``floors``, :meth:`floors`) first met
@@ -77,9 +100,26 @@ class RenderState:
                "combined": (light.mean("caustic") + camera.mean("fog_direct"),
                             light.var("caustic") + camera.var("fog_direct"))}
         out = {k: (m.astype(np.float32), v.astype(np.float32)) for k, (m, v) in out.items()}
+        if self.orders is not None:  # the model term: what orders beyond the paper's model add
+            terms = {c: (self.orders.mean(f"{c}_ms"), self.orders.var(f"{c}_ms")) for c in scattering.ORDER_COMPONENTS}
+            terms["combined"] = (sum(m for m, _ in terms.values()), self.orders.var("combined_ms"))
+            out.update({f"{c}_ms": (m.astype(np.float32), v.astype(np.float32)) for c, (m, v) in terms.items()})
         m = np.repeat(self.mask.astype(np.float32)[..., None], 3, axis=2)
         out[MASK_LAYER] = (m, np.zeros_like(m))
         return out
+
+    def single(self) -> tuple:
+        """({component: mean}, {component: var}) of the single-scattering streams."""
+        light, camera = self.light, self.camera
+        means = {"caustic": light.mean("caustic"), "fog": camera.mean("fog"), "direct": camera.mean("direct")}
+        return means, {"caustic": light.var("caustic"), "fog": camera.var("fog"), "direct": camera.var("direct")}
+
+    def convergence(self) -> dict | None:
+        """The orders stream's convergence per component (orders.convergence), or None
+        without it (or before every stream has two batches)."""
+        if self.orders is None or min(s.n for s in self.streams().values()) < 2 or self.mask is None:
+            return None
+        return scattering.convergence(*self.single(), self.orders, ~self.mask)
 
     def floors(self) -> dict:
         """Noise floor per colour layer over the pixels that do not see glass (None
@@ -95,6 +135,10 @@ class RenderState:
             out["combined"] = noise_floor(mean, self.light.var("caustic") + self.camera.var("fog_direct"), keep)
         else:
             out["combined"] = None
+        if self.orders is not None:
+            ready = min(s.n for s in self.streams().values()) >= 2 and keep is not None
+            out.update(scattering.model_floors(self.single()[0], self.orders, keep) if ready
+                       else {f"{c}_ms": None for c in scattering.ORDER_COMPONENTS})
         return out
 
 
@@ -102,15 +146,15 @@ def _pending(state: RenderState, settings: ReferenceSettings, stream: str, floor
     """Whether ``stream`` needs another batch: fewer than ``batches``, or (target_noise)
     a component of it above its target (``floors``: the state's) and the photon cap not
     reached."""
-    stats = state.light if stream == LIGHT else state.camera
+    stats = state.streams()[stream]
     if stats.n < settings.batches:
         return True
     targets = settings.targets()
     if not targets:
         return False
-    if stream == LIGHT and settings.photon_cap_reached(stats.n * settings.photons_per_batch()):
+    if stream != CAMERA and settings.photon_cap_reached(stats.n * settings.photons_per_batch()):
         return False
-    names = ("caustic",) if stream == LIGHT else ("fog", "direct")
+    names = {LIGHT: ("caustic",), CAMERA: ("fog", "direct"), ORDERS: scattering.MODEL_FLOORS}[stream]
     return any(name in targets and floors[name] is not None and floors[name] > targets[name] for name in names)
 
 
@@ -138,25 +182,25 @@ def _render(request: RenderRequest, state: RenderState | None = None, *, progres
 
     mi = mitsuba()
     scene, settings = request.scene, request.settings
-    state = state or RenderState()
+    state = state or RenderState.for_settings(settings)
     t0 = time.perf_counter()
     mi_scene = mi.load_dict(mitsuba_dict(request.description))
-    props = mi.Properties()
-    props["mode"] = request.mode
-    props["max_scatter"] = settings.max_scatter
-    tracer = configure(VolumetricLightTracer(props), scene, mi_scene)
+    tracer = configure(VolumetricLightTracer(_properties(mode=request.mode, max_scatter=1)), scene, mi_scene)
     camera = configure(SingleScatterIntegrator(), scene, mi_scene)
+    higher = None
+    if state.orders is not None:
+        higher = configure(VolumetricLightTracer(_properties(mode="orders", max_scatter=settings.max_scatter)),
+                           scene, mi_scene)
     photon_spp, camera_spp = settings.photon_spp_per_batch(), settings.camera_spp_per_batch()
-    total = None if settings.targets() else max(0, settings.batches - state.light.n) + \
-        max(0, settings.batches - state.camera.n)
+    total = None if settings.targets() else sum(max(0, settings.batches - s.n) for s in state.streams().values())
     bar = tqdm(total=total, desc=f"reference {scene.name}", unit="batch", disable=not progress)
     timed_out = False
     floors = state.floors()
     while True:
-        streams = [s for s in (CAMERA, LIGHT) if _pending(state, settings, s, floors)]
+        streams = [s for s in state.streams() if _pending(state, settings, s, floors)]
         if not streams:
             break
-        minimum = min(state.light.n, state.camera.n) >= settings.batches  # caps apply beyond the minimum
+        minimum = min(s.n for s in state.streams().values()) >= settings.batches  # caps apply beyond the minimum
         if settings.targets() and minimum and time.perf_counter() - t0 > settings.max_seconds:
             timed_out = True
             break
@@ -165,6 +209,12 @@ def _render(request: RenderRequest, state: RenderState | None = None, *, progres
                 seed = batch_seed(settings.seed, LIGHT, state.light.n)
                 image = _rendered(mi, mi_scene, tracer, seed, photon_spp)[..., :3]
                 state.light.add({"caustic": image})
+            elif stream == ORDERS:
+                seed = batch_seed(settings.seed, ORDERS, state.orders.n)
+                higher.prepare_orders(settings.width, settings.height)
+                _rendered(mi, mi_scene, higher, seed, photon_spp)
+                stack = higher.order_images()
+                state.orders.add(scattering.batch_images(stack, settings.max_scatter))
             else:
                 seed = batch_seed(settings.seed, CAMERA, state.camera.n)
                 cam = _rendered(mi, mi_scene, camera, seed, camera_spp)
@@ -180,6 +230,15 @@ def _render(request: RenderRequest, state: RenderState | None = None, *, progres
     seconds = time.perf_counter() - t0
     state.seconds += seconds
     return state, _stop_reason(state, settings, timed_out), seconds
+
+
+def _properties(**values):
+    from ..mi_setup import mitsuba
+
+    props = mitsuba().Properties()
+    for name, value in values.items():
+        props[name] = value
+    return props
 
 
 def _rendered(mi, mi_scene, integrator, seed: int, spp: int) -> np.ndarray:
@@ -202,6 +261,8 @@ def _info(state: RenderState, settings: ReferenceSettings, stopped_by: str, seco
     return {"seconds": state.seconds, "seconds_this_call": seconds, "stopped_by": stopped_by,
             "photons": state.light.n * settings.photons_per_batch(), "batches": state.light.n,
             "camera_batches": state.camera.n, "camera_spp": state.camera.n * settings.camera_spp_per_batch(),
+            "orders_batches": state.orders.n if state.orders is not None else 0,
+            "max_scatter": settings.max_scatter, "convergence": state.convergence(),
             "photon_spp_per_batch": settings.photon_spp_per_batch(),
             "camera_spp_per_batch": settings.camera_spp_per_batch(), "noise_floor": state.floors(),
             "seconds_to_target": dict(state.floor_seconds)}
@@ -212,12 +273,14 @@ def _satisfied(manifest: dict, settings: ReferenceSettings) -> bool:
     below every target (or its photon cap reached)."""
     if manifest.get("batches", 0) < settings.batches or manifest.get("camera_batches", 0) < settings.batches:
         return False
+    if settings.max_scatter > 1 and manifest.get("orders_batches", 0) < settings.batches:
+        return False
     targets = settings.targets()
     floors = manifest.get("noise_floor", {})
     for name, target in targets.items():
         floor = floors.get(name)
         if floor is not None and floor > target:
-            if name == "caustic" and settings.photon_cap_reached(manifest.get("photons", 0)):
+            if name != "fog" and name != "direct" and settings.photon_cap_reached(manifest.get("photons", 0)):
                 continue
             return False
     return True
@@ -234,8 +297,10 @@ def _resumable(arrays: dict | None, settings: ReferenceSettings) -> RenderState 
     except (KeyError, ValueError, TypeError):
         return None
     shape = (settings.height, settings.width, 3)
-    images = [*state.light.sums.values(), *state.light.squares.values(), *state.camera.sums.values(),
-              *state.camera.squares.values()]
+    wanted = scattering.stream_images(settings.max_scatter) if settings.max_scatter > 1 else None
+    if (state.orders.names if state.orders is not None else None) != wanted:
+        return None
+    images = [a for stats in state.streams().values() for a in (*stats.sums.values(), *stats.squares.values())]
     if state.mask is None or state.mask.shape != shape[:2] or not np.isfinite(state.seconds) or state.seconds < 0:
         return None
     return state if all(a.shape == shape and np.isfinite(a).all() for a in images) else None
@@ -274,6 +339,8 @@ def render_reference(scene, settings: ReferenceSettings | None = None, *, mode: 
         "scene": scene.name, "scene_hash": scene.scene_hash(), "settings": settings.to_dict(), "mode": request.mode,
         "photons": info["photons"], "batches": info["batches"], "camera_batches": info["camera_batches"],
         "camera_spp": info["camera_spp"], "photon_spp_per_batch": info["photon_spp_per_batch"],
+        "orders_batches": info["orders_batches"], "max_scatter": info["max_scatter"],
+        "convergence": info["convergence"],
         "camera_spp_per_batch": info["camera_spp_per_batch"], "seed": settings.seed,
         "noise_floor": info["noise_floor"], "target_noise": settings.targets() or None,
         "seconds_to_target": info["seconds_to_target"],

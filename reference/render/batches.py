@@ -1,7 +1,8 @@
 """Running statistics of independent batch images, and the noise floor they give.
 
-A reference renders two independent streams of batches: the light tracer's
-(``caustic``) and the camera integrator's (``fog``, ``direct``). Each stream
+A reference renders independent streams of batches: the light tracer's
+(``caustic``), the camera integrator's (``fog``, ``direct``) and, with K > 1
+scattering orders, the higher orders' (``reference.render.orders``). Each stream
 keeps, per image, the float64 sums of the batch images and of their squares, in
 batch order, so a cached render can be continued batch by batch and gives
 exactly what rendering all its batches at once gives (same seeds, same order of
@@ -18,10 +19,10 @@ import numpy as np
 
 from volcaustics.scenes.rng import pcg_hash
 
-LIGHT, CAMERA = "light", "camera"
-STREAM_IMAGES = {LIGHT: ("caustic",), CAMERA: ("fog", "direct", "fog_direct")}
-# Salt of each stream's batch seeds, so that the two streams never share one.
-_STREAM_SALT = {LIGHT: 1, CAMERA: 2}
+LIGHT, CAMERA, ORDERS = "light", "camera", "orders"
+STREAM_IMAGES = {LIGHT: ("caustic",), CAMERA: ("fog", "direct", "fog_direct")}  # ORDERS: orders.stream_images(K)
+# Salt of each stream's batch seeds, so that no two streams share one.
+_STREAM_SALT = {LIGHT: 1, CAMERA: 2, ORDERS: 3}
 
 
 def batch_seed(seed: int, stream: str, batch: int) -> int:

@@ -36,11 +36,13 @@ from volcaustics.scenes.formats import KIND_DIFFUSE, KIND_SPECULAR
 
 from ..mi_setup import mitsuba
 from ..settings import MODES
+from .orders import ORDER_COMPONENTS
 from .shapes import ShapeTable
 
 mi = mitsuba()
 
 INV_FOUR_PI = 1.0 / (4.0 * math.pi)
+
 GEOMETRY_PER_CONNECTION = 0.0025  # 1/m: VolumetricLightTracer's default, measured in bench/reference_fireflies.py
 
 
@@ -218,6 +220,29 @@ class VolumetricLightTracer(mi.AdjointIntegrator):
         n = dr.minimum(n, view.pixels)  # also where a degenerate segment gave inf or NaN
         return s_in, s_out, seen, mi.UInt32(dr.maximum(dr.ceil(n), 1.0))
 
+    def prepare_orders(self, width: int, height: int) -> None:
+        """Before a render in mode ``orders``: a cleared block that holds one W×H image per
+        (component, order) (:data:`ORDER_COMPONENTS` × 0…max_scatter), stacked in rows."""
+        self.order_size = (width, height)
+        rows = height * len(ORDER_COMPONENTS) * (self.max_scatter + 1)
+        self.order_block = mi.ImageBlock([width, rows], [0, 0], 3, mi.load_dict({"type": "box"}))
+        self.order_block.clear()
+
+    def order_images(self):
+        """The images of the last render in mode ``orders`` as an array
+        [component, order, H, W, 3] (float64; order 0 is empty but for ``direct``)."""
+        import numpy as np
+
+        width, height = self.order_size
+        image = np.asarray(self.order_block.tensor(), np.float64)
+        return image.reshape(len(ORDER_COMPONENTS), self.max_scatter + 1, height, width, 3)
+
+    def _put_order(self, uv, value, component: int, order, active):
+        """Splat ``value`` at film position ``uv`` into the image of (``component``, ``order``)."""
+        width, height = self.order_size
+        row = mi.Float((component * (self.max_scatter + 1) + order) * height)
+        self.order_block.put(mi.Point2f(uv.x, uv.y + row), [value.x, value.y, value.z], active)
+
     def _counts(self, specular):
         if self.mode == "caustic":
             return specular >= 1
@@ -230,6 +255,11 @@ class VolumetricLightTracer(mi.AdjointIntegrator):
         table = self.table
         view = ViewPyramid(sensor)
         volume = self.mode != "surface" and self.has_medium
+        orders = self.mode == "orders"
+        # the most real scattering events a path goes on through: in mode orders, direct
+        # light may have scattered max_scatter times; else a path scatters only while a
+        # later connection can still count it
+        most_scatters = self.max_scatter if orders else self.max_scatter - 1
 
         # --- emission
         ray, throughput, emitter = scene.sample_emitter_ray(0.0, sampler.next_1d(), sampler.next_2d(),
@@ -272,12 +302,18 @@ class VolumetricLightTracer(mi.AdjointIntegrator):
                     value = (throughput * self.sigma_s * hg_phase(dr.dot(ray.d, ds.d), self.g) * tr
                              / (pdf * mi.Float(n)) * sensor_weight * sample_scale)
                     block.put(ds.uv + block.offset(), ray.wavelengths, value, 0.0, 0.0, visible)
+                    if orders:
+                        component = dr.select(specular >= 1, ORDER_COMPONENTS.index("caustic"),
+                                              ORDER_COMPONENTS.index("fog"))
+                        for c in (ORDER_COMPONENTS.index("caustic"), ORDER_COMPONENTS.index("fog")):
+                            self._put_order(ds.uv, value, c, scatters + 1,
+                                            visible & (component == c))
                     i += 1
 
             # --- free flight: attenuate to the surface, or scatter (max_scatter > 1)
             reach_surface = mi.Bool(hit)
             if volume:
-                can_scatter = in_medium & (scatters + 1 < self.max_scatter)
+                can_scatter = in_medium & (scatters < most_scatters)
                 t_ff = -dr.log(1.0 - sampler.next_1d(in_medium)) / self.sigma_bar
                 scatter = can_scatter & (t_ff < t_end)
                 # analog tracking, weighted for RGB sigma_t sampled with the mean sigma_bar
@@ -298,9 +334,10 @@ class VolumetricLightTracer(mi.AdjointIntegrator):
             on_specular = reach_surface & (kind == KIND_SPECULAR)
             on_diffuse = reach_surface & (kind == KIND_DIFFUSE)
 
-            if self.mode == "surface":
-                ds, sensor_weight = sensor.sample_direction(si, sampler.next_2d(on_diffuse), on_diffuse)
-                seen = on_diffuse & (ds.pdf > 0.0)
+            if self.mode == "surface" or orders:
+                lit = on_diffuse & (specular == 0) if orders else on_diffuse  # a surface caustic is outside both
+                ds, sensor_weight = sensor.sample_direction(si, sampler.next_2d(lit), lit)
+                seen = lit & (ds.pdf > 0.0)
                 seen &= ~scene.ray_test(si.spawn_ray_to(ds.p), seen)
                 ctx = mi.BSDFContext(mi.TransportMode.Importance)
                 local_d = si.to_local(ds.d)
@@ -311,8 +348,12 @@ class VolumetricLightTracer(mi.AdjointIntegrator):
                 cos_wi, cos_wo = mi.Frame3f.cos_theta(si.wi), mi.Frame3f.cos_theta(local_d)
                 consistent = (wi_geo * cos_wi > 0.0) & (wo_geo * cos_wo > 0.0)
                 correction = dr.select(consistent, dr.abs(cos_wi * wo_geo / (cos_wo * wi_geo)), 0.0)
-                block.put(ds.uv + block.offset(), ray.wavelengths,
-                          throughput * bsdf_value * correction * sensor_weight * sample_scale, 0.0, 0.0, seen)
+                value = throughput * bsdf_value * correction * sensor_weight * sample_scale
+                if volume:
+                    value *= dr.exp(-self.sigma_t * ds.dist)  # the medium between surface and eye
+                block.put(ds.uv + block.offset(), ray.wavelengths, value, 0.0, 0.0, seen)
+                if orders:
+                    self._put_order(ds.uv, value, ORDER_COMPONENTS.index("direct"), scatters, seen)
 
             ctx = mi.BSDFContext(mi.TransportMode.Importance)
             bs, bsdf_weight = si.bsdf().sample(ctx, si, sampler.next_1d(on_specular), sampler.next_2d(on_specular),
