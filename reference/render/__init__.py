@@ -189,8 +189,8 @@ def _render(request: RenderRequest, state: RenderState | None = None, *, progres
     camera = configure(SingleScatterIntegrator(), scene, mi_scene)
     higher = None
     if state.orders is not None:
-        higher = configure(VolumetricLightTracer(_properties(mode="orders", max_scatter=settings.max_scatter)),
-                           scene, mi_scene)
+        higher = configure(VolumetricLightTracer(_properties(mode="orders", max_scatter=settings.max_scatter,
+                                                             beyond_model=True)), scene, mi_scene)
     photon_spp, camera_spp = settings.photon_spp_per_batch(), settings.camera_spp_per_batch()
     total = None if settings.targets() else sum(max(0, settings.batches - s.n) for s in state.streams().values())
     bar = tqdm(total=total, desc=f"reference {scene.name}", unit="batch", disable=not progress)

@@ -36,7 +36,7 @@ from volcaustics.scenes.formats import KIND_DIFFUSE, KIND_SPECULAR
 
 from ..mi_setup import mitsuba
 from ..settings import MODES
-from .orders import ORDER_COMPONENTS
+from .orders import ORDER_COMPONENTS, SINGLE_ORDER
 from .shapes import ShapeTable
 
 mi = mitsuba()
@@ -194,7 +194,9 @@ class VolumetricLightTracer(mi.AdjointIntegrator):
     distance to the eye) that one camera connection carries. A segment is clipped to
     the view pyramid and gets n = ⌈Δθ / (D · geometry_per_connection)⌉ connections,
     stratified in θ, at most one per pixel its image crosses (and never more than the film's
-    width + height); each is weighted 1/n.
+    width + height); each is weighted 1/n. ``beyond_model`` (mode ``orders``): count only
+    the orders beyond the paper's model (``orders.SINGLE_ORDER``), which a reference's
+    other streams render.
     The sensor must be a pinhole camera (``perspective``).
     """
 
@@ -203,6 +205,7 @@ class VolumetricLightTracer(mi.AdjointIntegrator):
         self.mode = props.get("mode", "caustic")
         self.max_scatter = int(props.get("max_scatter", 1))
         self.max_path = int(props.get("max_path", 64))
+        self.beyond_model = bool(props.get("beyond_model", False))
         self.geometry_per_connection = float(props.get("geometry_per_connection", GEOMETRY_PER_CONNECTION))
         if self.mode not in MODES:
             raise ValueError(f"mode {self.mode!r}: expected one of {MODES}")
@@ -285,6 +288,8 @@ class VolumetricLightTracer(mi.AdjointIntegrator):
             # (equiangular), so that the beam's image is drawn along its length, not in one pixel
             if volume:
                 connect = in_medium & self._counts(specular) & (scatters < self.max_scatter)
+                if orders and self.beyond_model:
+                    connect &= scatters >= SINGLE_ORDER["fog"]  # the medium vertex is order ≥ 2
                 s_in, s_out, seen, n = self.connections(view, ray, t_end)
                 connect &= seen
                 i = mi.UInt32(0)           # connections made on this segment
@@ -336,6 +341,8 @@ class VolumetricLightTracer(mi.AdjointIntegrator):
 
             if self.mode == "surface" or orders:
                 lit = on_diffuse & (specular == 0) if orders else on_diffuse  # a surface caustic is outside both
+                if orders and self.beyond_model:
+                    lit &= scatters > SINGLE_ORDER["direct"]
                 ds, sensor_weight = sensor.sample_direction(si, sampler.next_2d(lit), lit)
                 seen = lit & (ds.pdf > 0.0)
                 seen &= ~scene.ray_test(si.spawn_ray_to(ds.p), seen)

@@ -7,7 +7,8 @@ path counted by its last vertex (caustic, fog: a medium vertex; direct: a diffus
 surface) and its number n of real scattering events in the medium. The paper's model
 is n = 1 for caustic and fog and n = 0 for direct; the **model term** of a component is
 the sum of its other orders up to K, ``<component>_ms`` (``scenes.formats.MODEL_LAYERS``).
-The stream also keeps each order's image, ``<component>@<n>``, for the rule.
+The stream also keeps each of those orders' images, ``<component>@<n>``, for the rule;
+the tracer counts only them (``beyond_model``: the other streams render the model's).
 
 **Convergence rule** (issue 25): order n + 1 changes the total image by o, whose
 relative MSE against the total R_ms is Σ o² / Σ R_ms² over the non-glass pixels,
@@ -39,7 +40,7 @@ def order_name(component: str, order: int) -> str:
 
 def stream_images(max_scatter: int) -> tuple:
     """Image names of the orders stream: the model terms, their sum, then every order's image."""
-    per_order = tuple(order_name(c, n) for c in ORDER_COMPONENTS for n in range(SINGLE_ORDER[c], max_scatter + 1))
+    per_order = tuple(order_name(c, n) for c in ORDER_COMPONENTS for n in excess_orders(c, max_scatter))
     return (*MODEL_FLOORS, "combined_ms", *per_order)
 
 
@@ -49,7 +50,7 @@ def batch_images(stack: np.ndarray, max_scatter: int) -> dict:
     out = {}
     for i, c in enumerate(ORDER_COMPONENTS):
         out[f"{c}_ms"] = stack[i, list(excess_orders(c, max_scatter))].sum(axis=0)
-        for n in range(SINGLE_ORDER[c], max_scatter + 1):
+        for n in excess_orders(c, max_scatter):
             out[order_name(c, n)] = stack[i, n]
     out["combined_ms"] = sum(out[name] for name in MODEL_FLOORS)  # kept for its variance (pixels covary)
     return out

@@ -131,13 +131,17 @@ def add_report_reference(p, defaults: ReferenceSettings = REPORT_REFERENCE, targ
                    help=f"reference camera samples per pixel{per} over --batches batches (default {defaults.spp})")
     p.add_argument("--batches", type=int, default=defaults.batches,
                    help=f"reference batches per stream{per}, at least (default {defaults.batches})")
+    p.add_argument("--max-scatter", dest="max_scatter", type=int, default=defaults.max_scatter, metavar="K",
+                   help=f"scattering orders of the reference{per}: with K > 1 it also renders what orders 2..K add, "
+                        f"the single-scattering model's own error (default {defaults.max_scatter})")
     add_budget(p, target=target, max_seconds=defaults.max_seconds)
 
 
 def report_settings(args) -> ReferenceSettings:
     """The reference settings of ``report``, ``measure`` and ``animate`` (unsized: the
     runner, or ``animate``, sizes them)."""
-    return ReferenceSettings(photons=args.photons, spp=args.spp, batches=args.batches, **budget(args))
+    return ReferenceSettings(photons=args.photons, spp=args.spp, batches=args.batches, max_scatter=args.max_scatter,
+                             **budget(args))
 
 
 def add_gate_inputs(p, *, scenes: str) -> None:

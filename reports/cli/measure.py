@@ -49,6 +49,7 @@ def run(args) -> int:
           f"{s['cost']['total'] / 1e6:.2f} M (map and emission reads + {s['cost']['splats'] / 1e6:.3f} M splats)")
     _print_images(s)
     _print_decomposition(s)
+    _print_model(s)
     for warning in s["warnings"]:
         print(f"  warning: {warning}")
     return 0
@@ -60,6 +61,23 @@ def _print_images(s: dict) -> None:
         ci = f" [{100 * relmse['ci_low']:.2f}, {100 * relmse['ci_high']:.2f}]" if relmse["ci_low"] is not None else ""
         print(f"  {component:<9} relative MSE debiased {pct(relmse['debiased'])}{ci}, "
               f"energy ratio {num(ratio['value'])}, HDR-FLIP {num(flip['value'])}")
+
+
+def _print_model(s: dict) -> None:
+    model = s.get("model")
+    if model is None:
+        return
+    needed = ", ".join(f"{c} {n if n is not None else 'more'}" for c, n in model["orders_needed"].items())
+    print(f"  single-scattering model against {model['max_scatter']} scattering orders (orders needed: {needed}): "
+          f"energy left out, its own relative MSE, its part of the relative MSE against R_ms")
+    for component, m in model["components"].items():
+        if "note" in m:
+            print(f"    {component:<9} {m['note']}")
+            continue
+        share, own, part = m["energy_share"], m["relmse_own"], m["relmse_part"]
+        print(f"    {component:<9} {100 * share['value']:6.2f}% ± {100 * share['standard_error']:.2f}  "
+              f"{pct(own['debiased'])} ± {100 * own['standard_error']:.2f}  "
+              f"{100 * part['value']:+7.2f}% ± {100 * part['standard_error']:.2f}")
 
 
 def _print_decomposition(s: dict) -> None:

@@ -19,7 +19,8 @@ def register(sub) -> None:
     p.add_argument("--spp", type=int, default=256, help="camera samples per pixel for fog/direct (default 256)")
     p.add_argument("--batches", type=int, default=8, help="independent batches for the variance (default 8)")
     p.add_argument("--max-scatter", dest="max_scatter", type=int, default=1,
-                   help="scattering events per path (1 = single scattering, the paper's model)")
+                   help="scattering orders K (1 = single scattering, the paper's model; K > 1 adds the layers "
+                        "<component>_ms: what orders 2..K add, the model term)")
     p.add_argument("--width", type=int, help="image width (default: the scene camera's)")
     p.add_argument("--height", type=int, help="image height (default: the scene camera's)")
     p.add_argument("--seed", type=int, default=0)

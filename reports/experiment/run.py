@@ -12,7 +12,8 @@ with its segment records. Then:
   fate per step for both tracers, and where each path first leaves its replay
   (``metrics.paths``);
 * **images**: each colour component of the frames against the reference
-  (``metrics.image``, ``metrics.noise``), and the caustic's error decomposed
+  (``metrics.image``, ``metrics.noise``), the single-scattering model's own error
+  when the reference has higher scattering orders (``model``), and the caustic's error decomposed
   (``metrics.decomposition``) with E_k (the replay above, splatted by the
   approximation's splatter), E_∞ (``exact_images.EXACT_STEPS`` steps, A's Fresnel and
   stochastic), E_∞,s (small kernel, ``exact_images.SMALL_SUPERSAMPLE``× pixels box-filtered).
@@ -39,6 +40,7 @@ from volcaustics.reports.experiment.decomposition import decompose, decompositio
 from volcaustics.reports.experiment.exact_images import exact_images
 from volcaustics.reports.experiment.frames import render_frames
 from volcaustics.reports.experiment.images import image_rows, keep_mask
+from volcaustics.reports.experiment.model import model_rows
 from volcaustics.reports.experiment.photons import photon_rows, replay
 from volcaustics.reports.experiment.segments import segment_rows
 from volcaustics.reports.experiment.settings import checked_settings
@@ -117,11 +119,13 @@ def run_experiment(scene, params, *, seeds: int = 1, reference_settings=None, pr
         images, headline = image_rows(frames, reference, keep, columns, maps)
         decomposition = _decomposed(scene, exact, reference, keep)
         images += decomposition_rows(decomposition, columns)
+        model, model_summary = model_rows(frames, reference, keep, columns)
+        images += model
     bar.update()
     bar.close()
     clock.seconds["total"] = clock.total()
     summary = experiment_summary(scene, p, seed_list, reference, frames, exact, headline, decomposition, divergence,
-                                 clock.seconds, keep, timed)
+                                 clock.seconds, keep, timed, model_summary)
     layers = {name: np.asarray(img, np.float32) for name, img in decomposition["images"].items()}
     layers.update({f"term.{name}": np.asarray(img, np.float32) for name, img in decomposition["terms"].items()})
     return Experiment(segments=segments, photons=photons, images=images, summary=summary, layers=layers,

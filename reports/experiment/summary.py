@@ -73,13 +73,18 @@ def reference_summary(reference) -> dict:
 
 
 def experiment_summary(scene, p, seeds, reference, frames, exact, headline, decomposition, divergence, clock, keep,
-             timed) -> dict:
+                       timed, model=None) -> dict:
     alive = {k: float(max(v)) for k, v in exact["alive"].items()}
     warnings = [f"E_inf ({k} Fresnel) keeps {100 * v:.2f}% of the power alive after {EXACT_STEPS} steps "
                 f"(> {100 * ALIVE_BUDGET:.1f}%): the truncation term is understated" for k, v in alive.items()
                 if v > ALIVE_BUDGET]
     if not decomposition["residual"]["within_noise"]:
         warnings.append(decomposition["residual"]["message"])
+    if model is not None and not model["converged"]:
+        missing = ", ".join(c for c, n in model["orders_needed"].items() if n is None)
+        warnings.append(f"{model['max_scatter']} scattering orders are not enough for {missing}: the last order still "
+                        f"changes the total by more than the noise floor (the model term is understated); render the "
+                        f"reference with a larger max_scatter")
     if len(seeds) < MIN_SEEDS_FOR_INTERVAL:
         warnings.append(f"{len(seeds)} seed(s): no intervals (they need {MIN_SEEDS_FOR_INTERVAL})"
                         + ("" if len(seeds) >= 2 else "; the approximation's own noise is not estimated, not "
@@ -95,6 +100,7 @@ def experiment_summary(scene, p, seeds, reference, frames, exact, headline, deco
         "images": headline,
         "decomposition": {"rows": decomposition["rows"], "residual": decomposition["residual"],
                           "options": decomposition["options"]},
+        "model": model,
         "paths": divergence,
         "map_reads": map_reads(frames), "cost": frame_costs(frames, p),
         "approx_timings_s": median_timings(timed), "timed_frames": len(timed),

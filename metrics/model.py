@@ -1,0 +1,66 @@
+"""The model term: how far the paper's single-scattering model is from K scattering
+orders (DESIGN.md "Beyond the paper's model"), per component (pure numpy, float64).
+
+With R_ss the reference of the paper's model, T = R_ms − R_ss what the higher orders
+add (the reference's ``<component>_ms`` layer) and A the approximation (mean over its
+seeds), over the compared pixels:
+
+* ``energy_share`` Σ T / Σ R_ms per channel, averaged over RGB: the light the model
+  leaves out;
+* ``relmse_own`` Σ T² / Σ R_ms², debiased by T's variance (Σ var T / Σ R_ms²): the
+  relative MSE of a perfect single-scattering renderer against the physics, the error
+  no knob of the approximation removes;
+* ``relmse_part`` Σ T · (R_ms − A) / Σ R_ms²: the term's part of the approximation's
+  relative MSE against R_ms, as the decomposition's terms are parts of its error
+  (``metrics.decomposition``); ``approx_part`` Σ (R_ss − A)(R_ms − A) / Σ R_ms² is the
+  approximation's own part, and the two sum to Σ (R_ms − A)² / Σ R_ms².
+
+Standard errors by first-order propagation of the per-pixel variances (T's, R_ss's and
+A's over its seeds), pixels taken as independent as for the reference's own σ; the
+intervals are ±1.96 SE (normal).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+Z95 = 1.959963984540054  # two-sided 95% normal quantile
+
+
+def _sel(image, keep):
+    return np.asarray(image, np.float64)[keep]
+
+
+def model_term(r_ss, r_ss_var, term, term_var, approx_stack, keep) -> dict:
+    """The model term's numbers for one component (module docstring): {metric: (value,
+    debiased, standard error)}. ``approx_stack``: S×H×W×3 frames (S ≥ 1; with S ≥ 2
+    their variance over the seeds enters the SE); ``keep``: H×W compared pixels.
+    ValueError when R_ms has no energy there."""
+    r, rv, t, tv = _sel(r_ss, keep), _sel(r_ss_var, keep), _sel(term, keep), _sel(term_var, keep)
+    stack = np.stack([_sel(a, keep) for a in approx_stack])
+    a = stack.mean(axis=0)
+    av = stack.var(axis=0, ddof=1) / len(stack) if len(stack) >= 2 else np.zeros_like(a)
+    ms = r + t
+    energy, totals = float(np.sum(ms * ms)), ms.sum(axis=0)
+    if energy <= 0 or np.any(totals <= 0):
+        raise ValueError("the reference with its higher orders is black in some channel over the compared pixels")
+    share = t.sum(axis=0) / totals
+    share_se = np.sqrt(tv.sum(axis=0)) / totals
+    own = float(np.sum(t * t)) / energy
+    own_debiased = own - float(np.sum(tv)) / energy
+    own_se = 2.0 * float(np.sqrt(np.sum(t * t * tv))) / energy
+    err_ms = ms - a
+    part = float(np.sum(t * err_ms)) / energy
+    # d part / d T = (R_ms − A) + T, d part / d A = −T, d part / d R_ss = T
+    part_se = float(np.sqrt(np.sum((err_ms + t) ** 2 * tv + t * t * (av + rv)))) / energy
+    approx_part = float(np.sum((r - a) * err_ms)) / energy
+    # the channels share their paths, so their SEs add rather than average out
+    return {"energy_share": (float(share.mean()), float(share.mean()), float(share_se.mean())),
+            "relmse_own": (own, own_debiased, own_se),
+            "relmse_part": (part, part, part_se),
+            "approx_part": (approx_part, approx_part, float("nan"))}
+
+
+def interval(value: float, se: float) -> tuple:
+    """The 95% normal interval value ± 1.96 SE."""
+    return value - Z95 * se, value + Z95 * se
