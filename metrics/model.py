@@ -16,11 +16,14 @@ seeds), over the compared pixels:
   approximation's own part, and the two sum to Σ (R_ms − A)² / Σ R_ms².
 
 Standard errors by first-order propagation of the per-pixel variances (T's, R_ss's and
-A's over its seeds), pixels taken as independent as for the reference's own σ; the
+A's over its seeds): pixels taken as independent, as for the reference's own σ, and a
+pixel's three channels as fully correlated (one light path carries all three); the
 intervals are ±1.96 SE (normal).
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 
@@ -29,6 +32,12 @@ Z95 = 1.959963984540054  # two-sided 95% normal quantile
 
 def _sel(image, keep):
     return np.asarray(image, np.float64)[keep]
+
+
+def _propagated(gradient, variance) -> float:
+    """Σ over pixels of (Σ over channels |∂/∂x_c| σ_c)²: the variance of a sum of
+    per-pixel terms whose channels share their noise."""
+    return float(np.sum(np.sum(np.abs(gradient) * np.sqrt(variance), axis=1) ** 2))
 
 
 def model_term(r_ss, r_ss_var, term, term_var, approx_stack, keep) -> dict:
@@ -44,18 +53,17 @@ def model_term(r_ss, r_ss_var, term, term_var, approx_stack, keep) -> dict:
     energy, totals = float(np.sum(ms * ms)), ms.sum(axis=0)
     if energy <= 0 or np.any(totals <= 0):
         raise ValueError("the reference with its higher orders is black in some channel over the compared pixels")
-    share = t.sum(axis=0) / totals
-    share_se = np.sqrt(tv.sum(axis=0)) / totals
+    share = float(np.mean(t.sum(axis=0) / totals))
+    share_se = math.sqrt(_propagated(np.broadcast_to(1.0 / (3.0 * totals), t.shape), tv))
     own = float(np.sum(t * t)) / energy
     own_debiased = own - float(np.sum(tv)) / energy
-    own_se = 2.0 * float(np.sqrt(np.sum(t * t * tv))) / energy
+    own_se = math.sqrt(_propagated(2.0 * t, tv)) / energy
     err_ms = ms - a
     part = float(np.sum(t * err_ms)) / energy
-    # d part / d T = (R_ms − A) + T, d part / d A = −T, d part / d R_ss = T
-    part_se = float(np.sqrt(np.sum((err_ms + t) ** 2 * tv + t * t * (av + rv)))) / energy
+    # ∂ part / ∂T = (R_ms − A) + T, ∂ part / ∂A = −T, ∂ part / ∂R_ss = T (independent sources)
+    part_se = math.sqrt(_propagated(err_ms + t, tv) + _propagated(t, av) + _propagated(t, rv)) / energy
     approx_part = float(np.sum((r - a) * err_ms)) / energy
-    # the channels share their paths, so their SEs add rather than average out
-    return {"energy_share": (float(share.mean()), float(share.mean()), float(share_se.mean())),
+    return {"energy_share": (share, share, share_se),
             "relmse_own": (own, own_debiased, own_se),
             "relmse_part": (part, part, part_se),
             "approx_part": (approx_part, approx_part, float("nan"))}

@@ -38,6 +38,7 @@ from volcaustics.reports.core.store import TABLES, Store, key_document, point_ke
 from volcaustics.reports.core.tables import rows_of
 from volcaustics.reports.experiment.run import run_experiment
 from volcaustics.scenes import resolve_scene
+from volcaustics.scenes.fields import scene_with
 from volcaustics.scenes.storage import cache_dir
 
 POLICIES = ("cached", "missing", "continue")
@@ -58,6 +59,12 @@ class Point:
     scene: str               # the SCENE argument (built-in name or path)
     params: ApproxParams     # unresolved: width/height unset take the scene camera's
     seeds: int = 1           # frames with seeds params.seed … params.seed + seeds − 1
+    fields: tuple = ()       # scene fields changed: ((dotted path, value), ...) (scenes.fields)
+
+
+def point_scene(scene: str, fields=()):
+    """The scene of a point: the SCENE argument with its changed fields."""
+    return scene_with(scene, fields) if fields else resolve_scene(scene)
 
 
 @dataclass
@@ -143,9 +150,11 @@ def _tasks(points, store, settings, policy, *, views, progress, hint, error) -> 
     references by key."""
     scenes, references, tasks, keys = {}, {}, [], []
     for point in points:
-        scene = scenes.setdefault(point.scene, resolve_scene(point.scene))
+        if (point.scene, point.fields) not in scenes:
+            scenes[(point.scene, point.fields)] = point_scene(point.scene, point.fields)
+        scene = scenes[(point.scene, point.fields)]
         wanted = sized(settings, scene, point.params)
-        size = (point.scene, wanted.width, wanted.height)
+        size = (point.scene, point.fields, wanted.width, wanted.height)
         if size not in references:
             references[size] = reference_for(scene, wanted, policy, progress=progress, hint=hint, error=error)
         reference = references[size]
@@ -155,7 +164,7 @@ def _tasks(points, store, settings, policy, *, views, progress, hint, error) -> 
         if store.status(key, views=views) == "done":
             continue
         store.remove_damaged(key, views=views)
-        tasks.append({"key": key, "key_document": document, "scene": point.scene,
+        tasks.append({"key": key, "key_document": document, "scene": point.scene, "fields": list(point.fields),
                       "params": point.params.resolved(scene).to_dict(), "seeds": point.seeds,
                       "reference_key": reference.key, "store": os.path.abspath(store.root), "views": views})
     return tasks, keys, {r.key: r for r in references.values()}
@@ -198,7 +207,8 @@ def run_point(task: dict, *, progress: bool = False, reference=None) -> dict:
         store = Store(task["store"])
         if store.status(task["key"], views=task["views"]) == "done":
             return {"key": task["key"], "status": "done", "seconds": 0.0}
-        scene = resolve_scene(task["scene"])
+        fields = [tuple(f) for f in task.get("fields", ())]
+        scene = point_scene(task["scene"], fields)
         reference = reference or cached_reference(task["reference_key"], scene)  # the run's own, never rendered here
         if reference is None:
             raise RuntimeError(f"{task['scene']}: reference {task['reference_key']} is not in this worker's cache "
@@ -206,7 +216,7 @@ def run_point(task: dict, *, progress: bool = False, reference=None) -> dict:
                                f"on a shared file system)")
         renderer, oracle = _tools(scene)
         experiment = run_experiment(scene, ApproxParams(**task["params"]), seeds=task["seeds"], reference=reference,
-                                    renderer=renderer, oracle=oracle, progress=progress)
+                                    renderer=renderer, oracle=oracle, progress=progress, fields=dict(fields))
         status = store.write_point(task["key"], task["key_document"], experiment, views=task["views"])
         return {"key": task["key"], "status": status, "seconds": time.perf_counter() - t0}
 

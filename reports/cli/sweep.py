@@ -74,6 +74,7 @@ def run(args) -> int:
           f"{len(result.failed)} failed, {result.seconds:.1f} s -> {args.output}/")
     _print_suffice(result.tables.get("suffice"))
     _print_variants(result.tables.get("variants_best"))
+    _print_crossing(result.tables.get("model_crossing"))
     for failure in result.failed:
         print(f"  failed: {failure['key'][:12]}: {failure['error']}", file=sys.stderr)
     return 1 if result.failed else 0
@@ -121,6 +122,18 @@ def _print_suffice(suffice) -> None:
               f"{row['criterion'].split('_')[0]:<12} {row['suffices']:g} (of {row['largest']:g}): "
               f"{100 * row['error']:.2f}% vs best {100 * row['best']:.2f}%, frame {row['frame_time_s']:.3f} s, "
               f"{row['map_reads_per_frame'] / 1e6:.2f} M map reads")
+
+
+def _print_crossing(crossing) -> None:
+    if crossing is None or not len(crossing):
+        return
+    print("single-scattering model: the optical depth where its own error overtakes the approximation's "
+          "(model_crossing.csv, figures/model_vs_optical_depth):")
+    for _, r in crossing.iterrows():
+        at = r["overtakes_at_optical_depth"]
+        where = f"at {at:.3g}" if at == at and at is not None else "not within"
+        print(f"  {r['scene']:<12} {r['component']:<9} {where} (optical depths {r['depth_min']:.3g} to "
+              f"{r['depth_max']:.3g})")
 
 
 def _print_variants(best) -> None:

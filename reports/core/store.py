@@ -42,6 +42,7 @@ import pandas as pd
 
 from volcaustics.reports.core.tables import plain, table
 from volcaustics.reports.core.versions import code_version
+from volcaustics.scenes.fields import field_columns
 from volcaustics.scenes.imageio import read_exr, write_exr
 from volcaustics.scenes.storage import (
     atomic_write_text,
@@ -235,7 +236,9 @@ POINT_COLUMNS = ("point", "scene", "scene_hash", "seeds", "reference_key", "code
                  *(f"share_{term}" for term in
                    ("intersection", "truncation", "reflections", "kernel_blur", "residual")),
                  "share_intersection_se", "intersection_relmse_part", "intersection_relmse_part_se",
-                 "intersection_relmse_own", "residual_within_noise")
+                 "intersection_relmse_own", "residual_within_noise", "optical_depth",
+                 *(f"model_{name}_{metric}" for name in ("caustic", "combined")
+                   for metric in ("relmse_own", "relmse_own_se", "energy_share")))
 
 
 def point_row(key: str, summary: dict) -> dict:
@@ -244,7 +247,9 @@ def point_row(key: str, summary: dict) -> dict:
     caustic, combined = images.get("caustic", {}), images.get("combined", {})
     decomposition = {r["term"]: r for r in summary.get("decomposition", {}).get("rows", [])}
     timings = summary.get("approx_timings_s", {})
-    row = {"point": key, "scene": summary["scene"], "scene_hash": summary["scene_hash"], **summary["params"],
+    row = {"point": key, "scene": summary["scene"], "scene_hash": summary["scene_hash"],
+           "optical_depth": summary.get("optical_depth"), **summary["params"],
+           **field_columns(summary.get("scene_fields")),
            "seeds": summary["seeds"], "reference_key": summary["reference"]["key"],
            "code_version": summary["code_version"], "frame_time_s": timings.get("frame_wall"),
            "trace_time_s": timings.get("trace"), "splat_time_s": timings.get("splat"),
@@ -269,4 +274,11 @@ def point_row(key: str, summary: dict) -> dict:
     # the intersection estimate's own error: Σ(E_k − A)² / Σ R², what layers and iterations change
     row["intersection_relmse_own"] = decomposition.get("intersection", {}).get("relmse_own")
     row["residual_within_noise"] = summary.get("decomposition", {}).get("residual", {}).get("within_noise")
+    # the single-scattering model's own error against K orders (none: the reference has one)
+    model = (summary.get("model") or {}).get("components", {})
+    for name in ("caustic", "combined"):
+        own = model.get(name, {}).get("relmse_own", {})
+        row[f"model_{name}_relmse_own"] = own.get("debiased")
+        row[f"model_{name}_relmse_own_se"] = own.get("standard_error")
+        row[f"model_{name}_energy_share"] = model.get(name, {}).get("energy_share", {}).get("value")
     return {k: (float("nan") if v is None else v) for k, v in row.items()}

@@ -69,7 +69,7 @@ class Experiment:
 
 
 def run_experiment(scene, params, *, seeds: int = 1, reference_settings=None, progress: bool = False,
-                   renderer=None, oracle=None, reference=None) -> Experiment:
+                   renderer=None, oracle=None, reference=None, fields: dict | None = None) -> Experiment:
     """Measure the approximation with ``params`` on ``scene`` against its reference.
 
     Parameters
@@ -83,6 +83,8 @@ def run_experiment(scene, params, *, seeds: int = 1, reference_settings=None, pr
         rendered when not cached (``reference`` None).
     renderer, oracle, reference : reused when given (a ``reference.render.ReferenceResult``
         at the frames' size).
+    fields : the scene fields this scene changed (dotted path → value, ``scenes.fields``):
+        a column each in every row, and the summary's ``scene_fields``.
     """
     p, seed_list = checked_settings(scene, params, seeds)
     clock = Clock()
@@ -94,7 +96,7 @@ def run_experiment(scene, params, *, seeds: int = 1, reference_settings=None, pr
     bar.update()
     own_renderer = renderer is None
     renderer = renderer or Renderer(scene)
-    columns = parameter_columns(scene, p, seed_list, reference.key)
+    columns = parameter_columns(scene, p, seed_list, reference.key, fields)
     try:
         with clock.stage("oracle"):
             oracle = oracle or Oracle(scene)
@@ -126,6 +128,7 @@ def run_experiment(scene, params, *, seeds: int = 1, reference_settings=None, pr
     clock.seconds["total"] = clock.total()
     summary = experiment_summary(scene, p, seed_list, reference, frames, exact, headline, decomposition, divergence,
                                  clock.seconds, keep, timed, model_summary)
+    summary["scene_fields"] = dict(fields or {})
     layers = {name: np.asarray(img, np.float32) for name, img in decomposition["images"].items()}
     layers.update({f"term.{name}": np.asarray(img, np.float32) for name, img in decomposition["terms"].items()})
     return Experiment(segments=segments, photons=photons, images=images, summary=summary, layers=layers,

@@ -11,6 +11,7 @@ from volcaustics.metrics.noise import MIN_SEEDS_FOR_INTERVAL
 from volcaustics.reports.core.versions import code_version, library_versions
 from volcaustics.reports.experiment.exact_images import EXACT_STEPS, SMALL_SUPERSAMPLE
 from volcaustics.reports.experiment.frames import median_timings
+from volcaustics.scenes.fields import field_columns, optical_depth
 from volcaustics.scenes.formats import COLOUR_LAYERS
 
 ALIVE_BUDGET = 1e-3          # above it, summary.json warns that E_∞ is truncated
@@ -23,12 +24,13 @@ VIEWS = {"approx.<component>": "the approximation, mean over the seeds (H×W×3)
          "compared": "1 where pixels are compared (neither renderer sees glass), else 0 (H×W)"}
 
 
-def parameter_columns(scene, params, seeds: list, reference_key: str) -> dict:
-    """The columns every row of every table carries: scene, its hash, every
-    approximation parameter (``seed``: the first seed), the seeds, the reference's
-    cache key and the code version."""
-    return {"scene": scene.name, "scene_hash": scene.scene_hash(), **params.to_dict(), "seeds": len(seeds),
-            "reference_key": reference_key, "code_version": code_version()}
+def parameter_columns(scene, params, seeds: list, reference_key: str, fields: dict | None = None) -> dict:
+    """The columns every row of every table carries: scene, its hash, its optical depth,
+    every approximation parameter (``seed``: the first seed), the seeds, the reference's
+    cache key, the code version and the scene fields a sweep changed (``fields``)."""
+    return {"scene": scene.name, "scene_hash": scene.scene_hash(), "optical_depth": optical_depth(scene),
+            **params.to_dict(), "seeds": len(seeds), "reference_key": reference_key, "code_version": code_version(),
+            **field_columns(fields)}
 
 
 def map_reads(frames) -> dict:
@@ -91,6 +93,7 @@ def experiment_summary(scene, p, seeds, reference, frames, exact, headline, deco
                            "subtracted") + f"; use --seeds {MIN_SEEDS_FOR_INTERVAL} or more")
     return {
         "kind": "experiment", "scene": scene.name, "scene_hash": scene.scene_hash(),
+        "optical_depth": optical_depth(scene),
         "description": scene.description, "params": p.to_dict(), "seeds": len(seeds), "seed_values": seeds,
         "reference": reference_summary(reference),
         "exact": {"steps": EXACT_STEPS, "alive_after": alive, "small_splat_radius": exact["small_radius"],

@@ -15,6 +15,7 @@ from volcaustics.metrics.intersection import OUTCOME_CLASSES
 from volcaustics.reports.page.animations import over_time_section
 from volcaustics.reports.page.external import renderers_table, scene_comparisons
 from volcaustics.reports.page.images import SCALES, colour_bar_css
+from volcaustics.reports.page.model import OVERVIEW_HEAD, model_section, overview_cell
 from volcaustics.reports.page.parts import CSS, SCRIPT
 from volcaustics.reports.page.parts import colour_bar as _colour_bar
 from volcaustics.reports.page.parts import figure as _figure
@@ -66,7 +67,7 @@ def _params_cell(params: dict) -> str:
 
 def _overview(summary: dict) -> str:
     head = ("<tr><th class='l'>scene</th><th class='l'>component</th><th>relative MSE, debiased [95% interval]</th>"
-            "<th>reference noise floor</th><th>energy ratio [95%]</th><th>HDR-FLIP (mean)</th>"
+            "<th>reference noise floor</th><th>energy ratio [95%]</th><th>HDR-FLIP (mean)</th>" + OVERVIEW_HEAD +
             "<th class='l'>gate (failures first)</th><th>frame time<br>map reads</th><th class='l'>parameters</th></tr>")
     body = []
     for index, page in enumerate(summary["scenes"]):
@@ -81,7 +82,7 @@ def _overview(summary: dict) -> str:
                      f"<td>{_num(energy.get('value'), '{:.3f}')}"
                      + (f" [{_num(energy.get('ci_low'), '{:.3f}')}, {_num(energy.get('ci_high'), '{:.3f}')}]"
                         if energy.get("ci_low") is not None else "") + "</td>",
-                     f"<td>{_num(flip.get('value'))}</td>"]
+                     f"<td>{_num(flip.get('value'))}</td>", overview_cell(page, component)]
             if k == 0:
                 n = len(COLOUR_LAYERS)
                 frame = page["timing"]["frame_s"]
@@ -236,6 +237,7 @@ Result <code>{escape(page['point'])}</code> {'measured in this run' if page['mea
 <h3>The caustic's error, decomposed</h3>
 <div class='row'><img class='chart' src='{images['chart.decomposition']}' alt='decomposition of {escape(name)}'>
 <div>{_decomposition_table(page['decomposition'])}</div></div>
+{model_section(page)}
 <h3>Time per pass</h3>
 <div class='row'><img class='chart' src='{images['chart.pass_times']}' alt='pass times of {escape(name)}'>
 <div>{_timing_table(page['timing'])}</div></div>

@@ -125,7 +125,7 @@ def scene_page(result, *, exposures: dict) -> dict:
         "power_budget": power_budget(result.tables["photons"]),
         "decomposition": {"terms": [rows[t] for t in TERMS],
                           "total": rows["total"], "noise": rows["noise"], "residual": s["decomposition"]["residual"]},
-        "paths": s["paths"], "exposure": exposures, "warnings": s["warnings"],
+        "model": s.get("model"), "paths": s["paths"], "exposure": exposures, "warnings": s["warnings"],
     }
 
 

@@ -14,6 +14,7 @@ import numpy as np
 from volcaustics.approx.params import label as param_label
 from volcaustics.reports.core.plotting import OKABE_ITO, pyplot, save_figure
 from volcaustics.reports.experiment.photons import FATES
+from volcaustics.reports.sweep.model import draw_model_vs_depth, has_depth_sweep
 from volcaustics.reports.sweep.suffice import CRITERIA, NUMERIC, at_best
 
 LINESTYLES = {"threshold": "-", "peel": "--"}
@@ -56,6 +57,8 @@ def draw_figures(tables: dict, folder: str, *, varied) -> list:
         paths += _error_vs(points, varied, x, folder)
     paths += _time_vs_error(points, folder)
     paths += _power_budget(tables, points, varied, folder)
+    if has_depth_sweep(points):
+        paths += draw_model_vs_depth(points, folder)
     return paths
 
 

@@ -17,6 +17,7 @@ from volcaustics.reports.core.sizing import reference_settings
 from volcaustics.reports.core.store import TABLES, Store, document_sha256
 from volcaustics.reports.sweep.best import draw_best
 from volcaustics.reports.sweep.figures import draw_figures
+from volcaustics.reports.sweep.model import crossings, has_depth_sweep
 from volcaustics.reports.sweep.spec import SweepError, SweepSpec, points
 from volcaustics.reports.sweep.suffice import settings_that_suffice
 from volcaustics.reports.sweep.variants import best_variants, draw_variants, is_variants_sweep, variant_table
@@ -28,6 +29,7 @@ OUTPUT_FILES = (*(f"{name}.parquet" for name in (*TABLES, "points")), "suffice.c
 OUTPUT_FOLDERS = ("points", "figures")
 VARIANT_FILES = ("variants.csv", "variants_best.csv")  # beside them when the sweep varies search or start_rule
 EXTRA_FILES = ("best.parquet",)  # beside them after the best-configuration search (reports.sweep.best)
+DEPTH_FILES = ("model_crossing.csv",)  # beside them when the sweep varies the optical depth (reports.sweep.model)
 
 
 @dataclass
@@ -75,14 +77,19 @@ def consolidate(store: Store, out_dir: str, spec: SweepSpec, keys: list, *, extr
     if variants:
         tables["variants"] = variant_table(tables)
         tables["variants_best"] = best_variants(tables["variants"])
+    depth = has_depth_sweep(tables["points"])
+    if depth:
+        tables["model_crossing"] = crossings(tables["points"])
     tables.update(extra or {})
     # the earlier run's figures and variant tables go first: interrupted after the new
     # tables, the folder holds no figure of another run (the report redraws its own)
     remove_stale_figures(os.path.join(out_dir, "figures"), keep=[])
-    for name in (*([] if variants else VARIANT_FILES), *([] if extra else EXTRA_FILES)):
+    for name in (*([] if variants else VARIANT_FILES), *([] if extra else EXTRA_FILES),
+                 *([] if depth else DEPTH_FILES)):
         remove_file(os.path.join(out_dir, name))
     _write_tables(out_dir, tables, {"spec": spec.to_dict(), "points": len(keys), "keys": keys, **(manifest or {})},
-                  extra=(*(VARIANT_FILES if variants else ()), *(f"{name}.parquet" for name in extra or {})))
+                  extra=(*(VARIANT_FILES if variants else ()), *(DEPTH_FILES if depth else ()),
+                         *(f"{name}.parquet" for name in extra or {})))
     figures = draw_figures(tables, os.path.join(out_dir, "figures"), varied=varied)
     if variants:
         figures += draw_variants(tables["variants"], os.path.join(out_dir, "figures"))

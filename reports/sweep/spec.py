@@ -20,8 +20,12 @@ joined in order, a point named twice run once (e.g. the variants sweep,
 ``reports/sweep/variants.toml``: each search with its own knobs). The figures see
 every varied name with all its values.
 
-Every name is an ``ApproxParams`` field (DESIGN.md); every point is validated before
-anything renders. The reference of each scene (and image size) is rendered once, in
+Every name is an ``ApproxParams`` field (DESIGN.md) or a scene field, a dotted path
+into the scene file (``medium.sigma_s``, ``light.intensity``, ``specular.0.ior``:
+``scenes.fields``), applied to every scene of the sweep and validated as the loader
+validates a file. On the command line a scene field's values are numbers or words
+(``--vary medium.sigma_s=0.05,0.2``); RGB lists go in a TOML spec. Every point is
+validated before anything renders. The reference of each scene (and image size) is rendered once, in
 this process, before the points run; workers read it from the cache.
 """
 
@@ -40,6 +44,7 @@ from volcaustics.reports.experiment.settings import check_frame
 from volcaustics.reports.runner import Point
 from volcaustics.scenes import BUILTIN_NAMES, SceneError, resolve_scene
 from volcaustics.scenes.catalogue import scene_relative_to
+from volcaustics.scenes.fields import is_scene_field, parse_field_value, scene_with
 
 SPEC_KEYS = ("scenes", "preset", "seeds", "vary", "set", "reference")
 # Points a sweep runs without --yes: about 3 days at the quick preset's 25 s a point on 2
@@ -83,11 +88,17 @@ def spec_from_args(scenes: str | None, vary: list, fixed: list, *, preset: str, 
     names = [s.strip() for s in scenes.split(",")] if scenes is not None else list(BUILTIN_NAMES)
     grid = []
     for text in vary or []:
-        name, values = parse_assignment(text, "--vary", error=SweepError)
+        name, values = _assignment(text, "--vary")
         if name in dict(grid):
             raise SweepError(f"--vary {text!r}: {name} is varied twice")
         grid.append((name, tuple(values)))
-    settled = parse_overrides(fixed, error=SweepError, seed_option=False)
+    scene_fixed = [text for text in fixed or [] if is_scene_field(text.partition("=")[0])]
+    settled = parse_overrides([t for t in fixed or [] if t not in scene_fixed], error=SweepError, seed_option=False)
+    for text in scene_fixed:
+        name, values = _assignment(text, "--set")
+        if len(values) != 1 or name in settled:
+            raise SweepError(f"--set {text!r}: one value per field, set once (a sweep varies with --vary)")
+        settled[name] = values[0]
     return _checked(SweepSpec(tuple(names), tuple(grid), settled, preset, seeds), "command line", max_points)
 
 
@@ -112,17 +123,38 @@ def spec_from_toml(path: str, max_points: int | None = MAX_POINTS) -> SweepSpec:
         for name, values in table.items():
             if not isinstance(values, list) or not values:
                 raise SweepError(f"{path}: {where}.{name} = {values!r}: expected a non-empty list")
-            grid.append((name, tuple(parse_value(name, v, f"{path}: {where}", error=SweepError) for v in values)))
+            grid.append((name, tuple(_value(name, v, f"{path}: {where}") for v in values)))
         grids.append(tuple(grid))
     grid = _merged(grids)
-    settled = {name: parse_value(name, v, f"{path}: set", error=SweepError)
-               for name, v in _table(doc, "set", path).items()}
+    settled = {name: _value(name, v, f"{path}: set") for name, v in _table(doc, "set", path).items()}
     reference = _table(doc, "reference", path)
     reference_settings(reference, error=lambda message: SweepError(f"{path}: {message}"))  # checked now
     seeds = doc.get("seeds", 1)
     preset = doc.get("preset", "quick")
     return _checked(SweepSpec(tuple(scenes), grid, settled, preset, seeds, dict(reference),
                               tuple(grids) if several else ()), path, max_points)
+
+
+def _value(name: str, value, where: str):
+    """A parameter's or a scene field's value (text or TOML), typed; SweepError naming ``where``."""
+    if not is_scene_field(name):
+        return parse_value(name, value, where, error=SweepError)
+    try:
+        value = parse_field_value(name, value)
+    except SceneError as exc:
+        raise SweepError(f"{where}: {exc}") from None
+    return tuple(value) if isinstance(value, list) else value  # hashable: a point's identity
+
+
+def _assignment(text: str, where: str) -> tuple:
+    """``NAME=V1,V2``: a parameter's (``parse_assignment``) or a scene field's values."""
+    name, sep, values = text.partition("=")
+    if not is_scene_field(name.strip()):
+        return parse_assignment(text, where, error=SweepError)
+    items = values.split(",")
+    if not sep or any(not v.strip() for v in items):
+        raise SweepError(f"{where} {text!r}: expected NAME=VALUE[,VALUE...] (RGB lists go in a TOML spec)")
+    return name.strip(), [_value(name.strip(), v, f"{where} {text!r}") for v in items]
 
 
 def _merged(grids: list) -> tuple:
@@ -178,6 +210,11 @@ def _checked(spec: SweepSpec, where: str, max_points: int | None = MAX_POINTS) -
             resolve_scene(scene)
         except SceneError as exc:
             raise SweepError(f"{where}: {exc}") from None
+    for scene, fields in sorted({(p.scene, p.fields) for p in points(spec) if p.fields}, key=str):
+        try:  # every changed scene, validated as the loader validates a file
+            scene_with(scene, fields)
+        except SceneError as exc:
+            raise SweepError(f"{where}: {exc}") from None
     for point in points(spec):
         last = point.params.seed + spec.seeds - 1
         if last > 2**32 - 1:
@@ -192,8 +229,10 @@ def _checked(spec: SweepSpec, where: str, max_points: int | None = MAX_POINTS) -
 def points(spec: SweepSpec, cls: type = ApproxParams) -> list:
     """Every point of the grid (``reports.runner.Point``), per scene, in grid order
     (ParamError → SweepError)."""
+    fixed = {k: v for k, v in spec.fixed.items() if not is_scene_field(k)}
+    fixed_fields = {k: v for k, v in spec.fixed.items() if is_scene_field(k)}
     try:
-        base = preset(spec.preset, cls, **spec.fixed)
+        base = preset(spec.preset, cls, **fixed)
     except ParamError as exc:
         raise SweepError(f"set: {exc}") from None
     out, seen = [], set()
@@ -201,12 +240,14 @@ def points(spec: SweepSpec, cls: type = ApproxParams) -> list:
         for grid in spec.grids or (spec.vary,):
             names = [name for name, _ in grid]
             for combo in itertools.product(*(values for _, values in grid)):
-                changes = dict(zip(names, combo))
+                changes = {k: v for k, v in zip(names, combo) if not is_scene_field(k)}
+                fields = tuple(sorted({**fixed_fields, **{k: v for k, v in zip(names, combo)
+                                                          if is_scene_field(k)}}.items()))
                 try:
                     params = dataclasses.replace(base, **changes)
                 except ParamError as exc:
                     raise SweepError(f"point {scene}, {changes}: {exc}") from None
-                if (scene, params) not in seen:
-                    seen.add((scene, params))
-                    out.append(Point(scene, params, spec.seeds))
+                if (scene, params, fields) not in seen:
+                    seen.add((scene, params, fields))
+                    out.append(Point(scene, params, spec.seeds, fields))
     return out

@@ -87,8 +87,10 @@ def test_a_scaled_reference_gives_the_analytic_error(env, tmp_path):
     the same × 1.2 must score (1.2 − 1)² = 0.04 and 1.2, flagged in every component."""
     from volcaustics.reference.cache import existing_reference
     from volcaustics.reference.settings import ReferenceSettings
+    from volcaustics.reports.core.sizing import REPORT_MAX_SCATTER
 
-    settings = ReferenceSettings(photons=65536, spp=8, batches=4, target_noise=None, width=32, height=32)
+    settings = ReferenceSettings(photons=65536, spp=8, batches=4, target_noise=None, width=32, height=32,
+                                 max_scatter=REPORT_MAX_SCATTER)  # the CLI's default
     reference = existing_reference(load_builtin("refocus"), settings)
     assert reference is not None  # the module fixture rendered it
     exact = {c: reference.mean[c] for c in COLOUR_LAYERS}

@@ -1,0 +1,105 @@
+"""metrics.model and the orders stream's convergence rule on synthetic images whose
+answers are known in closed form: the model term's shares and relative MSEs, the
+debiasing by the term's variance, the split of the approximation's error against R_ms,
+the standard errors against the spread over independent draws, and the negative
+controls (no term; an approximation that already holds the higher orders)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from volcaustics.metrics.model import model_term
+from volcaustics.reference.render.batches import BatchStats
+from volcaustics.reference.render.orders import batch_images, convergence, stream_images
+
+H, W = 12, 10
+
+
+def _image(seed=0):
+    rng = np.random.default_rng(seed)
+    return 0.5 + rng.random((H, W, 3))
+
+
+KEEP = np.ones((H, W), bool)
+ZERO = np.zeros((H, W, 3))
+
+
+def test_closed_form_shares_and_relative_mse():
+    r = _image()
+    t = 0.25 * r  # the higher orders add a quarter everywhere: R_ms = 1.25 R
+    out = model_term(r, ZERO, t, ZERO, [r, r], KEEP)
+    assert out["energy_share"][0] == pytest.approx(0.2)          # 0.25 / 1.25
+    assert out["relmse_own"][0] == pytest.approx(0.04)           # (0.25 / 1.25)²
+    assert out["relmse_part"][0] == pytest.approx(0.04)          # A = R_ss: all of A's error is the model's
+    assert out["approx_part"][0] == pytest.approx(0.0, abs=1e-15)
+
+
+def test_parts_sum_to_the_error_against_r_ms():
+    r, a = _image(1), _image(2)
+    t = 0.1 * _image(3)
+    out = model_term(r, ZERO, t, ZERO, [a], KEEP)
+    ms = r + t
+    assert out["relmse_part"][0] + out["approx_part"][0] == pytest.approx(np.sum((ms - a) ** 2) / np.sum(ms * ms))
+
+
+def test_negative_controls():
+    r = _image(4)
+    none = model_term(r, ZERO, ZERO, ZERO, [r], KEEP)
+    assert none["energy_share"][0] == 0 and none["relmse_own"][0] == 0 and none["relmse_part"][0] == 0
+    # an approximation that already holds the higher orders: the model's own error is
+    # there, but none of it is in this approximation's error against R_ms
+    t = 0.3 * r
+    holds = model_term(r, ZERO, t, ZERO, [r + t], KEEP)
+    assert holds["relmse_own"][0] == pytest.approx((0.3 / 1.3) ** 2)
+    assert holds["relmse_part"][0] == pytest.approx(0.0, abs=1e-15)
+    assert holds["approx_part"][0] == pytest.approx(0.0, abs=1e-15)
+    with pytest.raises(ValueError, match="black"):
+        model_term(ZERO, ZERO, ZERO, ZERO, [ZERO], KEEP)
+
+
+def test_debiasing_and_standard_errors_match_the_spread():
+    """The term measured with noise of known variance, the same in the three channels (one
+    light path carries all three): the debiased own relative MSE is unbiased, and the SEs
+    match the spread over independent draws (within 25%: 400 draws give the spread itself
+    to ±4%; the propagation is first order)."""
+    r, rng = _image(5), np.random.default_rng(6)
+    t = 0.2 * _image(7)
+    var = np.full_like(r, 0.02 ** 2)
+    draws = [model_term(r, ZERO, t + rng.normal(0.0, 0.02, (H, W, 1)), var, [r], KEEP) for _ in range(400)]
+    own = np.array([d["relmse_own"][1] for d in draws])
+    truth = np.sum(t * t) / np.sum((r + t) ** 2)
+    assert abs(own.mean() - truth) < 4 * own.std() / np.sqrt(len(own))
+    for metric in ("energy_share", "relmse_own", "relmse_part"):
+        spread = np.std([d[metric][0] for d in draws], ddof=1)
+        se = np.mean([d[metric][2] for d in draws])
+        assert se == pytest.approx(spread, rel=0.25), metric
+
+
+def _stats(orders, max_scatter, batches=6, noise=0.0, seed=0):
+    """BatchStats of an orders stream whose per-order images are ``orders[n]`` (one
+    image per component alike) plus Gaussian noise."""
+    rng = np.random.default_rng(seed)
+    stats = BatchStats(stream_images(max_scatter))
+    for _ in range(batches):
+        stack = np.zeros((3, max_scatter + 1, H, W, 3))
+        for n, image in orders.items():
+            stack[:, n] = image + rng.normal(0.0, noise, image.shape)
+        stats.add(batch_images(stack, max_scatter))
+    return stats
+
+
+def test_convergence_rule_counts_the_orders_above_the_floor():
+    base = _image(8)
+    single = {c: base for c in ("caustic", "fog", "direct")}
+    var = {c: np.full_like(base, 1e-4) for c in single}
+    decaying = {n: base * 0.3 ** n for n in range(1, 7)}
+    out = convergence(single, var, _stats(decaying, 6), KEEP)
+    floor = out["caustic"]["floor"]
+    relmse = out["caustic"]["order_relmse"]  # orders 2..6
+    expected = max(n for n, r in zip(range(2, 7), relmse) if r > floor)
+    assert out["caustic"]["orders_needed"] == expected < 6
+    assert out["direct"]["order_relmse"][0] > out["caustic"]["order_relmse"][0]  # direct's first excess order is 1
+    # negative control: orders that do not fall off never converge
+    flat = {n: base * 0.3 for n in range(1, 7)}
+    assert convergence(single, var, _stats(flat, 6), KEEP)["caustic"]["orders_needed"] is None
