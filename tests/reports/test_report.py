@@ -162,10 +162,18 @@ def test_the_page_shows_the_summary_numbers(built):
             assert cells[2] == f"{100 * c['reference_noise_floor']:.3f}%"
             assert cells[3].startswith(f"{c['energy_ratio']['value']:.3f}")
             assert cells[4] == f"{c['hdr_flip']['value']:.3g}"
+            model = page["model"]["components"][component]  # the single-scattering model's own error
+            assert cells[5] == (f"{100 * model['relmse_own']['debiased']:.2f}% "
+                                f"({100 * model['energy_share']['value']:.1f}%)")
+    for page in s["scenes"]:  # the model term beside the decomposition, with the orders it took
+        model = page["model"]
+        assert model["max_scatter"] == 8 and set(model["orders_needed"]) == {"caustic", "fog", "direct"}
+        assert f"<h3>The single-scattering model against {model['max_scatter']} scattering orders</h3>" \
+            in built["page"]
     # the failure is spelled out, not only coloured, and comes first in its cell and in the banner
     assert "✗ Gate FAILED: 1 of 5 checks" in built["page"]
     sphere = next(r for r in parsed.rows if r["scene"] == "sphere1" and len(r["cells"]) > 6)
-    assert sphere["cells"][6].startswith("✗ FAIL caustic.hdr_flip_max")
+    assert sphere["cells"][7].startswith("✗ FAIL caustic.hdr_flip_max")
 
 
 def test_the_page_is_self_contained(built):
@@ -491,7 +499,7 @@ def test_report_and_reference_cli_share_one_cache_entry(tmp_path, monkeypatch, c
     cache = tmp_path / "cache"
     monkeypatch.setenv("VOLCAUSTICS_CACHE", str(cache))
     monkeypatch.setenv("VOLCAUSTICS_MI_VARIANT", "llvm_ad_rgb")
-    budget = ["--photons", "100000", "--spp", "8", "--batches", "2"]
+    budget = ["--photons", "100000", "--spp", "8", "--batches", "2", "--max-scatter", "2"]
     budgets = tmp_path / "budgets.toml"  # none for refocus: the terminal says why the gate did not check it
     budgets.write_text('preset = "quick"\n[scene.sphere1]\ncaustic = { hdr_flip_max = 1.0 }\n')
     assert main(["report", "--out", str(tmp_path / "rep"), "--scenes", "refocus", "--seeds", "1", "--quiet",

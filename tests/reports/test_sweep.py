@@ -319,3 +319,43 @@ def test_a_later_sweep_into_the_same_folder_leaves_no_output_of_the_earlier(env,
     assert main(["sweep", str(layers), "-o", str(out), "--workers", "1", "--quiet"]) == 0
     assert not (out / "variants.csv").exists() and not (out / "variants_best.csv").exists()
     assert not list((out / "figures").glob("variants_*")) and list((out / "figures").glob("*.png"))
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--vary", "medium.sigma_s=-1,0.2"], "medium.sigma_s = -1"),
+    (["--vary", "medium.sigma_z=0.1"], "unknown key"),
+    (["--vary", "fog.density=1"], "TABLE one of"),
+    (["--set", "specular.4.ior=1.2"], "specular object"),
+])
+def test_bad_scene_fields_exit_2_naming_the_key(env, tmp_path, capsys, args, message):
+    out = tmp_path / "store"
+    assert main(["sweep", "--scenes", "refocus", *args, "-o", str(out), "--quiet"]) == 2
+    assert message in capsys.readouterr().err
+    assert not out.exists()
+
+
+def test_a_density_sweep_reads_the_model_term_against_optical_depth(env, tmp_path, capsys):
+    """Two densities of one scene with 2 scattering orders: the scene fields and the
+    optical depth are columns, the model's own error is measured at each point and grows
+    with the density, and the figure and the crossing table are written."""
+    spec = """
+scenes = ["refocus"]
+seeds = 2
+[[vary]]
+"medium.sigma_s" = [0.05]
+"medium.sigma_a" = [0.005]
+[[vary]]
+"medium.sigma_s" = [0.4]
+"medium.sigma_a" = [0.04]
+""" + SMALL_TABLES.replace("[reference]", "[reference]\nmax_scatter = 2")
+    out = tmp_path / "store"
+    assert main(["sweep", _spec(tmp_path, spec), "-o", str(out), "--quiet"]) == 0
+    points = pd.read_parquet(out / "points.parquet").sort_values("optical_depth")
+    assert list(points["medium.sigma_s"]) == [0.05, 0.4] and list(points["medium.sigma_a"]) == [0.005, 0.04]
+    assert points["optical_depth"].iloc[1] == pytest.approx(8 * points["optical_depth"].iloc[0])
+    own = points["model_combined_relmse_own"].to_numpy()
+    assert np.all(np.isfinite(own)) and own[1] > own[0]
+    assert (out / "figures" / "model_vs_optical_depth.png").exists()
+    crossing = pd.read_csv(out / "model_crossing.csv")
+    assert set(crossing["component"]) == {"caustic", "combined"}
+    assert "single-scattering model: the optical depth" in capsys.readouterr().out
