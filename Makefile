@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 OUT ?= runs/report
 
-.PHONY: setup report test test-fast lint doctor animate sweep sweep-variants sweep-best gate gate-baseline lower-bounds clean
+.PHONY: setup report test test-fast lint doctor animate sweep sweep-variants sweep-best sweep-density gate gate-baseline lower-bounds clean
 
 setup:
 	@bash scripts/setup.sh
@@ -61,6 +61,11 @@ sweep: setup
 # (reports/sweep/variants.toml), quick preset, 4 seeds; resumable. The report shows it.
 sweep-variants: setup
 	$(BIN)/volcaustics sweep reports/sweep/variants.toml -o runs/sweep-variants
+
+# The density sweep (reports/sweep/density.toml): sphere1 and bunny from haze to thick fog,
+# the approximation's error and the single-scattering model's against optical depth; resumable.
+sweep-density: setup
+	$(BIN)/volcaustics sweep reports/sweep/density.toml -o runs/sweep-density
 
 # The best-configuration search (reports/sweep/best.toml): every configuration at the paper
 # configuration's frame cost, coarse grid then refinement, on every built-in; resumable.
