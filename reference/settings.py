@@ -7,8 +7,10 @@ from dataclasses import asdict, dataclass, replace
 
 from volcaustics.scenes.memory import image_fits
 
-# which light paths the light tracer counts (reference.integrators)
+# which light paths the light tracer counts (reference.integrators); "orders" is the
+# higher-orders stream's own (max_scatter > 1), not a mode a reference is requested in
 MODES = ("caustic", "fog", "all", "surface", "orders")
+REQUEST_MODES = MODES[:-1]
 # components with a noise floor (combined is their sum); the model term's (max_scatter > 1):
 # its variance over Σ R_ms², reference.render.orders
 NOISE_COMPONENTS = ("caustic", "fog", "direct", "caustic_ms", "fog_ms", "direct_ms")
@@ -173,7 +175,9 @@ def _floor_value(label: str, number) -> float:
 
 
 def check_mode(mode: str) -> str:
-    """``mode`` if it is one of :data:`MODES`, else :class:`SettingsError`."""
-    if mode not in MODES:
-        raise SettingsError(f"mode = {mode!r}: expected one of {', '.join(MODES)}")
+    """``mode`` if a reference can be requested in it (:data:`REQUEST_MODES`), else
+    :class:`SettingsError`."""
+    if mode not in REQUEST_MODES:
+        hint = " (the higher orders come with max_scatter > 1)" if mode == "orders" else ""
+        raise SettingsError(f"mode = {mode!r}: expected one of {', '.join(REQUEST_MODES)}{hint}")
     return mode

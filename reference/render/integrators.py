@@ -259,6 +259,8 @@ class VolumetricLightTracer(mi.AdjointIntegrator):
         view = ViewPyramid(sensor)
         volume = self.mode != "surface" and self.has_medium
         orders = self.mode == "orders"
+        if orders and not hasattr(self, "order_block"):
+            raise RuntimeError("vc_lighttracer in mode 'orders': call prepare_orders(width, height) before rendering")
         # the most real scattering events a path goes on through: in mode orders, direct
         # light may have scattered max_scatter times; else a path scatters only while a
         # later connection can still count it

@@ -81,3 +81,23 @@ def test_an_entry_without_its_model_layers_is_not_served(private_cache):
     assert cache.load(first.key) is None
     again = render_reference(scene, settings, progress=False)
     assert not again.manifest["cached"] and set(MODEL_LAYERS) <= set(again.mean)
+
+
+def test_mode_orders_is_the_streams_own():
+    from volcaustics.reference.mi_setup import mitsuba
+    from volcaustics.reference.render.export import to_mitsuba
+    from volcaustics.reference.render.integrators import VolumetricLightTracer, configure
+    from volcaustics.reference.settings import SettingsError, check_mode
+
+    with pytest.raises(SettingsError, match="max_scatter > 1"):
+        check_mode("orders")
+    mi = mitsuba()
+    scene = load_builtin("refocus")
+    mi_scene = mi.load_dict(to_mitsuba(dataclasses.replace(scene, camera=dataclasses.replace(
+        scene.camera, width=8, height=8))))
+    props = mi.Properties()
+    props["mode"], props["max_scatter"] = "orders", 2
+    tracer = configure(VolumetricLightTracer(props), scene, mi_scene)
+    with pytest.raises(RuntimeError) as info:  # without its block, a clear error, not a crash
+        mi.render(mi_scene, integrator=tracer, spp=1)
+    assert "prepare_orders" in str(info.getrepr(chain=True))  # Dr.Jit's loop wraps the cause
