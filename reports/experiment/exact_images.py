@@ -2,7 +2,13 @@
 E_∞ (A's Fresnel), E_∞ (stochastic) and E_∞,s (small kernel, supersampled). With
 splat = adaptive, A is splatted with its own kernels and the E images with the kernels
 A gave the same photons (:func:`_paired_kernels`), so kernel_blur = E_∞ − E_∞,s is the
-adaptive kernel's blur."""
+adaptive kernel's blur.
+
+The E_∞ images replay every emission texel EXACT_SUBPHOTONS times (the first replay
+with A's random numbers, the others with seeds of their own, :func:`replay_seed`), each
+at 1/EXACT_SUBPHOTONS of the power: the subsets stay paired by emission texel, and the
+terms that difference E_∞ images with the reference (reflections, residual) lose the
+noise of one exact photon per texel (issue 25; docs/decisions.md "Sub-photons")."""
 
 from __future__ import annotations
 
@@ -12,14 +18,50 @@ import numpy as np
 
 from volcaustics.approx.splat import record_sigma, splats_from_arrays
 from volcaustics.reference.oracle import exact_photon_records
-from volcaustics.reports.experiment.exact import exact_photons, photons_from_records, pixel_footprint, subset_images
+from volcaustics.reports.experiment.exact import (
+    ExactPhotons,
+    exact_photons,
+    photons_from_records,
+    pixel_footprint,
+    subset_images,
+)
 from volcaustics.scenes.formats import STATUS_COLLIDED
+from volcaustics.scenes.rng import pcg_hash
 
 # E_∞ and E_∞,s: docs/decisions.md "Exact steps and the small kernel"
 EXACT_STEPS = 128            # E_∞: < 0.1% of the power alive after them on every built-in
 SMALL_SUPERSAMPLE = 4        # E_∞,s: splatted at 4× and box-averaged (the reference's pixel filter)
 SMALL_KERNEL_FINE_PIXELS = 0.6  # E_∞,s kernel σ in fine pixels (0.15 pixel): aliasing ≈ 0.2%
 SUBSET_BATCHES = 8           # paired photon subsets per seed of A and the E images: the decomposition's noise
+EXACT_SUBPHOTONS = 16        # exact replays of each emission texel in the E_∞ images (docs/decisions.md "Sub-photons")
+_SUBPHOTON_SALT = 0x5EB9_07A1  # keeps the replays' seeds apart from the frames' seeds (seed, seed + 1, …)
+
+
+def replay_seed(seed: int, replay: int) -> int:
+    """The seed of exact replay ``replay`` of a frame with ``seed``: the frame's own for
+    replay 0 (A's random numbers), a PCG hash of both otherwise."""
+    if replay == 0:
+        return seed
+    return int(pcg_hash(np.uint32(seed) ^ pcg_hash(np.uint32(_SUBPHOTON_SALT + replay))))
+
+
+def pooled(replays: list) -> ExactPhotons:
+    """Several exact replays of one emission grid as one set of photons: their splats
+    together at 1/len(replays) of their power each (the same texel indices, so subsets
+    stay paired), the power budgets averaged."""
+    n = len(replays)
+    if n == 1:
+        return replays[0]
+    splats = np.concatenate([r.splats for r in replays])
+    splats["power"] /= np.float32(n)
+    first = replays[0]
+    return dataclasses.replace(
+        first, splats=splats, photon=np.concatenate([r.photon for r in replays]),
+        step=np.concatenate([r.step for r in replays]),
+        emitted_power=np.mean([r.emitted_power for r in replays], axis=0),
+        alive_power=np.mean([r.alive_power for r in replays], axis=0),
+        collided_power=np.mean([r.collided_power for r in replays], axis=0),
+        params={**first.params, "subphotons": n})
 
 
 def small_radius(scene, p) -> float:
@@ -49,9 +91,10 @@ def _paired_kernels(collided: np.ndarray, sigma: np.ndarray | None):
     return kernels
 
 
-def exact_images(scene, p, frames, replays, seeds, renderer, oracle) -> dict:
+def exact_images(scene, p, frames, replays, seeds, renderer, oracle, subphotons: int = EXACT_SUBPHOTONS) -> dict:
     """Per seed, SUBSET_BATCHES paired subset images (``reports.experiment.exact.subset_images``)
-    of A, E_k, E_∞ (A's Fresnel), E_∞ (stochastic) and E_∞,s; all seeds' batches
+    of A, E_k, E_∞ (A's Fresnel), E_∞ (stochastic) and E_∞,s, the E_∞ images from
+    ``subphotons`` replays of every texel (:func:`pooled`); all seeds' batches
     concatenated (batch j of every image: the same emission texels of one seed)."""
     out = {name: [] for name in ("approx", "exact_steps", "exact_all_same", "exact_all", "exact_all_small")}
     alive = {}
@@ -71,13 +114,16 @@ def exact_images(scene, p, frames, replays, seeds, renderer, oracle) -> dict:
         kernels = _paired_kernels(collided, sigma)
         e_k = photons_from_records(replay, first, ps, steps=p.steps, fresnel=p.fresnel)
         out["exact_steps"].append(batches((kernels(e_k), e_k.photon), ps))
-        records = exact_photon_records(scene, first, steps=EXACT_STEPS, seed=seed, fresnel=p.fresnel, oracle=oracle)
-        same = photons_from_records(records, first, ps, steps=EXACT_STEPS, fresnel=p.fresnel)
+        same = pooled([photons_from_records(
+            exact_photon_records(scene, first, steps=EXACT_STEPS, seed=replay_seed(seed, m), fresnel=p.fresnel,
+                                 oracle=oracle), first, ps, steps=EXACT_STEPS, fresnel=p.fresnel)
+            for m in range(subphotons)])
         out["exact_all_same"].append(batches((kernels(same), same.photon), ps))
         everything = same
         if p.fresnel != "stochastic":
-            everything = exact_photons(scene, ps, steps=EXACT_STEPS, fresnel="stochastic", renderer=renderer,
-                                       oracle=oracle)
+            everything = pooled([exact_photons(scene, dataclasses.replace(ps, seed=replay_seed(seed, m)),
+                                               steps=EXACT_STEPS, fresnel="stochastic", renderer=renderer,
+                                               oracle=oracle) for m in range(subphotons)])
         out["exact_all"].append(batches((kernels(everything), everything.photon), ps))
         out["exact_all_small"].append(batches((everything.splats, everything.photon),
                                               dataclasses.replace(small, seed=seed), SMALL_SUPERSAMPLE))

@@ -87,3 +87,31 @@ def test_failure_images_are_written(tmp_path, monkeypatch):
     assert sorted(os.listdir(folder)) == ["compared.exr", "difference.png", "info.json", "reference.png", "test.png"]
     with open(os.path.join(folder, "info.json"), encoding="utf-8") as fh:
         assert json.load(fh) == {"ratio": [0.5]}
+
+
+def test_sub_photons_pool_independent_replays_of_the_same_texels(gl_context):
+    """The E_∞ images' sub-photons (exact_images.pooled): each replay of the same emission
+    grid has its own random numbers (the first A's), their pool keeps the texel indices
+    (subsets stay paired) at 1/M of the power, and pooling M copies of one replay is that
+    replay's image."""
+    from volcaustics.reports.experiment.exact_images import pooled, replay_seed
+
+    assert replay_seed(7, 0) == 7 and len({replay_seed(7, m) for m in range(1, 9)} | {7, 8, 9}) == 11
+    scene = make_scene([(sphere_spec(0.4, (0, 1.5, 0), 16), 1.5, (0, 0, 0))], cutoff=20.0, width=32, height=32)
+    params = ApproxParams(photon_res=64, light_res=128, width=32, height=32, splat_radius=0.03, seed=3)
+    renderer = Renderer(scene)
+    try:
+        one, two = (exact_photons(scene, dataclasses.replace(params, seed=replay_seed(3, m)), steps=32,
+                                  fresnel="stochastic", renderer=renderer) for m in (0, 1))
+        assert one.photons == two.photons and max(one.photon.max(), two.photon.max()) < 64 * 64  # one grid ...
+        assert not np.array_equal(one.splats["center_status"][:50], two.splats["center_status"][:50])  # other paths
+        both = pooled([one, two])
+        assert len(both.splats) == len(one.splats) + len(two.splats) and both.params["subphotons"] == 2
+        np.testing.assert_allclose(both.splats["power"].sum(axis=0),
+                                   (one.splats["power"].sum(axis=0) + two.splats["power"].sum(axis=0)) / 2,
+                                   rtol=1e-5)
+        twice = renderer.splat(pooled([one, one]).splats, params=params)
+        np.testing.assert_allclose(twice, renderer.splat(one.splats, params=params), rtol=1e-4,
+                                   atol=1e-6 * twice.max())
+    finally:
+        renderer.release()
