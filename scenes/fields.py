@@ -31,14 +31,22 @@ def is_scene_field(name: str) -> bool:
 
 def parse_field_value(name: str, text):
     """A scene field's value from text (CLI: a TOML value, ``0.3`` or ``[0.3, 0.2, 0.1]``
-    or a bare word as a string) or as TOML gave it; SceneError for the path itself."""
+    or a bare word as a string) or as TOML gave it, as a hashable value (a list as a
+    tuple): a number, a word, a boolean or a flat list of numbers; SceneError for the
+    path or another kind of value (a table, a nested list)."""
     _parts(name)
-    if not isinstance(text, str):
-        return text
-    try:
-        return tomllib.loads(f"v = {text.strip()}")["v"]
-    except tomllib.TOMLDecodeError:
-        return text.strip()
+    value = text
+    if isinstance(text, str):
+        try:
+            value = tomllib.loads(f"v = {text.strip()}")["v"]
+        except tomllib.TOMLDecodeError:
+            value = text.strip()
+    if isinstance(value, list) and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value):
+        return tuple(value)
+    if not isinstance(value, (int, float, str, bool)):
+        raise SceneError(None, name, value, "a scene field takes a number, a word or a list of numbers "
+                                            "(a table or a nested list is not one field)")
+    return value
 
 
 def _parts(name: str) -> list:
@@ -46,10 +54,19 @@ def _parts(name: str) -> list:
     if parts[0] not in TABLES or len(parts) < 2 or any(not p for p in parts):
         raise SceneError(None, name, None, f"a scene field is TABLE.KEY with TABLE one of {', '.join(TABLES)} "
                                            f"({', '.join(ARRAYS)} take an index: specular.0.ior)")
-    if parts[0] in ARRAYS and (len(parts) < 3 or not parts[1].isdigit()):
+    if parts[0] == "camera" and parts[1] in ("width", "height"):
+        raise SceneError(None, name, None, f"the image size is the approximation's parameter: use {parts[1]} "
+                                           f"(--set {parts[1]}=N), which sizes the reference too")
+    if parts[0] in ARRAYS and (len(parts) < 3 or not _index(parts[1])):
         raise SceneError(None, name, None, f"{parts[0]} is a list of objects: give its index, e.g. {parts[0]}.0."
                                            f"{parts[-1]}")
     return parts
+
+
+def _index(part: str) -> bool:
+    """Whether a path part is an object's index: ASCII digits only (``str.isdigit`` also
+    takes superscripts and other scripts' digits)."""
+    return part.isascii() and part.isdigit()
 
 
 def _document(arg: str) -> tuple:
@@ -66,6 +83,8 @@ def _assign(doc: dict, name: str, value, label: str) -> None:
     parts, node = _parts(name), doc
     for i, part in enumerate(parts[:-1]):
         if isinstance(node, list):
+            if not _index(part):
+                raise SceneError(label, ".".join(parts[: i + 1]), part, "is a list: index it with a number")
             index = int(part)
             if index >= len(node):
                 raise SceneError(label, ".".join(parts[: i + 1]), index,
@@ -75,7 +94,10 @@ def _assign(doc: dict, name: str, value, label: str) -> None:
             node = node.setdefault(part, {} if not (part in ARRAYS and i == 0) else [])
         if not isinstance(node, (dict, list)):
             raise SceneError(label, ".".join(parts[: i + 1]), node, "is a value, not a table")
-    node[parts[-1]] = value
+    if isinstance(node, list):
+        raise SceneError(label, name, value, "is an element of a list: set the whole field "
+                                             f"({'.'.join(parts[:-1])} = [...])")
+    node[parts[-1]] = list(value) if isinstance(value, tuple) else value  # the loader reads TOML arrays
 
 
 def scene_with(arg: str, fields) -> object:
@@ -107,3 +129,18 @@ def field_columns(fields: dict | None) -> dict:
     """Changed scene fields as table columns: a number as it is, an RGB list as its mean."""
     return {name: float(np.mean(value)) if isinstance(value, (list, tuple)) else value
             for name, value in (fields or {}).items()}
+
+
+def field_value(scene, name: str):
+    """The value of the scene field ``name`` in ``scene`` (a Scene), as a sweep's column
+    shows it: a number or word as it is, an RGB triple as a tuple; None where the model
+    has no such attribute."""
+    node = scene
+    for part in _parts(name):
+        if isinstance(node, (list, tuple)) and _index(part):
+            node = node[int(part)] if int(part) < len(node) else None
+        else:
+            node = getattr(node, part, None)
+        if node is None:
+            return None
+    return node if isinstance(node, (int, float, str, bool, tuple)) else None

@@ -38,7 +38,9 @@ def run(args) -> int:
     summary = run_reference(scene, settings, args.output, force=args.force)
     source = "cache" if summary["cached"] else f"rendered in {summary['seconds_this_call']:.1f} s"
     floors = ", ".join(f"{k} {100 * v:.3f}%" for k, v in summary["noise_floor"].items() if v is not None)
+    orders = (f" + {summary['orders_batches']} of {summary['max_scatter']} scattering orders"
+              if summary.get("orders_batches") else "")
     print(f"reference {scene.name}: {summary['photons']:,} photons, {summary['batches']} + "
-          f"{summary['camera_batches']} batches ({source}, {summary['mitsuba_variant']}; stopped by "
+          f"{summary['camera_batches']}{orders} batches ({source}, {summary['mitsuba_variant']}; stopped by "
           f"{summary['stopped_by']}); noise floor {floors} -> {summary['outputs']['exr']}")
     return 0

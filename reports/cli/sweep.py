@@ -28,8 +28,10 @@ def register(sub) -> None:
     p.add_argument("-o", "--output", required=True, metavar="DIR", help="the store folder (resumed when it exists)")
     p.add_argument("--scenes", help="comma-separated SCENE arguments (default: every built-in)")
     p.add_argument("--vary", action="append", metavar="NAME=V1,V2,...",
-                   help=f"a grid axis (repeatable); NAME one of {names}")
-    p.add_argument("--set", action="append", metavar="NAME=VALUE", help="a fixed parameter (repeatable)")
+                   help=f"a grid axis (repeatable); NAME one of {names}, or a scene field: a dotted path into "
+                        f"the scene file such as medium.sigma_s, light.intensity, specular.0.ior")
+    p.add_argument("--set", action="append", metavar="NAME=VALUE",
+                   help="a fixed parameter or scene field (repeatable)")
     p.add_argument("--preset", choices=tuple(PRESETS), help="the parameters not named (default quick; a SPEC "
                                                             "file says its own)")
     p.add_argument("--seeds", type=int, help="seeds per point (default 1; a SPEC file says its own)")

@@ -15,7 +15,7 @@ from volcaustics.approx.params import label as param_label
 from volcaustics.reports.core.plotting import OKABE_ITO, pyplot, save_figure
 from volcaustics.reports.experiment.photons import FATES
 from volcaustics.reports.sweep.model import draw_model_vs_depth, has_depth_sweep
-from volcaustics.reports.sweep.suffice import CRITERIA, NUMERIC, at_best
+from volcaustics.reports.sweep.suffice import CRITERIA, NUMERIC, at_best, field_keys
 
 LINESTYLES = {"threshold": "-", "peel": "--"}
 CLASS_GROUPS = {"true_hit": ("true_hit",), "wrong_surface": ("wrong_surface",), "false_hit": ("false_hit",),
@@ -39,10 +39,15 @@ def _axis(ax, x, values) -> None:
 
 
 def _series(points):
-    """(label, colour, linestyle, rows) per scene and layer strategy."""
+    """(label, colour, linestyle, rows) per scene, layer strategy and changed scene fields
+    (another medium is another series)."""
     colours = _colours(points["scene"].unique())
-    for (scene, strategy), rows in points.groupby(["scene", "layer_strategy"], sort=True):
-        yield f"{scene} ({strategy})", colours[scene], LINESTYLES.get(strategy, ":"), rows
+    fields = field_keys(points)
+    for key, rows in points.groupby(["scene", "layer_strategy", *fields], sort=True, dropna=False):
+        scene, strategy, values = key[0], key[1], key[2:]
+        extra = "".join(f", {name} {value:g}" if isinstance(value, float) else f", {name} {value}"
+                        for name, value in zip(fields, values))
+        yield f"{scene} ({strategy}{extra})", colours[scene], LINESTYLES.get(strategy, ":"), rows
 
 
 def draw_figures(tables: dict, folder: str, *, varied) -> list:

@@ -44,7 +44,7 @@ from volcaustics.reports.experiment.settings import check_frame
 from volcaustics.reports.runner import Point
 from volcaustics.scenes import BUILTIN_NAMES, SceneError, resolve_scene
 from volcaustics.scenes.catalogue import scene_relative_to
-from volcaustics.scenes.fields import is_scene_field, parse_field_value, scene_with
+from volcaustics.scenes.fields import field_value, is_scene_field, parse_field_value, scene_with
 
 SPEC_KEYS = ("scenes", "preset", "seeds", "vary", "set", "reference")
 # Points a sweep runs without --yes: about 3 days at the quick preset's 25 s a point on 2
@@ -121,12 +121,16 @@ def spec_from_toml(path: str, max_points: int | None = MAX_POINTS) -> SweepSpec:
         where = f"vary[{k}]" if several else "vary"
         grid = []
         for name, values in table.items():
+            _unquoted(name, values, f"{path}: {where}")
             if not isinstance(values, list) or not values:
                 raise SweepError(f"{path}: {where}.{name} = {values!r}: expected a non-empty list")
             grid.append((name, tuple(_value(name, v, f"{path}: {where}") for v in values)))
         grids.append(tuple(grid))
     grid = _merged(grids)
-    settled = {name: _value(name, v, f"{path}: set") for name, v in _table(doc, "set", path).items()}
+    settled = {}
+    for name, v in _table(doc, "set", path).items():
+        _unquoted(name, v, f"{path}: set")
+        settled[name] = _value(name, v, f"{path}: set")
     reference = _table(doc, "reference", path)
     reference_settings(reference, error=lambda message: SweepError(f"{path}: {message}"))  # checked now
     seeds = doc.get("seeds", 1)
@@ -135,22 +139,44 @@ def spec_from_toml(path: str, max_points: int | None = MAX_POINTS) -> SweepSpec:
                               tuple(grids) if several else ()), path, max_points)
 
 
+def _hinted(exc: SweepError, name: str) -> SweepError:
+    """``exc``, with the scene fields named when it is about an unknown parameter."""
+    if "unknown parameter" not in str(exc):
+        return exc
+    return SweepError(f"{exc}; or a scene field, a dotted path into the scene file such as medium.{name}, "
+                      f"light.{name} or specular.0.{name}")
+
+
+def _unquoted(name: str, value, where: str) -> None:
+    """SweepError for a table where a value belongs: TOML read ``medium.sigma_s = …``
+    (unquoted) as the table ``medium``; a scene field is one quoted key."""
+    if isinstance(value, dict) and not is_scene_field(name):
+        inner = next(iter(value), "KEY")
+        raise SweepError(f"{where}.{name}: a table; a scene field is one quoted key, e.g. "
+                         f"\"{name}.{inner}\" = ... (unquoted, TOML reads {name}.{inner} as a table)")
+
+
 def _value(name: str, value, where: str):
     """A parameter's or a scene field's value (text or TOML), typed; SweepError naming ``where``."""
     if not is_scene_field(name):
-        return parse_value(name, value, where, error=SweepError)
+        try:
+            return parse_value(name, value, where, error=SweepError)
+        except SweepError as exc:
+            raise _hinted(exc, name) from None
     try:
-        value = parse_field_value(name, value)
+        return parse_field_value(name, value)  # hashable (a list as a tuple): a point's identity
     except SceneError as exc:
         raise SweepError(f"{where}: {exc}") from None
-    return tuple(value) if isinstance(value, list) else value  # hashable: a point's identity
 
 
 def _assignment(text: str, where: str) -> tuple:
     """``NAME=V1,V2``: a parameter's (``parse_assignment``) or a scene field's values."""
     name, sep, values = text.partition("=")
     if not is_scene_field(name.strip()):
-        return parse_assignment(text, where, error=SweepError)
+        try:
+            return parse_assignment(text, where, error=SweepError)
+        except SweepError as exc:
+            raise _hinted(exc, name.strip()) from None
     items = values.split(",")
     if not sep or any(not v.strip() for v in items):
         raise SweepError(f"{where} {text!r}: expected NAME=VALUE[,VALUE...] (RGB lists go in a TOML spec)")
@@ -226,6 +252,16 @@ def _checked(spec: SweepSpec, where: str, max_points: int | None = MAX_POINTS) -
     return spec
 
 
+def _own_values(scene: str, names: list) -> dict:
+    """The values the scene ``scene`` has of the fields ``names`` (``scenes.fields.field_value``)."""
+    try:
+        model = resolve_scene(scene)
+    except SceneError as exc:
+        raise SweepError(str(exc)) from None
+    values = {name: field_value(model, name) for name in names}
+    return {name: value for name, value in values.items() if value is not None}
+
+
 def points(spec: SweepSpec, cls: type = ApproxParams) -> list:
     """Every point of the grid (``reports.runner.Point``), per scene, in grid order
     (ParamError → SweepError)."""
@@ -236,13 +272,16 @@ def points(spec: SweepSpec, cls: type = ApproxParams) -> list:
     except ParamError as exc:
         raise SweepError(f"set: {exc}") from None
     out, seen = [], set()
+    varied_fields = [name for name, _ in spec.vary if is_scene_field(name)]
     for scene in spec.scenes:
+        # a field another grid varies keeps the scene's own value here (a column, not NaN)
+        own = _own_values(scene, varied_fields) if spec.grids else {}
         for grid in spec.grids or (spec.vary,):
             names = [name for name, _ in grid]
             for combo in itertools.product(*(values for _, values in grid)):
                 changes = {k: v for k, v in zip(names, combo) if not is_scene_field(k)}
-                fields = tuple(sorted({**fixed_fields, **{k: v for k, v in zip(names, combo)
-                                                          if is_scene_field(k)}}.items()))
+                fields = tuple(sorted({**own, **fixed_fields, **{k: v for k, v in zip(names, combo)
+                                                                 if is_scene_field(k)}}.items()))
                 try:
                     params = dataclasses.replace(base, **changes)
                 except ParamError as exc:

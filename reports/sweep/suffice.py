@@ -7,6 +7,7 @@ import numpy as np
 import pandas as pd
 
 from volcaustics.approx.params import PARAMS
+from volcaustics.scenes.fields import is_scene_field
 
 # the parameters a sweep figure or the settings that suffice take as a numeric axis
 NUMERIC = tuple(p.name for p in PARAMS if p.kind in (int, float) and p.name != "seed")
@@ -19,8 +20,14 @@ CRITERIA = {"caustic_relmse_debiased": "caustic relative MSE, debiased (%)",
 
 
 def variant_keys(points) -> list:
-    """The columns a sweep's points are grouped by: the scene and each variant choice."""
-    return ["scene", *(c for c in VARIANT_CHOICES if c in points)]
+    """The columns a sweep's points are grouped by: the scene, each variant choice and
+    each scene field the sweep changed (another medium is another scene)."""
+    return ["scene", *(c for c in VARIANT_CHOICES if c in points), *field_keys(points)]
+
+
+def field_keys(points) -> list:
+    """The scene-field columns (dotted paths, ``scenes.fields``) of a points table."""
+    return [c for c in points.columns if is_scene_field(str(c))]
 
 
 def at_best(points, varied, x):

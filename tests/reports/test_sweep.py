@@ -326,6 +326,10 @@ def test_a_later_sweep_into_the_same_folder_leaves_no_output_of_the_earlier(env,
     (["--vary", "medium.sigma_z=0.1"], "unknown key"),
     (["--vary", "fog.density=1"], "TABLE one of"),
     (["--set", "specular.4.ior=1.2"], "specular object"),
+    (["--vary", "specular.².ior=1.5"], "give its index"),       # a superscript is not an index
+    (["--vary", "medium.sigma_s={a=1}"], "a number, a word or a list"),
+    (["--vary", "camera.width=64,128"], "--set width=N"),       # the size is a parameter
+    (["--vary", "sigma_s=0.1"], "medium.sigma_s"),              # the hint names the scene fields
 ])
 def test_bad_scene_fields_exit_2_naming_the_key(env, tmp_path, capsys, args, message):
     out = tmp_path / "store"
@@ -359,3 +363,28 @@ seeds = 2
     crossing = pd.read_csv(out / "model_crossing.csv")
     assert set(crossing["component"]) == {"caustic", "combined"}
     assert "single-scattering model: the optical depth" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("table, message", [
+    ('[vary]\nmedium.sigma_s = [0.1, 0.2]', '"medium.sigma_s" = ...'),   # unquoted: TOML made it a table
+    ('[vary]\n"medium.sigma_s" = [[[0.1], [0.2], [0.3]]]', "a number, a word or a list"),
+    ('[set]\n"specular.0.transform" = { translate = [0, 1, 0] }', "a number, a word or a list"),
+])
+def test_bad_scene_fields_in_a_spec_exit_2(env, tmp_path, capsys, table, message):
+    out = tmp_path / "store"
+    spec = 'scenes = ["refocus"]\n' + table + "\n"
+    assert main(["sweep", _spec(tmp_path, spec), "-o", str(out), "--quiet"]) == 2
+    assert message in capsys.readouterr().err and not out.exists()
+
+
+def test_rgb_scene_fields_in_a_spec_and_the_scenes_own_values():
+    """An RGB list in a spec reaches the scene (the loader reads TOML arrays); a field one
+    grid varies keeps the scene's own value in the others (a column, never NaN)."""
+    from volcaustics.reports.runner import point_scene
+    from volcaustics.reports.sweep.spec import SweepSpec, points
+
+    spec = SweepSpec(("refocus",), (("medium.sigma_s", ((0.1, 0.2, 0.3),)), ("layers", (1, 2))),
+                     grids=((("medium.sigma_s", ((0.1, 0.2, 0.3),)),), (("layers", (1, 2)),)))
+    made = points(spec)
+    assert point_scene(made[0].scene, made[0].fields).medium.sigma_s == (0.1, 0.2, 0.3)
+    assert all(dict(p.fields)["medium.sigma_s"] == (0.2, 0.2, 0.2) for p in made[1:])  # refocus's own

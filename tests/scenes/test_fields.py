@@ -38,6 +38,9 @@ def test_a_scene_file_by_path(tmp_path):
     ({"specular.ior": 1.5}, "specular.ior", "give its index"),
     ({"fog.sigma_s": 1}, "fog.sigma_s", "TABLE one of"),
     ({"light.cutoff_angle": "wide"}, "light.cutoff_angle", "number"),
+    ({"specular.².ior": 1.5}, "specular.².ior", "give its index"),
+    ({"camera.height": 64}, "camera.height", "--set height=N"),
+    ({"light.position.0": 1.0}, "light.position.0", "element of a list"),
 ])
 def test_bad_fields_name_the_key(fields, key, words):
     with pytest.raises(SceneError) as info:
@@ -47,7 +50,11 @@ def test_bad_fields_name_the_key(fields, key, words):
 
 def test_values_parse_as_toml_or_words():
     assert parse_field_value("medium.sigma_s", "0.25") == 0.25
-    assert parse_field_value("medium.sigma_s", "[0.1, 0.2, 0.3]") == [0.1, 0.2, 0.3]
+    assert parse_field_value("medium.sigma_s", "[0.1, 0.2, 0.3]") == (0.1, 0.2, 0.3)  # hashable
+    assert parse_field_value("medium.sigma_s", [0.1, 0.2, 0.3]) == (0.1, 0.2, 0.3)
+    for bad in ("{a = 1}", "[[0.1], [0.2]]", {"a": 1}):
+        with pytest.raises(SceneError, match="a number, a word or a list"):
+            parse_field_value("medium.sigma_s", bad)
     assert parse_field_value("medium.phase", "hg") == "hg"
     assert parse_field_value("medium.sigma_s", 3) == 3  # from TOML, as it is
     assert field_columns({"medium.sigma_s": [0.1, 0.2, 0.3], "medium.g": 0.5}) == pytest.approx(
