@@ -36,6 +36,7 @@ from volcaustics.reports.core.executors import run_tasks
 from volcaustics.reports.core.sizing import sized
 from volcaustics.reports.core.store import TABLES, Store, key_document, point_key
 from volcaustics.reports.core.tables import rows_of
+from volcaustics.reports.experiment.exact_images import subphotons_setting
 from volcaustics.reports.experiment.run import run_experiment
 from volcaustics.scenes import resolve_scene
 from volcaustics.scenes.fields import scene_with
@@ -149,6 +150,7 @@ def _tasks(points, store, settings, policy, *, views, progress, hint, error) -> 
     """The plain-data task of every point not done, every point's key, and the
     references by key."""
     scenes, references, tasks, keys = {}, {}, [], []
+    subphotons = subphotons_setting()  # this process's: the workers measure with it
     for point in points:
         if (point.scene, point.fields) not in scenes:
             scenes[(point.scene, point.fields)] = point_scene(point.scene, point.fields)
@@ -158,13 +160,14 @@ def _tasks(points, store, settings, policy, *, views, progress, hint, error) -> 
         if size not in references:
             references[size] = reference_for(scene, wanted, policy, progress=progress, hint=hint, error=error)
         reference = references[size]
-        document = key_document(scene, point.params, point.seeds, reference)
+        document = {**key_document(scene, point.params, point.seeds, reference), "exact_subphotons": subphotons}
         key = point_key(document)
         keys.append(key)
         if store.status(key, views=views) == "done":
             continue
         store.remove_damaged(key, views=views)
         tasks.append({"key": key, "key_document": document, "scene": point.scene, "fields": list(point.fields),
+                      "subphotons": subphotons,
                       "params": point.params.resolved(scene).to_dict(), "seeds": point.seeds,
                       "reference_key": reference.key, "store": os.path.abspath(store.root), "views": views})
     return tasks, keys, {r.key: r for r in references.values()}
@@ -216,7 +219,8 @@ def run_point(task: dict, *, progress: bool = False, reference=None) -> dict:
                                f"on a shared file system)")
         renderer, oracle = _tools(scene)
         experiment = run_experiment(scene, ApproxParams(**task["params"]), seeds=task["seeds"], reference=reference,
-                                    renderer=renderer, oracle=oracle, progress=progress, fields=dict(fields))
+                                    renderer=renderer, oracle=oracle, progress=progress, fields=dict(fields),
+                                    subphotons=task.get("subphotons"))
         status = store.write_point(task["key"], task["key_document"], experiment, views=task["views"])
         return {"key": task["key"], "status": status, "seconds": time.perf_counter() - t0}
 

@@ -3,9 +3,14 @@ and scene-file helpers. Importing ``reference`` first picks libLLVM for Dr.Jit."
 
 from __future__ import annotations
 
+import os
 import textwrap
 
 import pytest
+
+# One exact replay per emission texel in the decomposition's E_∞ images (the report's 16
+# cost the suite 10 minutes); the tests of the sub-photons set their own.
+os.environ.setdefault("VOLCAUSTICS_EXACT_SUBPHOTONS", "1")
 
 import volcaustics.reference  # noqa: F401  (chooses DRJIT_LIBLLVM_PATH before anything imports drjit)
 

@@ -7,6 +7,7 @@ from volcaustics.reports.cli.common import add_report_reference, check_output_se
 from volcaustics.reports.core.params import add_param_flags, params_from_args
 from volcaustics.reports.core.sizing import sized
 from volcaustics.reports.core.tables import plain
+from volcaustics.reports.experiment.exact_images import subphotons_setting
 from volcaustics.reports.experiment.run import run_experiment
 from volcaustics.reports.experiment.settings import checked_settings
 from volcaustics.reports.experiment.write import OUTPUT_FILES, write_experiment
@@ -36,9 +37,11 @@ def run(args) -> int:
     scene = resolve_scene(args.scene)
     params = params_from_args(args)
     checked_settings(scene, params, args.seeds)  # a bad seed count or a frame that cannot run: before the reference
+    subphotons = subphotons_setting()  # a bad $VOLCAUSTICS_EXACT_SUBPHOTONS: before the reference too
     reference = runner.reference_for(scene, sized(report_settings(args), scene, params), "continue",
                                      progress=not args.quiet)
-    experiment = run_experiment(scene, params, seeds=args.seeds, reference=reference, progress=not args.quiet)
+    experiment = run_experiment(scene, params, seeds=args.seeds, reference=reference, progress=not args.quiet,
+                                subphotons=subphotons)
     paths = write_experiment(experiment, args.output)
     s = plain(experiment.summary)  # NaN → None
     print(f"measure {scene.name}: {s['seeds']} seed(s), {s['experiment_seconds']['total']:.1f} s -> "

@@ -13,9 +13,11 @@ noise of one exact photon per texel (issue 25; docs/decisions.md "Sub-photons").
 from __future__ import annotations
 
 import dataclasses
+import os
 
 import numpy as np
 
+from volcaustics.approx.params import ParamError
 from volcaustics.approx.splat import record_sigma, splats_from_arrays
 from volcaustics.reference.oracle import exact_photon_records
 from volcaustics.reports.experiment.exact import (
@@ -34,7 +36,24 @@ SMALL_SUPERSAMPLE = 4        # E_∞,s: splatted at 4× and box-averaged (the re
 SMALL_KERNEL_FINE_PIXELS = 0.6  # E_∞,s kernel σ in fine pixels (0.15 pixel): aliasing ≈ 0.2%
 SUBSET_BATCHES = 8           # paired photon subsets per seed of A and the E images: the decomposition's noise
 EXACT_SUBPHOTONS = 16        # exact replays of each emission texel in the E_∞ images (docs/decisions.md "Sub-photons")
+SUBPHOTONS_ENV = "VOLCAUSTICS_EXACT_SUBPHOTONS"  # overrides it (the test suite: 1); part of a result's key
 _SUBPHOTON_SALT = 0x5EB9_07A1  # keeps the replays' seeds apart from the frames' seeds (seed, seed + 1, …)
+
+
+def subphotons_setting() -> int:
+    """The sub-photons of this process: ``$VOLCAUSTICS_EXACT_SUBPHOTONS``, else
+    EXACT_SUBPHOTONS; ParamError for a value that is not an integer in [1, 64]."""
+    text = os.environ.get(SUBPHOTONS_ENV)
+    if text is None or text == "":
+        return EXACT_SUBPHOTONS
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if not 1 <= value <= 64:
+        raise ParamError(f"{SUBPHOTONS_ENV}={text!r}: expected an integer in [1, 64] (exact replays of each "
+                         f"emission texel in the decomposition's E_∞ images; default {EXACT_SUBPHOTONS})")
+    return value
 
 
 def replay_seed(seed: int, replay: int) -> int:
@@ -91,11 +110,13 @@ def _paired_kernels(collided: np.ndarray, sigma: np.ndarray | None):
     return kernels
 
 
-def exact_images(scene, p, frames, replays, seeds, renderer, oracle, subphotons: int = EXACT_SUBPHOTONS) -> dict:
+def exact_images(scene, p, frames, replays, seeds, renderer, oracle, subphotons: int | None = None) -> dict:
     """Per seed, SUBSET_BATCHES paired subset images (``reports.experiment.exact.subset_images``)
     of A, E_k, E_∞ (A's Fresnel), E_∞ (stochastic) and E_∞,s, the E_∞ images from
-    ``subphotons`` replays of every texel (:func:`pooled`); all seeds' batches
-    concatenated (batch j of every image: the same emission texels of one seed)."""
+    ``subphotons`` replays of every texel (:func:`pooled`; None: :func:`subphotons_setting`);
+    all seeds' batches concatenated (batch j of every image: the same emission texels of
+    one seed)."""
+    subphotons = subphotons_setting() if subphotons is None else subphotons
     out = {name: [] for name in ("approx", "exact_steps", "exact_all_same", "exact_all", "exact_all_small")}
     alive = {}
     small = dataclasses.replace(p, splat_radius=small_radius(scene, p))
@@ -130,4 +151,4 @@ def exact_images(scene, p, frames, replays, seeds, renderer, oracle, subphotons:
         for fresnel, photons in {p.fresnel: same, "stochastic": everything}.items():
             alive.setdefault(fresnel, []).append(photons.alive_fraction)
     result = {name: np.concatenate(images) for name, images in out.items()}
-    return {"batches": result, "alive": alive, "small_radius": small.splat_radius}
+    return {"batches": result, "alive": alive, "small_radius": small.splat_radius, "subphotons": subphotons}

@@ -69,7 +69,8 @@ class Experiment:
 
 
 def run_experiment(scene, params, *, seeds: int = 1, reference_settings=None, progress: bool = False,
-                   renderer=None, oracle=None, reference=None, fields: dict | None = None) -> Experiment:
+                   renderer=None, oracle=None, reference=None, fields: dict | None = None,
+                   subphotons: int | None = None) -> Experiment:
     """Measure the approximation with ``params`` on ``scene`` against its reference.
 
     Parameters
@@ -85,6 +86,8 @@ def run_experiment(scene, params, *, seeds: int = 1, reference_settings=None, pr
         at the frames' size).
     fields : the scene fields this scene changed (dotted path → value, ``scenes.fields``):
         a column each in every row, and the summary's ``scene_fields``.
+    subphotons : exact replays per emission texel in the E_∞ images (None: this
+        process's, ``exact_images.subphotons_setting``).
     """
     p, seed_list = checked_settings(scene, params, seeds)
     clock = Clock()
@@ -111,7 +114,7 @@ def run_experiment(scene, params, *, seeds: int = 1, reference_settings=None, pr
             photons, divergence = photon_rows(frames, replays, columns)
         bar.update()
         with clock.stage("exact_images"):
-            exact = exact_images(scene, p, frames, replays, seed_list, renderer, oracle)
+            exact = exact_images(scene, p, frames, replays, seed_list, renderer, oracle, subphotons)
         bar.update()
     finally:
         if own_renderer:

@@ -97,7 +97,7 @@ def experiment_summary(scene, p, seeds, reference, frames, exact, headline, deco
         "description": scene.description, "params": p.to_dict(), "seeds": len(seeds), "seed_values": seeds,
         "reference": reference_summary(reference),
         "exact": {"steps": EXACT_STEPS, "alive_after": alive, "small_splat_radius": exact["small_radius"],
-                  "small_supersample": SMALL_SUPERSAMPLE,
+                  "small_supersample": SMALL_SUPERSAMPLE, "subphotons": exact["subphotons"],
                   "batches": int(len(exact["batches"]["approx"]))},
         "compared_pixels": int(keep.sum()),
         "images": headline,

@@ -188,3 +188,26 @@ def test_start_normals_follow_the_photon_across_steps():
     assert np.isnan(normals[0]).all()
     assert normals[1][0].tolist() == [0, 1, 0] and normals[1][2].tolist() == [1, 0, 0]
     assert np.isnan(normals[1][1]).all()
+
+
+def test_the_sub_photons_are_a_setting_of_the_result(cache, tmp_path, capsys, monkeypatch):
+    """$VOLCAUSTICS_EXACT_SUBPHOTONS (the suite runs 1, the report 16) is checked before
+    anything renders, recorded in the summary, and part of a stored result's key."""
+    from volcaustics.reports import runner
+    from volcaustics.reports.core.store import Store
+
+    monkeypatch.setenv("VOLCAUSTICS_EXACT_SUBPHOTONS", "0")
+    assert main(["measure", "refocus", "-o", str(tmp_path / "m"), "--seeds", "2", "--quiet", "--width", "32",
+                 "--height", "32", "--photons", "65536", "--spp", "8", "--batches", "4", "--target-noise", "none",
+                 "--max-scatter", "1"]) == 2
+    assert "VOLCAUSTICS_EXACT_SUBPHOTONS='0'" in capsys.readouterr().err and not cache.exists()
+    keys = {}
+    for m in ("1", "2"):
+        monkeypatch.setenv("VOLCAUSTICS_EXACT_SUBPHOTONS", m)
+        point = runner.Point("refocus", dataclasses.replace(PARAMS, width=32, height=32, photon_res=64,
+                                                            light_res=64), seeds=2)
+        run = runner.measure([point], Store(str(tmp_path / "store")), reference_settings=REFERENCE,
+                             policy="missing", progress=False)
+        keys[m] = run.keys[0]
+        assert run.results[0].summary["exact"]["subphotons"] == int(m)
+    assert keys["1"] != keys["2"]
