@@ -49,8 +49,9 @@ caustic of the same emission texels (photon subset k of one seed, times K), so t
 terms, which difference images of the same photons, keep their small noise. A
 delete-one jackknife over the paired batches gives the standard error of every
 number (it sees the correlation of neighbouring pixels that one splat shares); R's
-own noise (its per-pixel variance, pixels taken as independent) is added in
-quadrature where R enters (the total and the residual). For the residual's debiased
+own noise (its energy's σ: its per-pixel variances and the measured ratio by which its
+pixels covary, ``metrics.noise.total_sigma``) is added in quadrature where R enters (the
+total and the residual). For the residual's debiased
 relative MSE, a degenerate U-statistic when the residual is pure noise, the delete-one
 jackknife overstates the noise×noise part of the variance by 2(K−1)/(K−2) (the
 Efron–Stein bias): its SE is then up to 1.5× too large at K = 8 (docs/decisions.md
@@ -62,6 +63,8 @@ plus A's variance, and the standard deviation of the energy difference.
 from __future__ import annotations
 
 import numpy as np
+
+from volcaustics.metrics.noise import total_sigma
 
 IMAGES = ("approx", "exact_steps", "exact_all_same", "exact_all", "exact_all_small", "reference")
 BATCHED = IMAGES[:-1]  # every image but the reference comes as paired batches
@@ -110,7 +113,8 @@ def caustic_terms(images: dict) -> dict:
     return {term: full[near] - full[far] for term, (near, far) in TERMS.items()}
 
 
-def decompose_caustic(batches: dict, reference, *, keep=None, reference_var=None, z_limit: float = 3.0) -> dict:
+def decompose_caustic(batches: dict, reference, *, keep=None, reference_var=None, reference_ratio=None,
+                      z_limit: float = 3.0) -> dict:
     """Split the caustic's error R − A into the terms of this module.
 
     Parameters
@@ -122,6 +126,8 @@ def decompose_caustic(batches: dict, reference, *, keep=None, reference_var=None
     reference : H×W×3, R (linear radiance).
     keep : H×W bool, the pixels compared (default all): not glass in either renderer.
     reference_var : H×W×3 variance of R per pixel (None: taken as 0).
+    reference_ratio : per channel, the variance of R's total over Σ of its pixels'
+        (``metrics.noise.total_sigma``; None: 1, pixels independent).
     z_limit : the residual is within noise when its energy and its debiased relative
         MSE are within ``z_limit`` standard errors of 0.
 
@@ -202,9 +208,10 @@ def decompose_caustic(batches: dict, reference, *, keep=None, reference_var=None
         v = np.array([x[name] if i is None else x[name][i] for x in leave_out])
         return float(np.sqrt((k - 1) / k * np.sum((v - v.mean()) ** 2)))
 
-    # R's noise where R enters (total, residual): Σ var per channel, pixels independent
-    # (channels of one photon are strongly correlated: their σ add, an upper bound)
-    ref_share_sigma = float(np.mean(np.sqrt(rv.sum(axis=0)) / channel_energy))
+    # R's noise where R enters (total, residual): its total's σ per channel, from Σ var and
+    # the measured ratio of pixels covarying (channels of one photon are strongly
+    # correlated: their σ add, an upper bound)
+    ref_share_sigma = float(np.mean(total_sigma(rv, ratio=reference_ratio) / channel_energy))
     rows = []
     for name in list(TERMS) + ["total"]:
         row = {"term": name}
@@ -246,7 +253,8 @@ def decompose_caustic(batches: dict, reference, *, keep=None, reference_var=None
     images["reference"] = r_full
     options = {"z_limit": z_limit, "pixels": int(keep.sum()), "batches": k,
                "blur_sign": "exact_all_small - exact_all", "energy_share": "per channel, averaged over RGB",
-               "standard_errors": "delete-one jackknife over the paired batches; the reference's noise (pixels "
-                                  "independent) in quadrature where it enters"}
+               "standard_errors": "delete-one jackknife over the paired batches; the reference's noise (its "
+                                  "total's, from the measured total_variance_ratio) in quadrature where it enters",
+               "reference_ratio": None if reference_ratio is None else [float(x) for x in reference_ratio]}
     return {"images": images, "terms": caustic_terms(images), "rows": rows, "residual": residual,
             "options": options}

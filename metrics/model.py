@@ -16,8 +16,10 @@ seeds), over the compared pixels:
   approximation's own part, and the two sum to Σ (R_ms − A)² / Σ R_ms².
 
 Standard errors by first-order propagation of the per-pixel variances (T's, R_ss's and
-A's over its seeds): pixels taken as independent, as for the reference's own σ, and a
-pixel's three channels as fully correlated (one light path carries all three); the
+A's over its seeds), a pixel's three channels taken as fully correlated (one light
+path carries all three) and pixels as independent, except in the energy share: there
+T's variance is scaled by its measured ratio of the total's variance to Σ var (the
+higher orders come from a light tracer, whose photons reach many pixels); the
 intervals are ±1.96 SE (normal).
 """
 
@@ -40,10 +42,12 @@ def _propagated(gradient, variance) -> float:
     return float(np.sum(np.sum(np.abs(gradient) * np.sqrt(variance), axis=1) ** 2))
 
 
-def model_term(r_ss, r_ss_var, term, term_var, approx_stack, keep) -> dict:
+def model_term(r_ss, r_ss_var, term, term_var, approx_stack, keep, term_ratio=None) -> dict:
     """The model term's numbers for one component (module docstring): {metric: (value,
     debiased, standard error)}. ``approx_stack``: S×H×W×3 frames (S ≥ 1; with S ≥ 2
-    their variance over the seeds enters the SE); ``keep``: H×W compared pixels.
+    their variance over the seeds enters the SE); ``keep``: H×W compared pixels;
+    ``term_ratio``: per channel, the variance of T's total over Σ of its pixels'
+    (``metrics.noise.total_sigma``; None: 1), for the energy share's SE.
     ValueError when R_ms has no energy there."""
     r, rv, t, tv = _sel(r_ss, keep), _sel(r_ss_var, keep), _sel(term, keep), _sel(term_var, keep)
     stack = np.stack([_sel(a, keep) for a in approx_stack])
@@ -54,7 +58,9 @@ def model_term(r_ss, r_ss_var, term, term_var, approx_stack, keep) -> dict:
     if energy <= 0 or np.any(totals <= 0):
         raise ValueError("the reference with its higher orders is black in some channel over the compared pixels")
     share = float(np.mean(t.sum(axis=0) / totals))
-    share_se = math.sqrt(_propagated(np.broadcast_to(1.0 / (3.0 * totals), t.shape), tv))
+    ratio = 1.0 if term_ratio is None else np.asarray(term_ratio, np.float64)
+    # ∂ share / ∂T = (Σ R_ss / (Σ R_ms)²) / 3 per channel: T is in Σ R_ms too
+    share_se = math.sqrt(_propagated(np.broadcast_to(r.sum(axis=0) / (3.0 * totals ** 2), t.shape), tv * ratio))
     own = float(np.sum(t * t)) / energy
     own_debiased = own - float(np.sum(tv)) / energy
     own_se = math.sqrt(_propagated(2.0 * t, tv)) / energy

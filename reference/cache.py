@@ -296,6 +296,12 @@ class ReferenceResult:
     def var(self) -> dict:
         return {k[:-4]: v for k, v in self._layers.items() if k.endswith("_var")}
 
+    def total_variance_ratio(self, layer: str) -> list | None:
+        """Per channel, the variance of ``layer``'s total over Σ of its pixels' (the
+        manifest's, ``reference.render.batches.total_variance_ratio``; None where the
+        entry does not say: take its pixels as independent)."""
+        return (self.manifest.get("total_variance_ratio") or {}).get(layer)
+
 
 def for_caller(manifest: dict, scene) -> dict:
     """A cached manifest with the caller's scene name and hash: one entry serves every

@@ -29,7 +29,7 @@ from ..cache import ReferenceResult, for_caller
 from ..request import RenderRequest, resolve
 from ..settings import ReferenceSettings
 from . import orders as scattering
-from .batches import CAMERA, LIGHT, ORDERS, STREAM_IMAGES, BatchStats, batch_seed, noise_floor
+from .batches import CAMERA, LIGHT, ORDERS, STREAM_IMAGES, BatchStats, batch_seed, noise_floor, total_variance_ratio
 
 
 class RenderState:
@@ -39,11 +39,14 @@ class RenderState:
 
     def __init__(self, light: BatchStats | None = None, camera: BatchStats | None = None,
                  mask: np.ndarray | None = None, seconds: float = 0.0, floor_seconds: dict | None = None,
-                 orders: BatchStats | None = None):
+                 orders: BatchStats | None = None, total_keep: np.ndarray | None = None):
         self.light = light or BatchStats(STREAM_IMAGES[LIGHT])
         self.camera = camera or BatchStats(STREAM_IMAGES[CAMERA])
         self.orders = orders
         self.mask = mask
+        # the pixels every batch's totals are over: those the first camera batch saw free of
+        # glass (rendered before any other stream's first batch), as the metrics compare
+        self.total_keep = total_keep
         self.seconds = seconds
         # component -> {"floor": f, "seconds": s}: render time (all calls) at which its noise
         # floor first came down to f, the lowest target asked of it so far
@@ -70,6 +73,8 @@ class RenderState:
             out[f"{ORDERS}/names"] = np.asarray(json.dumps(self.orders.names))
         if self.mask is not None:
             out["mask"] = self.mask
+        if self.total_keep is not None:
+            out["total_keep"] = self.total_keep
         return out
 
     @classmethod
@@ -80,7 +85,8 @@ class RenderState:
         return cls(BatchStats.from_arrays(STREAM_IMAGES[LIGHT], arrays, LIGHT),
                    BatchStats.from_arrays(STREAM_IMAGES[CAMERA], arrays, CAMERA),
                    np.array(arrays["mask"]) if "mask" in arrays else None, float(arrays["seconds"]),
-                   json.loads(str(arrays["floor_seconds"])) if "floor_seconds" in arrays else None, orders)
+                   json.loads(str(arrays["floor_seconds"])) if "floor_seconds" in arrays else None, orders,
+                   np.array(arrays["total_keep"], bool) if "total_keep" in arrays else None)
 
     def note_targets(self, targets: dict, floors: dict, elapsed: float) -> None:
         """Record when each target component's floor (``floors``, :meth:`floors`) first met
@@ -120,6 +126,16 @@ class RenderState:
         if self.orders is None or min(s.n for s in self.streams().values()) < 2 or self.mask is None:
             return None
         return scattering.convergence(*self.single(), self.orders, ~self.mask)
+
+    def total_variance_ratios(self) -> dict:
+        """Colour layer → per channel, its total's variance over Σ of its pixels'
+        (``batches.total_variance_ratio``; None before two batches)."""
+        light, camera = (self.light, "caustic"), (self.camera, "fog_direct")
+        parts = {"caustic": [light], "fog": [(self.camera, "fog")], "direct": [(self.camera, "direct")],
+                 "combined": [light, camera]}
+        if self.orders is not None:
+            parts.update({name: [(self.orders, name)] for name in (*scattering.MODEL_FLOORS, "combined_ms")})
+        return {name: total_variance_ratio(*p, keep=self.total_keep) for name, p in parts.items()}
 
     def floors(self) -> dict:
         """Noise floor per colour layer over the pixels that do not see glass (None
@@ -197,7 +213,8 @@ def _render(request: RenderRequest, state: RenderState | None = None, *, progres
     timed_out = False
     floors = state.floors()
     while True:
-        streams = [s for s in state.streams() if _pending(state, settings, s, floors)]
+        # the camera's batch first: its glass mask chooses the pixels of every stream's totals
+        streams = sorted((s for s in state.streams() if _pending(state, settings, s, floors)), key=lambda s: s != CAMERA)
         if not streams:
             break
         minimum = min(s.n for s in state.streams().values()) >= settings.batches  # caps apply beyond the minimum
@@ -208,20 +225,22 @@ def _render(request: RenderRequest, state: RenderState | None = None, *, progres
             if stream == LIGHT:
                 seed = batch_seed(settings.seed, LIGHT, state.light.n)
                 image = _rendered(mi, mi_scene, tracer, seed, photon_spp)[..., :3]
-                state.light.add({"caustic": image})
+                state.light.add({"caustic": image}, state.total_keep)
             elif stream == ORDERS:
                 seed = batch_seed(settings.seed, ORDERS, state.orders.n)
                 higher.prepare_orders(settings.width, settings.height)
                 _rendered(mi, mi_scene, higher, seed, photon_spp)
                 stack = higher.order_images()
-                state.orders.add(scattering.batch_images(stack, settings.max_scatter))
+                state.orders.add(scattering.batch_images(stack, settings.max_scatter), state.total_keep)
             else:
                 seed = batch_seed(settings.seed, CAMERA, state.camera.n)
                 cam = _rendered(mi, mi_scene, camera, seed, camera_spp)
                 fog, direct = cam[..., 3:6], cam[..., 6:9]
-                state.camera.add({"fog": fog, "direct": direct, "fog_direct": fog + direct})
                 seen = cam[..., 9] > 0.5
                 state.mask = seen if state.mask is None else state.mask | seen
+                if state.total_keep is None:
+                    state.total_keep = ~seen
+                state.camera.add({"fog": fog, "direct": direct, "fog_direct": fog + direct}, state.total_keep)
             bar.update(1)
         floors = state.floors()
         state.note_targets(settings.targets(), floors, time.perf_counter() - t0)
@@ -265,7 +284,7 @@ def _info(state: RenderState, settings: ReferenceSettings, stopped_by: str, seco
             "max_scatter": settings.max_scatter, "convergence": state.convergence(),
             "photon_spp_per_batch": settings.photon_spp_per_batch(),
             "camera_spp_per_batch": settings.camera_spp_per_batch(), "noise_floor": state.floors(),
-            "seconds_to_target": dict(state.floor_seconds)}
+            "total_variance_ratio": state.total_variance_ratios(), "seconds_to_target": dict(state.floor_seconds)}
 
 
 def _satisfied(manifest: dict, settings: ReferenceSettings) -> bool:
@@ -302,6 +321,8 @@ def _resumable(arrays: dict | None, settings: ReferenceSettings) -> RenderState 
         return None
     images = [a for stats in state.streams().values() for a in (*stats.sums.values(), *stats.squares.values())]
     if state.mask is None or state.mask.shape != shape[:2] or not np.isfinite(state.seconds) or state.seconds < 0:
+        return None
+    if state.total_keep is None or state.total_keep.shape != shape[:2]:
         return None
     return state if all(a.shape == shape and np.isfinite(a).all() for a in images) else None
 
@@ -342,7 +363,8 @@ def render_reference(scene, settings: ReferenceSettings | None = None, *, mode: 
         "orders_batches": info["orders_batches"], "max_scatter": info["max_scatter"],
         "convergence": info["convergence"],
         "camera_spp_per_batch": info["camera_spp_per_batch"], "seed": settings.seed,
-        "noise_floor": info["noise_floor"], "target_noise": settings.targets() or None,
+        "noise_floor": info["noise_floor"], "total_variance_ratio": info["total_variance_ratio"],
+        "target_noise": settings.targets() or None,
         "seconds_to_target": info["seconds_to_target"],
         "stopped_by": stopped_by, "wall_seconds": info["seconds"],
         "seconds_this_call": seconds, "mitsuba_variant": variant_name(), "mitsuba_version": mitsuba_version(),

@@ -8,6 +8,14 @@ batch order, so a cached render can be continued batch by batch and gives
 exactly what rendering all its batches at once gives (same seeds, same order of
 additions). The variance of the mean is the batches' sample variance over n.
 
+It also keeps each batch's image total per channel (over the pixels that do not see
+glass, those the metrics compare). Their spread is the variance of
+the image's energy, which the per-pixel variances give only where pixels are
+independent: a light-tracer photon lands on many pixels (a medium segment is drawn
+along its streak), so its pixels covary, and Σ var understates the energy's variance
+by the factor :func:`total_variance_ratio` gives (docs/decisions.md "The
+reference's energy noise").
+
 The noise floor of a component is Σ var / Σ mean² over the pixels that do not
 see glass (DESIGN.md "Noise": the relative MSE an exact renderer would get
 against this reference).
@@ -36,14 +44,17 @@ def batch_seed(seed: int, stream: str, batch: int) -> int:
 class BatchStats:
     """Sums over n batches of named H×W×3 images (float64) and of their squares."""
 
-    def __init__(self, names, n: int = 0, sums: dict | None = None, squares: dict | None = None):
+    def __init__(self, names, n: int = 0, sums: dict | None = None, squares: dict | None = None,
+                 totals: dict | None = None):
         self.names = tuple(names)
         self.n = n
         self.sums = sums or {}
         self.squares = squares or {}
+        self.totals = totals or {}  # name -> n×3 float64: each batch's image total per channel
 
-    def add(self, images: dict) -> None:
-        """Add one batch: ``images`` maps every name to an H×W×3 array."""
+    def add(self, images: dict, keep: np.ndarray | None = None) -> None:
+        """Add one batch: ``images`` maps every name to an H×W×3 array; its totals are
+        over the pixels ``keep`` (H×W bool, the same for every batch; None: all)."""
         for name in self.names:
             x = np.asarray(images[name], np.float64)
             if name in self.sums:
@@ -51,6 +62,8 @@ class BatchStats:
                 self.squares[name] += x * x
             else:
                 self.sums[name], self.squares[name] = x.copy(), x * x
+            total = (x.sum(axis=(0, 1)) if keep is None else x[keep].sum(axis=0))[None]
+            self.totals[name] = total if name not in self.totals else np.concatenate([self.totals[name], total])
         self.n += 1
 
     def mean(self, name: str) -> np.ndarray:
@@ -68,6 +81,7 @@ class BatchStats:
         for name in self.sums:
             out[f"{prefix}/sum/{name}"] = self.sums[name]
             out[f"{prefix}/square/{name}"] = self.squares[name]
+            out[f"{prefix}/total/{name}"] = self.totals[name]
         return out
 
     @classmethod
@@ -75,8 +89,11 @@ class BatchStats:
         n = int(arrays[f"{prefix}/n"])
         if n == 0:
             return cls(names)
+        totals = {k: np.array(arrays[f"{prefix}/total/{k}"], np.float64) for k in names}
+        if any(t.shape != (n, 3) for t in totals.values()):
+            raise ValueError(f"{prefix}: batch totals of another shape than ({n}, 3)")
         return cls(names, n, {k: np.array(arrays[f"{prefix}/sum/{k}"], np.float64) for k in names},
-                   {k: np.array(arrays[f"{prefix}/square/{k}"], np.float64) for k in names})
+                   {k: np.array(arrays[f"{prefix}/square/{k}"], np.float64) for k in names}, totals)
 
 
 def noise_floor(mean: np.ndarray, var: np.ndarray, keep: np.ndarray) -> float | None:
@@ -84,3 +101,20 @@ def noise_floor(mean: np.ndarray, var: np.ndarray, keep: np.ndarray) -> float | 
     has no energy there (nothing to estimate: vacuum fog, no diffuse surface)."""
     energy = float(np.sum(mean[keep] ** 2))
     return float(np.sum(var[keep]) / energy) if energy > 0 else None
+
+
+def total_variance_ratio(*parts, keep: np.ndarray | None = None) -> list | None:
+    """Per channel, the variance of an image's total over Σ of its per-pixel variances
+    (both of the mean, over the pixels ``keep`` the totals were taken over; None: all):
+    1 for independent pixels, more where one sample reaches many pixels. The image is
+    the sum of ``parts``, (BatchStats, name) pairs of independent streams (one pair, or
+    e.g. the caustic and fog + direct for ``combined``). None before 2 batches or where
+    the image is noiseless in a channel."""
+    if min(stats.n for stats, _ in parts) < 2:
+        return None
+    total_var = sum(stats.totals[name].var(axis=0, ddof=1) / stats.n for stats, name in parts)
+    pixel_var = sum((stats.var(name) if keep is None else stats.var(name)[keep]).reshape(-1, 3).sum(axis=0)
+                    for stats, name in parts)
+    if not np.all(pixel_var > 0):
+        return None
+    return [float(v) for v in total_var / pixel_var]

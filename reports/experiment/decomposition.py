@@ -8,7 +8,8 @@ from volcaustics.reports.experiment.images import IMAGE_COLUMNS, NAN
 
 def decompose(exact, reference, keep) -> dict:
     return decompose_caustic(exact["batches"], reference.mean["caustic"], keep=keep,
-                             reference_var=reference.var["caustic"])
+                             reference_var=reference.var["caustic"],
+                             reference_ratio=reference.total_variance_ratio("caustic"))
 
 
 def decomposition_rows(decomposition, columns) -> list:

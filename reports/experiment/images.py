@@ -10,7 +10,8 @@
   1 − floor): one frame's own noise remains; bootstrap interval of the mean;
 * ``energy_ratio``: Σ approx / Σ reference per channel, averaged, of the seeds' mean
   (unbiased: debiased = value); ``reference_sigma``: the reference total's relative σ
-  (pixels independent); bootstrap interval over the frames' ratios.
+  (its Σ var scaled by the reference's measured total_variance_ratio: a light
+  tracer's pixels covary); bootstrap interval over the frames' ratios.
 
 A metric that cannot be computed (a reference black in some channel) gets NaN and a
 ``note``.
@@ -26,7 +27,7 @@ import os
 import numpy as np
 
 from volcaustics.metrics import image as im
-from volcaustics.metrics.noise import noisy_copy, seed_mean_interval, seed_relative_mse
+from volcaustics.metrics.noise import noisy_copy, seed_mean_interval, seed_relative_mse, total_sigma
 from volcaustics.reports.core.versions import code_version
 from volcaustics.scenes.formats import COLOUR_LAYERS, MASK_LAYER
 from volcaustics.scenes.storage import (
@@ -86,7 +87,8 @@ def image_rows(frames, reference, keep, columns, maps=None, components=COLOUR_LA
         head = headline.setdefault(component, {})
         for metric in IMAGE_METRICS:
             try:
-                values = _metric(metric, r, rv, stack, keep, component, columns["reference_key"], maps)
+                values = _metric(metric, r, rv, stack, keep, component, columns["reference_key"], maps,
+                                 reference.total_variance_ratio(component))
             except ValueError as exc:  # e.g. a reference black in a channel over the compared pixels
                 values = {"note": str(exc)}
             per_seed = values.pop("per_seed", None)
@@ -98,11 +100,11 @@ def image_rows(frames, reference, keep, columns, maps=None, components=COLOUR_LA
     return rows, headline
 
 
-def _metric(metric, r, rv, stack, keep, component, reference_key, maps) -> dict:
+def _metric(metric, r, rv, stack, keep, component, reference_key, maps, ratio=None) -> dict:
     if metric == "relative_mse":
         return _relative_mse(r, rv, stack, keep)
     if metric == "energy_ratio":
-        return _energy_ratio(r, rv, stack, keep)
+        return _energy_ratio(r, rv, stack, keep, ratio)
     return _per_frame(metric, r, rv, stack, keep, component, reference_key, maps)
 
 
@@ -132,11 +134,11 @@ def _per_frame(metric, r, rv, stack, keep, component, reference_key, maps) -> di
                                                     "resamples": stat["resamples"], "level": LEVEL}, default=float)}
 
 
-def _energy_ratio(r, rv, stack, keep) -> dict:
+def _energy_ratio(r, rv, stack, keep, ratio) -> dict:
     mean_ratio = im.energy_ratio(r, stack.mean(axis=0), mask=keep)["mean"]
     stat = seed_mean_interval([im.energy_ratio(r, a, mask=keep)["mean"] for a in stack], resamples=RESAMPLES,
                               level=LEVEL)
-    sigma = float(np.mean(np.sqrt(rv[keep].sum(axis=0)) / r[keep].sum(axis=0)))
+    sigma = float(np.mean(total_sigma(rv, mask=keep, ratio=ratio) / r[keep].sum(axis=0)))
     return {"value": mean_ratio, "debiased": mean_ratio, "reference_sigma": sigma, **_ci(stat["interval"]),
             "options": json.dumps({"channels": "per-channel ratios averaged", "interval": "percentile bootstrap",
                                    "resamples": stat["resamples"], "level": LEVEL})}

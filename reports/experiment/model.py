@@ -28,7 +28,8 @@ def model_rows(frames, reference, keep, columns) -> tuple:
         stack = [f.images[component] for f in frames]
         try:
             values = model_term(reference.mean[component], reference.var[component], reference.mean[f"{component}_ms"],
-                                reference.var[f"{component}_ms"], stack, keep)
+                                reference.var[f"{component}_ms"], stack, keep,
+                                reference.total_variance_ratio(f"{component}_ms"))
         except ValueError as exc:
             numbers[component] = {"note": str(exc)}
             continue

@@ -35,12 +35,14 @@ def _row(result, term):
     return row
 
 
-def _blurred_noise(rng, shape, sd):
-    """Noise shared by neighbouring pixels, as one splat over 3×3 pixels gives:
-    per-pixel standard deviation ``sd``, correlated over a 3×3 box."""
-    white = rng.standard_normal((*shape[:-3], shape[-3] + 2, shape[-2] + 2, shape[-1]))
-    box = sum(white[..., i:i + shape[-3], j:j + shape[-2], :] for i in range(3) for j in range(3))
-    return sd * box / 3.0  # the sum of 9 unit normals has sd 3
+def _blurred_noise(rng, shape, sd, size=3, channels=None):
+    """Noise shared by neighbouring pixels, as one splat over size×size pixels gives:
+    per-pixel standard deviation ``sd``, correlated over a size×size box (``channels``
+    1: the same in R, G and B, as one photon's)."""
+    c = shape[-1] if channels is None else channels
+    white = rng.standard_normal((*shape[:-3], shape[-3] + size - 1, shape[-2] + size - 1, c))
+    box = sum(white[..., i:i + shape[-3], j:j + shape[-2], :] for i in range(size) for j in range(size))
+    return sd * box / size * np.ones(shape[-1])  # the sum of size² unit normals has sd size
 
 
 def _photon_noise(rng, shape, sd):
@@ -370,6 +372,36 @@ def test_jackknife_standard_error_matches_the_spread_over_draws():
     # and the blur itself (E_∞,s − E_∞ = 0.03 truth) is found within its noise
     shares = values["kernel_blur", "energy_share"]
     assert np.mean(shares) == pytest.approx(0.03 / 1.05, abs=4 * np.std(shares) / np.sqrt(200))
+
+
+def test_residual_energy_standard_error_sees_the_reference_pixels_covary():
+    """R as a light tracer gives it: the mean of 16 batches whose noise each photon
+    spreads over a 5×5 streak (the same in R, G and B), so R's pixels covary and Σ var
+    understates the variance of its total ~25-fold. From the batches' own totals
+    (``BatchStats``, as the reference keeps them) the ratio is measured and the
+    residual's energy SE must match its spread over 200 draws (bounds as in the test
+    above); without it, the SE is the independent-pixel one, several times too small
+    (the negative control: the residual would be flagged for R's noise alone)."""
+    from volcaustics.reference.render.batches import BatchStats, total_variance_ratio
+
+    rng = np.random.default_rng(25)
+    truth = _truth()
+    values, with_ratio, without = [], [], []
+    for _ in range(200):
+        exact = truth + _blurred_noise(rng, (K, H, W, 3), 0.002)
+        batches = {name: exact for name in BATCHED}
+        stats = BatchStats(("caustic",))
+        for noise in _blurred_noise(rng, (16, H, W, 3), 0.05, size=5, channels=1):
+            stats.add({"caustic": truth + noise})
+        reference, var = stats.mean("caustic"), stats.var("caustic")
+        ratio = total_variance_ratio((stats, "caustic"))
+        result = decompose_caustic(batches, reference, reference_var=var, reference_ratio=ratio)
+        values.append(result["residual"]["energy_share"])
+        with_ratio.append(result["residual"]["energy_se"])
+        without.append(decompose_caustic(batches, reference, reference_var=var)["residual"]["energy_se"])
+    spread = np.std(values, ddof=1)
+    assert 0.7 < spread / np.sqrt(np.mean(np.square(with_ratio))) < 1.4
+    assert spread / np.sqrt(np.mean(np.square(without))) > 3
 
 
 @pytest.mark.parametrize("reference_noise", [False, True])

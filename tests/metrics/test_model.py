@@ -103,3 +103,22 @@ def test_convergence_rule_counts_the_orders_above_the_floor():
     # negative control: orders that do not fall off never converge
     flat = {n: base * 0.3 for n in range(1, 7)}
     assert convergence(single, var, _stats(flat, 6), KEEP)["caustic"]["orders_needed"] is None
+
+
+def test_energy_share_se_takes_the_terms_covarying_pixels():
+    """The higher orders come from a light tracer, whose photons reach many pixels: here
+    the term's noise is one value per 2×2 block of pixels, so its total's variance is 4×
+    Σ var (exactly). With that ratio the energy share's SE matches the spread over 400
+    draws (25%, as above); without it the SE is 2× too small (the negative control)."""
+    r, rng = _image(5), np.random.default_rng(9)
+    t = 0.2 * _image(7)
+    var = np.full_like(r, 0.02 ** 2)
+
+    def blocks():
+        return np.kron(rng.normal(0.0, 0.02, (H // 2, W // 2, 1)), np.ones((2, 2, 3)))
+
+    draws = [t + blocks() for _ in range(400)]
+    spread = np.std([model_term(r, ZERO, d, var, [r], KEEP)["energy_share"][0] for d in draws], ddof=1)
+    se = model_term(r, ZERO, t, var, [r], KEEP, term_ratio=[4.0] * 3)["energy_share"][2]
+    assert se == pytest.approx(spread, rel=0.25)
+    assert model_term(r, ZERO, t, var, [r], KEEP)["energy_share"][2] < 0.6 * spread

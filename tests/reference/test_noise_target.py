@@ -94,6 +94,10 @@ def test_cached_entry_is_continued_not_rerendered(private_cache, rendered_batche
         assert np.array_equal(second.mean[name], fresh[name][0])
         assert np.array_equal(second.var[name], fresh[name][1])
     _assert_float32_atomics_only(second.mean["caustic"], fresh["caustic"][0])
+    # the batch totals continue too (the reference's energy noise, tests/reference/test_total_variance.py)
+    ratios, fresh_ratios = second.manifest["total_variance_ratio"], fresh["_info"]["total_variance_ratio"]
+    assert ratios["fog"] == fresh_ratios["fog"]
+    assert ratios["caustic"] == pytest.approx(fresh_ratios["caustic"], rel=1e-3)
 
 
 def _assert_float32_atomics_only(a, b):
