@@ -214,7 +214,8 @@ def _render(request: RenderRequest, state: RenderState | None = None, *, progres
     floors = state.floors()
     while True:
         # the camera's batch first: its glass mask chooses the pixels of every stream's totals
-        streams = sorted((s for s in state.streams() if _pending(state, settings, s, floors)), key=lambda s: s != CAMERA)
+        streams = sorted((s for s in state.streams() if _pending(state, settings, s, floors)),
+                         key=lambda s: s != CAMERA)
         if not streams:
             break
         minimum = min(s.n for s in state.streams().values()) >= settings.batches  # caps apply beyond the minimum
