@@ -103,6 +103,29 @@ def _stack(batches, name, shape=None):
     return a
 
 
+def _reference_relmse_se(groups, keep, rv, sums, k, energy2) -> float:
+    """R's part of the SE of the residual's debiased relMSE, E held at its mean: with
+    ``groups`` a delete-one-group jackknife (each R without one group, its variance
+    scaled to its batches), else √(2 Σ var²) (pixels independent: noise × noise only)."""
+    if groups is None:
+        return float(np.sqrt(2.0 * np.sum(rv * rv))) / energy2
+    means, counts = groups
+    means, counts = np.asarray(means, np.float64)[:, keep], np.asarray(counts, np.float64)
+    if len(means) < 4 or len(counts) != len(means) or np.any(counts <= 0):
+        raise ValueError(f"reference_groups: {len(means)} groups with counts {counts}, expected at least 4 "
+                         f"with a batch each")
+    n, e = counts.sum(), sums["exact_all_small"] / k
+    whole = np.tensordot(counts, means, axes=1)
+
+    def without(g):  # Σ(R − E)² less R's noise, R without group g (E's noise is a constant here)
+        r_g = (whole - counts[g] * means[g]) / (n - counts[g])
+        return float(np.sum((r_g - e) ** 2)) - float(rv.sum()) * n / (n - counts[g])
+
+    leave = np.array([without(g) for g in range(len(means))])
+    g = len(means)
+    return float(np.sqrt((g - 1) / g * np.sum((leave - leave.mean()) ** 2))) / energy2
+
+
 def caustic_terms(images: dict) -> dict:
     """The five terms as H×W×3 float64 images of the six ``IMAGES`` (they sum to
     reference − approx)."""
@@ -114,7 +137,7 @@ def caustic_terms(images: dict) -> dict:
 
 
 def decompose_caustic(batches: dict, reference, *, keep=None, reference_var=None, reference_ratio=None,
-                      z_limit: float = 3.0) -> dict:
+                      reference_groups=None, z_limit: float = 3.0) -> dict:
     """Split the caustic's error R − A into the terms of this module.
 
     Parameters
@@ -128,6 +151,9 @@ def decompose_caustic(batches: dict, reference, *, keep=None, reference_var=None
     reference_var : H×W×3 variance of R per pixel (None: taken as 0).
     reference_ratio : per channel, the variance of R's total over Σ of its pixels'
         (``metrics.noise.total_sigma``; None: 1, pixels independent).
+    reference_groups : (G×H×W×3 means of G ≥ 4 independent groups of R's batches, their
+        G batch counts), for R's part of the residual relMSE's SE (a delete-one-group
+        jackknife, which sees R's pixels covary); None: pixels independent.
     z_limit : the residual is within noise when its energy and its debiased relative
         MSE are within ``z_limit`` standard errors of 0.
 
@@ -236,7 +262,7 @@ def decompose_caustic(batches: dict, reference, *, keep=None, reference_var=None
                  "relmse": (float(rv.sum()) + float(approx_var.sum())) / energy2})
 
     res_row = next(x for x in rows if x["term"] == "residual")
-    relmse_se = float(np.hypot(se("debiased"), np.sqrt(2.0 * np.sum(rv * rv)) / energy2))
+    relmse_se = float(np.hypot(se("debiased"), _reference_relmse_se(reference_groups, keep, rv, sums, k, energy2)))
     residual = {"energy_share": res_row["energy_share"], "energy_se": res_row["energy_share_se"],
                 "energy_z": _z(res_row["energy_share"], res_row["energy_share_se"]),
                 "debiased_relmse": value["debiased"], "relmse_se": relmse_se,

@@ -262,15 +262,16 @@ def _named_files(key: str) -> set:
     return out
 
 
-def read_state(key: str, manifest: dict) -> dict | None:
-    """The entry's batch state (float64 sums per stream, see reference.batches) if
-    present and matching its manifest, else None."""
+def read_state(key: str, manifest: dict, prefix: str = "") -> dict | None:
+    """The entry's batch state (float64 sums per stream, see reference.batches; only the
+    arrays whose names start with ``prefix``) if present and matching its manifest, else
+    None."""
     try:
         path = entry_file(key, manifest, "state")
         if manifest.get("state_sha256") != file_sha256(path):
             return None
         with np.load(path) as data:
-            return {name: data[name] for name in data.files}
+            return {name: data[name] for name in data.files if name.startswith(prefix)}
     except (OSError, ValueError, KeyError, zipfile.BadZipFile):
         return None
 
@@ -301,6 +302,21 @@ class ReferenceResult:
         manifest's, ``reference.render.batches.total_variance_ratio``; None where the
         entry does not say: take its pixels as independent)."""
         return (self.manifest.get("total_variance_ratio") or {}).get(layer)
+
+    def caustic_groups(self) -> tuple | None:
+        """(G×H×W×3 float64 means of the light stream's batch groups, their G batch
+        counts): independent estimates of the caustic, from the entry's batch state
+        (``reference.render.batches.BatchStats.group_means``); None when the entry has no
+        readable state or fewer batches than groups."""
+        from .render.batches import LIGHT, LIGHT_GROUPS, STREAM_IMAGES, BatchStats
+
+        arrays = read_state(self.key, self.manifest, prefix=f"{LIGHT}/")
+        if arrays is None:
+            return None
+        try:
+            return BatchStats.from_arrays(STREAM_IMAGES[LIGHT], arrays, LIGHT, LIGHT_GROUPS).group_means("caustic")
+        except (KeyError, ValueError, TypeError):
+            return None
 
 
 def for_caller(manifest: dict, scene) -> dict:

@@ -29,7 +29,17 @@ from ..cache import ReferenceResult, for_caller
 from ..request import RenderRequest, resolve
 from ..settings import ReferenceSettings
 from . import orders as scattering
-from .batches import CAMERA, LIGHT, ORDERS, STREAM_IMAGES, BatchStats, batch_seed, noise_floor, total_variance_ratio
+from .batches import (
+    CAMERA,
+    LIGHT,
+    LIGHT_GROUPS,
+    ORDERS,
+    STREAM_IMAGES,
+    BatchStats,
+    batch_seed,
+    noise_floor,
+    total_variance_ratio,
+)
 
 
 class RenderState:
@@ -40,7 +50,7 @@ class RenderState:
     def __init__(self, light: BatchStats | None = None, camera: BatchStats | None = None,
                  mask: np.ndarray | None = None, seconds: float = 0.0, floor_seconds: dict | None = None,
                  orders: BatchStats | None = None, total_keep: np.ndarray | None = None):
-        self.light = light or BatchStats(STREAM_IMAGES[LIGHT])
+        self.light = light or BatchStats(STREAM_IMAGES[LIGHT], groups=LIGHT_GROUPS)
         self.camera = camera or BatchStats(STREAM_IMAGES[CAMERA])
         self.orders = orders
         self.mask = mask
@@ -82,7 +92,7 @@ class RenderState:
         orders = None
         if f"{ORDERS}/names" in arrays:
             orders = BatchStats.from_arrays(json.loads(str(arrays[f"{ORDERS}/names"])), arrays, ORDERS)
-        return cls(BatchStats.from_arrays(STREAM_IMAGES[LIGHT], arrays, LIGHT),
+        return cls(BatchStats.from_arrays(STREAM_IMAGES[LIGHT], arrays, LIGHT, LIGHT_GROUPS),
                    BatchStats.from_arrays(STREAM_IMAGES[CAMERA], arrays, CAMERA),
                    np.array(arrays["mask"]) if "mask" in arrays else None, float(arrays["seconds"]),
                    json.loads(str(arrays["floor_seconds"])) if "floor_seconds" in arrays else None, orders,
@@ -321,6 +331,10 @@ def _resumable(arrays: dict | None, settings: ReferenceSettings) -> RenderState 
     if (state.orders.names if state.orders is not None else None) != wanted:
         return None
     images = [a for stats in state.streams().values() for a in (*stats.sums.values(), *stats.squares.values())]
+    groups = [g for stats in state.streams().values() for g in stats.group_sums.values()]
+    if any(len(g) != LIGHT_GROUPS for g in groups):
+        return None
+    images += [image for g in groups for image in g]
     if state.mask is None or state.mask.shape != shape[:2] or not np.isfinite(state.seconds) or state.seconds < 0:
         return None
     if state.total_keep is None or state.total_keep.shape != shape[:2]:

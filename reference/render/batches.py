@@ -28,6 +28,9 @@ import numpy as np
 from volcaustics.scenes.rng import pcg_hash
 
 LIGHT, CAMERA, ORDERS = "light", "camera", "orders"
+# The light stream's batches also sum in 8 groups: independent estimates of the caustic
+# whose spread holds its pixels' covariance (metrics.decomposition's residual SE)
+LIGHT_GROUPS = 8
 STREAM_IMAGES = {LIGHT: ("caustic",), CAMERA: ("fog", "direct", "fog_direct")}  # ORDERS: orders.stream_images(K)
 # Salt of each stream's batch seeds, so that no two streams share one.
 _STREAM_SALT = {LIGHT: 1, CAMERA: 2, ORDERS: 3}
@@ -42,15 +45,18 @@ def batch_seed(seed: int, stream: str, batch: int) -> int:
 
 
 class BatchStats:
-    """Sums over n batches of named H×W×3 images (float64) and of their squares."""
+    """Sums over n batches of named H×W×3 images (float64) and of their squares; with
+    ``groups`` G > 0 also the sums of G groups of batches (batch b in group b mod G)."""
 
     def __init__(self, names, n: int = 0, sums: dict | None = None, squares: dict | None = None,
-                 totals: dict | None = None):
+                 totals: dict | None = None, groups: int = 0, group_sums: dict | None = None):
         self.names = tuple(names)
         self.n = n
         self.sums = sums or {}
         self.squares = squares or {}
         self.totals = totals or {}  # name -> n×3 float64: each batch's image total per channel
+        self.groups = groups
+        self.group_sums = group_sums or {}  # name -> G×H×W×3 float64
 
     def add(self, images: dict, keep: np.ndarray | None = None) -> None:
         """Add one batch: ``images`` maps every name to an H×W×3 array; its totals are
@@ -64,7 +70,20 @@ class BatchStats:
                 self.sums[name], self.squares[name] = x.copy(), x * x
             total = (x.sum(axis=(0, 1)) if keep is None else x[keep].sum(axis=0))[None]
             self.totals[name] = total if name not in self.totals else np.concatenate([self.totals[name], total])
+            if self.groups:
+                if name not in self.group_sums:
+                    self.group_sums[name] = np.zeros((self.groups, *x.shape))
+                self.group_sums[name][self.n % self.groups] += x
         self.n += 1
+
+    def group_means(self, name: str) -> tuple | None:
+        """(G×H×W×3 means of the groups, their G batch counts), or None without groups or
+        before every group has a batch: independent estimates of the image whose spread
+        holds all the covariance of its pixels."""
+        if not self.groups or self.n < self.groups:
+            return None
+        counts = np.array([self.n // self.groups + (g < self.n % self.groups) for g in range(self.groups)])
+        return self.group_sums[name] / counts[:, None, None, None], counts
 
     def mean(self, name: str) -> np.ndarray:
         return self.sums[name] / self.n
@@ -82,18 +101,28 @@ class BatchStats:
             out[f"{prefix}/sum/{name}"] = self.sums[name]
             out[f"{prefix}/square/{name}"] = self.squares[name]
             out[f"{prefix}/total/{name}"] = self.totals[name]
+            if self.groups:
+                out[f"{prefix}/group/{name}"] = self.group_sums[name]
+        if self.groups:
+            out[f"{prefix}/groups"] = np.asarray(self.groups)
         return out
 
     @classmethod
-    def from_arrays(cls, names, arrays, prefix: str) -> "BatchStats":
+    def from_arrays(cls, names, arrays, prefix: str, groups: int = 0) -> "BatchStats":
+        """The state ``arrays`` wrote, for ``groups`` groups (ValueError: stored with others)."""
         n = int(arrays[f"{prefix}/n"])
         if n == 0:
-            return cls(names)
+            return cls(names, groups=groups)
+        stored = int(arrays.get(f"{prefix}/groups", 0))
+        if stored != groups:
+            raise ValueError(f"{prefix}: stored with {stored} batch groups, not {groups}")
         totals = {k: np.array(arrays[f"{prefix}/total/{k}"], np.float64) for k in names}
         if any(t.shape != (n, 3) for t in totals.values()):
             raise ValueError(f"{prefix}: batch totals of another shape than ({n}, 3)")
+        group_sums = {k: np.array(arrays[f"{prefix}/group/{k}"], np.float64) for k in names} if groups else None
         return cls(names, n, {k: np.array(arrays[f"{prefix}/sum/{k}"], np.float64) for k in names},
-                   {k: np.array(arrays[f"{prefix}/square/{k}"], np.float64) for k in names}, totals)
+                   {k: np.array(arrays[f"{prefix}/square/{k}"], np.float64) for k in names}, totals, groups,
+                   group_sums)
 
 
 def noise_floor(mean: np.ndarray, var: np.ndarray, keep: np.ndarray) -> float | None:

@@ -9,7 +9,8 @@ from volcaustics.reports.experiment.images import IMAGE_COLUMNS, NAN
 def decompose(exact, reference, keep) -> dict:
     return decompose_caustic(exact["batches"], reference.mean["caustic"], keep=keep,
                              reference_var=reference.var["caustic"],
-                             reference_ratio=reference.total_variance_ratio("caustic"))
+                             reference_ratio=reference.total_variance_ratio("caustic"),
+                             reference_groups=reference.caustic_groups())
 
 
 def decomposition_rows(decomposition, columns) -> list:

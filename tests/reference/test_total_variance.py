@@ -89,3 +89,43 @@ def test_the_light_tracers_pixels_covary_and_the_ratio_carries_to_the_compared_p
     n = len(kept)
     over_keep = kept.sum(axis=1).var(axis=0, ddof=1) / n / (kept.var(axis=0, ddof=1).sum(axis=0) / n)
     assert over_keep == pytest.approx(ratios["caustic"], rel=0.1)
+
+
+def test_groups_are_independent_estimates_that_continue_batch_by_batch():
+    """The light stream's 8 groups: batch b in group b mod 8, their count-weighted mean is
+    the mean, and a state stored after 5 batches and continued to 11 holds what 11 at once
+    give; stored with another group count, the state is refused."""
+    batches = _images(np.random.default_rng(3), 11)
+    whole, first = BatchStats(("x",), groups=8), BatchStats(("x",), groups=8)
+    for b in batches:
+        whole.add(b)
+    for b in batches[:5]:
+        first.add(b)
+    assert first.group_means("x") is None  # fewer batches than groups
+    resumed = BatchStats.from_arrays(("x",), first.arrays("s"), "s", groups=8)
+    for b in batches[5:]:
+        resumed.add(b)
+    means, counts = resumed.group_means("x")
+    assert counts.tolist() == [2, 2, 2, 1, 1, 1, 1, 1]
+    assert np.allclose(means[0], (batches[0]["x"] + batches[8]["x"]) / 2, rtol=1e-12)
+    assert np.allclose(np.tensordot(counts, means, axes=1) / 11, whole.mean("x"), rtol=1e-12)
+    with pytest.raises(ValueError, match="batch groups"):
+        BatchStats.from_arrays(("x",), first.arrays("s"), "s", groups=4)
+
+
+def test_a_cached_reference_gives_its_caustic_groups(tmp_path, monkeypatch):
+    """A reference from the cache reads its groups from its batch state: 8 groups of one
+    batch each at 8 batches whose mean is the caustic layer (float32 of the float64
+    mean); with 4 batches there are none (None: the metrics take pixels as independent)."""
+    from volcaustics.reference.render import render_reference
+
+    monkeypatch.setenv("VOLCAUSTICS_CACHE", str(tmp_path / "cache"))
+    scene = load_builtin("sphere1")
+    few = render_reference(scene, ReferenceSettings(photons=1 << 15, spp=8, batches=4, width=32, height=32),
+                           progress=False)
+    assert few.caustic_groups() is None
+    result = render_reference(scene, ReferenceSettings(photons=1 << 16, spp=16, batches=8, width=32, height=32),
+                              progress=False)
+    means, counts = result.caustic_groups()
+    assert counts.tolist() == [1] * 8
+    assert np.allclose(means.mean(axis=0), result.mean["caustic"], rtol=1e-6, atol=1e-12)
