@@ -273,8 +273,10 @@ def decompose_caustic(batches: dict, reference, *, keep=None, reference_var=None
         f"(residual energy {100 * residual['energy_share']:+.2f}% of the reference, z = {residual['energy_z']:+.1f}; "
         f"debiased relative MSE {value['debiased']:.2e}, z = {residual['relmse_z']:+.1f}; limit {z_limit:g}): one of "
         f"them is wrong — the reference light tracer, or the exact tracer and the splatter "
-        f"(tests/cross/test_exact_photons_match_the_reference.py checks them against each other), and the terms "
-        f"do not explain the whole error")
+        f"(tests/cross/test_exact_photons_match_the_reference.py checks them against each other) — or what the "
+        f"exact images share with the approximation that no term names: its photons' emission directions (a "
+        f"regular grid, whose aliasing a finer photon_res shrinks) and first interaction; the terms do not explain "
+        f"the whole error (docs/decisions.md \"What the residual holds on the meshes\")")
     images = {name: stacks[name].mean(axis=0, dtype=np.float64) for name in BATCHED}
     images["reference"] = r_full
     options = {"z_limit": z_limit, "pixels": int(keep.sum()), "batches": k,
