@@ -374,6 +374,19 @@ def test_jackknife_standard_error_matches_the_spread_over_draws():
     assert np.mean(shares) == pytest.approx(0.03 / 1.05, abs=4 * np.std(shares) / np.sqrt(200))
 
 
+def _streaky_draw(rng, truth, brightness=1.0):
+    """Paired exact batches near ``truth`` and a light-tracer-like R: 16 batches of
+    ``brightness`` × truth whose noise each photon spreads over a 5×5 streak (the same in
+    R, G and B), kept as the reference keeps them (``BatchStats``, 8 groups)."""
+    from volcaustics.reference.render.batches import BatchStats
+
+    exact = truth + _blurred_noise(rng, (K, H, W, 3), 0.002)
+    stats = BatchStats(("caustic",), groups=8)
+    for noise in _blurred_noise(rng, (16, H, W, 3), 0.05, size=5, channels=1):
+        stats.add({"caustic": brightness * truth + noise})
+    return {name: exact for name in BATCHED}, stats
+
+
 def test_residual_energy_standard_error_sees_the_reference_pixels_covary():
     """R as a light tracer gives it: the mean of 16 batches whose noise each photon
     spreads over a 5×5 streak (the same in R, G and B), so R's pixels covary and Σ var
@@ -382,17 +395,13 @@ def test_residual_energy_standard_error_sees_the_reference_pixels_covary():
     residual's energy SE must match its spread over 200 draws (bounds as in the test
     above); without it, the SE is the independent-pixel one, several times too small
     (the negative control: the residual would be flagged for R's noise alone)."""
-    from volcaustics.reference.render.batches import BatchStats, total_variance_ratio
+    from volcaustics.reference.render.batches import total_variance_ratio
 
     rng = np.random.default_rng(25)
     truth = _truth()
     values, with_ratio, without = [], [], []
     for _ in range(200):
-        exact = truth + _blurred_noise(rng, (K, H, W, 3), 0.002)
-        batches = {name: exact for name in BATCHED}
-        stats = BatchStats(("caustic",))
-        for noise in _blurred_noise(rng, (16, H, W, 3), 0.05, size=5, channels=1):
-            stats.add({"caustic": truth + noise})
+        batches, stats = _streaky_draw(rng, truth)
         reference, var = stats.mean("caustic"), stats.var("caustic")
         ratio = total_variance_ratio((stats, "caustic"))
         result = decompose_caustic(batches, reference, reference_var=var, reference_ratio=ratio)
@@ -411,17 +420,11 @@ def test_residual_relmse_standard_error_sees_the_reference_pixels_covary():
     draws (0.7–1.4; measured 1.01 over 300). The independent-pixel √(2 Σ var²) is ~17×
     too small (the negative control); in pure noise the jackknife errs large (measured
     spread / SE 0.69: the Efron–Stein bias, as for E's batches)."""
-    from volcaustics.reference.render.batches import BatchStats
-
     rng = np.random.default_rng(26)
     truth = _truth()
     values, grouped, independent = [], [], []
     for _ in range(200):
-        exact = truth + _blurred_noise(rng, (K, H, W, 3), 0.002)
-        batches = {name: exact for name in BATCHED}
-        stats = BatchStats(("caustic",), groups=8)
-        for noise in _blurred_noise(rng, (16, H, W, 3), 0.05, size=5, channels=1):
-            stats.add({"caustic": 1.03 * truth + noise})
+        batches, stats = _streaky_draw(rng, truth, 1.03)
         reference, var = stats.mean("caustic"), stats.var("caustic")
         residual = decompose_caustic(batches, reference, reference_var=var,
                                      reference_groups=stats.group_means("caustic"))["residual"]
