@@ -21,6 +21,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from volcaustics.metrics.noise import total_sigma
+
 NAN = float("nan")
 
 
@@ -116,10 +118,11 @@ def _pair(t, r, rv, a, tv, keep) -> PairFlicker:
                        energy=energy, pixels=int(keep.sum()), chains=s)
 
 
-def energy_jitter(reference, reference_var, chains, *, mask=None) -> list[dict]:
+def energy_jitter(reference, reference_var, chains, *, mask=None, ratios=None) -> list[dict]:
     """The energy ratio's frame-to-frame change: per frame t, e_t = Σ Ā_t / Σ R̂_t over the
     kept pixels (channels averaged, Ā the chains' mean) and per pair Δe = e_t − e_{t−1},
-    with the SE of Δe that the reference totals' noise alone gives (pixels independent)
+    with the SE of Δe that the reference totals' noise gives (``metrics.noise.total_sigma``
+    with frame t's ``ratios[t]``, its total_variance_ratio; None: pixels independent)
     and the chains' spread adds (S ≥ 2). Rows: {"frame", "energy_ratio", "jitter",
     "jitter_se"} (jitter nan for frame 0; all nan where the reference total is not positive
     in every channel, and the jitter beside such a frame)."""
@@ -134,7 +137,8 @@ def energy_jitter(reference, reference_var, chains, *, mask=None) -> list[dict]:
             continue
         per_chain = np.array([c[t][keep[t]].sum(axis=0) / ref_total for c in a]).mean(axis=1)
         ratio = float(per_chain.mean())
-        var = float(np.mean(rv[t][keep[t]].sum(axis=0) / ref_total ** 2)) * ratio ** 2
+        sigma = total_sigma(rv[t], mask=keep[t], ratio=None if ratios is None else ratios[t])
+        var = float(np.mean(sigma ** 2 / ref_total ** 2)) * ratio ** 2
         if len(a) >= 2:
             var += float(per_chain.var(ddof=1)) / len(a)
         if previous is None:

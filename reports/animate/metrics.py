@@ -55,7 +55,8 @@ def temporal_rows(run) -> list:
             chains = run.approx[mode][component]
             try:
                 pairs = flicker(refs[component], ref_vars[component], chains, mask=keep) if len(run.frames) > 1 else []
-                energy = energy_jitter(refs[component], ref_vars[component], chains, mask=keep)
+                energy = energy_jitter(refs[component], ref_vars[component], chains, mask=keep,
+                                       ratios=[r.total_variance_ratio(component) for r in run.references])
                 note = ""
             except ValueError as exc:  # a black reference over the compared pixels
                 pairs, energy, note = [], [], str(exc)

@@ -150,7 +150,7 @@ def add_gate_inputs(p, *, scenes: str) -> None:
     p.add_argument("--scenes", help=scenes)
     p.add_argument("--set", action="append", metavar="NAME=VALUE",
                    help="an approximation parameter over the budgets' preset (repeatable)")
-    p.add_argument("--seeds", type=int, help="frames per scene (default: the budgets' seeds; the built-in budgets say 6)")
+    p.add_argument("--seeds", type=int, help="frames per scene (default: the budgets' seeds; the built-in ones say 6)")
     p.add_argument("--seed", type=int, default=0, help="the first seed (default 0)")
     p.add_argument("--budgets", type=path_type, metavar="FILE.toml",
                    help="budgets per scene (default: reports/gate/budgets.toml)")

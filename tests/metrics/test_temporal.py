@@ -98,3 +98,16 @@ def test_bad_shapes_are_refused():
         flicker(np.ones((1, 2, 2, 3)), np.ones((1, 2, 2, 3)), np.ones((1, 1, 2, 2, 3)))
     with pytest.raises(ValueError, match="shapes"):
         flicker(np.ones((2, 2, 2, 3)), np.ones((2, 2, 2, 3)), np.ones((2, 2, 2, 3)))
+
+
+def test_energy_jitter_se_takes_the_references_total_variance_ratio():
+    """One chain equal to the reference (no chain spread): the jitter's SE is the two
+    reference totals' noise alone, √(2 · ratio · Σ var) / Σ R per channel; with a ratio of 9
+    (a light tracer's covarying pixels) it is 3× the independent-pixel one (before, the
+    ratio was ignored: the negative control is that 3)."""
+    truth = np.ones((2, 4, 4, 3))
+    var = np.full_like(truth, 1e-4)
+    plain = energy_jitter(truth, var, truth[None])[1]["jitter_se"]
+    scaled = energy_jitter(truth, var, truth[None], ratios=[[9.0] * 3, [9.0] * 3])[1]["jitter_se"]
+    assert plain == pytest.approx(np.sqrt(2 * 16 * 1e-4) / 16, rel=1e-12)
+    assert scaled == pytest.approx(3 * plain, rel=1e-12)
