@@ -121,9 +121,9 @@ def _reference_relmse_se(groups, keep, rv, sums, k, energy2) -> float:
         r_g = (whole - counts[g] * means[g]) / (n - counts[g])
         return float(np.sum((r_g - e) ** 2)) - float(rv.sum()) * n / (n - counts[g])
 
-    leave = np.array([without(g) for g in range(len(means))])
-    g = len(means)
-    return float(np.sqrt((g - 1) / g * np.sum((leave - leave.mean()) ** 2))) / energy2
+    n_groups = len(means)
+    leave = np.array([without(g) for g in range(n_groups)])
+    return float(np.sqrt((n_groups - 1) / n_groups * np.sum((leave - leave.mean()) ** 2))) / energy2
 
 
 def caustic_terms(images: dict) -> dict:

@@ -82,7 +82,7 @@ def total_sigma(image_var, *, mask=None, ratio=None) -> np.ndarray:
     """Per channel, the standard deviation of an image's total over ``mask`` from its
     per-pixel variances ``image_var`` (…×C; ``mask`` None: every pixel): √(ratio_c · Σ var_c), ``ratio`` the image's
     measured variance of the total over Σ var (``reference.render.batches.
-    total_variance_ratio``, over all its pixels; None: 1, pixels independent)."""
+    total_variance_ratio``, over the pixels free of glass; None: 1, pixels independent)."""
     v = np.asarray(image_var, dtype=np.float64)
     v = (v.reshape(-1, v.shape[-1]) if mask is None else _select(v, mask)).sum(axis=0)
     return np.sqrt(v * (1.0 if ratio is None else np.asarray(ratio, np.float64)))
