@@ -8,12 +8,13 @@ The E_∞ images replay every emission texel EXACT_SUBPHOTONS times (the first r
 with A's random numbers, the others with seeds of their own, :func:`replay_seed`), each
 at 1/EXACT_SUBPHOTONS of the power: the subsets stay paired by emission texel, and the
 terms that difference E_∞ images with the reference (reflections, residual) lose the
-noise of one exact photon per texel (issue 25; docs/decisions.md "Sub-photons")."""
+noise of one exact photon per texel (issue 25; docs/decisions.md "Sub-photons"). The
+count is the measurement setting ``exact_subphotons`` (``reports.experiment.measurement``:
+a flag and a ``[measurement]`` key, part of a result's key)."""
 
 from __future__ import annotations
 
 import dataclasses
-import os
 
 import numpy as np
 
@@ -36,22 +37,17 @@ SMALL_SUPERSAMPLE = 4        # E_∞,s: splatted at 4× and box-averaged (the re
 SMALL_KERNEL_FINE_PIXELS = 0.6  # E_∞,s kernel σ in fine pixels (0.15 pixel): aliasing ≈ 0.2%
 SUBSET_BATCHES = 8           # paired photon subsets per seed of A and the E images: the decomposition's noise
 EXACT_SUBPHOTONS = 16        # exact replays of each emission texel in the E_∞ images (docs/decisions.md "Sub-photons")
-SUBPHOTONS_ENV = "VOLCAUSTICS_EXACT_SUBPHOTONS"  # overrides it (the test suite: 1); part of a result's key
 _SUBPHOTON_SALT = 0x5EB9_07A1  # keeps the replays' seeds apart from the frames' seeds (seed, seed + 1, …)
 
 
-def subphotons_setting() -> int:
-    """The sub-photons of this process: ``$VOLCAUSTICS_EXACT_SUBPHOTONS``, else
-    EXACT_SUBPHOTONS; ParamError for a value that is not an integer in [1, 64]."""
-    text = os.environ.get(SUBPHOTONS_ENV)
-    if text is None or text == "":
+def subphotons_setting(value: int | None = None) -> int:
+    """The sub-photons of a measurement: ``value`` (the ``exact_subphotons`` measurement
+    setting, ``reports.experiment.measurement``), EXACT_SUBPHOTONS when None; ParamError
+    unless an integer in [1, 64]."""
+    if value is None:
         return EXACT_SUBPHOTONS
-    try:
-        value = int(text)
-    except ValueError:
-        value = 0
-    if not 1 <= value <= 64:
-        raise ParamError(f"{SUBPHOTONS_ENV}={text!r}: expected an integer in [1, 64] (exact replays of each "
+    if isinstance(value, bool) or not isinstance(value, int) or not 1 <= value <= 64:
+        raise ParamError(f"exact_subphotons = {value!r}: expected an integer in [1, 64] (exact replays of each "
                          f"emission texel in the decomposition's E_∞ images; default {EXACT_SUBPHOTONS})")
     return value
 
