@@ -36,7 +36,7 @@ from volcaustics.reports.core.executors import run_tasks
 from volcaustics.reports.core.sizing import sized
 from volcaustics.reports.core.store import TABLES, Store, key_document, point_key
 from volcaustics.reports.core.tables import rows_of
-from volcaustics.reports.experiment.exact_images import subphotons_setting
+from volcaustics.reports.experiment.measurement import MeasurementSettings
 from volcaustics.reports.experiment.run import run_experiment
 from volcaustics.scenes import resolve_scene
 from volcaustics.scenes.fields import scene_with
@@ -114,21 +114,22 @@ def reference_for(scene, settings, policy: str, *, progress: bool = False, hint:
     return found
 
 
-def measure(points: list, store: Store, *, reference_settings, policy: str, views: bool = False,
-            workers: int | None = None, dask: str | None = None, progress: bool = True, read_back: bool = True,
-            hint: str = "", error=RunnerError) -> Measured:
+def measure(points: list, store: Store, *, reference_settings, measurement: MeasurementSettings, policy: str,
+            views: bool = False, workers: int | None = None, dask: str | None = None, progress: bool = True,
+            read_back: bool = True, hint: str = "", error=RunnerError) -> Measured:
     """Measure every point not in ``store`` yet and return them all.
 
     References are resolved once per scene and image size, in this process, before any
-    point runs. Points run in this process one after another (``workers`` and ``dask``
-    None: the report, the gate) or on ``reports.core.executors`` (a sweep: a failed
-    point is reported in ``failed``, the others go on). ``views``: the store keeps the
-    images a report shows (a point without them counts as missing). ``read_back``:
-    ``results`` holds every point as the store has it."""
+    point runs. ``measurement``: how every point is measured (its settings are part of
+    each point's key). Points run in this process one after another (``workers`` and
+    ``dask`` None: the report, the gate) or on ``reports.core.executors`` (a sweep: a
+    failed point is reported in ``failed``, the others go on). ``views``: the store
+    keeps the images a report shows (a point without them counts as missing).
+    ``read_back``: ``results`` holds every point as the store has it."""
     t0 = time.perf_counter()
     store.clean_stale()
-    tasks, keys, references = _tasks(points, store, reference_settings, policy, views=views, progress=progress,
-                                     hint=hint, error=error)
+    tasks, keys, references = _tasks(points, store, reference_settings, measurement, policy, views=views,
+                                     progress=progress, hint=hint, error=error)
     unique = list({t["key"]: t for t in tasks}.values())
     done_before = len(set(keys)) - len(unique)
     if workers is None and dask is None:  # this process: the references as resolved (rendered or cached)
@@ -146,11 +147,10 @@ def measure(points: list, store: Store, *, reference_settings, policy: str, view
                     seconds=time.perf_counter() - t0, point_seconds=[o["seconds"] for o in done], results=results)
 
 
-def _tasks(points, store, settings, policy, *, views, progress, hint, error) -> tuple:
+def _tasks(points, store, settings, measurement, policy, *, views, progress, hint, error) -> tuple:
     """The plain-data task of every point not done, every point's key, and the
     references by key."""
     scenes, references, tasks, keys = {}, {}, [], []
-    subphotons = subphotons_setting()  # this process's: the workers measure with it
     for point in points:
         if (point.scene, point.fields) not in scenes:
             scenes[(point.scene, point.fields)] = point_scene(point.scene, point.fields)
@@ -160,14 +160,14 @@ def _tasks(points, store, settings, policy, *, views, progress, hint, error) -> 
         if size not in references:
             references[size] = reference_for(scene, wanted, policy, progress=progress, hint=hint, error=error)
         reference = references[size]
-        document = {**key_document(scene, point.params, point.seeds, reference), "exact_subphotons": subphotons}
+        document = {**key_document(scene, point.params, point.seeds, reference), **measurement.to_dict()}
         key = point_key(document)
         keys.append(key)
         if store.status(key, views=views) == "done":
             continue
         store.remove_damaged(key, views=views)
         tasks.append({"key": key, "key_document": document, "scene": point.scene, "fields": list(point.fields),
-                      "subphotons": subphotons,
+                      "measurement": measurement.to_dict(),
                       "params": point.params.resolved(scene).to_dict(), "seeds": point.seeds,
                       "reference_key": reference.key, "store": os.path.abspath(store.root), "views": views})
     return tasks, keys, {r.key: r for r in references.values()}
@@ -220,7 +220,7 @@ def run_point(task: dict, *, progress: bool = False, reference=None) -> dict:
         renderer, oracle = _tools(scene)
         experiment = run_experiment(scene, ApproxParams(**task["params"]), seeds=task["seeds"], reference=reference,
                                     renderer=renderer, oracle=oracle, progress=progress, fields=dict(fields),
-                                    subphotons=task.get("subphotons"))
+                                    subphotons=MeasurementSettings(**task["measurement"]).exact_subphotons)
         status = store.write_point(task["key"], task["key_document"], experiment, views=task["views"])
         return {"key": task["key"], "status": status, "seconds": time.perf_counter() - t0}
 

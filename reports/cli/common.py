@@ -8,6 +8,7 @@ import os
 
 from volcaustics.reference.settings import ReferenceSettings
 from volcaustics.reports.core.sizing import REPORT_REFERENCE, REPORT_TARGET
+from volcaustics.reports.experiment.measurement import MEASUREMENT_TABLE, MeasurementSettings, measurement_settings
 
 
 class UsageError(ValueError):
@@ -142,6 +143,27 @@ def report_settings(args) -> ReferenceSettings:
     runner, or ``animate``, sizes them)."""
     return ReferenceSettings(photons=args.photons, spp=args.spp, batches=args.batches, max_scatter=args.max_scatter,
                              **budget(args))
+
+
+def add_measurement_flags(p, *, default: str = "{value}, the report's") -> None:
+    """One flag per measurement setting (``reports.experiment.measurement``), e.g.
+    ``--exact-subphotons N``; ``default`` says where an unset one comes from (``{value}``:
+    the report's value)."""
+    for name, (_, text) in MEASUREMENT_TABLE.items():
+        value = getattr(MeasurementSettings(), name)
+        p.add_argument("--" + name.replace("_", "-"), dest=name, type=int, metavar="N",
+                       help=f"{text} (a measurement setting, part of a result's key; default: "
+                            f"{default.format(value=value)})")
+
+
+def measurement_from_args(args, base: MeasurementSettings | None = None) -> MeasurementSettings:
+    """``base`` (default: the report's measurement settings) with every measurement flag
+    given; ParamError naming the flag, its value and the range otherwise."""
+    settings = base or MeasurementSettings()
+    for name in MEASUREMENT_TABLE:
+        settings = measurement_settings({name: getattr(args, name, None)}, base=settings,
+                                        where="--" + name.replace("_", "-"))
+    return settings
 
 
 def add_gate_inputs(p, *, scenes: str) -> None:

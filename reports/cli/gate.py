@@ -5,8 +5,10 @@ from __future__ import annotations
 from volcaustics.reports.cli.common import (
     UsageError,
     add_gate_inputs,
+    add_measurement_flags,
     check_output_file,
     check_output_set,
+    measurement_from_args,
     path_type,
     scene_list,
 )
@@ -38,6 +40,7 @@ def register(sub) -> None:
                    help="also hold another renderer that `volcaustics compare` measured (DIR: one such folder or a "
                         "folder of them) to the budgets' [compare.NAME.SCENE] limits (repeatable)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_measurement_flags(p, default="the budgets' [measurement] table, else {value}")
     p.set_defaults(func=run)
 
 
@@ -56,7 +59,7 @@ def run(args) -> int:
                       render_references=args.render_references, junit=args.junit,
                       animation_dirs=args.animation or (),
                       comparisons=[parse_named(text, "--compare", GateError) for text in args.compare or ()],
-                      progress=not args.quiet)
+                      measurement=measurement_from_args(args, budgets["measurement"]), progress=not args.quiet)
     print(console_table(result.checks))
     failed = sum(not c.passed for c in result.checks)
     print(f"gate {'FAILED' if failed else 'passed'}: {failed} of {len(result.checks)} checks failed, "

@@ -3,11 +3,18 @@
 from __future__ import annotations
 
 from volcaustics.reports import runner
-from volcaustics.reports.cli.common import add_report_reference, check_output_set, num, pct, report_settings
+from volcaustics.reports.cli.common import (
+    add_measurement_flags,
+    add_report_reference,
+    check_output_set,
+    measurement_from_args,
+    num,
+    pct,
+    report_settings,
+)
 from volcaustics.reports.core.params import add_param_flags, params_from_args
 from volcaustics.reports.core.sizing import sized
 from volcaustics.reports.core.tables import plain
-from volcaustics.reports.experiment.exact_images import subphotons_setting
 from volcaustics.reports.experiment.run import run_experiment
 from volcaustics.reports.experiment.settings import checked_settings
 from volcaustics.reports.experiment.write import OUTPUT_FILES, write_experiment
@@ -29,6 +36,7 @@ def register(sub) -> None:
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     add_param_flags(p, default_preset="quick")
     add_report_reference(p)
+    add_measurement_flags(p)
     p.set_defaults(func=run)
 
 
@@ -37,11 +45,11 @@ def run(args) -> int:
     scene = resolve_scene(args.scene)
     params = params_from_args(args)
     checked_settings(scene, params, args.seeds)  # a bad seed count or a frame that cannot run: before the reference
-    subphotons = subphotons_setting()  # a bad $VOLCAUSTICS_EXACT_SUBPHOTONS: before the reference too
+    measurement = measurement_from_args(args)  # a bad --exact-subphotons: before the reference too
     reference = runner.reference_for(scene, sized(report_settings(args), scene, params), "continue",
                                      progress=not args.quiet)
     experiment = run_experiment(scene, params, seeds=args.seeds, reference=reference, progress=not args.quiet,
-                                subphotons=subphotons)
+                                subphotons=measurement.exact_subphotons)
     paths = write_experiment(experiment, args.output)
     s = plain(experiment.summary)  # NaN → None
     print(f"measure {scene.name}: {s['seeds']} seed(s), {s['experiment_seconds']['total']:.1f} s -> "

@@ -4,8 +4,10 @@ from __future__ import annotations
 
 from volcaustics.reports.cli.common import (
     add_gate_inputs,
+    add_measurement_flags,
     add_report_reference,
     check_output_set,
+    measurement_from_args,
     num,
     path_type,
     pct,
@@ -39,6 +41,7 @@ def register(sub) -> None:
                         "images in each scene it compared (repeatable)")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     add_report_reference(p)
+    add_measurement_flags(p, default="the budgets' [measurement] table, else {value}")
     p.set_defaults(func=run)
 
 
@@ -49,6 +52,7 @@ def run(args) -> int:
     summary = run_report(args.out, names if names is not None else list(BUILTIN_NAMES),
                          overrides=parse_overrides(args.set, error=ReportError), seeds=args.seeds, seed=args.seed,
                          reference_settings=report_settings(args), budgets=budgets, baseline_dir=args.baseline,
+                         measurement=measurement_from_args(args, budgets["measurement"]),
                          sweep_dir=args.sweep, animation_dirs=args.animation or (),
                          comparisons=[parse_named(text, "--compare", ReportError) for text in args.compare or ()],
                          progress=not args.quiet)

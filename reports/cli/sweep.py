@@ -2,15 +2,17 @@
 
 from __future__ import annotations
 
+import dataclasses
 import sys
 import time
 
 import pandas as pd
 
 from volcaustics.approx.params import PARAMS, PRESETS
-from volcaustics.reports.cli.common import UsageError, check_output_set
+from volcaustics.reports.cli.common import UsageError, add_measurement_flags, check_output_set, measurement_from_args
 from volcaustics.reports.core.executors import check_reachable, default_workers, parse_dask
 from volcaustics.reports.core.store import Store
+from volcaustics.reports.experiment.measurement import MEASUREMENT_KEYS
 from volcaustics.reports.sweep.best import BEST_SPEC, load_best_spec, run_best, verdict
 from volcaustics.reports.sweep.run import OUTPUT_FILES, OUTPUT_FOLDERS, consolidate, run_sweep
 from volcaustics.reports.sweep.spec import MAX_POINTS, spec_from_args, spec_from_toml
@@ -46,6 +48,7 @@ def register(sub) -> None:
                         "states its coarse and refine axes; every configuration at the paper's frame cost "
                         "(README \"The best configuration\")")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_measurement_flags(p, default="the SPEC file's [measurement] table, else {value}")
     p.set_defaults(func=run)
 
 
@@ -62,6 +65,7 @@ def run(args) -> int:
         except ValueError as exc:
             raise UsageError("--dask", args.dask, str(exc).split(": ", 1)[-1]) from None
         check_reachable(args.dask)  # before any reference renders
+    measurement_from_args(args)  # a bad value: exit 2 naming the flag, before anything
     max_points = None if args.yes else MAX_POINTS
     if args.best:
         return _run_best(args)
@@ -70,7 +74,7 @@ def run(args) -> int:
     else:
         spec = spec_from_args(args.scenes, args.vary, args.set, preset=args.preset or "quick",
                               seeds=1 if args.seeds is None else args.seeds, max_points=max_points)
-    result = run_sweep(spec, args.output, workers=args.workers or default_workers(), dask=args.dask,
+    result = run_sweep(_measured(spec, args), args.output, workers=args.workers or default_workers(), dask=args.dask,
                        progress=not args.quiet)
     print(f"sweep: {result.total} points: {result.done_before} already in the store, {result.computed} computed, "
           f"{len(result.failed)} failed, {result.seconds:.1f} s -> {args.output}/")
@@ -87,7 +91,7 @@ def _run_best(args) -> int:
         raise UsageError("--best", "", "the search's axes, preset and seeds belong to its SPEC file; only --scenes "
                                        "may narrow it")
     scenes = [s.strip() for s in args.scenes.split(",")] if args.scenes is not None else None
-    spec = load_best_spec(args.spec or BEST_SPEC, scenes)
+    spec = _measured(load_best_spec(args.spec or BEST_SPEC, scenes), args)
     t0 = time.perf_counter()
     table, adopted, failed, keys = run_best(spec, args.output, workers=args.workers or default_workers(),
                                             dask=args.dask, progress=not args.quiet)
@@ -112,6 +116,12 @@ def _run_best(args) -> int:
     for failure in failed:
         print(f"  failed: {failure['key'][:12]}: {failure['error']}", file=sys.stderr)
     return 1 if failed else 0
+
+
+def _measured(spec, args):
+    """``spec`` with the measurement flags given over its ``[measurement]`` table."""
+    given = {name: getattr(args, name) for name in MEASUREMENT_KEYS if getattr(args, name, None) is not None}
+    return dataclasses.replace(spec, measurement={**spec.measurement, **given}) if given else spec
 
 
 def _print_suffice(suffice) -> None:

@@ -37,7 +37,7 @@ from volcaustics.reference.render import render_reference
 from volcaustics.reports.core.sizing import REPORT_REFERENCE, sized
 from volcaustics.reports.core.timing import Clock
 from volcaustics.reports.experiment.decomposition import decompose, decomposition_rows
-from volcaustics.reports.experiment.exact_images import exact_images
+from volcaustics.reports.experiment.exact_images import exact_images, subphotons_setting
 from volcaustics.reports.experiment.frames import render_frames
 from volcaustics.reports.experiment.images import image_rows, keep_mask
 from volcaustics.reports.experiment.model import model_rows
@@ -86,10 +86,12 @@ def run_experiment(scene, params, *, seeds: int = 1, reference_settings=None, pr
         at the frames' size).
     fields : the scene fields this scene changed (dotted path → value, ``scenes.fields``):
         a column each in every row, and the summary's ``scene_fields``.
-    subphotons : exact replays per emission texel in the E_∞ images (None: this
-        process's, ``exact_images.subphotons_setting``).
+    subphotons : exact replays per emission texel in the E_∞ images, the measurement
+        setting ``exact_subphotons`` (``reports.experiment.measurement``; None: the
+        report's, ``exact_images.EXACT_SUBPHOTONS``).
     """
     p, seed_list = checked_settings(scene, params, seeds)
+    subphotons = subphotons_setting(subphotons)  # a bad count: before the reference renders
     clock = Clock()
     bar = tqdm(total=len(STAGES), desc="measure", unit="stage", disable=not progress, leave=False)
     with clock.stage("reference"):

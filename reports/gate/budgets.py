@@ -34,6 +34,7 @@ from dataclasses import dataclass, field
 from volcaustics.approx.params import PRESETS
 from volcaustics.reports.core.sizing import REFERENCE_KEYS, reference_settings
 from volcaustics.reports.core.tomlfile import load_toml
+from volcaustics.reports.experiment.measurement import measurement_settings
 from volcaustics.scenes import SceneError, resolve_scene
 from volcaustics.scenes.catalogue import scene_relative_to
 
@@ -42,7 +43,7 @@ COMPONENT_KEYS = ("relmse_max", "energy_ratio", "hdr_flip_max")
 SEGMENT_KEYS = ("missed_step2_max", "dt_p90_step2_max")
 FLICKER_KEYS = {"flicker_max": "fixed", "flicker_per_frame_max": "per-frame"}  # budget → the seed mode it checks
 COMPONENTS = ("caustic", "fog", "direct", "combined")
-TOP_KEYS = ("preset", "seeds", "scene", "reference", "animation", "compare")
+TOP_KEYS = ("preset", "seeds", "scene", "reference", "measurement", "animation", "compare")
 
 
 class GateError(ValueError):
@@ -67,7 +68,7 @@ def default_budgets_path() -> str:
 
 def load_budgets(path: str) -> dict:
     """{"preset", "seeds", "scenes": {name: {check: limit}}, "scene_args": {name: SCENE
-    argument}, "path", "reference_settings"}, validated. A scene file named by a relative
+    argument}, "path", "reference_settings", "measurement"}, validated. A scene file named by a relative
     path is relative to the budgets file (``scenes.catalogue.scene_relative_to``)."""
     doc = load_toml(path, keys=TOP_KEYS, error=GateError, what="budgets")
     seeds = doc.get("seeds", 4)
@@ -95,8 +96,12 @@ def load_budgets(path: str) -> dict:
     if not isinstance(reference, dict) or any(k not in REFERENCE_KEYS for k in reference):
         raise GateError(f"{path}: reference = {reference!r}: expected a table of {', '.join(REFERENCE_KEYS)}")
     settings = reference_settings(reference, error=lambda message: GateError(f"{path}: {message}"))
+    measurement = doc.get("measurement", {})
+    if not isinstance(measurement, dict):
+        raise GateError(f"{path}: measurement = {measurement!r}: expected a table [measurement]")
     return {"preset": preset, "seeds": seeds, "scenes": out, "scene_args": args, "path": path,
-            "reference_settings": settings, "animations": animations, "compare": compared}
+            "reference_settings": settings, "animations": animations, "compare": compared,
+            "measurement": measurement_settings(measurement, where=f"{path}: measurement", error=GateError)}
 
 
 def _limits(path: str, where: str, table: dict, groups: tuple) -> dict:

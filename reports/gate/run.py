@@ -42,13 +42,15 @@ class GateResult:
 
 def run_gate(budgets: dict, *, overrides: dict, baseline_dir: str | None, update_baseline: bool, out_dir: str,
              scenes=None, seeds: int | None = None, seed: int = 0, render_references: bool = False,
-             junit: str | None = None, animation_dirs=(), comparisons=(), progress: bool = True) -> GateResult:
+             junit: str | None = None, animation_dirs=(), comparisons=(), measurement=None,
+             progress: bool = True) -> GateResult:
     """Measure every budgeted scene (or ``scenes``) not in the result store, check
     budgets and the baseline, write the failure images under ``out_dir`` and then, as
     one set, the accepted baseline, the JUnit file ``junit`` and ``out_dir``/gate.json.
     ``animation_dirs``: ``volcaustics animate`` outputs held to their flicker budgets;
     ``comparisons``: (RENDERER, DIR) pairs, ``volcaustics compare`` outputs (DIR: one or a
-    folder of them) held to the budgets' ``[compare.RENDERER.SCENE]`` limits."""
+    folder of them) held to the budgets' ``[compare.RENDERER.SCENE]`` limits.
+    ``measurement``: the measurement settings (None: the budgets' ``[measurement]``)."""
     t0 = time.perf_counter()
     names = _names(budgets, scenes)
     animations = [_animation(budgets, folder) for folder in animation_dirs or ()]  # bad input: before any work
@@ -67,6 +69,7 @@ def run_gate(budgets: dict, *, overrides: dict, baseline_dir: str | None, update
     points = [runner.Point(budgets["scene_args"][name], params, n_seeds) for name in names]
     run = runner.measure(points, runner.results_store(),
                          reference_settings=budgets["reference_settings"],
+                         measurement=measurement or budgets["measurement"],
                          policy="missing" if render_references else "cached", views=True, progress=progress,
                          hint=MISSING_REFERENCE, error=GateError)
     checks, entries = [], {}

@@ -67,8 +67,8 @@ class SweepTables:
     notes: list = field(default_factory=list)  # what differs from this code (shown on the page)
 
 
-def collect_scenes(names, params, *, seeds: int, reference_settings, budgets: dict, baseline: dict | None = None,
-                   progress: bool = True, clock: Clock | None = None) -> list:
+def collect_scenes(names, params, *, seeds: int, reference_settings, measurement, budgets: dict,
+                   baseline: dict | None = None, progress: bool = True, clock: Clock | None = None) -> list:
     """Every scene's result (measured or from the store), with the gate's verdicts.
 
     Parameters
@@ -78,6 +78,7 @@ def collect_scenes(names, params, *, seeds: int, reference_settings, budgets: di
         camera size where unset).
     seeds : frames per experiment (seeds params.seed …).
     reference_settings : ``reference.settings.ReferenceSettings``, sized per scene.
+    measurement : ``reports.experiment.measurement.MeasurementSettings``.
     budgets : ``reports.gate.budgets.load_budgets``'s result; scenes without budgets get none.
     baseline : ``reports.gate.regression.load_baseline``'s result, for the regression test.
     clock : receives the seconds of each stage.
@@ -90,7 +91,8 @@ def collect_scenes(names, params, *, seeds: int, reference_settings, budgets: di
             raise ReportError(f"--scenes: {exc}") from None
     with clock.stage("experiments"):
         run = runner.measure([runner.Point(name, params, seeds) for name in names], runner.results_store(),
-                             reference_settings=reference_settings, policy="continue", views=True,
+                             reference_settings=reference_settings, measurement=measurement, policy="continue",
+                             views=True,
                              progress=progress, error=ReportError)
     with clock.stage("gate"):
         return [_scene_result(name, result, budgets, baseline) for name, result in zip(names, run.results)]
@@ -202,13 +204,14 @@ def _sweep_table(folder: str, name: str) -> pd.DataFrame:
 
 
 def run_report(out_dir: str, names, *, overrides: dict, seeds: int | None, seed: int, reference_settings,
-               budgets: dict, baseline_dir: str | None = None, sweep_dir: str | None = None,
+               budgets: dict, measurement=None, baseline_dir: str | None = None, sweep_dir: str | None = None,
                animation_dirs=(), comparisons=(), progress: bool = True) -> dict:
     """Gather every scene's results and the sweep's, then draw the report into
     ``out_dir`` (``page.write``). Returns the report's summary.
 
     The approximation's parameters are the budgets' preset with ``overrides``; the
-    seeds ``seed`` … ``seed + seeds − 1`` (``seeds`` default: the budgets').
+    seeds ``seed`` … ``seed + seeds − 1`` (``seeds`` default: the budgets'); the
+    measurement settings ``measurement`` (default: the budgets' ``[measurement]``).
     ``comparisons``: (NAME, DIR) pairs of ``report --compare``, each DIR a compare
     output or a folder of them, shown beside the approximation on their scenes."""
     clock = Clock()
@@ -218,9 +221,12 @@ def run_report(out_dir: str, names, *, overrides: dict, seeds: int | None, seed:
     animations = [load_animation(folder, error=ReportError) for folder in animation_dirs or ()]
     compared = load_comparisons(comparisons, names)
     baseline = load_baseline(baseline_dir) if baseline_dir else None
-    results = collect_scenes(names, params, seeds=seeds, reference_settings=reference_settings, budgets=budgets,
+    measurement = measurement or budgets["measurement"]
+    results = collect_scenes(names, params, seeds=seeds, reference_settings=reference_settings,
+                             measurement=measurement, budgets=budgets,
                              baseline=baseline, progress=progress, clock=clock)
     summary = report_summary(results, params=params, seeds=seeds, reference_settings=reference_settings,
+                             measurement=measurement,
                              budgets=budgets, baseline_dir=baseline_dir, sweep=sweep, clock=clock.seconds)
     summary["animations"] = animation_rows(animations)
     summary["comparisons"] = [row for row, _ in compared]

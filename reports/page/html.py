@@ -386,7 +386,8 @@ frames (0 = identical, 1 = worst). Budgets: <code>{escape(summary['budgets'])}</
 {_overview(summary)}
 {renderers_table(summary)}
 <details><summary>parameters used</summary><p>approximation: <code>{escape(json.dumps(params))}</code><br>
-reference: <code>{escape(json.dumps(summary['reference_settings']))}</code></p></details>
+reference: <code>{escape(json.dumps(summary['reference_settings']))}</code><br>
+measurement: <code>{escape(json.dumps(summary.get('measurement', {})))}</code></p></details>
 {sections}
 {_sweep_section(summary['sweep'], sweep_figures)}
 {over_time_section(animations, list(animation_media))}

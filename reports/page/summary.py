@@ -134,7 +134,7 @@ def scene_exposures(result) -> dict:
     return exposures(result.views)
 
 
-def report_summary(results: list, *, params, seeds: int, reference_settings, budgets: dict,
+def report_summary(results: list, *, params, seeds: int, reference_settings, budgets: dict, measurement,
                    baseline_dir: str | None, sweep=None, clock: dict) -> dict:
     pages = [scene_page(r, exposures=scene_exposures(r)) for r in results]
     checks = [c for p in pages for c in p["gate"]["checks"]]
@@ -146,6 +146,7 @@ def report_summary(results: list, *, params, seeds: int, reference_settings, bud
     summary = {
         "kind": "accuracy report", "created": time.strftime("%Y-%m-%d %H:%M:%S %Z"),
         "params": params.to_dict(), "seeds": seeds, "reference_settings": reference_settings.to_dict(),
+        "measurement": measurement.to_dict(),
         "budgets": budgets["path"], "baseline": baseline_dir,
         "gate": {"passed": passed, "checks": len(checks), "failed": len(failed), "unchecked_scenes": unchecked,
                  "scenes_without_budgets": unbudgeted},

@@ -49,12 +49,13 @@ from volcaustics.reports.core.sizing import reference_settings
 from volcaustics.reports.core.store import Store
 from volcaustics.reports.core.tomlfile import load_toml
 from volcaustics.reports.core.versions import code_version
+from volcaustics.reports.experiment.measurement import measurement_settings
 from volcaustics.reports.sweep.spec import SweepError, SweepSpec, _checked
 from volcaustics.scenes import BUILTIN_NAMES, resolve_scene
 from volcaustics.scenes.storage import atomic_path
 
 BEST_SPEC = os.path.join(os.path.dirname(os.path.abspath(__file__)), "best.toml")
-BEST_KEYS = ("scenes", "preset", "seeds", "coarse", "refine", "rounds", "set", "reference")
+BEST_KEYS = ("scenes", "preset", "seeds", "coarse", "refine", "rounds", "set", "reference", "measurement")
 TERMS = ("intersection", "truncation", "reflections", "kernel_blur", "residual")
 GOAL = 0.25  # issue 22: the caustic's relative MSE at most a quarter of the paper configuration's on every scene
 MATCHED = "matched.json"  # the cost-matched photon_res per scene and configuration (a memo: recomputed if lost)
@@ -76,6 +77,7 @@ class BestSpec:
     rounds: int
     reference: dict
     fixed: dict = dataclasses.field(default_factory=dict)
+    measurement: dict = dataclasses.field(default_factory=dict)  # the measurement settings' overrides
 
     @property
     def searched(self) -> tuple:
@@ -92,7 +94,7 @@ class BestSpec:
                 merged.setdefault(name, [])
                 merged[name] += [v for v in values if v not in merged[name]]
         return SweepSpec(self.scenes, tuple((n, tuple(v)) for n, v in merged.items()), dict(self.fixed), self.preset,
-                         self.seeds, dict(self.reference), grids)
+                         self.seeds, dict(self.reference), grids, dict(self.measurement))
 
 
 def load_best_spec(path: str = BEST_SPEC, scenes: list | None = None) -> BestSpec:
@@ -127,7 +129,7 @@ def load_best_spec(path: str = BEST_SPEC, scenes: list | None = None) -> BestSpe
     if not isinstance(reference, dict):
         raise SweepError(f"{path}: reference = {reference!r}: expected a table [reference]")
     spec = BestSpec(tuple(names), doc.get("preset", "quick"), doc.get("seeds", 4), tuple(axes["coarse"]),
-                    tuple(axes["refine"]), rounds, dict(reference), fixed)
+                    tuple(axes["refine"]), rounds, dict(reference), fixed, doc.get("measurement", {}))
     if spec.preset not in PRESETS:
         raise SweepError(f"{path}: preset = {spec.preset!r}: expected {' or '.join(repr(n) for n in PRESETS)}")
     _checked(spec.sweep_spec(), path)
@@ -244,6 +246,7 @@ class BestSearch:
             self.matcher.save()
         run = runner.measure([self.points[k] for k in todo], self.store,
                              reference_settings=reference_settings(self.spec.reference, error=SweepError),
+                             measurement=measurement_settings(self.spec.measurement, error=SweepError),
                              policy="missing", workers=self.workers, dask=self.dask, progress=self.progress,
                              read_back=False)
         self.keys.update(dict(zip(todo, run.keys)))

@@ -15,6 +15,7 @@ from volcaustics.reports import runner
 from volcaustics.reports.core.plotting import remove_stale_figures
 from volcaustics.reports.core.sizing import reference_settings
 from volcaustics.reports.core.store import TABLES, Store, document_sha256
+from volcaustics.reports.experiment.measurement import measurement_settings
 from volcaustics.reports.sweep.best import draw_best
 from volcaustics.reports.sweep.figures import draw_figures
 from volcaustics.reports.sweep.model import crossings, has_depth_sweep
@@ -54,6 +55,7 @@ def run_sweep(spec: SweepSpec, out_dir: str, *, workers: int | None = None, dask
     t0 = time.perf_counter()
     store = Store(out_dir)
     run = runner.measure(points(spec), store, reference_settings=reference_settings(spec.reference, error=SweepError),
+                         measurement=measurement_settings(spec.measurement, error=SweepError),
                          policy="missing", workers=workers, dask=dask, progress=progress, read_back=False)
     keys = sorted(set(run.keys))
     tables, figures = consolidate(store, out_dir, spec, keys)

@@ -14,6 +14,8 @@ photon_res=256 --seeds N``) or in a TOML file with the same names::
     photon_res = 256
     [reference]                      # optional: the reference budget (report's by default)
     target_noise = "caustic=0.005,fog=0.002,direct=0.002"
+    [measurement]                    # optional: the measurement settings (report's by default)
+    exact_subphotons = 16
 
 ``vary`` may also be an array of tables (``[[vary]]``): several grids, whose points are
 joined in order, a point named twice run once (e.g. the variants sweep,
@@ -40,13 +42,14 @@ from volcaustics.approx.params import PRESETS, ApproxParams, ParamError, preset
 from volcaustics.reports.core.params import parse_assignment, parse_overrides, parse_value
 from volcaustics.reports.core.sizing import reference_settings
 from volcaustics.reports.core.tomlfile import load_toml
+from volcaustics.reports.experiment.measurement import measurement_settings
 from volcaustics.reports.experiment.settings import check_frame
 from volcaustics.reports.runner import Point
 from volcaustics.scenes import BUILTIN_NAMES, SceneError, resolve_scene
 from volcaustics.scenes.catalogue import scene_relative_to
 from volcaustics.scenes.fields import field_value, is_scene_field, parse_field_value, scene_with
 
-SPEC_KEYS = ("scenes", "preset", "seeds", "vary", "set", "reference")
+SPEC_KEYS = ("scenes", "preset", "seeds", "vary", "set", "reference", "measurement")
 # Points a sweep runs without --yes: about 3 days at the quick preset's 25 s a point on 2
 # cores (README "Sweeps"); a larger grid is a typo more often than a plan, and expanding
 # and checking 10^6 points alone takes minutes.
@@ -63,7 +66,8 @@ class SweepSpec:
     """scenes: SCENE arguments; vary: ((name, values), ...) in grid order (of all grids:
     every varied name, every value); fixed: name → value; preset: "quick" or "paper";
     seeds per point; reference: settings overrides (REFERENCE_KEYS); grids: the grids
-    when there are several (each like ``vary``), else empty."""
+    when there are several (each like ``vary``), else empty; measurement: the
+    measurement settings' overrides (``reports.experiment.measurement``)."""
 
     scenes: tuple
     vary: tuple
@@ -72,10 +76,12 @@ class SweepSpec:
     seeds: int = 1
     reference: dict = field(default_factory=dict)
     grids: tuple = ()
+    measurement: dict = field(default_factory=dict)
 
     def to_dict(self) -> dict:
         out = {"scenes": list(self.scenes), "vary": {k: list(v) for k, v in self.vary}, "set": dict(self.fixed),
-               "preset": self.preset, "seeds": self.seeds, "reference": dict(self.reference)}
+               "preset": self.preset, "seeds": self.seeds, "reference": dict(self.reference),
+               "measurement": dict(self.measurement)}
         if self.grids:
             out["grids"] = [{k: list(v) for k, v in grid} for grid in self.grids]
         return out
@@ -133,10 +139,11 @@ def spec_from_toml(path: str, max_points: int | None = MAX_POINTS) -> SweepSpec:
         settled[name] = _value(name, v, f"{path}: set")
     reference = _table(doc, "reference", path)
     reference_settings(reference, error=lambda message: SweepError(f"{path}: {message}"))  # checked now
+    measurement = _table(doc, "measurement", path)
     seeds = doc.get("seeds", 1)
     preset = doc.get("preset", "quick")
     return _checked(SweepSpec(tuple(scenes), grid, settled, preset, seeds, dict(reference),
-                              tuple(grids) if several else ()), path, max_points)
+                              tuple(grids) if several else (), dict(measurement)), path, max_points)
 
 
 def _hinted(exc: SweepError, name: str) -> SweepError:
@@ -208,11 +215,15 @@ def grid_size(spec: SweepSpec) -> int:
 
 def _checked(spec: SweepSpec, where: str, max_points: int | None = MAX_POINTS) -> SweepSpec:
     """Validate everything that can be checked before rendering: the grid's size, scenes
-    exist, names, the preset, the seeds, every point's parameters, overlaps of vary and set."""
+    exist, names, the preset, the seeds, the measurement settings, every point's parameters,
+    overlaps of vary and set."""
     if spec.preset not in PRESETS:
         raise SweepError(f"{where}: preset = {spec.preset!r}: expected {' or '.join(repr(n) for n in PRESETS)}")
     if isinstance(spec.seeds, bool) or not isinstance(spec.seeds, int) or not 1 <= spec.seeds <= 1024:
         raise SweepError(f"{where}: seeds = {spec.seeds!r}: expected an integer in [1, 1024]")
+    if not isinstance(spec.measurement, dict):
+        raise SweepError(f"{where}: measurement = {spec.measurement!r}: expected a table [measurement]")
+    measurement_settings(spec.measurement, where=f"{where}: measurement", error=SweepError)
     if not spec.scenes or any(not s for s in spec.scenes):
         raise SweepError(f"{where}: scenes = {list(spec.scenes)!r}: expected at least one scene, none empty")
     if len(set(spec.scenes)) != len(spec.scenes):
