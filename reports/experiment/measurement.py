@@ -25,7 +25,7 @@ from volcaustics.reports.experiment.exact_images import EXACT_SUBPHOTONS, subpho
 # name → (check: value → int, ParamError naming the range; help)
 MEASUREMENT_TABLE = {
     "exact_subphotons": (subphotons_setting, "exact replays of each emission texel in the error decomposition's E_∞ "
-                                             f"images: 1 to 64 (default {EXACT_SUBPHOTONS}, the report's)"),
+                                             "images, 1 to 64"),
 }
 MEASUREMENT_KEYS = tuple(MEASUREMENT_TABLE)  # what a spec's or the budgets' [measurement] table may set
 
@@ -48,13 +48,16 @@ class MeasurementSettings:
 def measurement_settings(overrides: dict | None = None, *, where: str = "measurement",
                          base: MeasurementSettings | None = None, error=ParamError) -> MeasurementSettings:
     """``base`` (default: the report's settings) with ``overrides`` (MEASUREMENT_KEYS,
-    None values left out); ``error`` naming ``where`` (a table, or a flag's name) for an
-    unknown key or a value out of range."""
+    None values left out); ``error`` for an unknown key or a value out of range, naming
+    ``where``: a flag (``--exact-subphotons = 0: …``) or a table (``FILE: measurement``
+    → ``FILE: measurement.exact_subphotons = 0: …``)."""
     changes = {k: v for k, v in (overrides or {}).items() if v is not None}
-    unknown = [k for k in changes if k not in MEASUREMENT_TABLE]
-    if unknown:
-        raise error(f"{where}.{unknown[0]}: unknown; expected {', '.join(MEASUREMENT_KEYS)}")
-    try:
-        return dataclasses.replace(base or MeasurementSettings(), **changes)
-    except ParamError as exc:
-        raise error(f"{where}: {exc}") from None
+    for name, value in changes.items():
+        if name not in MEASUREMENT_TABLE:
+            raise error(f"{where}.{name}: unknown; expected {', '.join(MEASUREMENT_KEYS)}")
+        try:
+            MEASUREMENT_TABLE[name][0](value)
+        except ParamError as exc:
+            named = where if where.startswith("--") else f"{where}.{name}"
+            raise error(f"{named} = {str(exc).split(' = ', 1)[1]}") from None
+    return dataclasses.replace(base or MeasurementSettings(), **changes)
