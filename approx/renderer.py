@@ -139,6 +139,38 @@ class Renderer:
         return Frame(images=images, caustic_steps=caustic_steps, records=records, timings=timings,
                      timing_method=timer.method, params=p.to_dict(), photons_emitted=emitted, gl=gl_info(ctx))
 
+    def first_records(self, scene, params: ApproxParams, seeds) -> list:
+        """Per seed in ``seeds``, the step-1 records (RECORD_DTYPE) of a frame with
+        ``params``: ``render(scene, params with that seed, steps 1).records[0]``, the
+        emission state an exact replay starts from, with the light maps and the
+        emission map rendered once for all seeds and none of the frame's image passes."""
+        scene = scene or self.scene
+        p = params.resolved(scene)
+        self.geometry.place(scene)
+        box = medium_bounds(scene)
+        frustum = LightFrustum.for_scene(scene, *box)
+        tracer = self._cached(("tracer", *sorted(PhotonTracer.defines(p).items())), lambda: PhotonTracer(self.ctx, p))
+        tracer.check_limits(p, keep_records=True)
+        count, released, out = p.photon_res * p.photon_res, [], []
+        try:
+            maps = self._light_maps(PassTimer(self.ctx, False), tracer, frustum, p, released)
+            emission_map = self.light_maps.render_light_map(frustum, p.photon_res, facing=BOTH,
+                                                            primitive_ids=tracer.id_rule)
+            record_buf = self.ctx.buffer(reserve=count * RAW_RECORD_DTYPE.itemsize)
+            released += [emission_map, record_buf]
+            for seed in seeds:
+                photons = tracer.emit_photons(scene, frustum, emission_map, p.photon_res, seed)
+                try:
+                    tracer.trace_step(scene, frustum, box, maps["texels"], maps["info"], p.light_res, photons,
+                                      record_buf, count, 1, seed, objects_box=self.geometry.objects_box)
+                finally:
+                    photons.release()
+                out.append(records_from_raw(read_raw_records(record_buf, count), 1, footprint=tracer.footprints(count)))
+        finally:
+            for r in released:
+                r.release()
+        return out
+
     def _light_maps(self, timer, tracer, frustum, p: ApproxParams, released: list) -> dict:
         """The light layers (paper Fig. 1A, 3) packed for the tracer, and the shadow map."""
         with timer.measure("layers"):

@@ -73,17 +73,21 @@ class Oracle:
         ray = mi.Ray3f(mi.Point3f(*(o + d * eps).T.astype(np.float32)), mi.Vector3f(*d.T.astype(np.float32)))
         ray.maxt = mi.Float(np.maximum(L - eps, 0.0).astype(np.float32))
         si = self.mi_scene.ray_intersect(ray)
-        hit = np.asarray(si.is_valid()).astype(bool) & (L > eps)
-        t = np.where(hit, np.asarray(si.t, np.float64) + eps, np.nan)
-        sid = np.asarray(dr.reinterpret_array(mi.UInt32, si.shape), np.int64)
-        shape = np.where(hit, self.shape_index[np.clip(sid, 0, len(self.shape_index) - 1)], -1)
+        # every output in one kernel: each lazy value read on its own would launch (and trace) again
+        valid, sid = si.is_valid(), dr.reinterpret_array(mi.UInt32, si.shape)
+        normal, geometric = si.sh_frame.n, si.n
+        dr.eval(valid, si.t, sid, normal, geometric)
+        hit = valid.numpy().astype(bool) & (L > eps)
+        t = np.where(hit, si.t.numpy().astype(np.float64) + eps, np.nan)
+        shape = np.where(hit, self.shape_index[np.clip(sid.numpy().astype(np.int64), 0, len(self.shape_index) - 1)],
+                         -1)
 
         def vec(v):
-            return np.stack([np.asarray(v.x), np.asarray(v.y), np.asarray(v.z)], axis=1).astype(np.float64)
+            return np.stack([v.x.numpy(), v.y.numpy(), v.z.numpy()], axis=1).astype(np.float64)
 
         nan3 = np.full((len(o), 3), np.nan)
-        return {"hit": hit, "t": t, "normal": np.where(hit[:, None], vec(si.sh_frame.n), nan3),
-                "geometric_normal": np.where(hit[:, None], vec(si.n), nan3), "shape": shape}
+        return {"hit": hit, "t": t, "normal": np.where(hit[:, None], vec(normal), nan3),
+                "geometric_normal": np.where(hit[:, None], vec(geometric), nan3), "shape": shape}
 
 
 def fresnel_dielectric(cos_i, eta):
@@ -122,65 +126,97 @@ def surface_interaction(d, power, n, n_geometric, hit_material, xi, ior, stochas
     return new_d, power, new_inside, flags
 
 
+class ReplayConstants:
+    """What every step of an exact replay of ``scene`` reads: the medium's box, sigma_t
+    and the GPU tracer's float32 sigma_bar, each material's IOR and interior absorption
+    (the last row: the medium's), and the Fresnel mode."""
+
+    def __init__(self, scene, fresnel: str):
+        self.lo, self.hi = medium_bounds(scene)
+        self.sigma_t = np.asarray(scene.medium.sigma_t, np.float64)
+        self.sigma_bar = float(np.float32(scene.medium.sigma_bar))  # the GPU tracer's float32 uniform
+        self.ior = np.asarray([o.ior for o in scene.specular] + [1.0], np.float64)
+        self.absorption = np.asarray([o.absorption for o in scene.specular] + [(0.0, 0.0, 0.0)], np.float64)
+        self.stochastic = fresnel == "stochastic"
+
+
+def advance(c: ReplayConstants, oracle: Oracle, step: int, seed, idx, o, d, inside, power) -> dict:
+    """One interaction step of photons ``idx`` (emission texels) at ``o`` going ``d``
+    (N×3 float64, unit), ``inside`` (object index, −1 medium), ``power`` (N×3 W): free
+    flight from u(seed, photon, step, 0), the exact first hit, transmittance, and at a
+    hit the surface interaction (Fresnel choice from u(seed, photon, step, 1)).
+    ``seed``: one seed, or one per photon (N uint32). Returns the step's segment
+    (max_len, search, q: the oracle's answer), where it ended (end, status, flags,
+    new_power) and the state after it (new_d, new_inside)."""
+    n = len(idx)
+    span = box_exit(o, d, c.lo, c.hi)
+    max_len = span.copy()
+    medium = inside < 0
+    if c.sigma_bar > 0:
+        u = uniform(seed, idx.astype(np.uint32), step, 0).astype(np.float32)
+        free = (-np.log(np.float32(1.0) - u) / np.float32(c.sigma_bar)).astype(np.float64)
+        max_len = np.where(medium, free, span)
+    search = np.minimum(max_len, span)
+    q = oracle.first_hits(o, d, search)
+    hit = q["hit"]
+    t = np.where(hit, q["t"], 0.0)
+    status = np.full(n, STATUS_LEFT_SCENE, np.int64)
+    flags = np.zeros(n, np.int64)
+    collides = medium & (max_len <= span)
+    end = o + d * np.where(hit, t, np.where(collides, max_len, search))[:, None]
+    # transmittance of the distance travelled
+    coeff = np.where(medium[:, None], c.sigma_t[None, :], c.absorption[np.where(medium, -1, inside)])
+    travelled = np.where(hit, t, np.where(collides, max_len, 0.0))
+    new_power = power * np.exp(-coeff * travelled[:, None])
+    status[hit] = STATUS_SURFACE
+    status[~hit & ~medium] = STATUS_LOST
+    status[~hit & collides] = STATUS_COLLIDED
+    new_d, new_inside = d.copy(), inside.copy()
+    if hit.any():
+        seed_hit = seed[hit] if np.ndim(seed) else seed
+        xi = uniform(seed_hit, idx[hit].astype(np.uint32), step, 1).astype(np.float64)
+        dd, pp, ii, ff = surface_interaction(d[hit], new_power[hit], q["normal"][hit], q["geometric_normal"][hit],
+                                             q["shape"][hit], xi, c.ior, c.stochastic)
+        new_d[hit], new_power[hit], new_inside[hit], flags[hit] = dd, pp, ii, ff
+    return {"max_len": max_len, "search": search, "q": q, "end": end, "new_power": new_power, "status": status,
+            "flags": flags, "new_d": new_d, "new_inside": new_inside}
+
+
+def alive_after(status: np.ndarray) -> np.ndarray:
+    """Photons still travelling after a step: at a surface, or collided and going on."""
+    return (status == STATUS_SURFACE) | (status == STATUS_COLLIDED)
+
+
 def exact_photon_records(scene, first_records, *, steps: int, seed: int, fresnel: str = "deterministic",
                          oracle: Oracle | None = None) -> list:
     """Replay photons from the approximation's step-1 records (their emission state:
     start, direction, inside, power_start) with exact intersections; returns one
     RECORD_DTYPE array per step (photons alive at that step)."""
     oracle = oracle or Oracle(scene)
-    lo, hi = medium_bounds(scene)
-    sigma_t = np.asarray(scene.medium.sigma_t, np.float64)
-    sigma_bar = float(np.float32(scene.medium.sigma_bar))  # the GPU tracer's float32 uniform
-    ior = np.asarray([o.ior for o in scene.specular] + [1.0], np.float64)
-    absorption = np.asarray([o.absorption for o in scene.specular] + [(0.0, 0.0, 0.0)], np.float64)
-    stochastic = fresnel == "stochastic"
-
-    idx = first_records["photon"].astype(np.int64)
-    o = first_records["start"].astype(np.float64)
-    d = first_records["direction"].astype(np.float64)
-    d /= np.linalg.norm(d, axis=1, keepdims=True)
-    inside = first_records["inside"].astype(np.int64)
-    power = first_records["power_start"].astype(np.float64)
+    c = ReplayConstants(scene, fresnel)
+    idx, o, d, inside, power = emission_state(first_records)
     out = []
     for step in range(1, steps + 1):
-        n = len(idx)
-        span = box_exit(o, d, lo, hi)
-        max_len = span.copy()
-        medium = inside < 0
-        if sigma_bar > 0:
-            u = uniform(seed, idx.astype(np.uint32), step, 0).astype(np.float32)
-            free = (-np.log(np.float32(1.0) - u) / np.float32(sigma_bar)).astype(np.float64)
-            max_len = np.where(medium, free, span)
-        search = np.minimum(max_len, span)
-        q = oracle.first_hits(o, d, search)
-        hit = q["hit"]
-        t = np.where(hit, q["t"], 0.0)
-        status = np.full(n, STATUS_LEFT_SCENE, np.int64)
-        flags = np.zeros(n, np.int64)
-        end = o + d * np.where(hit, t, np.where(medium & (max_len <= span), max_len, search))[:, None]
-        # transmittance of the distance travelled
-        coeff = np.where(medium[:, None], sigma_t[None, :], absorption[np.where(medium, -1, inside)])
-        travelled = np.where(hit, t, np.where(medium & (max_len <= span), max_len, 0.0))
-        new_power = power * np.exp(-coeff * travelled[:, None])
-        status[hit] = STATUS_SURFACE
-        status[~hit & ~medium] = STATUS_LOST
-        status[~hit & medium & (max_len <= span)] = STATUS_COLLIDED
-        new_d, new_inside = d.copy(), inside.copy()
-        if hit.any():
-            xi = uniform(seed, idx[hit].astype(np.uint32), step, 1).astype(np.float64)
-            dd, pp, ii, ff = surface_interaction(d[hit], new_power[hit], q["normal"][hit],
-                                                 q["geometric_normal"][hit], q["shape"][hit], xi, ior, stochastic)
-            new_d[hit], new_power[hit], new_inside[hit], flags[hit] = dd, pp, ii, ff
-        out.append(_step_record(step, idx, o, d, inside, power, max_len=max_len, search=search, q=q, end=end,
-                                new_power=new_power, status=status, flags=flags))
-        alive = (status == STATUS_SURFACE) | (status == STATUS_COLLIDED)
-        idx, o, d, inside, power = idx[alive], end[alive], new_d[alive], new_inside[alive], new_power[alive]
+        s = advance(c, oracle, step, seed, idx, o, d, inside, power)
+        out.append(_step_record(step, idx, o, d, inside, power, **s))
+        alive = alive_after(s["status"])
+        idx, o, d, inside, power = idx[alive], s["end"][alive], s["new_d"][alive], s["new_inside"][alive], \
+            s["new_power"][alive]
         if len(idx) == 0:
             break
     return out
 
 
-def _step_record(step, idx, o, d, inside, power, *, max_len, search, q, end, new_power, status, flags):
+def emission_state(first_records) -> tuple:
+    """(photon index, start, unit direction, inside, power) of step-1 records, in the
+    replay's float64."""
+    d = first_records["direction"].astype(np.float64)
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    return (first_records["photon"].astype(np.int64), first_records["start"].astype(np.float64), d,
+            first_records["inside"].astype(np.int64), first_records["power_start"].astype(np.float64))
+
+
+def _step_record(step, idx, o, d, inside, power, *, max_len, search, q, end, new_power, status, flags, **_):
     """One step's RECORD_DTYPE rows: the segment of each photon alive at its start (idx,
     start o, direction d, inside, power) and what the step made of it (``q``: the
     oracle's first hits)."""

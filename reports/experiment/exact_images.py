@@ -20,10 +20,9 @@ import numpy as np
 
 from volcaustics.approx.params import ParamError
 from volcaustics.approx.splat import record_sigma, splats_from_arrays
-from volcaustics.reference.oracle import exact_photon_records
+from volcaustics.reference.replay import exact_collisions
 from volcaustics.reports.experiment.exact import (
     ExactPhotons,
-    exact_photons,
     photons_from_records,
     pixel_footprint,
     subset_images,
@@ -111,7 +110,7 @@ def exact_images(scene, p, frames, replays, seeds, renderer, oracle, subphotons:
     of A, E_k, E_∞ (A's Fresnel), E_∞ (stochastic) and E_∞,s, the E_∞ images from
     ``subphotons`` replays of every texel (:func:`pooled`; None: :func:`subphotons_setting`);
     all seeds' batches concatenated (batch j of every image: the same emission texels of
-    one seed)."""
+    one seed). Every E_∞ replay of the point is one wavefront (``reference.replay``)."""
     subphotons = subphotons_setting() if subphotons is None else subphotons
     out = {name: [] for name in ("approx", "exact_steps", "exact_all_same", "exact_all", "exact_all_small")}
     alive = {}
@@ -121,7 +120,15 @@ def exact_images(scene, p, frames, replays, seeds, renderer, oracle, subphotons:
         return subset_images(renderer, photons_or_rows[0], photons_or_rows[1], p.photon_res, SUBSET_BATCHES, params,
                              scene, supersample=supersample)
 
-    for frame, replay, seed in zip(frames, replays, seeds):
+    firsts = [frame.records[0] for frame in frames]
+    same_all = _replayed(scene, p, p.fresnel, firsts, seeds, subphotons, oracle)
+    everything_all = same_all
+    if p.fresnel != "stochastic":  # the stochastic emission of every replay seed, then its replay
+        sto = dataclasses.replace(p, fresnel="stochastic", steps=1, fog_steps=1)
+        firsts_sto = renderer.first_records(scene, sto, [replay_seed(seed, m) for seed in seeds
+                                                         for m in range(subphotons)])
+        everything_all = _replayed(scene, p, "stochastic", firsts_sto, seeds, subphotons, oracle)
+    for frame, replay, seed, same, everything in zip(frames, replays, seeds, same_all, everything_all):
         ps = dataclasses.replace(p, seed=seed)
         first = frame.records[0]
         collided = np.concatenate([r[r["status"] == STATUS_COLLIDED] for r in frame.records])
@@ -131,16 +138,7 @@ def exact_images(scene, p, frames, replays, seeds, renderer, oracle, subphotons:
         kernels = _paired_kernels(collided, sigma)
         e_k = photons_from_records(replay, first, ps, steps=p.steps, fresnel=p.fresnel)
         out["exact_steps"].append(batches((kernels(e_k), e_k.photon), ps))
-        same = pooled([photons_from_records(
-            exact_photon_records(scene, first, steps=EXACT_STEPS, seed=replay_seed(seed, m), fresnel=p.fresnel,
-                                 oracle=oracle), first, ps, steps=EXACT_STEPS, fresnel=p.fresnel)
-            for m in range(subphotons)])
         out["exact_all_same"].append(batches((kernels(same), same.photon), ps))
-        everything = same
-        if p.fresnel != "stochastic":
-            everything = pooled([exact_photons(scene, dataclasses.replace(ps, seed=replay_seed(seed, m)),
-                                               steps=EXACT_STEPS, fresnel="stochastic", renderer=renderer,
-                                               oracle=oracle) for m in range(subphotons)])
         out["exact_all"].append(batches((kernels(everything), everything.photon), ps))
         out["exact_all_small"].append(batches((everything.splats, everything.photon),
                                               dataclasses.replace(small, seed=seed), SMALL_SUPERSAMPLE))
@@ -148,3 +146,21 @@ def exact_images(scene, p, frames, replays, seeds, renderer, oracle, subphotons:
             alive.setdefault(fresnel, []).append(photons.alive_fraction)
     result = {name: np.concatenate(images) for name, images in out.items()}
     return {"batches": result, "alive": alive, "small_radius": small.splat_radius, "subphotons": subphotons}
+
+
+def _replayed(scene, p, fresnel: str, firsts: list, seeds, subphotons: int, oracle) -> list:
+    """Per seed, the pooled E_∞ photons (:func:`pooled`) of its ``subphotons`` replays
+    with ``fresnel``: replay m of seed s starts from ``firsts`` (one per seed, shared by
+    its replays; or one per replay, seed-major) with seed ``replay_seed(s, m)``. All of
+    them are one wavefront (``reference.replay.exact_collisions``)."""
+    starts = [firsts[i if len(firsts) == len(seeds) else i * subphotons + m]
+              for i in range(len(seeds)) for m in range(subphotons)]
+    replay_seeds = [replay_seed(seed, m) for seed in seeds for m in range(subphotons)]
+    done = exact_collisions(scene, list(zip(starts, replay_seeds)), steps=EXACT_STEPS, fresnel=fresnel, oracle=oracle)
+    used = {**p.to_dict(), "steps": EXACT_STEPS, "fresnel": fresnel, "emission_fresnel": fresnel}
+    photons = [ExactPhotons(splats=splats_from_arrays(c.rows["end"], c.rows["direction"], c.rows["power"]),
+                            photon=c.rows["photon"].astype(np.uint32), step=c.rows["step"].astype(np.int64),
+                            emitted_power=c.emitted_power, alive_power=c.alive_power,
+                            collided_power=c.collided_power, photons=c.photons, params={**used, "seed": s})
+               for c, s in zip(done, replay_seeds)]
+    return [pooled(photons[i * subphotons:(i + 1) * subphotons]) for i in range(len(seeds))]

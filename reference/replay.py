@@ -1,0 +1,119 @@
+"""The exact replay as a wavefront: many replays traced together.
+
+The decomposition's E images replay every emission texel of every seed several times
+(sub-photons, ``reports.experiment.exact_images``). Replayed one by one, each step of
+each replay is one oracle query and one round of numpy, so a point paid thousands of
+small Dr.Jit launches and their fixed costs. Here every replay (a *group*: an emission
+state and its seed) of a point is one set of photons, each photon carrying its group's
+seed, and each step is one query for all of them (``oracle.advance``, the physics of
+``exact_photon_records``, photon by photon the same numbers). Groups are packed into
+launches of at most ``max_photons`` photons, which bounds memory.
+
+Only what the E images read is kept: each medium collision (photon, step, end,
+direction, power, as the records hold them) and the power budgets.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from volcaustics.scenes.formats import RECORD_DTYPE, STATUS_COLLIDED
+
+from .oracle import Oracle, ReplayConstants, advance, alive_after, emission_state
+
+# Photons per launch: about 1 kB each of float64 state and temporaries at the widest step
+MAX_PHOTONS = 1 << 21
+COLLISION_DTYPE = np.dtype([(name, RECORD_DTYPE[name]) for name in ("photon", "step", "end", "direction", "power")])
+
+
+@dataclass
+class Collisions:
+    """The medium collisions of one replay and its power budget.
+
+    rows: COLLISION_DTYPE, in the order ``exact_photon_records`` gives them (by step,
+        then by photon order), with the records' float32 fields.
+    emitted_power: RGB power (W) of the replayed photons at their start.
+    alive_power: RGB power (W) still travelling after the last step.
+    collided_power: steps×3, RGB power (W) of the collisions per step.
+    photons: photons replayed.
+    """
+
+    rows: np.ndarray
+    emitted_power: np.ndarray
+    alive_power: np.ndarray
+    collided_power: np.ndarray
+    photons: int
+
+
+def exact_collisions(scene, groups, *, steps: int, fresnel: str, oracle: Oracle | None = None,
+                     max_photons: int = MAX_PHOTONS) -> list:
+    """Replay every group exactly for ``steps`` steps with ``fresnel``; one
+    :class:`Collisions` per group, in order.
+
+    Parameters
+    ----------
+    scene : the scene (``scenes.model.Scene``).
+    groups : (first_records, seed) pairs: step-1 records (RECORD_DTYPE) to replay from
+        and the seed of their random numbers.
+    steps, fresnel : as ``reference.oracle.exact_photon_records``.
+    max_photons : photons per launch (a group larger than this is one launch).
+    """
+    oracle = oracle or Oracle(scene)
+    constants = ReplayConstants(scene, fresnel)
+    out, launch, size = [], [], 0
+    for group in groups:
+        if launch and size + len(group[0]) > max_photons:
+            out += _launch(constants, oracle, launch, steps)
+            launch, size = [], 0
+        launch.append(group)
+        size += len(group[0])
+    return out + (_launch(constants, oracle, launch, steps) if launch else [])
+
+
+def _launch(c: ReplayConstants, oracle: Oracle, groups: list, steps: int) -> list:
+    """The groups of one launch: traced together, split back by group."""
+    states = [emission_state(first) for first, _ in groups]
+    idx, o, d, inside, power = (np.concatenate(parts) for parts in zip(*states))
+    group = np.repeat(np.arange(len(groups)), [len(first) for first, _ in groups])
+    seed = np.repeat(np.asarray([s for _, s in groups], np.uint32), [len(first) for first, _ in groups])
+    kept = {name: [] for name in ("group", *COLLISION_DTYPE.names)}
+    collided_power = np.zeros((len(groups), steps, 3))
+    alive_power = np.zeros((len(groups), 3))
+    for step in range(1, steps + 1):
+        s = advance(c, oracle, step, seed, idx, o, d, inside, power)
+        hit = s["status"] == STATUS_COLLIDED
+        for name, values in (("group", group), ("photon", idx), ("step", np.full(len(idx), step)),
+                             ("end", s["end"]), ("direction", d), ("power", s["new_power"])):
+            kept[name].append(values[hit])
+        alive = alive_after(s["status"])
+        if step == steps:
+            alive_power = _group_sums(group[alive], s["new_power"][alive], len(groups))
+        group, idx, seed = group[alive], idx[alive], seed[alive]
+        o, d, inside, power = s["end"][alive], s["new_d"][alive], s["new_inside"][alive], s["new_power"][alive]
+        if len(idx) == 0:
+            break
+    rows = np.zeros(sum(len(g) for g in kept["group"]), COLLISION_DTYPE)
+    for name in COLLISION_DTYPE.names:  # the records' float32 and integer fields, as exact_photon_records writes
+        rows[name] = np.concatenate(kept[name]) if kept[name] else rows[name]
+    owner = np.concatenate(kept["group"]) if kept["group"] else np.zeros(0, np.int64)
+    order = np.argsort(owner, kind="stable")  # by group, then by step, then by photon order: one replay's order
+    rows, owner = rows[order], owner[order]
+    bounds = np.searchsorted(owner, np.arange(len(groups) + 1))
+    out = []
+    for g, (first, _) in enumerate(groups):
+        mine = rows[bounds[g]:bounds[g + 1]]
+        per_step = np.searchsorted(mine["step"], np.arange(1, steps + 2))  # one replay's rows run by step
+        for k in range(steps):
+            collided_power[g, k] = mine["power"][per_step[k]:per_step[k + 1]].astype(np.float64).sum(axis=0)
+        out.append(Collisions(rows=mine, emitted_power=first["power_start"].astype(np.float64).sum(axis=0),
+                              alive_power=alive_power[g], collided_power=collided_power[g], photons=len(first)))
+    return out
+
+
+def _group_sums(group: np.ndarray, power: np.ndarray, groups: int) -> np.ndarray:
+    """groups×3: the RGB power of the photons of each group, as ``exact_photon_records``'
+    caller sums them (the records' float32 values, summed in float64 in photon order)."""
+    power = power.astype(np.float32).astype(np.float64)
+    return np.stack([power[group == g].sum(axis=0) for g in range(groups)]) if len(group) else np.zeros((groups, 3))
