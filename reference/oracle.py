@@ -52,6 +52,7 @@ class Oracle:
             self.shape_index[sid] = i
         lo, hi = medium_bounds(scene)
         self.epsilon = 1e-6 * float(np.linalg.norm(hi - lo))
+        self.rays = 0  # segments queried so far (bench/exact_replay.py: throughput)
 
     def first_hits(self, starts, directions, max_lengths) -> dict:
         """Exact first hits on segments start + t·direction, t in (0, max_length].
@@ -70,6 +71,7 @@ class Oracle:
             return {"hit": np.zeros(0, bool), "t": np.zeros(0), "normal": np.zeros((0, 3)),
                     "geometric_normal": np.zeros((0, 3)), "shape": np.zeros(0, np.int64)}
         eps = self.epsilon
+        self.rays += len(o)
         ray = mi.Ray3f(mi.Point3f(*(o + d * eps).T.astype(np.float32)), mi.Vector3f(*d.T.astype(np.float32)))
         ray.maxt = mi.Float(np.maximum(L - eps, 0.0).astype(np.float32))
         si = self.mi_scene.ray_intersect(ray)

@@ -1,0 +1,91 @@
+"""The exact replay against the machine's ray-casting bound (issue 35 "the exact replay
+as a wavefront").
+
+    .venv/bin/python bench/exact_replay.py [SCENE ...] [--seeds 6] [--subphotons 16]
+
+For each scene, at the report's settings (quick preset, the report's seeds and
+sub-photons): the frames, then the E_∞ replays of the decomposition
+(``reports.experiment.exact_images._replayed``: A's Fresnel and, for a deterministic
+Fresnel, the stochastic one, every seed and sub-photon as one wavefront), timed and
+their segments kept. Then, in the same process, the raw bound: one
+``scene.ray_intersect`` on the very same segments, every output of the interaction
+evaluated. Prints rays, seconds, M rays/s of both and
+their ratio (the budget: the replay at ≥ 1/3 of the bound).
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import time
+
+import numpy as np
+
+
+def raw_throughput(oracle, segments: list) -> float:
+    """M rays/s of one ``scene.ray_intersect`` on ``segments`` ((start, direction,
+    length) float32 arrays per query), every field of the interaction evaluated: the
+    machine's bound."""
+    import drjit as dr
+
+    mi = oracle.mi
+    o, d, L = (np.concatenate(parts) for parts in zip(*segments))
+    rays = len(L)
+    ray = mi.Ray3f(mi.Point3f(*o.T), mi.Vector3f(*d.T))
+    ray.maxt = mi.Float(L)
+    dr.eval(ray)
+    dr.sync_thread()
+    t0 = time.perf_counter()
+    si = oracle.mi_scene.ray_intersect(ray)
+    dr.eval(si)
+    dr.sync_thread()
+    return rays / (time.perf_counter() - t0) / 1e6
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("scenes", nargs="*", default=["sphere1", "bunny"])
+    parser.add_argument("--seeds", type=int, default=6)
+    parser.add_argument("--subphotons", type=int, default=16)
+    args = parser.parse_args(argv)
+
+    import volcaustics.reference  # noqa: F401  (libLLVM before drjit)
+    from volcaustics.approx import Renderer
+    from volcaustics.approx.params import QUICK
+    from volcaustics.reference.oracle import Oracle
+    from volcaustics.reports.experiment.exact_images import _replayed, replay_seed
+    from volcaustics.reports.experiment.frames import render_frames
+    from volcaustics.reports.experiment.settings import checked_settings
+    from volcaustics.scenes import resolve_scene
+
+    print(f"{'scene':<12} {'rays':>10} {'replay s':>9} {'replay Mray/s':>14} {'bound Mray/s':>13} {'ratio':>6}")
+    for name in args.scenes:
+        scene = resolve_scene(name)
+        p, seeds = checked_settings(scene, QUICK, args.seeds)
+        renderer, oracle = Renderer(scene), Oracle(scene)
+        frames, _ = render_frames(renderer, scene, p, seeds, warm_up=True)
+        firsts = [f.records[0] for f in frames]
+        sto = renderer.first_records(scene, dataclasses.replace(p, fresnel="stochastic", steps=1, fog_steps=1),
+                                     [replay_seed(s, m) for s in seeds for m in range(args.subphotons)])
+        _replayed(scene, p, p.fresnel, firsts[:1], seeds[:1], 1, oracle)  # compiles the kernels
+        oracle.rays, segments, first_hits = 0, [], oracle.first_hits
+
+        def kept(o, d, L, segments=segments, first_hits=first_hits):
+            segments.append(tuple(np.asarray(a, np.float32) for a in (o, d, L)))
+            return first_hits(o, d, L)
+
+        oracle.first_hits = kept
+        t0 = time.perf_counter()
+        _replayed(scene, p, p.fresnel, firsts, seeds, args.subphotons, oracle)
+        if p.fresnel != "stochastic":
+            _replayed(scene, p, "stochastic", sto, seeds, args.subphotons, oracle)
+        seconds, rays = time.perf_counter() - t0, oracle.rays
+        bound = raw_throughput(oracle, segments)
+        replay = rays / seconds / 1e6
+        print(f"{name:<12} {rays:>10,} {seconds:>9.2f} {replay:>14.2f} {bound:>13.2f} {replay / bound:>6.2f}")
+        renderer.release()
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
