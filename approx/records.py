@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from volcaustics.scenes.formats import RECORD_DTYPE, STATUS_DEAD
+from volcaustics.scenes.formats import RECORD_DTYPE, STATUS_COLLIDED, STATUS_DEAD, STATUS_SURFACE
 
 
 def records_from_raw(raw: np.ndarray, step: int, *, active_only: bool = True,
@@ -44,4 +44,22 @@ def records_from_raw(raw: np.ndarray, step: int, *, active_only: bool = True,
     out["flags"] = r["extra"][:, 0]
     out["map_reads"] = r["power_start"][:, 3]
     out["footprint"] = 0.0 if footprint is None else footprint[index]
+    return out
+
+
+def emission_records(photons: np.ndarray) -> np.ndarray:
+    """The step-1 records' emission state of photons after emission (PHOTON_DTYPE,
+    one per slot): what trace.comp.glsl copies from a live photon (status surface or
+    collided) into its record before the step: photon (slot), start (pos.xyz),
+    direction (dir.xyz), inside (pos.w), power_start (power.rgb); step 1, the other
+    fields 0."""
+    status = np.floor(photons["dir"][:, 3] + np.float32(0.5)).astype(np.int64)  # int(w + 0.5) of the shader
+    index = np.nonzero((status == STATUS_SURFACE) | (status == STATUS_COLLIDED))[0]
+    live = photons[index]
+    out = np.zeros(len(live), dtype=RECORD_DTYPE)
+    out["photon"], out["step"] = index, 1
+    out["start"] = live["pos"][:, :3]
+    out["direction"] = live["dir"][:, :3]
+    out["inside"] = live["pos"][:, 3]
+    out["power_start"] = live["power"][:, :3]
     return out

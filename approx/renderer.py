@@ -18,7 +18,7 @@ import moderngl
 import numpy as np
 
 from volcaustics.scenes.bounds import medium_bounds
-from volcaustics.scenes.formats import KIND_SPECULAR, RAW_RECORD_DTYPE, SPLAT_DTYPE
+from volcaustics.scenes.formats import KIND_SPECULAR, PHOTON_DTYPE, RAW_RECORD_DTYPE, SPLAT_DTYPE
 
 from .camera_pass import CameraPasses, CameraView
 from .context import gl_info, shared_context
@@ -26,7 +26,7 @@ from .geometry import SceneGeometry
 from .layers import BOTH, LightMapRenderer
 from .light import LightFrustum
 from .params import ApproxParams, defines
-from .records import records_from_raw
+from .records import emission_records, records_from_raw
 from .splat import Splatter
 from .timing import PassTimer, timer_queries_work
 from .trace import PhotonTracer, read_raw_records
@@ -140,35 +140,29 @@ class Renderer:
                      timing_method=timer.method, params=p.to_dict(), photons_emitted=emitted, gl=gl_info(ctx))
 
     def first_records(self, scene, params: ApproxParams, seeds) -> list:
-        """Per seed in ``seeds``, the step-1 records (RECORD_DTYPE) of a frame with
-        ``params``: ``render(scene, params with that seed, steps 1).records[0]``, the
-        emission state an exact replay starts from, with the light maps and the
-        emission map rendered once for all seeds and none of the frame's image passes."""
+        """Per seed in ``seeds``, the emission state an exact replay starts from: the
+        fields photon, start, direction, inside and power_start of the step-1 records
+        (RECORD_DTYPE, the other fields 0) of a frame with ``params`` and that seed,
+        read from the photon buffer after emission (what step 1 of the tracer copies
+        into its records), with the emission map rendered once for all seeds."""
         scene = scene or self.scene
         p = params.resolved(scene)
         self.geometry.place(scene)
-        box = medium_bounds(scene)
-        frustum = LightFrustum.for_scene(scene, *box)
+        frustum = LightFrustum.for_scene(scene, *medium_bounds(scene))
         tracer = self._cached(("tracer", *sorted(PhotonTracer.defines(p).items())), lambda: PhotonTracer(self.ctx, p))
         tracer.check_limits(p, keep_records=True)
-        count, released, out = p.photon_res * p.photon_res, [], []
+        emission_map = self.light_maps.render_light_map(frustum, p.photon_res, facing=BOTH,
+                                                        primitive_ids=tracer.id_rule)
+        out = []
         try:
-            maps = self._light_maps(PassTimer(self.ctx, False), tracer, frustum, p, released)
-            emission_map = self.light_maps.render_light_map(frustum, p.photon_res, facing=BOTH,
-                                                            primitive_ids=tracer.id_rule)
-            record_buf = self.ctx.buffer(reserve=count * RAW_RECORD_DTYPE.itemsize)
-            released += [emission_map, record_buf]
             for seed in seeds:
                 photons = tracer.emit_photons(scene, frustum, emission_map, p.photon_res, seed)
                 try:
-                    tracer.trace_step(scene, frustum, box, maps["texels"], maps["info"], p.light_res, photons,
-                                      record_buf, count, 1, seed, objects_box=self.geometry.objects_box)
+                    out.append(emission_records(np.frombuffer(photons.read(), PHOTON_DTYPE)))
                 finally:
                     photons.release()
-                out.append(records_from_raw(read_raw_records(record_buf, count), 1, footprint=tracer.footprints(count)))
         finally:
-            for r in released:
-                r.release()
+            emission_map.release()
         return out
 
     def _light_maps(self, timer, tracer, frustum, p: ApproxParams, released: list) -> dict:

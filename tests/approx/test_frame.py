@@ -283,3 +283,25 @@ def test_resolutions_beyond_the_drivers_dispatch_limit_are_refused(ctx):
         pytest.skip(f"this driver dispatches {limit} groups: every allowed photon_res fits")
     with pytest.raises(ParamError, match=f"photon_res = {largest + 1}.*at most {largest}"):
         render(make_scene(), ApproxParams(photon_res=largest + 1, light_res=64, width=8, height=8))
+
+
+@pytest.mark.parametrize("changes", [{"fresnel": "stochastic"}, {"fresnel": "deterministic"},
+                                     {"emission": "adaptive", "fresnel": "stochastic"}])
+def test_first_records_are_the_frames_step_1_emission_state(ctx, changes):
+    """Renderer.first_records (read from the photon buffer after emission, the maps
+    rendered once for several seeds) gives, field for field and bit for bit, the emission
+    state of the step-1 records a frame with the same seed writes; a negative control:
+    another seed's stochastic emission differs."""
+    scene = make_scene([(sphere_spec(0.5, (0, 1.0, 0), 32), 1.5, (0.1, 0.0, 0.0))], sigma_s=0.3)
+    params = dataclasses.replace(SMALL, steps=1, **changes)
+    renderer = Renderer(scene, ctx)
+    try:
+        firsts = renderer.first_records(scene, params, [3, 11])
+        for seed, first in zip([3, 11], firsts):
+            frame = renderer.render(scene, dataclasses.replace(params, seed=seed), keep_records=True).records[0]
+            for name in ("photon", "step", "start", "direction", "inside", "power_start"):
+                assert np.array_equal(first[name], frame[name]), (seed, name)
+        if params.fresnel == "stochastic":
+            assert not np.array_equal(firsts[0]["direction"], firsts[1]["direction"])
+    finally:
+        renderer.release()
