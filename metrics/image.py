@@ -149,8 +149,8 @@ def delta_e2000(reference, test, *, mask=None, exposure: float | None = None) ->
 
 def hdr_flip(reference, test, *, mask=None, start_exposure: float | None = None,
              stop_exposure: float | None = None, ppd: float = 67.0, full: bool = False) -> dict:
-    """HDR-FLIP (NVIDIA's ``flip-evaluator``; Andersson et al. 2021) over the compared
-    pixels; 0 for identical images.
+    """HDR-FLIP (Andersson et al. 2021, as NVIDIA's ``flip-evaluator``: ``metrics.flip``)
+    over the compared pixels; 0 for identical images.
 
     FLIP's automatic exposure range fails on dark images, so it is chosen from the
     reference: from the exposure that maps its bright pixels (99.5th percentile of the
@@ -158,9 +158,26 @@ def hdr_flip(reference, test, *, mask=None, start_exposure: float | None = None,
     With ``full``, ``map`` is FLIP's error map (H×W float64 in [0, 1], NaN where not
     compared; its mean over the compared pixels is ``value``).
     """
-    import flip_evaluator
+    t = np.asarray(test)
+    if t.ndim != 3:
+        raise ValueError(f"expected two H×W×3 images of one shape, got reference {np.shape(reference)}, "
+                         f"test {t.shape}")
+    return hdr_flip_frames(reference, t[None], mask=mask, start_exposure=start_exposure, stop_exposure=stop_exposure,
+                           ppd=ppd, full=full)[0]
 
-    r, t = _images(reference, test)
+
+def hdr_flip_frames(reference, tests, *, mask=None, start_exposure: float | None = None,
+                    stop_exposure: float | None = None, ppd: float = 67.0, full: bool = False) -> list:
+    """:func:`hdr_flip` of each of ``tests`` (S×H×W×3, linear radiance) against one
+    ``reference`` (H×W×3), in one pass (``metrics.flip.hdr_flip_maps``): a list of S
+    dicts, each as :func:`hdr_flip`'s."""
+    from volcaustics.metrics.flip import exposures, hdr_flip_maps
+
+    t = np.asarray(tests, dtype=np.float64)
+    if t.ndim != 4 or len(t) == 0:
+        raise ValueError(f"tests: shape {t.shape}, expected S×H×W×3 with S ≥ 1")
+    checked = [_images(reference, x) for x in t]
+    r = checked[0][0]
     keep = _keep(r, mask)
     lum = _lit_luminance(r, mask)
     start = float(np.log2(1.0 / np.percentile(lum, 99.5))) if start_exposure is None else float(start_exposure)
@@ -168,17 +185,15 @@ def hdr_flip(reference, test, *, mask=None, start_exposure: float | None = None,
     stop = max(stop, start)
     if not ppd > 0:
         raise ValueError(f"ppd = {ppd!r}: expected pixels per degree > 0")
-    error_map, _, used = flip_evaluator.evaluate(np.ascontiguousarray(r, np.float32),
-                                                 np.ascontiguousarray(t, np.float32),
-                                                 "HDR", applyMagma=False, computeMeanError=False,
-                                                 parameters={"startExposure": start, "stopExposure": stop,
-                                                             "ppd": float(ppd)})
-    error = np.asarray(error_map, np.float64).reshape(r.shape[:2] + (-1,))[..., 0]
-    out = {"value": float(error[keep].mean()), "start_exposure": start, "stop_exposure": stop,
-           "num_exposures": int(used.get("numExposures", 0)) if isinstance(used, dict) else None,
-           "ppd": float(ppd), "pixels": int(keep.sum())}
-    if full:
-        out["map"] = np.where(keep, error, np.nan)
+    maps = hdr_flip_maps(r, t, start_exposure=start, stop_exposure=stop, ppd=float(ppd))
+    out = []
+    for error_map in maps:
+        error = np.asarray(error_map, np.float64)
+        value = {"value": float(error[keep].mean()), "start_exposure": start, "stop_exposure": stop,
+                 "num_exposures": len(exposures(start, stop)), "ppd": float(ppd), "pixels": int(keep.sum())}
+        if full:
+            value["map"] = np.where(keep, error, np.nan)
+        out.append(value)
     return out
 
 

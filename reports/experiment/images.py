@@ -60,6 +60,8 @@ PER_FRAME = {  # metric: (value of one frame, debias: (mean, floor) -> debiased)
     "hdr_flip": (im.hdr_flip, lambda m, f: m - f),
     "delta_e2000": (im.delta_e2000, lambda m, f: m - f),
 }
+# metrics with a function of every frame at once (the reference's half computed once): metric -> fn
+FRAMES = {"hdr_flip": im.hdr_flip_frames}
 
 _FLOORS: dict = {}
 
@@ -121,11 +123,18 @@ def _relative_mse(r, rv, stack, keep) -> dict:
 
 def _per_frame(metric, r, rv, stack, keep, component, reference_key, maps) -> dict:
     fn, debias = PER_FRAME[metric]
-    results = [fn(r, a, mask=keep, **({"full": True} if i == 0 and metric in MAP_METRICS else {}))
-               for i, a in enumerate(stack)]
+    frames = FRAMES.get(metric)
+    if frames is not None:
+        results = frames(r, stack, mask=keep, full=metric in MAP_METRICS)
+        for x in results[1:]:
+            x.pop("map", None)
+    else:
+        results = [fn(r, a, mask=keep, **({"full": True} if i == 0 and metric in MAP_METRICS else {}))
+                   for i, a in enumerate(stack)]
     if maps is not None and "map" in results[0]:
         maps[(metric, component)] = results[0].pop("map")
-    floor = metric_floor(metric, reference_key, component, keep, r, rv, lambda x, y: fn(x, y, mask=keep)["value"])
+    floor = metric_floor(metric, reference_key, component, keep, r, rv, lambda x, y: fn(x, y, mask=keep)["value"],
+                         frames=frames and (lambda x, ys: [v["value"] for v in frames(x, ys, mask=keep)]))
     stat = seed_mean_interval([x["value"] for x in results], resamples=RESAMPLES, level=LEVEL)
     interval = None if stat["interval"] is None else tuple(debias(v, floor) for v in stat["interval"])
     options = {k: v for k, v in results[0].items() if k != "value"}
@@ -148,18 +157,20 @@ def _ci(interval) -> dict:
     return {"ci_low": interval[0] if interval else NAN, "ci_high": interval[1] if interval else NAN, "level": LEVEL}
 
 
-def metric_floor(metric, reference_key, component, keep, r, rv, compute) -> float:
+def metric_floor(metric, reference_key, component, keep, r, rv, compute, *, frames=None) -> float:
     """A non-quadratic metric's value for the reference against its noisy copy
     (``metrics.noise.noisy_copy``, the mean over FLOOR_DRAWS draws), cached in-process
     and on disk per (reference, component, metric, compared pixels, code version); a
-    damaged file on disk is recomputed (:func:`_cached_floor`)."""
+    damaged file on disk is recomputed (:func:`_cached_floor`). ``compute(r, copy)``
+    gives one draw's value; ``frames(r, copies)``, when given, every draw's at once."""
     ident = hashlib.sha256(f"{reference_key}/{component}/{metric}/{FLOOR_SEED}/{FLOOR_DRAWS}/{code_version()}/"
                            .encode() + np.packbits(keep).tobytes()).hexdigest()[:24]
     if ident in _FLOORS:
         return _FLOORS[ident]
     value = _cached_floor(os.path.join(cache_path("metric-floors"), ident + ".json"), ident)
     if value is None:
-        value = float(np.mean([compute(r, noisy_copy(r, rv, seed=FLOOR_SEED + i)) for i in range(FLOOR_DRAWS)]))
+        copies = [noisy_copy(r, rv, seed=FLOOR_SEED + i) for i in range(FLOOR_DRAWS)]
+        value = float(np.mean(frames(r, np.stack(copies)) if frames else [compute(r, c) for c in copies]))
         if math.isfinite(value):
             doc = {"value": value, "ident": ident, "metric": metric, "component": component,
                    "reference_key": reference_key}
