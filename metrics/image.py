@@ -132,9 +132,23 @@ def delta_e2000(reference, test, *, mask=None, exposure: float | None = None) ->
     """Mean and 99th percentile CIEDE2000 colour difference (colour-science) of the two
     images shown with one exposure (the reference's unless given), via sRGB → XYZ → CIELAB
     (D65), over the compared pixels; 0 for identical images."""
+    t = np.asarray(test)
+    if t.ndim != 3:
+        raise ValueError(f"expected two H×W×3 images of one shape, got reference {np.shape(reference)}, "
+                         f"test {t.shape}")
+    return delta_e2000_frames(reference, t[None], mask=mask, exposure=exposure)[0]
+
+
+def delta_e2000_frames(reference, tests, *, mask=None, exposure: float | None = None) -> list:
+    """:func:`delta_e2000` of each of ``tests`` (S×H×W×3, linear radiance) against one
+    ``reference`` (H×W×3): the reference's CIELAB once, every test's pixels in one call
+    (colour-science's functions are per pixel, so each value is the one-pair call's)."""
     import colour
 
-    r, t = _images(reference, test)
+    t = np.asarray(tests, dtype=np.float64)
+    if t.ndim != 4 or len(t) == 0:
+        raise ValueError(f"tests: shape {t.shape}, expected S×H×W×3 with S ≥ 1")
+    r = [_images(reference, x) for x in t][0][0]
     keep = _keep(r, mask)
     exposure = exposure if exposure is not None else reference_exposure(r, mask=mask)
 
@@ -142,9 +156,11 @@ def delta_e2000(reference, test, *, mask=None, exposure: float | None = None) ->
         shown = np.clip(rgb * exposure, 0.0, 1.0)  # linear, as displayed
         return colour.XYZ_to_Lab(colour.RGB_to_XYZ(shown, colour.RGB_COLOURSPACES["sRGB"], apply_cctf_decoding=False))
 
-    de = colour.delta_E(lab(r[keep]), lab(t[keep]), method="CIE 2000")
-    return {"value": float(np.mean(de)), "p99": float(np.percentile(de, 99)), "exposure": exposure,
-            "pixels": int(keep.sum())}
+    n = int(keep.sum())
+    de = colour.delta_E(np.tile(lab(r[keep]), (len(t), 1)), lab(t[:, keep].reshape(-1, 3)),
+                        method="CIE 2000").reshape(len(t), n)
+    return [{"value": float(np.mean(x)), "p99": float(np.percentile(x, 99)), "exposure": exposure, "pixels": n}
+            for x in de]
 
 
 def hdr_flip(reference, test, *, mask=None, start_exposure: float | None = None,

@@ -273,7 +273,7 @@ def seed_relative_mse(reference, reference_var, seed_images, *, mask=None, level
     debiased = off / (n * (n - 1)) / energy - floor
     se, interval = float("nan"), None
     if n >= MIN_SEEDS_FOR_INTERVAL:
-        from scipy.stats import t as student_t
+        from scipy.special import stdtrit  # Student t's quantile (scipy.stats.t.ppf's own), without scipy.stats
 
         rows = gram.sum(axis=1) - np.diag(gram)  # Σ_{j≠i} G_ij
         leave_out = (off - 2.0 * rows) / ((n - 1) * (n - 2)) / energy
@@ -284,7 +284,7 @@ def seed_relative_mse(reference, reference_var, seed_images, *, mask=None, level
         bias_part = max(float(np.sum((mean_d ** 2 - spread - v_r) * v_r)), 0.0)  # Σ b² var_R, clipped as a sum
         reference_part = (4.0 * bias_part + 2.0 * float(np.sum(v_r ** 2))) / energy**2
         se = float(np.sqrt(jackknife + reference_part))
-        half = float(student_t.ppf(0.5 + level / 2.0, n - 1)) * se
+        half = float(stdtrit(n - 1, 0.5 + level / 2.0)) * se
         interval = (debiased - half, debiased + half)
     return SeedError(raw=raw, reference_floor=floor, approx_noise=raw - floor - debiased, debiased=debiased,
                      standard_error=se, interval=interval, seeds=n, level=level, pixels=int(sel_r.shape[0]))

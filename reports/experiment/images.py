@@ -61,7 +61,7 @@ PER_FRAME = {  # metric: (value of one frame, debias: (mean, floor) -> debiased)
     "delta_e2000": (im.delta_e2000, lambda m, f: m - f),
 }
 # metrics with a function of every frame at once (the reference's half computed once): metric -> fn
-FRAMES = {"hdr_flip": im.hdr_flip_frames}
+FRAMES = {"hdr_flip": im.hdr_flip_frames, "delta_e2000": im.delta_e2000_frames}
 
 _FLOORS: dict = {}
 

@@ -6,7 +6,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from volcaustics.metrics.image import delta_e2000, energy_ratio, hdr_flip, per_pixel_relative_mse, ssim
+from volcaustics.metrics.image import (
+    delta_e2000,
+    delta_e2000_frames,
+    energy_ratio,
+    hdr_flip,
+    per_pixel_relative_mse,
+    ssim,
+)
 
 
 def _image(seed=0, size=48):
@@ -75,3 +82,12 @@ def test_mask_selects_pixels_and_bad_input_raises():
         hdr_flip(np.zeros_like(r), r)
     with pytest.raises(ValueError, match="finite"):
         delta_e2000(r, np.full_like(r, np.nan))
+
+
+def test_delta_e2000_of_frames_at_once_equals_one_at_a_time():
+    r = _image()
+    rng = np.random.default_rng(3)
+    tests = np.clip(r * (1 + 0.2 * rng.normal(size=(3,) + r.shape)), 0, None)
+    keep = np.ones(r.shape[:2], bool)
+    keep[:4] = False
+    assert delta_e2000_frames(r, tests, mask=keep) == [delta_e2000(r, t, mask=keep) for t in tests]
