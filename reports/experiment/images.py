@@ -125,7 +125,7 @@ def _per_frame(metric, r, rv, stack, keep, component, reference_key, maps) -> di
     fn, debias = PER_FRAME[metric]
     frames = FRAMES.get(metric)
     if frames is not None:
-        results = frames(r, stack, mask=keep, full=metric in MAP_METRICS)
+        results = frames(r, stack, mask=keep, **({"full": True} if metric in MAP_METRICS else {}))
         for x in results[1:]:
             x.pop("map", None)
     else:
