@@ -35,6 +35,9 @@ class Param:
     program     the shader program the define selects ("trace", "fog"), with ``glsl`` "define"
     glsl        "define", "uniform" or "host"
     to_defines  value → the program's #defines (default: {NAME_IN_CAPITALS: value})
+    exact       False: the error decomposition's exact images do not depend on it (how the
+                approximation searches): they are reused across its values
+                (``reports.experiment.exact_store``)
     """
 
     name: str
@@ -49,6 +52,7 @@ class Param:
     program: str | None = None
     glsl: str = "host"
     to_defines: Callable | None = None
+    exact: bool = True
 
     def expected(self) -> str:
         """What a value must be, as error messages and ``--help`` say it."""
@@ -106,31 +110,31 @@ PARAMS: tuple = (
     Param("photon_res", int, 1500, "photon map resolution N: one photon per covered texel of N²", "texels per side",
           1, 8192),
     Param("layers", int, 4, "light-map levels, each a front-face and a back-face map", "", 1, 8, program="trace",
-          glsl="define", to_defines=lambda v: {"MAPS": 2 * v}),
+          glsl="define", to_defines=lambda v: {"MAPS": 2 * v}, exact=False),
     Param("layer_strategy", str, "threshold", "threshold (paper §4.2: levels beyond uniform thresholds along the "
-          "spot axis) or peel (depth peeling per facing)", choices=("threshold", "peel")),
+          "spot axis) or peel (depth peeling per facing)", choices=("threshold", "peel"), exact=False),
     Param("iterations", int, 30, "binary-search iterations per detected crossing", "", 0, 64, program="trace",
-          glsl="define"),
+          glsl="define", exact=False),
     Param("peak_samples", int, 8, "samples per segment and map to find the first sign change", "", 0, 256,
-          program="trace", glsl="define"),
+          program="trace", glsl="define", exact=False),
     Param("search", str, "bisection", "how a segment's first crossing is found on one map: bisection (paper §4.1: "
           "peak_samples uniform samples, then iterations halvings), secant (the same samples, then regula falsi), "
           "dda (every texel the segment crosses: exact at the maps' resolution) or hiz (dda skipping min-max "
           "pyramid cells)", choices=("bisection", "secant", "dda", "hiz"), program="trace", glsl="define",
-          to_defines=lambda v: {f"SEARCH_{v.upper()}": 1}),
+          to_defines=lambda v: {f"SEARCH_{v.upper()}": 1}, exact=False),
     Param("start_rule", str, "offset", "how a segment avoids re-finding the surface it leaves: offset (start the "
           "search a few texel footprints out), id (the maps carry primitive ids; crossings onto the start "
           "triangle are passed over) or facing (crossings onto faces the photon cannot meet from its side, "
           "outside along their outward normal or inside against it, are passed over)",
           choices=("offset", "id", "facing"), program="trace", glsl="define",
           to_defines=lambda v: {"START_RULE_ID": 1} if v == "id" else {"START_RULE_FACING": 1} if v == "facing"
-          else {}),
+          else {}, exact=False),
     Param("crossing", str, "sign", "what a search takes for a crossing: sign (paper: any change of sign of f "
           "between covered points) or surface (only where the segment is at the crossed texel's surface, within "
           "2 footprints · (1 + tan θ) of its distance: a change of sign between texels of two surfaces is passed "
           "over, like a screen-space ray tracer's thickness test)", choices=("sign", "surface"), program="trace",
           glsl="define", to_defines=lambda v: {"CROSSING_SURFACE": 1, "CROSSING_TEXELS": "2.0"} if v == "surface"
-          else {}),
+          else {}, exact=False),
     Param("steps", int, 4, "interaction steps (photon maps) traced", "", 1, 32),
     Param("splat_radius", float, 0.01, "standard deviation of the splatted 3D Gaussian", "m", 0, 10,
           glsl="uniform"),
@@ -147,11 +151,11 @@ PARAMS: tuple = (
           choices=("uniform", "adaptive"), program="trace", glsl="define",
           to_defines=lambda v: {"EMISSION_ADAPTIVE": 1} if v == "adaptive" else {}),
     Param("light_res", int, 1024, "resolution of the light layer maps and the shadow map", "texels per side", 16,
-          8192, glsl="uniform"),
+          8192, glsl="uniform", exact=False),
     Param("width", int, None, "image width", "pixels", 1, 16384, unset="the scene's"),
     Param("height", int, None, "image height", "pixels", 1, 16384, unset="the scene's"),
     Param("fog_steps", int, 64, "ray-marching samples of the fog integral per pixel", "", 1, 4096, program="fog",
-          glsl="define"),
+          glsl="define", exact=False),
     Param("fresnel", str, "deterministic", "deterministic (refracted power × (1 − R)) or stochastic (choose by R)",
           choices=("deterministic", "stochastic"), program="trace", glsl="define",
           to_defines=lambda v: {"FRESNEL_STOCHASTIC": 1} if v == "stochastic" else {}),

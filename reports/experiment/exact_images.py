@@ -27,6 +27,7 @@ from volcaustics.reports.experiment.exact import (
     pixel_footprint,
     subset_images,
 )
+from volcaustics.reports.experiment.exact_store import EXACT_IMAGES, exact_document, exact_key, load_exact, save_exact
 from volcaustics.scenes.formats import STATUS_COLLIDED
 from volcaustics.scenes.rng import pcg_hash
 
@@ -37,6 +38,10 @@ SMALL_KERNEL_FINE_PIXELS = 0.6  # E_∞,s kernel σ in fine pixels (0.15 pixel):
 SUBSET_BATCHES = 8           # paired photon subsets per seed of A and the E images: the decomposition's noise
 EXACT_SUBPHOTONS = 16        # exact replays of each emission texel in the E_∞ images (docs/decisions.md "Sub-photons")
 _SUBPHOTON_SALT = 0x5EB9_07A1  # keeps the replays' seeds apart from the frames' seeds (seed, seed + 1, …)
+# what the E images depend on beyond the parameters: part of their key (exact_store)
+CONSTANTS = {"exact_steps": EXACT_STEPS, "small_supersample": SMALL_SUPERSAMPLE,
+             "small_kernel_fine_pixels": SMALL_KERNEL_FINE_PIXELS, "subset_batches": SUBSET_BATCHES,
+             "subphoton_salt": _SUBPHOTON_SALT}
 
 
 def subphotons_setting(value: int | None = None) -> int:
@@ -110,16 +115,39 @@ def exact_images(scene, p, frames, replays, seeds, renderer, oracle, subphotons:
     of A, E_k, E_∞ (A's Fresnel), E_∞ (stochastic) and E_∞,s, the E_∞ images from
     ``subphotons`` replays of every texel (:func:`pooled`; None: :func:`subphotons_setting`);
     all seeds' batches concatenated (batch j of every image: the same emission texels of
-    one seed). Every E_∞ replay of the point is one wavefront (``reference.replay``)."""
+    one seed). The E images are read from ``exact_store`` when a point with the same
+    emission, replay and splat stored them (``exact_reused``); else every E_∞ replay of
+    the point is one wavefront (``reference.replay``) and they are stored."""
     subphotons = subphotons_setting() if subphotons is None else subphotons
-    out = {name: [] for name in ("approx", "exact_steps", "exact_all_same", "exact_all", "exact_all_small")}
+    document = exact_document(scene, p, seeds, subphotons, CONSTANTS)
+    key = exact_key(document)
+    exact = load_exact(key, document)
+    reused = exact is not None
+    if exact is None:
+        exact = _exact_batches(scene, p, frames, replays, seeds, renderer, oracle, subphotons)
+        save_exact(key, document, exact)
+    approx = []
+    for frame, seed in zip(frames, seeds):
+        collided = np.concatenate([r[r["status"] == STATUS_COLLIDED] for r in frame.records])
+        sigma = record_sigma(collided, p)
+        splats = splats_from_arrays(collided["end"], collided["direction"], collided["power"], sigma)
+        approx.append(_subsets(renderer, scene, p, splats, collided["photon"], dataclasses.replace(p, seed=seed)))
+    return {"batches": {"approx": np.concatenate(approx), **exact["batches"]}, "alive": exact["alive"],
+            "small_radius": exact["small_radius"], "subphotons": subphotons, "exact_key": key,
+            "exact_reused": reused}
+
+
+def _subsets(renderer, scene, p, splats, photon, params, supersample: int = 1) -> np.ndarray:
+    return subset_images(renderer, splats, photon, p.photon_res, SUBSET_BATCHES, params, scene,
+                         supersample=supersample)
+
+
+def _exact_batches(scene, p, frames, replays, seeds, renderer, oracle, subphotons: int) -> dict:
+    """The E images of :func:`exact_images` (``exact_store.EXACT_IMAGES``), their alive
+    fractions per Fresnel mode and the small kernel, computed."""
+    out = {name: [] for name in EXACT_IMAGES}
     alive = {}
     small = dataclasses.replace(p, splat_radius=small_radius(scene, p))
-
-    def batches(photons_or_rows, params, supersample=1):
-        return subset_images(renderer, photons_or_rows[0], photons_or_rows[1], p.photon_res, SUBSET_BATCHES, params,
-                             scene, supersample=supersample)
-
     firsts = [frame.records[0] for frame in frames]
     same_all = _replayed(scene, p, p.fresnel, firsts, seeds, subphotons, oracle)
     everything_all = same_all
@@ -130,22 +158,17 @@ def exact_images(scene, p, frames, replays, seeds, renderer, oracle, subphotons:
         everything_all = _replayed(scene, p, "stochastic", firsts_sto, seeds, subphotons, oracle)
     for frame, replay, seed, same, everything in zip(frames, replays, seeds, same_all, everything_all):
         ps = dataclasses.replace(p, seed=seed)
-        first = frame.records[0]
         collided = np.concatenate([r[r["status"] == STATUS_COLLIDED] for r in frame.records])
-        sigma = record_sigma(collided, p)
-        out["approx"].append(batches((splats_from_arrays(collided["end"], collided["direction"], collided["power"],
-                                                         sigma), collided["photon"]), ps))
-        kernels = _paired_kernels(collided, sigma)
-        e_k = photons_from_records(replay, first, ps, steps=p.steps, fresnel=p.fresnel)
-        out["exact_steps"].append(batches((kernels(e_k), e_k.photon), ps))
-        out["exact_all_same"].append(batches((kernels(same), same.photon), ps))
-        out["exact_all"].append(batches((kernels(everything), everything.photon), ps))
-        out["exact_all_small"].append(batches((everything.splats, everything.photon),
-                                              dataclasses.replace(small, seed=seed), SMALL_SUPERSAMPLE))
+        kernels = _paired_kernels(collided, record_sigma(collided, p))
+        e_k = photons_from_records(replay, frame.records[0], ps, steps=p.steps, fresnel=p.fresnel)
+        for name, photons in (("exact_steps", e_k), ("exact_all_same", same), ("exact_all", everything)):
+            out[name].append(_subsets(renderer, scene, p, kernels(photons), photons.photon, ps))
+        out["exact_all_small"].append(_subsets(renderer, scene, p, everything.splats, everything.photon,
+                                               dataclasses.replace(small, seed=seed), SMALL_SUPERSAMPLE))
         for fresnel, photons in {p.fresnel: same, "stochastic": everything}.items():
             alive.setdefault(fresnel, []).append(photons.alive_fraction)
-    result = {name: np.concatenate(images) for name, images in out.items()}
-    return {"batches": result, "alive": alive, "small_radius": small.splat_radius, "subphotons": subphotons}
+    return {"batches": {name: np.concatenate(images) for name, images in out.items()}, "alive": alive,
+            "small_radius": small.splat_radius}
 
 
 def _replayed(scene, p, fresnel: str, firsts: list, seeds, subphotons: int, oracle) -> list:
