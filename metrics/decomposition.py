@@ -199,10 +199,14 @@ def decompose_caustic(batches: dict, reference, *, keep=None, reference_var=None
     if not (np.all(channel_energy > 0) and energy2 > 0):
         raise ValueError("reference caustic is zero over the compared pixels (in some channel): shares are undefined")
 
+    # Σ over the batches of every pixel (H×W×3), summed in batch order as a sum of the kept pixels
+    # alone would be: the kept pixels' sums and the images' means both come from it
+    full_sums = {name: s.sum(axis=0, dtype=np.float64) for name, s in stacks.items()}
     kept = {name: s[:, keep] for name, s in stacks.items()}  # K×N×3, as given (float32 or float64)
-    sums = {name: s.sum(axis=0, dtype=np.float64) for name, s in kept.items()}
+    sums = {name: s[keep] for name, s in full_sums.items()}
     small = kept["exact_all_small"]
     small_squares = np.square(small, dtype=np.float64).sum(axis=0)
+    reference_noise = float(rv.sum())
 
     def numbers(means):
         """Every reported number for one set of mean images (N×3 kept pixels)."""
@@ -210,10 +214,10 @@ def decompose_caustic(batches: dict, reference, *, keep=None, reference_var=None
         d = r - means["approx"]
         out = {}
         for name, (near, far) in list(TERMS.items()) + [("total", ("reference", "approx"))]:
-            t = full[near] - full[far]
+            t = d if name == "total" else full[near] - full[far]  # the total is R − A itself
             out[name] = (float(np.mean(t.sum(axis=0) / channel_energy)), float(np.sum(t * d)) / energy2,
                          float(np.sum(t * t)) / energy2)
-        out["debiased"] = (float(np.sum((r - means["exact_all_small"]) ** 2)) - float(rv.sum())
+        out["debiased"] = (float(np.sum((r - means["exact_all_small"]) ** 2)) - reference_noise
                            - means["_small_noise"]) / energy2
         return out
 
@@ -277,7 +281,7 @@ def decompose_caustic(batches: dict, reference, *, keep=None, reference_var=None
         f"exact images share with the approximation that no term names: its photons' emission directions (a "
         f"regular grid, whose aliasing a finer photon_res shrinks) and first interaction; the terms do not explain "
         f"the whole error (docs/decisions.md \"What the residual holds on the meshes\")")
-    images = {name: stacks[name].mean(axis=0, dtype=np.float64) for name in BATCHED}
+    images = {name: full_sums[name] / k for name in BATCHED}  # the batches' means (np.mean's own sum / k)
     images["reference"] = r_full
     options = {"z_limit": z_limit, "pixels": int(keep.sum()), "batches": k,
                "blur_sign": "exact_all_small - exact_all", "energy_share": "per channel, averaged over RGB",
