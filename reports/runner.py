@@ -162,6 +162,9 @@ def _tasks(points, store, settings, measurement, policy, *, views, progress, hin
         reference = references[size]
         document = {**key_document(scene, point.params, point.seeds, reference), **measurement.to_dict()}
         key = point_key(document)
+        if not measurement.decomposition:  # a full point (the report's) holds all a lean one would
+            full = point_key({**document, "decomposition": True})
+            key = full if store.status(full, views=views) == "done" else key
         keys.append(key)
         if store.status(key, views=views) == "done":
             continue
@@ -218,9 +221,10 @@ def run_point(task: dict, *, progress: bool = False, reference=None) -> dict:
                                f"({cache_dir('reference')}): the workers need the run's cache (VOLCAUSTICS_CACHE "
                                f"on a shared file system)")
         renderer, oracle = _tools(scene)
+        settings = MeasurementSettings(**task["measurement"])
         experiment = run_experiment(scene, ApproxParams(**task["params"]), seeds=task["seeds"], reference=reference,
                                     renderer=renderer, oracle=oracle, progress=progress, fields=dict(fields),
-                                    subphotons=MeasurementSettings(**task["measurement"]).exact_subphotons)
+                                    subphotons=settings.exact_subphotons, decomposition=settings.decomposition)
         status = store.write_point(task["key"], task["key_document"], experiment, views=task["views"])
         return {"key": task["key"], "status": status, "seconds": time.perf_counter() - t0}
 

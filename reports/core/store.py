@@ -245,7 +245,7 @@ def point_row(key: str, summary: dict) -> dict:
     """The headline numbers of one point: parameters, frame time, errors (POINT_COLUMNS)."""
     images = summary.get("images", {})
     caustic, combined = images.get("caustic", {}), images.get("combined", {})
-    decomposition = {r["term"]: r for r in summary.get("decomposition", {}).get("rows", [])}
+    decomposition = {r["term"]: r for r in (summary.get("decomposition") or {}).get("rows", [])}
     timings = summary.get("approx_timings_s", {})
     row = {"point": key, "scene": summary["scene"], "scene_hash": summary["scene_hash"],
            "optical_depth": summary.get("optical_depth"), **summary["params"],
@@ -273,7 +273,7 @@ def point_row(key: str, summary: dict) -> dict:
     row["intersection_relmse_part_se"] = intersection.get("relmse_part_se")
     # the intersection estimate's own error: Σ(E_k − A)² / Σ R², what layers and iterations change
     row["intersection_relmse_own"] = decomposition.get("intersection", {}).get("relmse_own")
-    row["residual_within_noise"] = summary.get("decomposition", {}).get("residual", {}).get("within_noise")
+    row["residual_within_noise"] = (summary.get("decomposition") or {}).get("residual", {}).get("within_noise")
     # the single-scattering model's own error against K orders (none: the reference has one)
     model = (summary.get("model") or {}).get("components", {})
     for name in ("caustic", "combined"):

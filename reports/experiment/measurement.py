@@ -12,6 +12,12 @@ exact_subphotons   16       1–64    exact replays of each emission texel in th
                                     "Sub-photons"); the test suite measures most
                                     points with 1 for its time
 =================  =======  ======  ===================================================
+
+Beside the table, ``decomposition`` (default true): whether a point replays the exact
+photons and decomposes the caustic's error. The gate sets it false, since no budget
+reads a decomposition term (``reports.gate.budgets``): a gate point skips the exact
+replay, and its key says so. A full point (the report's) still serves the gate
+(``reports.runner``: a superset).
 """
 
 from __future__ import annotations
@@ -35,6 +41,7 @@ class MeasurementSettings:
     """How a point is measured (module docstring); validated when made (ParamError)."""
 
     exact_subphotons: int = EXACT_SUBPHOTONS
+    decomposition: bool = True   # the exact replay and the error decomposition (module docstring)
 
     def __post_init__(self):
         for name, (check, _) in MEASUREMENT_TABLE.items():

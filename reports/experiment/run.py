@@ -70,7 +70,7 @@ class Experiment:
 
 def run_experiment(scene, params, *, seeds: int = 1, reference_settings=None, progress: bool = False,
                    renderer=None, oracle=None, reference=None, fields: dict | None = None,
-                   subphotons: int | None = None) -> Experiment:
+                   subphotons: int | None = None, decomposition: bool = True) -> Experiment:
     """Measure the approximation with ``params`` on ``scene`` against its reference.
 
     Parameters
@@ -115,8 +115,10 @@ def run_experiment(scene, params, *, seeds: int = 1, reference_settings=None, pr
             replays = [replay(scene, p, f, s, oracle) for f, s in zip(frames, seed_list)]
             photons, divergence = photon_rows(frames, replays, columns)
         bar.update()
-        with clock.stage("exact_images"):
-            exact = exact_images(scene, p, frames, replays, seed_list, renderer, oracle, subphotons)
+        exact = None
+        if decomposition:
+            with clock.stage("exact_images"):
+                exact = exact_images(scene, p, frames, replays, seed_list, renderer, oracle, subphotons)
         bar.update()
     finally:
         if own_renderer:
@@ -124,8 +126,8 @@ def run_experiment(scene, params, *, seeds: int = 1, reference_settings=None, pr
     with clock.stage("metrics"):
         keep, maps = keep_mask(reference, frames), {}
         images, headline = image_rows(frames, reference, keep, columns, maps)
-        decomposition = _decomposed(scene, exact, reference, keep)
-        images += decomposition_rows(decomposition, columns)
+        decomposition = None if exact is None else _decomposed(scene, exact, reference, keep)
+        images += [] if decomposition is None else decomposition_rows(decomposition, columns)
         model, model_summary = model_rows(frames, reference, keep, columns)
         images += model
     bar.update()
@@ -134,8 +136,10 @@ def run_experiment(scene, params, *, seeds: int = 1, reference_settings=None, pr
     summary = experiment_summary(scene, p, seed_list, reference, frames, exact, headline, decomposition, divergence,
                                  clock.seconds, keep, timed, model_summary)
     summary["scene_fields"] = dict(fields or {})
-    layers = {name: np.asarray(img, np.float32) for name, img in decomposition["images"].items()}
-    layers.update({f"term.{name}": np.asarray(img, np.float32) for name, img in decomposition["terms"].items()})
+    layers = {}
+    if decomposition is not None:
+        layers = {name: np.asarray(img, np.float32) for name, img in decomposition["images"].items()}
+        layers.update({f"term.{name}": np.asarray(img, np.float32) for name, img in decomposition["terms"].items()})
     return Experiment(segments=segments, photons=photons, images=images, summary=summary, layers=layers,
                       views=experiment_views(frames, reference, keep, layers, maps))
 

@@ -57,7 +57,8 @@ def experiment_views(frames, reference, keep, layers, maps) -> dict:
     for component in COLOUR_LAYERS:
         out[f"approx.{component}"] = np.mean([f.images[component] for f in frames], axis=0)
         out[f"reference.{component}"] = reference.mean[component]
-    out["exact_steps"] = layers["exact_steps"]
+    if "exact_steps" in layers:  # not measured without the decomposition (the gate's points)
+        out["exact_steps"] = layers["exact_steps"]
     for (metric, component), image in maps.items():
         out[f"map.{metric}.{component}"] = image
     out["compared"] = keep
@@ -76,11 +77,11 @@ def reference_summary(reference) -> dict:
 
 def experiment_summary(scene, p, seeds, reference, frames, exact, headline, decomposition, divergence, clock, keep,
                        timed, model=None) -> dict:
-    alive = {k: float(max(v)) for k, v in exact["alive"].items()}
+    alive = {} if exact is None else {k: float(max(v)) for k, v in exact["alive"].items()}
     warnings = [f"E_inf ({k} Fresnel) keeps {100 * v:.2f}% of the power alive after {EXACT_STEPS} steps "
                 f"(> {100 * ALIVE_BUDGET:.1f}%): the truncation term is understated" for k, v in alive.items()
                 if v > ALIVE_BUDGET]
-    if not decomposition["residual"]["within_noise"]:
+    if decomposition is not None and not decomposition["residual"]["within_noise"]:
         warnings.append(decomposition["residual"]["message"])
     if model is not None and not model["converged"]:
         missing = ", ".join(c for c, n in model["orders_needed"].items() if n is None)
@@ -96,14 +97,15 @@ def experiment_summary(scene, p, seeds, reference, frames, exact, headline, deco
         "optical_depth": optical_depth(scene),
         "description": scene.description, "params": p.to_dict(), "seeds": len(seeds), "seed_values": seeds,
         "reference": reference_summary(reference),
-        "exact": {"steps": EXACT_STEPS, "alive_after": alive, "small_splat_radius": exact["small_radius"],
-                  "small_supersample": SMALL_SUPERSAMPLE, "subphotons": exact["subphotons"],
-                  "batches": int(len(exact["batches"]["approx"])), "images_key": exact["exact_key"],
-                  "images_reused": exact["exact_reused"]},
+        "exact": None if exact is None else {
+            "steps": EXACT_STEPS, "alive_after": alive, "small_splat_radius": exact["small_radius"],
+            "small_supersample": SMALL_SUPERSAMPLE, "subphotons": exact["subphotons"],
+            "batches": int(len(exact["batches"]["approx"])), "images_key": exact["exact_key"],
+            "images_reused": exact["exact_reused"]},
         "compared_pixels": int(keep.sum()),
         "images": headline,
-        "decomposition": {"rows": decomposition["rows"], "residual": decomposition["residual"],
-                          "options": decomposition["options"]},
+        "decomposition": None if decomposition is None else {
+            "rows": decomposition["rows"], "residual": decomposition["residual"], "options": decomposition["options"]},
         "model": model,
         "paths": divergence,
         "map_reads": map_reads(frames), "cost": frame_costs(frames, p),
