@@ -23,6 +23,7 @@ import hashlib
 import json
 import math
 import os
+from functools import lru_cache
 
 import numpy as np
 
@@ -157,14 +158,23 @@ def _ci(interval) -> dict:
     return {"ci_low": interval[0] if interval else NAN, "ci_high": interval[1] if interval else NAN, "level": LEVEL}
 
 
+@lru_cache(maxsize=None)
+def floor_code_version() -> str:
+    """The code a floor depends on: ``metrics`` and this module. Not the renderers' (a
+    floor is the reference against its own noisy copy), so a change to a shader or the
+    exact replay keeps every floor."""
+    with open(__file__, "rb") as fh:
+        return code_version(("metrics",)) + hashlib.sha256(fh.read()).hexdigest()[:16]
+
+
 def metric_floor(metric, reference_key, component, keep, r, rv, compute, *, frames=None) -> float:
     """A non-quadratic metric's value for the reference against its noisy copy
     (``metrics.noise.noisy_copy``, the mean over FLOOR_DRAWS draws), cached in-process
-    and on disk per (reference, component, metric, compared pixels, code version); a
-    damaged file on disk is recomputed (:func:`_cached_floor`). ``compute(r, copy)``
+    and on disk per (reference, component, metric, compared pixels, :func:`floor_code_version`);
+    a damaged file on disk is recomputed (:func:`_cached_floor`). ``compute(r, copy)``
     gives one draw's value; ``frames(r, copies)``, when given, every draw's at once."""
-    ident = hashlib.sha256(f"{reference_key}/{component}/{metric}/{FLOOR_SEED}/{FLOOR_DRAWS}/{code_version()}/"
-                           .encode() + np.packbits(keep).tobytes()).hexdigest()[:24]
+    ident = hashlib.sha256(f"{reference_key}/{component}/{metric}/{FLOOR_SEED}/{FLOOR_DRAWS}/"
+                           f"{floor_code_version()}/".encode() + np.packbits(keep).tobytes()).hexdigest()[:24]
     if ident in _FLOORS:
         return _FLOORS[ident]
     value = _cached_floor(os.path.join(cache_path("metric-floors"), ident + ".json"), ident)

@@ -94,3 +94,31 @@ def test_an_edited_point_summary_counts_as_damaged(tmp_path, damage):
     assert store.write_point(key, {"format": 1}, _Experiment(0.5)) == "written"  # the damaged copy is replaced
     assert store.status(key) == "done"
 
+
+
+def test_a_metric_floor_outlives_a_change_to_the_renderers(tmp_path, monkeypatch):
+    """A floor is the reference against its own noisy copy: its key holds the metrics'
+    code (metrics/ and reports/experiment/images.py), not the renderers', so the floors
+    cached before a shader or exact-replay change still serve; a change to the metrics
+    computes them again."""
+    monkeypatch.setenv("VOLCAUSTICS_CACHE", str(tmp_path))
+    r = np.random.default_rng(2).uniform(0.1, 1.0, (12, 16, 3)).astype(np.float32)
+    rv, keep = 1e-2 * r, np.ones((12, 16), bool)
+    monkeypatch.setattr(images, "_FLOORS", {})
+    first = _floor(keep, r, rv)
+    real = images.code_version
+
+    def floor_with(changed):  # a later process in which the code of ``changed`` differs
+        monkeypatch.setattr(images, "_FLOORS", {})
+        monkeypatch.setattr(images, "code_version", lambda folders: real(folders) if folders != changed else "new")
+        images.floor_code_version.cache_clear()
+        computed = []
+        value = images.metric_floor("per_pixel_relative_mse", "k" * 32, "caustic", keep, r, rv,
+                                    lambda x, y: computed.append(1) or 0.5)
+        return value, computed
+
+    try:
+        assert floor_with(("approx", "reference")) == (first, [])
+        assert floor_with(("metrics",)) == (0.5, [1] * images.FLOOR_DRAWS)
+    finally:
+        images.floor_code_version.cache_clear()
