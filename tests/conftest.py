@@ -1,5 +1,11 @@
-"""Shared fixtures: the one GL context (checked for GL errors around every test)
-and scene-file helpers. Importing ``reference`` first picks libLLVM for Dr.Jit."""
+"""Shared fixtures: the one GL context (checked for GL errors around every test), the
+Mitsuba variant, the caches (one folder of small references per run) and scene-file
+helpers. Importing ``reference`` first picks libLLVM for Dr.Jit.
+
+What a test measures is chosen in the open, by its arguments: ``--exact-subphotons 1``
+(or ``MeasurementSettings(exact_subphotons=1)``, a ``[measurement]`` table) where it
+wants speed, ``--max-scatter 1`` (``max_scatter = 1``) unless the model term is under
+test; the environment only says where things live."""
 
 from __future__ import annotations
 
@@ -8,11 +14,75 @@ import textwrap
 
 import pytest
 
-# One exact replay per emission texel in the decomposition's E_∞ images (the report's 16
-# cost the suite 10 minutes); the tests of the sub-photons set their own.
-os.environ.setdefault("VOLCAUSTICS_EXACT_SUBPHOTONS", "1")
-
 import volcaustics.reference  # noqa: F401  (chooses DRJIT_LIBLLVM_PATH before anything imports drjit)
+
+FAST_MEASUREMENT = ["--exact-subphotons", "1"]  # one exact replay per emission texel (the report's 16: its own tests)
+SINGLE_SCATTERING = ["--max-scatter", "1"]      # no orders stream (the report's 8: the model term's tests)
+# a sweep's small image, reference and measurement (tests/reports/test_sweep.py, test_best.py, test_report.py):
+# tiny points, 32², photon_res 64, light_res 64; a single-scattering reference of 4 batches; one exact replay
+SWEEP_TABLES = """[set]
+width = 32
+height = 32
+photon_res = 64
+light_res = 64
+[reference]
+photons = 65536
+spp = 8
+batches = 4
+target_noise = "none"
+max_scatter = 1
+[measurement]
+exact_subphotons = 1
+"""
+SWEEP_SPEC = """
+scenes = ["refocus"]
+seeds = 1
+[vary]
+layers = [1, 2]
+iterations = [4, 8]
+""" + SWEEP_TABLES
+
+
+@pytest.fixture(scope="session", autouse=True)
+def mitsuba_variant():
+    """The reference renders on llvm_ad_rgb directly (no variant probing) unless the
+    environment says otherwise; tests of the probing unset it themselves."""
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv("VOLCAUSTICS_MI_VARIANT", os.environ.get("VOLCAUSTICS_MI_VARIANT") or "llvm_ad_rgb")
+        yield
+
+
+@pytest.fixture(scope="session")
+def shared_references(tmp_path_factory):
+    """The run's one folder of small references: each is rendered once per run and
+    served to every test that renders through :func:`cache`."""
+    folder = tmp_path_factory.mktemp("shared-cache") / "reference"
+    folder.mkdir()
+    return folder
+
+
+@pytest.fixture
+def empty_cache(tmp_path, monkeypatch):
+    """A private, empty ``$VOLCAUSTICS_CACHE`` (not created): for tests of what a
+    command leaves in the cache (nothing rendered, a damaged or missing entry)."""
+    root = tmp_path / "cache"
+    monkeypatch.setenv("VOLCAUSTICS_CACHE", str(root))
+    return root
+
+
+def with_shared_references(root, shared_references):
+    """``root`` made a cache folder whose ``reference/`` is the run's shared one (for a
+    module-scoped fixture's own cache); returns ``root``."""
+    root.mkdir(parents=True, exist_ok=True)
+    (root / "reference").symlink_to(shared_references, target_is_directory=True)
+    return root
+
+
+@pytest.fixture
+def cache(empty_cache, shared_references):
+    """A private ``$VOLCAUSTICS_CACHE`` (result stores, meshes, metric floors) whose
+    ``reference/`` folder is the run's shared one (:func:`shared_references`)."""
+    return with_shared_references(empty_cache, shared_references)
 
 
 @pytest.fixture(scope="session")

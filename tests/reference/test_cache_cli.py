@@ -20,13 +20,7 @@ from volcaustics.scenes.imageio import read_exr
 SMALL = ["--width", "24", "--height", "24", "--photons", "200000", "--spp", "16", "--batches", "4"]
 
 
-@pytest.fixture
-def private_cache(tmp_path, monkeypatch):
-    monkeypatch.setenv("VOLCAUSTICS_CACHE", str(tmp_path / "cache"))
-    return tmp_path / "cache"
-
-
-def test_reference_cli_renders_then_serves_from_cache(tmp_path, private_cache, capsys):
+def test_reference_cli_renders_then_serves_from_cache(tmp_path, empty_cache, capsys):
     out = tmp_path / "r.exr"
     assert main(["reference", "refocus", *SMALL, "-o", str(out)]) == 0
     first = json.loads((tmp_path / "r.json").read_text())
@@ -42,7 +36,7 @@ def test_reference_cli_renders_then_serves_from_cache(tmp_path, private_cache, c
     assert all(np.array_equal(layers[k], again[k]) for k in layers)
 
 
-def test_an_entry_continued_by_another_process_while_copied_out_is_served_anew(tmp_path, private_cache,
+def test_an_entry_continued_by_another_process_while_copied_out_is_served_anew(tmp_path, empty_cache,
                                                                               monkeypatch):
     """Another process continued the entry between the lookup and the copy (its files
     replaced by the continuation's): ``reference -o`` failed with FileNotFoundError on a
@@ -68,7 +62,7 @@ def test_an_entry_continued_by_another_process_while_copied_out_is_served_anew(t
     assert summary["batches"] == 3 and summary["exr_sha256"] == raced[0].manifest["exr_sha256"]
 
 
-def test_truncated_cache_entry_is_rerendered(private_cache):
+def test_truncated_cache_entry_is_rerendered(empty_cache):
     scene = load_builtin("refocus")
     settings = ReferenceSettings(photons=100000, spp=8, batches=2, width=16, height=16)
     first = render_reference(scene, settings, progress=False)
@@ -138,7 +132,7 @@ def test_image_size_has_one_place_in_the_key():
     assert cache.cache_key(scene, unsized) != cache.cache_key(scene, settings)  # 512² is another render
 
 
-def test_a_cache_hit_needs_no_variant_probe(private_cache, monkeypatch):
+def test_a_cache_hit_needs_no_variant_probe(empty_cache, monkeypatch):
     """Without VOLCAUSTICS_MI_VARIANT a cached reference of any preferred variant is
     served (its manifest says which), so a hit never probes variants or imports Mitsuba
     in a fresh process (both cost seconds on a cold machine)."""

@@ -22,18 +22,12 @@ from volcaustics.scenes.storage import document_sha256, file_sha256
 SETTINGS = ReferenceSettings(photons=100000, spp=8, batches=2, width=16, height=12)
 
 
-@pytest.fixture
-def private_cache(tmp_path, monkeypatch):
-    monkeypatch.setenv("VOLCAUSTICS_CACHE", str(tmp_path / "cache"))
-    return tmp_path / "cache"
-
-
-def _manifest_path(private_cache, key: str) -> Path:
-    return private_cache / "reference" / f"{key}.json"
+def _manifest_path(empty_cache, key: str) -> Path:
+    return empty_cache / "reference" / f"{key}.json"
 
 
 @pytest.mark.parametrize("damage", ["another scene's mesh", "truncated", "garbage"])
-def test_a_damaged_mitsuba_mesh_is_rewritten_never_rendered(private_cache, damage):
+def test_a_damaged_mitsuba_mesh_is_rewritten_never_rendered(empty_cache, damage):
     """The PLY files Mitsuba reads are named by content hash; one whose bytes are not
     that content (another scene's glass swapped in, a truncated or garbage file) is
     rewritten before Mitsuba reads it: `--force` renders the right glass (before: the
@@ -41,7 +35,7 @@ def test_a_damaged_mitsuba_mesh_is_rewritten_never_rendered(private_cache, damag
     scene = load_builtin("refocus")
     first = render_reference(scene, SETTINGS, progress=False)
     other = next(iter(resolve(load_builtin("two_spheres"), SETTINGS).description.meshes.values()))
-    plys = sorted((private_cache / "mitsuba-meshes").glob("*.ply"))
+    plys = sorted((empty_cache / "mitsuba-meshes").glob("*.ply"))
     assert plys
     for ply in plys:
         data = ply.read_bytes()
@@ -55,12 +49,12 @@ def test_a_damaged_mitsuba_mesh_is_rewritten_never_rendered(private_cache, damag
     assert {file_sha256(str(p))[:32] for p in plys} == {digest[:32] for digest in meshes}
 
 
-def _rewrite_entry(private_cache, result, edit) -> None:
+def _rewrite_entry(empty_cache, result, edit) -> None:
     """Apply ``edit`` (layers → layers) to the entry's EXR and make its manifest match
     the new bytes: damage the hash cannot see (a bad write upstream, a copied entry)."""
     layers, _ = read_exr(result.exr_path)
     write_exr(result.exr_path, edit(layers))
-    path = _manifest_path(private_cache, result.key)
+    path = _manifest_path(empty_cache, result.key)
     manifest = json.loads(path.read_text())
     manifest["exr_sha256"] = file_sha256(result.exr_path)
     path.write_text(json.dumps(_resealed(manifest)))
@@ -91,13 +85,13 @@ def _layer_missing(layers):
 
 
 @pytest.mark.parametrize("edit", [_nan_pixel, _inf_variance, _negative_variance, _wrong_size, _layer_missing])
-def test_an_entry_with_bad_layers_is_rerendered_never_served(private_cache, edit):
+def test_an_entry_with_bad_layers_is_rerendered_never_served(empty_cache, edit):
     """An entry whose EXR matches its manifest's hash but holds a non-finite value, a
     negative variance, another image size or too few layers is re-rendered (before: it
     was served as ground truth)."""
     scene = load_builtin("refocus")
     first = render_reference(scene, SETTINGS, progress=False)
-    _rewrite_entry(private_cache, first, edit)
+    _rewrite_entry(empty_cache, first, edit)
     assert cache.existing_reference(scene, SETTINGS) is None
     again = render_reference(scene, SETTINGS, progress=False)
     assert not again.cached
@@ -106,13 +100,13 @@ def test_an_entry_with_bad_layers_is_rerendered_never_served(private_cache, edit
 
 
 @pytest.mark.parametrize("damage", ["garbage", "truncated", "another entry's state", "another size, hash matching"])
-def test_a_damaged_batch_state_restarts_the_render(private_cache, damage):
+def test_a_damaged_batch_state_restarts_the_render(empty_cache, damage):
     """A continued entry whose batch state does not match its manifest, or is not a
     state of its image (another size: before, adding a batch to it raised), is
     rendered afresh (the state is never added to)."""
     scene = load_builtin("refocus")
     first = render_reference(scene, SETTINGS, progress=False)
-    states = sorted((private_cache / "reference").glob("*.npz"))
+    states = sorted((empty_cache / "reference").glob("*.npz"))
     assert len(states) == 1
     if damage == "garbage":
         states[0].write_bytes(b"PK\x03\x04 garbage")
@@ -122,10 +116,10 @@ def test_a_damaged_batch_state_restarts_the_render(private_cache, damage):
         size = {"width": 8, "height": 6} if damage.startswith("another size") else {"width": 16, "height": 12}
         other = render_reference(scene, ReferenceSettings(photons=100000, spp=8, batches=2, seed=7, **size),
                                  progress=False)
-        other_state = [p for p in (private_cache / "reference").glob("*.npz") if other.key in p.name]
+        other_state = [p for p in (empty_cache / "reference").glob("*.npz") if other.key in p.name]
         states[0].write_bytes(other_state[0].read_bytes())
         if damage.startswith("another size"):  # a manifest that agrees: damage its hash cannot see
-            path = _manifest_path(private_cache, first.key)
+            path = _manifest_path(empty_cache, first.key)
             path.write_text(json.dumps(_resealed({**json.loads(path.read_text()),
                                                   "state_sha256": file_sha256(str(states[0]))})))
     more = render_reference(scene, ReferenceSettings(photons=150000, spp=12, batches=3, width=16, height=12),
@@ -135,14 +129,14 @@ def test_a_damaged_batch_state_restarts_the_render(private_cache, damage):
 
 
 @pytest.mark.parametrize("writer", ["atomic_write_bytes", "atomic_write_text"])
-def test_an_interrupted_continuation_keeps_the_entry_it_continued(private_cache, monkeypatch, writer):
+def test_an_interrupted_continuation_keeps_the_entry_it_continued(empty_cache, monkeypatch, writer):
     """Ctrl-C while a continued entry is written (as its PNG is written, after the EXR;
     as its manifest is written, the latest moment) leaves the old entry valid, with its
     render time and batch state, and no stray files (before: its EXR was already
     overwritten, so the entry was damaged and its render time lost)."""
     scene = load_builtin("refocus")
     first = render_reference(scene, SETTINGS, progress=False)
-    folder = private_cache / "reference"
+    folder = empty_cache / "reference"
     before = sorted(os.listdir(folder))
 
     def interrupted(*args, **kwargs):
@@ -168,7 +162,7 @@ def test_an_interrupted_continuation_keeps_the_entry_it_continued(private_cache,
     assert render_reference(scene, more, progress=False).cached
 
 
-def test_files_a_killed_writer_left_go_with_the_next_write(private_cache):
+def test_files_a_killed_writer_left_go_with_the_next_write(empty_cache):
     """SIGKILL between an entry's data files and its manifest runs no ``finally``: its
     new files stayed for ever. The next write removes those of a process that is gone
     and that no manifest names; a running writer's files and the entry's own stay."""
@@ -179,7 +173,7 @@ def test_files_a_killed_writer_left_go_with_the_next_write(private_cache):
 
     scene = load_builtin("refocus")
     first = render_reference(scene, SETTINGS, progress=False)
-    folder = private_cache / "reference"
+    folder = empty_cache / "reference"
     dead = subprocess.Popen([sys.executable, "-c", "pass"])
     dead.wait()
     host = owner().rsplit("-", 1)[0]
@@ -204,13 +198,13 @@ def _resealed(doc: dict) -> dict:
 
 @pytest.mark.parametrize("edit", [{"noise_floor": {"caustic": 1e-9, "fog": 1e-9, "direct": 1e-9, "combined": 1e-9}},
                                   {"batches": 1000, "photons": 10**9}])
-def test_a_manifest_with_numbers_edited_is_a_damaged_entry(private_cache, edit):
+def test_a_manifest_with_numbers_edited_is_a_damaged_entry(empty_cache, edit):
     """The manifest's numbers were not verified: floors edited to 1e-9 were served as
     meeting a 0.01% noise target, and 1000 batches were reported (hostile pass). The
     manifest carries the SHA-256 of itself: an edited one is re-rendered."""
     scene = load_builtin("refocus")
     first = render_reference(scene, SETTINGS, progress=False)
-    path = _manifest_path(private_cache, first.key)
+    path = _manifest_path(empty_cache, first.key)
     path.write_text(json.dumps({**json.loads(path.read_text()), **edit}))
     assert cache.cached_reference(first.key, scene) is None
     again = render_reference(scene, SETTINGS, progress=False)
@@ -221,16 +215,16 @@ def test_a_manifest_with_numbers_edited_is_a_damaged_entry(private_cache, edit):
                                   {"settings": 5}, {"settings": {"width": 8, "height": 6}}, {"exr_sha256": None},
                                   {"batches": "2"}, {"noise_floor": [0.1]}, {"noise_floor": {"caustic": float("nan")}},
                                   {"wall_seconds": None}])
-def test_a_manifest_of_the_wrong_shape_is_a_damaged_entry(private_cache, edit):
+def test_a_manifest_of_the_wrong_shape_is_a_damaged_entry(empty_cache, edit):
     """A manifest whose fields are not what the cache writes (files not a table of this
     entry's own file names, settings not a table of its size, counts, floors or seconds
     not numbers) is a damaged entry: re-rendered, never a crash (before: a list of
     floors raised), and never a reason to read or remove a file outside the entry."""
     scene = load_builtin("refocus")
     first = render_reference(scene, SETTINGS, progress=False)
-    path = _manifest_path(private_cache, first.key)
+    path = _manifest_path(empty_cache, first.key)
     path.write_text(json.dumps(_resealed({**json.loads(path.read_text()), **edit})))  # the type checks, not the seal
-    outside = private_cache / "elsewhere.exr"
+    outside = empty_cache / "elsewhere.exr"
     outside.write_bytes(b"not the cache's")
     assert cache.cached_reference(first.key, scene) is None
     assert not render_reference(scene, SETTINGS, progress=False).cached

@@ -22,12 +22,6 @@ BASE = ReferenceSettings(photons=1 << 16, spp=16, batches=4, width=32, height=32
 
 
 @pytest.fixture
-def private_cache(tmp_path, monkeypatch):
-    monkeypatch.setenv("VOLCAUSTICS_CACHE", str(tmp_path / "cache"))
-    return tmp_path / "cache"
-
-
-@pytest.fixture
 def rendered_batches(monkeypatch):
     """(stream, batch) of every batch rendered, in order."""
     seen = []
@@ -46,7 +40,7 @@ def _floors_from_images(result) -> dict:
     return {name: noise_floor(result.mean[name], result.var[name], mask=keep) for name in ("caustic", "fog", "direct")}
 
 
-def test_target_noise_renders_until_every_floor_is_met(private_cache):
+def test_target_noise_renders_until_every_floor_is_met(empty_cache):
     scene = load_builtin("refocus")
     target = {"caustic": 0.01, "fog": 0.004, "direct": 0.05}
     result = render_reference(scene, dataclasses.replace(BASE, target_noise=target), progress=False)
@@ -62,7 +56,7 @@ def test_target_noise_renders_until_every_floor_is_met(private_cache):
     assert m["camera_batches"] > BASE.batches
 
 
-def test_caps_stop_a_target_that_cannot_be_met(private_cache):
+def test_caps_stop_a_target_that_cannot_be_met(empty_cache):
     scene = load_builtin("refocus")
     unreachable = dataclasses.replace(BASE, target_noise="caustic=1e-7")
     capped = render_reference(scene, dataclasses.replace(unreachable, max_photons=6 * (1 << 14)), progress=False)
@@ -75,7 +69,7 @@ def test_caps_stop_a_target_that_cannot_be_met(private_cache):
     assert timed.manifest["noise_floor"]["caustic"] > 1e-7
 
 
-def test_cached_entry_is_continued_not_rerendered(private_cache, rendered_batches):
+def test_cached_entry_is_continued_not_rerendered(empty_cache, rendered_batches):
     """An entry with fewer batches (or a higher floor) than asked is continued: only the
     missing batches render, and the result is that of rendering them all at once."""
     scene = load_builtin("bunny")
@@ -111,7 +105,7 @@ def _assert_float32_atomics_only(a, b):
     assert np.all(np.abs(a - b) <= 1e-5 * np.maximum(np.abs(a), np.abs(b)))
 
 
-def test_same_seed_same_reference_different_seed_another(private_cache):
+def test_same_seed_same_reference_different_seed_another(empty_cache):
     scene = load_builtin("bunny")
     a = render_batches(scene, BASE, progress=False)
     b = render_batches(scene, BASE, progress=False)
@@ -123,7 +117,7 @@ def test_same_seed_same_reference_different_seed_another(private_cache):
     assert np.abs(a["caustic"][0] - c["caustic"][0]).max() > 1e-3 * a["caustic"][0].max()
 
 
-def test_target_noise_settings_and_cli(tmp_path, private_cache, capsys):
+def test_target_noise_settings_and_cli(tmp_path, empty_cache, capsys):
     assert ReferenceSettings(target_noise=0.01).targets() == {"caustic": 0.01, "fog": 0.01, "direct": 0.01}
     assert ReferenceSettings(target_noise="caustic=0.005,direct=0.002").targets() == {"caustic": 0.005,
                                                                                      "direct": 0.002}

@@ -19,13 +19,7 @@ from volcaustics.scenes.formats import MODEL_LAYERS
 BASE = ReferenceSettings(photons=1 << 16, spp=16, batches=4, width=32, height=32, target_noise=None)
 
 
-@pytest.fixture
-def private_cache(tmp_path, monkeypatch):
-    monkeypatch.setenv("VOLCAUSTICS_CACHE", str(tmp_path / "cache"))
-    return tmp_path / "cache"
-
-
-def test_k_orders_add_the_model_layers_and_keep_the_single_scattering_ones(private_cache):
+def test_k_orders_add_the_model_layers_and_keep_the_single_scattering_ones(empty_cache):
     scene = load_builtin("refocus")
     single = render_reference(scene, BASE, progress=False)
     multiple = render_reference(scene, dataclasses.replace(BASE, max_scatter=3), progress=False)
@@ -51,7 +45,7 @@ def test_k_orders_add_the_model_layers_and_keep_the_single_scattering_ones(priva
         assert rule["orders_needed"] in (None, 0, 1, 2)
 
 
-def test_the_noise_target_covers_the_model_term(private_cache):
+def test_the_noise_target_covers_the_model_term(empty_cache):
     scene = load_builtin("refocus")
     loose = render_reference(scene, dataclasses.replace(BASE, max_scatter=2), progress=False)
     target = loose.manifest["noise_floor"]["fog_ms"] / 3
@@ -63,7 +57,7 @@ def test_the_noise_target_covers_the_model_term(private_cache):
     assert m["orders_batches"] > 4 and m["batches"] == 4 and m["camera_batches"] == 4  # only that stream grew
 
 
-def test_an_entry_without_its_model_layers_is_not_served(private_cache):
+def test_an_entry_without_its_model_layers_is_not_served(empty_cache):
     scene = load_builtin("refocus")
     settings = dataclasses.replace(BASE, max_scatter=2)
     first = render_reference(scene, settings, progress=False)

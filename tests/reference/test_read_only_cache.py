@@ -12,10 +12,12 @@ import time
 
 import pytest
 
+from tests.conftest import FAST_MEASUREMENT, SINGLE_SCATTERING
 from volcaustics.reports.cli import main
 
 TINY = ["--photons", "20000", "--spp", "2", "--batches", "2", "--height", "12"]
-MEASURE = ["--photon-res", "8", "--light-res", "16", "--seeds", "1", "--quiet", "--target-noise", "none"]
+MEASURE = ["--photon-res", "8", "--light-res", "16", "--seeds", "1", "--quiet", "--target-noise", "none",
+           *SINGLE_SCATTERING, *FAST_MEASUREMENT]
 
 
 def _read_only_run(argv, env):
@@ -40,7 +42,6 @@ def _make_read_only(folder):
 def test_a_read_only_cache_serves_its_entries_and_refuses_only_a_write(tmp_path, monkeypatch, capsys):
     cache = tmp_path / "cache"
     monkeypatch.setenv("VOLCAUSTICS_CACHE", str(cache))
-    monkeypatch.setenv("VOLCAUSTICS_MI_VARIANT", "llvm_ad_rgb")
     assert main(["reference", "sphere1", "-o", str(tmp_path / "r.exr"), "--width", "16", *TINY]) == 0
     assert main(["measure", "sphere1", "-o", str(tmp_path / "m"), "--width", "16", *TINY, *MEASURE]) == 0
     capsys.readouterr()

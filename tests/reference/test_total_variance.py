@@ -113,13 +113,12 @@ def test_groups_are_independent_estimates_that_continue_batch_by_batch():
         BatchStats.from_arrays(("x",), first.arrays("s"), "s", groups=4)
 
 
-def test_a_cached_reference_gives_its_caustic_groups(tmp_path, monkeypatch):
+def test_a_cached_reference_gives_its_caustic_groups(tmp_path, empty_cache):
     """A reference from the cache reads its groups from its batch state: 8 groups of one
     batch each at 8 batches whose mean is the caustic layer (float32 of the float64
     mean); with 4 batches there are none (None: the metrics take pixels as independent)."""
     from volcaustics.reference.render import render_reference
 
-    monkeypatch.setenv("VOLCAUSTICS_CACHE", str(tmp_path / "cache"))
     scene = load_builtin("sphere1")
     few = render_reference(scene, ReferenceSettings(photons=1 << 15, spp=8, batches=4, width=32, height=32),
                            progress=False)

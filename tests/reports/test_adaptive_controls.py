@@ -20,15 +20,8 @@ REFERENCE = ReferenceSettings(photons=1 << 20, spp=32, batches=8, width=SIZE, he
 PARAMS = dataclasses.replace(QUICK, width=SIZE, height=SIZE, splat="adaptive")
 
 
-@pytest.fixture
-def cache(tmp_path, monkeypatch):
-    monkeypatch.setenv("VOLCAUSTICS_CACHE", str(tmp_path / "cache"))
-    monkeypatch.setenv("VOLCAUSTICS_MI_VARIANT", "llvm_ad_rgb")
-    return tmp_path / "cache"
-
-
 def _caustic_relmse(scene) -> float:
-    result = run_experiment(scene, PARAMS, seeds=2, reference_settings=REFERENCE, progress=False)
+    result = run_experiment(scene, PARAMS, seeds=2, reference_settings=REFERENCE, progress=False, subphotons=1)
     return result.summary["images"]["caustic"]["relative_mse"]["debiased"]
 
 

@@ -26,13 +26,6 @@ ARGS = ["--width", str(SIZE), "--height", str(SIZE), "--photon-res", "32", "--li
         f"0:{FRAMES}", "--photons", str(1 << 18), "--spp", "8", "--batches", "8", "--quiet"]
 
 
-@pytest.fixture
-def cache(tmp_path, monkeypatch):
-    monkeypatch.setenv("VOLCAUSTICS_CACHE", str(tmp_path / "cache"))
-    monkeypatch.setenv("VOLCAUSTICS_MI_VARIANT", "llvm_ad_rgb")
-    return tmp_path / "cache"
-
-
 def test_reference_flicker_against_an_independent_reference_is_within_noise(cache):
     """Two references of the same frames with different seeds (each frame its own,
     ``reference_seed``): every component's flicker, less both references' variances, within

@@ -11,7 +11,8 @@ import json
 import pandas as pd
 import pytest
 
-from tests.reports.test_sweep import SMALL_TABLES
+from tests.conftest import FAST_MEASUREMENT, SINGLE_SCATTERING
+from tests.conftest import SWEEP_TABLES as SMALL_TABLES
 from volcaustics.approx.params import PAPER, QUICK
 from volcaustics.reports.cli import main
 from volcaustics.reports.sweep import best
@@ -30,10 +31,9 @@ emission = ["uniform", "adaptive"]
 
 
 @pytest.fixture
-def env(tmp_path, monkeypatch):
-    monkeypatch.setenv("VOLCAUSTICS_CACHE", str(tmp_path / "cache"))
-    monkeypatch.setenv("VOLCAUSTICS_MI_VARIANT", "llvm_ad_rgb")
-    return tmp_path / "cache"
+def env(cache):
+    """The test's cache (its references: the run's shared ones)."""
+    return cache
 
 
 def _write(tmp_path, text, name="best.toml") -> str:
@@ -160,7 +160,8 @@ def test_the_search_writes_its_table_and_the_report_shows_it(env, tmp_path, caps
     report = tmp_path / "report"
     assert main(["report", "--scenes", "refocus", "--out", str(report), "--sweep", str(out), "--set", "width=32",
                  "--set", "height=32", "--set", "photon_res=64", "--set", "light_res=64", "--photons", "65536",
-                 "--spp", "8", "--batches", "4", "--target-noise", "none", "--seeds", "2", "--quiet"]) == 0
+                 "--spp", "8", "--batches", "4", "--target-noise", "none", "--seeds", "2", "--quiet",
+                 *SINGLE_SCATTERING, *FAST_MEASUREMENT]) == 0
     html = (report / "index.html").read_text()
     assert "id='best-table'" in html and "id='best-verdict'" in html and "best_configuration" in html
     summary = json.loads((report / "summary.json").read_text())

@@ -12,6 +12,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from tests.conftest import FAST_MEASUREMENT, SINGLE_SCATTERING, with_shared_references
 from volcaustics.reports.cli import main
 from volcaustics.reports.compare.inputs import CompareError, read_images
 from volcaustics.scenes import load_builtin
@@ -20,31 +21,29 @@ from volcaustics.scenes.imageio import read_exr, write_exr, write_png
 
 SIZE = ["--width", "32", "--height", "32", "--photon-res", "64", "--light-res", "64", "--layers", "2",
         "--preset", "quick"]
-REFERENCE = ["--photons", "65536", "--spp", "8", "--batches", "4", "--target-noise", "none"]
+REFERENCE = ["--photons", "65536", "--spp", "8", "--batches", "4", "--target-noise", "none", *SINGLE_SCATTERING]
 NUMBERS = ["value", "reference_floor", "approx_noise", "debiased", "standard_error", "ci_low", "ci_high",
            "reference_sigma", "approx_noise_removed"]
 
 
 @pytest.fixture(scope="module")
-def shots(tmp_path_factory):
+def shots(tmp_path_factory, shared_references):
     """The approximation's frames of refocus at 32² (seeds 0, 1) as `approx` writes them,
     and `measure` with the same parameters, seeds and reference."""
     root = tmp_path_factory.mktemp("compare")
     with pytest.MonkeyPatch.context() as mp:
-        mp.setenv("VOLCAUSTICS_CACHE", str(root / "cache"))
-        mp.setenv("VOLCAUSTICS_MI_VARIANT", "llvm_ad_rgb")
+        mp.setenv("VOLCAUSTICS_CACHE", str(with_shared_references(root / "cache", shared_references)))
         for seed in (0, 1):
             assert main(["approx", "refocus", "-o", str(root / f"s{seed}.exr"), *SIZE, "--seed", str(seed),
                          "--records-max", "0"]) == 0
         assert main(["measure", "refocus", "-o", str(root / "measure"), "--seeds", "2", "--quiet", *SIZE,
-                     *REFERENCE]) == 0
+                     *REFERENCE, *FAST_MEASUREMENT]) == 0
         yield root
 
 
 @pytest.fixture
 def env(shots, monkeypatch):
     monkeypatch.setenv("VOLCAUSTICS_CACHE", str(shots / "cache"))
-    monkeypatch.setenv("VOLCAUSTICS_MI_VARIANT", "llvm_ad_rgb")
     return shots
 
 
@@ -87,10 +86,8 @@ def test_a_scaled_reference_gives_the_analytic_error(env, tmp_path):
     the same × 1.2 must score (1.2 − 1)² = 0.04 and 1.2, flagged in every component."""
     from volcaustics.reference.cache import existing_reference
     from volcaustics.reference.settings import ReferenceSettings
-    from volcaustics.reports.core.sizing import REPORT_MAX_SCATTER
-
     settings = ReferenceSettings(photons=65536, spp=8, batches=4, target_noise=None, width=32, height=32,
-                                 max_scatter=REPORT_MAX_SCATTER)  # the CLI's default
+                                 max_scatter=1)  # REFERENCE's
     reference = existing_reference(load_builtin("refocus"), settings)
     assert reference is not None  # the module fixture rendered it
     exact = {c: reference.mean[c] for c in COLOUR_LAYERS}
@@ -205,6 +202,9 @@ photons = 65536
 spp = 8
 batches = 4
 target_noise = "none"
+max_scatter = 1
+[measurement]
+exact_subphotons = 1
 [scene.refocus]
 caustic = {{ energy_ratio = [0.0, 10.0] }}
 [compare.files.refocus]

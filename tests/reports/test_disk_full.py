@@ -26,10 +26,9 @@ def full_disk(tmp_path):
         subprocess.run(["umount", str(folder)], check=False)
 
 
-def test_approx_onto_a_full_disk_names_its_output(full_disk, tmp_path, monkeypatch, capsys):
+def test_approx_onto_a_full_disk_names_its_output(full_disk, tmp_path, capsys, empty_cache):
     """OpenEXR said "Failed to write pixel data to image file ..tmp.exr" as a RuntimeError:
     a traceback naming a hidden temporary."""
-    monkeypatch.setenv("VOLCAUSTICS_CACHE", str(tmp_path / "cache"))
     shot = full_disk / "shot.exr"
     assert main(["approx", "refocus", "--preset", "quick", "--width", "64", "--height", "64", "-o", str(shot)]) == 2
     err = capsys.readouterr().err
@@ -53,10 +52,9 @@ def test_a_set_whose_writer_fails_without_a_file_name_names_its_output(full_disk
     assert list(Path(full_disk).iterdir()) == []
 
 
-def test_reference_onto_a_full_disk_names_its_output_not_the_cache(full_disk, tmp_path, monkeypatch, capsys):
+def test_reference_onto_a_full_disk_names_its_output_not_the_cache(full_disk, tmp_path, capsys, empty_cache):
     """The copy out of the cache failed naming its source, the cache file, although the
     cache's disk had room."""
-    monkeypatch.setenv("VOLCAUSTICS_CACHE", str(tmp_path / "cache"))
     shot = full_disk / "ref.exr"
     assert main(["reference", "refocus", "--width", "32", "--height", "32", "--photons", "20000", "--spp", "2",
                  "--batches", "2", "-o", str(shot)]) == 2

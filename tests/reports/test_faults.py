@@ -16,9 +16,8 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
+from tests.conftest import SWEEP_SPEC as SPEC  # tiny points: 32², photon_res 64, light_res 64; 4 batches
 from volcaustics.reports.cli import main
-
-from .test_sweep import SPEC  # tiny points: 32², photon_res 64, light_res 64; a reference of 4 batches
 
 REPO = Path(__file__).resolve().parents[2]
 # a frame of photon_res 8192 with 32 steps reads back ~0.5 TB of records
@@ -26,10 +25,9 @@ HUGE = ["--set", "photon_res=8192", "--set", "steps=32"]
 
 
 @pytest.fixture
-def cache(tmp_path, monkeypatch):
-    monkeypatch.setenv("VOLCAUSTICS_CACHE", str(tmp_path / "cache"))
-    monkeypatch.setenv("VOLCAUSTICS_MI_VARIANT", "llvm_ad_rgb")
-    return tmp_path / "cache"
+def cache(empty_cache):
+    """Most tests here check what a command leaves behind: an empty cache of their own."""
+    return empty_cache
 
 
 def _nothing_rendered(cache: Path) -> bool:

@@ -8,15 +8,21 @@ from pathlib import Path
 
 import pytest
 
+from tests.conftest import FAST_MEASUREMENT
 from volcaustics.reports.cli import main
 
 SIZE = ["--set", "width=48", "--set", "height=48", "--set", "photon_res=128", "--set", "light_res=128"]
+# single scattering and one exact replay per texel: no budget here reads the model term or
+# the decomposition
 REFERENCE = """
 [reference]
 photons = 262144
 spp = 16
 batches = 4
 target_noise = "none"
+max_scatter = 1
+[measurement]
+exact_subphotons = 1
 """
 
 
@@ -38,9 +44,14 @@ segments = { missed_step2_max = 0.036, dt_p90_step2_max = 0.013 }
 
 
 @pytest.fixture
-def env(tmp_path, monkeypatch):
-    monkeypatch.setenv("VOLCAUSTICS_CACHE", str(tmp_path / "cache"))
-    monkeypatch.setenv("VOLCAUSTICS_MI_VARIANT", "llvm_ad_rgb")
+def env(cache, tmp_path):
+    """The test's folder; its cache serves the run's shared references."""
+    return tmp_path
+
+
+@pytest.fixture
+def bare(empty_cache, tmp_path):
+    """The test's folder with an empty cache of its own (a missing reference, nothing rendered)."""
     return tmp_path
 
 
@@ -102,9 +113,9 @@ def test_junit_validates_against_the_junit_schema(env, capsys):
 
 @pytest.mark.parametrize("case", ["no_baseline", "baseline_without_scene", "damaged_baseline", "one_seed",
                                   "unknown_scene", "missing_reference", "too_tight", "bad_budget", "unknown_set",
-                                  "unmeasurable_set"])
-def test_fail_closed_cases_exit_2(env, capsys, case):
-    tmp = env
+                                  "unmeasurable_set", "bad_measurement", "bad_measurement_flag"])
+def test_fail_closed_cases_exit_2(bare, capsys, case):
+    tmp = bare
     spec = budgets(tmp, BUNNY)
     args = ["--budgets", spec]
     if case == "no_baseline":
@@ -134,15 +145,22 @@ def test_fail_closed_cases_exit_2(env, capsys, case):
         args += ["--set", "layerz=2"]
     elif case == "unmeasurable_set":  # refused before measuring: no reference rendered
         args += ["--set", "steps=1", "--render-references"]
+    elif case == "bad_measurement":  # the budgets' [measurement] table, checked when the budgets load
+        args = ["--budgets", budgets(tmp, BUNNY, name="m.toml"), "--render-references"]
+        Path(args[1]).write_text(Path(args[1]).read_text().replace("exact_subphotons = 1", "exact_subphotons = 0"))
+    elif case == "bad_measurement_flag":
+        args += ["--exact-subphotons", "65", "--render-references"]
     assert gate(tmp, *args) == 2
     err = capsys.readouterr().err
     expected = {"no_baseline": "no baseline", "baseline_without_scene": "no entry for 'bunny'",
                 "damaged_baseline": "is damaged", "one_seed": "--seeds = 1", "unknown_scene": "nosuch",
                 "missing_reference": "no reference in the cache",
                 "too_tight": "narrower than", "bad_budget": "relmse_maxx", "unknown_set": "layerz",
-                "unmeasurable_set": "checks the step-2 segments, but steps = 1"}[case]
+                "unmeasurable_set": "checks the step-2 segments, but steps = 1",
+                "bad_measurement": "measurement.exact_subphotons = 0: expected an integer in [1, 64]",
+                "bad_measurement_flag": "--exact-subphotons = 65: expected an integer in [1, 64]"}[case]
     assert expected in err
-    if case == "unmeasurable_set":
+    if case in ("unmeasurable_set", "bad_measurement", "bad_measurement_flag"):
         assert not any(tmp.rglob("*.exr"))
 
 
@@ -160,9 +178,16 @@ def test_a_nan_metric_is_an_error_not_a_pass():
 @pytest.mark.slow  # the report's references rendered to their noise targets (about a minute)
 def test_the_unmodified_approximation_passes_the_default_budgets(env, capsys):
     """The shipped budgets (reports/budgets.toml, quick preset, 4 seeds) on two built-ins
-    with the report's references rendered here; `make gate` runs all seven."""
+    with the report's references rendered here; `make gate` runs all seven. Single
+    scattering and one exact replay per texel: no budget reads the model term or the
+    decomposition (the scattering orders leave the single-scattering layers as they are)."""
+    from volcaustics.reports.gate.budgets import default_budgets_path
+
+    shipped = Path(default_budgets_path()).read_text()
+    assert "[reference]" not in shipped  # the report's reference, which this adds one key to
+    (env / "budgets.toml").write_text(shipped + "\n[reference]\nmax_scatter = 1\n")
     assert main(["gate", "--scenes", "sphere1,bunny", "--render-references", "--out", str(env / "g"),
-                 "--quiet"]) == 0
+                 "--budgets", str(env / "budgets.toml"), "--quiet", *FAST_MEASUREMENT]) == 0
     out = capsys.readouterr().out
     assert "gate passed: 0 of 12 checks failed" in out
 

@@ -57,10 +57,9 @@ def _commands(tmp_path, size):
 
 
 @pytest.mark.parametrize("size", [8192, 16384])
-def test_every_command_refuses_an_image_beyond_the_machine_before_rendering(tmp_path, monkeypatch, capsys, size):
+def test_every_command_refuses_an_image_beyond_the_machine_before_rendering(tmp_path, capsys, size, empty_cache):
     """At these sizes the measuring commands draw 4× per side (beyond any GL driver's
     32768) and hold kilobytes per pixel; approx and reference hold IMAGE_BYTES_PER_PIXEL."""
-    monkeypatch.setenv("VOLCAUSTICS_CACHE", str(tmp_path / "cache"))
     beyond = {"approx": size * size * IMAGE_BYTES_PER_PIXEL > memory_budget(),
               "reference": size * size * REFERENCE_BYTES_PER_PIXEL > memory_budget()}
     for command, argv in _commands(tmp_path, size).items():

@@ -11,13 +11,15 @@ import os
 
 import pytest
 
+from tests.conftest import FAST_MEASUREMENT, SINGLE_SCATTERING
 from volcaustics.approx.params import PARAMS
 from volcaustics.reports.cli import main
 from volcaustics.reports.core.params import flag
 
 # tiny: 16×12 pixels, 64 photons (most die before step 4: the empty late steps are the point)
 TINY = {"width": 16, "height": 12, "photon_res": 8, "light_res": 16}
-REFERENCE = ["--photons", "20000", "--spp", "2", "--batches", "2", "--target-noise", "none"]
+REFERENCE = ["--photons", "20000", "--spp", "2", "--batches", "2", "--target-noise", "none", *SINGLE_SCATTERING,
+             *FAST_MEASUREMENT]
 
 
 def extremes(p) -> list:
@@ -36,13 +38,6 @@ def _entries(cache) -> set:
     """The reference cache's entries."""
     folder = cache / "reference"
     return set(os.listdir(folder)) if folder.is_dir() else set()
-
-
-@pytest.fixture
-def cache(tmp_path, monkeypatch):
-    monkeypatch.setenv("VOLCAUSTICS_CACHE", str(tmp_path / "cache"))
-    monkeypatch.setenv("VOLCAUSTICS_MI_VARIANT", "llvm_ad_rgb")
-    return tmp_path / "cache"
 
 
 @pytest.mark.slow  # about 70 s on 2 shared cores

@@ -46,8 +46,7 @@ def test_every_parameter_is_a_flag_with_its_range(command):
 
 
 @pytest.mark.parametrize("entry", PARAMS, ids=[p.name for p in PARAMS])
-def test_every_parameter_is_a_sweep_axis_and_a_bad_value_names_the_range(entry, tmp_path, capsys, monkeypatch):
-    monkeypatch.setenv("VOLCAUSTICS_CACHE", str(tmp_path / "cache"))
+def test_every_parameter_is_a_sweep_axis_and_a_bad_value_names_the_range(entry, tmp_path, capsys, empty_cache):
     name, values = parse_assignment(f"{entry.name}={_good_value(entry)}", "--vary")
     assert name == entry.name and values == [_good_value(entry)]
     # seed is not a grid axis (a point has seeds seed … seed + seeds − 1): it is set, and checked the same way

@@ -14,16 +14,18 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from tests.conftest import FAST_MEASUREMENT, with_shared_references
+from tests.conftest import SWEEP_SPEC as SPEC
 from volcaustics.reports.cli import main
 from volcaustics.scenes.formats import COLOUR_LAYERS
 
-from .test_sweep import SPEC
-
 REPO = Path(__file__).resolve().parents[2]
 SCENES = ("refocus", "sphere1")
-# tiny experiments: 40², photon_res/light_res 64, 2 seeds; references of 4 fixed batches
+# tiny experiments: 40², photon_res/light_res 64, 2 seeds, one exact replay per texel; references of 4
+# fixed batches with the report's 8 scattering orders (the page's model term is under test)
 SMALL = ["--set", "width=40", "--set", "height=40", "--set", "photon_res=64", "--set", "light_res=64",
-         "--seeds", "2", "--photons", "65536", "--spp", "8", "--batches", "4", "--target-noise", "none", "--quiet"]
+         "--seeds", "2", *FAST_MEASUREMENT, "--photons", "65536", "--spp", "8", "--batches", "4", "--target-noise",
+         "none", "--quiet"]
 # refocus passes everything; sphere1's HDR-FLIP budget is far below what any frame gets (≈ 0.8): one failure
 BUDGETS = """
 preset = "quick"
@@ -44,12 +46,11 @@ ANIMATE = ["--frames", "3", "--width", "40", "--height", "40", "--photon-res", "
 
 
 @pytest.fixture(scope="module")
-def built(tmp_path_factory):
+def built(tmp_path_factory, shared_references):
     """One sweep store and one report over it (cold), then the same report again (warm)."""
     root = tmp_path_factory.mktemp("report")
     with pytest.MonkeyPatch.context() as mp:
-        mp.setenv("VOLCAUSTICS_CACHE", str(root / "cache"))
-        mp.setenv("VOLCAUSTICS_MI_VARIANT", "llvm_ad_rgb")
+        mp.setenv("VOLCAUSTICS_CACHE", str(with_shared_references(root / "cache", shared_references)))
         (root / "sweep.toml").write_text(SWEEP)
         (root / "budgets.toml").write_text(BUDGETS)
         assert main(["sweep", str(root / "sweep.toml"), "-o", str(root / "sweep"), "--workers", "1", "--quiet"]) == 0
@@ -114,6 +115,7 @@ def test_summary_holds_every_scene_and_the_gate_verdicts(built):
     s = built["cold"]
     assert [p["scene"] for p in s["scenes"]] == list(SCENES)
     assert s["seeds"] == 2 and s["params"]["width"] == 40 and s["reference_settings"]["batches"] == 4
+    assert s["measurement"] == {"exact_subphotons": 1}  # the measurement settings it was given
     by_scene = {p["scene"]: p for p in s["scenes"]}
     assert by_scene["refocus"]["gate"]["passed"] is True
     failed = [c for c in by_scene["sphere1"]["gate"]["checks"] if not c["passed"]]
@@ -261,7 +263,6 @@ def test_a_report_keeps_only_its_own_figures(built):
     (out / "figures" / "notes.txt").write_text("mine")
     with pytest.MonkeyPatch.context() as mp:
         mp.setenv("VOLCAUSTICS_CACHE", str(built["root"] / "cache"))
-        mp.setenv("VOLCAUSTICS_MI_VARIANT", "llvm_ad_rgb")
         assert main([*built["args"], "--out", str(out)]) == 0
         drawn = json.loads((out / "summary.json").read_text())["sweep"]["figures"]
         assert sorted(p.name for p in (out / "figures").iterdir()) == sorted(
@@ -282,7 +283,6 @@ def test_a_warm_report_measures_nothing_and_says_the_same(built):
 def test_a_damaged_stored_result_is_measured_again(built, monkeypatch):
     root = built["root"]
     monkeypatch.setenv("VOLCAUSTICS_CACHE", str(root / "cache"))
-    monkeypatch.setenv("VOLCAUSTICS_MI_VARIANT", "llvm_ad_rgb")
     key = next(p["point"] for p in built["cold"]["scenes"] if p["scene"] == "refocus")
     views = root / "cache" / "report-results" / "points" / key / "views.exr"
     views.write_bytes(views.read_bytes()[:1000])        # torn
@@ -333,7 +333,6 @@ def test_the_gate_with_a_baseline_keeps_budget_failures(built, monkeypatch, tmp_
     the budget failure stays whatever the regression part finds."""
     root = built["root"]
     monkeypatch.setenv("VOLCAUSTICS_CACHE", str(root / "cache"))
-    monkeypatch.setenv("VOLCAUSTICS_MI_VARIANT", "llvm_ad_rgb")
     sphere = next(p for p in built["cold"]["scenes"] if p["scene"] == "sphere1")
     per_seed = sphere["components"]["caustic"]["relative_mse"]["per_seed"]
     baseline = tmp_path / "baseline"
@@ -498,13 +497,12 @@ def test_report_and_reference_cli_share_one_cache_entry(tmp_path, monkeypatch, c
     one cache entry — whichever path comes first, the other is served from the cache."""
     cache = tmp_path / "cache"
     monkeypatch.setenv("VOLCAUSTICS_CACHE", str(cache))
-    monkeypatch.setenv("VOLCAUSTICS_MI_VARIANT", "llvm_ad_rgb")
     budget = ["--photons", "100000", "--spp", "8", "--batches", "2", "--max-scatter", "2"]
     budgets = tmp_path / "budgets.toml"  # none for refocus: the terminal says why the gate did not check it
     budgets.write_text('preset = "quick"\n[scene.sphere1]\ncaustic = { hdr_flip_max = 1.0 }\n')
     assert main(["report", "--out", str(tmp_path / "rep"), "--scenes", "refocus", "--seeds", "1", "--quiet",
                  "--set", "width=24", "--set", "height=24", "--set", "photon_res=32", "--set", "light_res=32",
-                 *budget, "--target-noise", "none", "--budgets", str(budgets)]) == 0
+                 *budget, "--target-noise", "none", "--budgets", str(budgets), *FAST_MEASUREMENT]) == 0
     assert f"gate not checked (no budgets for refocus in {budgets})" in capsys.readouterr().out
     from_report = json.loads((tmp_path / "rep" / "summary.json").read_text())["scenes"][0]["reference"]
     argv = ["reference", "refocus", "--width", "24", "--height", "24", *budget, "-o", str(tmp_path / "r.exr")]

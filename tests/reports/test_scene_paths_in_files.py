@@ -53,10 +53,9 @@ def test_budgets_and_sweep_specs_resolve_scenes_against_their_own_folder(files):
     assert resolve_scene(scene).name == "base"
 
 
-def test_the_gate_finds_the_budgets_scene_from_another_working_directory(files, tmp_path, monkeypatch, capsys):
+def test_the_gate_finds_the_budgets_scene_from_another_working_directory(files, tmp_path, capsys, empty_cache):
     """Up to the first missing reference (no rendering: the gate without
     --render-references refuses, naming the reference, after resolving every scene)."""
-    monkeypatch.setenv("VOLCAUSTICS_CACHE", str(tmp_path / "cache"))
     code = main(["gate", "--budgets", str(files / "budgets.toml"), "--scenes", "scenes/mine.toml",
                  "--out", str(tmp_path / "g"), "--quiet"])
     err = capsys.readouterr().err

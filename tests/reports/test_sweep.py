@@ -15,36 +15,16 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from tests.conftest import FAST_MEASUREMENT, SINGLE_SCATTERING
+from tests.conftest import SWEEP_SPEC as SPEC
+from tests.conftest import SWEEP_TABLES as SMALL_TABLES
 from volcaustics.reports.cli import main
 from volcaustics.reports.core.store import SUMMARY, Store, sealed
 
-# tiny points: 32², photon_res 64, light_res 64; a reference of 4 batches
-# a sweep's small image and reference (also the best search's, tests/reports/test_best.py)
-SMALL_TABLES = """[set]
-width = 32
-height = 32
-photon_res = 64
-light_res = 64
-[reference]
-photons = 65536
-spp = 8
-batches = 4
-target_noise = "none"
-"""
-SPEC = """
-scenes = ["refocus"]
-seeds = 1
-[vary]
-layers = [1, 2]
-iterations = [4, 8]
-""" + SMALL_TABLES
-
 
 @pytest.fixture
-def env(tmp_path, monkeypatch):
-    cache = tmp_path / "cache"
-    monkeypatch.setenv("VOLCAUSTICS_CACHE", str(cache))
-    monkeypatch.setenv("VOLCAUSTICS_MI_VARIANT", "llvm_ad_rgb")
+def env(cache):
+    """The test's cache (its references: the run's shared ones)."""
     return cache
 
 
@@ -145,15 +125,17 @@ def test_sigint_keeps_finished_points_and_the_rerun_computes_only_the_rest(env, 
     (SPEC.replace("seeds = 1", "seeds = 0"), "seeds = 0"),
     (SPEC.replace('scenes = ["refocus"]', 'scenes = ["nosuch"]'), "nosuch"),
     (SPEC + "\n[extra]\n", "unknown key 'extra'"),
+    (SPEC.replace("exact_subphotons = 1", "exact_subphotons = 0"), "measurement.exact_subphotons = 0"),
+    (SPEC.replace("exact_subphotons = 1", "exact_subfotons = 1"), "measurement.exact_subfotons: unknown"),
     (SPEC.replace("[reference]", "[reference]\nphotonz = 3"), "reference.photonz"),
     ("scenes = [", "not valid TOML"),
 ])
-def test_bad_spec_exits_2_and_renders_nothing(env, tmp_path, capsys, spec, message):
+def test_bad_spec_exits_2_and_renders_nothing(empty_cache, tmp_path, capsys, spec, message):
     out = tmp_path / "store"
     assert main(["sweep", _spec(tmp_path, spec), "-o", str(out), "--quiet"]) == 2
     assert message in capsys.readouterr().err
     assert not out.exists()
-    assert not env.exists() or not any(env.rglob("*.exr"))
+    assert not empty_cache.exists() or not any(empty_cache.rglob("*.exr"))
 
 
 @pytest.mark.parametrize("args, message", [
@@ -164,6 +146,7 @@ def test_bad_spec_exits_2_and_renders_nothing(env, tmp_path, capsys, spec, messa
     (["--vary", "seed=1,2"], "seed cannot be varied"),
     (["--workers", "0"], "--workers"),
     (["--dask", "udp://x"], "--dask"),
+    (["--exact-subphotons", "65"], "--exact-subphotons = 65: expected an integer in [1, 64]"),
     (["--vary", f"iterations={','.join(map(str, range(65)))}", "--vary",  # 16,705 points
       f"peak_samples={','.join(map(str, range(257)))}"], "pass --yes to run it"),
 ])
@@ -185,7 +168,7 @@ def test_a_spec_file_with_grid_options_on_the_command_line_exits_2(env, tmp_path
     assert "not both" in capsys.readouterr().err and not out.exists()
 
 
-def test_an_unreachable_scheduler_is_refused_before_any_reference_renders(env, tmp_path, capsys):
+def test_an_unreachable_scheduler_is_refused_before_any_reference_renders(empty_cache, tmp_path, capsys):
     import socket
 
     with socket.socket() as s:  # a port nothing listens on: bound, never listening
@@ -195,7 +178,7 @@ def test_an_unreachable_scheduler_is_refused_before_any_reference_renders(env, t
         assert main(["sweep", "--scenes", "refocus", "--dask", f"tcp://127.0.0.1:{port}", "-o", str(out),
                      "--quiet"]) == 2
     assert "cannot reach the scheduler" in capsys.readouterr().err
-    assert not out.exists() and (not env.exists() or not any(env.rglob("*.exr")))
+    assert not out.exists() and (not empty_cache.exists() or not any(empty_cache.rglob("*.exr")))
 
 
 def test_a_grid_above_the_limit_is_refused_before_it_is_expanded_unless_asked_for():
@@ -301,7 +284,8 @@ def test_a_variants_sweep_writes_its_tables_and_figures_and_the_report_shows_it(
     report = tmp_path / "report"
     assert main(["report", "--scenes", "refocus", "--out", str(report), "--sweep", str(out), "--set", "width=32",
                  "--set", "height=32", "--set", "photon_res=64", "--set", "light_res=64", "--photons", "65536",
-                 "--spp", "8", "--batches", "4", "--target-noise", "none", "--seeds", "2", "--quiet"]) == 0
+                 "--spp", "8", "--batches", "4", "--target-noise", "none", "--seeds", "2", "--quiet",
+                 *SINGLE_SCATTERING, *FAST_MEASUREMENT]) == 0
     html = (report / "index.html").read_text()
     assert "id='variants-best'" in html and "variants_refocus" in html
 
@@ -351,7 +335,7 @@ seeds = 2
 [[vary]]
 "medium.sigma_s" = [0.4]
 "medium.sigma_a" = [0.04]
-""" + SMALL_TABLES.replace("[reference]", "[reference]\nmax_scatter = 2")
+""" + SMALL_TABLES.replace("max_scatter = 1", "max_scatter = 2")  # the model term under test
     out = tmp_path / "store"
     assert main(["sweep", _spec(tmp_path, spec), "-o", str(out), "--quiet"]) == 0
     points = pd.read_parquet(out / "points.parquet").sort_values("optical_depth")

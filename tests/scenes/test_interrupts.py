@@ -18,6 +18,8 @@ import time
 
 import pytest
 
+from tests.conftest import FAST_MEASUREMENT, SINGLE_SCATTERING
+
 # Runs BODY; at step AT of the commits into FOLDER (a commit's steps: 1 the manifest's
 # removal, 2..5 the renames) sends SIGNAL to a sleeping bystander thread, then gives the
 # main thread time to run its handlers before the step is done.
@@ -205,7 +207,7 @@ sys.exit(main(sys.argv[4:]))
 
 MEASURE = ["measure", "refocus", "--preset", "quick", "--width", "32", "--height", "32", "--photon-res", "64",
            "--light-res", "64", "--seeds", "2", "--photons", "65536", "--spp", "8", "--batches", "4",
-           "--target-noise", "none", "--quiet"]
+           "--target-noise", "none", "--quiet", *SINGLE_SCATTERING, *FAST_MEASUREMENT]
 
 
 @pytest.mark.slow  # three tiny measurements, ~50 s
