@@ -12,8 +12,10 @@ seeds), over the compared pixels:
   no knob of the approximation removes;
 * ``relmse_part`` Σ T · (R_ms − A) / Σ R_ms²: the term's part of the approximation's
   relative MSE against R_ms, as the decomposition's terms are parts of its error
-  (``metrics.decomposition``); ``approx_part`` Σ (R_ss − A)(R_ms − A) / Σ R_ms² is the
-  approximation's own part, and the two sum to Σ (R_ms − A)² / Σ R_ms².
+  (``metrics.decomposition``), debiased by T's variance too (R_ms = R_ss + T holds T, so
+  the sum holds Σ T², whose expectation exceeds the noiseless one by Σ var T);
+  ``approx_part`` Σ (R_ss − A)(R_ms − A) / Σ R_ms² is the approximation's own part, and
+  the two values sum to Σ (R_ms − A)² / Σ R_ms².
 
 Standard errors by first-order propagation of the per-pixel variances (T's, R_ss's and
 A's over its seeds), a pixel's three channels taken as fully correlated (one light
@@ -71,7 +73,7 @@ def model_term(r_ss, r_ss_var, term, term_var, approx_stack, keep, term_ratio=No
     approx_part = float(np.sum((r - a) * err_ms)) / energy
     return {"energy_share": (share, share, share_se),
             "relmse_own": (own, own_debiased, own_se),
-            "relmse_part": (part, part, part_se),
+            "relmse_part": (part, part - float(np.sum(tv)) / energy, part_se),
             "approx_part": (approx_part, approx_part, float("nan"))}
 
 

@@ -21,6 +21,10 @@ IMAGE_BYTES_PER_PIXEL = 700
 # Size-independent settings: they say how long to render, not what one batch is, so they
 # are not part of a cache entry's identity (an entry is continued batch by batch).
 BUDGET_FIELDS = ("photons", "spp", "batches", "target_noise", "max_photons", "max_seconds")
+# The orders stream's batches trace a quarter of the light tracer's paths per pixel: at the
+# report's 16 batches its floors sat 5–300× under their 0.5% targets while it took ~60% of
+# a reference's time (docs/decisions.md "Harness speed"); the targets add batches where needed.
+ORDERS_SHARE = 4
 
 
 class SettingsError(ValueError):
@@ -118,6 +122,10 @@ class ReferenceSettings:
         """Whether one more light batch after ``photons`` would pass ``max_photons``."""
         return photons + self.photons_per_batch() > self.max_photons
 
+    def orders_spp_per_batch(self) -> int:
+        """Light paths per pixel of one batch of the orders stream (max_scatter > 1)."""
+        return max(1, self.photon_spp_per_batch() // ORDERS_SHARE)
+
     def camera_spp_per_batch(self) -> int:
         """Camera samples per pixel of one camera batch."""
         return max(1, self.spp // self.batches)
@@ -127,8 +135,9 @@ class ReferenceSettings:
         (BUDGET_FIELDS), with the sizes of one batch of each stream. Batch b of two
         renders with one identity is the same image, so a cache entry is keyed by it."""
         d = {k: v for k, v in asdict(self).items() if k not in BUDGET_FIELDS}
+        orders = {"orders_spp_per_batch": self.orders_spp_per_batch()} if self.max_scatter > 1 else {}
         return {**d, "photon_spp_per_batch": self.photon_spp_per_batch(),
-                "camera_spp_per_batch": self.camera_spp_per_batch()}
+                "camera_spp_per_batch": self.camera_spp_per_batch(), **orders}
 
     def targets(self) -> dict:
         """component → target floor ({} without target_noise), for the components this

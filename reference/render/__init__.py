@@ -240,7 +240,7 @@ def _render(request: RenderRequest, state: RenderState | None = None, *, progres
             elif stream == ORDERS:
                 seed = batch_seed(settings.seed, ORDERS, state.orders.n)
                 higher.prepare_orders(settings.width, settings.height)
-                _rendered(mi, mi_scene, higher, seed, photon_spp)
+                _rendered(mi, mi_scene, higher, seed, settings.orders_spp_per_batch())
                 stack = higher.order_images()
                 state.orders.add(scattering.batch_images(stack, settings.max_scatter), state.total_keep)
             else:
@@ -292,6 +292,7 @@ def _info(state: RenderState, settings: ReferenceSettings, stopped_by: str, seco
             "photons": state.light.n * settings.photons_per_batch(), "batches": state.light.n,
             "camera_batches": state.camera.n, "camera_spp": state.camera.n * settings.camera_spp_per_batch(),
             "orders_batches": state.orders.n if state.orders is not None else 0,
+            "orders_spp_per_batch": settings.orders_spp_per_batch() if state.orders is not None else 0,
             "max_scatter": settings.max_scatter, "convergence": state.convergence(),
             "photon_spp_per_batch": settings.photon_spp_per_batch(),
             "camera_spp_per_batch": settings.camera_spp_per_batch(), "noise_floor": state.floors(),
@@ -375,7 +376,8 @@ def render_reference(scene, settings: ReferenceSettings | None = None, *, mode: 
         "scene": scene.name, "scene_hash": scene.scene_hash(), "settings": settings.to_dict(), "mode": request.mode,
         "photons": info["photons"], "batches": info["batches"], "camera_batches": info["camera_batches"],
         "camera_spp": info["camera_spp"], "photon_spp_per_batch": info["photon_spp_per_batch"],
-        "orders_batches": info["orders_batches"], "max_scatter": info["max_scatter"],
+        "orders_batches": info["orders_batches"], "orders_spp_per_batch": info["orders_spp_per_batch"],
+        "max_scatter": info["max_scatter"],
         "convergence": info["convergence"],
         "camera_spp_per_batch": info["camera_spp_per_batch"], "seed": settings.seed,
         "noise_floor": info["noise_floor"], "total_variance_ratio": info["total_variance_ratio"],
