@@ -54,6 +54,17 @@ def _images(reference, test):
     return r, t
 
 
+def _frames(reference, tests):
+    """:func:`_images` for S tests against one reference: (H×W×3, S×H×W×3) float64."""
+    t = np.asarray(tests, dtype=np.float64)
+    if t.ndim != 4 or len(t) == 0:
+        raise ValueError(f"tests: shape {t.shape}, expected S×H×W×3 with S ≥ 1")
+    r, _ = _images(reference, t[0])
+    if t.shape[1:] != r.shape or not np.all(np.isfinite(t)):
+        raise ValueError(f"expected finite H×W×3 images of one shape, got reference {r.shape}, tests {t.shape}")
+    return r, t
+
+
 def per_pixel_relative_mse(reference, test, *, mask=None, epsilon: float = 1e-2, full: bool = False) -> dict:
     """Mean over pixels of (test − reference)² / (reference² + ε), ε = ``epsilon`` times
     the mean of reference² over the compared pixels (so the floor scales with the image):
@@ -145,10 +156,7 @@ def delta_e2000_frames(reference, tests, *, mask=None, exposure: float | None = 
     (colour-science's functions are per pixel, so each value is the one-pair call's)."""
     import colour
 
-    t = np.asarray(tests, dtype=np.float64)
-    if t.ndim != 4 or len(t) == 0:
-        raise ValueError(f"tests: shape {t.shape}, expected S×H×W×3 with S ≥ 1")
-    r = [_images(reference, x) for x in t][0][0]
+    r, t = _frames(reference, tests)
     keep = _keep(r, mask)
     exposure = exposure if exposure is not None else reference_exposure(r, mask=mask)
 
@@ -189,11 +197,7 @@ def hdr_flip_frames(reference, tests, *, mask=None, start_exposure: float | None
     dicts, each as :func:`hdr_flip`'s."""
     from volcaustics.metrics.flip import exposures, hdr_flip_maps
 
-    t = np.asarray(tests, dtype=np.float64)
-    if t.ndim != 4 or len(t) == 0:
-        raise ValueError(f"tests: shape {t.shape}, expected S×H×W×3 with S ≥ 1")
-    checked = [_images(reference, x) for x in t]
-    r = checked[0][0]
+    r, t = _frames(reference, tests)
     keep = _keep(r, mask)
     lum = _lit_luminance(r, mask)
     start = float(np.log2(1.0 / np.percentile(lum, 99.5))) if start_exposure is None else float(start_exposure)
