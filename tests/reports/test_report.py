@@ -115,7 +115,7 @@ def test_summary_holds_every_scene_and_the_gate_verdicts(built):
     s = built["cold"]
     assert [p["scene"] for p in s["scenes"]] == list(SCENES)
     assert s["seeds"] == 2 and s["params"]["width"] == 40 and s["reference_settings"]["batches"] == 4
-    assert s["measurement"] == {"exact_subphotons": 1}  # the measurement settings it was given
+    assert s["measurement"]["exact_subphotons"] == 1  # the measurement settings it was given
     by_scene = {p["scene"]: p for p in s["scenes"]}
     assert by_scene["refocus"]["gate"]["passed"] is True
     failed = [c for c in by_scene["sphere1"]["gate"]["checks"] if not c["passed"]]
