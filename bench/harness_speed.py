@@ -56,7 +56,7 @@ def cold_report_stages(cache: str) -> dict:
     stages = {"references": 0.0}
     for path in glob.glob(os.path.join(cache, "reference", "*.json")):
         with open(path) as fh:
-            stages["references"] += float(json.load(fh).get("seconds", 0.0))
+            stages["references"] += float(json.load(fh).get("wall_seconds", 0.0))
     for path in glob.glob(os.path.join(cache, "report-results", "points", "*", "summary.json")):
         with open(path) as fh:
             for stage, seconds in json.load(fh)["experiment_seconds"].items():
@@ -85,7 +85,7 @@ def main(argv=None) -> int:
     try:
         with open(SHADER, "a") as fh:
             fh.write("\n// bench/harness_speed.py: a shader change\n")
-        gate = [CLI, "gate", "--render-references", "--quiet", *scenes]
+        gate = [CLI, "gate", "--render-references", "--quiet", "--out", os.path.join(work, "gate"), *scenes]
         rows.append(("gate after a shader change", timed(gate, env, log)))
     finally:
         with open(SHADER, "w") as fh:
