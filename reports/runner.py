@@ -162,8 +162,8 @@ def _tasks(points, store, settings, measurement, policy, *, views, progress, hin
         reference = references[size]
         document = {**key_document(scene, point.params, point.seeds, reference), **measurement.to_dict()}
         key = point_key(document)
-        if not measurement.decomposition:  # a full point (the report's) holds all a lean one would
-            full = point_key({**document, "decomposition": True})
+        if measurement.scope != "full":  # a full point (the report's) holds all a gate point would
+            full = point_key({**document, "scope": "full"})
             key = full if store.status(full, views=views) == "done" else key
         keys.append(key)
         if store.status(key, views=views) == "done":
@@ -224,7 +224,7 @@ def run_point(task: dict, *, progress: bool = False, reference=None) -> dict:
         settings = MeasurementSettings(**task["measurement"])
         experiment = run_experiment(scene, ApproxParams(**task["params"]), seeds=task["seeds"], reference=reference,
                                     renderer=renderer, oracle=oracle, progress=progress, fields=dict(fields),
-                                    subphotons=settings.exact_subphotons, decomposition=settings.decomposition)
+                                    subphotons=settings.exact_subphotons, scope=settings.scope)
         status = store.write_point(task["key"], task["key_document"], experiment, views=task["views"])
         return {"key": task["key"], "status": status, "seconds": time.perf_counter() - t0}
 

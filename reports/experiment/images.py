@@ -75,20 +75,22 @@ def keep_mask(reference, frames) -> np.ndarray:
     return keep
 
 
-def image_rows(frames, reference, keep, columns, maps=None, components=COLOUR_LAYERS) -> tuple:
+def image_rows(frames, reference, keep, columns, maps=None, components=COLOUR_LAYERS,
+               metrics=IMAGE_METRICS) -> tuple:
     """(rows, headline): one row per (component, metric) with the columns of
     IMAGE_COLUMNS and ``columns``; headline: component → metric → the summary's
     numbers (``relative_mse`` with each frame's own value, ``per_seed``). ``maps`` (a
     dict) receives the first frame's error map of each of MAP_METRICS per component:
     (metric, component) → H×W. ``frames``: objects with ``images`` (layer name → H×W×3)
     holding ``components`` (default every colour layer: an approximation's; ``compare``
-    may have only ``combined``)."""
+    may have only ``combined``); ``metrics``: which of IMAGE_METRICS (a gate point: those
+    its budgets read)."""
     rows, headline = [], {}
     for component in components:
         r, rv = reference.mean[component], reference.var[component]
         stack = np.stack([f.images[component] for f in frames])
         head = headline.setdefault(component, {})
-        for metric in IMAGE_METRICS:
+        for metric in metrics:
             try:
                 values = _metric(metric, r, rv, stack, keep, component, columns["reference_key"], maps,
                                  reference.total_variance_ratio(component))

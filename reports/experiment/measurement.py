@@ -13,11 +13,11 @@ exact_subphotons   16       1–64    exact replays of each emission texel in th
                                     points with 1 for its time
 =================  =======  ======  ===================================================
 
-Beside the table, ``decomposition`` (default true): whether a point replays the exact
-photons and decomposes the caustic's error. The gate sets it false, since no budget
-reads a decomposition term (``reports.gate.budgets``): a gate point skips the exact
-replay, and its key says so. A full point (the report's) still serves the gate
-(``reports.runner``: a superset).
+Beside the table, ``scope`` (default "full"): what a point measures. The gate sets it
+to "gate": only what its budgets read (``reports.gate.budgets``: the image metrics of
+GATE_IMAGE_METRICS and the segments), so a gate point skips the exact replay, the
+decomposition, the model term and the image metrics no budget names, and its key says
+so. A full point (the report's) still serves the gate (``reports.runner``: a superset).
 """
 
 from __future__ import annotations
@@ -34,6 +34,10 @@ MEASUREMENT_TABLE = {
                                              "images, 1 to 64"),
 }
 MEASUREMENT_KEYS = tuple(MEASUREMENT_TABLE)  # what a spec's or the budgets' [measurement] table may set
+SCOPES = ("full", "gate")
+# the image metrics a gate budget can name (reports.gate.budgets.COMPONENT_KEYS: relmse_max,
+# energy_ratio, hdr_flip_max; a test ties the two)
+GATE_IMAGE_METRICS = ("relative_mse", "energy_ratio", "hdr_flip")
 
 
 @dataclass(frozen=True)
@@ -41,11 +45,13 @@ class MeasurementSettings:
     """How a point is measured (module docstring); validated when made (ParamError)."""
 
     exact_subphotons: int = EXACT_SUBPHOTONS
-    decomposition: bool = True   # the exact replay and the error decomposition (module docstring)
+    scope: str = "full"          # "full", or "gate": only what the gate's budgets read (module docstring)
 
     def __post_init__(self):
         for name, (check, _) in MEASUREMENT_TABLE.items():
             check(getattr(self, name))
+        if self.scope not in SCOPES:
+            raise ParamError(f"scope = {self.scope!r}: expected one of {', '.join(SCOPES)}")
 
     def to_dict(self) -> dict:
         """The settings as plain data: a result's key holds them (``reports.runner``)."""

@@ -39,7 +39,8 @@ from volcaustics.reports.core.timing import Clock
 from volcaustics.reports.experiment.decomposition import decompose, decomposition_rows
 from volcaustics.reports.experiment.exact_images import exact_images, subphotons_setting
 from volcaustics.reports.experiment.frames import render_frames
-from volcaustics.reports.experiment.images import image_rows, keep_mask
+from volcaustics.reports.experiment.images import IMAGE_METRICS, image_rows, keep_mask
+from volcaustics.reports.experiment.measurement import GATE_IMAGE_METRICS
 from volcaustics.reports.experiment.model import model_rows
 from volcaustics.reports.experiment.photons import photon_rows, replay
 from volcaustics.reports.experiment.segments import segment_rows
@@ -70,7 +71,7 @@ class Experiment:
 
 def run_experiment(scene, params, *, seeds: int = 1, reference_settings=None, progress: bool = False,
                    renderer=None, oracle=None, reference=None, fields: dict | None = None,
-                   subphotons: int | None = None, decomposition: bool = True) -> Experiment:
+                   subphotons: int | None = None, scope: str = "full") -> Experiment:
     """Measure the approximation with ``params`` on ``scene`` against its reference.
 
     Parameters
@@ -89,6 +90,10 @@ def run_experiment(scene, params, *, seeds: int = 1, reference_settings=None, pr
     subphotons : exact replays per emission texel in the E_∞ images, the measurement
         setting ``exact_subphotons`` (``reports.experiment.measurement``; None: the
         report's, ``exact_images.EXACT_SUBPHOTONS``).
+    scope : "full", or "gate": only what the gate's budgets read (the image metrics of
+        ``measurement.GATE_IMAGE_METRICS`` and the segments); the exact images, the
+        caustic's decomposition and the model term are skipped (the summary's ``exact``,
+        ``decomposition`` and ``model`` are then None).
     """
     p, seed_list = checked_settings(scene, params, seeds)
     subphotons = subphotons_setting(subphotons)  # a bad count: before the reference renders
@@ -116,7 +121,7 @@ def run_experiment(scene, params, *, seeds: int = 1, reference_settings=None, pr
             photons, divergence = photon_rows(frames, replays, columns)
         bar.update()
         exact = None
-        if decomposition:
+        if scope == "full":
             with clock.stage("exact_images"):
                 exact = exact_images(scene, p, frames, replays, seed_list, renderer, oracle, subphotons)
         bar.update()
@@ -125,10 +130,11 @@ def run_experiment(scene, params, *, seeds: int = 1, reference_settings=None, pr
             renderer.release()
     with clock.stage("metrics"):
         keep, maps = keep_mask(reference, frames), {}
-        images, headline = image_rows(frames, reference, keep, columns, maps)
+        images, headline = image_rows(frames, reference, keep, columns, maps,
+                                      metrics=IMAGE_METRICS if scope == "full" else GATE_IMAGE_METRICS)
         decomposition = None if exact is None else _decomposed(scene, exact, reference, keep)
         images += [] if decomposition is None else decomposition_rows(decomposition, columns)
-        model, model_summary = model_rows(frames, reference, keep, columns)
+        model, model_summary = model_rows(frames, reference, keep, columns) if scope == "full" else ([], None)
         images += model
     bar.update()
     bar.close()

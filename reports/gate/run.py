@@ -69,8 +69,8 @@ def run_gate(budgets: dict, *, overrides: dict, baseline_dir: str | None, update
     points = [runner.Point(budgets["scene_args"][name], params, n_seeds) for name in names]
     run = runner.measure(points, runner.results_store(),
                          reference_settings=budgets["reference_settings"],
-                         # no budget reads a decomposition term: the gate's points skip the exact replay
-                         measurement=replace(measurement or budgets["measurement"], decomposition=False),
+                         # the gate's points measure what its budgets read: no exact replay, no decomposition
+                         measurement=replace(measurement or budgets["measurement"], scope="gate"),
                          policy="missing" if render_references else "cached", views=True, progress=progress,
                          hint=MISSING_REFERENCE, error=GateError)
     checks, entries = [], {}

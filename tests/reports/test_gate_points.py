@@ -1,6 +1,6 @@
-"""The gate measures what it checks: its points skip the exact replay and the
-decomposition (no budget reads them), their key says so, and a full point that the
-report stored serves the gate (a superset)."""
+"""The gate measures what it checks: its points (scope "gate") skip the exact replay,
+the decomposition, the model term and the image metrics no budget reads, their key
+says so, and a full point that the report stored serves the gate (a superset)."""
 
 from __future__ import annotations
 
@@ -10,12 +10,14 @@ from volcaustics.approx.params import QUICK
 from volcaustics.reference.settings import ReferenceSettings
 from volcaustics.reports import runner
 from volcaustics.reports.core.store import Store
-from volcaustics.reports.experiment.measurement import MeasurementSettings
+from volcaustics.reports.experiment.images import IMAGE_METRICS
+from volcaustics.reports.experiment.measurement import GATE_IMAGE_METRICS, MeasurementSettings
+from volcaustics.reports.gate.budgets import COMPONENT_KEYS
 
 REFERENCE = ReferenceSettings(photons=1 << 16, spp=8, batches=4, target_noise=None, max_scatter=1)
 POINT = runner.Point("refocus", dataclasses.replace(QUICK, width=32, height=32, photon_res=64, light_res=64), seeds=2)
 FULL = MeasurementSettings(exact_subphotons=1)
-LEAN = dataclasses.replace(FULL, decomposition=False)
+LEAN = dataclasses.replace(FULL, scope="gate")
 
 
 def _measure(store, measurement):
@@ -27,8 +29,8 @@ def test_a_gate_point_skips_the_decomposition_and_is_keyed_apart(cache, tmp_path
     lean = _measure(Store(str(tmp_path / "lean")), LEAN)
     summary = lean.results[0].summary
     assert lean.computed == 1 and summary["exact"] is None and summary["decomposition"] is None
-    assert "exact_images" not in summary["experiment_seconds"]
-    assert set(lean.results[0].tables["images"]["metric"]) >= {"relative_mse", "energy_ratio", "hdr_flip"}
+    assert summary["model"] is None and "exact_images" not in summary["experiment_seconds"]
+    assert set(lean.results[0].tables["images"]["metric"]) == set(GATE_IMAGE_METRICS)
     full = _measure(Store(str(tmp_path / "full")), FULL)
     assert full.results[0].summary["decomposition"]["rows"] and full.keys != lean.keys
     # the same images, with and without the decomposition
@@ -46,3 +48,12 @@ def test_a_full_point_serves_the_gate_and_a_lean_one_does_not_serve_the_report(c
     _measure(other, LEAN)
     report = _measure(other, FULL)
     assert report.computed == 1 and report.results[0].summary["decomposition"] is not None
+
+
+def test_the_gate_scope_holds_every_metric_a_budget_can_name():
+    """COMPONENT_KEYS (the budgets) and GATE_IMAGE_METRICS (what a gate point measures)
+    name the same metrics: a budget key without its metric would fail closed on every
+    gate point."""
+    named = {"relmse_max": "relative_mse", "energy_ratio": "energy_ratio", "hdr_flip_max": "hdr_flip"}
+    assert set(named) == set(COMPONENT_KEYS)
+    assert set(named.values()) == set(GATE_IMAGE_METRICS) and set(GATE_IMAGE_METRICS) <= set(IMAGE_METRICS)
