@@ -76,6 +76,10 @@ class Renderer:
             self._programs[key] = factory()
         return self._programs[key]
 
+    def _tracer(self, p: ApproxParams) -> PhotonTracer:
+        """The emission and trace programs for ``p`` (equal defines, one program)."""
+        return self._cached(("tracer", *sorted(PhotonTracer.defines(p).items())), lambda: PhotonTracer(self.ctx, p))
+
     def _shading_programs(self, scene, p: ApproxParams) -> tuple:
         """(CameraPasses, Splatter) for the fog program's defines and the phase function."""
         phase_key = (scene.medium.phase.kind, scene.medium.phase.g)
@@ -107,7 +111,7 @@ class Renderer:
         wall0 = time.perf_counter()
         box = medium_bounds(scene)  # holds light and camera: this frame's, not the construction's
         frustum = LightFrustum.for_scene(scene, *box)
-        tracer = self._cached(("tracer", *sorted(PhotonTracer.defines(p).items())), lambda: PhotonTracer(ctx, p))
+        tracer = self._tracer(p)
         tracer.check_limits(p, keep_records=keep_records)
         camera_passes, splatter = self._shading_programs(scene, p)
         released = []
@@ -149,7 +153,7 @@ class Renderer:
         p = params.resolved(scene)
         self.geometry.place(scene)
         frustum = LightFrustum.for_scene(scene, *medium_bounds(scene))
-        tracer = self._cached(("tracer", *sorted(PhotonTracer.defines(p).items())), lambda: PhotonTracer(self.ctx, p))
+        tracer = self._tracer(p)
         tracer.check_limits(p, keep_records=True)
         emission_map = self.light_maps.render_light_map(frustum, p.photon_res, facing=BOTH,
                                                         primitive_ids=tracer.id_rule)

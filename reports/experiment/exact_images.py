@@ -121,14 +121,15 @@ def exact_images(scene, p, frames, replays, seeds, renderer, oracle, subphotons:
     subphotons = subphotons_setting() if subphotons is None else subphotons
     document = exact_document(scene, p, seeds, subphotons, CONSTANTS)
     key = exact_key(document)
+    # each frame's medium collisions: A's splats, and (splat = adaptive) the kernels E pairs with
+    collisions = [np.concatenate([r[r["status"] == STATUS_COLLIDED] for r in frame.records]) for frame in frames]
     exact = load_exact(key, document)
     reused = exact is not None
     if exact is None:
-        exact = _exact_batches(scene, p, frames, replays, seeds, renderer, oracle, subphotons)
+        exact = _exact_batches(scene, p, frames, collisions, replays, seeds, renderer, oracle, subphotons)
         save_exact(key, document, exact)
     approx = []
-    for frame, seed in zip(frames, seeds):
-        collided = np.concatenate([r[r["status"] == STATUS_COLLIDED] for r in frame.records])
+    for collided, seed in zip(collisions, seeds):
         sigma = record_sigma(collided, p)
         splats = splats_from_arrays(collided["end"], collided["direction"], collided["power"], sigma)
         approx.append(_subsets(renderer, scene, p, splats, collided["photon"], dataclasses.replace(p, seed=seed)))
@@ -142,7 +143,7 @@ def _subsets(renderer, scene, p, splats, photon, params, supersample: int = 1) -
                          supersample=supersample)
 
 
-def _exact_batches(scene, p, frames, replays, seeds, renderer, oracle, subphotons: int) -> dict:
+def _exact_batches(scene, p, frames, collisions, replays, seeds, renderer, oracle, subphotons: int) -> dict:
     """The E images of :func:`exact_images` (``exact_store.EXACT_IMAGES``), their alive
     fractions per Fresnel mode and the small kernel, computed."""
     out = {name: [] for name in EXACT_IMAGES}
@@ -156,9 +157,9 @@ def _exact_batches(scene, p, frames, replays, seeds, renderer, oracle, subphoton
         firsts_sto = renderer.first_records(scene, sto, [replay_seed(seed, m) for seed in seeds
                                                          for m in range(subphotons)])
         everything_all = _replayed(scene, p, "stochastic", firsts_sto, seeds, subphotons, oracle)
-    for frame, replay, seed, same, everything in zip(frames, replays, seeds, same_all, everything_all):
+    for frame, collided, replay, seed, same, everything in zip(frames, collisions, replays, seeds, same_all,
+                                                                everything_all):
         ps = dataclasses.replace(p, seed=seed)
-        collided = np.concatenate([r[r["status"] == STATUS_COLLIDED] for r in frame.records])
         kernels = _paired_kernels(collided, record_sigma(collided, p))
         e_k = photons_from_records(replay, frame.records[0], ps, steps=p.steps, fresnel=p.fresnel)
         for name, photons in (("exact_steps", e_k), ("exact_all_same", same), ("exact_all", everything)):
