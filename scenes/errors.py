@@ -19,7 +19,7 @@ class SceneError(ValueError):
     key : str or None
         Dotted key path; None for whole-file problems (TOML syntax).
     value : Any
-        The offending value (printed with ``repr``, shortened).
+        The offending value (printed with ``repr``, shortened in the middle).
     allowed : str
         What would be accepted, phrased as the fix.
     """
@@ -34,8 +34,8 @@ class SceneError(ValueError):
     def _format(self) -> str:
         where = self.file or "<scene>"
         text = repr(self.value)
-        if len(text) > 80:
-            text = text[:77] + "..."
+        if len(text) > 80:  # the middle goes: a path keeps its file name, a list its last items
+            text = text[:38] + "..." + text[-39:]
         if self.key is None:
             return f"{where}: {self.allowed}"
         return f"{where}: {self.key} = {text}: {self.allowed}"

@@ -1,9 +1,11 @@
 #!/usr/bin/env bash
 # Run the test suite; pytest's exit code 5 ("no tests collected") is a failure. The 25
 # slowest tests are printed at the end (--durations), so that growth is seen in CI's output.
+# One pytest-xdist worker per core, idle workers stealing queued tests (measured faster
+# than one file per worker: docs/decisions.md); "-n 0" in the arguments runs one process.
 set -uo pipefail
 cd "$(dirname "$0")/.."
-.venv/bin/python -m pytest -q --durations=25 "$@"
+.venv/bin/python -m pytest -q --durations=25 -n auto --dist worksteal "$@"
 rc=$?
 if [ "$rc" = 5 ]; then
   echo "run_tests: pytest collected no tests -- treated as a failure" >&2

@@ -55,9 +55,13 @@ def mitsuba_variant():
 @pytest.fixture(scope="session")
 def shared_references(tmp_path_factory):
     """The run's one folder of small references: each is rendered once per run and
-    served to every test that renders through :func:`cache`."""
-    folder = tmp_path_factory.mktemp("shared-cache") / "reference"
-    folder.mkdir()
+    served to every test that renders through :func:`cache`. Under pytest-xdist the
+    workers share it (the run's folder above each worker's); the cache writes each
+    reference whole by rename, so two workers rendering one reference at once agree."""
+    base = tmp_path_factory.getbasetemp()
+    root = base.parent if os.environ.get("PYTEST_XDIST_WORKER") else base
+    folder = root / "shared-cache" / "reference"
+    folder.mkdir(parents=True, exist_ok=True)
     return folder
 
 

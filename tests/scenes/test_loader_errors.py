@@ -197,3 +197,11 @@ def test_console_script_exits_2_without_traceback(write_scene):
     proc = subprocess.run([exe, "scenes", "--check", path], capture_output=True, text=True, timeout=120)
     assert proc.returncode == 2
     assert "specular[0].ior = 0.5" in proc.stderr and "Traceback" not in proc.stderr
+
+
+def test_long_value_keeps_its_file_name():
+    """A long path was cut at its end, dropping the very file name the message must
+    name (seen under pytest-xdist's longer temporary folders): the middle goes instead."""
+    path = "/" + "deep/" * 30 + "open.obj"
+    text = str(SceneError("scene.toml", "specular[0].mesh", path, "meshes must be closed"))
+    assert "open.obj" in text and "..." in text and len(text) < 200
