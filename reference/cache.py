@@ -334,6 +334,16 @@ def cached_reference(key: str, scene) -> ReferenceResult | None:
     return None if entry is None else ReferenceResult(key, for_caller(entry[0], scene), cached=True, layers=entry[1])
 
 
+def holds(reference: ReferenceResult) -> bool:
+    """Whether the cache's entry ``reference.key`` is this very reference (its sealed
+    manifest), so that another process here reads the same one (``cached_reference``)."""
+    try:
+        manifest = read_json_object(manifest_path(reference.key))
+    except (OSError, ValueError):
+        return False
+    return manifest.get(SEAL) is not None and manifest.get(SEAL) == reference.manifest.get(SEAL)
+
+
 def existing_reference(scene, settings=None, *, mode: str = "caustic") -> ReferenceResult | None:
     """The cache entry for ``scene`` and ``settings`` as it is (whatever its batches or
     floors, never continued), or None when there is none."""

@@ -29,10 +29,10 @@ from tqdm import tqdm
 
 from volcaustics.approx import Renderer
 from volcaustics.approx.params import ApproxParams
-from volcaustics.reference.cache import cached_reference, existing_reference
+from volcaustics.reference.cache import cached_reference, existing_reference, holds
 from volcaustics.reference.oracle import Oracle
 from volcaustics.reference.render import render_reference
-from volcaustics.reports.core.executors import run_tasks
+from volcaustics.reports.core.executors import default_workers, run_tasks
 from volcaustics.reports.core.sizing import sized
 from volcaustics.reports.core.store import TABLES, Store, key_document, point_key
 from volcaustics.reports.core.tables import rows_of
@@ -115,15 +115,17 @@ def reference_for(scene, settings, policy: str, *, progress: bool = False, hint:
 
 
 def measure(points: list, store: Store, *, reference_settings, measurement: MeasurementSettings, policy: str,
-            views: bool = False, workers: int | None = None, dask: str | None = None, progress: bool = True,
-            read_back: bool = True, hint: str = "", error=RunnerError) -> Measured:
+            views: bool = False, workers: int | None = None, dask: str | None = None, parallel: bool = False,
+            progress: bool = True, read_back: bool = True, hint: str = "", error=RunnerError) -> Measured:
     """Measure every point not in ``store`` yet and return them all.
 
     References are resolved once per scene and image size, in this process, before any
     point runs. ``measurement``: how every point is measured (its settings are part of
     each point's key). Points run in this process one after another (``workers`` and
-    ``dask`` None: the report, the gate) or on ``reports.core.executors`` (a sweep: a
-    failed point is reported in ``failed``, the others go on). ``views``: the store
+    ``dask`` None) or on ``reports.core.executors`` (a sweep: a failed point is reported
+    in ``failed``, the others go on). ``parallel`` (the report, the gate): more than one
+    point to measure on a machine of more than one core run on one local process per
+    core, and a failed point raises ``error`` as in this process. ``views``: the store
     keeps the images a report shows (a point without them counts as missing).
     ``read_back``: ``results`` holds every point as the store has it."""
     t0 = time.perf_counter()
@@ -132,7 +134,15 @@ def measure(points: list, store: Store, *, reference_settings, measurement: Meas
                                      progress=progress, hint=hint, error=error)
     unique = list({t["key"]: t for t in tasks}.values())
     done_before = len(set(keys)) - len(unique)
-    if workers is None and dask is None:  # this process: the references as resolved (rendered or cached)
+    if parallel and workers is None and dask is None and len(unique) > 1 and default_workers() > 1 \
+            and all(holds(references[task["reference_key"]]) for task in unique):  # what the workers will read
+        outcomes = _on_executor(unique, store, total=len(set(keys)), done=done_before, workers=default_workers(),
+                                progress=progress, desc="experiments")
+        scene_of = {task["key"]: task["scene"] for task in unique}
+        for outcome in outcomes:
+            if outcome.get("error"):
+                raise error(f"{scene_of[outcome['key']]}: its point failed on a worker process: {outcome['error']}")
+    elif workers is None and dask is None:  # this process: the references as resolved (rendered or cached)
         outcomes = [run_point(task, progress=progress, reference=references[task["reference_key"]])
                     for task in tqdm(unique, desc="experiments", unit="point", disable=not progress)]
     else:

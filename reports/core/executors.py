@@ -64,12 +64,12 @@ def check_reachable(address: str, timeout: float = 5.0) -> None:
 
 
 def run_tasks(fn, tasks: list, *, total: int, done: int = 0, workers: int | None = None, dask: str | None = None,
-              progress: bool = True):
+              progress: bool = True, desc: str = "sweep"):
     """Yield ``fn(task)``'s results (dicts; a failed task gives {"key", "error"}) as
-    they finish, with one progress bar of points done / ``total`` (``done`` already)."""
+    they finish, with one progress bar (``desc``) of points done / ``total`` (``done`` already)."""
     from tqdm import tqdm
 
-    bar = tqdm(total=total, initial=done, desc="sweep", unit="point", disable=not progress, smoothing=0.1)
+    bar = tqdm(total=total, initial=done, desc=desc, unit="point", disable=not progress, smoothing=0.1)
     try:
         if not tasks:
             return
@@ -77,7 +77,7 @@ def run_tasks(fn, tasks: list, *, total: int, done: int = 0, workers: int | None
         for result in results:
             bar.update()
             if result.get("error"):
-                bar.write(f"sweep: point {result['key'][:12]} failed: {result['error']}")
+                bar.write(f"{desc}: point {result['key'][:12]} failed: {result['error']}")
             yield result
     finally:
         bar.close()

@@ -1,0 +1,43 @@
+"""The report and the gate measure their points on one local process per core
+(``runner.measure(parallel=True)``): the same stored results as in this process, and
+a point that fails on a worker fails the run, naming its scene."""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+
+import pytest
+
+from tests.reports.test_gate_points import FULL, POINT, REFERENCE
+from volcaustics.reports import runner
+from volcaustics.reports.core.store import TABLES, Store
+
+POINTS = [POINT, runner.Point(POINT.scene, dataclasses.replace(POINT.params, layers=2), seeds=POINT.seeds)]
+
+
+def _measure(store, **options):
+    return runner.measure(POINTS, store, reference_settings=REFERENCE, measurement=FULL, policy="missing",
+                          views=True, progress=False, **options)
+
+
+def test_parallel_points_store_what_this_process_stores(cache, tmp_path, monkeypatch):
+    monkeypatch.setattr(runner, "default_workers", lambda: 2)
+    monkeypatch.setattr(runner, "_TOOLS", {})  # this process's renderers: none made when the workers measure
+    parallel = _measure(Store(str(tmp_path / "parallel")), parallel=True)
+    assert parallel.computed == 2 and runner._TOOLS == {}
+    here = _measure(Store(str(tmp_path / "here")))
+    assert here.keys == parallel.keys and runner._TOOLS
+    for key in here.keys:
+        for table in TABLES:
+            files = [os.path.join(tmp_path, side, "points", key, f"{table}.parquet") for side in ("parallel", "here")]
+            with open(files[0], "rb") as a, open(files[1], "rb") as b:
+                assert a.read() == b.read(), (key, table)
+
+
+def test_a_point_failing_on_a_worker_fails_the_run(cache, tmp_path, monkeypatch):
+    monkeypatch.setattr(runner, "default_workers", lambda: 2)
+    monkeypatch.setattr(runner, "_on_executor", lambda tasks, store, **_: [
+        {"key": t["key"], "error": "RuntimeError: out of memory"} for t in tasks])
+    with pytest.raises(runner.RunnerError, match="refocus: its point failed on a worker process: RuntimeError"):
+        _measure(Store(str(tmp_path / "store")), parallel=True)
