@@ -72,6 +72,7 @@ def main(argv=None) -> int:
     parser.add_argument("--keep", help="use this folder for the cache and outputs (default: a new temporary one)")
     args = parser.parse_args(argv)
     work = args.keep or tempfile.mkdtemp(prefix="harness-speed-")
+    os.makedirs(work, exist_ok=True)
     cache, log = os.path.join(work, "cache"), os.path.join(work, "log.txt")
     env = {**os.environ, "VOLCAUSTICS_CACHE": cache}
     scenes = ["--scenes", args.scenes] if args.scenes else []
