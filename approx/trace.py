@@ -30,6 +30,7 @@ from .transforms import gl_matrix
 
 MAX_MATERIALS = 16
 COMPACT_BLOCK = 256  # BLOCK of splat/compact.comp.glsl
+PACK = {"PACK_BLOCK": 256, "PACK_TEXELS": 4}  # trace/pack_distances.comp.glsl: invocations a group, texels each
 
 # Start offset of a segment leaving a surface, in light-map texel footprints
 # (common/start_offset.glsl): footprint · (START_SLOPE·sin θ + START_FLOOR) / |d·n|, at most START_MAX.
@@ -114,7 +115,8 @@ class PhotonTracer:
         self.emit = compute_shader(ctx, "emission/emit.comp.glsl", defines)
         self.trace = compute_shader(ctx, "trace/trace.comp.glsl", defines)
         self.id_rule = "START_RULE_ID" in defines
-        self.pack = compute_shader(ctx, "trace/pack_distances.comp.glsl", {"PACK_PRIMITIVE": 1} if self.id_rule else {})
+        self.pack = compute_shader(ctx, "trace/pack_distances.comp.glsl",
+                                   {**PACK, **({"PACK_PRIMITIVE": 1} if self.id_rule else {})})
         self.hiz = "SEARCH_HIZ" in defines
         self.pyramid = compute_shader(ctx, "trace/pyramid.comp.glsl") if self.hiz else None
         self.compact_count = compute_shader(ctx, "splat/compact.comp.glsl", {"PASS_COUNT": 1})
@@ -236,7 +238,7 @@ class PhotonTracer:
             light_map.surface.use(location=0)
             light_map.geometric.use(location=1)
             self.pack["map_index"].value = m
-            self.pack.run(group_x=math.ceil(count / 256))
+            self.pack.run(group_x=math.ceil(count / (PACK["PACK_BLOCK"] * PACK["PACK_TEXELS"])))
         bits = np.frombuffer(ranges.read(), np.uint32).reshape(-1, 2)
         ranges.release()
         values = bits.view(np.float32)

@@ -6,8 +6,14 @@
 // the map's surface distances (texels > 0), which lets the tracer skip maps a
 // segment's distance range cannot meet. Positive floats order like their bit
 // patterns, so the range is reduced with uint atomics. Run once per map.
-#define BLOCK 256
-layout(local_size_x = BLOCK) in;
+//
+// Each invocation copies PACK_TEXELS texels, strided by the whole dispatch (neighbouring
+// invocations touch neighbouring texels), keeps their range in registers and adds it
+// with one atomic pair: no shared memory and no barriers, which llvmpipe runs as
+// coroutine switches (the shared-memory tree took 72 ns a texel there; docs/decisions.md
+// "The method's own frame").
+// PACK_BLOCK, PACK_TEXELS: defined by approx/trace.py (PACK), which sizes the dispatch
+layout(local_size_x = PACK_BLOCK) in;
 uniform sampler2D map_texture;
 uniform sampler2D geometric_texture;
 uniform int res;
@@ -20,36 +26,28 @@ layout(std430, binding = 3) writeonly buffer Geometric { vec2 map_geometric[]; }
 layout(std430, binding = 4) writeonly buffer Primitive { float map_primitive[]; };
 #endif
 
-shared uint lo[BLOCK];
-shared uint hi[BLOCK];
-
 void main() {
-    uint i = gl_GlobalInvocationID.x;
-    uint lane = gl_LocalInvocationID.x;
     uint count = uint(res * res);
-    vec4 texel = i < count ? texelFetch(map_texture, ivec2(int(i) % res, int(i) / res), 0) : vec4(0.0);
-    if (i < count) {
-        map_texels[map_index * count + i] = texel;
-        vec4 geometric = texelFetch(geometric_texture, ivec2(int(i) % res, int(i) / res), 0);
-        map_geometric[map_index * count + i] = geometric.xy;
+    uint stride = gl_NumWorkGroups.x * uint(PACK_BLOCK);
+    uint lo = 0xFFFFFFFFu, hi = 0u;
+    for (uint i = gl_GlobalInvocationID.x; i < count; i += stride) {
+        ivec2 at = ivec2(int(i) % res, int(i) / res);
+        vec4 texel = texelFetch(map_texture, at, 0);
+        vec4 geometric = texelFetch(geometric_texture, at, 0);
+        uint slot = map_index * count + i;
+        map_texels[slot] = texel;
+        map_geometric[slot] = geometric.xy;
 #ifdef PACK_PRIMITIVE
-        map_primitive[map_index * count + i] = geometric.z;
+        map_primitive[slot] = geometric.z;
 #endif
-        map_dist[map_index * count + i] = texel.x;
-    }
-    float d = texel.x;
-    lo[lane] = d > 0.0 ? floatBitsToUint(d) : 0xFFFFFFFFu;
-    hi[lane] = d > 0.0 ? floatBitsToUint(d) : 0u;
-    barrier();
-    for (uint stride = uint(BLOCK) / 2u; stride > 0u; stride >>= 1) {
-        if (lane < stride) {
-            lo[lane] = min(lo[lane], lo[lane + stride]);
-            hi[lane] = max(hi[lane], hi[lane + stride]);
+        map_dist[slot] = texel.x;
+        if (texel.x > 0.0) {
+            lo = min(lo, floatBitsToUint(texel.x));
+            hi = max(hi, floatBitsToUint(texel.x));
         }
-        barrier();
     }
-    if (lane == 0u && hi[0] > 0u) {
-        atomicMin(map_range[map_index].x, lo[0]);
-        atomicMax(map_range[map_index].y, hi[0]);
+    if (hi > 0u) {
+        atomicMin(map_range[map_index].x, lo);
+        atomicMax(map_range[map_index].y, hi);
     }
 }
