@@ -111,20 +111,23 @@ def test_peel_separates_nested_surfaces(ctx):
     assert np.all(err_back[central] < 0.01)
 
 
-def test_packed_distances_and_exact_map_ranges(ctx):
+@pytest.mark.parametrize("res", [RES, 100])
+def test_packed_distances_and_exact_map_ranges(ctx, res):
     """The tracer's packed distance buffer equals the maps' distance channel, and the
-    per-map ranges (GPU reduction with uint atomics) equal numpy's min/max over covered texels."""
+    per-map ranges (GPU reduction with uint atomics) equal numpy's min/max over covered texels;
+    also at a size that is no multiple of the texels one work group copies (its tail)."""
     from volcaustics.approx.params import ApproxParams
     from volcaustics.approx.trace import PhotonTracer
 
     scene, geo, lm, frustum = _setup(ctx, [(shell_spec(0.5, 0.3, CENTER, 16), 1.5, (0, 0, 0))])
-    textures = lm.render_layers(frustum, RES, 2, "peel")
+    textures = lm.render_layers(frustum, res, 2, "peel")
     maps = [read_map(m.surface) for m in textures]
     tracer = PhotonTracer(ctx, ApproxParams(layers=2))
-    (texels, distances, geometric, *_), bounds = tracer.map_buffer(textures, RES)
-    packed = np.frombuffer(distances.read(), np.float32).reshape(len(maps), RES, RES)
+    (texels, distances, geometric, *_), bounds = tracer.map_buffer(textures, res)
+    packed = np.frombuffer(distances.read(), np.float32).reshape(len(maps), res, res)
+    whole = np.frombuffer(texels.read(), np.float32).reshape(len(maps), res, res, 4)
     for m, (a, b) in enumerate(zip(maps, bounds)):
-        assert np.array_equal(packed[m], a[..., 0])
+        assert np.array_equal(packed[m], a[..., 0]) and np.array_equal(whole[m], a)
         covered = a[..., 0][a[..., 0] > 0]
         assert b == (float(covered.min()), float(covered.max()))
     for r in (texels, distances, geometric, *textures):
