@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from volcaustics.reports.experiment.settings import check_images_fit
 from volcaustics.scenes.formats import COLOUR_LAYERS, MASK_LAYER
 from volcaustics.scenes.storage import file_sha256, special_file_kind
 
@@ -24,6 +25,10 @@ PNG_MAGIC = b"\x89PNG"
 SUMMED = tuple(c for c in COLOUR_LAYERS if c != "combined")   # the layers whose sum is `combined`
 ROOT = "combined"                  # what root R, G, B channels are taken as
 COMBINED_TOLERANCE = 1e-3          # |combined − Σ layers| / Σ layers beyond which summary.json warns
+# What compare holds per pixel (the files' layers, the reference's film and layers, every
+# metric): 1.23 kB + 0.23 kB per file measured as peak RSS per pixel, rounded up
+# (bench/image_memory.py compare, docs/decisions.md "Image sizes against memory").
+BYTES_PER_PIXEL = (1300, 250)
 CONVENTION = ("OpenEXR, linear radiance (W·m⁻²·sr⁻¹, Rec.709), box pixel filter, layers caustic/fog/direct "
               "(channels caustic.R, …) or root R, G, B as combined")
 
@@ -57,35 +62,51 @@ def read_images(paths, scene) -> Inputs:
     """The files ``paths`` (one per seed) as frames of ``scene``, checked (CompareError)."""
     if not paths:
         raise CompareError("no image given: compare SCENE IMAGE.exr [IMAGE2.exr …]")
-    repeated = sorted({p for p in paths if list(paths).count(p) > 1})
-    if repeated:
-        raise CompareError(f"{repeated[0]}: given twice: each file is one seed, name each once")
-    read = [_channels(path, scene) for path in paths]
-    first_path, first = paths[0], read[0]
-    height, width = next(iter(first.values())).shape
-    _check_size(first_path, width, height, scene)
-    layers = _layers(first_path, first)
-    frames, files, warnings = [], [], []
-    for path, channels in zip(paths, read):
-        h, w = next(iter(channels.values())).shape
+    sizes = [_header_size(path) for path in paths]  # before any pixel is read
+    _distinct_files(paths)
+    first_path, (width, height) = paths[0], sizes[0]
+    for path, (w, h) in zip(paths, sizes):
         if (w, h) != (width, height):
             raise CompareError(f"{path}: {w}×{h} pixels, but {first_path} has {width}×{height}: every seed's image "
                                f"must have the same size")
+    _check_size(first_path, width, height, scene)
+    check_images_fit(width, height, len(paths), BYTES_PER_PIXEL, f"compare's images with {len(paths)} file(s) "
+                     f"(the files' layers, the reference at their size, every metric)", error=CompareError)
+    read = [_channels(path, scene) for path in paths]
+    hashes = [file_sha256(path) for path in paths]
+    for j, digest in enumerate(hashes):
+        if digest in hashes[:j]:
+            raise CompareError(f"{paths[j]}: the same bytes as {paths[hashes.index(digest)]}: each file must be a "
+                               f"render of its own seed (two copies of one frame make the renderer's noise 0)")
+    layers = _layers(first_path, read[0])
+    frames, files, warnings = [], [], []
+    for path, channels, sha256 in zip(paths, read, hashes):
+        h, w = next(iter(channels.values())).shape
+        if (w, h) != (width, height):
+            raise CompareError(f"{path}: its pixels are {w}×{h}, but its header says {width}×{height}")
         if _layers(path, channels) != layers:
             raise CompareError(f"{path}: layers {', '.join(_layers(path, channels))}, but {first_path} has "
                                f"{', '.join(layers)}: every seed's image must hold the same layers")
         images = _frame_images(path, channels, layers, warnings)
         frames.append(Frame(images))
-        files.append({"path": os.path.abspath(path), "sha256": file_sha256(path), "layers": list(layers)})
+        files.append({"path": os.path.abspath(path), "sha256": sha256, "layers": list(layers)})
     components = COLOUR_LAYERS if SUMMED[0] in layers else (ROOT,)
     return Inputs(frames=frames, width=width, height=height, components=components,
                   mask="file" if MASK_LAYER in layers else "reference", files=files, warnings=warnings)
 
 
-def _channels(path: str, scene) -> dict:
-    """Channel name → H×W float32 of every part of the OpenEXR file ``path``; a file
-    whose header names the scene it was rendered from (``volcaustics_scene_hash``, as
-    this project's renderers write) must name ``scene``."""
+def _distinct_files(paths) -> None:
+    """CompareError naming both arguments when two name one file: the same path, two
+    spellings of it, a symbolic or a hard link (``os.path.samefile``)."""
+    for j in range(len(paths)):
+        for i in range(j):
+            if os.path.samefile(paths[i], paths[j]):
+                same = "given twice" if paths[i] == paths[j] else f"the same file as {paths[i]}"
+                raise CompareError(f"{paths[j]}: {same}: each file is one seed, name each once")
+
+
+def _opened(path: str) -> None:
+    """CompareError unless ``path`` is a readable OpenEXR file (by its first bytes)."""
     special = special_file_kind(path)
     if special:  # never opened: a FIFO would block
         raise CompareError(f"{path}: is {special}, not an image file")
@@ -102,6 +123,27 @@ def _channels(path: str, scene) -> dict:
         raise CompareError(f"{path}: is a PNG (8-bit, tonemapped): compare needs {CONVENTION}")
     if magic != EXR_MAGIC:
         raise CompareError(f"{path}: not an OpenEXR file (its first bytes are {magic!r}): compare needs {CONVENTION}")
+
+
+def _header_size(path: str) -> tuple:
+    """(width, height) of the OpenEXR file ``path`` from its header alone (its data
+    window), so that a size that cannot be measured is refused before the pixels load."""
+    _opened(path)
+    import OpenEXR
+
+    try:
+        with OpenEXR.File(path, header_only=True) as f:
+            lo, hi = f.header()["dataWindow"]
+    except Exception as exc:  # OpenEXR raises its own types for a damaged file
+        raise CompareError(f"{path}: unreadable OpenEXR ({exc})") from None
+    return int(hi[0]) - int(lo[0]) + 1, int(hi[1]) - int(lo[1]) + 1
+
+
+def _channels(path: str, scene) -> dict:
+    """Channel name → H×W float32 of every part of the OpenEXR file ``path``; a file
+    whose header names the scene it was rendered from (``volcaustics_scene_hash``, as
+    this project's renderers write) must name ``scene``."""
+    _opened(path)
     import OpenEXR
 
     try:
@@ -179,6 +221,10 @@ def _frame_images(path: str, channels: dict, layers: tuple, warnings: list) -> d
             y, x, _ = np.argwhere(bad)[0]
             raise CompareError(f"{path}: layer {layer} has {int(bad.any(axis=2).sum())} pixel(s) with NaN or ∞ "
                                f"(the first at row {y}, column {x}): a renderer's image must be finite")
+        if layer == MASK_LAYER and ((image < 0) | (image > 1)).any():
+            y, x, _ = np.argwhere((image < 0) | (image > 1))[0]
+            raise CompareError(f"{path}: layer {MASK_LAYER} has a value outside [0, 1] (the first at row {y}, column "
+                               f"{x}: {float(image[y, x, 0]):.3g}): it is 1 where the camera sees glass, else 0")
         negative = image < 0
         if layer != MASK_LAYER and negative.any():
             y, x, _ = np.argwhere(negative)[0]

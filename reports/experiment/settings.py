@@ -27,11 +27,20 @@ def check_frame(p, seeds: int) -> None:
             raise ParamError(f"{name} = {size}: a measurement needs images of at least {SSIM_WINDOW} × "
                              f"{SSIM_WINDOW} pixels (SSIM's Gaussian window, σ 1.5); {name} ≥ {SSIM_WINDOW}")
     check_fits(p, keep_records=True, supersample=SMALL_SUPERSAMPLE)
-    reason = image_fits(p.width, p.height, BYTES_PER_PIXEL + BYTES_PER_PIXEL_PER_SEED * seeds,
-                        f"the images of a measurement with {seeds} seed(s) (both renders, the reference, "
-                        f"the error decomposition's at {SMALL_SUPERSAMPLE}× per side)")
+    check_images_fit(p.width, p.height, seeds, (BYTES_PER_PIXEL, BYTES_PER_PIXEL_PER_SEED),
+                     f"the images of a measurement with {seeds} seed(s) (both renders, the reference, "
+                     f"the error decomposition's at {SMALL_SUPERSAMPLE}× per side)")
+
+
+def check_images_fit(width: int, height: int, seeds: int, cost: tuple, what: str, error=ParamError) -> None:
+    """``error`` unless the images of a command that measures ``seeds`` frames at width ×
+    height fit this machine's memory: ``cost`` is its (bytes per pixel, bytes per pixel
+    per seed), measured by ``bench/image_memory.py`` (``measure``: BYTES_PER_PIXEL and
+    BYTES_PER_PIXEL_PER_SEED; ``compare``: its own). The one check of ``measure`` and
+    ``compare``, run before any reference renders."""
+    reason = image_fits(width, height, cost[0] + cost[1] * seeds, what)
     if reason:
-        raise ParamError(f"{reason}, or fewer seeds")
+        raise error(f"{reason}, or fewer seeds")
 
 
 def checked_settings(scene, params, seeds: int) -> tuple:

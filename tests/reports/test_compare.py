@@ -6,6 +6,7 @@ it cannot judge, and the gate holding a renderer to its budgets."""
 from __future__ import annotations
 
 import json
+import os
 import shutil
 
 import numpy as np
@@ -168,6 +169,23 @@ def _damaged(env, tmp_path, case):
         return [tmp_path], "is a folder"
     if case == "twice":
         return [env / "s0.exr", env / "s0.exr"], "given twice"
+    # one file under two names (issue 36: the renderer's noise came out as 0)
+    if case == "spelled_twice":
+        return [env / "s0.exr", f"{env}/./s0.exr"], f"the same file as {env / 's0.exr'}"
+    if case == "symlink":
+        path.symlink_to(env / "s0.exr")
+        return [env / "s0.exr", path], "the same file as"
+    if case == "hard_link":
+        os.link(env / "s0.exr", path)
+        return [env / "s0.exr", path], "the same file as"
+    if case == "copy":
+        shutil.copyfile(env / "s0.exr", path)
+        return [env / "s0.exr", path], f"the same bytes as {env / 's0.exr'}"
+    if case == "mask_range":
+        bad = layers[MASK_LAYER].copy()
+        bad[1, 2] = -1.0
+        write_exr(str(path), {**layers, MASK_LAYER: bad})
+        return [path], "outside [0, 1]"
     if case == "other_scene":
         assert main(["approx", "sphere1", "-o", str(path), *SIZE, "--records-max", "0"]) == 0
         return [path], "not 'refocus'"
@@ -175,7 +193,7 @@ def _damaged(env, tmp_path, case):
 
 
 BAD = ("aspect", "sizes", "missing_layer", "nan", "inf", "negative", "png", "not_exr", "truncated", "missing_file",
-       "folder", "twice", "other_scene")
+       "folder", "twice", "other_scene", "spelled_twice", "symlink", "hard_link", "copy", "mask_range")
 
 
 @pytest.mark.parametrize("case", BAD)
@@ -187,6 +205,24 @@ def test_an_image_that_cannot_be_judged_exits_2_naming_it(env, tmp_path, capsys,
     err = capsys.readouterr().err
     assert words in err and "Traceback" not in err, err
     assert not (tmp_path / "empty-cache" / "reference").exists() and not (tmp_path / "out").exists()
+
+
+def test_images_beyond_memory_are_refused_before_their_pixels_load(env, tmp_path, capsys, monkeypatch):
+    """A 4096² EXR grew compare to 11.7 GB while it rendered the reference (issue 36):
+    the size is checked from the files' headers against the memory compare needs, with
+    measure's one check. Here the machine's budget is made small instead of the file
+    large: 32² pixels × 2 files need 1,800 × 1,024 bytes."""
+    import volcaustics.scenes.memory as memory
+
+    monkeypatch.setattr(memory, "memory_budget", lambda: 1 << 20)
+    monkeypatch.setattr("volcaustics.reports.compare.inputs._channels", lambda *_: pytest.fail("pixels read"))
+    monkeypatch.setenv("VOLCAUSTICS_CACHE", str(tmp_path / "empty-cache"))
+    capsys.readouterr()
+    assert main(["compare", "refocus", str(env / "s0.exr"), str(env / "s1.exr"), "-o", str(tmp_path / "out"),
+                 "--quiet", *REFERENCE]) == 2
+    err = capsys.readouterr().err
+    assert "more than half of this machine's memory" in err and "or fewer seeds" in err, err
+    assert not (tmp_path / "empty-cache" / "reference").exists()
 
 
 def test_the_checks_name_the_file_without_rendering(env):
