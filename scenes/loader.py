@@ -63,7 +63,7 @@ try:
 except ModuleNotFoundError:  # Python 3.10
     import tomli as tomllib
 
-from .animation import MAX_FRAMES, OBJECT_PATHS, TRACK_PATHS, Animation, Track, aim, track_kind
+from .animation import FPS_RANGE, MAX_FRAMES, OBJECT_PATHS, TRACK_PATHS, Animation, Track, aim, track_kind
 from .errors import SceneError
 from .generators import GENERATORS
 from .mesh import MeshReadError, closedness_problem, winding_number
@@ -434,7 +434,7 @@ def _key_values(ctx, key, v, count: int, kind: str):
 def _animation(ctx, value, scene: Scene) -> Animation:
     t = _Table(ctx, "animation", value)
     frames = t.get("frames", _integer(1, MAX_FRAMES))
-    fps = t.get("fps", _ranged(0.0, 1000.0, low_open=True, unit="frames per second"), 24.0)
+    fps = t.get("fps", _ranged(*FPS_RANGE, unit="frames per second (what the video writers store)"), 24.0)
     tracks = t.get("track", lambda c, k, v: _objects(c, k, v, lambda c2, k2, v2, i: _track(c2, k2, v2, i, scene)), ())
     t.finish()
     paths = [tr.path for tr in tracks]

@@ -47,7 +47,8 @@ def animation_size(camera) -> tuple[int, int]:
 
 def frame_list(text: str | None, frames: int) -> list[int]:
     """The frames to render: all (None); ``N`` evenly spaced over the animation, first and
-    last included; or a slice ``A:B[:STEP]`` of 0 … frames − 1. ValueError names the fix."""
+    last included (every frame when N ≥ frames); or a slice ``A:B[:STEP]`` of 0 … frames − 1
+    whose bounds lie in the animation. ValueError names the fix."""
     every = list(range(frames))
     if text is None:
         return every
@@ -57,12 +58,18 @@ def frame_list(text: str | None, frames: int) -> list[int]:
             parts = [int(p) if p.strip() else None for p in text.split(":")]
             if len(parts) > 3 or (len(parts) == 3 and parts[2] is not None and parts[2] <= 0):
                 raise ValueError
+            if any(p is not None and not -frames <= p <= frames for p in parts[:2]):
+                raise IndexError
             chosen = every[slice(*parts)]
         else:
             n = int(text)
             if n < 1:
                 raise ValueError
-            chosen = sorted({round(i * (frames - 1) / max(n - 1, 1)) for i in range(min(n, frames))})
+            n = min(n, frames)  # more than the animation has: every frame
+            chosen = sorted({round(i * (frames - 1) / max(n - 1, 1)) for i in range(n)})
+    except IndexError:
+        raise ValueError(f"--frames = {text!r}: the animation has frames 0 … {frames - 1} only: a slice A:B with "
+                         f"A and B in [{-frames}, {frames}]") from None
     except ValueError:
         raise ValueError(f"--frames = {text!r}: expected a count N ≥ 1 or a slice A:B[:STEP] of frames "
                          f"0 … {frames - 1} (STEP > 0)") from None

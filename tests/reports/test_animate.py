@@ -14,7 +14,7 @@ import pytest
 from volcaustics.metrics.temporal import flicker
 from volcaustics.reference.render import render_reference
 from volcaustics.reference.settings import ReferenceSettings
-from volcaustics.reports.animate.settings import reference_seed
+from volcaustics.reports.animate.settings import frame_list, reference_seed
 from volcaustics.reports.cli import main
 from volcaustics.scenes import load_builtin
 from volcaustics.scenes.catalogue import builtin_path
@@ -132,6 +132,7 @@ def test_a_bad_animation_table_exits_2_naming_the_key(cache, tmp_path, capsys):
     (["sphere1"], "no [animation]"),
     (["refocus", "--frames", "5:2"], "--frames"),
     (["refocus", "--frames", "0"], "--frames"),
+    (["refocus", "--frames", "0:100"], "frames 0 … 23 only"),  # was cut to 0–23 without a word (issue 36)
     (["refocus", "--chains", "0"], "--chains"),
 ])
 def test_bad_input_exits_2_naming_it(cache, tmp_path, capsys, args, named):
@@ -139,3 +140,22 @@ def test_bad_input_exits_2_naming_it(cache, tmp_path, capsys, args, named):
     err = capsys.readouterr().err
     assert named in err and "Traceback" not in err
     assert not (tmp_path / "out" / "summary.json").exists()
+
+
+@pytest.mark.parametrize("text,frames,expected", [
+    ("4", 24, [0, 8, 15, 23]),
+    ("24", 24, list(range(24))),
+    ("30", 24, list(range(24))),   # more than the animation has: every frame (issue 36: it gave 0 … 18)
+    ("100", 3, [0, 1, 2]),
+    ("1", 24, [0]),
+    ("2:6:2", 24, [2, 4]),
+    ("-3:", 24, [21, 22, 23]),
+])
+def test_frame_list_spans_the_whole_animation_for_any_count(text, frames, expected):
+    assert frame_list(text, frames) == expected
+
+
+@pytest.mark.parametrize("text", ["0:100", "30:", "-30:2"])
+def test_a_slice_beyond_the_animation_is_refused(text):
+    with pytest.raises(ValueError, match="frames 0 … 23 only"):
+        frame_list(text, 24)

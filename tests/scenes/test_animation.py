@@ -18,7 +18,7 @@ except ModuleNotFoundError:
 from tests.conftest import BASE_SCENE
 from volcaustics.reports.cli import main
 from volcaustics.scenes import SceneError, Transform, load_builtin, load_scene
-from volcaustics.scenes.animation import interpolate
+from volcaustics.scenes.animation import FPS_RANGE, interpolate
 
 
 def _doc(*tracks, frames=8, fps=12):
@@ -113,6 +113,10 @@ TRACK = {"path": "light.position", "frame": [0, 4], "value": [[0, 3, 0], [1, 3, 
 BAD = [
     ("frames zero", lambda a: a.update(frames=0), "animation.frames", "0"),
     ("fps zero", lambda a: a.update(fps=0), "animation.fps", "0"),
+    # below what the video writers store: a traceback after every frame had rendered (issue 36)
+    ("fps tiny", lambda a: a.update(fps=1e-6), "animation.fps", "1e-06"),
+    ("fps below the GIF's", lambda a: a.update(fps=0.005), "animation.fps", "0.005"),
+    ("fps too high", lambda a: a.update(fps=1001), "animation.fps", "1001"),
     ("unknown key", lambda a: a.update(loop=True), "animation.loop", "True"),
     ("unknown path", lambda a: a["track"][0].update(path="light.colour"), "animation.track[0].path", "'light.colour'"),
     ("unknown object", lambda a: a["track"][0].update(path="specular.teapot.translate"), "animation.track[0].path",
@@ -153,3 +157,16 @@ def test_bad_animation_names_file_key_value(tmp_path, capsys, mutate, key, value
     assert main(["scenes", "--check", str(path)]) == 2
     stderr = capsys.readouterr().err
     assert key in stderr and "Traceback" not in stderr
+
+
+@pytest.mark.parametrize("fps", FPS_RANGE)
+@pytest.mark.parametrize("fmt", ["mp4", "webp", "gif"])
+def test_the_videos_are_written_at_both_ends_of_the_fps_range(tmp_path, fps, fmt):
+    """The loader's fps bounds are what the writers accept: 24 frames written at each end."""
+    from volcaustics.reports.animate.media import write_mp4, write_web
+
+    pictures = [np.full((16, 16, 3), 10 * i, np.uint8) for i in range(24)]
+    path = str(tmp_path / f"video.{fmt}")
+    write_mp4(path, pictures, fps) if fmt == "mp4" else write_web(path, pictures, fps, fmt)
+    assert (tmp_path / f"video.{fmt}").stat().st_size > 0
+    assert _load(tmp_path, _doc(dict(TRACK), fps=fps))[1].animation.fps == fps
