@@ -88,7 +88,7 @@ def render_animation(scene, params, *, frames: list, modes: tuple, chains: int, 
             cached.append(bool(reference.cached))
             reference_seconds.append(float(reference.manifest.get("wall_seconds") or time.perf_counter() - t0))
             key = frame_key(at, params, modes, chains, t)
-            stored = _read_frame(work, t, key, modes, chains)
+            stored = _read_frame(work, t, key, modes, (chains, params.height, params.width))
             if stored is None:
                 if renderer is None:
                     renderer = Renderer(at)
@@ -139,9 +139,10 @@ def _write_frame(work: str, t: int, arrays: dict) -> None:
             np.savez(fh, **{k: v for k, v in arrays.items() if k != "gl"})
 
 
-def _read_frame(work: str, t: int, key: str, modes, chains: int) -> dict | None:
-    """The stored frame ``t`` if it is the one ``key`` names, else None (absent, another
-    run's or damaged: rendered again)."""
+def _read_frame(work: str, t: int, key: str, modes, shape: tuple) -> dict | None:
+    """The stored frame ``t`` if it is the one ``key`` names and holds the arrays a frame
+    of ``shape`` (chains, height, width) has, else None (absent, another run's or
+    damaged: rendered again)."""
     path = _frame_file(work, t)
     if not os.path.isfile(path):
         return None
@@ -150,7 +151,11 @@ def _read_frame(work: str, t: int, key: str, modes, chains: int) -> dict | None:
             arrays = {k: np.asarray(data[k]) for k in data.files}
     except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile):
         return None
-    wanted = [f"{m}/{layer}" for m in modes for layer in (*COLOUR_LAYERS, MASK_LAYER)]
-    if any(k not in arrays or len(arrays[k]) != chains or not np.isfinite(arrays[k]).all() for k in wanted):
-        return None
-    return arrays if "seconds" in arrays and str(arrays.get("key", "")) == key else None
+    wanted = {f"{m}/{layer}": (*shape, 1 if layer == MASK_LAYER else 3) for m in modes
+              for layer in (*COLOUR_LAYERS, MASK_LAYER)}
+    wanted["seconds"] = (len(modes) * shape[0],)
+    for name, dims in wanted.items():  # right key, wrong arrays: a ValueError escaped on stacking (issue 36)
+        a = arrays.get(name)
+        if a is None or a.shape != dims or a.dtype.kind != "f" or not np.isfinite(a).all():
+            return None
+    return arrays if str(arrays.get("key", "")) == key else None

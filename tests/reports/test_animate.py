@@ -65,8 +65,9 @@ def test_animate_writes_the_set_and_a_new_seed_per_frame_flickers_more(cache, tm
     frame count), the WebP, the plot and the summary. The metric's negative control: a
     new seed every frame makes the caustic flicker more than one fixed seed, by more than
     4 SE of the difference (measured: 0.33% ± 0.07 against 79% ± 10). A second run
-    reads every undamaged frame back instead of rendering it (one damaged frame file is
-    rendered again: it raised BadZipFile before) and writes the same tables."""
+    reads every undamaged frame back instead of rendering it (a damaged frame file is
+    rendered again: it raised BadZipFile before; so is one of the right key with arrays of
+    the wrong shape) and writes the same tables."""
     out = tmp_path / "anim"
     scene = _brightening(tmp_path)
     assert main(["animate", scene, "-o", str(out), *ARGS]) == 0
@@ -95,9 +96,13 @@ def test_animate_writes_the_set_and_a_new_seed_per_frame_flickers_more(cache, tm
     assert (out / "timeseries.png").stat().st_size > 0
 
     (out / ".animate" / "frame-0002.npz").write_bytes(b"PK\x03\x04 damaged")  # a damaged frame: rendered again
+    # the right key over arrays of the wrong shape: a ValueError traceback before (issue 36), now rendered again
+    with np.load(out / ".animate" / "frame-0001.npz") as data:
+        arrays = {k: data[k][:, :16] if k.endswith("/caustic") else data[k] for k in data.files}
+    np.savez(out / ".animate" / "frame-0001.npz", **arrays)
     assert main(["animate", scene, "-o", str(out), *ARGS]) == 0
     again = json.loads((out / "summary.json").read_text())
-    assert again["seconds"]["frames_resumed"] == FRAMES - 1
+    assert again["seconds"]["frames_resumed"] == FRAMES - 2
     assert again["seconds"]["references_cached"] == FRAMES
     pd.testing.assert_frame_equal(pd.read_parquet(out / "temporal.parquet"), temporal)
     # another --frames selection reuses the frames it shares with the runs before
