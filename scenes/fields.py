@@ -34,7 +34,7 @@ def parse_field_value(name: str, text):
     or a bare word as a string) or as TOML gave it, as a hashable value (a list as a
     tuple): a number, a word, a boolean or a flat list of numbers; SceneError for the
     path or another kind of value (a table, a nested list)."""
-    _parts(name)
+    _parts(name, text)
     value = text
     if isinstance(text, str):
         try:
@@ -49,16 +49,17 @@ def parse_field_value(name: str, text):
     return value
 
 
-def _parts(name: str) -> list:
+def _parts(name: str, value=None) -> list:
+    """The path's parts; SceneError naming ``name`` and the ``value`` given for it."""
     parts = name.split(".")
     if parts[0] not in TABLES or len(parts) < 2 or any(not p for p in parts):
-        raise SceneError(None, name, None, f"a scene field is TABLE.KEY with TABLE one of {', '.join(TABLES)} "
+        raise SceneError(None, name, value, f"a scene field is TABLE.KEY with TABLE one of {', '.join(TABLES)} "
                                            f"({', '.join(ARRAYS)} take an index: specular.0.ior)")
     if parts[0] == "camera" and parts[1] in ("width", "height"):
-        raise SceneError(None, name, None, f"the image size is the approximation's parameter: use {parts[1]} "
+        raise SceneError(None, name, value, f"the image size is the approximation's parameter: use {parts[1]} "
                                            f"(--set {parts[1]}=N), which sizes the reference too")
     if parts[0] in ARRAYS and (len(parts) < 3 or not _index(parts[1])):
-        raise SceneError(None, name, None, f"{parts[0]} is a list of objects: give its index, e.g. {parts[0]}.0."
+        raise SceneError(None, name, value, f"{parts[0]} is a list of objects: give its index, e.g. {parts[0]}.0."
                                            f"{parts[-1]}")
     return parts
 
@@ -80,7 +81,7 @@ def _document(arg: str) -> tuple:
 
 
 def _assign(doc: dict, name: str, value, label: str) -> None:
-    parts, node = _parts(name), doc
+    parts, node = _parts(name, value), doc
     for i, part in enumerate(parts[:-1]):
         if isinstance(node, list):
             if not _index(part):

@@ -195,6 +195,17 @@ def _vec3(ctx, key, v):
     return tuple(_coordinate(ctx, f"{key}[{i}]", x) for i, x in enumerate(v))
 
 
+_degrees = _ranged(-COORDINATE_LIMIT, COORDINATE_LIMIT, unit="degrees")
+
+
+def _euler(ctx, key, v):
+    """Rotation angles about x, y, z in degrees (bounded like coordinates: float32 keeps
+    0.1° at 1e6°), named as angles in every message."""
+    if not isinstance(v, list) or len(v) != 3:
+        raise ctx.error(key, v, "expected a list of 3 angles in degrees [about x, about y, about z]")
+    return tuple(_degrees(ctx, f"{key}[{i}]", x) for i, x in enumerate(v))
+
+
 def _rgb(low=0.0, high=None, unit=""):
     one = _ranged(low, high, unit=unit)
 
@@ -287,7 +298,7 @@ def _transform(ctx, key, value) -> Transform:
     t = _Table(ctx, key, value)
     tr = Transform(
         translate=t.get("translate", _vec3, (0.0, 0.0, 0.0)),
-        rotate=t.get("rotate", _vec3, (0.0, 0.0, 0.0)),
+        rotate=t.get("rotate", _euler, (0.0, 0.0, 0.0)),
         scale=t.get("scale", _ranged(1.0 / COORDINATE_LIMIT, COORDINATE_LIMIT), 1.0),
     )
     t.finish()
@@ -380,7 +391,7 @@ def _diffuse(ctx, key, value, index) -> DiffuseSurface:
 
 def _track_values(kind: str) -> Callable:
     return {"point": _vec3, "direction": _direction, "rgb": _rgb(0.0, unit="1/m or W/sr"),
-            "angle": lambda c, k, v: (_view_angle(c, k, v),), "euler": _vec3,
+            "angle": lambda c, k, v: (_view_angle(c, k, v),), "euler": _euler,
             "scale": lambda c, k, v: (_ranged(1.0 / COORDINATE_LIMIT, COORDINATE_LIMIT)(c, k, v),)}[kind]
 
 

@@ -58,6 +58,9 @@ CASES = [
     ("negative absorption", _set(["specular", 0, "absorption"], [-1.0, 0.0, 0.0]), "specular[0].absorption[0]", "-1.0"),
     ("negative intensity", _set(["light", "intensity"], -5.0), "light.intensity", "-5.0"),
     ("ior below one", _set(["specular", 0, "ior"], 0.9), "specular[0].ior", "0.9"),
+    # an angle named as an angle: it said "[-1e6, 1e6] m" (issue 36)
+    ("rotation out of range", _set(["specular", 0, "transform", "rotate"], [0.0, 2e6, 0.0]),
+     "specular[0].transform.rotate[1]", "1000000.0] degrees"),
     ("cutoff zero", _set(["light", "cutoff_angle"], 0.0), "light.cutoff_angle", "0.0"),
     ("cutoff ninety", _set(["light", "cutoff_angle"], 90.0), "light.cutoff_angle", "90.0"),
     ("cutoff beyond the maps", _set(["light", "cutoff_angle"], 89.99), "light.cutoff_angle", "89.99"),
