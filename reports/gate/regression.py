@@ -76,6 +76,9 @@ def baseline_entry(experiment) -> dict:
 
 
 def load_baseline(folder: str) -> dict:
+    if os.path.exists(folder) and not os.path.isdir(folder):
+        raise GateError(f"--baseline {folder}: is a file: it must be a folder, the one holding {BASELINE} "
+                        f"(`make gate-baseline` writes one)")
     path = os.path.join(folder, BASELINE)
     try:
         doc = read_json_object(path)

@@ -122,6 +122,16 @@ def test_budgets_that_are_a_fifo(tmp_path, capsys):
     _fails_fast(capsys, ["gate", "--budgets", str(fifo), "--out", str(tmp_path / "g")], "not a regular file")
 
 
+@pytest.mark.parametrize("command", ["gate", "report"])
+def test_a_baseline_that_is_a_file_is_named_as_such(tmp_path, capsys, empty_cache, command):
+    """It said "Not a directory" (issue 36); nothing renders before the check."""
+    baseline = tmp_path / "baseline.json"
+    baseline.write_text("{}")
+    _fails_fast(capsys, [command, "--baseline", str(baseline), "--out", str(tmp_path / "out")],
+                "is a file: it must be a folder")
+    assert not (empty_cache / "reference").exists()
+
+
 @pytest.mark.parametrize("variable, value, fragment", [
     ("VOLCAUSTICS_MI_VARIANT", "scalar_rgb", "VOLCAUSTICS_MI_VARIANT = 'scalar_rgb'"),
     ("VOLCAUSTICS_MI_VARIANT", "no_such_variant", "expected one of"),
