@@ -106,6 +106,8 @@ def load_best_spec(path: str = BEST_SPEC, scenes: list | None = None) -> BestSpe
         table = doc.get(key, {})
         if not isinstance(table, dict):
             raise SweepError(f"{path}: {key} = {table!r}: expected a table [{key}]")
+        if key in doc and not table:
+            raise SweepError(f"{path}: [{key}] is empty: give its axes (NAME = [values]) or leave the table out")
         axes[key] = []
         for name, values in table.items():
             if name in ("photon_res", "seed"):
@@ -113,7 +115,13 @@ def load_best_spec(path: str = BEST_SPEC, scenes: list | None = None) -> BestSpe
                                  f"= N sets the seeds)")
             if not isinstance(values, list) or not values:
                 raise SweepError(f"{path}: {key}.{name} = {values!r}: expected a non-empty list")
-            axes[key].append((name, tuple(parse_value(name, v, f"{path}: {key}", error=SweepError) for v in values)))
+            parsed = tuple(parse_value(name, v, f"{path}: {key}", error=SweepError) for v in values)
+            if len(set(parsed)) != len(parsed):  # named here: the sweep's own check says vary.NAME
+                raise SweepError(f"{path}: {key}.{name} = {values!r}: a value is listed twice")
+            axes[key].append((name, parsed))
+    if not axes["coarse"] and not axes["refine"]:  # it searched nothing, over every built-in, for hours
+        raise SweepError(f"{path}: no [coarse] or [refine] axis: nothing to search; give at least one, e.g. "
+                         f"[coarse] layers = [2, 4]")
     rounds = doc.get("rounds", 1)
     if isinstance(rounds, bool) or not isinstance(rounds, int) or not 0 <= rounds <= 10:
         raise SweepError(f"{path}: rounds = {rounds!r}: expected an integer in [0, 10]")
