@@ -207,14 +207,19 @@ def _layers(path: str, channels: dict) -> tuple:
 
 
 def _frame_images(path: str, channels: dict, layers: tuple, warnings: list) -> dict:
-    images = {}
+    images, used = {}, set()
     for layer in layers:
         if layer == MASK_LAYER:
-            mask = channels.get(f"{MASK_LAYER}.Y", channels.get(f"{MASK_LAYER}.R"))
-            images[layer] = np.repeat(mask[..., None], 3, axis=2)
+            name = f"{MASK_LAYER}.Y" if f"{MASK_LAYER}.Y" in channels else f"{MASK_LAYER}.R"
+            images[layer] = np.repeat(channels[name][..., None], 3, axis=2)
+            used.add(name)
             continue
         prefix = f"{layer}." if _rgb(channels, layer) else ""
         images[layer] = np.stack([channels[f"{prefix}{c}"] for c in "RGB"], axis=-1)
+        used.update(f"{prefix}{c}" for c in "RGB")
+    unread = sorted(name for name, values in channels.items() if name not in used and not np.isfinite(values).all())
+    if unread:  # not compared, but a renderer that writes NaN somewhere should hear of it
+        warnings.append(f"{os.path.basename(path)}: channel(s) {', '.join(unread)} hold NaN or ∞ (not compared)")
     for layer, image in images.items():
         bad = ~np.isfinite(image)
         if bad.any():

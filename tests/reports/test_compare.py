@@ -280,3 +280,16 @@ def test_the_gate_holds_another_renderer_to_its_budgets(env, tmp_path, capsys):
     assert "SHA-256" in capsys.readouterr().err
     assert main([*gate, "--budgets", str(loose), "--compare", "files"]) == 2
     assert "expected NAME=DIR" in capsys.readouterr().err
+
+
+def test_nan_in_a_channel_not_compared_is_named_in_the_warnings(env, tmp_path):
+    """It passed without a word (issue 36); the compared layers stay as they are."""
+    layers, _ = read_exr(str(env / "s0.exr"))
+    extra = np.zeros_like(layers["caustic"])
+    extra[0, 0, 2] = np.nan
+    path = tmp_path / "extra.exr"
+    write_exr(str(path), {**layers, "albedo": extra})
+    inputs = read_images([str(path)], load_builtin("refocus"))
+    assert any("albedo.B" in w and "not compared" in w for w in inputs.warnings), inputs.warnings
+    clean = read_images([str(env / "s0.exr")], load_builtin("refocus"))
+    assert not any("NaN" in w for w in clean.warnings)
