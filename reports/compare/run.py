@@ -18,6 +18,7 @@ from volcaustics.reports.core.sizing import at_size
 from volcaustics.reports.core.timing import Clock
 from volcaustics.reports.core.versions import code_version, library_versions
 from volcaustics.reports.experiment.images import image_rows, keep_mask
+from volcaustics.reports.experiment.settings import check_medium
 from volcaustics.reports.experiment.summary import reference_summary
 
 KIND = "compare"  # summary.json "kind" of a compare output folder
@@ -45,6 +46,7 @@ def run_compare(scene, paths, *, name: str, reference_settings, policy: str = "c
     against the reference at their size (``reference_settings``, unsized: the runner's
     reference under ``policy``). CompareError for images that cannot be judged, before
     the reference renders."""
+    check_medium(scene, error=CompareError)  # a medium without a caustic to compare: before the files are read
     clock = Clock()
     with clock.stage("read"):
         inputs = read_images(list(paths), scene)

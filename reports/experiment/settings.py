@@ -43,9 +43,36 @@ def check_images_fit(width: int, height: int, seeds: int, cost: tuple, what: str
         raise error(f"{reason}, or fewer seeds")
 
 
+# Beyond this optical depth (light → target → eye) single scattering reaches the camera
+# attenuated by e^-τ < 2^-34: fewer than one photon of the largest reference (max_photons
+# 2^34) would carry the caustic: docs/decisions.md "A medium a measurement can measure".
+MAX_OPTICAL_DEPTH = 24.0
+
+
+def check_medium(scene, error=ParamError) -> None:
+    """``error`` unless ``scene``'s medium gives a volume caustic to measure: it scatters
+    in every colour channel (the error's shares divide by the reference caustic, per
+    channel) and its optical depth leaves the camera some light (MAX_OPTICAL_DEPTH).
+    Checked before any reference renders (issue 36: σs of 0 or 1e3 failed after it)."""
+    from volcaustics.scenes.fields import optical_depth
+
+    sigma_s = scene.medium.sigma_s
+    if min(sigma_s) <= 0.0:
+        raise error(f"{scene.name}: medium.sigma_s = {list(sigma_s)}: a channel without scattering has no volume "
+                    f"caustic to measure (the error is relative to the reference's caustic in each channel); "
+                    f"give every channel sigma_s > 0")
+    depth = optical_depth(scene)
+    if not depth <= MAX_OPTICAL_DEPTH:
+        raise error(f"{scene.name}: the medium's optical depth from the light to the camera is {depth:.3g} "
+                    f"(sigma_t {scene.medium.sigma_bar:.3g} 1/m over the light → target → eye path), above "
+                    f"{MAX_OPTICAL_DEPTH:g}: e^-{depth:.3g} leaves no light a reference can render for the "
+                    f"camera; give a thinner medium")
+
+
 def checked_settings(scene, params, seeds: int) -> tuple:
-    """(resolved params, seed list); ParamError before any work for a bad seed count
-    or a frame that cannot be measured."""
+    """(resolved params, seed list); ParamError before any work for a bad seed count,
+    a frame that cannot be measured or a medium without a caustic (:func:`check_medium`)."""
+    check_medium(scene)
     if isinstance(seeds, bool) or not isinstance(seeds, int) or not 1 <= seeds <= 1024:
         raise ParamError(f"seeds = {seeds!r}: expected an integer in [1, 1024]")
     p = params.resolved(scene)

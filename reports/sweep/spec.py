@@ -43,7 +43,7 @@ from volcaustics.reports.core.params import parse_assignment, parse_overrides, p
 from volcaustics.reports.core.sizing import reference_settings
 from volcaustics.reports.core.tomlfile import load_toml
 from volcaustics.reports.experiment.measurement import measurement_settings
-from volcaustics.reports.experiment.settings import check_frame
+from volcaustics.reports.experiment.settings import check_frame, check_medium
 from volcaustics.reports.runner import Point
 from volcaustics.scenes import BUILTIN_NAMES, SceneError, resolve_scene
 from volcaustics.scenes.catalogue import scene_relative_to
@@ -244,14 +244,17 @@ def _checked(spec: SweepSpec, where: str, max_points: int | None = MAX_POINTS) -
         raise SweepError(f"{where}: seed cannot be varied; use seeds = N (points with seeds seed … seed + N − 1)")
     for scene in spec.scenes:
         try:
-            resolve_scene(scene)
+            resolved = resolve_scene(scene)
         except SceneError as exc:
             raise SweepError(f"{where}: {exc}") from None
+        if any(not p.fields for p in points(spec) if p.scene == scene):  # measured as the file has it
+            check_medium(resolved, error=lambda text: SweepError(f"{where}: {text}"))
     for scene, fields in sorted({(p.scene, p.fields) for p in points(spec) if p.fields}, key=str):
         try:  # every changed scene, validated as the loader validates a file
-            scene_with(scene, fields)
+            changed = scene_with(scene, fields)
         except SceneError as exc:
             raise SweepError(f"{where}: {exc}") from None
+        check_medium(changed, error=lambda text, f=fields: SweepError(f"{where}: {dict(f)}: {text}"))
     for point in points(spec):
         last = point.params.seed + spec.seeds - 1
         if last > 2**32 - 1:
