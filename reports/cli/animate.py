@@ -55,7 +55,7 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    check_output_set(args.output, "-o", files=output_files(), folders=(WORK,))
+    check_output_set(args.output, "-o", files=output_files(), folders=(WORK,), kind=KIND)
     scene = resolve_scene(args.scene)
     if scene.animation is None:
         raise UsageError("SCENE", args.scene, "has no [animation] table: add one (README, 'Animated scenes') or "

@@ -75,13 +75,32 @@ def check_no_folder_at(files, option: str, value) -> None:
                                             f"another name")
 
 
-def check_output_set(folder: str, option: str, files=(), folders=()) -> None:
+def check_output_set(folder: str, option: str, files=(), folders=(), kind: str | None = None) -> None:
     """``folder`` must be (or become) a writable folder holding no folder where one of
-    its output ``files`` goes and no file where one of its ``folders`` goes."""
+    its output ``files`` goes and no file where one of its ``folders`` goes; with
+    ``kind`` (its summary.json's "kind"), no summary.json of another command's kind
+    (its outputs would be half replaced: a mixed folder)."""
     check_output_dir(folder, option)
     check_no_folder_at([os.path.join(folder, name) for name in files], option, folder)
     for name in folders:
         check_output_dir(os.path.join(folder, name), option)
+    if kind is not None:
+        other = _summary_kind(os.path.join(folder, "summary.json"))
+        if other is not None and other != kind:
+            raise UsageError(option, folder, f"holds another command's outputs (its summary.json is of kind "
+                                             f"{other!r}, this command writes {kind!r}): choose another folder")
+
+
+def _summary_kind(path: str) -> str | None:
+    """The "kind" of the summary.json at ``path``; None when there is none (or it cannot
+    be read: the command replaces it)."""
+    from volcaustics.scenes.storage import read_json_object
+
+    try:
+        kind = read_json_object(path).get("kind") if os.path.isfile(path) else None
+    except (OSError, ValueError):
+        return None
+    return kind if isinstance(kind, str) else None
 
 
 def check_output_dir(path: str, option: str = "-o") -> None:

@@ -6,7 +6,7 @@ from __future__ import annotations
 import os
 
 from volcaustics.reports.cli.common import UsageError, add_report_reference, check_output_set, num, pct, report_settings
-from volcaustics.reports.compare.run import run_compare
+from volcaustics.reports.compare.run import KIND, run_compare
 from volcaustics.reports.compare.write import OUTPUT_FILES, write_comparison
 from volcaustics.reports.core.tables import plain
 from volcaustics.reports.page.external import comparison_images, comparison_page, comparison_row
@@ -33,7 +33,7 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    check_output_set(args.output, "-o", files=OUTPUT_FILES)
+    check_output_set(args.output, "-o", files=OUTPUT_FILES, kind=KIND)
     name = args.name if args.name is not None else os.path.splitext(os.path.basename(args.images[0]))[0]
     if not name.strip():
         raise UsageError("--name", args.name, "expected a non-empty name for the renderer")

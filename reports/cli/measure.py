@@ -17,6 +17,7 @@ from volcaustics.reports.core.sizing import sized
 from volcaustics.reports.core.tables import plain
 from volcaustics.reports.experiment.run import run_experiment
 from volcaustics.reports.experiment.settings import checked_settings
+from volcaustics.reports.experiment.summary import KIND as EXPERIMENT_KIND
 from volcaustics.reports.experiment.write import OUTPUT_FILES, write_experiment
 from volcaustics.scenes import resolve_scene
 
@@ -41,7 +42,7 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    check_output_set(args.output, "-o", files=OUTPUT_FILES)
+    check_output_set(args.output, "-o", files=OUTPUT_FILES, kind=EXPERIMENT_KIND)
     scene = resolve_scene(args.scene)
     params = params_from_args(args)
     checked_settings(scene, params, args.seeds)  # a bad seed count or a frame that cannot run: before the reference

@@ -14,6 +14,8 @@ from volcaustics.reports.experiment.frames import median_timings
 from volcaustics.scenes.fields import field_columns, optical_depth
 from volcaustics.scenes.formats import COLOUR_LAYERS
 
+KIND = "experiment"  # summary.json "kind" of a measure output folder
+
 ALIVE_BUDGET = 1e-3          # above it, summary.json warns that E_∞ is truncated
 VIEWS = {"approx.<component>": "the approximation, mean over the seeds (H×W×3)",
          "reference.<component>": "the reference's mean (H×W×3)",
@@ -93,7 +95,7 @@ def experiment_summary(scene, p, seeds, reference, frames, exact, headline, deco
                         + ("" if len(seeds) >= 2 else "; the approximation's own noise is not estimated, not "
                            "subtracted") + f"; use --seeds {MIN_SEEDS_FOR_INTERVAL} or more")
     return {
-        "kind": "experiment", "scene": scene.name, "scene_hash": scene.scene_hash(),
+        "kind": KIND, "scene": scene.name, "scene_hash": scene.scene_hash(),
         "optical_depth": optical_depth(scene),
         "description": scene.description, "params": p.to_dict(), "seeds": len(seeds), "seed_values": seeds,
         "reference": reference_summary(reference),

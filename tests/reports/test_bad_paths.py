@@ -257,3 +257,17 @@ def test_other_runtime_errors_are_not_taken_for_interrupts():
 
     assert not _interrupted(RuntimeError("out of memory"))
     assert _interrupted(RuntimeError("x: KeyboardInterrupt"))
+
+
+@pytest.mark.parametrize("command, other", [
+    (["animate", "refocus"], "compare"),     # it replaced the comparison's summary.json: a mixed folder (issue 36)
+    (["measure", "sphere1"], "animation"),
+    (["compare", "refocus", "image.exr"], "experiment"),
+])
+def test_an_output_folder_of_another_command_is_refused(tmp_path, capsys, empty_cache, command, other):
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "summary.json").write_text(f'{{"kind": "{other}"}}')
+    _fails_fast(capsys, [*command, "-o", str(out), "--quiet"], f"holds another command's outputs (its summary.json "
+                                                                f"is of kind {other!r}")
+    assert (out / "summary.json").read_text() == f'{{"kind": "{other}"}}'
