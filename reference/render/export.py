@@ -10,6 +10,7 @@ file, never reuses an old one), checked byte for byte whenever they are used.
 from __future__ import annotations
 
 import os
+import shutil
 from xml.sax.saxutils import quoteattr
 
 import numpy as np
@@ -104,7 +105,17 @@ def export_xml(scene, path: str) -> None:
     """Write a Mitsuba 3 XML scene (volpath) with its PLY meshes next to it (atomic)."""
     folder = os.path.dirname(os.path.abspath(path))
     mesh_dir = os.path.join(folder, os.path.splitext(os.path.basename(path))[0] + "_meshes")
+    created = not os.path.isdir(mesh_dir)
     os.makedirs(mesh_dir, exist_ok=True)
+    try:
+        _write_xml(scene, path, folder, mesh_dir)
+    except BaseException:  # Ctrl-C or a failure: a mesh folder this call made goes with it (issue 36)
+        if created:
+            shutil.rmtree(mesh_dir, ignore_errors=True)
+        raise
+
+
+def _write_xml(scene, path: str, folder: str, mesh_dir: str) -> None:
     d = to_mitsuba(scene, mesh_dir=mesh_dir)
     film, sampler = d["sensor"]["film"], d["sensor"]["sampler"]
     lines = ['<scene version="3.0.0">',

@@ -117,6 +117,25 @@ def test_export_xml_loads_in_mitsuba(tmp_path):
     assert '<default name="spp" value="16"/>' in text and "cannot render this scene's volume caustic" in text
 
 
+@pytest.mark.parametrize("existing", [False, True])
+def test_an_interrupted_export_leaves_no_mesh_folder_it_made(tmp_path, monkeypatch, existing):
+    """Ctrl-C during `export` left an empty OUT_meshes/ (issue 36); a folder that was
+    there before stays."""
+    from volcaustics.reference.render import export
+
+    meshes = tmp_path / "two_meshes"
+    if existing:
+        meshes.mkdir()
+
+    def interrupted(*_, **__):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(export, "to_mitsuba", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        export.export_xml(load_builtin("two_spheres"), str(tmp_path / "two.xml"))
+    assert meshes.is_dir() == existing and not (tmp_path / "two.xml").exists()
+
+
 def test_image_size_has_one_place_in_the_key():
     """A scene whose camera was resized and the scene as loaded, with settings naming
     the same size, are the same render: one key (the report used to resize the camera,
