@@ -38,8 +38,10 @@ from volcaustics.reports.core.store import TABLES, Store, key_document, point_ke
 from volcaustics.reports.core.tables import rows_of
 from volcaustics.reports.experiment.measurement import MeasurementSettings
 from volcaustics.reports.experiment.run import run_experiment
+from volcaustics.reports.experiment.settings import BYTES_PER_PIXEL, BYTES_PER_PIXEL_PER_SEED
 from volcaustics.scenes import resolve_scene
 from volcaustics.scenes.fields import scene_with
+from volcaustics.scenes.memory import memory_budget
 from volcaustics.scenes.storage import cache_dir
 
 POLICIES = ("cached", "missing", "continue")
@@ -134,9 +136,9 @@ def measure(points: list, store: Store, *, reference_settings, measurement: Meas
                                      progress=progress, hint=hint, error=error)
     unique = list({t["key"]: t for t in tasks}.values())
     done_before = len(set(keys)) - len(unique)
-    if parallel and workers is None and dask is None and len(unique) > 1 and default_workers() > 1 \
-            and all(holds(references[task["reference_key"]]) for task in unique):  # what the workers will read
-        outcomes = _on_executor(unique, store, total=len(set(keys)), done=done_before, workers=default_workers(),
+    processes = _parallel_processes(unique) if parallel and workers is None and dask is None else 1
+    if processes > 1 and all(holds(references[task["reference_key"]]) for task in unique):  # what workers read
+        outcomes = _on_executor(unique, store, total=len(set(keys)), done=done_before, workers=processes,
                                 progress=progress, desc="experiments")
         scene_of = {task["key"]: task["scene"] for task in unique}
         for outcome in outcomes:
@@ -155,6 +157,15 @@ def measure(points: list, store: Store, *, reference_settings, measurement: Meas
                for point, key in zip(points, keys)] if read_back else []
     return Measured(keys=keys, done_before=done_before, computed=len(done), failed=failed,
                     seconds=time.perf_counter() - t0, point_seconds=[o["seconds"] for o in done], results=results)
+
+
+def _parallel_processes(tasks) -> int:
+    """How many local processes measure ``tasks`` at once: one per core, at most as many
+    as there are tasks, and only as many as the largest point's images fit the memory
+    budget together (``check_frame`` lets one point have the whole budget)."""
+    need = max(task["params"]["width"] * task["params"]["height"]
+               * (BYTES_PER_PIXEL + BYTES_PER_PIXEL_PER_SEED * task["seeds"]) for task in tasks) if tasks else 1
+    return max(1, min(default_workers(), len(tasks), memory_budget() // max(need, 1)))
 
 
 def _tasks(points, store, settings, measurement, policy, *, views, progress, hint, error) -> tuple:

@@ -41,3 +41,16 @@ def test_a_point_failing_on_a_worker_fails_the_run(cache, tmp_path, monkeypatch)
         {"key": t["key"], "error": "RuntimeError: out of memory"} for t in tasks])
     with pytest.raises(runner.RunnerError, match="refocus: its point failed on a worker process: RuntimeError"):
         _measure(Store(str(tmp_path / "store")), parallel=True)
+
+
+def test_points_whose_images_fit_the_memory_only_one_at_a_time_run_in_this_process(cache, tmp_path, monkeypatch):
+    """``check_frame`` gives one point the whole memory budget: two such points at once
+    could exhaust the machine, so they run one after another here."""
+    from volcaustics.reports.experiment.settings import BYTES_PER_PIXEL, BYTES_PER_PIXEL_PER_SEED
+
+    one = 32 * 32 * (BYTES_PER_PIXEL + BYTES_PER_PIXEL_PER_SEED * POINT.seeds)
+    monkeypatch.setattr(runner, "default_workers", lambda: 2)
+    monkeypatch.setattr(runner, "memory_budget", lambda: int(1.5 * one))
+    monkeypatch.setattr(runner, "_TOOLS", {})
+    assert _measure(Store(str(tmp_path / "store")), parallel=True).computed == 2
+    assert runner._TOOLS  # measured in this process
