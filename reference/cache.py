@@ -326,22 +326,15 @@ def for_caller(manifest: dict, scene) -> dict:
     return {**manifest, "scene": scene.name, "scene_hash": scene.scene_hash()}
 
 
-def cached_reference(key: str, scene) -> ReferenceResult | None:
+def cached_reference(key: str, scene, content: str | None = None) -> ReferenceResult | None:
     """The complete, verified cache entry ``key`` as a result for ``scene``, or None if
-    this cache does not hold it (a sweep's workers use exactly the reference the sweep
-    resolved)."""
+    this cache does not hold it, or (``content``: its EXR's SHA-256) holds another render
+    under the key, an entry continued since: a worker measures exactly the reference its
+    run resolved."""
     entry = load(key)
-    return None if entry is None else ReferenceResult(key, for_caller(entry[0], scene), cached=True, layers=entry[1])
-
-
-def holds(reference: ReferenceResult) -> bool:
-    """Whether the cache's entry ``reference.key`` is this very reference (its sealed
-    manifest), so that another process here reads the same one (``cached_reference``)."""
-    try:
-        manifest = read_json_object(manifest_path(reference.key))
-    except (OSError, ValueError):
-        return False
-    return manifest.get(SEAL) is not None and manifest.get(SEAL) == reference.manifest.get(SEAL)
+    if entry is None or (content is not None and entry[0].get("exr_sha256") != content):
+        return None
+    return ReferenceResult(key, for_caller(entry[0], scene), cached=True, layers=entry[1])
 
 
 def existing_reference(scene, settings=None, *, mode: str = "caustic") -> ReferenceResult | None:

@@ -29,7 +29,7 @@ from tqdm import tqdm
 
 from volcaustics.approx import Renderer
 from volcaustics.approx.params import ApproxParams
-from volcaustics.reference.cache import cached_reference, existing_reference, holds
+from volcaustics.reference.cache import cached_reference, existing_reference
 from volcaustics.reference.oracle import Oracle
 from volcaustics.reference.render import render_reference
 from volcaustics.reports.core.executors import default_workers, run_tasks
@@ -38,7 +38,7 @@ from volcaustics.reports.core.store import TABLES, Store, key_document, point_ke
 from volcaustics.reports.core.tables import rows_of
 from volcaustics.reports.experiment.measurement import MeasurementSettings
 from volcaustics.reports.experiment.run import run_experiment
-from volcaustics.reports.experiment.settings import BYTES_PER_PIXEL, BYTES_PER_PIXEL_PER_SEED
+from volcaustics.reports.experiment.settings import measurement_bytes
 from volcaustics.scenes import resolve_scene
 from volcaustics.scenes.fields import scene_with
 from volcaustics.scenes.memory import memory_budget
@@ -126,8 +126,9 @@ def measure(points: list, store: Store, *, reference_settings, measurement: Meas
     each point's key). Points run in this process one after another (``workers`` and
     ``dask`` None) or on ``reports.core.executors`` (a sweep: a failed point is reported
     in ``failed``, the others go on). ``parallel`` (the report, the gate): more than one
-    point to measure on a machine of more than one core run on one local process per
-    core, and a failed point raises ``error`` as in this process. ``views``: the store
+    point to measure run on local processes, one per core as far as their images fit the
+    memory together (:func:`_parallel_processes`), and a failed point raises ``error`` as
+    in this process. ``views``: the store
     keeps the images a report shows (a point without them counts as missing).
     ``read_back``: ``results`` holds every point as the store has it."""
     t0 = time.perf_counter()
@@ -137,7 +138,7 @@ def measure(points: list, store: Store, *, reference_settings, measurement: Meas
     unique = list({t["key"]: t for t in tasks}.values())
     done_before = len(set(keys)) - len(unique)
     processes = _parallel_processes(unique) if parallel and workers is None and dask is None else 1
-    if processes > 1 and all(holds(references[task["reference_key"]]) for task in unique):  # what workers read
+    if processes > 1:
         outcomes = _on_executor(unique, store, total=len(set(keys)), done=done_before, workers=processes,
                                 progress=progress, desc="experiments")
         scene_of = {task["key"]: task["scene"] for task in unique}
@@ -163,9 +164,8 @@ def _parallel_processes(tasks) -> int:
     """How many local processes measure ``tasks`` at once: one per core, at most as many
     as there are tasks, and only as many as the largest point's images fit the memory
     budget together (``check_frame`` lets one point have the whole budget)."""
-    need = max(task["params"]["width"] * task["params"]["height"]
-               * (BYTES_PER_PIXEL + BYTES_PER_PIXEL_PER_SEED * task["seeds"]) for task in tasks) if tasks else 1
-    return max(1, min(default_workers(), len(tasks), memory_budget() // max(need, 1)))
+    need = max((measurement_bytes(t["params"]["width"], t["params"]["height"], t["seeds"]) for t in tasks), default=1)
+    return max(1, min(default_workers(), len(tasks), memory_budget() // need))
 
 
 def _tasks(points, store, settings, measurement, policy, *, views, progress, hint, error) -> tuple:
@@ -236,11 +236,13 @@ def run_point(task: dict, *, progress: bool = False, reference=None) -> dict:
             return {"key": task["key"], "status": "done", "seconds": 0.0}
         fields = [tuple(f) for f in task.get("fields", ())]
         scene = point_scene(task["scene"], fields)
-        reference = reference or cached_reference(task["reference_key"], scene)  # the run's own, never rendered here
+        # the run's own, never rendered here: the very render the point's key names
+        reference = reference or cached_reference(task["reference_key"], scene,
+                                                  task["key_document"]["reference_content"])
         if reference is None:
             raise RuntimeError(f"{task['scene']}: reference {task['reference_key']} is not in this worker's cache "
-                               f"({cache_dir('reference')}): the workers need the run's cache (VOLCAUSTICS_CACHE "
-                               f"on a shared file system)")
+                               f"({cache_dir('reference')}) as the run resolved it: the workers need the run's cache "
+                               f"(VOLCAUSTICS_CACHE on a shared file system), not continued meanwhile")
         renderer, oracle = _tools(scene)
         settings = MeasurementSettings(**task["measurement"])
         experiment = run_experiment(scene, ApproxParams(**task["params"]), seeds=task["seeds"], reference=reference,

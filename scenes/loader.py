@@ -189,21 +189,20 @@ CONE_MAX = 80.0
 _cone_angle = _ranged(ANGLE_MIN, CONE_MAX, unit="degrees")
 
 
-def _vec3(ctx, key, v):
-    if not isinstance(v, list) or len(v) != 3:
-        raise ctx.error(key, v, "expected a list of 3 numbers [x, y, z]")
-    return tuple(_coordinate(ctx, f"{key}[{i}]", x) for i, x in enumerate(v))
+def _three(element, what: str):
+    """A parser of a list of 3 values, each parsed by ``element``; ``what`` names them."""
+    def parse(ctx, key, v):
+        if not isinstance(v, list) or len(v) != 3:
+            raise ctx.error(key, v, f"expected a list of 3 {what}")
+        return tuple(element(ctx, f"{key}[{i}]", x) for i, x in enumerate(v))
+
+    return parse
 
 
-_degrees = _ranged(-COORDINATE_LIMIT, COORDINATE_LIMIT, unit="degrees")
-
-
-def _euler(ctx, key, v):
-    """Rotation angles about x, y, z in degrees (bounded like coordinates: float32 keeps
-    0.1° at 1e6°), named as angles in every message."""
-    if not isinstance(v, list) or len(v) != 3:
-        raise ctx.error(key, v, "expected a list of 3 angles in degrees [about x, about y, about z]")
-    return tuple(_degrees(ctx, f"{key}[{i}]", x) for i, x in enumerate(v))
+_vec3 = _three(_coordinate, "numbers [x, y, z]")
+# rotation angles, bounded like coordinates (float32 keeps 0.1° at 1e6°), named as angles
+_euler = _three(_ranged(-COORDINATE_LIMIT, COORDINATE_LIMIT, unit="degrees"),
+                "angles in degrees [about x, about y, about z]")
 
 
 def _rgb(low=0.0, high=None, unit=""):

@@ -20,12 +20,8 @@ FAST_MEASUREMENT = ["--exact-subphotons", "1"]  # one exact replay per emission 
 SINGLE_SCATTERING = ["--max-scatter", "1"]      # no orders stream (the report's 8: the model term's tests)
 # a sweep's small image, reference and measurement (tests/reports/test_sweep.py, test_best.py, test_report.py):
 # tiny points, 32², photon_res 64, light_res 64; a single-scattering reference of 4 batches; one exact replay
-SWEEP_TABLES = """[set]
-width = 32
-height = 32
-photon_res = 64
-light_res = 64
-[reference]
+# the small reference and measurement as a spec's or the budgets' tables (no braces: a .format template may hold it)
+SMALL_REFERENCE_TABLES = """[reference]
 photons = 65536
 spp = 8
 batches = 4
@@ -34,6 +30,12 @@ max_scatter = 1
 [measurement]
 exact_subphotons = 1
 """
+SWEEP_TABLES = """[set]
+width = 32
+height = 32
+photon_res = 64
+light_res = 64
+""" + SMALL_REFERENCE_TABLES
 SWEEP_SPEC = """
 scenes = ["refocus"]
 seeds = 1

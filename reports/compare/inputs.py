@@ -142,8 +142,8 @@ def _header_size(path: str) -> tuple:
 def _channels(path: str, scene) -> dict:
     """Channel name → H×W float32 of every part of the OpenEXR file ``path``; a file
     whose header names the scene it was rendered from (``volcaustics_scene_hash``, as
-    this project's renderers write) must name ``scene``."""
-    _opened(path)
+    this project's renderers write) must name ``scene``. ``path`` passed
+    :func:`_header_size` (a readable OpenEXR file)."""
     import OpenEXR
 
     try:

@@ -32,6 +32,11 @@ def check_frame(p, seeds: int) -> None:
                      f"the error decomposition's at {SMALL_SUPERSAMPLE}× per side)")
 
 
+def measurement_bytes(width: int, height: int, seeds: int) -> int:
+    """What the images of one measurement with ``seeds`` seeds at width × height hold."""
+    return width * height * (BYTES_PER_PIXEL + BYTES_PER_PIXEL_PER_SEED * seeds)
+
+
 def check_images_fit(width: int, height: int, seeds: int, cost: tuple, what: str, error=ParamError) -> None:
     """``error`` unless the images of a command that measures ``seeds`` frames at width ×
     height fit this machine's memory: ``cost`` is its (bytes per pixel, bytes per pixel

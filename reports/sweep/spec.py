@@ -242,20 +242,15 @@ def _checked(spec: SweepSpec, where: str, max_points: int | None = MAX_POINTS) -
         raise SweepError(f"{where}: {both[0]} is both varied and set")
     if "seed" in dict(spec.vary):
         raise SweepError(f"{where}: seed cannot be varied; use seeds = N (points with seeds seed … seed + N − 1)")
-    for scene in spec.scenes:
-        try:
-            resolved = resolve_scene(scene)
+    every = points(spec)
+    for scene, fields in sorted({(p.scene, p.fields) for p in every}, key=str):
+        try:  # every scene as measured, a changed one validated as the loader validates a file
+            measured = scene_with(scene, fields) if fields else resolve_scene(scene)
         except SceneError as exc:
             raise SweepError(f"{where}: {exc}") from None
-        if any(not p.fields for p in points(spec) if p.scene == scene):  # measured as the file has it
-            check_medium(resolved, error=lambda text: SweepError(f"{where}: {text}"))
-    for scene, fields in sorted({(p.scene, p.fields) for p in points(spec) if p.fields}, key=str):
-        try:  # every changed scene, validated as the loader validates a file
-            changed = scene_with(scene, fields)
-        except SceneError as exc:
-            raise SweepError(f"{where}: {exc}") from None
-        check_medium(changed, error=lambda text, f=fields: SweepError(f"{where}: {dict(f)}: {text}"))
-    for point in points(spec):
+        label = f"{where}: {dict(fields)}" if fields else where
+        check_medium(measured, error=lambda text, label=label: SweepError(f"{label}: {text}"))
+    for point in every:
         last = point.params.seed + spec.seeds - 1
         if last > 2**32 - 1:
             raise SweepError(f"{where}: seed {point.params.seed} with seeds = {spec.seeds} exceeds 2^32 − 1")

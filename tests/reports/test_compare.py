@@ -13,7 +13,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from tests.conftest import FAST_MEASUREMENT, SINGLE_SCATTERING, with_shared_references
+from tests.conftest import FAST_MEASUREMENT, SINGLE_SCATTERING, SMALL_REFERENCE_TABLES, with_shared_references
 from volcaustics.reports.cli import main
 from volcaustics.reports.compare.inputs import CompareError, read_images
 from volcaustics.scenes import load_builtin
@@ -233,15 +233,7 @@ def test_the_checks_name_the_file_without_rendering(env):
 
 BUDGETS = """preset = "quick"
 seeds = 2
-[reference]
-photons = 65536
-spp = 8
-batches = 4
-target_noise = "none"
-max_scatter = 1
-[measurement]
-exact_subphotons = 1
-[scene.refocus]
+""" + SMALL_REFERENCE_TABLES + """[scene.refocus]
 caustic = {{ energy_ratio = [0.0, 10.0] }}
 [compare.files.refocus]
 caustic = {{ relmse_max = {caustic}, energy_ratio = [0.5, 1.0] }}

@@ -46,11 +46,25 @@ def test_a_point_failing_on_a_worker_fails_the_run(cache, tmp_path, monkeypatch)
 def test_points_whose_images_fit_the_memory_only_one_at_a_time_run_in_this_process(cache, tmp_path, monkeypatch):
     """``check_frame`` gives one point the whole memory budget: two such points at once
     could exhaust the machine, so they run one after another here."""
-    from volcaustics.reports.experiment.settings import BYTES_PER_PIXEL, BYTES_PER_PIXEL_PER_SEED
+    from volcaustics.reports.experiment.settings import measurement_bytes
 
-    one = 32 * 32 * (BYTES_PER_PIXEL + BYTES_PER_PIXEL_PER_SEED * POINT.seeds)
+    one = measurement_bytes(32, 32, POINT.seeds)
     monkeypatch.setattr(runner, "default_workers", lambda: 2)
     monkeypatch.setattr(runner, "memory_budget", lambda: int(1.5 * one))
     monkeypatch.setattr(runner, "_TOOLS", {})
     assert _measure(Store(str(tmp_path / "store")), parallel=True).computed == 2
     assert runner._TOOLS  # measured in this process
+
+
+def test_a_worker_reads_only_the_render_its_point_names(cache, tmp_path):
+    """A worker takes its reference from the cache by key and content (the EXR's SHA-256
+    in the point's key): an entry continued under the key since is not served."""
+    from volcaustics.reference.cache import cached_reference
+    from volcaustics.scenes import resolve_scene
+
+    scene = resolve_scene(POINT.scene)
+    run = _measure(Store(str(tmp_path / "store")))
+    key = run.results[0].summary["reference"]["key"]
+    content = cached_reference(key, scene).manifest["exr_sha256"]
+    assert cached_reference(key, scene, content) is not None
+    assert cached_reference(key, scene, "0" * 64) is None
