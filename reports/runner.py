@@ -238,7 +238,7 @@ def run_point(task: dict, *, progress: bool = False, reference=None) -> dict:
         scene = point_scene(task["scene"], fields)
         # the run's own, never rendered here: the very render the point's key names
         reference = reference or cached_reference(task["reference_key"], scene,
-                                                  task["key_document"]["reference_content"])
+                                                  task["key_document"].get("reference_content"))
         if reference is None:
             raise RuntimeError(f"{task['scene']}: reference {task['reference_key']} is not in this worker's cache "
                                f"({cache_dir('reference')}) as the run resolved it: the workers need the run's cache "
