@@ -19,7 +19,13 @@ scan the importance in parallel. Its cost in map reads is counted like the searc
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
+
+from volcaustics.scenes.rng import uniform
+
+from .light import spot_falloff
 
 # One slot of emit.comp.glsl's Slots buffer: the texel (row-major index, -1: no photon)
 # and the weight that multiplies the uniform photon's power.
@@ -59,3 +65,67 @@ def emission_reads(photon_res: int, emitted: int, *, emission: str, splat: str) 
     curvature neighbours."""
     per_photon = EMISSION_READS + (CURVATURE_READS if splat == "adaptive" else 0)
     return (IMPORTANCE_READS * photon_res**2 if emission == "adaptive" else 0) + per_photon * emitted
+
+
+@dataclass
+class EmissionRays:
+    """Photons leaving the light: the numpy twin of ``emit.comp.glsl``'s rays, before
+    the medium's transmittance to the first surface and the first interaction.
+
+    photon: N photon indices (uint32): the slot (A's adaptive emission) or the texel
+        (row-major, row 0 at the bottom) the photon belongs to.
+    direction: N×3 unit world directions from the light (float64).
+    power: N×3 RGB power (W) the photon carries from the light.
+    """
+
+    photon: np.ndarray
+    direction: np.ndarray
+    power: np.ndarray
+
+
+def _rays(light, frustum, photon_res: int, texel: np.ndarray, within: np.ndarray) -> tuple:
+    """(unit directions, image-plane points) through ``within`` ((0, 0) to (1, 1)) of
+    the row-major ``texel`` indices, as ``emission/map.glsl``'s texel_plane."""
+    xy = np.stack([texel % photon_res, texel // photon_res], axis=1).astype(np.float64)
+    plane = ((xy + within) / photon_res * 2.0 - 1.0) * frustum.tan_half
+    d = np.concatenate([plane, np.ones((len(plane), 1))], axis=1) @ frustum.basis.T
+    return d / np.linalg.norm(d, axis=1, keepdims=True), plane
+
+
+def approx_rays(light, frustum, photon_res: int, seed: int, *, slots: np.ndarray | None = None,
+                shift: float = 0.0) -> EmissionRays:
+    """The approximation's own emission (``emit.comp.glsl``): one photon per texel
+    through its centre (``shift``: moved by that many texels, a test's wrong grid), or
+    with ``slots`` (adaptive emission, SLOT_DTYPE) one per slot through a random point
+    of its texel, u(seed, slot, 0, 2..3); power I·falloff(d)·ΔΩ(texel)·weight."""
+    n = photon_res * photon_res
+    if slots is None:
+        photon = texel = np.arange(n, dtype=np.int64)
+        within, weight = np.full((n, 2), 0.5 + shift), np.ones(n)
+    else:
+        photon = np.flatnonzero(slots["texel"] >= 0)
+        texel, weight = slots["texel"][photon].astype(np.int64), slots["weight"][photon].astype(np.float64)
+        within = np.stack([uniform(seed, photon.astype(np.uint32), 0, dim) for dim in (2, 3)], axis=1)
+    d, _ = _rays(light, frustum, photon_res, texel, within.astype(np.float64))
+    solid_angle = frustum.texel_solid_angles(photon_res).ravel()[texel]
+    power = (np.asarray(light.intensity, np.float64)[None, :] * spot_falloff(light, d)[:, None]
+             * (solid_angle * weight)[:, None])
+    return EmissionRays(photon.astype(np.uint32), d, power)
+
+
+def true_rays(light, frustum, photon_res: int, seed: int, profile=None) -> EmissionRays:
+    """Photons from the light's true distribution I·falloff(ω) dω: one per texel through
+    a uniformly random point of it, u(seed, texel, 0, 2..3), with power
+    I·falloff(d)·ΔA/ρ³ (ΔA the texel's area on the unit-distance image plane, ρ the
+    point's distance from the light: dω = dA/ρ³), so each texel's expected power is
+    ∫ I·falloff dω over it exactly. ``profile``: the falloff (light, directions) →
+    values, ``approx.light.spot_falloff`` when None (a test drops it)."""
+    n = photon_res * photon_res
+    texel = np.arange(n, dtype=np.int64)
+    within = np.stack([uniform(seed, texel.astype(np.uint32), 0, dim) for dim in (2, 3)], axis=1)
+    d, plane = _rays(light, frustum, photon_res, texel, within.astype(np.float64))
+    area = (2.0 * frustum.tan_half / photon_res) ** 2
+    rho = np.sqrt(1.0 + np.sum(plane * plane, axis=1))
+    falloff = (profile or spot_falloff)(light, d).astype(np.float64)
+    power = np.asarray(light.intensity, np.float64)[None, :] * (falloff * area / rho**3)[:, None]
+    return EmissionRays(texel.astype(np.uint32), d, power)

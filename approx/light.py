@@ -79,6 +79,12 @@ class LightFrustum:
     def view_proj(self) -> np.ndarray:
         return self.proj @ self.view
 
+    @property
+    def basis(self) -> np.ndarray:
+        """3×3, columns: the light's right, up and spot axis (world); a point (x, y) of
+        the image plane at unit distance lies in direction basis @ (x, y, 1)."""
+        return np.stack([self.view[0, :3], self.view[1, :3], self.direction], axis=1)
+
     def texel_directions(self, res: int) -> np.ndarray:
         """Unit world directions through texel centres, res×res×3 (row 0 = bottom, GL order)."""
         c = (np.arange(res) + 0.5) / res * 2.0 - 1.0

@@ -22,6 +22,7 @@ from volcaustics.scenes.formats import KIND_SPECULAR, PHOTON_DTYPE, RAW_RECORD_D
 
 from .camera_pass import CameraPasses, CameraView
 from .context import gl_info, shared_context
+from .emission import approx_rays, draw_slots
 from .geometry import SceneGeometry
 from .layers import BOTH, LightMapRenderer
 from .light import LightFrustum
@@ -168,6 +169,28 @@ class Renderer:
         finally:
             emission_map.release()
         return out
+
+    def emission_rays(self, scene, params: ApproxParams, seeds) -> list:
+        """Per seed in ``seeds``, the rays the approximation emits along
+        (``approx.emission.approx_rays``: texel centres, or adaptive emission's slots,
+        drawn from the importance of the emission map rendered once): what an exact
+        replay from the emission ray starts from."""
+        scene = scene or self.scene
+        p = params.resolved(scene)
+        frustum = LightFrustum.for_scene(scene, *medium_bounds(scene))
+        tracer = self._tracer(p)
+        importance = None
+        if tracer.emission_adaptive:
+            self.geometry.place(scene)
+            emission_map = self.light_maps.render_light_map(frustum, p.photon_res, facing=BOTH,
+                                                            primitive_ids=tracer.id_rule)
+            try:
+                emission_map.surface.use(location=0)
+                importance = tracer.importance_map(scene, frustum, p.photon_res)
+            finally:
+                emission_map.release()
+        return [approx_rays(scene.light, frustum, p.photon_res, seed, shift=tracer.emission_shift,
+                            slots=None if importance is None else draw_slots(importance, seed)) for seed in seeds]
 
     def _light_maps(self, timer, tracer, frustum, p: ApproxParams, released: list) -> dict:
         """The light layers (paper Fig. 1A, 3) packed for the tracer, and the shadow map."""

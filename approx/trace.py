@@ -125,6 +125,7 @@ class PhotonTracer:
         self.compact_write = compute_shader(ctx, "splat/compact.comp.glsl",
                                             {"SPLAT_ADAPTIVE": 1} if self.adaptive else {})
         self.emission_adaptive = "EMISSION_ADAPTIVE" in defines
+        self.emission_shift = float(defines.get("EMISSION_SHIFT", 0.0))  # texels (a test's wrong grid, emit.comp.glsl)
         self.importance = compute_shader(ctx, "emission/importance.comp.glsl") if self.emission_adaptive else None
         self.maps = defines["MAPS"]
         self._solid_angles = {}
@@ -183,8 +184,7 @@ class PhotonTracer:
         """The uniforms of emission/map.glsl (the map bound at texture unit 0) and the spot."""
         set_uniforms(prog, **spot_constants(scene.light), emission_map=0, photon_res=photon_res,
                      tan_half=frustum.tan_half)
-        basis = np.stack([frustum.view[0, :3], frustum.view[1, :3], frustum.direction], axis=1)  # columns
-        prog["light_basis"].write(np.asarray(basis, np.float32).T.tobytes())
+        prog["light_basis"].write(np.asarray(frustum.basis, np.float32).T.tobytes())
 
     def importance_map(self, scene, frustum, photon_res: int) -> np.ndarray:
         """photon_res² float32, row-major: adaptive emission's importance per texel
@@ -279,8 +279,7 @@ class PhotonTracer:
         ior, absorption = _materials(scene)
         prog["light_view_proj"].write(gl_matrix(frustum.view_proj))
         if "light_basis" in prog:
-            basis = np.stack([frustum.view[0, :3], frustum.view[1, :3], frustum.direction], axis=1)  # columns
-            prog["light_basis"].write(np.asarray(basis, np.float32).T.tobytes())
+            prog["light_basis"].write(np.asarray(frustum.basis, np.float32).T.tobytes())
         set_uniforms(prog, ior=ior, absorption=absorption,
                      map_used=[bool(u) for u, _, _ in map_info], map_min_dist=[float(a) for _, a, _ in map_info],
                      map_max_dist=[float(b) for _, _, b in map_info],

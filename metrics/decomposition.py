@@ -1,25 +1,33 @@
 """The caustic's error split into its causes (pure numpy, float64 accumulation).
 
-DESIGN.md, "Measuring the error" → Images. With one splatter for all images:
+DESIGN.md, "Measuring the error" → Images. With one splatter for all:
 
 =====================  =======================================================
 ``approx``             A: the approximation's caustic (mean over its seeds)
-``exact_steps``        E_k: its photons replayed exactly, same ``fresnel`` and ``steps``
+``exact_steps``        E_k: A's emission rays replayed exactly from the light, same
+                       ``fresnel`` and ``steps``
 ``exact_all_same``     E_∞ with A's ``fresnel``: so many steps that < 0.1% of the
                        power is still alive
 ``exact_all``          E_∞: the same with stochastic Fresnel (every reflection kept)
-``exact_all_small``    E_∞,s: E_∞ splatted with a small kernel, box-filtered pixels
+``exact_emission``     E_em: E_∞ of photons from the light's true distribution
+                       (jittered in every texel, the spot's exact profile)
+``exact_all_small``    E_∞,s: E_em splatted with a small kernel, box-filtered pixels
 ``reference``          R: the reference light tracer
 =====================  =======================================================
 
-The terms telescope, so they sum to R − A exactly, pixel by pixel:
+The terms telescope, so they sum to R − A exactly, pixel by pixel (in the order a
+reader meets them, the emission first; the chain runs A → E_k → E_∞ → E_em → E_∞,s → R):
 
 ==================  ===================  ===========================================
-``intersection``    E_k − A              the image-space intersection estimate
+``emission``        E_em − E_∞           where A's photons leave the light: the
+                                         emission grid's aliasing, or any emission
+                                         rule's bias
+``intersection``    E_k − A              the image-space intersection estimate (the
+                                         emission map's first interaction included)
 ``truncation``      E_∞(same) − E_k      paths cut after ``steps`` interactions
 ``reflections``     E_∞ − E_∞(same)      reflections a deterministic Fresnel drops
                                          (zero when A is stochastic)
-``kernel_blur``     E_∞,s − E_∞          the splat kernel's blur (and point-sampled
+``kernel_blur``     E_∞,s − E_em         the splat kernel's blur (and point-sampled
                                          pixels)
 ``residual``        R − E_∞,s            what none of the above explains: must be
                                          within noise, else a renderer is wrong
@@ -66,13 +74,14 @@ import numpy as np
 
 from volcaustics.metrics.noise import total_sigma
 
-IMAGES = ("approx", "exact_steps", "exact_all_same", "exact_all", "exact_all_small", "reference")
+IMAGES = ("approx", "exact_steps", "exact_all_same", "exact_all", "exact_emission", "exact_all_small", "reference")
 BATCHED = IMAGES[:-1]  # every image but the reference comes as paired batches
 TERMS = {  # name: (closer to R, farther from R)
+    "emission": ("exact_emission", "exact_all"),
     "intersection": ("exact_steps", "approx"),
     "truncation": ("exact_all_same", "exact_steps"),
     "reflections": ("exact_all", "exact_all_same"),
-    "kernel_blur": ("exact_all_small", "exact_all"),
+    "kernel_blur": ("exact_all_small", "exact_emission"),
     "residual": ("reference", "exact_all_small"),
 }
 ROUNDING = 1e-12  # relative values (shares of the reference) this small are float64 rounding, not a difference
@@ -127,8 +136,8 @@ def _reference_relmse_se(groups, keep, rv, sums, k, energy2) -> float:
 
 
 def caustic_terms(images: dict) -> dict:
-    """The five terms as H×W×3 float64 images of the six ``IMAGES`` (they sum to
-    reference − approx)."""
+    """The terms as H×W×3 float64 images of the ``IMAGES`` (they sum to reference −
+    approx)."""
     for name in IMAGES:
         if name not in images:
             raise ValueError(f"images: missing {name!r} (expected {', '.join(IMAGES)})")
@@ -160,8 +169,8 @@ def decompose_caustic(batches: dict, reference, *, keep=None, reference_var=None
     Returns
     -------
     dict with
-      ``images``: the six images (means of the batches, and R);
-      ``terms``: name → H×W×3 image (the five terms);
+      ``images``: the images (means of the batches, and R);
+      ``terms``: name → H×W×3 image (the terms);
       ``rows``: one dict per term and for ``total`` (R − A) — ``term``,
         ``energy_share``, ``relmse_part``, ``relmse_own`` and their standard errors
         ``*_se``, and ``relmse_part_debiased`` — then ``noise``: ``energy_sigma`` (σ of the total's energy share)
@@ -277,14 +286,12 @@ def decompose_caustic(batches: dict, reference, *, keep=None, reference_var=None
         f"(residual energy {100 * residual['energy_share']:+.2f}% of the reference, z = {residual['energy_z']:+.1f}; "
         f"debiased relative MSE {value['debiased']:.2e}, z = {residual['relmse_z']:+.1f}; limit {z_limit:g}): one of "
         f"them is wrong — the reference light tracer, or the exact tracer and the splatter "
-        f"(tests/cross/test_exact_photons_match_the_reference.py checks them against each other) — or what the "
-        f"exact images share with the approximation that no term names: its photons' emission directions (a "
-        f"regular grid, whose aliasing a finer photon_res shrinks) and first interaction; the terms do not explain "
-        f"the whole error (docs/decisions.md \"What the residual holds on the meshes\")")
+        f"(tests/cross/test_exact_photons_match_the_reference.py checks them against each other) — or a term is "
+        f"missing: the terms do not explain the whole error (docs/decisions.md \"The emission term\")")
     images = {name: full_sums[name] / k for name in BATCHED}  # the batches' means (np.mean's own sum / k)
     images["reference"] = r_full
     options = {"z_limit": z_limit, "pixels": int(keep.sum()), "batches": k,
-               "blur_sign": "exact_all_small - exact_all", "energy_share": "per channel, averaged over RGB",
+               "blur_sign": "exact_all_small - exact_emission", "energy_share": "per channel, averaged over RGB",
                "standard_errors": "delete-one jackknife over the paired batches; the reference's noise (its "
                                   "total's, from the measured total_variance_ratio) in quadrature where it enters",
                "reference_ratio": None if reference_ratio is None else [float(x) for x in reference_ratio]}

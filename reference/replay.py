@@ -19,9 +19,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from volcaustics.scenes.bounds import box_exit
 from volcaustics.scenes.formats import RECORD_DTYPE, STATUS_COLLIDED
+from volcaustics.scenes.rng import uniform
 
-from .oracle import Oracle, ReplayConstants, advance, alive_after, emission_state
+from .oracle import Oracle, ReplayConstants, advance, alive_after, emission_state, surface_interaction
 
 # Photons per launch: about 1 kB each of float64 state and temporaries at the widest step
 MAX_PHOTONS = 1 << 21
@@ -47,6 +49,63 @@ class Collisions:
     photons: int
 
 
+def exact_emission(scene, groups, *, fresnel: str, oracle: Oracle | None = None,
+                   max_photons: int = MAX_PHOTONS) -> list:
+    """Per group, the emission state (step-1 records: photon, start, direction, inside,
+    power_start; RECORD_DTYPE) of photons leaving the light exactly: each ray from the
+    light's position to its exact first specular surface, its power times the medium's
+    transmittance to it, then that surface's interaction with the Fresnel choice
+    u(seed, photon, 0, 1), as ``emit.comp.glsl`` does at the emission map's surface.
+    Rays without power or without a hit emit nothing.
+
+    groups : (rays, seed) pairs, ``rays`` with fields ``photon`` (N indices),
+        ``direction`` (N×3 unit, from the light) and ``power`` (N×3 W), e.g.
+        ``approx.emission.EmissionRays``; traced together in launches of at most
+        ``max_photons`` rays.
+    """
+    oracle = oracle or Oracle(scene)
+    c = ReplayConstants(scene, fresnel)
+    light = np.asarray(scene.light.position, np.float64)
+
+    def launch(part):
+        lit = [np.any(np.asarray(rays.power) > 0, axis=1) for rays, _ in part]
+        d = np.concatenate([np.asarray(rays.direction, np.float64)[m] for (rays, _), m in zip(part, lit)])
+        origin = np.broadcast_to(light, d.shape)
+        q = oracle.first_hits(origin, d, box_exit(origin, d, c.lo, c.hi))
+        out, at = [], 0
+        for (rays, seed), m in zip(part, lit):
+            n = int(m.sum())
+            hit = q["hit"][at:at + n]
+            mine = {key: value[at:at + n][hit] for key, value in q.items()}
+            photon, dd, t = np.asarray(rays.photon, np.int64)[m][hit], d[at:at + n][hit], mine["t"]
+            carried = np.asarray(rays.power, np.float64)[m][hit] * np.exp(-c.sigma_t[None, :] * t[:, None])
+            xi = uniform(seed, photon.astype(np.uint32), 0, 1).astype(np.float64)
+            new_d, new_power, inside, _ = surface_interaction(dd, carried, mine["normal"], mine["geometric_normal"],
+                                                              mine["shape"], xi, c.ior, c.stochastic)
+            first = np.zeros(len(photon), RECORD_DTYPE)
+            first["photon"], first["step"] = photon, 1
+            first["start"], first["direction"] = light + dd * t[:, None], new_d
+            first["inside"], first["power_start"] = inside, new_power
+            out.append(first)
+            at += n
+        return out
+
+    return _packed(groups, lambda group: len(group[0].photon), launch, max_photons)
+
+
+def _packed(groups, size, launch, max_photons: int) -> list:
+    """``launch`` over consecutive runs of ``groups`` of at most ``max_photons``
+    (``size`` of each; a larger group is a run of its own), the results in order."""
+    out, part, total = [], [], 0
+    for group in groups:
+        if part and total + size(group) > max_photons:
+            out += launch(part)
+            part, total = [], 0
+        part.append(group)
+        total += size(group)
+    return out + (launch(part) if part else [])
+
+
 def exact_collisions(scene, groups, *, steps: int, fresnel: str, oracle: Oracle | None = None,
                      max_photons: int = MAX_PHOTONS) -> list:
     """Replay every group exactly for ``steps`` steps with ``fresnel``; one
@@ -62,14 +121,8 @@ def exact_collisions(scene, groups, *, steps: int, fresnel: str, oracle: Oracle 
     """
     oracle = oracle or Oracle(scene)
     constants = ReplayConstants(scene, fresnel)
-    out, launch, size = [], [], 0
-    for group in groups:
-        if launch and size + len(group[0]) > max_photons:
-            out += _launch(constants, oracle, launch, steps)
-            launch, size = [], 0
-        launch.append(group)
-        size += len(group[0])
-    return out + (_launch(constants, oracle, launch, steps) if launch else [])
+    return _packed(groups, lambda group: len(group[0]), lambda part: _launch(constants, oracle, part, steps),
+                   max_photons)
 
 
 def _launch(c: ReplayConstants, oracle: Oracle, groups: list, steps: int) -> list:

@@ -1,8 +1,15 @@
 """The exact caustic images of the decomposition, as paired photon subsets: A, E_k,
-E_∞ (A's Fresnel), E_∞ (stochastic) and E_∞,s (small kernel, supersampled). With
-splat = adaptive, A is splatted with its own kernels and the E images with the kernels
-A gave the same photons (:func:`_paired_kernels`), so kernel_blur = E_∞ − E_∞,s is the
-adaptive kernel's blur.
+E_∞ (A's Fresnel), E_∞ (stochastic), E_em (the light's true emission) and E_∞,s (the
+true emission, small kernel, supersampled). With splat = adaptive, A is splatted with
+its own kernels and the E images but E_∞,s with the kernels A gave the same photons
+(:func:`_paired_kernels`), so kernel_blur = E_∞,s − E_em is the adaptive kernel's blur.
+
+Every E image replays from the emission ray (issue 37): E_k and both E_∞ from A's own
+emission rays (texel centres, or A's adaptive draw) traced exactly to their first
+surface, so A's step-1 interaction at the light map is the intersection term's; E_em
+and E_∞,s from photons jittered in every texel with the spot's exact profile, so the
+emission grid's aliasing (and any emission rule's bias) is the emission term E_em − E_∞
+(docs/decisions.md "The emission term").
 
 The E_∞ images replay every emission texel EXACT_SUBPHOTONS times (the first replay
 with A's random numbers, the others with seeds of their own, :func:`replay_seed`), each
@@ -18,16 +25,14 @@ import dataclasses
 
 import numpy as np
 
+from volcaustics.approx.emission import true_rays
+from volcaustics.approx.light import LightFrustum
 from volcaustics.approx.params import ParamError
 from volcaustics.approx.splat import record_sigma, splats_from_arrays
-from volcaustics.reference.replay import exact_collisions
-from volcaustics.reports.experiment.exact import (
-    ExactPhotons,
-    photons_from_records,
-    pixel_footprint,
-    subset_images,
-)
+from volcaustics.reference.replay import exact_collisions, exact_emission
+from volcaustics.reports.experiment.exact import ExactPhotons, pixel_footprint, subset_images
 from volcaustics.reports.experiment.exact_store import EXACT_IMAGES, exact_document, exact_key, load_exact, save_exact
+from volcaustics.scenes.bounds import medium_bounds
 from volcaustics.scenes.formats import STATUS_COLLIDED
 from volcaustics.scenes.rng import pcg_hash
 
@@ -110,14 +115,15 @@ def _paired_kernels(collided: np.ndarray, sigma: np.ndarray | None):
     return kernels
 
 
-def exact_images(scene, p, frames, replays, seeds, renderer, oracle, subphotons: int | None = None) -> dict:
+def exact_images(scene, p, frames, seeds, renderer, oracle, subphotons: int | None = None) -> dict:
     """Per seed, SUBSET_BATCHES paired subset images (``reports.experiment.exact.subset_images``)
-    of A, E_k, E_∞ (A's Fresnel), E_∞ (stochastic) and E_∞,s, the E_∞ images from
+    of A, E_k, E_∞ (A's Fresnel), E_∞ (stochastic), E_em and E_∞,s, the E_∞ images from
     ``subphotons`` replays of every texel (:func:`pooled`; None: :func:`subphotons_setting`);
     all seeds' batches concatenated (batch j of every image: the same emission texels of
-    one seed). The E images are read from ``exact_store`` when a point with the same
-    emission, replay and splat stored them (``exact_reused``); else every E_∞ replay of
-    the point is one wavefront (``reference.replay``) and they are stored."""
+    one seed). Every exact image replays from the emission ray (:func:`_exact_batches`).
+    The E images are read from ``exact_store`` when a point with the same emission,
+    replay and splat stored them (``exact_reused``); else every replay of one Fresnel
+    mode is one wavefront (``reference.replay``) and they are stored."""
     subphotons = subphotons_setting() if subphotons is None else subphotons
     document = exact_document(scene, p, seeds, subphotons, CONSTANTS)
     key = exact_key(document)
@@ -126,7 +132,7 @@ def exact_images(scene, p, frames, replays, seeds, renderer, oracle, subphotons:
     exact = load_exact(key, document)
     reused = exact is not None
     if exact is None:
-        exact = _exact_batches(scene, p, frames, collisions, replays, seeds, renderer, oracle, subphotons)
+        exact = _exact_batches(scene, p, collisions, seeds, renderer, oracle, subphotons)
         save_exact(key, document, exact)
     approx = []
     for collided, seed in zip(collisions, seeds):
@@ -143,48 +149,65 @@ def _subsets(renderer, scene, p, splats, photon, params, supersample: int = 1) -
                          supersample=supersample)
 
 
-def _exact_batches(scene, p, frames, collisions, replays, seeds, renderer, oracle, subphotons: int) -> dict:
+def _exact_batches(scene, p, collisions, seeds, renderer, oracle, subphotons: int) -> dict:
     """The E images of :func:`exact_images` (``exact_store.EXACT_IMAGES``), their alive
-    fractions per Fresnel mode and the small kernel, computed."""
+    fractions and the small kernel, computed. Every one replays from the emission ray
+    (``reference.replay.exact_emission``): E_k, E_∞ (A's Fresnel) and E_∞ (stochastic)
+    from A's own emission rays (``Renderer.emission_rays``: texel centres or the
+    adaptive draw; E_k is replay 0, A's random numbers, cut at ``steps``), E_em and
+    E_∞,s from the light's true distribution (``approx.emission.true_rays``: jittered
+    in every texel, the spot's exact profile), with the same replay seeds."""
     out = {name: [] for name in EXACT_IMAGES}
     alive = {}
     small = dataclasses.replace(p, splat_radius=small_radius(scene, p))
-    firsts = [frame.records[0] for frame in frames]
-    same_all = _replayed(scene, p, p.fresnel, firsts, seeds, subphotons, oracle)
-    everything_all = same_all
-    if p.fresnel != "stochastic":  # the stochastic emission of every replay seed, then its replay
-        sto = dataclasses.replace(p, fresnel="stochastic", steps=1, fog_steps=1)
-        firsts_sto = renderer.first_records(scene, sto, [replay_seed(seed, m) for seed in seeds
-                                                         for m in range(subphotons)])
-        everything_all = _replayed(scene, p, "stochastic", firsts_sto, seeds, subphotons, oracle)
-    for frame, collided, replay, seed, same, everything in zip(frames, collisions, replays, seeds, same_all,
-                                                                everything_all):
+    frustum = LightFrustum.for_scene(scene, *medium_bounds(scene))
+    replay_seeds = [[replay_seed(seed, m) for m in range(subphotons)] for seed in seeds]
+    own = [(rays, s) for rays, seeds_of in zip(renderer.emission_rays(scene, p, seeds), replay_seeds)
+           for s in seeds_of]
+    true = [(true_rays(scene.light, frustum, p.photon_res, s), s) for seeds_of in replay_seeds for s in seeds_of]
+    if p.fresnel == "stochastic":
+        both = _replayed(scene, p, "stochastic", own + true, oracle)
+        same_all, true_all = both[:len(own)], both[len(own):]
+        everything_all = same_all
+    else:
+        same_all = _replayed(scene, p, p.fresnel, own, oracle)
+        both = _replayed(scene, p, "stochastic", own + true, oracle)
+        everything_all, true_all = both[:len(own)], both[len(own):]
+    for i, (collided, seed) in enumerate(zip(collisions, seeds)):
         ps = dataclasses.replace(p, seed=seed)
         kernels = _paired_kernels(collided, record_sigma(collided, p))
-        e_k = photons_from_records(replay, frame.records[0], ps, steps=p.steps, fresnel=p.fresnel)
-        for name, photons in (("exact_steps", e_k), ("exact_all_same", same), ("exact_all", everything)):
+        mine = slice(i * subphotons, (i + 1) * subphotons)
+        same, everything, emitted = (pooled(replays[mine]) for replays in (same_all, everything_all, true_all))
+        e_k = _cut(same_all[i * subphotons], p.steps)
+        for name, photons in (("exact_steps", e_k), ("exact_all_same", same), ("exact_all", everything),
+                              ("exact_emission", emitted)):
             out[name].append(_subsets(renderer, scene, p, kernels(photons), photons.photon, ps))
-        out["exact_all_small"].append(_subsets(renderer, scene, p, everything.splats, everything.photon,
+        out["exact_all_small"].append(_subsets(renderer, scene, p, emitted.splats, emitted.photon,
                                                dataclasses.replace(small, seed=seed), SMALL_SUPERSAMPLE))
-        for fresnel, photons in {p.fresnel: same, "stochastic": everything}.items():
-            alive.setdefault(fresnel, []).append(photons.alive_fraction)
+        for name, photons in {p.fresnel: same, "stochastic": everything, "true_emission": emitted}.items():
+            alive.setdefault(name, []).append(photons.alive_fraction)
     return {"batches": {name: np.concatenate(images) for name, images in out.items()}, "alive": alive,
             "small_radius": small.splat_radius}
 
 
-def _replayed(scene, p, fresnel: str, firsts: list, seeds, subphotons: int, oracle) -> list:
-    """Per seed, the pooled E_∞ photons (:func:`pooled`) of its ``subphotons`` replays
-    with ``fresnel``: replay m of seed s starts from ``firsts`` (one per seed, shared by
-    its replays; or one per replay, seed-major) with seed ``replay_seed(s, m)``. All of
-    them are one wavefront (``reference.replay.exact_collisions``)."""
-    starts = [firsts[i if len(firsts) == len(seeds) else i * subphotons + m]
-              for i in range(len(seeds)) for m in range(subphotons)]
-    replay_seeds = [replay_seed(seed, m) for seed in seeds for m in range(subphotons)]
-    done = exact_collisions(scene, list(zip(starts, replay_seeds)), steps=EXACT_STEPS, fresnel=fresnel, oracle=oracle)
+def _cut(photons: ExactPhotons, steps: int) -> ExactPhotons:
+    """The collisions of ``photons`` at steps 1..``steps``: the replay cut there (its
+    first steps are the same whatever follows them). Its power budget is not kept."""
+    keep = photons.step <= steps
+    return dataclasses.replace(photons, splats=photons.splats[keep], photon=photons.photon[keep],
+                               step=photons.step[keep], params={**photons.params, "steps": steps})
+
+
+def _replayed(scene, p, fresnel: str, groups: list, oracle) -> list:
+    """One :class:`ExactPhotons` per (rays, seed) of ``groups``: the rays emitted exactly
+    (``reference.replay.exact_emission``) and replayed EXACT_STEPS steps with ``fresnel``
+    and that seed, all of them one wavefront (``reference.replay.exact_collisions``)."""
+    firsts = exact_emission(scene, groups, fresnel=fresnel, oracle=oracle)
+    done = exact_collisions(scene, [(first, s) for first, (_, s) in zip(firsts, groups)], steps=EXACT_STEPS,
+                            fresnel=fresnel, oracle=oracle)
     used = {**p.to_dict(), "steps": EXACT_STEPS, "fresnel": fresnel, "emission_fresnel": fresnel}
-    photons = [ExactPhotons(splats=splats_from_arrays(c.rows["end"], c.rows["direction"], c.rows["power"]),
-                            photon=c.rows["photon"].astype(np.uint32), step=c.rows["step"].astype(np.int64),
-                            emitted_power=c.emitted_power, alive_power=c.alive_power,
-                            collided_power=c.collided_power, photons=c.photons, params={**used, "seed": s})
-               for c, s in zip(done, replay_seeds)]
-    return [pooled(photons[i * subphotons:(i + 1) * subphotons]) for i in range(len(seeds))]
+    return [ExactPhotons(splats=splats_from_arrays(c.rows["end"], c.rows["direction"], c.rows["power"]),
+                         photon=c.rows["photon"].astype(np.uint32), step=c.rows["step"].astype(np.int64),
+                         emitted_power=c.emitted_power, alive_power=c.alive_power,
+                         collided_power=c.collided_power, photons=c.photons, params={**used, "seed": int(s)})
+            for c, (_, s) in zip(done, groups)]

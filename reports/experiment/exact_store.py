@@ -1,13 +1,14 @@
 """The decomposition's exact images, stored under their own key and reused.
 
-The E images (E_k, E_∞ with A's Fresnel, E_∞ stochastic, E_∞,s) replay A's emission
-exactly: they depend on the scene, the emission, the Fresnel mode, ``steps``, the
-seeds, the sub-photons, the photon grid and the splat, not on how A searched. The
-parameters the table marks ``exact=False`` (``approx.params``: the layers, the search,
-the crossing and start rules, the light maps' size, the fog) are therefore left out of
-their key, so a sweep over them computes the E images once per scene and seed set and
-reads them back for every other point. With ``splat = adaptive`` the E images take A's
-kernels (``exact_images._paired_kernels``), so every parameter is in the key.
+The E images (E_k, E_∞ with A's Fresnel, E_∞ stochastic, E_em, E_∞,s) replay A's
+emission and the light's true emission exactly from the emission ray: they depend on
+the scene, the emission, the Fresnel mode, ``steps``, the seeds, the sub-photons, the
+photon grid and the splat, not on how A searched. The parameters the table marks
+``exact=False`` (``approx.params``: the layers, the search, the crossing and start
+rules, the light maps' size, the fog) are therefore left out of their key, so a sweep
+over them computes the E images once per scene and seed set and reads them back for
+every other point. With ``splat = adaptive`` the E images take A's kernels
+(``exact_images._paired_kernels``), so every parameter is in the key.
 
 An entry is ``$VOLCAUSTICS_CACHE/exact-images/<key>.npz`` (the batch images,
 compressed) and ``<key>.json`` (written last: the key's document, the alive fractions,
@@ -39,8 +40,8 @@ from volcaustics.scenes.storage import (
 )
 
 FOLDER = "exact-images"
-FORMAT = 1
-EXACT_IMAGES = ("exact_steps", "exact_all_same", "exact_all", "exact_all_small")
+FORMAT = 2  # 2: every E image from the emission ray, and E_em (issue 37)
+EXACT_IMAGES = ("exact_steps", "exact_all_same", "exact_all", "exact_emission", "exact_all_small")
 SEARCH_ONLY = tuple(p.name for p in PARAMS if not p.exact)  # what the E images do not depend on
 
 

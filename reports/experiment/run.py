@@ -123,7 +123,7 @@ def run_experiment(scene, params, *, seeds: int = 1, reference_settings=None, pr
         exact = None
         if scope == "full":
             with clock.stage("exact_images"):
-                exact = exact_images(scene, p, frames, replays, seed_list, renderer, oracle, subphotons)
+                exact = exact_images(scene, p, frames, seed_list, renderer, oracle, subphotons)
         bar.update()
     finally:
         if own_renderer:

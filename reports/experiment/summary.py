@@ -80,7 +80,8 @@ def reference_summary(reference) -> dict:
 def experiment_summary(scene, p, seeds, reference, frames, exact, headline, decomposition, divergence, clock, keep,
                        timed, model=None) -> dict:
     alive = {} if exact is None else {k: float(max(v)) for k, v in exact["alive"].items()}
-    warnings = [f"E_inf ({k} Fresnel) keeps {100 * v:.2f}% of the power alive after {EXACT_STEPS} steps "
+    names = {k: "E_em" if k == "true_emission" else f"E_inf ({k} Fresnel)" for k in alive}
+    warnings = [f"{names[k]} keeps {100 * v:.2f}% of the power alive after {EXACT_STEPS} steps "
                 f"(> {100 * ALIVE_BUDGET:.1f}%): the truncation term is understated" for k, v in alive.items()
                 if v > ALIVE_BUDGET]
     if decomposition is not None and not decomposition["residual"]["within_noise"]:

@@ -14,7 +14,8 @@ from volcaustics.scenes.storage import atomic_set
 OUTPUT_FILES = (*(f"{name}.{ext}" for name in TABLES for ext in ("parquet", "csv")), "decomposition.exr",
                 "summary.json")  # what `measure -o DIR` writes; the manifest, summary.json, last
 DECOMPOSITION_IMAGES = {"approx": "A", "exact_steps": "E_k", "exact_all_same": "E_inf(A's fresnel)",
-                        "exact_all": "E_inf", "exact_all_small": "E_inf,s", "reference": "R"}
+                        "exact_all": "E_inf", "exact_emission": "E_em", "exact_all_small": "E_inf,s",
+                        "reference": "R"}
 
 
 def output_paths(out_dir: str) -> dict:

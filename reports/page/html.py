@@ -11,6 +11,7 @@ from __future__ import annotations
 import json
 from html import escape
 
+from volcaustics.metrics.decomposition import TERMS as BEST_TERMS
 from volcaustics.metrics.intersection import OUTCOME_CLASSES
 from volcaustics.reports.page.animations import over_time_section
 from volcaustics.reports.page.external import renderers_table, scene_comparisons
@@ -21,7 +22,6 @@ from volcaustics.reports.page.parts import colour_bar as _colour_bar
 from volcaustics.reports.page.parts import figure as _figure
 from volcaustics.reports.page.parts import num as _num
 from volcaustics.reports.page.parts import pct as _pct
-from volcaustics.reports.sweep.best import TERMS as BEST_TERMS
 from volcaustics.reports.sweep.variants import variant_name
 from volcaustics.scenes.formats import COLOUR_LAYERS
 

@@ -42,6 +42,7 @@ from tqdm import tqdm
 from volcaustics.approx import Renderer
 from volcaustics.approx.cost import frame_cost
 from volcaustics.approx.params import PRESETS, ParamError, preset
+from volcaustics.metrics.decomposition import TERMS
 from volcaustics.reports import runner
 from volcaustics.reports.core.params import parse_value
 from volcaustics.reports.core.plotting import OKABE_ITO, pyplot, save_figure
@@ -56,7 +57,6 @@ from volcaustics.scenes.storage import atomic_path
 
 BEST_SPEC = os.path.join(os.path.dirname(os.path.abspath(__file__)), "best.toml")
 BEST_KEYS = ("scenes", "preset", "seeds", "coarse", "refine", "rounds", "set", "reference", "measurement")
-TERMS = ("intersection", "truncation", "reflections", "kernel_blur", "residual")
 GOAL = 0.25  # issue 22: the caustic's relative MSE at most a quarter of the paper configuration's on every scene
 MATCHED = "matched.json"  # the cost-matched photon_res per scene and configuration (a memo: recomputed if lost)
 MIN_PHOTON_RES = 16

@@ -69,7 +69,11 @@ void main() {
     vec4 map = drawn.texel >= 0 ? texelFetch(emission_map, texel, 0) : vec4(0.0);
 #else
     ivec2 texel = slot;
+#ifdef EMISSION_SHIFT
+    vec2 within = vec2(0.5 + EMISSION_SHIFT);  // a test's wrong grid: the emission term's negative control
+#else
     vec2 within = vec2(0.5);
+#endif
     vec4 map = texelFetch(emission_map, texel, 0);
 #endif
     uint texel_index = uint(texel.y * photon_res + texel.x);
