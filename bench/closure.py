@@ -6,9 +6,7 @@ report's reference, 16 sub-photons).
 
 Configurations: ``paper`` (the quick preset: the paper's method at the harness's size),
 ``adaptive`` (the same with ``emission = adaptive``) and ``adopted`` (the best search's
-configuration, docs/decisions.md "The best-configuration search": adaptive splats and
-emission, stochastic Fresnel, 6 steps, 2 layers, splat_footprints 2, photon_res matched
-per scene as that table gives it). The goal (issue 37): the residual's debiased relMSE
+configuration, ``reports.sweep.adopted``). The goal (issue 37): the residual's debiased relMSE
 part ≤ 0.2 points and |z| ≤ 3 for its energy and relMSE, every term to ±1% of the
 reference's energy. Prints one block per point and, with ``--json``, appends one JSON
 object per point (the decomposition's rows and residual) to FILE. Runs the code of the
@@ -22,22 +20,17 @@ import dataclasses
 import json
 import time
 
-# the adopted configuration of the best search and its cost-matched photon_res per scene
-ADOPTED = {"splat": "adaptive", "emission": "adaptive", "fresnel": "stochastic", "steps": 6, "layers": 2,
-           "splat_footprints": 2.0}
-ADOPTED_PHOTON_RES = {"two_spheres": 268, "sphere1": 236, "sphere2": 191, "refocus": 256, "bunny": 125,
-                      "skull": 216, "feline": 104}
-
 
 def config_params(name: str, scene: str):
     from volcaustics.approx.params import QUICK
+    from volcaustics.reports.sweep.adopted import adopted_params
 
     if name == "paper":
         return QUICK
     if name == "adaptive":
         return dataclasses.replace(QUICK, emission="adaptive")
     if name == "adopted":
-        return dataclasses.replace(QUICK, **ADOPTED, photon_res=ADOPTED_PHOTON_RES.get(scene, QUICK.photon_res))
+        return adopted_params(QUICK, scene)
     raise SystemExit(f"--configs: unknown configuration {name!r} (paper, adaptive, adopted)")
 
 

@@ -84,11 +84,13 @@ void main() {
         vec4 geometric_id = texelFetch(emission_geometric, texel, 0);
         vec3 geometric = octa_decode(geometric_id.xy);
         float r = map.r;
-#ifdef EMISSION_ADAPTIVE
-        // the random ray meets the texel's surface in its tangent plane (the map holds the centre's point)
+#if defined(EMISSION_ADAPTIVE) || defined(EMISSION_SHIFT)
+        // a ray off the texel's centre meets its surface in its tangent plane (the map holds the centre's point)
         float along = dot(d, geometric);
         float t = abs(along) > 1e-3 ? dot(map_point(texel, map.r) - light_position, geometric) / along : -1.0;
         if (t > 0.5 * map.r && t < 2.0 * map.r) r = t;
+#endif
+#ifdef EMISSION_ADAPTIVE
         vec3 power = light_intensity * falloff * solid_angle[texel_index] * weight * exp(-sigma_t * r);
 #else
         vec3 power = light_intensity * falloff * solid_angle[texel_index] * exp(-sigma_t * r);
