@@ -90,15 +90,17 @@ def _signed_stack(ax, y, values, colours, labels, fmt) -> None:
 
 def decomposition_chart(decomposition: dict) -> bytes:
     """The caustic's error split into its causes: energy shares (% of the reference's
-    caustic energy; they sum to 1 − energy ratio) and parts of the relative MSE (they
-    sum to it), each a stacked bar with its numbers; the total marked."""
+    caustic energy; they sum to 1 − energy ratio) and debiased parts of the relative
+    MSE, as the tables give them (they sum to it, less the noise), each a stacked bar
+    with its numbers; the total marked."""
     plt = pyplot()
     terms = {t["term"]: t for t in decomposition["terms"]}
     colours = [OKABE_ITO[i] for i in range(len(TERMS))]
     number = lambda v: 0.0 if v is None else v  # noqa: E731  (a term the store holds as null: drawn as 0)
     fig, axes = plt.subplots(2, 1, figsize=(5.6, 2.3))
     for ax, (key, title, scale) in zip(axes, (("energy_share", "energy share (% of R's caustic energy)", 100.0),
-                                             ("relmse_part", "part of the relative MSE (% points)", 100.0))):
+                                             ("relmse_part_debiased",
+                                              "part of the relative MSE, debiased (% points)", 100.0))):
         values = [scale * number(terms[t][key]) for t in TERMS]
         _signed_stack(ax, 0, values, colours, [t.replace("_", " ") for t in TERMS] if ax is axes[0] else
                       [None] * len(TERMS), lambda v: f"{v:+.1f}")
@@ -109,7 +111,7 @@ def decomposition_chart(decomposition: dict) -> bytes:
         ax.set_yticks([])
         ax.set_title(title, fontsize=7, loc="left")
         ax.tick_params(labelsize=7)
-    fig.legend(loc="upper center", ncol=5, fontsize=6.5, bbox_to_anchor=(0.5, 1.08), frameon=False)
+    fig.legend(loc="upper center", ncol=6, fontsize=6.5, bbox_to_anchor=(0.5, 1.08), frameon=False)
     fig.tight_layout()
     return png_bytes(fig)
 

@@ -14,6 +14,9 @@ from html import escape
 from volcaustics.metrics.decomposition import TERMS as BEST_TERMS
 from volcaustics.metrics.intersection import OUTCOME_CLASSES
 from volcaustics.reports.page.animations import over_time_section
+from volcaustics.reports.page.decomposition import OVERVIEW_HEAD as DECOMPOSITION_HEAD
+from volcaustics.reports.page.decomposition import decomposition_table
+from volcaustics.reports.page.decomposition import overview_cell as decomposition_cell
 from volcaustics.reports.page.external import renderers_table, scene_comparisons
 from volcaustics.reports.page.images import SCALES, colour_bar_css
 from volcaustics.reports.page.model import OVERVIEW_HEAD, model_section, overview_cell
@@ -22,15 +25,9 @@ from volcaustics.reports.page.parts import colour_bar as _colour_bar
 from volcaustics.reports.page.parts import figure as _figure
 from volcaustics.reports.page.parts import num as _num
 from volcaustics.reports.page.parts import pct as _pct
+from volcaustics.reports.page.parts import verdict as _verdict
 from volcaustics.reports.sweep.variants import variant_name
 from volcaustics.scenes.formats import COLOUR_LAYERS
-
-
-def _verdict(passed, text) -> str:
-    if passed is None:
-        return f"<span class='verdict none'>– {escape(text)}</span>"
-    return (f"<span class='verdict {'pass' if passed else 'fail'}'>{'✓ pass' if passed else '✗ FAIL'} "
-            f"{escape(text)}</span>")
 
 
 def _check_text(check: dict) -> str:
@@ -68,6 +65,7 @@ def _params_cell(params: dict) -> str:
 def _overview(summary: dict) -> str:
     head = ("<tr><th class='l'>scene</th><th class='l'>component</th><th>relative MSE, debiased [95% interval]</th>"
             "<th>reference noise floor</th><th>energy ratio [95%]</th><th>HDR-FLIP (mean)</th>" + OVERVIEW_HEAD +
+            DECOMPOSITION_HEAD +
             "<th class='l'>gate (failures first)</th><th>frame time<br>map reads</th><th class='l'>parameters</th></tr>")
     body = []
     for index, page in enumerate(summary["scenes"]):
@@ -82,7 +80,8 @@ def _overview(summary: dict) -> str:
                      f"<td>{_num(energy.get('value'), '{:.3f}')}"
                      + (f" [{_num(energy.get('ci_low'), '{:.3f}')}, {_num(energy.get('ci_high'), '{:.3f}')}]"
                         if energy.get("ci_low") is not None else "") + "</td>",
-                     f"<td>{_num(flip.get('value'))}</td>", overview_cell(page, component)]
+                     f"<td>{_num(flip.get('value'))}</td>", overview_cell(page, component),
+                     decomposition_cell(page, component)]
             if k == 0:
                 n = len(COLOUR_LAYERS)
                 frame = page["timing"]["frame_s"]
@@ -171,28 +170,6 @@ def _hit_table(hits: dict) -> str:
             f"<table>{layer_head}{layer_rows}</table></details>")
 
 
-def _hundred(value):
-    return None if value is None else 100.0 * value
-
-
-def _decomposition_table(d: dict) -> str:
-    rows = "".join(f"<tr><td class='l'>{t['term'].replace('_', ' ')}</td>"
-                   f"<td>{_num(_hundred(t['energy_share']), '{:+.1f}%')} ± "
-                   f"{_num(_hundred(t['energy_share_se']), '{:.1f}')}</td>"
-                   f"<td>{_num(_hundred(t['relmse_part']), '{:.2f}')} ± "
-                   f"{_num(_hundred(t['relmse_part_se']), '{:.2f}')}</td>"
-                   f"<td>{_num(_hundred(t.get('relmse_part_debiased')), '{:+.2f}')}</td></tr>"
-                   for t in d["terms"] + [d["total"]])
-    res = d["residual"]
-    text = (f"residual {'within' if res['within_noise'] else 'NOT within'} noise (energy z "
-            f"{_num(res['energy_z'], '{:+.1f}', '±∞')}, relMSE z {_num(res['relmse_z'], '{:+.1f}', '±∞')})")
-    verdict = _verdict(bool(res["within_noise"]), text)
-    msg = f"<p class='warn'>{escape(res['message'])}</p>" if res.get("message") else ""
-    return (f"<table><tr><th class='l'>term</th><th>energy share (% of R) ± SE</th>"
-            f"<th>part of the relative MSE (% points) ± SE</th><th>its part less the noise it shares with R − A"
-            f"</th></tr>{rows}</table><p>{verdict}</p>{msg}")
-
-
 def _timing_table(t: dict) -> str:
     paper = t["paper_shares"]
     rows = "".join(f"<tr><td class='l'>{p['pass']}</td><td>{_num(_thousand(p['seconds']), '{:.1f} ms')}</td>"
@@ -236,7 +213,7 @@ Result <code>{escape(page['point'])}</code> {'measured in this run' if page['mea
 <img class='chart' src='{images['chart.power_budget']}' alt='power budget of {escape(name)}'>
 <h3>The caustic's error, decomposed</h3>
 <div class='row'><img class='chart' src='{images['chart.decomposition']}' alt='decomposition of {escape(name)}'>
-<div>{_decomposition_table(page['decomposition'])}</div></div>
+<div>{decomposition_table(page['decomposition'])}</div></div>
 {model_section(page)}
 <h3>Time per pass</h3>
 <div class='row'><img class='chart' src='{images['chart.pass_times']}' alt='pass times of {escape(name)}'>

@@ -47,6 +47,14 @@ document.querySelectorAll('img.swap').forEach(function (img) {
 """
 
 
+def verdict(passed, text) -> str:
+    """A pass / FAIL / none mark with ``text`` (escaped)."""
+    if passed is None:
+        return f"<span class='verdict none'>– {escape(text)}</span>"
+    return (f"<span class='verdict {'pass' if passed else 'fail'}'>{'✓ pass' if passed else '✗ FAIL'} "
+            f"{escape(text)}</span>")
+
+
 def num(value, fmt="{:.3g}", missing="–") -> str:
     if value is None or (isinstance(value, float) and value != value):
         return missing
