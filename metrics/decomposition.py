@@ -72,6 +72,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from volcaustics.metrics.groups import checked_groups, group_jackknife_se
 from volcaustics.metrics.noise import total_sigma
 
 IMAGES = ("approx", "exact_steps", "exact_all_same", "exact_all", "exact_emission", "exact_all_small", "reference")
@@ -114,25 +115,18 @@ def _stack(batches, name, shape=None):
 
 def _reference_relmse_se(groups, keep, rv, sums, k, energy2) -> float:
     """R's part of the SE of the residual's debiased relMSE, E held at its mean: with
-    ``groups`` a delete-one-group jackknife (each R without one group, its variance
-    scaled to its batches), else √(2 Σ var²) (pixels independent: noise × noise only)."""
+    ``groups`` a delete-one-group jackknife (``metrics.groups``: each R without one group,
+    its variance scaled to its batches), else √(2 Σ var²) (pixels independent: noise ×
+    noise only)."""
     if groups is None:
         return float(np.sqrt(2.0 * np.sum(rv * rv))) / energy2
-    means, counts = groups
-    means, counts = np.asarray(means, np.float64)[:, keep], np.asarray(counts, np.float64)
-    if len(means) < 4 or len(counts) != len(means) or np.any(counts <= 0):
-        raise ValueError(f"reference_groups: {len(means)} groups with counts {counts}, expected at least 4 "
-                         f"with a batch each")
-    n, e = counts.sum(), sums["exact_all_small"] / k
-    whole = np.tensordot(counts, means, axes=1)
+    means, counts = checked_groups(groups)
+    e, noise = sums["exact_all_small"] / k, float(rv.sum())
 
-    def without(g):  # Σ(R − E)² less R's noise, R without group g (E's noise is a constant here)
-        r_g = (whole - counts[g] * means[g]) / (n - counts[g])
-        return float(np.sum((r_g - e) ** 2)) - float(rv.sum()) * n / (n - counts[g])
+    def without(images, scales):  # Σ(R − E)² less R's noise, R without one group (E's noise is a constant here)
+        return float(np.sum((images[0] - e) ** 2)) - noise * scales[0]
 
-    n_groups = len(means)
-    leave = np.array([without(g) for g in range(n_groups)])
-    return float(np.sqrt((n_groups - 1) / n_groups * np.sum((leave - leave.mean()) ** 2))) / energy2
+    return group_jackknife_se([(means[:, keep], counts)], without) / energy2
 
 
 def caustic_terms(images: dict) -> dict:

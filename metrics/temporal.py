@@ -21,6 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from volcaustics.metrics.groups import group_jackknife_se
 from volcaustics.metrics.noise import total_sigma
 
 NAN = float("nan")
@@ -50,7 +51,7 @@ class PairFlicker:
     chains: int
 
 
-def flicker(reference, reference_var, chains, *, test_var=None, mask=None) -> list[PairFlicker]:
+def flicker(reference, reference_var, chains, *, test_var=None, mask=None, reference_groups=None) -> list[PairFlicker]:
     """Flicker of every frame pair of a sequence against its reference.
 
     Parameters
@@ -62,11 +63,19 @@ def flicker(reference, reference_var, chains, *, test_var=None, mask=None) -> li
         (then S must be 1): its noise is subtracted too.
     mask : optional T×H×W booleans: the pixels compared in each frame (a pair compares
         the pixels kept in both of its frames).
+    reference_groups : optional sequence over the frames, each None or (G×H×W×C means of
+        G ≥ 4 independent groups of the batches of the part of R_t whose pixels covary —
+        the light tracer's caustic —, their G batch counts, that part's H×W×C variance of
+        the mean); R_t is that part plus the rest (``reference`` less the groups' mean).
+        Read lazily, frame by frame (a sequence that loads on indexing will do).
 
     Standard error: the chains are independent given R̂, so the spread of the chains'
     Σ(ΔA − ΔR̂)² over √S gives their part (S ≥ 2); R̂'s own noise, shared by the
     chains, adds 4 Σ b̂² v + 2 Σ v² (v = v_t + v_{t−1}, b̂² = d̄² − v clipped at 0,
-    Gaussian pixel noise); with ``test_var`` the test's variance joins v. With one chain
+    Gaussian pixel noise); with ``test_var`` the test's variance joins v. Where both
+    frames of a pair have ``reference_groups``, the grouped part's share of that is a
+    delete-one-group jackknife instead (``metrics.groups``: R's covarying pixels), the
+    rest's (and the cross terms) stay analytic. With one chain
     and no ``test_var`` the SE is conditional on the approximation's frames. A pair whose
     reference is zero over the compared pixels (a light blocked in both frames) has NaN
     values: its flicker is undefined.
@@ -83,10 +92,44 @@ def flicker(reference, reference_var, chains, *, test_var=None, mask=None) -> li
     keep = np.ones(r.shape[:3], bool) if mask is None else np.asarray(mask, bool)
     if keep.shape != r.shape[:3]:
         raise ValueError(f"mask shape {keep.shape}: expected {r.shape[:3]}")
-    return [_pair(t, r, rv, a, tv, keep[t] & keep[t - 1]) for t in range(1, len(r))]
+    groups = [None] * len(r) if reference_groups is None else reference_groups
+    if len(groups) != len(r):
+        raise ValueError(f"reference_groups: {len(groups)} frames, expected {len(r)}")
+    out, previous = [], groups[0]
+    for t in range(1, len(r)):
+        current = groups[t]
+        pair_groups = None if previous is None or current is None else (previous, current)
+        out.append(_pair(t, r, rv, a, tv, keep[t] & keep[t - 1], pair_groups))
+        previous = current
+    return out
 
 
-def _pair(t, r, rv, a, tv, keep) -> PairFlicker:
+def _noise_variance(bias2_weights, v) -> float:
+    """4 Σ b̂² v + 2 Σ v²: the variance of Σ(d + n)² that Gaussian pixel noise n of
+    variance v gives, b̂² = ``bias2_weights``."""
+    return 4.0 * float(np.sum(bias2_weights * v)) + 2.0 * float(np.sum(v * v))
+
+
+def _grouped_variance(t, r, keep, d_chains, groups) -> tuple:
+    """(the delete-one-group jackknife variance of the pair's Σ(ΔA − ΔR̂)² less R's
+    noise, as R's grouped part varies; that part's per-pixel variance v_g of ΔR̂)."""
+    (m0, c0, v0), (m1, c1, v1) = groups
+    rest = [r[t - 1] - np.tensordot(np.asarray(c0, np.float64), m0, axes=1) / np.sum(c0),
+            r[t] - np.tensordot(np.asarray(c1, np.float64), m1, axes=1) / np.sum(c1)]
+    delta_a = d_chains  # S×N×C: ΔA per chain
+    v_grouped = [np.asarray(v0, np.float64)[keep], np.asarray(v1, np.float64)[keep]]
+
+    def statistic(images, scales):
+        d_ref = ((images[1] + rest[1]) - (images[0] + rest[0]))[keep]
+        d = delta_a - d_ref
+        return float(np.sum(d * d, axis=(1, 2)).mean()) - float(np.sum(v_grouped[0]) * scales[0]
+                                                                 + np.sum(v_grouped[1]) * scales[1])
+
+    jackknife = group_jackknife_se([(m0, c0), (m1, c1)], statistic) ** 2
+    return jackknife, v_grouped[0] + v_grouped[1]
+
+
+def _pair(t, r, rv, a, tv, keep, groups=None) -> PairFlicker:
     s = len(a)
     energy = 0.5 * float(np.sum(r[t][keep] ** 2) + np.sum(r[t - 1][keep] ** 2))
     if energy == 0.0:  # nothing to compare against (a light blocked in both frames): undefined, not an error
@@ -107,8 +150,12 @@ def _pair(t, r, rv, a, tv, keep) -> PairFlicker:
     value = raw - ref_noise - (test_noise if v_test is not None else 0.0)
     systematic = value if v_test is not None else value - test_noise
     v_all = v + (v_test if v_test is not None else 0.0)
-    bias2 = max(float(np.sum(np.maximum(np.mean(d, axis=0) ** 2 - v_all, 0.0) * v_all)), 0.0)
-    variance = 4.0 * bias2 + 2.0 * float(np.sum(v_all ** 2))
+    bias2 = np.maximum(np.mean(d, axis=0) ** 2 - v_all, 0.0)
+    variance = _noise_variance(bias2, v_all)
+    if groups is not None:  # R's grouped part by the jackknife, the rest (and cross terms) analytic
+        delta_a = np.stack([(c[t] - c[t - 1])[keep] for c in a])
+        jackknife, v_grouped = _grouped_variance(t, r, keep, delta_a, groups)
+        variance += jackknife - _noise_variance(bias2, v_grouped)
     if s >= 2:
         variance += float(per_chain.var(ddof=1)) / s
     se = float(np.sqrt(variance))

@@ -111,3 +111,49 @@ def test_energy_jitter_se_takes_the_references_total_variance_ratio():
     scaled = energy_jitter(truth, var, truth[None], ratios=[[9.0] * 3, [9.0] * 3])[1]["jitter_se"]
     assert plain == pytest.approx(np.sqrt(2 * 16 * 1e-4) / 16, rel=1e-12)
     assert scaled == pytest.approx(3 * plain, rel=1e-12)
+
+
+def _streaky_reference(rng, truth_frames, batches=16, groups=8, sd=0.15, size=5):
+    """Per frame, a light-tracer-like R: ``batches`` batches of the truth whose noise each
+    photon spreads over a size×size streak (the same in R, G and B), kept as the
+    reference keeps them (``BatchStats`` with ``groups`` groups): (means, variances,
+    groups as ``flicker``'s reference_groups take them)."""
+    from volcaustics.reference.render.batches import BatchStats
+
+    means, variances, grouped = [], [], []
+    for truth in truth_frames:
+        stats = BatchStats(("caustic",), groups=groups)
+        for _ in range(batches):
+            white = rng.standard_normal((H + size - 1, W + size - 1, 1))
+            streak = sum(white[i:i + H, j:j + W] for i in range(size) for j in range(size)) / size
+            stats.add({"caustic": truth + sd * streak * np.ones(3)})
+        means.append(stats.mean("caustic"))
+        variances.append(stats.var("caustic"))
+        grouped.append((*stats.group_means("caustic"), stats.var("caustic")))
+    return np.stack(means), np.stack(variances), grouped
+
+
+def test_flicker_standard_error_sees_the_reference_pixels_covary():
+    """A two-frame sequence whose reference is a streaky light tracer's (its pixels covary
+    over 5×5 streaks) and an approximation 5% too bright (a real flicker, so the cross
+    term 4 b·Cov·b is a large part of R's): with R's batch groups the flicker's SE is
+    its spread over 200 draws or a little more (spread / SE measured 0.68–0.74 over 300
+    draws, two seeds: the delete-one-group jackknife overstates the noise×noise part, as
+    "Jackknife calibration" in docs/decisions.md says; 0.88 at 20% too bright). Bounds
+    0.55–1.1: ±5% sampling error of the spread about the measured values, and an SE too
+    small (a false alarm risk) fails. With the independent-pixel formula the spread is
+    3.4–3.7× its SE (the negative control: the gate would flag R's noise as flicker)."""
+    rng = np.random.default_rng(37)
+    truth = _truth(rng)[:2]
+    values, grouped, independent = [], [], []
+    for _ in range(200):
+        reference, var, groups = _streaky_reference(rng, truth)
+        chains = (1.05 * truth + rng.normal(0.0, 0.02, (2, *truth.shape)))
+        with_groups = flicker(reference, var, chains, reference_groups=groups)[0]
+        values.append(with_groups.flicker)
+        grouped.append(with_groups.standard_error)
+        independent.append(flicker(reference, var, chains)[0].standard_error)
+    spread = np.std(values, ddof=1)
+    ratio = spread / np.sqrt(np.mean(np.square(grouped)))
+    assert 0.55 < ratio < 1.1, ratio
+    assert spread / np.sqrt(np.mean(np.square(independent))) > 3
