@@ -17,6 +17,9 @@ from volcaustics.scenes.formats import COLOUR_LAYERS, MASK_LAYER
 
 NAN = float("nan")
 SUMMARY_METRICS = ("relative_mse", "hdr_flip", "energy_ratio")  # per-frame series the summary condenses
+# the components that hold the light tracer's caustic, whose pixels covary: their flicker SE
+# takes its batch groups (the camera integrator's fog and direct pixels are independent)
+COVARYING = ("caustic", "combined")
 
 
 def keep_masks(run, mode: str) -> np.ndarray:
@@ -42,6 +45,26 @@ def frame_rows(run) -> list:
     return rows
 
 
+class _CausticGroups:
+    """Frame t's caustic batch groups and variance, ``metrics.temporal.flicker``'s
+    reference_groups, read from its reference when asked (two frames held at a time); None
+    for a reference without them."""
+
+    def __init__(self, references):
+        self.references, self.held = references, {}
+
+    def __len__(self) -> int:
+        return len(self.references)
+
+    def __getitem__(self, t: int):
+        if t not in self.held:
+            if len(self.held) >= 2:
+                self.held.pop(next(iter(self.held)))
+            groups = self.references[t].caustic_groups()
+            self.held[t] = None if groups is None else (*groups, self.references[t].var["caustic"])
+        return self.held[t]
+
+
 def temporal_rows(run) -> list:
     """Per seed mode, colour component and frame pair: flicker (``metrics.temporal``) and the
     energy ratio's jitter. Consecutive *rendered* frames form the pairs (``--frames`` may
@@ -53,8 +76,10 @@ def temporal_rows(run) -> list:
         keep = keep_masks(run, mode)
         for component in COLOUR_LAYERS:
             chains = run.approx[mode][component]
+            groups = _CausticGroups(run.references) if component in COVARYING else None
             try:
-                pairs = flicker(refs[component], ref_vars[component], chains, mask=keep) if len(run.frames) > 1 else []
+                pairs = flicker(refs[component], ref_vars[component], chains, mask=keep,
+                                reference_groups=groups) if len(run.frames) > 1 else []
                 energy = energy_jitter(refs[component], ref_vars[component], chains, mask=keep,
                                        ratios=[r.total_variance_ratio(component) for r in run.references])
                 note = ""

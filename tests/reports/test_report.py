@@ -167,6 +167,15 @@ def test_the_page_shows_the_summary_numbers(built):
             model = page["model"]["components"][component]  # the single-scattering model's own error
             assert cells[5] == (f"{100 * model['relmse_own']['debiased']:.2f}% "
                                 f"({100 * model['energy_share']['value']:.1f}%)")
+            # the caustic's error by cause, emission first, and whether the residual closes
+            d = page["decomposition"]
+            if component == "caustic":
+                parts = [f"{t['term'].replace('_', ' ')} {100 * t['relmse_part_debiased']:+.2f}" for t in d["terms"]]
+                assert [t["term"] for t in d["terms"]][0] == "emission"
+                closes = "✓ pass closes" if d["residual"]["within_noise"] else "✗ FAIL does not close"
+                assert cells[6] == "".join(parts) + closes
+            else:
+                assert cells[6] == ""
     for page in s["scenes"]:  # the model term beside the decomposition, with the orders it took
         model = page["model"]
         assert model["max_scatter"] == 8 and set(model["orders_needed"]) == {"caustic", "fog", "direct"}
@@ -175,7 +184,7 @@ def test_the_page_shows_the_summary_numbers(built):
     # the failure is spelled out, not only coloured, and comes first in its cell and in the banner
     assert "✗ Gate FAILED: 1 of 5 checks" in built["page"]
     sphere = next(r for r in parsed.rows if r["scene"] == "sphere1" and len(r["cells"]) > 6)
-    assert sphere["cells"][7].startswith("✗ FAIL caustic.hdr_flip_max")
+    assert sphere["cells"][8].startswith("✗ FAIL caustic.hdr_flip_max")
 
 
 def test_the_page_is_self_contained(built):
