@@ -19,9 +19,11 @@ seeds), over the compared pixels:
 
 Standard errors by first-order propagation of the per-pixel variances (T's, R_ss's and
 A's over its seeds), a pixel's three channels taken as fully correlated (one light
-path carries all three) and pixels as independent, except in the energy share: there
-T's variance is scaled by its measured ratio of the total's variance to Σ var (the
-higher orders come from a light tracer, whose photons reach many pixels); the
+path carries all three) and pixels as independent, except where the reference says
+how its pixels covary (the higher orders come from a light tracer, whose photons reach
+many pixels): the energy share scales T's variance by its measured ratio of the
+total's variance to Σ var, and with T's batch groups (and R_ss's, for the caustic) the
+relMSE values' reference part is a delete-one-group jackknife (``metrics.groups``); the
 intervals are ±1.96 SE (normal).
 """
 
@@ -30,6 +32,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
+
+from volcaustics.metrics.groups import group_jackknife_se
 
 Z95 = 1.959963984540054  # two-sided 95% normal quantile
 
@@ -44,12 +48,15 @@ def _propagated(gradient, variance) -> float:
     return float(np.sum(np.sum(np.abs(gradient) * np.sqrt(variance), axis=1) ** 2))
 
 
-def model_term(r_ss, r_ss_var, term, term_var, approx_stack, keep, term_ratio=None) -> dict:
+def model_term(r_ss, r_ss_var, term, term_var, approx_stack, keep, term_ratio=None, term_groups=None,
+               reference_groups=None) -> dict:
     """The model term's numbers for one component (module docstring): {metric: (value,
     debiased, standard error)}. ``approx_stack``: S×H×W×3 frames (S ≥ 1; with S ≥ 2
     their variance over the seeds enters the SE); ``keep``: H×W compared pixels;
     ``term_ratio``: per channel, the variance of T's total over Σ of its pixels'
-    (``metrics.noise.total_sigma``; None: 1), for the energy share's SE.
+    (``metrics.noise.total_sigma``; None: 1), for the energy share's SE;
+    ``term_groups``, ``reference_groups``: (G×H×W×3 means, G counts) of T's and of R_ss's
+    batch groups (None: pixels independent), for the relMSE values' SEs.
     ValueError when R_ms has no energy there."""
     r, rv, t, tv = _sel(r_ss, keep), _sel(r_ss_var, keep), _sel(term, keep), _sel(term_var, keep)
     stack = np.stack([_sel(a, keep) for a in approx_stack])
@@ -70,6 +77,22 @@ def model_term(r_ss, r_ss_var, term, term_var, approx_stack, keep, term_ratio=No
     part = float(np.sum(t * err_ms)) / energy
     # ∂ part / ∂T = (R_ms − A) + T, ∂ part / ∂A = −T, ∂ part / ∂R_ss = T (independent sources)
     part_se = math.sqrt(_propagated(err_ms + t, tv) + _propagated(t, av) + _propagated(t, rv)) / energy
+    if term_groups is not None:  # the reference's part from its groups, A's (and R_ss's without groups) analytic
+        grouped = [(np.asarray(g[0], np.float64)[:, keep], g[1]) for g in (term_groups, reference_groups)
+                   if g is not None]
+        noise = float(np.sum(tv))
+
+        def values(images, scales):
+            t_g, r_g = images[0], images[1] if len(images) > 1 else r
+            ms_g = r_g + t_g
+            e_g = float(np.sum(ms_g * ms_g))
+            return (float(np.sum(t_g * t_g)) - noise * scales[0]) / e_g, \
+                (float(np.sum(t_g * (ms_g - a))) - noise * scales[0]) / e_g
+
+        rest = _propagated(t, av) + (_propagated(t, rv) if reference_groups is None else 0.0)
+        own_se = group_jackknife_se(grouped, lambda images, scales: values(images, scales)[0])
+        part_se = math.sqrt(group_jackknife_se(grouped, lambda images, scales: values(images, scales)[1]) ** 2
+                            + rest / energy**2)
     approx_part = float(np.sum((r - a) * err_ms)) / energy
     return {"energy_share": (share, share, share_se),
             "relmse_own": (own, own_debiased, own_se),

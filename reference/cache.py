@@ -262,10 +262,9 @@ def _named_files(key: str) -> set:
     return out
 
 
-def read_state(key: str, manifest: dict, prefix: str = "") -> dict | None:
-    """The entry's batch state (float64 sums per stream, see reference.batches; only the
-    arrays whose names start with ``prefix``) if present and matching its manifest, else
-    None."""
+def read_state(key: str, manifest: dict, prefix: str | tuple = "") -> dict | None:
+    """The entry's batch state (float64 sums per stream, reference.batches; the arrays
+    whose names start with ``prefix``, a string or a tuple) if it matches its manifest."""
     try:
         path = entry_file(key, manifest, "state")
         if manifest.get("state_sha256") != file_sha256(path):
@@ -303,18 +302,20 @@ class ReferenceResult:
         entry does not say: take its pixels as independent)."""
         return (self.manifest.get("total_variance_ratio") or {}).get(layer)
 
-    def caustic_groups(self) -> tuple | None:
-        """(G×H×W×3 float64 means of the light stream's batch groups, their G batch
-        counts): independent estimates of the caustic, from the entry's batch state
-        (``reference.render.batches.BatchStats.group_means``); None when the entry has no
-        readable state or fewer batches than groups."""
-        from .render.batches import LIGHT, LIGHT_GROUPS, STREAM_IMAGES, BatchStats
+    def groups(self, layer: str) -> tuple | None:
+        """(G×H×W×3 float64 means of ``layer``'s batch groups, their G batch counts) of the
+        caustic (light stream) or a model term ``<component>_ms`` (orders stream), from
+        the entry's batch state; None without a readable state, the layer's groups or
+        as many batches as groups."""
+        from .render.batches import LIGHT, LIGHT_GROUPS, ORDERS, BatchStats
 
-        arrays = read_state(self.key, self.manifest, prefix=f"{LIGHT}/")
-        if arrays is None:
+        stream = LIGHT if layer == "caustic" else ORDERS
+        arrays = read_state(self.key, self.manifest, prefix=(f"{stream}/n", f"{stream}/groups",
+                                                             f"{stream}/group/{layer}"))
+        if arrays is None or f"{stream}/n" not in arrays:
             return None
         try:
-            return BatchStats.from_arrays(STREAM_IMAGES[LIGHT], arrays, LIGHT, LIGHT_GROUPS).group_means("caustic")
+            return BatchStats.stored_group_means(arrays, stream, layer, LIGHT_GROUPS)
         except (KeyError, ValueError, TypeError):
             return None
 

@@ -65,7 +65,8 @@ class RenderState:
     @classmethod
     def for_settings(cls, settings: ReferenceSettings) -> "RenderState":
         """An empty state for ``settings``: with the orders stream when max_scatter > 1."""
-        orders = BatchStats(scattering.stream_images(settings.max_scatter)) if settings.max_scatter > 1 else None
+        orders = (BatchStats(scattering.stream_images(settings.max_scatter), groups=LIGHT_GROUPS,
+                             grouped=scattering.GROUPED) if settings.max_scatter > 1 else None)
         return cls(orders=orders)
 
     def streams(self) -> dict:
@@ -91,7 +92,8 @@ class RenderState:
     def from_arrays(cls, arrays: dict) -> "RenderState":
         orders = None
         if f"{ORDERS}/names" in arrays:
-            orders = BatchStats.from_arrays(json.loads(str(arrays[f"{ORDERS}/names"])), arrays, ORDERS)
+            orders = BatchStats.from_arrays(json.loads(str(arrays[f"{ORDERS}/names"])), arrays, ORDERS, LIGHT_GROUPS,
+                                            scattering.GROUPED)
         return cls(BatchStats.from_arrays(STREAM_IMAGES[LIGHT], arrays, LIGHT, LIGHT_GROUPS),
                    BatchStats.from_arrays(STREAM_IMAGES[CAMERA], arrays, CAMERA),
                    np.array(arrays["mask"]) if "mask" in arrays else None, float(arrays["seconds"]),

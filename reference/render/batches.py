@@ -29,7 +29,8 @@ from volcaustics.scenes.rng import pcg_hash
 
 LIGHT, CAMERA, ORDERS = "light", "camera", "orders"
 # The light stream's batches also sum in 8 groups: independent estimates of the caustic
-# whose spread holds its pixels' covariance (metrics.decomposition's residual SE)
+# whose spread holds its pixels' covariance (metrics.groups: the residual's, the flicker's
+# and the model term's SEs); the orders stream's (a light tracer too) for its model terms
 LIGHT_GROUPS = 8
 STREAM_IMAGES = {LIGHT: ("caustic",), CAMERA: ("fog", "direct", "fog_direct")}  # ORDERS: orders.stream_images(K)
 # Salt of each stream's batch seeds, so that no two streams share one.
@@ -46,11 +47,14 @@ def batch_seed(seed: int, stream: str, batch: int) -> int:
 
 class BatchStats:
     """Sums over n batches of named H×W×3 images (float64) and of their squares; with
-    ``groups`` G > 0 also the sums of G groups of batches (batch b in group b mod G)."""
+    ``groups`` G > 0 also the sums of G groups of batches (batch b in group b mod G) of
+    the names in ``grouped`` (None: every name)."""
 
     def __init__(self, names, n: int = 0, sums: dict | None = None, squares: dict | None = None,
-                 totals: dict | None = None, groups: int = 0, group_sums: dict | None = None):
+                 totals: dict | None = None, groups: int = 0, group_sums: dict | None = None,
+                 grouped: tuple | None = None):
         self.names = tuple(names)
+        self.grouped = self.names if grouped is None else tuple(grouped)
         self.n = n
         self.sums = sums or {}
         self.squares = squares or {}
@@ -70,7 +74,7 @@ class BatchStats:
                 self.sums[name], self.squares[name] = x.copy(), x * x
             total = (x.sum(axis=(0, 1)) if keep is None else x[keep].sum(axis=0))[None]
             self.totals[name] = total if name not in self.totals else np.concatenate([self.totals[name], total])
-            if self.groups:
+            if self.groups and name in self.grouped:
                 if name not in self.group_sums:
                     self.group_sums[name] = np.zeros((self.groups, *x.shape))
                 self.group_sums[name][self.n % self.groups] += x
@@ -80,10 +84,9 @@ class BatchStats:
         """(G×H×W×3 means of the groups, their G batch counts), or None without groups or
         before every group has a batch: independent estimates of the image whose spread
         holds all the covariance of its pixels."""
-        if not self.groups or self.n < self.groups:
+        if not self.groups or self.n < self.groups or name not in self.group_sums:
             return None
-        counts = np.array([self.n // self.groups + (g < self.n % self.groups) for g in range(self.groups)])
-        return self.group_sums[name] / counts[:, None, None, None], counts
+        return _group_means(self.group_sums[name], self.n, self.groups)
 
     def mean(self, name: str) -> np.ndarray:
         return self.sums[name] / self.n
@@ -101,28 +104,50 @@ class BatchStats:
             out[f"{prefix}/sum/{name}"] = self.sums[name]
             out[f"{prefix}/square/{name}"] = self.squares[name]
             out[f"{prefix}/total/{name}"] = self.totals[name]
-            if self.groups:
+            if name in self.group_sums:
                 out[f"{prefix}/group/{name}"] = self.group_sums[name]
         if self.groups:
             out[f"{prefix}/groups"] = np.asarray(self.groups)
         return out
 
+    @staticmethod
+    def stored_group_means(arrays, prefix: str, name: str, groups: int) -> tuple | None:
+        """:meth:`group_means` of ``name`` from the arrays :meth:`arrays` wrote (only the
+        group sums and the counts read), or None (none stored, fewer batches than
+        groups; ValueError: stored with another number of groups)."""
+        n = int(arrays[f"{prefix}/n"])
+        stored = int(arrays.get(f"{prefix}/groups", 0))
+        if stored != groups:
+            raise ValueError(f"{prefix}: stored with {stored} batch groups, not {groups}")
+        key = f"{prefix}/group/{name}"
+        if not groups or n < groups or key not in arrays:
+            return None
+        return _group_means(np.array(arrays[key], np.float64), n, groups)
+
     @classmethod
-    def from_arrays(cls, names, arrays, prefix: str, groups: int = 0) -> "BatchStats":
-        """The state ``arrays`` wrote, for ``groups`` groups (ValueError: stored with others)."""
+    def from_arrays(cls, names, arrays, prefix: str, groups: int = 0, grouped: tuple | None = None) -> "BatchStats":
+        """The state ``arrays`` wrote, for ``groups`` groups of ``grouped`` (ValueError:
+        stored with others)."""
         n = int(arrays[f"{prefix}/n"])
         if n == 0:
-            return cls(names, groups=groups)
+            return cls(names, groups=groups, grouped=grouped)
         stored = int(arrays.get(f"{prefix}/groups", 0))
         if stored != groups:
             raise ValueError(f"{prefix}: stored with {stored} batch groups, not {groups}")
         totals = {k: np.array(arrays[f"{prefix}/total/{k}"], np.float64) for k in names}
         if any(t.shape != (n, 3) for t in totals.values()):
             raise ValueError(f"{prefix}: batch totals of another shape than ({n}, 3)")
-        group_sums = {k: np.array(arrays[f"{prefix}/group/{k}"], np.float64) for k in names} if groups else None
+        grouped = tuple(names) if grouped is None else tuple(grouped)
+        group_sums = {k: np.array(arrays[f"{prefix}/group/{k}"], np.float64) for k in grouped} if groups else None
         return cls(names, n, {k: np.array(arrays[f"{prefix}/sum/{k}"], np.float64) for k in names},
                    {k: np.array(arrays[f"{prefix}/square/{k}"], np.float64) for k in names}, totals, groups,
-                   group_sums)
+                   group_sums, grouped)
+
+
+def _group_means(group_sums: np.ndarray, n: int, groups: int) -> tuple:
+    """(G×… means, G counts) of group sums over n batches dealt round-robin."""
+    counts = np.array([n // groups + (g < n % groups) for g in range(groups)])
+    return group_sums / counts.reshape(-1, *([1] * (group_sums.ndim - 1))), counts
 
 
 def noise_floor(mean: np.ndarray, var: np.ndarray, keep: np.ndarray) -> float | None:

@@ -27,6 +27,7 @@ import numpy as np
 ORDER_COMPONENTS = ("caustic", "fog", "direct")
 SINGLE_ORDER = {"caustic": 1, "fog": 1, "direct": 0}  # the paper's model: scattering events on the path
 MODEL_FLOORS = tuple(f"{c}_ms" for c in ORDER_COMPONENTS)  # the noise floors (and targets) of the model term
+GROUPED = (*MODEL_FLOORS, "combined_ms")  # the orders stream's images kept in batch groups (the model term's SEs)
 
 
 def excess_orders(component: str, max_scatter: int) -> range:

@@ -60,7 +60,7 @@ class _CausticGroups:
         if t not in self.held:
             if len(self.held) >= 2:
                 self.held.pop(next(iter(self.held)))
-            groups = self.references[t].caustic_groups()
+            groups = self.references[t].groups("caustic")
             self.held[t] = None if groups is None else (*groups, self.references[t].var["caustic"])
         return self.held[t]
 

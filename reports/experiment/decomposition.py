@@ -10,7 +10,7 @@ def decompose(exact, reference, keep) -> dict:
     return decompose_caustic(exact["batches"], reference.mean["caustic"], keep=keep,
                              reference_var=reference.var["caustic"],
                              reference_ratio=reference.total_variance_ratio("caustic"),
-                             reference_groups=reference.caustic_groups())
+                             reference_groups=reference.groups("caustic"))
 
 
 def decomposition_rows(decomposition, columns) -> list:

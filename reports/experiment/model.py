@@ -29,7 +29,9 @@ def model_rows(frames, reference, keep, columns) -> tuple:
         try:
             values = model_term(reference.mean[component], reference.var[component], reference.mean[f"{component}_ms"],
                                 reference.var[f"{component}_ms"], stack, keep,
-                                reference.total_variance_ratio(f"{component}_ms"))
+                                reference.total_variance_ratio(f"{component}_ms"),
+                                term_groups=reference.groups(f"{component}_ms"),
+                                reference_groups=reference.groups(component) if component == "caustic" else None)
         except ValueError as exc:
             numbers[component] = {"note": str(exc)}
             continue

@@ -122,9 +122,15 @@ def test_a_cached_reference_gives_its_caustic_groups(tmp_path, empty_cache):
     scene = load_builtin("sphere1")
     few = render_reference(scene, ReferenceSettings(photons=1 << 15, spp=8, batches=4, width=32, height=32),
                            progress=False)
-    assert few.caustic_groups() is None
+    assert few.groups("caustic") is None
     result = render_reference(scene, ReferenceSettings(photons=1 << 16, spp=16, batches=8, width=32, height=32),
                               progress=False)
-    means, counts = result.caustic_groups()
+    means, counts = result.groups("caustic")
     assert counts.tolist() == [1] * 8
     assert np.allclose(means.mean(axis=0), result.mean["caustic"], rtol=1e-6, atol=1e-12)
+    orders = render_reference(scene, ReferenceSettings(photons=1 << 15, spp=8, batches=8, width=32, height=32,
+                                                       max_scatter=2), progress=False)
+    for layer in ("caustic_ms", "fog_ms"):  # the model terms' groups, from the orders stream
+        means, counts = orders.groups(layer)
+        assert counts.sum() == 8 and np.allclose(means.mean(axis=0), orders.mean[layer], rtol=1e-6, atol=1e-12)
+    assert orders.groups("fog@2") is None  # one order's image keeps no groups
