@@ -5,8 +5,9 @@ as a wavefront").
 
 For each scene, at the report's settings (quick preset, the report's seeds and
 sub-photons): the frames, then the E_∞ replays of the decomposition
-(``reports.experiment.exact_images._replayed``: A's Fresnel and, for a deterministic
-Fresnel, the stochastic one, every seed and sub-photon as one wavefront), timed and
+(``reports.experiment.exact_images._replayed``: A's emission with A's Fresnel and, for a
+deterministic Fresnel, with the stochastic one, and the light's true emission, every
+seed and sub-photon as one wavefront per Fresnel mode, each from the emission ray), timed and
 their segments kept. Then, in the same process, the raw bound: one
 ``scene.ray_intersect`` on the very same segments, with only the hit distance evaluated
 (the machine's ray-casting bound) and with the whole interaction. Prints rays, seconds,
@@ -16,7 +17,6 @@ M rays/s and the replay's ratio to each (the budget: the replay at ≥ 1/3 of th
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import time
 
 import numpy as np
@@ -54,12 +54,15 @@ def main(argv=None) -> int:
 
     import volcaustics.reference  # noqa: F401  (libLLVM before drjit)
     from volcaustics.approx import Renderer
+    from volcaustics.approx.emission import true_rays
+    from volcaustics.approx.light import LightFrustum
     from volcaustics.approx.params import QUICK
     from volcaustics.reference.oracle import Oracle
     from volcaustics.reports.experiment.exact_images import _replayed, replay_seed
     from volcaustics.reports.experiment.frames import render_frames
     from volcaustics.reports.experiment.settings import checked_settings
     from volcaustics.scenes import resolve_scene
+    from volcaustics.scenes.bounds import medium_bounds
 
     print(f"{'scene':<12} {'rays':>10} {'replay s':>9} {'replay Mray/s':>14} {'bound (t)':>10} {'ratio':>6} "
           f"{'bound (si)':>11} {'ratio':>6}")
@@ -68,10 +71,11 @@ def main(argv=None) -> int:
         p, seeds = checked_settings(scene, QUICK, args.seeds)
         renderer, oracle = Renderer(scene), Oracle(scene)
         frames, _ = render_frames(renderer, scene, p, seeds, warm_up=True)
-        firsts = [f.records[0] for f in frames]
-        sto = renderer.first_records(scene, dataclasses.replace(p, fresnel="stochastic", steps=1, fog_steps=1),
-                                     [replay_seed(s, m) for s in seeds for m in range(args.subphotons)])
-        _replayed(scene, p, p.fresnel, firsts[:1], seeds[:1], 1, oracle)  # compiles the kernels
+        frustum = LightFrustum.for_scene(scene, *medium_bounds(scene))
+        replay_seeds = [[replay_seed(s, m) for m in range(args.subphotons)] for s in seeds]
+        own = [(rays, s) for rays, mine in zip(renderer.emission_rays(scene, p, seeds), replay_seeds) for s in mine]
+        true = [(true_rays(scene.light, frustum, p.photon_res, s), s) for mine in replay_seeds for s in mine]
+        _replayed(scene, p, p.fresnel, own[:1], oracle)  # compiles the kernels
         oracle.rays, segments, first_hits = 0, [], oracle.first_hits
 
         def kept(o, d, L, segments=segments, first_hits=first_hits):
@@ -80,9 +84,9 @@ def main(argv=None) -> int:
 
         oracle.first_hits = kept
         t0 = time.perf_counter()
-        _replayed(scene, p, p.fresnel, firsts, seeds, args.subphotons, oracle)
         if p.fresnel != "stochastic":
-            _replayed(scene, p, "stochastic", sto, seeds, args.subphotons, oracle)
+            _replayed(scene, p, p.fresnel, own, oracle)
+        _replayed(scene, p, "stochastic", own + true, oracle)
         seconds, rays = time.perf_counter() - t0, oracle.rays
         bound = raw_throughput(oracle, segments)
         replay = rays / seconds / 1e6
