@@ -86,7 +86,7 @@ def test_measure_writes_tidy_tables_exr_and_summary(cache, tmp_path, capsys, mon
     assert relmse["debiased"] == pytest.approx(relmse["value"] - relmse["reference_floor"] - relmse["approx_noise"])
     assert relmse["approx_noise"] > 0 and relmse["approx_noise_removed"]
     terms = images[(images["metric"] == "energy_share") & images["term"].notna()].set_index("term")
-    parts = ["intersection", "truncation", "reflections", "kernel_blur", "residual"]
+    parts = ["emission", "intersection", "truncation", "reflections", "kernel_blur", "residual"]
     assert terms.loc[parts, "value"].sum() == pytest.approx(terms.loc["total", "value"], abs=1e-9)
     assert (terms["standard_error"] >= 0).all()
     ratio = images[(images["component"] == "caustic") & (images["metric"] == "energy_ratio")].iloc[0]
@@ -94,7 +94,8 @@ def test_measure_writes_tidy_tables_exr_and_summary(cache, tmp_path, capsys, mon
 
     with OpenEXR.File(str(out / "decomposition.exr")) as exr:
         channels = set(exr.channels())
-    for layer in ("approx", "reference", "exact_all_small", "term.intersection", "term.residual"):
+    for layer in ("approx", "reference", "exact_emission", "exact_all_small", "term.emission", "term.intersection",
+                  "term.residual"):
         assert f"{layer}.R" in channels or layer in channels, (layer, sorted(channels)[:8])
     assert not [p for p in out.iterdir() if p.name.startswith(".")]  # no temporary files left
 
