@@ -3,6 +3,7 @@ configuration, at the report's settings (quick preset, the budgets' 6 seeds, the
 report's reference, 16 sub-photons).
 
     .venv/bin/python bench/closure.py [SCENE ...] [--configs paper,adaptive,adopted] [--json FILE]
+    .venv/bin/python bench/closure.py --table AFTER.jsonl [BEFORE.jsonl]
 
 Configurations: ``paper`` (the quick preset: the paper's method at the harness's size),
 ``adaptive`` (the same with ``emission = adaptive``) and ``adopted`` (the best search's
@@ -46,7 +47,11 @@ def main(argv=None) -> int:
     parser.add_argument("--configs", default="paper,adaptive,adopted")
     parser.add_argument("--seeds", type=int, default=6)
     parser.add_argument("--json", help="append one JSON object per point to this file")
+    parser.add_argument("--table", nargs="+", metavar="FILE",
+                        help="print the points of --json files as markdown tables (a second FILE: before → after)")
     args = parser.parse_args(argv)
+    if args.table:
+        return print_tables(*args.table)
     for name in args.scenes:
         scene = load_builtin(name)
         for config in args.configs.split(","):
@@ -68,6 +73,38 @@ def main(argv=None) -> int:
                 with open(args.json, "a") as fh:
                     fh.write(json.dumps({"scene": name, "config": config, "seconds": seconds, "rows": d["rows"],
                                          "residual": res}) + "\n")
+    return 0
+
+
+def print_tables(after: str, before: str | None = None) -> int:
+    """Markdown: per point every term's energy share and debiased relMSE part (± SE, % and
+    % points), then the residual's z-values (``before`` → after when given)."""
+    def load(path):
+        with open(path) as fh:
+            return {(p["scene"], p["config"]): p for p in map(json.loads, fh)}
+
+    now, then = load(after), load(before) if before else {}
+    for (scene, config), point in now.items():
+        rows = [r for r in point["rows"] if "energy_share" in r]
+        print(f"\n**{scene}, {config}**\n\n| term | energy share % | relMSE part, debiased (pts) |\n|---|---|---|")
+        for r in rows:
+            print(f"| {r['term']} | {100 * r['energy_share']:+.2f} ± {100 * r['energy_share_se']:.2f} | "
+                  f"{100 * r['relmse_part_debiased']:+.3f} ± {100 * r['relmse_part_se']:.3f} |")
+        res, old = point["residual"], then.get((scene, config), {}).get("residual")
+        was = (f"{old['energy_z']:+.1f} / {100 * old['debiased_relmse']:+.3f}% (z {old['relmse_z']:+.1f}) → "
+               if old else "")
+        print(f"\nresidual energy z / relMSE: {was}{res['energy_z']:+.1f} / {100 * res['debiased_relmse']:+.3f}% "
+              f"(z {res['relmse_z']:+.1f})")
+    print("\n| scene | config | residual relMSE part (pts) | energy z | relMSE z | largest term energy SE % |"
+          "\n|---|---|---|---|---|---|")
+    for (scene, config), point in now.items():
+        rows = {r["term"]: r for r in point["rows"] if "energy_share" in r}
+        res, old = point["residual"], then.get((scene, config), {}).get("residual")
+        was = {key: f"{old[key]:+.1f} → " if old else "" for key in ("energy_z", "relmse_z")}
+        part = rows["residual"]["relmse_part_debiased"]
+        print(f"| {scene} | {config} | {100 * part:+.3f} | {was['energy_z']}{res['energy_z']:+.1f} | "
+              f"{was['relmse_z']}{res['relmse_z']:+.1f} | "
+              f"{100 * max(r['energy_share_se'] for t, r in rows.items() if t != 'total'):.2f} |")
     return 0
 
 

@@ -129,6 +129,24 @@ def _reference_relmse_se(groups, keep, rv, sums, k, energy2) -> float:
     return group_jackknife_se([(means[:, keep], counts)], without) / energy2
 
 
+def _reference_part_se(term: str, groups, keep, r, rv, sums, k, energy2) -> float:
+    """R's part of the SE of the relMSE part of ``term`` ("total": Σ(R − A)², "residual":
+    Σ(R − E_∞,s)(R − A), each less R's noise), the batched images held at their means:
+    with ``groups`` a delete-one-group jackknife (R's pixels covary), else first order
+    with independent pixels (Σ var · (∂/∂R)², plus 2 Σ var² for the noise × noise part)."""
+    a = sums["approx"] / k
+    e = a if term == "total" else sums["exact_all_small"] / k
+    if groups is None:
+        return float(np.sqrt(np.sum(rv * ((r - e) + (r - a)) ** 2) + 2.0 * np.sum(rv * rv))) / energy2
+    means, counts = checked_groups(groups)
+    noise = float(rv.sum())
+
+    def part(images, scales):
+        return float(np.sum((images[0] - e) * (images[0] - a))) - noise * scales[0]
+
+    return group_jackknife_se([(means[:, keep], counts)], part) / energy2
+
+
 def caustic_terms(images: dict) -> dict:
     """The terms as H×W×3 float64 images of the ``IMAGES`` (they sum to reference −
     approx)."""
@@ -253,6 +271,9 @@ def decompose_caustic(batches: dict, reference, *, keep=None, reference_var=None
             row[f"{field}_se"] = se(name, i)
         if name in ("total", "residual"):
             row["energy_share_se"] = float(np.hypot(row["energy_share_se"], ref_share_sigma))
+            reference_se = _reference_part_se(name, reference_groups, keep, r, rv, sums, k, energy2)
+            for field in ("relmse_part", "relmse_own") if name == "total" else ("relmse_part",):
+                row[f"{field}_se"] = float(np.hypot(row[f"{field}_se"], reference_se))
         rows.append(row)
     # the parts less the noise each term shares with R − A: per batched image X, C(X) =
     # Σ cov(X̄, Ā) over the paired batches; a term near − far shares −(C(near) − C(far)),

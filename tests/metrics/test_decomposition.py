@@ -492,3 +492,33 @@ def test_debiased_parts_remove_the_noise_a_term_shares_with_the_error():
     assert total["relmse_part_debiased"] == pytest.approx(debiased_total, rel=1e-9)
     assert sum(_row(result, t)["relmse_part_debiased"] for t in SIX) == pytest.approx(
         total["relmse_part_debiased"], rel=1e-9)
+
+
+def test_relmse_parts_standard_errors_see_the_reference_pixels_covary():
+    """R enters the total's and the residual's parts of the relative MSE (Σ(R − A)²,
+    Σ(R − E_∞,s)(R − A)): with A 20% below the truth, R's streaky noise times the large
+    error R − A is most of their noise. With R's batch groups their SEs match the spread
+    over 200 draws or err large (spread / SE measured, two seeds: residual 0.88–0.94,
+    total 0.72–0.77, whose quadratic noise part the jackknife overstates; bounds
+    0.6–1.4); with independent pixels the spread is 5.7–7.1× the SE (the negative control:
+    the residual's part would look significant on R's noise alone)."""
+    rng = np.random.default_rng(27)
+    truth = _truth()
+    values, grouped, independent = {t: [] for t in ("total", "residual")}, {"total": [], "residual": []}, \
+        {"total": [], "residual": []}
+    for _ in range(200):
+        batches, stats = _streaky_draw(rng, truth, 1.03)
+        batches = {**batches, "approx": 0.8 * batches["approx"]}
+        reference, var = stats.mean("caustic"), stats.var("caustic")
+        with_groups = decompose_caustic(batches, reference, reference_var=var,
+                                        reference_groups=stats.group_means("caustic"))
+        without = decompose_caustic(batches, reference, reference_var=var)
+        for term in values:
+            values[term].append(_row(with_groups, term)["relmse_part_debiased"])
+            grouped[term].append(_row(with_groups, term)["relmse_part_se"])
+            independent[term].append(_row(without, term)["relmse_part_se"])
+    for term in values:
+        spread = np.std(values[term], ddof=1)
+        ratio = spread / np.sqrt(np.mean(np.square(grouped[term])))
+        assert 0.6 < ratio < 1.4, (term, ratio)
+        assert spread / np.sqrt(np.mean(np.square(independent[term]))) > 3, term
