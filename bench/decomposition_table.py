@@ -17,6 +17,7 @@ import sys
 
 def main(argv=None) -> int:
     from volcaustics.approx.params import QUICK
+    from volcaustics.metrics.decomposition import TERMS
     from volcaustics.metrics.intersection import CLASS_NAMES
     from volcaustics.reports.experiment.run import run_experiment
     from volcaustics.reports.experiment.write import write_experiment
@@ -29,7 +30,7 @@ def main(argv=None) -> int:
     parser.add_argument("--out", help="also write each experiment's outputs here")
     args = parser.parse_args(argv)
     OTHER = [c for c in CLASS_NAMES.values() if c != "self_rehit"]
-    terms = ("intersection", "truncation", "reflections", "kernel_blur", "residual", "total", "noise")
+    terms = (*TERMS, "total", "noise")
     decomposition, classes = [], []
     for name in args.scenes:
         scene = load_builtin(name)

@@ -40,6 +40,7 @@ import uuid
 
 import pandas as pd
 
+from volcaustics.metrics.decomposition import TERMS
 from volcaustics.reports.core.tables import plain, table
 from volcaustics.reports.core.versions import code_version
 from volcaustics.scenes.fields import field_columns
@@ -233,8 +234,7 @@ POINT_COLUMNS = ("point", "scene", "scene_hash", "seeds", "reference_key", "code
                  "emission_reads_per_frame", "splats_per_frame", "frame_cost",
                  *(f"{name}_{metric}" for name in ("caustic", "combined")
                    for metric in ("relmse_debiased", "relmse_se", "energy_ratio", "hdr_flip")),
-                 *(f"share_{term}" for term in
-                   ("intersection", "truncation", "reflections", "kernel_blur", "residual")),
+                 *(f"share_{term}" for term in TERMS),
                  "share_intersection_se", "intersection_relmse_part", "intersection_relmse_part_se",
                  "intersection_relmse_own", "residual_within_noise", "optical_depth",
                  *(f"model_{name}_{metric}" for name in ("caustic", "combined")
@@ -264,7 +264,7 @@ def point_row(key: str, summary: dict) -> dict:
         row[f"{name}_relmse_se"] = relmse.get("standard_error")
         row[f"{name}_energy_ratio"] = metrics.get("energy_ratio", {}).get("value")
         row[f"{name}_hdr_flip"] = metrics.get("hdr_flip", {}).get("value")
-    for term in ("intersection", "truncation", "reflections", "kernel_blur", "residual"):
+    for term in TERMS:
         row[f"share_{term}"] = decomposition.get(term, {}).get("energy_share")
     # the intersection term's parts of the caustic error, with standard errors over seeds
     intersection = decomposition.get("intersection", {})
