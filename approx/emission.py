@@ -92,6 +92,11 @@ def _rays(light, frustum, photon_res: int, texel: np.ndarray, within: np.ndarray
     return d / np.linalg.norm(d, axis=1, keepdims=True), plane
 
 
+# the emission rules approx_rays mirrors (the parameter ``emission``'s choices): a new rule
+# adds its rays there, so that the decomposition's exact images replay what A emits
+RULES = ("uniform", "adaptive")
+
+
 def approx_rays(light, frustum, photon_res: int, seed: int, *, slots: np.ndarray | None = None,
                 shift: float = 0.0) -> EmissionRays:
     """The approximation's own emission (``emit.comp.glsl``): one photon per texel

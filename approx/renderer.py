@@ -22,7 +22,7 @@ from volcaustics.scenes.formats import KIND_SPECULAR, PHOTON_DTYPE, RAW_RECORD_D
 
 from .camera_pass import CameraPasses, CameraView
 from .context import gl_info, shared_context
-from .emission import approx_rays, draw_slots
+from .emission import RULES, approx_rays, draw_slots
 from .geometry import SceneGeometry
 from .layers import BOTH, LightMapRenderer
 from .light import LightFrustum
@@ -177,6 +177,8 @@ class Renderer:
         replay from the emission ray starts from."""
         scene = scene or self.scene
         p = params.resolved(scene)
+        if p.emission not in RULES:  # a rule the shader knows and its numpy twin does not: E would replay another
+            raise NotImplementedError(f"emission = {p.emission!r}: approx.emission.approx_rays has no rays for it")
         frustum = LightFrustum.for_scene(scene, *medium_bounds(scene))
         tracer = self._tracer(p)
         importance = None

@@ -81,3 +81,13 @@ def test_the_approximations_rays_are_the_ones_it_emits(gl_context, monkeypatch, 
         frustum = LightFrustum.for_scene(scene, *medium_bounds(scene))
         centres = approx_rays(scene.light, frustum, 64, 5)
         assert np.median(np.einsum("ij,ij->i", to_start, centres.direction[first["photon"]])) < 1 - 1e-7
+
+
+def test_every_emission_rule_has_its_rays():
+    """The parameter's choices are the rules ``approx_rays`` mirrors: a new rule fails here
+    until the exact images can replay it from the emission ray."""
+    from volcaustics.approx.emission import RULES
+    from volcaustics.approx.params import PARAMS
+
+    (emission,) = [p for p in PARAMS if p.name == "emission"]
+    assert tuple(emission.choices) == RULES
