@@ -191,8 +191,10 @@ class Renderer:
                 importance = tracer.importance_map(scene, frustum, p.photon_res)
             finally:
                 emission_map.release()
-        return [approx_rays(scene.light, frustum, p.photon_res, seed, shift=tracer.emission_shift,
-                            slots=None if importance is None else draw_slots(importance, seed)) for seed in seeds]
+        if importance is None:  # texel centres whatever the seed: one set of rays for all
+            return [approx_rays(scene.light, frustum, p.photon_res, 0, shift=tracer.emission_shift)] * len(seeds)
+        return [approx_rays(scene.light, frustum, p.photon_res, seed, slots=draw_slots(importance, seed))
+                for seed in seeds]
 
     def _light_maps(self, timer, tracer, frustum, p: ApproxParams, released: list) -> dict:
         """The light layers (paper Fig. 1A, 3) packed for the tracer, and the shadow map."""

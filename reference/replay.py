@@ -60,34 +60,42 @@ def exact_emission(scene, groups, *, fresnel: str, oracle: Oracle | None = None,
 
     groups : (rays, seed) pairs, ``rays`` with fields ``photon`` (N indices),
         ``direction`` (N×3 unit, from the light) and ``power`` (N×3 W), e.g.
-        ``approx.emission.EmissionRays``; traced together in launches of at most
-        ``max_photons`` rays.
+        ``approx.emission.EmissionRays``; in launches of at most ``max_photons`` rays,
+        groups that share one ``rays`` object traced once.
     """
     oracle = oracle or Oracle(scene)
     c = ReplayConstants(scene, fresnel)
     light = np.asarray(scene.light.position, np.float64)
 
-    def launch(part):
-        lit = [np.any(np.asarray(rays.power) > 0, axis=1) for rays, _ in part]
-        d = np.concatenate([np.asarray(rays.direction, np.float64)[m] for (rays, _), m in zip(part, lit)])
+    def hits(distinct):
+        """Per set of rays, those with power that hit and their exact first hits: one query."""
+        lit = [np.flatnonzero(np.any(np.asarray(rays.power) > 0, axis=1)) for rays in distinct]
+        d = np.concatenate([np.asarray(rays.direction, np.float64)[m] for rays, m in zip(distinct, lit)])
         origin = np.broadcast_to(light, d.shape)
         q = oracle.first_hits(origin, d, box_exit(origin, d, c.lo, c.hi))
-        out, at = [], 0
-        for (rays, seed), m in zip(part, lit):
-            n = int(m.sum())
-            hit = q["hit"][at:at + n]
-            mine = {key: value[at:at + n][hit] for key, value in q.items()}
-            photon, dd, t = np.asarray(rays.photon, np.int64)[m][hit], d[at:at + n][hit], mine["t"]
-            carried = np.asarray(rays.power, np.float64)[m][hit] * np.exp(-c.sigma_t[None, :] * t[:, None])
+        bounds = np.cumsum([0] + [len(m) for m in lit])
+        out = []
+        for m, lo, hi in zip(lit, bounds[:-1], bounds[1:]):
+            hit = q["hit"][lo:hi]
+            out.append((m[hit], d[lo:hi][hit], {key: value[lo:hi][hit] for key, value in q.items()}))
+        return out
+
+    def launch(part):
+        distinct = list({id(rays): rays for rays, _ in part}.values())  # A's grid serves every replay seed
+        traced = dict(zip(map(id, distinct), hits(distinct)))
+        out = []
+        for rays, seed in part:
+            at, d, q = traced[id(rays)]
+            photon, t = np.asarray(rays.photon, np.int64)[at], q["t"]
+            carried = np.asarray(rays.power, np.float64)[at] * np.exp(-c.sigma_t[None, :] * t[:, None])
             xi = uniform(seed, photon.astype(np.uint32), 0, 1).astype(np.float64)
-            new_d, new_power, inside, _ = surface_interaction(dd, carried, mine["normal"], mine["geometric_normal"],
-                                                              mine["shape"], xi, c.ior, c.stochastic)
+            new_d, new_power, inside, _ = surface_interaction(d, carried, q["normal"], q["geometric_normal"],
+                                                              q["shape"], xi, c.ior, c.stochastic)
             first = np.zeros(len(photon), RECORD_DTYPE)
             first["photon"], first["step"] = photon, 1
-            first["start"], first["direction"] = light + dd * t[:, None], new_d
+            first["start"], first["direction"] = light + d * t[:, None], new_d
             first["inside"], first["power_start"] = inside, new_power
             out.append(first)
-            at += n
         return out
 
     return _packed(groups, lambda group: len(group[0].photon), launch, max_photons)
