@@ -115,18 +115,12 @@ def _stack(batches, name, shape=None):
 
 def _reference_relmse_se(groups, keep, rv, sums, k, energy2) -> float:
     """R's part of the SE of the residual's debiased relMSE, E held at its mean: with
-    ``groups`` a delete-one-group jackknife (``metrics.groups``: each R without one group,
-    its variance scaled to its batches), else √(2 Σ var²) (pixels independent: noise ×
-    noise only)."""
+    ``groups`` a delete-one-group jackknife (:func:`_grouped_se`), else √(2 Σ var²)
+    (pixels independent: noise × noise only)."""
     if groups is None:
         return float(np.sqrt(2.0 * np.sum(rv * rv))) / energy2
-    means, counts = checked_groups(groups)
-    e, noise = sums["exact_all_small"] / k, float(rv.sum())
-
-    def without(images, scales):  # Σ(R − E)² less R's noise, R without one group (E's noise is a constant here)
-        return float(np.sum((images[0] - e) ** 2)) - noise * scales[0]
-
-    return group_jackknife_se([(means[:, keep], counts)], without) / energy2
+    e = sums["exact_all_small"] / k
+    return _grouped_se(groups, keep, e, e, float(rv.sum())) / energy2
 
 
 def _reference_part_se(term: str, groups, keep, r, rv, sums, k, energy2) -> float:
@@ -138,13 +132,18 @@ def _reference_part_se(term: str, groups, keep, r, rv, sums, k, energy2) -> floa
     e = a if term == "total" else sums["exact_all_small"] / k
     if groups is None:
         return float(np.sqrt(np.sum(rv * ((r - e) + (r - a)) ** 2) + 2.0 * np.sum(rv * rv))) / energy2
-    means, counts = checked_groups(groups)
-    noise = float(rv.sum())
+    return _grouped_se(groups, keep, e, a, float(rv.sum())) / energy2
 
-    def part(images, scales):
+
+def _grouped_se(groups, keep, e, a, noise: float) -> float:
+    """The delete-one-group jackknife SE (``metrics.groups``) of Σ(R − e)(R − a) less R's
+    noise (``noise``, scaled to the batches left), R without one of its ``groups``."""
+    means, counts = checked_groups(groups)
+
+    def product(images, scales):
         return float(np.sum((images[0] - e) * (images[0] - a))) - noise * scales[0]
 
-    return group_jackknife_se([(means[:, keep], counts)], part) / energy2
+    return group_jackknife_se([(means[:, keep], counts)], product)
 
 
 def caustic_terms(images: dict) -> dict:

@@ -13,8 +13,6 @@ pure noise it errs on the large side, the Efron–Stein bias: docs/decisions.md
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 MIN_GROUPS = 4
@@ -31,8 +29,9 @@ def checked_groups(groups, name: str = "reference_groups") -> tuple:
     return means, counts
 
 
-def group_jackknife_se(groups: list, statistic) -> float:
-    """The delete-one-group jackknife SE of ``statistic(images, scales)``.
+def group_jackknife_se(groups: list, statistic):
+    """The delete-one-group jackknife SE of ``statistic(images, scales)`` (a number, or a
+    sequence of numbers: their SEs as an array, from one pass over the groups).
 
     groups : one (means, counts) per independent image (each G groups, the same G): the
         replicate g leaves group g out of every image at once (the images' groups are
@@ -53,5 +52,6 @@ def group_jackknife_se(groups: list, statistic) -> float:
                   in zip(checked, wholes)]
         return statistic(images, [n / (n - counts[g]) for (_, counts), (_, n) in zip(checked, wholes)])
 
-    leave = np.array([replicate(g) for g in range(n_groups)], np.float64)
-    return math.sqrt((n_groups - 1) / n_groups * float(np.sum((leave - leave.mean()) ** 2)))
+    leave = np.array([replicate(g) for g in range(n_groups)], np.float64)  # G, or G×m for m statistics
+    se = np.sqrt((n_groups - 1) / n_groups * np.sum((leave - leave.mean(axis=0)) ** 2, axis=0))
+    return float(se) if se.ndim == 0 else se

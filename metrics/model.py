@@ -90,9 +90,8 @@ def model_term(r_ss, r_ss_var, term, term_var, approx_stack, keep, term_ratio=No
                 (float(np.sum(t_g * (ms_g - a))) - noise * scales[0]) / e_g
 
         rest = _propagated(t, av) + (_propagated(t, rv) if reference_groups is None else 0.0)
-        own_se = group_jackknife_se(grouped, lambda images, scales: values(images, scales)[0])
-        part_se = math.sqrt(group_jackknife_se(grouped, lambda images, scales: values(images, scales)[1]) ** 2
-                            + rest / energy**2)
+        own_se, part_se = (float(x) for x in group_jackknife_se(grouped, values))
+        part_se = math.sqrt(part_se**2 + rest / energy**2)
     approx_part = float(np.sum((r - a) * err_ms)) / energy
     return {"energy_share": (share, share, share_se),
             "relmse_own": (own, own_debiased, own_se),

@@ -110,13 +110,12 @@ def _noise_variance(bias2_weights, v) -> float:
     return 4.0 * float(np.sum(bias2_weights * v)) + 2.0 * float(np.sum(v * v))
 
 
-def _grouped_variance(t, r, keep, d_chains, groups) -> tuple:
+def _grouped_variance(t, r, keep, delta_a, groups) -> tuple:
     """(the delete-one-group jackknife variance of the pair's Σ(ΔA − ΔR̂)² less R's
     noise, as R's grouped part varies; that part's per-pixel variance v_g of ΔR̂)."""
     (m0, c0, v0), (m1, c1, v1) = groups
     rest = [r[t - 1] - np.tensordot(np.asarray(c0, np.float64), m0, axes=1) / np.sum(c0),
             r[t] - np.tensordot(np.asarray(c1, np.float64), m1, axes=1) / np.sum(c1)]
-    delta_a = d_chains  # S×N×C: ΔA per chain
     v_grouped = [np.asarray(v0, np.float64)[keep], np.asarray(v1, np.float64)[keep]]
 
     def statistic(images, scales):
@@ -137,7 +136,8 @@ def _pair(t, r, rv, a, tv, keep, groups=None) -> PairFlicker:
                            standard_error=NAN, z=NAN, energy=0.0, pixels=int(keep.sum()), chains=s)
     d_ref = (r[t] - r[t - 1])[keep]
     v = (rv[t] + rv[t - 1])[keep]
-    d = np.stack([(c[t] - c[t - 1])[keep] - d_ref for c in a])  # S×N×C: ΔA − ΔR̂ per chain
+    delta_a = np.stack([(c[t] - c[t - 1])[keep] for c in a])  # S×N×C: ΔA per chain
+    d = delta_a - d_ref  # ΔA − ΔR̂ per chain
     per_chain = np.sum(d * d, axis=(1, 2))
     raw, ref_noise = float(per_chain.mean()), float(v.sum())
     v_test = None if tv is None else (tv[t] + tv[t - 1])[keep]
@@ -153,7 +153,6 @@ def _pair(t, r, rv, a, tv, keep, groups=None) -> PairFlicker:
     bias2 = np.maximum(np.mean(d, axis=0) ** 2 - v_all, 0.0)
     variance = _noise_variance(bias2, v_all)
     if groups is not None:  # R's grouped part by the jackknife, the rest (and cross terms) analytic
-        delta_a = np.stack([(c[t] - c[t - 1])[keep] for c in a])
         jackknife, v_grouped = _grouped_variance(t, r, keep, delta_a, groups)
         variance += jackknife - _noise_variance(bias2, v_grouped)
     if s >= 2:

@@ -262,12 +262,13 @@ def _named_files(key: str) -> set:
     return out
 
 
-def read_state(key: str, manifest: dict, prefix: str | tuple = "") -> dict | None:
+def read_state(key: str, manifest: dict, prefix: str | tuple = "", verified: bool = False) -> dict | None:
     """The entry's batch state (float64 sums per stream, reference.batches; the arrays
-    whose names start with ``prefix``, a string or a tuple) if it matches its manifest."""
+    whose names start with ``prefix``, a string or a tuple) if it matches its manifest
+    (``verified``: its hash was checked already; the file of a continued entry is gone)."""
     try:
         path = entry_file(key, manifest, "state")
-        if manifest.get("state_sha256") != file_sha256(path):
+        if not verified and manifest.get("state_sha256") != file_sha256(path):
             return None
         with np.load(path) as data:
             return {name: data[name] for name in data.files if name.startswith(prefix)}
@@ -286,7 +287,7 @@ class ReferenceResult:
         self.key, self.manifest, self.cached = key, {**manifest, "cached": cached}, cached
         self.exr_path = entry_file(key, manifest, "exr")
         self.png_path = entry_file(key, manifest, "png")
-        self._layers = layers
+        self._layers, self._state_verified = layers, False  # the state's hash checked once, by groups()
 
     @property
     def mean(self) -> dict:
@@ -303,17 +304,16 @@ class ReferenceResult:
         return (self.manifest.get("total_variance_ratio") or {}).get(layer)
 
     def groups(self, layer: str) -> tuple | None:
-        """(G×H×W×3 float64 means of ``layer``'s batch groups, their G batch counts) of the
-        caustic (light stream) or a model term ``<component>_ms`` (orders stream), from
-        the entry's batch state; None without a readable state, the layer's groups or
-        as many batches as groups."""
+        """(G×H×W×3 means of ``layer``'s batch groups, their G counts): the caustic or a
+        model term ``<component>_ms``, from the batch state; None where it has none."""
         from .render.batches import LIGHT, LIGHT_GROUPS, ORDERS, BatchStats
 
         stream = LIGHT if layer == "caustic" else ORDERS
-        arrays = read_state(self.key, self.manifest, prefix=(f"{stream}/n", f"{stream}/groups",
-                                                             f"{stream}/group/{layer}"))
+        arrays = read_state(self.key, self.manifest, (f"{stream}/n", f"{stream}/groups", f"{stream}/group/{layer}"),
+                            verified=self._state_verified)
         if arrays is None or f"{stream}/n" not in arrays:
             return None
+        self._state_verified = True
         try:
             return BatchStats.stored_group_means(arrays, stream, layer, LIGHT_GROUPS)
         except (KeyError, ValueError, TypeError):

@@ -165,14 +165,9 @@ def _exact_batches(scene, p, collisions, seeds, renderer, oracle, subphotons: in
     own = [(rays, s) for rays, seeds_of in zip(renderer.emission_rays(scene, p, seeds), replay_seeds)
            for s in seeds_of]
     true = [(true_rays(scene.light, frustum, p.photon_res, s), s) for seeds_of in replay_seeds for s in seeds_of]
-    if p.fresnel == "stochastic":
-        both = _replayed(scene, p, "stochastic", own + true, oracle)
-        same_all, true_all = both[:len(own)], both[len(own):]
-        everything_all = same_all
-    else:
-        same_all = _replayed(scene, p, p.fresnel, own, oracle)
-        both = _replayed(scene, p, "stochastic", own + true, oracle)
-        everything_all, true_all = both[:len(own)], both[len(own):]
+    stochastic = _replayed(scene, p, "stochastic", own + true, oracle)  # one wavefront for both emissions
+    everything_all, true_all = stochastic[:len(own)], stochastic[len(own):]
+    same_all = everything_all if p.fresnel == "stochastic" else _replayed(scene, p, p.fresnel, own, oracle)
     for i, (collided, seed) in enumerate(zip(collisions, seeds)):
         ps = dataclasses.replace(p, seed=seed)
         kernels = _paired_kernels(collided, record_sigma(collided, p))
