@@ -83,6 +83,12 @@ class EmissionRays:
     power: np.ndarray
 
 
+def _random_within(seed: int, index: np.ndarray) -> np.ndarray:
+    """N×2 uniform points in the texel of each photon ``index``, u(seed, index, 0, 2..3)
+    (``emit.comp.glsl``'s adaptive photons)."""
+    return np.stack([uniform(seed, index.astype(np.uint32), 0, dim) for dim in (2, 3)], axis=1).astype(np.float64)
+
+
 def _rays(light, frustum, photon_res: int, texel: np.ndarray, within: np.ndarray) -> tuple:
     """(unit directions, image-plane points) through ``within`` ((0, 0) to (1, 1)) of
     the row-major ``texel`` indices, as ``emission/map.glsl``'s texel_plane."""
@@ -110,8 +116,8 @@ def approx_rays(light, frustum, photon_res: int, seed: int, *, slots: np.ndarray
     else:
         photon = np.flatnonzero(slots["texel"] >= 0)
         texel, weight = slots["texel"][photon].astype(np.int64), slots["weight"][photon].astype(np.float64)
-        within = np.stack([uniform(seed, photon.astype(np.uint32), 0, dim) for dim in (2, 3)], axis=1)
-    d, _ = _rays(light, frustum, photon_res, texel, within.astype(np.float64))
+        within = _random_within(seed, photon)
+    d, _ = _rays(light, frustum, photon_res, texel, within)
     solid_angle = frustum.texel_solid_angles(photon_res).ravel()[texel]
     power = (np.asarray(light.intensity, np.float64)[None, :] * spot_falloff(light, d)[:, None]
              * (solid_angle * weight)[:, None])
@@ -127,8 +133,7 @@ def true_rays(light, frustum, photon_res: int, seed: int, profile=None) -> Emiss
     values, ``approx.light.spot_falloff`` when None (a test drops it)."""
     n = photon_res * photon_res
     texel = np.arange(n, dtype=np.int64)
-    within = np.stack([uniform(seed, texel.astype(np.uint32), 0, dim) for dim in (2, 3)], axis=1)
-    d, plane = _rays(light, frustum, photon_res, texel, within.astype(np.float64))
+    d, plane = _rays(light, frustum, photon_res, texel, _random_within(seed, texel))
     area = (2.0 * frustum.tan_half / photon_res) ** 2
     rho = np.sqrt(1.0 + np.sum(plane * plane, axis=1))
     falloff = (profile or spot_falloff)(light, d).astype(np.float64)
