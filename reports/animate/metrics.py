@@ -47,22 +47,18 @@ def frame_rows(run) -> list:
 
 class _CausticGroups:
     """Frame t's caustic batch groups and variance, ``metrics.temporal.flicker``'s
-    reference_groups, read from its reference when asked (two frames held at a time); None
-    for a reference without them."""
+    reference_groups, read from its reference when indexed (flicker reads each frame
+    once); None for a reference without them."""
 
     def __init__(self, references):
-        self.references, self.held = references, {}
+        self.references = references
 
     def __len__(self) -> int:
         return len(self.references)
 
     def __getitem__(self, t: int):
-        if t not in self.held:
-            if len(self.held) >= 2:
-                self.held.pop(next(iter(self.held)))
-            groups = self.references[t].groups("caustic")
-            self.held[t] = None if groups is None else (*groups, self.references[t].var["caustic"])
-        return self.held[t]
+        groups = self.references[t].groups("caustic")
+        return None if groups is None else (*groups, self.references[t].var["caustic"])
 
 
 def temporal_rows(run) -> list:
