@@ -24,6 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from volcaustics.scenes.rng import uniform
+from volcaustics.scenes.sobol import morton, sobol_2d
 
 from .light import spot_falloff
 
@@ -103,20 +104,35 @@ def _rays(light, frustum, photon_res: int, texel: np.ndarray, within: np.ndarray
 RULES = ("uniform", "adaptive")
 
 
+def _within(jitter: str, seed: int, photon, texel: np.ndarray, photon_res: int, shift: float) -> np.ndarray:
+    """N×2 points in each photon's texel, as ``emit.comp.glsl`` places them; ``photon``:
+    adaptive emission's slots (None: one photon per texel)."""
+    if photon is not None:
+        return sobol_2d(seed, photon).astype(np.float64) if jitter == "sobol" else _random_within(seed, photon)
+    if jitter == "sobol":
+        return sobol_2d(seed, morton(texel % photon_res, texel // photon_res)).astype(np.float64)
+    if jitter == "random":
+        return _random_within(seed, texel)
+    return np.full((len(texel), 2), 0.5 + shift)
+
+
 def approx_rays(light, frustum, photon_res: int, seed: int, *, slots: np.ndarray | None = None,
-                shift: float = 0.0) -> EmissionRays:
+                shift: float = 0.0, jitter: str = "center") -> EmissionRays:
     """The approximation's own emission (``emit.comp.glsl``): one photon per texel
-    through its centre (``shift``: moved by that many texels, a test's wrong grid), or
-    with ``slots`` (adaptive emission, SLOT_DTYPE) one per slot through a random point
-    of its texel, u(seed, slot, 0, 2..3); power I·falloff(d)·ΔΩ(texel)·weight."""
+    through the point ``jitter`` gives (its centre, moved by ``shift`` texels: a test's
+    wrong grid; random: u(seed, texel, 0, 2..3); sobol: ``scenes.sobol.sobol_2d`` of the
+    texel's Morton index), or with ``slots`` (adaptive emission, SLOT_DTYPE) one per slot
+    through a random point of its texel, u(seed, slot, 0, 2..3), or the slot's Sobol
+    point; power I·falloff(d)·ΔΩ(texel)·weight."""
     n = photon_res * photon_res
     if slots is None:
         photon = texel = np.arange(n, dtype=np.int64)
-        within, weight = np.full((n, 2), 0.5 + shift), np.ones(n)
+        weight = np.ones(n)
+        within = _within(jitter, seed, None, texel, photon_res, shift)
     else:
         photon = np.flatnonzero(slots["texel"] >= 0)
         texel, weight = slots["texel"][photon].astype(np.int64), slots["weight"][photon].astype(np.float64)
-        within = _random_within(seed, photon)
+        within = _within(jitter, seed, photon, texel, photon_res, shift)
     d, _ = _rays(light, frustum, photon_res, texel, within)
     solid_angle = frustum.texel_solid_angles(photon_res).ravel()[texel]
     power = (np.asarray(light.intensity, np.float64)[None, :] * spot_falloff(light, d)[:, None]

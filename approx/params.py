@@ -150,6 +150,12 @@ PARAMS: tuple = (
           "3 where the surface turns sharply or breaks, each weighted by 1/its expected count: unbiased)",
           choices=("uniform", "adaptive"), program="trace", glsl="define",
           to_defines=lambda v: {"EMISSION_ADAPTIVE": 1} if v == "adaptive" else {}),
+    Param("emission_jitter", str, "center", "where in its texel a photon starts: center (paper), random (a uniformly "
+          "random point, new each seed) or sobol (an Owen-scrambled Sobol point of the texel's Morton index, a new "
+          "scramble each seed: stratified over every aligned block of texels). Adaptive emission's photons start "
+          "at a random point unless sobol (several may share a texel)", choices=("center", "random", "sobol"),
+          program="trace", glsl="define",
+          to_defines=lambda v: {f"EMISSION_JITTER_{v.upper()}": 1} if v != "center" else {}),
     Param("light_res", int, 1024, "resolution of the light layer maps and the shadow map", "texels per side", 16,
           8192, glsl="uniform", exact=False),
     Param("width", int, None, "image width", "pixels", 1, 16384, unset="the scene's"),

@@ -172,8 +172,9 @@ class Renderer:
 
     def emission_rays(self, scene, params: ApproxParams, seeds) -> list:
         """Per seed in ``seeds``, the rays the approximation emits along
-        (``approx.emission.approx_rays``: texel centres, or adaptive emission's slots,
-        drawn from the importance of the emission map rendered once): what an exact
+        (``approx.emission.approx_rays``: emission_jitter's points in every texel, or
+        adaptive emission's slots, drawn from the importance of the emission map rendered
+        once): what an exact
         replay from the emission ray starts from."""
         scene = scene or self.scene
         p = params.resolved(scene)
@@ -191,9 +192,10 @@ class Renderer:
                 importance = tracer.importance_map(scene, frustum, p.photon_res)
             finally:
                 emission_map.release()
-        if importance is None:  # texel centres whatever the seed: one set of rays for all
+        if importance is None and p.emission_jitter == "center":  # texel centres whatever the seed: one set for all
             return [approx_rays(scene.light, frustum, p.photon_res, 0, shift=tracer.emission_shift)] * len(seeds)
-        return [approx_rays(scene.light, frustum, p.photon_res, seed, slots=draw_slots(importance, seed))
+        return [approx_rays(scene.light, frustum, p.photon_res, seed, jitter=p.emission_jitter,
+                            slots=None if importance is None else draw_slots(importance, seed))
                 for seed in seeds]
 
     def _light_maps(self, timer, tracer, frustum, p: ApproxParams, released: list) -> dict:

@@ -53,11 +53,13 @@ def test_true_rays_carry_the_spots_power_and_a_flat_profile_does_not():
     assert abs(flat.mean() - expected) > 20 * (se + flat.std(ddof=1) / math.sqrt(len(flat)))
 
 
-@pytest.mark.parametrize("changes, shift", [({}, 0.0), ({"emission": "adaptive"}, 0.0), ({}, 0.5)])
+@pytest.mark.parametrize("changes, shift", [
+    ({}, 0.0), ({"emission": "adaptive"}, 0.0), ({}, 0.5), ({"emission_jitter": "random"}, 0.0),
+    ({"emission_jitter": "sobol"}, 0.0), ({"emission": "adaptive", "emission_jitter": "sobol"}, 0.0)])
 def test_the_approximations_rays_are_the_ones_it_emits(gl_context, monkeypatch, changes, shift):
     """Every photon the emission shader starts lies on its ray from
     ``Renderer.emission_rays`` (the direction from the light to its start, to float32
-    rounding), for texel centres, the adaptive draw and a test's half-texel shift
+    rounding), for texel centres, every emission_jitter, the adaptive draw and a test's half-texel shift
     (``EMISSION_SHIFT``); the rays of the unshifted grid miss the shifted photons (the
     negative control)."""
     if shift:

@@ -4,9 +4,15 @@
 // distance r from the light to that surface, then the first specular interaction.
 // Adaptive emission (EMISSION_ADAPTIVE, approx.emission): slot i emits in the texel
 // the host drew for it in proportion to the texel's importance, at a uniformly random
-// point of that texel, with the power times the slot's weight 1/(expected photons of
+// point of that texel (the slot's Owen-scrambled Sobol point with EMISSION_JITTER_SOBOL),
+// with the power times the slot's weight 1/(expected photons of
 // the texel), so every texel's expected power is the uniform photon's.
+// emission_jitter (uniform emission): the photon starts at its texel's centre (paper), at
+// a uniformly random point u(seed, texel, 0, 2..3) (EMISSION_JITTER_RANDOM) or at the
+// Owen-scrambled Sobol point of its texel's Morton index, scrambled by the seed
+// (EMISSION_JITTER_SOBOL; scenes/sobol.py).
 #include "common/rng.glsl"
+#include "common/sobol.glsl"
 #include "common/optics.glsl"
 #include "common/photon.glsl"
 #include "common/start_offset.glsl"
@@ -64,13 +70,21 @@ void main() {
 #ifdef EMISSION_ADAPTIVE
     Slot drawn = slots[index];
     ivec2 texel = ivec2(drawn.texel % photon_res, drawn.texel / photon_res);
+#ifdef EMISSION_JITTER_SOBOL
+    vec2 within = sobol_2d(seed, index);
+#else
     vec2 within = vec2(rng_uniform(seed, index, 0u, 2u), rng_uniform(seed, index, 0u, 3u));
+#endif
     float weight = drawn.weight;
     vec4 map = drawn.texel >= 0 ? texelFetch(emission_map, texel, 0) : vec4(0.0);
 #else
     ivec2 texel = slot;
-#ifdef EMISSION_SHIFT
+#if defined(EMISSION_SHIFT)
     vec2 within = vec2(0.5 + EMISSION_SHIFT);  // a test's wrong grid: the emission term's negative control
+#elif defined(EMISSION_JITTER_RANDOM)
+    vec2 within = vec2(rng_uniform(seed, index, 0u, 2u), rng_uniform(seed, index, 0u, 3u));
+#elif defined(EMISSION_JITTER_SOBOL)
+    vec2 within = sobol_2d(seed, morton(slot));
 #else
     vec2 within = vec2(0.5);
 #endif
@@ -84,7 +98,7 @@ void main() {
         vec4 geometric_id = texelFetch(emission_geometric, texel, 0);
         vec3 geometric = octa_decode(geometric_id.xy);
         float r = map.r;
-#if defined(EMISSION_ADAPTIVE) || defined(EMISSION_SHIFT)
+#if defined(EMISSION_ADAPTIVE) || defined(EMISSION_SHIFT) || defined(EMISSION_JITTER_RANDOM) || defined(EMISSION_JITTER_SOBOL)
         // a ray off the texel's centre meets its surface in its tangent plane (the map holds the centre's point)
         float along = dot(d, geometric);
         float t = abs(along) > 1e-3 ? dot(map_point(texel, map.r) - light_position, geometric) / along : -1.0;
