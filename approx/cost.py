@@ -16,9 +16,11 @@ import numpy as np
 
 from volcaustics.scenes.formats import STATUS_COLLIDED
 
+from .denoise import DENOISED
 from .emission import emission_reads
 
-COST_FIELDS = ("map_reads", "emission_reads", "splats", "total")
+# denoised_pixels (denoise = oidn, approx.denoise): beside the cost, never in its total
+COST_FIELDS = ("map_reads", "emission_reads", "splats", "total", "denoised_pixels")
 
 
 def frame_cost(records: list, params) -> dict:
@@ -28,4 +30,6 @@ def frame_cost(records: list, params) -> dict:
     splats = sum(int(np.count_nonzero(r["status"] == STATUS_COLLIDED)) for r in records)
     emitted = len(records[0]) if records else 0
     emission = emission_reads(params.photon_res, emitted, emission=params.emission, splat=params.splat)
-    return {"map_reads": search, "emission_reads": emission, "splats": splats, "total": search + emission + splats}
+    denoised = len(DENOISED) * params.width * params.height if params.denoise == "oidn" else 0
+    return {"map_reads": search, "emission_reads": emission, "splats": splats, "total": search + emission + splats,
+            "denoised_pixels": denoised}

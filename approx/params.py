@@ -156,6 +156,9 @@ PARAMS: tuple = (
           "at a random point unless sobol (several may share a texel)", choices=("center", "random", "sobol"),
           program="trace", glsl="define",
           to_defines=lambda v: {f"EMISSION_JITTER_{v.upper()}": 1} if v != "center" else {}),
+    Param("denoise", str, "none", "none (paper) or oidn: Intel Open Image Denoise on the caustic and fog layers, "
+          "guided by the G-buffer's albedo and normal; its time and pixels are reported beside the frame cost, "
+          "never in it", choices=("none", "oidn"), exact=False),
     Param("light_res", int, 1024, "resolution of the light layer maps and the shadow map", "texels per side", 16,
           8192, glsl="uniform", exact=False),
     Param("width", int, None, "image width", "pixels", 1, 16384, unset="the scene's"),

@@ -22,6 +22,7 @@ from volcaustics.scenes.formats import KIND_SPECULAR, PHOTON_DTYPE, RAW_RECORD_D
 
 from .camera_pass import CameraPasses, CameraView
 from .context import gl_info, shared_context
+from .denoise import denoise_images, guides
 from .emission import RULES, approx_rays, draw_slots
 from .geometry import SceneGeometry
 from .layers import BOTH, LightMapRenderer
@@ -134,13 +135,18 @@ class Renderer:
             direct_tex = camera_passes.render_direct(scene, view, frustum, maps["shadow"], p.light_res, gbuf_geo,
                                                      gbuf_nrm)
         released += [fog_tex, direct_tex]
-        images = _compose(caustic_steps, _read_rgb(fog_tex), _read_rgb(direct_tex), _read_rgb(gbuf_geo), p)
+        geometry = _read_rgb(gbuf_geo)
+        images = _compose(caustic_steps, _read_rgb(fog_tex), _read_rgb(direct_tex), geometry, p)
+        normal = _read_rgb(gbuf_nrm) if p.denoise == "oidn" else None
         emitted = len(records[0]) if keep_records and records else None  # photons alive after emission
         for r in released:
             r.release()
         timings = dict(timer.seconds)
         timings["trace"] = sum(v for k, v in timings.items() if k.startswith("trace_step"))
         timings["frame_wall"] = time.perf_counter() - wall0
+        if normal is not None:  # after the frame's wall time: reported beside it (approx.denoise)
+            images, timings["denoise"], _ = denoise_images(
+                images, *guides(scene, geometry, normal))
         return Frame(images=images, caustic_steps=caustic_steps, records=records, timings=timings,
                      timing_method=timer.method, params=p.to_dict(), photons_emitted=emitted, gl=gl_info(ctx))
 

@@ -71,8 +71,12 @@ def _print_images(s: dict) -> None:
     for component, m in s["images"].items():
         relmse, ratio, flip = m["relative_mse"], m["energy_ratio"], m["hdr_flip"]
         ci = f" [{100 * relmse['ci_low']:.2f}, {100 * relmse['ci_high']:.2f}]" if relmse["ci_low"] is not None else ""
-        print(f"  {component:<9} relative MSE debiased {pct(relmse['debiased'])}{ci}, "
-              f"energy ratio {num(ratio['value'])}, HDR-FLIP {num(flip['value'])}")
+        frame = m.get("frame_relative_mse") or {}
+        se = frame.get("standard_error")
+        one = "" if frame.get("debiased") is None else (
+            f"one frame {pct(frame['debiased'])}" + ("" if se is None else f" ± {100 * se:.2f}") + ", ")
+        print(f"  {component:<9} relative MSE debiased {pct(relmse['debiased'])}{ci}, {one}"
+              f"energy ratio {num(ratio['value'])}, HDR-FLIP per frame {num(flip['value'])}")
 
 
 def _print_model(s: dict) -> None:

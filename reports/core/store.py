@@ -233,7 +233,8 @@ POINT_COLUMNS = ("point", "scene", "scene_hash", "seeds", "reference_key", "code
                  "trace_time_s", "splat_time_s", "map_reads_per_frame", "map_reads_per_segment",
                  "emission_reads_per_frame", "splats_per_frame", "frame_cost",
                  *(f"{name}_{metric}" for name in ("caustic", "combined")
-                   for metric in ("relmse_debiased", "relmse_se", "energy_ratio", "hdr_flip")),
+                   for metric in ("relmse_debiased", "relmse_se", "frame_relmse", "frame_relmse_se", "energy_ratio",
+                                  "hdr_flip")),
                  *(f"share_{term}" for term in TERMS),
                  "share_intersection_se", "intersection_relmse_part", "intersection_relmse_part_se",
                  "intersection_relmse_own", "residual_within_noise", "optical_depth",
@@ -262,6 +263,9 @@ def point_row(key: str, summary: dict) -> dict:
         relmse = metrics.get("relative_mse", {})
         row[f"{name}_relmse_debiased"] = relmse.get("debiased")
         row[f"{name}_relmse_se"] = relmse.get("standard_error")
+        frame = metrics.get("frame_relative_mse", {})  # one frame's error (metrics.frame), beside the mean's
+        row[f"{name}_frame_relmse"] = frame.get("debiased")
+        row[f"{name}_frame_relmse_se"] = frame.get("standard_error")
         row[f"{name}_energy_ratio"] = metrics.get("energy_ratio", {}).get("value")
         row[f"{name}_hdr_flip"] = metrics.get("hdr_flip", {}).get("value")
     for term in TERMS:

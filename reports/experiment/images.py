@@ -4,6 +4,10 @@
 * ``relative_mse``: value = raw relative MSE of the seeds' mean; debiased = less the
   reference's floor and the approximation's own noise over seeds
   (``approx_noise_removed``), with its standard error and Student-t interval;
+* ``frame_relative_mse``: the error one frame shows (``metrics.frame``): value = the
+  mean over frames of each frame's relative MSE; debiased = less the reference's
+  floor (the bias and one frame's noise remain), with its standard error over the
+  frames and R's noise;
 * ``per_pixel_relative_mse``, ``ssim``, ``hdr_flip``, ``delta_e2000``: value = the mean
   over frames of one frame's metric; debiased = less the reference's floor (its value
   for the reference against a noisy copy of itself; for SSIM, 1 − SSIM less
@@ -28,6 +32,7 @@ from functools import lru_cache
 import numpy as np
 
 from volcaustics.metrics import image as im
+from volcaustics.metrics.frame import frame_relative_mse
 from volcaustics.metrics.noise import noisy_copy, seed_mean_interval, seed_relative_mse, total_sigma
 from volcaustics.reports.core.versions import code_version
 from volcaustics.scenes.formats import COLOUR_LAYERS, MASK_LAYER
@@ -47,7 +52,8 @@ RESAMPLES = 2000             # bootstrap resamples over the seeds (per-frame met
 FLOOR_DRAWS = 2              # noisy copies averaged for a non-quadratic metric's floor
 LEVEL = 0.95                 # bootstrap interval level
 FLOOR_SEED = 12345           # noise draw of the non-quadratic metrics' floors (metrics.noise.noisy_copy)
-IMAGE_METRICS = ("relative_mse", "per_pixel_relative_mse", "ssim", "hdr_flip", "delta_e2000", "energy_ratio")
+IMAGE_METRICS = ("relative_mse", "frame_relative_mse", "per_pixel_relative_mse", "ssim", "hdr_flip", "delta_e2000",
+                 "energy_ratio")
 MAP_METRICS = ("per_pixel_relative_mse", "hdr_flip")   # whose first-frame error map a report shows
 NAN = float("nan")
 IMAGE_COLUMNS = {"value": NAN, "reference_floor": NAN, "approx_noise": NAN, "debiased": NAN,
@@ -108,6 +114,8 @@ def image_rows(frames, reference, keep, columns, maps=None, components=COLOUR_LA
 def _metric(metric, r, rv, stack, keep, component, reference_key, maps, ratio=None) -> dict:
     if metric == "relative_mse":
         return _relative_mse(r, rv, stack, keep)
+    if metric == "frame_relative_mse":
+        return _frame_relative_mse(r, rv, stack, keep)
     if metric == "energy_ratio":
         return _energy_ratio(r, rv, stack, keep, ratio)
     return _per_frame(metric, r, rv, stack, keep, component, reference_key, maps)
@@ -122,6 +130,13 @@ def _relative_mse(r, rv, stack, keep) -> dict:
             **_ci(err.interval), "per_seed": per_seed,
             "options": json.dumps({"interval": "jackknife over seeds, Student t", "level": LEVEL,
                                    "pixels": err.pixels})}
+
+
+def _frame_relative_mse(r, rv, stack, keep) -> dict:
+    err = frame_relative_mse(r, rv, stack, mask=keep, level=LEVEL)
+    return {"value": float(np.mean(err.per_seed)), "reference_floor": err.reference_floor, "debiased": err.debiased,
+            "standard_error": err.standard_error, **_ci(err.interval),
+            "options": json.dumps({"interval": "over the frames and R's noise, Student t", "level": LEVEL})}
 
 
 def _per_frame(metric, r, rv, stack, keep, component, reference_key, maps) -> dict:

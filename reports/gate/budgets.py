@@ -7,6 +7,7 @@ Budgets (TOML; ``reports/gate/budgets.toml`` is the default for the built-ins)::
     seeds = 4                   # frames per scene: seeds 0 … seeds − 1
     [scene.bunny]
     caustic.relmse_max = 0.30         # debiased relative MSE (metrics.noise.seed_relative_mse)
+    caustic.frame_relmse_max = 0.40   # one frame's relative MSE less the floor (metrics.frame)
     caustic.energy_ratio = [0.3, 0.5] # Σ approx / Σ reference, averaged over RGB
     caustic.hdr_flip_max = 0.95       # mean HDR-FLIP over frames
     combined.relmse_max = 0.02
@@ -39,7 +40,8 @@ from volcaustics.scenes import SceneError, resolve_scene
 from volcaustics.scenes.catalogue import scene_relative_to
 
 RESOLVE_SIGMAS = 3.0    # a budget must lie this many standard errors beyond the noise
-COMPONENT_KEYS = ("relmse_max", "energy_ratio", "hdr_flip_max")
+COMPONENT_KEYS = ("relmse_max", "frame_relmse_max", "energy_ratio", "hdr_flip_max")
+RELMSE_KEYS = {"relmse_max": "relative_mse", "frame_relmse_max": "frame_relative_mse"}  # budget → its metric
 SEGMENT_KEYS = ("missed_step2_max", "dt_p90_step2_max")
 FLICKER_KEYS = {"flicker_max": "fixed", "flicker_per_frame_max": "per-frame"}  # budget → the seed mode it checks
 COMPONENTS = ("caustic", "fog", "direct", "combined")
@@ -265,9 +267,9 @@ def budget_checks(scene: str, limits: dict, experiment) -> list:
             checks.append(Check(scene, name, value, f"≤ {limit:g}", value <= limit))
             continue
         metrics = s["images"][group]
-        if key == "relmse_max":
-            m = metrics["relative_mse"]
-            value = _number(m["debiased"], scene, f"{group} relative MSE")
+        if key in RELMSE_KEYS:
+            m = metrics[RELMSE_KEYS[key]]
+            value = _number(m["debiased"], scene, f"{group} {RELMSE_KEYS[key].replace('_', ' ')}")
             se = m.get("standard_error")
             resolvable = (m.get("reference_floor") or 0.0) + RESOLVE_SIGMAS * (se if se and math.isfinite(se) else 0)
             if limit < resolvable:

@@ -33,7 +33,7 @@ OUTPUT_FILES = ("index.html", "summary.json")  # in --out; the manifest, summary
 
 PAPER_SHARES = {"trace": 0.70, "splat": 0.23, "other": 0.07}
 PASSES = ("layers", "emission", "camera", "trace", "splat", "fog", "direct")
-HEADLINE = ("relative_mse", "energy_ratio", "hdr_flip", "per_pixel_relative_mse")
+HEADLINE = ("relative_mse", "frame_relative_mse", "energy_ratio", "hdr_flip", "per_pixel_relative_mse")
 SHOWN_PARAMS = tuple(p.name for p in PARAMS if p.name != "seed")  # the page's parameter list
 
 
@@ -181,7 +181,9 @@ def _best_summary(sweep) -> dict | None:
     if table is None or not len(table):
         return None
     adopted = next((r["config"] for _, r in table.iterrows() if "adopted" in str(r["role"]).split(", ")), None)
-    return {"rows": rows_of(role_rows(table)), "verdict": verdict(table, adopted), "points": int(len(table))}
+    criterion = str(table["criterion"].iloc[0]) if "criterion" in table else "bias"  # older searches: bias
+    return {"rows": rows_of(role_rows(table)), "verdict": verdict(table, adopted, criterion),
+            "points": int(len(table))}
 
 
 def _variants_summary(sweep) -> dict | None:

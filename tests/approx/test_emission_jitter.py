@@ -136,7 +136,7 @@ def test_sobol_draw_is_unbiased_with_less_variance_than_random():
 @pytest.mark.slow
 def test_sobol_caustic_is_unbiased_against_random(monkeypatch):
     """sobol's mean caustic over 24 seeds agrees with random's block by block (every
-    |z| ≤ 4: a Bonferroni bound over the ≤ 25 blocks at 1e-3 overall). A grid shifted two
+    |z| ≤ 4: a Bonferroni bound over the ≤ 25 blocks at 1e-3 overall). A grid shifted 1.5
     texels (the negative control, EMISSION_SHIFT with center) is flagged by the
     same test. (The image's variance drops only to 0.95×: the free flights' noise
     dominates it, docs/decisions.md "Low-discrepancy emission".)"""

@@ -177,3 +177,22 @@ def test_best_with_grid_options_is_refused_before_anything_runs(tmp_path, capsys
     assert main(["sweep", "--best", "-o", str(tmp_path / "out"), "--vary", "layers=1,2"]) == 2
     assert "belong to its SPEC file" in capsys.readouterr().err
     assert not (tmp_path / "out").exists()
+
+
+def test_the_frame_criterion_ranks_by_one_frames_error_and_its_goal_is_half():
+    """By ``frame`` the configuration with the least worst one-frame ratio is adopted,
+    though another has the least worst bias (the negative control: by ``bias`` that one
+    wins); the goal is half the paper's."""
+    rows = [_row("a", "paper", 100, 0.10), _row("b", "paper", 100, 0.20),
+            _row("a", "x", 99, 0.02), _row("b", "x", 100, 0.04),    # least bias, noisy frames
+            _row("a", "y", 100, 0.05), _row("b", "y", 98, 0.10)]    # more bias, calm frames
+    frames = {("a", "paper"): 0.30, ("b", "paper"): 0.40, ("a", "x"): 0.45, ("b", "x"): 0.50,
+              ("a", "y"): 0.12, ("b", "y"): 0.18}
+    for row in rows:
+        row["frame_relmse"] = frames[(row["scene"], row["config"])]
+    table = _table(rows)
+    assert best.worst_ratios(table, 2, best.CRITERIA["frame"][0]).idxmin() == "y"
+    assert best.worst_ratios(table, 2, best.CRITERIA["bias"][0]).idxmin() == "x"
+    v = best.verdict(best.with_roles(table, "y", "frame"), "y", "frame")
+    assert v["goal"] == 0.5 and v["met"] and v["worst_ratio"] == pytest.approx(0.45)
+    assert v["worst_bias_ratio"] == pytest.approx(0.5)

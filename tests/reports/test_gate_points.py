@@ -54,6 +54,7 @@ def test_the_gate_scope_holds_every_metric_a_budget_can_name():
     """COMPONENT_KEYS (the budgets) and GATE_IMAGE_METRICS (what a gate point measures)
     name the same metrics: a budget key without its metric would fail closed on every
     gate point."""
-    named = {"relmse_max": "relative_mse", "energy_ratio": "energy_ratio", "hdr_flip_max": "hdr_flip"}
+    named = {"relmse_max": "relative_mse", "frame_relmse_max": "frame_relative_mse", "energy_ratio": "energy_ratio",
+             "hdr_flip_max": "hdr_flip"}
     assert set(named) == set(COMPONENT_KEYS)
     assert set(named.values()) == set(GATE_IMAGE_METRICS) and set(GATE_IMAGE_METRICS) <= set(IMAGE_METRICS)
