@@ -159,6 +159,12 @@ PARAMS: tuple = (
     Param("denoise", str, "none", "none (paper) or oidn: Intel Open Image Denoise on the caustic and fog layers, "
           "guided by the G-buffer's albedo and normal; its time and pixels are reported beside the frame cost, "
           "never in it", choices=("none", "oidn"), exact=False),
+    Param("temporal", str, "none", "none (paper: every frame on its own) or ema: animate accumulates the caustic "
+          "and fog over frames, a new seed each, by an exponential moving average whose history is rejected where "
+          "the G-buffer changed, reset when the light jumps and clipped to the frame's neighbourhood "
+          "(approx.temporal; a still frame has no history)", choices=("none", "ema"), exact=False),
+    Param("temporal_weight", float, 0.25, "ema: the current frame's weight w (noise variance → w/(2 − w))", "", 0,
+          1, exact=False),
     Param("light_res", int, 1024, "resolution of the light layer maps and the shadow map", "texels per side", 16,
           8192, glsl="uniform", exact=False),
     Param("width", int, None, "image width", "pixels", 1, 16384, unset="the scene's"),

@@ -44,6 +44,8 @@ class Frame:
     records: per step, the segment records (scenes.formats.RECORD_DTYPE, active photons).
     timings: pass name → seconds; ``timing_method`` says how they were measured.
     params: the parameters actually used (width/height resolved).
+    guides: the G-buffer a temporal filter or denoiser reads: ``distance`` (H×W, to the
+        eye, 0 where nothing is hit) and ``normal`` (H×W×3, world).
     """
 
     images: dict
@@ -54,6 +56,7 @@ class Frame:
     params: dict
     photons_emitted: int | None
     gl: dict = field(default_factory=dict)
+    guides: dict = field(default_factory=dict)
 
 
 def _read_rgb(tex: moderngl.Texture) -> np.ndarray:
@@ -137,18 +140,19 @@ class Renderer:
         released += [fog_tex, direct_tex]
         geometry = _read_rgb(gbuf_geo)
         images = _compose(caustic_steps, _read_rgb(fog_tex), _read_rgb(direct_tex), geometry, p)
-        normal = _read_rgb(gbuf_nrm) if p.denoise == "oidn" else None
+        normal = _read_rgb(gbuf_nrm)
         emitted = len(records[0]) if keep_records and records else None  # photons alive after emission
         for r in released:
             r.release()
         timings = dict(timer.seconds)
         timings["trace"] = sum(v for k, v in timings.items() if k.startswith("trace_step"))
         timings["frame_wall"] = time.perf_counter() - wall0
-        if normal is not None:  # after the frame's wall time: reported beside it (approx.denoise)
+        if p.denoise == "oidn":  # after the frame's wall time: reported beside it (approx.denoise)
             images, timings["denoise"], _ = denoise_images(
                 images, *guides(scene, geometry, normal))
         return Frame(images=images, caustic_steps=caustic_steps, records=records, timings=timings,
-                     timing_method=timer.method, params=p.to_dict(), photons_emitted=emitted, gl=gl_info(ctx))
+                     timing_method=timer.method, params=p.to_dict(), photons_emitted=emitted, gl=gl_info(ctx),
+                     guides={"distance": geometry[..., 0], "normal": normal})
 
     def first_records(self, scene, params: ApproxParams, seeds) -> list:
         """Per seed in ``seeds``, the emission state an exact replay starts from: the

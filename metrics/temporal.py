@@ -194,3 +194,35 @@ def energy_jitter(reference, reference_var, chains, *, mask=None, ratios=None) -
         rows.append({"frame": t, "energy_ratio": ratio, "jitter": jitter, "jitter_se": se})
         previous = (ratio, var)
     return rows
+
+
+def trailing_lag(frames, references, *, mask=None, max_shift: int = 4) -> int:
+    """How many frames a sequence trails its reference: the shift s in 0 … max_shift
+    that minimises Σ_t Σ(A_t − R_{t−s})² / Σ R_{t−s}² over the frames both cover
+    (``frames``, ``references``: T×H×W×C; ``mask``: T×H×W). 0 for a filter without
+    lag; an average over past frames that trails a moving caustic scores its delay."""
+    a, r = np.asarray(frames, np.float64), np.asarray(references, np.float64)
+    m = np.ones(a.shape[:3], bool) if mask is None else np.asarray(mask, bool)
+    k = min(max_shift, len(a) - 2)
+    best, best_error = 0, float("inf")
+    for s in range(0, k + 1):
+        errors = []
+        for t in range(k, len(a)):
+            both = m[t] & m[t - s]
+            errors.append(np.sum(((a[t] - r[t - s]) ** 2)[both]) / max(np.sum((r[t - s] ** 2)[both]), 1e-30))
+        error = float(np.mean(errors)) if errors else float("inf")
+        if error < best_error:
+            best, best_error = s, error
+    return best
+
+
+def recovery_frames(errors, change: int, without_history, *, factor: float = 1.0) -> int:
+    """Frames after ``change`` until a per-frame error series first comes back within
+    ``factor`` × the error the frames have without history (``without_history``: that
+    series, or its level): how long a temporal filter ghosts after a change.
+    len(errors) − change when it never does."""
+    level = np.broadcast_to(np.asarray(without_history, float), np.shape(errors))
+    for k in range(change, len(errors)):
+        if errors[k] <= factor * level[k]:
+            return k - change
+    return len(errors) - change

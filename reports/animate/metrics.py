@@ -11,12 +11,13 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from volcaustics.metrics.temporal import energy_jitter, flicker
+from volcaustics.metrics.temporal import energy_jitter, flicker, trailing_lag
 from volcaustics.reports.experiment.images import image_rows, keep_mask
 from volcaustics.scenes.formats import COLOUR_LAYERS, MASK_LAYER
 
 NAN = float("nan")
-SUMMARY_METRICS = ("relative_mse", "hdr_flip", "energy_ratio")  # per-frame series the summary condenses
+# per-frame series the summary condenses
+SUMMARY_METRICS = ("relative_mse", "frame_relative_mse", "hdr_flip", "energy_ratio")
 # the components that hold the light tracer's caustic, whose pixels covary: their flicker SE
 # takes its batch groups (the camera integrator's fog and direct pixels are independent)
 COVARYING = ("caustic", "combined")
@@ -123,9 +124,19 @@ def summarize(run, frames: list, temporal: list) -> dict:
                 **{f"{m}_mean": _mean(v) for m, v in series.items()},
                 **{f"{m}_worst": _worst(m, v) for m, v in series.items()},
                 "pairs": n,
+                "lag_frames": _lag(run, mode, component),
             }
         out[mode] = per_component
     return out
+
+
+def _lag(run, mode: str, component: str) -> float:
+    """Frames the chains' mean trails the references (``metrics.temporal.trailing_lag``)."""
+    if len(run.frames) < 3:
+        return NAN
+    mean = run.approx[mode][component].mean(axis=0)
+    references = np.stack([r.mean[component] for r in run.references])
+    return float(trailing_lag(mean, references, mask=keep_masks(run, mode)))
 
 
 def _worst(metric: str, values) -> float:

@@ -34,6 +34,7 @@ from volcaustics.scenes.formats import COLOUR_LAYERS, MASK_LAYER
 from volcaustics.scenes.storage import atomic_path
 
 WORK = ".animate"  # DIR/.animate: the frames rendered so far
+GUIDES = {"distance": 0, "normal": 3}  # the G-buffer stored with each frame: name → channels (0: H×W)
 
 
 @dataclass
@@ -55,6 +56,7 @@ class AnimationFrames:
     reference_cached: list
     resumed: int = 0
     gl: dict = field(default_factory=dict)
+    guides: dict = field(default_factory=dict)  # GUIDES name → T×H×W(×3): each frame's G-buffer (approx.temporal)
 
 
 def frame_key(frame_scene, params, modes, chains, frame: int) -> str:
@@ -77,6 +79,7 @@ def render_animation(scene, params, *, frames: list, modes: tuple, chains: int, 
     animation = scene.animation
     renderer = None
     images = {mode: {layer: [] for layer in (*COLOUR_LAYERS, MASK_LAYER)} for mode in modes}
+    guides = {name: [] for name in GUIDES}
     references, approx_seconds, reference_seconds, cached, resumed, gl = [], [], [], [], 0, {}
     try:
         for t in tqdm(frames, desc=f"animate {scene.name}", unit="frame", disable=not progress):
@@ -101,6 +104,8 @@ def render_animation(scene, params, *, frames: list, modes: tuple, chains: int, 
             for mode in modes:
                 for layer in images[mode]:
                     images[mode][layer].append(stored[f"{mode}/{layer}"])
+            for name in GUIDES:
+                guides[name].append(stored[f"guide/{name}"])
             approx_seconds.append(float(np.median(stored["seconds"])))
     finally:
         if renderer is not None:
@@ -108,7 +113,8 @@ def render_animation(scene, params, *, frames: list, modes: tuple, chains: int, 
     approx = {mode: {layer: np.stack(v, axis=1) for layer, v in layers.items()} for mode, layers in images.items()}
     return AnimationFrames(scene=scene, frames=list(frames), modes=tuple(modes), chains=chains,
                            approx=approx, references=references, approx_seconds=approx_seconds,
-                           reference_seconds=reference_seconds, reference_cached=cached, resumed=resumed, gl=gl)
+                           reference_seconds=reference_seconds, reference_cached=cached, resumed=resumed, gl=gl,
+                           guides={name: np.stack(v) for name, v in guides.items()})
 
 
 def _render_frame(renderer, scene, params, t: int, modes, chains: int) -> dict:
@@ -120,6 +126,7 @@ def _render_frame(renderer, scene, params, t: int, modes, chains: int) -> dict:
             frame = renderer.render(scene, p, keep_records=False)
             seconds.append(frame.timings["frame_wall"])
             out["gl"] = frame.gl
+            out.update({f"guide/{name}": frame.guides[name].astype(np.float32) for name in GUIDES})
             for layer in per_layer:
                 image = frame.images[layer]
                 per_layer[layer].append(image[..., :1] if layer == MASK_LAYER else image)
@@ -154,6 +161,7 @@ def _read_frame(work: str, t: int, key: str, modes, shape: tuple) -> dict | None
     wanted = {f"{m}/{layer}": (*shape, 1 if layer == MASK_LAYER else 3) for m in modes
               for layer in (*COLOUR_LAYERS, MASK_LAYER)}
     wanted["seconds"] = (len(modes) * shape[0],)
+    wanted.update({f"guide/{name}": shape[1:] + ((channels,) if channels else ()) for name, channels in GUIDES.items()})
     for name, dims in wanted.items():  # right key, wrong arrays: a ValueError escaped on stacking (issue 36)
         a = arrays.get(name)
         if a is None or a.shape != dims or a.dtype.kind != "f" or not np.isfinite(a).all():

@@ -18,6 +18,7 @@ from volcaustics.reports.animate.settings import (
     chain_seed,
     frame_list,
 )
+from volcaustics.reports.animate.temporal import add_ema
 from volcaustics.reports.animate.write import output_files, write_animation
 from volcaustics.reports.cli.common import UsageError, add_report_reference, check_output_set, pct, report_settings
 from volcaustics.reports.core.params import add_param_flags, params_from_args
@@ -77,12 +78,14 @@ def run(args) -> int:
     params = dataclasses.replace(params, seed=base)
     settings = report_settings(args)
     t0 = time.perf_counter()
-    run_ = render_animation(scene, params, frames=frames, modes=args.modes, chains=args.chains,
+    modes = tuple(args.modes) + (("per-frame",) if params.temporal == "ema" and "per-frame" not in args.modes else ())
+    run_ = render_animation(scene, params, frames=frames, modes=modes, chains=args.chains,
                             reference_settings=settings, out_dir=args.output, progress=not args.quiet)
+    add_ema(run_, params)  # temporal = ema: a seed mode of its own, beside per-frame
     frames_table, temporal = frame_rows(run_), temporal_rows(run_)
     summary = {"kind": KIND, "scene": scene.name, "scene_hash": scene.scene_hash(),
                "animation": scene.animation.canonical_dict(),
-               "frames": frames, "seed_modes": list(args.modes), "chains": args.chains, "params": params.to_dict(),
+               "frames": frames, "seed_modes": list(run_.modes), "chains": args.chains, "params": params.to_dict(),
                "reference": {**dataclasses.asdict(settings), "width": params.width, "height": params.height,
                              "keys": [r.key for r in run_.references]},
                "metrics": summarize(run_, frames_table, temporal),
@@ -115,4 +118,4 @@ def _print(s: dict, paths: dict) -> None:
             print(f"  {mode:<9} {component:<8} flicker {pct(m['flicker'])} ± {pct(m['flicker_se']).strip()} "
                   f"(systematic {pct(m['flicker_systematic']).strip()}), relative MSE per frame mean "
                   f"{pct(m['relative_mse_mean']).strip()} worst {pct(m['relative_mse_worst']).strip()}, "
-                  f"energy jitter RMS {m['energy_jitter_rms']:.4f}")
+                  f"energy jitter RMS {m['energy_jitter_rms']:.4f}, lag {m['lag_frames']:g} frame(s)")
