@@ -161,11 +161,13 @@ def test_the_page_shows_the_summary_numbers(built):
             assert cells[0] == component
             debiased = c["relative_mse"]["debiased"]
             assert cells[1].startswith(f"{100 * debiased:.2f}%")
-            assert cells[2] == f"{100 * c['reference_noise_floor']:.3f}%"
-            assert cells[3].startswith(f"{c['energy_ratio']['value']:.3f}")
-            assert cells[4] == f"{c['hdr_flip']['value']:.3g}"
+            frame = c["frame_relative_mse"]  # one frame's error beside the mean's
+            assert cells[2] == f"{100 * frame['debiased']:.2f}% ± {100 * frame['standard_error']:.2f}"
+            assert cells[3] == f"{100 * c['reference_noise_floor']:.3f}%"
+            assert cells[4].startswith(f"{c['energy_ratio']['value']:.3f}")
+            assert cells[5] == f"{c['hdr_flip']['value']:.3g}"
             model = page["model"]["components"][component]  # the single-scattering model's own error
-            assert cells[5] == (f"{100 * model['relmse_own']['debiased']:.2f}% "
+            assert cells[6] == (f"{100 * model['relmse_own']['debiased']:.2f}% "
                                 f"({100 * model['energy_share']['value']:.1f}%)")
             # the caustic's error by cause, emission first, and whether the residual closes
             d = page["decomposition"]
@@ -173,9 +175,9 @@ def test_the_page_shows_the_summary_numbers(built):
                 parts = [f"{t['term'].replace('_', ' ')} {100 * t['relmse_part_debiased']:+.2f}" for t in d["terms"]]
                 assert [t["term"] for t in d["terms"]][0] == "emission"
                 closes = "✓ pass closes" if d["residual"]["within_noise"] else "✗ FAIL does not close"
-                assert cells[6] == "".join(parts) + closes
+                assert cells[7] == "".join(parts) + closes
             else:
-                assert cells[6] == ""
+                assert cells[7] == ""
     for page in s["scenes"]:  # the model term beside the decomposition, with the orders it took
         model = page["model"]
         assert model["max_scatter"] == 8 and set(model["orders_needed"]) == {"caustic", "fog", "direct"}

@@ -1,0 +1,82 @@
+"""One frame's error against the mean's bias, per built-in and configuration, at the
+report's settings (quick preset, 6 seeds, the report's reference; the gate's scope: no
+decomposition).
+
+    .venv/bin/python bench/one_frame.py [SCENE ...] [--configs paper,sobol,oidn,sobol+oidn,adopted] [--json FILE]
+
+Configurations: ``paper`` (the quick preset), ``random`` / ``sobol`` (``emission_jitter``),
+``oidn`` (``denoise``), ``sobol+oidn`` and ``adopted`` (the best search's configuration,
+``reports.sweep.adopted``, at its cost-matched photon_res). Per point: the frame cost
+against the paper's, one frame's caustic relMSE less the reference's floor ± SE
+(``metrics.frame``), the seeds' mean's debiased relMSE ± SE, their ratios to the paper's,
+HDR-FLIP per frame, and the denoiser's seconds and pixels beside the frame's. Runs the
+code of the checkout it is started from.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import time
+
+CONFIGS = {"paper": {}, "random": {"emission_jitter": "random"}, "sobol": {"emission_jitter": "sobol"},
+           "oidn": {"denoise": "oidn"}, "sobol+oidn": {"emission_jitter": "sobol", "denoise": "oidn"}}
+
+
+def config_params(name: str, scene: str):
+    from volcaustics.approx.params import QUICK
+    from volcaustics.reports.sweep.adopted import adopted_params
+
+    if name == "adopted":
+        return adopted_params(QUICK, scene)
+    if name.startswith("adopted+"):
+        return dataclasses.replace(adopted_params(QUICK, scene), **CONFIGS[name.split("+", 1)[1]])
+    if name not in CONFIGS:
+        raise SystemExit(f"--configs: unknown configuration {name!r} ({', '.join([*CONFIGS, 'adopted'])})")
+    return dataclasses.replace(QUICK, **CONFIGS[name])
+
+
+def main(argv=None) -> int:
+    from volcaustics.reference.render import render_reference
+    from volcaustics.reports.core.sizing import REPORT_REFERENCE, sized
+    from volcaustics.reports.experiment.run import run_experiment
+    from volcaustics.scenes import resolve_scene
+    from volcaustics.scenes.catalogue import BUILTIN_NAMES
+
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("scenes", nargs="*", default=list(BUILTIN_NAMES))
+    parser.add_argument("--configs", default="paper,sobol,oidn,sobol+oidn,adopted")
+    parser.add_argument("--seeds", type=int, default=6)
+    parser.add_argument("--json", help="append one JSON object per point to this file")
+    args = parser.parse_args(argv)
+    print("| scene | config | cost ratio | one frame relMSE | × paper | debiased relMSE | × paper | HDR-FLIP | "
+          "denoise s/frame |\n|---|---|---|---|---|---|---|---|---|", flush=True)
+    for name in args.scenes:
+        scene = resolve_scene(name)
+        paper = None
+        for config in args.configs.split(","):
+            p = config_params(config, name)
+            reference = render_reference(scene, sized(REPORT_REFERENCE, scene, p), progress=False)
+            t0 = time.perf_counter()
+            s = run_experiment(scene, p, seeds=args.seeds, reference=reference, scope="gate").summary
+            c = s["images"]["caustic"]
+            point = {"scene": name, "config": config, "seconds": time.perf_counter() - t0, "cost": s["cost"],
+                     "frame": c["frame_relative_mse"], "mean": c["relative_mse"], "flip": c["hdr_flip"]["value"],
+                     "denoise_s": s["approx_timings_s"].get("denoise")}
+            paper = paper or point
+            one, mean = point["frame"], point["mean"]
+            print(f"| {name} | {config} | {point['cost']['total'] / paper['cost']['total']:.3f} | "
+                  f"{100 * one['debiased']:.2f}% ± {100 * (one['standard_error'] or 0):.2f} | "
+                  f"{one['debiased'] / paper['frame']['debiased']:.2f} | "
+                  f"{100 * mean['debiased']:.2f}% ± {100 * (mean['standard_error'] or 0):.2f} | "
+                  f"{max(mean['debiased'], 0) / paper['mean']['debiased']:.2f} | {point['flip']:.3f} | "
+                  f"{point['denoise_s'] or 0:.2f} |", flush=True)
+            if args.json:
+                with open(args.json, "a") as fh:
+                    fh.write(json.dumps(point) + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
