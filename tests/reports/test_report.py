@@ -186,7 +186,7 @@ def test_the_page_shows_the_summary_numbers(built):
     # the failure is spelled out, not only coloured, and comes first in its cell and in the banner
     assert "✗ Gate FAILED: 1 of 5 checks" in built["page"]
     sphere = next(r for r in parsed.rows if r["scene"] == "sphere1" and len(r["cells"]) > 6)
-    assert sphere["cells"][8].startswith("✗ FAIL caustic.hdr_flip_max")
+    assert sphere["cells"][9].startswith("✗ FAIL caustic.hdr_flip_max")
 
 
 def test_the_page_is_self_contained(built):
