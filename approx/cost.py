@@ -5,7 +5,9 @@ beside it, never instead: the method's claims are about GPUs.
 ``map_reads`` are the search's (every traced segment's, counted by the trace shader),
 ``emission_reads`` the emission's (``approx.emission.emission_reads``: what adaptive
 emission's importance pass and adaptive splats' curvature add), ``splats`` the medium
-collisions splatted over all steps. ``total`` = map reads + emission reads + splats:
+collisions splatted over all steps, ``density_reads`` the density pre-pass's (splat =
+density: a write and a bilinear read per splat). ``total`` = map reads + emission reads +
+splats + density reads:
 one texel read or one splat, each a unit (the fog, direct and camera passes cost the
 same for every parameter but the image size and fog_steps, and are left out).
 """
@@ -20,7 +22,9 @@ from .denoise import DENOISED
 from .emission import emission_reads
 
 # denoised_pixels (denoise = oidn, approx.denoise): beside the cost, never in its total
-COST_FIELDS = ("map_reads", "emission_reads", "splats", "total", "denoised_pixels")
+COST_FIELDS = ("map_reads", "emission_reads", "splats", "density_reads", "total", "denoised_pixels")
+# splat = density: each splat writes its cell in the pre-pass and reads the grid (4 texels, bilinear) for its width
+DENSITY_READS = 5
 
 
 def frame_cost(records: list, params) -> dict:
@@ -31,5 +35,6 @@ def frame_cost(records: list, params) -> dict:
     emitted = len(records[0]) if records else 0
     emission = emission_reads(params.photon_res, emitted, emission=params.emission, splat=params.splat)
     denoised = len(DENOISED) * params.width * params.height if params.denoise == "oidn" else 0
-    return {"map_reads": search, "emission_reads": emission, "splats": splats, "total": search + emission + splats,
-            "denoised_pixels": denoised}
+    density = DENSITY_READS * splats if params.splat == "density" else 0
+    return {"map_reads": search, "emission_reads": emission, "splats": splats, "density_reads": density,
+            "total": search + emission + splats + density, "denoised_pixels": denoised}

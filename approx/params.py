@@ -138,11 +138,16 @@ PARAMS: tuple = (
     Param("steps", int, 4, "interaction steps (photon maps) traced", "", 1, 32),
     Param("splat_radius", float, 0.01, "standard deviation of the splatted 3D Gaussian", "m", 0, 10,
           glsl="uniform"),
-    Param("splat", str, "fixed", "the splat kernel's width: fixed (paper: splat_radius for every photon) or "
+    Param("splat", str, "fixed", "the splat kernel's width: fixed (paper: splat_radius for every photon), "
           "adaptive (splat_footprints × the photon's footprint, its distance to its neighbours' rays carried "
           "as a ray differential through every refraction and reflection, within [splat_radius/16, "
-          "4·splat_radius] and at least a pixel)", choices=("fixed", "adaptive"), program="trace",
+          "4·splat_radius] and at least a pixel) or density (the radius of a screen disc holding "
+          "splat_neighbours photons of its step, from a pre-pass counting them per 4×4-pixel cell: "
+          "Abramson's square-root law, within the same range)", choices=("fixed", "adaptive", "density"),
+          program="trace",
           glsl="define", to_defines=lambda v: {"SPLAT_ADAPTIVE": 1} if v == "adaptive" else {}),
+    Param("splat_neighbours", int, 16, "density splats: the photons a kernel's σ-disc holds on average", "", 1,
+          4096, glsl="uniform"),
     Param("splat_footprints", float, 4.0, "adaptive splats: the kernel's standard deviation in photon footprints",
           "", 0, 100, glsl="uniform"),
     Param("emission", str, "uniform", "where photons start: uniform (paper: one per covered texel of the photon "

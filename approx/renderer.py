@@ -31,7 +31,7 @@ from .params import ApproxParams, defines
 from .records import emission_records, records_from_raw
 from .splat import Splatter
 from .timing import PassTimer, timer_queries_work
-from .trace import PhotonTracer, read_raw_records
+from .trace import TEST_DEFINES, PhotonTracer, read_raw_records
 
 
 @dataclass
@@ -90,9 +90,10 @@ class Renderer:
         phase_key = (scene.medium.phase.kind, scene.medium.phase.g)
         fog = defines(p, "fog")
         camera = self._cached(("camera", *sorted(fog.items()), phase_key), lambda: CameraPasses(self.ctx, scene, fog))
-        adaptive = p.splat == "adaptive"
-        splatter = self._cached(("splat", phase_key, adaptive), lambda: Splatter(self.ctx, scene.medium,
-                                                                                 adaptive=adaptive))
+        density = {k: v for k, v in TEST_DEFINES.items() if k.startswith("DENSITY_")} if p.splat == "density" else {}
+        splatter = self._cached(("splat", phase_key, p.splat, *sorted(density.items())),
+                                lambda: Splatter(self.ctx, scene.medium, adaptive=p.splat == "adaptive",
+                                                 density=p.splat == "density", test_defines=density))
         return camera, splatter
 
     def _black_image(self, p: ApproxParams) -> moderngl.Texture:
@@ -238,7 +239,8 @@ class Renderer:
             with timer.measure("splat"):
                 n_splats = tracer.compact_splats(record_buf, count, splat_buf, p)
                 step_image = self._black_image(p)
-                splatter.splat(splat_buf, n_splats, view, scene.medium, p.splat_radius, gbuf_geo, step_image)
+                splatter.splat(splat_buf, n_splats, view, scene.medium, p.splat_radius, gbuf_geo, step_image,
+                               p.splat_neighbours)
             caustic_steps.append(_read_rgb(step_image))
             step_image.release()
             if keep_records:
@@ -293,7 +295,8 @@ class Renderer:
                     if len(splats):
                         buf = ctx.buffer(splats.tobytes())
                         try:
-                            splatter.splat(buf, len(splats), view, scene.medium, p.splat_radius, gbuf_geo, image)
+                            splatter.splat(buf, len(splats), view, scene.medium, p.splat_radius, gbuf_geo, image,
+                                           p.splat_neighbours)
                         finally:
                             buf.release()
                     images.append(_read_rgb(image))

@@ -17,6 +17,9 @@ from .glsl import attribute_layout, program, set_uniforms
 
 # Instance attributes of a splat (SPLAT_DTYPE, 48 bytes).
 INSTANCE_PARTS = [("4f", "in_end"), ("4f", "in_dir_t"), ("4f", "in_power")]
+# splat = density: the pre-pass's grid cell (pixels a side): coarse enough that a cell holds
+# several photons where the caustic is, fine enough to follow it; read bilinearly
+DENSITY_CELL = 4
 
 
 def splats_from_arrays(end, direction, power, sigma=None) -> np.ndarray:
@@ -52,19 +55,47 @@ def record_sigma(records: np.ndarray, params) -> np.ndarray | None:
 
 class Splatter:
     """Splat program for one phase function and splat mode (``adaptive``: each splat's
-    own kernel, where it has one)."""
+    own kernel, where it has one; ``density``: each splat's kernel from the photons per
+    cell of a pre-pass, ``splat_neighbours`` of them within it; ``test_defines``: a
+    test's changes to the splat program)."""
 
-    def __init__(self, ctx: moderngl.Context, medium, *, adaptive: bool = False):
+    def __init__(self, ctx: moderngl.Context, medium, *, adaptive: bool = False, density: bool = False,
+                 test_defines: dict | None = None):
         self.ctx = ctx
         defines = {"PHASE_G": repr(float(medium.phase.g))} if medium.phase.kind == "hg" else {}
-        if adaptive:  # per-splat kernels (SPLAT_DTYPE dir.w), integrated over each pixel
+        if adaptive or density:  # per-splat kernels (SPLAT_DTYPE dir.w or the density), integrated over each pixel
             defines["SPLAT_ADAPTIVE"] = 1
+        if density:
+            defines.update({"SPLAT_DENSITY": 1, **(test_defines or {})})
         self.program = program(ctx, "splat/splat.vert.glsl", "splat/splat.frag.glsl", defines)
+        self.density = program(ctx, "splat/density.vert.glsl", "splat/density.frag.glsl") if density else None
         corners = np.array([[-1, -1], [1, -1], [-1, 1], [1, 1]], np.float32)
         self.corners = ctx.buffer(corners.tobytes())
 
+    def _density_grid(self, splats: moderngl.Buffer, count: int, view) -> moderngl.Texture:
+        """The pre-pass: photons per DENSITY_CELL² cell of the image (R32F, bilinear)."""
+        ctx, prog = self.ctx, self.density
+        size = (-(-view.width // DENSITY_CELL), -(-view.height // DENSITY_CELL))
+        grid = ctx.texture(size, 1, dtype="f4")
+        grid.filter = moderngl.LINEAR, moderngl.LINEAR
+        grid.repeat_x = grid.repeat_y = False
+        view.set_uniforms(prog)
+        fmt, names = attribute_layout(prog, INSTANCE_PARTS, per_instance=True)
+        vao = ctx.vertex_array(prog, [(splats, fmt, *names)])
+        fbo = ctx.framebuffer(color_attachments=[grid])
+        with bound(ctx, fbo):
+            fbo.clear(0.0, 0.0, 0.0, 0.0)
+            ctx.enable(moderngl.BLEND)
+            ctx.blend_func = moderngl.ONE, moderngl.ONE
+            ctx.blend_equation = moderngl.FUNC_ADD
+            vao.render(moderngl.POINTS, vertices=1, instances=count)
+            ctx.disable(moderngl.BLEND)
+        fbo.release()
+        vao.release()
+        return grid
+
     def splat(self, splats: moderngl.Buffer, count: int, view, medium, splat_radius: float,
-              scene_distance: moderngl.Texture, target: moderngl.Texture) -> None:
+              scene_distance: moderngl.Texture, target: moderngl.Texture, splat_neighbours: int = 16) -> None:
         """Add ``count`` splats (SPLAT_DTYPE rows of ``splats``) into ``target`` (RGBA32F);
         each collision weighs sigma_s / sigma_bar (the tracer's free-flight rate)."""
         sigma_bar = medium.sigma_bar
@@ -78,6 +109,12 @@ class Splatter:
                      pixel_angle=2.0 / (float(view.proj[1, 1]) * view.height))
         scene_distance.use(location=0)
         prog["scene_distance"].value = 0
+        grid = None
+        if self.density is not None:
+            grid = self._density_grid(splats, count, view)
+            grid.use(location=1)
+            set_uniforms(prog, density=1, density_cell=float(DENSITY_CELL), splat_neighbours=float(splat_neighbours),
+                         mean_per_pixel=count / float(view.width * view.height))
         fmt, names = attribute_layout(prog, INSTANCE_PARTS, per_instance=True)
         vao = ctx.vertex_array(prog, [(self.corners, "2f", "in_corner"), (splats, fmt, *names)])
         fbo = ctx.framebuffer(color_attachments=[target])
@@ -89,7 +126,11 @@ class Splatter:
             ctx.disable(moderngl.BLEND)
         fbo.release()
         vao.release()
+        if grid is not None:
+            grid.release()
 
     def release(self):
         self.program.release()
+        if self.density is not None:
+            self.density.release()
         self.corners.release()

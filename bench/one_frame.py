@@ -6,7 +6,8 @@ decomposition).
 
 Configurations: ``paper`` (the quick preset), ``random`` / ``sobol`` (``emission_jitter``),
 ``oidn`` (``denoise``), ``sobol+oidn`` and ``adopted`` (the best search's configuration,
-``reports.sweep.adopted``, at its cost-matched photon_res). Per point: the frame cost
+``reports.sweep.adopted``, at its cost-matched photon_res), or ``NAME=VALUE/NAME=VALUE``
+(any parameters on the quick preset, e.g. ``splat=density/splat_neighbours=4``). Per point: the frame cost
 against the paper's, one frame's caustic relMSE less the reference's floor ± SE
 (``metrics.frame``), the seeds' mean's debiased relMSE ± SE, their ratios to the paper's,
 HDR-FLIP per frame, and the denoiser's seconds and pixels beside the frame's. Runs the
@@ -32,6 +33,11 @@ def config_params(name: str, scene: str):
         return adopted_params(QUICK, scene)
     if name.startswith("adopted+"):
         return dataclasses.replace(adopted_params(QUICK, scene), **CONFIGS[name.split("+", 1)[1]])
+    if "=" in name:  # NAME=VALUE/NAME=VALUE…: any parameters on the quick preset
+        from volcaustics.approx.params import param
+
+        pairs = dict(item.split("=", 1) for item in name.split("/"))
+        return dataclasses.replace(QUICK, **{k: param(k).parse(v) for k, v in pairs.items()})
     if name not in CONFIGS:
         raise SystemExit(f"--configs: unknown configuration {name!r} ({', '.join([*CONFIGS, 'adopted'])})")
     return dataclasses.replace(QUICK, **CONFIGS[name])

@@ -25,6 +25,17 @@ in vec4 in_power;             // per instance: record.power_inside
 out vec3 v_center;
 out vec3 v_corner;            // world position on the billboard: the pixel ray passes through it
 flat out vec3 v_weight;
+#ifdef SPLAT_DENSITY
+// splat = density: the kernel's width from the photons per cell of the pre-pass around the
+// splat's centre (bilinear): the radius in pixels of a disc that holds splat_neighbours
+// photons, r = √(k / (π·ρ)) with ρ photons per pixel², as the k-th nearest neighbour's
+// distance estimates it (in 2-D: h ∝ f^(−1/2), Abramson's square-root law), taken as σ
+// and carried to the splat's distance; within [splat_radius/16, 4·splat_radius].
+uniform sampler2D density;     // photons per cell (density.vert.glsl)
+uniform float density_cell;    // a cell's side (pixels)
+uniform float splat_neighbours;
+uniform float mean_per_pixel;  // the frame's photons per pixel² over the whole image (DENSITY_IGNORED)
+#endif
 #ifdef SPLAT_ADAPTIVE
 flat out float v_sigma;       // this splat's kernel standard deviation (m)
 flat out float v_pixel;       // a pixel's width at the splat (m), the kernel integrated over it; 0: splat_radius
@@ -55,12 +66,23 @@ void main() {
     // integrated over each pixel's area (splat.frag.glsl), so that a kernel of any width,
     // narrower than a pixel too, keeps its integral; drawn out to 4σ and a pixel. A splat
     // without one (0) takes splat_radius, point-sampled as the paper's.
-    bool boxed = in_dir_t.w > 0.0;
-    float sigma = boxed ? in_dir_t.w : splat_radius;
-    v_sigma = sigma;
-    v_pixel = boxed ? pixel_angle * dist : 0.0;
     vec4 centre_clip = view_proj * vec4(c, 1.0);
     v_center_px = (centre_clip.xy / centre_clip.w * 0.5 + 0.5) * viewport;
+#ifdef SPLAT_DENSITY
+#ifdef DENSITY_IGNORED
+    float per_pixel = mean_per_pixel;  // a test's negative control: one width for the frame's photons
+#else
+    float per_pixel = max(texture(density, v_center_px / viewport).r, 1.0) / (density_cell * density_cell);
+#endif
+    float r = sqrt(splat_neighbours / (3.141592653589793 * per_pixel));
+    bool boxed = true;
+    float sigma = clamp(r * pixel_angle * dist, splat_radius / 16.0, 4.0 * splat_radius);
+#else
+    bool boxed = in_dir_t.w > 0.0;
+    float sigma = boxed ? in_dir_t.w : splat_radius;
+#endif
+    v_sigma = sigma;
+    v_pixel = boxed ? pixel_angle * dist : 0.0;
     float R = boxed ? 4.0 * sigma + 1.5 * v_pixel : TRUNCATION * sigma;
 #else
     float R = TRUNCATION * splat_radius;
