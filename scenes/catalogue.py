@@ -4,6 +4,11 @@ Built-in scenes are ordinary TOML files in ``scenes/builtin/`` (they double as
 examples of the format). Paper Table 1: ``sphere1``, ``sphere2``, ``bunny``,
 ``feline`` (stand-in), ``skull`` (stand-in); paper Figure 5: ``two_spheres``,
 ``refocus``.
+
+Held-out scenes (``scenes/heldout/``: ``knot``, ``lens_array``, ``dense_forward``) are
+scene files of other character that no search may tune on: the cross-validation of a
+configuration chosen on the built-ins (docs/decisions.md "Held-out scenes"). They are
+named by path (:func:`heldout_path`), never by a built-in name.
 """
 
 from __future__ import annotations
@@ -16,6 +21,17 @@ from .model import Scene
 
 BUILTIN_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "builtin")
 BUILTIN_NAMES = ("sphere1", "sphere2", "bunny", "feline", "skull", "two_spheres", "refocus")
+
+
+HELDOUT_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "heldout")
+HELDOUT_NAMES = ("knot", "lens_array", "dense_forward")
+
+
+def heldout_path(name: str) -> str:
+    """The scene file of held-out scene ``name`` (one of HELDOUT_NAMES)."""
+    if name not in HELDOUT_NAMES:
+        raise SceneError(None, "SCENE", name, f"expected a held-out scene ({', '.join(HELDOUT_NAMES)})")
+    return os.path.join(HELDOUT_DIR, f"{name}.toml")
 
 
 def builtin_path(name: str) -> str:

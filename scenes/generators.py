@@ -193,6 +193,39 @@ def skull_standin(resolution: int = 31) -> Mesh:
     return _mesh_from_field(field, (-0.28, -0.27, -0.31), (0.28, 0.27, 0.31), resolution)
 
 
+def knot(radius: float = 0.35, tube: float = 0.06, p: int = 2, q: int = 3, resolution: int = 96) -> Mesh:
+    """A (p, q) torus-knot tube (2, 3: the trefoil) about 2·(radius + tube) across: the
+    curve r(t) = radius·(1 + ½cos qt)·(cos pt, ½ sin qt, sin pt) swept by a tube; it
+    crosses over itself, so rays from above meet up to eight surfaces."""
+    from scipy.spatial import cKDTree
+
+    t = np.linspace(0.0, 2.0 * np.pi, 4000, endpoint=False)
+    ring = radius * (1.0 + 0.5 * np.cos(q * t))
+    curve = np.stack([ring * np.cos(p * t), 0.5 * radius * np.sin(q * t), ring * np.sin(p * t)], axis=1)
+    tree = cKDTree(curve)
+
+    def field(points):
+        distance, _ = tree.query(points.reshape(-1, 3))
+        return distance.reshape(points.shape[:-1]) - tube
+
+    extent = 1.5 * radius + tube
+    return _mesh_from_field(field, (-extent, -0.5 * radius - tube, -extent), (extent, 0.5 * radius + tube, extent),
+                            resolution)
+
+
+def plate(size_x: float = 0.6, size_z: float = 0.4, thickness: float = 0.04, resolution: int = 150) -> Mesh:
+    """A thin plate with rounded edges (a box of the sizes, its edges rounded by half the
+    thickness), centred at the origin in y = 0."""
+    half = np.array([size_x / 2.0, thickness / 2.0, size_z / 2.0])
+    rounding = thickness / 2.0
+
+    def field(points):
+        q = np.abs(points) - (half - rounding)
+        return np.linalg.norm(np.maximum(q, 0.0), axis=-1) + np.minimum(q.max(axis=-1), 0.0) - rounding
+
+    return _mesh_from_field(field, -half, half, resolution)
+
+
 GENERATORS: dict[str, Generator] = {
     "sphere": Generator(sphere, {
         "radius": ParamSpec(float, 1.0, 1e-6, 1e6, "sphere radius (m)"),
@@ -210,6 +243,19 @@ GENERATORS: dict[str, Generator] = {
     "feline_standin": Generator(feline_standin, {
         "resolution": ParamSpec(int, 220, 8, 400, "marching-cubes cells along the longest side"),
     }, True, "stand-in for the paper's Feline"),
+    "knot": Generator(knot, {
+        "radius": ParamSpec(float, 0.35, 1e-3, 1e3, "the knot's radius (m)"),
+        "tube": ParamSpec(float, 0.06, 1e-4, 1e2, "the tube's radius (m)"),
+        "p": ParamSpec(int, 2, 1, 16, "turns around the axis"),
+        "q": ParamSpec(int, 3, 1, 16, "turns through the hole"),
+        "resolution": ParamSpec(int, 96, 8, 400, "marching-cubes cells along the longest side"),
+    }, True, "a torus-knot tube (self-occluding)"),
+    "plate": Generator(plate, {
+        "size_x": ParamSpec(float, 0.6, 1e-3, 1e3, "extent along x (m)"),
+        "size_z": ParamSpec(float, 0.4, 1e-3, 1e3, "extent along z (m)"),
+        "thickness": ParamSpec(float, 0.04, 1e-4, 1e2, "thickness along y (m)"),
+        "resolution": ParamSpec(int, 150, 8, 400, "marching-cubes cells along the longest side"),
+    }, True, "a thin plate with rounded edges"),
     "skull_standin": Generator(skull_standin, {
         "resolution": ParamSpec(int, 31, 8, 400, "marching-cubes cells along the longest side"),
     }, True, "stand-in for the paper's Skull"),
