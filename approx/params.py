@@ -250,6 +250,14 @@ PRESET_VALUES = {
     "paper": {"width": 800, "height": 800},
     "quick": {"photon_res": 256, "light_res": 256, "width": 256, "height": 256, "fog_steps": 48, "splat_radius": 0.02},
 }
+# best: the configuration the one-frame search adopted (docs/decisions.md "The one-frame
+# search"), at the quick preset's size; its photon_res is matched to the paper
+# configuration's frame cost on the scene at hand (AUTO_PHOTON_RES: the commands do it,
+# ``reports.core.cost_match``), unless --photon-res is given
+BEST = {"splat": "adaptive", "emission": "adaptive", "fresnel": "stochastic", "steps": 6, "layers": 2,
+        "splat_footprints": 2.0}
+PRESET_VALUES["best"] = {**PRESET_VALUES["quick"], **BEST}
+AUTO_PHOTON_RES = {"best": "quick"}  # preset → the preset whose frame cost its photon_res matches
 
 
 def preset(name: str, cls: type = ApproxParams, **changes):

@@ -21,6 +21,7 @@ from volcaustics.reports.animate.settings import (
 from volcaustics.reports.animate.temporal import add_ema
 from volcaustics.reports.animate.write import output_files, write_animation
 from volcaustics.reports.cli.common import UsageError, add_report_reference, check_output_set, pct, report_settings
+from volcaustics.reports.core.cost_match import with_auto_photon_res
 from volcaustics.reports.core.params import add_param_flags, params_from_args
 from volcaustics.reports.core.versions import code_version
 from volcaustics.reports.experiment.settings import checked_settings
@@ -71,6 +72,7 @@ def run(args) -> int:
     if args.width is None and args.height is None:
         width, height = animation_size(scene.camera)
         params = dataclasses.replace(params, width=width, height=height)
+    params = with_auto_photon_res(args.scene, params, args.preset, args.photon_res is not None)  # at the frames' size
     base = params.seed
     top_seed = max(chain_seed(m, base, c, args.chains, t) for t in frames for m in args.modes
                    for c in range(args.chains))

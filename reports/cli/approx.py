@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from volcaustics.reports.cli.common import UsageError, check_output_file
+from volcaustics.reports.core.cost_match import with_auto_photon_res
 from volcaustics.reports.core.params import add_param_flags, params_from_args
 from volcaustics.reports.render.approx import run_approx
 from volcaustics.scenes import resolve_scene
@@ -26,7 +27,8 @@ def run(args) -> int:
     if args.records_max < -1:
         raise UsageError("--records-max", args.records_max, "expected 0 (none), -1 (all) or a positive count")
     scene = resolve_scene(args.scene)
-    summary = run_approx(scene, params_from_args(args), args.output, records_max=args.records_max)
+    params = with_auto_photon_res(args.scene, params_from_args(args), args.preset, args.photon_res is not None)
+    summary = run_approx(scene, params, args.output, records_max=args.records_max)
     t = summary["timings_s"]
     print(f"approx {scene.name}: {t['frame_wall']:.2f} s ({summary['timing_method']}), "
           f"trace {t['trace']:.2f} s, splat {t['splat']:.2f} s -> {summary['outputs']['exr']}")

@@ -12,6 +12,7 @@ from volcaustics.reports.cli.common import (
     pct,
     report_settings,
 )
+from volcaustics.reports.core.cost_match import with_auto_photon_res
 from volcaustics.reports.core.params import add_param_flags, params_from_args
 from volcaustics.reports.core.sizing import sized
 from volcaustics.reports.core.tables import plain
@@ -44,7 +45,7 @@ def register(sub) -> None:
 def run(args) -> int:
     check_output_set(args.output, "-o", files=OUTPUT_FILES, kind=EXPERIMENT_KIND)
     scene = resolve_scene(args.scene)
-    params = params_from_args(args)
+    params = with_auto_photon_res(args.scene, params_from_args(args), args.preset, args.photon_res is not None)
     checked_settings(scene, params, args.seeds)  # a bad seed count or a frame that cannot run: before the reference
     measurement = measurement_from_args(args)  # a bad --exact-subphotons: before the reference too
     reference = runner.reference_for(scene, sized(report_settings(args), scene, params), "continue",

@@ -31,39 +31,31 @@ scene) and ``scene best`` (each scene's own least error at ≤ the paper's cost)
 from __future__ import annotations
 
 import dataclasses
-import hashlib
 import itertools
-import json
-import math
 import os
 
 import numpy as np
 import pandas as pd
 from tqdm import tqdm
 
-from volcaustics.approx import Renderer
-from volcaustics.approx.cost import frame_cost
 from volcaustics.approx.params import PRESETS, ParamError, preset
 from volcaustics.metrics.decomposition import TERMS
 from volcaustics.reports import runner
+from volcaustics.reports.core.cost_match import CostMatcher
 from volcaustics.reports.core.params import parse_value
 from volcaustics.reports.core.plotting import OKABE_ITO, pyplot, save_figure
 from volcaustics.reports.core.sizing import reference_settings
 from volcaustics.reports.core.store import Store
 from volcaustics.reports.core.tomlfile import load_toml
-from volcaustics.reports.core.versions import code_version
 from volcaustics.reports.experiment.measurement import measurement_settings
 from volcaustics.reports.sweep.spec import SweepError, SweepSpec, _checked
-from volcaustics.scenes import BUILTIN_NAMES, resolve_scene
-from volcaustics.scenes.storage import atomic_path
+from volcaustics.scenes import BUILTIN_NAMES
 
 BEST_SPEC = os.path.join(os.path.dirname(os.path.abspath(__file__)), "best.toml")
 BEST_KEYS = ("scenes", "preset", "seeds", "coarse", "refine", "rounds", "set", "reference", "measurement")
 # criterion → (the ratio it ranks by, the error column, the goal: at most that many times the paper's on every
 # scene): one frame's error, what a viewer sees, at half; the mean image's bias at a quarter
 CRITERIA = {"frame": ("frame_ratio", "frame_relmse", 0.5), "bias": ("relmse_ratio", "caustic_relmse_debiased", 0.25)}
-MATCHED = "matched.json"  # the cost-matched photon_res per scene and configuration (a memo: recomputed if lost)
-MIN_PHOTON_RES = 16
 
 
 @dataclasses.dataclass(frozen=True)
@@ -146,61 +138,6 @@ def load_best_spec(path: str = BEST_SPEC, scenes: list | None = None) -> BestSpe
         raise SweepError(f"{path}: preset = {spec.preset!r}: expected {' or '.join(repr(n) for n in PRESETS)}")
     _checked(spec.sweep_spec(), path)
     return spec
-
-
-# --- equal cost -------------------------------------------------------------------------
-
-class CostMatcher:
-    """The photon_res at which a configuration's frame costs at most a target on a scene
-    (module docstring, step 1), remembered in ``DIR/matched.json`` under a key of the
-    scene, the parameters, the target and the code version."""
-
-    def __init__(self, folder: str):
-        self.path = os.path.join(folder, MATCHED)
-        self.memo = {}
-        self.renderers = {}
-        try:
-            with open(self.path, encoding="utf-8") as fh:
-                memo = json.load(fh)
-            self.memo = memo if isinstance(memo, dict) else {}
-        except (OSError, ValueError):
-            pass  # none yet, or damaged: recomputed
-
-    def cost(self, scene_name: str, params) -> int:
-        """The frame cost (``approx.cost``: total) of one frame of ``params``."""
-        scene = resolve_scene(scene_name)
-        if scene_name not in self.renderers:
-            self.renderers[scene_name] = Renderer(scene)
-        frame = self.renderers[scene_name].render(scene, params, keep_records=True)
-        return frame_cost(frame.records, params.resolved(scene))["total"]
-
-    def match(self, scene_name: str, params, target: float):
-        """``params`` with the largest photon_res found whose cost is ≤ ``target``."""
-        doc = [resolve_scene(scene_name).scene_hash(), params.to_dict(), float(target), code_version()]
-        key = hashlib.sha256(json.dumps(doc, sort_keys=True).encode()).hexdigest()[:20]
-        if isinstance(self.memo.get(key), int):
-            return dataclasses.replace(params, photon_res=self.memo[key])
-        res = params.photon_res
-        cost = self.cost(scene_name, params)
-        for _ in range(6):
-            new = max(MIN_PHOTON_RES, min(8192, int(res * math.sqrt(target / max(cost, 1)))))
-            if new == res:
-                break
-            res, cost = new, self.cost(scene_name, dataclasses.replace(params, photon_res=new))
-        while cost > target and res > MIN_PHOTON_RES:
-            res = max(MIN_PHOTON_RES, res - max(1, res // 100))
-            cost = self.cost(scene_name, dataclasses.replace(params, photon_res=res))
-        self.memo[key] = res
-        return dataclasses.replace(params, photon_res=res)
-
-    def save(self) -> None:
-        with atomic_path(self.path) as tmp, open(tmp, "w", encoding="utf-8") as fh:
-            json.dump(self.memo, fh)
-
-    def release(self) -> None:
-        for renderer in self.renderers.values():
-            renderer.release()
-        self.renderers = {}
 
 
 # --- the search -------------------------------------------------------------------------

@@ -16,6 +16,7 @@ from tests.conftest import FAST_MEASUREMENT, SINGLE_SCATTERING
 from tests.conftest import SWEEP_TABLES as SMALL_TABLES
 from volcaustics.approx.params import PAPER, QUICK
 from volcaustics.reports.cli import main
+from volcaustics.reports.core.cost_match import MATCHED, CostMatcher
 from volcaustics.reports.sweep import best
 from volcaustics.reports.sweep.spec import SweepError
 
@@ -127,7 +128,7 @@ def test_cost_matching_finds_a_photon_res_within_the_papers_cost(tmp_path):
     fewer photon slots; the matched frame costs at most the target and the next photon_res
     up would cost more (else the match left cost unspent) — checked, then remembered."""
     base = dataclasses.replace(QUICK, width=32, height=32, photon_res=96, light_res=64)
-    matcher = best.CostMatcher(str(tmp_path))
+    matcher = CostMatcher(str(tmp_path))
     try:
         target = matcher.cost("refocus", base)
         adaptive = dataclasses.replace(base, emission="adaptive")
@@ -137,10 +138,10 @@ def test_cost_matching_finds_a_photon_res_within_the_papers_cost(tmp_path):
         matcher.save()
     finally:
         matcher.release()
-    again = best.CostMatcher(str(tmp_path))
+    again = CostMatcher(str(tmp_path))
     again.cost = lambda *a: pytest.fail("the memo was not used")
     assert again.match("refocus", adaptive, target) == matched
-    assert json.loads((tmp_path / best.MATCHED).read_text())
+    assert json.loads((tmp_path / MATCHED).read_text())
 
 
 @pytest.mark.slow  # a whole search: 2 coarse points and a refinement on refocus at 32² (about 60 s)
@@ -196,3 +197,27 @@ def test_the_frame_criterion_ranks_by_one_frames_error_and_its_goal_is_half():
     v = best.verdict(best.with_roles(table, "y", "frame"), "y", "frame")
     assert v["goal"] == 0.5 and v["met"] and v["worst_ratio"] == pytest.approx(0.45)
     assert v["worst_bias_ratio"] == pytest.approx(0.5)
+
+
+def test_preset_best_matches_the_papers_frame_cost_on_any_scene_file(monkeypatch, tmp_path):
+    """photon_res = auto (the preset best): on a held-out scene file, at 48², the matched
+    best configuration costs at most the paper configuration at the same size, and the
+    preset's own photon_res would cost more (the match spent what it could); an explicit
+    photon_res is kept (the negative control: no matching)."""
+    from volcaustics.approx.params import preset
+    from volcaustics.reports.core.cost_match import with_auto_photon_res
+    from volcaustics.scenes.catalogue import heldout_path
+
+    monkeypatch.setenv("VOLCAUSTICS_CACHE", str(tmp_path))
+    scene = heldout_path("lens_array")
+    params = preset("best", width=48, height=48, light_res=64)
+    matched = with_auto_photon_res(scene, params, "best", given=False)
+    matcher = CostMatcher(str(tmp_path / "probe"))
+    try:
+        paper = matcher.cost(scene, preset("quick", width=48, height=48))
+        assert matcher.cost(scene, matched) <= paper < matcher.cost(scene, params)
+    finally:
+        matcher.release()
+    assert matched.photon_res != params.photon_res
+    assert with_auto_photon_res(scene, params, "best", given=True) is params
+    assert with_auto_photon_res(scene, params, "quick", given=False) is params

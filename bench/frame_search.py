@@ -1,0 +1,101 @@
+"""Candidate configurations ranked by one frame's caustic error at the paper
+configuration's frame cost: each candidate at the photon_res that matches the quick
+preset's frame cost on the scene (``reports.sweep.best.CostMatcher``), 6 seeds, the
+report's reference, the gate's scope (no decomposition).
+
+    .venv/bin/python bench/frame_search.py [SCENE ...] [--candidates NAME,...] [--json FILE]
+    .venv/bin/python bench/frame_search.py --table FILE
+
+SCENE: built-in names or scene files (the held-out scenes: scenes/heldout/*.toml).
+Candidates are named in CANDIDATES (changes from the quick preset). ``--table`` prints,
+per candidate, its one-frame and debiased ratios to the paper's per scene and the worst.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import os
+import tempfile
+import time
+
+ADOPTED = {"splat": "adaptive", "emission": "adaptive", "fresnel": "stochastic", "steps": 6, "layers": 2}
+CANDIDATES = {
+    "paper": {},
+    "density4": {"splat": "density", "splat_neighbours": 4},
+    "density8": {"splat": "density", "splat_neighbours": 8},
+    "adopted": {**ADOPTED, "splat_footprints": 2.0},
+    "adopted-fp8": {**ADOPTED, "splat_footprints": 8.0},
+    "adopted-density4": {**ADOPTED, "splat": "density", "splat_neighbours": 4},
+    "adopted-density8": {**ADOPTED, "splat": "density", "splat_neighbours": 8},
+    "adopted-density16": {**ADOPTED, "splat": "density", "splat_neighbours": 16},
+}
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("scenes", nargs="*")
+    parser.add_argument("--candidates", default=",".join(CANDIDATES))
+    parser.add_argument("--seeds", type=int, default=6)
+    parser.add_argument("--json", help="append one JSON object per point to this file")
+    parser.add_argument("--table", metavar="FILE", help="print the ratios of a --json file")
+    args = parser.parse_args(argv)
+    if args.table:
+        return print_table(args.table)
+    from volcaustics.approx.params import QUICK
+    from volcaustics.reference.render import render_reference
+    from volcaustics.reports.core.sizing import REPORT_REFERENCE, sized
+    from volcaustics.reports.experiment.run import run_experiment
+    from volcaustics.reports.sweep.best import CostMatcher
+    from volcaustics.scenes import resolve_scene
+    from volcaustics.scenes.catalogue import BUILTIN_NAMES
+
+    matcher = CostMatcher(os.path.join(tempfile.gettempdir(), "volcaustics-frame-search"))
+    os.makedirs(os.path.dirname(matcher.path), exist_ok=True)
+    for name in args.scenes or BUILTIN_NAMES:
+        scene = resolve_scene(name)
+        target = matcher.cost(name, QUICK)
+        for label in args.candidates.split(","):
+            params = dataclasses.replace(QUICK, **CANDIDATES[label])
+            if label != "paper":
+                params = matcher.match(name, params, target)
+                matcher.save()
+            reference = render_reference(scene, sized(REPORT_REFERENCE, scene, params), progress=False)
+            t0 = time.perf_counter()
+            s = run_experiment(scene, params, seeds=args.seeds, reference=reference, scope="gate").summary
+            c = s["images"]["caustic"]
+            point = {"scene": scene.name, "candidate": label, "photon_res": params.photon_res,
+                     "cost": s["cost"]["total"], "target": target, "frame": c["frame_relative_mse"]["debiased"],
+                     "frame_se": c["frame_relative_mse"]["standard_error"], "mean": c["relative_mse"]["debiased"],
+                     "mean_se": c["relative_mse"]["standard_error"], "seconds": time.perf_counter() - t0}
+            print(json.dumps(point), flush=True)
+            if args.json:
+                with open(args.json, "a") as fh:
+                    fh.write(json.dumps(point) + "\n")
+    matcher.release()
+    return 0
+
+
+def print_table(path: str) -> int:
+    import pandas as pd
+
+    t = pd.read_json(path, lines=True).drop_duplicates(["scene", "candidate"], keep="last")
+    paper = t[t["candidate"] == "paper"].set_index("scene")
+    t["cost_ratio"] = t["cost"] / t["scene"].map(paper["cost"])
+    t["frame_ratio"] = t["frame"] / t["scene"].map(paper["frame"])
+    t["mean_ratio"] = t["mean"].clip(lower=0) / t["scene"].map(paper["mean"])
+    frame = t.pivot(index="candidate", columns="scene", values="frame_ratio")
+    frame["worst"] = frame.max(axis=1)
+    print("one frame's caustic relMSE / the paper's (cost ratio ≤ 1.01 each)\n")
+    print(frame.sort_values("worst").round(2).to_markdown())
+    mean = t.pivot(index="candidate", columns="scene", values="mean_ratio")
+    mean["worst"] = mean.max(axis=1)
+    print("\nthe seeds' mean's debiased relMSE / the paper's\n")
+    print(mean.loc[frame.sort_values("worst").index].round(2).to_markdown())
+    print(f"\nlargest cost ratio: {t['cost_ratio'].max():.3f}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
