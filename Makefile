@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 OUT ?= runs/report
 
-.PHONY: setup report test test-fast lint doctor animate sweep sweep-variants sweep-best sweep-density gate gate-baseline lower-bounds clean
+.PHONY: setup report test test-fast lint doctor animate frames sweep sweep-variants sweep-best sweep-density gate gate-baseline lower-bounds clean
 
 setup:
 	@bash scripts/setup.sh
@@ -19,7 +19,15 @@ report: setup
 	$(BIN)/volcaustics report --out $(OUT) \
 	  $$( [ -f $(GATE_BASELINE)/baseline.json ] && echo --baseline $(GATE_BASELINE) ) \
 	  $$( [ -f $(SWEEP)/sweep.json ] && [ -f $(SWEEP)/points.parquet ] && echo --sweep $(SWEEP) ) \
+	  $$( [ -f $(FRAMES)/frames.json ] && echo --frames $(FRAMES) ) \
 	  $(ANIMATIONS) $(COMPARISONS)
+
+# The frame check: the paper's configuration against --preset best on every built-in and
+# held-out scene, one frame and the mean, without and with OIDN -> runs/frames (the report's
+# "One frame" section); about 25 minutes cold on 2 cores.
+FRAMES ?= runs/frames
+frames: setup
+	$(BIN)/volcaustics frames -o $(FRAMES)
 
 # The built-in animations over time (bunny, refocus, two_spheres) -> runs/animate/NAME;
 # resumable; about 3 minutes each cold on 2 cores.

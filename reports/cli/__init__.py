@@ -11,8 +11,8 @@ import argparse
 import sys
 
 EXIT_USAGE = 2
-COMMANDS = ("doctor", "scenes", "approx", "reference", "export", "measure", "compare", "animate", "sweep", "gate",
-            "report")
+COMMANDS = ("doctor", "scenes", "approx", "reference", "export", "measure", "compare", "animate", "sweep", "frames",
+            "gate", "report")
 
 
 def build_parser() -> argparse.ArgumentParser:

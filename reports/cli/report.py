@@ -39,6 +39,9 @@ def register(sub) -> None:
                    help="add another renderer that `volcaustics compare SCENE IMAGE.exr -o DIR` measured (DIR: one "
                         "such folder or a folder of them, one per scene): a row beside the approximation and its "
                         "images in each scene it compared (repeatable)")
+    p.add_argument("--frames", type=path_type, metavar="DIR",
+                   help="add the frame check `volcaustics frames -o DIR` measured: the 'One frame' section (the "
+                        "paper's configuration against --preset best, without and with OIDN)")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     add_report_reference(p)
     add_measurement_flags(p, default="the budgets' [measurement] table, else {value}")
@@ -53,7 +56,7 @@ def run(args) -> int:
                          overrides=parse_overrides(args.set, error=ReportError), seeds=args.seeds, seed=args.seed,
                          reference_settings=report_settings(args), budgets=budgets, baseline_dir=args.baseline,
                          measurement=measurement_from_args(args, budgets["measurement"]),
-                         sweep_dir=args.sweep, animation_dirs=args.animation or (),
+                         sweep_dir=args.sweep, animation_dirs=args.animation or (), frames_dir=args.frames,
                          comparisons=[parse_named(text, "--compare", ReportError) for text in args.compare or ()],
                          progress=not args.quiet)
     for page in summary["scenes"]:

@@ -29,8 +29,10 @@ from volcaustics.reports.gate.regression import load_baseline
 from volcaustics.reports.gate.verdict import scene_verdict
 from volcaustics.reports.page.animations import animation_rows
 from volcaustics.reports.page.external import comparison_images, comparison_row
+from volcaustics.reports.page.frames import frames_rows
 from volcaustics.reports.page.summary import report_summary
 from volcaustics.reports.page.write import write_report
+from volcaustics.reports.sweep.frames import load_frames
 from volcaustics.reports.sweep.run import MANIFEST_SEAL
 from volcaustics.scenes import SceneError, resolve_scene
 from volcaustics.scenes.storage import file_sha256, read_json_object, special_file_kind
@@ -204,7 +206,7 @@ def _sweep_table(folder: str, name: str) -> pd.DataFrame:
 
 def run_report(out_dir: str, names, *, overrides: dict, seeds: int | None, seed: int, reference_settings,
                budgets: dict, measurement=None, baseline_dir: str | None = None, sweep_dir: str | None = None,
-               animation_dirs=(), comparisons=(), progress: bool = True) -> dict:
+               animation_dirs=(), comparisons=(), frames_dir: str | None = None, progress: bool = True) -> dict:
     """Gather every scene's results and the sweep's, then draw the report into
     ``out_dir`` (``page.write``). Returns the report's summary.
 
@@ -218,6 +220,7 @@ def run_report(out_dir: str, names, *, overrides: dict, seeds: int | None, seed:
                                       seed=seed, min_seeds=1, why="intervals need 4", error=ReportError)
     sweep = load_sweep(sweep_dir) if sweep_dir else None      # bad input fails before anything renders
     animations = [load_animation(folder, error=ReportError) for folder in animation_dirs or ()]
+    frames = _load_frames(frames_dir) if frames_dir else None
     compared = load_comparisons(comparisons, names)
     baseline = load_baseline(baseline_dir) if baseline_dir else None
     measurement = measurement or budgets["measurement"]
@@ -229,9 +232,20 @@ def run_report(out_dir: str, names, *, overrides: dict, seeds: int | None, seed:
                              budgets=budgets, baseline_dir=baseline_dir, sweep=sweep, clock=clock.seconds)
     summary["animations"] = animation_rows(animations)
     summary["comparisons"] = [row for row, _ in compared]
+    summary["frames"] = None if frames is None else {"rows": frames_rows(frames[0]), "verdict": frames[1]["verdict"],
+                                                     "folder": os.path.abspath(frames_dir)}
     return write_report(out_dir, results, summary, sweep, progress=progress, started=clock.started,
                         animation_media=[a["media"] for a in animations],
                         comparison_media=[comparison_images(row, views) for row, views in compared])
+
+
+def _load_frames(folder: str) -> tuple:
+    """A frame check's (table, manifest); ReportError naming the fix."""
+    try:
+        return load_frames(folder)
+    except (OSError, ValueError, KeyError) as exc:
+        raise ReportError(f"--frames {folder}: not a readable frame check ({exc}): run `volcaustics frames -o "
+                          f"{folder}`") from None
 
 
 def load_comparisons(pairs, names) -> list:

@@ -18,6 +18,7 @@ from volcaustics.reports.page.decomposition import OVERVIEW_HEAD as DECOMPOSITIO
 from volcaustics.reports.page.decomposition import decomposition_table
 from volcaustics.reports.page.decomposition import overview_cell as decomposition_cell
 from volcaustics.reports.page.external import renderers_table, scene_comparisons
+from volcaustics.reports.page.frames import frames_section
 from volcaustics.reports.page.images import SCALES, colour_bar_css
 from volcaustics.reports.page.model import OVERVIEW_HEAD, model_section, overview_cell
 from volcaustics.reports.page.parts import CSS, SCRIPT
@@ -348,6 +349,8 @@ def render_page(summary: dict, images: dict, sweep_figures: dict, animation_medi
         nav += "<a href='#over-time'>over time</a>"
     if summary.get("comparisons"):
         nav += "<a href='#renderers'>renderers</a>"
+    if summary.get("frames"):
+        nav += "<a href='#one-frame'>one frame</a>"
     sections = "".join(_scene_section(i, p, images[p["scene"]], summary, bars, comparison_media)
                        for i, p in enumerate(summary["scenes"]))
     return f"""<!doctype html>
@@ -365,6 +368,7 @@ mean, debiased (less the reference's noise floor and the approximation's own noi
 frames (0 = identical, 1 = worst). Budgets: <code>{escape(summary['budgets'])}</code>
 {'; baseline <code>' + escape(summary['baseline']) + '</code>' if summary['baseline'] else '; no baseline (no regression test)'}.</p>
 {_overview(summary)}
+{frames_section(summary.get("frames"))}
 {renderers_table(summary)}
 <details><summary>parameters used</summary><p>approximation: <code>{escape(json.dumps(params))}</code><br>
 reference: <code>{escape(json.dumps(summary['reference_settings']))}</code><br>

@@ -1,0 +1,38 @@
+"""``volcaustics frames [SCENE ...] -o DIR``: the paper's configuration against
+``--preset best``, one frame and the mean, without and with OIDN, per scene
+(``reports.sweep.frames``)."""
+
+from __future__ import annotations
+
+from volcaustics.reports.cli.common import UsageError, check_output_set, pct
+from volcaustics.reports.sweep.frames import FRAMES_FILE, MANIFEST, SEEDS, default_scenes, run_frames, verdict
+
+NATIVE = ("drjit", "mitsuba", "moderngl")
+
+
+def register(sub) -> None:
+    p = sub.add_parser("frames", help="the paper's configuration against --preset best on every built-in and "
+                                      "held-out scene: one frame's caustic error and the mean's, without and "
+                                      "with OIDN -> DIR/frames.parquet, frames.json")
+    p.add_argument("scenes", nargs="*", metavar="SCENE",
+                   help="built-in names or scene files (default: every built-in and scenes/heldout/*.toml)")
+    p.add_argument("-o", "--output", default="runs/frames", metavar="DIR", help="output folder (default runs/frames)")
+    p.add_argument("--seeds", type=int, default=SEEDS, help=f"frames per point (default {SEEDS})")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    check_output_set(args.output, "-o", files=(FRAMES_FILE, MANIFEST))
+    if isinstance(args.seeds, bool) or not 2 <= args.seeds <= 64:
+        raise UsageError("--seeds", args.seeds, "expected an integer in [2, 64] (one frame's SE needs 2)")
+    table = run_frames(args.scenes or default_scenes(), args.output, seeds=args.seeds, progress=not args.quiet)
+    for _, r in table.iterrows():
+        print(f"  {r['scene']:<14}{' (held out)' if r['heldout'] else '':<11} {r['config']:<6} {r['denoise']:<5} "
+              f"cost {r['cost_ratio']:.3f}x, one frame {pct(r['frame_relmse'])} ({r['frame_ratio']:.2f}x), "
+              f"mean {pct(r['relmse_debiased'])} ({r['relmse_ratio']:.2f}x)")
+    v = verdict(table)
+    print(f"frames: best's worst one-frame ratio {v.get('none_builtin_worst_frame_ratio', float('nan')):.2f}x on the "
+          f"built-ins, {v.get('none_heldout_worst_frame_ratio', float('nan')):.2f}x held out (goal {v['goal']:g}x): "
+          f"{'met' if v['met'] else 'not met'} -> {args.output}/{FRAMES_FILE}")
+    return 0
