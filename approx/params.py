@@ -145,7 +145,7 @@ PARAMS: tuple = (
           "splat_neighbours photons of its step, from a pre-pass counting them per 4×4-pixel cell: "
           "Abramson's square-root law, within the same range)", choices=("fixed", "adaptive", "density"),
           program="trace",
-          glsl="define", to_defines=lambda v: {"SPLAT_ADAPTIVE": 1} if v == "adaptive" else {}),
+          glsl="define", to_defines=lambda v: {f"SPLAT_{v.upper()}": 1} if v != "fixed" else {}),
     Param("splat_neighbours", int, 16, "density splats: the photons a kernel's σ-disc holds on average", "", 1,
           4096, glsl="uniform"),
     Param("splat_footprints", float, 4.0, "adaptive splats: the kernel's standard deviation in photon footprints",

@@ -88,11 +88,11 @@ def print_table(path: str) -> int:
     frame = t.pivot(index="candidate", columns="scene", values="frame_ratio")
     frame["worst"] = frame.max(axis=1)
     print("one frame's caustic relMSE / the paper's (cost ratio ≤ 1.01 each)\n")
-    print(frame.sort_values("worst").round(2).to_markdown())
+    print(frame.sort_values("worst").round(2).to_string())
     mean = t.pivot(index="candidate", columns="scene", values="mean_ratio")
     mean["worst"] = mean.max(axis=1)
     print("\nthe seeds' mean's debiased relMSE / the paper's\n")
-    print(mean.loc[frame.sort_values("worst").index].round(2).to_markdown())
+    print(mean.loc[frame.sort_values("worst").index].round(2).to_string())
     print(f"\nlargest cost ratio: {t['cost_ratio'].max():.3f}")
     return 0
 
