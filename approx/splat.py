@@ -53,6 +53,20 @@ def record_sigma(records: np.ndarray, params) -> np.ndarray | None:
     return adaptive_sigma(records["footprint"], params) if params.splat == "adaptive" else None
 
 
+def _add_into(ctx, target: moderngl.Texture, vao, mode, vertices: int, instances: int) -> None:
+    """Draw ``instances`` of ``vao`` added into ``target`` (additive float blending);
+    releases ``vao``."""
+    fbo = ctx.framebuffer(color_attachments=[target])
+    with bound(ctx, fbo):
+        ctx.enable(moderngl.BLEND)
+        ctx.blend_func = moderngl.ONE, moderngl.ONE
+        ctx.blend_equation = moderngl.FUNC_ADD
+        vao.render(mode, vertices=vertices, instances=instances)
+        ctx.disable(moderngl.BLEND)
+    fbo.release()
+    vao.release()
+
+
 class Splatter:
     """Splat program for one phase function and splat mode (``adaptive``: each splat's
     own kernel, where it has one; ``density``: each splat's kernel from the photons per
@@ -76,22 +90,12 @@ class Splatter:
         """The pre-pass: photons per DENSITY_CELL² cell of the image (R32F, bilinear)."""
         ctx, prog = self.ctx, self.density
         size = (-(-view.width // DENSITY_CELL), -(-view.height // DENSITY_CELL))
-        grid = ctx.texture(size, 1, dtype="f4")
+        grid = ctx.texture(size, 1, np.zeros(size[0] * size[1], np.float32).tobytes(), dtype="f4")  # counts from 0
         grid.filter = moderngl.LINEAR, moderngl.LINEAR
         grid.repeat_x = grid.repeat_y = False
         view.set_uniforms(prog)
         fmt, names = attribute_layout(prog, INSTANCE_PARTS, per_instance=True)
-        vao = ctx.vertex_array(prog, [(splats, fmt, *names)])
-        fbo = ctx.framebuffer(color_attachments=[grid])
-        with bound(ctx, fbo):
-            fbo.clear(0.0, 0.0, 0.0, 0.0)
-            ctx.enable(moderngl.BLEND)
-            ctx.blend_func = moderngl.ONE, moderngl.ONE
-            ctx.blend_equation = moderngl.FUNC_ADD
-            vao.render(moderngl.POINTS, vertices=1, instances=count)
-            ctx.disable(moderngl.BLEND)
-        fbo.release()
-        vao.release()
+        _add_into(ctx, grid, ctx.vertex_array(prog, [(splats, fmt, *names)]), moderngl.POINTS, 1, count)
         return grid
 
     def splat(self, splats: moderngl.Buffer, count: int, view, medium, splat_radius: float,
@@ -117,15 +121,7 @@ class Splatter:
                          mean_per_pixel=count / float(view.width * view.height))
         fmt, names = attribute_layout(prog, INSTANCE_PARTS, per_instance=True)
         vao = ctx.vertex_array(prog, [(self.corners, "2f", "in_corner"), (splats, fmt, *names)])
-        fbo = ctx.framebuffer(color_attachments=[target])
-        with bound(ctx, fbo):
-            ctx.enable(moderngl.BLEND)
-            ctx.blend_func = moderngl.ONE, moderngl.ONE
-            ctx.blend_equation = moderngl.FUNC_ADD
-            vao.render(moderngl.TRIANGLE_STRIP, vertices=4, instances=count)
-            ctx.disable(moderngl.BLEND)
-        fbo.release()
-        vao.release()
+        _add_into(ctx, target, vao, moderngl.TRIANGLE_STRIP, 4, count)
         if grid is not None:
             grid.release()
 
