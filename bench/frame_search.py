@@ -30,7 +30,16 @@ CANDIDATES = {
     "adopted-density4": {**ADOPTED, "splat": "density", "splat_neighbours": 4},
     "adopted-density8": {**ADOPTED, "splat": "density", "splat_neighbours": 8},
     "adopted-density16": {**ADOPTED, "splat": "density", "splat_neighbours": 16},
+    "adopted-density12": {**ADOPTED, "splat": "density", "splat_neighbours": 12},
 }
+# one axis at a time from adopted-density8 (the first round's least worst ratio)
+_D8 = {**ADOPTED, "splat": "density", "splat_neighbours": 8}
+CANDIDATES.update({
+    "d8-radius0.04": {**_D8, "splat_radius": 0.04}, "d8-radius0.01": {**_D8, "splat_radius": 0.01},
+    "d8-deterministic": {**_D8, "fresnel": "deterministic"}, "d8-steps4": {**_D8, "steps": 4},
+    "d8-uniform": {**_D8, "emission": "uniform"}, "d8-layers4": {**_D8, "layers": 4},
+    "d8-sobol": {**_D8, "emission_jitter": "sobol"},
+})
 
 
 def main(argv=None) -> int:

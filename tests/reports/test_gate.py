@@ -189,7 +189,7 @@ def test_the_unmodified_approximation_passes_the_default_budgets(env, capsys):
     assert main(["gate", "--scenes", "sphere1,bunny", "--render-references", "--out", str(env / "g"),
                  "--budgets", str(env / "budgets.toml"), "--quiet", *FAST_MEASUREMENT]) == 0
     out = capsys.readouterr().out
-    assert "gate passed: 0 of 12 checks failed" in out
+    assert "gate passed: 0 of 14 checks failed" in out
 
 
 ANIMATE = ["--frames", "3", "--width", "32", "--height", "32", "--photon-res", "64", "--light-res", "64",
