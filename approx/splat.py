@@ -20,6 +20,10 @@ INSTANCE_PARTS = [("4f", "in_end"), ("4f", "in_dir_t"), ("4f", "in_power")]
 # splat = density: the pre-pass's grid cell (pixels a side): coarse enough that a cell holds
 # several photons where the caustic is, fine enough to follow it; read bilinearly
 DENSITY_CELL = 4
+# splat = density: the narrowest kernel, in splat_radius. A screen-space density gives a
+# photon near the camera a kernel a few pixels wide, a few millimetres in the medium: its
+# 1/d² makes it a firefly (docs/decisions.md "Bandwidth from density")
+DENSITY_FLOOR = 0.5
 
 
 def splats_from_arrays(end, direction, power, sigma=None) -> np.ndarray:
@@ -118,7 +122,7 @@ class Splatter:
             grid = self._density_grid(splats, count, view)
             grid.use(location=1)
             set_uniforms(prog, density=1, density_cell=float(DENSITY_CELL), splat_neighbours=float(splat_neighbours),
-                         mean_per_pixel=count / float(view.width * view.height))
+                         mean_per_pixel=count / float(view.width * view.height), density_floor=DENSITY_FLOOR)
         fmt, names = attribute_layout(prog, INSTANCE_PARTS, per_instance=True)
         vao = ctx.vertex_array(prog, [(self.corners, "2f", "in_corner"), (splats, fmt, *names)])
         _add_into(ctx, target, vao, moderngl.TRIANGLE_STRIP, 4, count)

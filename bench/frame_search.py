@@ -40,6 +40,8 @@ CANDIDATES.update({
     "d8-uniform": {**_D8, "emission": "uniform"}, "d8-layers4": {**_D8, "layers": 4},
     "d8-sobol": {**_D8, "emission_jitter": "sobol"},
 })
+# round three: the second round's least worst ratio (uniform emission) with k 12
+CANDIDATES["d12-uniform"] = {**_D8, "emission": "uniform", "splat_neighbours": 12}
 
 
 def main(argv=None) -> int:

@@ -30,11 +30,12 @@ flat out vec3 v_weight;
 // splat's centre (bilinear): the radius in pixels of a disc that holds splat_neighbours
 // photons, r = √(k / (π·ρ)) with ρ photons per pixel², as the k-th nearest neighbour's
 // distance estimates it (in 2-D: h ∝ f^(−1/2), Abramson's square-root law), taken as σ
-// and carried to the splat's distance; within [splat_radius/16, 4·splat_radius].
+// and carried to the splat's distance; within [density_floor, 4]·splat_radius.
 uniform sampler2D density;     // photons per cell (density.vert.glsl)
 uniform float density_cell;    // a cell's side (pixels)
 uniform float splat_neighbours;
 uniform float mean_per_pixel;  // the frame's photons per pixel² over the whole image (DENSITY_IGNORED)
+uniform float density_floor;   // the narrowest kernel, in splat_radius (approx.splat.DENSITY_FLOOR)
 #endif
 #ifdef SPLAT_ADAPTIVE
 flat out float v_sigma;       // this splat's kernel standard deviation (m)
@@ -76,7 +77,7 @@ void main() {
 #endif
     float r = sqrt(splat_neighbours / (3.141592653589793 * per_pixel));
     bool boxed = true;
-    float sigma = clamp(r * pixel_angle * dist, splat_radius / 16.0, 4.0 * splat_radius);
+    float sigma = clamp(r * pixel_angle * dist, density_floor * splat_radius, 4.0 * splat_radius);
 #else
     bool boxed = in_dir_t.w > 0.0;
     float sigma = boxed ? in_dir_t.w : splat_radius;
