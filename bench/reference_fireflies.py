@@ -43,7 +43,7 @@ SCENES = ("sphere1", "sphere2", "bunny", "feline", "skull", "two_spheres", "refo
 
 def measure(name: str, photons: int, batches: int, size: int, geometry_per_connection: float | None) -> dict:
     from volcaustics.reference.mi_setup import mitsuba
-    from volcaustics.reference.render.export import mitsuba_dict
+    from volcaustics.reference.render.export import load_scene
     from volcaustics.reference.render.integrators import SingleScatterIntegrator, VolumetricLightTracer, configure
     from volcaustics.reference.request import resolve
     from volcaustics.reference.settings import ReferenceSettings
@@ -52,7 +52,7 @@ def measure(name: str, photons: int, batches: int, size: int, geometry_per_conne
     mi = mitsuba()
     settings = ReferenceSettings(photons=photons, spp=batches, batches=batches, width=size, height=size)
     request = resolve(load_builtin(name), settings, "caustic")
-    mi_scene = mi.load_dict(mitsuba_dict(request.description))
+    mi_scene = load_scene(mi, request.description)
     props = mi.Properties()
     props["mode"] = "caustic"
     if geometry_per_connection is not None:
@@ -86,7 +86,7 @@ def cause(name: str, photons: int, batches: int, size: int) -> list:
     import drjit as dr
 
     from volcaustics.reference.mi_setup import mitsuba
-    from volcaustics.reference.render.export import mitsuba_dict
+    from volcaustics.reference.render.export import load_scene
     from volcaustics.reference.render.integrators import (
         SingleScatterIntegrator,
         VolumetricLightTracer,
@@ -112,7 +112,7 @@ def cause(name: str, photons: int, batches: int, size: int) -> list:
 
     settings = ReferenceSettings(photons=photons, spp=batches, batches=batches, width=size, height=size)
     request = resolve(load_builtin(name), settings, "caustic")
-    mi_scene = mi.load_dict(mitsuba_dict(request.description))
+    mi_scene = load_scene(mi, request.description)
     props = mi.Properties()
     props["mode"] = "caustic"
     tracer = configure(SingleConnection(props), request.scene, mi_scene)

@@ -205,14 +205,14 @@ def _render(request: RenderRequest, state: RenderState | None = None, *, progres
     from tqdm import tqdm
 
     from ..mi_setup import mitsuba
-    from .export import mitsuba_dict
+    from .export import load_scene
     from .integrators import SingleScatterIntegrator, VolumetricLightTracer, configure
 
     mi = mitsuba()
     scene, settings = request.scene, request.settings
     state = state or RenderState.for_settings(settings)
     t0 = time.perf_counter()
-    mi_scene = mi.load_dict(mitsuba_dict(request.description))
+    mi_scene = load_scene(mi, request.description)
     tracer = configure(VolumetricLightTracer(_properties(mode=request.mode, max_scatter=1)), scene, mi_scene)
     camera = configure(SingleScatterIntegrator(), scene, mi_scene)
     higher = None

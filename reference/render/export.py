@@ -71,6 +71,14 @@ def _transform(mi, ops):
     return t
 
 
+def load_scene(mi, description):
+    """The Mitsuba scene of ``description``, its objects as they are: Mitsuba's load-time
+    optimisation merges objects with identical BSDFs and media into one shape without an
+    id, and the light tracer tells its shapes apart by id (``shapes.ShapeTable``): nine
+    identical glass lenses had vanished from the caustic (the held-out lens_array)."""
+    return mi.load_dict(mitsuba_dict(description), optimize=False)
+
+
 def mitsuba_dict(description: Description, mesh_dir: str | None = None) -> dict:
     """The ``mi.load_dict`` input of a description; ``mesh_dir`` (default: the cache)
     receives the PLY files."""
