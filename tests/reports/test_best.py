@@ -201,8 +201,8 @@ def test_the_frame_criterion_ranks_by_one_frames_error_and_its_goal_is_half():
 
 def test_preset_best_matches_the_papers_frame_cost_on_any_scene_file(monkeypatch, tmp_path):
     """photon_res = auto (the preset best): on a held-out scene file, at 48², the matched
-    best configuration costs at most the paper configuration at the same size, and the
-    preset's own photon_res would cost more (the match spent what it could); an explicit
+    best configuration costs at most the paper configuration at the same size, and 5%
+    more photons per side would cost more (the match spent what it could); an explicit
     photon_res is kept (the negative control: no matching)."""
     from volcaustics.approx.params import preset
     from volcaustics.reports.core.cost_match import with_auto_photon_res
@@ -215,7 +215,8 @@ def test_preset_best_matches_the_papers_frame_cost_on_any_scene_file(monkeypatch
     matcher = CostMatcher(str(tmp_path / "probe"))
     try:
         paper = matcher.cost(scene, preset("quick", width=48, height=48))
-        assert matcher.cost(scene, matched) <= paper < matcher.cost(scene, params)
+        larger = dataclasses.replace(matched, photon_res=int(matched.photon_res * 1.05) + 1)
+        assert matcher.cost(scene, matched) <= paper < matcher.cost(scene, larger)
     finally:
         matcher.release()
     assert matched.photon_res != params.photon_res
