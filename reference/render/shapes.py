@@ -28,10 +28,7 @@ class ShapeTable:
                 entries[sid] = (KIND_DIFFUSE, i, (0.0, 0.0, 0.0))
             elif name == "medium_box":
                 entries[sid] = (KIND_BOUNDARY, -1, (0.0, 0.0, 0.0))
-        known = {(k, i) for k, i, _ in entries.values()}
-        missing = [i for i in range(len(scene.specular)) if (KIND_SPECULAR, i) not in known]
-        missing += [i for i in range(len(scene.diffuse)) if (KIND_DIFFUSE, i) not in known]
-        if missing or len(entries) < len(list(mi_scene.shapes())):
+        if any(not shape.id() for shape in mi_scene.shapes()):  # Mitsuba's merged shapes have no id
             raise RuntimeError(f"the Mitsuba scene lost or renamed objects ({[s.id() for s in mi_scene.shapes()]}): "
                                f"load it with export.load_scene (no merging)")
         size = max(entries, default=0) + 1
