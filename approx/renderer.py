@@ -104,11 +104,12 @@ class Renderer:
         fbo.release()
         return image
 
-    def render(self, scene=None, params: ApproxParams | None = None, *, keep_records: bool = True) -> Frame:
+    def render(self, scene=None, params: ApproxParams | None = None, *, keep_records: bool = True,
+               keep_guides: bool = False) -> Frame:
         """Render one frame. ``scene`` (None: the construction's) may replace light,
         medium, camera, materials or object transforms of the scene given at
         construction (same meshes, in the same order: else ValueError);
-        ``params`` None: the paper's defaults."""
+        ``params`` None: the paper's defaults; ``keep_guides``: fill ``Frame.guides``."""
         ctx = self.ctx
         scene = scene or self.scene
         p = (params or ApproxParams()).resolved(scene)
@@ -141,7 +142,8 @@ class Renderer:
         released += [fog_tex, direct_tex]
         geometry = _read_rgb(gbuf_geo)
         images = _compose(caustic_steps, _read_rgb(fog_tex), _read_rgb(direct_tex), geometry, p)
-        normal = _read_rgb(gbuf_nrm)
+        # the G-buffer's normal leaves the GPU only for a denoiser or a temporal filter that reads it
+        normal = _read_rgb(gbuf_nrm) if keep_guides or p.denoise == "oidn" else None
         emitted = len(records[0]) if keep_records and records else None  # photons alive after emission
         for r in released:
             r.release()
@@ -153,7 +155,7 @@ class Renderer:
                 images, *guides(scene, geometry, normal))
         return Frame(images=images, caustic_steps=caustic_steps, records=records, timings=timings,
                      timing_method=timer.method, params=p.to_dict(), photons_emitted=emitted, gl=gl_info(ctx),
-                     guides={"distance": geometry[..., 0], "normal": normal})
+                     guides={"distance": geometry[..., 0], "normal": normal} if keep_guides else {})
 
     def first_records(self, scene, params: ApproxParams, seeds) -> list:
         """Per seed in ``seeds``, the emission state an exact replay starts from: the

@@ -86,13 +86,14 @@ class Splatter:
         if density:
             defines.update({"SPLAT_DENSITY": 1, **(test_defines or {})})
         self.program = program(ctx, "splat/splat.vert.glsl", "splat/splat.frag.glsl", defines)
-        self.density = program(ctx, "splat/density.vert.glsl", "splat/density.frag.glsl") if density else None
+        self.density_program = (program(ctx, "splat/density.vert.glsl", "splat/density.frag.glsl") if density
+                                else None)
         corners = np.array([[-1, -1], [1, -1], [-1, 1], [1, 1]], np.float32)
         self.corners = ctx.buffer(corners.tobytes())
 
     def _density_grid(self, splats: moderngl.Buffer, count: int, view) -> moderngl.Texture:
         """The pre-pass: photons per DENSITY_CELL² cell of the image (R32F, bilinear)."""
-        ctx, prog = self.ctx, self.density
+        ctx, prog = self.ctx, self.density_program
         size = (-(-view.width // DENSITY_CELL), -(-view.height // DENSITY_CELL))
         grid = ctx.texture(size, 1, np.zeros(size[0] * size[1], np.float32).tobytes(), dtype="f4")  # counts from 0
         grid.filter = moderngl.LINEAR, moderngl.LINEAR
@@ -118,7 +119,7 @@ class Splatter:
         scene_distance.use(location=0)
         prog["scene_distance"].value = 0
         grid = None
-        if self.density is not None:
+        if self.density_program is not None:
             grid = self._density_grid(splats, count, view)
             grid.use(location=1)
             set_uniforms(prog, density=1, density_cell=float(DENSITY_CELL), splat_neighbours=float(splat_neighbours),
@@ -131,6 +132,6 @@ class Splatter:
 
     def release(self):
         self.program.release()
-        if self.density is not None:
-            self.density.release()
+        if self.density_program is not None:
+            self.density_program.release()
         self.corners.release()

@@ -43,7 +43,7 @@ class Oracle:
         for i, obj in enumerate(scene.specular):
             d[f"specular_{i}"] = {"type": "ply", "filename": mesh_file(obj.mesh.load()),
                                   "face_normals": False}
-        self.mi_scene = mi.load_dict(d)
+        self.mi_scene = mi.load_dict(d, optimize=False)  # merging would drop the ids the table reads
         table = {}
         for shape in self.mi_scene.shapes():
             table[int(dr.reinterpret_array(mi.UInt32, mi.ShapePtr(shape))[0])] = int(shape.id().split("_")[1])

@@ -106,6 +106,7 @@ def summarize(run, frames: list, temporal: list) -> dict:
     out = {}
     for mode in run.modes:
         per_component = {}
+        keep = keep_masks(run, mode) if len(run.frames) >= 3 else None  # what the lag compares
         for component in COLOUR_LAYERS:
             pairs = [r for r in temporal if r["seed_mode"] == mode and r["component"] == component
                      and math.isfinite(r["flicker"])]
@@ -124,19 +125,20 @@ def summarize(run, frames: list, temporal: list) -> dict:
                 **{f"{m}_mean": _mean(v) for m, v in series.items()},
                 **{f"{m}_worst": _worst(m, v) for m, v in series.items()},
                 "pairs": n,
-                "lag_frames": _lag(run, mode, component),
+                "lag_frames": _lag(run, mode, component, keep),
             }
         out[mode] = per_component
     return out
 
 
-def _lag(run, mode: str, component: str) -> float:
-    """Frames the chains' mean trails the references (``metrics.temporal.trailing_lag``)."""
-    if len(run.frames) < 3:
+def _lag(run, mode: str, component: str, keep) -> float:
+    """Frames the chains' mean trails the references (``metrics.temporal.trailing_lag``)
+    over the pixels ``keep`` (T×H×W; None: too few frames)."""
+    if keep is None:
         return NAN
     mean = run.approx[mode][component].mean(axis=0)
     references = np.stack([r.mean[component] for r in run.references])
-    return float(trailing_lag(mean, references, mask=keep_masks(run, mode)))
+    return float(trailing_lag(mean, references, mask=keep))
 
 
 def _worst(metric: str, values) -> float:

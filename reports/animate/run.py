@@ -123,7 +123,7 @@ def _render_frame(renderer, scene, params, t: int, modes, chains: int) -> dict:
         per_layer = {layer: [] for layer in (*COLOUR_LAYERS, MASK_LAYER)}
         for chain in range(chains):
             p = dataclasses.replace(params, seed=chain_seed(mode, params.seed, chain, chains, t))
-            frame = renderer.render(scene, p, keep_records=False)
+            frame = renderer.render(scene, p, keep_records=False, keep_guides=True)
             seconds.append(frame.timings["frame_wall"])
             out["gl"] = frame.gl
             out.update({f"guide/{name}": frame.guides[name].astype(np.float32) for name in GUIDES})

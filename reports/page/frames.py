@@ -7,11 +7,7 @@ from __future__ import annotations
 
 from html import escape
 
-
-def _pct(value, se=None) -> str:
-    if value is None or value != value:
-        return "–"
-    return f"{100 * value:.2f}%" + (f" ± {100 * se:.2f}" if se is not None and se == se else "")
+from volcaustics.reports.page.best import percent_pm as _pct
 
 
 def _seconds(value) -> str:

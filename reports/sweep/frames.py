@@ -53,22 +53,16 @@ def run_frames(scenes, out_dir: str, *, seeds: int = SEEDS, progress: bool = Tru
     """Measure every (scene, configuration, denoiser); write and return the table."""
     heldout = {heldout_path(name) for name in HELDOUT_NAMES}
     rows, t0 = [], time.perf_counter()
-    todo = [(s, c, d) for s in scenes for c in CONFIGS for d in DENOISERS]
-    for scene_arg, config, denoiser in tqdm(todo, desc="frames", unit="point", disable=not progress):
+    todo = [(s, c) for s in scenes for c in CONFIGS]
+    for scene_arg, config in tqdm(todo, desc="frames", unit="configuration", disable=not progress):
         scene = resolve_scene(scene_arg)
-        params = dataclasses.replace(config_params(config, scene_arg), denoise=denoiser)
-        reference = reference_for(scene, sized(REPORT_REFERENCE, scene, params), "continue")
-        s = run_experiment(scene, params, seeds=seeds, reference=reference, scope="gate").summary
-        caustic = s["images"]["caustic"]
-        frame, mean = caustic["frame_relative_mse"], caustic["relative_mse"]
-        rows.append({"scene": scene.name, "heldout": os.path.abspath(scene_arg) in heldout or scene_arg in heldout,
-                     "config": config, "denoise": denoiser, "photon_res": params.photon_res,
-                     "frame_cost": s["cost"]["total"], "frame_relmse": frame["debiased"],
-                     "frame_relmse_se": frame["standard_error"], "relmse_debiased": mean["debiased"],
-                     "relmse_se": mean["standard_error"], "hdr_flip": caustic["hdr_flip"]["value"],
-                     "frame_s": s["approx_timings_s"].get("frame_wall"),
-                     "denoise_s": s["approx_timings_s"].get("denoise"),
-                     "denoised_pixels": s["cost"].get("denoised_pixels")})
+        matched = config_params(config, scene_arg)  # once: the denoiser is beside the cost
+        for denoiser in DENOISERS:
+            params = dataclasses.replace(matched, denoise=denoiser)
+            reference = reference_for(scene, sized(REPORT_REFERENCE, scene, params), "continue")
+            summary = run_experiment(scene, params, seeds=seeds, reference=reference, scope="gate").summary
+            rows.append({"scene": scene.name, "heldout": os.path.abspath(scene_arg) in heldout, "config": config,
+                         "denoise": denoiser, **_row(summary)})
     table = with_ratios(pd.DataFrame(rows))
     os.makedirs(out_dir, exist_ok=True)
     with atomic_path(os.path.join(out_dir, FRAMES_FILE)) as tmp:
@@ -78,6 +72,18 @@ def run_frames(scenes, out_dir: str, *, seeds: int = SEEDS, progress: bool = Tru
     with atomic_path(os.path.join(out_dir, MANIFEST)) as tmp, open(tmp, "w", encoding="utf-8") as fh:
         json.dump(manifest, fh, indent=1, default=float)
     return table
+
+
+def _row(summary: dict) -> dict:
+    """A point's numbers: photon_res, cost, one frame's and the mean's caustic errors, times."""
+    caustic = summary["images"]["caustic"]
+    frame, mean = caustic["frame_relative_mse"], caustic["relative_mse"]
+    timings = summary["approx_timings_s"]
+    return {"photon_res": summary["params"]["photon_res"], "frame_cost": summary["cost"]["total"],
+            "frame_relmse": frame["debiased"], "frame_relmse_se": frame["standard_error"],
+            "relmse_debiased": mean["debiased"], "relmse_se": mean["standard_error"],
+            "hdr_flip": caustic["hdr_flip"]["value"], "frame_s": timings.get("frame_wall"),
+            "denoise_s": timings.get("denoise"), "denoised_pixels": summary["cost"].get("denoised_pixels")}
 
 
 def with_ratios(table: pd.DataFrame) -> pd.DataFrame:
