@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 OUT ?= runs/report
 
-.PHONY: setup report test test-fast lint doctor animate frames sweep sweep-variants sweep-best sweep-density gate gate-baseline lower-bounds clean
+.PHONY: setup report test test-fast lint docs doctor animate frames sweep sweep-variants sweep-best sweep-density gate gate-baseline lower-bounds clean
 
 setup:
 	@bash scripts/setup.sh
@@ -43,14 +43,25 @@ test: setup
 test-fast: setup
 	@bash scripts/run_tests.sh -m "not slow"
 
-# ruff, configured in pyproject.toml ([tool.ruff]).
+# ruff (pyproject.toml [tool.ruff]), the reference check (every path, module name and docs
+# section named anywhere exists) and the import-resolution check (mypy follows every
+# volcaustics.* import of the package and its tests; its rules limited to imports).
 lint: setup
 	$(BIN)/ruff check .
+	$(BIN)/python scripts/check_references.py
+	$(BIN)/python scripts/check_imports.py
+
+# The documentation site (MkDocs, Material theme) -> runs/site, strictly: a broken link, a
+# stale reference or a missing page fails it. The command reference is generated from the
+# parsers as the site builds (scripts/docs_hook.py).
+docs: setup
+	$(BIN)/python scripts/check_references.py
+	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict --quiet
 
 doctor: setup
 	$(BIN)/volcaustics doctor
 
-# The regression gate on the built-ins: budgets (reports/budgets.toml) and, once a
+# The regression gate on the built-ins: budgets (reports/gate/budgets.toml) and, once a
 # baseline is accepted (`make gate-baseline`), the regression test against it.
 GATE_BASELINE ?= gate-baseline
 gate: setup

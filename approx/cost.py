@@ -1,4 +1,4 @@
-"""A frame's cost that travels across hardware (DESIGN.md "approx: variants"): the
+"""A frame's cost that travels across hardware (docs/approx.md: the
 light-map texels it reads and the photons it splats. llvmpipe wall time is reported
 beside it, never instead: the method's claims are about GPUs.
 

@@ -1,4 +1,4 @@
-"""Adaptive emission (``emission`` = adaptive; DESIGN.md "approx: variants"): the
+"""Adaptive emission (``emission`` = adaptive; docs/approx.md: the
 photon_res² photon slots drawn over the light's texels in proportion to an importance
 (``emission/importance.comp.glsl``: the uniform photon's power times 1 + gain where the
 surface turns sharply or breaks), instead of one slot per texel.

@@ -3,7 +3,7 @@
 The meshes lie in the buffers in *object* space; each frame writes every object's
 object-to-world matrix (``scenes.model.Transform``) into one uniform block
 (``shaders/common/model.glsl``) that every pass's vertex shader applies, so rigid
-objects move between frames without a re-upload (DESIGN.md "Dynamic scenes"), and a
+objects move between frames without a re-upload (docs/over-time.md, and a
 renderer built on the moved scene computes the very same floats. What depends on
 where the objects are — the specular objects' box, the medium's box
 (``scenes.bounds.medium_bounds``, which also holds the light and the camera) — is
@@ -66,7 +66,7 @@ def specular_bounds(scene) -> tuple[np.ndarray, np.ndarray]:
 def interleave(mesh, material: int) -> np.ndarray:
     """(3·F)×10 float32 un-indexed triangles: position, angle-weighted vertex normal
     (shading), the triangle's geometric normal (outward; the inside/outside rule of
-    DESIGN.md needs it at every hit), material."""
+    docs/conventions.md needs it at every hit), material."""
     normals = mesh.vertex_normals()
     idx = mesh.faces.reshape(-1)
     data = np.empty((len(idx), VERTEX_FLOATS), dtype=np.float32)

@@ -1,4 +1,4 @@
-"""The approximation's parameters, declared once (DESIGN.md "One parameter table").
+"""The approximation's parameters, declared once (docs/architecture.md).
 
 Each :class:`Param` of :data:`PARAMS` states its name (as everywhere: CLI, tables,
 sweeps, plots), type, range or choices, unit, help, default, and how it reaches the
@@ -6,7 +6,7 @@ shaders: as a ``define`` of one program (it selects the program: a new value com
 another) or as a ``uniform`` (set per frame), or neither (``host``: the Python side
 uses it, e.g. to size a dispatch). From the table come :class:`ApproxParams`
 (validation in its constructor), every command's flags and the sweep's value parsing
-(``reports.core.params_cli``), figure labels (:func:`label`) and the programs' cache
+(``reports.core.params``), figure labels (:func:`label`) and the programs' cache
 keys (:func:`defines`). Adding a parameter is a table entry and the code that uses it.
 """
 
@@ -16,8 +16,10 @@ import dataclasses
 from dataclasses import dataclass, field, replace
 from typing import Callable
 
+from volcaustics.infra.errors import InputError
 
-class ParamError(ValueError):
+
+class ParamError(InputError):
     """A parameter value is out of range; the message names it and what is allowed."""
 
 

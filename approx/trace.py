@@ -19,8 +19,8 @@ from typing import NamedTuple
 import moderngl
 import numpy as np
 
+from volcaustics.infra.memory import image_fits, memory_budget
 from volcaustics.scenes.formats import DIFFERENTIAL_DTYPE, PHOTON_DTYPE, RAW_RECORD_DTYPE
-from volcaustics.scenes.memory import image_fits, memory_budget
 
 from .emission import draw_slots
 from .glsl import compute_shader, set_uniforms

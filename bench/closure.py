@@ -7,7 +7,7 @@ report's reference, 16 sub-photons).
 
 Configurations: ``paper`` (the quick preset: the paper's method at the harness's size),
 ``adaptive`` (the same with ``emission = adaptive``) and ``adopted`` (the best search's
-configuration, ``reports.sweep.adopted``). The goal (issue 37): the residual's debiased relMSE
+configuration, ``reports.sweep.adopted``). The goal: the residual's debiased relMSE
 part ≤ 0.2 points and |z| ≤ 3 for its energy and relMSE, every term to ±1% of the
 reference's energy. Prints one block per point and, with ``--json``, appends one JSON
 object per point (the decomposition's rows and residual) to FILE. Runs the code of the

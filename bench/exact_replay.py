@@ -1,5 +1,4 @@
-"""The exact replay against the machine's ray-casting bound (issue 35 "the exact replay
-as a wavefront").
+"""The exact replay against the machine's ray-casting bound.
 
     .venv/bin/python bench/exact_replay.py [SCENE ...] [--seeds 6] [--subphotons 16]
 

@@ -1,4 +1,4 @@
-"""The harness's own speed, as a new user meets it (issue 35 "Fast answers").
+"""The harness's own speed, as a new user meets it.
 
     .venv/bin/python bench/harness_speed.py [--scenes LIST] [--tests] [--keep DIR]
 
@@ -17,8 +17,8 @@ On a fresh cache (a new ``$VOLCAUSTICS_CACHE``), one after another:
 
 Prints one table: each command's wall seconds and, for the cold report, where they
 went (the references' render seconds from their manifests, each experiment stage
-summed over the points' summaries) with their shares. The figures before and after
-issue 35 are in docs/decisions.md "Harness speed".
+summed over the points' summaries) with their shares. The figures of the speed work
+are in docs/history.md "Harness speed".
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""The reference caustic's noise floor and render time per built-in scene (issue 8).
+"""The reference caustic's noise floor and render time per built-in scene.
 
     .venv/bin/python bench/reference_fireflies.py [SCENE ...] [--photons N] [--batches B] [--size S]
         [--geometry-per-connection K[,K...]] [--cause]
@@ -7,7 +7,7 @@ For each scene, at the report's settings (2^22 photons in 4 batches, 256², seed
 0..B−1 as ``reference.render`` uses them), the light tracer's caustic alone:
 
 * ``floor``: Σ var / Σ mean² over the pixels that do not see glass, var the variance
-  of the mean over the batches (DESIGN.md "Noise");
+  of the mean over the batches (docs/concepts/measuring.md;
 * ``top 0.1%``: the share of that Σ var held by the 0.1% largest pixel-channel
   variances (fireflies: 81% on bunny before the fix, a few % for noise without them);
 * ``energy``: Σ mean over the same pixels, with its standard error over the batches;
@@ -162,7 +162,7 @@ def main(argv=None) -> int:
             print(f"{r['scene']:<12} {g:>10} {100 * r['floor']:9.4f}% {100 * r['top']:8.1f}% "
                   f"{r['energy']:10.3f} ± {r['energy_se']:5.3f} {r['seconds']:8.2f}", flush=True)
     if args.cause:
-        print("\nsingle connection on the whole segment (the estimator before issue 8), by segment class")
+        print("\nsingle connection on the whole segment (the unstratified estimator), by segment class")
         print(f"{'scene':<12} {'class':<18} {'energy':>8} {'sum var':>8}")
         for name in args.scenes:
             for label, energy, var, floor in cause(name, args.photons, args.batches, args.size):

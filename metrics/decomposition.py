@@ -1,6 +1,6 @@
 """The caustic's error split into its causes (pure numpy, float64 accumulation).
 
-DESIGN.md, "Measuring the error" → Images. With one splatter for all:
+docs/concepts/measuring.md → Images. With one splatter for all:
 
 =====================  =======================================================
 ``approx``             A: the approximation's caustic (mean over its seeds)
@@ -33,7 +33,7 @@ reader meets them, the emission first; the chain runs A → E_k → E_∞ → E_
                                          within noise, else a renderer is wrong
 ==================  ===================  ===========================================
 
-Each term is the change that removing its cause brings towards R; DESIGN.md writes
+Each term is the change that removing its cause brings towards R; docs/concepts/decomposition.md writes
 the blur as E_∞ − E_∞,s, the opposite sign, which would not sum to R − A.
 
 Each term is given, over the compared pixels, as an *energy share* Σ term / Σ R per

@@ -16,7 +16,7 @@ in the last bit), so the powers here are taken in float64 and rounded: the corre
 rounded float32 but where the float64 power falls within its own error of a float32
 rounding midpoint (~1e-8 of cases). A pixel where the two round differently moves by a
 float32 power's last bit; on sphere1 that is 0.03–0.2% of the pixels and moves a mean by
-≤ 1.4e-10 of FLIP's [0, 1] (docs/decisions.md "Metrics stage speed"). With the C
+≤ 1.4e-10 of FLIP's [0, 1] (docs/history.md "Metrics stage speed"). With the C
 library's ``powf`` the maps are bit-identical (the test says so).
 """
 

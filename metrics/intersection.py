@@ -1,6 +1,6 @@
 """Intersection error of the approximation per segment (pure numpy, float64).
 
-DESIGN.md, "Measuring the error" → "Segments": for every segment the
+docs/concepts/measuring.md → "Segments": for every segment the
 approximation searched (its records of step k), the exact oracle answers on the
 same interval (``reference.oracle.Oracle.first_hits(start, direction,
 search_length)``; this module takes its answers as plain arrays). Each segment

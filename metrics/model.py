@@ -1,5 +1,5 @@
 """The model term: how far the paper's single-scattering model is from K scattering
-orders (DESIGN.md "Beyond the paper's model"), per component (pure numpy, float64).
+orders (docs/concepts/model-term.md, per component (pure numpy, float64).
 
 With R_ss the reference of the paper's model, T = R_ms − R_ss what the higher orders
 add (the reference's ``<component>_ms`` layer) and A the approximation (mean over its

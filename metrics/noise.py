@@ -1,6 +1,6 @@
 """Noise-aware comparison of two Monte Carlo images (pure numpy, float64 accumulation).
 
-DESIGN.md, "Noise": a reference stores the variance of its mean per pixel; its
+docs/concepts/measuring.md: a reference stores the variance of its mean per pixel; its
 noise floor Σ var / Σ mean² is the relative MSE an exact renderer would get
 against it. Comparing two unbiased estimates of one image, their squared
 difference has the expectation Σ bias² + Σ (var_test + var_reference): the
@@ -57,7 +57,7 @@ def _variance_squared(batches):
 
 def noise_floor(reference, reference_var, *, mask=None) -> float:
     """Σ var / Σ mean² over the pixels of ``mask``: the reference's own noise as a
-    relative MSE (DESIGN.md "Noise").
+    relative MSE (docs/concepts/measuring.md.
 
     Parameters
     ----------
@@ -200,8 +200,8 @@ def debiased_relative_mse(reference_batches, test_batches, *, mask=None) -> Debi
 #
 # The approximation is biased; its own noise comes from its seeds (free flights,
 # Fresnel choices). Given S frames with different seeds and a reference with a
-# per-pixel variance, the *debiased* relative MSE estimates Σ bias² / Σ R² (DESIGN.md
-# "Noise"), with an interval over the seeds.
+# per-pixel variance, the *debiased* relative MSE estimates Σ bias² / Σ R² (docs/concepts/measuring.md),
+# with an interval over the seeds.
 
 MIN_SEEDS_FOR_INTERVAL = 4  # fewer seeds: no interval (a bootstrap of 2 values is their range)
 

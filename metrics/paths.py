@@ -2,7 +2,7 @@
 
 Both tracers write per-step segment records in one format (``scenes.formats.
 RECORD_DTYPE``): the approximation's GPU tracer and the exact photon tracer that
-replays the same photons with the same random numbers. From them (DESIGN.md
+replays the same photons with the same random numbers. From them (docs/concepts/measuring.md
 "Measuring the error" → Photons):
 
 * :func:`power_budget`: per step, the power (mean over RGB) whose step ended at a

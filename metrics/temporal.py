@@ -1,5 +1,5 @@
 """Temporal error: how a sequence's frame-to-frame change differs from the reference's
-(DESIGN.md "Dynamic scenes"). Pure numpy, float64 accumulation.
+(docs/over-time.md. Pure numpy, float64 accumulation.
 
 With ΔX_t = X_t − X_{t−1}, the flicker of a pair is Σ(ΔA − ΔR)² / Σ R² over the compared
 pixels, Σ R² the mean of the two reference frames' energies. A reference frame R̂_t is

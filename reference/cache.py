@@ -29,11 +29,9 @@ import zipfile
 
 import numpy as np
 
-from volcaustics.scenes.canonical import canonical_dict
-from volcaustics.scenes.formats import COLOUR_LAYERS, LAYER_NAMES, MASK_LAYER, MODEL_LAYERS
-from volcaustics.scenes.imageio import read_exr, write_exr
-from volcaustics.scenes.sources import source_hash
-from volcaustics.scenes.storage import (
+from volcaustics.infra.imageio import read_exr, write_exr
+from volcaustics.infra.sources import source_hash
+from volcaustics.infra.storage import (
     atomic_path,
     atomic_write_bytes,
     atomic_write_text,
@@ -47,6 +45,8 @@ from volcaustics.scenes.storage import (
     read_json_object,
     remove_file,
 )
+from volcaustics.scenes.canonical import canonical_dict
+from volcaustics.scenes.formats import COLOUR_LAYERS, LAYER_NAMES, MASK_LAYER, MODEL_LAYERS
 
 from . import mi_setup
 
@@ -63,7 +63,7 @@ SEAL = "manifest_sha256"  # the manifest's field holding the SHA-256 of the rest
 
 
 def code_version() -> str:
-    """Hash of the sources under reference/render/ (``scenes.sources.source_hash``)."""
+    """Hash of the sources under reference/render/ (``infra.sources.source_hash``)."""
     return source_hash({"reference/render": RENDER_FOLDER})
 
 
@@ -134,7 +134,7 @@ def load(key: str, size: tuple | None = None):
     (:func:`_manifest_size`), the EXR and PNG match its SHA-256s, and the layers are
     those a reference has, finite, variances ≥ 0, of ``size`` ((width, height); default
     the manifest's settings). A damaged entry is re-rendered, never
-    served. An entry of the layout before issue 21 (a manifest naming no files) counts
+    served. An entry of the old layout (a manifest naming no files) counts
     as missing."""
     try:
         manifest = read_json_object(manifest_path(key))  # `null` or a list is a damaged entry, like torn JSON

@@ -1,7 +1,7 @@
 """A scene as Mitsuba will load it, as plain data: the exact input of a reference render.
 
 :func:`describe` builds the dict that ``mi.load_dict`` receives
-(``reference.export.mitsuba_dict`` converts it) with two stand-ins that keep it
+(``reference.render.export.mitsuba_dict`` converts it) with two stand-ins that keep it
 plain, hashable data and need no Mitsuba import:
 
 * a transform is ``{"type": "transform", "ops": [[op, *vectors], ...]}``, applied

@@ -12,10 +12,12 @@ from __future__ import annotations
 import functools
 import os
 
+from volcaustics.infra.errors import InputError
+
 VARIANT_ENV = "VOLCAUSTICS_MI_VARIANT"
 
 
-class VariantError(ValueError):
+class VariantError(InputError):
     """The environment asks for a Mitsuba variant or libLLVM the reference cannot use;
     the message names the variable, its value and the fix."""
 

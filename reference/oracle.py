@@ -106,7 +106,7 @@ def surface_interaction(d, power, n, n_geometric, hit_material, xi, ior, stochas
 
     n: outward shading normals, n_geometric: outward geometric normals (N×3). As
     Mitsuba's dielectric, the incident side and eta come from the shading normal;
-    inside afterwards follows DESIGN.md's one rule: below the geometric surface is
+    inside afterwards follows the one rule of docs/conventions.md: below the geometric surface is
     inside the object hit."""
     from_outside = np.einsum("ij,ij->i", d, n) <= 0
     n = np.where(from_outside[:, None], n, -n)

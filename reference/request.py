@@ -1,6 +1,6 @@
 """One reference render, resolved once: exactly what will be rendered and keyed.
 
-Image size lives in one place, the settings (DESIGN.md "Results"). A request
+Image size lives in one place, the settings (docs/architecture.md. A request
 fills the settings' width/height from the scene camera where they are unset, then
 puts the scene's camera at that size, so a scene passed at any camera size with
 settings naming a size, and the same scene already resized, are one request: one

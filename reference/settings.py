@@ -5,7 +5,8 @@ from __future__ import annotations
 import math
 from dataclasses import asdict, dataclass, replace
 
-from volcaustics.scenes.memory import image_fits
+from volcaustics.infra.errors import InputError
+from volcaustics.infra.memory import image_fits
 
 # which light paths the light tracer counts (reference.integrators); "orders" is the
 # higher-orders stream's own (max_scatter > 1), not a mode a reference is requested in
@@ -23,11 +24,11 @@ IMAGE_BYTES_PER_PIXEL = 700
 BUDGET_FIELDS = ("photons", "spp", "batches", "target_noise", "max_photons", "max_seconds")
 # The orders stream's batches trace a quarter of the light tracer's paths per pixel: at the
 # report's 16 batches its floors sat 5–300× under their 0.5% targets while it took ~60% of
-# a reference's time (docs/decisions.md "Harness speed"); the targets add batches where needed.
+# a reference's time (docs/history.md "Harness speed"); the targets add batches where needed.
 ORDERS_SHARE = 4
 
 
-class SettingsError(ValueError):
+class SettingsError(InputError):
     """A reference setting is out of range; the message names it and what is allowed."""
 
 

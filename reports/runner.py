@@ -1,4 +1,4 @@
-"""The one measurement runner (DESIGN.md): points → references by a stated policy →
+"""The one measurement runner (docs/architecture.md): points → references by a stated policy →
 result-store lookup → experiments on an executor → results. The sweep, the gate and
 the report measure through it; nothing else renders a point or measures it.
 
@@ -29,6 +29,9 @@ from tqdm import tqdm
 
 from volcaustics.approx import Renderer
 from volcaustics.approx.params import ApproxParams
+from volcaustics.infra.errors import InputError
+from volcaustics.infra.memory import memory_budget
+from volcaustics.infra.storage import cache_dir
 from volcaustics.reference.cache import cached_reference, existing_reference
 from volcaustics.reference.oracle import Oracle
 from volcaustics.reference.render import render_reference
@@ -41,14 +44,12 @@ from volcaustics.reports.experiment.run import run_experiment
 from volcaustics.reports.experiment.settings import measurement_bytes
 from volcaustics.scenes import resolve_scene
 from volcaustics.scenes.fields import scene_with
-from volcaustics.scenes.memory import memory_budget
-from volcaustics.scenes.storage import cache_dir
 
 POLICIES = ("cached", "missing", "continue")
 RESULTS_STORE = "report-results"  # $VOLCAUSTICS_CACHE/report-results: the report's and the gate's results
 
 
-class RunnerError(ValueError):
+class RunnerError(InputError):
     """A point that cannot be measured here (a missing reference under ``cached``)."""
 
 
@@ -101,7 +102,7 @@ class Measured:
     results: list = field(default_factory=list)
 
 
-def reference_for(scene, settings, policy: str, *, progress: bool = False, hint: str = "", error=RunnerError):
+def reference_for(scene, settings, policy: str, *, progress: bool = False, hint: str = ""):
     """The reference of ``scene`` at ``settings`` (already sized) under ``policy``."""
     if policy not in POLICIES:
         raise ValueError(f"policy = {policy!r}: expected one of {', '.join(POLICIES)}")
@@ -111,14 +112,14 @@ def reference_for(scene, settings, policy: str, *, progress: bool = False, hint:
     if found is None:
         if policy == "cached":
             size = f"{settings.width}x{settings.height}" if settings.width else "the scene's size"
-            raise error(f"{scene.name}: no reference in the cache for {size}" + (f": {hint}" if hint else ""))
+            raise RunnerError(f"{scene.name}: no reference in the cache for {size}" + (f": {hint}" if hint else ""))
         found = render_reference(scene, settings, progress=progress)
     return found
 
 
 def measure(points: list, store: Store, *, reference_settings, measurement: MeasurementSettings, policy: str,
             views: bool = False, workers: int | None = None, dask: str | None = None, parallel: bool = False,
-            progress: bool = True, read_back: bool = True, hint: str = "", error=RunnerError) -> Measured:
+            progress: bool = True, read_back: bool = True, hint: str = "") -> Measured:
     """Measure every point not in ``store`` yet and return them all.
 
     References are resolved once per scene and image size, in this process, before any
@@ -127,14 +128,14 @@ def measure(points: list, store: Store, *, reference_settings, measurement: Meas
     ``dask`` None) or on ``reports.core.executors`` (a sweep: a failed point is reported
     in ``failed``, the others go on). ``parallel`` (the report, the gate): more than one
     point to measure run on local processes, one per core as far as their images fit the
-    memory together (:func:`_parallel_processes`), and a failed point raises ``error`` as
+    memory together (:func:`_parallel_processes`), and a failed point raises RunnerError as
     in this process. ``views``: the store
     keeps the images a report shows (a point without them counts as missing).
     ``read_back``: ``results`` holds every point as the store has it."""
     t0 = time.perf_counter()
     store.clean_stale()
     tasks, keys, references = _tasks(points, store, reference_settings, measurement, policy, views=views,
-                                     progress=progress, hint=hint, error=error)
+                                     progress=progress, hint=hint)
     unique = list({t["key"]: t for t in tasks}.values())
     done_before = len(set(keys)) - len(unique)
     processes = _parallel_processes(unique) if parallel and workers is None and dask is None else 1
@@ -144,7 +145,8 @@ def measure(points: list, store: Store, *, reference_settings, measurement: Meas
         scene_of = {task["key"]: task["scene"] for task in unique}
         for outcome in outcomes:
             if outcome.get("error"):
-                raise error(f"{scene_of[outcome['key']]}: its point failed on a worker process: {outcome['error']}")
+                failure = outcome["error"]
+                raise RunnerError(f"{scene_of[outcome['key']]}: its point failed on a worker process: {failure}")
     elif workers is None and dask is None:  # this process: the references as resolved (rendered or cached)
         outcomes = [run_point(task, progress=progress, reference=references[task["reference_key"]])
                     for task in tqdm(unique, desc="experiments", unit="point", disable=not progress)]
@@ -154,7 +156,7 @@ def measure(points: list, store: Store, *, reference_settings, measurement: Meas
     failed = [o for o in outcomes if o.get("error")]
     done = [o for o in outcomes if not o.get("error")]
     computed = {o["key"] for o in done}
-    results = [_read_back(store, point, key, views, key in computed, error)
+    results = [_read_back(store, point, key, views, key in computed)
                for point, key in zip(points, keys)] if read_back else []
     return Measured(keys=keys, done_before=done_before, computed=len(done), failed=failed,
                     seconds=time.perf_counter() - t0, point_seconds=[o["seconds"] for o in done], results=results)
@@ -168,7 +170,7 @@ def _parallel_processes(tasks) -> int:
     return max(1, min(default_workers(), len(tasks), memory_budget() // need))
 
 
-def _tasks(points, store, settings, measurement, policy, *, views, progress, hint, error) -> tuple:
+def _tasks(points, store, settings, measurement, policy, *, views, progress, hint) -> tuple:
     """The plain-data task of every point not done, every point's key, and the
     references by key."""
     scenes, references, tasks, keys = {}, {}, [], []
@@ -179,7 +181,7 @@ def _tasks(points, store, settings, measurement, policy, *, views, progress, hin
         wanted = sized(settings, scene, point.params)
         size = (point.scene, point.fields, wanted.width, wanted.height)
         if size not in references:
-            references[size] = reference_for(scene, wanted, policy, progress=progress, hint=hint, error=error)
+            references[size] = reference_for(scene, wanted, policy, progress=progress, hint=hint)
         reference = references[size]
         document = {**key_document(scene, point.params, point.seeds, reference), **measurement.to_dict()}
         key = point_key(document)
@@ -205,7 +207,7 @@ def _on_executor(tasks, store, **options) -> list:
         raise
 
 
-def _read_back(store, point, key, views, measured, error) -> PointResult | None:
+def _read_back(store, point, key, views, measured) -> PointResult | None:
     summary = store.summary(key)
     if summary is None:
         return None  # a failed point (reported in Measured.failed)
@@ -213,7 +215,7 @@ def _read_back(store, point, key, views, measured, error) -> PointResult | None:
     try:
         tables = {t: pd.read_parquet(os.path.join(folder, f"{t}.parquet")) for t in TABLES}
     except Exception as exc:  # pyarrow raises its own types for a damaged file
-        raise error(f"{folder}: the result of {point.scene} could not be read back ({exc})") from None
+        raise RunnerError(f"{folder}: the result of {point.scene} could not be read back ({exc})") from None
     return PointResult(point=point, key=key, summary=summary, tables=tables,
                        views=store.views(key) if views else {}, measured=measured)
 

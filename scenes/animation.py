@@ -1,4 +1,4 @@
-"""Animated scenes (DESIGN.md "Dynamic scenes"): keyframed tracks over a scene.
+"""Animated scenes (docs/over-time.md: keyframed tracks over a scene.
 
 A scene file's optional ``[animation]`` table::
 

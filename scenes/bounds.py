@@ -1,6 +1,6 @@
 """The scene box: where the medium is.
 
-DESIGN.md says the homogeneous medium "fills the scene outside the objects". Both
+docs/conventions.md says the homogeneous medium "fills the scene outside the objects". Both
 renderers make that precise the same way: the medium fills the axis-aligned box
 around every mesh, the light and the camera (plus a margin of 1e-3 of its
 diagonal) and there is vacuum outside. Photons leaving the box never return (it

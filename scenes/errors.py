@@ -4,8 +4,10 @@ from __future__ import annotations
 
 from typing import Any
 
+from volcaustics.infra.errors import InputError
 
-class SceneError(ValueError):
+
+class SceneError(InputError):
     """A scene file or scene value is invalid.
 
     The message always names where (file), what (key, as a dotted path such as

@@ -14,6 +14,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from volcaustics.infra.imageio import MASK_LAYER  # re-exported: the image files name the one-channel layer
+
 # --- photon status (Photon.dir.w, Record.end_status.w, RECORD_DTYPE["status"])
 STATUS_DEAD = 0        # no photon here, or terminated earlier
 STATUS_SURFACE = 1     # ended at a specular surface (after the interaction there)
@@ -45,14 +47,13 @@ FLAG_BITS = {"FLAG_LEFT_FRUSTUM": FLAG_LEFT_FRUSTUM, "FLAG_REFLECTED": FLAG_REFL
 SHAPE_KINDS = {"KIND_NONE": KIND_NONE, "KIND_SPECULAR": KIND_SPECULAR, "KIND_DIFFUSE": KIND_DIFFUSE,
                "KIND_BOUNDARY": KIND_BOUNDARY}
 
-# --- component images of a frame (DESIGN.md "What a frame is made of")
+# --- component images of a frame (docs/conventions.md)
 COLOUR_LAYERS = ("caustic", "fog", "direct", "combined")  # H×W×3 float32 radiance, W·m⁻²·sr⁻¹
-MASK_LAYER = "mask_specular"                              # H×W×3 float32, 1 where the camera sees glass, else 0
 LAYER_NAMES = COLOUR_LAYERS + (MASK_LAYER,)
 # A reference rendered with K > 1 scattering orders also holds, per colour layer, what the
 # orders beyond the paper's single-scattering model add: R_ms − R_ss, the model term
 MODEL_LAYERS = tuple(f"{name}_ms" for name in COLOUR_LAYERS)
-# What each layer holds (DESIGN.md's table), for files that tell other programs (glTF extras)
+# What each layer holds (docs/conventions.md's table), for files that tell other programs (glTF extras)
 LAYER_MEANINGS = {
     "caustic": "single-scattered radiance from light that crossed >= 1 specular interface before scattering in the "
                "medium, seen directly by the camera (the volume caustic)",

@@ -1,5 +1,4 @@
-"""glTF 2.0 export of a scene, so that a real-time engine can load it (DESIGN.md,
-"Interchange: other renderers").
+"""glTF 2.0 export of a scene, so that a real-time engine can load it (docs/howto/other-renderer.md).
 
 What goes where:
 
@@ -41,10 +40,11 @@ import urllib.parse
 
 import numpy as np
 
+from volcaustics.infra.storage import atomic_set, atomic_write_bytes
+
 from .bounds import MARGIN, medium_bounds
 from .formats import COLOUR_LAYERS, LAYER_MEANINGS, MASK_LAYER
 from .model import Transform
-from .storage import atomic_set, atomic_write_bytes
 
 GENERATOR = "volcaustics"
 EXTRAS_KEY = "volcaustics"
@@ -324,7 +324,7 @@ def quaternion(rotation: np.ndarray) -> list:
 # --- what glTF cannot express ----------------------------------------------------------
 
 def scene_extras(scene) -> dict:
-    """The scene's ``extras["volcaustics"]``: the facts of DESIGN.md's shared conventions
+    """The scene's ``extras["volcaustics"]``: the facts of docs/conventions.md
     that glTF has no field for (glTF has no ratified participating-media extension)."""
     medium = scene.medium
     lo, hi = medium_bounds(scene)

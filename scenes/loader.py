@@ -63,12 +63,13 @@ try:
 except ModuleNotFoundError:  # Python 3.10
     import tomli as tomllib
 
+from volcaustics.infra.storage import CacheError, file_sha256, special_file_kind
+
 from .animation import FPS_RANGE, MAX_FRAMES, OBJECT_PATHS, TRACK_PATHS, Animation, Track, aim, track_kind
 from .errors import SceneError
 from .generators import GENERATORS
 from .mesh import MeshReadError, closedness_problem, winding_number
 from .model import Camera, DiffuseSurface, Medium, MeshSpec, Phase, Scene, SpecularObject, SpotLight, Transform
-from .storage import CacheError, file_sha256, special_file_kind
 
 _REQUIRED = object()
 

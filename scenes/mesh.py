@@ -13,8 +13,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from volcaustics.infra.errors import InputError
 
-class MeshReadError(Exception):
+
+class MeshReadError(InputError):
     """A mesh file is missing, unreadable or malformed (message says which)."""
 
 
@@ -205,9 +207,10 @@ def generated_mesh(name: str, params: tuple) -> Mesh:
     seconds) are cached as .npz under the cache folder, keyed by generator,
     parameters and generator version. A damaged cache file is rebuilt
     (:func:`_read_cached_mesh`)."""
+    from volcaustics.infra.storage import atomic_path, cache_dir, cache_path, note_not_cached
+
     from .canonical import GENERATOR_VERSION
     from .generators import generate
-    from .storage import atomic_path, cache_dir, cache_path, note_not_cached
 
     key = hashlib.sha256(repr((name, GENERATOR_VERSION, tuple(params))).encode()).hexdigest()[:24]
     file = f"{name}-{key}.npz"
@@ -238,7 +241,7 @@ def _read_cached_mesh(path: str, key: str) -> Mesh | None:
     mesh, nor an error about the scene file. Files from before the digest count as damaged."""
     import zipfile
 
-    from .storage import special_file_kind
+    from volcaustics.infra.storage import special_file_kind
 
     if special_file_kind(path):
         return None

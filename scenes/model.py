@@ -1,6 +1,6 @@
 """Typed, immutable scene description shared by both renderers.
 
-Conventions (DESIGN.md): right-handed world, +y up, metres; angles in degrees in
+Conventions (docs/conventions.md): right-handed world, +y up, metres; angles in degrees in
 the scene description; RGB triples are linear Rec.709 primaries. Instances are
 frozen dataclasses; derive variants with :func:`dataclasses.replace`.
 """

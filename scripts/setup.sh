@@ -71,12 +71,18 @@ if [ ${#need[@]} -gt 0 ]; then
 fi
 
 # --- virtual environment -----------------------------------------------------
-want=$(cat pyproject.toml setup.py scripts/setup.sh | sha256sum | cut -d' ' -f1)
+# The install is setuptools' strict editable mode: a link tree (build/__editable__.*) that static
+# tools follow, unlike the import hook of the default mode. A new or removed module needs a new
+# link, so the list of the package's files is part of the stamp.
+modules=$(find package infra scenes approx reference metrics reports -type f \( -name '*.py' -o -name '*.glsl' \
+          -o -name '*.toml' -o -name '*.ply' -o -name '*.md' -o -name 'py.typed' \) -not -path '*/__pycache__/*' | sort)
+want=$( { cat pyproject.toml setup.py scripts/setup.sh; echo "$modules"; } | sha256sum | cut -d' ' -f1)
 if [ -x "$VENV/bin/python" ] && [ -f "$STAMP" ] && [ "$(cat "$STAMP")" = "$want" ]; then
   exit 0
 fi
 [ -x "$VENV/bin/python" ] || "$PYTHON" -m venv "$VENV"
-echo "setup: installing volcaustics into $VENV (editable, with test extras)"
+echo "setup: installing volcaustics into $VENV (strict editable, with test extras)"
 "$VENV/bin/python" -m pip install -q --upgrade pip
-"$VENV/bin/python" -m pip install -q -e ".[test]"
+rm -rf build/__editable__.volcaustics-*  # links to modules that no longer exist
+"$VENV/bin/python" -m pip install -q -e ".[test]" --config-settings editable_mode=strict
 echo "$want" > "$STAMP"

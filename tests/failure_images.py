@@ -11,7 +11,7 @@ import re
 
 import numpy as np
 
-from volcaustics.scenes.imageio import auto_exposure, write_exr, write_png
+from volcaustics.infra.imageio import auto_exposure, write_exr, write_png
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 

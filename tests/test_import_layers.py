@@ -1,4 +1,4 @@
-"""DESIGN.md's one-way flow, read from the source with ``ast``: between the packages,
+"""docs/architecture.md's layers, read from the source with ``ast``: between the packages,
 scenes → approx | reference → metrics → reports; inside ``reports``, its subpackages
 core ← {experiment, render} ← runner ← {animate, compare} ← gate ← sweep ← page ← cli (the page shows the
 gate's verdicts and a sweep's figures). No module imports

@@ -7,7 +7,7 @@ camera integrator's (``fog``, ``direct``, ``mask_specular``). With a fixed budge
 each stream renders ``batches`` batches; with ``target_noise`` batches are added
 to a stream until the noise floor (Σ var / Σ mean² over non-glass pixels) of each
 of its components is at most its target, or the photon or time cap stops it (the
-manifest's ``stopped_by`` says which). Layers (DESIGN.md names) and their
+manifest's ``stopped_by`` says which). Layers (docs/conventions.md names) and their
 variances: ``caustic``, ``fog``, ``direct``, ``combined`` (their sum; the streams
 are independent, so its variance is the caustic's plus that of fog + direct),
 ``mask_specular``; ``<layer>_var`` holds the variance of the mean.
@@ -20,9 +20,9 @@ import time
 
 import numpy as np
 
+from volcaustics.infra.imageio import png_bytes, tonemap_srgb8
+from volcaustics.infra.interrupts import interruptible
 from volcaustics.scenes.formats import MASK_LAYER
-from volcaustics.scenes.imageio import png_bytes, tonemap_srgb8
-from volcaustics.scenes.interrupts import interruptible
 
 from .. import cache
 from ..cache import ReferenceResult, for_caller
@@ -275,7 +275,7 @@ def _properties(**values):
 
 def _rendered(mi, mi_scene, integrator, seed: int, spp: int) -> np.ndarray:
     """One batch as an array, rendered where an interrupt does not wait for it
-    (``scenes.interrupts.interruptible``: a batch can run for minutes, or forever)."""
+    (``infra.interrupts.interruptible``: a batch can run for minutes, or forever)."""
     return interruptible(lambda: np.asarray(mi.render(mi_scene, integrator=integrator, seed=seed, spp=spp)))
 
 

@@ -17,7 +17,7 @@ by the factor :func:`total_variance_ratio` gives (docs/decisions.md "The
 reference's energy noise").
 
 The noise floor of a component is Σ var / Σ mean² over the pixels that do not
-see glass (DESIGN.md "Noise": the relative MSE an exact renderer would get
+see glass (docs/concepts/measuring.md: the relative MSE an exact renderer would get
 against this reference).
 """
 

@@ -15,7 +15,7 @@ from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
-from volcaustics.scenes.storage import atomic_path, atomic_write_bytes, cache_dir, cache_path, special_file_kind
+from volcaustics.infra.storage import atomic_path, atomic_write_bytes, cache_dir, cache_path, special_file_kind
 
 from ..description import FOG_ID, Description, describe, ply_bytes, ply_digest
 
@@ -117,7 +117,7 @@ def export_xml(scene, path: str) -> None:
     os.makedirs(mesh_dir, exist_ok=True)
     try:
         _write_xml(scene, path, folder, mesh_dir)
-    except BaseException:  # Ctrl-C or a failure: a mesh folder this call made goes with it (issue 36)
+    except BaseException:  # Ctrl-C or a failure: a mesh folder this call made goes with it
         if created:
             shutil.rmtree(mesh_dir, ignore_errors=True)
         raise

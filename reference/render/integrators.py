@@ -9,9 +9,9 @@
   and splatted with weight 1/n. n grows with the segment's geometric term seen from
   the eye, ∫ dt/d² = Δθ/D, up to one connection per pixel of its image: a beam that
   passes close to the camera is drawn along its streak instead of splatting all its
-  Δθ/D into one pixel (the fireflies of issue 8). ``mode`` chooses which
+  Δθ/D into one pixel (the fireflies before stratified connections). ``mode`` chooses which
   paths count: ``caustic`` (≥1 specular interaction before the scattering vertex,
-  DESIGN.md), ``fog`` (none), ``all``, or ``surface`` (no medium: the first diffuse
+  docs/conventions.md), ``fog`` (none), ``all``, or ``surface`` (no medium: the first diffuse
   vertex is connected instead, to check against Mitsuba's ``ptracer``).
   ``max_scatter`` > 1 continues paths through real scattering events (analog free
   flight, phase sampling) to measure what single scattering leaves out.

@@ -1,6 +1,6 @@
 """The third stream of a reference rendered with K > 1 scattering orders: what the
-orders beyond the paper's single-scattering model add (DESIGN.md "Beyond the paper's
-model"), and the rule that says whether K orders are enough.
+orders beyond the paper's single-scattering model add (docs/concepts/model-term.md), and the
+rule that says whether K orders are enough.
 
 One batch is one render of the light tracer in mode ``orders`` (``integrators``): every
 path counted by its last vertex (caustic, fog: a medium vertex; direct: a diffuse
@@ -10,7 +10,7 @@ the sum of its other orders up to K, ``<component>_ms`` (``scenes.formats.MODEL_
 The stream also keeps each of those orders' images, ``<component>@<n>``, for the rule;
 the tracer counts only them (``beyond_model``: the other streams render the model's).
 
-**Convergence rule** (issue 25): order n + 1 changes the total image by o, whose
+**Convergence rule**: order n + 1 changes the total image by o, whose
 relative MSE against the total R_ms is Σ o² / Σ R_ms² over the non-glass pixels,
 debiased by o's own variance (Σ (o² − var o)). K orders are enough for a component when
 order K's change is at most the noise floor of R_ms (its variance over Σ R_ms²); the

@@ -7,11 +7,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from volcaustics.infra.imageio import auto_exposure, tonemap_srgb8
 from volcaustics.metrics import image as im
 from volcaustics.reports.animate.metrics import keep_masks
 from volcaustics.reports.core.plotting import OKABE_ITO, png_bytes, pyplot
 from volcaustics.reports.core.scales import SCALES, heatmap_rgb8
-from volcaustics.scenes.imageio import auto_exposure, tonemap_srgb8
 
 BLOCK = 16  # H.264 macroblock: frames are padded to a multiple (black), never resampled
 LAYER = "combined"

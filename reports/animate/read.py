@@ -6,22 +6,23 @@ from __future__ import annotations
 import base64
 import os
 
-from volcaustics.scenes.storage import read_json_object
+from volcaustics.infra.errors import InputError
+from volcaustics.infra.storage import read_json_object
 
 KIND = "animation"  # summary.json "kind" of an animate output folder
 MIME = {"webp": "image/webp", "gif": "image/gif"}
 
 
-def load_animation(folder: str, option: str = "--animation", error=ValueError) -> dict:
+def load_animation(folder: str, option: str = "--animation") -> dict:
     """An animate output folder's summary and its media as data URIs; ``error`` (the
     caller's class: exit 2) naming the folder and the fix when it is not one."""
     fix = f"run `volcaustics animate SCENE -o {folder}` first"
     try:
         summary = read_json_object(os.path.join(folder, "summary.json"))
     except (OSError, ValueError) as exc:
-        raise error(f"{option} {folder}: no readable summary.json ({exc}): {fix}") from None
+        raise InputError(f"{option} {folder}: no readable summary.json ({exc}): {fix}") from None
     if summary.get("kind") != KIND or not isinstance(summary.get("metrics"), dict):
-        raise error(f"{option} {folder}: summary.json is not an animation's (kind {summary.get('kind')!r}): "
+        raise InputError(f"{option} {folder}: summary.json is not an animation's (kind {summary.get('kind')!r}): "
                     f"{fix}")
     media = {}
     video = summary.get("video") or {}
@@ -31,7 +32,7 @@ def load_animation(folder: str, option: str = "--animation", error=ValueError) -
             with open(file, "rb") as fh:
                 data = fh.read()
         except OSError as exc:
-            raise error(f"{option} {folder}: {path} unreadable ({exc.strerror or exc}): {fix}") from None
+            raise InputError(f"{option} {folder}: {path} unreadable ({exc.strerror or exc}): {fix}") from None
         ext = os.path.splitext(file)[1].lstrip(".").lower()
         media[name] = f"data:{MIME.get(ext, 'image/png')};base64," + base64.b64encode(data).decode("ascii")
     return {"folder": os.path.abspath(folder), "summary": summary, "media": media}

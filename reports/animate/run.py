@@ -25,13 +25,13 @@ import numpy as np
 from tqdm import tqdm
 
 from volcaustics.approx import Renderer
+from volcaustics.infra.storage import atomic_path
 from volcaustics.reports.animate.settings import chain_seed, reference_seed
 from volcaustics.reports.core.sizing import sized
 from volcaustics.reports.core.tables import plain
 from volcaustics.reports.core.versions import code_version
 from volcaustics.reports.runner import reference_for
 from volcaustics.scenes.formats import COLOUR_LAYERS, MASK_LAYER
-from volcaustics.scenes.storage import atomic_path
 
 WORK = ".animate"  # DIR/.animate: the frames rendered so far
 GUIDES = {"distance": 0, "normal": 3}  # the G-buffer stored with each frame: name → channels (0: H×W)
@@ -162,7 +162,7 @@ def _read_frame(work: str, t: int, key: str, modes, shape: tuple) -> dict | None
               for layer in (*COLOUR_LAYERS, MASK_LAYER)}
     wanted["seconds"] = (len(modes) * shape[0],)
     wanted.update({f"guide/{name}": shape[1:] + ((channels,) if channels else ()) for name, channels in GUIDES.items()})
-    for name, dims in wanted.items():  # right key, wrong arrays: a ValueError escaped on stacking (issue 36)
+    for name, dims in wanted.items():  # right key, wrong arrays: a ValueError escaped on stacking
         a = arrays.get(name)
         if a is None or a.shape != dims or a.dtype.kind != "f" or not np.isfinite(a).all():
             return None

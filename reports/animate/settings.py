@@ -3,7 +3,7 @@
 The budget keeps a built-in's default animation (24 frames) within about five minutes
 cold on a 2-core machine: 128 pixels on the longer side, 2^22 photons and 32 camera
 samples per pixel in 8 batches per frame, no noise target (3–5 s per frame here; the
-caustic's noise floor 0.04–0.1%, the fog's 0.3%: docs/decisions.md "Animation budget").
+caustic's noise floor 0.04–0.1%, the fog's 0.3%: docs/decisions.md "Dynamic scenes").
 """
 
 from __future__ import annotations
@@ -78,7 +78,7 @@ def frame_list(text: str | None, frames: int) -> list[int]:
     return chosen
 
 
-# ColorVideoVDP (issue 23, optional): not installed, and the reason is reported with every run.
+# ColorVideoVDP: not installed, and the reason is reported with every run.
 CVVDP_SKIPPED = ("ColorVideoVDP (pip cvvdp 0.5.7) not measured: it needs PyTorch, and PyPI's torch 2.15 brings "
                  "about 3 GB of CUDA 13 wheels (nvidia-cudnn, cublas, nccl, ...); the CPU-only build is only on "
                  "download.pytorch.org, outside the registries this project installs from. Run it on "

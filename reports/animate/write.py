@@ -1,14 +1,14 @@
 """``animate -o DIR``: the tables (Parquet and CSV), the videos, the plot and, last,
-``summary.json``, written as one set (``scenes.storage.atomic_set``)."""
+``summary.json``, written as one set (``infra.storage.atomic_set``)."""
 
 from __future__ import annotations
 
 import json
 import os
 
+from volcaustics.infra.storage import atomic_set
 from volcaustics.reports.animate.media import plot_png, video_frames, web_format, write_mp4, write_web
 from volcaustics.reports.core.tables import plain, table
-from volcaustics.scenes.storage import atomic_set
 
 TABLE_FILES = ("frames", "temporal")
 

@@ -1,8 +1,9 @@
 """The ``volcaustics`` command line: one small module per command (``cli/<command>.py``:
 ``register`` adds its parser, ``run`` parses nothing more and calls the libraries).
 
-Typed errors of bad input (a scene, a parameter, settings, a path, a spec) print on one
-or two lines and exit 2, never a traceback; Ctrl-C exits 130, SIGTERM 143.
+Bad input (a scene, a parameter, settings, a path, a spec: every error derived from
+``volcaustics.infra.errors.InputError``) prints on one or two lines and exits 2, never a
+traceback; Ctrl-C exits 130, SIGTERM 143.
 """
 
 from __future__ import annotations
@@ -65,7 +66,7 @@ def main(argv=None) -> int:
     extension's initialisation (it surfaced there as an ImportError, a NameError or a
     SystemError, or aborted the interpreter); once start-up is done it ends the run.
     A signal ignored when the command starts (``nohup``, ``cmd &``) stays ignored. When
-    an interrupt left a native call running (``scenes.interrupts.interruptible``), the
+    an interrupt left a native call running (``infra.interrupts.interruptible``), the
     process ends with ``os._exit`` after the command's cleanup."""
     import signal
 
@@ -111,7 +112,7 @@ def main(argv=None) -> int:
 def _ending(code: int) -> int:
     """``code``; but when an interrupt left a native call running, end the process
     here (the interpreter's shutdown would wait for it, or tear down under it)."""
-    from volcaustics.scenes.interrupts import native_work_abandoned
+    from volcaustics.infra.interrupts import native_work_abandoned
 
     if native_work_abandoned():
         import os
@@ -129,14 +130,15 @@ def _run(argv, started=lambda: None) -> int | None:
     held)."""
     import importlib
 
-    errors = _usage_errors()
+    from volcaustics.infra.errors import InputError
+
     args = build_parser().parse_args(argv)
     for name in getattr(sys.modules[args.func.__module__], "NATIVE", ()):
         importlib.import_module(name)
     started()
     try:
         return args.func(args)
-    except errors as exc:
+    except InputError as exc:
         print(f"volcaustics: error: {exc}", file=sys.stderr)
         return EXIT_USAGE
     except RuntimeError as exc:
@@ -153,24 +155,6 @@ def _run(argv, started=lambda: None) -> int | None:
         print(f"volcaustics: error: {where}{exc.strerror or exc}", file=sys.stderr)
         return EXIT_USAGE
 
-
-def _usage_errors() -> tuple:
-    """The error types that mean bad input, bad configuration or missing data: exit 2."""
-    from volcaustics.approx.params import ParamError
-    from volcaustics.reference.mi_setup import VariantError
-    from volcaustics.reference.settings import SettingsError
-    from volcaustics.reports.cli.common import UsageError
-    from volcaustics.reports.compare.inputs import CompareError
-    from volcaustics.reports.core.executors import ExecutorError
-    from volcaustics.reports.experiment.run import ExperimentError
-    from volcaustics.reports.gate.budgets import GateError
-    from volcaustics.reports.page.collect import ReportError
-    from volcaustics.reports.runner import RunnerError
-    from volcaustics.reports.sweep.spec import SweepError
-    from volcaustics.scenes import SceneError
-
-    return (SceneError, ParamError, SettingsError, UsageError, ExperimentError, SweepError, GateError,
-            ExecutorError, ReportError, VariantError, RunnerError, CompareError)
 
 
 if __name__ == "__main__":

@@ -6,12 +6,13 @@ from __future__ import annotations
 import argparse
 import os
 
+from volcaustics.infra.errors import InputError
 from volcaustics.reference.settings import ReferenceSettings
 from volcaustics.reports.core.sizing import REPORT_REFERENCE, REPORT_TARGET
 from volcaustics.reports.experiment.measurement import MEASUREMENT_TABLE, MeasurementSettings, measurement_settings
 
 
-class UsageError(ValueError):
+class UsageError(InputError):
     """A command-line value that cannot work (an output path, a list of names); the
     message names the option, the value and the fix."""
 
@@ -94,7 +95,7 @@ def check_output_set(folder: str, option: str, files=(), folders=(), kind: str |
 def _summary_kind(path: str) -> str | None:
     """The "kind" of the summary.json at ``path``; None when there is none (or it cannot
     be read: the command replaces it)."""
-    from volcaustics.scenes.storage import read_json_object
+    from volcaustics.infra.storage import read_json_object
 
     try:
         kind = read_json_object(path).get("kind") if os.path.isfile(path) else None

@@ -14,7 +14,7 @@ from volcaustics.reports.cli.common import (
 )
 from volcaustics.reports.compare.read import parse_named
 from volcaustics.reports.core.params import parse_overrides
-from volcaustics.reports.gate.budgets import GateError, default_budgets_path, load_budgets
+from volcaustics.reports.gate.budgets import default_budgets_path, load_budgets
 from volcaustics.reports.gate.outputs import VERDICT, console_table
 from volcaustics.reports.gate.regression import BASELINE
 from volcaustics.reports.gate.run import run_gate
@@ -52,13 +52,13 @@ def run(args) -> int:
         raise UsageError("--update-baseline", True, "needs --baseline DIR (where to write it)")
     if args.update_baseline:
         check_output_set(args.baseline, "--baseline", files=(BASELINE,))
-    overrides = parse_overrides(args.set, error=GateError)
+    overrides = parse_overrides(args.set)
     budgets = load_budgets(args.budgets or default_budgets_path())
     result = run_gate(budgets, overrides=overrides, baseline_dir=args.baseline, update_baseline=args.update_baseline,
                       out_dir=args.out, scenes=scene_list(args.scenes, "--scenes"), seeds=args.seeds, seed=args.seed,
                       render_references=args.render_references, junit=args.junit,
                       animation_dirs=args.animation or (),
-                      comparisons=[parse_named(text, "--compare", GateError) for text in args.compare or ()],
+                      comparisons=[parse_named(text, "--compare") for text in args.compare or ()],
                       measurement=measurement_from_args(args, budgets["measurement"]), progress=not args.quiet)
     print(console_table(result.checks))
     failed = sum(not c.passed for c in result.checks)

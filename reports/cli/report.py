@@ -17,7 +17,7 @@ from volcaustics.reports.cli.common import (
 from volcaustics.reports.compare.read import parse_named
 from volcaustics.reports.core.params import parse_overrides
 from volcaustics.reports.gate.budgets import default_budgets_path, load_budgets
-from volcaustics.reports.page.collect import ReportError, run_report
+from volcaustics.reports.page.collect import run_report
 from volcaustics.reports.page.summary import OUTPUT_FILES
 from volcaustics.scenes import BUILTIN_NAMES
 
@@ -53,11 +53,11 @@ def run(args) -> int:
     names = scene_list(args.scenes, "--scenes")
     budgets = load_budgets(args.budgets or default_budgets_path())
     summary = run_report(args.out, names if names is not None else list(BUILTIN_NAMES),
-                         overrides=parse_overrides(args.set, error=ReportError), seeds=args.seeds, seed=args.seed,
+                         overrides=parse_overrides(args.set), seeds=args.seeds, seed=args.seed,
                          reference_settings=report_settings(args), budgets=budgets, baseline_dir=args.baseline,
                          measurement=measurement_from_args(args, budgets["measurement"]),
                          sweep_dir=args.sweep, animation_dirs=args.animation or (), frames_dir=args.frames,
-                         comparisons=[parse_named(text, "--compare", ReportError) for text in args.compare or ()],
+                         comparisons=[parse_named(text, "--compare") for text in args.compare or ()],
                          progress=not args.quiet)
     for page in summary["scenes"]:
         c = page["components"]

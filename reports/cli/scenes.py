@@ -6,9 +6,9 @@ import os
 
 from volcaustics.approx.context import shared_context
 from volcaustics.approx.preview import render_preview
+from volcaustics.infra.imageio import write_png
 from volcaustics.reports.cli.common import check_output_dir
 from volcaustics.scenes import BUILTIN_NAMES, load_builtin, load_scene
-from volcaustics.scenes.imageio import write_png
 
 
 def register(sub) -> None:

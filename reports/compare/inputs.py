@@ -6,7 +6,7 @@ their sum unless the file holds it), or only root ``R``, ``G``, ``B`` channels, 
 as ``combined``. An optional ``mask_specular`` layer (``.Y`` or ``.R``: 1 where the
 camera sees glass) joins the reference's in excluding pixels. Every file must have
 the same size, with the scene camera's aspect ratio, and the same layers; pixels must
-be finite and ≥ 0 (linear radiance, box pixel filter: DESIGN.md).
+be finite and ≥ 0 (linear radiance, box pixel filter: docs/conventions.md).
 """
 
 from __future__ import annotations
@@ -16,9 +16,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from volcaustics.infra.errors import InputError
+from volcaustics.infra.storage import file_sha256, special_file_kind
 from volcaustics.reports.experiment.settings import check_images_fit
 from volcaustics.scenes.formats import COLOUR_LAYERS, MASK_LAYER
-from volcaustics.scenes.storage import file_sha256, special_file_kind
 
 EXR_MAGIC = b"\x76\x2f\x31\x01"   # OpenEXR's first four bytes
 PNG_MAGIC = b"\x89PNG"
@@ -33,7 +34,7 @@ CONVENTION = ("OpenEXR, linear radiance (W·m⁻²·sr⁻¹, Rec.709), box pixel
               "(channels caustic.R, …) or root R, G, B as combined")
 
 
-class CompareError(ValueError):
+class CompareError(InputError):
     """An image ``compare`` cannot judge (not an EXR, wrong size, missing layers,
     NaN/∞ or negative pixels) or a comparison folder that cannot be read: exit 2; the
     message names the file and the problem."""
@@ -71,7 +72,7 @@ def read_images(paths, scene) -> Inputs:
                                f"must have the same size")
     _check_size(first_path, width, height, scene)
     check_images_fit(width, height, len(paths), BYTES_PER_PIXEL, f"compare's images with {len(paths)} file(s) "
-                     f"(the files' layers, the reference at their size, every metric)", error=CompareError)
+                     f"(the files' layers, the reference at their size, every metric)")
     read = [_channels(path, scene) for path in paths]
     hashes = [file_sha256(path) for path in paths]
     for j, digest in enumerate(hashes):

@@ -46,13 +46,13 @@ def run_compare(scene, paths, *, name: str, reference_settings, policy: str = "c
     against the reference at their size (``reference_settings``, unsized: the runner's
     reference under ``policy``). CompareError for images that cannot be judged, before
     the reference renders."""
-    check_medium(scene, error=CompareError)  # a medium without a caustic to compare: before the files are read
+    check_medium(scene)  # a medium without a caustic to compare: before the files are read
     clock = Clock()
     with clock.stage("read"):
         inputs = read_images(list(paths), scene)
     with clock.stage("reference"):
         reference = runner.reference_for(scene, at_size(reference_settings, inputs.width, inputs.height), policy,
-                                         progress=progress, error=CompareError)
+                                         progress=progress)
     with clock.stage("metrics"):
         keep = keep_mask(reference, inputs.frames)
         if not keep.any():

@@ -8,9 +8,9 @@ from __future__ import annotations
 import json
 import os
 
+from volcaustics.infra.imageio import write_exr
+from volcaustics.infra.storage import atomic_set, document_sha256, file_sha256
 from volcaustics.reports.core.tables import plain, table
-from volcaustics.scenes.imageio import write_exr
-from volcaustics.scenes.storage import atomic_set, document_sha256, file_sha256
 
 SUMMARY = "summary.json"
 SEAL = "summary_sha256"   # summary.json's field holding the SHA-256 of the rest of it
@@ -21,7 +21,7 @@ OUTPUT_FILES = (*DATA_FILES, PAGE, SUMMARY)
 
 def write_comparison(comparison, out_dir: str, page: str) -> dict:
     """Write the comparison and its ``page`` (HTML text) into ``out_dir`` as one set
-    (``scenes.storage.atomic_set``: an interrupted write leaves the last complete set).
+    (``infra.storage.atomic_set``: an interrupted write leaves the last complete set).
     Returns the paths."""
     os.makedirs(out_dir, exist_ok=True)
     paths = {name: os.path.join(out_dir, name) for name in OUTPUT_FILES}

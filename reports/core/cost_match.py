@@ -1,4 +1,4 @@
-"""Equal cost (DESIGN.md "approx: variants"): the photon_res at which a configuration's
+"""Equal cost (docs/approx.md: the photon_res at which a configuration's
 frame cost (``approx.cost``: map and emission reads, splats and density reads,
 hardware-independent) is at most a target on a scene — the best search's step 1
 (``reports.sweep.best``) and ``photon_res`` = auto (the preset ``best``: the paper
@@ -20,9 +20,9 @@ import os
 from volcaustics.approx import Renderer
 from volcaustics.approx.cost import frame_cost
 from volcaustics.approx.params import AUTO_PHOTON_RES, preset
+from volcaustics.infra.storage import atomic_path, cache_dir
 from volcaustics.reports.core.versions import code_version
 from volcaustics.scenes import resolve_scene
-from volcaustics.scenes.storage import atomic_path, cache_dir
 
 MATCHED = "matched.json"  # the cost-matched photon_res per scene and configuration (a memo: recomputed if lost)
 MIN_PHOTON_RES = 16

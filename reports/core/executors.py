@@ -5,7 +5,7 @@ task per worker process at a time: a local pool of ``spawn``ed processes (a fork
 would inherit the parent's Dr.Jit and GL state), or Dask workers with one thread
 each (``--dask local:N`` starts a ``LocalCluster`` of N such processes; for
 ``--dask tcp://HOST:PORT`` start the workers with ``--nthreads 1``, and
-``reports.sweep.run_point`` also serialises the tasks of one process). Results come
+``reports.runner.run_point`` also serialises the tasks of one process). Results come
 back as they finish; Ctrl-C cancels what has not started, stops the workers and
 re-raises KeyboardInterrupt (finished points are already in the store).
 """
@@ -14,8 +14,10 @@ from __future__ import annotations
 
 import os
 
+from volcaustics.infra.errors import InputError
 
-class ExecutorError(ValueError):
+
+class ExecutorError(InputError):
     """An executor that cannot start (an unreachable scheduler, Dask missing): exit 2."""
 
 

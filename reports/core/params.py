@@ -17,7 +17,7 @@ def flag(name: str) -> str:
 def add_param_flags(parser, *, default_preset: str, table: tuple = PARAMS) -> None:
     """``--preset`` and one flag per parameter of ``table``, typed, with its range,
     unit and the presets' values in the help."""
-    group = parser.add_argument_group("approximation parameters (DESIGN.md names; default: --preset)")
+    group = parser.add_argument_group("approximation parameters (default: --preset)")
     presets = "; ".join(f"{name}: the paper's values with " + ", ".join(f"{k} {v}" for k, v in changes.items())
                         for name, changes in PRESET_VALUES.items())
     group.add_argument("--preset", choices=tuple(PRESETS), default=default_preset,
@@ -48,37 +48,37 @@ def params_from_args(args, cls: type = ApproxParams):
     return preset(args.preset, cls, **changes)
 
 
-def parse_assignment(text: str, where: str, *, table: tuple = PARAMS, error=ParamError) -> tuple:
+def parse_assignment(text: str, where: str, *, table: tuple = PARAMS) -> tuple:
     """``NAME=V1,V2`` → (name, typed values); ``error`` naming ``where`` otherwise."""
     name, sep, values = text.partition("=")
     name = name.strip().replace("-", "_")
     if not sep or not name:
-        raise error(f"{where} {text!r}: expected NAME=VALUE[,VALUE...]")
+        raise ParamError(f"{where} {text!r}: expected NAME=VALUE[,VALUE...]")
     items = values.split(",")
     if any(not v.strip() for v in items):
-        raise error(f"{where} {text!r}: an empty value")
-    return name, [parse_value(name, v, where, table=table, error=error) for v in items]
+        raise ParamError(f"{where} {text!r}: an empty value")
+    return name, [parse_value(name, v, where, table=table) for v in items]
 
 
-def parse_value(name: str, text, where: str, *, table: tuple = PARAMS, error=ParamError):
+def parse_value(name: str, text, where: str, *, table: tuple = PARAMS):
     """A parameter value from text (CLI) or TOML, typed as the table declares it."""
     try:
         return param(name, table).parse(text)
     except ParamError as exc:
-        raise error(f"{where}: {exc}") from None
+        raise ParamError(f"{where}: {exc}") from None
 
 
-def parse_overrides(assignments, *, error=ParamError, seed_option: bool = True) -> dict:
+def parse_overrides(assignments, *, seed_option: bool = True) -> dict:
     """``--set NAME=VALUE`` (repeatable) as parameters; with ``seed_option`` (the gate,
     the report) ``seed`` is refused: it has its own option there."""
     overrides = {}
     for text in assignments or []:
-        name, values = parse_assignment(text, "--set", error=error)
+        name, values = parse_assignment(text, "--set")
         if len(values) != 1:
-            raise error(f"--set {text!r}: one value per parameter (a sweep varies with --vary)")
+            raise ParamError(f"--set {text!r}: one value per parameter (a sweep varies with --vary)")
         if name in overrides:
-            raise error(f"--set {text!r}: {name} is set twice: set it once")
+            raise ParamError(f"--set {text!r}: {name} is set twice: set it once")
         if seed_option and name == "seed":
-            raise error(f"--set {text!r}: use --seed (the first of the --seeds seeds)")
+            raise ParamError(f"--set {text!r}: use --seed (the first of the --seeds seeds)")
         overrides[name] = values[0]
     return overrides

@@ -5,7 +5,7 @@ from __future__ import annotations
 import io
 import os
 
-from volcaustics.scenes.storage import atomic_path
+from volcaustics.infra.storage import atomic_path
 
 # Okabe & Ito's colour-blind-safe palette
 OKABE_ITO = ("#E69F00", "#56B4E9", "#009E73", "#D55E00", "#0072B2", "#CC79A7", "#F0E442", "#000000")

@@ -13,11 +13,13 @@ from __future__ import annotations
 
 import dataclasses
 
+from volcaustics.infra.errors import InputError
 from volcaustics.reference.settings import ReferenceSettings, SettingsError
 
 REPORT_TARGET = "caustic=0.005,fog=0.002,direct=0.002,caustic_ms=0.005,fog_ms=0.005,direct_ms=0.005"
 # K = 8 scattering orders: the convergence rule needs 2–4 on the built-ins (order 5 changes
-# R_ms by a relative MSE of ~5e-6), and orders 5–8 cost little (docs/decisions.md "Scattering orders")
+# R_ms by a relative MSE of ~5e-6), and orders 5–8 cost little (docs/decisions.md
+# "Multiple scattering and the model term")
 REPORT_MAX_SCATTER = 8
 REPORT_REFERENCE = ReferenceSettings(photons=1 << 22, spp=64, batches=16, target_noise=REPORT_TARGET,
                                      max_seconds=120.0, max_scatter=REPORT_MAX_SCATTER)
@@ -25,19 +27,19 @@ REPORT_REFERENCE = ReferenceSettings(photons=1 << 22, spp=64, batches=16, target
 REFERENCE_KEYS = ("photons", "spp", "batches", "target_noise", "max_photons", "max_seconds", "max_scatter")
 
 
-def reference_settings(overrides: dict, error=ValueError) -> ReferenceSettings:
+def reference_settings(overrides: dict) -> ReferenceSettings:
     """The report's budget with ``overrides`` (REFERENCE_KEYS; a target_noise of
     "none" renders exactly ``batches``); ``error`` (the caller's class) for a bad one."""
     changes = dict(overrides)
     unknown = [key for key in changes if key not in REFERENCE_KEYS]
     if unknown:
-        raise error(f"reference.{unknown[0]}: unknown; expected {', '.join(REFERENCE_KEYS)}")
+        raise InputError(f"reference.{unknown[0]}: unknown; expected {', '.join(REFERENCE_KEYS)}")
     if isinstance(changes.get("target_noise"), str) and changes["target_noise"].strip().lower() == "none":
         changes["target_noise"] = None  # render exactly `batches` batches
     try:
         return dataclasses.replace(REPORT_REFERENCE, **changes) if changes else REPORT_REFERENCE
     except (SettingsError, TypeError) as exc:
-        raise error(f"reference: {exc}") from None
+        raise InputError(f"reference: {exc}") from None
 
 
 def sized(settings: ReferenceSettings, scene, params) -> ReferenceSettings:

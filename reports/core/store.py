@@ -1,4 +1,4 @@
-"""A resumable result store of experiments (DESIGN.md "Results, sweeps, gate, report").
+"""A resumable result store of experiments (docs/architecture.md.
 
 Layout of a store folder::
 
@@ -40,12 +40,8 @@ import uuid
 
 import pandas as pd
 
-from volcaustics.metrics.decomposition import TERMS
-from volcaustics.reports.core.tables import plain, table
-from volcaustics.reports.core.versions import code_version
-from volcaustics.scenes.fields import field_columns
-from volcaustics.scenes.imageio import read_exr, write_exr
-from volcaustics.scenes.storage import (
+from volcaustics.infra.imageio import read_exr, write_exr
+from volcaustics.infra.storage import (
     atomic_write_text,
     document_sha256,
     file_sha256,
@@ -53,6 +49,10 @@ from volcaustics.scenes.storage import (
     owner,
     read_json_object,
 )
+from volcaustics.metrics.decomposition import TERMS
+from volcaustics.reports.core.tables import plain, table
+from volcaustics.reports.core.versions import code_version
+from volcaustics.scenes.fields import field_columns
 
 TABLES = ("segments", "photons", "images")
 TABLE_FILES = tuple(f"{name}.parquet" for name in TABLES)
@@ -103,8 +103,8 @@ class Store:
     def summary(self, key: str) -> dict | None:
         """The point's summary if the point is complete and undamaged (its summary of this
         key, matching its own SHA-256, its files matching theirs), else None. A summary
-        edited by hand, or written before summaries carried their hash (a store from
-        before issue 21), counts as damaged: a sweep or the report recomputes the point."""
+        edited by hand, or written before summaries carried their hash (an older
+        store), counts as damaged: a sweep or the report recomputes the point."""
         folder = self.point_dir(key)
         try:
             summary = read_json_object(os.path.join(folder, SUMMARY))
@@ -130,7 +130,7 @@ class Store:
         return "damaged" if os.path.isdir(self.point_dir(key)) else "missing"
 
     def views(self, key: str) -> dict:
-        """The point's views (name → array; ``reports.experiment.VIEWS``)."""
+        """The point's views (name → array; ``reports.experiment.summary.VIEWS``)."""
         layers, _ = read_exr(os.path.join(self.point_dir(key), VIEWS))
         return layers
 

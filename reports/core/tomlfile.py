@@ -8,23 +8,24 @@ try:
 except ModuleNotFoundError:  # Python 3.10
     import tomli as tomllib
 
-from volcaustics.scenes.storage import special_file_kind
+from volcaustics.infra.errors import InputError
+from volcaustics.infra.storage import special_file_kind
 
 
-def load_toml(path: str, *, keys, error, what: str) -> dict:
+def load_toml(path: str, *, keys, what: str) -> dict:
     """The TOML document at ``path`` whose top-level keys are among ``keys``; ``error``
     (an exception type) for an unreadable file, bad TOML or an unknown key."""
     kind = special_file_kind(path)
     if kind:
-        raise error(f"{path}: cannot read the {what} (it is {kind})")
+        raise InputError(f"{path}: cannot read the {what} (it is {kind})")
     try:
         with open(path, "rb") as fh:
             doc = tomllib.load(fh)
     except OSError as exc:
-        raise error(f"{path}: cannot read the {what} ({exc.strerror})") from None
+        raise InputError(f"{path}: cannot read the {what} ({exc.strerror})") from None
     except (tomllib.TOMLDecodeError, RecursionError, UnicodeDecodeError) as exc:
-        raise error(f"{path}: not valid TOML ({exc})") from None
+        raise InputError(f"{path}: not valid TOML ({exc})") from None
     unknown = sorted(set(doc) - set(keys))
     if unknown:
-        raise error(f"{path}: unknown key {unknown[0]!r}; expected {', '.join(keys)}")
+        raise InputError(f"{path}: unknown key {unknown[0]!r}; expected {', '.join(keys)}")
     return doc

@@ -8,7 +8,7 @@ import os
 from functools import lru_cache
 from importlib.metadata import PackageNotFoundError, version
 
-from volcaustics.scenes.sources import source_hash
+from volcaustics.infra.sources import source_hash
 
 # the folders an experiment's numbers depend on (the reference's own pixels have their key,
 # reference.cache.code_version); as the repository names them

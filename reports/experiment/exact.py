@@ -1,5 +1,5 @@
 """Exact photons through the approximation's splatter: the caustic images E_k and E_∞
-of DESIGN.md ("Measuring the error": images).
+of docs/concepts/measuring.md: images).
 
 The approximation's photons are replayed from their emission state (its step-1
 records) with exact intersections and the very same random numbers
@@ -238,7 +238,7 @@ def exact_caustic(scene, params, *, steps: int, fresnel: str, batches: int = 8, 
     steps, fresnel : see :func:`exact_photons` (ignored when ``photons`` is given).
     batches : K ≥ 2 independent photon subsets (:func:`interleaved_subsets`) for the variance.
     supersample : S ≥ 1: splat at S·width × S·height and average S×S blocks, which
-        gives each pixel the reference's box filter (DESIGN.md "Conventions") instead
+        gives each pixel the reference's box filter (docs/conventions.md) instead
         of the approximation's point sample at the pixel centre. A kernel narrower
         than about half a fine pixel aliases (the fine samples miss thin caustics).
     renderer, oracle : reused when given.

@@ -4,7 +4,7 @@ true emission, small kernel, supersampled). With splat = adaptive, A is splatted
 its own kernels and the E images but E_∞,s with the kernels A gave the same photons
 (:func:`_paired_kernels`), so kernel_blur = E_∞,s − E_em is the adaptive kernel's blur.
 
-Every E image replays from the emission ray (issue 37): E_k and both E_∞ from A's own
+Every E image replays from the emission ray: E_k and both E_∞ from A's own
 emission rays (texel centres, or A's adaptive draw) traced exactly to their first
 surface, so A's step-1 interaction at the light map is the intersection term's; E_em
 and E_∞,s from photons jittered in every texel with the spot's exact profile, so the
@@ -15,7 +15,7 @@ The E_∞ images replay every emission texel EXACT_SUBPHOTONS times (the first r
 with A's random numbers, the others with seeds of their own, :func:`replay_seed`), each
 at 1/EXACT_SUBPHOTONS of the power: the subsets stay paired by emission texel, and the
 terms that difference E_∞ images with the reference (reflections, residual) lose the
-noise of one exact photon per texel (issue 25; docs/decisions.md "Sub-photons"). The
+noise of one exact photon per texel (docs/decisions.md "Sub-photons"). The
 count is the measurement setting ``exact_subphotons`` (``reports.experiment.measurement``:
 a flag and a ``[measurement]`` key, part of a result's key)."""
 

@@ -28,8 +28,7 @@ import numpy as np
 
 from volcaustics.approx.params import PARAMS
 from volcaustics.approx.trace import TEST_DEFINES
-from volcaustics.reports.core.versions import code_version
-from volcaustics.scenes.storage import (
+from volcaustics.infra.storage import (
     CacheError,
     atomic_write_bytes,
     atomic_write_text,
@@ -38,9 +37,10 @@ from volcaustics.scenes.storage import (
     note_not_cached,
     read_json_object,
 )
+from volcaustics.reports.core.versions import code_version
 
 FOLDER = "exact-images"
-FORMAT = 2  # 2: every E image from the emission ray, and E_em (issue 37)
+FORMAT = 2  # 2: every E image from the emission ray, and E_em
 EXACT_IMAGES = ("exact_steps", "exact_all_same", "exact_all", "exact_emission", "exact_all_small")
 SEARCH_ONLY = tuple(p.name for p in PARAMS if not p.exact)  # what the E images do not depend on
 

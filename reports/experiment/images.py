@@ -31,12 +31,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from volcaustics.metrics import image as im
-from volcaustics.metrics.frame import frame_relative_mse
-from volcaustics.metrics.noise import noisy_copy, seed_mean_interval, seed_relative_mse, total_sigma
-from volcaustics.reports.core.versions import code_version
-from volcaustics.scenes.formats import COLOUR_LAYERS, MASK_LAYER
-from volcaustics.scenes.storage import (
+from volcaustics.infra.storage import (
     CacheError,
     atomic_write_text,
     cache_dir,
@@ -45,6 +40,11 @@ from volcaustics.scenes.storage import (
     note_not_cached,
     read_json_object,
 )
+from volcaustics.metrics import image as im
+from volcaustics.metrics.frame import frame_relative_mse
+from volcaustics.metrics.noise import noisy_copy, seed_mean_interval, seed_relative_mse, total_sigma
+from volcaustics.reports.core.versions import code_version
+from volcaustics.scenes.formats import COLOUR_LAYERS, MASK_LAYER
 
 FLOOR_SEAL = "sha256"  # a floor file's field holding the SHA-256 of the rest of it
 

@@ -1,4 +1,4 @@
-"""The measurement settings (DESIGN.md "Measurement settings"): how a point is
+"""The measurement settings (docs/architecture.md: how a point is
 measured, beside the parameter table of what is measured. Each is a command-line flag
 (``reports.cli.common.add_measurement_flags``), a key of a sweep spec's or the
 budgets' ``[measurement]`` table, and part of a result's key; never an environment
@@ -59,18 +59,18 @@ class MeasurementSettings:
 
 
 def measurement_settings(overrides: dict | None = None, *, where: str = "measurement",
-                         base: MeasurementSettings | None = None, error=ParamError) -> MeasurementSettings:
+                         base: MeasurementSettings | None = None) -> MeasurementSettings:
     """``base`` (default: the report's settings) with ``overrides`` (MEASUREMENT_KEYS,
-    None values left out); ``error`` for an unknown key or a value out of range, naming
+    None values left out); ParamError for an unknown key or a value out of range, naming
     ``where``: a flag (``--exact-subphotons = 0: …``) or a table (``FILE: measurement``
     → ``FILE: measurement.exact_subphotons = 0: …``)."""
     changes = {k: v for k, v in (overrides or {}).items() if v is not None}
     for name, value in changes.items():
         if name not in MEASUREMENT_TABLE:
-            raise error(f"{where}.{name}: unknown; expected {', '.join(MEASUREMENT_KEYS)}")
+            raise ParamError(f"{where}.{name}: unknown; expected {', '.join(MEASUREMENT_KEYS)}")
         try:
             MEASUREMENT_TABLE[name][0](value)
         except ParamError as exc:
             named = where if where.startswith("--") else f"{where}.{name}"
-            raise error(f"{named} = {str(exc).split(' = ', 1)[1]}") from None
+            raise ParamError(f"{named} = {str(exc).split(' = ', 1)[1]}") from None
     return dataclasses.replace(base or MeasurementSettings(), **changes)

@@ -1,5 +1,5 @@
 """One experiment: a scene, the approximation's parameters and a reference → both
-renders, the exact replay and every metric (DESIGN.md "Measuring the error").
+renders, the exact replay and every metric (docs/concepts/measuring.md.
 
 For each of the approximation's seeds (``params.seed``, +1, …) one frame is rendered
 with its segment records. Then:
@@ -32,6 +32,7 @@ import numpy as np
 from tqdm import tqdm
 
 from volcaustics.approx import Renderer
+from volcaustics.infra.errors import InputError
 from volcaustics.reference.oracle import Oracle
 from volcaustics.reference.render import render_reference
 from volcaustics.reports.core.sizing import REPORT_REFERENCE, sized
@@ -50,7 +51,7 @@ from volcaustics.reports.experiment.summary import experiment_summary, experimen
 STAGES = ("reference", "oracle", "approx", "segments", "photons", "exact_images", "metrics")
 
 
-class ExperimentError(ValueError):
+class ExperimentError(InputError):
     """The experiment cannot say anything about this scene (e.g. no caustic reaches the
     pixels it compares); the message names the scene and the reason."""
 

@@ -1,15 +1,15 @@
 """What an experiment can measure, checked before any reference renders: the seeds, a
 frame that fits the GL driver and this machine (``approx.trace.check_fits``, with the
 small-kernel image drawn at ``SMALL_SUPERSAMPLE``× per side), an image every metric can
-read and the memory a whole measurement holds (issue 21 E, G, I)."""
+read and the memory a whole measurement holds."""
 
 from __future__ import annotations
 
 from volcaustics.approx.params import ParamError, preset
 from volcaustics.approx.trace import check_fits
+from volcaustics.infra.memory import image_fits
 from volcaustics.metrics.image import SSIM_WINDOW
 from volcaustics.reports.experiment.exact_images import SMALL_SUPERSAMPLE
-from volcaustics.scenes.memory import image_fits
 
 # What a measurement holds per pixel (both renders, the reference, the decomposition's
 # subset images at 16× the pixels, every metric): 2.9 kB + 0.65–0.84 kB per seed measured
@@ -37,7 +37,7 @@ def measurement_bytes(width: int, height: int, seeds: int) -> int:
     return width * height * (BYTES_PER_PIXEL + BYTES_PER_PIXEL_PER_SEED * seeds)
 
 
-def check_images_fit(width: int, height: int, seeds: int, cost: tuple, what: str, error=ParamError) -> None:
+def check_images_fit(width: int, height: int, seeds: int, cost: tuple, what: str) -> None:
     """``error`` unless the images of a command that measures ``seeds`` frames at width ×
     height fit this machine's memory: ``cost`` is its (bytes per pixel, bytes per pixel
     per seed), measured by ``bench/image_memory.py`` (``measure``: BYTES_PER_PIXEL and
@@ -45,7 +45,7 @@ def check_images_fit(width: int, height: int, seeds: int, cost: tuple, what: str
     ``compare``, run before any reference renders."""
     reason = image_fits(width, height, cost[0] + cost[1] * seeds, what)
     if reason:
-        raise error(f"{reason}, or fewer seeds")
+        raise ParamError(f"{reason}, or fewer seeds")
 
 
 # Beyond this optical depth (light → target → eye) single scattering reaches the camera
@@ -54,21 +54,21 @@ def check_images_fit(width: int, height: int, seeds: int, cost: tuple, what: str
 MAX_OPTICAL_DEPTH = 24.0
 
 
-def check_medium(scene, error=ParamError) -> None:
+def check_medium(scene) -> None:
     """``error`` unless ``scene``'s medium gives a volume caustic to measure: it scatters
     in every colour channel (the error's shares divide by the reference caustic, per
     channel) and its optical depth leaves the camera some light (MAX_OPTICAL_DEPTH).
-    Checked before any reference renders (issue 36: σs of 0 or 1e3 failed after it)."""
+    Checked before any reference renders."""
     from volcaustics.scenes.fields import optical_depth
 
     sigma_s = scene.medium.sigma_s
     if min(sigma_s) <= 0.0:
-        raise error(f"{scene.name}: medium.sigma_s = {list(sigma_s)}: a channel without scattering has no volume "
+        raise ParamError(f"{scene.name}: medium.sigma_s = {list(sigma_s)}: a channel without scattering has no volume "
                     f"caustic to measure (the error is relative to the reference's caustic in each channel); "
                     f"give every channel sigma_s > 0")
     depth = optical_depth(scene)
     if not depth <= MAX_OPTICAL_DEPTH:
-        raise error(f"{scene.name}: the medium's optical depth from the light to the camera is {depth:.3g} "
+        raise ParamError(f"{scene.name}: the medium's optical depth from the light to the camera is {depth:.3g} "
                     f"(sigma_t {scene.medium.sigma_bar:.3g} 1/m over the light → target → eye path), above "
                     f"{MAX_OPTICAL_DEPTH:g}: e^-{depth:.3g} leaves no light a reference can render for the "
                     f"camera; give a thinner medium")
@@ -87,19 +87,18 @@ def checked_settings(scene, params, seeds: int) -> tuple:
     return p, [p.seed + i for i in range(seeds)]
 
 
-def measured_settings(preset_name: str, overrides: dict, *, seeds: int, seed: int, min_seeds: int, why: str,
-                      error=ParamError) -> tuple:
+def measured_settings(preset_name: str, overrides: dict, *, seeds: int, seed: int, min_seeds: int, why: str) -> tuple:
     """(params, seeds) of a gate's or a report's experiments: the preset with
     ``overrides`` and first seed ``seed``; ``seeds`` at least ``min_seeds`` (``why``
-    says why). ``error`` for a bad override, seed count or seed; a frame that cannot
+    says why). ParamError for a bad override, seed count or seed; a frame that cannot
     be measured fails here, before any reference renders."""
     if isinstance(seeds, bool) or not isinstance(seeds, int) or not min_seeds <= seeds <= 256:
-        raise error(f"--seeds = {seeds!r}: expected an integer in [{min_seeds}, 256] ({why})")
+        raise ParamError(f"--seeds = {seeds!r}: expected an integer in [{min_seeds}, 256] ({why})")
     if not 0 <= seed <= 2**32 - seeds:
-        raise error(f"--seed = {seed}: expected 0 ≤ seed and seed + seeds − 1 < 2^32")
+        raise ParamError(f"--seed = {seed}: expected 0 ≤ seed and seed + seeds − 1 < 2^32")
     try:
         params = preset(preset_name, seed=seed, **overrides)
         check_frame(params, seeds)
     except ParamError as exc:
-        raise error(f"--set: {exc}") from None
+        raise ParamError(f"--set: {exc}") from None
     return params, seeds

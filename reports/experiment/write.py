@@ -6,10 +6,10 @@ from __future__ import annotations
 import json
 import os
 
+from volcaustics.infra.imageio import write_exr
+from volcaustics.infra.storage import atomic_set
 from volcaustics.reports.core.store import TABLES
 from volcaustics.reports.core.tables import plain, table
-from volcaustics.scenes.imageio import write_exr
-from volcaustics.scenes.storage import atomic_set
 
 OUTPUT_FILES = (*(f"{name}.{ext}" for name in TABLES for ext in ("parquet", "csv")), "decomposition.exr",
                 "summary.json")  # what `measure -o DIR` writes; the manifest, summary.json, last
@@ -24,7 +24,7 @@ def output_paths(out_dir: str) -> dict:
 
 def write_experiment(experiment, out_dir: str) -> dict:
     """Write the tables (Parquet + CSV), ``decomposition.exr`` and, last,
-    ``summary.json`` into ``out_dir`` as one set (``scenes.storage.atomic_set``: an
+    ``summary.json`` into ``out_dir`` as one set (``infra.storage.atomic_set``: an
     interrupted write leaves the last complete set). Returns the paths."""
     os.makedirs(out_dir, exist_ok=True)
     paths = output_paths(out_dir)  # summary.json last: the set's manifest

@@ -33,6 +33,7 @@ import os
 from dataclasses import dataclass, field
 
 from volcaustics.approx.params import PRESETS
+from volcaustics.infra.errors import InputError
 from volcaustics.reports.core.sizing import REFERENCE_KEYS, reference_settings
 from volcaustics.reports.core.tomlfile import load_toml
 from volcaustics.reports.experiment.measurement import measurement_settings
@@ -48,7 +49,7 @@ COMPONENTS = ("caustic", "fog", "direct", "combined")
 TOP_KEYS = ("preset", "seeds", "scene", "reference", "measurement", "animation", "compare")
 
 
-class GateError(ValueError):
+class GateError(InputError):
     """Bad budgets, a missing reference or baseline, a NaN metric: exit 2."""
 
 
@@ -72,7 +73,7 @@ def load_budgets(path: str) -> dict:
     """{"preset", "seeds", "scenes": {name: {check: limit}}, "scene_args": {name: SCENE
     argument}, "path", "reference_settings", "measurement"}, validated. A scene file named by a relative
     path is relative to the budgets file (``scenes.catalogue.scene_relative_to``)."""
-    doc = load_toml(path, keys=TOP_KEYS, error=GateError, what="budgets")
+    doc = load_toml(path, keys=TOP_KEYS, what="budgets")
     seeds = doc.get("seeds", 4)
     if isinstance(seeds, bool) or not isinstance(seeds, int) or not 2 <= seeds <= 256:
         raise GateError(f"{path}: seeds = {seeds!r}: expected an integer in [2, 256] (the regression test needs 2)")
@@ -97,13 +98,16 @@ def load_budgets(path: str) -> dict:
     reference = doc.get("reference", {})
     if not isinstance(reference, dict) or any(k not in REFERENCE_KEYS for k in reference):
         raise GateError(f"{path}: reference = {reference!r}: expected a table of {', '.join(REFERENCE_KEYS)}")
-    settings = reference_settings(reference, error=lambda message: GateError(f"{path}: {message}"))
+    try:
+        settings = reference_settings(reference)
+    except InputError as exc:
+        raise GateError(f"{path}: {exc}") from None
     measurement = doc.get("measurement", {})
     if not isinstance(measurement, dict):
         raise GateError(f"{path}: measurement = {measurement!r}: expected a table [measurement]")
     return {"preset": preset, "seeds": seeds, "scenes": out, "scene_args": args, "path": path,
             "reference_settings": settings, "animations": animations, "compare": compared,
-            "measurement": measurement_settings(measurement, where=f"{path}: measurement", error=GateError)}
+            "measurement": measurement_settings(measurement, where=f"{path}: measurement")}
 
 
 def _limits(path: str, where: str, table: dict, groups: tuple) -> dict:

@@ -10,10 +10,10 @@ from xml.sax.saxutils import escape, quoteattr
 
 import numpy as np
 
+from volcaustics.infra.imageio import write_png
+from volcaustics.infra.storage import atomic_write_texts
 from volcaustics.metrics.image import reference_exposure
 from volcaustics.reports.core.tables import plain
-from volcaustics.scenes.imageio import write_png
-from volcaustics.scenes.storage import atomic_write_texts
 
 VERDICT = "gate.json"      # in --out; written last, with the baseline and the JUnit file
 
@@ -38,7 +38,7 @@ def failure_images(out_dir, scene, check, views) -> dict:
 
 def write_outputs(out_dir, result, params, seeds, budgets, *, baseline: str | None, junit: str | None) -> None:
     """The new baseline (when accepted), the JUnit file and, last, gate.json as one set
-    (``scenes.storage.atomic_set``): an interrupted gate never leaves a new baseline
+    (``infra.storage.atomic_set``): an interrupted gate never leaves a new baseline
     without its verdict."""
     doc = {"passed": result.exit_code == 0, "exit_code": result.exit_code, "seconds": result.seconds,
            "budgets": budgets["path"], "params": params.to_dict(), "seeds": seeds, "baseline": result.baseline,

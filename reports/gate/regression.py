@@ -14,8 +14,8 @@ import os
 import numpy as np
 from scipy.stats import t as student_t
 
+from volcaustics.infra.storage import read_json_object
 from volcaustics.reports.gate.budgets import Check, GateError
-from volcaustics.scenes.storage import read_json_object
 
 ALPHA = 0.01            # one-sided false-alarm rate of the regression test
 POWER = 0.95            # for the stated detectable increase

@@ -3,7 +3,7 @@
 (``gate.regression``), checked by ``gate.verdict`` on results the runner measured or
 found in the result store it shares with the report.
 
-Exit codes (DESIGN.md): 0 pass, 1 a budget exceeded or a regression, 2 bad input or
+Exit codes (docs/gate.md): 0 pass, 1 a budget exceeded or a regression, 2 bad input or
 missing data — a missing reference or baseline entry, a NaN metric, a scene that does
 not exist — never a pass.
 """
@@ -14,6 +14,7 @@ import os
 import time
 from dataclasses import dataclass, replace
 
+from volcaustics.infra.storage import remove_file
 from volcaustics.reports import runner
 from volcaustics.reports.animate.read import load_animation
 from volcaustics.reports.compare.read import comparison_folders, load_comparison
@@ -24,7 +25,6 @@ from volcaustics.reports.gate.outputs import VERDICT, failure_images, write_outp
 from volcaustics.reports.gate.regression import BASELINE, baseline_text, load_baseline
 from volcaustics.reports.gate.verdict import scene_verdict
 from volcaustics.scenes import SceneError, resolve_scene
-from volcaustics.scenes.storage import remove_file
 
 MISSING_REFERENCE = "run `make report` (or the gate with --render-references) first"
 
@@ -57,7 +57,7 @@ def run_gate(budgets: dict, *, overrides: dict, baseline_dir: str | None, update
     compared = [c for name, folder in comparisons or () for c in _comparisons(budgets, name, folder)]
     n_seeds = budgets["seeds"] if seeds is None else seeds
     params, n_seeds = measured_settings(budgets["preset"], overrides, seeds=n_seeds, seed=seed, min_seeds=2,
-                                        why="the regression test needs 2", error=GateError)
+                                        why="the regression test needs 2")
     check_measurable(budgets, names, params)
     baseline = load_baseline(baseline_dir) if baseline_dir and not update_baseline else None
     absent = [n for n in names if baseline is not None and n not in baseline["scenes"]]
@@ -73,7 +73,7 @@ def run_gate(budgets: dict, *, overrides: dict, baseline_dir: str | None, update
                          measurement=replace(measurement or budgets["measurement"], scope="gate"),
                          policy="missing" if render_references else "cached", views=True, parallel=True,
                          progress=progress,
-                         hint=MISSING_REFERENCE, error=GateError)
+                         hint=MISSING_REFERENCE)
     checks, entries = [], {}
     for name, result in zip(names, run.results):
         verdict = scene_verdict(name, result, budgets["scenes"][name], baseline, strict=True)
@@ -100,7 +100,7 @@ def run_gate(budgets: dict, *, overrides: dict, baseline_dir: str | None, update
 
 def _animation(budgets: dict, folder: str) -> dict:
     """An animate output with flicker budgets, measured with this code."""
-    animation = load_animation(folder, error=GateError)
+    animation = load_animation(folder)
     scene = animation["summary"]["scene"]
     if scene not in budgets["animations"]:
         raise GateError(f"--animation {folder}: no [animation.{scene}] flicker budgets in {budgets['path']}")
@@ -116,8 +116,8 @@ def _comparisons(budgets: dict, name: str, folder: str) -> list:
     and measured with this code."""
     option = f"--compare {name}="
     out = []
-    for path in comparison_folders(folder, option, error=GateError):
-        comparison = load_comparison(path, option, error=GateError, views=False)
+    for path in comparison_folders(folder, option):
+        comparison = load_comparison(path, option, views=False)
         s = comparison["summary"]
         if s["scene"] not in budgets["compare"].get(name, {}):
             raise GateError(f"{option}{path}: no [compare.{name}.{s['scene']}] budgets in {budgets['path']}")

@@ -18,6 +18,8 @@ from dataclasses import dataclass, field
 import pandas as pd
 
 from volcaustics.approx.params import PARAMS, ApproxParams
+from volcaustics.infra.errors import InputError
+from volcaustics.infra.storage import file_sha256, read_json_object, special_file_kind
 from volcaustics.reports import runner
 from volcaustics.reports.animate.read import load_animation
 from volcaustics.reports.compare.read import comparison_folders, load_comparison
@@ -35,10 +37,9 @@ from volcaustics.reports.page.write import write_report
 from volcaustics.reports.sweep.frames import load_frames
 from volcaustics.reports.sweep.run import MANIFEST_SEAL
 from volcaustics.scenes import SceneError, resolve_scene
-from volcaustics.scenes.storage import file_sha256, read_json_object, special_file_kind
 
 
-class ReportError(ValueError):
+class ReportError(InputError):
     """Bad report input (a scene, a sweep store, an output folder): exit 2; the
     message names the value and the fix."""
 
@@ -94,7 +95,7 @@ def collect_scenes(names, params, *, seeds: int, reference_settings, measurement
     with clock.stage("experiments"):
         run = runner.measure([runner.Point(name, params, seeds) for name in names], runner.results_store(),
                              reference_settings=reference_settings, measurement=measurement, policy="continue",
-                             views=True, parallel=True, progress=progress, error=ReportError)
+                             views=True, parallel=True, progress=progress)
     with clock.stage("gate"):
         return [_scene_result(name, result, budgets, baseline) for name, result in zip(names, run.results)]
 
@@ -217,9 +218,9 @@ def run_report(out_dir: str, names, *, overrides: dict, seeds: int | None, seed:
     output or a folder of them, shown beside the approximation on their scenes."""
     clock = Clock()
     params, seeds = measured_settings(budgets["preset"], overrides, seeds=budgets["seeds"] if seeds is None else seeds,
-                                      seed=seed, min_seeds=1, why="intervals need 4", error=ReportError)
+                                      seed=seed, min_seeds=1, why="intervals need 4")
     sweep = load_sweep(sweep_dir) if sweep_dir else None      # bad input fails before anything renders
-    animations = [load_animation(folder, error=ReportError) for folder in animation_dirs or ()]
+    animations = [load_animation(folder) for folder in animation_dirs or ()]
     frames = _load_frames(frames_dir) if frames_dir else None
     compared = load_comparisons(comparisons, names)
     baseline = load_baseline(baseline_dir) if baseline_dir else None
@@ -254,8 +255,8 @@ def load_comparisons(pairs, names) -> list:
     shown = {resolve_scene(name).scene_hash(): name for name in names}
     out, seen = [], set()
     for name, folder in pairs:
-        for path in comparison_folders(folder, f"--compare {name}=", error=ReportError):
-            loaded = load_comparison(path, f"--compare {name}=", error=ReportError)
+        for path in comparison_folders(folder, f"--compare {name}="):
+            loaded = load_comparison(path, f"--compare {name}=")
             s = loaded["summary"]
             if s["scene_hash"] not in shown:
                 raise ReportError(f"--compare {name}={path}: compares {s['scene']!r} (hash {s['scene_hash'][:12]}), "

@@ -8,9 +8,9 @@ import base64
 
 import numpy as np
 
+from volcaustics.infra.imageio import png_bytes, tonemap_srgb8
 from volcaustics.metrics.image import reference_exposure
 from volcaustics.reports.core.scales import SCALES, Scale, colormap_lut, heatmap_rgb8
-from volcaustics.scenes.imageio import png_bytes, tonemap_srgb8
 
 __all__ = ["SCALES", "SHOWN", "Scale", "colour_bar_css", "component_images", "data_uri", "exposures", "heatmap_uri",
            "render_uri"]

@@ -50,7 +50,7 @@ def hit_classes(segments) -> dict:
     """Segment classes as % of each step's segments: per step and light-map layer of the
     approximation's hit (``"none"`` when it found none), and per step with the |Δt|
     percentiles of true hits (mm). Self re-hits are counted by their class beyond the
-    re-hit surface and given apart as ``self_rehit`` (DESIGN.md)."""
+    re-hit surface and given apart as ``self_rehit`` (docs/concepts/measuring.md)."""
     def classes(frame, total):
         out = {}
         for name in OUTCOME_CLASSES:

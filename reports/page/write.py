@@ -9,6 +9,7 @@ import time
 
 from tqdm import tqdm
 
+from volcaustics.infra.storage import atomic_write_texts
 from volcaustics.reports.core.plotting import remove_stale_figures
 from volcaustics.reports.core.tables import plain
 from volcaustics.reports.page import charts
@@ -18,7 +19,6 @@ from volcaustics.reports.page.summary import OUTPUT_FILES
 from volcaustics.reports.sweep.best import draw_best
 from volcaustics.reports.sweep.figures import draw_figures
 from volcaustics.reports.sweep.variants import draw_variants, is_variants_sweep, variant_table
-from volcaustics.scenes.storage import atomic_write_texts
 
 
 def write_report(out_dir: str, results: list, summary: dict, sweep=None, *, progress: bool = False,

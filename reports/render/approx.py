@@ -1,7 +1,7 @@
 """`volcaustics approx`: render one scene with the paper's method and write
 OUT.exr (all layers), OUT.png (tonemapped combined), OUT.records.npz (segment
 records) and OUT.json (timings, parameters, scene hash), written as one unit
-(``scenes.storage.atomic_set``)."""
+(``infra.storage.atomic_set``)."""
 
 from __future__ import annotations
 
@@ -11,9 +11,9 @@ import os
 import numpy as np
 
 from volcaustics.approx import render
+from volcaustics.infra.imageio import write_exr, write_png
+from volcaustics.infra.storage import atomic_set
 from volcaustics.reports.render.outputs import render_outputs
-from volcaustics.scenes.imageio import write_exr, write_png
-from volcaustics.scenes.storage import atomic_set
 
 
 def output_paths(out: str) -> dict:

@@ -10,9 +10,9 @@ import json
 import os
 import shutil
 
+from volcaustics.infra.storage import atomic_set
 from volcaustics.reference.render import render_reference
 from volcaustics.reports.render.outputs import render_outputs
-from volcaustics.scenes.storage import atomic_set
 
 
 def run_reference(scene, settings, out: str, *, force: bool = False) -> dict:

@@ -1,5 +1,5 @@
-"""The best-configuration search (issue 22, item 4; ``volcaustics sweep --best``,
-``make sweep-best``): which configuration of the whole method gives the least caustic
+"""The best-configuration search (``volcaustics sweep --best``, ``make sweep-best``): which
+configuration of the whole method gives the least caustic
 error for the paper configuration's frame cost, on every built-in.
 
 Method (``reports/sweep/best.toml`` states the axes):
@@ -96,7 +96,7 @@ class BestSpec:
 def load_best_spec(path: str = BEST_SPEC, scenes: list | None = None) -> BestSpec:
     """The spec at ``path`` (SweepError naming the file, key and value otherwise);
     ``scenes`` replaces its scenes."""
-    doc = load_toml(path, keys=BEST_KEYS, error=SweepError, what="best-configuration spec")
+    doc = load_toml(path, keys=BEST_KEYS, what="best-configuration spec")
     axes = {}
     for key in ("coarse", "refine"):
         table = doc.get(key, {})
@@ -111,7 +111,7 @@ def load_best_spec(path: str = BEST_SPEC, scenes: list | None = None) -> BestSpe
                                  f"= N sets the seeds)")
             if not isinstance(values, list) or not values:
                 raise SweepError(f"{path}: {key}.{name} = {values!r}: expected a non-empty list")
-            parsed = tuple(parse_value(name, v, f"{path}: {key}", error=SweepError) for v in values)
+            parsed = tuple(parse_value(name, v, f"{path}: {key}") for v in values)
             if len(set(parsed)) != len(parsed):  # named here: the sweep's own check says vary.NAME
                 raise SweepError(f"{path}: {key}.{name} = {values!r}: a value is listed twice")
             axes[key].append((name, parsed))
@@ -125,7 +125,7 @@ def load_best_spec(path: str = BEST_SPEC, scenes: list | None = None) -> BestSpe
     fixed = doc.get("set", {})
     if not isinstance(fixed, dict):
         raise SweepError(f"{path}: set = {fixed!r}: expected a table [set]")
-    fixed = {name: parse_value(name, v, f"{path}: set", error=SweepError) for name, v in fixed.items()}
+    fixed = {name: parse_value(name, v, f"{path}: set") for name, v in fixed.items()}
     searched = [n for n, _ in axes["coarse"] + axes["refine"]]
     if set(fixed) & set(searched):
         raise SweepError(f"{path}: {sorted(set(fixed) & set(searched))[0]} is both searched and set")
@@ -195,8 +195,8 @@ class BestSearch:
                 todo.append((scene, config))
             self.matcher.save()
         run = runner.measure([self.points[k] for k in todo], self.store,
-                             reference_settings=reference_settings(self.spec.reference, error=SweepError),
-                             measurement=measurement_settings(self.spec.measurement, error=SweepError),
+                             reference_settings=reference_settings(self.spec.reference),
+                             measurement=measurement_settings(self.spec.measurement),
                              policy="missing", workers=self.workers, dask=self.dask, progress=self.progress,
                              read_back=False)
         self.keys.update(dict(zip(todo, run.keys)))

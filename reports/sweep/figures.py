@@ -2,7 +2,7 @@
 (``reports.core.store.Store.tables``): no computation but grouping and plotting.
 
 Every figure is written as PNG and SVG, with the Okabe–Ito palette (distinguishable
-with the common colour-vision deficiencies), axes named with DESIGN.md's parameter
+with the common colour-vision deficiencies), axes named with the parameter table's
 names and units. Where several parameters vary, a plot over one of them holds the
 others at their largest value (the most accurate setting), and says so.
 """

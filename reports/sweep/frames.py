@@ -22,6 +22,7 @@ import pandas as pd
 from tqdm import tqdm
 
 from volcaustics.approx.params import preset
+from volcaustics.infra.storage import atomic_path
 from volcaustics.reports.core.cost_match import with_auto_photon_res
 from volcaustics.reports.core.sizing import REPORT_REFERENCE, sized
 from volcaustics.reports.core.versions import code_version
@@ -29,7 +30,6 @@ from volcaustics.reports.experiment.run import run_experiment
 from volcaustics.reports.runner import reference_for
 from volcaustics.scenes import resolve_scene
 from volcaustics.scenes.catalogue import BUILTIN_NAMES, HELDOUT_NAMES, heldout_path
-from volcaustics.scenes.storage import atomic_path
 
 CONFIGS = ("paper", "best")       # the quick preset (the paper's method) and the preset best
 DENOISERS = ("none", "oidn")
@@ -97,7 +97,7 @@ def with_ratios(table: pd.DataFrame) -> pd.DataFrame:
     return table
 
 
-GOAL = 0.5  # issue 38: one frame's caustic relMSE at most half the paper configuration's on every scene
+GOAL = 0.5  # the goal: one frame's caustic relMSE at most half the paper configuration's on every scene
 
 
 def verdict(table: pd.DataFrame) -> dict:

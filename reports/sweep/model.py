@@ -1,4 +1,4 @@
-"""A density sweep's reading (issue 25): the approximation's own error and the
+"""A density sweep's reading: the approximation's own error and the
 single-scattering model's against the medium's optical depth, per scene, and the
 optical depth where the model's error overtakes the approximation's.
 

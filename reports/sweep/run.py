@@ -11,6 +11,7 @@ from dataclasses import dataclass, field
 
 import pandas as pd
 
+from volcaustics.infra.storage import atomic_set, file_sha256, remove_file
 from volcaustics.reports import runner
 from volcaustics.reports.core.plotting import remove_stale_figures
 from volcaustics.reports.core.sizing import reference_settings
@@ -19,10 +20,9 @@ from volcaustics.reports.experiment.measurement import measurement_settings
 from volcaustics.reports.sweep.best import draw_best
 from volcaustics.reports.sweep.figures import draw_figures
 from volcaustics.reports.sweep.model import crossings, has_depth_sweep
-from volcaustics.reports.sweep.spec import SweepError, SweepSpec, points
+from volcaustics.reports.sweep.spec import SweepSpec, points
 from volcaustics.reports.sweep.suffice import settings_that_suffice
 from volcaustics.reports.sweep.variants import best_variants, draw_variants, is_variants_sweep, variant_table
-from volcaustics.scenes.storage import atomic_set, file_sha256, remove_file
 
 MANIFEST = "sweep.json"  # the spec, the points the store's tables hold, their SHA-256s; written last
 MANIFEST_SEAL = "sweep_sha256"  # sweep.json's field holding the SHA-256 of the rest of it
@@ -54,8 +54,8 @@ def run_sweep(spec: SweepSpec, out_dir: str, *, workers: int | None = None, dask
     stops it with the finished points kept."""
     t0 = time.perf_counter()
     store = Store(out_dir)
-    run = runner.measure(points(spec), store, reference_settings=reference_settings(spec.reference, error=SweepError),
-                         measurement=measurement_settings(spec.measurement, error=SweepError),
+    run = runner.measure(points(spec), store, reference_settings=reference_settings(spec.reference),
+                         measurement=measurement_settings(spec.measurement),
                          policy="missing", workers=workers, dask=dask, progress=progress, read_back=False)
     keys = sorted(set(run.keys))
     tables, figures = consolidate(store, out_dir, spec, keys)
@@ -102,7 +102,7 @@ def consolidate(store: Store, out_dir: str, spec: SweepSpec, keys: list, *, extr
 
 def _write_tables(out_dir: str, tables: dict, manifest: dict, extra: tuple = ()) -> None:
     """The consolidated tables, suffice.csv and, last, sweep.json as one set
-    (``scenes.storage.atomic_set``): an interrupted sweep leaves the last complete set,
+    (``infra.storage.atomic_set``): an interrupted sweep leaves the last complete set,
     never a manifest beside another run's tables (what ``report --sweep`` reads). The
     manifest records each file's SHA-256 (``files``) and its own (MANIFEST_SEAL), which
     the report checks."""

@@ -22,7 +22,7 @@ joined in order, a point named twice run once (e.g. the variants sweep,
 ``reports/sweep/variants.toml``: each search with its own knobs). The figures see
 every varied name with all its values.
 
-Every name is an ``ApproxParams`` field (DESIGN.md) or a scene field, a dotted path
+Every name is an ``ApproxParams`` field (docs/approx.md) or a scene field, a dotted path
 into the scene file (``medium.sigma_s``, ``light.intensity``, ``specular.0.ior``:
 ``scenes.fields``), applied to every scene of the sweep and validated as the loader
 validates a file. On the command line a scene field's values are numbers or words
@@ -39,6 +39,7 @@ import math
 from dataclasses import dataclass, field
 
 from volcaustics.approx.params import PRESETS, ApproxParams, ParamError, preset
+from volcaustics.infra.errors import InputError
 from volcaustics.reports.core.params import parse_assignment, parse_overrides, parse_value
 from volcaustics.reports.core.sizing import reference_settings
 from volcaustics.reports.core.tomlfile import load_toml
@@ -57,7 +58,7 @@ MAX_POINTS = 10_000
 SECONDS_PER_POINT = 25.0  # quick preset, 4 seeds, 2 cores (the variants sweep, docs/decisions.md)
 
 
-class SweepError(ValueError):
+class SweepError(InputError):
     """A sweep specification that cannot run; the message names where, what and the fix."""
 
 
@@ -99,7 +100,7 @@ def spec_from_args(scenes: str | None, vary: list, fixed: list, *, preset: str, 
             raise SweepError(f"--vary {text!r}: {name} is varied twice")
         grid.append((name, tuple(values)))
     scene_fixed = [text for text in fixed or [] if is_scene_field(text.partition("=")[0])]
-    settled = parse_overrides([t for t in fixed or [] if t not in scene_fixed], error=SweepError, seed_option=False)
+    settled = parse_overrides([t for t in fixed or [] if t not in scene_fixed], seed_option=False)
     for text in scene_fixed:
         name, values = _assignment(text, "--set")
         if len(values) != 1 or name in settled:
@@ -111,7 +112,7 @@ def spec_from_args(scenes: str | None, vary: list, fixed: list, *, preset: str, 
 def spec_from_toml(path: str, max_points: int | None = MAX_POINTS) -> SweepSpec:
     """A spec from a TOML file (see the module's docstring); more than ``max_points``
     points (None: no limit) is refused."""
-    doc = load_toml(path, keys=SPEC_KEYS, error=SweepError, what="sweep spec")
+    doc = load_toml(path, keys=SPEC_KEYS, what="sweep spec")
     scenes = doc.get("scenes")
     if scenes is None:
         scenes = list(BUILTIN_NAMES)
@@ -138,7 +139,10 @@ def spec_from_toml(path: str, max_points: int | None = MAX_POINTS) -> SweepSpec:
         _unquoted(name, v, f"{path}: set")
         settled[name] = _value(name, v, f"{path}: set")
     reference = _table(doc, "reference", path)
-    reference_settings(reference, error=lambda message: SweepError(f"{path}: {message}"))  # checked now
+    try:
+        reference_settings(reference)  # checked now
+    except InputError as exc:
+        raise SweepError(f"{path}: {exc}") from None
     measurement = _table(doc, "measurement", path)
     seeds = doc.get("seeds", 1)
     preset = doc.get("preset", "quick")
@@ -146,7 +150,7 @@ def spec_from_toml(path: str, max_points: int | None = MAX_POINTS) -> SweepSpec:
                               tuple(grids) if several else (), dict(measurement)), path, max_points)
 
 
-def _hinted(exc: SweepError, name: str) -> SweepError:
+def _hinted(exc: InputError, name: str) -> InputError:
     """``exc``, with the scene fields named when it is about an unknown parameter."""
     if "unknown parameter" not in str(exc):
         return exc
@@ -167,8 +171,8 @@ def _value(name: str, value, where: str):
     """A parameter's or a scene field's value (text or TOML), typed; SweepError naming ``where``."""
     if not is_scene_field(name):
         try:
-            return parse_value(name, value, where, error=SweepError)
-        except SweepError as exc:
+            return parse_value(name, value, where)
+        except ParamError as exc:
             raise _hinted(exc, name) from None
     try:
         return parse_field_value(name, value)  # hashable (a list as a tuple): a point's identity
@@ -181,8 +185,8 @@ def _assignment(text: str, where: str) -> tuple:
     name, sep, values = text.partition("=")
     if not is_scene_field(name.strip()):
         try:
-            return parse_assignment(text, where, error=SweepError)
-        except SweepError as exc:
+            return parse_assignment(text, where)
+        except ParamError as exc:
             raise _hinted(exc, name.strip()) from None
     items = values.split(",")
     if not sep or any(not v.strip() for v in items):
@@ -223,7 +227,7 @@ def _checked(spec: SweepSpec, where: str, max_points: int | None = MAX_POINTS) -
         raise SweepError(f"{where}: seeds = {spec.seeds!r}: expected an integer in [1, 1024]")
     if not isinstance(spec.measurement, dict):
         raise SweepError(f"{where}: measurement = {spec.measurement!r}: expected a table [measurement]")
-    measurement_settings(spec.measurement, where=f"{where}: measurement", error=SweepError)
+    measurement_settings(spec.measurement, where=f"{where}: measurement")
     if not spec.scenes or any(not s for s in spec.scenes):
         raise SweepError(f"{where}: scenes = {list(spec.scenes)!r}: expected at least one scene, none empty")
     if len(set(spec.scenes)) != len(spec.scenes):
@@ -249,7 +253,10 @@ def _checked(spec: SweepSpec, where: str, max_points: int | None = MAX_POINTS) -
         except SceneError as exc:
             raise SweepError(f"{where}: {exc}") from None
         label = f"{where}: {dict(fields)}" if fields else where
-        check_medium(measured, error=lambda text, label=label: SweepError(f"{label}: {text}"))
+        try:
+            check_medium(measured)
+        except InputError as exc:
+            raise SweepError(f"{label}: {exc}") from None
     for point in every:
         last = point.params.seed + spec.seeds - 1
         if last > 2**32 - 1:

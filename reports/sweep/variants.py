@@ -1,4 +1,4 @@
-"""The variants view of a sweep (DESIGN.md "approx: variants beside the paper"): each
+"""The variants view of a sweep (docs/approx.md: each
 point's intersection term beside its cost, the Pareto fronts, and per scene the best
 variant at no more map reads per segment than the paper's search.
 

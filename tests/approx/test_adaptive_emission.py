@@ -1,4 +1,4 @@
-"""Adaptive emission (issue 22, item 2): photons drawn over the light's texels by
+"""Adaptive emission: photons drawn over the light's texels by
 importance, weighted by 1/(expected count), so the estimate stays unbiased.
 
 The draw is checked exactly (every texel's expected weighted count is 1), the frame

@@ -1,4 +1,4 @@
-"""Adaptive splats (issue 22, item 1): each photon's kernel from its ray differential.
+"""Adaptive splats: each photon's kernel from its ray differential.
 
 The footprint is checked against paraxial optics through one refraction (a sphere's
 focal spread), the splat kernel against its integral for any width, and `fixed` against

@@ -167,7 +167,7 @@ def _exit_tolerance(frustum, point, center, radius):
 
 @pytest.mark.parametrize("tilt", [0.0, 0.15, 0.3])
 def test_exit_towards_the_light(ctx, tilt):
-    """Issue 7, fix 1: a photon reflected inside the glass heading back up towards the
+    """a photon reflected inside the glass heading back up towards the
     light. Its segment runs to the scene box, far beyond the light's frustum; samples
     spread over the whole projection fell outside the maps and the photon was lost.
     Either the clipping to the frustum or the coverage-edge search finds the top
@@ -185,7 +185,7 @@ def test_exit_towards_the_light(ctx, tilt):
 
 @pytest.mark.parametrize("peak_samples", [2, 8])
 def test_exit_next_to_the_silhouette(ctx, peak_samples):
-    """Issue 7, fix 1: a photon inside the glass leaving sideways just inside the sphere's
+    """a photon inside the glass leaving sideways just inside the sphere's
     silhouette seen from the light. Beyond the exit the maps hold nothing, so the sample
     after the crossing is uncovered and no sign change was seen between two covered
     samples: the photon was lost. The covered end next to the coverage edge is found by
@@ -207,7 +207,7 @@ def test_exit_next_to_the_silhouette(ctx, peak_samples):
 
 
 def test_samples_only_where_the_maps_are(ctx):
-    """Issue 7, fix 1: the peak samples go to the part of the segment inside the light
+    """the peak samples go to the part of the segment inside the light
     frustum. A chord through the top cap of a big sphere (paper Fig. 2 D: both ends in
     front of the surface, only interior samples see the crossing) continues 4 m beyond
     the frustum. Spread over the whole projection, the 8 samples are 0.6 m apart and
@@ -251,7 +251,7 @@ def _first_step_agreement(ctx, specular, light_res, true_t, tolerance):
 
 @pytest.mark.parametrize("light_res", [256, 1024])
 def test_start_offset_keeps_thin_walls_and_leaves_the_start_surface(ctx, light_res):
-    """Issue 7, fix 3. A shell with a 1 cm wall: light entering the top of the wall must
+    """A shell with a 1 cm wall: light entering the top of the wall must
     meet the inner surface 1–1.5 cm on. The former offset of 5 texel footprints (2.4 cm
     at light_res 256 here) jumped over it; the rule now scales the offset with the map's
     error at the start and the angle of departure. And a solid sphere: the segment must

@@ -237,7 +237,7 @@ def test_moved_light_or_camera_renders_like_a_fresh_renderer(ctx, move):
 
 
 def test_moved_object_renders_like_a_fresh_renderer(ctx):
-    """Rigid motion (DESIGN.md "Dynamic scenes"): meshes stay uploaded in object space
+    """Rigid motion (docs/over-time.md: meshes stay uploaded in object space
     and every pass applies the frame's object matrices, so one Renderer that rendered
     the old scene gives, for a sphere moved, turned and scaled, bit for bit what a fresh
     Renderer gives for the moved scene: images and segment records. Both renderers live

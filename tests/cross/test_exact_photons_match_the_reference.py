@@ -1,7 +1,7 @@
 """Exact photons through the approximation's splatter reproduce the reference caustic
 (the README's V6).
 
-E (DESIGN.md E_∞,s): the approximation's photons — its emission state, one photon
+E (E_∞,s in docs/concepts/decomposition.md): the approximation's photons — its emission state, one photon
 per covered texel of a photon_res² map, from its step-1 records — replayed with
 exact intersections and the same random numbers (``reference.oracle``, stochastic
 Fresnel, STEPS interaction steps: < 0.1% of the power is alive afterwards, asserted),

@@ -1,8 +1,8 @@
-"""One physics in both renderers (issue 7, fix 2): the specular interaction of the
+"""One physics in both renderers: the specular interaction of the
 approximation (common/interaction.glsl) and of the exact photon tracer (its numpy
-twin in reference/oracle.py) decide inside or outside by DESIGN.md's one rule — a
+twin in reference/oracle.py) decide inside or outside by the one rule of docs/conventions.md — a
 direction below the *geometric* surface is inside — like the reference light tracer
-(`enters = dot(wo, si.n) < 0` in reference/integrators.py); with shading normals
+(`enters = dot(wo, si.n) < 0` in reference/render/integrators.py); with shading normals
 the refraction event and that rule disagree on a few paths, which the exact tracer
 used to lose as "lost inside glass" (docs/decisions.md "One inside rule")."""
 

@@ -42,7 +42,7 @@ def test_power_budget_shares():
 
 def test_a_step_no_photon_reached_has_zero_shares():
     """Step 3 after every photon's path ended (photon_res 1, steps 32): zero rows, not
-    "cannot reshape array of size 0" (issue 21 E)."""
+    "cannot reshape array of size 0"."""
     history = _history() + [_step(3, [], [], [], [])]
     rows = power_budget(history)
     assert rows[2]["step"] == 3 and rows[2]["share_entering"] == 0
@@ -54,7 +54,7 @@ def test_a_step_no_photon_reached_has_zero_shares():
 def test_no_power_entering_gives_undefined_shares_not_an_error():
     """A spot that misses the glass or a tiny sphere no photon meets: no power enters
     step 1; the measurement crashed with a traceback after the reference had rendered
-    (issue 21, second hostile pass). The shares are NaN (undefined)."""
+   . The shares are NaN (undefined)."""
     history = _history()
     for r in history:
         r["power_start"] = 0.0

@@ -9,13 +9,13 @@ import os
 import numpy as np
 import pytest
 
+from volcaustics.infra.imageio import read_exr
 from volcaustics.reference import cache
 from volcaustics.reference.render import render_reference
 from volcaustics.reference.settings import ReferenceSettings, SettingsError
 from volcaustics.reports.cli import main
 from volcaustics.scenes import load_builtin
 from volcaustics.scenes.formats import LAYER_NAMES
-from volcaustics.scenes.imageio import read_exr
 
 SMALL = ["--width", "24", "--height", "24", "--photons", "200000", "--spp", "16", "--batches", "4"]
 
@@ -119,7 +119,7 @@ def test_export_xml_loads_in_mitsuba(tmp_path):
 
 @pytest.mark.parametrize("existing", [False, True])
 def test_an_interrupted_export_leaves_no_mesh_folder_it_made(tmp_path, monkeypatch, existing):
-    """Ctrl-C during `export` left an empty OUT_meshes/ (issue 36); a folder that was
+    """Ctrl-C during `export` left an empty OUT_meshes/; a folder that was
     there before stays."""
     from volcaustics.reference.render import export
 
@@ -159,7 +159,7 @@ def test_a_cache_hit_needs_no_variant_probe(empty_cache, monkeypatch):
 
     scene = load_builtin("refocus")
     settings = ReferenceSettings(photons=100000, spp=8, batches=2, width=16, height=16)
-    first = render_reference(scene, settings, progress=False)  # llvm_ad_rgb, from tests/reference/conftest.py
+    first = render_reference(scene, settings, progress=False)  # llvm_ad_rgb, from tests/conftest.py
     monkeypatch.delenv("VOLCAUSTICS_MI_VARIANT")
 
     def no_probe():

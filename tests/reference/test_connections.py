@@ -1,4 +1,4 @@
-"""The light tracer's camera connections (issue 8: the reference caustic's fireflies).
+"""The light tracer's camera connections.
 
 A medium segment's single scattering toward the eye is ∫ σs·phase·T·W(x(t)) dt with the
 sensor importance W ∝ 1/d². One equiangular vertex over the whole segment put all of
@@ -36,7 +36,7 @@ W = H = 48
 
 
 class SingleConnection(VolumetricLightTracer):
-    """The estimator before issue 8: one equiangular vertex on the whole segment."""
+    """The estimator before stratified connections: one equiangular vertex on the whole segment."""
 
     def connections(self, view, ray, t_end):
         width = dr.width(t_end)

@@ -1,4 +1,4 @@
-"""Damaged reference caches (issue 21 C, D): every cached file is verified when read,
+"""Damaged reference caches: every cached file is verified when read,
 a damaged one is recomputed, never served or rendered from; a continued entry is
 written into new files and switched to atomically."""
 
@@ -11,13 +11,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from volcaustics.infra.imageio import read_exr, write_exr
+from volcaustics.infra.storage import document_sha256, file_sha256
 from volcaustics.reference import cache
 from volcaustics.reference.render import render_reference
 from volcaustics.reference.request import resolve
 from volcaustics.reference.settings import ReferenceSettings
 from volcaustics.scenes import load_builtin
-from volcaustics.scenes.imageio import read_exr, write_exr
-from volcaustics.scenes.storage import document_sha256, file_sha256
 
 SETTINGS = ReferenceSettings(photons=100000, spp=8, batches=2, width=16, height=12)
 
@@ -169,7 +169,7 @@ def test_files_a_killed_writer_left_go_with_the_next_write(empty_cache):
     import subprocess
     import sys
 
-    from volcaustics.scenes.storage import owner
+    from volcaustics.infra.storage import owner
 
     scene = load_builtin("refocus")
     first = render_reference(scene, SETTINGS, progress=False)

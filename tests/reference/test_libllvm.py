@@ -48,7 +48,7 @@ def test_doctor_passes_here():
     proc = _doctor({})
     assert proc.returncode == 0, proc.stdout + proc.stderr
     assert re.search(r"variant llvm_ad_rgb\s+renders", proc.stdout) and "opengl" in proc.stdout
-    # scalar_rgb renders Mitsuba's own integrators, not the reference's: the doctor says so (issue 13, I)
+    # scalar_rgb renders Mitsuba's own integrators, not the reference's: the doctor says so
     scalar = next(line for line in proc.stdout.splitlines() if "variant scalar_rgb" in line)
     assert "not usable for the reference" in scalar
 
@@ -64,7 +64,7 @@ def test_doctor_fails_with_stock_libllvm_and_says_the_fix():
                                              ("cuda_ad_rgb", "does not render here")])
 def test_doctor_fails_on_a_variant_the_commands_refuse(value, fragment):
     """Every rendering command exits 2 on these; doctor said "the harness can run here"
-    (issue 13, class I). cuda_ad_rgb is a case only where no GPU renders."""
+   . cuda_ad_rgb is a case only where no GPU renders."""
     proc = _doctor({"VOLCAUSTICS_MI_VARIANT": value})
     if value == "cuda_ad_rgb" and re.search(r"variant cuda_ad_rgb\s+renders", proc.stdout):
         pytest.skip("cuda_ad_rgb renders here")

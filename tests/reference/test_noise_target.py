@@ -1,4 +1,4 @@
-"""The noise floor as a first-class output (issue 8): renders to a target floor with
+"""The noise floor as a first-class output: renders to a target floor with
 photon and time caps, continuation of cached entries batch by batch, and what "same
 seed, same reference" means."""
 

@@ -1,4 +1,4 @@
-"""A reference with K > 1 scattering orders (issue 25): its third stream, the model
+"""A reference with K > 1 scattering orders: its third stream, the model
 term's layers and floors, the noise target over them, the cache key with K, the
 single-scattering layers unchanged, and a damaged entry refused."""
 
@@ -61,7 +61,7 @@ def test_an_entry_without_its_model_layers_is_not_served(empty_cache):
     scene = load_builtin("refocus")
     settings = dataclasses.replace(BASE, max_scatter=2)
     first = render_reference(scene, settings, progress=False)
-    from volcaustics.scenes.imageio import read_exr, write_exr
+    from volcaustics.infra.imageio import read_exr, write_exr
 
     path = cache.entry_file(first.key, first.manifest, "exr")
     layers, header = read_exr(path)

@@ -1,4 +1,4 @@
-"""A read-only cache serves what it holds (issue 21 I): `cache_dir` refused it up front
+"""A read-only cache serves what it holds: `cache_dir` refused it up front
 although nothing needed writing; now only a write is refused (exit 2, naming the folder
 and the fix), and a reference render is refused before it starts, not after."""
 

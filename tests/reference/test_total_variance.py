@@ -1,4 +1,4 @@
-"""The reference's energy noise (issue 25, item 5): each batch's image total is kept, so
+"""The reference's energy noise: each batch's image total is kept, so
 the variance of an image's total is measured, not taken from Σ var as if its pixels were
 independent — a light-tracer photon lands on many pixels (a medium segment is drawn
 along its streak), and its pixels covary."""

@@ -1,5 +1,5 @@
-"""Negative controls of the future-work options measured by the harness itself
-(issue 22): a photon footprint not propagated through refraction scores worse on
+"""Negative controls of the future-work options measured by the harness itself: a photon
+footprint not propagated through refraction scores worse on
 refocus, where the glass ball focuses the beam and a kernel that ignores it blurs the
 focus."""
 

@@ -96,7 +96,7 @@ def test_animate_writes_the_set_and_a_new_seed_per_frame_flickers_more(cache, tm
     assert (out / "timeseries.png").stat().st_size > 0
 
     (out / ".animate" / "frame-0002.npz").write_bytes(b"PK\x03\x04 damaged")  # a damaged frame: rendered again
-    # the right key over arrays of the wrong shape: a ValueError traceback before (issue 36), now rendered again
+    # the right key over arrays of the wrong shape: a ValueError traceback before, now rendered again
     with np.load(out / ".animate" / "frame-0001.npz") as data:
         arrays = {k: data[k][:, :16] if k.endswith("/caustic") else data[k] for k in data.files}
     np.savez(out / ".animate" / "frame-0001.npz", **arrays)
@@ -137,7 +137,7 @@ def test_a_bad_animation_table_exits_2_naming_the_key(cache, tmp_path, capsys):
     (["sphere1"], "no [animation]"),
     (["refocus", "--frames", "5:2"], "--frames"),
     (["refocus", "--frames", "0"], "--frames"),
-    (["refocus", "--frames", "0:100"], "frames 0 … 23 only"),  # was cut to 0–23 without a word (issue 36)
+    (["refocus", "--frames", "0:100"], "frames 0 … 23 only"),  # was cut to 0–23 without a word
     (["refocus", "--chains", "0"], "--chains"),
 ])
 def test_bad_input_exits_2_naming_it(cache, tmp_path, capsys, args, named):
@@ -150,7 +150,7 @@ def test_bad_input_exits_2_naming_it(cache, tmp_path, capsys, args, named):
 @pytest.mark.parametrize("text,frames,expected", [
     ("4", 24, [0, 8, 15, 23]),
     ("24", 24, list(range(24))),
-    ("30", 24, list(range(24))),   # more than the animation has: every frame (issue 36: it gave 0 … 18)
+    ("30", 24, list(range(24))),   # more than the animation has: every frame
     ("100", 3, [0, 1, 2]),
     ("1", 24, [0]),
     ("2:6:2", 24, [2, 4]),

@@ -6,9 +6,9 @@ import json
 
 import numpy as np
 
+from volcaustics.infra.imageio import read_exr
 from volcaustics.reports.cli import main
 from volcaustics.scenes.formats import LAYER_NAMES, STATUS_COLLIDED, STATUS_SURFACE
-from volcaustics.scenes.imageio import read_exr
 
 
 def test_approx_cli_outputs(tmp_path, capsys):

@@ -1,5 +1,5 @@
 """Output paths, cache folders and special files: every command fails fast with exit 2
-and a message naming the path, before it renders (issue 13, classes A, G, H, K, L)."""
+and a message naming the path, before it renders."""
 
 from __future__ import annotations
 
@@ -75,8 +75,7 @@ def test_a_read_only_output_folder(tmp_path, capsys):
 def test_a_cache_that_is_a_file_is_named_as_such(tmp_path):
     """Not "an error in the scene's mesh": the cache folder, and the variable to fix (in a
     fresh process: this one may hold the generated meshes in memory already). Listing
-    the scenes needs nothing from the cache, so it runs (issue 21: a cache that cannot be
-    written is refused only where something must be written), saying once that the
+    the scenes needs nothing from the cache, so it runs, saying once that the
     generated meshes are not cached."""
     cache = tmp_path / "cache"
     cache.write_text("not a folder")
@@ -124,7 +123,7 @@ def test_budgets_that_are_a_fifo(tmp_path, capsys):
 
 @pytest.mark.parametrize("command", ["gate", "report"])
 def test_a_baseline_that_is_a_file_is_named_as_such(tmp_path, capsys, empty_cache, command):
-    """It said "Not a directory" (issue 36); nothing renders before the check."""
+    """It said "Not a directory"; nothing renders before the check."""
     baseline = tmp_path / "baseline.json"
     baseline.write_text("{}")
     _fails_fast(capsys, [command, "--baseline", str(baseline), "--out", str(tmp_path / "out")],
@@ -214,7 +213,7 @@ def test_a_reference_seed_out_of_range(tmp_path, capsys):
 def test_an_interrupted_approx_keeps_the_last_complete_set(tmp_path, monkeypatch):
     """Ctrl-C while the outputs are written (here: inside the PNG writer of the second
     run) leaves the first run's EXR, PNG, records and JSON, byte for byte, and no
-    temporary files (issue 13, class B)."""
+    temporary files."""
     import volcaustics.reports.render.approx as job
 
     out = tmp_path / "o.exr"
@@ -235,7 +234,7 @@ def test_an_interrupted_approx_keeps_the_last_complete_set(tmp_path, monkeypatch
 def test_ctrl_c_inside_mitsuba_exits_130(tmp_path, monkeypatch, capsys, wrapped):
     """Ctrl-C during Mitsuba's render reaches Python as a RuntimeError from C++ (naming
     KeyboardInterrupt, or chained to it): exit 130 and "interrupted", not a traceback
-    with exit 1 (issue 13, class F). The interrupt is injected where the render runs."""
+    with exit 1. The interrupt is injected where the render runs."""
     import volcaustics.reports.render.reference as job
 
     def render(*args, **kwargs):
@@ -260,7 +259,7 @@ def test_other_runtime_errors_are_not_taken_for_interrupts():
 
 
 @pytest.mark.parametrize("command, other", [
-    (["animate", "refocus"], "compare"),     # it replaced the comparison's summary.json: a mixed folder (issue 36)
+    (["animate", "refocus"], "compare"),     # it replaced the comparison's summary.json: a mixed folder
     (["measure", "sphere1"], "animation"),
     (["compare", "refocus", "image.exr"], "experiment"),
 ])

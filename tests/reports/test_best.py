@@ -15,10 +15,10 @@ import pytest
 from tests.conftest import FAST_MEASUREMENT, SINGLE_SCATTERING
 from tests.conftest import SWEEP_TABLES as SMALL_TABLES
 from volcaustics.approx.params import PAPER, QUICK
+from volcaustics.infra.errors import InputError
 from volcaustics.reports.cli import main
 from volcaustics.reports.core.cost_match import MATCHED, CostMatcher
 from volcaustics.reports.sweep import best
-from volcaustics.reports.sweep.spec import SweepError
 
 TINY = """
 scenes = ["refocus"]
@@ -60,14 +60,14 @@ def test_the_shipped_spec_loads_and_holds_the_papers_configuration():
     ("rounds = 11\n[coarse]\nsplat = ['fixed']\n", "rounds = 11"),
     ("[coarse]\nsplat = ['fixed']\n[set]\nsplat = 'adaptive'\n", "splat is both searched and set"),
     ("colour = 1\n", "colour"),
-    # issue 36: the refine axis was called vary.layers; an empty spec searched nothing over every built-in
+    # a regression: the refine axis was called vary.layers; an empty spec searched nothing over every built-in
     ("[coarse]\nsplat = ['fixed']\n[refine]\nlayers = [2, 2]\n", "refine.layers = [2, 2]: a value is listed twice"),
     ("", "no [coarse] or [refine] axis: nothing to search"),
     ("[coarse]\n[refine]\nlayers = [2, 4]\n", "[coarse] is empty"),
 ])
 def test_a_bad_spec_is_refused_naming_the_key(tmp_path, capsys, text, message):
     path = _write(tmp_path, 'scenes = ["refocus"]\n' + text)
-    with pytest.raises(SweepError, match=re.escape(message)):
+    with pytest.raises(InputError, match=re.escape(message)):
         best.load_best_spec(path)
     assert main(["sweep", "--best", path, "-o", str(tmp_path / "out")]) == 2
     assert message.split(":")[0] in capsys.readouterr().err

@@ -1,4 +1,4 @@
-"""Damaged caches of the reports (issue 21 C): metric noise floors and store points
+"""Damaged caches of the reports: metric noise floors and store points
 are verified when read; a damaged one is recomputed, never used or shown."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""The caustic's decomposition closes (issue 37): on every built-in, for the paper's
+"""The caustic's decomposition closes: on every built-in, for the paper's
 configuration (the quick preset), adaptive emission and the adopted best
 configuration, and on a generated scene no built-in resembles, the residual R − E_∞,s
 is within noise. And its negative controls: a shifted emission grid moves the emission

@@ -14,11 +14,11 @@ import pandas as pd
 import pytest
 
 from tests.conftest import FAST_MEASUREMENT, SINGLE_SCATTERING, SMALL_REFERENCE_TABLES, with_shared_references
+from volcaustics.infra.imageio import read_exr, write_exr, write_png
 from volcaustics.reports.cli import main
 from volcaustics.reports.compare.inputs import CompareError, read_images
 from volcaustics.scenes import load_builtin
 from volcaustics.scenes.formats import COLOUR_LAYERS, MASK_LAYER
-from volcaustics.scenes.imageio import read_exr, write_exr, write_png
 
 SIZE = ["--width", "32", "--height", "32", "--photon-res", "64", "--light-res", "64", "--layers", "2",
         "--preset", "quick"]
@@ -169,7 +169,7 @@ def _damaged(env, tmp_path, case):
         return [tmp_path], "is a folder"
     if case == "twice":
         return [env / "s0.exr", env / "s0.exr"], "given twice"
-    # one file under two names (issue 36: the renderer's noise came out as 0)
+    # one file under two names
     if case == "spelled_twice":
         return [env / "s0.exr", f"{env}/./s0.exr"], f"the same file as {env / 's0.exr'}"
     if case == "symlink":
@@ -208,11 +208,11 @@ def test_an_image_that_cannot_be_judged_exits_2_naming_it(env, tmp_path, capsys,
 
 
 def test_images_beyond_memory_are_refused_before_their_pixels_load(env, tmp_path, capsys, monkeypatch):
-    """A 4096² EXR grew compare to 11.7 GB while it rendered the reference (issue 36):
+    """A 4096² EXR grew compare to 11.7 GB while it rendered the reference:
     the size is checked from the files' headers against the memory compare needs, with
     measure's one check. Here the machine's budget is made small instead of the file
     large: 32² pixels × 2 files need 1,800 × 1,024 bytes."""
-    import volcaustics.scenes.memory as memory
+    import volcaustics.infra.memory as memory
 
     monkeypatch.setattr(memory, "memory_budget", lambda: 1 << 20)
     monkeypatch.setattr("volcaustics.reports.compare.inputs._channels", lambda *_: pytest.fail("pixels read"))
@@ -275,7 +275,7 @@ def test_the_gate_holds_another_renderer_to_its_budgets(env, tmp_path, capsys):
 
 
 def test_nan_in_a_channel_not_compared_is_named_in_the_warnings(env, tmp_path):
-    """It passed without a word (issue 36); the compared layers stay as they are."""
+    """It passed without a word; the compared layers stay as they are."""
     layers, _ = read_exr(str(env / "s0.exr"))
     extra = np.zeros_like(layers["caustic"])
     extra[0, 0, 2] = np.nan

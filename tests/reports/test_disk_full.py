@@ -41,7 +41,7 @@ def test_a_set_whose_writer_fails_without_a_file_name_names_its_output(full_disk
     output it was writing."""
     import numpy as np
 
-    from volcaustics.scenes.storage import atomic_set
+    from volcaustics.infra.storage import atomic_set
 
     paths = [str(full_disk / "big.npy"), str(full_disk / "manifest.json")]
     with pytest.raises(OSError) as info:
@@ -66,7 +66,7 @@ def test_reference_onto_a_full_disk_names_its_output_not_the_cache(full_disk, tm
 def test_an_output_name_near_the_limit_is_written(tmp_path):
     """A 254-character file name is legal; its temporary added ~25 characters and failed
     with "File name too long", naming the temporary."""
-    from volcaustics.scenes.storage import atomic_set, atomic_write_text
+    from volcaustics.infra.storage import atomic_set, atomic_write_text
 
     long = "a" * 250
     paths = [str(tmp_path / f"{long}.exr"), str(tmp_path / f"{long}.json")]

@@ -1,4 +1,4 @@
-"""Faults at chosen points in measure, sweep, gate, report and scenes (issue 13): limits
+"""Faults at chosen points in measure, sweep, gate, report and scenes: limits
 checked before any reference renders (class D), writes interrupted midway that leave
 the last complete set and no earlier verdict standing for a run that stopped (B),
 Ctrl-C inside the reference render (F), damaged and special manifests (E, H), output
@@ -240,8 +240,8 @@ def test_a_manifest_that_is_a_fifo_does_not_hang(tmp_path, case):
 def _a_complete_point(tmp_path):
     """A store holding one complete point (real Parquet tables, their hashes in its
     summary): (store, key, summary)."""
+    from volcaustics.infra.storage import file_sha256
     from volcaustics.reports.core.store import SUMMARY, TABLE_FILES, Store, sealed
-    from volcaustics.scenes.storage import file_sha256
 
     store = Store(str(tmp_path / "store"))
     key = "0123456789abcdef0123456789abcdef"
@@ -386,7 +386,7 @@ def test_a_folder_where_an_output_file_goes_fails_before_any_work(cache, tmp_pat
 
 
 def test_a_set_with_a_folder_in_place_of_one_file_is_left_untouched(tmp_path):
-    from volcaustics.scenes.storage import atomic_set
+    from volcaustics.infra.storage import atomic_set
 
     (tmp_path / "a.txt").write_text("old a")
     (tmp_path / "b.txt").mkdir()

@@ -177,7 +177,7 @@ def test_a_nan_metric_is_an_error_not_a_pass():
 
 @pytest.mark.slow  # the report's references rendered to their noise targets (about a minute)
 def test_the_unmodified_approximation_passes_the_default_budgets(env, capsys):
-    """The shipped budgets (reports/budgets.toml, quick preset, 4 seeds) on two built-ins
+    """The shipped budgets (reports/gate/budgets.toml, quick preset, 4 seeds) on two built-ins
     with the report's references rendered here; `make gate` runs all seven. Single
     scattering and one exact replay per texel: no budget reads the model term or the
     decomposition (the scattering orders leave the single-scattering layers as they are)."""

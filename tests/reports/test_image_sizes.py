@@ -1,5 +1,5 @@
 """Image sizes are checked up front against the GL driver's limits and this machine's
-memory (issue 21 G): 8192² and 16384² ended in allocation or GL tracebacks (or, in
+memory: 8192² and 16384² ended in allocation or GL tracebacks (or, in
 measure, "width = 65536" after the work); now every command refuses them with exit 2
 naming the value, the limit and what fits, before anything renders."""
 
@@ -11,10 +11,10 @@ import pytest
 
 from volcaustics.approx.params import ApproxParams, ParamError
 from volcaustics.approx.trace import IMAGE_BYTES_PER_PIXEL, check_fits, check_image_fits
+from volcaustics.infra.memory import memory_budget
 from volcaustics.reference.settings import IMAGE_BYTES_PER_PIXEL as REFERENCE_BYTES_PER_PIXEL
 from volcaustics.reference.settings import ReferenceSettings, SettingsError
 from volcaustics.reports.cli import main
-from volcaustics.scenes.memory import memory_budget
 
 
 def test_the_gl_limit_counts_the_pixels_drawn_per_side():

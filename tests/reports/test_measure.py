@@ -100,7 +100,7 @@ def test_measure_writes_tidy_tables_exr_and_summary(cache, tmp_path, capsys, mon
     assert not [p for p in out.iterdir() if p.name.startswith(".")]  # no temporary files left
 
     # Ctrl-C while a second run writes its set (inside the EXR writer, after the tables):
-    # the first run's eight files stay, byte for byte, and no temporaries (issue 13, B)
+    # the first run's eight files stay, byte for byte, and no temporaries
     import volcaustics.reports.experiment.write as write
 
     first = {p.name: p.read_bytes() for p in out.iterdir()}

@@ -1,6 +1,5 @@
-"""A medium with no volume caustic to measure is refused before any reference renders
-(issue 36: a scene-field sigma_s of 0, 1e3 or 1e9 passed and failed each point after its
-reference): no scattering in a channel, or an optical depth no reference can light."""
+"""A medium with no volume caustic to measure is refused before any reference renders: no
+scattering in a channel, or an optical depth no reference can light."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Every value the parameter table allows runs or is refused up front (issue 21 E):
+"""Every value the parameter table allows runs or is refused up front:
 each parameter's minimum and maximum (a float's close to its open bounds, every choice
 of a name) through ``measure`` at a tiny size, in one process. Before, photon_res 1,
 steps 32 (no photon alive at a late step) and most extremes at photon_res 8 ended
@@ -64,6 +64,6 @@ def test_every_parameter_extreme_measures_or_is_refused_up_front(cache, tmp_path
             assert f"{name} = {value}" in err or f"{name} {value}" in err, (name, value, err)
             assert "Traceback" not in err and not out.exists() and _entries(cache) == before, (name, value, err)
     print(results)
-    # nothing alive at a late step (issue 21 E) must run
+    # nothing alive at a late step must run
     for case in (("photon_res", 1), ("steps", 32), ("steps", 1), ("layers", 8), ("iterations", 0)):
         assert results[case] == 0, case

@@ -120,13 +120,13 @@ def test_the_program_key_follows_the_define_parameters_only():
         assert (changed != base) == (entry.glsl == "define" and entry.program == "trace"), entry.name
 
 
-def test_the_readme_lists_every_parameter_with_its_default():
-    """The README's parameter table (a copy for readers) follows the table: a parameter
-    added, renamed or given another default fails here until the README says so."""
+def test_the_docs_list_every_parameter_with_its_default():
+    """The parameter table of docs/approx.md (a copy for readers) follows the table: a parameter
+    added, renamed or given another default fails here until the page says so."""
     import os
     import re
 
-    readme = open(os.path.join(os.path.dirname(__file__), "..", "..", "README.md"), encoding="utf-8").read()
+    readme = open(os.path.join(os.path.dirname(__file__), "..", "..", "docs", "approx.md"), encoding="utf-8").read()
     rows = {}
     for names, default in re.findall(r"^\| (`[a-z_]+`(?:, `[a-z_]+`)*) \| ([^|]+) \|", readme, flags=re.M):
         for name in re.findall(r"`([a-z_]+)`", names):

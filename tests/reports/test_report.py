@@ -503,7 +503,7 @@ def test_error_maps_average_to_their_metric():
 
 
 def test_report_and_reference_cli_share_one_cache_entry(tmp_path, monkeypatch, capsys):
-    """Image size lives in the settings (DESIGN.md): the report's reference and
+    """Image size lives in the settings (docs/architecture.md): the report's reference and
     `volcaustics reference --width/--height` at the same size are one render, one key,
     one cache entry — whichever path comes first, the other is served from the cache."""
     cache = tmp_path / "cache"

@@ -1,4 +1,4 @@
-"""One rule for scene files named in a file (issue 21 I): a relative path is relative to
+"""One rule for scene files named in a file: a relative path is relative to
 the file that names it — a sweep spec's ``scenes``, a budgets file's ``[scene."…"]`` —
 as a scene file's mesh paths are to it; on the command line, to the working directory.
 Budgets resolved them against the working directory before."""

@@ -208,7 +208,7 @@ def test_store_commit_keeps_a_complete_copy_and_replaces_a_damaged_one(tmp_path)
         files = {}
         for name in ("segments", "photons", "images"):
             pd.DataFrame({"x": [marker]}).to_parquet(tmp / f"{name}.parquet")
-            from volcaustics.scenes.storage import file_sha256
+            from volcaustics.infra.storage import file_sha256
 
             files[f"{name}.parquet"] = file_sha256(str(tmp / f"{name}.parquet"))
         (tmp / SUMMARY).write_text(json.dumps(sealed({"key": key, "files": files})))

@@ -113,7 +113,7 @@ TRACK = {"path": "light.position", "frame": [0, 4], "value": [[0, 3, 0], [1, 3, 
 BAD = [
     ("frames zero", lambda a: a.update(frames=0), "animation.frames", "0"),
     ("fps zero", lambda a: a.update(fps=0), "animation.fps", "0"),
-    # below what the video writers store: a traceback after every frame had rendered (issue 36)
+    # below what the video writers store: a traceback after every frame had rendered
     ("fps tiny", lambda a: a.update(fps=1e-6), "animation.fps", "1e-06"),
     ("fps below the GIF's", lambda a: a.update(fps=0.005), "animation.fps", "0.005"),
     ("fps too high", lambda a: a.update(fps=1001), "animation.fps", "1001"),

@@ -46,7 +46,7 @@ def test_bad_fields_name_the_key(fields, key, words):
     with pytest.raises(SceneError) as info:
         scene_with("bunny", fields)
     assert info.value.key == key and words in str(info.value)
-    if key in fields:  # the value given, not None (issue 36: "camera.width = None" for 24)
+    if key in fields:  # the value given, not None
         assert info.value.value == fields[key], str(info.value)
 
 

@@ -46,7 +46,7 @@ def tripping(real):
 {body}
 """
 SET_BODY = """
-from volcaustics.scenes.storage import atomic_set
+from volcaustics.infra.storage import atomic_set
 paths = [os.path.join(folder, n) for n in ("a.bin", "b.bin", "c.bin", "manifest.json")]
 with atomic_set(paths) as temps:
     for tmp in temps:
@@ -89,7 +89,7 @@ def test_a_signal_while_a_set_is_written_keeps_the_old_set_and_leaves_no_tempora
     body = """
 import volcaustics.reports.cli.doctor as doctor
 from volcaustics.reports.cli import main
-from volcaustics.scenes.storage import atomic_set
+from volcaustics.infra.storage import atomic_set
 
 def writing(args):
     with atomic_set([os.path.join(folder, n) for n in ("a.bin", "b.bin", "c.bin", "manifest.json")]) as temps:
@@ -117,7 +117,7 @@ def test_a_native_call_that_never_returns_is_stopped_at_once(tmp_path, name, cod
     body = """
 import volcaustics.reports.cli.doctor as doctor
 from volcaustics.reports.cli import main
-from volcaustics.scenes.interrupts import interruptible
+from volcaustics.infra.interrupts import interruptible
 
 def hanging(args):
     threading.Timer(0.5, lambda: os.kill(os.getpid(), getattr(signal, name))).start()
@@ -137,7 +137,7 @@ sys.exit(main(["doctor"]))
 def test_temporaries_of_killed_processes_go_with_the_next_write_in_their_folder(tmp_path):
     """SIGKILL runs no ``finally``: the killed run's hidden temporaries stayed for ever.
     The next write into that folder removes those whose process is gone, and only those."""
-    from volcaustics.scenes.storage import atomic_write_text, owner
+    from volcaustics.infra.storage import atomic_write_text, owner
 
     dead = subprocess.Popen([sys.executable, "-c", "pass"])
     dead.wait()
@@ -186,7 +186,7 @@ def test_approx_interrupted_at_any_step_of_its_commit_leaves_its_new_set(tmp_pat
     argv = ["approx", "refocus", "--preset", "quick", "--width", "16", "--height", "16", "-o", str(out / "shot.exr")]
     body = """
 from volcaustics.reports.cli import main
-from volcaustics.scenes import storage
+from volcaustics.infra import storage
 storage.remove_file, os.replace = tripping(storage.remove_file), tripping(os.replace)
 sys.exit(main(sys.argv[4:]))
 """
@@ -218,7 +218,7 @@ def test_measure_interrupted_in_its_commit_leaves_its_new_set(tmp_path, at, name
     out = tmp_path / "out"
     body = """
 from volcaustics.reports.cli import main
-from volcaustics.scenes import storage
+from volcaustics.infra import storage
 storage.remove_file, os.replace = tripping(storage.remove_file), tripping(os.replace)
 sys.exit(main(sys.argv[4:]))
 """

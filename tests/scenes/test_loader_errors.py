@@ -58,7 +58,7 @@ CASES = [
     ("negative absorption", _set(["specular", 0, "absorption"], [-1.0, 0.0, 0.0]), "specular[0].absorption[0]", "-1.0"),
     ("negative intensity", _set(["light", "intensity"], -5.0), "light.intensity", "-5.0"),
     ("ior below one", _set(["specular", 0, "ior"], 0.9), "specular[0].ior", "0.9"),
-    # an angle named as an angle: it said "[-1e6, 1e6] m" (issue 36)
+    # an angle named as an angle: it said "[-1e6, 1e6] m"
     ("rotation out of range", _set(["specular", 0, "transform", "rotate"], [0.0, 2e6, 0.0]),
      "specular[0].transform.rotate[1]", "1000000.0] degrees"),
     ("cutoff zero", _set(["light", "cutoff_angle"], 0.0), "light.cutoff_angle", "0.0"),
@@ -160,7 +160,7 @@ def test_closed_obj_mesh_loads(write_scene, tmp_path):
 
 def test_inward_wound_specular_mesh(write_scene, tmp_path):
     """The closed tetrahedron above with every face reversed was accepted and the
-    approximation's caustic came out 147× the reference's (issue 21 I): refused when the
+    approximation's caustic came out 147× the reference's: refused when the
     scene is read, naming the file (refused, not flipped: a file that winds inward may hold
     inward normals too, and the scene's author should know)."""
     (tmp_path / "inward.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\nf 1 4 2\nf 2 4 3\n"

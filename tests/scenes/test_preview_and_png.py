@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from volcaustics.infra.imageio import png_bytes, tonemap_srgb8
 from volcaustics.reports.cli import main
-from volcaustics.scenes.imageio import png_bytes, tonemap_srgb8
 
 
 def test_scene_check_writes_a_preview(tmp_path, write_scene, capsys):
@@ -40,7 +40,7 @@ def test_png_encoding_round_trip():
 def test_srgb_encoding_matches_colour_science():
     import colour
 
-    from volcaustics.scenes.imageio import srgb_encode
+    from volcaustics.infra.imageio import srgb_encode
 
     x = np.concatenate([np.linspace(0, 0.01, 101), np.linspace(0.01, 1, 1000)])
     assert np.allclose(srgb_encode(x), colour.cctf_encoding(x, function="sRGB"), atol=1e-12)

@@ -13,7 +13,7 @@
 // travels in afterwards (-1 medium); hit_material: object whose surface was hit. As Mitsuba's dielectric
 // BSDF: the side the photon arrives from, hence eta, is read from the shading
 // normal, and Fresnel, refraction and reflection use it. Inside or outside
-// afterwards follows the one rule of DESIGN.md: a direction below the geometric
+// afterwards follows the one rule of docs/conventions.md: a direction below the geometric
 // surface (dot with the outward geometric normal < 0) is inside the object hit.
 // Updates d, power, inside; returns FLAG_* bits.
 uint surface_interaction(inout vec3 d, inout vec3 power, out int inside, vec3 n, vec3 n_geometric,

@@ -1,4 +1,4 @@
-// Rigid object motion (DESIGN.md "Dynamic scenes"): meshes are uploaded once, in
+// Rigid object motion (docs/over-time.md: meshes are uploaded once, in
 // object space; each object's object-to-world matrix (uniform scale, so mat3(m)
 // carries normals up to length) is read from this block by the vertex's material
 // index plus the draw's model_base (specular objects first, then diffuse surfaces).

@@ -2,7 +2,7 @@
 // Outputs: location 0 (RGBA32F) distance to the light (not z), material id,
 // octahedral world shading normal; cleared to 0 = no surface. Location 1 (attached
 // only where needed) the octahedral outward geometric normal of the triangle, which
-// decides inside/outside after a specular interaction (DESIGN.md), and the triangle's
+// decides inside/outside after a specular interaction (docs/conventions.md), and the triangle's
 // primitive id + 1 (one draw holds every specular object, so the id names one triangle
 // of the scene): the start rule `id` ignores crossings onto the triangle a segment
 // leaves. Its target is RGBA32F under that rule and RG32F otherwise (the id dropped).

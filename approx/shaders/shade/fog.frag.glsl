@@ -1,4 +1,4 @@
-// Fog (DESIGN.md): single scattering of direct, unrefracted spot light along the
+// Fog (docs/conventions.md): single scattering of direct, unrefracted spot light along the
 // camera ray, with volumetric shadows of all objects (Wyman & Ramsey 2008, ray
 // marching). The march covers only the part of the ray inside the spot's cutoff
 // cone (elsewhere the falloff is 0) and in front of the first surface:

@@ -10,7 +10,7 @@
 // Each invocation copies PACK_TEXELS texels, strided by the whole dispatch (neighbouring
 // invocations touch neighbouring texels), keeps their range in registers and adds it
 // with one atomic pair: no shared memory and no barriers, which llvmpipe runs as
-// coroutine switches (the shared-memory tree took 72 ns a texel there; docs/decisions.md
+// coroutine switches (the shared-memory tree took 72 ns a texel there; docs/history.md
 // "The method's own frame").
 // PACK_BLOCK, PACK_TEXELS: defined by approx/trace.py (PACK), which sizes the dispatch
 layout(local_size_x = PACK_BLOCK) in;

@@ -3,7 +3,7 @@
 // Each photon traces one segment: inside glass towards the exit (up to the
 // scene span); in the medium a free-flight distance d = -ln(1 - ξ)/sigma_bar
 // drawn from the shared RNG. The search only looks where the light maps exist
-// (DESIGN.md): the segment is clipped to the light frustum first (Liang–Barsky
+// (docs/conventions.md): the segment is clipped to the light frustum first (Liang–Barsky
 // on its light clip coordinates, which are affine in t), so no sample is wasted
 // outside. The first hit on the clipped segment is *estimated* from the light
 // maps, per map by the search the parameter `search` selects: `bisection` (paper

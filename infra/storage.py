@@ -197,7 +197,7 @@ def _usual_mode(path: str) -> None:
 def atomic_set(paths: list):
     """Write several files as one unit: yields temporary paths (in ``paths``' order) to
     write; when the block succeeds they replace ``paths`` together, with interrupts
-    (SIGINT, SIGTERM: ``scenes.interrupts.interrupts_held``) held back: the last path
+    (SIGINT, SIGTERM: ``infra.interrupts.interrupts_held``) held back: the last path
     (the set's manifest) is removed first and put in place last, so no reader finds a
     manifest beside data of another run. When the block fails (an
     error, Ctrl-C) the temporaries go and every old file stays as it was."""

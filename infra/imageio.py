@@ -2,7 +2,9 @@
 tonemapped sRGB PNG previews.
 
 Used by every package (renders, reference cache, reports); lives with the
-shared storage helpers at the bottom of the data flow. The sRGB encoding is the
+shared storage helpers at the bottom of the layers. The one layer written as a single
+channel, ``mask_specular``, is named here (``MASK_LAYER``) and re-exported by
+``scenes.formats`` with the other layer names. The sRGB encoding is the
 IEC 61966-2-1 piecewise OETF in numpy (importing colour-science costs over a
 second per command); the tests check it against colour-science's
 ``cctf_encoding(..., function="sRGB")``.
@@ -15,10 +17,10 @@ import zlib
 
 import numpy as np
 
-from .formats import MASK_LAYER
 from .storage import atomic_path, atomic_write_bytes
 
 BEAUTY_LAYER = "combined"  # also written as the root R, G, B channels
+MASK_LAYER = "mask_specular"  # H×W×3 float32, 1 where the camera sees glass, else 0: one .Y channel
 
 
 def write_exr(path: str, layers: dict, metadata: dict | None = None) -> None:

@@ -1,5 +1,5 @@
 """What one command may allocate, and the images that fit in it: one source for the
-approximation, the reference and the measurement (issue 21 G).
+approximation, the reference and the measurement.
 
 The budget is half of this machine's physical memory: llvmpipe's GL buffers live
 there, and so do the reference's film and every image a measurement holds on any
