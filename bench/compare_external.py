@@ -80,7 +80,7 @@ def _approx(scene, folder: str, args, seconds: dict) -> list:
     import dataclasses
 
     from volcaustics.approx.params import PAPER
-    from volcaustics.reports.render.approx import run_approx
+    from volcaustics.reports.files.approx import run_approx
 
     t0 = time.perf_counter()
     paths = []

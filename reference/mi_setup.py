@@ -12,21 +12,14 @@ from __future__ import annotations
 import functools
 import os
 
-from volcaustics.infra.errors import InputError
+from .variant import PREFERRED, VariantError, reference_variant
 
 VARIANT_ENV = "VOLCAUSTICS_MI_VARIANT"
-
-
-class VariantError(InputError):
-    """The environment asks for a Mitsuba variant or libLLVM the reference cannot use;
-    the message names the variable, its value and the fix."""
 
 
 def variant_override() -> str | None:
     """``VOLCAUSTICS_MI_VARIANT`` when set, checked: the light tracer is a Dr.Jit
     ``AdjointIntegrator`` in RGB, so only the JIT RGB variants render it."""
-    from .variant import PREFERRED
-
     variant = os.environ.get(VARIANT_ENV)
     if not variant:
         return None
@@ -41,8 +34,6 @@ def render_variant() -> str:
     variant = variant_override()
     if variant:
         return variant
-    from .variant import reference_variant
-
     return reference_variant()
 
 
@@ -53,8 +44,6 @@ def served_variants() -> tuple[str, ...]:
     variant = variant_override()
     if variant:
         return (variant,)
-    from .variant import PREFERRED
-
     return PREFERRED
 
 

@@ -13,7 +13,14 @@ import json
 import sys
 import time
 
+from volcaustics.infra.errors import InputError
+
 PREFERRED = ("cuda_ad_rgb", "llvm_ad_rgb")
+
+
+class VariantError(InputError):
+    """The environment asks for a Mitsuba variant or libLLVM the reference cannot use;
+    the message names the variable, its value and the fix."""
 
 
 def _render_tiny(variant: str) -> float:
@@ -62,7 +69,6 @@ def reference_variant() -> str:
     for variant in PREFERRED:
         if probe(variant)[0]:
             return variant
-    from .mi_setup import VariantError
 
     raise VariantError("no Mitsuba variant renders here (cuda_ad_rgb and llvm_ad_rgb both failed a tiny render); "
                        "run `volcaustics doctor` for the fix")

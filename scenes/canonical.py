@@ -11,11 +11,14 @@ from __future__ import annotations
 
 import hashlib
 import json
+from typing import TYPE_CHECKING
 
-from .model import MeshSpec, Scene
+from .generators import GENERATOR_VERSION
+
+if TYPE_CHECKING:  # types only: model imports this module for Scene.scene_hash
+    from .model import MeshSpec, Scene
 
 FORMAT = "volcaustics-scene/1"
-GENERATOR_VERSION = 1  # bump when a generator's output changes for the same parameters
 
 
 def _floats(v):

@@ -25,6 +25,8 @@ import numpy as np
 
 from .mesh import Mesh, closedness_problem, without_degenerate_faces
 
+GENERATOR_VERSION = 1  # bump when a generator's output changes for the same parameters (in the scene hash)
+
 
 @dataclass(frozen=True)
 class ParamSpec:

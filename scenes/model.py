@@ -134,7 +134,7 @@ class MeshSpec:
 
     def load(self):
         """The world-space :class:`scenes.mesh.Mesh` (cached per spec)."""
-        from .mesh import load_mesh_spec
+        from .mesh_cache import load_mesh_spec  # deferred: loading meshes needs numpy, the model does not
 
         return load_mesh_spec(self)
 

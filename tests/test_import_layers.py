@@ -1,35 +1,52 @@
-"""docs/architecture.md's layers, read from the source with ``ast``: between the packages,
-scenes → approx | reference → metrics → reports; inside ``reports``, its subpackages
-core ← {experiment, render} ← runner ← {animate, compare} ← gate ← sweep ← page ← cli (the page shows the
-gate's verdicts and a sweep's figures). No module imports
-one above it or beside it, and every import is spelled in the installed namespace
-(``volcaustics.<folder>``), never by a bare folder name."""
+"""The layers of docs/architecture.md, read from that page and checked against the source
+with ``ast``: no module imports a layer above its own or a sibling on its own layer (between
+the top-level folders, and between the subpackages of ``reports``), no import cycle exists
+anywhere (imports inside functions count), and every import is spelled in the installed
+namespace (``volcaustics.<folder>``), never by a bare folder name."""
 
 from __future__ import annotations
 
 import ast
 import os
+import re
 
 import pytest
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-FOLDERS = ("scenes", "approx", "reference", "metrics", "reports")
-FORBIDDEN = {
-    "scenes": {"approx", "reference", "metrics", "reports"},  # the bottom of the flow
-    "approx": {"reference", "metrics", "reports"},             # the renderers never import each other
-    "reference": {"approx", "metrics", "reports"},
-    "metrics": {"approx", "reference", "reports"},             # arrays and scenes formats only
-}
-# reports' subpackages by level: a module may import its own level's subpackage and lower levels
-REPORTS_LEVELS = (("core",), ("experiment", "render"), ("runner",), ("animate", "compare"), ("gate",), ("sweep",),
-                  ("page",), ("cli",))
+ARCHITECTURE = os.path.join(ROOT, "docs", "architecture.md")
 
 
-def imported_modules(source: str, package: list[str]) -> dict:
+def read_layers(text: str) -> dict:
+    """``{"packages": [[names of level 0], [level 1], ...], "reports": [...]}`` from the page's
+    ``packages: a < b | c < d`` lines (``<``: the level above; ``|``: siblings)."""
+    layers = {}
+    for kind, order in re.findall(r"^(packages|reports): (.+)$", text, flags=re.M):
+        layers[kind] = [[name.strip() for name in level.split("|")] for level in order.split("<")]
+    return layers
+
+
+with open(ARCHITECTURE, encoding="utf-8") as _fh:
+    LAYERS = read_layers(_fh.read())
+FOLDERS = tuple(name for level in LAYERS["packages"] for name in level)
+REPORTS_LEVELS = tuple(tuple(level) for level in LAYERS["reports"])
+
+
+def _type_only(tree) -> set:
+    """The import nodes under ``if TYPE_CHECKING:``: they never run, so they make no cycle."""
+    return {id(node) for branch in ast.walk(tree) if isinstance(branch, ast.If)
+            and getattr(branch.test, "id", getattr(branch.test, "attr", None)) == "TYPE_CHECKING"
+            for node in ast.walk(branch)}
+
+
+def imported_modules(source: str, package: list[str], runtime_only: bool = False) -> dict:
     """Every imported module in ``source`` (also inside functions; relative imports
     resolved against ``package``, the module's package path as parts) → first line."""
     found = {}
-    for node in ast.walk(ast.parse(source)):
+    tree = ast.parse(source)
+    skipped = _type_only(tree) if runtime_only else set()
+    for node in ast.walk(tree):
+        if id(node) in skipped:
+            continue
         if isinstance(node, ast.Import):
             names = [alias.name for alias in node.names]
         elif isinstance(node, ast.ImportFrom):
@@ -66,17 +83,29 @@ def modules(top: str):
                 yield os.path.join(folder, f), package
 
 
-def _imports(path, package) -> dict:
+def _imports(path, package, runtime_only: bool = False) -> dict:
     with open(path, encoding="utf-8") as fh:
-        return imported_modules(fh.read(), package)
+        return imported_modules(fh.read(), package, runtime_only)
 
 
-@pytest.mark.parametrize("top", sorted(FORBIDDEN))
-def test_package_imports_follow_the_flow(top):
+def _package_level(name: str) -> int | None:
+    for i, names in enumerate(LAYERS["packages"]):
+        if name in names:
+            return i
+    return None
+
+
+@pytest.mark.parametrize("top", FOLDERS)
+def test_package_imports_follow_the_layers(top):
+    mine = _package_level(top)
     wrong = []
     for path, package in modules(top):
-        wrong += [f"{os.path.relpath(path, ROOT)}:{line} imports {name}"
-                  for name, line in _imports(path, package).items() if project_part(name) in FORBIDDEN[top]]
+        for name, line in _imports(path, package).items():
+            target = project_part(name)
+            if target is None or target == top or target not in FOLDERS:
+                continue
+            if _package_level(target) >= mine:
+                wrong.append(f"{os.path.relpath(path, ROOT)}:{line} imports {name} (layer {target})")
     assert not wrong, "\n".join(wrong)
 
 
@@ -126,3 +155,82 @@ def test_the_scan_sees_every_form_of_import():
     assert {n: project_part(n) for n in found} == {"numpy": None, "volcaustics.approx.records": "approx",
                                                    "volcaustics.reference.cache": "reference",
                                                    "volcaustics.metrics": "metrics"}
+
+
+def test_the_page_states_every_folder_and_room():
+    """Every top-level package folder and every subpackage of reports is on the page."""
+    on_disk = {d for d in os.listdir(ROOT) if os.path.isfile(os.path.join(ROOT, d, "__init__.py"))}
+    on_disk -= {"tests", "package"}
+    assert on_disk == set(FOLDERS), sorted(on_disk ^ set(FOLDERS))
+    rooms = {d for d in os.listdir(os.path.join(ROOT, "reports"))
+             if os.path.isfile(os.path.join(ROOT, "reports", d, "__init__.py"))}
+    rooms |= {f[:-3] for f in os.listdir(os.path.join(ROOT, "reports")) if f.endswith(".py") and f != "__init__.py"}
+    assert rooms == {n for level in REPORTS_LEVELS for n in level}, sorted(rooms)
+
+
+def module_graph() -> dict:
+    """Module → the project modules it imports (explicitly; inside functions too)."""
+    files = {}
+    for top in FOLDERS:
+        for path, package in modules(top):
+            stem = os.path.splitext(os.path.basename(path))[0]
+            name = ".".join(package) if stem == "__init__" else ".".join([*package, stem])
+            files[name] = (path, package)
+    graph = {}
+    for name, (path, package) in files.items():
+        targets = set()
+        for imported in _imports(path, package, runtime_only=True):
+            if imported in files:
+                targets.add(imported)
+            elif imported.rpartition(".")[0] in files:  # from package import attribute
+                targets.add(imported.rpartition(".")[0])
+        graph[name] = targets - {name}
+    return graph
+
+
+def cycles(graph: dict) -> list:
+    """The strongly connected components with more than one module (Tarjan), sorted."""
+    index, low, stack, on_stack, found = {}, {}, [], set(), []
+
+    def visit(v):
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on_stack.add(v)
+        for w in graph.get(v, ()):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on_stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            component = []
+            while True:
+                w = stack.pop()
+                on_stack.discard(w)
+                component.append(w)
+                if w == v:
+                    break
+            if len(component) > 1:
+                found.append(sorted(component))
+
+    for v in sorted(graph):
+        if v not in index:
+            visit(v)
+    return sorted(found)
+
+
+def test_no_import_cycles():
+    found = cycles(module_graph())
+    assert not found, "\n".join(" <-> ".join(c) for c in found)
+
+
+def test_the_cycle_check_finds_a_cycle():
+    """Negative control: a two-module and a three-module cycle are found, a chain is not."""
+    graph = {"a": {"b"}, "b": {"a"}, "c": {"d"}, "d": {"e"}, "e": {"c"}, "f": {"g"}, "g": set()}
+    assert cycles(graph) == [["a", "b"], ["c", "d", "e"]]
+
+
+def test_the_page_is_read_as_written():
+    text = "packages: infra < scenes < approx | reference < reports\nreports: core < files | runner < cli\n"
+    assert read_layers(text) == {"packages": [["infra"], ["scenes"], ["approx", "reference"], ["reports"]],
+                                 "reports": [["core"], ["files", "runner"], ["cli"]]}

@@ -5,7 +5,7 @@ from __future__ import annotations
 from volcaustics.reports.cli.common import UsageError, check_output_file
 from volcaustics.reports.core.cost_match import with_auto_photon_res
 from volcaustics.reports.core.params import add_param_flags, params_from_args
-from volcaustics.reports.render.approx import run_approx
+from volcaustics.reports.files.approx import run_approx
 from volcaustics.scenes import resolve_scene
 
 # native extensions loaded at start-up, with Ctrl-C held (cli.main)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from volcaustics.reference.settings import ReferenceSettings
 from volcaustics.reports.cli.common import add_budget, budget, check_output_file
-from volcaustics.reports.render.reference import run_reference
+from volcaustics.reports.files.reference import run_reference
 from volcaustics.scenes import resolve_scene
 
 # native extensions loaded at start-up, with Ctrl-C held (cli.main)

@@ -112,7 +112,8 @@ def run_doctor() -> DoctorReport:
 
 def _variant_override(report: DoctorReport, rendering: list) -> None:
     """VOLCAUSTICS_MI_VARIANT, when set, as every rendering command reads it."""
-    from volcaustics.reference.mi_setup import VARIANT_ENV, VariantError, variant_override
+    from volcaustics.reference.mi_setup import VARIANT_ENV, variant_override
+    from volcaustics.reference.variant import VariantError
 
     try:
         variant = variant_override()

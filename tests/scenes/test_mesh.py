@@ -95,7 +95,7 @@ def test_a_damaged_generated_mesh_cache_is_regenerated(tmp_path, monkeypatch, da
     """A generated-mesh cache file that is truncated, garbage, another generator's mesh
     or not a valid mesh is regenerated and rewritten (before: a truncated file raised,
     reported as a bad scene file on every run; the others were used as the mesh)."""
-    from volcaustics.scenes.mesh import generated_mesh
+    from volcaustics.scenes.mesh_cache import generated_mesh
 
     monkeypatch.setenv("VOLCAUSTICS_CACHE", str(tmp_path))
     good = generated_mesh("sphere", BIG_SPHERE)
@@ -131,7 +131,7 @@ def test_a_folder_in_place_of_a_generated_mesh_cache_entry_is_not_the_scenes_fau
     """A folder where a generated mesh's cache file goes: the mesh is built (and not
     cached, said once), where before the scene file was blamed ("mesh could not be
     built", hostile pass)."""
-    from volcaustics.scenes.mesh import generated_mesh
+    from volcaustics.scenes.mesh_cache import generated_mesh
 
     monkeypatch.setenv("VOLCAUSTICS_CACHE", str(tmp_path))
     good = generated_mesh("sphere", BIG_SPHERE)

@@ -13,7 +13,7 @@ import numpy as np
 from volcaustics.approx import render
 from volcaustics.infra.imageio import write_exr, write_png
 from volcaustics.infra.storage import atomic_set
-from volcaustics.reports.render.outputs import render_outputs
+from volcaustics.reports.files.outputs import render_outputs
 
 
 def output_paths(out: str) -> dict:

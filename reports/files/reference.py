@@ -12,7 +12,7 @@ import shutil
 
 from volcaustics.infra.storage import atomic_set
 from volcaustics.reference.render import render_reference
-from volcaustics.reports.render.outputs import render_outputs
+from volcaustics.reports.files.outputs import render_outputs
 
 
 def run_reference(scene, settings, out: str, *, force: bool = False) -> dict:
