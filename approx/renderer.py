@@ -31,7 +31,7 @@ from .params import ApproxParams, defines
 from .records import emission_records, records_from_raw
 from .splat import Splatter
 from .timing import PassTimer, timer_queries_work
-from .trace import TEST_DEFINES, PhotonTracer, read_raw_records
+from .trace import PhotonTracer, check_controls, read_raw_records
 
 
 @dataclass
@@ -66,11 +66,16 @@ def _read_rgb(tex: moderngl.Texture) -> np.ndarray:
 
 
 class Renderer:
-    """The approximation for one scene's geometry (light, camera, medium, materials may change)."""
+    """The approximation for one scene's geometry (light, camera, medium, materials may change).
 
-    def __init__(self, scene, ctx: moderngl.Context | None = None):
+    ``controls``: #defines that are not parameters of the method (``approx.trace.CONTROLS``:
+    clipping to the objects' box, the deliberate faults of negative controls); every program
+    this renderer compiles gets them."""
+
+    def __init__(self, scene, ctx: moderngl.Context | None = None, *, controls: dict | None = None):
         self.ctx = ctx or shared_context()
         self.scene = scene
+        self.controls = check_controls(controls)
         self.geometry = SceneGeometry.upload(self.ctx, scene)
         self.light_maps = LightMapRenderer(self.ctx, self.geometry)
         self._programs = {}
@@ -83,14 +88,15 @@ class Renderer:
 
     def _tracer(self, p: ApproxParams) -> PhotonTracer:
         """The emission and trace programs for ``p`` (equal defines, one program)."""
-        return self._cached(("tracer", *sorted(PhotonTracer.defines(p).items())), lambda: PhotonTracer(self.ctx, p))
+        key = ("tracer", *sorted(PhotonTracer.defines(p, self.controls).items()))
+        return self._cached(key, lambda: PhotonTracer(self.ctx, p, self.controls))
 
     def _shading_programs(self, scene, p: ApproxParams) -> tuple:
         """(CameraPasses, Splatter) for the fog program's defines and the phase function."""
         phase_key = (scene.medium.phase.kind, scene.medium.phase.g)
         fog = defines(p, "fog")
         camera = self._cached(("camera", *sorted(fog.items()), phase_key), lambda: CameraPasses(self.ctx, scene, fog))
-        density = {k: v for k, v in TEST_DEFINES.items() if k.startswith("DENSITY_")} if p.splat == "density" else {}
+        density = {k: v for k, v in self.controls.items() if k.startswith("DENSITY_")} if p.splat == "density" else {}
         splatter = self._cached(("splat", phase_key, p.splat, *sorted(density.items())),
                                 lambda: Splatter(self.ctx, scene.medium, adaptive=p.splat == "adaptive",
                                                  density=p.splat == "density", test_defines=density))

@@ -37,13 +37,27 @@ PACK = {"PACK_BLOCK": 256, "PACK_TEXELS": 4}  # trace/pack_distances.comp.glsl: 
 # Fewest skipped hits + false re-hits in bench/start_offset.py: docs/decisions.md "Start offset".
 START_OFFSET = {"START_SLOPE": 0.7, "START_FLOOR": 0.25, "START_MAX": 2.0}
 
-# Off: clipping searched segments to the specular objects' box (trace.comp.glsl) changed
-# little and not always for the better (bench/agreement.py): docs/decisions.md "Clip to objects".
-CLIP_TO_OBJECTS = False
+# Controls: #defines that are not parameters of the method, given to a Renderer as
+# ``controls={NAME: value}`` (part of the programs' cache key), for negative controls and
+# benches. CLIP_TO_OBJECTS clips searched segments to the specular objects' box as well
+# (trace.comp.glsl; off by default: it changed little and not always for the better,
+# bench/agreement.py, docs/decisions.md "Clip to objects"); the others are deliberate faults
+# a test must see flagged.
+CONTROLS = {
+    "CLIP_TO_OBJECTS": "clip searched segments to the specular objects' box too",
+    "DIFFERENTIAL_UNPROPAGATED": "photon differentials not propagated through interactions (common/differential.glsl)",
+    "EMISSION_SHIFT": "photons leave this many texels off their emission points (emit.comp.glsl)",
+    "DENSITY_IGNORED": "density splats ignore the density pre-pass (splat/density.*.glsl)",
+}
 
-# Defines that only tests set, for negative controls (e.g. DIFFERENTIAL_UNPROPAGATED: photon
-# differentials not propagated through interactions); part of the programs' cache key.
-TEST_DEFINES: dict = {}
+
+def check_controls(controls: dict | None) -> dict:
+    """``controls`` as a plain dict, every name one of :data:`CONTROLS` (ValueError otherwise)."""
+    controls = dict(controls or {})
+    unknown = sorted(set(controls) - set(CONTROLS))
+    if unknown:
+        raise ValueError(f"unknown renderer controls {unknown}; expected some of {', '.join(CONTROLS)}")
+    return controls
 
 # The approximation's image buffers per pixel (G-buffer, fog, direct, per-step caustic
 # targets and their read-backs): 264 B measured as peak RSS per pixel, rounded up
@@ -109,9 +123,9 @@ class PhotonTracer:
     """Holds the compute programs for one setting of the trace program's defines
     (:meth:`defines`: the parameter table's ``program="trace"`` entries)."""
 
-    def __init__(self, ctx: moderngl.Context, params):
+    def __init__(self, ctx: moderngl.Context, params, controls: dict | None = None):
         self.ctx = ctx
-        defines = self.defines(params)
+        defines = self.defines(params, controls)
         self.emit = compute_shader(ctx, "emission/emit.comp.glsl", defines)
         self.trace = compute_shader(ctx, "trace/trace.comp.glsl", defines)
         self.id_rule = "START_RULE_ID" in defines
@@ -133,12 +147,12 @@ class PhotonTracer:
         self._max_size = _max_image_size(ctx.info)
 
     @staticmethod
-    def defines(params) -> dict:
+    def defines(params, controls: dict | None = None) -> dict:
         """The #defines of the emission and trace programs for ``params``: the fixed
         ones and those the parameter table derives (``approx.params.defines``). Equal
         defines, equal programs: the renderer's cache key."""
-        fixed = {"MAX_MATERIALS": MAX_MATERIALS, **START_OFFSET, **({"CLIP_TO_OBJECTS": 1} if CLIP_TO_OBJECTS else {}),
-                 **TEST_DEFINES}
+        fixed = {"MAX_MATERIALS": MAX_MATERIALS, **START_OFFSET,
+                 **{k: v for k, v in check_controls(controls).items() if not k.startswith("DENSITY_")}}
         return {**fixed, **table_defines(params, "trace")}
 
     def check_limits(self, params, *, keep_records: bool = False) -> None:
@@ -270,7 +284,7 @@ class PhotonTracer:
         (``scenes.bounds.medium_bounds``), which photons do not leave;
         ``map_texels``: :meth:`map_buffer` of the layer maps; ``map_info``: per map (used,
         min distance, max distance), see LightMapRenderer.render_layers; ``objects_box``:
-        (min, max) of the specular objects, used with CLIP_TO_OBJECTS."""
+        (min, max) of the specular objects, used with the CLIP_TO_OBJECTS control."""
         prog = self.trace
         if objects_box is not None:
             pad = 1e-4 * float(np.linalg.norm(np.subtract(objects_box[1], objects_box[0])))

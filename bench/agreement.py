@@ -37,20 +37,19 @@ def main(argv=None) -> int:
     parser.add_argument("--light-res", type=int, default=1024)
     parser.add_argument("--size", type=int, default=256)
     parser.add_argument("--clip-to-objects", action="store_true",
-                        help="also clip searched segments to the specular objects' box (approx.trace.CLIP_TO_OBJECTS)")
+                        help="also clip searched segments to the specular objects' box (the CLIP_TO_OBJECTS control)")
     args = parser.parse_args(argv)
 
     import numpy as np
 
     import volcaustics.reference  # noqa: F401  (libLLVM before drjit)
-    from volcaustics.approx import ApproxParams, Renderer, trace
+    from volcaustics.approx import ApproxParams, Renderer
     from volcaustics.reference.oracle import Oracle, exact_photon_records
     from volcaustics.reference.render import render_reference
     from volcaustics.reference.settings import ReferenceSettings
     from volcaustics.scenes import load_builtin
     from volcaustics.scenes.formats import FLAG_LEFT_FRUSTUM, STATUS_LOST
 
-    trace.CLIP_TO_OBJECTS = args.clip_to_objects
     settings = ReferenceSettings(photons=1 << 22, spp=64, batches=4, width=args.size, height=args.size)
     print(f"photon_res {args.photon_res}, light_res {args.light_res}, {args.size}², "
           f"reference {settings.photons} photons"
@@ -63,7 +62,7 @@ def main(argv=None) -> int:
         keep = ref.mean["mask_specular"][..., 0] < 0.5
         ref_total = float(ref.mean["caustic"][keep].sum())
         ref_sd = float(np.sqrt(ref.var["caustic"][keep].sum()))
-        renderer = Renderer(scene)
+        renderer = Renderer(scene, controls={"CLIP_TO_OBJECTS": 1} if args.clip_to_objects else None)
         oracle = Oracle(scene)
         for fresnel, steps in (("deterministic", 4), ("stochastic", 16)):
             params = ApproxParams(photon_res=args.photon_res, light_res=args.light_res, width=args.size,

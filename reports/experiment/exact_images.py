@@ -125,7 +125,7 @@ def exact_images(scene, p, frames, seeds, renderer, oracle, subphotons: int | No
     replay and splat stored them (``exact_reused``); else every replay of one Fresnel
     mode is one wavefront (``reference.replay``) and they are stored."""
     subphotons = subphotons_setting() if subphotons is None else subphotons
-    document = exact_document(scene, p, seeds, subphotons, CONSTANTS)
+    document = exact_document(scene, p, seeds, subphotons, CONSTANTS, renderer.controls)
     key = exact_key(document)
     # each frame's medium collisions: A's splats, and (splat = adaptive) the kernels E pairs with
     collisions = [np.concatenate([r[r["status"] == STATUS_COLLIDED] for r in frame.records]) for frame in frames]

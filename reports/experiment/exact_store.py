@@ -27,7 +27,6 @@ import os
 import numpy as np
 
 from volcaustics.approx.params import PARAMS
-from volcaustics.approx.trace import TEST_DEFINES
 from volcaustics.infra.storage import (
     CacheError,
     atomic_write_bytes,
@@ -45,7 +44,7 @@ EXACT_IMAGES = ("exact_steps", "exact_all_same", "exact_all", "exact_emission", 
 SEARCH_ONLY = tuple(p.name for p in PARAMS if not p.exact)  # what the E images do not depend on
 
 
-def exact_document(scene, p, seeds: list, subphotons: int, constants: dict) -> dict:
+def exact_document(scene, p, seeds: list, subphotons: int, constants: dict, controls: dict) -> dict:
     """What determines the E images of a point: the scene, the resolved parameters
     without SEARCH_ONLY (all of them for splat = adaptive), the seeds, the sub-photons,
     the replay's constants and the code version."""
@@ -54,7 +53,7 @@ def exact_document(scene, p, seeds: list, subphotons: int, constants: dict) -> d
         params = {k: v for k, v in params.items() if k not in SEARCH_ONLY and k != "seed"}
     return {"format": FORMAT, "scene_hash": scene.scene_hash(), "params": params, "seeds": [int(s) for s in seeds],
             "subphotons": int(subphotons), "constants": constants, "code_version": code_version(),
-            "test_defines": {k: str(v) for k, v in sorted(TEST_DEFINES.items())}}
+            "test_defines": {k: str(v) for k, v in sorted(controls.items())}}  # the renderer's controls
 
 
 def exact_key(document: dict) -> str:

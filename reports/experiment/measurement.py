@@ -1,4 +1,4 @@
-"""The measurement settings (docs/architecture.md: how a point is
+"""The measurement settings (docs/architecture.md): how a point is
 measured, beside the parameter table of what is measured. Each is a command-line flag
 (``reports.cli.common.add_measurement_flags``), a key of a sweep spec's or the
 budgets' ``[measurement]`` table, and part of a result's key; never an environment

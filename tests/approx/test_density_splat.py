@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from tests.approx.helpers import make_scene, pixel_solid_angles
-from volcaustics.approx import Renderer, trace
+from volcaustics.approx import Renderer
 from volcaustics.approx.camera_pass import CameraView
 from volcaustics.approx.cost import DENSITY_READS, frame_cost
 from volcaustics.approx.params import QUICK
@@ -63,10 +63,10 @@ def test_density_kernels_keep_the_energy_and_narrow_where_photons_crowd(ctx):
     assert peak(crowded) > 3 * peak(lone)
 
 
-def _frames(seeds, **changes):
+def _frames(seeds, controls: dict | None = None, **changes):
     scene = load_builtin("sphere1")
     params = dataclasses.replace(QUICK, **{"photon_res": 96, "light_res": 128, "width": 64, "height": 64, **changes})
-    renderer = Renderer(scene)
+    renderer = Renderer(scene, controls=controls)
     try:
         frames = [renderer.render(scene, dataclasses.replace(params, seed=s)) for s in seeds]
     finally:
@@ -82,7 +82,7 @@ def test_the_density_pass_is_counted_in_the_frame_cost():
 
 
 @pytest.mark.slow
-def test_ignoring_the_density_scores_worse_on_sphere1(monkeypatch):
+def test_ignoring_the_density_scores_worse_on_sphere1():
     """One frame's caustic relMSE against a 32-seed mean of fixed splats at 4× the photons
     (a reference for the kernels' bias and noise at this size), 8 seeds each: the density
     read must beat one width for all (DENSITY_IGNORED) by more than 2 SE."""
@@ -90,8 +90,7 @@ def test_ignoring_the_density_scores_worse_on_sphere1(monkeypatch):
     stack = np.stack([f.images["caustic"] for f in reference_frames])
     reference, variance = stack.mean(axis=0), stack.var(axis=0, ddof=1) / len(stack)
     used, _ = _frames(range(8), splat="density")
-    monkeypatch.setitem(trace.TEST_DEFINES, "DENSITY_IGNORED", 1)
-    ignored, _ = _frames(range(8), splat="density")
+    ignored, _ = _frames(range(8), controls={"DENSITY_IGNORED": 1}, splat="density")
     a = frame_relative_mse(reference, variance, np.stack([f.images["caustic"] for f in used]))
     b = frame_relative_mse(reference, variance, np.stack([f.images["caustic"] for f in ignored]))
     assert b.debiased > a.debiased + 2 * math.hypot(a.standard_error, b.standard_error), (a, b)

@@ -10,7 +10,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from volcaustics.approx import Renderer, trace
+from volcaustics.approx import Renderer
 from volcaustics.approx.emission import approx_rays
 from volcaustics.approx.glsl import build_source
 from volcaustics.approx.light import LightFrustum
@@ -82,12 +82,12 @@ def test_morton_keeps_blocks_together_and_reverse_bits_is_an_involution():
     assert reverse_bits(np.uint32(1)) == np.uint32(2**31)
 
 
-def _caustics(rule: str, seeds: range, **changes) -> np.ndarray:
+def _caustics(rule: str, seeds: range, controls: dict | None = None, **changes) -> np.ndarray:
     """S×H×W caustic images (luminance) of sphere1 at a small size, one per seed."""
     scene = load_builtin("sphere1")
     params = dataclasses.replace(QUICK, photon_res=48, light_res=64, width=40, height=40, emission_jitter=rule,
                                  **changes)
-    renderer = Renderer(scene)
+    renderer = Renderer(scene, controls=controls)
     try:
         return np.stack([renderer.render(scene, dataclasses.replace(params, seed=s), keep_records=False)
                          .images["caustic"].mean(axis=-1) for s in seeds])
@@ -134,7 +134,7 @@ def test_sobol_draw_is_unbiased_with_less_variance_than_random():
 
 
 @pytest.mark.slow
-def test_sobol_caustic_is_unbiased_against_random(monkeypatch):
+def test_sobol_caustic_is_unbiased_against_random():
     """sobol's mean caustic over 24 seeds agrees with random's block by block (every
     |z| ≤ 4: a Bonferroni bound over the ≤ 25 blocks at 1e-3 overall). A grid shifted 1.5
     texels (the negative control, EMISSION_SHIFT with center) is flagged by the
@@ -144,6 +144,5 @@ def test_sobol_caustic_is_unbiased_against_random(monkeypatch):
     rand, sobol = _caustics("random", seeds), _caustics("sobol", seeds)
     z = _block_z(sobol, rand)
     assert len(z) >= 8 and np.abs(z).max() <= 4.0, np.round(z, 2)
-    monkeypatch.setitem(trace.TEST_DEFINES, "EMISSION_SHIFT", 1.5)
-    shifted = _caustics("center", seeds)
+    shifted = _caustics("center", seeds, controls={"EMISSION_SHIFT": 1.5})
     assert np.abs(_block_z(shifted, rand)).max() > 4.0

@@ -11,7 +11,7 @@ import math
 import numpy as np
 import pytest
 
-from volcaustics.approx import Renderer, trace
+from volcaustics.approx import Renderer
 from volcaustics.approx.emission import approx_rays, true_rays
 from volcaustics.approx.light import LightFrustum, spot_constants, spot_falloff
 from volcaustics.approx.params import QUICK
@@ -56,17 +56,15 @@ def test_true_rays_carry_the_spots_power_and_a_flat_profile_does_not():
 @pytest.mark.parametrize("changes, shift", [
     ({}, 0.0), ({"emission": "adaptive"}, 0.0), ({}, 0.5), ({"emission_jitter": "random"}, 0.0),
     ({"emission_jitter": "sobol"}, 0.0), ({"emission": "adaptive", "emission_jitter": "sobol"}, 0.0)])
-def test_the_approximations_rays_are_the_ones_it_emits(gl_context, monkeypatch, changes, shift):
+def test_the_approximations_rays_are_the_ones_it_emits(gl_context, changes, shift):
     """Every photon the emission shader starts lies on its ray from
     ``Renderer.emission_rays`` (the direction from the light to its start, to float32
     rounding), for texel centres, every emission_jitter, the adaptive draw and a test's half-texel shift
     (``EMISSION_SHIFT``); the rays of the unshifted grid miss the shifted photons (the
     negative control)."""
-    if shift:
-        monkeypatch.setitem(trace.TEST_DEFINES, "EMISSION_SHIFT", shift)
     scene = load_builtin("sphere1")
     params = dataclasses.replace(QUICK, photon_res=64, light_res=64, width=32, height=32, **changes)
-    renderer = Renderer(scene)
+    renderer = Renderer(scene, controls={"EMISSION_SHIFT": shift} if shift else None)
     try:
         (rays,) = renderer.emission_rays(scene, params, [5])
         (first,) = renderer.first_records(scene, params, [5])

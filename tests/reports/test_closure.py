@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from tests.approx.test_emission_rays import _flat
-from volcaustics.approx import trace
+from volcaustics.approx import Renderer
 from volcaustics.approx.params import QUICK
 from volcaustics.metrics.decomposition import TERMS
 from volcaustics.reference.settings import ReferenceSettings
@@ -140,7 +140,7 @@ def test_the_decomposition_closes_on_a_generated_scene(cache, tmp_path):
 
 
 @pytest.mark.slow  # statistical
-def test_a_shifted_emission_grid_moves_the_emission_term_not_the_residual(cache, monkeypatch):
+def test_a_shifted_emission_grid_moves_the_emission_term_not_the_residual(cache):
     """A's photons leave half a texel off their centres (EMISSION_SHIFT): E_∞, which
     replays A's own emission rays, moves with them, so the emission term changes, while
     E_∞,s and R, hence the residual (its own numbers: only its part of the error, a
@@ -150,9 +150,8 @@ def test_a_shifted_emission_grid_moves_the_emission_term_not_the_residual(cache,
     params = dataclasses.replace(QUICK, photon_res=32)
     runs = []
     for shift in (None, 0.5):
-        if shift is not None:
-            monkeypatch.setitem(trace.TEST_DEFINES, "EMISSION_SHIFT", shift)
-        d = _measure(scene, params).summary["decomposition"]
+        controls = {"EMISSION_SHIFT": shift} if shift is not None else None
+        d = _measure(scene, params, renderer=Renderer(scene, controls=controls)).summary["decomposition"]
         runs.append(({r["term"]: r for r in d["rows"]}, d["residual"]))
     (centred, centred_residual), (shifted, shifted_residual) = runs
     assert centred_residual == shifted_residual  # its energy, debiased relMSE, SEs and z: R and E_∞,s alone
