@@ -71,7 +71,7 @@ def power_budget_chart(budget: list) -> bytes:
     return png_bytes(fig)
 
 
-def _signed_stack(ax, y, values, colours, labels, fmt) -> None:
+def signed_stack(ax, y, values, colours, labels, fmt) -> None:
     """One horizontal bar: positive parts stacked rightwards from 0, negative ones
     leftwards, each labelled with its number when it is wide enough."""
     span = max(sum(v for v in values if v > 0), -sum(v for v in values if v < 0), 1e-12)
@@ -102,7 +102,7 @@ def decomposition_chart(decomposition: dict) -> bytes:
                                              ("relmse_part_debiased",
                                               "part of the relative MSE, debiased (% points)", 100.0))):
         values = [scale * number(terms[t][key]) for t in TERMS]
-        _signed_stack(ax, 0, values, colours, [t.replace("_", " ") for t in TERMS] if ax is axes[0] else
+        signed_stack(ax, 0, values, colours, [t.replace("_", " ") for t in TERMS] if ax is axes[0] else
                       [None] * len(TERMS), lambda v: f"{v:+.1f}")
         total = scale * number(decomposition["total"][key])
         ax.axvline(total, color="black", lw=1, ls="--")

@@ -19,8 +19,9 @@ from volcaustics.reports.page.decomposition import OVERVIEW_HEAD as DECOMPOSITIO
 from volcaustics.reports.page.decomposition import decomposition_table
 from volcaustics.reports.page.decomposition import overview_cell as decomposition_cell
 from volcaustics.reports.page.external import renderers_table, scene_comparisons
+from volcaustics.reports.page.first_screen import error_by_cause_chart, own_params, shared_params, shared_params_line
 from volcaustics.reports.page.frames import frames_section
-from volcaustics.reports.page.images import SCALES, colour_bar_css
+from volcaustics.reports.page.images import SCALES, colour_bar_css, data_uri
 from volcaustics.reports.page.model import OVERVIEW_HEAD, model_section, overview_cell
 from volcaustics.reports.page.parts import CSS, SCRIPT
 from volcaustics.reports.page.parts import colour_bar as _colour_bar
@@ -64,7 +65,7 @@ def _params_cell(params: dict) -> str:
         + "</span>"
 
 
-def _overview(summary: dict) -> str:
+def _overview(summary: dict, shared: dict) -> str:
     head = ("<tr><th class='l'>scene</th><th class='l'>component</th><th>relative MSE, debiased [95% interval]</th>"
             "<th>one frame's relative MSE ± SE</th><th>reference noise floor</th><th>energy ratio [95%]</th>"
             "<th>HDR-FLIP per frame</th>" + OVERVIEW_HEAD +
@@ -95,7 +96,7 @@ def _overview(summary: dict) -> str:
                 cells += [f"<td class='l gate' rowspan={n}>{_gate_cell(page['gate'])}</td>",
                           f"<td rowspan={n}>{_num(None if frame is None else 1000 * frame, '{:.0f} ms')}<br>"
                           f"{_num(None if reads is None else reads / 1e6, '{:.2f} M')}</td>",
-                          f"<td class='l' rowspan={n}>{_params_cell(page['shown_params'])}</td>"]
+                          f"<td class='l' rowspan={n}>{_params_cell(own_params(page, shared))}</td>"]
             body.append(f"<tr class='overview-row' data-scene='{escape(page['scene'])}'>{''.join(cells)}</tr>")
     return f"<table id='overview'>{head}{''.join(body)}</table>"
 
@@ -307,13 +308,20 @@ def render_page(summary: dict, images: dict, sweep_figures: dict, animation_medi
         nav += "<a href='#one-frame'>one frame</a>"
     sections = "".join(_scene_section(i, p, images[p["scene"]], summary, bars, comparison_media)
                        for i, p in enumerate(summary["scenes"]))
+    shared = shared_params(summary)
+    chart = _figure(data_uri(error_by_cause_chart(summary)), "Every scene's caustic error split into its causes "
+                    "(the decomposition's debiased parts, stacked), the mean image's relative MSE (◆) and one "
+                    "frame's (grey): what a viewer sees", cls="chart") if summary["scenes"] else ""
+    first = f"<div id='error-by-cause'>{chart}</div>"
     return f"""<!doctype html>
 <html lang='en'><head><meta charset='utf-8'><meta name='viewport' content='width=device-width, initial-scale=1'>
 <title>volcaustics accuracy report</title><style>{CSS}</style></head><body>
 <h1>volcaustics — accuracy of image-based photon tracing against ground truth</h1>
 <p class='note'>{escape(summary['created'])}; measured with GL {escape(', '.join(summary['gl_renderers']))};
 code {escape(summary['code_version'])}; every number here is in <code>summary.json</code> beside this page.</p>
+{first}
 {_banner(summary)}
+{shared_params_line(shared)}
 <nav>{nav}</nav>
 <h2>Overview</h2>
 <p class='note'>Errors over the pixels where neither renderer sees glass. Relative MSE Σ(A − R)²/ΣR² of the seeds'
@@ -321,7 +329,7 @@ mean, debiased (less the reference's noise floor and the approximation's own noi
 {summary['seeds']} seeds; jackknife interval, Student t). Energy ratio ΣA/ΣR (1 = same energy). HDR-FLIP: mean over
 frames (0 = identical, 1 = worst). Budgets: <code>{escape(summary['budgets'])}</code>
 {'; baseline <code>' + escape(summary['baseline']) + '</code>' if summary['baseline'] else '; no baseline (no regression test)'}.</p>
-{_overview(summary)}
+{_overview(summary, shared)}
 {frames_section(summary.get("frames"))}
 {renderers_table(summary)}
 <details><summary>parameters used</summary><p>approximation: <code>{escape(json.dumps(params))}</code><br>

@@ -195,8 +195,8 @@ def test_the_page_is_self_contained(built):
     assert not re.search(r"https?://", built["page"])
     figures = [f for f in built["cold"]["sweep"]["figures"] if f.endswith(".png")]
     # per scene: 5 renders, 4 maps, 4 charts; the animation: its video and its plot; the other renderer: its
-    # and the reference's caustic and combined, 4 maps
-    assert len(parsed.images) == 2 * (5 + 4 + 4) + len(figures) + 2 + 8
+    # and the reference's caustic and combined, 4 maps; the first screen's chart
+    assert len(parsed.images) == 2 * (5 + 4 + 4) + len(figures) + 2 + 8 + 1
     assert all(img["src"].startswith(("data:image/png;base64,", "data:image/webp;base64,", "data:image/gif;base64,"))
                for img in parsed.images)
     renders = [img for img in parsed.images if "render" in img.get("class", "")]
@@ -523,3 +523,31 @@ def test_report_and_reference_cli_share_one_cache_entry(tmp_path, monkeypatch, c
     assert from_report["cached"] is False and from_cli["cached"] is True
     assert len(list((cache / "reference").glob("*.json"))) == 1
     assert os.path.exists(tmp_path / "rep" / "index.html")
+
+
+def test_the_first_screen_answers_the_question(built):
+    """The page opens on every scene's caustic error by cause, then the gate's verdict; the
+    parameters the scenes share are stated once, and a scene's row lists only its own."""
+    page = built["page"]
+    chart, banner, overview = (page.index(mark) for mark in ("id='error-by-cause'", "class='banner", "id='overview'"))
+    assert chart < banner < overview
+    shared = built["cold"]["scenes"][0]["shown_params"]
+    assert all(p["shown_params"]["photon_res"] == shared["photon_res"] for p in built["cold"]["scenes"])
+    line = page[page.index("id='shared-params'"):].split("</p>", 1)[0]
+    assert f"photon_res {shared['photon_res']}" in line
+    table = page[overview:page.index("</table>", overview)]
+    assert "photon_res" not in table  # shared: not repeated per scene
+
+
+def test_the_error_by_cause_chart_draws_negative_parts_and_missing_numbers():
+    """The chart takes a part below zero (drawn leftwards), a null part and a scene without a
+    one-frame error; it is a PNG."""
+    from volcaustics.metrics.decomposition import TERMS
+    from volcaustics.reports.page.first_screen import error_by_cause_chart
+
+    terms = [{"term": t, "relmse_part_debiased": (-0.01 if i == 0 else None if i == 1 else 0.02)}
+             for i, t in enumerate(TERMS)]
+    pages = [{"scene": name, "decomposition": {"terms": terms},
+              "components": {"caustic": {"relative_mse": {"debiased": 0.08}, **frame}}}
+             for name, frame in (("a", {"frame_relative_mse": {"debiased": 0.1}}), ("b", {}))]
+    assert error_by_cause_chart({"scenes": pages}).startswith(b"\x89PNG")
