@@ -50,7 +50,7 @@ def main(argv=None) -> int:
 
 def _export(scene, folder: str) -> float:
     from volcaustics.reference.render.export import export_xml
-    from volcaustics.scenes.gltf import export_gltf
+    from volcaustics.reports.files.gltf import export_gltf
 
     t0 = time.perf_counter()
     export_xml(scene, os.path.join(folder, "scene.xml"))

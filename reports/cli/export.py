@@ -7,8 +7,8 @@ import os
 
 from volcaustics.reference.render.export import export_xml
 from volcaustics.reports.cli.common import UsageError, check_output_file
+from volcaustics.reports.files.gltf import FORMATS, export_gltf
 from volcaustics.scenes import resolve_scene
-from volcaustics.scenes.gltf import FORMATS, export_gltf
 
 
 def register(sub) -> None:
