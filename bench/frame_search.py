@@ -56,9 +56,9 @@ def main(argv=None) -> int:
         return print_table(args.table)
     from volcaustics.approx.params import QUICK
     from volcaustics.reference.render import render_reference
+    from volcaustics.reports.core.cost_match import CostMatcher
     from volcaustics.reports.core.sizing import REPORT_REFERENCE, sized
     from volcaustics.reports.experiment.run import run_experiment
-    from volcaustics.reports.sweep.best import CostMatcher
     from volcaustics.scenes import resolve_scene
     from volcaustics.scenes.catalogue import BUILTIN_NAMES
 

@@ -13,7 +13,8 @@ from volcaustics.reports.cli.common import UsageError, add_measurement_flags, ch
 from volcaustics.reports.core.executors import check_reachable, default_workers, parse_dask
 from volcaustics.reports.core.store import Store
 from volcaustics.reports.experiment.measurement import MEASUREMENT_KEYS
-from volcaustics.reports.sweep.best import BEST_SPEC, CRITERIA, load_best_spec, run_best, verdict
+from volcaustics.reports.sweep.best import run_best, verdict
+from volcaustics.reports.sweep.best_spec import BEST_SPEC, CRITERIA, load_best_spec
 from volcaustics.reports.sweep.run import OUTPUT_FILES, OUTPUT_FOLDERS, consolidate, run_sweep
 from volcaustics.reports.sweep.spec import MAX_POINTS, spec_from_args, spec_from_toml
 from volcaustics.reports.sweep.variants import variant_name

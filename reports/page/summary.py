@@ -23,7 +23,8 @@ from volcaustics.reports.core.tables import rows_of
 from volcaustics.reports.core.versions import code_version, library_versions
 from volcaustics.reports.experiment.photons import FATES
 from volcaustics.reports.page.images import SCALES, exposures
-from volcaustics.reports.sweep.best import role_rows, verdict
+from volcaustics.reports.sweep.best import verdict
+from volcaustics.reports.sweep.best_figures import role_rows
 from volcaustics.reports.sweep.suffice import settings_that_suffice
 from volcaustics.reports.sweep.variants import best_variants, is_variants_sweep, variant_table
 from volcaustics.scenes.formats import COLOUR_LAYERS

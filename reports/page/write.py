@@ -16,7 +16,7 @@ from volcaustics.reports.page import charts
 from volcaustics.reports.page.html import render_page
 from volcaustics.reports.page.images import component_images, data_uri, render_uri
 from volcaustics.reports.page.summary import OUTPUT_FILES
-from volcaustics.reports.sweep.best import draw_best
+from volcaustics.reports.sweep.best_figures import draw_best
 from volcaustics.reports.sweep.figures import draw_figures
 from volcaustics.reports.sweep.variants import draw_variants, is_variants_sweep, variant_table
 

@@ -32,115 +32,21 @@ from __future__ import annotations
 
 import dataclasses
 import itertools
-import os
 
 import numpy as np
 import pandas as pd
 from tqdm import tqdm
 
-from volcaustics.approx.params import PRESETS, ParamError, preset
+from volcaustics.approx.params import ParamError, preset
 from volcaustics.metrics.decomposition import TERMS
 from volcaustics.reports import runner
 from volcaustics.reports.core.cost_match import CostMatcher
-from volcaustics.reports.core.params import parse_value
-from volcaustics.reports.core.plotting import OKABE_ITO, pyplot, save_figure
 from volcaustics.reports.core.sizing import reference_settings
 from volcaustics.reports.core.store import Store
-from volcaustics.reports.core.tomlfile import load_toml
 from volcaustics.reports.experiment.measurement import measurement_settings
-from volcaustics.reports.sweep.spec import SweepError, SweepSpec, _checked
-from volcaustics.scenes import BUILTIN_NAMES
+from volcaustics.reports.sweep.best_spec import CRITERIA, BestSpec
+from volcaustics.reports.sweep.spec import SweepError
 
-BEST_SPEC = os.path.join(os.path.dirname(os.path.abspath(__file__)), "best.toml")
-BEST_KEYS = ("scenes", "preset", "seeds", "coarse", "refine", "rounds", "set", "reference", "measurement")
-# criterion → (the ratio it ranks by, the error column, the goal: at most that many times the paper's on every
-# scene): one frame's error, what a viewer sees, at half; the mean image's bias at a quarter
-CRITERIA = {"frame": ("frame_ratio", "frame_relmse", 0.5), "bias": ("relmse_ratio", "caustic_relmse_debiased", 0.25)}
-
-
-@dataclasses.dataclass(frozen=True)
-class BestSpec:
-    """scenes; preset (the paper configuration at the harness's size); seeds per point;
-    coarse, refine: ((name, values), ...); rounds of refinement; reference overrides;
-    fixed: parameters set on the preset (the paper configuration's too, e.g. a smaller
-    image)."""
-
-    scenes: tuple
-    preset: str
-    seeds: int
-    coarse: tuple
-    refine: tuple
-    rounds: int
-    reference: dict
-    fixed: dict = dataclasses.field(default_factory=dict)
-    measurement: dict = dataclasses.field(default_factory=dict)  # the measurement settings' overrides
-
-    @property
-    def searched(self) -> tuple:
-        """The searched parameters' names, coarse then refine."""
-        return tuple(dict.fromkeys([n for n, _ in self.coarse] + [n for n, _ in self.refine]))
-
-    def sweep_spec(self) -> SweepSpec:
-        """As a sweep spec (its grids: the coarse grid and each refine axis alone), for
-        validation and the manifest."""
-        grids = (self.coarse, *(((name, values),) for name, values in self.refine))
-        merged = {}
-        for grid in grids:
-            for name, values in grid:
-                merged.setdefault(name, [])
-                merged[name] += [v for v in values if v not in merged[name]]
-        return SweepSpec(self.scenes, tuple((n, tuple(v)) for n, v in merged.items()), dict(self.fixed), self.preset,
-                         self.seeds, dict(self.reference), grids, dict(self.measurement))
-
-
-def load_best_spec(path: str = BEST_SPEC, scenes: list | None = None) -> BestSpec:
-    """The spec at ``path`` (SweepError naming the file, key and value otherwise);
-    ``scenes`` replaces its scenes."""
-    doc = load_toml(path, keys=BEST_KEYS, what="best-configuration spec")
-    axes = {}
-    for key in ("coarse", "refine"):
-        table = doc.get(key, {})
-        if not isinstance(table, dict):
-            raise SweepError(f"{path}: {key} = {table!r}: expected a table [{key}]")
-        if key in doc and not table:
-            raise SweepError(f"{path}: [{key}] is empty: give its axes (NAME = [values]) or leave the table out")
-        axes[key] = []
-        for name, values in table.items():
-            if name in ("photon_res", "seed"):
-                raise SweepError(f"{path}: {key}.{name}: {name} is not searched (photon_res matches the cost; seeds "
-                                 f"= N sets the seeds)")
-            if not isinstance(values, list) or not values:
-                raise SweepError(f"{path}: {key}.{name} = {values!r}: expected a non-empty list")
-            parsed = tuple(parse_value(name, v, f"{path}: {key}") for v in values)
-            if len(set(parsed)) != len(parsed):  # named here: the sweep's own check says vary.NAME
-                raise SweepError(f"{path}: {key}.{name} = {values!r}: a value is listed twice")
-            axes[key].append((name, parsed))
-    if not axes["coarse"] and not axes["refine"]:  # it searched nothing, over every built-in, for hours
-        raise SweepError(f"{path}: no [coarse] or [refine] axis: nothing to search; give at least one, e.g. "
-                         f"[coarse] layers = [2, 4]")
-    rounds = doc.get("rounds", 1)
-    if isinstance(rounds, bool) or not isinstance(rounds, int) or not 0 <= rounds <= 10:
-        raise SweepError(f"{path}: rounds = {rounds!r}: expected an integer in [0, 10]")
-    names = scenes if scenes is not None else doc.get("scenes", list(BUILTIN_NAMES))
-    fixed = doc.get("set", {})
-    if not isinstance(fixed, dict):
-        raise SweepError(f"{path}: set = {fixed!r}: expected a table [set]")
-    fixed = {name: parse_value(name, v, f"{path}: set") for name, v in fixed.items()}
-    searched = [n for n, _ in axes["coarse"] + axes["refine"]]
-    if set(fixed) & set(searched):
-        raise SweepError(f"{path}: {sorted(set(fixed) & set(searched))[0]} is both searched and set")
-    reference = doc.get("reference", {})
-    if not isinstance(reference, dict):
-        raise SweepError(f"{path}: reference = {reference!r}: expected a table [reference]")
-    spec = BestSpec(tuple(names), doc.get("preset", "quick"), doc.get("seeds", 4), tuple(axes["coarse"]),
-                    tuple(axes["refine"]), rounds, dict(reference), fixed, doc.get("measurement", {}))
-    if spec.preset not in PRESETS:
-        raise SweepError(f"{path}: preset = {spec.preset!r}: expected {' or '.join(repr(n) for n in PRESETS)}")
-    _checked(spec.sweep_spec(), path)
-    return spec
-
-
-# --- the search -------------------------------------------------------------------------
 
 def configuration(params, names) -> tuple:
     """The searched parameters' values of ``params``, as a hashable key."""
@@ -351,51 +257,3 @@ def verdict(table: pd.DataFrame, adopted: str | None, criterion: str = "bias") -
         if column in own:
             out[f"worst_{name}_ratio"] = float(own[column].max())
     return out
-
-
-ROLE_COLOURS = {"paper": OKABE_ITO[7], "adopted": OKABE_ITO[4], "scene best": OKABE_ITO[0]}
-
-
-def role_rows(table: pd.DataFrame) -> pd.DataFrame:
-    """The rows with a role, one per (scene, role): a row holding two roles is listed
-    under each."""
-    rows = []
-    for _, r in table[table["role"].fillna("") != ""].iterrows():
-        for role in str(r["role"]).split(", "):
-            rows.append({**r.to_dict(), "role": role})
-    return pd.DataFrame(rows)
-
-
-def draw_best(table: pd.DataFrame, folder: str) -> list:
-    """``best_configuration``: per scene the caustic's relative MSE and its decomposition
-    terms' parts (each term's relMSE part, ``metrics.decomposition``) for the paper's
-    configuration, the adopted one and the scene's own best, side by side. Returns the
-    paths."""
-    rows = role_rows(table)
-    if rows.empty:
-        return []
-    plt = pyplot()
-    scenes = list(dict.fromkeys(rows["scene"]))
-    fig, axes = plt.subplots(1, len(scenes), figsize=(2.6 * len(scenes) + 1.0, 3.8), sharey=False, squeeze=False)
-    labels = ["caustic", *TERMS]
-    for ax, scene in zip(axes[0], scenes):
-        own = rows[rows["scene"] == scene]
-        x = np.arange(len(labels))
-        width = 0.8 / max(len(ROLE_COLOURS), 1)
-        for k, (role, colour) in enumerate(ROLE_COLOURS.items()):
-            r = own[own["role"] == role]
-            if r.empty:
-                continue
-            r = r.iloc[0]
-            values = [r["caustic_relmse_debiased"], *(r[f"relmse_{t}"] for t in TERMS)]
-            ax.bar(x + (k - 1) * width, 100 * np.asarray(values, float), width, color=colour, label=role)
-        ax.axhline(0.0, color="black", lw=0.6)
-        ax.set_xticks(x, labels, rotation=60, fontsize=7)
-        ax.set_title(scene, fontsize=9)
-        ax.grid(axis="y", alpha=0.3)
-    axes[0][0].set_ylabel("relative MSE or its part (%)")
-    axes[0][-1].legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0))
-    fig.suptitle("The paper's configuration, the adopted one and each scene's best at ≤ the paper's frame cost",
-                 fontsize=10)
-    fig.tight_layout()
-    return save_figure(fig, folder, "best_configuration")

@@ -17,7 +17,7 @@ from volcaustics.reports.core.plotting import remove_stale_figures
 from volcaustics.reports.core.sizing import reference_settings
 from volcaustics.reports.core.store import TABLES, Store, document_sha256
 from volcaustics.reports.experiment.measurement import measurement_settings
-from volcaustics.reports.sweep.best import draw_best
+from volcaustics.reports.sweep.best_figures import draw_best
 from volcaustics.reports.sweep.figures import draw_figures
 from volcaustics.reports.sweep.model import crossings, has_depth_sweep
 from volcaustics.reports.sweep.spec import SweepSpec, points

@@ -18,7 +18,7 @@ from volcaustics.approx.params import PAPER, QUICK
 from volcaustics.infra.errors import InputError
 from volcaustics.reports.cli import main
 from volcaustics.reports.core.cost_match import MATCHED, CostMatcher
-from volcaustics.reports.sweep import best
+from volcaustics.reports.sweep import best, best_figures, best_spec
 
 TINY = """
 scenes = ["refocus"]
@@ -45,7 +45,7 @@ def _write(tmp_path, text, name="best.toml") -> str:
 
 
 def test_the_shipped_spec_loads_and_holds_the_papers_configuration():
-    spec = best.load_best_spec()
+    spec = best_spec.load_best_spec()
     assert len(spec.scenes) == 7 and spec.seeds >= 4  # intervals need 4 seeds (metrics.noise)
     names = dict(spec.coarse)
     assert {"splat", "emission", "fresnel", "steps"} <= set(names)
@@ -68,7 +68,7 @@ def test_the_shipped_spec_loads_and_holds_the_papers_configuration():
 def test_a_bad_spec_is_refused_naming_the_key(tmp_path, capsys, text, message):
     path = _write(tmp_path, 'scenes = ["refocus"]\n' + text)
     with pytest.raises(InputError, match=re.escape(message)):
-        best.load_best_spec(path)
+        best_spec.load_best_spec(path)
     assert main(["sweep", "--best", path, "-o", str(tmp_path / "out")]) == 2
     assert message.split(":")[0] in capsys.readouterr().err
     assert not (tmp_path / "out").exists()
@@ -153,7 +153,7 @@ def test_the_search_writes_its_table_and_the_report_shows_it(env, tmp_path, caps
     table = pd.read_parquet(out / "best.parquet")
     assert "paper" in set(table["config"]) and len(table) >= 3  # 2 coarse + at least one refinement move
     assert (table["cost_ratio"] <= 1.0 + best.COST_SLACK).all()
-    roles = best.role_rows(table)
+    roles = best_figures.role_rows(table)
     assert {"paper", "adopted", "scene best"} <= set(roles["role"])
     for term in best.TERMS:  # the debiased parts sum to the debiased caustic relMSE (the total's)
         assert table[f"relmse_{term}"].notna().all()
@@ -192,8 +192,8 @@ def test_the_frame_criterion_ranks_by_one_frames_error_and_its_goal_is_half():
     for row in rows:
         row["frame_relmse"] = frames[(row["scene"], row["config"])]
     table = _table(rows)
-    assert best.worst_ratios(table, 2, best.CRITERIA["frame"][0]).idxmin() == "y"
-    assert best.worst_ratios(table, 2, best.CRITERIA["bias"][0]).idxmin() == "x"
+    assert best.worst_ratios(table, 2, best_spec.CRITERIA["frame"][0]).idxmin() == "y"
+    assert best.worst_ratios(table, 2, best_spec.CRITERIA["bias"][0]).idxmin() == "x"
     v = best.verdict(best.with_roles(table, "y", "frame"), "y", "frame")
     assert v["goal"] == 0.5 and v["met"] and v["worst_ratio"] == pytest.approx(0.45)
     assert v["worst_bias_ratio"] == pytest.approx(0.5)
