@@ -1,12 +1,12 @@
 """What an experiment can measure, checked before any reference renders: the seeds, a
-frame that fits the GL driver and this machine (``approx.trace.check_fits``, with the
+frame that fits the GL driver and this machine (``approx.limits.check_fits``, with the
 small-kernel image drawn at ``SMALL_SUPERSAMPLE``× per side), an image every metric can
 read and the memory a whole measurement holds."""
 
 from __future__ import annotations
 
+from volcaustics.approx.limits import check_fits
 from volcaustics.approx.params import ParamError, preset
-from volcaustics.approx.trace import check_fits
 from volcaustics.infra.memory import image_fits
 from volcaustics.metrics.image import SSIM_WINDOW
 from volcaustics.reports.experiment.exact_images import SMALL_SUPERSAMPLE

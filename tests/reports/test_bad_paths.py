@@ -187,7 +187,7 @@ def test_values_the_renderers_cannot_represent(tmp_path, write_scene, capsys, ol
 def test_a_photon_map_beyond_memory_fails_before_rendering(tmp_path, capsys):
     """photon_res 8192 (in range) asked for 7.5 GB of records and failed after 33 s with
     "cannot map the buffer": refused before any GL work, saying what fits."""
-    from volcaustics.approx.trace import frame_bytes, memory_budget
+    from volcaustics.approx.limits import frame_bytes, memory_budget
 
     assert frame_bytes(8192, 4) > memory_budget() or pytest.skip("this machine holds a photon_res 8192 frame")
     err = _fails_fast(capsys, ["approx", "sphere1", "--preset", "quick", "--photon-res", "8192",
@@ -197,7 +197,7 @@ def test_a_photon_map_beyond_memory_fails_before_rendering(tmp_path, capsys):
 
 
 def test_frame_bytes_counts_every_buffer():
-    from volcaustics.approx.trace import frame_bytes
+    from volcaustics.approx.limits import frame_bytes
     from volcaustics.scenes.formats import PHOTON_DTYPE, RAW_RECORD_DTYPE, RECORD_DTYPE, SPLAT_DTYPE
 
     slots = PHOTON_DTYPE.itemsize + RAW_RECORD_DTYPE.itemsize + SPLAT_DTYPE.itemsize

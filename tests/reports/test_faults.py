@@ -51,7 +51,7 @@ def test_a_frame_beyond_memory_fails_before_any_reference_renders(cache, tmp_pat
     """photon_res passes its range but the frame cannot run: measure, sweep, gate and
     report rendered the references first (minutes at the report's budget) and failed in
     the approximation after them; now they exit 2 at once, saying what fits."""
-    from volcaustics.approx.trace import frame_bytes, memory_budget
+    from volcaustics.approx.limits import frame_bytes, memory_budget
 
     if frame_bytes(8192, 32, keep_records=True) <= memory_budget():
         pytest.skip("this machine holds a photon_res 8192, 32-step frame")
@@ -69,8 +69,8 @@ def test_check_fits_names_the_driver_limit():
     2048 needs 65,536 groups of 64."""
     import dataclasses
 
+    from volcaustics.approx.limits import check_fits
     from volcaustics.approx.params import QUICK, ParamError
-    from volcaustics.approx.trace import check_fits
 
     check_fits(dataclasses.replace(QUICK, photon_res=2047), max_groups=65535)
     with pytest.raises(ParamError, match="photon_res = 2048: .* at most 2047"):
@@ -86,13 +86,13 @@ def test_check_fits_counts_the_light_maps(monkeypatch):
     (1.25 GiB of maps) passes."""
     import dataclasses
 
-    import volcaustics.approx.trace as trace
+    import volcaustics.approx.limits as limits
     from volcaustics.approx.params import QUICK, ParamError
 
-    monkeypatch.setattr(trace, "memory_budget", lambda: 4 * 2**30)
-    trace.check_fits(dataclasses.replace(QUICK, light_res=1024, layers=8), max_groups=65535)
+    monkeypatch.setattr(limits, "memory_budget", lambda: 4 * 2**30)
+    limits.check_fits(dataclasses.replace(QUICK, light_res=1024, layers=8), max_groups=65535)
     with pytest.raises(ParamError, match=r"light_res = 4095: 16 light maps .* light_res ≤ 18\d\d fits"):
-        trace.check_fits(dataclasses.replace(QUICK, light_res=4095, layers=8), max_groups=65535)
+        limits.check_fits(dataclasses.replace(QUICK, light_res=4095, layers=8), max_groups=65535)
 
 
 # --- F: Ctrl-C inside the reference render ------------------------------------------

@@ -9,8 +9,8 @@ import time
 
 import pytest
 
+from volcaustics.approx.limits import IMAGE_BYTES_PER_PIXEL, check_fits, check_image_fits
 from volcaustics.approx.params import ApproxParams, ParamError
-from volcaustics.approx.trace import IMAGE_BYTES_PER_PIXEL, check_fits, check_image_fits
 from volcaustics.infra.memory import memory_budget
 from volcaustics.reference.settings import IMAGE_BYTES_PER_PIXEL as REFERENCE_BYTES_PER_PIXEL
 from volcaustics.reference.settings import ReferenceSettings, SettingsError
