@@ -91,8 +91,8 @@ def cause(name: str, photons: int, batches: int, size: int) -> list:
         SingleScatterIntegrator,
         VolumetricLightTracer,
         configure,
-        subtended_angle,
     )
+    from volcaustics.reference.render.sampling import subtended_angle
     from volcaustics.reference.request import resolve
     from volcaustics.reference.settings import ReferenceSettings
     from volcaustics.scenes import load_builtin

@@ -24,11 +24,10 @@ from volcaustics.reference.mi_setup import mitsuba
 from volcaustics.reference.render.export import to_mitsuba
 from volcaustics.reference.render.integrators import (
     SingleScatterIntegrator,
-    ViewPyramid,
     VolumetricLightTracer,
     configure,
-    subtended_angle,
 )
+from volcaustics.reference.render.sampling import ViewPyramid, subtended_angle
 from volcaustics.scenes.model import Camera
 
 mi = mitsuba()
