@@ -192,11 +192,42 @@ def decompose_caustic(batches: dict, reference, *, keep=None, reference_var=None
         renderers disagree when it is not;
       ``options``: what was used.
     """
+    stacks, r_full, keep, rv = _checked(batches, reference, keep, reference_var)
+    k = len(stacks[BATCHED[0]])
+    r = r_full[keep]
+    channel_energy = r.sum(axis=0)
+    energy2 = float(np.sum(r * r))
+    if not (np.all(channel_energy > 0) and energy2 > 0):
+        raise ValueError("reference caustic is zero over the compared pixels (in some channel): shares are undefined")
+    # Σ over the batches of every pixel (H×W×3), summed in batch order as a sum of the kept pixels
+    # alone would be: the kept pixels' sums and the images' means both come from it
+    full_sums = {name: s.sum(axis=0, dtype=np.float64) for name, s in stacks.items()}
+    kept = {name: s[:, keep] for name, s in stacks.items()}  # K×N×3, as given (float32 or float64)
+    jack = _Jackknife(kept, {name: s[keep] for name, s in full_sums.items()}, r, channel_energy, energy2,
+                      float(rv.sum()))
+    value = jack.numbers(jack.means_without(None))
+    leave_out = [jack.numbers(jack.means_without(i)) for i in range(k)]
+    rows = _rows(jack, value, leave_out, rv, reference_ratio, reference_groups, keep)
+    relmse_se = float(np.hypot(_jackknife_se(leave_out, "debiased"),
+                               _reference_relmse_se(reference_groups, keep, rv, jack.sums, k, energy2)))
+    residual = _residual(next(x for x in rows if x["term"] == "residual"), value["debiased"], relmse_se, z_limit)
+    images = {name: full_sums[name] / k for name in BATCHED}  # the batches' means (np.mean's own sum / k)
+    images["reference"] = r_full
+    options = {"z_limit": z_limit, "pixels": int(keep.sum()), "batches": k,
+               "blur_sign": "exact_all_small - exact_emission", "energy_share": "per channel, averaged over RGB",
+               "standard_errors": "delete-one jackknife over the paired batches; the reference's noise (its "
+                                  "total's, from the measured total_variance_ratio) in quadrature where it enters",
+               "reference_ratio": None if reference_ratio is None else [float(x) for x in reference_ratio]}
+    return {"images": images, "terms": caustic_terms(images), "rows": rows, "residual": residual,
+            "options": options}
+
+
+def _checked(batches: dict, reference, keep, reference_var) -> tuple:
+    """(stacks: name → K×H×W×3, R as float64, keep, R's variance over the kept pixels), checked."""
     first = _stack(batches, BATCHED[0])
     stacks = {name: _stack(batches, name, first.shape) for name in BATCHED}
-    k = len(first)
-    if k < 4:
-        raise ValueError(f"batches: {k} per image, expected at least 4 (the jackknife)")
+    if len(first) < 4:
+        raise ValueError(f"batches: {len(first)} per image, expected at least 4 (the jackknife)")
     r_full = np.asarray(reference, np.float64)
     if r_full.shape != first.shape[1:] or not np.all(np.isfinite(r_full)):
         raise ValueError(f"reference: shape {r_full.shape}, expected finite {first.shape[1:]}")
@@ -205,72 +236,74 @@ def decompose_caustic(batches: dict, reference, *, keep=None, reference_var=None
         raise ValueError(f"keep: shape {keep.shape}, expected {r_full.shape[:2]}")
     if not keep.any():
         raise ValueError("keep selects no pixel")
-    r = r_full[keep]
     if reference_var is None:
-        rv = np.zeros_like(r)
-    else:
-        rv_full = np.asarray(reference_var, np.float64)
-        if rv_full.shape != r_full.shape or not np.all(np.isfinite(rv_full)) or np.any(rv_full < 0):
-            raise ValueError(f"reference_var: shape {rv_full.shape}, expected finite values ≥ 0 of shape "
-                             f"{r_full.shape}")
-        rv = rv_full[keep]
-    channel_energy = r.sum(axis=0)
-    energy2 = float(np.sum(r * r))
-    if not (np.all(channel_energy > 0) and energy2 > 0):
-        raise ValueError("reference caustic is zero over the compared pixels (in some channel): shares are undefined")
+        return stacks, r_full, keep, np.zeros_like(r_full[keep])
+    rv_full = np.asarray(reference_var, np.float64)
+    if rv_full.shape != r_full.shape or not np.all(np.isfinite(rv_full)) or np.any(rv_full < 0):
+        raise ValueError(f"reference_var: shape {rv_full.shape}, expected finite values ≥ 0 of shape "
+                         f"{r_full.shape}")
+    return stacks, r_full, keep, rv_full[keep]
 
-    # Σ over the batches of every pixel (H×W×3), summed in batch order as a sum of the kept pixels
-    # alone would be: the kept pixels' sums and the images' means both come from it
-    full_sums = {name: s.sum(axis=0, dtype=np.float64) for name, s in stacks.items()}
-    kept = {name: s[:, keep] for name, s in stacks.items()}  # K×N×3, as given (float32 or float64)
-    sums = {name: s[keep] for name, s in full_sums.items()}
-    small = kept["exact_all_small"]
-    small_squares = np.square(small, dtype=np.float64).sum(axis=0)
-    reference_noise = float(rv.sum())
 
-    def numbers(means):
+class _Jackknife:
+    """The kept pixels' batches (K×N×3) and their running sums: every reported number for
+    the means of all batches or of all but one."""
+
+    def __init__(self, kept: dict, sums: dict, r, channel_energy, energy2: float, reference_noise: float):
+        self.kept, self.sums, self.r = kept, sums, r
+        self.k = len(kept[BATCHED[0]])
+        self.channel_energy, self.energy2, self.reference_noise = channel_energy, energy2, reference_noise
+        self.small = kept["exact_all_small"]
+        self.small_squares = np.square(self.small, dtype=np.float64).sum(axis=0)
+
+    def numbers(self, means: dict) -> dict:
         """Every reported number for one set of mean images (N×3 kept pixels)."""
+        r = self.r
         full = {**means, "reference": r}
         d = r - means["approx"]
         out = {}
         for name, (near, far) in list(TERMS.items()) + [("total", ("reference", "approx"))]:
             t = d if name == "total" else full[near] - full[far]  # the total is R − A itself
-            out[name] = (float(np.mean(t.sum(axis=0) / channel_energy)), float(np.sum(t * d)) / energy2,
-                         float(np.sum(t * t)) / energy2)
-        out["debiased"] = (float(np.sum((r - means["exact_all_small"]) ** 2)) - reference_noise
-                           - means["_small_noise"]) / energy2
+            out[name] = (float(np.mean(t.sum(axis=0) / self.channel_energy)), float(np.sum(t * d)) / self.energy2,
+                         float(np.sum(t * t)) / self.energy2)
+        out["debiased"] = (float(np.sum((r - means["exact_all_small"]) ** 2)) - self.reference_noise
+                           - means["_small_noise"]) / self.energy2
         return out
 
-    def means_without(i):
+    def means_without(self, i) -> dict:
         """The batches' means (and Σ of E_∞,s's variance of the mean) without batch i
         (None: all), from running sums."""
+        k, sums, kept, small = self.k, self.sums, self.kept, self.small
         n = k - (i is not None)
         m = {name: (sums[name] - kept[name][i]) / n if i is not None else sums[name] / n for name in BATCHED}
         s1 = sums["exact_all_small"] - (small[i] if i is not None else 0.0)
-        s2 = small_squares - (np.square(small[i], dtype=np.float64) if i is not None else 0.0)
+        s2 = self.small_squares - (np.square(small[i], dtype=np.float64) if i is not None else 0.0)
         m["_small_noise"] = float(np.sum(s2 - s1 * s1 / n)) / (n - 1) / n
         return m
 
-    value = numbers(means_without(None))
-    leave_out = [numbers(means_without(i)) for i in range(k)]
 
-    def se(name, i=None):
-        v = np.array([x[name] if i is None else x[name][i] for x in leave_out])
-        return float(np.sqrt((k - 1) / k * np.sum((v - v.mean()) ** 2)))
+def _jackknife_se(leave_out: list, name: str, i=None) -> float:
+    k = len(leave_out)
+    v = np.array([x[name] if i is None else x[name][i] for x in leave_out])
+    return float(np.sqrt((k - 1) / k * np.sum((v - v.mean()) ** 2)))
 
+
+def _rows(jack: _Jackknife, value: dict, leave_out: list, rv, reference_ratio, reference_groups, keep) -> list:
+    """One row per term and the total (values, SEs, debiased parts), then the noise row."""
+    k, kept, sums, energy2 = jack.k, jack.kept, jack.sums, jack.energy2
     # R's noise where R enters (total, residual): its total's σ per channel, from Σ var and
     # the measured ratio of pixels covarying (channels of one photon are strongly
     # correlated: their σ add, an upper bound)
-    ref_share_sigma = float(np.mean(total_sigma(rv, ratio=reference_ratio) / channel_energy))
+    ref_share_sigma = float(np.mean(total_sigma(rv, ratio=reference_ratio) / jack.channel_energy))
     rows = []
     for name in list(TERMS) + ["total"]:
         row = {"term": name}
         for i, field in enumerate(("energy_share", "relmse_part", "relmse_own")):
             row[field] = value[name][i]
-            row[f"{field}_se"] = se(name, i)
+            row[f"{field}_se"] = _jackknife_se(leave_out, name, i)
         if name in ("total", "residual"):
             row["energy_share_se"] = float(np.hypot(row["energy_share_se"], ref_share_sigma))
-            reference_se = _reference_part_se(name, reference_groups, keep, r, rv, sums, k, energy2)
+            reference_se = _reference_part_se(name, reference_groups, keep, jack.r, rv, sums, k, energy2)
             for field in ("relmse_part", "relmse_own") if name == "total" else ("relmse_part",):
                 row[f"{field}_se"] = float(np.hypot(row[f"{field}_se"], reference_se))
         rows.append(row)
@@ -287,27 +320,21 @@ def decompose_caustic(batches: dict, reference, *, keep=None, reference_var=None
     approx_var = kept["approx"].var(axis=0, ddof=1, dtype=np.float64) / k
     rows.append({"term": "noise", "energy_sigma": next(x for x in rows if x["term"] == "total")["energy_share_se"],
                  "relmse": (float(rv.sum()) + float(approx_var.sum())) / energy2})
+    return rows
 
-    res_row = next(x for x in rows if x["term"] == "residual")
-    relmse_se = float(np.hypot(se("debiased"), _reference_relmse_se(reference_groups, keep, rv, sums, k, energy2)))
+
+def _residual(res_row: dict, debiased: float, relmse_se: float, z_limit: float) -> dict:
+    """The residual's energy and debiased relMSE with their z, whether both are within
+    noise, and a message naming what disagrees when not."""
     residual = {"energy_share": res_row["energy_share"], "energy_se": res_row["energy_share_se"],
                 "energy_z": _z(res_row["energy_share"], res_row["energy_share_se"]),
-                "debiased_relmse": value["debiased"], "relmse_se": relmse_se,
-                "relmse_z": _z(value["debiased"], relmse_se)}
+                "debiased_relmse": debiased, "relmse_se": relmse_se, "relmse_z": _z(debiased, relmse_se)}
     residual["within_noise"] = bool(abs(residual["energy_z"]) <= z_limit and residual["relmse_z"] <= z_limit)
     residual["message"] = "" if residual["within_noise"] else (
         f"the reference and the exact photons through the approximation's splatter disagree beyond their noise "
         f"(residual energy {100 * residual['energy_share']:+.2f}% of the reference, z = {residual['energy_z']:+.1f}; "
-        f"debiased relative MSE {value['debiased']:.2e}, z = {residual['relmse_z']:+.1f}; limit {z_limit:g}): one of "
+        f"debiased relative MSE {debiased:.2e}, z = {residual['relmse_z']:+.1f}; limit {z_limit:g}): one of "
         f"them is wrong — the reference light tracer, or the exact tracer and the splatter "
         f"(tests/cross/test_exact_photons_match_the_reference.py checks them against each other) — or a term is "
         f"missing: the terms do not explain the whole error (docs/decisions.md \"The emission term\")")
-    images = {name: full_sums[name] / k for name in BATCHED}  # the batches' means (np.mean's own sum / k)
-    images["reference"] = r_full
-    options = {"z_limit": z_limit, "pixels": int(keep.sum()), "batches": k,
-               "blur_sign": "exact_all_small - exact_emission", "energy_share": "per channel, averaged over RGB",
-               "standard_errors": "delete-one jackknife over the paired batches; the reference's noise (its "
-                                  "total's, from the measured total_variance_ratio) in quadrature where it enters",
-               "reference_ratio": None if reference_ratio is None else [float(x) for x in reference_ratio]}
-    return {"images": images, "terms": caustic_terms(images), "rows": rows, "residual": residual,
-            "options": options}
+    return residual

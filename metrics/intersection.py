@@ -143,68 +143,21 @@ def classify_segments(records, exact, *, texel_angle, light_position, start_norm
         Missing fields, lengths or shapes that differ, hits without finite t,
         non-positive ``texel_angle`` or negative tolerances.
     """
-    step = np.asarray(_field(records, "step", "records"))
-    n = step.shape[0] if step.ndim else -1
-    if step.ndim != 1:
-        raise ValueError(f"records: step has shape {step.shape}, expected (N,)")
-    fields = {name: _field(records, name, "records") for name in RECORD_FIELDS}
-    ex = {name: _field(exact, name, "exact") for name in EXACT_FIELDS}
-    for name, v in ex.items():
-        if len(np.asarray(v)) != n:
-            raise ValueError(f"lengths differ: {n} records, exact {name!r} has {len(np.asarray(v))}")
-
-    start = _vectors(fields["start"], n, "records start")
-    direction = _vectors(fields["direction"], n, "records direction")
-    start_offset = _scalars(fields["start_offset"], n, "records start_offset")
-    a_hit = _scalars(fields["hit"], n, "records hit", bool)
-    a_t = _scalars(fields["t"], n, "records t")
-    a_normal = _vectors(fields["normal"], n, "records normal")
-    inside = _scalars(fields["inside"], n, "records inside", np.int64)
-    e_hit = _scalars(ex["hit"], n, "exact hit", bool)
-    e_t = _scalars(ex["t"], n, "exact t")
-    e_normal = _vectors(ex["normal"], n, "exact normal")
-    e_geometric = (_vectors(exact["geometric_normal"], n, "exact geometric_normal")
-                   if "geometric_normal" in exact else e_normal)
-    _check_hits(a_hit, a_t, "records")
-    _check_hits(e_hit, e_t, "exact")
-    light = np.asarray(light_position, dtype=np.float64)
+    s = _segment_inputs(records, exact, start_normal)
+    n, light = len(s["a_hit"]), np.asarray(light_position, dtype=np.float64)
     if light.shape != (3,):
         raise ValueError(f"light_position: shape {light.shape}, expected (3,)")
     if not (np.isfinite(texel_angle) and texel_angle > 0):
         raise ValueError(f"texel_angle must be positive, got {texel_angle}")
     if not (tolerance_texels >= 0 and tolerance_floor >= 0):
         raise ValueError(f"tolerances must be ≥ 0, got {tolerance_texels} texels, {tolerance_floor} m")
-    if start_normal is not None:
-        start_normal = _vectors(start_normal, n, "start_normal")
-
-    def answer(e_hit, e_t, e_normal):
-        """Class (self re-hits not yet marked), Δt, normal error and tolerance of the
-        approximation against one set of exact answers."""
-        # tolerance at the hit (exact where it hits, else approximate)
-        t_hit = np.where(e_hit, e_t, np.where(a_hit, a_t, np.nan))
-        point = start + t_hit[:, None] * direction
-        tolerance = np.maximum(tolerance_texels * texel_angle * np.linalg.norm(point - light, axis=1),
-                               tolerance_floor)
-        tolerance = np.where(np.isfinite(t_hit), tolerance, np.nan)
-        both = a_hit & e_hit
-        dt = np.where(both, a_t - e_t, np.nan)
-        with np.errstate(invalid="ignore"):
-            cos = np.einsum("ij,ij->i", _unit(a_normal), _unit(e_normal))
-        normal_error = np.where(both, np.arccos(np.clip(cos, -1.0, 1.0)), np.nan)
-        cls = np.full(n, CORRECT_MISS, np.int8)
-        cls[both & (np.abs(dt) <= tolerance)] = TRUE_HIT
-        cls[both & ~(np.abs(dt) <= tolerance)] = WRONG_SURFACE
-        cls[a_hit & ~e_hit] = FALSE_HIT
-        cls[~a_hit & e_hit & (inside >= 0)] = MISSED_INSIDE
-        cls[~a_hit & e_hit & (inside < 0)] = MISSED_MEDIUM
-        return cls, dt, normal_error, tolerance
-
-    cls, dt, normal_error, tolerance = answer(e_hit, e_t, e_normal)
+    tolerances = (texel_angle, light, tolerance_texels, tolerance_floor)
+    cls, dt, normal_error, tolerance = _answer(s, s["e_hit"], s["e_t"], s["e_normal"], *tolerances)
     with np.errstate(invalid="ignore"):
-        self_rehit = e_hit & (e_t <= start_offset)
-        if start_normal is not None:
-            known = np.all(np.isfinite(start_normal), axis=1) & (np.linalg.norm(start_normal, axis=1) > 0)
-            same = np.einsum("ij,ij->i", _unit(e_geometric), _unit(start_normal)) >= self_normal_cos
+        self_rehit = s["e_hit"] & (s["e_t"] <= s["start_offset"])
+        if s["start_normal"] is not None:
+            known = np.all(np.isfinite(s["start_normal"]), axis=1) & (np.linalg.norm(s["start_normal"], axis=1) > 0)
+            same = np.einsum("ij,ij->i", _unit(s["e_geometric"]), _unit(s["start_normal"])) >= self_normal_cos
             self_rehit &= ~known | same
     cls[self_rehit] = SELF_REHIT
 
@@ -214,7 +167,7 @@ def classify_segments(records, exact, *, texel_angle, light_position, start_norm
         b_hit = _scalars(b["hit"], n, "exact_beyond hit", bool)
         b_t = _scalars(b["t"], n, "exact_beyond t")
         _check_hits(b_hit, b_t, "exact_beyond")
-        beyond = answer(b_hit, b_t, _vectors(b["normal"], n, "exact_beyond normal"))[0]
+        beyond = _answer(s, b_hit, b_t, _vectors(b["normal"], n, "exact_beyond normal"), *tolerances)[0]
         cls_beyond[self_rehit] = beyond[self_rehit]
 
     options = {"texel_angle": float(texel_angle), "light_position": tuple(float(x) for x in light),
@@ -223,6 +176,56 @@ def classify_segments(records, exact, *, texel_angle, light_position, start_norm
                "beyond_self_rehit_given": exact_beyond is not None}
     return {"cls": cls, "cls_beyond": cls_beyond, "dt": dt, "normal_error": normal_error, "tolerance": tolerance,
             "options": options}
+
+
+def _segment_inputs(records, exact, start_normal) -> dict:
+    """The records' and the exact answers' fields as checked float64/bool/int arrays of one length."""
+    step = np.asarray(_field(records, "step", "records"))
+    n = step.shape[0] if step.ndim else -1
+    if step.ndim != 1:
+        raise ValueError(f"records: step has shape {step.shape}, expected (N,)")
+    fields = {name: _field(records, name, "records") for name in RECORD_FIELDS}
+    ex = {name: _field(exact, name, "exact") for name in EXACT_FIELDS}
+    for name, v in ex.items():
+        if len(np.asarray(v)) != n:
+            raise ValueError(f"lengths differ: {n} records, exact {name!r} has {len(np.asarray(v))}")
+    s = {"start": _vectors(fields["start"], n, "records start"),
+         "direction": _vectors(fields["direction"], n, "records direction"),
+         "start_offset": _scalars(fields["start_offset"], n, "records start_offset"),
+         "a_hit": _scalars(fields["hit"], n, "records hit", bool), "a_t": _scalars(fields["t"], n, "records t"),
+         "a_normal": _vectors(fields["normal"], n, "records normal"),
+         "inside": _scalars(fields["inside"], n, "records inside", np.int64),
+         "e_hit": _scalars(ex["hit"], n, "exact hit", bool), "e_t": _scalars(ex["t"], n, "exact t"),
+         "e_normal": _vectors(ex["normal"], n, "exact normal")}
+    s["e_geometric"] = (_vectors(exact["geometric_normal"], n, "exact geometric_normal")
+                        if "geometric_normal" in exact else s["e_normal"])
+    _check_hits(s["a_hit"], s["a_t"], "records")
+    _check_hits(s["e_hit"], s["e_t"], "exact")
+    s["start_normal"] = None if start_normal is None else _vectors(start_normal, n, "start_normal")
+    return s
+
+
+def _answer(s: dict, e_hit, e_t, e_normal, texel_angle, light, tolerance_texels, tolerance_floor) -> tuple:
+    """Class (self re-hits not yet marked), Δt, normal error and tolerance of the
+    approximation's segments ``s`` against one set of exact answers."""
+    a_hit, a_t, inside = s["a_hit"], s["a_t"], s["inside"]
+    # tolerance at the hit (exact where it hits, else approximate)
+    t_hit = np.where(e_hit, e_t, np.where(a_hit, a_t, np.nan))
+    point = s["start"] + t_hit[:, None] * s["direction"]
+    tolerance = np.maximum(tolerance_texels * texel_angle * np.linalg.norm(point - light, axis=1), tolerance_floor)
+    tolerance = np.where(np.isfinite(t_hit), tolerance, np.nan)
+    both = a_hit & e_hit
+    dt = np.where(both, a_t - e_t, np.nan)
+    with np.errstate(invalid="ignore"):
+        cos = np.einsum("ij,ij->i", _unit(s["a_normal"]), _unit(e_normal))
+    normal_error = np.where(both, np.arccos(np.clip(cos, -1.0, 1.0)), np.nan)
+    cls = np.full(len(a_hit), CORRECT_MISS, np.int8)
+    cls[both & (np.abs(dt) <= tolerance)] = TRUE_HIT
+    cls[both & ~(np.abs(dt) <= tolerance)] = WRONG_SURFACE
+    cls[a_hit & ~e_hit] = FALSE_HIT
+    cls[~a_hit & e_hit & (inside >= 0)] = MISSED_INSIDE
+    cls[~a_hit & e_hit & (inside < 0)] = MISSED_MEDIUM
+    return cls, dt, normal_error, tolerance
 
 
 def _quantiles(values, prefix):
