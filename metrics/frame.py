@@ -22,7 +22,7 @@ from .noise import _select
 
 
 @dataclass(frozen=True)
-class FrameError:
+class FrameRelMSE:
     """``debiased``: the mean over the frames of their relative MSE less
     ``reference_floor``; ``per_seed``: each frame's own (not debiased);
     ``standard_error`` and the Student-t ``interval`` at ``level`` over the frames
@@ -36,7 +36,7 @@ class FrameError:
     level: float
 
 
-def frame_relative_mse(reference, reference_var, frames, *, mask=None, level: float = 0.95) -> FrameError:
+def frame_relative_mse(reference, reference_var, frames, *, mask=None, level: float = 0.95) -> FrameRelMSE:
     """The one-frame error (module docstring) of S frames (S×H×W×C) against a reference
     (H×W×C) and the variance of its mean per pixel; ``mask`` (H×W) selects pixels."""
     r = np.asarray(reference, np.float64)
@@ -54,11 +54,11 @@ def frame_relative_mse(reference, reference_var, frames, *, mask=None, level: fl
     floor = float(sel_rv.sum()) / energy
     debiased = float(per_seed.mean()) - floor
     if len(a) < 2:
-        return FrameError(debiased, floor, tuple(map(float, per_seed)), float("nan"), None, level)
+        return FrameRelMSE(debiased, floor, tuple(map(float, per_seed)), float("nan"), None, level)
     from scipy.special import stdtrit
 
     m = max(float(np.sum((d2.mean(axis=0) - sel_rv) * sel_rv)), 0.0)
     reference_part = (4.0 * m + 2.0 * float(np.sum(sel_rv**2))) / energy**2
     se = float(np.sqrt(per_seed.var(ddof=1) / len(a) + reference_part))
     half = float(stdtrit(len(a) - 1, 0.5 + level / 2.0)) * se
-    return FrameError(debiased, floor, tuple(map(float, per_seed)), se, (debiased - half, debiased + half), level)
+    return FrameRelMSE(debiased, floor, tuple(map(float, per_seed)), se, (debiased - half, debiased + half), level)

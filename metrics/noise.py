@@ -103,7 +103,7 @@ class EnergyRatio:
     reference_batches: int
 
 
-def energy_ratio(reference_batches, test_batches, *, mask=None) -> EnergyRatio:
+def batch_energy_ratio(reference_batches, test_batches, *, mask=None) -> EnergyRatio:
     """Energy of a test image relative to a reference, both as independent batches.
 
     Parameters
@@ -131,7 +131,7 @@ def energy_ratio(reference_batches, test_batches, *, mask=None) -> EnergyRatio:
 
 
 @dataclass(frozen=True)
-class DebiasedError:
+class DebiasedRelMSE:
     """Relative MSE of a test image against a reference, split into noise and the rest.
 
     raw = Σ(test − reference)² / Σ reference² (means of the batches); noise =
@@ -153,7 +153,7 @@ class DebiasedError:
     reference_batches: int
 
 
-def debiased_relative_mse(reference_batches, test_batches, *, mask=None) -> DebiasedError:
+def debiased_relative_mse(reference_batches, test_batches, *, mask=None) -> DebiasedRelMSE:
     """Relative MSE of a batched test image against a batched reference, less what
     their noise explains, with a standard error.
 
@@ -190,7 +190,7 @@ def debiased_relative_mse(reference_batches, test_batches, *, mask=None) -> Debi
     se = float(np.sqrt(max(float(np.sum(variance)), 0.0) + bias_part))
     debiased = float(np.sum(per_pixel))
     z = debiased / se if se > 0 else (0.0 if debiased == 0 else float(np.copysign(np.inf, debiased)))
-    return DebiasedError(raw=float(np.sum(d2)) / energy, noise=float(np.sum(v_t) + np.sum(v_r)) / energy,
+    return DebiasedRelMSE(raw=float(np.sum(d2)) / energy, noise=float(np.sum(v_t) + np.sum(v_r)) / energy,
                          test_noise=float(np.sum(v_t)) / energy, reference_noise=float(np.sum(v_r)) / energy,
                          debiased=debiased / energy, standard_error=se / energy, z=z,
                          pixels=int(r.shape[1]), batches=k, reference_batches=n_ref)
@@ -207,7 +207,7 @@ MIN_SEEDS_FOR_INTERVAL = 4  # fewer seeds: no interval (a bootstrap of 2 values 
 
 
 @dataclass(frozen=True)
-class SeedError:
+class SeedsRelMSE:
     """Relative MSE of the mean of S approximation frames against a reference.
 
     raw = Σ(Ā − R)² / Σ R²; reference_floor = Σ var_R / Σ R²; approx_noise = the
@@ -228,7 +228,7 @@ class SeedError:
     pixels: int
 
 
-def seed_relative_mse(reference, reference_var, seed_images, *, mask=None, level: float = 0.95) -> SeedError:
+def seed_relative_mse(reference, reference_var, seed_images, *, mask=None, level: float = 0.95) -> SeedsRelMSE:
     """Debiased relative MSE of S approximation frames (S×H×W×C) against a reference
     (mean H×W×C and the variance of that mean per pixel), with its standard error.
 
@@ -266,7 +266,7 @@ def seed_relative_mse(reference, reference_var, seed_images, *, mask=None, level
     floor = float(sel_rv.sum()) / energy
     raw = float(gram.sum()) / n**2 / energy
     if n < 2:
-        return SeedError(raw=raw, reference_floor=floor, approx_noise=float("nan"), debiased=raw - floor,
+        return SeedsRelMSE(raw=raw, reference_floor=floor, approx_noise=float("nan"), debiased=raw - floor,
                          standard_error=float("nan"), interval=None, seeds=n, level=level,
                          pixels=int(sel_r.shape[0]))
     off = float(gram.sum() - np.trace(gram))
@@ -286,7 +286,7 @@ def seed_relative_mse(reference, reference_var, seed_images, *, mask=None, level
         se = float(np.sqrt(jackknife + reference_part))
         half = float(stdtrit(n - 1, 0.5 + level / 2.0)) * se
         interval = (debiased - half, debiased + half)
-    return SeedError(raw=raw, reference_floor=floor, approx_noise=raw - floor - debiased, debiased=debiased,
+    return SeedsRelMSE(raw=raw, reference_floor=floor, approx_noise=raw - floor - debiased, debiased=debiased,
                      standard_error=se, interval=interval, seeds=n, level=level, pixels=int(sel_r.shape[0]))
 
 

@@ -42,7 +42,7 @@ from volcaustics.reports.experiment.exact_images import exact_images, subphotons
 from volcaustics.reports.experiment.frames import render_frames
 from volcaustics.reports.experiment.images import IMAGE_METRICS, image_rows, keep_mask
 from volcaustics.reports.experiment.measurement import GATE_IMAGE_METRICS
-from volcaustics.reports.experiment.model import model_rows
+from volcaustics.reports.experiment.model_term import model_rows
 from volcaustics.reports.experiment.photons import photon_rows, replay
 from volcaustics.reports.experiment.segments import segment_rows
 from volcaustics.reports.experiment.settings import checked_settings

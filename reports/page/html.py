@@ -22,7 +22,7 @@ from volcaustics.reports.page.external import renderers_table, scene_comparisons
 from volcaustics.reports.page.first_screen import error_by_cause_chart, own_params, shared_params, shared_params_line
 from volcaustics.reports.page.frames import frames_section
 from volcaustics.reports.page.images import SCALES, colour_bar_css, data_uri
-from volcaustics.reports.page.model import OVERVIEW_HEAD, model_section, overview_cell
+from volcaustics.reports.page.model_term import OVERVIEW_HEAD, model_section, overview_cell
 from volcaustics.reports.page.parts import CSS, SCRIPT
 from volcaustics.reports.page.parts import colour_bar as _colour_bar
 from volcaustics.reports.page.parts import figure as _figure

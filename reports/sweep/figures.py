@@ -14,7 +14,7 @@ import numpy as np
 from volcaustics.approx.params import label as param_label
 from volcaustics.reports.core.plotting import OKABE_ITO, pyplot, save_figure
 from volcaustics.reports.experiment.photons import FATES
-from volcaustics.reports.sweep.model import draw_model_vs_depth, has_depth_sweep
+from volcaustics.reports.sweep.model_term import draw_model_vs_depth, has_depth_sweep
 from volcaustics.reports.sweep.suffice import CRITERIA, NUMERIC, at_best, field_keys
 
 LINESTYLES = {"threshold": "-", "peel": "--"}

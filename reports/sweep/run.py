@@ -19,7 +19,7 @@ from volcaustics.reports.core.store import TABLES, Store, document_sha256
 from volcaustics.reports.experiment.measurement import measurement_settings
 from volcaustics.reports.sweep.best_figures import draw_best
 from volcaustics.reports.sweep.figures import draw_figures
-from volcaustics.reports.sweep.model import crossings, has_depth_sweep
+from volcaustics.reports.sweep.model_term import crossings, has_depth_sweep
 from volcaustics.reports.sweep.spec import SweepSpec, points
 from volcaustics.reports.sweep.suffice import settings_that_suffice
 from volcaustics.reports.sweep.variants import best_variants, draw_variants, is_variants_sweep, variant_table
@@ -30,7 +30,7 @@ OUTPUT_FILES = (*(f"{name}.parquet" for name in (*TABLES, "points")), "suffice.c
 OUTPUT_FOLDERS = ("points", "figures")
 VARIANT_FILES = ("variants.csv", "variants_best.csv")  # beside them when the sweep varies search or start_rule
 EXTRA_FILES = ("best.parquet",)  # beside them after the best-configuration search (reports.sweep.best)
-DEPTH_FILES = ("model_crossing.csv",)  # beside them when the sweep varies the optical depth (reports.sweep.model)
+DEPTH_FILES = ("model_crossing.csv",)  # beside them when the sweep varies the optical depth (reports.sweep.model_term)
 
 
 @dataclass

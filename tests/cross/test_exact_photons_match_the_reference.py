@@ -53,7 +53,7 @@ import pytest
 
 from tests.failure_images import write_compared_images
 from volcaustics.approx import ApproxParams, Renderer
-from volcaustics.metrics.noise import debiased_relative_mse, energy_ratio
+from volcaustics.metrics.noise import batch_energy_ratio, debiased_relative_mse
 from volcaustics.reference.settings import ReferenceSettings
 from volcaustics.reports.experiment.exact import exact_caustic, pixel_footprint, reference_caustic
 from volcaustics.scenes import load_builtin
@@ -165,7 +165,7 @@ def jackknife_standard_error(reference_batches, exact_batches, keep) -> float:
 def verdict(reference_batches, exact_batches, keep):
     """(energy, relmse, failures): the two checks on batch images; relmse's
     standard_error and z are the module docstring's (the larger SE)."""
-    energy = energy_ratio(reference_batches, exact_batches, mask=keep)
+    energy = batch_energy_ratio(reference_batches, exact_batches, mask=keep)
     relmse = debiased_relative_mse(reference_batches, exact_batches, mask=keep)
     se = max(relmse.standard_error, jackknife_standard_error(reference_batches, exact_batches, keep))
     relmse = dataclasses.replace(relmse, standard_error=se, z=relmse.debiased / se)

@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from volcaustics.metrics.noise import debiased_relative_mse, energy_ratio, noise_floor
+from volcaustics.metrics.noise import batch_energy_ratio, debiased_relative_mse, noise_floor
 
 H, W, K, L = 24, 32, 16, 8
 
@@ -78,7 +78,7 @@ def test_error_of_an_image_with_itself_is_zero():
     result = debiased_relative_mse(same, same)
     assert result.raw == 0 and result.noise == 0 and result.debiased == 0 and result.z == 0
     assert noise_floor(truth, np.zeros_like(truth)) == 0
-    np.testing.assert_allclose(energy_ratio(same, same).ratio, 1.0)
+    np.testing.assert_allclose(batch_energy_ratio(same, same).ratio, 1.0)
 
 
 def test_mask_selects_pixels():
@@ -97,7 +97,7 @@ def test_mask_selects_pixels():
 def test_energy_ratio_and_its_standard_error():
     rng = np.random.default_rng(6)
     truth = _truth(rng)
-    draws = [energy_ratio(_gaussian(rng, truth, 0.01, L), _gaussian(rng, truth * 1.02, 0.02, K))
+    draws = [batch_energy_ratio(_gaussian(rng, truth, 0.01, L), _gaussian(rng, truth * 1.02, 0.02, K))
              for _ in range(300)]
     ratios = np.array([e.ratio for e in draws])
     errors = np.array([e.standard_error for e in draws])
@@ -113,7 +113,7 @@ def test_energy_ratio_counts_pixels_that_share_a_sample():
     rng = np.random.default_rng(7)
     truth = _truth(rng)
     shared = truth[None] * (1 + 0.1 * rng.standard_normal((K, 1, 1, 1)))
-    e = energy_ratio(np.stack([truth] * L), shared)
+    e = batch_energy_ratio(np.stack([truth] * L), shared)
     per_pixel = shared.var(0, ddof=1).sum((0, 1)) / K
     assert np.all(e.test_total_var > 100 * per_pixel)
 
@@ -134,6 +134,6 @@ def test_bad_input_raises_value_error(bad):
     with pytest.raises(ValueError):
         debiased_relative_mse(reference, test, **kwargs)
     with pytest.raises(ValueError):
-        energy_ratio(reference, test, **kwargs)
+        batch_energy_ratio(reference, test, **kwargs)
     with pytest.raises(ValueError):
         noise_floor(reference[0], -np.ones_like(reference[0]))

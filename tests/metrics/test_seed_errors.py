@@ -36,7 +36,7 @@ def _delta():
 
 
 def _brute_force(reference, reference_var, frames):
-    """The debiased relative MSE straight from its definition (SeedError's docstring),
+    """The debiased relative MSE straight from its definition (SeedsRelMSE's docstring),
     with the seeds' sample variance computed by numpy over the frames themselves."""
     energy = np.sum(reference**2)
     raw = np.sum((frames.mean(axis=0) - reference) ** 2) / energy

@@ -1,11 +1,11 @@
-"""The single-scattering model's own error (``metrics.model``) as image rows and the
+"""The single-scattering model's own error (``metrics.model_term``) as image rows and the
 summary's ``model`` section: per colour component, what K scattering orders add to the
 reference of the paper's model, against the approximation's error. Present when the
 reference was rendered with max_scatter > 1 (its ``<component>_ms`` layers)."""
 
 from __future__ import annotations
 
-from volcaustics.metrics.model import interval, model_term
+from volcaustics.metrics.model_term import interval, model_term
 from volcaustics.reports.experiment.images import IMAGE_COLUMNS, NAN
 from volcaustics.scenes.formats import COLOUR_LAYERS
 

@@ -1,4 +1,4 @@
-"""The page's view of the single-scattering model's own error (``reports.experiment.model``):
+"""The page's view of the single-scattering model's own error (``reports.experiment.model_term``):
 an overview cell per component and a table per scene, beside the decomposition."""
 
 from __future__ import annotations

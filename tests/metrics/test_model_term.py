@@ -1,4 +1,4 @@
-"""metrics.model and the orders stream's convergence rule on synthetic images whose
+"""metrics.model_term and the orders stream's convergence rule on synthetic images whose
 answers are known in closed form: the model term's shares and relative MSEs, the
 debiasing by the term's variance, the split of the approximation's error against R_ms,
 the standard errors against the spread over independent draws, and the negative
@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from volcaustics.metrics.model import model_term
+from volcaustics.metrics.model_term import model_term
 from volcaustics.reference.render.batches import BatchStats
 from volcaustics.reference.render.orders import batch_images, convergence, stream_images
 

@@ -4,7 +4,7 @@ optical depth where the model's error overtakes the approximation's.
 
 Both are debiased relative MSEs: the approximation's against the reference of the
 paper's model, the model's own (a perfect single-scattering renderer) against K
-scattering orders (``metrics.model``)."""
+scattering orders (``metrics.model_term``)."""
 
 from __future__ import annotations
 
