@@ -1,5 +1,5 @@
 """The accuracy report (``volcaustics report``, ``make report``): one self-contained
-HTML page and ``summary.json``, drawn from results only (``page.collect`` renders
+HTML page and ``summary.json``, drawn from results only (``reports.report`` renders
 and measures; nothing here does).
 
 :func:`report_summary` picks, groups and converts what the page shows (shares to
@@ -105,7 +105,7 @@ def timing(summary: dict) -> dict:
 
 
 def scene_page(result, *, exposures: dict) -> dict:
-    """Everything the page shows of one scene (``result``: ``page.collect.SceneResult``)."""
+    """Everything the page shows of one scene (``result``: ``reports.core.summaries.SceneResult``)."""
     s = result.summary
     components = {}
     for component in COLOUR_LAYERS:

@@ -345,7 +345,7 @@ def test_a_sweep_table_that_is_a_fifo_is_refused_by_the_report(tmp_path):
     for name in ("segments", "photons", "images"):
         pd.DataFrame({"x": [1.0]}).to_parquet(folder / f"{name}.parquet")
     os.mkfifo(folder / "points.parquet")
-    code = f"from volcaustics.reports.page.collect import load_sweep; load_sweep({str(folder)!r})"
+    code = f"from volcaustics.reports.report.sweep_store import load_sweep; load_sweep({str(folder)!r})"
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=REPO, timeout=60)
     assert "points.parquet is not a regular file" in done.stderr
 

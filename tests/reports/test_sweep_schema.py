@@ -13,7 +13,7 @@ from volcaustics.approx.params import PARAMS, ApproxParams
 from volcaustics.infra.storage import file_sha256
 from volcaustics.reports.core.store import POINT_COLUMNS, document_sha256, point_row
 from volcaustics.reports.core.versions import code_version
-from volcaustics.reports.page.collect import ReportError, load_sweep
+from volcaustics.reports.report.sweep_store import ReportError, load_sweep
 from volcaustics.reports.page.html import _sweep_section
 from volcaustics.reports.sweep.run import MANIFEST_SEAL
 

@@ -1,0 +1,37 @@
+"""The results that cross subpackages, typed: a field renamed fails in one place.
+
+``SceneResult`` (one scene's experiment and the gate's verdicts on it, as the report
+gathers them) and ``SweepTables`` (a sweep store's consolidated tables) are what
+``reports.report`` hands ``reports.page``; the summaries written to disk carry a
+``schema`` version (:data:`SCHEMAS`) that their readers check.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+
+@dataclass
+class SceneResult:
+    """One scene's experiment as the store holds it, and the gate's verdicts on it."""
+
+    name: str
+    key: str
+    summary: dict            # the experiment's summary.json (reports.experiment)
+    tables: dict             # "segments", "photons", "images" → pandas DataFrame
+    views: dict              # reports.experiment.summary.VIEWS name → H×W×3 float32
+    checks: list = field(default_factory=list)   # reports.gate.budgets.Check
+    gate_note: str = ""      # why the gate could not check this scene (no budgets, a GateError)
+    budgeted: bool = False   # the budgets have this scene
+    measured: bool = False   # measured in this run (False: from the store)
+
+
+@dataclass
+class SweepTables:
+    """A sweep store's consolidated tables and the parameters it varied."""
+
+    folder: str
+    tables: dict             # "segments", "photons", "images", "points" → DataFrame
+    varied: list
+    spec: dict
+    notes: list = field(default_factory=list)  # what differs from this code (shown on the page)
