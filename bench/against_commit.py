@@ -3,7 +3,7 @@
     .venv/bin/python bench/against_commit.py [COMMIT] [SCENE] [--rounds 3] [--preset paper]
         [--set NAME=VALUE ...]
 
-COMMIT (default 027d1f1, the code before the agreement fixes: issue "Variants" item 7)
+COMMIT (default 027d1f1, the code before the agreement fixes)
 is checked out into a temporary git worktree. Each round runs one process per side,
 alternating (old, new, old, new, ...), each rendering a warm-up frame (shader
 compilation) and one timed frame of SCENE at the preset; the per-round frame and

@@ -13,7 +13,7 @@ stochastic with 16), prints
   against the cached reference (2^22 photons, 4 batches, like ``make report``),
   with the reference's standard deviation of that total.
 
-The issue "Agreement" asks for these figures before and after its fixes.
+It gives these figures before and after the agreement fixes.
 """
 
 from __future__ import annotations

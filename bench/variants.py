@@ -1,4 +1,4 @@
-"""Frame time and map reads per search variant (issue "Variants"), one process.
+"""Frame time and map reads per search variant, one process.
 
     .venv/bin/python bench/variants.py [SCENE] [--frames 3] [--preset paper]
         [--variants bisection/offset,secant/offset,dda/offset,hiz/offset,bisection/offset/surface,...]

@@ -8,14 +8,15 @@ import os
 
 from volcaustics.infra.errors import InputError
 from volcaustics.infra.storage import read_json_object
+from volcaustics.reports.core.summaries import check_schema
 
 KIND = "animation"  # summary.json "kind" of an animate output folder
 MIME = {"webp": "image/webp", "gif": "image/gif"}
 
 
 def load_animation(folder: str, option: str = "--animation") -> dict:
-    """An animate output folder's summary and its media as data URIs; ``error`` (the
-    caller's class: exit 2) naming the folder and the fix when it is not one."""
+    """An animate output folder's summary and its media as data URIs; InputError (exit 2)
+    naming the folder and the fix when it is not one, or one of another schema."""
     fix = f"run `volcaustics animate SCENE -o {folder}` first"
     try:
         summary = read_json_object(os.path.join(folder, "summary.json"))
@@ -24,6 +25,7 @@ def load_animation(folder: str, option: str = "--animation") -> dict:
     if summary.get("kind") != KIND or not isinstance(summary.get("metrics"), dict):
         raise InputError(f"{option} {folder}: summary.json is not an animation's (kind {summary.get('kind')!r}): "
                     f"{fix}")
+    check_schema(summary, "animation", f"{option} {folder}", fix)
     media = {}
     video = summary.get("video") or {}
     for name, path in (("web", video.get("web")), ("plot", "timeseries.png")):

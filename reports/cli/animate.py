@@ -3,27 +3,23 @@
 from __future__ import annotations
 
 import dataclasses
-import time
 
-from volcaustics.reports.animate.metrics import frame_rows, summarize, temporal_rows
+from volcaustics.reports.animate.measure import run_animate
 from volcaustics.reports.animate.read import KIND
-from volcaustics.reports.animate.run import WORK, render_animation
+from volcaustics.reports.animate.run import WORK
 from volcaustics.reports.animate.settings import (
     ANIMATION_REFERENCE,
     ANIMATION_SIZE,
-    CVVDP_SKIPPED,
     DEFAULT_CHAINS,
     SEED_MODES,
     animation_size,
     chain_seed,
     frame_list,
 )
-from volcaustics.reports.animate.temporal import add_ema
-from volcaustics.reports.animate.write import output_files, write_animation
+from volcaustics.reports.animate.write import output_files
 from volcaustics.reports.cli.common import UsageError, add_report_reference, check_output_set, pct, report_settings
 from volcaustics.reports.core.cost_match import with_auto_photon_res
 from volcaustics.reports.core.params import add_param_flags, params_from_args
-from volcaustics.reports.core.versions import code_version
 from volcaustics.reports.experiment.settings import checked_settings
 from volcaustics.scenes import resolve_scene
 
@@ -79,32 +75,10 @@ def run(args) -> int:
     params, _ = checked_settings(scene, dataclasses.replace(params, seed=top_seed), 1)  # fits and seeds: before work
     params = dataclasses.replace(params, seed=base)
     settings = report_settings(args)
-    t0 = time.perf_counter()
-    modes = tuple(args.modes) + (("per-frame",) if params.temporal == "ema" and "per-frame" not in args.modes else ())
-    run_ = render_animation(scene, params, frames=frames, modes=modes, chains=args.chains,
-                            reference_settings=settings, out_dir=args.output, progress=not args.quiet)
-    add_ema(run_, params)  # temporal = ema: a seed mode of its own, beside per-frame
-    frames_table, temporal = frame_rows(run_), temporal_rows(run_)
-    summary = {"kind": KIND, "scene": scene.name, "scene_hash": scene.scene_hash(),
-               "animation": scene.animation.canonical_dict(),
-               "frames": frames, "seed_modes": list(run_.modes), "chains": args.chains, "params": params.to_dict(),
-               "reference": {**dataclasses.asdict(settings), "width": params.width, "height": params.height,
-                             "keys": [r.key for r in run_.references]},
-               "metrics": summarize(run_, frames_table, temporal),
-               "seconds": {"approx_frame_median": _median(run_.approx_seconds),
-                           "reference_frame_median": _median(run_.reference_seconds),
-                           "references_cached": sum(run_.reference_cached), "frames_resumed": run_.resumed,
-                           "total": time.perf_counter() - t0},
-               "perceptual_video_metric": {"name": "ColorVideoVDP", "measured": False, "reason": CVVDP_SKIPPED},
-               "gl": run_.gl, "code_version": code_version()}
-    paths = write_animation(run_, frames_table, temporal, summary, args.output)
+    summary, paths = run_animate(scene, params, frames=frames, modes=tuple(args.modes), chains=args.chains,
+                                 reference_settings=settings, out_dir=args.output, progress=not args.quiet)
     _print(summary, paths)
     return 0
-
-
-def _median(values) -> float:
-    ordered = sorted(values)
-    return ordered[len(ordered) // 2] if ordered else float("nan")
 
 
 def _print(s: dict, paths: dict) -> None:

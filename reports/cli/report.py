@@ -17,8 +17,8 @@ from volcaustics.reports.cli.common import (
 from volcaustics.reports.compare.read import parse_named
 from volcaustics.reports.core.params import parse_overrides
 from volcaustics.reports.gate.budgets import default_budgets_path, load_budgets
-from volcaustics.reports.report.run import run_report
 from volcaustics.reports.page.summary import OUTPUT_FILES
+from volcaustics.reports.report.run import run_report
 from volcaustics.scenes import BUILTIN_NAMES
 
 # native extensions loaded at start-up, with Ctrl-C held (cli.main)

@@ -10,10 +10,11 @@ from volcaustics.infra.imageio import read_exr
 from volcaustics.infra.storage import document_sha256, file_sha256, read_json_object
 from volcaustics.reports.compare.run import KIND
 from volcaustics.reports.compare.write import DATA_FILES, SEAL, SUMMARY
+from volcaustics.reports.core.summaries import check_schema
 
 
 def parse_named(text: str, option: str) -> tuple:
-    """``NAME=DIR`` → (NAME, DIR); ``error`` naming the option for anything else."""
+    """``NAME=DIR`` → (NAME, DIR); InputError naming the option for anything else."""
     name, sep, folder = text.partition("=")
     name, folder = name.strip(), folder.strip()
     if not sep or not name or not folder:
@@ -26,7 +27,7 @@ def parse_named(text: str, option: str) -> tuple:
 
 def comparison_folders(folder: str, option: str) -> list:
     """``folder`` itself when it is a compare output, else its subfolders that are (one
-    per scene), sorted; ``error`` when there is none."""
+    per scene), sorted; InputError when there is none."""
     if os.path.isfile(os.path.join(folder, SUMMARY)):
         return [folder]
     if not os.path.isdir(folder):
@@ -51,6 +52,7 @@ def load_comparison(folder: str, option: str = "--compare", views: bool = True) 
         raise InputError(f"{option} {folder}: no readable {SUMMARY} ({exc}): {fix}") from None
     if summary.get("kind") != KIND or not isinstance(summary.get("images"), dict):
         raise InputError(f"{option} {folder}: {SUMMARY} is not a comparison's (kind {summary.get('kind')!r}): {fix}")
+    check_schema(summary, "comparison", f"{option} {folder}", fix)
     if summary.get(SEAL) != _seal(summary):
         raise InputError(f"{option} {folder}: {SUMMARY} does not match the SHA-256 it records of itself (edited or "
                     f"damaged): {fix}")

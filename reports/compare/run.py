@@ -15,6 +15,7 @@ from volcaustics.metrics.noise import MIN_SEEDS_FOR_INTERVAL
 from volcaustics.reports import runner
 from volcaustics.reports.compare.inputs import CompareError, read_images
 from volcaustics.reports.core.sizing import at_size
+from volcaustics.reports.core.summaries import SCHEMAS
 from volcaustics.reports.core.timing import Clock
 from volcaustics.reports.core.versions import code_version, library_versions
 from volcaustics.reports.experiment.images import image_rows, keep_mask
@@ -65,7 +66,8 @@ def run_compare(scene, paths, *, name: str, reference_settings, policy: str = "c
         rows, headline = image_rows(inputs.frames, reference, keep, columns, maps, components=inputs.components)
     clock.seconds["total"] = clock.total()
     summary = {
-        "kind": KIND, "renderer": name, "scene": scene.name, "scene_hash": scene.scene_hash(),
+        "kind": KIND, "schema": SCHEMAS["comparison"], "renderer": name, "scene": scene.name,
+        "scene_hash": scene.scene_hash(),
         "description": scene.description, "width": inputs.width, "height": inputs.height,
         "seeds": len(inputs.frames), "inputs": inputs.files, "components": list(inputs.components),
         "mask": inputs.mask, "reference": reference_summary(reference), "compared_pixels": int(keep.sum()),

@@ -49,7 +49,7 @@ def params_from_args(args, cls: type = ApproxParams):
 
 
 def parse_assignment(text: str, where: str, *, table: tuple = PARAMS) -> tuple:
-    """``NAME=V1,V2`` → (name, typed values); ``error`` naming ``where`` otherwise."""
+    """``NAME=V1,V2`` → (name, typed values); ParamError naming ``where`` otherwise."""
     name, sep, values = text.partition("=")
     name = name.strip().replace("-", "_")
     if not sep or not name:

@@ -29,7 +29,7 @@ REFERENCE_KEYS = ("photons", "spp", "batches", "target_noise", "max_photons", "m
 
 def reference_settings(overrides: dict) -> ReferenceSettings:
     """The report's budget with ``overrides`` (REFERENCE_KEYS; a target_noise of
-    "none" renders exactly ``batches``); ``error`` (the caller's class) for a bad one."""
+    "none" renders exactly ``batches``); InputError for a bad one."""
     changes = dict(overrides)
     unknown = [key for key in changes if key not in REFERENCE_KEYS]
     if unknown:

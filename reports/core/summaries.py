@@ -35,3 +35,20 @@ class SweepTables:
     varied: list
     spec: dict
     notes: list = field(default_factory=list)  # what differs from this code (shown on the page)
+
+
+# The version of each summary.json a command writes and another reads back: bumped when a
+# field is renamed or its meaning changes, so that a reader refuses a folder it would misread.
+# A summary without the field predates it and is version 1 (its fields are those of 1).
+SCHEMAS = {"animation": 1, "comparison": 1}
+
+
+def check_schema(summary: dict, kind: str, where: str, fix: str) -> None:
+    """InputError naming ``where`` and ``fix`` unless ``summary`` is of this code's
+    schema for ``kind``."""
+    from volcaustics.infra.errors import InputError
+
+    found = summary.get("schema", 1)
+    if found != SCHEMAS[kind]:
+        raise InputError(f"{where}: summary.json is of {kind} schema {found!r}, this volcaustics reads "
+                         f"{SCHEMAS[kind]}: {fix}")

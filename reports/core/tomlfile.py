@@ -1,5 +1,5 @@
 """Reading the TOML files of the reports (sweep specs, gate budgets): the document, or
-the caller's error type naming the file and what is wrong — never a traceback."""
+an InputError naming the file and what is wrong — never a traceback."""
 
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ from volcaustics.infra.storage import special_file_kind
 
 
 def load_toml(path: str, *, keys, what: str) -> dict:
-    """The TOML document at ``path`` whose top-level keys are among ``keys``; ``error``
+    """The TOML document at ``path`` whose top-level keys are among ``keys``; InputError
     (an exception type) for an unreadable file, bad TOML or an unknown key."""
     kind = special_file_kind(path)
     if kind:

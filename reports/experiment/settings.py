@@ -38,7 +38,7 @@ def measurement_bytes(width: int, height: int, seeds: int) -> int:
 
 
 def check_images_fit(width: int, height: int, seeds: int, cost: tuple, what: str) -> None:
-    """``error`` unless the images of a command that measures ``seeds`` frames at width ×
+    """ParamError unless the images of a command that measures ``seeds`` frames at width ×
     height fit this machine's memory: ``cost`` is its (bytes per pixel, bytes per pixel
     per seed), measured by ``bench/image_memory.py`` (``measure``: BYTES_PER_PIXEL and
     BYTES_PER_PIXEL_PER_SEED; ``compare``: its own). The one check of ``measure`` and
@@ -55,7 +55,7 @@ MAX_OPTICAL_DEPTH = 24.0
 
 
 def check_medium(scene) -> None:
-    """``error`` unless ``scene``'s medium gives a volume caustic to measure: it scatters
+    """ParamError unless ``scene``'s medium gives a volume caustic to measure: it scatters
     in every colour channel (the error's shares divide by the reference caustic, per
     channel) and its optical depth leaves the camera some light (MAX_OPTICAL_DEPTH).
     Checked before any reference renders."""

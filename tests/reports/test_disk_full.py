@@ -1,4 +1,4 @@
-"""A full disk (issue "Reliability, second pass", I): the error names the output it was
+"""A full disk: the error names the output it was
 writing, never a hidden temporary or no file at all, and leaves nothing behind. A real
 full file system: a tmpfs of a few KiB (mounting needs root; skipped, saying so, without)."""
 

@@ -1,4 +1,4 @@
-"""Ctrl-C during start-up (issue "Reliability, second pass", B): a real, process-directed
+"""Ctrl-C during start-up: a real, process-directed
 SIGINT sent from another thread while a native extension (Dr.Jit, Mitsuba, moderngl) or a
 command module is being imported must end the run with exit 130 and one line, never a
 traceback (it surfaced as NameError('_drjit_ext'), ImportError or SystemError) or an

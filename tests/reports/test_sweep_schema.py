@@ -1,6 +1,6 @@
 """``report --sweep`` on stores from elsewhere: an older schema is refused naming what it
 lacks; a store that predates a parameter, or was measured by another code version, is
-read and marked on the page (issue "Reliability, second pass", H)."""
+read and marked on the page."""
 
 from __future__ import annotations
 
@@ -13,8 +13,8 @@ from volcaustics.approx.params import PARAMS, ApproxParams
 from volcaustics.infra.storage import file_sha256
 from volcaustics.reports.core.store import POINT_COLUMNS, document_sha256, point_row
 from volcaustics.reports.core.versions import code_version
-from volcaustics.reports.report.sweep_store import ReportError, load_sweep
 from volcaustics.reports.page.html import _sweep_section
+from volcaustics.reports.report.sweep_store import ReportError, load_sweep
 from volcaustics.reports.sweep.run import MANIFEST_SEAL
 
 

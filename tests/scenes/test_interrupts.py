@@ -1,4 +1,4 @@
-"""Interrupts that reach other threads (issue "Reliability, second pass", A and F).
+"""Interrupts that reach other threads.
 
 A terminal's Ctrl-C and ``kill`` are process-directed: the kernel hands them to any
 thread (Dr.Jit's, llvmpipe's, an executor's). Here a real signal is sent to a bystander
