@@ -4,18 +4,16 @@ from __future__ import annotations
 
 import dataclasses
 import sys
-import time
 
 import pandas as pd
 
 from volcaustics.approx.params import PARAMS, PRESETS
 from volcaustics.reports.cli.common import UsageError, add_measurement_flags, check_output_set, measurement_from_args
 from volcaustics.reports.core.executors import check_reachable, default_workers, parse_dask
-from volcaustics.reports.core.store import Store
 from volcaustics.reports.experiment.measurement import MEASUREMENT_KEYS
-from volcaustics.reports.sweep.best import run_best, verdict
+from volcaustics.reports.sweep.best import run_best
 from volcaustics.reports.sweep.best_spec import BEST_SPEC, CRITERIA, load_best_spec
-from volcaustics.reports.sweep.run import OUTPUT_FILES, OUTPUT_FOLDERS, consolidate, run_sweep
+from volcaustics.reports.sweep.run import OUTPUT_FILES, OUTPUT_FOLDERS, run_sweep
 from volcaustics.reports.sweep.spec import MAX_POINTS, spec_from_args, spec_from_toml
 from volcaustics.reports.sweep.variants import variant_name
 
@@ -96,13 +94,10 @@ def _run_best(args) -> int:
                                        "may narrow it")
     scenes = [s.strip() for s in args.scenes.split(",")] if args.scenes is not None else None
     spec = _measured(load_best_spec(args.spec or BEST_SPEC, scenes), args)
-    t0 = time.perf_counter()
-    table, adopted, failed, keys = run_best(spec, args.output, workers=args.workers or default_workers(),
-                                            dask=args.dask, progress=not args.quiet, criterion=args.criterion)
-    result = verdict(table, adopted, args.criterion)
-    consolidate(Store(args.output), args.output, spec.sweep_spec(), sorted(set(keys)), extra={"best": table},
-                manifest={"best": result})
-    print(f"best configuration: {len(keys)} points, {len(failed)} failed, {time.perf_counter() - t0:.1f} s -> "
+    best = run_best(spec, args.output, workers=args.workers or default_workers(), dask=args.dask,
+                    progress=not args.quiet, criterion=args.criterion)
+    table, adopted, result, failed = best.table, best.adopted, best.verdict, best.failed
+    print(f"best configuration: {len(best.keys)} points, {len(failed)} failed, {best.seconds:.1f} s -> "
           f"{args.output}/best.parquet")
     for _, r in table[table["role"] != ""].iterrows():
         se = "" if pd.isna(r["caustic_relmse_se"]) else f" ± {100 * r['caustic_relmse_se']:.2f}"

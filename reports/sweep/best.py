@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import dataclasses
 import itertools
+import time
 
 import numpy as np
 import pandas as pd
@@ -45,6 +46,7 @@ from volcaustics.reports.core.sizing import reference_settings
 from volcaustics.reports.core.store import Store
 from volcaustics.reports.experiment.measurement import measurement_settings
 from volcaustics.reports.sweep.best_spec import CRITERIA, BestSpec
+from volcaustics.reports.sweep.run import consolidate
 from volcaustics.reports.sweep.spec import SweepError
 
 
@@ -213,11 +215,37 @@ def neighbours(config: dict, refine: tuple) -> list:
     return out
 
 
+@dataclasses.dataclass
+class BestResult:
+    """A search's outcome: every point with its role, the adopted configuration's label (or
+    None), whether it meets the criterion's goal (:func:`verdict`), the failed points, the
+    store keys of every point, and the seconds it took."""
+
+    table: pd.DataFrame
+    adopted: str | None
+    verdict: dict
+    failed: list
+    keys: list
+    seconds: float
+
+
 def run_best(spec: BestSpec, out_dir: str, *, workers: int | None = None, dask: str | None = None,
-             progress: bool = True, criterion: str = "frame") -> tuple:
-    """The search (module docstring) by ``criterion`` (CRITERIA); returns (table with
-    roles, the adopted configuration's label or None, failed points, every point's
-    store key)."""
+             progress: bool = True, criterion: str = "frame") -> BestResult:
+    """The search (module docstring) by ``criterion`` (CRITERIA), its points in the store at
+    ``out_dir`` and, consolidated there as a sweep's, their tables with ``best.parquet`` and
+    the verdict in the manifest."""
+    t0 = time.perf_counter()
+    table, adopted, failed, keys = _search(spec, out_dir, workers=workers, dask=dask, progress=progress,
+                                           criterion=criterion)
+    result = verdict(table, adopted, criterion)
+    consolidate(Store(out_dir), out_dir, spec.sweep_spec(), sorted(set(keys)), extra={"best": table},
+                manifest={"best": result})
+    return BestResult(table, adopted, result, failed, keys, time.perf_counter() - t0)
+
+
+def _search(spec: BestSpec, out_dir: str, *, workers, dask, progress: bool, criterion: str) -> tuple:
+    """(table with roles, the adopted configuration's label or None, failed points, every
+    point's store key)."""
     search = BestSearch(spec, out_dir, workers=workers, dask=dask, progress=progress, criterion=criterion)
     try:
         coarse = [dict(zip([n for n, _ in spec.coarse], combo))
