@@ -30,7 +30,7 @@ DOTTED = re.compile(r"(?:(?<![\w./-])(volcaustics(?:\.[A-Za-z_]\w*)+)|(?<=`)((?:
 ANCHOR = re.compile(r"(docs/[\w/-]+\.md)`?\s*(?:\(|,)?\s*\"([^\"]+)\"")
 LINK_ANCHOR = re.compile(r"(docs/[\w/-]+\.md)#([\w-]+)")
 MD_LINK = re.compile(r"\]\(([^)#\s]+\.md)(?:#([\w-]+))?\)")
-TRACKER = re.compile(r"\b[Ii]ssues? (?:#?\d+|\")|\bDESIGN\.md\b")  # a tracker's issue, by number or title
+TRACKER = re.compile(r"\b[Ii]ssues? (?:#?\d+|\")|\b(?:DESIGN|STYLE)\.md\b")  # a tracker's issue, by number or title
 FILE_EXT = re.compile(r"\.(py|toml|md|sh|glsl|json|csv|parquet|png|svg|exr|yml|txt|ply|npz|html|xml|glb|gltf|webp"
                       r"|mp4)$")
 

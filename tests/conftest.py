@@ -15,34 +15,7 @@ import textwrap
 import pytest
 
 import volcaustics.reference  # noqa: F401  (chooses DRJIT_LIBLLVM_PATH before anything imports drjit)
-
-FAST_MEASUREMENT = ["--exact-subphotons", "1"]  # one exact replay per emission texel (the report's 16: its own tests)
-SINGLE_SCATTERING = ["--max-scatter", "1"]      # no orders stream (the report's 8: the model term's tests)
-# a sweep's small image, reference and measurement (tests/reports/test_sweep.py, test_best.py, test_report.py):
-# tiny points, 32², photon_res 64, light_res 64; a single-scattering reference of 4 batches; one exact replay
-# the small reference and measurement as a spec's or the budgets' tables (no braces: a .format template may hold it)
-SMALL_REFERENCE_TABLES = """[reference]
-photons = 65536
-spp = 8
-batches = 4
-target_noise = "none"
-max_scatter = 1
-[measurement]
-exact_subphotons = 1
-"""
-SWEEP_TABLES = """[set]
-width = 32
-height = 32
-photon_res = 64
-light_res = 64
-""" + SMALL_REFERENCE_TABLES
-SWEEP_SPEC = """
-scenes = ["refocus"]
-seeds = 1
-[vary]
-layers = [1, 2]
-iterations = [4, 8]
-""" + SWEEP_TABLES
+from tests.shared import BASE_SCENE, with_shared_references
 
 
 @pytest.fixture(scope="session", autouse=True)
@@ -76,14 +49,6 @@ def empty_cache(tmp_path, monkeypatch):
     return root
 
 
-def with_shared_references(root, shared_references):
-    """``root`` made a cache folder whose ``reference/`` is the run's shared one (for a
-    module-scoped fixture's own cache); returns ``root``."""
-    root.mkdir(parents=True, exist_ok=True)
-    (root / "reference").symlink_to(shared_references, target_is_directory=True)
-    return root
-
-
 @pytest.fixture
 def cache(empty_cache, shared_references):
     """A private ``$VOLCAUSTICS_CACHE`` (result stores, meshes, metric floors) whose
@@ -104,43 +69,6 @@ def ctx(gl_context):
     assert gl_context.error == "GL_NO_ERROR"
     yield gl_context
     assert gl_context.error == "GL_NO_ERROR"
-
-
-BASE_SCENE = """
-name = "base"
-description = "small valid scene for loader tests"
-
-[camera]
-position = [0.0, 1.0, 4.0]
-target = [0.0, 1.0, 0.0]
-fov_y = 40.0
-width = 64
-height = 48
-
-[light]
-position = [0.0, 3.0, 0.0]
-direction = [0.0, -1.0, 0.0]
-intensity = [5.0, 5.0, 5.0]
-cutoff_angle = 25.0
-beam_width = 20.0
-
-[medium]
-sigma_s = 0.2
-sigma_a = [0.01, 0.01, 0.01]
-phase = "isotropic"
-
-[[specular]]
-name = "ball"
-mesh = { generator = "sphere", radius = 0.5, subdivisions = 3 }
-transform = { translate = [0.0, 1.0, 0.0] }
-ior = 1.5
-absorption = [0.0, 0.0, 0.0]
-
-[[diffuse]]
-name = "floor"
-mesh = { generator = "quad", size_x = 4.0, size_z = 4.0 }
-albedo = 0.5
-"""
 
 
 @pytest.fixture

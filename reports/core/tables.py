@@ -1,5 +1,5 @@
 """Tidy tables and strict JSON: one type per column for Parquet, and the inverse for
-code that reads rows (STYLE.md 13: every parameter a column, so a sweep is one
+code that reads rows (every parameter a column, so a sweep is one
 ``groupby`` away from a plot)."""
 
 from __future__ import annotations

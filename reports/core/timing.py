@@ -1,4 +1,4 @@
-"""Timing a driver's stages with one context manager (STYLE.md 15)."""
+"""Timing a driver's stages with one context manager."""
 
 from __future__ import annotations
 

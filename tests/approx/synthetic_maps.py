@@ -6,14 +6,13 @@ from __future__ import annotations
 
 import numpy as np
 
+from tests.shared import make_scene, sphere_spec
 from volcaustics.approx.layers import LightMap
 from volcaustics.approx.light import LightFrustum
 from volcaustics.approx.params import ApproxParams
 from volcaustics.approx.records import records_from_raw
 from volcaustics.approx.trace import PhotonTracer
 from volcaustics.scenes.formats import PHOTON_DTYPE, RAW_RECORD_DTYPE, STATUS_COLLIDED, STATUS_SURFACE
-
-from .helpers import make_scene, sphere_spec
 
 # the scene box: light at (0, 3, 0) looking down (cutoff 20°); segments end where they leave it
 BOX = (np.array([-2.0, -0.5, -2.0]), np.array([2.0, 4.0, 2.0]))

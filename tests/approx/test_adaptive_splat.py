@@ -13,7 +13,7 @@ import math
 import numpy as np
 import pytest
 
-from tests.approx.helpers import make_scene, pixel_solid_angles, sphere_spec
+from tests.shared import make_scene, pixel_solid_angles, sphere_spec
 from volcaustics.approx import ApproxParams, render
 from volcaustics.approx.camera_pass import CameraView
 from volcaustics.approx.geometry import SceneGeometry

@@ -14,7 +14,7 @@ import math
 import numpy as np
 import pytest
 
-from tests.approx.helpers import make_scene, pixel_solid_angles
+from tests.shared import make_scene, pixel_solid_angles
 from volcaustics.approx import Renderer
 from volcaustics.approx.camera_pass import CameraView
 from volcaustics.approx.cost import DENSITY_READS, frame_cost

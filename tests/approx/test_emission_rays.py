@@ -11,9 +11,10 @@ import math
 import numpy as np
 import pytest
 
+from tests.shared import flat_spot
 from volcaustics.approx import Renderer
 from volcaustics.approx.emission import approx_rays, true_rays
-from volcaustics.approx.light import LightFrustum, spot_constants, spot_falloff
+from volcaustics.approx.light import LightFrustum, spot_falloff
 from volcaustics.approx.params import QUICK
 from volcaustics.scenes import load_builtin
 from volcaustics.scenes.bounds import medium_bounds
@@ -31,12 +32,6 @@ def _spot_power(light) -> float:
     return 2.0 * math.pi * integral * float(np.mean(light.intensity))
 
 
-def _flat(light, d):
-    """The spot without its profile: 1 inside the cutoff cone."""
-    cos_theta = np.asarray(d, np.float32) @ np.asarray(light.direction, np.float32)
-    return (cos_theta > np.float32(spot_constants(light)["spot_cos_cutoff"])).astype(np.float32)
-
-
 def test_true_rays_carry_the_spots_power_and_a_flat_profile_does_not():
     """Σ power of the jittered photons over 8 seeds against the quadrature of I·falloff
     over the cone: within 4 standard errors of the seeds' spread (tolerance: that
@@ -49,7 +44,8 @@ def test_true_rays_carry_the_spots_power_and_a_flat_profile_does_not():
     totals = np.array([true_rays(light, frustum, 64, seed).power.mean(axis=1).sum() for seed in range(8)])
     se = totals.std(ddof=1) / math.sqrt(len(totals))
     assert abs(totals.mean() - expected) <= 4 * se + 1e-6 * expected, (totals.mean(), expected, se)
-    flat = np.array([true_rays(light, frustum, 64, seed, profile=_flat).power.mean(axis=1).sum() for seed in range(8)])
+    flat = np.array([true_rays(light, frustum, 64, seed, profile=flat_spot).power.mean(axis=1).sum()
+                     for seed in range(8)])
     assert abs(flat.mean() - expected) > 20 * (se + flat.std(ddof=1) / math.sqrt(len(flat)))
 
 

@@ -7,7 +7,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from tests.approx.helpers import make_scene, ray_sphere, shell_spec, sphere_spec
+from tests.shared import make_scene, ray_sphere, shell_spec, sphere_spec
 from volcaustics.approx.geometry import SceneGeometry
 from volcaustics.approx.layers import LightMapRenderer
 from volcaustics.approx.light import LightFrustum

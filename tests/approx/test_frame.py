@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from scipy import integrate
 
-from tests.approx.helpers import fog_quadrature, make_scene, pixel_ray, pixel_solid_angles, sphere_spec
+from tests.shared import fog_quadrature, make_scene, pixel_ray, pixel_solid_angles, sphere_spec
 from volcaustics.approx import ApproxParams, Renderer, render
 from volcaustics.approx.camera_pass import CameraView
 from volcaustics.approx.geometry import SceneGeometry
@@ -274,7 +274,7 @@ def test_resolutions_beyond_the_drivers_dispatch_limit_are_refused(ctx):
     renderer now refuses such parameters with an error naming the limit."""
     import math
 
-    from tests.approx.helpers import make_scene
+    from tests.shared import make_scene
     from volcaustics.approx import ParamError
 
     limit = int(ctx.info["GL_MAX_COMPUTE_WORK_GROUP_COUNT"][0])

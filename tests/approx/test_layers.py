@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from tests.approx.helpers import make_scene, ray_sphere, shell_spec, sphere_spec
+from tests.shared import make_scene, ray_sphere, shell_spec, sphere_spec
 from volcaustics.approx.geometry import SceneGeometry
 from volcaustics.approx.layers import LightMapRenderer, decode_normals, read_map
 from volcaustics.approx.light import LightFrustum

@@ -325,7 +325,7 @@ def test_hit_point_error_within_texel_footprints_of_the_exact_chord(ctx, search)
     light ray by at most one texel diagonal's worth of the surface's slope (a crossing
     at a texel's edge takes the neighbour's distance): √2 · footprint · tan θ, plus the
     tessellation's sagitta and float rounding (2e-4 m)."""
-    from tests.approx.helpers import ray_sphere
+    from tests.shared import ray_sphere
     from volcaustics.approx.geometry import SceneGeometry
     from volcaustics.approx.layers import LightMapRenderer
 

@@ -51,7 +51,7 @@ from dataclasses import dataclass
 import numpy as np
 import pytest
 
-from tests.failure_images import write_compared_images
+from tests.shared import write_compared_images
 from volcaustics.approx import ApproxParams, Renderer
 from volcaustics.metrics.noise import batch_energy_ratio, debiased_relative_mse
 from volcaustics.reference.settings import ReferenceSettings

@@ -18,7 +18,7 @@ import drjit as dr
 import numpy as np
 import pytest
 
-from tests.approx.helpers import make_scene, sphere_spec
+from tests.shared import make_scene, sphere_spec
 from volcaustics.metrics.stats import z_test
 from volcaustics.reference.mi_setup import mitsuba
 from volcaustics.reference.render.export import to_mitsuba

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import pytest
 
-from tests.approx.helpers import make_scene, sphere_spec
+from tests.shared import make_scene, sphere_spec
 from volcaustics.reference.description import describe
 from volcaustics.reference.mi_setup import mitsuba
 from volcaustics.reference.render import render_reference

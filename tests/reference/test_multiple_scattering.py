@@ -20,8 +20,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from tests.approx.helpers import make_scene, sphere_spec
-from tests.reference.test_validation import Batches, _agree
+from tests.reference.agreement import Batches, _agree
+from tests.shared import make_scene, sphere_spec
 from volcaustics.reference.mi_setup import mitsuba
 from volcaustics.reference.render.export import to_mitsuba
 from volcaustics.reference.render.integrators import SingleScatterIntegrator, VolumetricLightTracer, configure

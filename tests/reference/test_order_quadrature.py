@@ -21,7 +21,7 @@ import pytest
 from scipy import integrate, special
 from scipy.interpolate import CubicSpline
 
-from tests.approx.helpers import make_scene, pixel_ray
+from tests.shared import make_scene, pixel_ray
 from volcaustics.reference.mi_setup import mitsuba
 from volcaustics.reference.render.export import to_mitsuba
 from volcaustics.reference.render.integrators import VolumetricLightTracer, configure

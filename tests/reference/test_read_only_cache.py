@@ -12,7 +12,7 @@ import time
 
 import pytest
 
-from tests.conftest import FAST_MEASUREMENT, SINGLE_SCATTERING
+from tests.shared import FAST_MEASUREMENT, SINGLE_SCATTERING
 from volcaustics.reports.cli import main
 
 TINY = ["--photons", "20000", "--spp", "2", "--batches", "2", "--height", "12"]

@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from tests.approx.helpers import make_scene, sphere_spec
+from tests.shared import make_scene, sphere_spec
 from volcaustics.approx.glsl import build_source
 from volcaustics.approx.light import spot_constants
 from volcaustics.reference.mi_setup import mitsuba

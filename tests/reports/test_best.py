@@ -12,8 +12,8 @@ import re
 import pandas as pd
 import pytest
 
-from tests.conftest import FAST_MEASUREMENT, SINGLE_SCATTERING
-from tests.conftest import SWEEP_TABLES as SMALL_TABLES
+from tests.shared import FAST_MEASUREMENT, SINGLE_SCATTERING
+from tests.shared import SWEEP_TABLES as SMALL_TABLES
 from volcaustics.approx.params import PAPER, QUICK
 from volcaustics.infra.errors import InputError
 from volcaustics.reports.cli import main

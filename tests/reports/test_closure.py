@@ -13,7 +13,7 @@ import math
 import numpy as np
 import pytest
 
-from tests.approx.test_emission_rays import _flat
+from tests.shared import flat_spot
 from volcaustics.approx import Renderer
 from volcaustics.approx.params import QUICK
 from volcaustics.metrics.decomposition import TERMS
@@ -171,7 +171,8 @@ def test_an_exact_emission_without_the_spot_profile_is_flagged(cache, monkeypatc
     params = dataclasses.replace(QUICK, photon_res=128)
     assert _closes(_measure(scene, params), "sphere1 with the profile") is None
     true_rays = exact_images.true_rays
-    monkeypatch.setattr(exact_images, "true_rays", lambda *args, **kwargs: true_rays(*args, profile=_flat, **kwargs))
+    unprofiled = lambda *args, **kwargs: true_rays(*args, profile=flat_spot, **kwargs)  # noqa: E731
+    monkeypatch.setattr(exact_images, "true_rays", unprofiled)
     monkeypatch.setattr(exact_images, "load_exact", lambda key, document: None)  # the stored E images had the profile
     message = _closes(_measure(scene, params), "sphere1 without the profile")
     assert message is not None and "disagree" in message

@@ -13,7 +13,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from tests.conftest import FAST_MEASUREMENT, SINGLE_SCATTERING, SMALL_REFERENCE_TABLES, with_shared_references
+from tests.shared import FAST_MEASUREMENT, SINGLE_SCATTERING, SMALL_REFERENCE_TABLES, with_shared_references
 from volcaustics.infra.imageio import read_exr, write_exr, write_png
 from volcaustics.reports.cli import main
 from volcaustics.reports.compare.inputs import CompareError, read_images

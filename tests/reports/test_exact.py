@@ -11,8 +11,7 @@ import os
 import numpy as np
 import pytest
 
-from tests.approx.helpers import make_scene, sphere_spec
-from tests.failure_images import write_compared_images
+from tests.shared import make_scene, sphere_spec, write_compared_images
 from volcaustics.approx import ApproxParams, Renderer
 from volcaustics.reports.experiment.exact import (
     box_downsample,

@@ -11,7 +11,7 @@ import os
 import numpy as np
 import pytest
 
-from tests.approx.helpers import make_scene, sphere_spec
+from tests.shared import make_scene, sphere_spec
 from volcaustics.approx import ApproxParams, Renderer
 from volcaustics.reference.oracle import Oracle
 from volcaustics.reference.render import render_reference

@@ -16,7 +16,7 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from tests.conftest import SWEEP_SPEC as SPEC  # tiny points: 32², photon_res 64, light_res 64; 4 batches
+from tests.shared import SWEEP_SPEC as SPEC  # tiny points: 32², photon_res 64, light_res 64; 4 batches
 from volcaustics.reports.cli import main
 
 REPO = Path(__file__).resolve().parents[2]

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.conftest import FAST_MEASUREMENT
+from tests.shared import FAST_MEASUREMENT
 from volcaustics.reports.cli import main
 
 SIZE = ["--set", "width=48", "--set", "height=48", "--set", "photon_res=128", "--set", "light_res=128"]

@@ -6,17 +6,14 @@ from __future__ import annotations
 
 import dataclasses
 
-from volcaustics.approx.params import QUICK
-from volcaustics.reference.settings import ReferenceSettings
+from tests.shared import FULL_MEASUREMENT, GATE_POINT, GATE_REFERENCE
 from volcaustics.reports import runner
 from volcaustics.reports.core.store import Store
 from volcaustics.reports.experiment.images import IMAGE_METRICS
-from volcaustics.reports.experiment.measurement import GATE_IMAGE_METRICS, MeasurementSettings
+from volcaustics.reports.experiment.measurement import GATE_IMAGE_METRICS
 from volcaustics.reports.gate.budgets import COMPONENT_KEYS
 
-REFERENCE = ReferenceSettings(photons=1 << 16, spp=8, batches=4, target_noise=None, max_scatter=1)
-POINT = runner.Point("refocus", dataclasses.replace(QUICK, width=32, height=32, photon_res=64, light_res=64), seeds=2)
-FULL = MeasurementSettings(exact_subphotons=1)
+REFERENCE, POINT, FULL = GATE_REFERENCE, GATE_POINT, FULL_MEASUREMENT
 LEAN = dataclasses.replace(FULL, scope="gate")
 
 

@@ -9,7 +9,7 @@ import json
 import numpy as np
 import pytest
 
-from tests.conftest import SINGLE_SCATTERING
+from tests.shared import SINGLE_SCATTERING
 from volcaustics.approx.params import QUICK, ApproxParams
 from volcaustics.metrics.intersection import CLASS_NAMES
 from volcaustics.reference.settings import ReferenceSettings

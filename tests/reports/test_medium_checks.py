@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import pytest
 
-from tests.conftest import SWEEP_TABLES
+from tests.shared import SWEEP_TABLES
 from volcaustics.reports.cli import main
 
 
@@ -28,7 +28,7 @@ def test_a_sweep_over_a_medium_without_a_caustic_is_refused_up_front(tmp_path, c
 @pytest.mark.parametrize("command", ["measure", "compare"])
 def test_a_scene_file_without_scattering_is_refused_by_measure_and_compare(tmp_path, capsys, empty_cache,
                                                                             write_scene, command):
-    from tests.conftest import BASE_SCENE
+    from tests.shared import BASE_SCENE
 
     scene = write_scene(BASE_SCENE.replace("sigma_s = 0.2", "sigma_s = 0.0"))
     image = tmp_path / "image.exr"

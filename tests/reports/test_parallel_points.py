@@ -9,7 +9,9 @@ import os
 
 import pytest
 
-from tests.reports.test_gate_points import FULL, POINT, REFERENCE
+from tests.shared import FULL_MEASUREMENT as FULL
+from tests.shared import GATE_POINT as POINT
+from tests.shared import GATE_REFERENCE as REFERENCE
 from volcaustics.reports import runner
 from volcaustics.reports.core.store import TABLES, Store
 

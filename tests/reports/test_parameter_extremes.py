@@ -11,7 +11,7 @@ import os
 
 import pytest
 
-from tests.conftest import FAST_MEASUREMENT, SINGLE_SCATTERING
+from tests.shared import FAST_MEASUREMENT, SINGLE_SCATTERING
 from volcaustics.approx.params import PARAMS
 from volcaustics.reports.cli import main
 from volcaustics.reports.core.params import flag

@@ -14,8 +14,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from tests.conftest import FAST_MEASUREMENT, with_shared_references
-from tests.conftest import SWEEP_SPEC as SPEC
+from tests.shared import FAST_MEASUREMENT, with_shared_references
+from tests.shared import SWEEP_SPEC as SPEC
 from volcaustics.reports.cli import main
 from volcaustics.scenes.formats import COLOUR_LAYERS
 

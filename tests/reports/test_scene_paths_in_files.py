@@ -9,7 +9,7 @@ import os
 
 import pytest
 
-from tests.conftest import BASE_SCENE
+from tests.shared import BASE_SCENE
 from volcaustics.reports.cli import main
 from volcaustics.reports.gate.budgets import load_budgets
 from volcaustics.reports.sweep.spec import spec_from_toml

@@ -15,9 +15,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from tests.conftest import FAST_MEASUREMENT, SINGLE_SCATTERING
-from tests.conftest import SWEEP_SPEC as SPEC
-from tests.conftest import SWEEP_TABLES as SMALL_TABLES
+from tests.shared import FAST_MEASUREMENT, SINGLE_SCATTERING
+from tests.shared import SWEEP_SPEC as SPEC
+from tests.shared import SWEEP_TABLES as SMALL_TABLES
 from volcaustics.reports.cli import main
 from volcaustics.reports.core.store import SUMMARY, Store, sealed
 

@@ -15,7 +15,7 @@ try:
 except ModuleNotFoundError:
     import tomli as tomllib
 
-from tests.conftest import BASE_SCENE
+from tests.shared import BASE_SCENE
 from volcaustics.reports.cli import main
 from volcaustics.scenes import SceneError, Transform, load_builtin, load_scene
 from volcaustics.scenes.animation import FPS_RANGE, interpolate

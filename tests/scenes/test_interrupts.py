@@ -18,7 +18,7 @@ import time
 
 import pytest
 
-from tests.conftest import FAST_MEASUREMENT, SINGLE_SCATTERING
+from tests.shared import FAST_MEASUREMENT, SINGLE_SCATTERING
 
 # Runs BODY; at step AT of the commits into FOLDER (a commit's steps: 1 the manifest's
 # removal, 2..5 the renames) sends SIGNAL to a sleeping bystander thread, then gives the

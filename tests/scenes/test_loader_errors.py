@@ -15,7 +15,7 @@ try:
 except ModuleNotFoundError:
     import tomli as tomllib
 
-from tests.conftest import BASE_SCENE
+from tests.shared import BASE_SCENE
 from volcaustics.reports.cli import main
 from volcaustics.scenes import SceneError, load_scene
 

@@ -19,7 +19,7 @@ try:
 except ModuleNotFoundError:
     import tomli as tomllib
 
-from tests.conftest import BASE_SCENE
+from tests.shared import BASE_SCENE
 from volcaustics.scenes import Scene, SceneError, load_scene
 
 BASE = tomllib.loads(BASE_SCENE)
