@@ -249,7 +249,8 @@ def run_point(task: dict, *, progress: bool = False, reference=None) -> dict:
         settings = MeasurementSettings(**task["measurement"])
         experiment = run_experiment(scene, ApproxParams(**task["params"]), seeds=task["seeds"], reference=reference,
                                     renderer=renderer, oracle=oracle, progress=progress, fields=dict(fields),
-                                    subphotons=settings.exact_subphotons, scope=settings.scope)
+                                    subphotons=settings.exact_subphotons, scope=settings.scope,
+                                    subset_batches=settings.subset_batches, exact_steps=settings.exact_steps)
         status = store.write_point(task["key"], task["key_document"], experiment, views=task["views"])
         return {"key": task["key"], "status": status, "seconds": time.perf_counter() - t0}
 

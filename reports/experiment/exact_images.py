@@ -49,6 +49,25 @@ CONSTANTS = {"exact_steps": EXACT_STEPS, "small_supersample": SMALL_SUPERSAMPLE,
              "subphoton_salt": _SUBPHOTON_SALT}
 
 
+def _int_setting(name: str, low: int, high: int, what: str, default: int):
+    """A check of an integer measurement setting in [low, high]: value → value (None: the default)."""
+    def check(value: int | None = None) -> int:
+        if value is None:
+            return default
+        if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
+            raise ParamError(f"{name} = {value!r}: expected an integer in [{low}, {high}] ({what}; default {default})")
+        return value
+    return check
+
+
+# E_k is E_∞ cut at the approximation's steps (at most 32): E_∞ replays at least that many
+exact_steps_setting = _int_setting("exact_steps", 32, 1024, "steps of the exact replay in the E_∞ images",
+                                   EXACT_STEPS)
+# the decomposition's jackknife needs 4 batches in all; one seed gives subset_batches of them
+subset_batches_setting = _int_setting("subset_batches", 4, 64, "paired photon subsets per seed of A and the E "
+                                      "images, the decomposition's jackknife batches", SUBSET_BATCHES)
+
+
 def subphotons_setting(value: int | None = None) -> int:
     """The sub-photons of a measurement: ``value`` (the ``exact_subphotons`` measurement
     setting, ``reports.experiment.measurement``), EXACT_SUBPHOTONS when None; ParamError
@@ -115,8 +134,9 @@ def _paired_kernels(collided: np.ndarray, sigma: np.ndarray | None):
     return kernels
 
 
-def exact_images(scene, p, frames, seeds, renderer, oracle, subphotons: int | None = None) -> dict:
-    """Per seed, SUBSET_BATCHES paired subset images (``reports.experiment.exact.subset_images``)
+def exact_images(scene, p, frames, seeds, renderer, oracle, subphotons: int | None = None, *,
+                 subset_batches: int = SUBSET_BATCHES, exact_steps: int = EXACT_STEPS) -> dict:
+    """Per seed, ``subset_batches`` paired subset images (``reports.experiment.exact.subset_images``)
     of A, E_k, E_∞ (A's Fresnel), E_∞ (stochastic), E_em and E_∞,s, the E_∞ images from
     ``subphotons`` replays of every texel (:func:`pooled`; None: :func:`subphotons_setting`);
     all seeds' batches concatenated (batch j of every image: the same emission texels of
@@ -125,31 +145,33 @@ def exact_images(scene, p, frames, seeds, renderer, oracle, subphotons: int | No
     replay and splat stored them (``exact_reused``); else every replay of one Fresnel
     mode is one wavefront (``reference.replay``) and they are stored."""
     subphotons = subphotons_setting() if subphotons is None else subphotons
-    document = exact_document(scene, p, seeds, subphotons, CONSTANTS, renderer.controls)
+    constants = {**CONSTANTS, "exact_steps": exact_steps, "subset_batches": subset_batches}
+    document = exact_document(scene, p, seeds, subphotons, constants, renderer.controls)
     key = exact_key(document)
     # each frame's medium collisions: A's splats, and (splat = adaptive) the kernels E pairs with
     collisions = [np.concatenate([r[r["status"] == STATUS_COLLIDED] for r in frame.records]) for frame in frames]
     exact = load_exact(key, document)
     reused = exact is not None
     if exact is None:
-        exact = _exact_batches(scene, p, collisions, seeds, renderer, oracle, subphotons)
+        exact = _exact_batches(scene, p, collisions, seeds, renderer, oracle, subphotons, subset_batches, exact_steps)
         save_exact(key, document, exact)
     approx = []
     for collided, seed in zip(collisions, seeds):
         sigma = record_sigma(collided, p)
         splats = splats_from_arrays(collided["end"], collided["direction"], collided["power"], sigma)
-        approx.append(_subsets(renderer, scene, p, splats, collided["photon"], dataclasses.replace(p, seed=seed)))
+        approx.append(_subsets(renderer, scene, p, splats, collided["photon"], dataclasses.replace(p, seed=seed),
+                               subset_batches))
     return {"batches": {"approx": np.concatenate(approx), **exact["batches"]}, "alive": exact["alive"],
             "small_radius": exact["small_radius"], "subphotons": subphotons, "exact_key": key,
-            "exact_reused": reused}
+            "exact_reused": reused, "exact_steps": exact_steps, "subset_batches": subset_batches}
 
 
-def _subsets(renderer, scene, p, splats, photon, params, supersample: int = 1) -> np.ndarray:
-    return subset_images(renderer, splats, photon, p.photon_res, SUBSET_BATCHES, params, scene,
+def _subsets(renderer, scene, p, splats, photon, params, batches: int, supersample: int = 1) -> np.ndarray:
+    return subset_images(renderer, splats, photon, p.photon_res, batches, params, scene,
                          supersample=supersample)
 
 
-def _exact_batches(scene, p, collisions, seeds, renderer, oracle, subphotons: int) -> dict:
+def _exact_batches(scene, p, collisions, seeds, renderer, oracle, subphotons: int, batches: int, steps: int) -> dict:
     """The E images of :func:`exact_images` (``exact_store.EXACT_IMAGES``), their alive
     fractions and the small kernel, computed. Every one replays from the emission ray
     (``reference.replay.exact_emission``): E_k, E_∞ (A's Fresnel) and E_∞ (stochastic)
@@ -165,9 +187,9 @@ def _exact_batches(scene, p, collisions, seeds, renderer, oracle, subphotons: in
     own = [(rays, s) for rays, seeds_of in zip(renderer.emission_rays(scene, p, seeds), replay_seeds)
            for s in seeds_of]
     true = [(true_rays(scene.light, frustum, p.photon_res, s), s) for seeds_of in replay_seeds for s in seeds_of]
-    stochastic = _replayed(scene, p, "stochastic", own + true, oracle)  # one wavefront for both emissions
+    stochastic = _replayed(scene, p, "stochastic", own + true, oracle, steps)  # one wavefront for both emissions
     everything_all, true_all = stochastic[:len(own)], stochastic[len(own):]
-    same_all = everything_all if p.fresnel == "stochastic" else _replayed(scene, p, p.fresnel, own, oracle)
+    same_all = everything_all if p.fresnel == "stochastic" else _replayed(scene, p, p.fresnel, own, oracle, steps)
     for i, (collided, seed) in enumerate(zip(collisions, seeds)):
         ps = dataclasses.replace(p, seed=seed)
         kernels = _paired_kernels(collided, record_sigma(collided, p))
@@ -176,9 +198,9 @@ def _exact_batches(scene, p, collisions, seeds, renderer, oracle, subphotons: in
         e_k = _cut(same_all[i * subphotons], p.steps)
         for name, photons in (("exact_steps", e_k), ("exact_all_same", same), ("exact_all", everything),
                               ("exact_emission", emitted)):
-            out[name].append(_subsets(renderer, scene, p, kernels(photons), photons.photon, ps))
+            out[name].append(_subsets(renderer, scene, p, kernels(photons), photons.photon, ps, batches))
         out["exact_all_small"].append(_subsets(renderer, scene, p, emitted.splats, emitted.photon,
-                                               dataclasses.replace(small, seed=seed), SMALL_SUPERSAMPLE))
+                                               dataclasses.replace(small, seed=seed), batches, SMALL_SUPERSAMPLE))
         for name, photons in {p.fresnel: same, "stochastic": everything, "true_emission": emitted}.items():
             alive.setdefault(name, []).append(photons.alive_fraction)
     return {"batches": {name: np.concatenate(images) for name, images in out.items()}, "alive": alive,
@@ -193,14 +215,14 @@ def _cut(photons: ExactPhotons, steps: int) -> ExactPhotons:
                                step=photons.step[keep], params={**photons.params, "steps": steps})
 
 
-def _replayed(scene, p, fresnel: str, groups: list, oracle) -> list:
+def _replayed(scene, p, fresnel: str, groups: list, oracle, steps: int) -> list:
     """One :class:`ExactPhotons` per (rays, seed) of ``groups``: the rays emitted exactly
-    (``reference.replay.exact_emission``) and replayed EXACT_STEPS steps with ``fresnel``
+    (``reference.replay.exact_emission``) and replayed ``steps`` steps with ``fresnel``
     and that seed, all of them one wavefront (``reference.replay.exact_collisions``)."""
     firsts = exact_emission(scene, groups, fresnel=fresnel, oracle=oracle)
-    done = exact_collisions(scene, [(first, s) for first, (_, s) in zip(firsts, groups)], steps=EXACT_STEPS,
+    done = exact_collisions(scene, [(first, s) for first, (_, s) in zip(firsts, groups)], steps=steps,
                             fresnel=fresnel, oracle=oracle)
-    used = {**p.to_dict(), "steps": EXACT_STEPS, "fresnel": fresnel, "emission_fresnel": fresnel}
+    used = {**p.to_dict(), "steps": steps, "fresnel": fresnel, "emission_fresnel": fresnel}
     return [ExactPhotons(splats=splats_from_arrays(c.rows["end"], c.rows["direction"], c.rows["power"]),
                          photon=c.rows["photon"].astype(np.uint32), step=c.rows["step"].astype(np.int64),
                          emitted_power=c.emitted_power, alive_power=c.alive_power,

@@ -11,6 +11,11 @@ exact_subphotons   16       1–64    exact replays of each emission texel in th
                                     decomposition's E_∞ images (docs/decisions.md
                                     "Sub-photons"); the test suite measures most
                                     points with 1 for its time
+subset_batches     8        4–64    paired photon subsets per seed of A and the E images:
+                                    the decomposition's jackknife batches (its noise)
+exact_steps        128      32–1024 steps of the exact replay in the E_∞ images (< 0.1%
+                                    of the power alive after 128 on every built-in:
+                                    docs/decisions.md "Exact steps and the small kernel")
 =================  =======  ======  ===================================================
 
 Beside the table, ``scope`` (default "full"): what a point measures. The gate sets it
@@ -26,12 +31,23 @@ import dataclasses
 from dataclasses import dataclass
 
 from volcaustics.approx.params import ParamError
-from volcaustics.reports.experiment.exact_images import EXACT_SUBPHOTONS, subphotons_setting
+from volcaustics.reports.experiment.exact_images import (
+    EXACT_STEPS,
+    EXACT_SUBPHOTONS,
+    SUBSET_BATCHES,
+    exact_steps_setting,
+    subphotons_setting,
+    subset_batches_setting,
+)
 
 # name → (check: value → int, ParamError naming the range; help)
 MEASUREMENT_TABLE = {
     "exact_subphotons": (subphotons_setting, "exact replays of each emission texel in the error decomposition's E_∞ "
                                              "images, 1 to 64"),
+    "subset_batches": (subset_batches_setting, "paired photon subsets per seed of A and the E images: the "
+                                               "decomposition's jackknife batches, 4 to 64"),
+    "exact_steps": (exact_steps_setting, "steps of the exact replay in the decomposition's E_∞ images (E_k is it cut "
+                                         "at the approximation's steps), 32 to 1024"),
 }
 MEASUREMENT_KEYS = tuple(MEASUREMENT_TABLE)  # what a spec's or the budgets' [measurement] table may set
 SCOPES = ("full", "gate")
@@ -45,6 +61,8 @@ class MeasurementSettings:
     """How a point is measured (module docstring); validated when made (ParamError)."""
 
     exact_subphotons: int = EXACT_SUBPHOTONS
+    subset_batches: int = SUBSET_BATCHES
+    exact_steps: int = EXACT_STEPS
     scope: str = "full"          # "full", or "gate": only what the gate's budgets read (module docstring)
 
     def __post_init__(self):

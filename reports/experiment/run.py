@@ -38,7 +38,12 @@ from volcaustics.reference.render import render_reference
 from volcaustics.reports.core.sizing import REPORT_REFERENCE, sized
 from volcaustics.reports.core.timing import Clock
 from volcaustics.reports.experiment.decomposition import decompose, decomposition_rows
-from volcaustics.reports.experiment.exact_images import exact_images, subphotons_setting
+from volcaustics.reports.experiment.exact_images import (
+    exact_images,
+    exact_steps_setting,
+    subphotons_setting,
+    subset_batches_setting,
+)
 from volcaustics.reports.experiment.frames import render_frames
 from volcaustics.reports.experiment.images import IMAGE_METRICS, image_rows, keep_mask
 from volcaustics.reports.experiment.measurement import GATE_IMAGE_METRICS
@@ -72,7 +77,8 @@ class Experiment:
 
 def run_experiment(scene, params, *, seeds: int = 1, reference_settings=None, progress: bool = False,
                    renderer=None, oracle=None, reference=None, fields: dict | None = None,
-                   subphotons: int | None = None, scope: str = "full") -> Experiment:
+                   subphotons: int | None = None, scope: str = "full", subset_batches: int | None = None,
+                   exact_steps: int | None = None) -> Experiment:
     """Measure the approximation with ``params`` on ``scene`` against its reference.
 
     Parameters
@@ -97,7 +103,9 @@ def run_experiment(scene, params, *, seeds: int = 1, reference_settings=None, pr
         ``decomposition`` and ``model`` are then None).
     """
     p, seed_list = checked_settings(scene, params, seeds)
-    subphotons = subphotons_setting(subphotons)  # a bad count: before the reference renders
+    # the measurement settings: a bad one fails before the reference renders
+    exact_settings = {"subphotons": subphotons_setting(subphotons), "exact_steps": exact_steps_setting(exact_steps),
+                      "subset_batches": subset_batches_setting(subset_batches)}
     clock = Clock()
     bar = tqdm(total=len(STAGES), desc="measure", unit="stage", disable=not progress, leave=False)
     with clock.stage("reference"):
@@ -124,7 +132,7 @@ def run_experiment(scene, params, *, seeds: int = 1, reference_settings=None, pr
         exact = None
         if scope == "full":
             with clock.stage("exact_images"):
-                exact = exact_images(scene, p, frames, seed_list, renderer, oracle, subphotons)
+                exact = exact_images(scene, p, frames, seed_list, renderer, oracle, **exact_settings)
         bar.update()
     finally:
         if own_renderer:

@@ -9,7 +9,7 @@ from volcaustics.approx.context import gl_info, shared_context
 from volcaustics.approx.cost import COST_FIELDS, frame_cost
 from volcaustics.metrics.noise import MIN_SEEDS_FOR_INTERVAL
 from volcaustics.reports.core.versions import code_version, library_versions
-from volcaustics.reports.experiment.exact_images import EXACT_STEPS, SMALL_SUPERSAMPLE
+from volcaustics.reports.experiment.exact_images import SMALL_SUPERSAMPLE
 from volcaustics.reports.experiment.frames import median_timings
 from volcaustics.scenes.fields import field_columns, optical_depth
 from volcaustics.scenes.formats import COLOUR_LAYERS
@@ -81,7 +81,7 @@ def experiment_summary(scene, p, seeds, reference, frames, exact, headline, deco
                        timed, model=None) -> dict:
     alive = {} if exact is None else {k: float(max(v)) for k, v in exact["alive"].items()}
     names = {k: "E_em" if k == "true_emission" else f"E_inf ({k} Fresnel)" for k in alive}
-    warnings = [f"{names[k]} keeps {100 * v:.2f}% of the power alive after {EXACT_STEPS} steps "
+    warnings = [f"{names[k]} keeps {100 * v:.2f}% of the power alive after {exact['exact_steps']} steps "
                 f"(> {100 * ALIVE_BUDGET:.1f}%): the truncation term is understated" for k, v in alive.items()
                 if v > ALIVE_BUDGET]
     if decomposition is not None and not decomposition["residual"]["within_noise"]:
@@ -101,7 +101,8 @@ def experiment_summary(scene, p, seeds, reference, frames, exact, headline, deco
         "description": scene.description, "params": p.to_dict(), "seeds": len(seeds), "seed_values": seeds,
         "reference": reference_summary(reference),
         "exact": None if exact is None else {
-            "steps": EXACT_STEPS, "alive_after": alive, "small_splat_radius": exact["small_radius"],
+            "steps": exact["exact_steps"], "subset_batches": exact["subset_batches"], "alive_after": alive,
+            "small_splat_radius": exact["small_radius"],
             "small_supersample": SMALL_SUPERSAMPLE, "subphotons": exact["subphotons"],
             "batches": int(len(exact["batches"]["approx"])), "images_key": exact["exact_key"],
             "images_reused": exact["exact_reused"]},

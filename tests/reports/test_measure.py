@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from tests.shared import SINGLE_SCATTERING
-from volcaustics.approx.params import QUICK, ApproxParams
+from volcaustics.approx.params import QUICK, ApproxParams, ParamError
 from volcaustics.metrics.intersection import CLASS_NAMES
 from volcaustics.reference.settings import ReferenceSettings
 from volcaustics.reports.cli import main
@@ -186,3 +186,26 @@ def test_the_sub_photons_are_a_setting_of_the_result(cache, tmp_path):
     again = runner.measure([point], Store(str(tmp_path / "store")), reference_settings=REFERENCE,
                            measurement=MeasurementSettings(exact_subphotons=2), policy="missing", progress=False)
     assert again.keys == [keys[2]] and again.computed == 0 and again.done_before == 1
+
+
+def test_subset_batches_and_exact_steps_are_settings_of_the_result(cache, tmp_path):
+    """The other measurement settings reach the measurement: the decomposition's batches are
+    subset_batches per seed, E_∞ replays exact_steps steps; each is in the result's key and
+    its summary. Negative control: a value out of range is refused by name, before any work."""
+    from volcaustics.reports import runner
+    from volcaustics.reports.core.store import Store
+    from volcaustics.reports.experiment.measurement import MeasurementSettings
+
+    point = runner.Point("refocus", dataclasses.replace(PARAMS, width=32, height=32, photon_res=64, light_res=64),
+                         seeds=2)
+    settings = MeasurementSettings(exact_subphotons=1, subset_batches=4, exact_steps=64)
+    run = runner.measure([point], Store(str(tmp_path / "store")), reference_settings=REFERENCE,
+                         measurement=settings, policy="missing", progress=False)
+    exact = run.results[0].summary["exact"]
+    assert (exact["batches"], exact["subset_batches"], exact["steps"]) == (4 * 2, 4, 64)
+    default = runner.measure([point], Store(str(tmp_path / "store")), reference_settings=REFERENCE,
+                             measurement=MeasurementSettings(exact_subphotons=1), policy="missing", progress=False)
+    assert default.keys != run.keys and default.results[0].summary["exact"]["batches"] == 8 * 2
+    for name, value in (("subset_batches", 2), ("exact_steps", 16)):
+        with pytest.raises(ParamError, match=f"{name} = {value}"):
+            MeasurementSettings(**{name: value})
