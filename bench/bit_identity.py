@@ -30,12 +30,17 @@ ORDER = ("scene", "photon_res", "layers", "layer_strategy", "iterations", "peak_
 
 
 def rekey(src: str, dst: str) -> None:
+    """Copy the reference cache ``src`` to ``dst``, every entry also under the key this code
+    computes: its data files (named in the manifest's ``files``) linked under the new key's
+    names, the manifest rewritten with the new key and file names and sealed again."""
     shutil.copytree(src, dst, dirs_exist_ok=True)
     os.environ["VOLCAUSTICS_CACHE"] = dst
+    from volcaustics.infra.storage import document_sha256
     from volcaustics.reference import cache
     from volcaustics.reference.settings import ReferenceSettings
     from volcaustics.scenes import resolve_scene
 
+    folder = os.path.join(dst, "reference")
     for path in glob.glob(os.path.join(src, "reference", "*.json")):
         with open(path) as fh:
             manifest = json.load(fh)
@@ -43,11 +48,17 @@ def rekey(src: str, dst: str) -> None:
         new = cache.cache_key(scene, ReferenceSettings(**manifest["settings"]), mode=manifest["mode"],
                               variant=manifest["mitsuba_variant"])
         old = manifest["key"]
-        for ext in (".exr", ".png", ".npz"):
-            if os.path.exists(os.path.join(src, "reference", old + ext)):
-                shutil.copyfile(os.path.join(src, "reference", old + ext), os.path.join(dst, "reference", new + ext))
-        with open(os.path.join(dst, "reference", new + ".json"), "w") as fh:
-            json.dump({**manifest, "key": new}, fh, indent=2)
+        files = {}
+        for role, name in (manifest.get("files") or {}).items():
+            renamed = new + name[len(old):] if name.startswith(old) else name
+            target = os.path.join(folder, renamed)
+            if not os.path.exists(target):
+                os.link(os.path.join(src, "reference", name), target)
+            files[role] = renamed
+        moved = {**manifest, "key": new, "files": files}
+        moved[cache.SEAL] = document_sha256(moved, cache.SEAL)
+        with open(os.path.join(folder, new + ".json"), "w") as fh:
+            json.dump(moved, fh, indent=2)
         print(f"{manifest['scene']:<12} {old[:12]} -> {new[:12]}")
 
 
