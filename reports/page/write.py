@@ -3,15 +3,24 @@ with each scene's pictures, and, last, ``summary.json``; a sweep's figures as fi
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 import time
 
 from tqdm import tqdm
 
-from volcaustics.infra.storage import atomic_write_texts
+from volcaustics.infra.storage import (
+    atomic_write_text,
+    atomic_write_texts,
+    cache_dir,
+    cache_path,
+    note_not_cached,
+    read_json_object,
+)
 from volcaustics.reports.core.plotting import remove_stale_figures
 from volcaustics.reports.core.tables import plain
+from volcaustics.reports.core.versions import code_version
 from volcaustics.reports.page import charts
 from volcaustics.reports.page.html import render_page
 from volcaustics.reports.page.images import component_images, data_uri, render_uri
@@ -34,7 +43,7 @@ def write_report(out_dir: str, results: list, summary: dict, sweep=None, *, prog
     os.makedirs(out_dir, exist_ok=True)
     summary = plain(summary)
     pairs = list(zip(results, summary["scenes"]))
-    images = {page["scene"]: scene_images(result, page)
+    images = {page["scene"]: cached_scene_images(result, page)
               for result, page in tqdm(pairs, desc="page", unit="scene", disable=not progress)}
     sweep_figures, paths = {}, []
     figures_dir = os.path.join(out_dir, "figures")
@@ -59,6 +68,28 @@ def write_report(out_dir: str, results: list, summary: dict, sweep=None, *, prog
     html, doc = (os.path.join(out_dir, name) for name in OUTPUT_FILES)
     atomic_write_texts({html: page, doc: json.dumps(summary, indent=1, allow_nan=False)})
     return summary
+
+
+# the code a scene's pictures come from: with the stored result's key, their cache key
+PAGE_FOLDERS = ("reports/page", "reports/core", "infra", "scenes")
+
+
+def cached_scene_images(result, page: dict) -> dict:
+    """:func:`scene_images`, from the cache when this code drew them for this stored result
+    (its key and its summary) before: a warm report draws no picture. A cache that cannot
+    be written is noted."""
+    stored = json.dumps(result.summary, sort_keys=True, default=str)  # a point measured again draws anew
+    key = hashlib.sha256(json.dumps([result.key, stored, code_version(PAGE_FOLDERS)]).encode()).hexdigest()[:24]
+    try:
+        return read_json_object(cache_path("page-images", key + ".json"))
+    except (OSError, ValueError):  # not drawn yet, or damaged: drawn again
+        pass
+    images = scene_images(result, page)
+    try:
+        atomic_write_text(os.path.join(cache_dir("page-images"), key + ".json"), json.dumps(images))
+    except OSError as exc:
+        note_not_cached(exc, "the report's pictures")
+    return images
 
 
 def scene_images(result, page: dict) -> dict:

@@ -289,6 +289,27 @@ def test_a_warm_report_measures_nothing_and_says_the_same(built):
     strip = ("measured_in_this_run",)
     for a, b in zip(cold["scenes"], warm["scenes"]):
         assert {k: v for k, v in a.items() if k not in strip} == {k: v for k, v in b.items() if k not in strip}
+    # and draws no picture: each scene's pictures come from the cache, the very same ones
+    assert len(list((built["root"] / "cache" / "page-images").glob("*.json"))) == len(cold["scenes"])
+    images = [re.findall(r"src='(data:[^']+)'", (built["root"] / run / "index.html").read_text())
+              for run in ("cold", "warm")]
+    assert images[0] == images[1]
+
+
+def test_a_point_measured_again_draws_its_pictures_again(built, monkeypatch, tmp_path):
+    """Negative control for the pictures' cache: a stored summary that changed (a point
+    measured again) is a new cache entry, not the old pictures."""
+    from volcaustics.reports.page import write
+
+    monkeypatch.setenv("VOLCAUSTICS_CACHE", str(tmp_path))
+    drawn = []
+    monkeypatch.setattr(write, "scene_images", lambda result, page: drawn.append(result.key) or {"x": "y"})
+    result = type("Result", (), {"key": "k", "summary": {"a": 1}})()
+    assert write.cached_scene_images(result, {}) == {"x": "y"} and drawn == ["k"]
+    assert write.cached_scene_images(result, {}) == {"x": "y"} and drawn == ["k"]   # from the cache
+    result.summary = {"a": 2}
+    write.cached_scene_images(result, {})
+    assert drawn == ["k", "k"]
 
 
 def test_a_damaged_stored_result_is_measured_again(built, monkeypatch):
