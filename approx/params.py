@@ -246,7 +246,7 @@ def label(name: str) -> str:
         return name
 
 
-# The presets, one meaning in every command (README "Presets"): what each changes from
+# The presets, one meaning in every command (docs/approx.md, its paragraph "Presets"): what each changes from
 # the table's defaults. paper: the paper's parameters at its image size (800×800, Table 1);
 # quick: small enough for tests and the report on 2 cores.
 PRESET_VALUES = {

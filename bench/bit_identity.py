@@ -7,7 +7,8 @@ with the code before and after, then compare.
 ``rekey`` copies a reference cache to a new one under the keys this code computes: the
 reference key hashes the code under reference/render/, so a refactor that touches it
 renders anew, and the light tracer's float32 atomic splats differ in the last bits from
-run to run (README); the copied entries are the very same pixels. ``compare`` byte-compares
+run to run (docs/decisions.md "Float32 atomic splats"); the copied entries are the very same
+pixels. ``compare`` byte-compares
 the tables of two result folders (a `measure -o DIR` or a sweep store) without the columns
 that name the code or the run: code_version, reference_key and point (they hash the code)
 and the frame times; rows in the order of scene and the varied parameters (a sweep orders

@@ -56,8 +56,9 @@ def run(args) -> int:
     check_output_set(args.output, "-o", files=output_files(), folders=(WORK,), kind=KIND)
     scene = resolve_scene(args.scene)
     if scene.animation is None:
-        raise UsageError("SCENE", args.scene, "has no [animation] table: add one (README, 'Animated scenes') or "
-                                              "name a built-in animation: bunny, refocus, two_spheres")
+        raise UsageError("SCENE", args.scene, "has no [animation] table: add one (docs/scene-format.md, "
+                                              "'Animated scenes') or name a built-in animation: bunny, refocus, "
+                                              "two_spheres")
     if isinstance(args.chains, bool) or not 1 <= args.chains <= 64:
         raise UsageError("--chains", args.chains, "expected an integer in [1, 64]")
     try:

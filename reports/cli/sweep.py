@@ -45,7 +45,7 @@ def register(sub) -> None:
     p.add_argument("--best", action="store_true",
                    help="the best-configuration search instead of a grid: SPEC (default reports/sweep/best.toml) "
                         "states its coarse and refine axes; every configuration at the paper's frame cost "
-                        "(README \"The best configuration\")")
+                        "(docs/concepts/equal-cost.md)")
     p.add_argument("--criterion", choices=tuple(CRITERIA), default="frame",
                    help="what --best ranks by: frame (one frame's caustic relative MSE less the reference's floor: "
                         "bias and the frame's own noise, what a viewer sees) or bias (the seeds' mean's, debiased)")

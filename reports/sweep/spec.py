@@ -52,7 +52,7 @@ from volcaustics.scenes.fields import field_value, is_scene_field, parse_field_v
 
 SPEC_KEYS = ("scenes", "preset", "seeds", "vary", "set", "reference", "measurement")
 # Points a sweep runs without --yes: about 3 days at the quick preset's 25 s a point on 2
-# cores (README "Sweeps"); a larger grid is a typo more often than a plan, and expanding
+# cores (docs/sweeps.md); a larger grid is a typo more often than a plan, and expanding
 # and checking 10^6 points alone takes minutes.
 MAX_POINTS = 10_000
 SECONDS_PER_POINT = 25.0  # quick preset, 4 seeds, 2 cores (the variants sweep, docs/decisions.md)

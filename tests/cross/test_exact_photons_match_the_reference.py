@@ -1,5 +1,5 @@
 """Exact photons through the approximation's splatter reproduce the reference caustic
-(the README's V6).
+(V6 of docs/reference.md).
 
 E (E_∞,s in docs/concepts/decomposition.md): the approximation's photons — its emission state, one photon
 per covered texel of a photon_res² map, from its step-1 records — replayed with
@@ -38,8 +38,8 @@ and colour channel:
   relMSE   debiased ≤ 3·SE + BLUR_ALLOWANCE (the kernel's residual blur, which
            grows as σ² at sharp edges)
 The measurements behind them: docs/decisions.md "Exact photons: noise and
-tolerances". Measured values per case (64², this file's settings) are in the
-README (V6) and printed with ``pytest -s``. On failure the compared images go to
+tolerances". Measured values per case (64², this file's settings) are in
+docs/reference.md (V6) and printed with ``pytest -s``. On failure the compared images go to
 ``test-output/<test>/``.
 """
 
