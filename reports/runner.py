@@ -150,8 +150,12 @@ def measure(points: list, store: Store, *, reference_settings, measurement: Meas
     elif workers is None and dask is None:  # this process: the references as resolved (rendered or cached)
         outcomes = [run_point(task, progress=progress, reference=references[task["reference_key"]])
                     for task in tqdm(unique, desc="experiments", unit="point", disable=not progress)]
+    elif dask is not None:  # machines that may share no disk: the reference goes out, the point comes back
+        shipped = [{**task, "ship": True, "reference": references[task["reference_key"]]} for task in unique]
+        outcomes = _on_executor(shipped, store, total=len(set(keys)), done=done_before, dask=dask,
+                                progress=progress)
     else:
-        outcomes = _on_executor(unique, store, total=len(set(keys)), done=done_before, workers=workers, dask=dask,
+        outcomes = _on_executor(unique, store, total=len(set(keys)), done=done_before, workers=workers,
                                 progress=progress)
     failed = [o for o in outcomes if o.get("error")]
     done = [o for o in outcomes if not o.get("error")]
@@ -200,8 +204,19 @@ def _tasks(points, store, settings, measurement, policy, *, views, progress, hin
 
 
 def _on_executor(tasks, store, **options) -> list:
+    """Every task's outcome; a point sent back as files (a shipped task) is put in the
+    store here, as it arrives, so that an interrupted run keeps what finished."""
     try:
-        return list(run_tasks(run_point, tasks, **options))
+        outcomes = []
+        for outcome in run_tasks(run_point, tasks, **options):
+            files = outcome.pop("files", None)
+            if files is not None:
+                try:
+                    outcome["status"] = store.adopt_point(outcome["key"], files)
+                except (OSError, ValueError) as exc:
+                    outcome = {"key": outcome["key"], "error": f"its files could not be stored: {exc}"}
+            outcomes.append(outcome)
+        return outcomes
     except BaseException:  # Ctrl-C: the stopped workers' half-written points go now, not on the next run
         store.clean_stale()
         raise
@@ -228,9 +243,13 @@ _TOOLS: dict = {}
 
 def run_point(task: dict, *, progress: bool = False, reference=None) -> dict:
     """One point (picklable: plain data in and out). Tasks of one process run one at a
-    time, whatever the executor's threads (GL and Mitsuba are per process). A worker
-    reads the run's reference from the cache by key; this process passes it
-    (``reference``: as resolved, rendered in this run or cached)."""
+    time, whatever the executor's threads (GL and Mitsuba are per process). A local
+    worker reads the run's reference from the cache by key and writes the point into the
+    store; this process passes the reference (``reference``: as resolved, rendered in this
+    run or cached). A shipped task (``ship``: a Dask worker, which may share no disk with
+    the run) carries its reference and sends the point back as files (:func:`_shipped`)."""
+    if task.get("ship"):
+        return _shipped(task, progress=progress)
     with _PROCESS_LOCK:
         t0 = time.perf_counter()
         store = Store(task["store"])
@@ -245,14 +264,37 @@ def run_point(task: dict, *, progress: bool = False, reference=None) -> dict:
             raise RuntimeError(f"{task['scene']}: reference {task['reference_key']} is not in this worker's cache "
                                f"({cache_dir('reference')}) as the run resolved it: the workers need the run's cache "
                                f"(VOLCAUSTICS_CACHE on a shared file system), not continued meanwhile")
-        renderer, oracle = _tools(scene)
-        settings = MeasurementSettings(**task["measurement"])
-        experiment = run_experiment(scene, ApproxParams(**task["params"]), seeds=task["seeds"], reference=reference,
-                                    renderer=renderer, oracle=oracle, progress=progress, fields=dict(fields),
-                                    subphotons=settings.exact_subphotons, scope=settings.scope,
-                                    subset_batches=settings.subset_batches, exact_steps=settings.exact_steps)
+        experiment = _experiment(task, scene, fields, reference, progress)
         status = store.write_point(task["key"], task["key_document"], experiment, views=task["views"])
         return {"key": task["key"], "status": status, "seconds": time.perf_counter() - t0}
+
+
+def _experiment(task: dict, scene, fields: list, reference, progress: bool):
+    renderer, oracle = _tools(scene)
+    settings = MeasurementSettings(**task["measurement"])
+    return run_experiment(scene, ApproxParams(**task["params"]), seeds=task["seeds"], reference=reference,
+                          renderer=renderer, oracle=oracle, progress=progress, fields=dict(fields),
+                          subphotons=settings.exact_subphotons, scope=settings.scope,
+                          subset_batches=settings.subset_batches, exact_steps=settings.exact_steps)
+
+
+def _shipped(task: dict, *, progress: bool = False) -> dict:
+    """A shipped point: measured with the reference it carries, written into a store of
+    its own in a temporary folder, and returned as that point's files (the run puts them
+    in its store: ``Store.adopt_point``). Nothing is read from or written to the run's
+    disk, so the worker may be another machine."""
+    import tempfile
+
+    with _PROCESS_LOCK:
+        t0 = time.perf_counter()
+        fields = [tuple(f) for f in task.get("fields", ())]
+        scene = point_scene(task["scene"], fields)
+        experiment = _experiment(task, scene, fields, task["reference"], progress)
+        with tempfile.TemporaryDirectory(prefix="volcaustics-point-") as folder:
+            local = Store(folder)
+            local.write_point(task["key"], task["key_document"], experiment, views=task["views"])
+            files = local.point_files(task["key"])
+        return {"key": task["key"], "status": "measured", "seconds": time.perf_counter() - t0, "files": files}
 
 
 def _tools(scene) -> tuple:

@@ -139,6 +139,22 @@ def _local(fn, tasks, workers):
     pool.shutdown(wait=True)
 
 
+def _scattered(client, tasks: list) -> list:
+    """The tasks with each shipped reference (``task["reference"]``) sent to the cluster
+    once and named by its future: a reference's arrays travel once, not once per point
+    (Dask resolves the future in the task before the worker runs it)."""
+    sent = {}
+    out = []
+    for task in tasks:
+        if "reference" in task:
+            key = task["reference_key"]
+            if key not in sent:
+                sent[key] = client.scatter(task["reference"], hash=False)
+            task = {**task, "reference": sent[key]}
+        out.append(task)
+    return out
+
+
 def _dask(fn, tasks, dask):
     try:
         from dask.distributed import Client, LocalCluster, as_completed
@@ -157,6 +173,7 @@ def _dask(fn, tasks, dask):
         raise ExecutorError(f"--dask {dask}: cannot reach the scheduler ({exc})") from None
     futures = []
     try:
+        tasks = _scattered(client, tasks)
         futures = [client.submit(fn, task, key=f"volcaustics-point-{task['key']}", pure=False, retries=0)
                    for task in tasks]
         keys = {f.key: t["key"] for f, t in zip(futures, tasks)}

@@ -158,6 +158,37 @@ class Store:
             if os.path.isdir(tmp):
                 shutil.rmtree(tmp, ignore_errors=True)
 
+    def point_files(self, key: str) -> dict:
+        """The point's files as bytes (name → content): what a worker without the store's
+        disk sends back for :meth:`adopt_point`."""
+        folder = self.point_dir(key)
+        out = {}
+        for name in sorted(os.listdir(folder)):
+            with open(os.path.join(folder, name), "rb") as fh:
+                out[name] = fh.read()
+        return out
+
+    def adopt_point(self, key: str, files: dict) -> str:
+        """Put a point another machine wrote (:meth:`point_files`) in place, whole or not at
+        all; "written", or "kept" when a complete copy appeared meanwhile. A point whose
+        files do not match its summary is refused (OSError), never stored."""
+        tmp = os.path.join(self.points, f".tmp-{key}-{owner()}-{uuid.uuid4().hex[:8]}")
+        os.makedirs(tmp)
+        try:
+            for name, data in files.items():
+                if os.path.basename(name) != name:
+                    raise OSError(f"{name!r}: not a file name of a point")
+                with open(os.path.join(tmp, name), "wb") as fh:
+                    fh.write(data)
+            summary = read_json_object(os.path.join(tmp, SUMMARY))
+            if summary.get("key") != key or summary.get(SEAL) != summary_sha256(summary) or any(
+                    file_sha256(os.path.join(tmp, name)) != digest for name, digest in summary["files"].items()):
+                raise OSError(f"point {key[:12]}: the files sent back do not match its summary")
+            return self._commit(tmp, key)
+        finally:
+            if os.path.isdir(tmp):
+                shutil.rmtree(tmp, ignore_errors=True)
+
     def _commit(self, tmp: str, key: str) -> str:
         final = self.point_dir(key)
         for _ in range(3):

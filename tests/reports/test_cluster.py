@@ -1,0 +1,100 @@
+"""A sweep on a real Dask cluster whose machines share no disk: a `dask scheduler` and two
+`dask worker` processes on loopback, each worker with a cache of its own, none holding
+the sweep's references. The points travel out with their reference and come back as
+files the sweep's process stores; before, every point failed ("reference ... is not in
+this worker's cache")."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import time
+
+import pytest
+
+from tests.shared import SWEEP_TABLES
+from volcaustics.reports.cli import main
+
+SPEC = """
+scenes = ["refocus", "sphere1"]
+seeds = 1
+[vary]
+layers = [1, 2, 4]
+""" + SWEEP_TABLES
+
+
+def _dask(*args, env=None, cwd=None) -> subprocess.Popen:
+    command = [os.path.join(os.path.dirname(sys.executable), "dask"), *args]
+    return subprocess.Popen(command, env=env, cwd=cwd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+
+
+@pytest.fixture
+def cluster(tmp_path):
+    """(scheduler address, the workers' cache folders): a scheduler and two one-thread
+    workers on 127.0.0.1, each worker in a folder and a cache of its own."""
+    file = tmp_path / "scheduler.json"
+    processes = [_dask("scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard",
+                       "--scheduler-file", str(file))]
+    caches = []
+    try:
+        for deadline in (time.monotonic() + 60,):
+            while not file.exists() and time.monotonic() < deadline:
+                time.sleep(0.2)
+        address = json.loads(file.read_text())["address"]
+        for i in range(2):
+            home = tmp_path / f"worker{i}"
+            home.mkdir()
+            caches.append(home / "cache")
+            env = {**os.environ, "VOLCAUSTICS_CACHE": str(caches[-1])}
+            processes.append(_dask("worker", address, "--nthreads", "1", "--no-dashboard", "--name", f"w{i}",
+                                   env=env, cwd=str(home)))
+        from dask.distributed import Client
+
+        with Client(address, timeout="30s") as client:
+            client.wait_for_workers(2, timeout=120)
+        yield address, caches
+    finally:
+        for process in processes:
+            process.terminate()
+        for process in processes:
+            process.wait(timeout=30)
+
+
+@pytest.mark.slow  # a scheduler, two workers and six small points: about a minute on 2 cores
+def test_a_sweep_runs_on_workers_that_share_no_cache(cluster, empty_cache, tmp_path, capsys):
+    address, worker_caches = cluster
+    spec = tmp_path / "sweep.toml"
+    spec.write_text(SPEC)
+    out = tmp_path / "store"
+    assert main(["sweep", str(spec), "-o", str(out), "--dask", address, "--quiet"]) == 0
+    assert "6 points: 0 already in the store, 6 computed, 0 failed" in capsys.readouterr().out
+    assert len(list((out / "points").iterdir())) == 6
+    # the workers read no reference from their disks and wrote no point there
+    for cache in worker_caches:
+        assert not (cache / "reference").exists() or not any((cache / "reference").iterdir())
+    # resuming measures nothing
+    assert main(["sweep", str(spec), "-o", str(out), "--dask", address, "--quiet"]) == 0
+    assert "6 already in the store, 0 computed" in capsys.readouterr().out
+
+
+def test_a_point_sent_back_is_stored_whole_or_refused(tmp_path, cache, capsys):
+    """What a worker sends back is put in the store only when its files match its
+    summary: a byte changed on the way is refused and nothing is stored (negative control)."""
+    from volcaustics.reports.core.store import Store
+
+    spec = tmp_path / "sweep.toml"
+    spec.write_text(SPEC.replace('["refocus", "sphere1"]', '["refocus"]').replace("[1, 2, 4]", "[1]"))
+    assert main(["sweep", str(spec), "-o", str(tmp_path / "here"), "--quiet"]) == 0
+    store = Store(str(tmp_path / "here"))
+    (key,) = [p.name for p in (tmp_path / "here" / "points").iterdir()]
+    files = store.point_files(key)
+    damaged = dict(files)
+    name = next(n for n in files if n.endswith(".parquet"))
+    damaged[name] = files[name][:-1] + bytes([files[name][-1] ^ 1])
+    other = Store(str(tmp_path / "there"))
+    with pytest.raises(OSError, match="do not match its summary"):
+        other.adopt_point(key, damaged)
+    assert other.status(key) == "missing" and not [p for p in (tmp_path / "there" / "points").iterdir()]
+    assert other.adopt_point(key, files) == "written" and other.status(key) == "done"
