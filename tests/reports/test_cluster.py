@@ -32,8 +32,8 @@ def _dask(*args, env=None, cwd=None) -> subprocess.Popen:
 
 @pytest.fixture
 def cluster(tmp_path):
-    """(scheduler address, the workers' cache folders): a scheduler and two one-thread
-    workers on 127.0.0.1, each worker in a folder and a cache of its own."""
+    """(scheduler address, the workers' cache folders, the worker processes): a scheduler
+    and two one-thread workers on 127.0.0.1, each worker in a folder and a cache of its own."""
     file = tmp_path / "scheduler.json"
     processes = [_dask("scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard",
                        "--scheduler-file", str(file))]
@@ -54,17 +54,18 @@ def cluster(tmp_path):
 
         with Client(address, timeout="30s") as client:
             client.wait_for_workers(2, timeout=120)
-        yield address, caches
+        yield address, caches, processes[1:]
     finally:
         for process in processes:
-            process.terminate()
+            if process.poll() is None:
+                process.terminate()
         for process in processes:
             process.wait(timeout=30)
 
 
 @pytest.mark.slow  # a scheduler, two workers and six small points: about a minute on 2 cores
 def test_a_sweep_runs_on_workers_that_share_no_cache(cluster, empty_cache, tmp_path, capsys):
-    address, worker_caches = cluster
+    address, worker_caches, _ = cluster
     spec = tmp_path / "sweep.toml"
     spec.write_text(SPEC)
     out = tmp_path / "store"
@@ -98,3 +99,39 @@ def test_a_point_sent_back_is_stored_whole_or_refused(tmp_path, cache, capsys):
         other.adopt_point(key, damaged)
     assert other.status(key) == "missing" and not [p for p in (tmp_path / "there" / "points").iterdir()]
     assert other.adopt_point(key, files) == "written" and other.status(key) == "done"
+
+
+@pytest.mark.slow  # a cluster and six small points, one worker killed
+def test_a_worker_killed_mid_sweep_loses_no_point_and_stores_nothing_half_written(cluster, empty_cache, tmp_path):
+    """SIGKILL one worker while it measures a point: the scheduler gives its points to the
+    other worker, so the sweep finishes every point (exit 0), or reports the lost ones
+    failed (exit 1); every point in the store is whole, and a rerun completes the rest."""
+    from dask.distributed import Client
+
+    from volcaustics.reports.core.store import Store
+
+    address, _, workers = cluster
+    spec = tmp_path / "sweep.toml"
+    spec.write_text(SPEC)
+    out = tmp_path / "store"
+    sweep = subprocess.Popen([sys.executable, "-m", "volcaustics", "sweep", str(spec), "-o", str(out), "--dask",
+                              address, "--quiet"], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    caught = False
+    with Client(address, timeout="30s") as client:
+        deadline = time.monotonic() + 240
+        while not caught and time.monotonic() < deadline and sweep.poll() is None:
+            busy = [w for w, tasks in client.processing().items() if tasks]
+            info = client.scheduler_info()["workers"]
+            caught = any(info[w].get("name") == "w0" for w in busy)
+            time.sleep(0.05)
+    workers[0].kill()
+    assert caught, "the sweep ended before worker w0 took a point: nothing was killed mid-point"
+    output, _ = sweep.communicate(timeout=600)
+    assert sweep.returncode in (0, 1), output
+    store = Store(str(out))
+    points = [p.name for p in (out / "points").iterdir()]
+    assert all(store.status(key) == "done" for key in points), output   # nothing half-written
+    if sweep.returncode == 0:
+        assert len(points) == 6, output
+    assert main(["sweep", str(spec), "-o", str(out), "--dask", address, "--quiet"]) == 0  # the survivor finishes
+    assert len(list((out / "points").iterdir())) == 6
