@@ -31,7 +31,7 @@ from .params import ApproxParams, defines
 from .records import emission_records, records_from_raw
 from .splat import Splatter
 from .timing import PassTimer, timer_queries_work
-from .trace import PhotonTracer, check_controls, read_raw_records
+from .trace import PhotonTracer, check_controls, controls_for, read_raw_records
 
 
 @dataclass
@@ -96,10 +96,10 @@ class Renderer:
         phase_key = (scene.medium.phase.kind, scene.medium.phase.g)
         fog = defines(p, "fog")
         camera = self._cached(("camera", *sorted(fog.items()), phase_key), lambda: CameraPasses(self.ctx, scene, fog))
-        density = {k: v for k, v in self.controls.items() if k.startswith("DENSITY_")} if p.splat == "density" else {}
+        density = controls_for(self.controls, "splat") if p.splat == "density" else {}
         splatter = self._cached(("splat", phase_key, p.splat, *sorted(density.items())),
                                 lambda: Splatter(self.ctx, scene.medium, adaptive=p.splat == "adaptive",
-                                                 density=p.splat == "density", test_defines=density))
+                                                 density=p.splat == "density", controls=density))
         return camera, splatter
 
     def _black_image(self, p: ApproxParams) -> moderngl.Texture:

@@ -74,17 +74,17 @@ def _add_into(ctx, target: moderngl.Texture, vao, mode, vertices: int, instances
 class Splatter:
     """Splat program for one phase function and splat mode (``adaptive``: each splat's
     own kernel, where it has one; ``density``: each splat's kernel from the photons per
-    cell of a pre-pass, ``splat_neighbours`` of them within it; ``test_defines``: a
+    cell of a pre-pass, ``splat_neighbours`` of them within it; ``controls``: a
     test's changes to the splat program)."""
 
     def __init__(self, ctx: moderngl.Context, medium, *, adaptive: bool = False, density: bool = False,
-                 test_defines: dict | None = None):
+                 controls: dict | None = None):
         self.ctx = ctx
         defines = {"PHASE_G": repr(float(medium.phase.g))} if medium.phase.kind == "hg" else {}
         if adaptive or density:  # per-splat kernels (SPLAT_DTYPE dir.w or the density), integrated over each pixel
             defines["SPLAT_ADAPTIVE"] = 1
         if density:
-            defines.update({"SPLAT_DENSITY": 1, **(test_defines or {})})
+            defines.update({"SPLAT_DENSITY": 1, **(controls or {})})
         self.program = program(ctx, "splat/splat.vert.glsl", "splat/splat.frag.glsl", defines)
         self.density_program = (program(ctx, "splat/density.vert.glsl", "splat/density.frag.glsl") if density
                                 else None)

@@ -43,11 +43,14 @@ START_OFFSET = {"START_SLOPE": 0.7, "START_FLOOR": 0.25, "START_MAX": 2.0}
 # (trace.comp.glsl; off by default: it changed little and not always for the better,
 # bench/agreement.py, docs/decisions.md "Clip to objects"); the others are deliberate faults
 # a test must see flagged.
+# name → (the programs it goes to: "trace" the emission and trace programs, "splat" the
+# density splat's, what it does)
 CONTROLS = {
-    "CLIP_TO_OBJECTS": "clip searched segments to the specular objects' box too",
-    "DIFFERENTIAL_UNPROPAGATED": "photon differentials not propagated through interactions (common/differential.glsl)",
-    "EMISSION_SHIFT": "photons leave this many texels off their emission points (emit.comp.glsl)",
-    "DENSITY_IGNORED": "density splats ignore the density pre-pass (splat/density.*.glsl)",
+    "CLIP_TO_OBJECTS": ("trace", "clip searched segments to the specular objects' box too"),
+    "DIFFERENTIAL_UNPROPAGATED": ("trace", "photon differentials not propagated through interactions "
+                                           "(common/differential.glsl)"),
+    "EMISSION_SHIFT": ("trace", "photons leave this many texels off their emission points (emit.comp.glsl)"),
+    "DENSITY_IGNORED": ("splat", "density splats ignore the density pre-pass (splat/density.*.glsl)"),
 }
 
 
@@ -58,6 +61,11 @@ def check_controls(controls: dict | None) -> dict:
     if unknown:
         raise ValueError(f"unknown renderer controls {unknown}; expected some of {', '.join(CONTROLS)}")
     return controls
+
+
+def controls_for(controls: dict | None, program: str) -> dict:
+    """The controls of ``controls`` that go to ``program`` ("trace" or "splat")."""
+    return {k: v for k, v in check_controls(controls).items() if CONTROLS[k][0] == program}
 
 class MapBuffers(NamedTuple):
     """The light maps as the tracer reads them (storage buffers, map-major, rows
@@ -141,7 +149,7 @@ class PhotonTracer:
         ones and those the parameter table derives (``approx.params.defines``). Equal
         defines, equal programs: the renderer's cache key."""
         fixed = {"MAX_MATERIALS": MAX_MATERIALS, **START_OFFSET,
-                 **{k: v for k, v in check_controls(controls).items() if not k.startswith("DENSITY_")}}
+                 **controls_for(controls, "trace")}
         return {**fixed, **table_defines(params, "trace")}
 
     def check_limits(self, params, *, keep_records: bool = False) -> None:
