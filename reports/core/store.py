@@ -105,21 +105,7 @@ class Store:
         key, matching its own SHA-256, its files matching theirs), else None. A summary
         edited by hand, or written before summaries carried their hash (an older
         store), counts as damaged: a sweep or the report recomputes the point."""
-        folder = self.point_dir(key)
-        try:
-            summary = read_json_object(os.path.join(folder, SUMMARY))
-            if summary.get("key") != key or summary.get(SEAL) != summary_sha256(summary):
-                return None
-            hashes = summary.get("files")
-            if not isinstance(hashes, dict) or not set(hashes) <= {*TABLE_FILES, VIEWS} \
-                    or not set(TABLE_FILES) <= set(hashes):
-                return None
-            for name, digest in hashes.items():
-                if file_sha256(os.path.join(folder, name)) != digest:
-                    return None
-            return summary
-        except (OSError, ValueError):
-            return None
+        return _complete_summary(self.point_dir(key), key)
 
     def status(self, key: str, *, views: bool = False) -> str:
         """"done" (complete and undamaged, with views.exr if ``views``), "damaged" (a
@@ -180,9 +166,7 @@ class Store:
                     raise OSError(f"{name!r}: not a file name of a point")
                 with open(os.path.join(tmp, name), "wb") as fh:
                     fh.write(data)
-            summary = read_json_object(os.path.join(tmp, SUMMARY))
-            if summary.get("key") != key or summary.get(SEAL) != summary_sha256(summary) or any(
-                    file_sha256(os.path.join(tmp, name)) != digest for name, digest in summary["files"].items()):
+            if _complete_summary(tmp, key) is None:
                 raise OSError(f"point {key[:12]}: the files sent back do not match its summary")
             return self._commit(tmp, key)
         finally:
@@ -317,3 +301,22 @@ def point_row(key: str, summary: dict) -> dict:
         row[f"model_{name}_relmse_own_se"] = own.get("standard_error")
         row[f"model_{name}_energy_share"] = model.get(name, {}).get("energy_share", {}).get("value")
     return {k: (float("nan") if v is None else v) for k, v in row.items()}
+
+
+def _complete_summary(folder: str, key: str) -> dict | None:
+    """The summary in ``folder`` if it is of ``key``, matches its own SHA-256 and its files
+    match theirs (every table, views.exr if listed), else None."""
+    try:
+        summary = read_json_object(os.path.join(folder, SUMMARY))
+        if summary.get("key") != key or summary.get(SEAL) != summary_sha256(summary):
+            return None
+        hashes = summary.get("files")
+        if not isinstance(hashes, dict) or not set(hashes) <= {*TABLE_FILES, VIEWS} \
+                or not set(TABLE_FILES) <= set(hashes):
+            return None
+        for name, digest in hashes.items():
+            if file_sha256(os.path.join(folder, name)) != digest:
+                return None
+        return summary
+    except (OSError, ValueError):
+        return None

@@ -10,6 +10,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from volcaustics.infra.errors import InputError
+
 
 @dataclass
 class SceneResult:
@@ -46,8 +48,6 @@ SCHEMAS = {"animation": 1, "comparison": 1}
 def check_schema(summary: dict, kind: str, where: str, fix: str) -> None:
     """InputError naming ``where`` and ``fix`` unless ``summary`` is of this code's
     schema for ``kind``."""
-    from volcaustics.infra.errors import InputError
-
     found = summary.get("schema", 1)
     if found != SCHEMAS[kind]:
         raise InputError(f"{where}: summary.json is of {kind} schema {found!r}, this volcaustics reads "

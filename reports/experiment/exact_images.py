@@ -68,16 +68,9 @@ subset_batches_setting = _int_setting("subset_batches", 4, 64, "paired photon su
                                       "images, the decomposition's jackknife batches", SUBSET_BATCHES)
 
 
-def subphotons_setting(value: int | None = None) -> int:
-    """The sub-photons of a measurement: ``value`` (the ``exact_subphotons`` measurement
-    setting, ``reports.experiment.measurement``), EXACT_SUBPHOTONS when None; ParamError
-    unless an integer in [1, 64]."""
-    if value is None:
-        return EXACT_SUBPHOTONS
-    if isinstance(value, bool) or not isinstance(value, int) or not 1 <= value <= 64:
-        raise ParamError(f"exact_subphotons = {value!r}: expected an integer in [1, 64] (exact replays of each "
-                         f"emission texel in the decomposition's E_∞ images; default {EXACT_SUBPHOTONS})")
-    return value
+# the sub-photons of a measurement (the exact_subphotons setting, reports.experiment.measurement)
+subphotons_setting = _int_setting("exact_subphotons", 1, 64, "exact replays of each emission texel in the "
+                                  "decomposition's E_∞ images", EXACT_SUBPHOTONS)
 
 
 def replay_seed(seed: int, replay: int) -> int:
@@ -144,7 +137,7 @@ def exact_images(scene, p, frames, seeds, renderer, oracle, subphotons: int | No
     The E images are read from ``exact_store`` when a point with the same emission,
     replay and splat stored them (``exact_reused``); else every replay of one Fresnel
     mode is one wavefront (``reference.replay``) and they are stored."""
-    subphotons = subphotons_setting() if subphotons is None else subphotons
+    subphotons = subphotons_setting(subphotons)
     constants = {**CONSTANTS, "exact_steps": exact_steps, "subset_batches": subset_batches}
     document = exact_document(scene, p, seeds, subphotons, constants, renderer.controls)
     key = exact_key(document)
