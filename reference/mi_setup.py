@@ -15,6 +15,7 @@ import os
 from .variant import PREFERRED, VariantError, reference_variant
 
 VARIANT_ENV = "VOLCAUSTICS_MI_VARIANT"
+_THREADS: list = []  # Dr.Jit's threads in this process, when a pool set its share (share_cores)
 
 
 def variant_override() -> str | None:
@@ -68,7 +69,23 @@ def mitsuba():
         raise VariantError(f"{'VOLCAUSTICS_MI_VARIANT = ' + repr(override) if override else variant}: Mitsuba "
                            f"cannot start this variant here ({exc}); unset VOLCAUSTICS_MI_VARIANT or set it to "
                            f"llvm_ad_rgb") from None
+    if _THREADS:
+        _set_threads(_THREADS[-1])
     return mi
+
+
+def share_cores(threads: int) -> None:
+    """This process is one of a pool's workers: Dr.Jit renders on ``threads`` threads, its
+    share of the cores (with one, a light-tracer batch is the same bytes on every run)."""
+    _THREADS.append(max(1, int(threads)))
+    if mitsuba.cache_info().currsize:
+        _set_threads(_THREADS[-1])
+
+
+def _set_threads(threads: int) -> None:
+    import drjit as dr
+
+    dr.set_thread_count(threads)
 
 
 def _shared_library(path: str) -> bool:

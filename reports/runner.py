@@ -19,8 +19,8 @@ Reference policies:
 
 from __future__ import annotations
 
+import contextlib
 import os
-import threading
 import time
 from dataclasses import dataclass, field
 
@@ -34,8 +34,9 @@ from volcaustics.infra.memory import memory_budget
 from volcaustics.infra.storage import cache_dir
 from volcaustics.reference.cache import cached_reference, existing_reference
 from volcaustics.reference.oracle import Oracle
-from volcaustics.reference.render import render_reference
-from volcaustics.reports.core.executors import default_workers, run_tasks
+from volcaustics.reference.render import render_references
+from volcaustics.reference.render.tasks import PROCESS_LOCK
+from volcaustics.reports.core.executors import default_workers, open_pool, run_tasks
 from volcaustics.reports.core.sizing import sized
 from volcaustics.reports.core.store import TABLES, Store, key_document, point_key
 from volcaustics.reports.core.tables import rows_of
@@ -44,6 +45,7 @@ from volcaustics.reports.experiment.run import run_experiment
 from volcaustics.reports.experiment.settings import measurement_bytes
 from volcaustics.scenes import resolve_scene
 from volcaustics.scenes.fields import scene_with
+from volcaustics.scenes.portable import packed, unpacked
 
 POLICIES = ("cached", "missing", "continue")
 RESULTS_STORE = "report-results"  # $VOLCAUSTICS_CACHE/report-results: the report's and the gate's results
@@ -104,17 +106,28 @@ class Measured:
 
 def reference_for(scene, settings, policy: str, *, progress: bool = False, hint: str = ""):
     """The reference of ``scene`` at ``settings`` (already sized) under ``policy``."""
+    return references_for({0: (scene, settings)}, policy, progress=progress, hint=hint)[0]
+
+
+def references_for(wanted: dict, policy: str, *, progress: bool = False, hint: str = "", pool=None) -> dict:
+    """The reference of every entry of ``wanted`` (name → (scene, settings already
+    sized)) under ``policy``, by name. Those to render render together: on ``pool``
+    (``executors.open_pool``) their batches go to its workers at once."""
     if policy not in POLICIES:
         raise ValueError(f"policy = {policy!r}: expected one of {', '.join(POLICIES)}")
-    if policy == "continue":
-        return render_reference(scene, settings, progress=progress)
-    found = existing_reference(scene, settings)
-    if found is None:
-        if policy == "cached":
+    out, render = {}, []
+    for name, (scene, settings) in wanted.items():
+        found = None if policy == "continue" else existing_reference(scene, settings)
+        if found is None and policy == "cached":
             size = f"{settings.width}x{settings.height}" if settings.width else "the scene's size"
             raise RunnerError(f"{scene.name}: no reference in the cache for {size}" + (f": {hint}" if hint else ""))
-        found = render_reference(scene, settings, progress=progress)
-    return found
+        if found is None:
+            render.append(name)
+        else:
+            out[name] = found
+    jobs = [(*wanted[name], "caustic") for name in render]
+    out.update(zip(render, render_references(jobs, progress=progress, pool=pool)))
+    return out
 
 
 def measure(points: list, store: Store, *, reference_settings, measurement: MeasurementSettings, policy: str,
@@ -134,29 +147,31 @@ def measure(points: list, store: Store, *, reference_settings, measurement: Meas
     ``read_back``: ``results`` holds every point as the store has it."""
     t0 = time.perf_counter()
     store.clean_stale()
-    tasks, keys, references = _tasks(points, store, reference_settings, measurement, policy, views=views,
-                                     progress=progress, hint=hint)
-    unique = list({t["key"]: t for t in tasks}.values())
-    done_before = len(set(keys)) - len(unique)
-    processes = _parallel_processes(unique) if parallel and workers is None and dask is None else 1
-    if processes > 1:
-        outcomes = _on_executor(unique, store, total=len(set(keys)), done=done_before, workers=processes,
-                                progress=progress, desc="experiments")
-        scene_of = {task["key"]: task["scene"] for task in unique}
-        for outcome in outcomes:
-            if outcome.get("error"):
-                failure = outcome["error"]
-                raise RunnerError(f"{scene_of[outcome['key']]}: its point failed on a worker process: {failure}")
-    elif workers is None and dask is None:  # this process: the references as resolved (rendered or cached)
-        outcomes = [run_point(task, progress=progress, reference=references[task["reference_key"]])
-                    for task in tqdm(unique, desc="experiments", unit="point", disable=not progress)]
-    elif dask is not None:  # machines that may share no disk: the reference goes out, the point comes back
-        shipped = [{**task, "ship": True, "reference": references[task["reference_key"]]} for task in unique]
-        outcomes = _on_executor(shipped, store, total=len(set(keys)), done=done_before, dask=dask,
-                                progress=progress)
-    else:
-        outcomes = _on_executor(unique, store, total=len(set(keys)), done=done_before, workers=workers,
-                                progress=progress)
+    pooled = workers is not None or dask is not None
+    with open_pool(workers=workers, dask=dask) if pooled else contextlib.nullcontext() as pool:
+        tasks, keys, references, scenes = _tasks(points, store, reference_settings, measurement, policy,
+                                                 views=views, progress=progress, hint=hint, pool=pool)
+        unique = list({t["key"]: t for t in tasks}.values())
+        done_before = len(set(keys)) - len(unique)
+        count = {"total": len(set(keys)), "done": done_before, "progress": progress}
+        processes = _parallel_processes(unique) if parallel and not pooled else 1
+        if processes > 1:
+            with open_pool(workers=processes) as local:
+                outcomes = _on_executor(unique, store, local, desc="experiments", **count)
+            scene_of = {task["key"]: task["scene"] for task in unique}
+            for outcome in outcomes:
+                if outcome.get("error"):
+                    failure = outcome["error"]
+                    raise RunnerError(f"{scene_of[outcome['key']]}: its point failed on a worker process: {failure}")
+        elif pool is None:  # this process: the references as resolved (rendered or cached)
+            outcomes = [run_point(task, progress=progress, reference=references[task["reference_key"]])
+                        for task in tqdm(unique, desc="experiments", unit="point", disable=not progress)]
+        elif dask is not None:  # machines that may share no disk: the reference goes out, the point comes back
+            shipped = [{**task, "ship": True, "reference": references[task["reference_key"]],
+                        "scene_package": packed(scenes[task["key"]])} for task in unique]
+            outcomes = _on_executor(shipped, store, pool, **count)
+        else:
+            outcomes = _on_executor(unique, store, pool, **count)
     failed = [o for o in outcomes if o.get("error")]
     done = [o for o in outcomes if not o.get("error")]
     computed = {o["key"] for o in done}
@@ -174,19 +189,22 @@ def _parallel_processes(tasks) -> int:
     return max(1, min(default_workers(), len(tasks), memory_budget() // need))
 
 
-def _tasks(points, store, settings, measurement, policy, *, views, progress, hint) -> tuple:
-    """The plain-data task of every point not done, every point's key, and the
-    references by key."""
-    scenes, references, tasks, keys = {}, {}, [], []
+def _tasks(points, store, settings, measurement, policy, *, views, progress, hint, pool) -> tuple:
+    """The plain-data task of every point not done, every point's key, the references
+    by key (rendered on ``pool`` when it is not None) and the tasks' scenes by key."""
+    scenes, wanted, sizes = {}, {}, []
     for point in points:
         if (point.scene, point.fields) not in scenes:
             scenes[(point.scene, point.fields)] = point_scene(point.scene, point.fields)
         scene = scenes[(point.scene, point.fields)]
-        wanted = sized(settings, scene, point.params)
-        size = (point.scene, point.fields, wanted.width, wanted.height)
-        if size not in references:
-            references[size] = reference_for(scene, wanted, policy, progress=progress, hint=hint)
-        reference = references[size]
+        sized_settings = sized(settings, scene, point.params)
+        size = (point.scene, point.fields, sized_settings.width, sized_settings.height)
+        wanted.setdefault(size, (scene, sized_settings))
+        sizes.append(size)
+    references = references_for(wanted, policy, progress=progress, hint=hint, pool=pool)
+    tasks, keys, task_sizes = [], [], []
+    for point, size in zip(points, sizes):
+        scene, reference = wanted[size][0], references[size]
         document = {**key_document(scene, point.params, point.seeds, reference), **measurement.to_dict()}
         key = point_key(document)
         if measurement.scope != "full":  # a full point (the report's) holds all a gate point would
@@ -196,19 +214,21 @@ def _tasks(points, store, settings, measurement, policy, *, views, progress, hin
         if store.status(key, views=views) == "done":
             continue
         store.remove_damaged(key, views=views)
+        task_sizes.append(size)
         tasks.append({"key": key, "key_document": document, "scene": point.scene, "fields": list(point.fields),
                       "measurement": measurement.to_dict(),
                       "params": point.params.resolved(scene).to_dict(), "seeds": point.seeds,
                       "reference_key": reference.key, "store": os.path.abspath(store.root), "views": views})
-    return tasks, keys, {r.key: r for r in references.values()}
+    scene_of = {task["key"]: wanted[size][0] for task, size in zip(tasks, task_sizes)}
+    return tasks, keys, {r.key: r for r in references.values()}, scene_of
 
 
-def _on_executor(tasks, store, **options) -> list:
+def _on_executor(tasks, store, pool, **options) -> list:
     """Every task's outcome; a point sent back as files (a shipped task) is put in the
     store here, as it arrives, so that an interrupted run keeps what finished."""
     try:
         outcomes = []
-        for outcome in run_tasks(run_point, tasks, **options):
+        for outcome in run_tasks(run_point, tasks, pool=pool, **options):
             files = outcome.pop("files", None)
             if files is not None:
                 try:
@@ -237,7 +257,6 @@ def _read_back(store, point, key, views, measured) -> PointResult | None:
 
 # --- one point, in whichever process runs it ------------------------------------------
 
-_PROCESS_LOCK = threading.Lock()
 _TOOLS: dict = {}
 
 
@@ -250,7 +269,7 @@ def run_point(task: dict, *, progress: bool = False, reference=None) -> dict:
     the run) carries its reference and sends the point back as files (:func:`_shipped`)."""
     if task.get("ship"):
         return _shipped(task, progress=progress)
-    with _PROCESS_LOCK:
+    with PROCESS_LOCK:
         t0 = time.perf_counter()
         store = Store(task["store"])
         if store.status(task["key"], views=task["views"]) == "done":
@@ -285,10 +304,10 @@ def _shipped(task: dict, *, progress: bool = False) -> dict:
     disk, so the worker may be another machine."""
     import tempfile
 
-    with _PROCESS_LOCK:
+    with PROCESS_LOCK:
         t0 = time.perf_counter()
         fields = [tuple(f) for f in task.get("fields", ())]
-        scene = point_scene(task["scene"], fields)
+        scene = unpacked(task["scene_package"])  # its mesh files came with it
         experiment = _experiment(task, scene, fields, task["reference"], progress)
         with tempfile.TemporaryDirectory(prefix="volcaustics-point-") as folder:
             local = Store(folder)

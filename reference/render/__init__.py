@@ -17,11 +17,11 @@ from __future__ import annotations
 
 import json
 import time
+from dataclasses import dataclass
 
 import numpy as np
 
 from volcaustics.infra.imageio import png_bytes, tonemap_srgb8
-from volcaustics.infra.interrupts import interruptible
 from volcaustics.scenes.formats import MASK_LAYER
 
 from .. import cache
@@ -29,40 +29,27 @@ from ..cache import ReferenceResult, for_caller
 from ..request import RenderRequest, resolve
 from ..settings import ReferenceSettings
 from . import orders as scattering
-from .batches import (
-    CAMERA,
-    LIGHT,
-    LIGHT_GROUPS,
-    ORDERS,
-    batch_seed,
-)
+from .batches import CAMERA, LIGHT_GROUPS
+from .sources import BatchError, InProcess, Pooled
 from .state import RenderState, _format_floors, _pending, _stop_reason
+from .tasks import add_batch
 
 
-def _render(request: RenderRequest, state: RenderState | None = None, *, progress: bool) -> tuple:
+def _render(request: RenderRequest, key: str, state: RenderState | None, source, *, progress: bool) -> tuple:
     """Render batches of both streams into ``state`` (a fresh one if None) until the
-    settings are met (module docstring); returns (state, stopped_by, seconds of this call)."""
+    settings are met (module docstring), read from ``source`` (``sources``) in the order
+    the serial path renders them; returns (state, stopped_by, seconds of this call: its
+    batches' own, wherever they rendered; {process: its batches of this call})."""
     from tqdm import tqdm
 
-    from ..mi_setup import mitsuba
-    from .export import load_scene
-    from .integrators import SingleScatterIntegrator, VolumetricLightTracer, configure
-
-    mi = mitsuba()
-    scene, settings = request.scene, request.settings
+    settings = request.settings
     state = state or RenderState.for_settings(settings)
     t0 = time.perf_counter()
-    mi_scene = load_scene(mi, request.description)
-    tracer = configure(VolumetricLightTracer(_properties(mode=request.mode, max_scatter=1)), scene, mi_scene)
-    camera = configure(SingleScatterIntegrator(), scene, mi_scene)
-    higher = None
-    if state.orders is not None:
-        higher = configure(VolumetricLightTracer(_properties(mode="orders", max_scatter=settings.max_scatter,
-                                                             beyond_model=True)), scene, mi_scene)
-    integrators = {LIGHT: tracer, CAMERA: camera, ORDERS: higher}
+    source.want(key, request, _minimum(state, settings))
     total = None if settings.targets() else sum(max(0, settings.batches - s.n) for s in state.streams().values())
-    bar = tqdm(total=total, desc=f"reference {scene.name}", unit="batch", disable=not progress)
+    bar = tqdm(total=total, desc=f"reference {request.scene.name}", unit="batch", disable=not progress)
     timed_out = False
+    spent, where = 0.0, {}
     floors = state.floors()
     while True:
         # the camera's batch first: its glass mask chooses the pixels of every stream's totals
@@ -75,63 +62,43 @@ def _render(request: RenderRequest, state: RenderState | None = None, *, progres
             timed_out = True
             break
         for stream in streams:
-            _render_batch(stream, state, settings, mi, mi_scene, integrators)
+            index = state.streams()[stream].n
+            if index >= settings.batches:  # beyond the minimum: a few ahead, for the workers (unused ones dropped)
+                source.want(key, request, [(stream, i) for i in range(index, index + source.spare)])
+            images, seconds, process = source.images(key, request, stream, index)
+            add_batch(state, stream, images)
+            spent += seconds
+            where[process] = where.get(process, 0) + 1
             bar.update(1)
         floors = state.floors()
-        state.note_targets(settings.targets(), floors, time.perf_counter() - t0)
+        state.note_targets(settings.targets(), floors, spent)
         bar.set_postfix_str(_format_floors(floors))
     bar.close()
-    seconds = time.perf_counter() - t0
-    state.seconds += seconds
-    return state, _stop_reason(state, settings, timed_out), seconds
+    state.seconds += spent
+    return state, _stop_reason(state, settings, timed_out), spent, where
 
 
-def _properties(**values):
-    from ..mi_setup import mitsuba
-
-    props = mitsuba().Properties()
-    for name, value in values.items():
-        props[name] = value
-    return props
-
-
-def _render_batch(stream: str, state: RenderState, settings: ReferenceSettings, mi, mi_scene,
-                  integrators: dict) -> None:
-    """One batch of ``stream`` (LIGHT, ORDERS or CAMERA), added to ``state``; the camera's
-    glass mask grows with it, and its first batch fixes the pixels of every stream's totals."""
-    integrator = integrators[stream]
-    if stream == LIGHT:
-        seed = batch_seed(settings.seed, LIGHT, state.light.n)
-        image = _rendered(mi, mi_scene, integrator, seed, settings.photon_spp_per_batch())[..., :3]
-        state.light.add({"caustic": image}, state.total_keep)
-    elif stream == ORDERS:
-        seed = batch_seed(settings.seed, ORDERS, state.orders.n)
-        integrator.prepare_orders(settings.width, settings.height)
-        _rendered(mi, mi_scene, integrator, seed, settings.orders_spp_per_batch())
-        stack = integrator.order_images()
-        state.orders.add(scattering.batch_images(stack, settings.max_scatter), state.total_keep)
-    else:
-        seed = batch_seed(settings.seed, CAMERA, state.camera.n)
-        cam = _rendered(mi, mi_scene, integrator, seed, settings.camera_spp_per_batch())
-        fog, direct = cam[..., 3:6], cam[..., 6:9]
-        seen = cam[..., 9] > 0.5
-        state.mask = seen if state.mask is None else state.mask | seen
-        if state.total_keep is None:
-            state.total_keep = ~seen
-        state.camera.add({"fog": fog, "direct": direct, "fog_direct": fog + direct}, state.total_keep)
-
-
-def _rendered(mi, mi_scene, integrator, seed: int, spp: int) -> np.ndarray:
-    """One batch as an array, rendered where an interrupt does not wait for it
-    (``infra.interrupts.interruptible``: a batch can run for minutes, or forever)."""
-    return interruptible(lambda: np.asarray(mi.render(mi_scene, integrator=integrator, seed=seed, spp=spp)))
+def _minimum(state: RenderState, settings: ReferenceSettings) -> list:
+    """The (stream, index) of every batch up to the settings' ``batches`` not rendered
+    yet, round by round, each round's camera batch first: the order they are read in."""
+    streams = sorted(state.streams(), key=lambda s: s != CAMERA)
+    counts = {s: state.streams()[s].n for s in streams}
+    return [(s, i) for i in range(min(counts.values(), default=0), settings.batches) for s in streams
+            if i >= counts[s]]
 
 
 def render_batches(scene, settings: ReferenceSettings, *, mode: str = "caustic", progress: bool = True) -> dict:
     """Render without the cache; returns {layer: (mean, var)} for the colour layers
     and the mask, plus timing, counts and noise floors under the key ``"_info"``."""
+    from ..mi_setup import variant_name
+
     request = resolve(scene, settings, mode)
-    state, stopped_by, seconds = _render(request, progress=progress)
+    key = cache.request_key(request, variant_name())
+    source = InProcess()
+    try:
+        state, stopped_by, seconds, _ = _render(request, key, None, source, progress=progress)
+    finally:
+        source.drop(key)
     out = state.layers()
     out["_info"] = _info(state, request.settings, stopped_by, seconds)
     return out
@@ -194,17 +161,53 @@ def _resumable(arrays: dict | None, settings: ReferenceSettings) -> RenderState 
 
 
 def render_reference(scene, settings: ReferenceSettings | None = None, *, mode: str = "caustic",
-                     force: bool = False, progress: bool = True) -> ReferenceResult:
+                     force: bool = False, progress: bool = True, pool=None) -> ReferenceResult:
     """The reference for ``scene``: from the cache when a valid entry meets ``settings``
     (and not ``force``); an entry that does not (fewer batches, a noise floor above
     ``target_noise``) is continued batch by batch, never thrown away; else rendered and
     stored. The image is ``settings.width × height`` (unset: the scene camera's).
-    ``mode``: which light paths the caustic layer counts (settings.MODES)."""
-    from ..mi_setup import drjit_version, mitsuba_version, variant_name
+    ``mode``: which light paths the caustic layer counts (settings.MODES). ``pool``: as
+    for :func:`render_references`."""
+    return render_references([(scene, settings, mode)], force=force, progress=progress, pool=pool)[0]
 
-    request = resolve(scene, settings, mode)
+
+@dataclass
+class _Plan:
+    scene: object  # as the caller gave it (its camera's size may not be the request's)
+    request: RenderRequest
+    key: str
+    state: RenderState | None  # a cached state to continue
+
+
+def render_references(jobs, *, force: bool = False, progress: bool = True, pool=None) -> list:
+    """:func:`render_reference` of every job ((scene, settings, mode)), in order. With
+    ``pool`` (an open ``reports.core.executors`` pool) the batches of every reference
+    that renders go to its workers at once; each is added here in the order the serial
+    path renders it (``sources.Pooled``). A job whose key an earlier job renders takes
+    that render."""
+    from ..mi_setup import variant_name
+
+    plans = [_plan(scene, resolve(scene, settings, mode), variant_name(), force) for scene, settings, mode in jobs]
+    source = Pooled(pool) if pool is not None else InProcess()
+    rendering = {p.key: p for p in plans if isinstance(p, _Plan)}
+    for plan in rendering.values():
+        source.want(plan.key, plan.request, _minimum(plan.state or RenderState.for_settings(plan.request.settings),
+                                                     plan.request.settings))
+    done: dict = {}
+    try:
+        for plan in rendering.values():
+            done[plan.key] = _finish(plan, source, progress)
+            source.drop(plan.key)
+    finally:
+        for key in rendering:
+            source.drop(key)
+    return [done[p.key] if isinstance(p, _Plan) else p for p in plans]
+
+
+def _plan(scene, request: RenderRequest, variant: str, force: bool):
+    """The cached ReferenceResult that meets the request, or the _Plan of its render."""
     settings = request.settings
-    key = cache.request_key(request, variant_name())
+    key = cache.request_key(request, variant)
     state = None
     if not force:
         served = cache.lookup(request)
@@ -215,7 +218,18 @@ def render_reference(scene, settings: ReferenceSettings | None = None, *, mode: 
             if served_key == key:
                 state = _resumable(cache.read_state(served_key, manifest), settings)
     cache.manifest_path(key, write=True)  # a render is stored: a read-only cache is refused before it, not after
-    state, stopped_by, seconds = _render(request, state, progress=progress)
+    return _Plan(scene, request, key, state)
+
+
+def _finish(plan: _Plan, source, progress: bool) -> ReferenceResult:
+    """Render ``plan`` from ``source`` and store it."""
+    from ..mi_setup import drjit_version, mitsuba_version, variant_name
+
+    scene, request, key, settings = plan.scene, plan.request, plan.key, plan.request.settings
+    try:
+        state, stopped_by, seconds, where = _render(request, key, plan.state, source, progress=progress)
+    except BatchError as exc:
+        raise BatchError(f"the reference of {scene.name}: {exc} (nothing of it was stored)") from exc
     info = _info(state, settings, stopped_by, seconds)
     layers = {}
     for name, (mean, var) in state.layers().items():
@@ -234,7 +248,8 @@ def render_reference(scene, settings: ReferenceSettings | None = None, *, mode: 
         "target_noise": settings.targets() or None,
         "seconds_to_target": info["seconds_to_target"],
         "stopped_by": stopped_by, "wall_seconds": info["seconds"],
-        "seconds_this_call": seconds, "mitsuba_variant": variant_name(), "mitsuba_version": mitsuba_version(),
+        "seconds_this_call": seconds, "rendered_by": where,  # process → its batches of this call
+        "mitsuba_variant": variant_name(), "mitsuba_version": mitsuba_version(),
         "drjit_version": drjit_version(), "reference_code_version": cache.code_version(),
     }
     header = {"volcaustics_scene": scene.name, "volcaustics_scene_hash": scene.scene_hash(),

@@ -8,6 +8,7 @@ import sys
 import pandas as pd
 
 from volcaustics.approx.params import PARAMS, PRESETS
+from volcaustics.reference.render.sources import BatchError
 from volcaustics.reports.cli.common import UsageError, add_measurement_flags, check_output_set, measurement_from_args
 from volcaustics.reports.core.executors import check_reachable, default_workers, parse_dask
 from volcaustics.reports.experiment.measurement import MEASUREMENT_KEYS
@@ -68,9 +69,15 @@ def run(args) -> int:
             raise UsageError("--dask", args.dask, str(exc).split(": ", 1)[-1]) from None
         check_reachable(args.dask)  # before any reference renders
     measurement_from_args(args)  # a bad value: exit 2 naming the flag, before anything
+    try:
+        return _run_best(args) if args.best else _run_grid(args)
+    except BatchError as exc:  # a worker died under a reference's batch (a point's failure is reported per point)
+        print(f"volcaustics: error: {exc}; the stored points are kept: run the sweep again", file=sys.stderr)
+        return 1
+
+
+def _run_grid(args) -> int:
     max_points = None if args.yes else MAX_POINTS
-    if args.best:
-        return _run_best(args)
     if args.spec:
         spec = spec_from_toml(args.spec, max_points)
     else:

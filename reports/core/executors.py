@@ -1,17 +1,22 @@
-"""Where a sweep's points run: local worker processes (default) or Dask distributed.
+"""Where a run's reference batches and points run: local worker processes (default)
+or Dask distributed, one pool for both (:func:`open_pool`: a worker starts once).
 
 GL contexts and Mitsuba variants belong to a process, so every executor runs one
 task per worker process at a time: a local pool of ``spawn``ed processes (a fork
 would inherit the parent's Dr.Jit and GL state), or Dask workers with one thread
 each (``--dask local:N`` starts a ``LocalCluster`` of N such processes; for
 ``--dask tcp://HOST:PORT`` start the workers with ``--nthreads 1``, and
-``reports.runner.run_point`` also serialises the tasks of one process). Results come
-back as they finish; Ctrl-C cancels what has not started, stops the workers and
-re-raises KeyboardInterrupt (finished points are already in the store).
+``reference.render.tasks.PROCESS_LOCK`` also serialises the tasks of one process).
+A local worker renders with Dr.Jit on its share of the cores (one thread each when
+there are as many workers as cores: the light tracer's splats then add in one order,
+docs/decisions.md "Reference batches on workers"). Results come back as they finish;
+Ctrl-C cancels what has not started, stops the workers and re-raises
+KeyboardInterrupt (finished points are already in the store).
 """
 
 from __future__ import annotations
 
+import contextlib
 import os
 
 from volcaustics.infra.errors import InputError
@@ -65,24 +70,65 @@ def check_reachable(address: str, timeout: float = 5.0) -> None:
                             f"(`dask scheduler`, workers with --nthreads 1) or use --dask local:N") from None
 
 
-def run_tasks(fn, tasks: list, *, total: int, done: int = 0, workers: int | None = None, dask: str | None = None,
-              progress: bool = True, desc: str = "sweep"):
-    """Yield ``fn(task)``'s results (dicts; a failed task gives {"key", "error"}) as
-    they finish, with one progress bar (``desc``) of points done / ``total`` (``done`` already)."""
+def run_tasks(fn, tasks: list, *, pool, total: int, done: int = 0, progress: bool = True, desc: str = "sweep"):
+    """Yield ``fn(task)``'s results (dicts; a failed task gives {"key", "error"}) from
+    ``pool`` (:func:`open_pool`) as they finish, with one progress bar (``desc``) of
+    points done / ``total`` (``done`` already)."""
     from tqdm import tqdm
 
     bar = tqdm(total=total, initial=done, desc=desc, unit="point", disable=not progress, smoothing=0.1)
     try:
-        if not tasks:
+        if not tasks:  # nothing to send: the pool is not started for it
             return
-        results = _dask(fn, tasks, dask) if dask else _local(fn, tasks, workers)
-        for result in results:
+        futures = {pool.submit(fn, pool.scattered(task), key=pool.task_key(task)): task["key"] for task in tasks}
+        for future in pool.as_completed(list(futures)):
+            try:
+                result = future.result()
+            except Exception as exc:  # a point that fails is reported; the others go on
+                result = {"key": futures[future], "error": _describe(exc)}
             bar.update()
             if result.get("error"):
                 bar.write(f"{desc}: point {result['key'][:12]} failed: {result['error']}")
             yield result
     finally:
         bar.close()
+
+
+@contextlib.contextmanager
+def open_pool(*, workers: int | None = None, dask: str | None = None):
+    """A pool of worker processes for a run's reference batches and points: ``dask``
+    (``parse_dask``) or ``workers`` local processes (default: one per core). On an
+    exception or Ctrl-C what has not started is cancelled and local workers are killed,
+    then it is re-raised (finished points are already in the store)."""
+    pool = _Lazy(lambda: _DaskPool(dask) if dask else _LocalPool(workers or default_workers()))
+    try:
+        yield pool
+    except BaseException:
+        pool.abort()
+        raise
+    finally:
+        pool.close()
+
+
+class _Lazy:
+    """A pool started when it is first used: a run that renders and measures nothing
+    (everything cached and stored) starts no cluster and connects to no scheduler."""
+
+    def __init__(self, start):
+        self._start, self._pool = start, None
+
+    def __getattr__(self, name):
+        if self._pool is None:
+            self._pool = self._start()
+        return getattr(self._pool, name)
+
+    def abort(self) -> None:
+        if self._pool is not None:
+            self._pool.abort()
+
+    def close(self) -> None:
+        if self._pool is not None:
+            self._pool.close()
 
 
 def _describe(exc: BaseException) -> str:
@@ -111,81 +157,126 @@ def _quiet_resource_tracker() -> None:
         sys.warnoptions.append(option)
 
 
-def _local(fn, tasks, workers):
-    import multiprocessing
-    from concurrent.futures import ProcessPoolExecutor, as_completed
+def _worker_start(threads: int) -> None:
+    """A local worker's start-up: interrupts left to the parent, and Dr.Jit on this
+    worker's share of the cores (its threads: a worker of N on C cores has C // N)."""
+    from volcaustics.reference.mi_setup import share_cores
 
-    n = min(workers or default_workers(), len(tasks))
-    _quiet_resource_tracker()
-    pool = ProcessPoolExecutor(max_workers=n, mp_context=multiprocessing.get_context("spawn"),
-                               initializer=_ignore_interrupts)
-    futures = {pool.submit(fn, task): task["key"] for task in tasks}
-    try:
-        for future in as_completed(futures):
-            try:
-                yield future.result()
-            except Exception as exc:  # a point that fails is reported; the others go on
-                yield {"key": futures[future], "error": _describe(exc)}
-    except BaseException:
+    _ignore_interrupts()
+    share_cores(threads)
+
+
+class _LocalPool:
+    """``spawn``ed local processes (a fork would inherit the parent's Dr.Jit and GL
+    state), started as tasks need them."""
+
+    def __init__(self, workers: int):
+        import multiprocessing
+        from concurrent.futures import ProcessPoolExecutor
+
+        self.workers = workers
+        _quiet_resource_tracker()
+        self._pool = ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn"),
+                                         initializer=_worker_start, initargs=(max(1, default_workers() // workers),))
+
+    def submit(self, fn, *args, key: str | None = None):
+        return self._pool.submit(fn, *args)
+
+    def scatter(self, value):
+        return value  # pickled with each task
+
+    def scattered(self, task: dict) -> dict:
+        return task
+
+    def task_key(self, task: dict) -> None:
+        return None
+
+    def as_completed(self, futures):
+        from concurrent.futures import as_completed
+
+        return as_completed(futures)
+
+    def cancel(self, futures) -> None:
+        for future in futures:
+            future.cancel()
+
+    def abort(self) -> None:
         # Kill first, cancel nothing: the pool then fails every pending future itself (a
         # future cancelled before made its manager thread raise InvalidStateError, 3.11).
-        processes = list(getattr(pool, "_processes", {}).values())
+        processes = list((getattr(self._pool, "_processes", None) or {}).values())
         for process in processes:
             process.kill()
         for process in processes:  # gone before the caller clears their temporaries
             process.join(timeout=30)
-        pool.shutdown(wait=True)  # the manager thread fails the pending futures and frees the queues
-        raise
-    pool.shutdown(wait=True)
+
+    def close(self) -> None:
+        self._pool.shutdown(wait=True)  # after abort: fails the pending futures and frees the queues
 
 
-def _scattered(client, tasks: list) -> list:
-    """The tasks with each shipped reference (``task["reference"]``) sent to the cluster
-    once and named by its future: a reference's arrays travel once, not once per point
-    (Dask resolves the future in the task before the worker runs it)."""
-    sent = {}
-    out = []
-    for task in tasks:
-        if "reference" in task:
-            key = task["reference_key"]
-            if key not in sent:
-                sent[key] = client.scatter(task["reference"], hash=False)
-            task = {**task, "reference": sent[key]}
-        out.append(task)
-    return out
+class _DaskPool:
+    """A Dask client: of a ``LocalCluster`` it starts (``local:N``) or of a running
+    scheduler (``tcp://``), one task per worker process at a time."""
 
-
-def _dask(fn, tasks, dask):
-    try:
-        from dask.distributed import Client, LocalCluster, as_completed
-    except ImportError as exc:
-        raise ExecutorError(f"--dask: dask.distributed is not installed ({exc})") from None
-
-    kind, value = parse_dask(dask)
-    cluster = None
-    try:
+    def __init__(self, dask: str):
+        try:
+            from dask.distributed import Client, LocalCluster
+        except ImportError as exc:
+            raise ExecutorError(f"--dask: dask.distributed is not installed ({exc})") from None
+        kind, value = parse_dask(dask)
+        self._cluster = None
+        self._futures: list = []
+        self._sent: dict = {}
+        try:
+            if kind == "local":
+                self._cluster = LocalCluster(n_workers=value, threads_per_worker=1, processes=True,
+                                             dashboard_address=None)
+                self.client = Client(self._cluster)
+            else:
+                self.client = Client(value, timeout="10s")
+        except (OSError, TimeoutError) as exc:
+            raise ExecutorError(f"--dask {dask}: cannot reach the scheduler ({exc})") from None
+        self.workers = max(1, len(self.client.scheduler_info().get("workers", {})))
         if kind == "local":
-            cluster = LocalCluster(n_workers=value, threads_per_worker=1, processes=True, dashboard_address=None)
-            client = Client(cluster)
-        else:
-            client = Client(value, timeout="10s")
-    except (OSError, TimeoutError) as exc:
-        raise ExecutorError(f"--dask {dask}: cannot reach the scheduler ({exc})") from None
-    futures = []
-    try:
-        tasks = _scattered(client, tasks)
-        futures = [client.submit(fn, task, key=f"volcaustics-point-{task['key']}", pure=False, retries=0)
-                   for task in tasks]
-        keys = {f.key: t["key"] for f, t in zip(futures, tasks)}
-        for future in as_completed(futures):
-            try:
-                yield future.result()
-            except Exception as exc:
-                yield {"key": keys[future.key], "error": _describe(exc)}
-    except BaseException:
-        client.cancel(futures)
-        raise
-    finally:
-        client.close()
-        if cluster is not None:
-            cluster.close()
+            from volcaustics.reference.mi_setup import share_cores
+
+            self.client.run(share_cores, max(1, default_workers() // value))
+
+    def submit(self, fn, *args, key: str | None = None):
+        future = self.client.submit(fn, *args, key=key, pure=False, retries=0)
+        self._futures.append(future)
+        return future
+
+    def scatter(self, value):
+        """``value`` sent to the cluster once; tasks that name the future get it there."""
+        return self.client.scatter(value, hash=False)
+
+    def scattered(self, task: dict) -> dict:
+        """The task with its shipped reference (``task["reference"]``) sent once per
+        reference and named by its future: a reference's arrays travel once, not once
+        per point (Dask resolves the future in the task before the worker runs it)."""
+        if "reference" not in task:
+            return task
+        key = task["reference_key"]
+        if key not in self._sent:
+            self._sent[key] = self.scatter(task["reference"])
+        return {**task, "reference": self._sent[key]}
+
+    def task_key(self, task: dict) -> str:
+        return f"volcaustics-point-{task['key']}"
+
+    def as_completed(self, futures):
+        from dask.distributed import as_completed
+
+        return as_completed(futures)
+
+    def cancel(self, futures) -> None:
+        if futures:
+            self.client.cancel(list(futures))
+
+    def abort(self) -> None:
+        self.cancel(self._futures)
+
+    def close(self) -> None:
+        self.client.close()
+        if self._cluster is not None:
+            self._cluster.close()

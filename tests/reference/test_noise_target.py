@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from volcaustics.metrics.noise import noise_floor
-from volcaustics.reference import render as render_module
+from volcaustics.reference.render import tasks as render_tasks
 from volcaustics.reference.render import render_batches, render_reference
 from volcaustics.reference.settings import ReferenceSettings, SettingsError
 from volcaustics.reports.cli import main
@@ -25,13 +25,13 @@ BASE = ReferenceSettings(photons=1 << 16, spp=16, batches=4, width=32, height=32
 def rendered_batches(monkeypatch):
     """(stream, batch) of every batch rendered, in order."""
     seen = []
-    original = render_module.batch_seed
+    original = render_tasks.batch_seed
 
     def spy(seed, stream, batch):
         seen.append((stream, batch))
         return original(seed, stream, batch)
 
-    monkeypatch.setattr(render_module, "batch_seed", spy)
+    monkeypatch.setattr(render_tasks, "batch_seed", spy)
     return seen
 
 

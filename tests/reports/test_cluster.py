@@ -1,8 +1,9 @@
 """A sweep on a real Dask cluster whose machines share no disk: a `dask scheduler` and two
 `dask worker` processes on loopback, each worker with a cache of its own, none holding
-the sweep's references. The points travel out with their reference and come back as
-files the sweep's process stores; before, every point failed ("reference ... is not in
-this worker's cache")."""
+the sweep's references. The references' batches render on the workers and come back
+as arrays; the points travel out with their reference and come back as files the
+sweep's process stores; before, every point failed ("reference ... is not in this
+worker's cache")."""
 
 from __future__ import annotations
 
@@ -54,7 +55,8 @@ def cluster(tmp_path):
 
         with Client(address, timeout="30s") as client:
             client.wait_for_workers(2, timeout=120)
-        yield address, caches, processes[1:]
+            pids = set(client.run(os.getpid).values())
+        yield address, caches, processes[1:], pids
     finally:
         for process in processes:
             if process.poll() is None:
@@ -65,13 +67,18 @@ def cluster(tmp_path):
 
 @pytest.mark.slow  # a scheduler, two workers and six small points: about a minute on 2 cores
 def test_a_sweep_runs_on_workers_that_share_no_cache(cluster, empty_cache, tmp_path, capsys):
-    address, worker_caches, _ = cluster
+    address, worker_caches, _, worker_pids = cluster
     spec = tmp_path / "sweep.toml"
     spec.write_text(SPEC)
     out = tmp_path / "store"
     assert main(["sweep", str(spec), "-o", str(out), "--dask", address, "--quiet"]) == 0
     assert "6 points: 0 already in the store, 6 computed, 0 failed" in capsys.readouterr().out
     assert len(list((out / "points").iterdir())) == 6
+    # the references' batches rendered on the workers, not in the sweep's process
+    manifests = [json.loads(p.read_text()) for p in (empty_cache / "reference").glob("*.json")]
+    assert len(manifests) == 2
+    rendered_by = {int(name.rsplit(":", 1)[1]) for m in manifests for name in m["rendered_by"]}
+    assert rendered_by <= worker_pids and os.getpid() not in rendered_by and rendered_by
     # the workers read no reference from their disks and wrote no point there
     for cache in worker_caches:
         assert not (cache / "reference").exists() or not any((cache / "reference").iterdir())
@@ -110,7 +117,7 @@ def test_a_worker_killed_mid_sweep_loses_no_point_and_stores_nothing_half_writte
 
     from volcaustics.reports.core.store import Store
 
-    address, _, workers = cluster
+    address, _, workers, _ = cluster
     spec = tmp_path / "sweep.toml"
     spec.write_text(SPEC)
     out = tmp_path / "store"
@@ -120,7 +127,8 @@ def test_a_worker_killed_mid_sweep_loses_no_point_and_stores_nothing_half_writte
     with Client(address, timeout="30s") as client:
         deadline = time.monotonic() + 240
         while not caught and time.monotonic() < deadline and sweep.poll() is None:
-            busy = [w for w, tasks in client.processing().items() if tasks]
+            busy = [w for w, keys in client.processing().items()
+                    if any(str(k).startswith("volcaustics-point-") for k in keys)]
             info = client.scheduler_info()["workers"]
             caught = any(info[w].get("name") == "w0" for w in busy)
             time.sleep(0.05)
