@@ -251,15 +251,17 @@ class _DaskPool:
         return self.client.scatter(value, hash=False)
 
     def scattered(self, task: dict) -> dict:
-        """The task with its shipped reference (``task["reference"]``) sent once per
-        reference and named by its future: a reference's arrays travel once, not once
-        per point (Dask resolves the future in the task before the worker runs it)."""
-        if "reference" not in task:
-            return task
-        key = task["reference_key"]
-        if key not in self._sent:
-            self._sent[key] = self.scatter(task["reference"])
-        return {**task, "reference": self._sent[key]}
+        """The task with what it ships (its reference, its scene with the mesh files) sent
+        once per reference and scene and named by its future: arrays and meshes travel
+        once, not once per point (Dask resolves the futures before the worker runs it)."""
+        out = dict(task)
+        for name, identity in (("reference", task.get("reference_key")),
+                               ("scene_package", task.get("key_document", {}).get("scene_hash"))):
+            if name in task:
+                if (name, identity) not in self._sent:
+                    self._sent[(name, identity)] = self.scatter(task[name])
+                out[name] = self._sent[(name, identity)]
+        return out
 
     def task_key(self, task: dict) -> str:
         return f"volcaustics-point-{task['key']}"

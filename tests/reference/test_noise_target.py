@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 from volcaustics.metrics.noise import noise_floor
-from volcaustics.reference.render import tasks as render_tasks
 from volcaustics.reference.render import render_batches, render_reference
+from volcaustics.reference.render import tasks as render_tasks
 from volcaustics.reference.settings import ReferenceSettings, SettingsError
 from volcaustics.reports.cli import main
 from volcaustics.scenes import load_builtin
