@@ -1,5 +1,6 @@
-"""The one measurement runner (docs/architecture.md): points → references by a stated policy →
-result-store lookup → experiments on an executor → results. The sweep, the gate and
+"""The one measurement runner (docs/architecture.md): points → references by a stated policy
+(rendered on the executor's pool when there is one) → result-store lookup → experiments on
+an executor → results. The sweep, the gate and
 the report measure through it; nothing else renders a point or measures it.
 
 A point is a scene, the approximation's parameters and a number of seeds. Its key
@@ -135,11 +136,13 @@ def measure(points: list, store: Store, *, reference_settings, measurement: Meas
             progress: bool = True, read_back: bool = True, hint: str = "") -> Measured:
     """Measure every point not in ``store`` yet and return them all.
 
-    References are resolved once per scene and image size, in this process, before any
-    point runs. ``measurement``: how every point is measured (its settings are part of
-    each point's key). Points run in this process one after another (``workers`` and
-    ``dask`` None) or on ``reports.core.executors`` (a sweep: a failed point is reported
-    in ``failed``, the others go on). ``parallel`` (the report, the gate): more than one
+    References are resolved once per scene and image size before any point runs: those
+    to render render in this process, or with ``workers`` or ``dask`` batch by batch on
+    the pool the points then run on (``reports.core.executors``; stored by this process).
+    ``measurement``: how every point is measured (its settings are part of each point's
+    key). Points run in this process one after another (``workers`` and ``dask`` None) or
+    on that pool (a sweep: a failed point is reported in ``failed``, the others go on; a
+    reference whose batch fails raises ``BatchError``). ``parallel`` (the report, the gate): more than one
     point to measure run on local processes, one per core as far as their images fit the
     memory together (:func:`_parallel_processes`), and a failed point raises RunnerError as
     in this process. ``views``: the store

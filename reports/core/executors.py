@@ -21,6 +21,10 @@ import os
 
 from volcaustics.infra.errors import InputError
 
+# a scatter that has not finished in this time is tried again: one to a worker that died
+# meanwhile hung here (distributed 2026.8); generous for a reference's arrays on a slow link
+SCATTER_SECONDS = 120
+
 
 class ExecutorError(InputError):
     """An executor that cannot start (an unreachable scheduler, Dask missing): exit 2."""
@@ -80,7 +84,8 @@ def run_tasks(fn, tasks: list, *, pool, total: int, done: int = 0, progress: boo
     try:
         if not tasks:  # nothing to send: the pool is not started for it
             return
-        futures = {pool.submit(fn, pool.scattered(task), key=pool.task_key(task)): task["key"] for task in tasks}
+        shipped = [pool.scattered(task) for task in tasks]  # all data out first, then the tasks
+        futures = {pool.submit(fn, task, key=pool.task_key(task)): task["key"] for task in shipped}
         for future in pool.as_completed(list(futures)):
             try:
                 result = future.result()
@@ -247,8 +252,19 @@ class _DaskPool:
         return future
 
     def scatter(self, value):
-        """``value`` sent to the cluster once; tasks that name the future get it there."""
-        return self.client.scatter(value, hash=False)
+        """``value`` sent to the cluster once, to every worker: tasks that name the future
+        get it there, and a worker that dies takes no copy that its tasks, rerun on
+        another worker, need (scattered data cannot be recomputed). A worker lost while
+        the data goes out (a closed stream) is left out on the next try."""
+        import time
+
+        for attempt in range(3):
+            try:
+                return self.client.scatter(value, hash=False, broadcast=True, timeout=SCATTER_SECONDS)
+            except (OSError, TimeoutError):  # distributed's CommClosedError; a scatter to a worker that died hangs
+                if attempt == 2:
+                    raise
+                time.sleep(1.0)
 
     def scattered(self, task: dict) -> dict:
         """The task with what it ships (its reference, its scene with the mesh files) sent

@@ -108,13 +108,17 @@ def test_a_point_sent_back_is_stored_whole_or_refused(tmp_path, cache, capsys):
     assert other.adopt_point(key, files) == "written" and other.status(key) == "done"
 
 
-@pytest.mark.slow  # a cluster and six small points, one worker killed
-def test_a_worker_killed_mid_sweep_loses_no_point_and_stores_nothing_half_written(cluster, empty_cache, tmp_path):
-    """SIGKILL one worker while it measures a point: the scheduler gives its points to the
-    other worker, so the sweep finishes every point (exit 0), or reports the lost ones
-    failed (exit 1); every point in the store is whole, and a rerun completes the rest."""
+@pytest.mark.slow  # a cluster and six small points, one worker killed: about a minute each
+@pytest.mark.parametrize("task", ["point", "batch"])
+def test_a_worker_killed_mid_sweep_loses_nothing_and_stores_nothing_half_written(task, cluster, empty_cache,
+                                                                                 tmp_path):
+    """SIGKILL one worker while it measures a point, or renders a reference's batch: the
+    scheduler gives its tasks to the other worker, so the sweep finishes every point
+    (exit 0), or reports the lost ones failed (exit 1); every point in the store and every
+    reference in the cache is whole, and a rerun completes the rest."""
     from dask.distributed import Client
 
+    from volcaustics.reference import cache
     from volcaustics.reports.core.store import Store
 
     address, _, workers, _ = cluster
@@ -128,12 +132,12 @@ def test_a_worker_killed_mid_sweep_loses_no_point_and_stores_nothing_half_writte
         deadline = time.monotonic() + 240
         while not caught and time.monotonic() < deadline and sweep.poll() is None:
             busy = [w for w, keys in client.processing().items()
-                    if any(str(k).startswith("volcaustics-point-") for k in keys)]
+                    if any(str(k).startswith(f"volcaustics-{task}-") for k in keys)]
             info = client.scheduler_info()["workers"]
             caught = any(info[w].get("name") == "w0" for w in busy)
             time.sleep(0.05)
     workers[0].kill()
-    assert caught, "the sweep ended before worker w0 took a point: nothing was killed mid-point"
+    assert caught, f"the sweep ended before worker w0 took a {task}: nothing was killed mid-{task}"
     output, _ = sweep.communicate(timeout=600)
     assert sweep.returncode in (0, 1), output
     store = Store(str(out))
@@ -141,5 +145,9 @@ def test_a_worker_killed_mid_sweep_loses_no_point_and_stores_nothing_half_writte
     assert all(store.status(key) == "done" for key in points), output   # nothing half-written
     if sweep.returncode == 0:
         assert len(points) == 6, output
+    references = [p.stem for p in (empty_cache / "reference").glob("*.json")]
+    assert all(cache.load(key) is not None for key in references), output  # stored whole, or not at all
+    if sweep.returncode == 0:
+        assert len(references) == 2, output
     assert main(["sweep", str(spec), "-o", str(out), "--dask", address, "--quiet"]) == 0  # the survivor finishes
     assert len(list((out / "points").iterdir())) == 6
