@@ -11,6 +11,10 @@ manifest's ``stopped_by`` says which). Layers (docs/conventions.md names) and th
 variances: ``caustic``, ``fog``, ``direct``, ``combined`` (their sum; the streams
 are independent, so its variance is the caustic's plus that of fog + direct),
 ``mask_specular``; ``<layer>_var`` holds the variance of the mean.
+
+Batches render in this process, or on a pool of workers (:func:`render_references`
+with ``pool``: every batch a task, ``tasks``; read and added in the serial order,
+``sources``); the cache is written here either way.
 """
 
 from __future__ import annotations

@@ -109,7 +109,7 @@ def test_ctrl_c_inside_the_reference_render_exits_130(cache, tmp_path, monkeypat
         except KeyboardInterrupt as exc:
             raise RuntimeError("drjit.while_loop(): the loop body raised an exception") from exc
 
-    monkeypatch.setattr(runner, "render_reference", render)  # where every command renders its reference
+    monkeypatch.setattr(runner, "render_references", render)  # where every command renders its references
     small = ["--set", "width=32", "--set", "height=32", "--set", "photon_res=64", "--set", "light_res=64"]
     argv = {"measure": ["measure", "sphere1", "-o", str(tmp_path / "m"), "--width", "32", "--height", "32"],
             "sweep": ["sweep", "-o", str(tmp_path / "s"), "--scenes", "sphere1", "--vary", "layers=1,2", *small],
