@@ -198,13 +198,9 @@ def render_references(jobs, *, force: bool = False, progress: bool = True, pool=
         source.want(plan.key, plan.request, _minimum(plan.state or RenderState.for_settings(plan.request.settings),
                                                      plan.request.settings))
     done: dict = {}
-    try:
-        for plan in rendering.values():
-            done[plan.key] = _finish(plan, source, progress)
-            source.drop(plan.key)
-    finally:
-        for key in rendering:
-            source.drop(key)
+    for plan in rendering.values():  # on an exception the pool's owner stops what is out
+        done[plan.key] = _finish(plan, source, progress)
+        source.drop(plan.key)
     return [done[p.key] if isinstance(p, _Plan) else p for p in plans]
 
 
