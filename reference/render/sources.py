@@ -35,7 +35,7 @@ class BatchError(RuntimeError):
 
 class Pooled:
     """Batches rendered on ``pool`` (an open ``reports.core.executors`` pool: ``submit``,
-    ``scatter``, ``cancel``, ``workers``), submitted in the order they are wanted and
+    ``cancel``, ``workers``), submitted in the order they are wanted and
     read in the order the render needs them. At most ``ahead`` (default: twice the
     workers) are out at once, rendering or done and not read yet, so the images held
     here stay bounded however many references the run has; a batch the render waits
@@ -45,14 +45,18 @@ class Pooled:
         self.pool = pool
         self.spare = max(1, pool.workers)  # batches wanted ahead beyond a render's minimum (noise targets)
         self.ahead = ahead or 2 * self.spare
-        self.requests: dict = {}   # key -> the request as sent (scattered once to a cluster)
+        self.requests: dict = {}   # key -> its request
         self.out: dict = {}        # (key, stream, index) -> future
         self.queue: deque = deque()
 
     def want(self, key: str, request, batches) -> None:
-        """Queue ``batches`` ((stream, index), in the order they will be read) of ``request``."""
+        """Queue ``batches`` ((stream, index), in the order they will be read) of ``request``.
+        The request goes with each batch task, not scattered once: a task's own arguments
+        stay with the scheduler, which sends them again when a worker dies under it, while
+        scattered data lives on one worker (and a scatter to a worker killed meanwhile
+        hung, distributed 2026.8)."""
         if key not in self.requests:
-            self.requests[key] = self.pool.scatter(request)
+            self.requests[key] = request
         queued = set(self.queue)
         for stream, index in batches:
             item = (key, stream, index)

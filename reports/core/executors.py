@@ -21,8 +21,8 @@ import os
 
 from volcaustics.infra.errors import InputError
 
-# a scatter that has not finished in this time is tried again: one to a worker that died
-# meanwhile hung here (distributed 2026.8); generous for a reference's arrays on a slow link
+# a scatter that has not finished in this time is tried again; generous for a reference's
+# arrays on a slow link
 SCATTER_SECONDS = 120
 
 
@@ -187,11 +187,8 @@ class _LocalPool:
     def submit(self, fn, *args, key: str | None = None):
         return self._pool.submit(fn, *args)
 
-    def scatter(self, value):
-        return value  # pickled with each task
-
     def scattered(self, task: dict) -> dict:
-        return task
+        return task  # what it ships is pickled with it
 
     def task_key(self, task: dict) -> None:
         return None
@@ -253,16 +250,16 @@ class _DaskPool:
         return future
 
     def scatter(self, value):
-        """``value`` sent to the cluster once, to every worker: tasks that name the future
-        get it there, and a worker that dies takes no copy that its tasks, rerun on
-        another worker, need (scattered data cannot be recomputed). A worker lost while
-        the data goes out (a closed stream) is left out on the next try."""
+        """``value`` sent to the cluster once; tasks that name the future get it there.
+        It lives on one worker: if that worker dies the tasks that need it fail (reported,
+        exit 1; the next run measures them). Sent to every worker, a scatter to a worker
+        killed meanwhile hung (distributed 2026.8). A closed stream is tried again."""
         import time
 
         for attempt in range(3):
             try:
-                return self.client.scatter(value, hash=False, broadcast=True, timeout=SCATTER_SECONDS)
-            except (OSError, TimeoutError):  # distributed's CommClosedError; a scatter to a worker that died hangs
+                return self.client.scatter(value, hash=False, timeout=SCATTER_SECONDS)
+            except (OSError, TimeoutError):  # distributed's CommClosedError
                 if attempt == 2:
                     raise
                 time.sleep(1.0)
