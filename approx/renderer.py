@@ -22,6 +22,7 @@ from volcaustics.scenes.formats import KIND_SPECULAR, PHOTON_DTYPE, RAW_RECORD_D
 
 from .camera_pass import CameraPasses, CameraView
 from .context import gl_info, shared_context
+from .controls import check_controls, controls_for
 from .denoise import denoise_images, guides
 from .emission import RULES, approx_rays, draw_slots
 from .geometry import SceneGeometry
@@ -31,7 +32,7 @@ from .params import ApproxParams, defines
 from .records import emission_records, records_from_raw
 from .splat import Splatter
 from .timing import PassTimer, timer_queries_work
-from .trace import PhotonTracer, check_controls, controls_for, read_raw_records
+from .trace import PhotonTracer, read_raw_records
 
 
 @dataclass
@@ -68,7 +69,7 @@ def _read_rgb(tex: moderngl.Texture) -> np.ndarray:
 class Renderer:
     """The approximation for one scene's geometry (light, camera, medium, materials may change).
 
-    ``controls``: #defines that are not parameters of the method (``approx.trace.CONTROLS``:
+    ``controls``: #defines that are not parameters of the method (``approx.controls.CONTROLS``:
     clipping to the objects' box, the deliberate faults of negative controls); every program
     this renderer compiles gets them."""
 

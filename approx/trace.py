@@ -21,6 +21,7 @@ import numpy as np
 
 from volcaustics.scenes.formats import DIFFERENTIAL_DTYPE, PHOTON_DTYPE, RAW_RECORD_DTYPE
 
+from .controls import controls_for
 from .emission import draw_slots
 from .glsl import compute_shader, set_uniforms
 from .light import spot_constants
@@ -36,36 +37,6 @@ PACK = {"PACK_BLOCK": 256, "PACK_TEXELS": 4}  # trace/pack_distances.comp.glsl: 
 # (common/start_offset.glsl): footprint · (START_SLOPE·sin θ + START_FLOOR) / |d·n|, at most START_MAX.
 # Fewest skipped hits + false re-hits in bench/start_offset.py: docs/decisions.md "Start offset".
 START_OFFSET = {"START_SLOPE": 0.7, "START_FLOOR": 0.25, "START_MAX": 2.0}
-
-# Controls: #defines that are not parameters of the method, given to a Renderer as
-# ``controls={NAME: value}`` (part of the programs' cache key), for negative controls and
-# benches. CLIP_TO_OBJECTS clips searched segments to the specular objects' box as well
-# (trace.comp.glsl; off by default: it changed little and not always for the better,
-# bench/agreement.py, docs/decisions.md "Clip to objects"); the others are deliberate faults
-# a test must see flagged.
-# name → (the programs it goes to: "trace" the emission and trace programs, "splat" the
-# density splat's, what it does)
-CONTROLS = {
-    "CLIP_TO_OBJECTS": ("trace", "clip searched segments to the specular objects' box too"),
-    "DIFFERENTIAL_UNPROPAGATED": ("trace", "photon differentials not propagated through interactions "
-                                           "(common/differential.glsl)"),
-    "EMISSION_SHIFT": ("trace", "photons leave this many texels off their emission points (emit.comp.glsl)"),
-    "DENSITY_IGNORED": ("splat", "density splats ignore the density pre-pass (splat/density.*.glsl)"),
-}
-
-
-def check_controls(controls: dict | None) -> dict:
-    """``controls`` as a plain dict, every name one of :data:`CONTROLS` (ValueError otherwise)."""
-    controls = dict(controls or {})
-    unknown = sorted(set(controls) - set(CONTROLS))
-    if unknown:
-        raise ValueError(f"unknown renderer controls {unknown}; expected some of {', '.join(CONTROLS)}")
-    return controls
-
-
-def controls_for(controls: dict | None, program: str) -> dict:
-    """The controls of ``controls`` that go to ``program`` ("trace" or "splat")."""
-    return {k: v for k, v in check_controls(controls).items() if CONTROLS[k][0] == program}
 
 class MapBuffers(NamedTuple):
     """The light maps as the tracer reads them (storage buffers, map-major, rows

@@ -1,10 +1,11 @@
-"""Renderer controls (``approx.trace.CONTROLS``): #defines that are not parameters of the
+"""Renderer controls (``approx.controls.CONTROLS``): #defines that are not parameters of the
 method reach the programs only through a Renderer's ``controls``, never a module global."""
 
 import pytest
 
 from volcaustics.approx import ApproxParams
-from volcaustics.approx.trace import CONTROLS, PhotonTracer, check_controls
+from volcaustics.approx.controls import CONTROLS, check_controls
+from volcaustics.approx.trace import PhotonTracer
 
 
 def test_a_control_reaches_the_tracers_defines_and_its_key():

@@ -1,0 +1,33 @@
+"""Renderer controls: #defines that are not parameters of the method, given to a
+Renderer as ``controls={NAME: value}`` (part of the programs' cache key), for negative
+controls and benches."""
+
+from __future__ import annotations
+
+# CLIP_TO_OBJECTS clips searched segments to the specular objects' box as well
+# (trace.comp.glsl; off by default: it changed little and not always for the better,
+# bench/agreement.py, docs/decisions.md "Clip to objects"); the others are deliberate faults
+# a test must see flagged.
+# name → (the programs it goes to: "trace" the emission and trace programs, "splat" the
+# density splat's, what it does)
+CONTROLS = {
+    "CLIP_TO_OBJECTS": ("trace", "clip searched segments to the specular objects' box too"),
+    "DIFFERENTIAL_UNPROPAGATED": ("trace", "photon differentials not propagated through interactions "
+                                           "(common/differential.glsl)"),
+    "EMISSION_SHIFT": ("trace", "photons leave this many texels off their emission points (emit.comp.glsl)"),
+    "DENSITY_IGNORED": ("splat", "density splats ignore the density pre-pass (splat/density.*.glsl)"),
+}
+
+
+def check_controls(controls: dict | None) -> dict:
+    """``controls`` as a plain dict, every name one of :data:`CONTROLS` (ValueError otherwise)."""
+    controls = dict(controls or {})
+    unknown = sorted(set(controls) - set(CONTROLS))
+    if unknown:
+        raise ValueError(f"unknown renderer controls {unknown}; expected some of {', '.join(CONTROLS)}")
+    return controls
+
+
+def controls_for(controls: dict | None, program: str) -> dict:
+    """The controls of ``controls`` that go to ``program`` ("trace" or "splat")."""
+    return {k: v for k, v in check_controls(controls).items() if CONTROLS[k][0] == program}
