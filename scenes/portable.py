@@ -11,7 +11,7 @@ import hashlib
 import os
 
 from volcaustics.infra.errors import InputError
-from volcaustics.infra.storage import atomic_write_bytes, cache_dir, cache_path
+from volcaustics.infra.storage import atomic_write_bytes, cache_dir, cache_path, file_sha256
 
 from .model import Scene
 
@@ -55,9 +55,9 @@ def unpacked(package: tuple) -> Scene:
                                diffuse=tuple(moved(o) for o in scene.diffuse))
 
 
+
 def _holds(path: str, digest: str) -> bool:
     try:
-        with open(path, "rb") as fh:
-            return hashlib.sha256(fh.read()).hexdigest() == digest
-    except OSError:
+        return file_sha256(path) == digest
+    except OSError:  # missing, or not a regular file
         return False
