@@ -316,6 +316,29 @@ class Renderer:
             gbuf_nrm.release()
         return images
 
+    def density_widths(self, splats: np.ndarray, field: np.ndarray, scene=None,
+                       params: ApproxParams | None = None) -> np.ndarray:
+        """splat = density: the kernel σ (m, float32 per row of ``splats``; 0 for a row that
+        is not a collision) :meth:`splat` gives ``splats`` (SPLAT_DTYPE) when its density
+        pre-pass counts the splats ``field`` instead (``approx.splat.Splatter.density_widths``):
+        other photons splatted with the widths of a frame whose collisions were ``field``."""
+        scene = scene or self.scene
+        p = (params or ApproxParams()).resolved(scene)
+        if p.splat != "density":
+            raise ValueError(f"density_widths: splat = {p.splat!r}, expected 'density'")
+        if not len(splats):
+            return np.zeros(0, np.float32)
+        _, splatter = self._shading_programs(scene, p)
+        view = _camera_view(scene, p, medium_bounds(scene))
+        buffers = [self.ctx.buffer(np.ascontiguousarray(a, SPLAT_DTYPE).tobytes() or bytes(SPLAT_DTYPE.itemsize))
+                   for a in (splats, field)]
+        try:
+            return splatter.density_widths(buffers[0], len(splats), buffers[1], len(field), view, p.splat_radius,
+                                           p.splat_neighbours)
+        finally:
+            for b in buffers:
+                b.release()
+
     def release(self):
         for prog in self._programs.values():
             prog.release()

@@ -13,7 +13,7 @@ import numpy as np
 from volcaustics.scenes.formats import SPLAT_DTYPE, STATUS_COLLIDED
 
 from .context import bound
-from .glsl import attribute_layout, program, set_uniforms
+from .glsl import attribute_layout, load_source, program, set_uniforms
 
 # Instance attributes of a splat (SPLAT_DTYPE, 48 bytes).
 INSTANCE_PARTS = [("4f", "in_end"), ("4f", "in_dir_t"), ("4f", "in_power")]
@@ -88,6 +88,8 @@ class Splatter:
         self.program = program(ctx, "splat/splat.vert.glsl", "splat/splat.frag.glsl", defines)
         self.density_program = (program(ctx, "splat/density.vert.glsl", "splat/density.frag.glsl") if density
                                 else None)
+        self.defines = defines
+        self.widths_program = None  # the widths pass (density_widths), compiled when first used
         corners = np.array([[-1, -1], [1, -1], [-1, 1], [1, 1]], np.float32)
         self.corners = ctx.buffer(corners.tobytes())
 
@@ -98,10 +100,47 @@ class Splatter:
         grid = ctx.texture(size, 1, np.zeros(size[0] * size[1], np.float32).tobytes(), dtype="f4")  # counts from 0
         grid.filter = moderngl.LINEAR, moderngl.LINEAR
         grid.repeat_x = grid.repeat_y = False
-        view.set_uniforms(prog)
-        fmt, names = attribute_layout(prog, INSTANCE_PARTS, per_instance=True)
-        _add_into(ctx, grid, ctx.vertex_array(prog, [(splats, fmt, *names)]), moderngl.POINTS, 1, count)
+        if count:  # no photons (a step of the frame that splatted none): every cell 0
+            view.set_uniforms(prog)
+            fmt, names = attribute_layout(prog, INSTANCE_PARTS, per_instance=True)
+            _add_into(ctx, grid, ctx.vertex_array(prog, [(splats, fmt, *names)]), moderngl.POINTS, 1, count)
         return grid
+
+    def _use_density(self, prog, splats: moderngl.Buffer, count: int, view, splat_neighbours: int):
+        """The density pre-pass of ``count`` splats bound for ``prog`` (texture unit 1,
+        the width's uniforms, splat/density_width.glsl); returns the grid to release."""
+        grid = self._density_grid(splats, count, view)
+        grid.use(location=1)
+        set_uniforms(prog, density=1, density_cell=float(DENSITY_CELL), splat_neighbours=float(splat_neighbours),
+                     mean_per_pixel=count / float(view.width * view.height), density_floor=DENSITY_FLOOR)
+        return grid
+
+    def density_widths(self, splats: moderngl.Buffer, count: int, field: moderngl.Buffer, field_count: int, view,
+                       splat_radius: float, splat_neighbours: int = 16) -> np.ndarray:
+        """splat = density: the kernel σ (m, float32, one per row; 0 for a row that is not
+        a collision) that :meth:`splat` gives each of ``count`` splats when the density
+        pre-pass counts the ``field_count`` splats of ``field`` instead of their own: the
+        same pre-pass and width (splat/density_width.glsl), by transform feedback."""
+        if self.density_program is None:
+            raise ValueError("density_widths: a Splatter made with density=True has them")
+        ctx = self.ctx
+        if self.widths_program is None:
+            self.widths_program = ctx.program(vertex_shader=load_source("splat/widths.vert.glsl", self.defines),
+                                              varyings=["out_sigma"])
+        prog = self.widths_program
+        view.set_uniforms(prog)
+        set_uniforms(prog, splat_radius=float(splat_radius), pixel_angle=2.0 / (float(view.proj[1, 1]) * view.height))
+        grid = self._use_density(prog, field, field_count, view, splat_neighbours)
+        out = ctx.buffer(reserve=4 * max(count, 1))
+        fmt, names = attribute_layout(prog, INSTANCE_PARTS)
+        vao = ctx.vertex_array(prog, [(splats, fmt, *names)])
+        try:
+            vao.transform(out, moderngl.POINTS, vertices=count)
+            return np.frombuffer(out.read(), np.float32)[:count].copy()
+        finally:
+            vao.release()
+            out.release()
+            grid.release()
 
     def splat(self, splats: moderngl.Buffer, count: int, view, medium, splat_radius: float,
               scene_distance: moderngl.Texture, target: moderngl.Texture, splat_neighbours: int = 16) -> None:
@@ -120,10 +159,7 @@ class Splatter:
         prog["scene_distance"].value = 0
         grid = None
         if self.density_program is not None:
-            grid = self._density_grid(splats, count, view)
-            grid.use(location=1)
-            set_uniforms(prog, density=1, density_cell=float(DENSITY_CELL), splat_neighbours=float(splat_neighbours),
-                         mean_per_pixel=count / float(view.width * view.height), density_floor=DENSITY_FLOOR)
+            grid = self._use_density(prog, splats, count, view, splat_neighbours)
         fmt, names = attribute_layout(prog, INSTANCE_PARTS, per_instance=True)
         vao = ctx.vertex_array(prog, [(self.corners, "2f", "in_corner"), (splats, fmt, *names)])
         _add_into(ctx, target, vao, moderngl.TRIANGLE_STRIP, 4, count)
@@ -132,6 +168,7 @@ class Splatter:
 
     def release(self):
         self.program.release()
-        if self.density_program is not None:
-            self.density_program.release()
+        for prog in (self.density_program, self.widths_program):
+            if prog is not None:
+                prog.release()
         self.corners.release()

@@ -1,8 +1,9 @@
 """The exact caustic images of the decomposition, as paired photon subsets: A, E_k,
 E_∞ (A's Fresnel), E_∞ (stochastic), E_em (the light's true emission) and E_∞,s (the
-true emission, small kernel, supersampled). With splat = adaptive, A is splatted with
-its own kernels and the E images but E_∞,s with the kernels A gave the same photons
-(:func:`_paired_kernels`), so kernel_blur = E_∞,s − E_em is the adaptive kernel's blur.
+true emission, small kernel, supersampled). Every image but E_∞,s takes its kernels from
+the seed's real frame (``reports.experiment.kernels``: A's own for A, so A's subsets
+average to the real frame whatever the splat mode); E_∞,s always takes the fixed small
+kernel, so kernel_blur = E_∞,s − E_em is the blur of A's kernels.
 
 Every E image replays from the emission ray: E_k and both E_∞ from A's own
 emission rays (texel centres, or A's adaptive draw) traced exactly to their first
@@ -28,10 +29,11 @@ import numpy as np
 from volcaustics.approx.emission import true_rays
 from volcaustics.approx.light import LightFrustum
 from volcaustics.approx.params import ParamError
-from volcaustics.approx.splat import record_sigma, splats_from_arrays
+from volcaustics.approx.splat import splats_from_arrays
 from volcaustics.reference.replay import exact_collisions, exact_emission
 from volcaustics.reports.experiment.exact import ExactPhotons, pixel_footprint, subset_images
 from volcaustics.reports.experiment.exact_store import EXACT_IMAGES, exact_document, exact_key, load_exact, save_exact
+from volcaustics.reports.experiment.kernels import KERNEL_RULES, frame_kernels, splat_params
 from volcaustics.scenes.bounds import medium_bounds
 from volcaustics.scenes.formats import STATUS_COLLIDED
 from volcaustics.scenes.rng import pcg_hash
@@ -104,27 +106,9 @@ def small_radius(scene, p) -> float:
     return SMALL_KERNEL_FINE_PIXELS * pixel_footprint(scene.camera, p.height * SMALL_SUPERSAMPLE)
 
 
-def _paired_kernels(collided: np.ndarray, sigma: np.ndarray | None):
-    """For splat = adaptive, a function giving exact photons (``ExactPhotons``) the
-    kernels the approximation gave them: the kernel of the same photon's collision at the
-    same step of A (``collided``, kernels ``sigma``), else (A's photon did not collide
-    there: another path, or a step beyond A's) the median of A's kernels. For splat =
-    fixed, the photons' splats as they are (splat_radius)."""
-    if sigma is None:
-        return lambda photons: photons.splats
-    order = np.lexsort((collided["step"], collided["photon"]))
-    keys = collided["photon"][order].astype(np.int64) << 16 | collided["step"][order].astype(np.int64)
-    sorted_sigma, fallback = sigma[order], np.float32(np.median(sigma)) if len(sigma) else np.float32(0)
-
-    def kernels(photons):
-        wanted = photons.photon.astype(np.int64) << 16 | photons.step.astype(np.int64)
-        at = np.clip(np.searchsorted(keys, wanted), 0, max(len(keys) - 1, 0))
-        found = (keys[at] == wanted) if len(keys) else np.zeros(len(wanted), bool)
-        splats = photons.splats.copy()
-        splats["dir"][:, 3] = np.where(found, sorted_sigma[at] if len(keys) else fallback, fallback)
-        return splats
-
-    return kernels
+def small_kernel_params(scene, p):
+    """What E_∞,s is splatted with whatever A's splat mode: the fixed small kernel."""
+    return dataclasses.replace(p, splat="fixed", splat_radius=small_radius(scene, p))
 
 
 def exact_images(scene, p, frames, seeds, renderer, oracle, subphotons: int | None = None, *,
@@ -141,40 +125,54 @@ def exact_images(scene, p, frames, seeds, renderer, oracle, subphotons: int | No
     constants = {**CONSTANTS, "exact_steps": exact_steps, "subset_batches": subset_batches}
     document = exact_document(scene, p, seeds, subphotons, constants, renderer.controls)
     key = exact_key(document)
-    # each frame's medium collisions: A's splats, and (splat = adaptive) the kernels E pairs with
-    collisions = [np.concatenate([r[r["status"] == STATUS_COLLIDED] for r in frame.records]) for frame in frames]
+    approx, kernels = approx_subsets(scene, p, frames, seeds, renderer, subset_batches)
     exact = load_exact(key, document)
     reused = exact is not None
     if exact is None:
-        exact = _exact_batches(scene, p, collisions, seeds, renderer, oracle, subphotons, subset_batches, exact_steps)
+        exact = _exact_batches(scene, p, kernels, seeds, renderer, oracle, subphotons, subset_batches, exact_steps)
         save_exact(key, document, exact)
-    approx = []
-    for collided, seed in zip(collisions, seeds):
-        sigma = record_sigma(collided, p)
-        splats = splats_from_arrays(collided["end"], collided["direction"], collided["power"], sigma)
-        approx.append(_subsets(renderer, scene, p, splats, collided["photon"], dataclasses.replace(p, seed=seed),
-                               subset_batches))
-    return {"batches": {"approx": np.concatenate(approx), **exact["batches"]}, "alive": exact["alive"],
+    return {"batches": {"approx": approx, **exact["batches"]}, "alive": exact["alive"],
             "small_radius": exact["small_radius"], "subphotons": subphotons, "exact_key": key,
-            "exact_reused": reused, "exact_steps": exact_steps, "subset_batches": subset_batches}
+            "exact_reused": reused, "exact_steps": exact_steps, "subset_batches": subset_batches,
+            "kernels": KERNEL_RULES[p.splat]}
 
 
-def _subsets(renderer, scene, p, splats, photon, params, batches: int, supersample: int = 1) -> np.ndarray:
-    return subset_images(renderer, splats, photon, p.photon_res, batches, params, scene,
+def approx_subsets(scene, p, frames, seeds, renderer, batches: int = SUBSET_BATCHES) -> tuple:
+    """(A's paired subset images, every seed's kernels): per seed, ``batches`` subset
+    images of its frame's medium collisions with the frame's own kernels (so their mean
+    is the frame's caustic, whatever the splat mode), all seeds' concatenated; and per
+    seed the kernels of its real frame (``kernels.frame_kernels``) for the E images."""
+    images, kernels = [], []
+    for frame, seed in zip(frames, seeds):
+        collided = np.concatenate([r[r["status"] == STATUS_COLLIDED] for r in frame.records])
+        kernel = frame_kernels(renderer, scene, p, collided)
+        splats = splats_from_arrays(collided["end"], collided["direction"], collided["power"])
+        images.append(_subsets(renderer, scene, dataclasses.replace(splat_params(p), seed=seed),
+                               kernel(splats, collided["photon"], collided["step"]), collided["photon"], batches))
+        kernels.append(kernel)
+    return np.concatenate(images), kernels
+
+
+def _subsets(renderer, scene, params, splats, photon, batches: int, supersample: int = 1) -> np.ndarray:
+    """``batches`` paired subset images of ``splats`` (``exact.subset_images``), splatted
+    with ``params`` (its seed, size and splat mode) at ``supersample``× the pixels."""
+    return subset_images(renderer, splats, photon, params.photon_res, batches, params, scene,
                          supersample=supersample)
 
 
-def _exact_batches(scene, p, collisions, seeds, renderer, oracle, subphotons: int, batches: int, steps: int) -> dict:
+def _exact_batches(scene, p, kernels, seeds, renderer, oracle, subphotons: int, batches: int, steps: int) -> dict:
     """The E images of :func:`exact_images` (``exact_store.EXACT_IMAGES``), their alive
     fractions and the small kernel, computed. Every one replays from the emission ray
     (``reference.replay.exact_emission``): E_k, E_∞ (A's Fresnel) and E_∞ (stochastic)
     from A's own emission rays (``Renderer.emission_rays``: texel centres or the
     adaptive draw; E_k is replay 0, A's random numbers, cut at ``steps``), E_em and
     E_∞,s from the light's true distribution (``approx.emission.true_rays``: jittered
-    in every texel, the spot's exact profile), with the same replay seeds."""
+    in every texel, the spot's exact profile), with the same replay seeds. ``kernels``:
+    per seed, the kernels of its real frame (``kernels.frame_kernels``) for every image
+    but E_∞,s, which takes the fixed small kernel whatever A's splat mode."""
     out = {name: [] for name in EXACT_IMAGES}
     alive = {}
-    small = dataclasses.replace(p, splat_radius=small_radius(scene, p))
+    small = small_kernel_params(scene, p)
     frustum = LightFrustum.for_scene(scene, *medium_bounds(scene))
     replay_seeds = [[replay_seed(seed, m) for m in range(subphotons)] for seed in seeds]
     own = [(rays, s) for rays, seeds_of in zip(renderer.emission_rays(scene, p, seeds), replay_seeds)
@@ -183,17 +181,17 @@ def _exact_batches(scene, p, collisions, seeds, renderer, oracle, subphotons: in
     stochastic = _replayed(scene, p, "stochastic", own + true, oracle, steps)  # one wavefront for both emissions
     everything_all, true_all = stochastic[:len(own)], stochastic[len(own):]
     same_all = everything_all if p.fresnel == "stochastic" else _replayed(scene, p, p.fresnel, own, oracle, steps)
-    for i, (collided, seed) in enumerate(zip(collisions, seeds)):
-        ps = dataclasses.replace(p, seed=seed)
-        kernels = _paired_kernels(collided, record_sigma(collided, p))
+    for i, (kernel, seed) in enumerate(zip(kernels, seeds)):
+        ps = dataclasses.replace(splat_params(p), seed=seed)
         mine = slice(i * subphotons, (i + 1) * subphotons)
         same, everything, emitted = (pooled(replays[mine]) for replays in (same_all, everything_all, true_all))
         e_k = _cut(same_all[i * subphotons], p.steps)
         for name, photons in (("exact_steps", e_k), ("exact_all_same", same), ("exact_all", everything),
                               ("exact_emission", emitted)):
-            out[name].append(_subsets(renderer, scene, p, kernels(photons), photons.photon, ps, batches))
-        out["exact_all_small"].append(_subsets(renderer, scene, p, emitted.splats, emitted.photon,
-                                               dataclasses.replace(small, seed=seed), batches, SMALL_SUPERSAMPLE))
+            out[name].append(_subsets(renderer, scene, ps, kernel(photons.splats, photons.photon, photons.step),
+                                      photons.photon, batches))
+        out["exact_all_small"].append(_subsets(renderer, scene, dataclasses.replace(small, seed=seed),
+                                               emitted.splats, emitted.photon, batches, SMALL_SUPERSAMPLE))
         for name, photons in {p.fresnel: same, "stochastic": everything, "true_emission": emitted}.items():
             alive.setdefault(name, []).append(photons.alive_fraction)
     return {"batches": {name: np.concatenate(images) for name, images in out.items()}, "alive": alive,

@@ -7,8 +7,8 @@ photon grid and the splat, not on how A searched. The parameters the table marks
 ``exact=False`` (``approx.params``: the layers, the search, the crossing and start
 rules, the light maps' size, the fog) are therefore left out of their key, so a sweep
 over them computes the E images once per scene and seed set and reads them back for
-every other point. With ``splat = adaptive`` the E images take A's kernels
-(``exact_images._paired_kernels``), so every parameter is in the key.
+every other point. With adaptive or density splats the E images take the kernels of A's
+real frames (``reports.experiment.kernels``), so every parameter is in the key.
 
 An entry is ``$VOLCAUSTICS_CACHE/exact-images/<key>.npz`` (the batch images,
 compressed) and ``<key>.json`` (written last: the key's document, the alive fractions,
@@ -39,7 +39,7 @@ from volcaustics.infra.storage import (
 from volcaustics.reports.core.versions import code_version
 
 FOLDER = "exact-images"
-FORMAT = 2  # 2: every E image from the emission ray, and E_em
+FORMAT = 3  # 2: every E image from the emission ray, and E_em; 3: the real frame's kernels, E_∞,s fixed
 EXACT_IMAGES = ("exact_steps", "exact_all_same", "exact_all", "exact_emission", "exact_all_small")
 SEARCH_ONLY = tuple(p.name for p in PARAMS if not p.exact)  # what the E images do not depend on
 

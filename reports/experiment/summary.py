@@ -67,12 +67,23 @@ def experiment_views(frames, reference, keep, layers, maps) -> dict:
     return {name: np.asarray(image, np.float32) for name, image in out.items()}
 
 
+def short_of_target(manifest: dict) -> dict:
+    """component → {"noise_floor", "target"} for each component of a reference's
+    ``manifest`` whose noise floor stayed above its target (``target_noise``): a render a
+    cap stopped (``stopped_by`` "time cap" or "photon cap") before its noise was met."""
+    targets = (manifest.get("settings") or {}).get("target_noise") or {}
+    floors = manifest.get("noise_floor") or {}
+    return {name: {"noise_floor": floors[name], "target": target} for name, target in targets.items()
+            if floors.get(name) is not None and floors[name] > target}
+
+
 def reference_summary(reference) -> dict:
     """What a summary says of the reference a result was measured against."""
     m = reference.manifest
     return {"key": reference.key, "settings": m.get("settings"), "photons": m.get("photons"),
             "batches": m.get("batches"), "camera_batches": m.get("camera_batches"),
             "noise_floor": m.get("noise_floor"), "stopped_by": m.get("stopped_by"),
+            "short_of_target": short_of_target(m),
             "mitsuba_variant": m.get("mitsuba_variant"), "cached": reference.cached,
             "reference_code_version": m.get("reference_code_version")}
 
@@ -84,6 +95,13 @@ def experiment_summary(scene, p, seeds, reference, frames, exact, headline, deco
     warnings = [f"{names[k]} keeps {100 * v:.2f}% of the power alive after {exact['exact_steps']} steps "
                 f"(> {100 * ALIVE_BUDGET:.1f}%): the truncation term is understated" for k, v in alive.items()
                 if v > ALIVE_BUDGET]
+    short = short_of_target(reference.manifest)
+    if short:
+        floors = ", ".join(f"{c} {100 * v['noise_floor']:.2f}% (target {100 * v['target']:.2f}%)"
+                           for c, v in short.items())
+        warnings.append(f"the reference stopped at its {reference.manifest.get('stopped_by')} above its noise "
+                        f"target: {floors}; its noise is debiased, but the numbers are less precise than asked "
+                        f"(raise --max-seconds or --max-photons and run again: the cached reference is continued)")
     if decomposition is not None and not decomposition["residual"]["within_noise"]:
         warnings.append(decomposition["residual"]["message"])
     if model is not None and not model["converged"]:
@@ -102,7 +120,7 @@ def experiment_summary(scene, p, seeds, reference, frames, exact, headline, deco
         "reference": reference_summary(reference),
         "exact": None if exact is None else {
             "steps": exact["exact_steps"], "subset_batches": exact["subset_batches"], "alive_after": alive,
-            "small_splat_radius": exact["small_radius"],
+            "small_splat_radius": exact["small_radius"], "kernels": exact["kernels"],
             "small_supersample": SMALL_SUPERSAMPLE, "subphotons": exact["subphotons"],
             "batches": int(len(exact["batches"]["approx"])), "images_key": exact["exact_key"],
             "images_reused": exact["exact_reused"]},

@@ -26,16 +26,7 @@ out vec3 v_center;
 out vec3 v_corner;            // world position on the billboard: the pixel ray passes through it
 flat out vec3 v_weight;
 #ifdef SPLAT_DENSITY
-// splat = density: the kernel's width from the photons per cell of the pre-pass around the
-// splat's centre (bilinear): the radius in pixels of a disc that holds splat_neighbours
-// photons, r = √(k / (π·ρ)) with ρ photons per pixel², as the k-th nearest neighbour's
-// distance estimates it (in 2-D: h ∝ f^(−1/2), Abramson's square-root law), taken as σ
-// and carried to the splat's distance; within [density_floor, 4]·splat_radius.
-uniform sampler2D density;     // photons per cell (density.vert.glsl)
-uniform float density_cell;    // a cell's side (pixels)
-uniform float splat_neighbours;
-uniform float mean_per_pixel;  // the frame's photons per pixel² over the whole image (DENSITY_IGNORED)
-uniform float density_floor;   // the narrowest kernel, in splat_radius (approx.splat.DENSITY_FLOOR)
+#include "splat/density_width.glsl"
 #endif
 #ifdef SPLAT_ADAPTIVE
 flat out float v_sigma;       // this splat's kernel standard deviation (m)
@@ -70,14 +61,8 @@ void main() {
     vec4 centre_clip = view_proj * vec4(c, 1.0);
     v_center_px = (centre_clip.xy / centre_clip.w * 0.5 + 0.5) * viewport;
 #ifdef SPLAT_DENSITY
-#ifdef DENSITY_IGNORED
-    float per_pixel = mean_per_pixel;  // a test's negative control: one width for the frame's photons
-#else
-    float per_pixel = max(texture(density, v_center_px / viewport).r, 1.0) / (density_cell * density_cell);
-#endif
-    float r = sqrt(splat_neighbours / (3.141592653589793 * per_pixel));
     bool boxed = true;
-    float sigma = clamp(r * pixel_angle * dist, density_floor * splat_radius, 4.0 * splat_radius);
+    float sigma = density_sigma(v_center_px, viewport, dist, pixel_angle, splat_radius);
 #else
     bool boxed = in_dir_t.w > 0.0;
     float sigma = boxed ? in_dir_t.w : splat_radius;
