@@ -2,12 +2,14 @@
 configuration, at the report's settings (quick preset, the budgets' 6 seeds, the
 report's reference, 16 sub-photons).
 
-    .venv/bin/python bench/closure.py [SCENE ...] [--configs paper,adaptive,adopted] [--json FILE]
+    .venv/bin/python bench/closure.py [SCENE ...] [--configs paper,adaptive,best] [--json FILE]
     .venv/bin/python bench/closure.py --table AFTER.jsonl [BEFORE.jsonl]
 
-Configurations: ``paper`` (the quick preset: the paper's method at the harness's size),
-``adaptive`` (the same with ``emission = adaptive``) and ``adopted`` (the best search's
-configuration, ``reports.sweep.adopted``). The goal: the residual's debiased relMSE
+SCENE: a built-in name or a scene file (``scenes/heldout/knot.toml``). Configurations:
+``paper`` (the quick preset: the paper's method at the harness's size, fixed splats),
+``adaptive`` (the same with adaptive splats and ``emission = adaptive``) and ``best``
+(``--preset best``: density splats, photon_res matched to the paper's frame cost as the
+commands match it). The goal: the residual's debiased relMSE
 part ≤ 0.2 points and |z| ≤ 3 for its energy and relMSE, every term to ±1% of the
 reference's energy. Prints one block per point and, with ``--json``, appends one JSON
 object per point (the decomposition's rows and residual) to FILE. Runs the code of the
@@ -23,28 +25,28 @@ import time
 
 
 def config_params(name: str, scene: str):
-    from volcaustics.approx.params import QUICK
-    from volcaustics.reports.sweep.adopted import adopted_params
+    from volcaustics.approx.params import PRESETS, QUICK
+    from volcaustics.reports.core.cost_match import with_auto_photon_res
 
     if name == "paper":
         return QUICK
     if name == "adaptive":
-        return dataclasses.replace(QUICK, emission="adaptive")
-    if name == "adopted":
-        return adopted_params(QUICK, scene)
-    raise SystemExit(f"--configs: unknown configuration {name!r} (paper, adaptive, adopted)")
+        return dataclasses.replace(QUICK, splat="adaptive", emission="adaptive")
+    if name == "best":
+        return with_auto_photon_res(scene, PRESETS["best"], "best", given=False)
+    raise SystemExit(f"--configs: unknown configuration {name!r} (paper, adaptive, best)")
 
 
 def main(argv=None) -> int:
     from volcaustics.reference.render import render_reference
     from volcaustics.reports.core.sizing import REPORT_REFERENCE, sized
     from volcaustics.reports.experiment.run import run_experiment
-    from volcaustics.scenes import load_builtin
+    from volcaustics.scenes import resolve_scene
     from volcaustics.scenes.catalogue import BUILTIN_NAMES
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("scenes", nargs="*", default=list(BUILTIN_NAMES))
-    parser.add_argument("--configs", default="paper,adaptive,adopted")
+    parser.add_argument("--configs", default="paper,adaptive,best")
     parser.add_argument("--seeds", type=int, default=6)
     parser.add_argument("--json", help="append one JSON object per point to this file")
     parser.add_argument("--table", nargs="+", metavar="FILE",
@@ -53,7 +55,7 @@ def main(argv=None) -> int:
     if args.table:
         return print_tables(*args.table)
     for name in args.scenes:
-        scene = load_builtin(name)
+        scene = resolve_scene(name)
         for config in args.configs.split(","):
             p = config_params(config, name)
             reference = render_reference(scene, sized(REPORT_REFERENCE, scene, p), progress=False)

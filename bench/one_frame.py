@@ -2,11 +2,11 @@
 report's settings (quick preset, 6 seeds, the report's reference; the gate's scope: no
 decomposition).
 
-    .venv/bin/python bench/one_frame.py [SCENE ...] [--configs paper,sobol,oidn,sobol+oidn,adopted] [--json FILE]
+    .venv/bin/python bench/one_frame.py [SCENE ...] [--configs paper,sobol,oidn,sobol+oidn,best] [--json FILE]
 
 Configurations: ``paper`` (the quick preset), ``random`` / ``sobol`` (``emission_jitter``),
-``oidn`` (``denoise``), ``sobol+oidn`` and ``adopted`` (the best search's configuration,
-``reports.sweep.adopted``, at its cost-matched photon_res), or ``NAME=VALUE/NAME=VALUE``
+``oidn`` (``denoise``), ``sobol+oidn`` and ``best`` (``--preset best`` at its cost-matched
+photon_res; ``best+oidn`` etc. with a configuration's changes), or ``NAME=VALUE/NAME=VALUE``
 (any parameters on the quick preset, e.g. ``splat=density/splat_neighbours=4``). Per point: the frame cost
 against the paper's, one frame's caustic relMSE less the reference's floor ± SE
 (``metrics.frame``), the seeds' mean's debiased relMSE ± SE, their ratios to the paper's,
@@ -26,20 +26,19 @@ CONFIGS = {"paper": {}, "random": {"emission_jitter": "random"}, "sobol": {"emis
 
 
 def config_params(name: str, scene: str):
-    from volcaustics.approx.params import QUICK
-    from volcaustics.reports.sweep.adopted import adopted_params
+    from volcaustics.approx.params import PRESETS, QUICK
+    from volcaustics.reports.core.cost_match import with_auto_photon_res
 
-    if name == "adopted":
-        return adopted_params(QUICK, scene)
-    if name.startswith("adopted+"):
-        return dataclasses.replace(adopted_params(QUICK, scene), **CONFIGS[name.split("+", 1)[1]])
+    if name == "best" or name.startswith("best+"):
+        best = with_auto_photon_res(scene, PRESETS["best"], "best", given=False)
+        return dataclasses.replace(best, **CONFIGS[name.split("+", 1)[1]]) if "+" in name else best
     if "=" in name:  # NAME=VALUE/NAME=VALUE…: any parameters on the quick preset
         from volcaustics.approx.params import param
 
         pairs = dict(item.split("=", 1) for item in name.split("/"))
         return dataclasses.replace(QUICK, **{k: param(k).parse(v) for k, v in pairs.items()})
     if name not in CONFIGS:
-        raise SystemExit(f"--configs: unknown configuration {name!r} ({', '.join([*CONFIGS, 'adopted'])})")
+        raise SystemExit(f"--configs: unknown configuration {name!r} ({', '.join([*CONFIGS, 'best'])})")
     return dataclasses.replace(QUICK, **CONFIGS[name])
 
 
@@ -52,7 +51,7 @@ def main(argv=None) -> int:
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("scenes", nargs="*", default=list(BUILTIN_NAMES))
-    parser.add_argument("--configs", default="paper,sobol,oidn,sobol+oidn,adopted")
+    parser.add_argument("--configs", default="paper,sobol,oidn,sobol+oidn,best")
     parser.add_argument("--seeds", type=int, default=6)
     parser.add_argument("--json", help="append one JSON object per point to this file")
     args = parser.parse_args(argv)

@@ -33,8 +33,8 @@ reader meets them, the emission first; the chain runs A → E_k → E_∞ → E_
                                          within noise, else a renderer is wrong
 ==================  ===================  ===========================================
 
-Each term is the change that removing its cause brings towards R; docs/concepts/decomposition.md writes
-the blur as E_∞ − E_∞,s, the opposite sign, which would not sum to R − A.
+Each term is the change that removing its cause brings towards R (so the blur is
+E_∞,s − E_em, not E_em − E_∞,s: the terms sum to R − A).
 
 Each term is given, over the compared pixels, as an *energy share* Σ term / Σ R per
 channel, averaged over RGB (they sum to 1 − the energy ratio, ``metrics.image.

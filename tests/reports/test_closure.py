@@ -1,9 +1,10 @@
-"""The caustic's decomposition closes: on every built-in, for the paper's
-configuration (the quick preset), adaptive emission and the adopted best
-configuration, and on a generated scene no built-in resembles, the residual R − E_∞,s
-is within noise. And its negative controls: a shifted emission grid moves the emission
-term and cannot reach the residual; an exact emission without the spot's profile is
-flagged."""
+"""The caustic's decomposition closes for every splat mode: the paper's configuration
+(the quick preset: fixed splats), adaptive splats with adaptive emission, and
+``--preset best`` (density splats, its photon_res matched to the paper's frame cost),
+on every built-in, every held-out scene and a generated scene no built-in resembles:
+the residual R − E_∞,s is within noise, and the terms sum to the measured mean image's
+error. And its negative controls: a shifted emission grid moves the emission term and
+cannot reach the residual; an exact emission without the spot's profile is flagged."""
 
 from __future__ import annotations
 
@@ -15,20 +16,31 @@ import pytest
 
 from tests.shared import flat_spot
 from volcaustics.approx import Renderer
-from volcaustics.approx.params import QUICK
+from volcaustics.approx.params import PRESETS, QUICK
 from volcaustics.metrics.decomposition import TERMS
 from volcaustics.reference.settings import ReferenceSettings
+from volcaustics.reports.core.cost_match import with_auto_photon_res
 from volcaustics.reports.experiment import exact_images
 from volcaustics.reports.experiment.run import run_experiment
-from volcaustics.reports.sweep.adopted import adopted_params
-from volcaustics.scenes import load_builtin, load_scene
-from volcaustics.scenes.catalogue import BUILTIN_NAMES
+from volcaustics.scenes import load_builtin, load_scene, resolve_scene
+from volcaustics.scenes.catalogue import BUILTIN_NAMES, HELDOUT_NAMES, heldout_path
 
 SIZE = 64
 # the reference's noise is 10–100× below E_∞,s's at this size (caustic floors 0–0.09%)
 REFERENCE = ReferenceSettings(photons=1 << 20, spp=32, batches=8, width=SIZE, height=SIZE)
-CONFIGS = {"paper": lambda name: QUICK, "adaptive": lambda name: dataclasses.replace(QUICK, emission="adaptive"),
-           "adopted": lambda name: adopted_params(QUICK, name)}
+SCENES = [*BUILTIN_NAMES, *(heldout_path(name) for name in HELDOUT_NAMES)]  # scene arguments, as a command takes them
+
+
+def _best(scene_arg: str):
+    """``--preset best`` at the test's size: photon_res matched to the paper configuration's
+    frame cost on the scene (``reports.core.cost_match``), as the commands do."""
+    return with_auto_photon_res(scene_arg, dataclasses.replace(PRESETS["best"], width=SIZE, height=SIZE), "best",
+                                given=False)
+
+
+CONFIGS = {"paper": lambda scene_arg: QUICK,  # splat = fixed
+           "adaptive": lambda scene_arg: dataclasses.replace(QUICK, splat="adaptive", emission="adaptive"),
+           "best": _best}  # splat = density
 
 
 def _measure(scene, params, **kwargs):
@@ -38,12 +50,16 @@ def _measure(scene, params, **kwargs):
 
 
 def _closes(result, label) -> str | None:
-    """The terms sum to the total; E_∞ and E_em have < 0.1% of the power alive; None
-    when the residual is within noise, else its message."""
+    """The terms sum to the total, and the total to the measured mean image's error (the
+    decomposition's A is the real frames' mean: the same image to float32 rounding); E_∞
+    and E_em have < 0.1% of the power alive; None when the residual is within noise,
+    else its message."""
     d = result.summary["decomposition"]
     rows = {r["term"]: r for r in d["rows"]}
     for field in ("energy_share", "relmse_part", "relmse_part_debiased"):
         assert math.isclose(sum(rows[t][field] for t in TERMS), rows["total"][field], rel_tol=1e-9, abs_tol=1e-12)
+    measured = result.summary["images"]["caustic"]["relative_mse"]["value"]
+    assert math.isclose(rows["total"]["relmse_part"], measured, rel_tol=1e-4), (label, measured)
     for which, alive in result.summary["exact"]["alive_after"].items():
         assert alive < 1e-3, (label, which, alive)
     residual = d["residual"]
@@ -52,23 +68,22 @@ def _closes(result, label) -> str | None:
     return None if residual["within_noise"] else residual["message"]
 
 
-@pytest.mark.slow  # statistical, every built-in (about 90 s per configuration)
+@pytest.mark.slow  # statistical (about 10 s a point)
+@pytest.mark.parametrize("scene_arg", SCENES, ids=lambda a: a.rsplit("/", 1)[-1].removesuffix(".toml"))
 @pytest.mark.parametrize("config", list(CONFIGS))
-def test_the_decomposition_closes_on_every_builtin(cache, config):
+def test_the_decomposition_closes_on_every_builtin_and_held_out_scene(cache, config, scene_arg):
     """What can fail is the residual R − E_∞,s: the reference and the exact photons of the
     light's true emission through the approximation's splatter must agree within their
     noise (|z| ≤ 3 for the energy and the debiased relative MSE; the standard errors are
     jackknifed over the paired photon subsets and R's batch groups), whatever the
-    approximation's emission (the terms sum to R − A by construction)."""
-    failures = []
-    for name in BUILTIN_NAMES:
-        result = _measure(load_builtin(name), CONFIGS[config](name))
-        failures += [(name, message)] if (message := _closes(result, f"{name} {config}")) else []
-        # the approximation at the quick preset loses caustic energy (truncation, dropped reflections)
-        if config == "paper":
-            assert 0 < next(r for r in result.summary["decomposition"]["rows"] if r["term"] == "total")[
-                "energy_share"] < 1
-    assert not failures, failures
+    approximation's emission and kernel (the terms sum to R − A by construction)."""
+    scene = resolve_scene(scene_arg)
+    result = _measure(scene, CONFIGS[config](scene_arg))
+    assert (message := _closes(result, f"{scene.name} {config}")) is None, message
+    # the approximation at the quick preset loses caustic energy (truncation, dropped reflections)
+    if config == "paper" and scene_arg in BUILTIN_NAMES:
+        assert 0 < next(r for r in result.summary["decomposition"]["rows"] if r["term"] == "total")[
+            "energy_share"] < 1
 
 
 BLOB_SCENE = """name = "blob"
@@ -126,14 +141,14 @@ def _blob_obj(path, seed: int = 7) -> None:
 @pytest.mark.slow  # statistical
 def test_the_decomposition_closes_on_a_generated_scene(cache, tmp_path):
     """A random blob (no built-in's shape), in a denser medium (σs 0.5) with glass of IOR
-    1.33 and some absorption, lit by a tilted spot with a wide transition: the paper's
-    configuration and adaptive emission close there too."""
+    1.33 and some absorption, lit by a tilted spot with a wide transition: every
+    configuration closes there too."""
     _blob_obj(tmp_path / "blob.obj")
     (tmp_path / "blob.toml").write_text(BLOB_SCENE)
     scene = load_scene(str(tmp_path / "blob.toml"))
     failures = []
-    for config in ("paper", "adaptive"):
-        result = _measure(scene, CONFIGS[config]("blob"))
+    for config in CONFIGS:
+        result = _measure(scene, CONFIGS[config](str(tmp_path / "blob.toml")))
         assert next(r for r in result.summary["decomposition"]["rows"] if r["term"] == "total")["energy_share"] > 0
         failures += [(config, message)] if (message := _closes(result, f"blob {config}")) else []
     assert not failures, failures
