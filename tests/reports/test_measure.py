@@ -209,3 +209,27 @@ def test_subset_batches_and_exact_steps_are_settings_of_the_result(cache, tmp_pa
     for name, value in (("subset_batches", 2), ("exact_steps", 16)):
         with pytest.raises(ParamError, match=f"{name} = {value}"):
             MeasurementSettings(**{name: value})
+
+
+def test_a_reference_stopped_at_its_time_cap_above_its_target_is_said(empty_cache):
+    """A reference whose time cap stops it above its noise target: summary.json names the
+    component, its floor and target (``reference.short_of_target``) and warns; one that
+    met its target (the negative control, another size so another cache entry) does not."""
+    from volcaustics.reports.experiment.run import run_experiment
+    from volcaustics.scenes import load_builtin
+
+    scene = load_builtin("sphere1")
+    summaries = {}
+    for size, target in ((24, 1e-9), (20, 0.9)):
+        settings = ReferenceSettings(photons=1 << 14, spp=4, batches=2, target_noise=target, max_seconds=1e-3,
+                                     max_scatter=1, width=size, height=size)
+        p = dataclasses.replace(PARAMS, width=size, height=size, photon_res=32, light_res=32)
+        summaries[target] = run_experiment(scene, p, seeds=1, reference_settings=settings, scope="gate").summary
+    capped, met = summaries[1e-9], summaries[0.9]
+    assert capped["reference"]["stopped_by"] == "time cap"
+    short = capped["reference"]["short_of_target"]
+    assert set(short) == {"caustic", "fog", "direct"} and short["caustic"]["target"] == 1e-9
+    assert short["caustic"]["noise_floor"] > 1e-9
+    assert any("time cap above its noise target" in w and "caustic" in w for w in capped["warnings"])
+    assert met["reference"]["stopped_by"] == "target" and met["reference"]["short_of_target"] == {}
+    assert not any("noise target" in w for w in met["warnings"])
