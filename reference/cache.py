@@ -46,7 +46,7 @@ from volcaustics.infra.storage import (
     remove_file,
 )
 from volcaustics.scenes.canonical import canonical_dict
-from volcaustics.scenes.formats import COLOUR_LAYERS, LAYER_NAMES, MASK_LAYER, MODEL_LAYERS
+from volcaustics.scenes.formats import COLOUR_LAYERS, LAYER_NAMES, MASK_LAYER, MODEL_LAYERS, PATH_INTERACTIONS
 
 from . import mi_setup
 
@@ -77,6 +77,7 @@ def key_document(request, variant: str) -> dict:
         "settings": request.settings.batch_identity(),
         "mode": request.mode,
         "code": code_version(),
+        "path_interactions": PATH_INTERACTIONS,  # the light tracer's max_path: a constant outside reference/render
         "mitsuba": {**mi_setup.library_versions(), "variant": variant},
     }
 

@@ -32,7 +32,7 @@ import math
 
 import drjit as dr
 
-from volcaustics.scenes.formats import KIND_DIFFUSE, KIND_SPECULAR
+from volcaustics.scenes.formats import KIND_DIFFUSE, KIND_SPECULAR, PATH_INTERACTIONS
 
 from ..mi_setup import mitsuba
 from ..settings import MODES
@@ -70,7 +70,7 @@ class VolumetricLightTracer(mi.AdjointIntegrator):
 
     Properties: ``mode`` (settings.MODES, default ``caustic``), ``max_scatter`` (real
     scattering events a path may continue through, default 1), ``max_path`` (segments
-    traced, default 64) and ``geometry_per_connection`` (1/m, default
+    traced, default ``scenes.formats.PATH_INTERACTIONS``) and ``geometry_per_connection`` (1/m, default
     :data:`GEOMETRY_PER_CONNECTION`): the most of a medium segment's geometric term
     ∫ dt / |x(t) − eye|² = Δθ / D (the angle it subtends at the eye over its line's
     distance to the eye) that one camera connection carries. A segment is clipped to
@@ -86,7 +86,7 @@ class VolumetricLightTracer(mi.AdjointIntegrator):
         mi.AdjointIntegrator.__init__(self, props)
         self.mode = props.get("mode", "caustic")
         self.max_scatter = int(props.get("max_scatter", 1))
-        self.max_path = int(props.get("max_path", 64))
+        self.max_path = int(props.get("max_path", PATH_INTERACTIONS))
         self.beyond_model = bool(props.get("beyond_model", False))
         self.geometry_per_connection = float(props.get("geometry_per_connection", GEOMETRY_PER_CONNECTION))
         if self.mode not in MODES:

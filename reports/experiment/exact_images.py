@@ -35,11 +35,11 @@ from volcaustics.reports.experiment.exact import ExactPhotons, pixel_footprint, 
 from volcaustics.reports.experiment.exact_store import EXACT_IMAGES, exact_document, exact_key, load_exact, save_exact
 from volcaustics.reports.experiment.kernels import KERNEL_RULES, frame_kernels, splat_params
 from volcaustics.scenes.bounds import medium_bounds
-from volcaustics.scenes.formats import STATUS_COLLIDED
+from volcaustics.scenes.formats import PATH_INTERACTIONS, STATUS_COLLIDED
 from volcaustics.scenes.rng import pcg_hash
 
 # E_∞ and E_∞,s: docs/decisions.md "Exact steps and the small kernel"
-EXACT_STEPS = 512            # E_∞: < 0.1% of the power alive after them on every built-in and held-out scene
+EXACT_STEPS = PATH_INTERACTIONS  # E_∞: < 0.1% of the power alive after them on every built-in and held-out scene
 SMALL_SUPERSAMPLE = 4        # E_∞,s: splatted at 4× and box-averaged (the reference's pixel filter)
 SMALL_KERNEL_FINE_PIXELS = 0.3  # E_∞,s kernel σ in fine pixels (0.075 pixel): its aliasing is noise, not bias
 SUBSET_BATCHES = 8           # paired photon subsets per seed of A and the E images: the decomposition's noise

@@ -107,3 +107,15 @@ def test_versions_read_without_import_match_the_package_metadata():
     from volcaustics.reference import mi_setup
 
     assert mi_setup.library_versions() == {"mitsuba": version("mitsuba"), "drjit": version("drjit")}
+
+
+def test_how_far_paths_are_followed_is_in_the_key(monkeypatch):
+    """The light tracer's max_path is a constant of ``scenes.formats`` (shared with the
+    exact replay's steps), outside the hashed reference/render code: the key names it,
+    so a reference traced to fewer segments is never served for more."""
+    from volcaustics.reference.request import resolve
+
+    request = resolve(load_builtin("refocus"), SETTINGS, "caustic")
+    before = cache.request_key(request, "llvm_ad_rgb")
+    monkeypatch.setattr(cache, "PATH_INTERACTIONS", cache.PATH_INTERACTIONS // 8)
+    assert cache.request_key(request, "llvm_ad_rgb") != before

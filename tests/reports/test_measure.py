@@ -213,7 +213,7 @@ def test_subset_batches_and_exact_steps_are_settings_of_the_result(cache, tmp_pa
 
 def test_a_reference_stopped_at_its_time_cap_above_its_target_is_said(empty_cache):
     """A reference whose time cap stops it above its noise target: summary.json names the
-    component, its floor and target (``reference.short_of_target``) and warns; one that
+    component, its floor and target (its reference's ``short_of_target``) and warns; one that
     met its target (the negative control, another size so another cache entry) does not."""
     from volcaustics.reports.experiment.run import run_experiment
     from volcaustics.scenes import load_builtin
