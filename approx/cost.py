@@ -10,6 +10,12 @@ density: a write and a bilinear read per splat). ``total`` = map reads + emissio
 splats + density reads:
 one texel read or one splat, each a unit (the fog, direct and camera passes cost the
 same for every parameter but the image size and fog_steps, and are left out).
+
+Beside the total, every count that a parameter scales (docs/concepts/equal-cost.md):
+``photons`` launched (the emission's, alive after it), ``segments`` (photon-steps traced:
+the trace loop's iterations over photons, summed over the steps), and per raster pass
+the fragments it wrote (``fragments_<pass>``, GL samples-passed queries of the frame:
+``Frame.fragments``), which the splat pass's footprint drives.
 """
 
 from __future__ import annotations
@@ -22,19 +28,28 @@ from .denoise import DENOISED
 from .emission import emission_reads
 
 # denoised_pixels (denoise = oidn, approx.denoise): beside the cost, never in its total
-COST_FIELDS = ("map_reads", "emission_reads", "splats", "density_reads", "total", "denoised_pixels")
+# a frame's passes as Frame.timings names them (trace: its steps summed), in frame order
+TIMED_PASSES = ("layers", "emission", "camera", "trace", "density", "splat", "fog", "direct")
+# the raster passes whose fragments a frame counts (approx.renderer: density only with splat = density)
+FRAGMENT_PASSES = tuple(name for name in TIMED_PASSES if name != "trace")
+COST_FIELDS = ("map_reads", "emission_reads", "splats", "density_reads", "total", "denoised_pixels", "photons",
+               "segments", *(f"fragments_{name}" for name in FRAGMENT_PASSES))
 # splat = density: each splat writes its cell in the pre-pass and reads the grid (4 texels, bilinear) for its width
 DENSITY_READS = 5
 
 
-def frame_cost(records: list, params) -> dict:
-    """One frame's cost (COST_FIELDS) from its per-step records (``Frame.records``)
-    and its resolved parameters."""
+def frame_cost(records: list, params, fragments: dict | None = None) -> dict:
+    """One frame's cost (COST_FIELDS) from its per-step records (``Frame.records``),
+    its resolved parameters and its fragments per pass (``Frame.fragments``; None: the
+    ``fragments_*`` fields are NaN, not counted)."""
     search = sum(int(np.asarray(r["map_reads"], np.int64).sum()) for r in records)
     splats = sum(int(np.count_nonzero(r["status"] == STATUS_COLLIDED)) for r in records)
     emitted = len(records[0]) if records else 0
     emission = emission_reads(params.photon_res, emitted, emission=params.emission, splat=params.splat)
     denoised = len(DENOISED) * params.width * params.height if params.denoise == "oidn" else 0
     density = DENSITY_READS * splats if params.splat == "density" else 0
+    counted = {f"fragments_{name}": float("nan") if fragments is None else int(fragments.get(name, 0))
+               for name in FRAGMENT_PASSES}
     return {"map_reads": search, "emission_reads": emission, "splats": splats, "density_reads": density,
-            "total": search + emission + splats + density, "denoised_pixels": denoised}
+            "total": search + emission + splats + density, "denoised_pixels": denoised, "photons": emitted,
+            "segments": sum(len(r) for r in records), **counted}

@@ -44,6 +44,8 @@ class Frame:
     caustic_steps: per interaction step, the caustic image of that step's photons.
     records: per step, the segment records (scenes.formats.RECORD_DTYPE, active photons).
     timings: pass name → seconds; ``timing_method`` says how they were measured.
+    fragments: pass name → fragments the pass wrote (GL samples passed; 0 for a compute
+        pass), summed over its steps: the raster work of ``approx.cost``.
     params: the parameters actually used (width/height resolved).
     guides: the G-buffer a temporal filter or denoiser reads: ``distance`` (H×W, to the
         eye, 0 where nothing is hit) and ``normal`` (H×W×3, world).
@@ -58,6 +60,7 @@ class Frame:
     photons_emitted: int | None
     gl: dict = field(default_factory=dict)
     guides: dict = field(default_factory=dict)
+    fragments: dict = field(default_factory=dict)
 
 
 def _read_rgb(tex: moderngl.Texture) -> np.ndarray:
@@ -162,6 +165,7 @@ class Renderer:
                 images, *guides(scene, geometry, normal))
         return Frame(images=images, caustic_steps=caustic_steps, records=records, timings=timings,
                      timing_method=timer.method, params=p.to_dict(), photons_emitted=emitted, gl=gl_info(ctx),
+                     fragments=dict(timer.fragments),
                      guides={"distance": geometry[..., 0], "normal": normal} if keep_guides else {})
 
     def first_records(self, scene, params: ApproxParams, seeds) -> list:
@@ -247,9 +251,15 @@ class Renderer:
                                   count, step, p.seed, objects_box=geo.objects_box)
             with timer.measure("splat"):
                 n_splats = tracer.compact_splats(record_buf, count, splat_buf, p)
+            grid = None
+            if splatter.density_program is not None:  # the density pre-pass, a pass of its own
+                with timer.measure("density"):
+                    grid = splatter.density_grid(splat_buf, n_splats, view)
+                released.append(grid)
+            with timer.measure("splat"):
                 step_image = self._black_image(p)
                 splatter.splat(splat_buf, n_splats, view, scene.medium, p.splat_radius, gbuf_geo, step_image,
-                               p.splat_neighbours)
+                               p.splat_neighbours, grid=grid)
             caustic_steps.append(_read_rgb(step_image))
             step_image.release()
             if keep_records:

@@ -93,8 +93,9 @@ class Splatter:
         corners = np.array([[-1, -1], [1, -1], [-1, 1], [1, 1]], np.float32)
         self.corners = ctx.buffer(corners.tobytes())
 
-    def _density_grid(self, splats: moderngl.Buffer, count: int, view) -> moderngl.Texture:
-        """The pre-pass: photons per DENSITY_CELL² cell of the image (R32F, bilinear)."""
+    def density_grid(self, splats: moderngl.Buffer, count: int, view) -> moderngl.Texture:
+        """The pre-pass: photons per DENSITY_CELL² cell of the image (R32F, bilinear) of
+        ``count`` splats; the caller releases it."""
         ctx, prog = self.ctx, self.density_program
         size = (-(-view.width // DENSITY_CELL), -(-view.height // DENSITY_CELL))
         grid = ctx.texture(size, 1, np.zeros(size[0] * size[1], np.float32).tobytes(), dtype="f4")  # counts from 0
@@ -106,14 +107,13 @@ class Splatter:
             _add_into(ctx, grid, ctx.vertex_array(prog, [(splats, fmt, *names)]), moderngl.POINTS, 1, count)
         return grid
 
-    def _use_density(self, prog, splats: moderngl.Buffer, count: int, view, splat_neighbours: int):
-        """The density pre-pass of ``count`` splats bound for ``prog`` (texture unit 1,
-        the width's uniforms, splat/density_width.glsl); returns the grid to release."""
-        grid = self._density_grid(splats, count, view)
+    @staticmethod
+    def _use_density(prog, grid: moderngl.Texture, count: int, view, splat_neighbours: int) -> None:
+        """Bind the density pre-pass ``grid`` of ``count`` splats for ``prog`` (texture unit
+        1, the width's uniforms, splat/density_width.glsl)."""
         grid.use(location=1)
         set_uniforms(prog, density=1, density_cell=float(DENSITY_CELL), splat_neighbours=float(splat_neighbours),
                      mean_per_pixel=count / float(view.width * view.height), density_floor=DENSITY_FLOOR)
-        return grid
 
     def density_widths(self, splats: moderngl.Buffer, count: int, field: moderngl.Buffer, field_count: int, view,
                        splat_radius: float, splat_neighbours: int = 16) -> np.ndarray:
@@ -130,7 +130,8 @@ class Splatter:
         prog = self.widths_program
         view.set_uniforms(prog)
         set_uniforms(prog, splat_radius=float(splat_radius), pixel_angle=2.0 / (float(view.proj[1, 1]) * view.height))
-        grid = self._use_density(prog, field, field_count, view, splat_neighbours)
+        grid = self.density_grid(field, field_count, view)
+        self._use_density(prog, grid, field_count, view, splat_neighbours)
         out = ctx.buffer(reserve=4 * max(count, 1))
         fmt, names = attribute_layout(prog, INSTANCE_PARTS)
         vao = ctx.vertex_array(prog, [(splats, fmt, *names)])
@@ -143,9 +144,11 @@ class Splatter:
             grid.release()
 
     def splat(self, splats: moderngl.Buffer, count: int, view, medium, splat_radius: float,
-              scene_distance: moderngl.Texture, target: moderngl.Texture, splat_neighbours: int = 16) -> None:
+              scene_distance: moderngl.Texture, target: moderngl.Texture, splat_neighbours: int = 16,
+              grid: moderngl.Texture | None = None) -> None:
         """Add ``count`` splats (SPLAT_DTYPE rows of ``splats``) into ``target`` (RGBA32F);
-        each collision weighs sigma_s / sigma_bar (the tracer's free-flight rate)."""
+        each collision weighs sigma_s / sigma_bar (the tracer's free-flight rate). Density
+        splats take ``grid`` (:meth:`density_grid` of these splats) or make their own."""
         sigma_bar = medium.sigma_bar
         if count == 0 or sigma_bar <= 0:
             return
@@ -157,14 +160,16 @@ class Splatter:
                      pixel_angle=2.0 / (float(view.proj[1, 1]) * view.height))
         scene_distance.use(location=0)
         prog["scene_distance"].value = 0
-        grid = None
+        own = None
         if self.density_program is not None:
-            grid = self._use_density(prog, splats, count, view, splat_neighbours)
+            if grid is None:
+                grid = own = self.density_grid(splats, count, view)
+            self._use_density(prog, grid, count, view, splat_neighbours)
         fmt, names = attribute_layout(prog, INSTANCE_PARTS, per_instance=True)
         vao = ctx.vertex_array(prog, [(self.corners, "2f", "in_corner"), (splats, fmt, *names)])
         _add_into(ctx, target, vao, moderngl.TRIANGLE_STRIP, 4, count)
-        if grid is not None:
-            grid.release()
+        if own is not None:
+            own.release()
 
     def release(self):
         self.program.release()

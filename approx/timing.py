@@ -1,6 +1,8 @@
 """Per-pass GPU times: timer queries where the driver supports them, else
 ``ctx.finish()`` and a wall clock (llvmpipe answers 4294967295 to timer queries,
-a sentinel that is never reported)."""
+a sentinel that is never reported); and per pass the fragments it wrote (a GL
+samples-passed query: fragments that reach the framebuffer, so a fragment shader's
+discards are not counted), work that travels across hardware (``approx.cost``)."""
 
 from __future__ import annotations
 
@@ -34,18 +36,20 @@ def timer_queries_work(ctx: moderngl.Context) -> bool:
 
 
 class PassTimer:
-    """Accumulates seconds per pass name; ``method`` says how they were measured."""
+    """Accumulates seconds and fragments written per pass name; ``method`` says how the
+    seconds were measured. Passes never nest (one query of a kind at a time)."""
 
     def __init__(self, ctx: moderngl.Context, use_queries: bool):
         self.ctx = ctx
         self.use_queries = use_queries
         self.method = "gl_timer_query" if use_queries else "finish_wall_clock"
         self.seconds: dict[str, float] = {}
+        self.fragments: dict[str, int] = {}
 
     @contextlib.contextmanager
     def measure(self, name: str):
+        query = self.ctx.query(samples=True, time=self.use_queries)
         if self.use_queries:
-            query = self.ctx.query(time=True)
             with query:
                 yield
             elapsed = query.elapsed
@@ -53,7 +57,9 @@ class PassTimer:
         else:
             self.ctx.finish()
             t0 = time.perf_counter()
-            yield
+            with query:
+                yield
             self.ctx.finish()
             seconds = time.perf_counter() - t0
         self.seconds[name] = self.seconds.get(name, 0.0) + seconds
+        self.fragments[name] = self.fragments.get(name, 0) + int(query.samples)

@@ -43,6 +43,8 @@ def test_the_wheel_installs_only_the_volcaustics_package(tmp_path):
     assert any(n.startswith("volcaustics/approx/shaders/") and n.endswith(".glsl") for n in data)
     assert any(n.startswith("volcaustics/scenes/builtin/") and n.endswith(".toml") for n in data)
     assert "volcaustics/scenes/assets/bunny10k.ply" in names
+    for weights in os.listdir(os.path.join(ROOT, "approx", "cost_weights")):  # the cost model's weight sets
+        assert f"volcaustics/approx/cost_weights/{weights}" in names, weights
     for spec in SHIPPED_SPECS:  # every spec a command reads by default, so an installed wheel runs them all
         assert f"volcaustics/{spec}" in names, spec
     assert "volcaustics/py.typed" in names  # static tools read the installed package's types

@@ -29,7 +29,8 @@ def run(args) -> int:
     table = run_frames(args.scenes or default_scenes(), args.output, seeds=args.seeds, progress=not args.quiet)
     for _, r in table.iterrows():
         print(f"  {r['scene']:<14}{' (held out)' if r['heldout'] else '':<11} {r['config']:<6} {r['denoise']:<5} "
-              f"cost {r['cost_ratio']:.3f}x, one frame {pct(r['frame_relmse'])} ({r['frame_ratio']:.2f}x), "
+              f"cost {r['cost_ratio']:.3f}x predicted, time {r['time_ratio']:.2f}x measured, "
+              f"one frame {pct(r['frame_relmse'])} ({r['frame_ratio']:.2f}x), "
               f"mean {pct(r['relmse_debiased'])} ({r['relmse_ratio']:.2f}x)")
     v = verdict(table)
     print(f"frames: best's worst one-frame ratio {v.get('none_builtin_worst_frame_ratio', float('nan')):.2f}x on the "

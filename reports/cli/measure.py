@@ -12,7 +12,7 @@ from volcaustics.reports.cli.common import (
     pct,
     report_settings,
 )
-from volcaustics.reports.core.cost_match import with_auto_photon_res
+from volcaustics.reports.core.cost_match import equal_cost_check, with_auto_photon_res
 from volcaustics.reports.core.params import add_param_flags, params_from_args
 from volcaustics.reports.core.sizing import sized
 from volcaustics.reports.core.tables import plain
@@ -52,6 +52,8 @@ def run(args) -> int:
                                      progress=not args.quiet)
     experiment = run_experiment(scene, params, seeds=args.seeds, reference=reference, progress=not args.quiet,
                                 subphotons=measurement.exact_subphotons)
+    # a preset matched to the paper's cost (best): that cost, predicted under every weight set and measured
+    experiment.summary["equal_cost"] = equal_cost_check(args.scene, params, args.preset)
     paths = write_experiment(experiment, args.output)
     s = plain(experiment.summary)  # NaN → None
     print(f"measure {scene.name}: {s['seeds']} seed(s), {s['experiment_seconds']['total']:.1f} s -> "
@@ -60,12 +62,23 @@ def run(args) -> int:
     print(f"  frame {1000 * s['approx_timings_s']['frame_wall']:.0f} ms ({s['timing_method']}), "
           f"{reads['per_frame'] / 1e6:.2f} M map reads ({reads['per_segment']:.1f} per segment), frame cost "
           f"{s['cost']['total'] / 1e6:.2f} M (map and emission reads + {s['cost']['splats'] / 1e6:.3f} M splats)")
+    _print_equal_cost(s.get("equal_cost"))
     _print_images(s)
     _print_decomposition(s)
     _print_model(s)
     for warning in s["warnings"]:
         print(f"  warning: {warning}")
     return 0
+
+
+def _print_equal_cost(check: dict | None) -> None:
+    if check is None:
+        return
+    predicted = ", ".join(f"{ratio:.2f}x ({name})" for name, ratio in check["predicted_ratio"].items())
+    t = check["measured_time"]
+    verdict = "at the paper's cost" if check["at_paper_cost"] else "NOT at the paper's cost"
+    print(f"  cost against the paper configuration: predicted {predicted}; measured frame time {t['ratio']:.2f}x "
+          f"({1000 * t['config_s']:.0f} against {1000 * t['paper_s']:.0f} ms, {t['method']}): {verdict}")
 
 
 def _print_images(s: dict) -> None:

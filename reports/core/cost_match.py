@@ -1,12 +1,15 @@
-"""Equal cost (docs/approx.md: the photon_res at which a configuration's
-frame cost (``approx.cost``: map and emission reads, splats and density reads,
-hardware-independent) is at most a target on a scene — the best search's step 1
+"""Equal cost (docs/concepts/equal-cost.md): the photon_res at which a configuration's
+frame costs at most a target on a scene — the best search's step 1
 (``reports.sweep.best``) and ``photon_res`` = auto (the preset ``best``: the paper
-configuration's frame cost at the same image size, on the scene at hand).
+configuration's frame at the same image size, on the scene at hand).
 
-photon_res ← photon_res·√(target / cost), re-rendered until it stays, then lowered 1%
-at a time until within; remembered in ``FOLDER/matched.json`` under a key of the scene,
-the parameters, the target and the code version.
+A frame's cost is its predicted time under every shipped weight set of the cost model
+(``approx.cost_model``: the counted work of every pass, fragments included, weighted by
+fitted per-count times); a configuration is within the target when it is at most 1.0×
+under each. photon_res ← photon_res·√(1 / ratio), re-rendered until it stays, then
+lowered 1% at a time until within; remembered in ``FOLDER/matched.json`` under a key of
+the scene, the parameters, the target, the weight sets and the code version.
+:func:`measured_time_ratio` checks the match in time (alternating frames).
 """
 
 from __future__ import annotations
@@ -16,9 +19,11 @@ import hashlib
 import json
 import math
 import os
+import statistics
 
 from volcaustics.approx import Renderer
 from volcaustics.approx.cost import frame_cost
+from volcaustics.approx.cost_model import weight_sets
 from volcaustics.approx.params import AUTO_PHOTON_RES, preset
 from volcaustics.infra.storage import atomic_path, cache_dir
 from volcaustics.reports.core.versions import code_version
@@ -36,6 +41,9 @@ class CostMatcher:
         self.path = os.path.join(folder, MATCHED)
         self.memo = {}
         self.renderers = {}
+        self.sets = weight_sets()
+        if not self.sets:
+            raise ValueError("approx/cost_weights holds no weight set: the cost model cannot price a frame")
         try:
             with open(self.path, encoding="utf-8") as fh:
                 memo = json.load(fh)
@@ -43,30 +51,39 @@ class CostMatcher:
         except (OSError, ValueError):
             pass  # none yet, or damaged: recomputed
 
-    def cost(self, scene_name: str, params) -> int:
-        """The frame cost (``approx.cost``: total) of one frame of ``params``."""
+    def cost(self, scene_name: str, params) -> dict:
+        """One frame of ``params``: its predicted time under each weight set (name → value,
+        ``approx.cost_model``)."""
         scene = resolve_scene(scene_name)
         if scene_name not in self.renderers:
             self.renderers[scene_name] = Renderer(scene)
         frame = self.renderers[scene_name].render(scene, params, keep_records=True)
-        return frame_cost(frame.records, params.resolved(scene))["total"]
+        p = params.resolved(scene)
+        cost = frame_cost(frame.records, p, frame.fragments)
+        return {name: ws.frame(cost, p) for name, ws in self.sets.items()}
 
-    def match(self, scene_name: str, params, target: float):
-        """``params`` with the largest photon_res found whose cost is ≤ ``target``."""
-        doc = [resolve_scene(scene_name).scene_hash(), params.to_dict(), float(target), code_version()]
+    def match(self, scene_name: str, params, target: dict):
+        """``params`` with the largest photon_res found whose cost is ≤ ``target`` (the
+        paper configuration's :meth:`cost`) under every weight set."""
+        doc = [resolve_scene(scene_name).scene_hash(), params.to_dict(), {k: float(v) for k, v in target.items()},
+               {name: ws.weights for name, ws in self.sets.items()}, code_version()]
         key = hashlib.sha256(json.dumps(doc, sort_keys=True).encode()).hexdigest()[:20]
         if isinstance(self.memo.get(key), int):
             return dataclasses.replace(params, photon_res=self.memo[key])
+
+        def ratio(cost: dict) -> float:
+            return cost_ratio(cost, target)
+
         res = params.photon_res
-        cost = self.cost(scene_name, params)
+        cost = ratio(self.cost(scene_name, params))
         for _ in range(6):
-            new = max(MIN_PHOTON_RES, min(8192, int(res * math.sqrt(target / max(cost, 1)))))
+            new = max(MIN_PHOTON_RES, min(8192, int(res * math.sqrt(1.0 / max(cost, 1e-9)))))
             if new == res:
                 break
-            res, cost = new, self.cost(scene_name, dataclasses.replace(params, photon_res=new))
-        while cost > target and res > MIN_PHOTON_RES:
+            res, cost = new, ratio(self.cost(scene_name, dataclasses.replace(params, photon_res=new)))
+        while cost > 1.0 and res > MIN_PHOTON_RES:
             res = max(MIN_PHOTON_RES, res - max(1, res // 100))
-            cost = self.cost(scene_name, dataclasses.replace(params, photon_res=res))
+            cost = ratio(self.cost(scene_name, dataclasses.replace(params, photon_res=res)))
         self.memo[key] = res
         return dataclasses.replace(params, photon_res=res)
 
@@ -98,3 +115,52 @@ def with_auto_photon_res(scene_arg: str, params, preset_name: str | None, given:
     finally:
         matcher.release()
     return matched
+
+
+def cost_ratio(cost: dict, target: dict) -> float:
+    """The largest ratio of a predicted cost (:meth:`CostMatcher.cost`) to a target's
+    over the weight sets: within the target when ≤ 1."""
+    return max(cost[name] / target[name] for name in target)
+
+
+def measured_time_ratio(scene_arg: str, params, paper, *, frames: int = 5) -> dict:
+    """Measured frame time of ``params`` against ``paper`` on ``scene_arg``: one renderer,
+    a warm-up frame of each, then ``frames`` frames of each alternating (no records);
+    medians (s) and their ratio."""
+    scene = resolve_scene(scene_arg)
+    renderer = Renderer(scene)
+    try:
+        for p in (paper, params):
+            renderer.render(scene, p, keep_records=False)
+        times = {"paper": [], "config": []}
+        for _ in range(frames):
+            for name, p in (("paper", paper), ("config", params)):
+                times[name].append(renderer.render(scene, p, keep_records=False).timings["frame_wall"])
+    finally:
+        renderer.release()
+    paper_s, config_s = statistics.median(times["paper"]), statistics.median(times["config"])
+    return {"paper_s": paper_s, "config_s": config_s, "ratio": config_s / paper_s, "frames": frames,
+            "method": "median of alternating frames, one renderer"}
+
+
+def equal_cost_check(scene_arg: str, params, preset_name: str) -> dict | None:
+    """For a preset matched to the paper configuration's cost (AUTO_PHOTON_RES): its
+    predicted cost ratio under every weight set and its measured frame time ratio
+    (:func:`measured_time_ratio`), and whether it is at the paper's cost (≤ 1.0× under
+    every set, ≤ TIME_SLACK× in time); None for another preset."""
+    if preset_name not in AUTO_PHOTON_RES:
+        return None
+    scene = resolve_scene(scene_arg)
+    paper = preset(AUTO_PHOTON_RES[preset_name], width=params.width, height=params.height)
+    matcher = CostMatcher(cache_dir("cost_match"))
+    try:
+        own, target = matcher.cost(scene_arg, params), matcher.cost(scene_arg, paper.resolved(scene))
+    finally:
+        matcher.release()
+    predicted = {name: own[name] / target[name] for name in target}
+    time = measured_time_ratio(scene_arg, params.resolved(scene), paper.resolved(scene))
+    return {"predicted_ratio": predicted, "measured_time": time,
+            "at_paper_cost": bool(max(predicted.values()) <= 1.0 and time["ratio"] <= TIME_SLACK)}
+
+
+TIME_SLACK = 1.05  # "at the paper's cost" in measured time: ≤ 1.05× its frame (docs/concepts/equal-cost.md)

@@ -40,6 +40,7 @@ import uuid
 
 import pandas as pd
 
+from volcaustics.approx.cost import FRAGMENT_PASSES, TIMED_PASSES
 from volcaustics.infra.imageio import read_exr, write_exr
 from volcaustics.infra.storage import (
     atomic_write_text,
@@ -246,7 +247,9 @@ class Store:
 # its schema, which ``report --sweep`` checks a store against.
 POINT_COLUMNS = ("point", "scene", "scene_hash", "seeds", "reference_key", "code_version", "frame_time_s",
                  "trace_time_s", "splat_time_s", "map_reads_per_frame", "map_reads_per_segment",
-                 "emission_reads_per_frame", "splats_per_frame", "frame_cost",
+                 "emission_reads_per_frame", "splats_per_frame", "frame_cost", "photons_per_frame",
+                 "segments_per_frame", *(f"fragments_{name}" for name in FRAGMENT_PASSES),
+                 *(f"{name}_time_s" for name in TIMED_PASSES),
                  *(f"{name}_{metric}" for name in ("caustic", "combined")
                    for metric in ("relmse_debiased", "relmse_se", "frame_relmse", "frame_relmse_se", "energy_ratio",
                                   "hdr_flip")),
@@ -273,7 +276,11 @@ def point_row(key: str, summary: dict) -> dict:
            "map_reads_per_segment": summary.get("map_reads", {}).get("per_segment"),
            "emission_reads_per_frame": summary.get("cost", {}).get("emission_reads"),
            "splats_per_frame": summary.get("cost", {}).get("splats"),
-           "frame_cost": summary.get("cost", {}).get("total")}
+           "frame_cost": summary.get("cost", {}).get("total"),
+           "photons_per_frame": summary.get("cost", {}).get("photons"),
+           "segments_per_frame": summary.get("cost", {}).get("segments"),
+           **{f"fragments_{name}": summary.get("cost", {}).get(f"fragments_{name}") for name in FRAGMENT_PASSES},
+           **{f"{name}_time_s": timings.get(name) for name in TIMED_PASSES}}
     for name, metrics in (("caustic", caustic), ("combined", combined)):
         relmse = metrics.get("relative_mse", {})
         row[f"{name}_relmse_debiased"] = relmse.get("debiased")

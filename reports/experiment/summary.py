@@ -7,6 +7,7 @@ import numpy as np
 
 from volcaustics.approx.context import gl_info, shared_context
 from volcaustics.approx.cost import COST_FIELDS, frame_cost
+from volcaustics.approx.cost_model import weight_sets
 from volcaustics.metrics.noise import MIN_SEEDS_FOR_INTERVAL
 from volcaustics.reports.core.versions import code_version, library_versions
 from volcaustics.reports.experiment.exact_images import SMALL_SUPERSAMPLE
@@ -48,9 +49,15 @@ def map_reads(frames) -> dict:
 
 def frame_costs(frames, params) -> dict:
     """A frame's cost (``approx.cost.frame_cost``: map reads, emission reads, splats and
-    their total), the mean over the seeds' frames."""
-    costs = [frame_cost(f.records, params) for f in frames]
+    their total, photons, segments, fragments per pass), the mean over the seeds' frames."""
+    costs = [frame_cost(f.records, params, f.fragments) for f in frames]
     return {name: float(np.mean([c[name] for c in costs])) for name in COST_FIELDS}
+
+
+def predicted_frames(cost: dict, params) -> dict:
+    """A frame's predicted time under each shipped weight set of the cost model
+    (``approx.cost_model``; its unit is the set's), from its mean cost."""
+    return {name: ws.frame(cost, params) for name, ws in weight_sets().items()}
 
 
 def experiment_views(frames, reference, keep, layers, maps) -> dict:
@@ -130,7 +137,8 @@ def experiment_summary(scene, p, seeds, reference, frames, exact, headline, deco
             "rows": decomposition["rows"], "residual": decomposition["residual"], "options": decomposition["options"]},
         "model": model,
         "paths": divergence,
-        "map_reads": map_reads(frames), "cost": frame_costs(frames, p),
+        "map_reads": map_reads(frames), "cost": (cost := frame_costs(frames, p)),
+        "predicted_frame": predicted_frames(cost, p),
         "approx_timings_s": median_timings(timed), "timed_frames": len(timed),
         "timing_method": frames[0].timing_method,
         "experiment_seconds": clock, "gl": gl_info(shared_context()),

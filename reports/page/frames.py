@@ -20,18 +20,24 @@ def frames_rows(table) -> list:
                                        for r in table.to_dict("records")]
 
 
+def _ratio(value) -> str:
+    return "–" if value is None or value != value else f"{value:.2f}×"
+
+
 def frames_section(frames: dict | None) -> str:
     """HTML of ``summary["frames"]`` (rows and verdict), "" without one."""
     if not frames:
         return ""
     v = frames["verdict"]
     head = ("<tr><th class='l'>scene</th><th class='l'>configuration</th><th class='l'>denoiser</th>"
-            "<th>photon_res</th><th>frame cost vs paper</th><th>one frame's relMSE</th><th>vs paper</th>"
+            "<th>photon_res</th><th>predicted cost vs paper</th><th>measured time vs paper</th>"
+            "<th>one frame's relMSE</th><th>vs paper</th>"
             "<th>mean's relMSE, debiased</th><th>vs paper</th><th>OIDN s/frame</th></tr>")
     body = "".join(
         f"<tr><td class='l'>{escape(r['scene'])}{' <i>(held out)</i>' if r['heldout'] else ''}</td>"
         f"<td class='l'>{escape(r['config'])}</td><td class='l'>{escape(r['denoise'])}</td><td>{r['photon_res']}</td>"
-        f"<td>{r['cost_ratio']:.3f}×</td><td>{_pct(r['frame_relmse'], r['frame_relmse_se'])}</td>"
+        f"<td>{r['cost_ratio']:.3f}×</td><td>{_ratio(r.get('time_ratio'))}</td>"
+        f"<td>{_pct(r['frame_relmse'], r['frame_relmse_se'])}</td>"
         f"<td>{r['frame_ratio']:.2f}×</td><td>{_pct(r['relmse_debiased'], r['relmse_se'])}</td>"
         f"<td>{r['relmse_ratio']:.2f}×</td><td>{_seconds(r.get('denoise_s'))}</td></tr>"
         for r in frames["rows"])
@@ -44,6 +50,7 @@ def frames_section(frames: dict | None) -> str:
     return f"""<h2 id='one-frame'>One frame: the paper's configuration against the preset best</h2>
 <p class='note'>What a viewer sees is one frame: its relative MSE less the reference's floor (bias and that frame's
 own noise, ± SE over the seeds), beside the seeds' mean's debiased error. best's photon_res matches the paper
-configuration's frame cost on each scene; OIDN is shown beside, never inside the cost. Held-out scenes were seen
-by no search. {worst}.</p>
+configuration's frame cost on each scene: its predicted time under every weight set of the cost model (the largest
+ratio is shown), with the measured frame time beside it; OIDN is shown beside, never inside the cost. Held-out
+scenes were seen by no search. {worst}.</p>
 <table id='frames-table'>{head}{body}</table>"""

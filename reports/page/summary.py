@@ -16,6 +16,7 @@ import time
 
 import numpy as np
 
+from volcaustics.approx.cost import TIMED_PASSES
 from volcaustics.approx.params import PARAMS
 from volcaustics.metrics.decomposition import TERMS
 from volcaustics.metrics.intersection import OUTCOME_CLASSES
@@ -33,7 +34,7 @@ from volcaustics.scenes.formats import COLOUR_LAYERS
 OUTPUT_FILES = ("index.html", "summary.json")  # in --out; the manifest, summary.json, last
 
 PAPER_SHARES = {"trace": 0.70, "splat": 0.23, "other": 0.07}
-PASSES = ("layers", "emission", "camera", "trace", "splat", "fog", "direct")
+PASSES = TIMED_PASSES
 HEADLINE = ("relative_mse", "frame_relative_mse", "energy_ratio", "hdr_flip", "per_pixel_relative_mse")
 SHOWN_PARAMS = tuple(p.name for p in PARAMS if p.name != "seed")  # the page's parameter list
 

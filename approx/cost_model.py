@@ -1,0 +1,130 @@
+"""A frame's predicted time from its counted work: per pass, a weighted sum of the counts
+that a parameter scales (``approx.cost``), with weights fitted to measured pass times
+(``bench/cost_model.py``) and kept as data with their provenance, one file per machine
+kind in ``approx/cost_weights/`` (docs/concepts/equal-cost.md "The cost model").
+
+A weight set's units are its machine's seconds (``unit`` in its file says so); a set
+anchored in other figures (the paper's GPU pass shares) may be in relative units: only
+ratios between configurations are compared across sets.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from dataclasses import dataclass, field
+
+from .cost import TIMED_PASSES
+
+WEIGHTS_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "cost_weights")
+#: the passes a frame's time is split into: the GPU passes and ``other`` (the host's share of
+#: the frame: reading images back, dispatch)
+MODEL_PASSES = (*TIMED_PASSES, "other")
+
+
+def features(cost: dict, params) -> dict:
+    """pass → {feature: value}: the counts each pass's time is modelled on, from a frame's
+    cost (``approx.cost.frame_cost``, its ``fragments_*`` counted) and its resolved
+    parameters. ``calls``: the pass's dispatches or draws (a fixed cost each);
+    ``invocations``: compute invocations launched (photon_res² per dispatch, alive or not)."""
+    launched = float(params.photon_res) ** 2
+    steps = float(params.steps)
+    pixels = float(params.width * params.height)
+    density = params.splat == "density"
+    return {
+        "layers": {"calls": 1.0, "fragments": cost["fragments_layers"]},
+        "emission": {"calls": 1.0, "fragments": cost["fragments_emission"], "invocations": launched,
+                     "emission_reads": cost["emission_reads"]},
+        "camera": {"calls": 1.0, "fragments": cost["fragments_camera"]},
+        "trace": {"calls": steps, "invocations": launched * steps, "segments": cost["segments"],
+                  "map_reads": cost["map_reads"]},
+        "density": {"calls": steps if density else 0.0, "splats": cost["splats"] if density else 0.0,
+                    "fragments": cost["fragments_density"]},
+        "splat": {"calls": steps, "invocations": launched * steps, "splats": cost["splats"],
+                  "fragments": cost["fragments_splat"]},
+        "fog": {"calls": 1.0, "fragments": cost["fragments_fog"] * float(params.fog_steps)},
+        "direct": {"calls": 1.0, "fragments": cost["fragments_direct"]},
+        "other": {"calls": 1.0, "pixels": pixels, "step_pixels": pixels * steps},
+    }
+
+
+@dataclass(frozen=True)
+class WeightSet:
+    """Per-pass weights of the cost model (pass → feature → seconds per count) and where
+    they come from (``provenance``: GL renderer, machine, date, the fit's configurations
+    and its error on those left out)."""
+
+    name: str
+    unit: str
+    weights: dict
+    provenance: dict = field(default_factory=dict)
+
+    def predict(self, cost: dict, params) -> dict:
+        """pass → predicted time, and ``frame``: their sum."""
+        x = features(cost, params)
+        out = {name: sum(w * x[name].get(feature, 0.0) for feature, w in self.weights.get(name, {}).items())
+               for name in MODEL_PASSES}
+        out["frame"] = sum(out.values())
+        return out
+
+    def frame(self, cost: dict, params) -> float:
+        return self.predict(cost, params)["frame"]
+
+    def to_dict(self) -> dict:
+        return {"name": self.name, "unit": self.unit, "weights": self.weights, "provenance": self.provenance}
+
+
+class WeightSetError(ValueError):
+    """A weight file that cannot be used: its path and what is wrong."""
+
+
+def read_weight_set(path: str) -> WeightSet:
+    """A weight set from its JSON file, checked (every pass a mapping of known features to
+    finite weights ≥ 0)."""
+    try:
+        with open(path, encoding="utf-8") as fh:
+            doc = json.load(fh)
+    except (OSError, ValueError) as exc:
+        raise WeightSetError(f"{path}: cannot be read as JSON ({exc})") from None
+    known = features({name: 0.0 for name in _COST_NAMES}, _Probe())
+    weights = doc.get("weights") if isinstance(doc, dict) else None
+    if not isinstance(weights, dict):
+        raise WeightSetError(f"{path}: expected an object with 'weights' (pass -> feature -> weight)")
+    for name, ws in weights.items():
+        if name not in known or not isinstance(ws, dict):
+            raise WeightSetError(f"{path}: weights.{name}: expected one of {', '.join(MODEL_PASSES)} with an object")
+        for feature, w in ws.items():
+            if feature not in known[name]:
+                raise WeightSetError(f"{path}: weights.{name}.{feature}: unknown feature (expected "
+                                     f"{', '.join(known[name])})")
+            if isinstance(w, bool) or not isinstance(w, (int, float)) or not 0.0 <= w < float("inf"):
+                raise WeightSetError(f"{path}: weights.{name}.{feature} = {w!r}: expected a finite number >= 0")
+    return WeightSet(name=str(doc.get("name") or os.path.splitext(os.path.basename(path))[0]),
+                     unit=str(doc.get("unit", "s")), weights=weights, provenance=doc.get("provenance", {}))
+
+
+def weight_sets(folder: str = WEIGHTS_DIR) -> dict:
+    """name → :class:`WeightSet`: every ``*.json`` of ``folder`` (the shipped sets)."""
+    out = {}
+    for entry in sorted(os.listdir(folder)) if os.path.isdir(folder) else []:
+        if entry.endswith(".json"):
+            ws = read_weight_set(os.path.join(folder, entry))
+            out[ws.name] = ws
+    return out
+
+
+def cost_ratios(cost: dict, params, paper_cost: dict, paper_params, sets: dict | None = None) -> dict:
+    """name → predicted frame time of (cost, params) over the paper configuration's
+    (paper_cost, paper_params), under each weight set (default: the shipped ones)."""
+    sets = weight_sets() if sets is None else sets
+    return {name: ws.frame(cost, params) / ws.frame(paper_cost, paper_params) for name, ws in sets.items()}
+
+
+_COST_NAMES = ("map_reads", "emission_reads", "splats", "segments", *(f"fragments_{n}" for n in TIMED_PASSES))
+
+
+class _Probe:
+    """Parameters for listing the features (any values)."""
+
+    photon_res = steps = width = height = fog_steps = 1
+    splat = "density"

@@ -1,0 +1,82 @@
+"""The cost model's weight sets (``approx.cost_model``): the shipped ones load, say where
+they come from and what their fit achieved; the GPU set reproduces the paper's pass
+shares at its anchor; a damaged weight file is refused naming the file, the key and the
+value; a frame's predicted time grows with its splat fragments."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from volcaustics.approx.cost_model import (
+    MODEL_PASSES,
+    WeightSetError,
+    features,
+    read_weight_set,
+    weight_sets,
+)
+from volcaustics.approx.params import PAPER
+
+HELD_OUT_GOAL = 0.15  # the cost model's prediction error on what its fit left out (docs/concepts/equal-cost.md)
+
+
+def test_the_shipped_weight_sets_load_with_their_provenance():
+    sets = weight_sets()
+    assert {"llvmpipe", "paper_gpu"} <= set(sets)
+    fitted = sets["llvmpipe"]
+    assert set(fitted.weights) <= set(MODEL_PASSES) and fitted.unit == "s"
+    p = fitted.provenance
+    assert "llvmpipe" in p["gl_renderer"].lower() and p["date"] and p["machine"]
+    held = p["held_out"]
+    assert held["configs_on_builtins"]["max_abs_error"] <= HELD_OUT_GOAL
+    assert held["scenes_every_config"]["max_abs_error"] <= HELD_OUT_GOAL
+    assert {"knot", "lens_array", "dense_forward"} <= set(held["scenes"])
+
+
+def test_the_gpu_set_gives_the_papers_pass_shares_at_its_anchor():
+    """At the paper's configuration (the counts it was anchored on) trace is 70% and
+    splatting 23% of the frame, which is 1 unit; the llvmpipe set, the negative control,
+    splits the same frame otherwise."""
+    sets = weight_sets()
+    gpu = sets["paper_gpu"]
+    counts = gpu.provenance["paper_counts"]
+    params = PAPER.resolved(_scene(gpu.provenance["scene"]))
+    t = gpu.predict(counts, params)
+    assert t["frame"] == pytest.approx(1.0, rel=1e-9)
+    assert t["trace"] == pytest.approx(0.70, rel=1e-9)
+    assert t["splat"] + t["density"] == pytest.approx(0.23, rel=1e-9)
+    cpu = sets["llvmpipe"].predict(counts, params)
+    assert abs(cpu["trace"] / cpu["frame"] - 0.70) > 0.05
+
+
+def _scene(name):
+    from volcaustics.scenes import resolve_scene
+
+    return resolve_scene(name)
+
+
+def test_more_splat_fragments_cost_more_time():
+    fitted = weight_sets()["llvmpipe"]
+    params = PAPER.resolved(_scene("sphere1"))
+    counts = dict(weight_sets()["paper_gpu"].provenance["paper_counts"])
+    before = fitted.frame(counts, params)
+    counts["fragments_splat"] *= 4
+    assert fitted.frame(counts, params) > before
+    assert features(counts, params)["splat"]["fragments"] == counts["fragments_splat"]
+
+
+@pytest.mark.parametrize("doc, says", [
+    ("not json", "cannot be read as JSON"),
+    ({"weights": {"splat": {"fragments": -1.0}}}, "weights.splat.fragments = -1.0"),
+    ({"weights": {"splat": {"texels": 1.0}}}, "weights.splat.texels: unknown feature"),
+    ({"weights": {"raytrace": {"calls": 1.0}}}, "weights.raytrace"),
+    ({"weights": {"fog": {"calls": True}}}, "weights.fog.calls = True"),
+    ({"unit": "s"}, "expected an object with 'weights'"),
+])
+def test_a_damaged_weight_file_is_refused_naming_file_key_and_value(tmp_path, doc, says):
+    path = tmp_path / "bad.json"
+    path.write_text(doc if isinstance(doc, str) else json.dumps(doc))
+    with pytest.raises(WeightSetError) as exc:
+        read_weight_set(str(path))
+    assert str(path) in str(exc.value) and says in str(exc.value)
