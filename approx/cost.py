@@ -13,9 +13,13 @@ same for every parameter but the image size and fog_steps, and are left out).
 
 Beside the total, every count that a parameter scales (docs/concepts/equal-cost.md):
 ``photons`` launched (the emission's, alive after it), ``segments`` (photon-steps traced:
-the trace loop's iterations over photons, summed over the steps), and per raster pass
+the trace loop's iterations over photons, summed over the steps), ``lookups`` (the
+search loops' iterations: map distances looked up, from memory or registers; one atomic
+add per photon and step counts them), and per raster pass
 the fragments it wrote (``fragments_<pass>``, GL samples-passed queries of the frame:
-``Frame.fragments``), which the splat pass's footprint drives.
+``Frame.work``), which the splat pass's footprint drives, and per pass that draws the
+scene's meshes the primitives it drew (``primitives_<pass>``, ``Frame.work``: the
+light layers draw every mesh twice per layer, which their written fragments do not show).
 """
 
 from __future__ import annotations
@@ -32,16 +36,21 @@ from .emission import emission_reads
 TIMED_PASSES = ("layers", "emission", "camera", "trace", "density", "splat", "fog", "direct")
 # the raster passes whose fragments a frame counts (approx.renderer: density only with splat = density)
 FRAGMENT_PASSES = tuple(name for name in TIMED_PASSES if name != "trace")
+# the passes that draw the scene's meshes: their primitives are counted
+MESH_PASSES = ("layers", "emission", "camera")
 COST_FIELDS = ("map_reads", "emission_reads", "splats", "density_reads", "total", "denoised_pixels", "photons",
-               "segments", *(f"fragments_{name}" for name in FRAGMENT_PASSES))
+               "segments", "lookups", *(f"fragments_{name}" for name in FRAGMENT_PASSES),
+               *(f"primitives_{name}" for name in MESH_PASSES))
 # splat = density: each splat writes its cell in the pre-pass and reads the grid (4 texels, bilinear) for its width
 DENSITY_READS = 5
 
 
-def frame_cost(records: list, params, fragments: dict | None = None) -> dict:
+def frame_cost(records: list, params, work: dict | None = None) -> dict:
     """One frame's cost (COST_FIELDS) from its per-step records (``Frame.records``),
-    its resolved parameters and its fragments per pass (``Frame.fragments``; None: the
-    ``fragments_*`` fields are NaN, not counted)."""
+    its resolved parameters and its counted work (``Frame.work``: fragments and
+    primitives per pass, the trace loop's lookups; None: those fields are NaN)."""
+    fragments = None if work is None else work["fragments"]
+    primitives = None if work is None else work["primitives"]
     search = sum(int(np.asarray(r["map_reads"], np.int64).sum()) for r in records)
     splats = sum(int(np.count_nonzero(r["status"] == STATUS_COLLIDED)) for r in records)
     emitted = len(records[0]) if records else 0
@@ -50,6 +59,9 @@ def frame_cost(records: list, params, fragments: dict | None = None) -> dict:
     density = DENSITY_READS * splats if params.splat == "density" else 0
     counted = {f"fragments_{name}": float("nan") if fragments is None else int(fragments.get(name, 0))
                for name in FRAGMENT_PASSES}
+    counted.update({f"primitives_{name}": float("nan") if primitives is None else int(primitives.get(name, 0))
+                    for name in MESH_PASSES})
     return {"map_reads": search, "emission_reads": emission, "splats": splats, "density_reads": density,
             "total": search + emission + splats + density, "denoised_pixels": denoised, "photons": emitted,
-            "segments": sum(len(r) for r in records), **counted}
+            "segments": sum(len(r) for r in records),
+            "lookups": float("nan") if work is None else int(work["lookups"]), **counted}

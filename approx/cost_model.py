@@ -26,18 +26,21 @@ def features(cost: dict, params) -> dict:
     """pass → {feature: value}: the counts each pass's time is modelled on, from a frame's
     cost (``approx.cost.frame_cost``, its ``fragments_*`` counted) and its resolved
     parameters. ``calls``: the pass's dispatches or draws (a fixed cost each);
-    ``invocations``: compute invocations launched (photon_res² per dispatch, alive or not)."""
+    ``invocations``: compute invocations launched (photon_res² per dispatch, alive or not);
+    ``maps``, ``texels``: the light maps drawn and their texels (cleared and packed)."""
     launched = float(params.photon_res) ** 2
     steps = float(params.steps)
     pixels = float(params.width * params.height)
     density = params.splat == "density"
+    maps = 2.0 * float(params.layers) + 1.0  # a front and a back map per layer, and the shadow map
     return {
-        "layers": {"calls": 1.0, "fragments": cost["fragments_layers"]},
-        "emission": {"calls": 1.0, "fragments": cost["fragments_emission"], "invocations": launched,
-                     "emission_reads": cost["emission_reads"]},
-        "camera": {"calls": 1.0, "fragments": cost["fragments_camera"]},
+        "layers": {"calls": 1.0, "maps": maps, "texels": maps * float(params.light_res) ** 2,
+                   "primitives": cost["primitives_layers"], "fragments": cost["fragments_layers"]},
+        "emission": {"calls": 1.0, "primitives": cost["primitives_emission"], "fragments": cost["fragments_emission"],
+                     "invocations": launched, "emission_reads": cost["emission_reads"]},
+        "camera": {"calls": 1.0, "primitives": cost["primitives_camera"], "fragments": cost["fragments_camera"]},
         "trace": {"calls": steps, "invocations": launched * steps, "segments": cost["segments"],
-                  "map_reads": cost["map_reads"]},
+                  "map_reads": cost["map_reads"], "lookups": cost["lookups"]},
         "density": {"calls": steps if density else 0.0, "splats": cost["splats"] if density else 0.0,
                     "fragments": cost["fragments_density"]},
         "splat": {"calls": steps, "invocations": launched * steps, "splats": cost["splats"],
@@ -120,11 +123,12 @@ def cost_ratios(cost: dict, params, paper_cost: dict, paper_params, sets: dict |
     return {name: ws.frame(cost, params) / ws.frame(paper_cost, paper_params) for name, ws in sets.items()}
 
 
-_COST_NAMES = ("map_reads", "emission_reads", "splats", "segments", *(f"fragments_{n}" for n in TIMED_PASSES))
+_COST_NAMES = ("map_reads", "emission_reads", "splats", "segments", "lookups",
+               *(f"fragments_{n}" for n in TIMED_PASSES), *(f"primitives_{n}" for n in TIMED_PASSES))
 
 
 class _Probe:
     """Parameters for listing the features (any values)."""
 
-    photon_res = steps = width = height = fog_steps = 1
+    photon_res = steps = width = height = fog_steps = layers = light_res = 1
     splat = "density"

@@ -54,6 +54,13 @@ class LightMapRenderer:
         self._empty = ctx.texture((1, 1), 4, dtype="f4")  # bound as previous_map when unused
         self._empty.filter = (moderngl.NEAREST, moderngl.NEAREST)
         self._depth = {}  # resolution -> depth renderbuffer, reused by every map of that size
+        self.drawn = (0, 0)  # (fragments, primitives) of the maps rendered since take_drawn
+
+    def take_drawn(self) -> tuple:
+        """(fragments, primitives) of the maps rendered since the last call (the light
+        maps' own occlusion queries: a pass timer's cannot nest around them)."""
+        drawn, self.drawn = self.drawn, (0, 0)
+        return drawn
 
     def render_map(self, frustum, res: int, *, facing: int = BOTH, threshold: float = -np.inf,
                    previous: moderngl.Texture | None = None, peel_epsilon: float = 0.0,
@@ -63,7 +70,8 @@ class LightMapRenderer:
         geometric normals (and primitive ids) go to ``geometric`` (res×res, :class:`LightMap`) when given.
 
         ``self.last_samples`` holds the number of fragments that passed (occlusion
-        query): 0 means the map is empty."""
+        query): 0 means the map is empty; ``self.drawn`` adds them and the primitives
+        drawn to its running (fragments, primitives) (:meth:`take_drawn`)."""
         ctx = self.ctx
         tex = target or ctx.texture((res, res), 4, dtype="f4")
         tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
@@ -85,7 +93,7 @@ class LightMapRenderer:
             ctx.enable(moderngl.DEPTH_TEST)
             ctx.disable(moderngl.CULL_FACE)
             fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
-            query = ctx.query(samples=True)
+            query = ctx.query(samples=True, primitives=True)
             with query:
                 if self.vao_specular is not None:
                     self.geometry.use(prog, "specular")
@@ -95,6 +103,7 @@ class LightMapRenderer:
                     self.vao_diffuse.render(moderngl.TRIANGLES)
             ctx.disable(moderngl.DEPTH_TEST)
         self.last_samples = query.samples
+        self.drawn = (self.drawn[0] + query.samples, self.drawn[1] + query.primitives)
         fbo.release()
         return tex
 

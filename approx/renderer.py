@@ -44,8 +44,10 @@ class Frame:
     caustic_steps: per interaction step, the caustic image of that step's photons.
     records: per step, the segment records (scenes.formats.RECORD_DTYPE, active photons).
     timings: pass name → seconds; ``timing_method`` says how they were measured.
-    fragments: pass name → fragments the pass wrote (GL samples passed; 0 for a compute
-        pass), summed over its steps: the raster work of ``approx.cost``.
+    work: what ``approx.cost`` counts beside the records: ``fragments`` and ``primitives``
+        (pass name → fragments written, GL samples passed, and primitives drawn, summed
+        over its steps; 0 for a compute pass) and ``lookups`` (the trace loop's map
+        lookups over every step).
     params: the parameters actually used (width/height resolved).
     guides: the G-buffer a temporal filter or denoiser reads: ``distance`` (H×W, to the
         eye, 0 where nothing is hit) and ``normal`` (H×W×3, world).
@@ -60,7 +62,7 @@ class Frame:
     photons_emitted: int | None
     gl: dict = field(default_factory=dict)
     guides: dict = field(default_factory=dict)
-    fragments: dict = field(default_factory=dict)
+    work: dict = field(default_factory=dict)
 
 
 def _read_rgb(tex: moderngl.Texture) -> np.ndarray:
@@ -133,17 +135,19 @@ class Renderer:
         camera_passes, splatter = self._shading_programs(scene, p)
         released = []
         maps = self._light_maps(timer, tracer, frustum, p, released)
-        with timer.measure("emission"):
+        with timer.measure("emission", counted=False):  # the light map's own queries count it
+            self.light_maps.take_drawn()
             emission_map = self.light_maps.render_light_map(frustum, p.photon_res, facing=BOTH,
                                                             primitive_ids=tracer.id_rule)
             photons = tracer.emit_photons(scene, frustum, emission_map, p.photon_res, p.seed)
+        timer.add("emission", *self.light_maps.take_drawn())
         released += [emission_map, photons]
         view = _camera_view(scene, p, box)
         with timer.measure("camera"):
             gbuf_geo, gbuf_nrm = camera_passes.render_gbuffer(self.geometry, view)
         released += [gbuf_geo, gbuf_nrm]
-        records, caustic_steps = self._trace_and_splat(timer, tracer, splatter, scene, frustum, box, maps, photons,
-                                                       view, gbuf_geo, p, keep_records, released)
+        records, caustic_steps, lookups = self._trace_and_splat(timer, tracer, splatter, scene, frustum, box, maps,
+                                                                photons, view, gbuf_geo, p, keep_records, released)
         with timer.measure("fog"):
             fog_tex = camera_passes.render_fog(scene, view, frustum, box, maps["shadow"], p.light_res, gbuf_geo)
         with timer.measure("direct"):
@@ -165,7 +169,8 @@ class Renderer:
                 images, *guides(scene, geometry, normal))
         return Frame(images=images, caustic_steps=caustic_steps, records=records, timings=timings,
                      timing_method=timer.method, params=p.to_dict(), photons_emitted=emitted, gl=gl_info(ctx),
-                     fragments=dict(timer.fragments),
+                     work={"fragments": dict(timer.fragments), "primitives": dict(timer.primitives),
+                           "lookups": lookups},
                      guides={"distance": geometry[..., 0], "normal": normal} if keep_guides else {})
 
     def first_records(self, scene, params: ApproxParams, seeds) -> list:
@@ -224,7 +229,8 @@ class Renderer:
 
     def _light_maps(self, timer, tracer, frustum, p: ApproxParams, released: list) -> dict:
         """The light layers (paper Fig. 1A, 3) packed for the tracer, and the shadow map."""
-        with timer.measure("layers"):
+        self.light_maps.take_drawn()
+        with timer.measure("layers", counted=False):  # the light maps' own queries count it
             layer_maps = self.light_maps.render_layers(frustum, p.light_res, p.layers, p.layer_strategy,
                                                        primitive_ids=tracer.id_rule)
             map_texels, map_bounds = tracer.map_buffer(layer_maps, p.light_res)
@@ -232,15 +238,17 @@ class Renderer:
             map_info = [(b is not None, b[0] * (1 - 1e-5), b[1] * (1 + 1e-5)) if b else (False, 0.0, 0.0)
                         for b in map_bounds]
             shadow_map = self.light_maps.render_map(frustum, p.light_res, facing=BOTH, include_diffuse=True)
+        timer.add("layers", *self.light_maps.take_drawn())
         released += layer_maps + [shadow_map, map_texels]
         return {"texels": map_texels, "info": map_info, "shadow": shadow_map}
 
     def _trace_and_splat(self, timer, tracer, splatter, scene, frustum, box, maps, photons, view, gbuf_geo,
                          p: ApproxParams, keep_records: bool, released: list) -> tuple:
         """Every interaction step: trace (paper §4.1), then splat its medium collisions
-        (§4.3) into one image per step; (records per step, caustic image per step)."""
+        (§4.3) into one image per step; (records per step, caustic image per step, the
+        trace loop's lookups over the steps)."""
         count = p.photon_res * p.photon_res
-        records, caustic_steps = [], []
+        records, caustic_steps, lookups = [], [], 0
         record_buf = self.ctx.buffer(reserve=count * RAW_RECORD_DTYPE.itemsize)
         splat_buf = self.ctx.buffer(reserve=count * SPLAT_DTYPE.itemsize)
         released += [record_buf, splat_buf]
@@ -249,6 +257,7 @@ class Renderer:
             with timer.measure(f"trace_step{step}"):
                 tracer.trace_step(scene, frustum, box, maps["texels"], maps["info"], p.light_res, photons, record_buf,
                                   count, step, p.seed, objects_box=geo.objects_box)
+            lookups += tracer.lookups()
             with timer.measure("splat"):
                 n_splats = tracer.compact_splats(record_buf, count, splat_buf, p)
             grid = None
@@ -265,7 +274,7 @@ class Renderer:
             if keep_records:
                 records.append(records_from_raw(read_raw_records(record_buf, count), step,
                                                 footprint=tracer.footprints(count)))
-        return records, caustic_steps
+        return records, caustic_steps, lookups
 
     def splat(self, splats: np.ndarray, scene=None, params: ApproxParams | None = None) -> np.ndarray:
         """The caustic image of photons from any source, through this frame's own

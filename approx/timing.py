@@ -2,7 +2,8 @@
 ``ctx.finish()`` and a wall clock (llvmpipe answers 4294967295 to timer queries,
 a sentinel that is never reported); and per pass the fragments it wrote (a GL
 samples-passed query: fragments that reach the framebuffer, so a fragment shader's
-discards are not counted), work that travels across hardware (``approx.cost``)."""
+discards are not counted) and the primitives it drew (a primitives-generated query: a
+pass's vertex work), work that travels across hardware (``approx.cost``)."""
 
 from __future__ import annotations
 
@@ -45,10 +46,20 @@ class PassTimer:
         self.method = "gl_timer_query" if use_queries else "finish_wall_clock"
         self.seconds: dict[str, float] = {}
         self.fragments: dict[str, int] = {}
+        self.primitives: dict[str, int] = {}
+
+    def add(self, name: str, fragments: int, primitives: int) -> None:
+        """Count work of pass ``name`` that its own queries measured (``measure(...,
+        counted=False)``: GL queries of one kind cannot nest)."""
+        self.fragments[name] = self.fragments.get(name, 0) + int(fragments)
+        self.primitives[name] = self.primitives.get(name, 0) + int(primitives)
 
     @contextlib.contextmanager
-    def measure(self, name: str):
-        query = self.ctx.query(samples=True, time=self.use_queries)
+    def measure(self, name: str, counted: bool = True):
+        """Time the pass ``name`` and, when ``counted``, count its fragments and primitives."""
+        query = self.ctx.query(samples=True, primitives=True, time=self.use_queries) if counted else None
+        if self.use_queries and not counted:
+            query = self.ctx.query(time=True)
         if self.use_queries:
             with query:
                 yield
@@ -57,9 +68,10 @@ class PassTimer:
         else:
             self.ctx.finish()
             t0 = time.perf_counter()
-            with query:
+            with query if query is not None else contextlib.nullcontext():
                 yield
             self.ctx.finish()
             seconds = time.perf_counter() - t0
         self.seconds[name] = self.seconds.get(name, 0.0) + seconds
-        self.fragments[name] = self.fragments.get(name, 0) + int(query.samples)
+        if counted:
+            self.add(name, query.samples, query.primitives)

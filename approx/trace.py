@@ -110,6 +110,7 @@ class PhotonTracer:
         self.emission_shift = float(defines.get("EMISSION_SHIFT", 0.0))  # texels (a test's wrong grid, emit.comp.glsl)
         self.importance = compute_shader(ctx, "emission/importance.comp.glsl") if self.emission_adaptive else None
         self.maps = defines["MAPS"]
+        self.work = ctx.buffer(reserve=4)  # the trace loop's lookups of one dispatch (trace.comp.glsl Work)
         self._solid_angles = {}
         self._max_groups = int(ctx.info["GL_MAX_COMPUTE_WORK_GROUP_COUNT"][0])
         self._max_size = max_image_size(ctx.info)
@@ -283,7 +284,14 @@ class PhotonTracer:
             map_texels.pyramid.bind_to_storage_buffer(6)
             set_uniforms(prog, pyramid_offset=offsets + [0] * (16 - len(offsets)), pyramid_stride=stride,
                          pyramid_top=len(offsets) - 1)
+        self.work.write(bytes(4))
+        self.work.bind_to_storage_buffer(8)
         prog.run(group_x=math.ceil(count / 64))
+
+    def lookups(self) -> int:
+        """The map distances the last :meth:`trace_step` looked up (every search loop
+        iteration, whether it read memory or a register): its loop work."""
+        return int(np.frombuffer(self.work.read(), np.uint32)[0])
 
     def compact_splats(self, records: moderngl.Buffer, count: int, splats: moderngl.Buffer, params=None) -> int:
         """Gather the medium collisions of one step's records into ``splats`` (SPLAT_DTYPE
@@ -312,6 +320,7 @@ class PhotonTracer:
         return total
 
     def release(self):
+        self.work.release()
         if self.differentials is not None:
             self.differentials.release()
         for prog in (self.emit, self.trace, self.pack, self.pyramid, self.compact_count, self.compact_write):

@@ -50,6 +50,8 @@ HELD_OUT = {  # never in the fit: several axes at once
     "size192": {"width": 192, "height": 192, "photon_res": 300, "layers": 2},
 }
 PAPER_SHARES = {"trace": 0.70, "splatting": 0.23}  # the paper's Table 1, at its configuration
+# the weight files go to the checkout's package folder (an editable install's link tree is not it)
+OUT_DIR = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "approx", "cost_weights")
 SPLATTING = ("splat", "density")
 
 
@@ -67,7 +69,7 @@ def measure(scene_arg: str, configs: dict, rounds: int, size: int) -> list:
         for name, changes in configs.items():
             p = dataclasses.replace(QUICK, **{"width": size, "height": size, **changes}).resolved(scene)
             frame = renderer.render(scene, p, keep_records=True)  # the counts; compiles its programs
-            params[name], costs[name] = p, frame_cost(frame.records, p, frame.fragments)
+            params[name], costs[name] = p, frame_cost(frame.records, p, frame.work)
         times = {name: [] for name in configs}
         for _ in range(rounds):
             for name in configs:
@@ -84,6 +86,21 @@ def measure(scene_arg: str, configs: dict, rounds: int, size: int) -> list:
         rows.append({"scene": scene_arg, "config": name, "params": params[name], "cost": costs[name],
                      "passes": passes, "frame": med["frame_wall"]})
     return rows
+
+
+def read_points(path: str, size: int) -> list:
+    """The points a ``--json`` run wrote, with their parameters rebuilt from FIT and HELD_OUT."""
+    from volcaustics.approx.params import QUICK
+    from volcaustics.scenes import resolve_scene
+
+    with open(path, encoding="utf-8") as fh:
+        points = json.load(fh)
+    configs, scenes = {**FIT, **HELD_OUT}, {}
+    for r in points:
+        scene = scenes.setdefault(r["scene"], resolve_scene(r["scene"]))
+        r["params"] = dataclasses.replace(QUICK, **{"width": size, "height": size, **configs[r["config"]]}).resolved(
+            scene)
+    return points
 
 
 def fit(rows: list) -> dict:
@@ -137,7 +154,7 @@ def paper_anchor(ws, scene_arg: str):
     try:
         p = PAPER.resolved(scene)
         frame = renderer.render(scene, p, keep_records=True)
-        cost = frame_cost(frame.records, p, frame.fragments)
+        cost = frame_cost(frame.records, p, frame.work)
     finally:
         renderer.release()
     t = ws.predict(cost, p)
@@ -162,22 +179,26 @@ def main(argv=None) -> int:
     parser.add_argument("--scenes", help="fit scenes (default: every built-in)")
     parser.add_argument("--write", action="store_true", help="store the weight sets in approx/cost_weights/")
     parser.add_argument("--json", help="write every measured point to this file")
+    parser.add_argument("--points", help="fit the points a --json run wrote instead of measuring (same --size)")
     args = parser.parse_args(argv)
 
     from volcaustics.approx.context import shared_context
-    from volcaustics.approx.cost_model import WEIGHTS_DIR, WeightSet
+    from volcaustics.approx.cost_model import WeightSet
     from volcaustics.scenes.catalogue import BUILTIN_NAMES, HELDOUT_NAMES, heldout_path
 
     fit_scenes = args.scenes.split(",") if args.scenes else list(BUILTIN_NAMES)
-    rows, held = [], []
+    points = read_points(args.points, args.size) if args.points else None
+    rows, held, held_scenes = [], [], []
     for scene in fit_scenes:
-        points = measure(scene, {**FIT, **HELD_OUT}, args.rounds, args.size)
-        rows += [r for r in points if r["config"] in FIT]
-        held += [r for r in points if r["config"] in HELD_OUT]
-        print(f"{scene}: {len(points)} configurations measured", flush=True)
-    held_scenes = []
+        measured = [r for r in points if r["scene"] == scene] if points else measure(
+            scene, {**FIT, **HELD_OUT}, args.rounds, args.size)
+        rows += [r for r in measured if r["config"] in FIT]
+        held += [r for r in measured if r["config"] in HELD_OUT]
+        print(f"{scene}: {len(measured)} configurations measured", flush=True)
     for name in HELDOUT_NAMES:
-        held_scenes += measure(heldout_path(name), {**FIT, **HELD_OUT}, args.rounds, args.size)
+        path = heldout_path(name)
+        held_scenes += [r for r in points if os.path.basename(r["scene"]) == os.path.basename(path)] if points \
+            else measure(path, {**FIT, **HELD_OUT}, args.rounds, args.size)
         print(f"{name} (held out): measured", flush=True)
     fitted = fit(rows)
     renderer_name = shared_context().info["GL_RENDERER"]
@@ -208,7 +229,7 @@ def main(argv=None) -> int:
     if args.write:
         anchored = paper_anchor(ws, "two_spheres")
         for s in (ws, anchored):
-            path = os.path.join(WEIGHTS_DIR, f"{s.name}.json")
+            path = os.path.join(OUT_DIR, f"{s.name}.json")
             tmp = path + ".tmp"
             with open(tmp, "w", encoding="utf-8") as fh:
                 json.dump(s.to_dict(), fh, indent=1, sort_keys=True)

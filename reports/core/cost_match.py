@@ -59,7 +59,7 @@ class CostMatcher:
             self.renderers[scene_name] = Renderer(scene)
         frame = self.renderers[scene_name].render(scene, params, keep_records=True)
         p = params.resolved(scene)
-        cost = frame_cost(frame.records, p, frame.fragments)
+        cost = frame_cost(frame.records, p, frame.work)
         return {name: ws.frame(cost, p) for name, ws in self.sets.items()}
 
     def match(self, scene_name: str, params, target: dict):

@@ -50,7 +50,7 @@ def map_reads(frames) -> dict:
 def frame_costs(frames, params) -> dict:
     """A frame's cost (``approx.cost.frame_cost``: map reads, emission reads, splats and
     their total, photons, segments, fragments per pass), the mean over the seeds' frames."""
-    costs = [frame_cost(f.records, params, f.fragments) for f in frames]
+    costs = [frame_cost(f.records, params, f.work) for f in frames]
     return {name: float(np.mean([c[name] for c in costs])) for name in COST_FIELDS}
 
 

@@ -30,7 +30,7 @@ def _cost(sphere1, **changes) -> dict:
     p = dataclasses.replace(QUICK, **{"width": SIZE, "height": SIZE, "photon_res": 96, "light_res": 96, **changes})
     p = p.resolved(scene)
     frame = renderer.render(scene, p, keep_records=True)
-    return frame_cost(frame.records, p, frame.fragments)
+    return frame_cost(frame.records, p, frame.work)
 
 
 def test_every_raster_pass_counts_its_fragments_and_the_trace_its_photons(sphere1):

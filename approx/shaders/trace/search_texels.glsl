@@ -84,6 +84,7 @@ bool leave_cell(Segment s, inout Walk w, int L, float u_out, int axis) {
 float texel_crossing(int map, Segment s, inout Walk w, float u_out, out int index) {
     index = (map * light_res + w.texel.y) * light_res + w.texel.x;
     ++g_map_reads;
+    ++g_lookups;
     float D = map_dist[index];
     if (D <= 0.0) {
         w.run = false;
@@ -118,6 +119,7 @@ bool skip_cell(int map, Segment s, inout Walk w, int L, float u_out) {
     ivec2 cell = w.texel >> L;
     int n = ((light_res - 1) >> L) + 1;
     ++g_map_reads;
+    ++g_lookups;
     vec2 range = pyramid[map * pyramid_stride + pyramid_offset[L] + cell.y * n + cell.x];
     if (range.y <= 0.0) {  // nothing covered: the run ends
         w.run = false;

@@ -88,8 +88,12 @@ layout(std430, binding = 7) buffer Differentials { vec2 differentials[]; };
 #include "common/differential.glsl"
 #endif
 
+// the trace loop's work this dispatch (approx.cost: lookups), one atomic add per photon
+layout(std430, binding = 8) buffer Work { uint work_lookups; };
+
 uint g_flags;
 uint g_map_reads;  // map texels the search read for this segment (map_reads: cost that travels across hardware)
+uint g_lookups;    // map distances the search looked up, registers included: the search loops' iterations
 float g_start_id;  // start rule `id`: primitive id + 1 of the triangle the segment leaves (0 none)
 vec3 g_dir;        // start rule `facing`: the segment's direction ...
 bool g_inside;     // ... and whether it runs inside glass
@@ -123,6 +127,7 @@ float g_kept_dist[2];
 
 // The map distance of texel index (>= 0): from the registers, else one map read.
 float map_distance_at(int index) {
+    ++g_lookups;
     if (index == g_kept_index[0]) return g_kept_dist[0];
     if (index == g_kept_index[1]) return g_kept_dist[1];
     ++g_map_reads;
@@ -330,6 +335,7 @@ void main() {
     int inside = int(round(ph.pos.w));
     g_flags = 0u;
     g_map_reads = 0u;
+    g_lookups = 0u;
 
     // --- segment: free flight in the medium, or the way out of the glass
     float span = box_exit(o, d, scene_min, scene_max);
@@ -445,4 +451,5 @@ void main() {
     rec.extra = vec4(float(g_flags), float(material_hit), search, t_eps);
     rec.power_start.w = float(g_map_reads);
     records[i] = rec;
+    atomicAdd(work_lookups, g_lookups);
 }
