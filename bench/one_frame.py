@@ -7,10 +7,12 @@ decomposition).
 Configurations: ``paper`` (the quick preset), ``random`` / ``sobol`` (``emission_jitter``),
 ``oidn`` (``denoise``), ``sobol+oidn`` and ``best`` (``--preset best`` at its cost-matched
 photon_res; ``best+oidn`` etc. with a configuration's changes), or ``NAME=VALUE/NAME=VALUE``
-(any parameters on the quick preset, e.g. ``splat=density/splat_neighbours=4``). Per point: the frame cost
-against the paper's, one frame's caustic relMSE less the reference's floor ± SE
-(``metrics.frame``), the seeds' mean's debiased relMSE ± SE, their ratios to the paper's,
-HDR-FLIP per frame, and the denoiser's seconds and pixels beside the frame's. Runs the
+(any parameters on the quick preset, e.g. ``splat=density/splat_neighbours=4``). Per point:
+the predicted cost (the largest ratio over the cost model's weight sets) and measured frame
+time (alternating frames, ``reports.core.cost_match.measured_time_ratio``) against the
+paper's, one frame's caustic relMSE less the reference's floor ± SE (``metrics.frame``),
+the seeds' mean's debiased relMSE ± SE, their ratios to the paper's, HDR-FLIP per frame,
+and the denoiser's seconds and pixels beside the frame's. Runs the
 code of the checkout it is started from.
 """
 
@@ -44,6 +46,7 @@ def config_params(name: str, scene: str):
 
 def main(argv=None) -> int:
     from volcaustics.reference.render import render_reference
+    from volcaustics.reports.core.cost_match import measured_time_ratio
     from volcaustics.reports.core.sizing import REPORT_REFERENCE, sized
     from volcaustics.reports.experiment.run import run_experiment
     from volcaustics.scenes import resolve_scene
@@ -55,8 +58,9 @@ def main(argv=None) -> int:
     parser.add_argument("--seeds", type=int, default=6)
     parser.add_argument("--json", help="append one JSON object per point to this file")
     args = parser.parse_args(argv)
-    print("| scene | config | cost ratio | one frame relMSE | × paper | debiased relMSE | × paper | HDR-FLIP | "
-          "denoise s/frame |\n|---|---|---|---|---|---|---|---|---|", flush=True)
+    print("| scene | config | photon_res | predicted cost ratio | measured time ratio | one frame relMSE | × paper | "
+          "debiased relMSE | × paper | HDR-FLIP | denoise s/frame |\n|---|---|---|---|---|---|---|---|---|---|---|",
+          flush=True)
     for name in args.scenes:
         scene = resolve_scene(name)
         paper = None
@@ -67,11 +71,14 @@ def main(argv=None) -> int:
             s = run_experiment(scene, p, seeds=args.seeds, reference=reference, scope="gate").summary
             c = s["images"]["caustic"]
             point = {"scene": name, "config": config, "seconds": time.perf_counter() - t0, "cost": s["cost"],
+                     "predicted": s["predicted_frame"], "photon_res": p.photon_res,
+                     "time": measured_time_ratio(name, p, config_params("paper", name))["ratio"],
                      "frame": c["frame_relative_mse"], "mean": c["relative_mse"], "flip": c["hdr_flip"]["value"],
                      "denoise_s": s["approx_timings_s"].get("denoise")}
             paper = paper or point
             one, mean = point["frame"], point["mean"]
-            print(f"| {name} | {config} | {point['cost']['total'] / paper['cost']['total']:.3f} | "
+            predicted = max(v / paper["predicted"][k] for k, v in point["predicted"].items())
+            print(f"| {name} | {config} | {p.photon_res} | {predicted:.3f} | {point['time']:.2f} | "
                   f"{100 * one['debiased']:.2f}% ± {100 * (one['standard_error'] or 0):.2f} | "
                   f"{one['debiased'] / paper['frame']['debiased']:.2f} | "
                   f"{100 * mean['debiased']:.2f}% ± {100 * (mean['standard_error'] or 0):.2f} | "
