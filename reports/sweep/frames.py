@@ -98,7 +98,8 @@ def with_ratios(table: pd.DataFrame) -> pd.DataFrame:
     predicted = [c for c in table.columns if c.startswith("predicted_")]
     ratios = [table[c] / table["scene"].map(paper[c]) for c in predicted]
     table["cost_ratio"] = pd.concat(ratios, axis=1).max(axis=1) if ratios else table["counted_ratio"]
-    table["time_ratio"] = table["frame_s"] / table["scene"].map(paper["frame_s"])
+    table["time_ratio"] = (table["frame_s"] / table["scene"].map(paper["frame_s"]) if "frame_s" in table
+                           else float("nan"))
     table["frame_ratio"] = table["frame_relmse"] / table["scene"].map(paper["frame_relmse"])
     table["relmse_ratio"] = table["relmse_debiased"].clip(lower=0.0) / table["scene"].map(paper["relmse_debiased"])
     return table

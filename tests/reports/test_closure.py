@@ -43,10 +43,11 @@ CONFIGS = {"paper": lambda scene_arg: QUICK,  # splat = fixed
            "best": _best}  # splat = density
 
 
-def _measure(scene, params, **kwargs):
+def _measure(scene, params, seeds: int = 2, **kwargs):
     # one exact replay per texel: R's covarying pixels are the weak spot at 16 (docs/decisions.md "Sub-photons")
     p = dataclasses.replace(params, width=SIZE, height=SIZE)
-    return run_experiment(scene, p, seeds=2, reference_settings=REFERENCE, subphotons=1, progress=False, **kwargs)
+    return run_experiment(scene, p, seeds=seeds, reference_settings=REFERENCE, subphotons=1, progress=False,
+                          **kwargs)
 
 
 def _closes(result, label) -> str | None:
@@ -78,7 +79,9 @@ def test_the_decomposition_closes_on_every_builtin_and_held_out_scene(cache, con
     jackknifed over the paired photon subsets and R's batch groups), whatever the
     approximation's emission and kernel (the terms sum to R − A by construction)."""
     scene = resolve_scene(scene_arg)
-    result = _measure(scene, CONFIGS[config](scene_arg))
+    # held out: 4 seeds, 32 jackknife batches. With 16, lens_array's SE of the energy (nine small lenses, few
+    # photons each per subset) came out at 0.58% where its spread over photon_res 256-275 was ±2%: z 3.6
+    result = _measure(scene, CONFIGS[config](scene_arg), seeds=2 if scene_arg in BUILTIN_NAMES else 4)
     assert (message := _closes(result, f"{scene.name} {config}")) is None, message
     # the approximation at the quick preset loses caustic energy (truncation, dropped reflections)
     if config == "paper" and scene_arg in BUILTIN_NAMES:
