@@ -116,11 +116,11 @@ def weight_sets(folder: str = WEIGHTS_DIR) -> dict:
     return out
 
 
-def cost_ratios(cost: dict, params, paper_cost: dict, paper_params, sets: dict | None = None) -> dict:
-    """name → predicted frame time of (cost, params) over the paper configuration's
-    (paper_cost, paper_params), under each weight set (default: the shipped ones)."""
+def predicted_frames(cost: dict, params, sets: dict | None = None) -> dict:
+    """name → predicted frame time of (cost, params) under each weight set (default: the
+    shipped ones; each in its set's unit)."""
     sets = weight_sets() if sets is None else sets
-    return {name: ws.frame(cost, params) / ws.frame(paper_cost, paper_params) for name, ws in sets.items()}
+    return {name: ws.frame(cost, params) for name, ws in sets.items()}
 
 
 _COST_NAMES = ("map_reads", "emission_reads", "splats", "segments", "lookups",

@@ -57,9 +57,8 @@ class PassTimer:
     @contextlib.contextmanager
     def measure(self, name: str, counted: bool = True):
         """Time the pass ``name`` and, when ``counted``, count its fragments and primitives."""
-        query = self.ctx.query(samples=True, primitives=True, time=self.use_queries) if counted else None
-        if self.use_queries and not counted:
-            query = self.ctx.query(time=True)
+        kinds = {"samples": counted, "primitives": counted, "time": self.use_queries}
+        query = self.ctx.query(**kinds) if any(kinds.values()) else None
         if self.use_queries:
             with query:
                 yield

@@ -23,7 +23,7 @@ import statistics
 
 from volcaustics.approx import Renderer
 from volcaustics.approx.cost import frame_cost
-from volcaustics.approx.cost_model import weight_sets
+from volcaustics.approx.cost_model import predicted_frames, weight_sets
 from volcaustics.approx.params import AUTO_PHOTON_RES, preset
 from volcaustics.infra.storage import atomic_path, cache_dir
 from volcaustics.reports.core.versions import code_version
@@ -59,8 +59,7 @@ class CostMatcher:
             self.renderers[scene_name] = Renderer(scene)
         frame = self.renderers[scene_name].render(scene, params, keep_records=True)
         p = params.resolved(scene)
-        cost = frame_cost(frame.records, p, frame.work)
-        return {name: ws.frame(cost, p) for name, ws in self.sets.items()}
+        return predicted_frames(frame_cost(frame.records, p, frame.work), p, self.sets)
 
     def match(self, scene_name: str, params, target: dict):
         """``params`` with the largest photon_res found whose cost is ≤ ``target`` (the
@@ -71,19 +70,16 @@ class CostMatcher:
         if isinstance(self.memo.get(key), int):
             return dataclasses.replace(params, photon_res=self.memo[key])
 
-        def ratio(cost: dict) -> float:
-            return cost_ratio(cost, target)
-
         res = params.photon_res
-        cost = ratio(self.cost(scene_name, params))
+        cost = cost_ratio(self.cost(scene_name, params), target)
         for _ in range(6):
             new = max(MIN_PHOTON_RES, min(8192, int(res * math.sqrt(1.0 / max(cost, 1e-9)))))
             if new == res:
                 break
-            res, cost = new, ratio(self.cost(scene_name, dataclasses.replace(params, photon_res=new)))
+            res, cost = new, cost_ratio(self.cost(scene_name, dataclasses.replace(params, photon_res=new)), target)
         while cost > 1.0 and res > MIN_PHOTON_RES:
             res = max(MIN_PHOTON_RES, res - max(1, res // 100))
-            cost = ratio(self.cost(scene_name, dataclasses.replace(params, photon_res=res)))
+            cost = cost_ratio(self.cost(scene_name, dataclasses.replace(params, photon_res=res)), target)
         self.memo[key] = res
         return dataclasses.replace(params, photon_res=res)
 

@@ -7,7 +7,7 @@ import numpy as np
 
 from volcaustics.approx.context import gl_info, shared_context
 from volcaustics.approx.cost import COST_FIELDS, frame_cost
-from volcaustics.approx.cost_model import weight_sets
+from volcaustics.approx.cost_model import predicted_frames
 from volcaustics.metrics.noise import MIN_SEEDS_FOR_INTERVAL
 from volcaustics.reports.core.versions import code_version, library_versions
 from volcaustics.reports.experiment.exact_images import SMALL_SUPERSAMPLE
@@ -52,12 +52,6 @@ def frame_costs(frames, params) -> dict:
     their total, photons, segments, fragments per pass), the mean over the seeds' frames."""
     costs = [frame_cost(f.records, params, f.work) for f in frames]
     return {name: float(np.mean([c[name] for c in costs])) for name in COST_FIELDS}
-
-
-def predicted_frames(cost: dict, params) -> dict:
-    """A frame's predicted time under each shipped weight set of the cost model
-    (``approx.cost_model``; its unit is the set's), from its mean cost."""
-    return {name: ws.frame(cost, params) for name, ws in weight_sets().items()}
 
 
 def experiment_views(frames, reference, keep, layers, maps) -> dict:
