@@ -85,7 +85,7 @@ def test_a_splat_of_any_width_keeps_its_integral(ctx, sigma_px):
     12 pixels, integrated over each pixel's area: the image integral Σ L·Ω is the point
     photon's Φ/(4π)·exp(−σt z)/z² for any width (the paper's 3D kernel adds σ²/z²,
     test_frame). 1e-4: the pixel masses of a Gaussian sum to 1 to the erf approximation
-    (1.5e-7 per edge); the billboard reaches 4σ + 1.5 pixels (mass left out < 1e-4);
+    (1.5e-7 per edge), cut to ±3σ per axis and renormalised, so nothing is left out;
     pixel_angle²·cos³θ is each pixel's solid angle to O(pixel²) ≈ 1e-8."""
     z, sigma_t, power = 3.0, 0.1, 2.0
     cam = Camera(position=(0.0, 1.0, z), target=(0.0, 1.0, 0.0), fov_y=20.0, width=160, height=160)
@@ -99,21 +99,27 @@ def test_a_splat_of_any_width_keeps_its_integral(ctx, sigma_px):
     records = ctx.buffer(raw.tobytes())
     target = ctx.texture((cam.width, cam.height), 4, dtype="f4")
     empty = ctx.texture((cam.width, cam.height), 4, dtype="f4")
-    splatter.splat(records, 1, view, scene.medium, 1.0, empty, target)  # a 1 m splat_radius: never used
+    query = ctx.query(samples=True)
+    with query:
+        splatter.splat(records, 1, view, scene.medium, 1.0, empty, target)  # a 1 m splat_radius: never used
+    # the billboard reaches the kernel's ±3σ square and a pixel, no further (the splat's cost)
+    assert query.samples <= (2 * (3 * sigma_px + 1) + 1) ** 2
     image = np.frombuffer(target.read(), np.float32).reshape(cam.height, cam.width, 4)[..., 0].astype(np.float64)
     edges, omega = pixel_solid_angles(cam.fov_y, cam.width)  # exact, of the image plane at unit distance
     expected = power / (4 * math.pi) * math.exp(-sigma_t * z) / z**2
     assert float((image * omega).sum()) == pytest.approx(expected, rel=1e-4)
     # and it is this splat's width that was drawn: across the splat plane the image's
-    # spread is σ² plus a pixel's box (1/12 px²), its mean the centre; 2%: the pixel grid
-    # (from a pixel wide; narrower kernels fall in one to four pixels, their spread the grid's)
+    # spread is the variance of a Gaussian cut at ±3σ (σ²·(1 − 6φ(3)/erf(3/√2)), the
+    # kernel's square) plus a pixel's box (1/12 px²), its mean the centre; 2%: the pixel
+    # grid (from a pixel wide; narrower kernels fall in one to four pixels, their spread the grid's)
     centres = (edges[:-1] + edges[1:]) / 2 * z
     weight = image.sum(axis=0)
     mean = float((weight * centres).sum() / weight.sum())
     if sigma_px >= 1.0:
         assert mean == pytest.approx(centre[0], abs=0.02 * pixel)
         spread = float((weight * centres**2).sum() / weight.sum()) - mean**2
-        assert spread == pytest.approx(sigma**2 + pixel**2 / 12, rel=2e-2)
+        cut = 1 - 6 * math.exp(-4.5) / math.sqrt(2 * math.pi) / math.erf(3 / math.sqrt(2))
+        assert spread == pytest.approx(sigma**2 * cut + pixel**2 / 12, rel=2e-2)
     for x in (records, target, empty):
         x.release()
 

@@ -36,7 +36,7 @@ def _splat(ctx, centres, power, neighbours=16):
     records = ctx.buffer(raw.tobytes())
     target = ctx.texture((cam.width, cam.height), 4, dtype="f4")
     empty = ctx.texture((cam.width, cam.height), 4, dtype="f4")
-    splatter.splat(records, len(raw), view, scene.medium, 0.01, empty, target, neighbours)  # 4σ ≤ 16 cm: in view
+    splatter.splat(records, len(raw), view, scene.medium, 0.01, empty, target, neighbours)  # 3σ ≤ 12 cm: in view
     image = np.frombuffer(target.read(), np.float32).reshape(cam.height, cam.width, 4)[..., 0].astype(np.float64)
     for r in (records, target, empty):
         r.release()
@@ -49,7 +49,7 @@ def _splat(ctx, centres, power, neighbours=16):
 def test_density_kernels_keep_the_energy_and_narrow_where_photons_crowd(ctx):
     """A dense cluster (400 photons within 1 cm) and a sparse spread (100 over 30 cm) in
     the plane z = 0, seen from 3 m: Σ L·Ω is the point photons' Σ Φ/(4π)·exp(−σt d)/d² to 1e-4 (the pixel
-    masses' erf approximation and the 4σ billboard, as for adaptive splats); the
+    masses' erf approximation, as for adaptive splats); the
     cluster's image is narrower than the same photons splatted as a sparse lone one."""
     rng = np.random.default_rng(4)
     dense = np.c_[rng.normal(0.0, 0.005, (400, 2)), np.zeros(400)] + [0.0, 1.0, 0.0]

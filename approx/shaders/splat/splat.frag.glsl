@@ -51,10 +51,15 @@ void main() {
         // pixels by a similarity: a circular Gaussian of σ / pixel; the masses of all
         // pixels sum to 1), spread over the pixel's solid angle times the splat's distance²
         // (pixel_angle²·cos³θ·d²): Σ L·Ω is the point photon's Φ/d², for any σ.
+        // Each axis is cut at ±TRUNCATION·σ and divided by the mass kept (kernel.glsl), so
+        // the billboard needs to reach only that far (splat.vert.glsl).
         vec2 offset = gl_FragCoord.xy - v_center_px;
         float s = 0.7071067811865476 * v_pixel / SIGMA;  // 1/(√2 σ) in pixels
-        vec2 mass = 0.5 * (vec2(erf_approx((offset.x + 0.5) * s), erf_approx((offset.y + 0.5) * s))
-                           - vec2(erf_approx((offset.x - 0.5) * s), erf_approx((offset.y - 0.5) * s)));
+        float cut = TRUNCATION * SIGMA / v_pixel;        // the square's half-side (pixels)
+        vec2 lo = clamp(offset - 0.5, -cut, cut);
+        vec2 hi = clamp(offset + 0.5, -cut, cut);
+        vec2 mass = 0.5 * (vec2(erf_approx(hi.x * s), erf_approx(hi.y * s))
+                           - vec2(erf_approx(lo.x * s), erf_approx(lo.y * s))) / AXIS_KEPT_MASS;
         vec2 plane = (gl_FragCoord.xy - 0.5 * viewport) * pixel_angle;  // the pixel on the image plane at 1 m
         float cos_theta = inversesqrt(1.0 + dot(plane, plane));
         k = mass.x * mass.y / (v_pixel * v_pixel * cos_theta * cos_theta * cos_theta) * along;

@@ -56,8 +56,11 @@ void main() {
 #ifdef SPLAT_ADAPTIVE
     // splat = adaptive: the photon's own kernel (in_dir_t.w, splat/compact.comp.glsl),
     // integrated over each pixel's area (splat.frag.glsl), so that a kernel of any width,
-    // narrower than a pixel too, keeps its integral; drawn out to 4σ and a pixel. A splat
-    // without one (0) takes splat_radius, point-sampled as the paper's.
+    // narrower than a pixel too, keeps its integral. It is cut to the square ±TRUNCATION·σ
+    // (renormalised), so the billboard reaches TRUNCATION·σ and a pixel: every pixel that
+    // overlaps the square has its centre within TRUNCATION·σ + ½ pixel (a pixel at the
+    // splat spans at most v_pixel: off axis it spans less). A splat without one (0) takes
+    // splat_radius, point-sampled as the paper's.
     vec4 centre_clip = view_proj * vec4(c, 1.0);
     v_center_px = (centre_clip.xy / centre_clip.w * 0.5 + 0.5) * viewport;
 #ifdef SPLAT_DENSITY
@@ -69,7 +72,7 @@ void main() {
 #endif
     v_sigma = sigma;
     v_pixel = boxed ? pixel_angle * dist : 0.0;
-    float R = boxed ? 4.0 * sigma + 1.5 * v_pixel : TRUNCATION * sigma;
+    float R = TRUNCATION * sigma + (boxed ? v_pixel : 0.0);
 #else
     float R = TRUNCATION * splat_radius;
 #endif
