@@ -15,7 +15,9 @@ Beside the total, every count that a parameter scales (docs/concepts/equal-cost.
 ``photons`` launched (the emission's, alive after it), ``segments`` (photon-steps traced:
 the trace loop's iterations over photons, summed over the steps), ``lookups`` (the
 search loops' iterations: map distances looked up, from memory or registers; one atomic
-add per photon and step counts them), and per raster pass
+add per photon and step counts them), ``lockstep_lookups`` (the same in lockstep: per
+subgroup of the trace, its longest photon's lookups × its size, what a SIMD machine
+spends while its lanes wait for the last), and per raster pass
 the fragments it wrote (``fragments_<pass>``, GL samples-passed queries of the frame:
 ``Frame.work``), which the splat pass's footprint drives, and per pass that draws the
 scene's meshes the primitives it drew (``primitives_<pass>``, ``Frame.work``: the
@@ -39,7 +41,7 @@ FRAGMENT_PASSES = tuple(name for name in TIMED_PASSES if name != "trace")
 # the passes that draw the scene's meshes: their primitives are counted
 MESH_PASSES = ("layers", "emission", "camera")
 COST_FIELDS = ("map_reads", "emission_reads", "splats", "density_reads", "total", "denoised_pixels", "photons",
-               "segments", "lookups", *(f"fragments_{name}" for name in FRAGMENT_PASSES),
+               "segments", "lookups", "lockstep_lookups", *(f"fragments_{name}" for name in FRAGMENT_PASSES),
                *(f"primitives_{name}" for name in MESH_PASSES))
 # splat = density: each splat writes its cell in the pre-pass and reads the grid (4 texels, bilinear) for its width
 DENSITY_READS = 5
@@ -48,7 +50,8 @@ DENSITY_READS = 5
 def frame_cost(records: list, params, work: dict | None = None) -> dict:
     """One frame's cost (COST_FIELDS) from its per-step records (``Frame.records``),
     its resolved parameters and its counted work (``Frame.work``: fragments and
-    primitives per pass, the trace loop's lookups; None: those fields are NaN)."""
+    primitives per pass, the trace loop's lookups, own and lockstep; None: those fields
+    are NaN)."""
     fragments = None if work is None else work["fragments"]
     primitives = None if work is None else work["primitives"]
     search = sum(int(np.asarray(r["map_reads"], np.int64).sum()) for r in records)
@@ -64,4 +67,5 @@ def frame_cost(records: list, params, work: dict | None = None) -> dict:
     return {"map_reads": search, "emission_reads": emission, "splats": splats, "density_reads": density,
             "total": search + emission + splats + density, "denoised_pixels": denoised, "photons": emitted,
             "segments": sum(len(r) for r in records),
-            "lookups": float("nan") if work is None else int(work["lookups"]), **counted}
+            **{name: float("nan") if work is None else int(work[name]) for name in ("lookups", "lockstep_lookups")},
+            **counted}

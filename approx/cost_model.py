@@ -40,7 +40,8 @@ def features(cost: dict, params) -> dict:
                      "invocations": launched, "emission_reads": cost["emission_reads"]},
         "camera": {"calls": 1.0, "primitives": cost["primitives_camera"], "fragments": cost["fragments_camera"]},
         "trace": {"calls": steps, "invocations": launched * steps, "segments": cost["segments"],
-                  "map_reads": cost["map_reads"], "lookups": cost["lookups"]},
+                  "map_reads": cost["map_reads"], "lookups": cost["lookups"],
+                  "lockstep_lookups": cost["lockstep_lookups"]},
         "density": {"calls": steps if density else 0.0, "splats": cost["splats"] if density else 0.0,
                     "fragments": cost["fragments_density"]},
         "splat": {"calls": steps, "invocations": launched * steps, "splats": cost["splats"],
@@ -123,7 +124,7 @@ def predicted_frames(cost: dict, params, sets: dict | None = None) -> dict:
     return {name: ws.frame(cost, params) for name, ws in sets.items()}
 
 
-_COST_NAMES = ("map_reads", "emission_reads", "splats", "segments", "lookups",
+_COST_NAMES = ("map_reads", "emission_reads", "splats", "segments", "lookups", "lockstep_lookups",
                *(f"fragments_{n}" for n in TIMED_PASSES), *(f"primitives_{n}" for n in TIMED_PASSES))
 
 

@@ -46,8 +46,9 @@ class Frame:
     timings: pass name → seconds; ``timing_method`` says how they were measured.
     work: what ``approx.cost`` counts beside the records: ``fragments`` and ``primitives``
         (pass name → fragments written, GL samples passed, and primitives drawn, summed
-        over its steps; 0 for a compute pass) and ``lookups`` (the trace loop's map
-        lookups over every step).
+        over its steps; 0 for a compute pass), ``lookups`` and ``lockstep_lookups`` (the
+        trace loop's map lookups over every step: the photons' own, and their subgroups'
+        in lockstep, ``Tracer.loop_work``).
     params: the parameters actually used (width/height resolved).
     guides: the G-buffer a temporal filter or denoiser reads: ``distance`` (H×W, to the
         eye, 0 where nothing is hit) and ``normal`` (H×W×3, world).
@@ -146,7 +147,7 @@ class Renderer:
         with timer.measure("camera"):
             gbuf_geo, gbuf_nrm = camera_passes.render_gbuffer(self.geometry, view)
         released += [gbuf_geo, gbuf_nrm]
-        records, caustic_steps, lookups = self._trace_and_splat(timer, tracer, splatter, scene, frustum, box, maps,
+        records, caustic_steps, loop_work = self._trace_and_splat(timer, tracer, splatter, scene, frustum, box, maps,
                                                                 photons, view, gbuf_geo, p, keep_records, released)
         with timer.measure("fog"):
             fog_tex = camera_passes.render_fog(scene, view, frustum, box, maps["shadow"], p.light_res, gbuf_geo)
@@ -170,7 +171,7 @@ class Renderer:
         return Frame(images=images, caustic_steps=caustic_steps, records=records, timings=timings,
                      timing_method=timer.method, params=p.to_dict(), photons_emitted=emitted, gl=gl_info(ctx),
                      work={"fragments": dict(timer.fragments), "primitives": dict(timer.primitives),
-                           "lookups": lookups},
+                           **loop_work},
                      guides={"distance": geometry[..., 0], "normal": normal} if keep_guides else {})
 
     def first_records(self, scene, params: ApproxParams, seeds) -> list:
@@ -246,9 +247,9 @@ class Renderer:
                          p: ApproxParams, keep_records: bool, released: list) -> tuple:
         """Every interaction step: trace (paper §4.1), then splat its medium collisions
         (§4.3) into one image per step; (records per step, caustic image per step, the
-        trace loop's lookups over the steps)."""
+        trace loop's work over the steps: ``lookups`` and ``lockstep_lookups``)."""
         count = p.photon_res * p.photon_res
-        records, caustic_steps, lookups = [], [], 0
+        records, caustic_steps, loop_work = [], [], {"lookups": 0, "lockstep_lookups": 0}
         record_buf = self.ctx.buffer(reserve=count * RAW_RECORD_DTYPE.itemsize)
         splat_buf = self.ctx.buffer(reserve=count * SPLAT_DTYPE.itemsize)
         released += [record_buf, splat_buf]
@@ -257,7 +258,8 @@ class Renderer:
             with timer.measure(f"trace_step{step}"):
                 tracer.trace_step(scene, frustum, box, maps["texels"], maps["info"], p.light_res, photons, record_buf,
                                   count, step, p.seed, objects_box=geo.objects_box)
-            lookups += tracer.lookups()
+            for name, n in zip(loop_work, tracer.loop_work()):
+                loop_work[name] += n
             with timer.measure("splat"):
                 n_splats = tracer.compact_splats(record_buf, count, splat_buf, p)
             grid = None
@@ -274,7 +276,7 @@ class Renderer:
             if keep_records:
                 records.append(records_from_raw(read_raw_records(record_buf, count), step,
                                                 footprint=tracer.footprints(count)))
-        return records, caustic_steps, lookups
+        return records, caustic_steps, loop_work
 
     def splat(self, splats: np.ndarray, scene=None, params: ApproxParams | None = None) -> np.ndarray:
         """The caustic image of photons from any source, through this frame's own

@@ -110,7 +110,7 @@ class PhotonTracer:
         self.emission_shift = float(defines.get("EMISSION_SHIFT", 0.0))  # texels (a test's wrong grid, emit.comp.glsl)
         self.importance = compute_shader(ctx, "emission/importance.comp.glsl") if self.emission_adaptive else None
         self.maps = defines["MAPS"]
-        self.work = ctx.buffer(reserve=4)  # the trace loop's lookups of one dispatch (trace.comp.glsl Work)
+        self.work = ctx.buffer(reserve=8)  # one dispatch's lookups, own and lockstep (trace.comp.glsl Work)
         self._solid_angles = {}
         self._max_groups = int(ctx.info["GL_MAX_COMPUTE_WORK_GROUP_COUNT"][0])
         self._max_size = max_image_size(ctx.info)
@@ -284,14 +284,17 @@ class PhotonTracer:
             map_texels.pyramid.bind_to_storage_buffer(6)
             set_uniforms(prog, pyramid_offset=offsets + [0] * (16 - len(offsets)), pyramid_stride=stride,
                          pyramid_top=len(offsets) - 1)
-        self.work.write(bytes(4))
+        self.work.write(bytes(8))
         self.work.bind_to_storage_buffer(8)
         prog.run(group_x=math.ceil(count / 64))
 
-    def lookups(self) -> int:
-        """The map distances the last :meth:`trace_step` looked up (every search loop
-        iteration, whether it read memory or a register): its loop work."""
-        return int(np.frombuffer(self.work.read(), np.uint32)[0])
+    def loop_work(self) -> tuple:
+        """The last :meth:`trace_step`'s loop work: (lookups, lockstep lookups). Lookups:
+        the map distances its photons looked up (every search loop iteration, whether it
+        read memory or a register); lockstep: per subgroup its longest photon's lookups ×
+        the subgroup's size (where the driver has subgroups; else the lookups)."""
+        lookups, lockstep = np.frombuffer(self.work.read(), np.uint32)[:2]
+        return int(lookups), int(lockstep)
 
     def compact_splats(self, records: moderngl.Buffer, count: int, splats: moderngl.Buffer, params=None) -> int:
         """Gather the medium collisions of one step's records into ``splats`` (SPLAT_DTYPE

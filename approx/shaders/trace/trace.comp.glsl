@@ -37,6 +37,10 @@
 // Defines: MAPS (2 × layers), PEAK_SAMPLES, ITERATIONS, MAX_MATERIALS, SEARCH_*
 // (one of BISECTION, SECANT, DDA, HIZ), the start-offset constants, START_RULE_ID or START_RULE_FACING,
 // CROSSING_SURFACE (with CROSSING_TEXELS), FRESNEL_STOCHASTIC and CLIP_TO_OBJECTS when chosen.
+// Where the driver has subgroups (GL_ARB_shader_ballot, 64-bit ballots), the loop work
+// is also counted in lockstep: a subgroup runs until its longest search ends.
+#extension GL_ARB_shader_ballot : enable
+#extension GL_ARB_gpu_shader_int64 : enable
 #if !defined(SEARCH_BISECTION) && !defined(SEARCH_SECANT) && !defined(SEARCH_DDA) && !defined(SEARCH_HIZ)
 #define SEARCH_BISECTION 1
 #endif
@@ -88,8 +92,10 @@ layout(std430, binding = 7) buffer Differentials { vec2 differentials[]; };
 #include "common/differential.glsl"
 #endif
 
-// the trace loop's work this dispatch (approx.cost: lookups), one atomic add per photon
-layout(std430, binding = 8) buffer Work { uint work_lookups; };
+// the trace loop's work this dispatch (approx.cost: lookups, one atomic add per photon;
+// lockstep_lookups, one per subgroup: its longest search × its size, what a SIMD machine
+// spends on it, since every lane waits for the last; without subgroups the photons' own)
+layout(std430, binding = 8) buffer Work { uint work_lookups; uint work_lockstep; };
 
 uint g_flags;
 uint g_map_reads;  // map texels the search read for this segment (map_reads: cost that travels across hardware)
@@ -306,6 +312,27 @@ float map_curvature(int index, vec4 texel, ivec2 axis, out bool found) {
 }
 #endif
 
+// The trace loop's work of this photon's subgroup in lockstep (see Work), added once by
+// its first active invocation; every invocation that reaches the end calls it.
+void count_lockstep_work() {
+#if defined(GL_ARB_shader_ballot) && defined(GL_ARB_gpu_shader_int64)
+    uvec2 lanes = unpackUint2x32(ballotARB(true));
+    uint longest = 0u;
+    for (int half_ = 0; half_ < 2; ++half_) {
+        uint bits = lanes[half_];
+        while (bits != 0u) {  // the same bits on every active lane: a uniform loop
+            uint lane = uint(findLSB(bits) + 32 * half_);
+            longest = max(longest, readInvocationARB(g_lookups, lane));
+            bits &= bits - 1u;
+        }
+    }
+    uint first = lanes.x != 0u ? uint(findLSB(lanes.x)) : uint(findLSB(lanes.y) + 32);
+    if (gl_SubGroupInvocationARB == first) atomicAdd(work_lockstep, longest * gl_SubGroupSizeARB);
+#else
+    atomicAdd(work_lockstep, g_lookups);
+#endif
+}
+
 void main() {
     uint i = gl_GlobalInvocationID.x;
     if (i >= photon_count) return;
@@ -452,4 +479,5 @@ void main() {
     rec.power_start.w = float(g_map_reads);
     records[i] = rec;
     atomicAdd(work_lookups, g_lookups);
+    count_lockstep_work();
 }
