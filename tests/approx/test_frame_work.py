@@ -63,3 +63,21 @@ def test_fragments_per_splat_follow_the_photon_density_only_with_density_splats(
 
     assert 0.9 < per_splat() < 1.1
     assert per_splat(splat="density", splat_neighbours=8) < 0.6
+
+
+def test_the_trace_loop_is_counted_per_photon_and_in_lockstep(gl_context):
+    """A subgroup runs until its longest search ends: its lockstep count (longest × size)
+    is at least its photons' own lookups and at most 64× them (no subgroup is wider). On
+    bunny a photon that misses the mesh stops searching early while its neighbours go on,
+    so lockstep is well above the photons' own (measured 1.7× at 256²; without subgroups the
+    shader counts the photons' own and this fails: the negative control)."""
+    scene = load_builtin("bunny")
+    renderer = Renderer(scene)
+    try:
+        p = dataclasses.replace(QUICK, width=SIZE, height=SIZE, photon_res=128, light_res=128).resolved(scene)
+        frame = renderer.render(scene, p, keep_records=True)
+    finally:
+        renderer.release()
+    cost = frame_cost(frame.records, p, frame.work)
+    assert 0 < cost["lookups"] <= cost["lockstep_lookups"] <= 64 * cost["lookups"]
+    assert cost["lockstep_lookups"] > 1.2 * cost["lookups"]
