@@ -40,6 +40,7 @@ def features(cost: dict, params) -> dict:
                      "invocations": launched, "emission_reads": cost["emission_reads"]},
         "camera": {"calls": 1.0, "primitives": cost["primitives_camera"], "fragments": cost["fragments_camera"]},
         "trace": {"calls": steps, "invocations": launched * steps, "segments": cost["segments"],
+                  "segment_maps": cost["segments"] * 2.0 * float(params.layers),
                   "map_reads": cost["map_reads"], "lookups": cost["lookups"],
                   "lockstep_lookups": cost["lockstep_lookups"]},
         "density": {"calls": steps if density else 0.0, "splats": cost["splats"] if density else 0.0,

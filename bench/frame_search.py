@@ -54,6 +54,13 @@ CANDIDATES.update({
     "best-fixed": {**_BEST, "splat": "fixed"}, "best-adaptive": {**_BEST, "splat": "adaptive"},
     "best-sobol": {**_BEST, "emission_jitter": "sobol"}, "best-deterministic": {**_BEST, "fresnel": "deterministic"},
 })
+# the next round: the axes that helped on every built-in they were measured on, together
+CANDIDATES.update({
+    "k4-steps4": {**_BEST, "splat_neighbours": 4, "steps": 4},
+    "k4-deterministic": {**_BEST, "splat_neighbours": 4, "fresnel": "deterministic"},
+    "k4-steps4-deterministic": {**_BEST, "splat_neighbours": 4, "steps": 4, "fresnel": "deterministic"},
+    "steps4-deterministic": {**_BEST, "steps": 4, "fresnel": "deterministic"},
+})
 
 
 def main(argv=None) -> int:
