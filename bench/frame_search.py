@@ -45,8 +45,8 @@ CANDIDATES.update({
 })
 # round three: the second round's least worst ratio (uniform emission) with k 12
 CANDIDATES["d12-uniform"] = {**_D8, "emission": "uniform", "splat_neighbours": 12}
-# under the cost model (predicted time, fragments counted): from best, what makes a
-# fragment or a photon cheaper or its error smaller
+# under the cost model (predicted time, fragments counted): from best as it was (k 8; the
+# round adopted best-k4), what makes a fragment or a photon cheaper or its error smaller
 _BEST = {**_D8, "emission": "uniform"}
 CANDIDATES.update({
     "best": _BEST, "best-k4": {**_BEST, "splat_neighbours": 4}, "best-k16": {**_BEST, "splat_neighbours": 16},
