@@ -16,7 +16,8 @@ fit, for the HELD_OUT configurations on the built-ins and for every configuratio
 the held-out scenes (``scenes/heldout``). ``--write`` stores the weights with their
 provenance as ``approx/cost_weights/<GL kind>.json`` and, anchored in the paper's GPU
 pass shares (Table 1: at the paper's configuration trace ≈ 70% and splatting ≈ 23% of a
-frame), ``approx/cost_weights/paper_gpu.json``.
+frame), ``approx/cost_weights/paper_gpu.json`` (``--no-anchor``: the fitted set alone, e.g.
+a GPU's beside the shipped anchor).
 """
 
 from __future__ import annotations
@@ -180,6 +181,8 @@ def main(argv=None) -> int:
     parser.add_argument("--write", action="store_true", help="store the weight sets in approx/cost_weights/")
     parser.add_argument("--json", help="write every measured point to this file")
     parser.add_argument("--points", help="fit the points a --json run wrote instead of measuring (same --size)")
+    parser.add_argument("--anchor", action=argparse.BooleanOptionalAction, default=True,
+                        help="with --write, also write paper_gpu.json anchored in this fit (default: yes)")
     args = parser.parse_args(argv)
 
     from volcaustics.approx.context import shared_context
@@ -227,8 +230,7 @@ def main(argv=None) -> int:
             json.dump([{"scene": r["scene"], "config": r["config"], "cost": r["cost"], "passes": r["passes"],
                         "frame": r["frame"]} for r in rows + held + held_scenes], fh)
     if args.write:
-        anchored = paper_anchor(ws, "two_spheres")
-        for s in (ws, anchored):
+        for s in (ws, paper_anchor(ws, "two_spheres")) if args.anchor else (ws,):
             path = os.path.join(OUT_DIR, f"{s.name}.json")
             tmp = path + ".tmp"
             with open(tmp, "w", encoding="utf-8") as fh:

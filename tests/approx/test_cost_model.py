@@ -19,20 +19,23 @@ from volcaustics.approx.cost_model import (
 from volcaustics.approx.params import PAPER
 
 HELD_OUT_GOAL = 0.15  # the cost model's goal on what its fit left out: the median point's frame time error
-HELD_OUT_WORST = 0.25  # measured worst point: knot, 13-24% low on every configuration (docs/decisions.md "Frame cost")
+HELD_OUT_WORST = 0.25  # measured worst: llvmpipe 23% (dense_forward), H200 24.6% (docs/decisions.md "Frame cost")
 
 
 def test_the_shipped_weight_sets_load_with_their_provenance():
     sets = weight_sets()
     assert {"llvmpipe", "paper_gpu"} <= set(sets)
-    fitted = sets["llvmpipe"]
-    assert set(fitted.weights) <= set(MODEL_PASSES) and fitted.unit == "s"
-    p = fitted.provenance
-    assert "llvmpipe" in p["gl_renderer"].lower() and p["date"] and p["machine"]
-    held = p["held_out"]
-    for group in ("configs_on_builtins", "scenes_every_config"):
-        assert held[group]["median_abs_error"] <= HELD_OUT_GOAL and held[group]["max_abs_error"] <= HELD_OUT_WORST
-    assert {"knot", "lens_array", "dense_forward"} <= set(held["scenes"])
+    fitted = [ws for name, ws in sets.items() if name == "llvmpipe" or name.startswith("gpu_")]
+    assert len(fitted) >= 1
+    for ws in fitted:  # a machine's fit: its GL renderer, machine, date and its error where it was not fitted
+        assert set(ws.weights) <= set(MODEL_PASSES) and ws.unit == "s"
+        p = ws.provenance
+        assert ws.name.removeprefix("gpu_")[:6] in p["gl_renderer"].lower().replace(" ", "_").replace("/", "_")
+        assert p["date"] and p["machine"]
+        held = p["held_out"]
+        for group in ("configs_on_builtins", "scenes_every_config"):
+            assert held[group]["median_abs_error"] <= HELD_OUT_GOAL and held[group]["max_abs_error"] <= HELD_OUT_WORST
+        assert {"knot", "lens_array", "dense_forward"} <= set(held["scenes"])
 
 
 def test_the_gpu_set_gives_the_papers_pass_shares_at_its_anchor():
