@@ -51,7 +51,8 @@ def run(args) -> int:
     reference = runner.reference_for(scene, sized(report_settings(args), scene, params), "continue",
                                      progress=not args.quiet)
     experiment = run_experiment(scene, params, seeds=args.seeds, reference=reference, progress=not args.quiet,
-                                subphotons=measurement.exact_subphotons)
+                                subphotons=measurement.exact_subphotons, subset_batches=measurement.subset_batches,
+                                exact_steps=measurement.exact_steps)
     # a preset matched to the paper's cost (best): that cost, predicted under every weight set and measured
     experiment.summary["equal_cost"] = equal_cost_check(args.scene, params, args.preset)
     paths = write_experiment(experiment, args.output)

@@ -167,6 +167,18 @@ def test_the_sub_photons_out_of_range_exit_2_naming_the_flag_before_rendering(em
     assert "Traceback" not in err and not empty_cache.exists() and not (tmp_path / "m").exists()
 
 
+def test_measure_passes_every_measurement_setting_on(cache, tmp_path):
+    """`measure --subset-batches 4 --exact-steps 32` measures with them: the summary's
+    decomposition has 4 batches per seed and E_∞ 32 steps (it once kept 8 and 128)."""
+    out = tmp_path / "m"
+    assert main(["measure", "refocus", "-o", str(out), "--seeds", "2", "--quiet", "--width", "32", "--height", "32",
+                 "--photon-res", "64", "--light-res", "64", "--photons", "65536", "--spp", "8", "--batches", "4",
+                 "--target-noise", "none", *SINGLE_SCATTERING, "--exact-subphotons", "1", "--subset-batches", "4",
+                 "--exact-steps", "32"]) == 0
+    exact = json.loads((out / "summary.json").read_text())["exact"]
+    assert exact["subset_batches"] == 4 and exact["steps"] == 32, exact
+
+
 def test_the_sub_photons_are_a_setting_of_the_result(cache, tmp_path):
     """The measurement setting exact_subphotons is recorded in the summary and part of a
     stored result's key: the runner measures a point once per setting."""
