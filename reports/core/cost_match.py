@@ -8,7 +8,10 @@ A frame's cost is its predicted time under every shipped weight set of the cost 
 fitted per-count times); a configuration is within the target when it is at most 1.0×
 under each. photon_res ← photon_res·√(1 / ratio), re-rendered until it stays, then
 lowered 1% at a time until within; remembered in ``FOLDER/matched.json`` under a key of
-the scene, the parameters, the target, the weight sets and the code version.
+the scene, the parameters, the target (its costs, or the paper configuration's parameters:
+:meth:`CostMatcher.match_to`), the weight sets and the code version. An entry is sealed
+(``infra.storage.document_sha256``): one edited, damaged or out of range is recomputed,
+and a cache that cannot be written leaves the match computed, not stored.
 :func:`measured_time_ratio` checks the match in time (alternating frames).
 """
 
@@ -25,12 +28,13 @@ from volcaustics.approx import Renderer
 from volcaustics.approx.cost import frame_cost
 from volcaustics.approx.cost_model import predicted_frames, weight_sets
 from volcaustics.approx.params import AUTO_PHOTON_RES, preset
-from volcaustics.infra.storage import atomic_path, cache_dir
+from volcaustics.infra.storage import atomic_path, cache_path, document_sha256, note_not_cached, read_json_object
 from volcaustics.reports.core.versions import code_version
 from volcaustics.scenes import resolve_scene
 
 MATCHED = "matched.json"  # the cost-matched photon_res per scene and configuration (a memo: recomputed if lost)
 MIN_PHOTON_RES = 16
+MAX_PHOTON_RES = 8192  # the search's ceiling (a memo entry beyond it is damaged)
 
 
 class CostMatcher:
@@ -45,11 +49,9 @@ class CostMatcher:
         if not self.sets:
             raise ValueError("approx/cost_weights holds no weight set: the cost model cannot price a frame")
         try:
-            with open(self.path, encoding="utf-8") as fh:
-                memo = json.load(fh)
-            self.memo = memo if isinstance(memo, dict) else {}
+            self.memo = read_json_object(self.path)
         except (OSError, ValueError):
-            pass  # none yet, or damaged: recomputed
+            pass  # none yet, or damaged (a special file is never opened): recomputed
 
     def cost(self, scene_name: str, params) -> dict:
         """One frame of ``params``: its predicted time under each weight set (name → value,
@@ -64,28 +66,57 @@ class CostMatcher:
     def match(self, scene_name: str, params, target: dict):
         """``params`` with the largest photon_res found whose cost is ≤ ``target`` (the
         paper configuration's :meth:`cost`) under every weight set."""
-        doc = [resolve_scene(scene_name).scene_hash(), params.to_dict(), {k: float(v) for k, v in target.items()},
-               {name: ws.weights for name, ws in self.sets.items()}, code_version()]
-        key = hashlib.sha256(json.dumps(doc, sort_keys=True).encode()).hexdigest()[:20]
-        if isinstance(self.memo.get(key), int):
-            return dataclasses.replace(params, photon_res=self.memo[key])
+        key = self._key(scene_name, params, {k: float(v) for k, v in target.items()})
+        return self._remembered(key, params) or self._search(key, scene_name, params, target)
 
+    def match_to(self, scene_name: str, params, paper):
+        """:meth:`match` against the frame of ``paper`` (resolved parameters), which is
+        rendered only when the memo does not have the answer."""
+        key = self._key(scene_name, params, {"paper": paper.to_dict()})
+        return self._remembered(key, params) or self._search(key, scene_name, params, self.cost(scene_name, paper))
+
+    def _key(self, scene_name: str, params, target) -> str:
+        doc = [resolve_scene(scene_name).scene_hash(), params.to_dict(), target,
+               {name: ws.weights for name, ws in self.sets.items()}, code_version()]
+        return hashlib.sha256(json.dumps(doc, sort_keys=True).encode()).hexdigest()[:20]
+
+    def _remembered(self, key: str, params):
+        """``params`` with the memo's photon_res for ``key``; None when there is none or
+        its entry is not sealed, not an integer in range (recomputed)."""
+        entry = self.memo.get(key)
+        if not isinstance(entry, dict):
+            return None
+        res = entry.get("photon_res")
+        if isinstance(res, bool) or not isinstance(res, int) or not MIN_PHOTON_RES <= res <= MAX_PHOTON_RES:
+            return None
+        if entry.get("sha256") != document_sha256({**entry, "key": key}, "sha256"):
+            return None
+        return dataclasses.replace(params, photon_res=res)
+
+    def _search(self, key: str, scene_name: str, params, target: dict):
         res = params.photon_res
         cost = cost_ratio(self.cost(scene_name, params), target)
         for _ in range(6):
-            new = max(MIN_PHOTON_RES, min(8192, int(res * math.sqrt(1.0 / max(cost, 1e-9)))))
+            new = max(MIN_PHOTON_RES, min(MAX_PHOTON_RES, int(res * math.sqrt(1.0 / max(cost, 1e-9)))))
             if new == res:
                 break
             res, cost = new, cost_ratio(self.cost(scene_name, dataclasses.replace(params, photon_res=new)), target)
         while cost > 1.0 and res > MIN_PHOTON_RES:
             res = max(MIN_PHOTON_RES, res - max(1, res // 100))
             cost = cost_ratio(self.cost(scene_name, dataclasses.replace(params, photon_res=res)), target)
-        self.memo[key] = res
+        entry = {"photon_res": res, "cost_ratio": float(cost)}
+        self.memo[key] = {**entry, "sha256": document_sha256({**entry, "key": key}, "sha256")}
         return dataclasses.replace(params, photon_res=res)
 
     def save(self) -> None:
-        with atomic_path(self.path) as tmp, open(tmp, "w", encoding="utf-8") as fh:
-            json.dump(self.memo, fh)
+        """Store the memo; a cache that cannot be written is said once and the run goes on
+        (the matches are computed again next time)."""
+        try:
+            os.makedirs(os.path.dirname(self.path), exist_ok=True)
+            with atomic_path(self.path) as tmp, open(tmp, "w", encoding="utf-8") as fh:
+                json.dump(self.memo, fh)
+        except OSError as exc:
+            note_not_cached(exc, "cost-matched photon_res values")
 
     def release(self) -> None:
         for renderer in self.renderers.values():
@@ -103,10 +134,9 @@ def with_auto_photon_res(scene_arg: str, params, preset_name: str | None, given:
         return params
     scene = resolve_scene(scene_arg)
     paper = preset(AUTO_PHOTON_RES[preset_name], width=params.width, height=params.height)
-    folder = cache_dir("cost_match")
-    matcher = CostMatcher(folder)
+    matcher = CostMatcher(cache_path("cost_match"))  # read as it is; written only if it can be
     try:
-        matched = matcher.match(scene_arg, params, matcher.cost(scene_arg, paper.resolved(scene)))
+        matched = matcher.match_to(scene_arg, params, paper.resolved(scene))
         matcher.save()
     finally:
         matcher.release()
@@ -148,7 +178,7 @@ def equal_cost_check(scene_arg: str, params, preset_name: str) -> dict | None:
         return None
     scene = resolve_scene(scene_arg)
     paper = preset(AUTO_PHOTON_RES[preset_name], width=params.width, height=params.height)
-    matcher = CostMatcher(cache_dir("cost_match"))
+    matcher = CostMatcher(cache_path("cost_match"))
     try:
         own, target = matcher.cost(scene_arg, params), matcher.cost(scene_arg, paper.resolved(scene))
     finally:

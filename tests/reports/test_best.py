@@ -144,6 +144,67 @@ def test_cost_matching_finds_a_photon_res_within_the_papers_cost(tmp_path):
     assert json.loads((tmp_path / MATCHED).read_text())
 
 
+@pytest.fixture(scope="module")
+def matched_memo(tmp_path_factory):
+    """A memo of one match (refocus, 32², adaptive emission against the quick preset's
+    frame, through match_to) and what it holds."""
+    folder = tmp_path_factory.mktemp("memo")
+    base = dataclasses.replace(QUICK, width=32, height=32, photon_res=96, light_res=64)
+    adaptive = dataclasses.replace(base, emission="adaptive")
+    matcher = CostMatcher(str(folder))
+    try:
+        matched = matcher.match_to("refocus", adaptive, base)
+        matcher.save()
+    finally:
+        matcher.release()
+    return folder, base, adaptive, matched, json.loads((folder / MATCHED).read_text())
+
+
+def _reread(folder, base, adaptive, memo, *, may_render: bool):
+    (folder / MATCHED).write_text(json.dumps(memo))
+    again = CostMatcher(str(folder))
+    if not may_render:
+        again.cost = lambda *a: pytest.fail("the memo was not used")
+    try:
+        return again.match_to("refocus", adaptive, base)
+    finally:
+        again.release()
+
+
+def test_a_remembered_match_renders_nothing_not_even_the_papers_frame(matched_memo):
+    folder, base, adaptive, matched, memo = matched_memo
+    assert _reread(folder, base, adaptive, memo, may_render=False) == matched
+
+
+@pytest.mark.parametrize("value", [2000, 0, -5, True, "256", None])
+def test_an_edited_or_damaged_match_is_recomputed(matched_memo, value):
+    """An entry is sealed: a photon_res edited by hand (a plausible 2000, whose frame would
+    cost 400× the paper's), out of range or of the wrong type is not used but recomputed
+    (negative control: the test above, where the intact entry is used)."""
+    folder, base, adaptive, matched, memo = matched_memo
+    (key, entry), = memo.items()
+    edited = {key: {**entry, "photon_res": value}}
+    assert _reread(folder, base, adaptive, edited, may_render=True) == matched
+
+
+def test_a_match_on_a_cache_that_cannot_be_written_is_computed_not_stored(tmp_path, monkeypatch, capsys):
+    """`--preset best` on a cache that cannot be written: the match is made, said once on
+    stderr, nothing raised (the cache folder's parent is a file here)."""
+    from volcaustics.reports.core.cost_match import with_auto_photon_res
+
+    (tmp_path / "file").write_text("")
+    monkeypatch.setenv("VOLCAUSTICS_CACHE", str(tmp_path / "file" / "cache"))
+    base = dataclasses.replace(QUICK, width=32, height=32, photon_res=96, light_res=64)
+    params = with_auto_photon_res("refocus", dataclasses.replace(base, emission="adaptive"), "best", given=False)
+    assert "not cached" in capsys.readouterr().err
+    matcher = CostMatcher(str(tmp_path / "check"))  # the match holds: within the paper's (quick's) frame
+    try:
+        paper = dataclasses.replace(QUICK, width=32, height=32)
+        assert cost_ratio(matcher.cost("refocus", params), matcher.cost("refocus", paper)) <= 1.0
+    finally:
+        matcher.release()
+
+
 @pytest.mark.slow  # a whole search: 2 coarse points and a refinement on refocus at 32² (about 60 s)
 def test_the_search_writes_its_table_and_the_report_shows_it(env, tmp_path, capsys):
     out = tmp_path / "store"
