@@ -76,20 +76,37 @@ def check_no_folder_at(files, option: str, value) -> None:
                                             f"another name")
 
 
+# the file that marks a folder as one command's outputs, beside summary.json's "kind"
+# (measure, compare, animate): frames, sweep and gate write no summary.json
+FOLDER_MARKERS = {"frames.json": "frames", "sweep.json": "sweep", "gate.json": "gate"}
+
+
 def check_output_set(folder: str, option: str, files=(), folders=(), kind: str | None = None) -> None:
     """``folder`` must be (or become) a writable folder holding no folder where one of
     its output ``files`` goes and no file where one of its ``folders`` goes; with
-    ``kind`` (its summary.json's "kind"), no summary.json of another command's kind
-    (its outputs would be half replaced: a mixed folder)."""
+    ``kind`` (the command's: its summary.json's "kind", or FOLDER_MARKERS'), no other
+    command's outputs (they would be half replaced: a mixed folder)."""
     check_output_dir(folder, option)
     check_no_folder_at([os.path.join(folder, name) for name in files], option, folder)
     for name in folders:
         check_output_dir(os.path.join(folder, name), option)
     if kind is not None:
-        other = _summary_kind(os.path.join(folder, "summary.json"))
-        if other is not None and other != kind:
-            raise UsageError(option, folder, f"holds another command's outputs (its summary.json is of kind "
-                                             f"{other!r}, this command writes {kind!r}): choose another folder")
+        for other, name in folder_kinds(folder).items():
+            if other != kind:
+                raise UsageError(option, folder, f"holds another command's outputs (its {name} is of kind "
+                                                 f"{other!r}, this command writes {kind!r}): choose another folder")
+
+
+def folder_kinds(folder: str) -> dict:
+    """kind → the file that says so, for every command's outputs ``folder`` holds."""
+    kinds = {}
+    summary = _summary_kind(os.path.join(folder, "summary.json"))
+    if summary is not None:
+        kinds[summary] = "summary.json"
+    for name, kind in FOLDER_MARKERS.items():
+        if os.path.isfile(os.path.join(folder, name)):
+            kinds.setdefault(kind, name)
+    return kinds
 
 
 def _summary_kind(path: str) -> str | None:

@@ -5,7 +5,17 @@
 from __future__ import annotations
 
 from volcaustics.reports.cli.common import UsageError, check_output_set, pct
-from volcaustics.reports.sweep.frames import FRAMES_FILE, MANIFEST, SEEDS, default_scenes, run_frames, verdict
+from volcaustics.reports.sweep.frames import (
+    FRAMES_FILE,
+    GROUPS,
+    KIND,
+    MANIFEST,
+    POINTS,
+    SEEDS,
+    default_scenes,
+    run_frames,
+    verdict,
+)
 
 NATIVE = ("drjit", "mitsuba", "moderngl")
 
@@ -23,17 +33,20 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    check_output_set(args.output, "-o", files=(FRAMES_FILE, MANIFEST))
+    check_output_set(args.output, "-o", files=(FRAMES_FILE, MANIFEST), folders=(POINTS,), kind=KIND)
     if isinstance(args.seeds, bool) or not 2 <= args.seeds <= 64:
         raise UsageError("--seeds", args.seeds, "expected an integer in [2, 64] (one frame's SE needs 2)")
     table = run_frames(args.scenes or default_scenes(), args.output, seeds=args.seeds, progress=not args.quiet)
+    label = {"builtin": "", "heldout": " (held out)", "yours": " (yours)"}
     for _, r in table.iterrows():
-        print(f"  {r['scene']:<14}{' (held out)' if r['heldout'] else '':<11} {r['config']:<6} {r['denoise']:<5} "
+        print(f"  {r['scene']:<14}{label[r['group']]:<11} {r['config']:<6} {r['denoise']:<5} "
               f"cost {r['cost_ratio']:.3f}x predicted, time {r['time_ratio']:.2f}x measured, "
               f"one frame {pct(r['frame_relmse'])} ({r['frame_ratio']:.2f}x), "
               f"mean {pct(r['relmse_debiased'])} ({r['relmse_ratio']:.2f}x)")
     v = verdict(table)
-    print(f"frames: best's worst one-frame ratio {v.get('none_builtin_worst_frame_ratio', float('nan')):.2f}x on the "
-          f"built-ins, {v.get('none_heldout_worst_frame_ratio', float('nan')):.2f}x held out (goal {v['goal']:g}x): "
+    names = {"builtin": "on the built-ins", "heldout": "held out", "yours": "on your scenes"}
+    worst = ", ".join(f"{v[f'none_{g}_worst_frame_ratio']:.2f}x {names[g]}" for g in GROUPS
+                      if f"none_{g}_worst_frame_ratio" in v)
+    print(f"frames: best's worst one-frame ratio {worst} (goal {v['goal']:g}x): "
           f"{'met' if v['met'] else 'not met'} -> {args.output}/{FRAMES_FILE}")
     return 0

@@ -45,7 +45,7 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    check_output_set(args.out, "--out", files=(VERDICT,))
+    check_output_set(args.out, "--out", files=(VERDICT,), kind="gate")
     if args.junit is not None:
         check_output_file(args.junit, "--junit", ".xml")
     if args.update_baseline and not args.baseline:

@@ -56,7 +56,7 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    check_output_set(args.output, "-o", files=OUTPUT_FILES, folders=OUTPUT_FOLDERS)
+    check_output_set(args.output, "-o", files=OUTPUT_FILES, folders=OUTPUT_FOLDERS, kind="sweep")
     if args.spec and (args.vary or args.set or args.scenes is not None or args.preset or args.seeds is not None):
         raise UsageError("SPEC.toml", args.spec, "give the grid in the file or on the command line, not both "
                                                  "(--scenes, --vary, --set, --preset and --seeds belong to the file)")

@@ -6,15 +6,24 @@ error and the seeds' mean's debiased error. The scenes are the built-ins and the
 held-out scenes (``scenes/heldout``), which no search saw: a configuration that wins
 only where it was chosen shows it here.
 
-Output (``DIR``): ``frames.parquet`` (one row per scene, configuration and denoiser)
-and ``frames.json`` (its manifest, last), both written to a temporary file and renamed.
-The report's "One frame" section reads them (``report --frames DIR``).
+Every scene is resolved and checked before any work (a bad name, a medium without a
+caustic, two files of one scene name are refused at once). Each measured point is kept
+in ``DIR/points/`` under a key of its scene, parameters, seeds and the code version, so
+an interrupted check resumes where it stopped. A scene whose reference has no caustic
+over the compared pixels is refused after its first reference, naming it.
+
+Output (``DIR``): ``frames.parquet`` (one row per scene, configuration and denoiser;
+``group``: builtin, heldout or yours) and ``frames.json`` (its manifest, ``kind`` frames,
+strict JSON, last), both written to a temporary file and renamed. The report's "One
+frame" section reads them (``report --frames DIR``).
 """
 
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import json
+import math
 import os
 import time
 
@@ -22,11 +31,14 @@ import pandas as pd
 from tqdm import tqdm
 
 from volcaustics.approx.params import preset
-from volcaustics.infra.storage import atomic_path
+from volcaustics.infra.errors import InputError
+from volcaustics.infra.storage import atomic_path, read_json_object
 from volcaustics.reports.core.cost_match import with_auto_photon_res
 from volcaustics.reports.core.sizing import REPORT_REFERENCE, sized
+from volcaustics.reports.core.tables import plain
 from volcaustics.reports.core.versions import code_version
 from volcaustics.reports.experiment.run import run_experiment
+from volcaustics.reports.experiment.settings import checked_settings
 from volcaustics.reports.runner import reference_for
 from volcaustics.scenes import resolve_scene
 from volcaustics.scenes.catalogue import BUILTIN_NAMES, HELDOUT_NAMES, heldout_path
@@ -35,6 +47,9 @@ CONFIGS = ("paper", "best")       # the quick preset (the paper's method) and th
 DENOISERS = ("none", "oidn")
 SEEDS = 6                         # as the report and the budgets
 FRAMES_FILE, MANIFEST = "frames.parquet", "frames.json"
+KIND = "frames"                   # frames.json's "kind" (reports.cli.common.FOLDER_MARKERS)
+POINTS = "points"                 # DIR/points/: one JSON file per measured point, for resuming
+GROUPS = ("builtin", "heldout", "yours")  # a scene's group: a built-in, a held-out scene, a file of yours
 
 
 def default_scenes() -> list:
@@ -49,29 +64,84 @@ def config_params(config: str, scene_arg: str):
     return with_auto_photon_res(scene_arg, preset("best"), "best", given=False)
 
 
+def checked_scenes(scenes, seeds: int) -> list:
+    """(argument, scene, group) per scene, every one resolved and checked before any
+    work: InputError for a bad name or file, a medium without a caustic, a frame that
+    cannot run, or two arguments of one scene name (their rows would collide)."""
+    heldout = {os.path.abspath(heldout_path(name)) for name in HELDOUT_NAMES}
+    out, seen = [], {}
+    for arg in scenes:
+        scene = resolve_scene(arg)
+        checked_settings(scene, preset("quick"), seeds)
+        if scene.name in seen:
+            raise InputError(f"frames: {seen[scene.name]} and {arg} are both scene {scene.name!r}: a scene is "
+                             f"measured once (rename one, its [scene] name)")
+        seen[scene.name] = arg
+        group = ("builtin" if arg in BUILTIN_NAMES else "heldout" if os.path.abspath(arg) in heldout else "yours")
+        out.append((arg, scene, group))
+    return out
+
+
 def run_frames(scenes, out_dir: str, *, seeds: int = SEEDS, progress: bool = True) -> pd.DataFrame:
-    """Measure every (scene, configuration, denoiser); write and return the table."""
-    heldout = {heldout_path(name) for name in HELDOUT_NAMES}
-    rows, t0 = [], time.perf_counter()
-    todo = [(s, c) for s in scenes for c in CONFIGS]
-    for scene_arg, config in tqdm(todo, desc="frames", unit="configuration", disable=not progress):
-        scene = resolve_scene(scene_arg)
+    """Measure every (scene, configuration, denoiser), reusing the points ``out_dir``
+    already holds; write and return the table."""
+    checked = checked_scenes(scenes, seeds)
+    rows, t0, version = [], time.perf_counter(), code_version()
+    todo = [(s, c) for s in checked for c in CONFIGS]
+    for (scene_arg, scene, group), config in tqdm(todo, desc="frames", unit="configuration", disable=not progress):
         matched = config_params(config, scene_arg)  # once: the denoiser is beside the cost
         for denoiser in DENOISERS:
             params = dataclasses.replace(matched, denoise=denoiser)
-            reference = reference_for(scene, sized(REPORT_REFERENCE, scene, params), "continue")
-            summary = run_experiment(scene, params, seeds=seeds, reference=reference, scope="gate").summary
-            rows.append({"scene": scene.name, "heldout": os.path.abspath(scene_arg) in heldout, "config": config,
-                         "denoise": denoiser, **_row(summary)})
+            key = point_key(scene, params, seeds, version)
+            row = stored_point(out_dir, key)
+            if row is None:
+                reference = reference_for(scene, sized(REPORT_REFERENCE, scene, params), "continue")
+                summary = run_experiment(scene, params, seeds=seeds, reference=reference, scope="gate").summary
+                row = {"scene": scene.name, "heldout": group == "heldout", "group": group, "config": config,
+                       "denoise": denoiser, **_row(summary)}
+                if row["frame_relmse"] is None or not math.isfinite(row["frame_relmse"]):
+                    raise InputError(f"frames: {scene_arg}: the reference's caustic is zero over the compared "
+                                     f"pixels, so there is no caustic error to measure (does the light's beam "
+                                     f"reach the glass, and the glass's light the medium?)")
+                store_point(out_dir, key, row)
+            rows.append(row)
     table = with_ratios(pd.DataFrame(rows))
     os.makedirs(out_dir, exist_ok=True)
     with atomic_path(os.path.join(out_dir, FRAMES_FILE)) as tmp:
         table.to_parquet(tmp, index=False)
-    manifest = {"scenes": list(scenes), "seeds": seeds, "configs": list(CONFIGS), "denoisers": list(DENOISERS),
-                "code_version": code_version(), "seconds": time.perf_counter() - t0, "verdict": verdict(table)}
-    with atomic_path(os.path.join(out_dir, MANIFEST)) as tmp, open(tmp, "w", encoding="utf-8") as fh:
-        json.dump(manifest, fh, indent=1, default=float)
+    manifest = {"kind": KIND, "scenes": list(scenes), "seeds": seeds, "configs": list(CONFIGS),
+                "denoisers": list(DENOISERS), "code_version": version, "seconds": time.perf_counter() - t0,
+                "verdict": verdict(table)}
+    write_manifest(out_dir, manifest)
     return table
+
+
+def write_manifest(out_dir: str, manifest: dict) -> None:
+    """``DIR/frames.json``, strict JSON (NaN as null), through a temporary file."""
+    with atomic_path(os.path.join(out_dir, MANIFEST)) as tmp, open(tmp, "w", encoding="utf-8") as fh:
+        json.dump(plain(manifest), fh, indent=1, allow_nan=False)
+
+
+def point_key(scene, params, seeds: int, version: str) -> str:
+    doc = [scene.scene_hash(), params.to_dict(), seeds, version]
+    return hashlib.sha256(json.dumps(doc, sort_keys=True).encode()).hexdigest()[:24]
+
+
+def stored_point(out_dir: str, key: str) -> dict | None:
+    """The row a previous run stored under ``key``; None when there is none or it cannot
+    be read (measured again)."""
+    try:
+        doc = read_json_object(os.path.join(out_dir, POINTS, f"{key}.json"))
+    except (OSError, ValueError):
+        return None
+    row = doc.get("row")
+    return row if doc.get("key") == key and isinstance(row, dict) else None
+
+
+def store_point(out_dir: str, key: str, row: dict) -> None:
+    os.makedirs(os.path.join(out_dir, POINTS), exist_ok=True)
+    with atomic_path(os.path.join(out_dir, POINTS, f"{key}.json")) as tmp, open(tmp, "w", encoding="utf-8") as fh:
+        json.dump(plain({"key": key, "row": row}), fh, allow_nan=False)
 
 
 def _row(summary: dict) -> dict:
@@ -109,12 +179,14 @@ GOAL = 0.5  # the goal: one frame's caustic relMSE at most half the paper config
 
 
 def verdict(table: pd.DataFrame) -> dict:
-    """best without a denoiser against the goal, on the built-ins and the held-out
-    scenes apart; the same with OIDN beside."""
+    """best without a denoiser against the goal, on the built-ins, the held-out scenes
+    and the user's scenes apart (GROUPS); the same with OIDN beside."""
     out = {"goal": GOAL}
+    groups = table["group"] if "group" in table else table["heldout"].map({True: "heldout", False: "builtin"})
     for denoiser in DENOISERS:
         best = table[(table["config"] == "best") & (table["denoise"] == denoiser)]
-        for group, rows in (("builtin", best[~best["heldout"]]), ("heldout", best[best["heldout"]])):
+        for group in GROUPS:
+            rows = best[groups[best.index] == group]
             if len(rows):
                 out[f"{denoiser}_{group}_worst_frame_ratio"] = float(rows["frame_ratio"].max())
                 out[f"{denoiser}_{group}_worst_cost_ratio"] = float(rows["cost_ratio"].max())

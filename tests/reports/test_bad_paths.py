@@ -7,6 +7,7 @@ import os
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import pytest
 
@@ -262,11 +263,44 @@ def test_other_runtime_errors_are_not_taken_for_interrupts():
     (["animate", "refocus"], "compare"),     # it replaced the comparison's summary.json: a mixed folder
     (["measure", "sphere1"], "animation"),
     (["compare", "refocus", "image.exr"], "experiment"),
+    (["frames", "sphere1"], "animation"),    # both write frames.parquet: the animation's table was replaced
+    (["frames", "sphere1"], "experiment"),
+    (["sweep", "--scenes", "sphere1", "--vary", "steps=2,4"], "animation"),
+    (["gate", "--scenes", "sphere1", "--out"], "animation"),
 ])
 def test_an_output_folder_of_another_command_is_refused(tmp_path, capsys, empty_cache, command, other):
     out = tmp_path / "out"
     out.mkdir()
     (out / "summary.json").write_text(f'{{"kind": "{other}"}}')
-    _fails_fast(capsys, [*command, "-o", str(out), "--quiet"], f"holds another command's outputs (its summary.json "
-                                                                f"is of kind {other!r}")
+    option = [] if command[-1] == "--out" else ["-o"]
+    _fails_fast(capsys, [*command, *option, str(out), "--quiet"], f"holds another command's outputs (its summary.json "
+                                                                   f"is of kind {other!r}")
     assert (out / "summary.json").read_text() == f'{{"kind": "{other}"}}'
+
+
+@pytest.mark.parametrize("command, marker, other", [
+    (["animate", "refocus", "-o"], "frames.json", "frames"),  # it would replace the frame check's table
+    (["measure", "sphere1", "-o"], "sweep.json", "sweep"),
+    (["frames", "sphere1", "-o"], "gate.json", "gate"),
+])
+def test_a_folder_another_command_marked_is_refused(tmp_path, capsys, empty_cache, command, marker, other):
+    """frames, sweep and gate write no summary.json: their manifests mark their folders."""
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / marker).write_text("{}")
+    _fails_fast(capsys, [*command, str(out), "--quiet"], f"holds another command's outputs (its {marker} is of "
+                                                          f"kind {other!r}")
+    assert (out / marker).read_text() == "{}"
+
+
+def test_frames_checks_every_scene_before_any_work(tmp_path, capsys, empty_cache):
+    """A bad second scene name once exited 2 after 148 s of finished work; two files of one
+    scene name ended in a pandas error after 154 s. Both are refused before anything renders."""
+    out = tmp_path / "out"
+    _fails_fast(capsys, ["frames", "sphere1", "no_such_scene", "-o", str(out), "--quiet"], "no_such_scene")
+    knot = (Path(__file__).resolve().parents[2] / "scenes" / "heldout" / "knot.toml").read_text()
+    for name in ("a.toml", "b.toml"):
+        (tmp_path / name).write_text(knot)
+    err = _fails_fast(capsys, ["frames", str(tmp_path / "a.toml"), str(tmp_path / "b.toml"), "-o", str(out),
+                               "--quiet"], "are both scene")
+    assert "a.toml" in err and "b.toml" in err and not out.exists()
