@@ -257,7 +257,7 @@ PRESET_VALUES = {
 # search"), at the quick preset's size; its photon_res is matched to the paper
 # configuration's frame cost on the scene at hand (AUTO_PHOTON_RES: the commands do it,
 # ``reports.core.cost_match``), unless --photon-res is given
-BEST = {"splat": "density", "splat_neighbours": 4, "fresnel": "stochastic", "steps": 6, "layers": 2}
+BEST = {"splat": "density", "splat_neighbours": 4, "fresnel": "stochastic", "steps": 4, "layers": 2}
 PRESET_VALUES["best"] = {**PRESET_VALUES["quick"], **BEST}
 AUTO_PHOTON_RES = {"best": "quick"}  # preset → the preset whose frame cost its photon_res matches
 

@@ -55,6 +55,7 @@ CANDIDATES.update({
     "best-sobol": {**_BEST, "emission_jitter": "sobol"}, "best-deterministic": {**_BEST, "fresnel": "deterministic"},
 })
 # the next round: the axes that helped on every built-in they were measured on, together
+# (matched under the H200's weight set too, k4-steps4 was adopted: docs/decisions.md)
 CANDIDATES.update({
     "k4-steps4": {**_BEST, "splat_neighbours": 4, "steps": 4},
     "k4-deterministic": {**_BEST, "splat_neighbours": 4, "fresnel": "deterministic"},
