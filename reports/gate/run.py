@@ -18,6 +18,7 @@ from volcaustics.infra.storage import remove_file
 from volcaustics.reports import runner
 from volcaustics.reports.animate.read import load_animation
 from volcaustics.reports.compare.read import comparison_folders, load_comparison
+from volcaustics.reports.core.cost_match import with_auto_photon_res
 from volcaustics.reports.core.versions import code_version
 from volcaustics.reports.experiment.settings import measured_settings
 from volcaustics.reports.gate.budgets import GateError, check_measurable, compare_checks, flicker_checks
@@ -66,7 +67,9 @@ def run_gate(budgets: dict, *, overrides: dict, baseline_dir: str | None, update
     for stale in (os.path.join(out_dir, VERDICT), junit):  # an earlier verdict must not stand for this run
         if stale:
             remove_file(stale)
-    points = [runner.Point(budgets["scene_args"][name], params, n_seeds) for name in names]
+    # a preset whose photon_res is matched (best): per scene, unless --set gives photon_res
+    points = [runner.Point(arg, with_auto_photon_res(arg, params, budgets["preset"], "photon_res" in overrides),
+                           n_seeds) for arg in (budgets["scene_args"][name] for name in names)]
     run = runner.measure(points, runner.results_store(),
                          reference_settings=budgets["reference_settings"],
                          # the gate's points measure what its budgets read: no exact replay, no decomposition

@@ -280,7 +280,15 @@ def _own_values(scene: str, names: list) -> dict:
 
 def points(spec: SweepSpec, cls: type = ApproxParams) -> list:
     """Every point of the grid (``reports.runner.Point``), per scene, in grid order
-    (ParamError → SweepError)."""
+    (ParamError → SweepError). With a preset whose photon_res is matched
+    (``approx.params.AUTO_PHOTON_RES``: best) and photon_res neither set nor varied, each
+    point's photon_res is matched to the paper configuration's frame on its scene
+    (``reports.core.cost_match.with_auto_photon_res``, as every command does; a point's
+    scene fields are not in the match)."""
+    from volcaustics.approx.params import AUTO_PHOTON_RES
+
+    auto = spec.preset in AUTO_PHOTON_RES and "photon_res" not in spec.fixed and "photon_res" not in {
+        name for grid in (spec.grids or (spec.vary,)) for name, _ in grid}
     fixed = {k: v for k, v in spec.fixed.items() if not is_scene_field(k)}
     fixed_fields = {k: v for k, v in spec.fixed.items() if is_scene_field(k)}
     try:
@@ -302,6 +310,10 @@ def points(spec: SweepSpec, cls: type = ApproxParams) -> list:
                     params = dataclasses.replace(base, **changes)
                 except ParamError as exc:
                     raise SweepError(f"point {scene}, {changes}: {exc}") from None
+                if auto:
+                    from volcaustics.reports.core.cost_match import with_auto_photon_res
+
+                    params = with_auto_photon_res(scene, params, spec.preset, given=False)
                 if (scene, params, fields) not in seen:
                     seen.add((scene, params, fields))
                     out.append(Point(scene, params, spec.seeds, fields))

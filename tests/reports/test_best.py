@@ -205,6 +205,26 @@ def test_a_match_on_a_cache_that_cannot_be_written_is_computed_not_stored(tmp_pa
         matcher.release()
 
 
+def test_a_sweep_of_the_preset_best_matches_each_points_photon_res(tmp_path, monkeypatch):
+    """`sweep --preset best` once measured best at the preset's photon_res 256: matching
+    ran only in approx, measure and animate. Each point is now matched like them (the
+    same function), and a photon_res the sweep sets is kept (the negative control)."""
+    from volcaustics.approx.params import PRESETS
+    from volcaustics.reports.core.cost_match import with_auto_photon_res
+    from volcaustics.reports.sweep.spec import points, spec_from_args
+
+    monkeypatch.setenv("VOLCAUSTICS_CACHE", str(tmp_path / "cache"))
+    size = ["width=32", "height=32", "light_res=64"]
+    grid = points(spec_from_args("refocus", ["steps=2,4"], size, preset="best", seeds=2))
+    assert [p.params.steps for p in grid] == [2, 4]
+    for point in grid:
+        unmatched = dataclasses.replace(point.params, photon_res=PRESETS["best"].photon_res)
+        expected = with_auto_photon_res("refocus", unmatched, "best", given=False)
+        assert point.params.photon_res == expected.photon_res != PRESETS["best"].photon_res
+    kept = points(spec_from_args("refocus", ["steps=2,4"], [*size, "photon_res=40"], preset="best", seeds=2))
+    assert {p.params.photon_res for p in kept} == {40}
+
+
 @pytest.mark.slow  # a whole search: 2 coarse points and a refinement on refocus at 32² (about 60 s)
 def test_the_search_writes_its_table_and_the_report_shows_it(env, tmp_path, capsys):
     out = tmp_path / "store"
