@@ -5,6 +5,7 @@ from __future__ import annotations
 from volcaustics.reports.cli.common import UsageError, check_output_file
 from volcaustics.reports.core.cost_match import with_auto_photon_res
 from volcaustics.reports.core.params import add_param_flags, params_from_args
+from volcaustics.reports.experiment.settings import check_denoiser
 from volcaustics.reports.files.approx import run_approx
 from volcaustics.scenes import resolve_scene
 
@@ -27,6 +28,7 @@ def run(args) -> int:
     if args.records_max < -1:
         raise UsageError("--records-max", args.records_max, "expected 0 (none), -1 (all) or a positive count")
     scene = resolve_scene(args.scene)
+    check_denoiser(params_from_args(args))  # before the cost match renders
     params = with_auto_photon_res(args.scene, params_from_args(args), args.preset, args.photon_res is not None)
     summary = run_approx(scene, params, args.output, records_max=args.records_max)
     t = summary["timings_s"]

@@ -74,10 +74,23 @@ def check_medium(scene) -> None:
                     f"camera; give a thinner medium")
 
 
+def check_denoiser(params) -> None:
+    """ParamError before any work when ``params`` ask for a denoiser this machine cannot
+    load (``denoise = oidn`` without a loadable OIDN binding: it failed mid-render)."""
+    if params.denoise == "oidn":
+        from volcaustics.approx.denoise import unavailable
+
+        reason = unavailable()
+        if reason:
+            raise ParamError(f"denoise = oidn: {reason}; install it (pip install pyoidn) or use denoise = none")
+
+
 def checked_settings(scene, params, seeds: int) -> tuple:
     """(resolved params, seed list); ParamError before any work for a bad seed count,
-    a frame that cannot be measured or a medium without a caustic (:func:`check_medium`)."""
+    a frame that cannot be measured, a denoiser that cannot load (:func:`check_denoiser`)
+    or a medium without a caustic (:func:`check_medium`)."""
     check_medium(scene)
+    check_denoiser(params)
     if isinstance(seeds, bool) or not isinstance(seeds, int) or not 1 <= seeds <= 1024:
         raise ParamError(f"seeds = {seeds!r}: expected an integer in [1, 1024]")
     p = params.resolved(scene)

@@ -86,11 +86,12 @@ def run_frames(scenes, out_dir: str, *, seeds: int = SEEDS, progress: bool = Tru
     """Measure every (scene, configuration, denoiser), reusing the points ``out_dir``
     already holds; write and return the table."""
     checked = checked_scenes(scenes, seeds)
+    denoisers = usable_denoisers(progress)
     rows, t0, version = [], time.perf_counter(), code_version()
     todo = [(s, c) for s in checked for c in CONFIGS]
     for (scene_arg, scene, group), config in tqdm(todo, desc="frames", unit="configuration", disable=not progress):
         matched = config_params(config, scene_arg)  # once: the denoiser is beside the cost
-        for denoiser in DENOISERS:
+        for denoiser in denoisers:
             params = dataclasses.replace(matched, denoise=denoiser)
             key = point_key(scene, params, seeds, version)
             row = stored_point(out_dir, key)
@@ -110,7 +111,7 @@ def run_frames(scenes, out_dir: str, *, seeds: int = SEEDS, progress: bool = Tru
     with atomic_path(os.path.join(out_dir, FRAMES_FILE)) as tmp:
         table.to_parquet(tmp, index=False)
     manifest = {"kind": KIND, "scenes": list(scenes), "seeds": seeds, "configs": list(CONFIGS),
-                "denoisers": list(DENOISERS), "code_version": version, "seconds": time.perf_counter() - t0,
+                "denoisers": list(denoisers), "code_version": version, "seconds": time.perf_counter() - t0,
                 "verdict": verdict(table)}
     write_manifest(out_dir, manifest)
     return table
@@ -120,6 +121,21 @@ def write_manifest(out_dir: str, manifest: dict) -> None:
     """``DIR/frames.json``, strict JSON (NaN as null), through a temporary file."""
     with atomic_path(os.path.join(out_dir, MANIFEST)) as tmp, open(tmp, "w", encoding="utf-8") as fh:
         json.dump(plain(manifest), fh, indent=1, allow_nan=False)
+
+
+def usable_denoisers(say: bool = True) -> tuple:
+    """DENOISERS less OIDN where its binding cannot load here (said on stderr): the frame
+    check's rows without a denoiser are its verdict, OIDN's are beside it."""
+    from volcaustics.approx.denoise import unavailable
+
+    reason = unavailable()
+    if reason is None:
+        return DENOISERS
+    if say:
+        import sys
+
+        print(f"frames: note: {reason}; measuring without the denoiser rows", file=sys.stderr)
+    return tuple(d for d in DENOISERS if d != "oidn")
 
 
 def point_key(scene, params, seeds: int, version: str) -> str:

@@ -304,3 +304,14 @@ def test_frames_checks_every_scene_before_any_work(tmp_path, capsys, empty_cache
     err = _fails_fast(capsys, ["frames", str(tmp_path / "a.toml"), str(tmp_path / "b.toml"), "-o", str(out),
                                "--quiet"], "are both scene")
     assert "a.toml" in err and "b.toml" in err and not out.exists()
+
+
+@pytest.mark.parametrize("command", [["approx", "refocus", "-o", "{out}/a.exr"],
+                                     ["measure", "refocus", "-o", "{out}/m", "--quiet"]])
+def test_a_denoiser_that_cannot_load_is_refused_before_any_work(tmp_path, capsys, empty_cache, monkeypatch, command):
+    """`denoise = oidn` without a loadable OIDN binding (here: the module made unimportable)
+    once failed mid-render with a RuntimeError traceback; now exit 2 at once, naming it."""
+    monkeypatch.setitem(sys.modules, "pyoidn", None)  # `import pyoidn` raises ImportError
+    argv = [a.format(out=tmp_path) for a in command]
+    _fails_fast(capsys, [*argv, "--denoise", "oidn"], "denoise = oidn: pyoidn (Intel Open Image Denoise) cannot load")
+    assert not list(tmp_path.iterdir())
