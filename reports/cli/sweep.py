@@ -104,6 +104,12 @@ def _run_best(args) -> int:
     best = run_best(spec, args.output, workers=args.workers or default_workers(), dask=args.dask,
                     progress=not args.quiet, criterion=args.criterion)
     table, adopted, result, failed = best.table, best.adopted, best.verdict, best.failed
+    if table.empty:
+        for failure in failed:
+            print(f"  failed: {failure['key'][:12]}: {failure['error']}", file=sys.stderr)
+        print(f"sweep --best: every one of its {len(best.keys)} points failed (above): nothing to rank, nothing "
+              f"written", file=sys.stderr)
+        return 1
     print(f"best configuration: {len(best.keys)} points, {len(failed)} failed, {best.seconds:.1f} s -> "
           f"{args.output}/best.parquet")
     for _, r in table[table["role"] != ""].iterrows():

@@ -244,6 +244,8 @@ def run_best(spec: BestSpec, out_dir: str, *, workers: int | None = None, dask: 
     t0 = time.perf_counter()
     table, adopted, failed, keys = _search(spec, out_dir, workers=workers, dask=dask, progress=progress,
                                            criterion=criterion)
+    if table.empty:  # nothing measured: no roles, verdict or tables to write
+        return BestResult(table, None, {}, failed, keys, time.perf_counter() - t0)
     result = verdict(table, adopted, criterion)
     consolidate(Store(out_dir), out_dir, spec.sweep_spec(), sorted(set(keys)), extra={"best": table},
                 manifest={"best": result})
@@ -272,7 +274,8 @@ def _search(spec: BestSpec, out_dir: str, *, workers, dask, progress: bool, crit
             adopted = better
     finally:
         search.matcher.release()
-    return with_roles(table, adopted, criterion), adopted, search.failed, list(search.keys.values())
+    keys = list(search.keys.values())
+    return (table if table.empty else with_roles(table, adopted, criterion)), adopted, search.failed, keys
 
 
 def verdict(table: pd.DataFrame, adopted: str | None, criterion: str = "bias") -> dict:

@@ -8,6 +8,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import re
+from pathlib import Path
 
 import pandas as pd
 import pytest
@@ -223,6 +224,23 @@ def test_a_sweep_of_the_preset_best_matches_each_points_photon_res(tmp_path, mon
         assert point.params.photon_res == expected.photon_res != PRESETS["best"].photon_res
     kept = points(spec_from_args("refocus", ["steps=2,4"], [*size, "photon_res=40"], preset="best", seeds=2))
     assert {p.params.photon_res for p in kept} == {40}
+
+
+def test_a_search_whose_every_point_fails_says_so(env, tmp_path, capsys):
+    """A scene with no caustic (the glass outside the light's beam): every point fails
+    after its reference. The search once ended in `KeyError: 'scene'`; now exit 1 naming
+    the failures, and nothing written as a result."""
+    scene = (Path(__file__).resolve().parents[2] / "scenes" / "builtin" / "refocus.toml").read_text()
+    scene = scene.replace('name = "refocus"', 'name = "outside"').split("[animation]")[0]
+    scene = scene.replace("translate = [0.0, 1.4, 0.0]", "translate = [3.0, 1.4, 0.0]")
+    (tmp_path / "outside.toml").write_text(scene)
+    scenes = f'scenes = ["{tmp_path / "outside.toml"}"]'
+    spec = _write(tmp_path, TINY.replace('scenes = ["refocus"]', scenes).replace("rounds = 1", "rounds = 0"))
+    out = tmp_path / "store"
+    assert main(["sweep", "--best", spec, "-o", str(out), "--workers", "1", "--quiet"]) == 1
+    err = capsys.readouterr().err
+    assert "every one of its" in err and "failed" in err and "Traceback" not in err
+    assert not (out / "best.parquet").exists()
 
 
 @pytest.mark.slow  # a whole search: 2 coarse points and a refinement on refocus at 32² (about 60 s)
