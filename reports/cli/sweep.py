@@ -28,7 +28,8 @@ def register(sub) -> None:
                                      "processes or Dask -> DIR (store, tables, figures)")
     p.add_argument("spec", nargs="?", metavar="SPEC.toml", help="the sweep as a TOML file (else the options below)")
     p.add_argument("-o", "--output", required=True, metavar="DIR", help="the store folder (resumed when it exists)")
-    p.add_argument("--scenes", help="comma-separated SCENE arguments (default: every built-in)")
+    p.add_argument("--scenes", help="comma-separated SCENE arguments (default: every built-in; with a SPEC file or "
+                                    "--best, in place of its scenes)")
     p.add_argument("--vary", action="append", metavar="NAME=V1,V2,...",
                    help=f"a grid axis (repeatable); NAME one of {names}, or a scene field: a dotted path into "
                         f"the scene file such as medium.sigma_s, light.intensity, specular.0.ior")
@@ -57,9 +58,10 @@ def register(sub) -> None:
 
 def run(args) -> int:
     check_output_set(args.output, "-o", files=OUTPUT_FILES, folders=OUTPUT_FOLDERS, kind="sweep")
-    if args.spec and (args.vary or args.set or args.scenes is not None or args.preset or args.seeds is not None):
+    if args.spec and (args.vary or args.set or args.preset or args.seeds is not None):
         raise UsageError("SPEC.toml", args.spec, "give the grid in the file or on the command line, not both "
-                                                 "(--scenes, --vary, --set, --preset and --seeds belong to the file)")
+                                                 "(--vary, --set, --preset and --seeds belong to the file; --scenes "
+                                                 "replaces its scenes)")
     if args.workers is not None and args.workers < 1:
         raise UsageError("--workers", args.workers, "expected at least 1 worker process")
     if args.dask:
@@ -79,7 +81,7 @@ def run(args) -> int:
 def _run_grid(args) -> int:
     max_points = None if args.yes else MAX_POINTS
     if args.spec:
-        spec = spec_from_toml(args.spec, max_points)
+        spec = spec_from_toml(args.spec, max_points, _scenes(args))
     else:
         spec = spec_from_args(args.scenes, args.vary, args.set, preset=args.preset or "quick",
                               seeds=1 if args.seeds is None else args.seeds, max_points=max_points)
@@ -99,8 +101,7 @@ def _run_best(args) -> int:
     if args.vary or args.set or args.preset or args.seeds is not None:
         raise UsageError("--best", "", "the search's axes, preset and seeds belong to its SPEC file; only --scenes "
                                        "may narrow it")
-    scenes = [s.strip() for s in args.scenes.split(",")] if args.scenes is not None else None
-    spec = _measured(load_best_spec(args.spec or BEST_SPEC, scenes), args)
+    spec = _measured(load_best_spec(args.spec or BEST_SPEC, _scenes(args)), args)
     best = run_best(spec, args.output, workers=args.workers or default_workers(), dask=args.dask,
                     progress=not args.quiet, criterion=args.criterion)
     table, adopted, result, failed = best.table, best.adopted, best.verdict, best.failed
@@ -126,6 +127,11 @@ def _run_best(args) -> int:
     for failure in failed:
         print(f"  failed: {failure['key'][:12]}: {failure['error']}", file=sys.stderr)
     return 1 if failed else 0
+
+
+def _scenes(args) -> list | None:
+    """``--scenes a,b`` as a list (relative to the working folder); None when not given."""
+    return [s.strip() for s in args.scenes.split(",")] if args.scenes is not None else None
 
 
 def _measured(spec, args):

@@ -9,8 +9,7 @@ import os
 from volcaustics.approx.params import PRESETS
 from volcaustics.reports.core.params import parse_value
 from volcaustics.reports.core.tomlfile import load_toml
-from volcaustics.reports.sweep.spec import SweepError, SweepSpec, _checked
-from volcaustics.scenes import BUILTIN_NAMES
+from volcaustics.reports.sweep.spec import SweepError, SweepSpec, _checked, spec_scenes
 
 BEST_SPEC = os.path.join(os.path.dirname(os.path.abspath(__file__)), "best.toml")
 BEST_KEYS = ("scenes", "preset", "seeds", "coarse", "refine", "rounds", "set", "reference", "measurement")
@@ -76,13 +75,16 @@ def load_best_spec(path: str = BEST_SPEC, scenes: list | None = None) -> BestSpe
             if len(set(parsed)) != len(parsed):  # named here: the sweep's own check says vary.NAME
                 raise SweepError(f"{path}: {key}.{name} = {values!r}: a value is listed twice")
             axes[key].append((name, parsed))
+    both = set(dict(axes["coarse"])) & set(dict(axes["refine"]))
+    if both:
+        raise SweepError(f"{path}: {sorted(both)[0]} is in both [coarse] and [refine]: search it in one of them")
     if not axes["coarse"] and not axes["refine"]:  # it searched nothing, over every built-in, for hours
         raise SweepError(f"{path}: no [coarse] or [refine] axis: nothing to search; give at least one, e.g. "
                          f"[coarse] layers = [2, 4]")
     rounds = doc.get("rounds", 1)
     if isinstance(rounds, bool) or not isinstance(rounds, int) or not 0 <= rounds <= 10:
         raise SweepError(f"{path}: rounds = {rounds!r}: expected an integer in [0, 10]")
-    names = scenes if scenes is not None else doc.get("scenes", list(BUILTIN_NAMES))
+    names = spec_scenes(doc, path, scenes)
     fixed = doc.get("set", {})
     if not isinstance(fixed, dict):
         raise SweepError(f"{path}: set = {fixed!r}: expected a table [set]")

@@ -109,16 +109,26 @@ def spec_from_args(scenes: str | None, vary: list, fixed: list, *, preset: str, 
     return _checked(SweepSpec(tuple(names), tuple(grid), settled, preset, seeds), "command line", max_points)
 
 
-def spec_from_toml(path: str, max_points: int | None = MAX_POINTS) -> SweepSpec:
-    """A spec from a TOML file (see the module's docstring); more than ``max_points``
-    points (None: no limit) is refused."""
-    doc = load_toml(path, keys=SPEC_KEYS, what="sweep spec")
+def spec_scenes(doc: dict, path: str, given: list | None = None) -> list:
+    """A spec file's ``scenes`` (default every built-in), paths relative to the file, or
+    ``given`` (``--scenes``, relative to the working folder) in their place: the one rule
+    for grid and best specs. SweepError for anything but a non-empty list of strings."""
+    if given is not None:
+        return list(given)
     scenes = doc.get("scenes")
     if scenes is None:
-        scenes = list(BUILTIN_NAMES)
-    if not isinstance(scenes, list) or not all(isinstance(s, str) for s in scenes):
-        raise SweepError(f"{path}: scenes = {scenes!r}: expected a list of scene names or paths")
-    scenes = [scene_relative_to(s, path) for s in scenes]
+        return list(BUILTIN_NAMES)
+    if not isinstance(scenes, list) or not scenes or not all(isinstance(s, str) for s in scenes):
+        raise SweepError(f"{path}: scenes = {scenes!r}: expected a non-empty list of scene names or paths "
+                         f'(e.g. scenes = ["sphere1"])')
+    return [scene_relative_to(s, path) for s in scenes]
+
+
+def spec_from_toml(path: str, max_points: int | None = MAX_POINTS, scenes: list | None = None) -> SweepSpec:
+    """A spec from a TOML file (see the module's docstring); ``scenes`` (``--scenes``)
+    replaces its scenes; more than ``max_points`` points (None: no limit) is refused."""
+    doc = load_toml(path, keys=SPEC_KEYS, what="sweep spec")
+    scenes = spec_scenes(doc, path, scenes)
     tables = doc.get("vary", {})
     several = isinstance(tables, list)
     if several and (not tables or not all(isinstance(t, dict) for t in tables)):

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import os
 import re
 from pathlib import Path
 
@@ -65,6 +66,7 @@ def test_the_shipped_spec_loads_and_holds_the_papers_configuration():
     ("[coarse]\nsplat = ['fixed']\n[refine]\nlayers = [2, 2]\n", "refine.layers = [2, 2]: a value is listed twice"),
     ("", "no [coarse] or [refine] axis: nothing to search"),
     ("[coarse]\n[refine]\nlayers = [2, 4]\n", "[coarse] is empty"),
+    ("[coarse]\nsplat = ['fixed']\n[refine]\nsplat = ['adaptive']\n", "splat is in both [coarse] and [refine]"),
 ])
 def test_a_bad_spec_is_refused_naming_the_key(tmp_path, capsys, text, message):
     path = _write(tmp_path, 'scenes = ["refocus"]\n' + text)
@@ -73,6 +75,31 @@ def test_a_bad_spec_is_refused_naming_the_key(tmp_path, capsys, text, message):
     assert main(["sweep", "--best", path, "-o", str(tmp_path / "out")]) == 2
     assert message.split(":")[0] in capsys.readouterr().err
     assert not (tmp_path / "out").exists()
+
+
+def test_scenes_follow_one_rule_in_both_spec_kinds(tmp_path, monkeypatch):
+    """A best spec's scenes once were relative to the working folder (a grid spec's to the
+    file), a string listed its letters, and --scenes beside a grid spec was refused. Now,
+    for both: a list, paths relative to the spec file, --scenes in its place."""
+    from volcaustics.reports.sweep.spec import spec_from_toml
+
+    (tmp_path / "specs").mkdir()
+    (tmp_path / "scenes").mkdir()
+    knot = (Path(__file__).resolve().parents[2] / "scenes" / "heldout" / "knot.toml").read_text()
+    (tmp_path / "scenes" / "knot.toml").write_text(knot)
+    best_path = _write(tmp_path / "specs", 'scenes = ["../scenes/knot.toml"]\n[coarse]\nsplat = ["fixed"]\n')
+    grid_path = _write(tmp_path / "specs", 'scenes = ["../scenes/knot.toml"]\n[vary]\nsteps = [2]\n', "grid.toml")
+    monkeypatch.chdir(tmp_path)  # not the spec's folder: the path resolves from the file
+    expected = str(tmp_path / "scenes" / "knot.toml")
+    assert [os.path.abspath(s) for s in best_spec.load_best_spec(best_path).scenes] == [expected]
+    assert [os.path.abspath(s) for s in spec_from_toml(grid_path).scenes] == [expected]
+    assert best_spec.load_best_spec(best_path, ["sphere1"]).scenes == ("sphere1",)
+    assert spec_from_toml(grid_path, scenes=["sphere1"]).scenes == ("sphere1",)
+    for path, load in ((best_path, best_spec.load_best_spec), (grid_path, spec_from_toml)):
+        text = Path(path).read_text().replace('["../scenes/knot.toml"]', '"sphere1"')
+        Path(path).write_text(text)
+        with pytest.raises(InputError, match=re.escape("scenes = 'sphere1': expected a non-empty list")):
+            load(path)
 
 
 def _row(scene, config, cost, relmse, **terms):

@@ -157,10 +157,11 @@ def test_bad_command_line_exits_2(env, tmp_path, capsys, args, message):
     assert not out.exists()
 
 
-@pytest.mark.parametrize("option", [["--seeds", "1024"], ["--preset", "paper"], ["--scenes", "refocus"]])
+@pytest.mark.parametrize("option", [["--seeds", "1024"], ["--preset", "paper"]])
 def test_a_spec_file_with_grid_options_on_the_command_line_exits_2(env, tmp_path, capsys, option):
     """--seeds and --preset beside a SPEC file were silently ignored (the file's own were
-    run: seeds 1 for --seeds 1024); they are refused like --set and --vary."""
+    run: seeds 1 for --seeds 1024); they are refused like --set and --vary. (--scenes
+    replaces a spec's scenes, grid or best alike: test_scenes_follow_one_rule_in_both_spec_kinds.)"""
     spec = tmp_path / "s.toml"
     spec.write_text(SPEC)
     out = tmp_path / "store"
