@@ -48,6 +48,7 @@ DENOISERS = ("none", "oidn")
 SEEDS = 6                         # as the report and the budgets
 FRAMES_FILE, MANIFEST = "frames.parquet", "frames.json"
 KIND = "frames"                   # frames.json's "kind" (reports.cli.common.FOLDER_MARKERS)
+SCHEMA = 1                        # frames.json's "schema": its shape, checked when read back
 POINTS = "points"                 # DIR/points/: one JSON file per measured point, for resuming
 GROUPS = ("builtin", "heldout", "yours")  # a scene's group: a built-in, a held-out scene, a file of yours
 
@@ -110,7 +111,7 @@ def run_frames(scenes, out_dir: str, *, seeds: int = SEEDS, progress: bool = Tru
     os.makedirs(out_dir, exist_ok=True)
     with atomic_path(os.path.join(out_dir, FRAMES_FILE)) as tmp:
         table.to_parquet(tmp, index=False)
-    manifest = {"kind": KIND, "scenes": list(scenes), "seeds": seeds, "configs": list(CONFIGS),
+    manifest = {"kind": KIND, "schema": SCHEMA, "scenes": list(scenes), "seeds": seeds, "configs": list(CONFIGS),
                 "denoisers": list(denoisers), "code_version": version, "seconds": time.perf_counter() - t0,
                 "verdict": verdict(table)}
     write_manifest(out_dir, manifest)
@@ -212,8 +213,29 @@ def verdict(table: pd.DataFrame) -> dict:
     return out
 
 
+# the columns the report's "One frame" section reads (reports.page.frames)
+READ_COLUMNS = ("scene", "heldout", "config", "denoise", "photon_res", "cost_ratio", "frame_relmse", "frame_relmse_se",
+                "frame_ratio", "relmse_debiased", "relmse_se", "relmse_ratio")
+
+
 def load_frames(folder: str) -> tuple:
-    """(table, manifest) of a frame check's folder; FileNotFoundError or ValueError."""
-    with open(os.path.join(folder, MANIFEST), encoding="utf-8") as fh:
-        manifest = json.load(fh)
-    return pd.read_parquet(os.path.join(folder, FRAMES_FILE)), manifest
+    """(table, manifest) of a frame check's folder, checked against the shape this
+    module writes (``kind``, ``schema``, a verdict with a numeric goal, the columns the
+    report reads); FileNotFoundError, or ValueError naming the file, field and what was
+    expected."""
+    path = os.path.join(folder, MANIFEST)
+    manifest = read_json_object(path)
+    if manifest.get("kind") != KIND:
+        raise ValueError(f"{path}: kind = {manifest.get('kind')!r}: expected {KIND!r} (written by volcaustics frames)")
+    if type(manifest.get("schema")) is not int or manifest["schema"] != SCHEMA:
+        raise ValueError(f"{path}: schema = {manifest.get('schema')!r}: expected {SCHEMA}")
+    v = manifest.get("verdict")
+    if not isinstance(v, dict) or isinstance(v.get("goal"), bool) or not isinstance(v.get("goal"), (int, float)) \
+            or not isinstance(v.get("met"), bool):
+        raise ValueError(f"{path}: verdict = {v!r}: expected an object with a number goal and a true/false met")
+    table = pd.read_parquet(os.path.join(folder, FRAMES_FILE))
+    missing = [c for c in READ_COLUMNS if c not in table.columns]
+    if missing:
+        raise ValueError(f"{os.path.join(folder, FRAMES_FILE)}: no column {missing[0]!r}: not a frame check's table "
+                         f"(another command's, or damaged)")
+    return table, manifest

@@ -6,8 +6,10 @@ and the report's section showing it."""
 from __future__ import annotations
 
 import json
+import re
 
 import pandas as pd
+import pytest
 
 from volcaustics.reports.page.frames import frames_rows, frames_section
 from volcaustics.reports.sweep.frames import verdict, with_ratios
@@ -69,3 +71,43 @@ def test_a_stored_point_is_reused_only_under_its_own_key(tmp_path):
     for other in (point_key(scene, dataclasses.replace(params, steps=6), 6, "v1"), point_key(scene, params, 4, "v1"),
                   point_key(scene, params, 6, "v2")):
         assert other != key and stored_point(str(tmp_path), other) is None
+
+
+def _frame_check(folder, manifest_changes=None, drop=None) -> str:
+    """A frame check's folder as ``volcaustics frames`` writes it, then changed."""
+    from volcaustics.reports.sweep.frames import FRAMES_FILE, KIND, MANIFEST, SCHEMA, write_manifest
+
+    table = _table(0.045)
+    folder.mkdir(exist_ok=True)
+    table.drop(columns=drop or []).to_parquet(folder / FRAMES_FILE, index=False)
+    manifest = {"kind": KIND, "schema": SCHEMA, "verdict": verdict(table)}
+    write_manifest(str(folder), manifest)
+    if manifest_changes is not None:
+        doc = json.loads((folder / MANIFEST).read_text())
+        (folder / MANIFEST).write_text(json.dumps(manifest_changes(doc)))
+    return str(folder)
+
+
+@pytest.mark.parametrize("change, drop, message", [
+    (lambda d: [d], None, "expected a JSON object"),
+    (lambda d: {k: v for k, v in d.items() if k != "verdict"}, None, "verdict = None"),
+    (lambda d: {**d, "verdict": {**d["verdict"], "goal": "half"}}, None, "expected an object with a number goal"),
+    (lambda d: {**d, "schema": True}, None, "schema = True: expected 1"),
+    (lambda d: {k: v for k, v in d.items() if k != "kind"}, None, "kind = None: expected 'frames'"),
+    (None, ["frame_ratio"], "no column 'frame_ratio'"),
+])
+def test_a_frame_check_read_back_is_checked_against_its_shape(tmp_path, capsys, change, drop, message):
+    """`report --frames` once trusted frames.json and frames.parquet by key (a KeyError
+    after measuring); each damage is refused naming the file and what was expected, and
+    the intact folder loads (the negative control)."""
+    from volcaustics.reports.cli import main
+    from volcaustics.reports.sweep.frames import load_frames
+
+    table, _ = load_frames(_frame_check(tmp_path / "good"))
+    assert len(table) == 12
+    folder = _frame_check(tmp_path / "bad", change, drop)
+    with pytest.raises(ValueError, match=re.escape(message)):
+        load_frames(folder)
+    assert main(["report", "--frames", folder, "--out", str(tmp_path / "report"), "--scenes", "sphere1"]) == 2
+    err = capsys.readouterr().err
+    assert message in err and "Traceback" not in err and not (tmp_path / "report").exists()
