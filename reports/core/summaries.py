@@ -49,6 +49,6 @@ def check_schema(summary: dict, kind: str, where: str, fix: str) -> None:
     """InputError naming ``where`` and ``fix`` unless ``summary`` is of this code's
     schema for ``kind``."""
     found = summary.get("schema", 1)
-    if found != SCHEMAS[kind]:
+    if type(found) is not int or found != SCHEMAS[kind]:  # true is not schema 1
         raise InputError(f"{where}: summary.json is of {kind} schema {found!r}, this volcaustics reads "
                          f"{SCHEMAS[kind]}: {fix}")
