@@ -56,6 +56,13 @@ def load_comparison(folder: str, option: str = "--compare", views: bool = True) 
     if summary.get(SEAL) != _seal(summary):
         raise InputError(f"{option} {folder}: {SUMMARY} does not match the SHA-256 it records of itself (edited or "
                     f"damaged): {fix}")
+    for field, ok in (("scene", isinstance(summary.get("scene"), str) and summary["scene"]),
+                      ("scene_hash", isinstance(summary.get("scene_hash"), str) and summary["scene_hash"]),
+                      ("components", isinstance(summary.get("components"), list) and summary["components"]),
+                      ("images", summary["images"] and all(isinstance(v, dict) for v in summary["images"].values()))):
+        if not ok:  # what the report and the gate read: refused here, not as a KeyError after measuring
+            raise InputError(f"{option} {folder}: {SUMMARY}: {field} = {summary.get(field)!r}: expected what "
+                             f"compare writes there: {fix}")
     files = summary.get("files") or {}
     for name in DATA_FILES:
         try:

@@ -285,3 +285,26 @@ def test_nan_in_a_channel_not_compared_is_named_in_the_warnings(env, tmp_path):
     assert any("albedo.B" in w and "not compared" in w for w in inputs.warnings), inputs.warnings
     clean = read_images([str(env / "s0.exr")], load_builtin("refocus"))
     assert not any("NaN" in w for w in clean.warnings)
+
+
+@pytest.mark.parametrize("field", ["scene", "scene_hash", "images"])
+def test_a_resealed_summary_missing_what_is_read_is_refused(env, tmp_path, field):
+    """A summary without what the report and the gate read, sealed again so its SHA-256
+    matches, once passed the reader and failed later with a KeyError; now it is refused at
+    load naming the field. The intact folder loads (the negative control)."""
+    from volcaustics.infra.errors import InputError
+    from volcaustics.infra.storage import document_sha256
+    from volcaustics.reports.compare.read import load_comparison
+    from volcaustics.reports.compare.write import SEAL
+
+    assert compare(env, env / "s0.exr", env / "s1.exr", out="cmp_read") == 0
+    folder = tmp_path / "cmp"
+    shutil.copytree(env / "cmp_read", folder)
+    assert load_comparison(str(folder), views=False)["summary"]["scene"] == "refocus"
+    path = folder / "summary.json"
+    doc = json.loads(path.read_text())
+    doc[field] = {} if field == "images" else None
+    doc[SEAL] = document_sha256(doc, SEAL)
+    path.write_text(json.dumps(doc))
+    with pytest.raises(InputError, match=f"{field} = "):
+        load_comparison(str(folder), views=False)
