@@ -10,7 +10,7 @@ import pandas as pd
 from volcaustics.approx.params import PARAMS, PRESETS
 from volcaustics.reference.render.sources import BatchError
 from volcaustics.reports.cli.common import UsageError, add_measurement_flags, check_output_set, measurement_from_args
-from volcaustics.reports.core.executors import check_reachable, default_workers, parse_dask
+from volcaustics.reports.core.executors import WORKER_WAIT, check_reachable, default_workers, parse_dask
 from volcaustics.reports.experiment.measurement import MEASUREMENT_KEYS
 from volcaustics.reports.sweep.best import run_best
 from volcaustics.reports.sweep.best_spec import BEST_SPEC, CRITERIA, load_best_spec
@@ -41,6 +41,9 @@ def register(sub) -> None:
     p.add_argument("--workers", type=int, help="local worker processes (default: the core count)")
     p.add_argument("--dask", metavar="tcp://HOST:PORT|local:N",
                    help="run on Dask distributed: a running scheduler, or a LocalCluster of N process workers")
+    p.add_argument("--dask-wait", type=float, metavar="SECONDS",
+                   help="with --dask tcp://…: how long the scheduler may take to have a worker before the sweep "
+                        "exits 2 (default 60)")
     p.add_argument("--yes", action="store_true",
                    help=f"run a grid of more than {MAX_POINTS:,} points (refused without it: a typo more often than a "
                         f"plan)")
@@ -69,7 +72,9 @@ def run(args) -> int:
             parse_dask(args.dask)
         except ValueError as exc:
             raise UsageError("--dask", args.dask, str(exc).split(": ", 1)[-1]) from None
-        check_reachable(args.dask)  # before any reference renders
+        if args.dask_wait is not None and not 0 <= args.dask_wait <= 3600:
+            raise UsageError("--dask-wait", args.dask_wait, "expected seconds in [0, 3600]")
+        check_reachable(args.dask, workers_wait=WORKER_WAIT if args.dask_wait is None else args.dask_wait)
     measurement_from_args(args)  # a bad value: exit 2 naming the flag, before anything
     try:
         return _run_best(args) if args.best else _run_grid(args)

@@ -6,8 +6,10 @@ from __future__ import annotations
 import json
 import os
 import signal
+import socket
 import subprocess
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -180,6 +182,74 @@ def test_an_unreachable_scheduler_is_refused_before_any_reference_renders(empty_
                      "--quiet"]) == 2
     assert "cannot reach the scheduler" in capsys.readouterr().err
     assert not out.exists() and (not empty_cache.exists() or not any(empty_cache.rglob("*.exr")))
+
+
+class _Silent(threading.Thread):
+    """A TCP server on loopback that accepts and then says nothing (``reply``: or sends
+    it, e.g. an HTTP response, and closes)."""
+
+    def __init__(self, reply: bytes | None = None):
+        super().__init__(daemon=True)
+        self.sock = socket.socket()
+        self.sock.bind(("127.0.0.1", 0))
+        self.sock.listen(8)
+        self.port, self.reply, self.held = self.sock.getsockname()[1], reply, []
+
+    def run(self):
+        while True:
+            try:
+                conn, _ = self.sock.accept()
+            except OSError:
+                return
+            if self.reply is None:
+                self.held.append(conn)  # open, silent
+            else:
+                with conn:
+                    conn.recv(65536)
+                    conn.sendall(self.reply)
+
+
+@pytest.mark.parametrize("reply, message", [
+    (None, "no Dask scheduler answered"),
+    (b"HTTP/1.1 200 OK\r\nContent-Length: 2\r\n\r\nok" * 64, "not a Dask scheduler"),
+])
+def test_a_port_that_is_not_a_scheduler_is_refused_in_bounded_time(empty_cache, tmp_path, capsys, reply, message):
+    """A port that accepts but never answers once hung the sweep silently; an HTTP server
+    ended in numpy's "Unable to allocate 3.07 EiB". Both exit 2 naming the address, within
+    the handshake's bound (2 × 5 s)."""
+    server = _Silent(reply)
+    server.start()
+    out = tmp_path / "store"
+    t0 = time.perf_counter()
+    try:
+        assert main(["sweep", "--scenes", "refocus", "--dask", f"tcp://127.0.0.1:{server.port}", "-o", str(out),
+                     "--quiet"]) == 2
+    finally:
+        server.sock.close()
+    assert time.perf_counter() - t0 < 30
+    err = capsys.readouterr().err
+    assert message in err and f"127.0.0.1:{server.port}" in err and "Traceback" not in err and not out.exists()
+
+
+def test_a_scheduler_without_workers_is_refused_after_the_stated_wait(empty_cache, tmp_path, capsys):
+    """A scheduler with no workers: silent for 900 s once; now exit 2 after --dask-wait."""
+    file = tmp_path / "scheduler.json"
+    scheduler = subprocess.Popen([os.path.join(os.path.dirname(sys.executable), "dask"), "scheduler", "--host",
+                                  "127.0.0.1", "--port", "0", "--no-dashboard", "--scheduler-file", str(file)],
+                                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        deadline = time.monotonic() + 60
+        while not file.exists() and time.monotonic() < deadline:
+            time.sleep(0.2)
+        address = json.loads(file.read_text())["address"]
+        out = tmp_path / "store"
+        assert main(["sweep", "--scenes", "refocus", "--dask", address, "--dask-wait", "2", "-o", str(out),
+                     "--quiet"]) == 2
+    finally:
+        scheduler.terminate()
+        scheduler.wait(30)
+    err = capsys.readouterr().err
+    assert "no worker after 2 s" in err and "Traceback" not in err and not out.exists()
 
 
 def test_a_grid_above_the_limit_is_refused_before_it_is_expanded_unless_asked_for():
