@@ -23,14 +23,16 @@ def load_animation(folder: str, option: str = "--animation") -> dict:
     except (OSError, ValueError) as exc:
         raise InputError(f"{option} {folder}: no readable summary.json ({exc}): {fix}") from None
     if summary.get("kind") != KIND or not isinstance(summary.get("metrics"), dict):
-        raise InputError(f"{option} {folder}: summary.json is not an animation's (kind {summary.get('kind')!r}): "
-                    f"{fix}")
+        what = (f"of kind {summary.get('kind')!r}" if summary.get("kind") != KIND else "without its metrics table")
+        raise InputError(f"{option} {folder}: summary.json is not an animation's ({what}): {fix}")
     check_schema(summary, "animation", f"{option} {folder}", fix)
     check_animation_shape(summary, f"{option} {folder}: summary.json", fix)
     media = {}
     video = summary.get("video") or {}
     for name, path in (("web", video.get("web")), ("plot", "timeseries.png")):
-        file = os.path.join(folder, str(path))
+        if not isinstance(path, str) or not path:
+            raise InputError(f"{option} {folder}: summary.json names no {name} video (video.{name} = {path!r}): {fix}")
+        file = os.path.join(folder, path)
         try:
             with open(file, "rb") as fh:
                 data = fh.read()

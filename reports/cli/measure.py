@@ -45,9 +45,10 @@ def register(sub) -> None:
 def run(args) -> int:
     check_output_set(args.output, "-o", files=OUTPUT_FILES, kind=EXPERIMENT_KIND)
     scene = resolve_scene(args.scene)
+    measurement = measurement_from_args(args)  # a bad --exact-subphotons: before the cost match and the reference
+    checked_settings(scene, params_from_args(args), args.seeds)  # a bad seed count or size: before the cost match
     params = with_auto_photon_res(args.scene, params_from_args(args), args.preset, args.photon_res is not None)
-    checked_settings(scene, params, args.seeds)  # a bad seed count or a frame that cannot run: before the reference
-    measurement = measurement_from_args(args)  # a bad --exact-subphotons: before the reference too
+    checked_settings(scene, params, args.seeds)  # the matched frame too: before the reference
     reference = runner.reference_for(scene, sized(report_settings(args), scene, params), "continue",
                                      progress=not args.quiet)
     experiment = run_experiment(scene, params, seeds=args.seeds, reference=reference, progress=not args.quiet,

@@ -51,9 +51,10 @@ def register(sub) -> None:
                    help="the best-configuration search instead of a grid: SPEC (default reports/sweep/best.toml) "
                         "states its coarse and refine axes; every configuration at the paper's frame cost "
                         "(docs/concepts/equal-cost.md)")
-    p.add_argument("--criterion", choices=tuple(CRITERIA), default="frame",
-                   help="what --best ranks by: frame (one frame's caustic relative MSE less the reference's floor: "
-                        "bias and the frame's own noise, what a viewer sees) or bias (the seeds' mean's, debiased)")
+    p.add_argument("--criterion", choices=tuple(CRITERIA),
+                   help="what --best ranks by (default frame): frame (one frame's caustic relative MSE less the "
+                        "reference's floor: bias and the frame's own noise, what a viewer sees) or bias (the seeds' "
+                        "mean's, debiased)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     add_measurement_flags(p, default="the SPEC file's [measurement] table, else {value}")
     p.set_defaults(func=run)
@@ -65,6 +66,11 @@ def run(args) -> int:
         raise UsageError("SPEC.toml", args.spec, "give the grid in the file or on the command line, not both "
                                                  "(--vary, --set, --preset and --seeds belong to the file; --scenes "
                                                  "replaces its scenes)")
+    if args.criterion is not None and not args.best:
+        raise UsageError("--criterion", args.criterion, "ranks the best search's configurations: give it with --best")
+    if args.workers is not None and args.dask:
+        raise UsageError("--workers", args.workers, "is for local worker processes; with --dask the scheduler's "
+                                                    "workers run the points (local:N says how many)")
     if args.workers is not None and args.workers < 1:
         raise UsageError("--workers", args.workers, "expected at least 1 worker process")
     if args.dask:
@@ -108,7 +114,7 @@ def _run_best(args) -> int:
                                        "may narrow it")
     spec = _measured(load_best_spec(args.spec or BEST_SPEC, _scenes(args)), args)
     best = run_best(spec, args.output, workers=args.workers or default_workers(), dask=args.dask,
-                    progress=not args.quiet, criterion=args.criterion)
+                    progress=not args.quiet, criterion=args.criterion or "frame")
     table, adopted, result, failed = best.table, best.adopted, best.verdict, best.failed
     if table.empty:
         for failure in failed:
@@ -125,7 +131,8 @@ def _run_best(args) -> int:
               f"({r['relmse_ratio']:.2f}x the paper's); one frame {100 * r['frame_relmse']:.2f}% "
               f"({r['frame_ratio']:.2f}x)")
     if adopted is not None:
-        print(f"adopted for every scene by {args.criterion}: {adopted}; worst ratio {result['worst_ratio']:.2f}x "
+        print(f"adopted for every scene by {args.criterion or 'frame'}: {adopted}; worst ratio "
+              f"{result['worst_ratio']:.2f}x "
               f"against the goal {result['goal']:g}x: {'met' if result['met'] else 'not met'} (one frame: worst "
               f"{result.get('worst_frame_ratio', float('nan')):.2f}x; the mean's bias: worst "
               f"{result.get('worst_bias_ratio', float('nan')):.2f}x)")

@@ -315,3 +315,14 @@ def test_a_denoiser_that_cannot_load_is_refused_before_any_work(tmp_path, capsys
     argv = [a.format(out=tmp_path) for a in command]
     _fails_fast(capsys, [*argv, "--denoise", "oidn"], "denoise = oidn: pyoidn (Intel Open Image Denoise) cannot load")
     assert not list(tmp_path.iterdir())
+
+
+@pytest.mark.parametrize("argv, fragment", [
+    (["sweep", "--scenes", "refocus", "--criterion", "bias"], "--criterion"),  # was silently ignored without --best
+    (["sweep", "--scenes", "refocus", "--dask", "local:1", "--workers", "2"], "--workers"),  # ignored beside --dask
+    (["measure", "refocus", "--preset", "best", "--exact-subphotons", "0"], "--exact-subphotons = 0"),  # after a match
+    (["measure", "refocus", "--preset", "best", "--width", "8"], "width"),
+])
+def test_a_flag_ignored_or_refused_late_is_refused_at_once(tmp_path, capsys, empty_cache, argv, fragment):
+    _fails_fast(capsys, [*argv, "-o", str(tmp_path / "out"), "--quiet"], fragment, within=5.0)
+    assert not (tmp_path / "out").exists()
