@@ -34,25 +34,29 @@ def check_fits(params, *, keep_records: bool = False, max_groups: int | None = N
     the largest image drawn, 4 for the measurement's small-kernel image). ``max_groups``
     and ``max_size`` default to the process's shared context's. Commands that render
     references first call this before them, so a frame that cannot run fails at once."""
+    if max_groups is None:
+        max_groups = gl_limits()[0]
+    # the largest photon_res and light_res one dispatch runs: a size suggested for memory stays within it
+    dispatchable = {"photon_res": math.isqrt(max_groups * 64), "light_res": math.isqrt(max_groups * 256)}
     need = frame_bytes(params.photon_res, params.steps, keep_records=keep_records)
     budget = memory_budget()
     if need > budget:
-        fits = math.isqrt(int(budget / frame_bytes(1, params.steps, keep_records=keep_records)))
+        fits = min(math.isqrt(int(budget / frame_bytes(1, params.steps, keep_records=keep_records))),
+                   dispatchable["photon_res"])
         raise ParamError(f"photon_res = {params.photon_res}: a frame needs {need / 2**30:.1f} GiB of photon, "
                          f"record and splat buffers{' and records read back' if keep_records else ''}, more than "
                          f"half of this machine's memory ({budget / 2**30:.1f} GiB); photon_res ≤ {fits} fits")
     maps = light_map_bytes(params.light_res, params.layers)
     if maps > budget - need:
-        fits = math.isqrt(int(max(budget - need, 0) / light_map_bytes(1, params.layers)))
+        fits = min(math.isqrt(int(max(budget - need, 0) / light_map_bytes(1, params.layers))),
+                   dispatchable["light_res"])
         raise ParamError(f"light_res = {params.light_res}: {2 * params.layers} light maps (layers = "
                          f"{params.layers}) need {maps / 2**30:.1f} GiB beside the frame's "
                          f"{need / 2**30:.1f} GiB, more than half of this machine's memory "
                          f"({budget / 2**30:.1f} GiB); light_res ≤ {fits} fits")
-    if max_groups is None:
-        max_groups = gl_limits()[0]
     for name, res, per_group in (("photon_res", params.photon_res, 64), ("light_res", params.light_res, 256)):
         if math.ceil(res * res / per_group) > max_groups:
-            limit = math.isqrt(max_groups * per_group)
+            limit = dispatchable[name]
             raise ParamError(f"{name} = {res}: this GL driver runs at most {max_groups} work groups of "
                              f"{per_group} in one dispatch, so {name} must be at most {limit}")
     if params.width is not None and params.height is not None:

@@ -79,6 +79,26 @@ def test_check_fits_names_the_driver_limit():
         check_fits(dataclasses.replace(QUICK, light_res=4096), max_groups=65535)
 
 
+def test_a_size_suggested_for_memory_is_one_the_driver_runs(monkeypatch):
+    """A frame beyond memory once suggested photon_res ≤ 2859 where the driver dispatches at
+    most 2047 (which then failed in turn): the suggestion is the smaller of the two. A
+    budget of 1 TiB (the negative control) leaves the memory check silent."""
+    import dataclasses
+    import re
+
+    from volcaustics.approx import limits
+    from volcaustics.approx.params import QUICK, ParamError
+
+    params = dataclasses.replace(QUICK, photon_res=8192, steps=32)
+    monkeypatch.setattr(limits, "memory_budget", lambda: 64 * 2**30)  # a 128 GiB machine's half
+    with pytest.raises(ParamError, match="half of this machine's memory") as refused:
+        limits.check_fits(params, keep_records=True, max_groups=65535)
+    assert int(re.search(r"photon_res ≤ (\d+) fits", str(refused.value)).group(1)) <= 2047
+    monkeypatch.setattr(limits, "memory_budget", lambda: 2**40)
+    with pytest.raises(ParamError, match="at most 2047"):
+        limits.check_fits(params, keep_records=True, max_groups=65535)
+
+
 def test_check_fits_counts_the_light_maps(monkeypatch):
     """light_res was checked against the work-group limit only: 16 maps at 4095² need
     ~20 GiB (LIGHT_MAP_BYTES_PER_TEXEL), an allocation failure deep in GL. With a 4 GiB
