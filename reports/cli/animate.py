@@ -66,6 +66,9 @@ def run(args) -> int:
     except ValueError as exc:
         raise UsageError("--frames", args.frames, str(exc).split(": ", 1)[1]) from None
     params = params_from_args(args)
+    if params.temporal == "ema" and "per-frame" not in args.modes:
+        raise UsageError("--fixed-seed", True, "temporal = ema averages frames with a seed each (the per-frame "
+                                               "seed mode): give --seed-per-frame or neither")
     if args.width is None and args.height is None:
         width, height = animation_size(scene.camera)
         params = dataclasses.replace(params, width=width, height=height)

@@ -50,6 +50,7 @@ from volcaustics.scenes import BUILTIN_NAMES, SceneError, resolve_scene
 from volcaustics.scenes.catalogue import scene_relative_to
 from volcaustics.scenes.fields import field_value, is_scene_field, parse_field_value, scene_with
 
+ANIMATE_ONLY = ("temporal", "temporal_weight")  # parameters a sweep point's frames never use
 SPEC_KEYS = ("scenes", "preset", "seeds", "vary", "set", "reference", "measurement")
 # Points a sweep runs without --yes: about 3 days at the quick preset's 25 s a point on 2
 # cores (docs/sweeps.md); a larger grid is a typo more often than a plan, and expanding
@@ -256,6 +257,10 @@ def _checked(spec: SweepSpec, where: str, max_points: int | None = MAX_POINTS) -
         raise SweepError(f"{where}: {both[0]} is both varied and set")
     if "seed" in dict(spec.vary):
         raise SweepError(f"{where}: seed cannot be varied; use seeds = N (points with seeds seed … seed + N − 1)")
+    for name in ANIMATE_ONLY:
+        if name in dict(spec.vary):  # a sweep point is one scene's frames: its values would be identical points
+            raise SweepError(f"{where}: vary.{name}: {name} acts only over an animation's frames (volcaustics "
+                             f"animate), so every value would measure the same point")
     every = points(spec)
     for scene, fields in sorted({(p.scene, p.fields) for p in every}, key=str):
         try:  # every scene as measured, a changed one validated as the loader validates a file

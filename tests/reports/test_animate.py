@@ -167,14 +167,14 @@ def test_a_slice_beyond_the_animation_is_refused(text):
 
 
 def test_temporal_ema_adds_its_seed_mode_with_less_noise_and_a_lag(cache, tmp_path):
-    """``--temporal ema`` (with --fixed-seed only, the per-frame mode it filters is
-    rendered too): the summary has per-frame+ema beside it, each with its lag; the
-    filtered caustic's own noise in the flicker is below the unfiltered one's (32²
-    photon slots: noise-dominated)."""
+    """``--temporal ema`` with the per-frame seed mode it filters: the summary has
+    per-frame+ema beside it, each with its lag; the filtered caustic's own noise in the
+    flicker is below the unfiltered one's (32² photon slots: noise-dominated). (With
+    --fixed-seed alone it is refused: it once rendered every seed mode unasked.)"""
     out = tmp_path / "ema"
-    assert main(["animate", "refocus", "-o", str(out), "--fixed-seed", "--temporal", "ema", *ARGS]) == 0
+    assert main(["animate", "refocus", "-o", str(out), "--seed-per-frame", "--temporal", "ema", *ARGS]) == 0
     s = json.loads((out / "summary.json").read_text())
-    assert s["seed_modes"] == ["fixed", "per-frame", "per-frame+ema"]
+    assert s["seed_modes"] == ["per-frame", "per-frame+ema"]
     plain, ema = s["metrics"]["per-frame"]["caustic"], s["metrics"]["per-frame+ema"]["caustic"]
     assert ema["flicker_approx_noise"] < plain["flicker_approx_noise"]
     assert all(np.isfinite(m["caustic"]["lag_frames"]) for m in s["metrics"].values())

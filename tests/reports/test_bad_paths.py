@@ -322,6 +322,8 @@ def test_a_denoiser_that_cannot_load_is_refused_before_any_work(tmp_path, capsys
     (["sweep", "--scenes", "refocus", "--dask", "local:1", "--workers", "2"], "--workers"),  # ignored beside --dask
     (["measure", "refocus", "--preset", "best", "--exact-subphotons", "0"], "--exact-subphotons = 0"),  # after a match
     (["measure", "refocus", "--preset", "best", "--width", "8"], "width"),
+    (["sweep", "--scenes", "refocus", "--vary", "temporal=none,ema"], "temporal acts only"),  # two identical points
+    (["animate", "refocus", "--temporal", "ema", "--fixed-seed"], "--seed-per-frame"),  # measured every seed mode
 ])
 def test_a_flag_ignored_or_refused_late_is_refused_at_once(tmp_path, capsys, empty_cache, argv, fragment):
     _fails_fast(capsys, [*argv, "-o", str(tmp_path / "out"), "--quiet"], fragment, within=5.0)
