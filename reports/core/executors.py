@@ -17,6 +17,7 @@ KeyboardInterrupt (finished points are already in the store).
 from __future__ import annotations
 
 import contextlib
+import logging
 import os
 
 from volcaustics.infra.errors import InputError
@@ -138,7 +139,7 @@ def run_tasks(fn, tasks: list, *, pool, total: int, done: int = 0, progress: boo
             try:
                 result = future.result()
             except Exception as exc:  # a point that fails is reported; the others go on
-                result = {"key": futures[future], "error": _describe(exc)}
+                result = {"key": futures[future], "error": describe_failure(exc)}
             bar.update()
             if result.get("error"):
                 bar.write(f"{desc}: point {result['key'][:12]} failed: {result['error']}")
@@ -184,7 +185,15 @@ class _Lazy:
             self._pool.close()
 
 
-def _describe(exc: BaseException) -> str:
+def describe_failure(exc: BaseException) -> str:
+    """A failed point's cause in one line. A point Dask cancelled (its worker died or
+    left, or the scheduler forgot it) says so, not only "FutureCancelledError … already
+    forgotten"."""
+    import concurrent.futures
+
+    if isinstance(exc, concurrent.futures.CancelledError):
+        return (f"lost with its worker: the worker running it died or left the cluster, or the scheduler dropped it "
+                f"({type(exc).__name__}: {exc}); the next run measures it")
     return f"{type(exc).__name__}: {exc}"
 
 
@@ -274,13 +283,16 @@ class _DaskPool:
         except ImportError as exc:
             raise ExecutorError(f"--dask: dask.distributed is not installed ({exc})") from None
         kind, value = parse_dask(dask)
+        # a lost scheduler or a Ctrl-C ends the run with one line (the points' failures, or
+        # "interrupted"); distributed's own tracebacks on stderr said nothing more
+        logging.getLogger("distributed").setLevel(logging.CRITICAL)
         self._cluster = None
         self._futures: list = []
         self._sent: dict = {}
         try:
             if kind == "local":
                 self._cluster = LocalCluster(n_workers=value, threads_per_worker=1, processes=True,
-                                             dashboard_address=None)
+                                             dashboard_address=None, silence_logs=logging.CRITICAL)
                 self.client = Client(self._cluster)
             else:
                 self.client = Client(value, timeout="10s")

@@ -443,3 +443,16 @@ def test_rgb_scene_fields_in_a_spec_and_the_scenes_own_values():
     made = points(spec)
     assert point_scene(made[0].scene, made[0].fields).medium.sigma_s == (0.1, 0.2, 0.3)
     assert all(dict(p.fields)["medium.sigma_s"] == (0.2, 0.2, 0.2) for p in made[1:])  # refocus's own
+
+
+def test_a_point_dask_cancelled_says_its_worker_was_lost():
+    """When the last worker died, points failed with "FutureCancelledError … already
+    forgotten", which did not say a worker died; the failure line now does. Another
+    error keeps its own type and message (the negative control)."""
+    from distributed.client import FutureCancelledError
+
+    from volcaustics.reports.core.executors import describe_failure
+
+    lost = describe_failure(FutureCancelledError("volcaustics-point-abc", reason="already forgotten"))
+    assert "lost with its worker" in lost and "already forgotten" in lost
+    assert describe_failure(ValueError("reference caustic is zero")) == "ValueError: reference caustic is zero"
