@@ -185,6 +185,27 @@ class _Lazy:
             self._pool.close()
 
 
+@contextlib.contextmanager
+def _signals_ignored_by_children():
+    """SIGINT and SIGTERM ignored while a LocalCluster starts its worker processes, which
+    inherit that (a spawned Python keeps an ignored SIGINT): Ctrl-C at the terminal, sent
+    to the whole process group, reaches this process alone, which stops the cluster (the
+    workers printed a KeyboardInterrupt traceback each), as the local pool's workers do."""
+    import signal
+
+    previous = {}
+    try:
+        for number in (signal.SIGINT, signal.SIGTERM):
+            previous[number] = signal.signal(number, signal.SIG_IGN)
+    except ValueError:  # not the main thread: the signals are not ours to change
+        pass
+    try:
+        yield
+    finally:
+        for number, handler in previous.items():
+            signal.signal(number, handler)
+
+
 def describe_failure(exc: BaseException) -> str:
     """A failed point's cause in one line. A point Dask cancelled (its worker died or
     left, or the scheduler forgot it) says so, not only "FutureCancelledError … already
@@ -291,8 +312,9 @@ class _DaskPool:
         self._sent: dict = {}
         try:
             if kind == "local":
-                self._cluster = LocalCluster(n_workers=value, threads_per_worker=1, processes=True,
-                                             dashboard_address=None, silence_logs=logging.CRITICAL)
+                with _signals_ignored_by_children():
+                    self._cluster = LocalCluster(n_workers=value, threads_per_worker=1, processes=True,
+                                                 dashboard_address=None, silence_logs=logging.CRITICAL)
                 self.client = Client(self._cluster)
             else:
                 self.client = Client(value, timeout="10s")

@@ -120,6 +120,30 @@ def test_sigint_keeps_finished_points_and_the_rerun_computes_only_the_rest(env, 
     assert not [f for f in (out / "points").iterdir() if f.name.startswith(".")]  # stale temporaries removed
 
 
+@pytest.mark.slow  # a LocalCluster's start and a few points (about 40 s)
+def test_sigint_on_a_local_dask_cluster_ends_in_one_line(env, tmp_path):
+    """Ctrl-C on `--dask local:N` exited 130 but printed the client's and the cluster's
+    tracebacks; now exit 130 with no traceback, the finished points kept."""
+    out = tmp_path / "store"
+    spec = _spec(tmp_path, SPEC.replace("layers = [1, 2]", "layers = [1, 2, 3, 4]"))
+    command = [sys.executable, "-m", "volcaustics", "sweep", spec, "-o", str(out), "--dask", "local:1", "--quiet"]
+    process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=os.environ.copy(),
+                               cwd=Path(__file__).resolve().parents[2], start_new_session=True,
+                               preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    deadline = time.time() + 300
+    while time.time() < deadline and process.poll() is None:
+        if (out / "points").exists() and len(_complete(out)) >= 1:
+            break
+        time.sleep(0.2)
+    assert process.poll() is None, process.communicate()
+    os.killpg(process.pid, signal.SIGINT)
+    _, err = process.communicate(timeout=120)
+    text = err.decode()
+    assert process.returncode == 130, text[-2000:]
+    assert "Traceback" not in text, text[-3000:]
+    assert len(_complete(out)) >= 1
+
+
 @pytest.mark.parametrize("spec, message", [
     (SPEC.replace("layers = [1, 2]", "layer = [1, 2]"), "unknown parameter 'layer'"),
     (SPEC.replace("layers = [1, 2]", "layers = [1, 99]"), "layers = 99"),
