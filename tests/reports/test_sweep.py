@@ -84,14 +84,13 @@ def test_a_damaged_point_is_detected_and_recomputed(env, tmp_path, capsys):
     pd.read_parquet(table)  # whole again
 
 
-def test_sigint_keeps_finished_points_and_the_rerun_computes_only_the_rest(env, tmp_path):
-    """SIGINT to the whole process group (Ctrl-C at a terminal) after the first point is
-    in the store: exit 130, no partial point and no temporary left (the workers ignore
-    SIGINT; the parent stops them and clears their temporaries), and the rerun computes
-    exactly the points missing (none twice, none lost)."""
+def _interrupted_sweep(tmp_path, *pool) -> tuple:
+    """A sweep of 8 points on ``pool`` (its flags) sent SIGINT to its whole process group
+    (Ctrl-C at a terminal) once its first point is in the store: (command, store, exit
+    code, stderr)."""
     out = tmp_path / "store"
     spec = _spec(tmp_path, SPEC.replace("layers = [1, 2]", "layers = [1, 2, 3, 4]"))  # 8 points
-    command = [sys.executable, "-m", "volcaustics", "sweep", spec, "-o", str(out), "--workers", "1", "--quiet"]
+    command = [sys.executable, "-m", "volcaustics", "sweep", spec, "-o", str(out), *pool, "--quiet"]
     # SIGINT as at a terminal: a suite started in the background (nohup, `make test &`) ignores it,
     # and an ignored SIGINT is inherited and respected
     process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=os.environ.copy(),
@@ -105,7 +104,16 @@ def test_sigint_keeps_finished_points_and_the_rerun_computes_only_the_rest(env, 
     assert process.poll() is None, process.communicate()
     os.killpg(process.pid, signal.SIGINT)
     _, err = process.communicate(timeout=120)
-    assert process.returncode == 130, err.decode()[-2000:]
+    return command, out, process.returncode, err.decode()
+
+
+def test_sigint_keeps_finished_points_and_the_rerun_computes_only_the_rest(env, tmp_path):
+    """SIGINT to the whole process group (Ctrl-C at a terminal) after the first point is
+    in the store: exit 130, no partial point and no temporary left (the workers ignore
+    SIGINT; the parent stops them and clears their temporaries), and the rerun computes
+    exactly the points missing (none twice, none lost)."""
+    command, out, code, err = _interrupted_sweep(tmp_path, "--workers", "1")
+    assert code == 130, err[-2000:]
     finished = _complete(out)
     assert 1 <= len(finished) < 8
     # no half point and no temporary: every folder is a complete point
@@ -120,27 +128,13 @@ def test_sigint_keeps_finished_points_and_the_rerun_computes_only_the_rest(env, 
     assert not [f for f in (out / "points").iterdir() if f.name.startswith(".")]  # stale temporaries removed
 
 
-@pytest.mark.slow  # a LocalCluster's start and a few points (about 40 s)
+@pytest.mark.slow  # a LocalCluster's start and a few points (about 10 s)
 def test_sigint_on_a_local_dask_cluster_ends_in_one_line(env, tmp_path):
-    """Ctrl-C on `--dask local:N` exited 130 but printed the client's and the cluster's
-    tracebacks; now exit 130 with no traceback, the finished points kept."""
-    out = tmp_path / "store"
-    spec = _spec(tmp_path, SPEC.replace("layers = [1, 2]", "layers = [1, 2, 3, 4]"))
-    command = [sys.executable, "-m", "volcaustics", "sweep", spec, "-o", str(out), "--dask", "local:1", "--quiet"]
-    process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, env=os.environ.copy(),
-                               cwd=Path(__file__).resolve().parents[2], start_new_session=True,
-                               preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
-    deadline = time.time() + 300
-    while time.time() < deadline and process.poll() is None:
-        if (out / "points").exists() and len(_complete(out)) >= 1:
-            break
-        time.sleep(0.2)
-    assert process.poll() is None, process.communicate()
-    os.killpg(process.pid, signal.SIGINT)
-    _, err = process.communicate(timeout=120)
-    text = err.decode()
-    assert process.returncode == 130, text[-2000:]
-    assert "Traceback" not in text, text[-3000:]
+    """Ctrl-C on `--dask local:N` exited 130 but printed each worker's KeyboardInterrupt
+    traceback; now exit 130 with no traceback, the finished points kept."""
+    _, out, code, err = _interrupted_sweep(tmp_path, "--dask", "local:1")
+    assert code == 130, err[-2000:]
+    assert "Traceback" not in err, err[-3000:]
     assert len(_complete(out)) >= 1
 
 
