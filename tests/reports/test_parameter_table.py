@@ -14,7 +14,7 @@ from volcaustics.approx.params import PARAMS, ApproxParams, Param, ParamError, p
 from volcaustics.approx.trace import PhotonTracer
 from volcaustics.reports.cli import build_parser, main
 from volcaustics.reports.core.params import add_param_flags, flag, params_from_args, parse_assignment
-from volcaustics.reports.sweep.spec import SweepSpec, points
+from volcaustics.reports.sweep.spec import ANIMATE_ONLY, SweepSpec, points
 
 
 def _bad_value(entry: Param):
@@ -49,8 +49,9 @@ def test_every_parameter_is_a_flag_with_its_range(command):
 def test_every_parameter_is_a_sweep_axis_and_a_bad_value_names_the_range(entry, tmp_path, capsys, empty_cache):
     name, values = parse_assignment(f"{entry.name}={_good_value(entry)}", "--vary")
     assert name == entry.name and values == [_good_value(entry)]
-    # seed is not a grid axis (a point has seeds seed … seed + seeds − 1): it is set, and checked the same way
-    option = "--set" if entry.name == "seed" else "--vary"
+    # seed is not a grid axis (a point has seeds seed … seed + seeds − 1), nor are the animate-only
+    # parameters (every value the same point): they are set, and checked the same way
+    option = "--set" if entry.name in ("seed", *ANIMATE_ONLY) else "--vary"
     argv = ["sweep", "-o", str(tmp_path / "s"), "--scenes", "sphere1", option, f"{entry.name}={_bad_value(entry)}",
             "--quiet"]
     assert main(argv) == 2
