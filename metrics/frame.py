@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .noise import _select
+from .noise import masked_pixels
 
 
 @dataclass(frozen=True)
@@ -45,11 +45,11 @@ def frame_relative_mse(reference, reference_var, frames, *, mask=None, level: fl
     if a.ndim != r.ndim + 1 or a.shape[1:] != r.shape or rv.shape != r.shape or len(a) < 1:
         raise ValueError(f"shapes: reference {r.shape}, reference_var {rv.shape}, frames {a.shape} "
                          "(expected H×W×C, H×W×C, S×H×W×C with S ≥ 1)")
-    sel_r, sel_rv = _select(r, mask), _select(rv, mask)
+    sel_r, sel_rv = masked_pixels(r, mask), masked_pixels(rv, mask)
     energy = float(np.sum(sel_r * sel_r))
     if energy == 0.0:
         raise ValueError("reference is zero everywhere: relative error undefined")
-    d2 = np.stack([(_select(x, mask) - sel_r) ** 2 for x in a])  # S×N×C
+    d2 = np.stack([(masked_pixels(x, mask) - sel_r) ** 2 for x in a])  # S×N×C
     per_seed = d2.reshape(len(a), -1).sum(axis=1) / energy
     floor = float(sel_rv.sum()) / energy
     debiased = float(per_seed.mean()) - floor

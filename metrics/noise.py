@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 
-def _select(image, mask):
+def masked_pixels(image, mask):
     """Pixels of ``image`` (H×W×C or H×W) under ``mask`` (H×W or H×W×C) as N×C."""
     m = np.ones(image.shape[:2], bool) if mask is None else np.asarray(mask, dtype=bool)
     if m.ndim < 2 or m.shape != image.shape[: m.ndim]:
@@ -38,8 +38,8 @@ def _batches(reference_batches, test_batches, mask):
     for name, b in (("reference_batches", r), ("test_batches", t)):
         if len(b) < 4:
             raise ValueError(f"{name}: {len(b)} batches, expected at least 4")
-    r = np.stack([_select(b, mask) for b in r])
-    t = np.stack([_select(b, mask) for b in t])
+    r = np.stack([masked_pixels(b, mask) for b in r])
+    t = np.stack([masked_pixels(b, mask) for b in t])
     return r, t
 
 
@@ -71,7 +71,7 @@ def noise_floor(reference, reference_var, *, mask=None) -> float:
         raise ValueError(f"shape mismatch: reference {r.shape}, reference_var {rv.shape}")
     if np.any(rv < 0):
         raise ValueError("reference_var must be non-negative")
-    r, rv = _select(r, mask), _select(rv, mask)
+    r, rv = masked_pixels(r, mask), masked_pixels(rv, mask)
     energy = float(np.sum(r * r))
     if energy == 0.0:
         raise ValueError("reference is zero everywhere: relative error undefined")
@@ -84,7 +84,7 @@ def total_sigma(image_var, *, mask=None, ratio=None) -> np.ndarray:
     measured variance of the total over Σ var (``reference.render.batches.
     total_variance_ratio``, over the pixels free of glass; None: 1, pixels independent)."""
     v = np.asarray(image_var, dtype=np.float64)
-    v = (v.reshape(-1, v.shape[-1]) if mask is None else _select(v, mask)).sum(axis=0)
+    v = (v.reshape(-1, v.shape[-1]) if mask is None else masked_pixels(v, mask)).sum(axis=0)
     return np.sqrt(v * (1.0 if ratio is None else np.asarray(ratio, np.float64)))
 
 
@@ -255,8 +255,8 @@ def seed_relative_mse(reference, reference_var, seed_images, *, mask=None, level
         raise ValueError(f"level = {level!r}: expected a probability in (0, 1)")
     if not (np.all(np.isfinite(r)) and np.all(np.isfinite(a)) and np.all(np.isfinite(rv))) or np.any(rv < 0):
         raise ValueError("reference, reference_var and seed_images must be finite, reference_var ≥ 0")
-    sel_r, sel_rv = _select(r, mask), _select(rv, mask)
-    d = np.stack([_select(x, mask) for x in a]) - sel_r  # S×N×C
+    sel_r, sel_rv = masked_pixels(r, mask), masked_pixels(rv, mask)
+    d = np.stack([masked_pixels(x, mask) for x in a]) - sel_r  # S×N×C
     energy = float(np.sum(sel_r * sel_r))
     if energy == 0.0:
         raise ValueError("reference is zero everywhere: relative error undefined")

@@ -62,7 +62,7 @@ from volcaustics.infra.storage import CacheError, file_sha256, special_file_kind
 
 from .errors import SceneError
 from .generators import GENERATORS
-from .loader_animation import _animation
+from .loader_animation import parse_animation
 from .mesh import MeshReadError, closedness_problem, winding_number
 from .model import Camera, DiffuseSurface, Medium, MeshSpec, Phase, Scene, SpecularObject, SpotLight, Transform
 from .toml_values import (
@@ -245,7 +245,7 @@ def parse_scene(data: dict, *, file: str | None = None, base_dir: str = ".", sou
     scene = Scene(name=name, description=description, camera=camera, light=light, medium=medium,
                   specular=specular, diffuse=diffuse, source=source)
     if animation is not None:
-        scene = replace(scene, animation=_animation(ctx, animation, scene))
+        scene = replace(scene, animation=parse_animation(ctx, animation, scene))
     return scene
 
 

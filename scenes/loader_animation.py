@@ -80,7 +80,7 @@ def _key_values(ctx, key, v, count: int, kind: str):
     return tuple(tuple(parse(ctx, f"{key}[{i}]", x)) for i, x in enumerate(v))
 
 
-def _animation(ctx, value, scene: Scene) -> Animation:
+def parse_animation(ctx, value, scene: Scene) -> Animation:
     t = _Table(ctx, "animation", value)
     frames = t.get("frames", _integer(1, MAX_FRAMES))
     fps = t.get("fps", _ranged(*FPS_RANGE, unit="frames per second (what the video writers store)"), 24.0)

@@ -35,7 +35,7 @@ from ..settings import ReferenceSettings
 from . import orders as scattering
 from .batches import CAMERA, LIGHT_GROUPS
 from .sources import BatchError, InProcess, Pooled
-from .state import RenderState, _format_floors, _pending, _stop_reason
+from .state import RenderState, format_floors, stop_reason, stream_pending
 from .tasks import add_batch
 
 
@@ -57,7 +57,7 @@ def _render(request: RenderRequest, key: str, state: RenderState | None, source,
     floors = state.floors()
     while True:
         # the camera's batch first: its glass mask chooses the pixels of every stream's totals
-        streams = sorted((s for s in state.streams() if _pending(state, settings, s, floors)),
+        streams = sorted((s for s in state.streams() if stream_pending(state, settings, s, floors)),
                          key=lambda s: s != CAMERA)
         if not streams:
             break
@@ -76,10 +76,10 @@ def _render(request: RenderRequest, key: str, state: RenderState | None, source,
             bar.update(1)
         floors = state.floors()
         state.note_targets(settings.targets(), floors, spent)
-        bar.set_postfix_str(_format_floors(floors))
+        bar.set_postfix_str(format_floors(floors))
     bar.close()
     state.seconds += spent
-    return state, _stop_reason(state, settings, timed_out), spent, where
+    return state, stop_reason(state, settings, timed_out), spent, where
 
 
 def _minimum(state: RenderState, settings: ReferenceSettings) -> list:

@@ -152,7 +152,7 @@ class RenderState:
         return out
 
 
-def _pending(state: RenderState, settings: ReferenceSettings, stream: str, floors: dict) -> bool:
+def stream_pending(state: RenderState, settings: ReferenceSettings, stream: str, floors: dict) -> bool:
     """Whether ``stream`` needs another batch: fewer than ``batches``, or (target_noise)
     a component of it above its target (``floors``: the state's) and the photon cap not
     reached."""
@@ -168,7 +168,7 @@ def _pending(state: RenderState, settings: ReferenceSettings, stream: str, floor
     return any(name in targets and floors[name] is not None and floors[name] > targets[name] for name in names)
 
 
-def _stop_reason(state: RenderState, settings: ReferenceSettings, timed_out: bool) -> str:
+def stop_reason(state: RenderState, settings: ReferenceSettings, timed_out: bool) -> str:
     if not settings.targets():
         return "batches"
     floors, targets = state.floors(), settings.targets()
@@ -177,5 +177,5 @@ def _stop_reason(state: RenderState, settings: ReferenceSettings, timed_out: boo
     return "time cap" if timed_out else "photon cap"
 
 
-def _format_floors(floors: dict) -> str:
+def format_floors(floors: dict) -> str:
     return " ".join(f"{name} {100 * v:.2f}%" for name, v in floors.items() if v is not None and name != "combined")

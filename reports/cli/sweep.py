@@ -10,7 +10,8 @@ import pandas as pd
 from volcaustics.approx.params import PARAMS, PRESETS
 from volcaustics.reference.render.sources import BatchError
 from volcaustics.reports.cli.common import UsageError, add_measurement_flags, check_output_set, measurement_from_args
-from volcaustics.reports.core.executors import WORKER_WAIT, check_reachable, default_workers, parse_dask
+from volcaustics.reports.core.dask_address import WORKER_WAIT, check_reachable, parse_dask
+from volcaustics.reports.core.executors import default_workers
 from volcaustics.reports.experiment.measurement import MEASUREMENT_KEYS
 from volcaustics.reports.sweep.best import run_best
 from volcaustics.reports.sweep.best_spec import BEST_SPEC, CRITERIA, load_best_spec
