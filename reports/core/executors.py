@@ -115,15 +115,31 @@ def _signals_ignored_by_children():
 
 
 def describe_failure(exc: BaseException) -> str:
-    """A failed point's cause in one line. A point Dask cancelled (its worker died or
-    left, or the scheduler forgot it) says so, not only "FutureCancelledError … already
-    forgotten"."""
+    """A failed point's cause in one line. A point Dask cancelled says why: the client
+    lost its scheduler, or the worker running it died or left (not only
+    "FutureCancelledError … already forgotten")."""
     import concurrent.futures
 
+    detail = " ".join(f"{type(exc).__name__}: {exc}".split())  # distributed's messages span lines
     if isinstance(exc, concurrent.futures.CancelledError):
+        if "scheduler-connection-lost" in detail:
+            return ("lost with the scheduler: the connection to the Dask scheduler closed (it stopped or the network "
+                    "dropped); the next run measures it")
         return (f"lost with its worker: the worker running it died or left the cluster, or the scheduler dropped it "
-                f"({type(exc).__name__}: {exc}); the next run measures it")
-    return f"{type(exc).__name__}: {exc}"
+                f"({detail}); the next run measures it")
+    return detail
+
+
+def quiet_distributed_logs() -> None:
+    """distributed's loggers at CRITICAL: a lost scheduler or a Ctrl-C ends the run with
+    one line, while the client's reconnect logged tracebacks that said nothing more. Its
+    configuration gives some loggers levels of their own (``distributed.client``), so
+    each is set, not only the parent."""
+    import distributed  # noqa: F401  (its import configures the loggers being quietened)
+
+    names = [n for n in logging.root.manager.loggerDict if n == "distributed" or n.startswith("distributed.")]
+    for name in {"distributed", "distributed.client", *names}:
+        logging.getLogger(name).setLevel(logging.CRITICAL)
 
 
 def _ignore_interrupts() -> None:
@@ -212,9 +228,7 @@ class _DaskPool:
         except ImportError as exc:
             raise ExecutorError(f"--dask: dask.distributed is not installed ({exc})") from None
         kind, value = parse_dask(dask)
-        # a lost scheduler or a Ctrl-C ends the run with one line (the points' failures, or
-        # "interrupted"); distributed's own tracebacks on stderr said nothing more
-        logging.getLogger("distributed").setLevel(logging.CRITICAL)
+        quiet_distributed_logs()
         self._cluster = None
         self._futures: list = []
         self._sent: dict = {}

@@ -33,8 +33,9 @@ def _dask(*args, env=None, cwd=None) -> subprocess.Popen:
 
 @pytest.fixture
 def cluster(tmp_path):
-    """(scheduler address, the workers' cache folders, the worker processes): a scheduler
-    and two one-thread workers on 127.0.0.1, each worker in a folder and a cache of its own."""
+    """(scheduler address, the workers' cache folders, the worker processes, their pids,
+    the scheduler process): a scheduler and two one-thread workers on 127.0.0.1, each
+    worker in a folder and a cache of its own."""
     file = tmp_path / "scheduler.json"
     processes = [_dask("scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard",
                        "--scheduler-file", str(file))]
@@ -56,7 +57,7 @@ def cluster(tmp_path):
         with Client(address, timeout="30s") as client:
             client.wait_for_workers(2, timeout=120)
             pids = set(client.run(os.getpid).values())
-        yield address, caches, processes[1:], pids
+        yield address, caches, processes[1:], pids, processes[0]
     finally:
         for process in processes:  # killed: a graceful shutdown of the nannies took 8 s a test
             if process.poll() is None:
@@ -67,7 +68,7 @@ def cluster(tmp_path):
 
 @pytest.mark.slow  # a scheduler, two workers and six small points: about a minute on 2 cores
 def test_a_sweep_runs_on_workers_that_share_no_cache(cluster, empty_cache, tmp_path, capsys):
-    address, worker_caches, _, worker_pids = cluster
+    address, worker_caches, _, worker_pids, _ = cluster
     spec = tmp_path / "sweep.toml"
     spec.write_text(SPEC)
     out = tmp_path / "store"
@@ -121,21 +122,12 @@ def test_a_worker_killed_mid_sweep_loses_nothing_and_stores_nothing_half_written
     from volcaustics.reference import cache
     from volcaustics.reports.core.store import Store
 
-    address, _, workers, _ = cluster
+    address, _, workers, _, _ = cluster
     spec = tmp_path / "sweep.toml"
     spec.write_text(SPEC)
     out = tmp_path / "store"
-    sweep = subprocess.Popen([sys.executable, "-m", "volcaustics", "sweep", str(spec), "-o", str(out), "--dask",
-                              address, "--quiet"], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-    caught = False
-    with Client(address, timeout="30s") as client:
-        deadline = time.monotonic() + 240
-        while not caught and time.monotonic() < deadline and sweep.poll() is None:
-            busy = [w for w, keys in client.processing().items()
-                    if any(str(k).startswith(f"volcaustics-{task}-") for k in keys)]
-            info = client.scheduler_info()["workers"]
-            caught = any(info[w].get("name") == "w0" for w in busy)
-            time.sleep(0.05)
+    sweep = _sweep_process(spec, out, address)
+    caught = _wait_until_busy(address, sweep, task, worker="w0")
     workers[0].kill()
     assert caught, f"the sweep ended before worker w0 took a {task}: nothing was killed mid-{task}"
     output, _ = sweep.communicate(timeout=600)
@@ -150,4 +142,52 @@ def test_a_worker_killed_mid_sweep_loses_nothing_and_stores_nothing_half_written
     if sweep.returncode == 0:
         assert len(references) == 2, output
     assert main(["sweep", str(spec), "-o", str(out), "--dask", address, "--quiet"]) == 0  # the survivor finishes
+    assert len(list((out / "points").iterdir())) == 6
+
+
+def _sweep_process(spec, out, address) -> subprocess.Popen:
+    return subprocess.Popen([sys.executable, "-m", "volcaustics", "sweep", str(spec), "-o", str(out), "--dask",
+                             address, "--quiet"], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+
+
+def _wait_until_busy(address, sweep, task: str, worker: str | None = None) -> bool:
+    """Whether a worker (named ``worker``, or any) took a ``task`` ("point", "batch")
+    of the sweep before it ended, waiting at most 240 s."""
+    from dask.distributed import Client
+
+    with Client(address, timeout="30s") as client:
+        deadline = time.monotonic() + 240
+        while time.monotonic() < deadline and sweep.poll() is None:
+            busy = [w for w, keys in client.processing().items()
+                    if any(str(k).startswith(f"volcaustics-{task}-") for k in keys)]
+            info = client.scheduler_info()["workers"]
+            if any(worker is None or info[w].get("name") == worker for w in busy):
+                return True
+            time.sleep(0.05)
+    return False
+
+
+@pytest.mark.slow  # a cluster and six small points, its scheduler killed: about a minute
+def test_a_scheduler_lost_mid_sweep_ends_in_one_line_and_keeps_what_was_stored(cluster, empty_cache, tmp_path):
+    """SIGKILL the scheduler while a worker measures a point: the sweep exits 1 within
+    a bounded time, says the scheduler was lost in one line per point with no
+    traceback, and every point it stored is whole (a local rerun completes the rest)."""
+    from volcaustics.reports.core.store import Store
+
+    address, _, _, _, scheduler = cluster
+    spec = tmp_path / "sweep.toml"
+    spec.write_text(SPEC)
+    out = tmp_path / "store"
+    sweep = _sweep_process(spec, out, address)
+    assert _wait_until_busy(address, sweep, "point"), "the sweep ended before a worker took a point"
+    scheduler.kill()
+    output, _ = sweep.communicate(timeout=300)
+    assert sweep.returncode == 1, output
+    assert "Traceback" not in output, output
+    failed = [line for line in output.splitlines() if "failed:" in line]
+    assert failed and all("lost with the scheduler" in line for line in failed), output
+    store = Store(str(out))
+    points = [p.name for p in (out / "points").iterdir()] if (out / "points").exists() else []
+    assert all(store.status(key) == "done" for key in points), output
+    assert main(["sweep", str(spec), "-o", str(out), "--quiet"]) == 0  # nothing lost: the rest measured here
     assert len(list((out / "points").iterdir())) == 6
