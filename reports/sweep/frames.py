@@ -106,8 +106,8 @@ def run_frames(scenes, out_dir: str, *, seeds: int = SEEDS, progress: bool = Tru
                                      f"pixels, so there is no caustic error to measure (does the light's beam "
                                      f"reach the glass, and the glass's light the medium?)")
                 store_point(out_dir, key, row)
-            rows.append(row)
-    table = with_ratios(pd.DataFrame(rows))
+            rows.append({name: math.nan if value is None else value for name, value in row.items()})
+    table = with_ratios(pd.DataFrame(rows))  # None as NaN: a stored row's NaN came back as null
     os.makedirs(out_dir, exist_ok=True)
     with atomic_path(os.path.join(out_dir, FRAMES_FILE)) as tmp:
         table.to_parquet(tmp, index=False)

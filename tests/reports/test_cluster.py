@@ -117,7 +117,6 @@ def test_a_worker_killed_mid_sweep_loses_nothing_and_stores_nothing_half_written
     scheduler gives its tasks to the other worker, so the sweep finishes every point
     (exit 0), or reports the lost ones failed (exit 1); every point in the store and every
     reference in the cache is whole, and a rerun completes the rest."""
-    from dask.distributed import Client
 
     from volcaustics.reference import cache
     from volcaustics.reports.core.store import Store

@@ -1,0 +1,79 @@
+"""The frame check run end to end on small points (refocus at 32², the gate's small
+reference): an interrupted check resumes from the points it stored, a finished one
+measures nothing again, and a scene without a caustic is refused after its first
+reference, not measured to NaN for every configuration and denoiser."""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+from tests.shared import GATE_REFERENCE
+from volcaustics.approx.params import preset
+from volcaustics.reports.cli import main
+from volcaustics.reports.core.sizing import sized
+from volcaustics.reports.sweep import frames
+
+
+@pytest.fixture
+def small(monkeypatch, cache):
+    """Small frame-check points, and a count of the points measured (``calls``); the
+    measurement raises KeyboardInterrupt at call ``stop_at`` when that is set."""
+    state = {"calls": 0, "stop_at": None}
+    real = frames.run_experiment
+
+    def counted(*args, **kwargs):
+        state["calls"] += 1
+        if state["calls"] == state["stop_at"]:
+            raise KeyboardInterrupt
+        return real(*args, **kwargs)
+
+    def params(config, scene_arg):
+        base = preset("quick" if config == "paper" else "best")
+        return dataclasses.replace(base, width=32, height=32, photon_res=64, light_res=64)
+
+    monkeypatch.setattr(frames, "run_experiment", counted)
+    monkeypatch.setattr(frames, "config_params", params)
+    monkeypatch.setattr(frames, "sized", lambda base, scene, p: sized(GATE_REFERENCE, scene, p))
+    return state
+
+
+def test_an_interrupted_frame_check_resumes_and_a_finished_one_measures_nothing(small, tmp_path):
+    out = tmp_path / "frames"
+    total = len(frames.CONFIGS) * len(frames.usable_denoisers(False))
+    small["stop_at"] = 2
+    with pytest.raises(KeyboardInterrupt):
+        frames.run_frames(["refocus"], str(out), seeds=2, progress=False)
+    assert len(list((out / frames.POINTS).iterdir())) == 1       # the point finished before Ctrl-C is kept
+    assert not (out / frames.MANIFEST).exists()                  # and no manifest claims a whole check
+    small.update(calls=0, stop_at=None)
+    table = frames.run_frames(["refocus"], str(out), seeds=2, progress=False)
+    assert small["calls"] == total - 1 and len(table) == total   # only what was missing was measured
+    small["calls"] = 0
+    again = frames.run_frames(["refocus"], str(out), seeds=2, progress=False)
+    assert small["calls"] == 0                                   # a finished check measures nothing
+    pd.testing.assert_frame_equal(again, table)
+    assert frames.load_frames(str(out))[0].shape == table.shape
+    small["calls"] = 0
+    frames.run_frames(["refocus"], str(out), seeds=3, progress=False)
+    assert small["calls"] == total                               # negative control: other seeds, other keys
+
+
+def test_a_scene_without_a_caustic_is_refused_after_its_first_reference(small, tmp_path, capsys):
+    """The glass outside the light's beam: exit 2 naming the scene once its first
+    point shows the reference's caustic is zero; before, exit 0 with every number NaN
+    and a frames.json of bare NaN tokens, each configuration's reference rendered."""
+    scene = (Path(__file__).resolve().parents[2] / "scenes" / "builtin" / "refocus.toml").read_text()
+    scene = scene.replace('name = "refocus"', 'name = "outside"').split("[animation]")[0]
+    scene = scene.replace("translate = [0.0, 1.4, 0.0]", "translate = [3.0, 1.4, 0.0]")
+    path = tmp_path / "outside.toml"
+    path.write_text(scene)
+    out = tmp_path / "frames"
+    assert main(["frames", str(path), "-o", str(out), "--seeds", "2", "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert "outside.toml" in err and "caustic is zero" in err and "Traceback" not in err, err
+    assert small["calls"] == 1
+    assert not (out / frames.MANIFEST).exists() and not (out / frames.FRAMES_FILE).exists()
