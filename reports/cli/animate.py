@@ -4,9 +4,6 @@ from __future__ import annotations
 
 import dataclasses
 
-from volcaustics.reports.animate.measure import run_animate
-from volcaustics.reports.animate.read import KIND
-from volcaustics.reports.animate.run import WORK
 from volcaustics.reports.animate.settings import (
     ANIMATION_REFERENCE,
     ANIMATION_SIZE,
@@ -16,12 +13,8 @@ from volcaustics.reports.animate.settings import (
     chain_seed,
     frame_list,
 )
-from volcaustics.reports.animate.write import output_files
 from volcaustics.reports.cli.common import UsageError, add_report_reference, check_output_set, pct, report_settings
-from volcaustics.reports.core.cost_match import with_auto_photon_res
 from volcaustics.reports.core.params import add_param_flags, params_from_args
-from volcaustics.reports.experiment.settings import checked_settings
-from volcaustics.scenes import resolve_scene
 
 # native extensions loaded at start-up, with Ctrl-C held (cli.main)
 NATIVE = ("drjit", "mitsuba", "moderngl")
@@ -53,6 +46,14 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
+    from volcaustics.reports.animate.measure import run_animate
+    from volcaustics.reports.animate.read import KIND
+    from volcaustics.reports.animate.run import WORK
+    from volcaustics.reports.animate.write import output_files
+    from volcaustics.reports.core.cost_match import with_auto_photon_res
+    from volcaustics.reports.experiment.settings import checked_settings
+    from volcaustics.scenes import resolve_scene
+
     check_output_set(args.output, "-o", files=output_files(), folders=(WORK,), kind=KIND)
     scene = resolve_scene(args.scene)
     if scene.animation is None:

@@ -3,11 +3,7 @@
 from __future__ import annotations
 
 from volcaustics.reports.cli.common import UsageError, check_output_file
-from volcaustics.reports.core.cost_match import with_auto_photon_res
 from volcaustics.reports.core.params import add_param_flags, params_from_args
-from volcaustics.reports.experiment.settings import check_denoiser
-from volcaustics.reports.files.approx import run_approx
-from volcaustics.scenes import resolve_scene
 
 # native extensions loaded at start-up, with Ctrl-C held (cli.main)
 NATIVE = ("moderngl",)
@@ -24,6 +20,11 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
+    from volcaustics.reports.core.cost_match import with_auto_photon_res
+    from volcaustics.reports.experiment.settings import check_denoiser
+    from volcaustics.reports.files.approx import run_approx
+    from volcaustics.scenes import resolve_scene
+
     check_output_file(args.output, "-o", ".exr", (".png", ".json", ".records.npz"))
     if args.records_max < -1:
         raise UsageError("--records-max", args.records_max, "expected 0 (none), -1 (all) or a positive count")

@@ -6,11 +6,6 @@ from __future__ import annotations
 import os
 
 from volcaustics.reports.cli.common import UsageError, add_report_reference, check_output_set, num, pct, report_settings
-from volcaustics.reports.compare.run import KIND, run_compare
-from volcaustics.reports.compare.write import OUTPUT_FILES, write_comparison
-from volcaustics.reports.core.tables import plain
-from volcaustics.reports.page.external import comparison_images, comparison_page, comparison_row
-from volcaustics.scenes import resolve_scene
 
 # native extensions loaded at start-up, with Ctrl-C held (cli.main)
 NATIVE = ("drjit", "mitsuba")
@@ -33,6 +28,12 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
+    from volcaustics.reports.compare.run import KIND, run_compare
+    from volcaustics.reports.compare.write import OUTPUT_FILES, write_comparison
+    from volcaustics.reports.core.tables import plain
+    from volcaustics.reports.page.external import comparison_images, comparison_page, comparison_row
+    from volcaustics.scenes import resolve_scene
+
     check_output_set(args.output, "-o", files=OUTPUT_FILES, kind=KIND)
     name = args.name if args.name is not None else os.path.splitext(os.path.basename(args.images[0]))[0]
     if not name.strip():

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-from volcaustics.reports.core.doctor import format_report, run_doctor
-
 EXIT_USAGE = 2
 
 
@@ -13,6 +11,8 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
+    from volcaustics.reports.core.doctor import format_report, run_doctor
+
     report = run_doctor()
     print(format_report(report))
     return 0 if report.ok else EXIT_USAGE

@@ -5,10 +5,7 @@ from __future__ import annotations
 
 import os
 
-from volcaustics.reference.render.export import export_xml
 from volcaustics.reports.cli.common import UsageError, check_output_file
-from volcaustics.reports.files.gltf import FORMATS, export_gltf
-from volcaustics.scenes import resolve_scene
 
 
 def register(sub) -> None:
@@ -24,6 +21,10 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
+    from volcaustics.reference.render.export import export_xml
+    from volcaustics.reports.files.gltf import FORMATS, export_gltf
+    from volcaustics.scenes import resolve_scene
+
     if args.mitsuba_xml is None and args.gltf is None:
         raise UsageError("--mitsuba-xml / --gltf", None, "name at least one output: --mitsuba-xml OUT.xml, "
                                                          "--gltf OUT.glb|OUT.gltf, or both")

@@ -5,17 +5,7 @@
 from __future__ import annotations
 
 from volcaustics.reports.cli.common import UsageError, check_output_set, pct
-from volcaustics.reports.sweep.frames import (
-    FRAMES_FILE,
-    GROUPS,
-    KIND,
-    MANIFEST,
-    POINTS,
-    SEEDS,
-    default_scenes,
-    run_frames,
-    verdict,
-)
+from volcaustics.reports.sweep.settings import FRAME_CHECK_SEEDS as SEEDS
 
 NATIVE = ("drjit", "mitsuba", "moderngl")
 
@@ -33,6 +23,17 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
+    from volcaustics.reports.sweep.frames import (
+        FRAMES_FILE,
+        GROUPS,
+        KIND,
+        MANIFEST,
+        POINTS,
+        default_scenes,
+        run_frames,
+        verdict,
+    )
+
     check_output_set(args.output, "-o", files=(FRAMES_FILE, MANIFEST), folders=(POINTS,), kind=KIND)
     if isinstance(args.seeds, bool) or not 2 <= args.seeds <= 64:
         raise UsageError("--seeds", args.seeds, "expected an integer in [2, 64] (one frame's SE needs 2)")

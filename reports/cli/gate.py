@@ -12,12 +12,6 @@ from volcaustics.reports.cli.common import (
     path_type,
     scene_list,
 )
-from volcaustics.reports.compare.read import parse_named
-from volcaustics.reports.core.params import parse_overrides
-from volcaustics.reports.gate.budgets import default_budgets_path, load_budgets
-from volcaustics.reports.gate.outputs import VERDICT, console_table
-from volcaustics.reports.gate.regression import BASELINE
-from volcaustics.reports.gate.run import run_gate
 
 # native extensions loaded at start-up, with Ctrl-C held (cli.main)
 NATIVE = ("drjit", "mitsuba", "moderngl")
@@ -45,6 +39,13 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
+    from volcaustics.reports.compare.read import parse_named
+    from volcaustics.reports.core.params import parse_overrides
+    from volcaustics.reports.gate.budgets import default_budgets_path, load_budgets
+    from volcaustics.reports.gate.outputs import VERDICT, console_table
+    from volcaustics.reports.gate.regression import BASELINE
+    from volcaustics.reports.gate.run import run_gate
+
     check_output_set(args.out, "--out", files=(VERDICT,), kind="gate")
     if args.junit is not None:
         check_output_file(args.junit, "--junit", ".xml")

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from volcaustics.reports import runner
 from volcaustics.reports.cli.common import (
     add_measurement_flags,
     add_report_reference,
@@ -12,15 +11,7 @@ from volcaustics.reports.cli.common import (
     pct,
     report_settings,
 )
-from volcaustics.reports.core.cost_match import equal_cost_check, with_auto_photon_res
 from volcaustics.reports.core.params import add_param_flags, params_from_args
-from volcaustics.reports.core.sizing import sized
-from volcaustics.reports.core.tables import plain
-from volcaustics.reports.experiment.run import run_experiment
-from volcaustics.reports.experiment.settings import checked_settings
-from volcaustics.reports.experiment.summary import KIND as EXPERIMENT_KIND
-from volcaustics.reports.experiment.write import OUTPUT_FILES, write_experiment
-from volcaustics.scenes import resolve_scene
 
 # native extensions loaded at start-up, with Ctrl-C held (cli.main)
 NATIVE = ("drjit", "mitsuba", "moderngl")
@@ -43,6 +34,16 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
+    from volcaustics.reports import runner
+    from volcaustics.reports.core.cost_match import equal_cost_check, with_auto_photon_res
+    from volcaustics.reports.core.sizing import sized
+    from volcaustics.reports.core.tables import plain
+    from volcaustics.reports.experiment.run import run_experiment
+    from volcaustics.reports.experiment.settings import checked_settings
+    from volcaustics.reports.experiment.summary import KIND as EXPERIMENT_KIND
+    from volcaustics.reports.experiment.write import OUTPUT_FILES, write_experiment
+    from volcaustics.scenes import resolve_scene
+
     check_output_set(args.output, "-o", files=OUTPUT_FILES, kind=EXPERIMENT_KIND)
     scene = resolve_scene(args.scene)
     measurement = measurement_from_args(args)  # a bad --exact-subphotons: before the cost match and the reference

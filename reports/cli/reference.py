@@ -2,10 +2,7 @@
 
 from __future__ import annotations
 
-from volcaustics.reference.settings import ReferenceSettings
 from volcaustics.reports.cli.common import add_budget, budget, check_output_file
-from volcaustics.reports.files.reference import run_reference
-from volcaustics.scenes import resolve_scene
 
 # native extensions loaded at start-up, with Ctrl-C held (cli.main)
 NATIVE = ("drjit", "mitsuba")
@@ -30,6 +27,10 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
+    from volcaustics.reference.settings import ReferenceSettings
+    from volcaustics.reports.files.reference import run_reference
+    from volcaustics.scenes import resolve_scene
+
     check_output_file(args.output, "-o", ".exr", (".png", ".json"))
     scene = resolve_scene(args.scene)
     settings = ReferenceSettings(photons=args.photons, spp=args.spp, batches=args.batches,

@@ -14,12 +14,6 @@ from volcaustics.reports.cli.common import (
     report_settings,
     scene_list,
 )
-from volcaustics.reports.compare.read import parse_named
-from volcaustics.reports.core.params import parse_overrides
-from volcaustics.reports.gate.budgets import default_budgets_path, load_budgets
-from volcaustics.reports.page.summary import OUTPUT_FILES
-from volcaustics.reports.report.run import run_report
-from volcaustics.scenes import BUILTIN_NAMES
 
 # native extensions loaded at start-up, with Ctrl-C held (cli.main)
 NATIVE = ("drjit", "mitsuba", "moderngl")
@@ -49,6 +43,13 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
+    from volcaustics.reports.compare.read import parse_named
+    from volcaustics.reports.core.params import parse_overrides
+    from volcaustics.reports.gate.budgets import default_budgets_path, load_budgets
+    from volcaustics.reports.page.summary import OUTPUT_FILES
+    from volcaustics.reports.report.run import run_report
+    from volcaustics.scenes import BUILTIN_NAMES
+
     check_output_set(args.out, "--out", files=OUTPUT_FILES, folders=("figures",))
     names = scene_list(args.scenes, "--scenes")
     budgets = load_budgets(args.budgets or default_budgets_path())

@@ -4,11 +4,7 @@ from __future__ import annotations
 
 import os
 
-from volcaustics.approx.context import shared_context
-from volcaustics.approx.preview import render_preview
-from volcaustics.infra.imageio import write_png
 from volcaustics.reports.cli.common import check_output_dir
-from volcaustics.scenes import BUILTIN_NAMES, load_builtin, load_scene
 
 
 def register(sub) -> None:
@@ -21,6 +17,8 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
+    from volcaustics.scenes import BUILTIN_NAMES, load_builtin, load_scene
+
     if args.preview is not None:
         check_output_dir(args.preview, "--preview")
     if args.check:
@@ -46,6 +44,10 @@ def run(args) -> int:
 
 
 def _write_preview(scene, folder: str) -> str:
+    from volcaustics.approx.context import shared_context
+    from volcaustics.approx.preview import render_preview
+    from volcaustics.infra.imageio import write_png
+
     path = os.path.join(folder, f"{scene.name}.png")
     write_png(path, render_preview(shared_context(), scene))
     return path

@@ -5,19 +5,11 @@ from __future__ import annotations
 import dataclasses
 import sys
 
-import pandas as pd
-
 from volcaustics.approx.params import PARAMS, PRESETS
-from volcaustics.reference.render.sources import BatchError
 from volcaustics.reports.cli.common import UsageError, add_measurement_flags, check_output_set, measurement_from_args
 from volcaustics.reports.core.dask_address import WORKER_WAIT, check_reachable, parse_dask
-from volcaustics.reports.core.executors import default_workers
 from volcaustics.reports.experiment.measurement import MEASUREMENT_KEYS
-from volcaustics.reports.sweep.best import run_best
-from volcaustics.reports.sweep.best_spec import BEST_SPEC, CRITERIA, load_best_spec
-from volcaustics.reports.sweep.run import OUTPUT_FILES, OUTPUT_FOLDERS, run_sweep
-from volcaustics.reports.sweep.spec import MAX_POINTS, spec_from_args, spec_from_toml
-from volcaustics.reports.sweep.variants import variant_name
+from volcaustics.reports.sweep.settings import CRITERIA, MAX_POINTS
 
 # native extensions loaded at start-up, with Ctrl-C held (cli.main)
 NATIVE = ("drjit", "mitsuba", "moderngl")
@@ -62,6 +54,9 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
+    from volcaustics.reference.render.sources import BatchError
+    from volcaustics.reports.sweep.run import OUTPUT_FILES, OUTPUT_FOLDERS
+
     check_output_set(args.output, "-o", files=OUTPUT_FILES, folders=OUTPUT_FOLDERS, kind="sweep")
     if args.spec and (args.vary or args.set or args.preset or args.seeds is not None):
         raise UsageError("SPEC.toml", args.spec, "give the grid in the file or on the command line, not both "
@@ -91,6 +86,10 @@ def run(args) -> int:
 
 
 def _run_grid(args) -> int:
+    from volcaustics.reports.core.executors import default_workers
+    from volcaustics.reports.sweep.run import run_sweep
+    from volcaustics.reports.sweep.spec import spec_from_args, spec_from_toml
+
     max_points = None if args.yes else MAX_POINTS
     if args.spec:
         spec = spec_from_toml(args.spec, max_points, _scenes(args))
@@ -110,6 +109,12 @@ def _run_grid(args) -> int:
 
 
 def _run_best(args) -> int:
+    import pandas as pd
+
+    from volcaustics.reports.core.executors import default_workers
+    from volcaustics.reports.sweep.best import run_best
+    from volcaustics.reports.sweep.best_spec import BEST_SPEC, load_best_spec
+
     if args.vary or args.set or args.preset or args.seeds is not None:
         raise UsageError("--best", "", "the search's axes, preset and seeds belong to its SPEC file; only --scenes "
                                        "may narrow it")
@@ -154,6 +159,8 @@ def _measured(spec, args):
 
 
 def _print_suffice(suffice) -> None:
+    from volcaustics.reports.sweep.variants import variant_name
+
     if suffice is None or not len(suffice):
         return
     print(f"settings that suffice (error within {suffice['factor'].iloc[0]:g}x the best; caustic: debiased "
@@ -178,6 +185,8 @@ def _print_crossing(crossing) -> None:
 
 
 def _print_variants(best) -> None:
+    from volcaustics.reports.sweep.variants import variant_name
+
     if best is None or not len(best):
         return
     print("variants: per scene the paper's method and the smallest intersection term (both parts) at no more map "

@@ -28,51 +28,28 @@ import numpy as np
 
 from volcaustics.approx.emission import true_rays
 from volcaustics.approx.light import LightFrustum
-from volcaustics.approx.params import ParamError
 from volcaustics.approx.splat import splats_from_arrays
 from volcaustics.reference.replay import exact_collisions, exact_emission
 from volcaustics.reports.experiment.exact import ExactPhotons, pixel_footprint, subset_images
 from volcaustics.reports.experiment.exact_store import EXACT_IMAGES, exact_document, exact_key, load_exact, save_exact
 from volcaustics.reports.experiment.kernels import KERNEL_RULES, frame_kernels, splat_params
+from volcaustics.reports.experiment.measurement import (
+    EXACT_STEPS,
+    SUBSET_BATCHES,
+    subphotons_setting,
+)
 from volcaustics.scenes.bounds import medium_bounds
-from volcaustics.scenes.formats import PATH_INTERACTIONS, STATUS_COLLIDED
+from volcaustics.scenes.formats import STATUS_COLLIDED
 from volcaustics.scenes.rng import pcg_hash
 
 # E_∞ and E_∞,s: docs/decisions.md "Exact steps and the small kernel"
-EXACT_STEPS = PATH_INTERACTIONS  # E_∞: < 0.1% of the power alive after them on every built-in and held-out scene
 SMALL_SUPERSAMPLE = 4        # E_∞,s: splatted at 4× and box-averaged (the reference's pixel filter)
 SMALL_KERNEL_FINE_PIXELS = 0.3  # E_∞,s kernel σ in fine pixels (0.075 pixel): its aliasing is noise, not bias
-SUBSET_BATCHES = 8           # paired photon subsets per seed of A and the E images: the decomposition's noise
-EXACT_SUBPHOTONS = 16        # exact replays of each emission texel in the E_∞ images (docs/decisions.md "Sub-photons")
 _SUBPHOTON_SALT = 0x5EB9_07A1  # keeps the replays' seeds apart from the frames' seeds (seed, seed + 1, …)
 # what the E images depend on beyond the parameters: part of their key (exact_store)
 CONSTANTS = {"exact_steps": EXACT_STEPS, "small_supersample": SMALL_SUPERSAMPLE,
              "small_kernel_fine_pixels": SMALL_KERNEL_FINE_PIXELS, "subset_batches": SUBSET_BATCHES,
              "subphoton_salt": _SUBPHOTON_SALT}
-
-
-def _int_setting(name: str, low: int, high: int, what: str, default: int):
-    """A check of an integer measurement setting in [low, high]: value → value (None: the default)."""
-    def check(value: int | None = None) -> int:
-        if value is None:
-            return default
-        if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
-            raise ParamError(f"{name} = {value!r}: expected an integer in [{low}, {high}] ({what}; default {default})")
-        return value
-    return check
-
-
-# E_k is E_∞ cut at the approximation's steps (at most 32): E_∞ replays at least that many
-exact_steps_setting = _int_setting("exact_steps", 32, 1024, "steps of the exact replay in the E_∞ images",
-                                   EXACT_STEPS)
-# the decomposition's jackknife needs 4 batches in all; one seed gives subset_batches of them
-subset_batches_setting = _int_setting("subset_batches", 4, 64, "paired photon subsets per seed of A and the E "
-                                      "images, the decomposition's jackknife batches", SUBSET_BATCHES)
-
-
-# the sub-photons of a measurement (the exact_subphotons setting, reports.experiment.measurement)
-subphotons_setting = _int_setting("exact_subphotons", 1, 64, "exact replays of each emission texel in the "
-                                  "decomposition's E_∞ images", EXACT_SUBPHOTONS)
 
 
 def replay_seed(seed: int, replay: int) -> int:

@@ -13,8 +13,8 @@ exact_subphotons   16       1–64    exact replays of each emission texel in th
                                     points with 1 for its time
 subset_batches     8        4–64    paired photon subsets per seed of A and the E images:
                                     the decomposition's jackknife batches (its noise)
-exact_steps        128      32–1024 steps of the exact replay in the E_∞ images (< 0.1%
-                                    of the power alive after 128 on every built-in:
+exact_steps        512      32–1024 steps of the exact replay in the E_∞ images (< 0.1%
+                                    of the power alive after 512 on every built-in:
                                     docs/decisions.md "Exact steps and the small kernel")
 =================  =======  ======  ===================================================
 
@@ -31,14 +31,36 @@ import dataclasses
 from dataclasses import dataclass
 
 from volcaustics.approx.params import ParamError
-from volcaustics.reports.experiment.exact_images import (
-    EXACT_STEPS,
-    EXACT_SUBPHOTONS,
-    SUBSET_BATCHES,
-    exact_steps_setting,
-    subphotons_setting,
-    subset_batches_setting,
-)
+
+# E_∞'s steps: scenes.formats.PATH_INTERACTIONS, the reference's path length (a test ties the
+# two; not imported: that module loads numpy, and every command's parser reads this one)
+EXACT_STEPS = 512
+SUBSET_BATCHES = 8           # paired photon subsets per seed of A and the E images: the decomposition's noise
+EXACT_SUBPHOTONS = 16        # exact replays of each emission texel in the E_∞ images (docs/decisions.md "Sub-photons")
+
+
+def _int_setting(name: str, low: int, high: int, what: str, default: int):
+    """A check of an integer measurement setting in [low, high]: value → value (None: the default)."""
+    def check(value: int | None = None) -> int:
+        if value is None:
+            return default
+        if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
+            raise ParamError(f"{name} = {value!r}: expected an integer in [{low}, {high}] ({what}; default {default})")
+        return value
+    return check
+
+
+# E_k is E_∞ cut at the approximation's steps (at most 32): E_∞ replays at least that many
+exact_steps_setting = _int_setting("exact_steps", 32, 1024, "steps of the exact replay in the E_∞ images",
+                                   EXACT_STEPS)
+# the decomposition's jackknife needs 4 batches in all; one seed gives subset_batches of them
+subset_batches_setting = _int_setting("subset_batches", 4, 64, "paired photon subsets per seed of A and the E "
+                                      "images, the decomposition's jackknife batches", SUBSET_BATCHES)
+
+
+# the sub-photons of a measurement (the exact_subphotons setting, reports.experiment.measurement)
+subphotons_setting = _int_setting("exact_subphotons", 1, 64, "exact replays of each emission texel in the "
+                                  "decomposition's E_∞ images", EXACT_SUBPHOTONS)
 
 # name → (check: value → int, ParamError naming the range; help)
 MEASUREMENT_TABLE = {

@@ -15,7 +15,7 @@ with its segment records. Then:
   (``metrics.image``, ``metrics.noise``), the single-scattering model's own error
   when the reference has higher scattering orders (``model``), and the caustic's error decomposed
   (``metrics.decomposition``) with E_k (the replay above, splatted by the
-  approximation's splatter), E_∞ (``exact_images.EXACT_STEPS`` steps, A's Fresnel and
+  approximation's splatter), E_∞ (``measurement.EXACT_STEPS`` steps, A's Fresnel and
   stochastic), E_∞,s (small kernel, ``exact_images.SMALL_SUPERSAMPLE``× pixels box-filtered).
 
 :func:`run_experiment` computes, stage by stage, each stage in its own module
@@ -38,15 +38,15 @@ from volcaustics.reference.render import render_reference
 from volcaustics.reports.core.sizing import REPORT_REFERENCE, sized
 from volcaustics.reports.core.timing import Clock
 from volcaustics.reports.experiment.decomposition import decompose, decomposition_rows
-from volcaustics.reports.experiment.exact_images import (
-    exact_images,
+from volcaustics.reports.experiment.exact_images import exact_images
+from volcaustics.reports.experiment.frames import render_frames
+from volcaustics.reports.experiment.images import IMAGE_METRICS, image_rows, keep_mask
+from volcaustics.reports.experiment.measurement import (
+    GATE_IMAGE_METRICS,
     exact_steps_setting,
     subphotons_setting,
     subset_batches_setting,
 )
-from volcaustics.reports.experiment.frames import render_frames
-from volcaustics.reports.experiment.images import IMAGE_METRICS, image_rows, keep_mask
-from volcaustics.reports.experiment.measurement import GATE_IMAGE_METRICS
 from volcaustics.reports.experiment.model_term import model_rows
 from volcaustics.reports.experiment.photons import photon_rows, replay
 from volcaustics.reports.experiment.segments import segment_rows
@@ -96,7 +96,7 @@ def run_experiment(scene, params, *, seeds: int = 1, reference_settings=None, pr
         a column each in every row, and the summary's ``scene_fields``.
     subphotons : exact replays per emission texel in the E_∞ images, the measurement
         setting ``exact_subphotons`` (``reports.experiment.measurement``; None: the
-        report's, ``exact_images.EXACT_SUBPHOTONS``).
+        report's, ``measurement.EXACT_SUBPHOTONS``).
     scope : "full", or "gate": only what the gate's budgets read (the image metrics of
         ``measurement.GATE_IMAGE_METRICS`` and the segments); the exact images, the
         caustic's decomposition and the model term are skipped (the summary's ``exact``,

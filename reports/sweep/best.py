@@ -45,8 +45,9 @@ from volcaustics.reports.core.cost_match import CostMatcher
 from volcaustics.reports.core.sizing import reference_settings
 from volcaustics.reports.core.store import Store
 from volcaustics.reports.experiment.measurement import measurement_settings
-from volcaustics.reports.sweep.best_spec import CRITERIA, BestSpec
+from volcaustics.reports.sweep.best_spec import BestSpec
 from volcaustics.reports.sweep.run import consolidate
+from volcaustics.reports.sweep.settings import CRITERIA
 from volcaustics.reports.sweep.spec import SweepError
 
 

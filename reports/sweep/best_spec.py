@@ -13,9 +13,6 @@ from volcaustics.reports.sweep.spec import SweepError, SweepSpec, _checked, spec
 
 BEST_SPEC = os.path.join(os.path.dirname(os.path.abspath(__file__)), "best.toml")
 BEST_KEYS = ("scenes", "preset", "seeds", "coarse", "refine", "rounds", "set", "reference", "measurement")
-# criterion → (the ratio it ranks by, the error column, the goal: at most that many times the paper's on every
-# scene): one frame's error, what a viewer sees, at half; the mean image's bias at a quarter
-CRITERIA = {"frame": ("frame_ratio", "frame_relmse", 0.5), "bias": ("relmse_ratio", "caustic_relmse_debiased", 0.25)}
 
 
 @dataclasses.dataclass(frozen=True)

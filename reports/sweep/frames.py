@@ -40,12 +40,12 @@ from volcaustics.reports.core.versions import code_version
 from volcaustics.reports.experiment.run import run_experiment
 from volcaustics.reports.experiment.settings import checked_settings
 from volcaustics.reports.runner import reference_for
+from volcaustics.reports.sweep.settings import FRAME_CHECK_SEEDS
 from volcaustics.scenes import resolve_scene
 from volcaustics.scenes.catalogue import BUILTIN_NAMES, HELDOUT_NAMES, heldout_path
 
 CONFIGS = ("paper", "best")       # the quick preset (the paper's method) and the preset best
 DENOISERS = ("none", "oidn")
-SEEDS = 6                         # as the report and the budgets
 FRAMES_FILE, MANIFEST = "frames.parquet", "frames.json"
 KIND = "frames"                   # frames.json's "kind" (reports.cli.common.FOLDER_MARKERS)
 SCHEMA = 1                        # frames.json's "schema": its shape, checked when read back
@@ -83,7 +83,7 @@ def checked_scenes(scenes, seeds: int) -> list:
     return out
 
 
-def run_frames(scenes, out_dir: str, *, seeds: int = SEEDS, progress: bool = True) -> pd.DataFrame:
+def run_frames(scenes, out_dir: str, *, seeds: int = FRAME_CHECK_SEEDS, progress: bool = True) -> pd.DataFrame:
     """Measure every (scene, configuration, denoiser), reusing the points ``out_dir``
     already holds; write and return the table."""
     checked = checked_scenes(scenes, seeds)

@@ -46,16 +46,13 @@ from volcaustics.reports.core.tomlfile import load_toml
 from volcaustics.reports.experiment.measurement import measurement_settings
 from volcaustics.reports.experiment.settings import check_frame, check_medium
 from volcaustics.reports.runner import Point
+from volcaustics.reports.sweep.settings import MAX_POINTS
 from volcaustics.scenes import BUILTIN_NAMES, SceneError, resolve_scene
 from volcaustics.scenes.catalogue import scene_relative_to
 from volcaustics.scenes.fields import field_value, is_scene_field, parse_field_value, scene_with
 
 ANIMATE_ONLY = ("temporal", "temporal_weight")  # parameters a sweep point's frames never use
 SPEC_KEYS = ("scenes", "preset", "seeds", "vary", "set", "reference", "measurement")
-# Points a sweep runs without --yes: about 3 days at the quick preset's 25 s a point on 2
-# cores (docs/sweeps.md); a larger grid is a typo more often than a plan, and expanding
-# and checking 10^6 points alone takes minutes.
-MAX_POINTS = 10_000
 SECONDS_PER_POINT = 25.0  # quick preset, 4 seeds, 2 cores (the variants sweep, docs/decisions.md)
 
 
