@@ -6,8 +6,9 @@ For each scene, at the report's settings (quick preset, the report's seeds and
 sub-photons): the frames, then the E_∞ replays of the decomposition
 (``reports.experiment.exact_images._replayed``: A's emission with A's Fresnel and, for a
 deterministic Fresnel, with the stochastic one, and the light's true emission, every
-seed and sub-photon as one wavefront per Fresnel mode, each from the emission ray), timed and
-their segments kept. Then, in the same process, the raw bound: one
+seed and sub-photon as one wavefront per Fresnel mode, each from the emission ray), timed,
+then once more with their rays kept (``Oracle.segments``). Then, in the same process, the
+raw bound: one
 ``scene.ray_intersect`` on the very same segments, with only the hit distance evaluated
 (the machine's ray-casting bound) and with the whole interaction. Prints rays, seconds,
 M rays/s and the replay's ratio to each (the budget: the replay at ≥ 1/3 of the bound).
@@ -59,6 +60,7 @@ def main(argv=None) -> int:
     from volcaustics.reference.oracle import Oracle
     from volcaustics.reports.experiment.exact_images import _replayed, replay_seed
     from volcaustics.reports.experiment.frames import render_frames
+    from volcaustics.reports.experiment.measurement import EXACT_STEPS
     from volcaustics.reports.experiment.settings import checked_settings
     from volcaustics.scenes import resolve_scene
     from volcaustics.scenes.bounds import medium_bounds
@@ -74,20 +76,17 @@ def main(argv=None) -> int:
         replay_seeds = [[replay_seed(s, m) for m in range(args.subphotons)] for s in seeds]
         own = [(rays, s) for rays, mine in zip(renderer.emission_rays(scene, p, seeds), replay_seeds) for s in mine]
         true = [(true_rays(scene.light, frustum, p.photon_res, s), s) for mine in replay_seeds for s in mine]
-        _replayed(scene, p, p.fresnel, own[:1], oracle)  # compiles the kernels
-        oracle.rays, segments, first_hits = 0, [], oracle.first_hits
-
-        def kept(o, d, L, segments=segments, first_hits=first_hits):
-            segments.append(tuple(np.asarray(a, np.float32) for a in (o, d, L)))
-            return first_hits(o, d, L)
-
-        oracle.first_hits = kept
-        t0 = time.perf_counter()
-        if p.fresnel != "stochastic":
-            _replayed(scene, p, p.fresnel, own, oracle)
-        _replayed(scene, p, "stochastic", own + true, oracle)
-        seconds, rays = time.perf_counter() - t0, oracle.rays
-        bound = raw_throughput(oracle, segments)
+        _replayed(scene, p, p.fresnel, own[:1], oracle, EXACT_STEPS)  # compiles the kernels
+        timings = []
+        for kept in (None, []):  # timed, then again keeping its rays (deterministic: the same ones) for the bound
+            oracle.rays, oracle.segments = 0, kept
+            t0 = time.perf_counter()
+            if p.fresnel != "stochastic":
+                _replayed(scene, p, p.fresnel, own, oracle, EXACT_STEPS)
+            _replayed(scene, p, "stochastic", own + true, oracle, EXACT_STEPS)
+            timings.append((time.perf_counter() - t0, oracle.rays))
+        seconds, rays = timings[0]
+        bound = raw_throughput(oracle, oracle.segments)
         replay = rays / seconds / 1e6
         print(f"{name:<12} {rays:>10,} {seconds:>9.2f} {replay:>14.2f} {bound['t']:>10.2f} {replay / bound['t']:>6.2f} "
               f"{bound['interaction']:>11.2f} {replay / bound['interaction']:>6.2f}")

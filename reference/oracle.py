@@ -53,6 +53,7 @@ class Oracle:
         lo, hi = medium_bounds(scene)
         self.epsilon = 1e-6 * float(np.linalg.norm(hi - lo))
         self.rays = 0  # segments queried so far (bench/exact_replay.py: throughput)
+        self.segments = None  # a list: every query's float32 rays (origin, direction, maxt), for the same bench
 
     def first_hits(self, starts, directions, max_lengths) -> dict:
         """Exact first hits on segments start + t·direction, t in (0, max_length].
@@ -74,6 +75,9 @@ class Oracle:
         self.rays += len(o)
         ray = mi.Ray3f(mi.Point3f(*(o + d * eps).T.astype(np.float32)), mi.Vector3f(*d.T.astype(np.float32)))
         ray.maxt = mi.Float(np.maximum(L - eps, 0.0).astype(np.float32))
+        if self.segments is not None:
+            self.segments.append(((o + d * eps).astype(np.float32), d.astype(np.float32),
+                                  np.maximum(L - eps, 0.0).astype(np.float32)))
         si = self.mi_scene.ray_intersect(ray)
         # every output in one kernel: each lazy value read on its own would launch (and trace) again
         valid, sid = si.is_valid(), dr.reinterpret_array(mi.UInt32, si.shape)

@@ -15,6 +15,7 @@ direction, power, as the records hold them) and the power budgets.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -115,7 +116,7 @@ def _packed(groups, size, launch, max_photons: int) -> list:
 
 
 def exact_collisions(scene, groups, *, steps: int, fresnel: str, oracle: Oracle | None = None,
-                     max_photons: int = MAX_PHOTONS) -> list:
+                     max_photons: int = MAX_PHOTONS, engine: str = "drjit") -> list:
     """Replay every group exactly for ``steps`` steps with ``fresnel``; one
     :class:`Collisions` per group, in order.
 
@@ -126,51 +127,85 @@ def exact_collisions(scene, groups, *, steps: int, fresnel: str, oracle: Oracle 
         and the seed of their random numbers.
     steps, fresnel : as ``reference.oracle.exact_photon_records``.
     max_photons : photons per launch (a group larger than this is one launch).
+    engine : "drjit", the steps as Dr.Jit kernels on the oracle's variant
+        (``reference.wavefront``), or "numpy", one numpy pass after another per step
+        (``oracle.advance``: the physics' reference, which a test holds the other to).
     """
+    if engine not in ENGINES:
+        raise ValueError(f"engine = {engine!r}: expected one of {', '.join(ENGINES)}")
     oracle = oracle or Oracle(scene)
     constants = ReplayConstants(scene, fresnel)
-    return _packed(groups, lambda group: len(group[0]), lambda part: _launch(constants, oracle, part, steps),
+    tracer = (functools.partial(_numpy_steps, c=constants, oracle=oracle) if engine == "numpy"
+              else _wavefront(constants, oracle).trace)
+    return _packed(groups, lambda group: len(group[0]), lambda part: _launch(constants, oracle, part, steps, tracer),
                    max_photons)
 
 
-def _launch(c: ReplayConstants, oracle: Oracle, groups: list, steps: int) -> list:
-    """The groups of one launch: traced together, split back by group."""
+ENGINES = ("drjit", "numpy")
+
+
+def _wavefront(constants: ReplayConstants, oracle: Oracle):
+    from .wavefront import Wavefront
+
+    return Wavefront(constants, oracle)
+
+
+def _launch(c: ReplayConstants, oracle: Oracle, groups: list, steps: int, tracer) -> list:
+    """The groups of one launch: traced together (``tracer``), split back by group."""
     states = [emission_state(first) for first, _ in groups]
     idx, o, d, inside, power = (np.concatenate(parts) for parts in zip(*states))
     group = np.repeat(np.arange(len(groups)), [len(first) for first, _ in groups])
     seed = np.repeat(np.asarray([s for _, s in groups], np.uint32), [len(first) for first, _ in groups])
-    kept = {name: [] for name in ("group", *COLLISION_DTYPE.names)}
+    kept, (alive_group, alive_power) = tracer(steps, group, seed, idx, o, d, inside, power)
+    alive_power = _group_sums(alive_group, alive_power, len(groups))
     collided_power = np.zeros((len(groups), steps, 3))
-    alive_power = np.zeros((len(groups), 3))
+    rows = np.zeros(sum(len(k["group"]) for k in kept), COLLISION_DTYPE)
+    for name in COLLISION_DTYPE.names:  # the records' float32 and integer fields, as exact_photon_records writes
+        if kept:
+            rows[name] = np.concatenate([np.full(len(k["group"]), k["step"]) if name == "step" else k[name]
+                                         for k in kept])
+    owner = np.concatenate([k["group"] for k in kept]).astype(np.int64) if kept else np.zeros(0, np.int64)
+    order = np.argsort(owner, kind="stable")  # by group, then by step, then by photon order: one replay's order
+    rows, owner = rows[order], owner[order]
+    bounds = np.searchsorted(owner, np.arange(len(groups) + 1))
+    _sum_by_group_and_step(collided_power, owner, rows)
+    out = []
+    for g, (first, _) in enumerate(groups):
+        mine = rows[bounds[g]:bounds[g + 1]]
+        out.append(Collisions(rows=mine, emitted_power=first["power_start"].astype(np.float64).sum(axis=0),
+                              alive_power=alive_power[g], collided_power=collided_power[g], photons=len(first)))
+    return out
+
+
+def _numpy_steps(steps, group, seed, idx, o, d, inside, power, *, c, oracle) -> tuple:
+    """The numpy engine: ``oracle.advance`` per step; as ``Wavefront.trace`` returns."""
+    kept = []
+    alive_group, alive_power = np.zeros(0, np.int64), np.zeros((0, 3))
     for step in range(1, steps + 1):
         s = advance(c, oracle, step, seed, idx, o, d, inside, power)
         hit = s["status"] == STATUS_COLLIDED
-        for name, values in (("group", group), ("photon", idx), ("step", np.full(len(idx), step)),
-                             ("end", s["end"]), ("direction", d), ("power", s["new_power"])):
-            kept[name].append(values[hit])
+        if hit.any():
+            kept.append({"step": step, "group": group[hit], "photon": idx[hit], "end": s["end"][hit],
+                         "direction": d[hit], "power": s["new_power"][hit]})
         alive = alive_after(s["status"])
         if step == steps:
-            alive_power = _group_sums(group[alive], s["new_power"][alive], len(groups))
+            alive_group, alive_power = group[alive], s["new_power"][alive]
         group, idx, seed = group[alive], idx[alive], seed[alive]
         o, d, inside, power = s["end"][alive], s["new_d"][alive], s["new_inside"][alive], s["new_power"][alive]
         if len(idx) == 0:
             break
-    rows = np.zeros(sum(len(g) for g in kept["group"]), COLLISION_DTYPE)
-    for name in COLLISION_DTYPE.names:  # the records' float32 and integer fields, as exact_photon_records writes
-        rows[name] = np.concatenate(kept[name]) if kept[name] else rows[name]
-    owner = np.concatenate(kept["group"]) if kept["group"] else np.zeros(0, np.int64)
-    order = np.argsort(owner, kind="stable")  # by group, then by step, then by photon order: one replay's order
-    rows, owner = rows[order], owner[order]
-    bounds = np.searchsorted(owner, np.arange(len(groups) + 1))
-    out = []
-    for g, (first, _) in enumerate(groups):
-        mine = rows[bounds[g]:bounds[g + 1]]
-        per_step = np.searchsorted(mine["step"], np.arange(1, steps + 2))  # one replay's rows run by step
-        for k in range(steps):
-            collided_power[g, k] = mine["power"][per_step[k]:per_step[k + 1]].astype(np.float64).sum(axis=0)
-        out.append(Collisions(rows=mine, emitted_power=first["power_start"].astype(np.float64).sum(axis=0),
-                              alive_power=alive_power[g], collided_power=collided_power[g], photons=len(first)))
-    return out
+    return kept, (alive_group, alive_power)
+
+
+def _sum_by_group_and_step(out: np.ndarray, owner: np.ndarray, rows: np.ndarray) -> None:
+    """out[g, k] (groups×steps×3) = the RGB power of group g's collisions at step k + 1:
+    the rows' float32 values summed in float64 in row order, one run of rows at a time
+    (``rows`` sorted by group, then step)."""
+    if len(rows) == 0:
+        return
+    key = owner * out.shape[1] + (rows["step"].astype(np.int64) - 1)
+    starts = np.flatnonzero(np.r_[True, key[1:] != key[:-1]])
+    out.reshape(-1, 3)[key[starts]] = np.add.reduceat(rows["power"].astype(np.float64), starts, axis=0)
 
 
 def _group_sums(group: np.ndarray, power: np.ndarray, groups: int) -> np.ndarray:

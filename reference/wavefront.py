@@ -1,0 +1,209 @@
+"""The exact replay's steps in Dr.Jit: the photons' state stays on the device between
+steps, and each step is one fused kernel around the ray cast.
+
+``reference.replay`` traced a launch's photons with one numpy pass after another per
+step (``oracle.advance``: the box exit, the random numbers, the oracle query's copies
+in and out, the surface interaction), which held the replay to 0.07–0.16 of the
+machine's ray-casting bound (``bench/exact_replay.py``). Here the same physics, in
+the same float64 arithmetic and order of operations, runs as Dr.Jit arrays of the
+oracle's Mitsuba variant (LLVM on the CPU, CUDA on a GPU); only each step's medium
+collisions and, after the last step, the photons still alive come back to numpy.
+
+Equal to ``oracle.advance`` to float32 rounding of what the records keep (a test
+compares every built-in): add, multiply, divide and square root round alike in both;
+Dr.Jit's ``exp`` differs from numpy's in the last bit of a float64 now and then,
+below the records' float32; the free flight, where a float32 ``log`` of numpy and
+of Dr.Jit differ in a quarter of the 2^24 possible draws, is read from a table of
+numpy's own values (:func:`free_flight_table`).
+"""
+
+from __future__ import annotations
+
+import sys
+from functools import lru_cache
+
+import numpy as np
+
+from volcaustics.scenes.formats import STATUS_COLLIDED, STATUS_LEFT_SCENE, STATUS_LOST, STATUS_SURFACE
+from volcaustics.scenes.rng import uniform
+
+from .oracle import Oracle, ReplayConstants
+
+_MULT, _INC, _WORD = 747796405, 2891336453, 277803737  # scenes.rng's PCG constants
+
+
+@lru_cache(maxsize=4)
+def free_flight_table(sigma_bar: float) -> np.ndarray:
+    """2^24 float32: the free-flight distance ``-log(1 - u) / sigma_bar`` for every
+    u = k·2^-24 (``scenes.rng.uniform``'s grid), in numpy's float32 arithmetic as
+    ``oracle.advance`` computes it, so both replays draw the very same distances."""
+    u = np.arange(1 << 24, dtype=np.uint32).astype(np.float32) * np.float32(2.0**-24)
+    return -np.log(np.float32(1.0) - u) / np.float32(sigma_bar)
+
+
+class Wavefront:
+    """The step kernel of one scene's exact replay on ``oracle``'s Mitsuba variant."""
+
+    def __init__(self, c: ReplayConstants, oracle: Oracle):
+        import drjit as dr
+
+        mi = self.mi = oracle.mi
+        m = sys.modules[mi.Float.__module__]
+        self.dr, self.c, self.oracle = dr, c, oracle
+        self.F64, self.V64, self.U32, self.I32, self.F32 = m.Float64, m.Array3f64, mi.UInt32, mi.Int32, mi.Float
+        self.sigma_t = [float(x) for x in c.sigma_t]
+        self.ior = self.F64(c.ior)                   # per object, the medium's last
+        self.absorption = [self.F64(c.absorption[:, k]) for k in range(3)]
+        self.shape_index = self.I32(oracle.shape_index.astype(np.int32))
+        self.free = self.F32(free_flight_table(c.sigma_bar)) if c.sigma_bar > 0 else None
+
+    # --- the counter-based random numbers (scenes.rng) ---------------------------------
+    def _pcg(self, v):
+        state = v * _MULT + _INC
+        word = ((state >> ((state >> 28) + 4)) ^ state) * _WORD
+        return (word >> 22) ^ word
+
+    def _hash(self, seed, photon, step, dim: int):
+        return self._pcg(self._pcg(self._pcg(self._pcg(seed) + photon) + step) + dim)
+
+    # --- one step ---------------------------------------------------------------------
+    def step(self, step: int, seed, idx, o, d, inside, power) -> dict:
+        """``oracle.advance`` for the photons ``idx`` with ``seed`` (U32), at ``o`` going
+        ``d`` (V64), ``inside`` (I32, −1 medium), ``power`` (V64): lazy arrays of the
+        step's end, status, new power and the state after it."""
+        dr, F64, V64 = self.dr, self.F64, self.V64
+        c, mi = self.c, self.mi
+        step_u = dr.opaque(self.U32, step)  # one kernel for every step: the step is a value, not a constant
+        # the distance to the medium box's exit (scenes.bounds.box_exit)
+        span = None
+        for k in range(3):
+            inv = 1.0 / d[k]
+            far = dr.maximum((float(c.lo[k]) - o[k]) * inv, (float(c.hi[k]) - o[k]) * inv)
+            far = dr.select(dr.isnan(far), dr.inf, far)
+            span = far if span is None else dr.minimum(span, far)
+        span = dr.maximum(span, 0.0)
+        medium = inside < 0
+        # free flight from u(seed, photon, step, 0): numpy's own float32 distances
+        if self.free is not None:
+            k = self._hash(seed, idx, step_u, 0) >> 8
+            max_len = dr.select(medium, F64(dr.gather(self.F32, self.free, k)), span)
+        else:
+            max_len = F64(span)
+        search = dr.minimum(max_len, span)
+        # the exact first hit (oracle.first_hits: the same float32 ray and epsilon)
+        eps = self.oracle.epsilon
+        origin = o + d * eps
+        ray = mi.Ray3f(mi.Point3f(self.F32(origin[0]), self.F32(origin[1]), self.F32(origin[2])),
+                       mi.Vector3f(self.F32(d[0]), self.F32(d[1]), self.F32(d[2])))
+        ray.maxt = self.F32(dr.maximum(search - eps, 0.0))
+        self.oracle.rays += dr.width(idx)
+        if self.oracle.segments is not None:
+            self.oracle.segments.append(tuple(_numpy(v) for v in (ray.o, ray.d, ray.maxt)))
+        si = self.oracle.mi_scene.ray_intersect(ray)
+        hit = si.is_valid() & (search > eps)
+        t = dr.select(hit, F64(si.t) + eps, 0.0)
+        sid = dr.clip(self.I32(dr.reinterpret_array(self.U32, si.shape)), 0, dr.width(self.shape_index) - 1)
+        shape = dr.select(hit, dr.gather(self.I32, self.shape_index, self.U32(sid)), -1)
+        collides = medium & (max_len <= span)
+        along = dr.select(hit, t, dr.select(collides, max_len, search))
+        end = o + d * along
+        # transmittance of the distance travelled (the medium's, or the glass's inside)
+        travelled = dr.select(hit, t, dr.select(collides, max_len, 0.0))
+        inside_at = self.U32(dr.select(medium, dr.width(self.ior) - 1, inside))
+        new_power = V64(*(power[k] * dr.exp(-dr.select(medium, self.sigma_t[k],
+                                                        dr.gather(F64, self.absorption[k], inside_at))
+                                            * travelled) for k in range(3)))
+        status = dr.select(hit, STATUS_SURFACE, dr.select(~medium, STATUS_LOST,
+                                                          dr.select(collides, STATUS_COLLIDED, STATUS_LEFT_SCENE)))
+        # the surface interaction where it hit (oracle.surface_interaction)
+        xi = F64(self.F32(self._hash(seed, idx, step_u, 1) >> 8) * (2.0**-24))
+        n = V64(si.sh_frame.n)
+        new_d, interacted_power, new_inside = self._interaction(d, new_power, n, V64(si.n), shape, xi)
+        return {"end": end, "status": self.I32(status), "new_power": dr.select(hit, interacted_power, new_power),
+                "new_d": dr.select(hit, new_d, d), "new_inside": dr.select(hit, new_inside, inside)}
+
+    def _interaction(self, d, power, n, n_geometric, material, xi):
+        """``oracle.surface_interaction`` (its operations in its order): the new
+        direction, power and inside."""
+        dr, F64, V64, c = self.dr, self.F64, self.V64, self.c
+        from_outside = _dot(d, n) <= 0
+        n = dr.select(from_outside, n, -n)
+        ior = dr.gather(F64, self.ior, self.U32(dr.maximum(material, 0)))
+        eta = dr.select(from_outside, ior, 1.0 / ior)
+        cos_i = -_dot(d, n)
+        sin2_t = (1.0 - cos_i * cos_i) / (eta * eta)
+        cos_t = dr.sqrt(dr.maximum(1.0 - sin2_t, 0.0))
+        r_s = (cos_i - eta * cos_t) / (cos_i + eta * cos_t)
+        r_p = (eta * cos_i - cos_t) / (eta * cos_i + cos_t)
+        tir = sin2_t >= 1.0
+        R = dr.select(tir, 1.0, 0.5 * (r_s * r_s + r_p * r_p))
+        refracted = V64(*(d[k] / eta + (cos_i / eta - cos_t) * n[k] for k in range(3)))
+        length = dr.maximum(dr.sqrt(_dot(refracted, refracted)), 1e-300)
+        refracted = V64(*(refracted[k] / length for k in range(3)))
+        twice = 2.0 * _dot(d, n)
+        reflected = V64(*(d[k] - twice * n[k] for k in range(3)))
+        reflect = tir | ((xi < R) if c.stochastic else False)
+        if not c.stochastic:
+            power = dr.select(tir, power, V64(*(power[k] * (1.0 - R) for k in range(3))))
+        new_d = dr.select(reflect, reflected, refracted)
+        new_inside = dr.select(_dot(new_d, n_geometric) < 0, material, -1)
+        return new_d, power, new_inside
+
+    # --- a launch ---------------------------------------------------------------------
+    def trace(self, steps: int, group, seed, idx, o, d, inside, power) -> tuple:
+        """Replay the photons (numpy: group, seed uint32, idx int64, o, d N×3 float64,
+        inside int64, power N×3 float64) ``steps`` steps: (collisions, alive) where
+        collisions holds per step the medium collisions' group, photon, step, end,
+        direction and power (numpy, the photons' order) and alive the (group, power)
+        of those still travelling after the last step."""
+        dr, V64, U32, I32 = self.dr, self.V64, self.U32, self.I32
+        state = {"group": U32(group.astype(np.uint32)), "seed": U32(seed.astype(np.uint32)),
+                 "idx": U32(idx.astype(np.uint32)), "o": _vector(V64, o), "d": _vector(V64, d),
+                 "inside": I32(inside.astype(np.int32)),
+                 "power": _vector(V64, power)}
+        kept = []
+        for step in range(1, steps + 1):
+            s = self.step(step, state["seed"], state["idx"], state["o"], state["d"], state["inside"], state["power"])
+            collided = s["status"] == STATUS_COLLIDED
+            alive = (s["status"] == STATUS_SURFACE) | collided
+            dr.eval(s, collided, alive)
+            at = dr.compress(collided)
+            if dr.width(at):
+                row = {"group": dr.gather(U32, state["group"], at), "photon": dr.gather(U32, state["idx"], at),
+                       "end": dr.gather(V64, s["end"], at), "direction": dr.gather(V64, state["d"], at),
+                       "power": dr.gather(V64, s["new_power"], at)}
+                dr.eval(row)
+                kept.append({"step": step, **{name: _numpy(value) for name, value in row.items()}})
+            on = dr.compress(alive)
+            state = {"group": dr.gather(U32, state["group"], on), "seed": dr.gather(U32, state["seed"], on),
+                     "idx": dr.gather(U32, state["idx"], on), "o": dr.gather(V64, s["end"], on),
+                     "d": dr.gather(V64, s["new_d"], on), "inside": dr.gather(I32, s["new_inside"], on),
+                     "power": dr.gather(V64, s["new_power"], on)}
+            dr.eval(state)
+            if dr.width(on) == 0:
+                break
+        return kept, (_numpy(state["group"]).astype(np.int64), _numpy(state["power"]))
+
+
+def _dot(a, b):
+    """a·b summed as numpy's einsum and norm do: (x + y) + z, no fused multiply-add."""
+    return (a[0] * b[0] + a[1] * b[1]) + a[2] * b[2]
+
+
+def _vector(kind, array: np.ndarray):
+    """An N×3 numpy array as a Dr.Jit 3-vector of ``kind``."""
+    return kind(np.ascontiguousarray(np.asarray(array, np.float64).T))
+
+
+def _numpy(value) -> np.ndarray:
+    """A Dr.Jit array as numpy: N×3 for a 3-vector, N otherwise."""
+    array = value.numpy()
+    return array.T if array.ndim == 2 else array
+
+
+# the step's uniform draws, for the test that ties them to scenes.rng
+def draws(wavefront: Wavefront, seed: np.ndarray, photon: np.ndarray, step: int, dim: int) -> tuple:
+    """(Dr.Jit's, numpy's) uniform(seed, photon, step, dim) as float32 arrays."""
+    h = wavefront._hash(wavefront.U32(seed), wavefront.U32(photon), wavefront.dr.opaque(wavefront.U32, step), dim)
+    got = wavefront.F32(h >> 8) * (2.0**-24)
+    return got.numpy(), uniform(seed, photon, step, dim)
