@@ -32,14 +32,15 @@ def raw_throughput(oracle, segments: list) -> dict:
     mi = oracle.mi
     o, d, L = (np.concatenate(parts) for parts in zip(*segments))
     out = {}
-    for what in ("t", "interaction"):
+    for what in ("t", "needed", "interaction"):
         ray = mi.Ray3f(mi.Point3f(*o.T), mi.Vector3f(*d.T))
         ray.maxt = mi.Float(L)
         dr.eval(ray)
         dr.sync_thread()
         t0 = time.perf_counter()
         si = oracle.mi_scene.ray_intersect(ray)
-        dr.eval(si.t if what == "t" else si)
+        dr.eval(si.t if what == "t" else (si.t, si.is_valid(), si.shape, si.sh_frame.n, si.n) if what == "needed"
+                else si)
         dr.sync_thread()
         out[what] = len(L) / (time.perf_counter() - t0) / 1e6
     return out

@@ -111,7 +111,15 @@ def surface_interaction(d, power, n, n_geometric, hit_material, xi, ior, stochas
     n: outward shading normals, n_geometric: outward geometric normals (N×3). As
     Mitsuba's dielectric, the incident side and eta come from the shading normal;
     inside afterwards follows the one rule of docs/conventions.md: below the geometric surface is
-    inside the object hit."""
+    inside the object hit. :func:`interaction_geometry`, then :func:`interaction_choice`."""
+    return interaction_choice(interaction_geometry(d, n, hit_material, ior), power, n_geometric, hit_material, xi,
+                              stochastic)
+
+
+def interaction_geometry(d, n, hit_material, ior) -> dict:
+    """What a surface interaction is before its Fresnel choice (no random number): the
+    reflected and refracted directions, the reflectance R and total internal reflection
+    (``tir``), for directions ``d`` at outward shading normals ``n`` (N×3)."""
     from_outside = np.einsum("ij,ij->i", d, n) <= 0
     n = np.where(from_outside[:, None], n, -n)
     eta = np.where(from_outside, ior[hit_material], 1.0 / ior[hit_material])
@@ -123,10 +131,17 @@ def surface_interaction(d, power, n, n_geometric, hit_material, xi, ior, stochas
     refracted = d / eta[:, None] + (cos_i / eta - cos_t)[:, None] * n
     refracted /= np.maximum(np.linalg.norm(refracted, axis=1, keepdims=True), 1e-300)
     reflected = d - 2.0 * np.einsum("ij,ij->i", d, n)[:, None] * n
+    return {"reflected": reflected, "refracted": refracted, "R": R, "tir": tir}
+
+
+def interaction_choice(geometry: dict, power, n_geometric, hit_material, xi, stochastic: bool):
+    """The interaction's Fresnel choice with ``xi`` (N) on :func:`interaction_geometry`'s
+    ``geometry``: (d, power, inside, flags) as :func:`surface_interaction`."""
+    tir, R = geometry["tir"], geometry["R"]
     reflect = tir | (stochastic & (xi < R))
     if not stochastic:
         power = np.where(tir[:, None], power, power * (1.0 - R)[:, None])
-    new_d = np.where(reflect[:, None], reflected, refracted)
+    new_d = np.where(reflect[:, None], geometry["reflected"], geometry["refracted"])
     new_inside = np.where(np.einsum("ij,ij->i", new_d, n_geometric) < 0, hit_material, -1)
     flags = np.where(reflect, FLAG_REFLECTED, 0) | np.where(tir, FLAG_TIR, 0)
     return new_d, power, new_inside, flags

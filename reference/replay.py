@@ -24,7 +24,15 @@ from volcaustics.scenes.bounds import box_exit
 from volcaustics.scenes.formats import RECORD_DTYPE, STATUS_COLLIDED
 from volcaustics.scenes.rng import uniform
 
-from .oracle import Oracle, ReplayConstants, advance, alive_after, emission_state, surface_interaction
+from .oracle import (
+    Oracle,
+    ReplayConstants,
+    advance,
+    alive_after,
+    emission_state,
+    interaction_choice,
+    interaction_geometry,
+)
 
 # Photons per launch: about 1 kB each of float64 state and temporaries at the widest step
 MAX_PHOTONS = 1 << 21
@@ -83,18 +91,21 @@ def exact_emission(scene, groups, *, fresnel: str, oracle: Oracle | None = None,
 
     def launch(part):
         distinct = list({id(rays): rays for rays, _ in part}.values())  # A's grid serves every replay seed
-        traced = dict(zip(map(id, distinct), hits(distinct)))
-        out = []
-        for rays, seed in part:
-            at, d, q = traced[id(rays)]
+        traced = {}
+        for rays, (at, d, q) in zip(distinct, hits(distinct)):  # what does not depend on the seed: once per grid
             photon, t = np.asarray(rays.photon, np.int64)[at], q["t"]
             carried = np.asarray(rays.power, np.float64)[at] * np.exp(-c.sigma_t[None, :] * t[:, None])
+            traced[id(rays)] = (photon, light + d * t[:, None], carried, q,
+                                interaction_geometry(d, q["normal"], q["shape"], c.ior))
+        out = []
+        for rays, seed in part:
+            photon, start, carried, q, geometry = traced[id(rays)]
             xi = uniform(seed, photon.astype(np.uint32), 0, 1).astype(np.float64)
-            new_d, new_power, inside, _ = surface_interaction(d, carried, q["normal"], q["geometric_normal"],
-                                                              q["shape"], xi, c.ior, c.stochastic)
+            new_d, new_power, inside, _ = interaction_choice(geometry, carried, q["geometric_normal"], q["shape"], xi,
+                                                             c.stochastic)
             first = np.zeros(len(photon), RECORD_DTYPE)
             first["photon"], first["step"] = photon, 1
-            first["start"], first["direction"] = light + d * t[:, None], new_d
+            first["start"], first["direction"] = start, new_d
             first["inside"], first["power_start"] = inside, new_power
             out.append(first)
         return out
