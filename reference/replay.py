@@ -76,27 +76,10 @@ def exact_emission(scene, groups, *, fresnel: str, oracle: Oracle | None = None,
     c = ReplayConstants(scene, fresnel)
     light = np.asarray(scene.light.position, np.float64)
 
-    def hits(distinct):
-        """Per set of rays, those with power that hit and their exact first hits: one query."""
-        lit = [np.flatnonzero(np.any(np.asarray(rays.power) > 0, axis=1)) for rays in distinct]
-        d = np.concatenate([np.asarray(rays.direction, np.float64)[m] for rays, m in zip(distinct, lit)])
-        origin = np.broadcast_to(light, d.shape)
-        q = oracle.first_hits(origin, d, box_exit(origin, d, c.lo, c.hi))
-        bounds = np.cumsum([0] + [len(m) for m in lit])
-        out = []
-        for m, lo, hi in zip(lit, bounds[:-1], bounds[1:]):
-            hit = q["hit"][lo:hi]
-            out.append((m[hit], d[lo:hi][hit], {key: value[lo:hi][hit] for key, value in q.items()}))
-        return out
-
     def launch(part):
-        distinct = list({id(rays): rays for rays, _ in part}.values())  # A's grid serves every replay seed
         traced = {}
-        for rays, (at, d, q) in zip(distinct, hits(distinct)):  # what does not depend on the seed: once per grid
-            photon, t = np.asarray(rays.photon, np.int64)[at], q["t"]
-            carried = np.asarray(rays.power, np.float64)[at] * np.exp(-c.sigma_t[None, :] * t[:, None])
-            traced[id(rays)] = (photon, light + d * t[:, None], carried, q,
-                                interaction_geometry(d, q["normal"], q["shape"], c.ior))
+        for key, (photon, start, d, carried, q) in _seed_free(part, c, oracle, light).items():
+            traced[key] = (photon, start, carried, q, interaction_geometry(d, q["normal"], q["shape"], c.ior))
         out = []
         for rays, seed in part:
             photon, start, carried, q, geometry = traced[id(rays)]
@@ -111,6 +94,29 @@ def exact_emission(scene, groups, *, fresnel: str, oracle: Oracle | None = None,
         return out
 
     return _packed(groups, lambda group: len(group[0].photon), launch, max_photons)
+
+
+def _seed_free(part: list, c: ReplayConstants, oracle: Oracle, light: np.ndarray) -> dict:
+    """What an exact emission holds before its Fresnel choice, once per set of rays of
+    ``part`` ((rays, seed) pairs; A's grid serves every replay seed), keyed by the
+    set's id: the photons with power that hit (photon), where (start), their direction
+    d, their power carried there through the medium and the oracle's answer q: one
+    query for all sets."""
+    distinct = list({id(rays): rays for rays, _ in part}.values())
+    lit = [np.flatnonzero(np.any(np.asarray(rays.power) > 0, axis=1)) for rays in distinct]
+    d = np.concatenate([np.asarray(rays.direction, np.float64)[m] for rays, m in zip(distinct, lit)])
+    origin = np.broadcast_to(light, d.shape)
+    q = oracle.first_hits(origin, d, box_exit(origin, d, c.lo, c.hi))
+    bounds = np.cumsum([0] + [len(m) for m in lit])
+    out = {}
+    for rays, m, lo, hi in zip(distinct, lit, bounds[:-1], bounds[1:]):
+        hit = q["hit"][lo:hi]
+        mine = {key: value[lo:hi][hit] for key, value in q.items()}
+        direction, t = d[lo:hi][hit], mine["t"]
+        carried = np.asarray(rays.power, np.float64)[m[hit]] * np.exp(-c.sigma_t[None, :] * t[:, None])
+        out[id(rays)] = (np.asarray(rays.photon, np.int64)[m[hit]], light + direction * t[:, None], direction, carried,
+                         mine)
+    return out
 
 
 def _packed(groups, size, launch, max_photons: int) -> list:
@@ -167,9 +173,19 @@ def _launch(c: ReplayConstants, oracle: Oracle, groups: list, steps: int, tracer
     idx, o, d, inside, power = (np.concatenate(parts) for parts in zip(*states))
     group = np.repeat(np.arange(len(groups)), [len(first) for first, _ in groups])
     seed = np.repeat(np.asarray([s for _, s in groups], np.uint32), [len(first) for first, _ in groups])
-    kept, (alive_group, alive_power) = tracer(steps, group, seed, idx, o, d, inside, power)
-    alive_power = _group_sums(alive_group, alive_power, len(groups))
-    collided_power = np.zeros((len(groups), steps, 3))
+    kept, alive = tracer(steps, group, seed, idx, o, d, inside, power)
+    emitted = np.stack([first["power_start"].astype(np.float64).sum(axis=0) for first, _ in groups])
+    return _collisions(kept, alive, steps, emitted, [len(first) for first, _ in groups])
+
+
+def _collisions(kept: list, alive: tuple, steps: int, emitted: np.ndarray, photons: list) -> list:
+    """One :class:`Collisions` per group of a launch from what its tracer returned:
+    ``kept``, per step the collisions' group, photon, end, direction and power;
+    ``alive``, the (group, power) of the photons alive after the last step; the
+    groups' ``emitted`` power and ``photons``."""
+    groups = len(photons)
+    alive_power = _group_sums(*alive, groups)
+    collided_power = np.zeros((groups, steps, 3))
     rows = np.zeros(sum(len(k["group"]) for k in kept), COLLISION_DTYPE)
     for name in COLLISION_DTYPE.names:  # the records' float32 and integer fields, as exact_photon_records writes
         if kept:
@@ -178,14 +194,48 @@ def _launch(c: ReplayConstants, oracle: Oracle, groups: list, steps: int, tracer
     owner = np.concatenate([k["group"] for k in kept]).astype(np.int64) if kept else np.zeros(0, np.int64)
     order = np.argsort(owner, kind="stable")  # by group, then by step, then by photon order: one replay's order
     rows, owner = rows[order], owner[order]
-    bounds = np.searchsorted(owner, np.arange(len(groups) + 1))
+    bounds = np.searchsorted(owner, np.arange(groups + 1))
     _sum_by_group_and_step(collided_power, owner, rows)
-    out = []
-    for g, (first, _) in enumerate(groups):
-        mine = rows[bounds[g]:bounds[g + 1]]
-        out.append(Collisions(rows=mine, emitted_power=first["power_start"].astype(np.float64).sum(axis=0),
-                              alive_power=alive_power[g], collided_power=collided_power[g], photons=len(first)))
-    return out
+    return [Collisions(rows=rows[bounds[g]:bounds[g + 1]], emitted_power=emitted[g], alive_power=alive_power[g],
+                       collided_power=collided_power[g], photons=photons[g]) for g in range(groups)]
+
+
+def exact_replays(scene, groups, *, steps: int, fresnel: str, oracle: Oracle | None = None,
+                  max_photons: int = MAX_PHOTONS, engine: str = "drjit") -> list:
+    """:func:`exact_emission`, then :func:`exact_collisions` from what it emitted: one
+    :class:`Collisions` per (rays, seed) group. With the "drjit" engine the emitted
+    state is made on the device (``Wavefront.emitted``: the records' float32 values,
+    as the two steps pass them) and never comes back to numpy."""
+    oracle = oracle or Oracle(scene)
+    if engine == "numpy":
+        firsts = exact_emission(scene, groups, fresnel=fresnel, oracle=oracle, max_photons=max_photons)
+        return exact_collisions(scene, [(first, seed) for first, (_, seed) in zip(firsts, groups)], steps=steps,
+                                fresnel=fresnel, oracle=oracle, max_photons=max_photons, engine=engine)
+    c = ReplayConstants(scene, fresnel)
+    wavefront, light = _wavefront(c, oracle), np.asarray(scene.light.position, np.float64)
+
+    def launch(part):
+        distinct = list({id(rays): rays for rays, _ in part}.values())  # A's grid serves every replay seed
+        lit = [np.flatnonzero(np.any(np.asarray(rays.power) > 0, axis=1)) for rays in distinct]
+        hit, hits = wavefront.light_hits(
+            light, *(np.concatenate([np.asarray(getattr(rays, name))[m] for rays, m in zip(distinct, lit)])
+                     for name in ("direction", "power", "photon")))
+        hits_so_far = np.concatenate([[0], np.cumsum(hit)])
+        bounds = np.cumsum([0] + [len(m) for m in lit])
+        per_set = hits_so_far[bounds[1:]] - hits_so_far[bounds[:-1]]  # each set's photons that hit
+        offset = dict(zip(map(id, distinct), np.cumsum([0, *per_set])))
+        count = dict(zip(map(id, distinct), per_set))
+        counts = [int(count[id(rays)]) for rays, _ in part]
+        take = np.concatenate([offset[id(rays)] + np.arange(n) for (rays, _), n in zip(part, counts)])
+        group = np.repeat(np.arange(len(part)), counts)
+        seed = np.repeat(np.asarray([s for _, s in part], np.uint32), counts)
+        state, power = wavefront.emitted(hits, take.astype(np.int64), group, seed)
+        kept, alive = wavefront.run(steps, state)
+        starts = np.cumsum([0] + counts)
+        emitted = np.stack([power[lo:hi].astype(np.float64).sum(axis=0) for lo, hi in zip(starts[:-1], starts[1:])])
+        return _collisions(kept, alive, steps, emitted, counts)
+
+    return _packed(groups, lambda group: len(group[0].photon), launch, max_photons)
 
 
 def _numpy_steps(steps, group, seed, idx, o, d, inside, power, *, c, oracle) -> tuple:

@@ -72,16 +72,8 @@ class Wavefront:
         ``d`` (V64), ``inside`` (I32, −1 medium), ``power`` (V64): lazy arrays of the
         step's end, status, new power and the state after it."""
         dr, F64, V64 = self.dr, self.F64, self.V64
-        c, mi = self.c, self.mi
         step_u = dr.opaque(self.U32, step)  # one kernel for every step: the step is a value, not a constant
-        # the distance to the medium box's exit (scenes.bounds.box_exit)
-        span = None
-        for k in range(3):
-            inv = 1.0 / d[k]
-            far = dr.maximum((float(c.lo[k]) - o[k]) * inv, (float(c.hi[k]) - o[k]) * inv)
-            far = dr.select(dr.isnan(far), dr.inf, far)
-            span = far if span is None else dr.minimum(span, far)
-        span = dr.maximum(span, 0.0)
+        span = self._box_exit(o, d)
         medium = inside < 0
         # free flight from u(seed, photon, step, 0): numpy's own float32 distances
         if self.free is not None:
@@ -90,20 +82,7 @@ class Wavefront:
         else:
             max_len = F64(span)
         search = dr.minimum(max_len, span)
-        # the exact first hit (oracle.first_hits: the same float32 ray and epsilon)
-        eps = self.oracle.epsilon
-        origin = o + d * eps
-        ray = mi.Ray3f(mi.Point3f(self.F32(origin[0]), self.F32(origin[1]), self.F32(origin[2])),
-                       mi.Vector3f(self.F32(d[0]), self.F32(d[1]), self.F32(d[2])))
-        ray.maxt = self.F32(dr.maximum(search - eps, 0.0))
-        self.oracle.rays += dr.width(idx)
-        if self.oracle.segments is not None:
-            self.oracle.segments.append(tuple(_numpy(v) for v in (ray.o, ray.d, ray.maxt)))
-        si = self.oracle.mi_scene.ray_intersect(ray)
-        hit = si.is_valid() & (search > eps)
-        t = dr.select(hit, F64(si.t) + eps, 0.0)
-        sid = dr.clip(self.I32(dr.reinterpret_array(self.U32, si.shape)), 0, dr.width(self.shape_index) - 1)
-        shape = dr.select(hit, dr.gather(self.I32, self.shape_index, self.U32(sid)), -1)
+        hit, t, shape, n, n_geometric = self._first_hit(o, d, search)
         collides = medium & (max_len <= span)
         along = dr.select(hit, t, dr.select(collides, max_len, search))
         end = o + d * along
@@ -117,10 +96,63 @@ class Wavefront:
                                                           dr.select(collides, STATUS_COLLIDED, STATUS_LEFT_SCENE)))
         # the surface interaction where it hit (oracle.surface_interaction)
         xi = F64(self.F32(self._hash(seed, idx, step_u, 1) >> 8) * (2.0**-24))
-        n = V64(si.sh_frame.n)
-        new_d, interacted_power, new_inside = self._interaction(d, new_power, n, V64(si.n), shape, xi)
+        new_d, interacted_power, new_inside = self._interaction(d, new_power, n, n_geometric, shape, xi)
         return {"end": end, "status": self.I32(status), "new_power": dr.select(hit, interacted_power, new_power),
                 "new_d": dr.select(hit, new_d, d), "new_inside": dr.select(hit, new_inside, inside)}
+
+    def _box_exit(self, o, d):
+        """The distance along ``d`` from ``o`` (V64) to the medium box's exit
+        (``scenes.bounds.box_exit``)."""
+        dr, c = self.dr, self.c
+        span = None
+        for k in range(3):
+            inv = 1.0 / d[k]
+            far = dr.maximum((float(c.lo[k]) - o[k]) * inv, (float(c.hi[k]) - o[k]) * inv)
+            far = dr.select(dr.isnan(far), dr.inf, far)
+            span = far if span is None else dr.minimum(span, far)
+        return dr.maximum(span, 0.0)
+
+    def _first_hit(self, o, d, search):
+        """``oracle.first_hits`` on the segments o + t·d, t ≤ ``search`` (the same float32
+        ray and epsilon): lazy (hit, t, shape, shading normal, geometric normal)."""
+        dr, F32, F64, V64, mi = self.dr, self.F32, self.F64, self.V64, self.mi
+        eps = self.oracle.epsilon
+        origin = o + d * eps
+        ray = mi.Ray3f(mi.Point3f(F32(origin[0]), F32(origin[1]), F32(origin[2])),
+                       mi.Vector3f(F32(d[0]), F32(d[1]), F32(d[2])))
+        ray.maxt = F32(dr.maximum(search - eps, 0.0))
+        self.oracle.rays += dr.width(search)
+        if self.oracle.segments is not None:
+            self.oracle.segments.append(tuple(_numpy(v) for v in (ray.o, ray.d, ray.maxt)))
+        si = self.oracle.mi_scene.ray_intersect(ray)
+        hit = si.is_valid() & (search > eps)
+        t = dr.select(hit, F64(si.t) + eps, 0.0)
+        sid = dr.clip(self.I32(dr.reinterpret_array(self.U32, si.shape)), 0, dr.width(self.shape_index) - 1)
+        shape = dr.select(hit, dr.gather(self.I32, self.shape_index, self.U32(sid)), -1)
+        return hit, t, shape, V64(si.sh_frame.n), V64(si.n)
+
+    def light_hits(self, light, direction: np.ndarray, power: np.ndarray, photon: np.ndarray) -> tuple:
+        """Rays from the point ``light`` along ``direction`` (numpy N×3 float64, with
+        their ``power`` N×3 and ``photon`` N) to their exact first surface, as
+        ``reference.replay``'s seed-free emission: (the hit mask as numpy, and for the
+        hits, on the device: photon, start, d, carried (the power times the medium's
+        transmittance to the hit), normal, geometric_normal, shape)."""
+        dr, V64, U32 = self.dr, self.V64, self.U32
+        d = _vector(V64, direction)
+        o = V64(*(dr.full(self.F64, float(x), len(direction)) for x in light))
+        hit, t, shape, n, n_geometric = self._first_hit(o, d, self._box_exit(o, d))
+        dr.eval(hit, t, shape, n, n_geometric)
+        at = dr.compress(hit)
+        t = dr.gather(self.F64, t, at)
+        d = dr.gather(V64, d, at)
+        carried = dr.gather(V64, _vector(V64, power), at)
+        carried = V64(*(carried[k] * dr.exp(-self.sigma_t[k] * t) for k in range(3)))
+        hits = {"photon": dr.gather(U32, U32(photon.astype(np.uint32)), at),
+                "start": V64(*(float(light[k]) + d[k] * t for k in range(3))), "d": d, "carried": carried,
+                "normal": dr.gather(V64, n, at), "geometric_normal": dr.gather(V64, n_geometric, at),
+                "shape": dr.gather(self.I32, shape, at)}
+        dr.eval(hits)
+        return hit.numpy().astype(bool), hits
 
     def _interaction(self, d, power, n, n_geometric, material, xi):
         """``oracle.surface_interaction`` (its operations in its order): the new
@@ -156,11 +188,45 @@ class Wavefront:
         collisions holds per step the medium collisions' group, photon, step, end,
         direction and power (numpy, the photons' order) and alive the (group, power)
         of those still travelling after the last step."""
-        dr, V64, U32, I32 = self.dr, self.V64, self.U32, self.I32
+        V64, U32, I32 = self.V64, self.U32, self.I32
         state = {"group": U32(group.astype(np.uint32)), "seed": U32(seed.astype(np.uint32)),
                  "idx": U32(idx.astype(np.uint32)), "o": _vector(V64, o), "d": _vector(V64, d),
                  "inside": I32(inside.astype(np.int32)),
                  "power": _vector(V64, power)}
+        return self.run(steps, state)
+
+    def emitted(self, hits: dict, take: np.ndarray, group: np.ndarray, seed: np.ndarray) -> tuple:
+        """The state that ``reference.replay.exact_emission`` records and
+        ``oracle.emission_state`` reads back, made on the device: photons ``take`` of
+        ``hits`` (:meth:`light_hits`: per photon its photon, start, direction d, carried
+        power, normal, geometric_normal and shape at the first surface) of replay ``group``
+        with ``seed``, after the surface's interaction with the choice u(seed, photon,
+        0, 1); start, direction and power rounded to the records' float32 and the
+        direction renormalised, as the records carry them. Returns (state for
+        :meth:`run`, the float32 power of each photon as numpy)."""
+        dr, F64, V64, U32, I32, F32 = self.dr, self.F64, self.V64, self.U32, self.I32, self.F32
+        index = U32(take.astype(np.uint32))
+        at = {name: dr.gather(V64, hits[name], index)
+              for name in ("start", "d", "carried", "normal", "geometric_normal")}
+        photon = dr.gather(U32, hits["photon"], index)
+        shape = dr.gather(I32, hits["shape"], index)
+        seed_u = U32(seed.astype(np.uint32))
+        xi = F64(F32(self._hash(seed_u, photon, dr.opaque(U32, 0), 1) >> 8) * (2.0**-24))
+        new_d, power, inside = self._interaction(at["d"], at["carried"], at["normal"], at["geometric_normal"], shape,
+                                                 xi)
+        d = V64(F32(new_d[0]), F32(new_d[1]), F32(new_d[2]))   # the record's float32, renormalised
+        length = dr.sqrt(_dot(d, d))
+        power32 = V64(F32(power[0]), F32(power[1]), F32(power[2]))
+        state = {"group": U32(group.astype(np.uint32)), "seed": seed_u, "idx": photon,
+                 "o": V64(F32(at["start"][0]), F32(at["start"][1]), F32(at["start"][2])),
+                 "d": V64(d[0] / length, d[1] / length, d[2] / length), "inside": I32(inside), "power": power32}
+        dr.eval(state)
+        return state, _numpy(power32)
+
+    def run(self, steps: int, state: dict) -> tuple:
+        """:meth:`trace` from a state on the device (Dr.Jit arrays: group, seed, idx
+        U32; o, d, power V64; inside I32)."""
+        dr, V64, U32, I32 = self.dr, self.V64, self.U32, self.I32
         kept = []
         for step in range(1, steps + 1):
             s = self.step(step, state["seed"], state["idx"], state["o"], state["d"], state["inside"], state["power"])

@@ -29,7 +29,7 @@ import numpy as np
 from volcaustics.approx.emission import true_rays
 from volcaustics.approx.light import LightFrustum
 from volcaustics.approx.splat import splats_from_arrays
-from volcaustics.reference.replay import exact_collisions, exact_emission
+from volcaustics.reference.replay import exact_replays
 from volcaustics.reports.experiment.exact import ExactPhotons, pixel_footprint, subset_images
 from volcaustics.reports.experiment.exact_store import EXACT_IMAGES, exact_document, exact_key, load_exact, save_exact
 from volcaustics.reports.experiment.kernels import KERNEL_RULES, frame_kernels, splat_params
@@ -185,11 +185,9 @@ def _cut(photons: ExactPhotons, steps: int) -> ExactPhotons:
 
 def _replayed(scene, p, fresnel: str, groups: list, oracle, steps: int) -> list:
     """One :class:`ExactPhotons` per (rays, seed) of ``groups``: the rays emitted exactly
-    (``reference.replay.exact_emission``) and replayed ``steps`` steps with ``fresnel``
-    and that seed, all of them one wavefront (``reference.replay.exact_collisions``)."""
-    firsts = exact_emission(scene, groups, fresnel=fresnel, oracle=oracle)
-    done = exact_collisions(scene, [(first, s) for first, (_, s) in zip(firsts, groups)], steps=steps,
-                            fresnel=fresnel, oracle=oracle)
+    and replayed ``steps`` steps with ``fresnel`` and that seed, all of them one
+    wavefront on the device (``reference.replay.exact_replays``)."""
+    done = exact_replays(scene, groups, steps=steps, fresnel=fresnel, oracle=oracle)
     used = {**p.to_dict(), "steps": steps, "fresnel": fresnel, "emission_fresnel": fresnel}
     return [ExactPhotons(splats=splats_from_arrays(c.rows["end"], c.rows["direction"], c.rows["power"]),
                          photon=c.rows["photon"].astype(np.uint32), step=c.rows["step"].astype(np.int64),

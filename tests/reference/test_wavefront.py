@@ -1,5 +1,6 @@
-"""The exact replay's Dr.Jit engine (``reference.wavefront``) against its numpy twin
-(``oracle.advance`` step after step): on every built-in, with both Fresnel modes, the
+"""The exact replay's Dr.Jit engine (``reference.wavefront``: the emission and every
+step on the device) against its numpy twin (``exact_emission``'s records, then
+``oracle.advance`` step after step): on every built-in, with both Fresnel modes, the
 same medium collisions (photon, step, and the records' float32 end, direction and
 power) and the same power budgets. The E images are made from these rows alone, so
 equal rows are equal images."""
@@ -25,9 +26,7 @@ def _both(name: str, fresnel: str) -> tuple:
     oracle = Oracle(scene)
     frustum = LightFrustum.for_scene(scene, *medium_bounds(scene))
     groups = [(true_rays(scene.light, frustum, PHOTON_RES, seed), seed) for seed in (3, 4, 5)]
-    firsts = replay.exact_emission(scene, groups, fresnel=fresnel, oracle=oracle)
-    replays = [(first, seed) for first, (_, seed) in zip(firsts, groups)]
-    return tuple(replay.exact_collisions(scene, replays, steps=STEPS, fresnel=fresnel, oracle=oracle, engine=engine)
+    return tuple(replay.exact_replays(scene, groups, steps=STEPS, fresnel=fresnel, oracle=oracle, engine=engine)
                  for engine in ("numpy", "drjit"))
 
 
