@@ -216,13 +216,11 @@ def exact_replays(scene, groups, *, steps: int, fresnel: str, oracle: Oracle | N
 
     def launch(part):
         distinct = list({id(rays): rays for rays, _ in part}.values())  # A's grid serves every replay seed
-        lit = [np.flatnonzero(np.any(np.asarray(rays.power) > 0, axis=1)) for rays in distinct]
-        hit, hits = wavefront.light_hits(
-            light, *(np.concatenate([np.asarray(getattr(rays, name))[m] for rays, m in zip(distinct, lit)])
+        where, hits = wavefront.light_hits(
+            light, *(np.concatenate([np.asarray(getattr(rays, name)) for rays in distinct])
                      for name in ("direction", "power", "photon")))
-        hits_so_far = np.concatenate([[0], np.cumsum(hit)])
-        bounds = np.cumsum([0] + [len(m) for m in lit])
-        per_set = hits_so_far[bounds[1:]] - hits_so_far[bounds[:-1]]  # each set's photons that hit
+        bounds = np.cumsum([0] + [len(rays.photon) for rays in distinct])
+        per_set = np.diff(np.searchsorted(where, bounds))  # each set's photons that hit (in input order)
         offset = dict(zip(map(id, distinct), np.cumsum([0, *per_set])))
         count = dict(zip(map(id, distinct), per_set))
         counts = [int(count[id(rays)]) for rays, _ in part]

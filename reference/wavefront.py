@@ -134,25 +134,27 @@ class Wavefront:
     def light_hits(self, light, direction: np.ndarray, power: np.ndarray, photon: np.ndarray) -> tuple:
         """Rays from the point ``light`` along ``direction`` (numpy N×3 float64, with
         their ``power`` N×3 and ``photon`` N) to their exact first surface, as
-        ``reference.replay``'s seed-free emission: (the hit mask as numpy, and for the
-        hits, on the device: photon, start, d, carried (the power times the medium's
+        ``reference.replay``'s seed-free emission: rays without power are not cast.
+        Returns (the input positions of the rays that hit, numpy, in order; and for
+        those, on the device: photon, start, d, carried (the power times the medium's
         transmittance to the hit), normal, geometric_normal, shape)."""
         dr, V64, U32 = self.dr, self.V64, self.U32
-        d = _vector(V64, direction)
-        o = V64(*(dr.full(self.F64, float(x), len(direction)) for x in light))
+        power = _vector(V64, power)
+        lit = dr.compress((power[0] > 0) | (power[1] > 0) | (power[2] > 0))
+        d, power = dr.gather(V64, _vector(V64, direction), lit), dr.gather(V64, power, lit)
+        o = V64(*(dr.full(self.F64, float(x), dr.width(lit)) for x in light))
         hit, t, shape, n, n_geometric = self._first_hit(o, d, self._box_exit(o, d))
         dr.eval(hit, t, shape, n, n_geometric)
         at = dr.compress(hit)
-        t = dr.gather(self.F64, t, at)
-        d = dr.gather(V64, d, at)
-        carried = dr.gather(V64, _vector(V64, power), at)
+        t, d, carried = dr.gather(self.F64, t, at), dr.gather(V64, d, at), dr.gather(V64, power, at)
         carried = V64(*(carried[k] * dr.exp(-self.sigma_t[k] * t) for k in range(3)))
-        hits = {"photon": dr.gather(U32, U32(photon.astype(np.uint32)), at),
+        where = dr.gather(U32, lit, at)
+        hits = {"photon": dr.gather(U32, U32(photon.astype(np.uint32)), where),
                 "start": V64(*(float(light[k]) + d[k] * t for k in range(3))), "d": d, "carried": carried,
                 "normal": dr.gather(V64, n, at), "geometric_normal": dr.gather(V64, n_geometric, at),
                 "shape": dr.gather(self.I32, shape, at)}
-        dr.eval(hits)
-        return hit.numpy().astype(bool), hits
+        dr.eval(hits, where)
+        return where.numpy().astype(np.int64), hits
 
     def _interaction(self, d, power, n, n_geometric, material, xi):
         """``oracle.surface_interaction`` (its operations in its order): the new
