@@ -4,7 +4,7 @@
 
 For each scene, at the report's settings (quick preset, the report's seeds and
 sub-photons): the frames, then the E_∞ replays of the decomposition
-(``reports.experiment.exact_images._replayed``: A's emission with A's Fresnel and, for a
+(``reports.experiment.exact_images.replayed``: A's emission with A's Fresnel and, for a
 deterministic Fresnel, with the stochastic one, and the light's true emission, every
 seed and sub-photon as one wavefront per Fresnel mode, each from the emission ray), timed,
 then once more with their rays kept (``Oracle.segments``). Then, in the same process, the
@@ -61,7 +61,7 @@ def main(argv=None) -> int:
     from volcaustics.approx.light import LightFrustum
     from volcaustics.approx.params import QUICK
     from volcaustics.reference.oracle import Oracle
-    from volcaustics.reports.experiment.exact_images import _replayed, replay_seed
+    from volcaustics.reports.experiment.exact_images import replay_seed, replayed
     from volcaustics.reports.experiment.frames import render_frames
     from volcaustics.reports.experiment.measurement import EXACT_STEPS
     from volcaustics.reports.experiment.settings import checked_settings
@@ -79,14 +79,14 @@ def main(argv=None) -> int:
         replay_seeds = [[replay_seed(s, m) for m in range(args.subphotons)] for s in seeds]
         own = [(rays, s) for rays, mine in zip(renderer.emission_rays(scene, p, seeds), replay_seeds) for s in mine]
         true = [(true_rays(scene.light, frustum, p.photon_res, s), s) for mine in replay_seeds for s in mine]
-        _replayed(scene, p, p.fresnel, own[:1], oracle, EXACT_STEPS)  # compiles the kernels
+        replayed(scene, p, p.fresnel, own[:1], oracle, EXACT_STEPS)  # compiles the kernels
         timings = []
         for kept in (None, []):  # timed, then again keeping its rays (deterministic: the same ones) for the bound
             oracle.rays, oracle.segments = 0, kept
             t0 = time.perf_counter()
             if p.fresnel != "stochastic":
-                _replayed(scene, p, p.fresnel, own, oracle, EXACT_STEPS)
-            _replayed(scene, p, "stochastic", own + true, oracle, EXACT_STEPS)
+                replayed(scene, p, p.fresnel, own, oracle, EXACT_STEPS)
+            replayed(scene, p, "stochastic", own + true, oracle, EXACT_STEPS)
             timings.append((time.perf_counter() - t0, oracle.rays))
         seconds, rays = timings[0]
         bound = raw_throughput(oracle, oracle.segments)

@@ -155,9 +155,9 @@ def _exact_batches(scene, p, kernels, seeds, renderer, oracle, subphotons: int, 
     own = [(rays, s) for rays, seeds_of in zip(renderer.emission_rays(scene, p, seeds), replay_seeds)
            for s in seeds_of]
     true = [(true_rays(scene.light, frustum, p.photon_res, s), s) for seeds_of in replay_seeds for s in seeds_of]
-    stochastic = _replayed(scene, p, "stochastic", own + true, oracle, steps)  # one wavefront for both emissions
+    stochastic = replayed(scene, p, "stochastic", own + true, oracle, steps)  # one wavefront for both emissions
     everything_all, true_all = stochastic[:len(own)], stochastic[len(own):]
-    same_all = everything_all if p.fresnel == "stochastic" else _replayed(scene, p, p.fresnel, own, oracle, steps)
+    same_all = everything_all if p.fresnel == "stochastic" else replayed(scene, p, p.fresnel, own, oracle, steps)
     for i, (kernel, seed) in enumerate(zip(kernels, seeds)):
         ps = dataclasses.replace(splat_params(p), seed=seed)
         mine = slice(i * subphotons, (i + 1) * subphotons)
@@ -183,7 +183,7 @@ def _cut(photons: ExactPhotons, steps: int) -> ExactPhotons:
                                step=photons.step[keep], params={**photons.params, "steps": steps})
 
 
-def _replayed(scene, p, fresnel: str, groups: list, oracle, steps: int) -> list:
+def replayed(scene, p, fresnel: str, groups: list, oracle, steps: int) -> list:
     """One :class:`ExactPhotons` per (rays, seed) of ``groups``: the rays emitted exactly
     and replayed ``steps`` steps with ``fresnel`` and that seed, all of them one
     wavefront on the device (``reference.replay.exact_replays``)."""

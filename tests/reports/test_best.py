@@ -21,6 +21,7 @@ from volcaustics.infra.errors import InputError
 from volcaustics.reports.cli import main
 from volcaustics.reports.core.cost_match import MATCHED, CostMatcher, cost_ratio
 from volcaustics.reports.sweep import best, best_figures, best_spec
+from volcaustics.reports.sweep.settings import CRITERIA
 
 TINY = """
 scenes = ["refocus"]
@@ -318,8 +319,8 @@ def test_the_frame_criterion_ranks_by_one_frames_error_and_its_goal_is_half():
     for row in rows:
         row["frame_relmse"] = frames[(row["scene"], row["config"])]
     table = _table(rows)
-    assert best.worst_ratios(table, 2, best_spec.CRITERIA["frame"][0]).idxmin() == "y"
-    assert best.worst_ratios(table, 2, best_spec.CRITERIA["bias"][0]).idxmin() == "x"
+    assert best.worst_ratios(table, 2, CRITERIA["frame"][0]).idxmin() == "y"
+    assert best.worst_ratios(table, 2, CRITERIA["bias"][0]).idxmin() == "x"
     v = best.verdict(best.with_roles(table, "y", "frame"), "y", "frame")
     assert v["goal"] == 0.5 and v["met"] and v["worst_ratio"] == pytest.approx(0.45)
     assert v["worst_bias_ratio"] == pytest.approx(0.5)
