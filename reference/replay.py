@@ -219,6 +219,9 @@ def exact_replays(scene, groups, *, steps: int, fresnel: str, oracle: Oracle | N
         where, hits = wavefront.light_hits(
             light, *(np.concatenate([np.asarray(getattr(rays, name)) for rays in distinct])
                      for name in ("direction", "power", "photon")))
+        if hits is None:  # no photon of the launch reaches a surface: every replay empty
+            nothing = (np.zeros(0, np.int64), np.zeros((0, 3)))
+            return _collisions([], nothing, steps, np.zeros((len(part), 3)), [0] * len(part))
         bounds = np.cumsum([0] + [len(rays.photon) for rays in distinct])
         per_set = np.diff(np.searchsorted(where, bounds))  # each set's photons that hit (in input order)
         offset = dict(zip(map(id, distinct), np.cumsum([0, *per_set])))

@@ -137,15 +137,22 @@ class Wavefront:
         ``reference.replay``'s seed-free emission: rays without power are not cast.
         Returns (the input positions of the rays that hit, numpy, in order; and for
         those, on the device: photon, start, d, carried (the power times the medium's
-        transmittance to the hit), normal, geometric_normal, shape)."""
+        transmittance to the hit), normal, geometric_normal, shape; None when none
+        hit)."""
         dr, V64, U32 = self.dr, self.V64, self.U32
+        if len(direction) == 0:  # Dr.Jit refuses size-0 arrays beside literals: nothing to cast
+            return np.zeros(0, np.int64), None
         power = _vector(V64, power)
         lit = dr.compress((power[0] > 0) | (power[1] > 0) | (power[2] > 0))
+        if dr.width(lit) == 0:  # no ray with power: nothing to cast (a size-0 ray is not one)
+            return np.zeros(0, np.int64), None
         d, power = dr.gather(V64, _vector(V64, direction), lit), dr.gather(V64, power, lit)
         o = V64(*(dr.full(self.F64, float(x), dr.width(lit)) for x in light))
         hit, t, shape, n, n_geometric = self._first_hit(o, d, self._box_exit(o, d))
         dr.eval(hit, t, shape, n, n_geometric)
         at = dr.compress(hit)
+        if dr.width(at) == 0:
+            return np.zeros(0, np.int64), None
         t, d, carried = dr.gather(self.F64, t, at), dr.gather(V64, d, at), dr.gather(V64, power, at)
         carried = V64(*(carried[k] * dr.exp(-self.sigma_t[k] * t) for k in range(3)))
         where = dr.gather(U32, lit, at)
@@ -191,6 +198,8 @@ class Wavefront:
         direction and power (numpy, the photons' order) and alive the (group, power)
         of those still travelling after the last step."""
         V64, U32, I32 = self.V64, self.U32, self.I32
+        if len(idx) == 0:  # no photon: no step (Dr.Jit refuses size-0 arrays beside literals)
+            return [], (np.zeros(0, np.int64), np.zeros((0, 3)))
         state = {"group": U32(group.astype(np.uint32)), "seed": U32(seed.astype(np.uint32)),
                  "idx": U32(idx.astype(np.uint32)), "o": _vector(V64, o), "d": _vector(V64, d),
                  "inside": I32(inside.astype(np.int32)),

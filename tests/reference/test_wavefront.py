@@ -68,3 +68,26 @@ def test_free_flights_from_drjits_own_log_are_flagged(monkeypatch):
 
     monkeypatch.setattr(wavefront, "free_flight_table", own_log)
     assert _same(*_both("sphere1", "stochastic")) != []
+
+
+def test_launches_without_a_photon_that_reaches_glass_are_empty_not_errors():
+    """A set of rays with no photon, one with no power, one aimed away from the glass,
+    alone or beside rays that hit: the Dr.Jit engine once failed on size-0 arrays
+    ("operands have incompatible sizes") where the numpy engine gave empty replays."""
+    from volcaustics.approx.emission import EmissionRays
+
+    scene = load_builtin("sphere1")
+    oracle = Oracle(scene)
+    real = true_rays(scene.light, LightFrustum.for_scene(scene, *medium_bounds(scene)), 16, 1)
+    empty = EmissionRays(photon=np.zeros(0, np.uint32), direction=np.zeros((0, 3)), power=np.zeros((0, 3)))
+    dark = EmissionRays(photon=real.photon, direction=real.direction, power=np.zeros_like(real.power))
+    away = EmissionRays(photon=real.photon, direction=-real.direction, power=real.power)
+    for groups in ([(empty, 1)], [(dark, 1)], [(away, 1)], [(dark, 1), (real, 2), (empty, 3)]):
+        numpy_engine, drjit_engine = (replay.exact_replays(scene, groups, steps=64, fresnel="stochastic",
+                                                           oracle=oracle, engine=engine)
+                                      for engine in ("numpy", "drjit"))
+        assert _same(numpy_engine, drjit_engine) == []
+        assert [c.photons for c in drjit_engine][:1] == [0]
+    first = np.zeros(0, replay.RECORD_DTYPE)
+    assert [len(c.rows) for c in replay.exact_collisions(scene, [(first, 1)], steps=8, fresnel="stochastic",
+                                                          oracle=oracle)] == [0]
