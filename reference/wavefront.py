@@ -25,11 +25,9 @@ from functools import lru_cache
 import numpy as np
 
 from volcaustics.scenes.formats import STATUS_COLLIDED, STATUS_LEFT_SCENE, STATUS_LOST, STATUS_SURFACE
-from volcaustics.scenes.rng import uniform
+from volcaustics.scenes.rng import PCG_INC, PCG_MULT, PCG_WORD
 
 from .oracle import Oracle, ReplayConstants
-
-_MULT, _INC, _WORD = 747796405, 2891336453, 277803737  # scenes.rng's PCG constants
 
 
 @lru_cache(maxsize=4)
@@ -59,12 +57,19 @@ class Wavefront:
 
     # --- the counter-based random numbers (scenes.rng) ---------------------------------
     def _pcg(self, v):
-        state = v * _MULT + _INC
-        word = ((state >> ((state >> 28) + 4)) ^ state) * _WORD
+        state = v * PCG_MULT + PCG_INC
+        word = ((state >> ((state >> 28) + 4)) ^ state) * PCG_WORD
         return (word >> 22) ^ word
 
     def _hash(self, seed, photon, step, dim: int):
         return self._pcg(self._pcg(self._pcg(self._pcg(seed) + photon) + step) + dim)
+
+    def uniform(self, seed, photon, step, dim: int):
+        """``scenes.rng.uniform(seed, photon, step, dim)`` as Dr.Jit float32 (U32 seed and
+        photon; ``step`` an int, or a U32 made opaque so one kernel serves every step)."""
+        if isinstance(step, int):
+            step = self.dr.opaque(self.U32, step)
+        return self.F32(self._hash(seed, photon, step, dim) >> 8) * (2.0**-24)
 
     # --- one step ---------------------------------------------------------------------
     def step(self, step: int, seed, idx, o, d, inside, power) -> dict:
@@ -95,7 +100,7 @@ class Wavefront:
         status = dr.select(hit, STATUS_SURFACE, dr.select(~medium, STATUS_LOST,
                                                           dr.select(collides, STATUS_COLLIDED, STATUS_LEFT_SCENE)))
         # the surface interaction where it hit (oracle.surface_interaction)
-        xi = F64(self.F32(self._hash(seed, idx, step_u, 1) >> 8) * (2.0**-24))
+        xi = F64(self.uniform(seed, idx, step_u, 1))
         new_d, interacted_power, new_inside = self._interaction(d, new_power, n, n_geometric, shape, xi)
         return {"end": end, "status": self.I32(status), "new_power": dr.select(hit, interacted_power, new_power),
                 "new_d": dr.select(hit, new_d, d), "new_inside": dr.select(hit, new_inside, inside)}
@@ -222,7 +227,7 @@ class Wavefront:
         photon = dr.gather(U32, hits["photon"], index)
         shape = dr.gather(I32, hits["shape"], index)
         seed_u = U32(seed.astype(np.uint32))
-        xi = F64(F32(self._hash(seed_u, photon, dr.opaque(U32, 0), 1) >> 8) * (2.0**-24))
+        xi = F64(self.uniform(seed_u, photon, 0, 1))
         new_d, power, inside = self._interaction(at["d"], at["carried"], at["normal"], at["geometric_normal"], shape,
                                                  xi)
         d = V64(F32(new_d[0]), F32(new_d[1]), F32(new_d[2]))   # the record's float32, renormalised
@@ -281,11 +286,3 @@ def _numpy(value) -> np.ndarray:
     """A Dr.Jit array as numpy: N×3 for a 3-vector, N otherwise."""
     array = value.numpy()
     return array.T if array.ndim == 2 else array
-
-
-# the step's uniform draws, for the test that ties them to scenes.rng
-def draws(wavefront: Wavefront, seed: np.ndarray, photon: np.ndarray, step: int, dim: int) -> tuple:
-    """(Dr.Jit's, numpy's) uniform(seed, photon, step, dim) as float32 arrays."""
-    h = wavefront._hash(wavefront.U32(seed), wavefront.U32(photon), wavefront.dr.opaque(wavefront.U32, step), dim)
-    got = wavefront.F32(h >> 8) * (2.0**-24)
-    return got.numpy(), uniform(seed, photon, step, dim)

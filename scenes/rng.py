@@ -23,9 +23,8 @@ from __future__ import annotations
 
 import numpy as np
 
-_MULT = np.uint32(747796405)
-_INC = np.uint32(2891336453)
-_WORD = np.uint32(277803737)
+PCG_MULT, PCG_INC, PCG_WORD = 747796405, 2891336453, 277803737  # the hash's constants (its twins read them)
+_MULT, _INC, _WORD = np.uint32(PCG_MULT), np.uint32(PCG_INC), np.uint32(PCG_WORD)
 
 
 def pcg_hash(v: np.ndarray) -> np.ndarray:

@@ -91,3 +91,21 @@ def test_launches_without_a_photon_that_reaches_glass_are_empty_not_errors():
     first = np.zeros(0, replay.RECORD_DTYPE)
     assert [len(c.rows) for c in replay.exact_collisions(scene, [(first, 1)], steps=8, fresnel="stochastic",
                                                           oracle=oracle)] == [0]
+
+
+def test_the_device_draws_are_scenes_rng_bit_for_bit():
+    """``Wavefront.uniform`` (the free flights' and the Fresnel choices' draws) is
+    ``scenes.rng.uniform`` on 100,000 random (seed, photon, step, dim), as the GLSL twin
+    is (tests/approx/test_rng_glsl.py); a wrong step is flagged (the negative control)."""
+    from volcaustics.reference.oracle import ReplayConstants
+    from volcaustics.scenes.rng import uniform
+
+    scene = load_builtin("sphere1")
+    oracle = Oracle(scene)
+    w = wavefront.Wavefront(ReplayConstants(scene, "stochastic"), oracle)
+    rng = np.random.default_rng(7)
+    seed, photon = (rng.integers(0, 2**32, 100_000, dtype=np.uint64).astype(np.uint32) for _ in range(2))
+    for step, dim in ((0, 1), (1, 0), (511, 1)):
+        got = w.uniform(w.U32(seed), w.U32(photon), step, dim).numpy()
+        assert np.array_equal(got, uniform(seed, photon, step, dim))
+    assert not np.array_equal(w.uniform(w.U32(seed), w.U32(photon), 2, 0).numpy(), uniform(seed, photon, 1, 0))
