@@ -171,11 +171,17 @@ def _launch(c: ReplayConstants, oracle: Oracle, groups: list, steps: int, tracer
     """The groups of one launch: traced together (``tracer``), split back by group."""
     states = [emission_state(first) for first, _ in groups]
     idx, o, d, inside, power = (np.concatenate(parts) for parts in zip(*states))
-    group = np.repeat(np.arange(len(groups)), [len(first) for first, _ in groups])
-    seed = np.repeat(np.asarray([s for _, s in groups], np.uint32), [len(first) for first, _ in groups])
+    group, seed = _per_photon(groups, [len(first) for first, _ in groups])
     kept, alive = tracer(steps, group, seed, idx, o, d, inside, power)
     emitted = np.stack([first["power_start"].astype(np.float64).sum(axis=0) for first, _ in groups])
     return _collisions(kept, alive, steps, emitted, [len(first) for first, _ in groups])
+
+
+def _per_photon(groups: list, counts: list) -> tuple:
+    """(group index, seed uint32) of every photon of a launch: ``counts`` photons per
+    (…, seed) pair of ``groups``, in order."""
+    return (np.repeat(np.arange(len(groups)), counts),
+            np.repeat(np.asarray([seed for _, seed in groups], np.uint32), counts))
 
 
 def _collisions(kept: list, alive: tuple, steps: int, emitted: np.ndarray, photons: list) -> list:
@@ -228,8 +234,7 @@ def exact_replays(scene, groups, *, steps: int, fresnel: str, oracle: Oracle | N
         count = dict(zip(map(id, distinct), per_set))
         counts = [int(count[id(rays)]) for rays, _ in part]
         take = np.concatenate([offset[id(rays)] + np.arange(n) for (rays, _), n in zip(part, counts)])
-        group = np.repeat(np.arange(len(part)), counts)
-        seed = np.repeat(np.asarray([s for _, s in part], np.uint32), counts)
+        group, seed = _per_photon(part, counts)
         state, power = wavefront.emitted(hits, take.astype(np.int64), group, seed)
         kept, alive = wavefront.run(steps, state)
         starts = np.cumsum([0] + counts)

@@ -58,7 +58,7 @@ subset_batches_setting = _int_setting("subset_batches", 4, 64, "paired photon su
                                       "images, the decomposition's jackknife batches", SUBSET_BATCHES)
 
 
-# the sub-photons of a measurement (the exact_subphotons setting, reports.experiment.measurement)
+# the E_∞ images' replays of each emission texel (docs/decisions.md "Sub-photons")
 subphotons_setting = _int_setting("exact_subphotons", 1, 64, "exact replays of each emission texel in the "
                                   "decomposition's E_∞ images", EXACT_SUBPHOTONS)
 

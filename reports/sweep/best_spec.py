@@ -9,7 +9,7 @@ import os
 from volcaustics.approx.params import PRESETS
 from volcaustics.reports.core.params import parse_value
 from volcaustics.reports.core.tomlfile import load_toml
-from volcaustics.reports.sweep.spec import SweepError, SweepSpec, _checked, spec_scenes
+from volcaustics.reports.sweep.spec import SweepError, SweepSpec, checked_spec, spec_scenes
 
 BEST_SPEC = os.path.join(os.path.dirname(os.path.abspath(__file__)), "best.toml")
 BEST_KEYS = ("scenes", "preset", "seeds", "coarse", "refine", "rounds", "set", "reference", "measurement")
@@ -96,7 +96,7 @@ def load_best_spec(path: str = BEST_SPEC, scenes: list | None = None) -> BestSpe
                     tuple(axes["refine"]), rounds, dict(reference), fixed, doc.get("measurement", {}))
     if spec.preset not in PRESETS:
         raise SweepError(f"{path}: preset = {spec.preset!r}: expected {' or '.join(repr(n) for n in PRESETS)}")
-    _checked(spec.sweep_spec(), path)
+    checked_spec(spec.sweep_spec(), path)
     return spec
 
 

@@ -104,7 +104,7 @@ def spec_from_args(scenes: str | None, vary: list, fixed: list, *, preset: str, 
         if len(values) != 1 or name in settled:
             raise SweepError(f"--set {text!r}: one value per field, set once (a sweep varies with --vary)")
         settled[name] = values[0]
-    return _checked(SweepSpec(tuple(names), tuple(grid), settled, preset, seeds), "command line", max_points)
+    return checked_spec(SweepSpec(tuple(names), tuple(grid), settled, preset, seeds), "command line", max_points)
 
 
 def spec_scenes(doc: dict, path: str, given: list | None = None) -> list:
@@ -154,7 +154,7 @@ def spec_from_toml(path: str, max_points: int | None = MAX_POINTS, scenes: list 
     measurement = _table(doc, "measurement", path)
     seeds = doc.get("seeds", 1)
     preset = doc.get("preset", "quick")
-    return _checked(SweepSpec(tuple(scenes), grid, settled, preset, seeds, dict(reference),
+    return checked_spec(SweepSpec(tuple(scenes), grid, settled, preset, seeds, dict(reference),
                               tuple(grids) if several else (), dict(measurement)), path, max_points)
 
 
@@ -225,7 +225,7 @@ def grid_size(spec: SweepSpec) -> int:
     return len(spec.scenes) * sum(math.prod(len(values) for _, values in grid) for grid in spec.grids or (spec.vary,))
 
 
-def _checked(spec: SweepSpec, where: str, max_points: int | None = MAX_POINTS) -> SweepSpec:
+def checked_spec(spec: SweepSpec, where: str, max_points: int | None = MAX_POINTS) -> SweepSpec:
     """Validate everything that can be checked before rendering: the grid's size, scenes
     exist, names, the preset, the seeds, the measurement settings, every point's parameters,
     overlaps of vary and set."""
