@@ -2,11 +2,13 @@
 reference settings.
 
 The main job's budget (``make report``, ``volcaustics report``, ``measure``, the gate's
-and a sweep's default): batches of 2^22 photons and 64 camera samples per pixel, at
-least 16 per stream (15 degrees of freedom for the per-pixel variance: a z-test on 3,
-from 4 batches, means little), then more until the noise floors meet the targets —
-caustic 0.5%, fog and direct 0.2%, the model term's 0.5% — or 2 minutes per scene
-pass; 8 scattering orders for the model term.
+and a sweep's default): 2^21 photons and 32 camera samples per pixel over at least 8
+batches per stream (a batch: 2^18 photons, 4 samples per pixel), then more until the
+noise floors meet the targets — caustic 0.5%, fog and direct 0.2%, the model term's
+0.5% — or 2 minutes per scene pass; 8 scattering orders for the model term. The
+minimum of 8 is the light streams' batch groups (``reference.render.batches.
+LIGHT_GROUPS``), one batch each: the jackknife SEs over them stay calibrated there as
+at 16 (docs/decisions.md "References held to what their noise needs").
 """
 
 from __future__ import annotations
@@ -21,7 +23,7 @@ REPORT_TARGET = "caustic=0.005,fog=0.002,direct=0.002,caustic_ms=0.005,fog_ms=0.
 # R_ms by a relative MSE of ~5e-6), and orders 5–8 cost little (docs/decisions.md
 # "Multiple scattering and the model term")
 REPORT_MAX_SCATTER = 8
-REPORT_REFERENCE = ReferenceSettings(photons=1 << 22, spp=64, batches=16, target_noise=REPORT_TARGET,
+REPORT_REFERENCE = ReferenceSettings(photons=1 << 21, spp=32, batches=8, target_noise=REPORT_TARGET,
                                      max_seconds=120.0, max_scatter=REPORT_MAX_SCATTER)
 # what a sweep spec's or the budgets' [reference] table may change
 REFERENCE_KEYS = ("photons", "spp", "batches", "target_noise", "max_photons", "max_seconds", "max_scatter")

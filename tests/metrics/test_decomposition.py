@@ -377,20 +377,21 @@ def test_jackknife_standard_error_matches_the_spread_over_draws():
     assert np.mean(shares) == pytest.approx(0.03 / 1.05, abs=4 * np.std(shares) / np.sqrt(200))
 
 
-def _streaky_draw(rng, truth, brightness=1.0):
-    """Paired exact batches near ``truth`` and a light-tracer-like R: 16 batches of
+def _streaky_draw(rng, truth, brightness=1.0, batches=16):
+    """Paired exact batches near ``truth`` and a light-tracer-like R: ``batches`` batches of
     ``brightness`` × truth whose noise each photon spreads over a 5×5 streak (the same in
     R, G and B), kept as the reference keeps them (``BatchStats``, 8 groups)."""
     from volcaustics.reference.render.batches import BatchStats
 
     exact = truth + _blurred_noise(rng, (K, H, W, 3), 0.002)
     stats = BatchStats(("caustic",), groups=8)
-    for noise in _blurred_noise(rng, (16, H, W, 3), 0.05, size=5, channels=1):
+    for noise in _blurred_noise(rng, (batches, H, W, 3), 0.05, size=5, channels=1):
         stats.add({"caustic": brightness * truth + noise})
     return {name: exact for name in BATCHED}, stats
 
 
-def test_residual_energy_standard_error_sees_the_reference_pixels_covary():
+@pytest.mark.parametrize("reference_batches", [16, 8])  # the report's minimum, 8: one per group (docs/decisions.md)
+def test_residual_energy_standard_error_sees_the_reference_pixels_covary(reference_batches):
     """R as a light tracer gives it: the mean of 16 batches whose noise each photon
     spreads over a 5×5 streak (the same in R, G and B), so R's pixels covary and Σ var
     understates the variance of its total ~25-fold. From the batches' own totals
@@ -404,7 +405,7 @@ def test_residual_energy_standard_error_sees_the_reference_pixels_covary():
     truth = _truth()
     values, with_ratio, without = [], [], []
     for _ in range(200):
-        batches, stats = _streaky_draw(rng, truth)
+        batches, stats = _streaky_draw(rng, truth, batches=reference_batches)
         reference, var = stats.mean("caustic"), stats.var("caustic")
         ratio = total_variance_ratio((stats, "caustic"))
         result = decompose_caustic(batches, reference, reference_var=var, reference_ratio=ratio)
@@ -412,11 +413,13 @@ def test_residual_energy_standard_error_sees_the_reference_pixels_covary():
         with_ratio.append(result["residual"]["energy_se"])
         without.append(decompose_caustic(batches, reference, reference_var=var)["residual"]["energy_se"])
     spread = np.std(values, ddof=1)
+    print(f"{reference_batches} batches: spread / SE {spread / np.sqrt(np.mean(np.square(with_ratio))):.3f}")
     assert 0.7 < spread / np.sqrt(np.mean(np.square(with_ratio))) < 1.4
     assert spread / np.sqrt(np.mean(np.square(without))) > 3
 
 
-def test_residual_relmse_standard_error_sees_the_reference_pixels_covary():
+@pytest.mark.parametrize("reference_batches", [16, 8])  # the report's minimum, 8: one per group (docs/decisions.md)
+def test_residual_relmse_standard_error_sees_the_reference_pixels_covary(reference_batches):
     """The same streaky R, 3% brighter than the exact photons (a real residual, so the
     cross term 2 Σ d·n dominates R's part): its 16 batches in 8 groups, and the residual's
     debiased relMSE SE from the delete-one-group jackknife matches the spread over 200
@@ -427,7 +430,7 @@ def test_residual_relmse_standard_error_sees_the_reference_pixels_covary():
     truth = _truth()
     values, grouped, independent = [], [], []
     for _ in range(200):
-        batches, stats = _streaky_draw(rng, truth, 1.03)
+        batches, stats = _streaky_draw(rng, truth, 1.03, batches=reference_batches)
         reference, var = stats.mean("caustic"), stats.var("caustic")
         residual = decompose_caustic(batches, reference, reference_var=var,
                                      reference_groups=stats.group_means("caustic"))["residual"]
@@ -435,6 +438,7 @@ def test_residual_relmse_standard_error_sees_the_reference_pixels_covary():
         grouped.append(residual["relmse_se"])
         independent.append(decompose_caustic(batches, reference, reference_var=var)["residual"]["relmse_se"])
     spread = np.std(values, ddof=1)
+    print(f"{reference_batches} batches: spread / SE {spread / np.sqrt(np.mean(np.square(grouped))):.3f}")
     assert 0.7 < spread / np.sqrt(np.mean(np.square(grouped))) < 1.4
     assert spread / np.sqrt(np.mean(np.square(independent))) > 5
 
@@ -494,7 +498,8 @@ def test_debiased_parts_remove_the_noise_a_term_shares_with_the_error():
         total["relmse_part_debiased"], rel=1e-9)
 
 
-def test_relmse_parts_standard_errors_see_the_reference_pixels_covary():
+@pytest.mark.parametrize("reference_batches", [16, 8])  # the report's minimum, 8: one per group (docs/decisions.md)
+def test_relmse_parts_standard_errors_see_the_reference_pixels_covary(reference_batches):
     """R enters the total's and the residual's parts of the relative MSE (Σ(R − A)²,
     Σ(R − E_∞,s)(R − A)): with A 20% below the truth, R's streaky noise times the large
     error R − A is most of their noise. With R's batch groups their SEs match the spread
@@ -507,7 +512,7 @@ def test_relmse_parts_standard_errors_see_the_reference_pixels_covary():
     values, grouped, independent = {t: [] for t in ("total", "residual")}, {"total": [], "residual": []}, \
         {"total": [], "residual": []}
     for _ in range(200):
-        batches, stats = _streaky_draw(rng, truth, 1.03)
+        batches, stats = _streaky_draw(rng, truth, 1.03, batches=reference_batches)
         batches = {**batches, "approx": 0.8 * batches["approx"]}
         reference, var = stats.mean("caustic"), stats.var("caustic")
         with_groups = decompose_caustic(batches, reference, reference_var=var,
@@ -520,5 +525,6 @@ def test_relmse_parts_standard_errors_see_the_reference_pixels_covary():
     for term in values:
         spread = np.std(values[term], ddof=1)
         ratio = spread / np.sqrt(np.mean(np.square(grouped[term])))
+        print(f"{reference_batches} batches, {term}: spread / SE {ratio:.3f}")
         assert 0.6 < ratio < 1.4, (term, ratio)
         assert spread / np.sqrt(np.mean(np.square(independent[term]))) > 3, term

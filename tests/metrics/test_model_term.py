@@ -143,7 +143,8 @@ def _streaky_term(rng, t, batches=16, groups=8, sd=0.03, size=5):
     return stats.mean("t"), stats.var("t"), stats.group_means("t")
 
 
-def test_relmse_standard_errors_see_the_terms_covarying_pixels():
+@pytest.mark.parametrize("batches", [16, 8])  # the report's minimum, 8: one batch per group (docs/decisions.md)
+def test_relmse_standard_errors_see_the_terms_covarying_pixels(batches):
     """T with noise shared over 5×5 streaks, 16 batches in 8 groups; A = R_ss, so A's error
     against R_ms is T and the relMSE values are quadratic in it: with T's batch groups
     the SEs of the own relMSE and of the part (both debiased) match their spread over 300
@@ -152,11 +153,12 @@ def test_relmse_standard_errors_see_the_terms_covarying_pixels():
     propagation the spread is 3.4–3.7× the SE (the negative control)."""
     r, rng = _image(5), np.random.default_rng(11)
     t = 0.2 * _image(7)
-    draws = [_streaky_term(rng, t) for _ in range(300)]
+    draws = [_streaky_term(rng, t, batches=batches) for _ in range(300)]
     grouped = [model_term(r, ZERO, m, v, [r], KEEP, term_groups=g) for m, v, g in draws]
     independent = [model_term(r, ZERO, m, v, [r], KEEP) for m, v, _ in draws]
     for metric in ("relmse_own", "relmse_part"):
         spread = np.std([d[metric][1] for d in grouped], ddof=1)
         ratio = spread / np.sqrt(np.mean([d[metric][2] ** 2 for d in grouped]))
+        print(f"{batches} batches, {metric}: spread / SE {ratio:.3f}")
         assert 0.7 < ratio < 1.4, (metric, ratio)
         assert spread / np.sqrt(np.mean([d[metric][2] ** 2 for d in independent])) > 2.5, metric

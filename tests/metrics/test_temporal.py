@@ -133,7 +133,8 @@ def _streaky_reference(rng, truth_frames, batches=16, groups=8, sd=0.15, size=5)
     return np.stack(means), np.stack(variances), grouped
 
 
-def test_flicker_standard_error_sees_the_reference_pixels_covary():
+@pytest.mark.parametrize("batches", [16, 8])  # the report's minimum, 8: one batch per group (docs/decisions.md)
+def test_flicker_standard_error_sees_the_reference_pixels_covary(batches):
     """A two-frame sequence whose reference is a streaky light tracer's (its pixels covary
     over 5×5 streaks) and an approximation 5% too bright (a real flicker, so the cross
     term 4 b·Cov·b is a large part of R's): with R's batch groups the flicker's SE is
@@ -147,7 +148,7 @@ def test_flicker_standard_error_sees_the_reference_pixels_covary():
     truth = _truth(rng)[:2]
     values, grouped, independent = [], [], []
     for _ in range(200):
-        reference, var, groups = _streaky_reference(rng, truth)
+        reference, var, groups = _streaky_reference(rng, truth, batches=batches)
         chains = (1.05 * truth + rng.normal(0.0, 0.02, (2, *truth.shape)))
         with_groups = flicker(reference, var, chains, reference_groups=groups)[0]
         values.append(with_groups.flicker)
@@ -155,5 +156,7 @@ def test_flicker_standard_error_sees_the_reference_pixels_covary():
         independent.append(flicker(reference, var, chains)[0].standard_error)
     spread = np.std(values, ddof=1)
     ratio = spread / np.sqrt(np.mean(np.square(grouped)))
+    print(f"{batches} batches: spread / SE {ratio:.3f}, independent pixels "
+          f"{spread / np.sqrt(np.mean(np.square(independent))):.2f}")
     assert 0.55 < ratio < 1.1, ratio
     assert spread / np.sqrt(np.mean(np.square(independent))) > 3
