@@ -44,12 +44,16 @@ test-fast: setup
 	@bash scripts/run_tests.sh -m "not slow"
 
 # ruff (pyproject.toml [tool.ruff]), the reference check (every path, module name and docs
-# section named anywhere exists) and the import-resolution check (mypy follows every
-# volcaustics.* import of the package and its tests; its rules limited to imports).
+# section named anywhere exists), the import-resolution check (mypy follows every
+# volcaustics.* import of the package and its tests; its rules limited to imports) and the
+# private-name check (no module imports or reaches another module's _name) and the shader
+# check (every program variant under the Khronos reference compiler, glslangValidator).
 lint: setup
 	$(BIN)/ruff check .
 	$(BIN)/python scripts/check_references.py
 	$(BIN)/python scripts/check_imports.py
+	$(BIN)/python scripts/check_private_names.py
+	$(BIN)/python scripts/check_shaders.py
 
 # The documentation site (MkDocs, Material theme) -> runs/site, strictly: a broken link, a
 # stale reference or a missing page fails it. The command reference is generated from the

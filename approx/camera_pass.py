@@ -40,12 +40,20 @@ class CameraPasses:
     """G-buffer, fog and direct programs for one setting of the fog program's defines
     (``approx.params.defines(params, "fog")``: FOG_STEPS) and the phase function."""
 
+    @staticmethod
+    def programs(medium, fog_defines: dict) -> dict:
+        """name → (shader stages, defines) of the camera passes' programs: the
+        constructor's list and the shader check's (scripts/check_shaders.py)."""
+        phase = {"PHASE_G": repr(float(medium.phase.g))} if medium.phase.kind == "hg" else {}
+        return {"gbuffer": (("camera/gbuffer.vert.glsl", "camera/gbuffer.frag.glsl"), {}),
+                "fog": (("shade/fullscreen.vert.glsl", "shade/fog.frag.glsl"), {**fog_defines, **phase}),
+                "direct": (("shade/fullscreen.vert.glsl", "shade/direct.frag.glsl"), {"MAX_DIFFUSE": MAX_DIFFUSE})}
+
     def __init__(self, ctx: moderngl.Context, scene, fog_defines: dict):
         self.ctx = ctx
-        phase = {"PHASE_G": repr(float(scene.medium.phase.g))} if scene.medium.phase.kind == "hg" else {}
-        self.gbuffer = program(ctx, "camera/gbuffer.vert.glsl", "camera/gbuffer.frag.glsl")
-        self.fog = program(ctx, "shade/fullscreen.vert.glsl", "shade/fog.frag.glsl", {**fog_defines, **phase})
-        self.direct = program(ctx, "shade/fullscreen.vert.glsl", "shade/direct.frag.glsl", {"MAX_DIFFUSE": MAX_DIFFUSE})
+        programs = {name: program(ctx, *stages, defines)
+                    for name, (stages, defines) in self.programs(scene.medium, fog_defines).items()}
+        self.gbuffer, self.fog, self.direct = programs["gbuffer"], programs["fog"], programs["direct"]
         self.empty_vao = ctx.vertex_array(self.fog, [])
         self.empty_vao_direct = ctx.vertex_array(self.direct, [])
 

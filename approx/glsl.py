@@ -1,6 +1,6 @@
 """The one GLSL loader: shaders by name from ``approx/shaders/<pass>/``.
 
-A shader file has no ``#version`` line; the loader writes ``#version 430 core``,
+A shader file has no ``#version`` line; the loader writes ``#version 450 core``,
 then one ``#define NAME VALUE`` per entry of :data:`SHARED_DEFINES` and of
 ``defines``, then the file with every ``#include "common/x.glsl"`` line replaced
 by that file (paths relative to the shaders folder, each file included once).
@@ -21,7 +21,7 @@ import moderngl
 from volcaustics.scenes.formats import FLAG_BITS, SHAPE_KINDS, STATUS_CODES
 
 SHADER_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "shaders")
-GLSL_VERSION = "#version 430 core"
+GLSL_VERSION = "#version 450 core"
 _INCLUDE = re.compile(r'^\s*#include\s+"([^"]+)"\s*$', re.MULTILINE)
 
 #: Status codes and shape kinds as int, flag bits as uint (GLSL ``1u``: they are or-ed into uints).

@@ -45,10 +45,12 @@ class LightMap(NamedTuple):
 class LightMapRenderer:
     """Renders light maps of a :class:`SceneGeometry` into RGBA32F textures."""
 
+    STAGES = ("layers/layer.vert.glsl", "layers/layer.frag.glsl")  # its one program, no defines
+
     def __init__(self, ctx: moderngl.Context, geometry):
         self.ctx = ctx
         self.geometry = geometry
-        self.program = program(ctx, "layers/layer.vert.glsl", "layers/layer.frag.glsl")
+        self.program = program(ctx, *self.STAGES)
         self.vao_specular = geometry.vertex_array(ctx, self.program, "specular")
         self.vao_diffuse = geometry.vertex_array(ctx, self.program, "diffuse")
         self._empty = ctx.texture((1, 1), 4, dtype="f4")  # bound as previous_map when unused

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass, field, replace
-from typing import Callable
+from typing import Callable, ClassVar
 
 from volcaustics.infra.errors import InputError
 
@@ -108,7 +108,7 @@ class Param:
         return f"{self.name} ({self.unit})" if self.unit else self.name
 
 
-PARAMS: tuple = (
+_DECLARED: tuple = (  # one entry per ApproxParams field, in its order
     Param("photon_res", int, 1500, "photon map resolution N: one photon per covered texel of N²", "texels per side",
           1, 8192),
     Param("layers", int, 4, "light-map levels, each a front-face and a back-face map", "", 1, 8, program="trace",
@@ -186,38 +186,88 @@ PARAMS: tuple = (
 )
 
 
-def _validate(self) -> None:
-    for param in self.TABLE:
-        param.check(getattr(self, param.name))
+class ParamsMethods:
+    """What every parameters class has besides its fields (:class:`ApproxParams`, and a
+    :func:`params_class` of another table): validation on construction, the scene's size
+    filled in, a plain dict, the names in order."""
+
+    TABLE: ClassVar[tuple] = ()
+
+    def __post_init__(self) -> None:
+        for param in self.TABLE:
+            param.check(getattr(self, param.name))
+
+    def resolved(self, scene):
+        """The parameters with width/height filled from the scene camera."""
+        return replace(self, width=self.width or scene.camera.width,
+                       height=self.height or scene.camera.height)
+
+    def to_dict(self) -> dict:
+        return dataclasses.asdict(self)  # type: ignore[call-overload]
+
+    @classmethod
+    def names(cls) -> list:
+        return [p.name for p in cls.TABLE]
 
 
-def _resolved(self, scene):
-    """The parameters with width/height filled from the scene camera."""
-    return replace(self, width=self.width or scene.camera.width, height=self.height or scene.camera.height)
+_BY_NAME = {p.name: p for p in _DECLARED}
 
 
-def _to_dict(self) -> dict:
-    return dataclasses.asdict(self)
+def declared(name: str):
+    """The field of parameter ``name`` of :data:`_DECLARED`: its default, and the
+    :class:`Param` as the field's metadata ``"param"``."""
+    return field(default=_BY_NAME[name].default, metadata={"param": _BY_NAME[name]})
 
 
-def _names(cls) -> list:
-    return [p.name for p in cls.TABLE]
+@dataclass(frozen=True)
+class ApproxParams(ParamsMethods):
+    """The approximation's parameters (paper defaults): one field per :class:`Param`,
+    which the field carries as its metadata ``"param"``; validated on construction."""
+
+    photon_res: int = declared("photon_res")
+    layers: int = declared("layers")
+    layer_strategy: str = declared("layer_strategy")
+    iterations: int = declared("iterations")
+    peak_samples: int = declared("peak_samples")
+    search: str = declared("search")
+    start_rule: str = declared("start_rule")
+    crossing: str = declared("crossing")
+    steps: int = declared("steps")
+    splat_radius: float = declared("splat_radius")
+    splat: str = declared("splat")
+    splat_neighbours: int = declared("splat_neighbours")
+    splat_footprints: float = declared("splat_footprints")
+    emission: str = declared("emission")
+    emission_jitter: str = declared("emission_jitter")
+    denoise: str = declared("denoise")
+    temporal: str = declared("temporal")
+    temporal_weight: float = declared("temporal_weight")
+    light_res: int = declared("light_res")
+    width: int | None = declared("width")
+    height: int | None = declared("height")
+    fog_steps: int = declared("fog_steps")
+    fresnel: str = declared("fresnel")
+    seed: int = declared("seed")
+
+
+#: The parameter table: the fields' Params, in the fields' order (the one declaration).
+PARAMS: tuple = tuple(f.metadata["param"] for f in dataclasses.fields(ApproxParams))
+ApproxParams.TABLE = PARAMS
+if [p.name for p in PARAMS] != [p.name for p in _DECLARED]:
+    raise AssertionError("ApproxParams: its fields and the declared parameters differ")
 
 
 def params_class(table: tuple = PARAMS, name: str = "ApproxParams") -> type:
     """A frozen dataclass with one field per parameter of ``table`` (defaults from it),
-    validated on construction: :class:`ApproxParams` is ``params_class(PARAMS)``."""
+    validated on construction, with :class:`ParamsMethods`: a table other than
+    :data:`PARAMS` (a parameter being added; :class:`ApproxParams` is declared in source)."""
     cls = dataclasses.make_dataclass(
-        name, [(p.name, p.kind if p.unset is None else p.kind | None, field(default=p.default)) for p in table],
-        frozen=True,
-        namespace={"TABLE": table, "__post_init__": _validate, "resolved": _resolved, "to_dict": _to_dict,
-                   "names": classmethod(_names)})
+        name, [(p.name, p.kind if p.unset is None else p.kind | None,
+                field(default=p.default, metadata={"param": p})) for p in table],
+        bases=(ParamsMethods,), frozen=True, namespace={"TABLE": table})
     cls.__module__ = __name__  # picklable by name (what make_dataclass does from Python 3.12 on)
     cls.__doc__ = f"The approximation's parameters (paper defaults; {', '.join(p.name for p in table)})."
     return cls
-
-
-ApproxParams = params_class()
 
 
 def param(name: str, table: tuple = PARAMS) -> Param:

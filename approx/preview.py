@@ -39,11 +39,14 @@ def scene_extent(scene) -> float:
     return far
 
 
+PREVIEW_STAGES = ("camera/gbuffer.vert.glsl", "preview/preview.frag.glsl")  # the G-buffer's vertex stage, no defines
+
+
 def render_preview(ctx: moderngl.Context, scene, width: int | None = None, height: int | None = None) -> np.ndarray:
     """Preview image, H×W×3 float32, linear, >= 0, row 0 at the top."""
     cam, light = scene.camera, scene.light
     width, height = width or cam.width, height or cam.height
-    prog = program(ctx, "camera/gbuffer.vert.glsl", "preview/preview.frag.glsl")  # same vertex stage
+    prog = program(ctx, *PREVIEW_STAGES)
     view = look_at(cam.position, cam.target, cam.up)
     proj = perspective(cam.fov_y, width / height, 0.01, 2.0 * scene_extent(scene))
     prog["view_proj"].write(gl_matrix(proj @ view))

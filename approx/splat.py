@@ -80,18 +80,29 @@ class Splatter:
     def __init__(self, ctx: moderngl.Context, medium, *, adaptive: bool = False, density: bool = False,
                  controls: dict | None = None):
         self.ctx = ctx
+        programs = self.programs(medium, adaptive=adaptive, density=density, controls=controls)
+        self.program = program(ctx, *programs["splat"][0], programs["splat"][1])
+        self.density_program = program(ctx, *programs["density"][0], programs["density"][1]) if density else None
+        self.defines = programs["splat"][1]
+        self.widths_program = None  # the widths pass (density_widths), compiled when first used
+        corners = np.array([[-1, -1], [1, -1], [-1, 1], [1, 1]], np.float32)
+        self.corners = ctx.buffer(corners.tobytes())
+
+    @staticmethod
+    def programs(medium, *, adaptive: bool = False, density: bool = False, controls: dict | None = None) -> dict:
+        """name → (shader stages, defines) of every program a Splatter compiles: the
+        constructor's list and the shader check's (scripts/check_shaders.py); "widths"
+        (a vertex stage alone, by transform feedback) is compiled when first used."""
         defines = {"PHASE_G": repr(float(medium.phase.g))} if medium.phase.kind == "hg" else {}
         if adaptive or density:  # per-splat kernels (SPLAT_DTYPE dir.w or the density), integrated over each pixel
             defines["SPLAT_ADAPTIVE"] = 1
         if density:
             defines.update({"SPLAT_DENSITY": 1, **(controls or {})})
-        self.program = program(ctx, "splat/splat.vert.glsl", "splat/splat.frag.glsl", defines)
-        self.density_program = (program(ctx, "splat/density.vert.glsl", "splat/density.frag.glsl") if density
-                                else None)
-        self.defines = defines
-        self.widths_program = None  # the widths pass (density_widths), compiled when first used
-        corners = np.array([[-1, -1], [1, -1], [-1, 1], [1, 1]], np.float32)
-        self.corners = ctx.buffer(corners.tobytes())
+        out = {"splat": (("splat/splat.vert.glsl", "splat/splat.frag.glsl"), defines)}
+        if density:
+            out["density"] = (("splat/density.vert.glsl", "splat/density.frag.glsl"), {})
+            out["widths"] = (("splat/widths.vert.glsl",), defines)
+        return out
 
     def density_grid(self, splats: moderngl.Buffer, count: int, view) -> moderngl.Texture:
         """The pre-pass: photons per DENSITY_CELL² cell of the image (R32F, bilinear) of

@@ -94,21 +94,17 @@ class PhotonTracer:
     def __init__(self, ctx: moderngl.Context, params, controls: dict | None = None):
         self.ctx = ctx
         defines = self.defines(params, controls)
-        self.emit = compute_shader(ctx, "emission/emit.comp.glsl", defines)
-        self.trace = compute_shader(ctx, "trace/trace.comp.glsl", defines)
+        shaders = {name: compute_shader(ctx, *source) for name, source in self.programs(params, controls).items()}
+        self.emit, self.trace, self.pack = shaders["emit"], shaders["trace"], shaders["pack"]
         self.id_rule = "START_RULE_ID" in defines
-        self.pack = compute_shader(ctx, "trace/pack_distances.comp.glsl",
-                                   {**PACK, **({"PACK_PRIMITIVE": 1} if self.id_rule else {})})
         self.hiz = "SEARCH_HIZ" in defines
-        self.pyramid = compute_shader(ctx, "trace/pyramid.comp.glsl") if self.hiz else None
-        self.compact_count = compute_shader(ctx, "splat/compact.comp.glsl", {"PASS_COUNT": 1})
+        self.pyramid = shaders.get("pyramid")
+        self.compact_count, self.compact_write = shaders["compact_count"], shaders["compact_write"]
         self.adaptive = "SPLAT_ADAPTIVE" in defines
         self.differentials = None  # splat = adaptive: the photons' DIFFERENTIAL_DTYPE buffer of this frame
-        self.compact_write = compute_shader(ctx, "splat/compact.comp.glsl",
-                                            {"SPLAT_ADAPTIVE": 1} if self.adaptive else {})
         self.emission_adaptive = "EMISSION_ADAPTIVE" in defines
         self.emission_shift = float(defines.get("EMISSION_SHIFT", 0.0))  # texels (a test's wrong grid, emit.comp.glsl)
-        self.importance = compute_shader(ctx, "emission/importance.comp.glsl") if self.emission_adaptive else None
+        self.importance = shaders.get("importance")
         self.maps = defines["MAPS"]
         self.work = ctx.buffer(reserve=8)  # one dispatch's lookups, own and lockstep (trace.comp.glsl Work)
         self._solid_angles = {}
@@ -123,6 +119,23 @@ class PhotonTracer:
         fixed = {"MAX_MATERIALS": MAX_MATERIALS, **START_OFFSET,
                  **controls_for(controls, "trace")}
         return {**fixed, **table_defines(params, "trace")}
+
+    @staticmethod
+    def programs(params, controls: dict | None = None) -> dict:
+        """name → (shader, defines) of every compute program a tracer for ``params``
+        compiles: the constructor's list and the shader check's (scripts/check_shaders.py)."""
+        defines = PhotonTracer.defines(params, controls)
+        out = {"emit": ("emission/emit.comp.glsl", defines), "trace": ("trace/trace.comp.glsl", defines),
+               "pack": ("trace/pack_distances.comp.glsl",
+                        {**PACK, **({"PACK_PRIMITIVE": 1} if "START_RULE_ID" in defines else {})}),
+               "compact_count": ("splat/compact.comp.glsl", {"PASS_COUNT": 1}),
+               "compact_write": ("splat/compact.comp.glsl", {"SPLAT_ADAPTIVE": 1} if "SPLAT_ADAPTIVE" in defines
+                                 else {})}
+        if "SEARCH_HIZ" in defines:
+            out["pyramid"] = ("trace/pyramid.comp.glsl", {})
+        if "EMISSION_ADAPTIVE" in defines:
+            out["importance"] = ("emission/importance.comp.glsl", {})
+        return out
 
     def check_limits(self, params, *, keep_records: bool = False) -> None:
         """:func:`check_fits` with this tracer's GL driver."""

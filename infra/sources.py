@@ -22,7 +22,7 @@ _GLSL_COMMENT = re.compile(r"//[^\n]*|/\*.*?\*/", re.DOTALL)
 
 
 @lru_cache(maxsize=None)
-def _folder_files(folder: str) -> tuple:
+def folder_files(folder: str) -> tuple:
     files = []
     for parent, dirs, names in os.walk(folder):
         dirs[:] = sorted(d for d in dirs if d != "__pycache__")
@@ -73,7 +73,7 @@ def source_hash(folders: dict) -> str:
     h = hashlib.sha256()
     for label in sorted(folders):
         root = folders[label]
-        for path in _folder_files(root):
+        for path in folder_files(root):
             h.update(f"{label}/{os.path.relpath(path, root)}".replace(os.sep, "/").encode())
             code = source_code(path)
             h.update(len(code).to_bytes(8, "little"))  # file boundaries cannot shift between files

@@ -61,15 +61,15 @@ def _c_library():
         return None
 
 
-_LIBM = _c_library()
+LIBM = _c_library()
 
 
 def _expf(x) -> F:
-    return F(_LIBM.expf(float(x))) if _LIBM else F(math.exp(float(x)))
+    return F(LIBM.expf(float(x))) if LIBM else F(math.exp(float(x)))
 
 
 def _powf_scalar(x, y) -> F:
-    return F(_LIBM.powf(float(x), float(y))) if _LIBM else F(float(x) ** float(y))
+    return F(LIBM.powf(float(x), float(y))) if LIBM else F(float(x) ** float(y))
 
 
 def _powf(x: np.ndarray, y) -> np.ndarray:

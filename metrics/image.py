@@ -113,7 +113,7 @@ def _lit_luminance(reference, mask) -> np.ndarray:
 
 
 def _display(rgb, exposure):
-    """Linear radiance × exposure, clipped to [0, 1], sRGB-encoded (scenes.imageio's OETF)."""
+    """Linear radiance × exposure, clipped to [0, 1], sRGB-encoded (infra.imageio's OETF)."""
     from volcaustics.infra.imageio import srgb_encode
 
     return srgb_encode(np.clip(rgb * exposure, 0.0, 1.0))

@@ -290,7 +290,7 @@ def seed_relative_mse(reference, reference_var, seed_images, *, mask=None, level
                      standard_error=se, interval=interval, seeds=n, level=level, pixels=int(sel_r.shape[0]))
 
 
-def _bootstrap_weights(seeds: int, resamples: int, seed: int) -> np.ndarray:
+def bootstrap_weights(seeds: int, resamples: int, seed: int) -> np.ndarray:
     """resamples × seeds multiplicities of a bootstrap over the seeds (deterministic)."""
     rng = np.random.default_rng(seed)
     idx = rng.integers(0, seeds, size=(resamples, seeds))
@@ -308,7 +308,7 @@ def seed_mean_interval(values, *, resamples: int = 2000, level: float = 0.95, se
         raise ValueError(f"level = {level!r}: expected a probability in (0, 1)")
     interval = None
     if len(v) >= MIN_SEEDS_FOR_INTERVAL:
-        means = _bootstrap_weights(len(v), resamples, seed) @ v / len(v)
+        means = bootstrap_weights(len(v), resamples, seed) @ v / len(v)
         lo, hi = np.percentile(means, [50 * (1 - level), 50 * (1 + level)])
         interval = (float(lo), float(hi))
     return {"mean": float(v.mean()), "interval": interval, "seeds": len(v),

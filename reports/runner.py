@@ -260,7 +260,7 @@ def _read_back(store, point, key, views, measured) -> PointResult | None:
 
 # --- one point, in whichever process runs it ------------------------------------------
 
-_TOOLS: dict = {}
+TOOLS: dict = {}
 
 
 def run_point(task: dict, *, progress: bool = False, reference=None) -> dict:
@@ -323,6 +323,6 @@ def _tools(scene) -> tuple:
     """A renderer and an oracle per scene, kept for the process's life (shader
     compilation and the oracle's scene build are paid once per scene)."""
     key = scene.scene_hash()
-    if key not in _TOOLS:
-        _TOOLS[key] = (Renderer(scene), Oracle(scene))
-    return _TOOLS[key]
+    if key not in TOOLS:
+        TOOLS[key] = (Renderer(scene), Oracle(scene))
+    return TOOLS[key]

@@ -66,48 +66,48 @@ from .loader_animation import parse_animation
 from .mesh import MeshReadError, closedness_problem, winding_number
 from .model import Camera, DiffuseSurface, Medium, MeshSpec, Phase, Scene, SpecularObject, SpotLight, Transform
 from .toml_values import (
-    _NAME,
     ANGLE_MIN,
     COORDINATE_LIMIT,
-    _check_view,
-    _cone_angle,
-    _Ctx,
-    _direction,
-    _euler,
-    _integer,
-    _name,
-    _objects,
-    _ranged,
-    _rgb,
-    _string,
-    _Table,
-    _vec3,
-    _view_angle,
+    NAME_PATTERN,
+    Context,
+    Table,
+    check_view,
+    cone_angle,
+    direction_value,
+    euler_value,
+    integer_in,
+    name_value,
+    object_list,
+    ranged,
+    rgb_value,
+    string_value,
+    vec3_value,
+    view_angle,
 )
 
 
 def _camera(ctx, key, value) -> Camera:
-    t = _Table(ctx, key, value)
+    t = Table(ctx, key, value)
     cam = Camera(
-        position=t.get("position", _vec3),
-        target=t.get("target", _vec3),
-        up=t.get("up", _direction, (0.0, 1.0, 0.0)),
-        fov_y=t.get("fov_y", _view_angle),
-        width=t.get("width", _integer(1, 16384), 512),
-        height=t.get("height", _integer(1, 16384), 512),
+        position=t.get("position", vec3_value),
+        target=t.get("target", vec3_value),
+        up=t.get("up", direction_value, (0.0, 1.0, 0.0)),
+        fov_y=t.get("fov_y", view_angle),
+        width=t.get("width", integer_in(1, 16384), 512),
+        height=t.get("height", integer_in(1, 16384), 512),
     )
     t.finish()
-    _check_view(ctx, cam)
+    check_view(ctx, cam)
     return cam
 
 
 def _light(ctx, key, value) -> SpotLight:
-    t = _Table(ctx, key, value)
-    position = t.get("position", _vec3)
-    direction = t.get("direction", _direction)
-    intensity = t.get("intensity", _rgb(0.0, unit="W/sr"))
-    cutoff = t.get("cutoff_angle", _cone_angle, 20.0)
-    beam = t.get("beam_width", _cone_angle, max(0.75 * cutoff, ANGLE_MIN))
+    t = Table(ctx, key, value)
+    position = t.get("position", vec3_value)
+    direction = t.get("direction", direction_value)
+    intensity = t.get("intensity", rgb_value(0.0, unit="W/sr"))
+    cutoff = t.get("cutoff_angle", cone_angle, 20.0)
+    beam = t.get("beam_width", cone_angle, max(0.75 * cutoff, ANGLE_MIN))
     t.finish()
     if not max(intensity) > 0:
         raise ctx.error("light.intensity", list(intensity) if isinstance(intensity, tuple) else intensity,
@@ -118,13 +118,13 @@ def _light(ctx, key, value) -> SpotLight:
 
 
 def _medium(ctx, key, value) -> Medium:
-    t = _Table(ctx, key, value)
-    sigma_s = t.get("sigma_s", _rgb(0.0, unit="1/m"), (0.0, 0.0, 0.0))
-    sigma_a = t.get("sigma_a", _rgb(0.0, unit="1/m"), (0.0, 0.0, 0.0))
-    kind = t.get("phase", _string, "isotropic")
+    t = Table(ctx, key, value)
+    sigma_s = t.get("sigma_s", rgb_value(0.0, unit="1/m"), (0.0, 0.0, 0.0))
+    sigma_a = t.get("sigma_a", rgb_value(0.0, unit="1/m"), (0.0, 0.0, 0.0))
+    kind = t.get("phase", string_value, "isotropic")
     if kind not in ("isotropic", "hg"):
         raise ctx.error("medium.phase", kind, 'expected "isotropic" or "hg"')
-    g = t.get("g", _ranged(-1, 1, low_open=True, high_open=True), None)
+    g = t.get("g", ranged(-1, 1, low_open=True, high_open=True), None)
     t.finish()
     if g is not None and kind != "hg":
         raise ctx.error("medium.g", g, 'only allowed with phase = "hg"')
@@ -132,11 +132,11 @@ def _medium(ctx, key, value) -> Medium:
 
 
 def _transform(ctx, key, value) -> Transform:
-    t = _Table(ctx, key, value)
+    t = Table(ctx, key, value)
     tr = Transform(
-        translate=t.get("translate", _vec3, (0.0, 0.0, 0.0)),
-        rotate=t.get("rotate", _euler, (0.0, 0.0, 0.0)),
-        scale=t.get("scale", _ranged(1.0 / COORDINATE_LIMIT, COORDINATE_LIMIT), 1.0),
+        translate=t.get("translate", vec3_value, (0.0, 0.0, 0.0)),
+        rotate=t.get("rotate", euler_value, (0.0, 0.0, 0.0)),
+        scale=t.get("scale", ranged(1.0 / COORDINATE_LIMIT, COORDINATE_LIMIT), 1.0),
     )
     t.finish()
     return tr
@@ -148,8 +148,8 @@ def _mesh(ctx, key, value, transform: Transform) -> MeshSpec:
     if not isinstance(value, dict):
         raise ctx.error(key, value, 'expected a mesh path ("file.ply") or a table { generator = "...", ... }')
     if "path" in value:
-        t = _Table(ctx, key, value)
-        rel = t.get("path", _string)
+        t = Table(ctx, key, value)
+        rel = t.get("path", string_value)
         t.finish()
         path = os.path.normpath(os.path.join(ctx.base_dir, os.path.expanduser(rel)))
         kind = special_file_kind(path)
@@ -160,13 +160,13 @@ def _mesh(ctx, key, value, transform: Transform) -> MeshSpec:
         except OSError as exc:
             raise ctx.error(f"{key}.path", rel, f"a readable PLY or OBJ file ({path}: {exc.strerror or exc})") from None
         return MeshSpec(path=path, transform=transform, content_hash=digest)
-    t = _Table(ctx, key, value)
-    name = t.get("generator", _string)
+    t = Table(ctx, key, value)
+    name = t.get("generator", string_value)
     if name not in GENERATORS:
         raise ctx.error(f"{key}.generator", name, f"expected one of: {', '.join(GENERATORS)}")
     params = {}
     for pname, spec in GENERATORS[name].params.items():
-        parse = _integer(int(spec.low), int(spec.high)) if spec.kind is int else _ranged(spec.low, spec.high)
+        parse = integer_in(int(spec.low), int(spec.high)) if spec.kind is int else ranged(spec.low, spec.high)
         params[pname] = t.get(pname, parse, spec.kind(spec.default))
     t.finish()
     return MeshSpec(generator=name, params=tuple(sorted(params.items())), transform=transform)
@@ -196,23 +196,23 @@ def _load_checked(ctx, key, spec: MeshSpec, closed: bool):
 
 
 def _specular(ctx, key, value, index) -> SpecularObject:
-    t = _Table(ctx, key, value)
-    name = t.get("name", _string, f"specular{index}")
+    t = Table(ctx, key, value)
+    name = t.get("name", string_value, f"specular{index}")
     transform = t.get("transform", _transform, Transform())
     mesh = t.get("mesh", lambda c, k, v: _mesh(c, k, v, transform))
-    ior = t.get("ior", _ranged(1.0, 10.0), 1.5)
-    absorption = t.get("absorption", _rgb(0.0, unit="1/m"), (0.0, 0.0, 0.0))
+    ior = t.get("ior", ranged(1.0, 10.0), 1.5)
+    absorption = t.get("absorption", rgb_value(0.0, unit="1/m"), (0.0, 0.0, 0.0))
     t.finish()
     _load_checked(ctx, f"{key}.mesh", mesh, closed=True)
     return SpecularObject(name, mesh, ior, absorption)
 
 
 def _diffuse(ctx, key, value, index) -> DiffuseSurface:
-    t = _Table(ctx, key, value)
-    name = t.get("name", _string, f"diffuse{index}")
+    t = Table(ctx, key, value)
+    name = t.get("name", string_value, f"diffuse{index}")
     transform = t.get("transform", _transform, Transform())
     mesh = t.get("mesh", lambda c, k, v: _mesh(c, k, v, transform))
-    albedo = t.get("albedo", _rgb(0.0, 1.0), (0.5, 0.5, 0.5))
+    albedo = t.get("albedo", rgb_value(0.0, 1.0), (0.5, 0.5, 0.5))
     t.finish()
     _load_checked(ctx, f"{key}.mesh", mesh, closed=False)
     return DiffuseSurface(name, mesh, albedo)
@@ -222,16 +222,16 @@ def _diffuse(ctx, key, value, index) -> DiffuseSurface:
 
 def parse_scene(data: dict, *, file: str | None = None, base_dir: str = ".", source: str | None = None) -> Scene:
     """Validate a parsed TOML document (a dict) and build the :class:`Scene`."""
-    ctx = _Ctx(file, base_dir)
-    t = _Table(ctx, "", data)
+    ctx = Context(file, base_dir)
+    t = Table(ctx, "", data)
     stem = os.path.splitext(os.path.basename(file))[0] if file else "scene"
-    name = t.get("name", _name, stem if _NAME.fullmatch(stem) else "scene")
-    description = t.get("description", _string, "")
+    name = t.get("name", name_value, stem if NAME_PATTERN.fullmatch(stem) else "scene")
+    description = t.get("description", string_value, "")
     camera = t.get("camera", _camera)
     light = t.get("light", _light)
     medium = t.get("medium", _medium, Medium())
-    specular = t.get("specular", lambda c, k, v: _objects(c, k, v, _specular), ())
-    diffuse = t.get("diffuse", lambda c, k, v: _objects(c, k, v, _diffuse), ())
+    specular = t.get("specular", lambda c, k, v: object_list(c, k, v, _specular), ())
+    diffuse = t.get("diffuse", lambda c, k, v: object_list(c, k, v, _diffuse), ())
     animation = t.get("animation", lambda c, k, v: v, None)
     t.finish()
     seen = {}

@@ -13,29 +13,29 @@ from .mesh import winding_number
 from .model import Scene, Transform
 from .toml_values import (
     COORDINATE_LIMIT,
-    _check_view,
-    _direction,
-    _euler,
-    _integer,
-    _objects,
-    _ranged,
-    _rgb,
-    _string,
-    _Table,
-    _vec3,
-    _view_angle,
+    Table,
+    check_view,
+    direction_value,
+    euler_value,
+    integer_in,
+    object_list,
+    ranged,
+    rgb_value,
+    string_value,
+    vec3_value,
+    view_angle,
 )
 
 
 def _track_values(kind: str) -> Callable:
-    return {"point": _vec3, "direction": _direction, "rgb": _rgb(0.0, unit="1/m or W/sr"),
-            "angle": lambda c, k, v: (_view_angle(c, k, v),), "euler": _euler,
-            "scale": lambda c, k, v: (_ranged(1.0 / COORDINATE_LIMIT, COORDINATE_LIMIT)(c, k, v),)}[kind]
+    return {"point": vec3_value, "direction": direction_value, "rgb": rgb_value(0.0, unit="1/m or W/sr"),
+            "angle": lambda c, k, v: (view_angle(c, k, v),), "euler": euler_value,
+            "scale": lambda c, k, v: (ranged(1.0 / COORDINATE_LIMIT, COORDINATE_LIMIT)(c, k, v),)}[kind]
 
 
 def _track(ctx, key, value, index, scene: Scene) -> Track:
-    t = _Table(ctx, key, value)
-    path = t.get("path", _string)
+    t = Table(ctx, key, value)
+    path = t.get("path", string_value)
     try:
         kind, interpolation = track_kind(path)
     except KeyError:
@@ -66,7 +66,7 @@ def _track(ctx, key, value, index, scene: Scene) -> Track:
 def _keyframes(ctx, key, v):
     if not isinstance(v, list) or not v:
         raise ctx.error(key, v, "expected a non-empty list of increasing frame numbers >= 0")
-    frames = tuple(_ranged(0.0, MAX_FRAMES)(ctx, f"{key}[{i}]", x) for i, x in enumerate(v))
+    frames = tuple(ranged(0.0, MAX_FRAMES)(ctx, f"{key}[{i}]", x) for i, x in enumerate(v))
     for i in range(1, len(frames)):
         if not frames[i] > frames[i - 1]:
             raise ctx.error(f"{key}[{i}]", v[i], f"expected frame numbers increasing (after {frames[i - 1]:g})")
@@ -81,10 +81,11 @@ def _key_values(ctx, key, v, count: int, kind: str):
 
 
 def parse_animation(ctx, value, scene: Scene) -> Animation:
-    t = _Table(ctx, "animation", value)
-    frames = t.get("frames", _integer(1, MAX_FRAMES))
-    fps = t.get("fps", _ranged(*FPS_RANGE, unit="frames per second (what the video writers store)"), 24.0)
-    tracks = t.get("track", lambda c, k, v: _objects(c, k, v, lambda c2, k2, v2, i: _track(c2, k2, v2, i, scene)), ())
+    t = Table(ctx, "animation", value)
+    frames = t.get("frames", integer_in(1, MAX_FRAMES))
+    fps = t.get("fps", ranged(*FPS_RANGE, unit="frames per second (what the video writers store)"), 24.0)
+    tracks = t.get("track", lambda c, k, v: object_list(c, k, v, lambda c2, k2, v2, i: _track(c2, k2, v2, i, scene)),
+                   ())
     t.finish()
     paths = [tr.path for tr in tracks]
     for i, path in enumerate(paths):
@@ -114,7 +115,7 @@ def _check_frames(ctx, animation: Animation, scene: Scene) -> None:
                 raise ctx.error("light.position", list(position), f"must differ from light.target{where}") from None
         if moves:
             at = animation.scene_at(scene, frame)
-            _check_view(ctx, at.camera, where)
+            check_view(ctx, at.camera, where)
             for i, obj in enumerate(at.specular):  # in object space: no mesh is built per frame
                 local = np.linalg.solve(obj.mesh.transform.matrix(), [*at.camera.position, 1.0])[:3]
                 if winding_number(replace(obj.mesh, transform=Transform()).load(), local) > 0.5:

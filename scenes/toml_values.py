@@ -14,7 +14,7 @@ from .model import Camera
 _REQUIRED = object()
 
 
-class _Ctx:
+class Context:
     """Where we are: the file label and the directory mesh paths are relative to."""
 
     def __init__(self, file: str | None, base_dir: str):
@@ -25,10 +25,10 @@ class _Ctx:
         return SceneError(self.file, key, value, allowed)
 
 
-class _Table:
+class Table:
     """One TOML table: typed reads by key, then :meth:`finish` rejects unknown keys."""
 
-    def __init__(self, ctx: _Ctx, key: str, table: Any):
+    def __init__(self, ctx: Context, key: str, table: Any):
         if not isinstance(table, dict):
             raise ctx.error(key or "<top level>", table, "expected a table")
         self.ctx, self.key, self.table, self.used = ctx, key, table, set()
@@ -73,7 +73,7 @@ def _number(ctx, key, v, what="a number"):
     return v
 
 
-def _ranged(low=None, high=None, *, low_open=False, high_open=False, unit=""):
+def ranged(low=None, high=None, *, low_open=False, high_open=False, unit=""):
     lo_b, hi_b = ("(" if low_open else "["), (")" if high_open else "]")
     what = (f"a number in {lo_b}{'-inf' if low is None else low}, {'inf' if high is None else high}{hi_b}"
             f"{' ' + unit if unit else ''}")
@@ -89,7 +89,7 @@ def _ranged(low=None, high=None, *, low_open=False, high_open=False, unit=""):
     return parse
 
 
-def _integer(low, high):
+def integer_in(low, high):
     def parse(ctx, key, v):
         if isinstance(v, bool) or not isinstance(v, int) or not low <= v <= high:
             raise ctx.error(key, v, f"expected an integer in [{low}, {high}]")
@@ -98,36 +98,36 @@ def _integer(low, high):
     return parse
 
 
-def _string(ctx, key, v):
+def string_value(ctx, key, v):
     if not isinstance(v, str):
         raise ctx.error(key, v, "expected a string")
     return v
 
 
-_NAME = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.-]{0,63}")
+NAME_PATTERN = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.-]{0,63}")
 
 
-def _name(ctx, key, v):
+def name_value(ctx, key, v):
     """A scene's name: it becomes a file name (previews, reports), so letters, digits,
     '_', '.', '-' only, not starting with '.' or '-', at most 64 characters."""
-    v = _string(ctx, key, v)
-    if not _NAME.fullmatch(v):
+    v = string_value(ctx, key, v)
+    if not NAME_PATTERN.fullmatch(v):
         raise ctx.error(key, v, "expected a name of letters, digits, '_', '.' and '-' (not starting with '.' or "
                                 "'-', at most 64 characters): it becomes a file name")
     return v
 
 
-_coordinate = _ranged(-COORDINATE_LIMIT, COORDINATE_LIMIT, unit="m")
+_coordinate = ranged(-COORDINATE_LIMIT, COORDINATE_LIMIT, unit="m")
 # The smallest angle (degrees) of a view or a spot cone: float32 resolves angles near 0
 # through cos/acos only to ~0.02 degrees (sqrt(2 * 6e-8) rad); below it the reference's
 # spot profile divides by zero and its camera rays degenerate (fov_y 1e-30 hung Mitsuba).
 ANGLE_MIN = 0.1
-_view_angle = _ranged(ANGLE_MIN, 180, high_open=True, unit="degrees")
+view_angle = ranged(ANGLE_MIN, 180, high_open=True, unit="degrees")
 # The widest spot cone (degrees): the light maps are a perspective projection of the cone,
 # whose edge texels at 80° already subtend cos³ 80° = 0.5% of the centre's solid angle;
 # at 89.99° the projection degenerates (the caustic came out as nothing, the reference not).
 CONE_MAX = 80.0
-_cone_angle = _ranged(ANGLE_MIN, CONE_MAX, unit="degrees")
+cone_angle = ranged(ANGLE_MIN, CONE_MAX, unit="degrees")
 
 
 def _three(element, what: str):
@@ -140,14 +140,14 @@ def _three(element, what: str):
     return parse
 
 
-_vec3 = _three(_coordinate, "numbers [x, y, z]")
+vec3_value = _three(_coordinate, "numbers [x, y, z]")
 # rotation angles, bounded like coordinates (float32 keeps 0.1° at 1e6°), named as angles
-_euler = _three(_ranged(-COORDINATE_LIMIT, COORDINATE_LIMIT, unit="degrees"),
+euler_value = _three(ranged(-COORDINATE_LIMIT, COORDINATE_LIMIT, unit="degrees"),
                 "angles in degrees [about x, about y, about z]")
 
 
-def _rgb(low=0.0, high=None, unit=""):
-    one = _ranged(low, high, unit=unit)
+def rgb_value(low=0.0, high=None, unit=""):
+    one = ranged(low, high, unit=unit)
 
     def parse(ctx, key, v):
         if isinstance(v, list):
@@ -165,8 +165,8 @@ def _describe(low, high, unit):
     return f"{text} {unit}".rstrip()
 
 
-def _direction(ctx, key, v):
-    d = _vec3(ctx, key, v)
+def direction_value(ctx, key, v):
+    d = vec3_value(ctx, key, v)
     n = math.sqrt(sum(x * x for x in d))
     if n < 1e-12:
         raise ctx.error(key, v, "expected a non-zero direction vector")
@@ -176,13 +176,13 @@ def _direction(ctx, key, v):
 # --- sections -------------------------------------------------------------------
 
 
-def _objects(ctx, key, value, build):
+def object_list(ctx, key, value, build):
     if not isinstance(value, list):
         raise ctx.error(key, value, f"expected an array of tables [[{key}]]")
     return tuple(build(ctx, f"{key}[{i}]", item, i) for i, item in enumerate(value))
 
 
-def _check_view(ctx, cam: Camera, where: str = "") -> None:
+def check_view(ctx, cam: Camera, where: str = "") -> None:
     """The camera looks somewhere: target ≠ position, up not along the view."""
     forward = [b - a for a, b in zip(cam.position, cam.target)]
     norm = math.sqrt(sum(x * x for x in forward))

@@ -13,13 +13,14 @@ PYTHON=${PYTHON:-python3}
 # --- system packages ---------------------------------------------------------
 # libllvm19: Dr.Jit's LLVM backend needs libLLVM >= 16 (14/15 crash in the JIT).
 # libegl1 + libgl1-mesa-dri: headless OpenGL (Mesa llvmpipe) for moderngl.
+# glslang-tools: the Khronos reference GLSL compiler, make lint's shader check.
 need=()
 have_llvm=0
 for lib in /usr/lib/x86_64-linux-gnu/libLLVM-{16,17,18,19,20,21}*.so* /usr/lib/llvm-{16,17,18,19,20,21}/lib/libLLVM*.so*; do
   [ -e "$lib" ] && have_llvm=1 && break
 done
 [ "$have_llvm" = 1 ] || need+=(libllvm19)
-for pkg in libegl1 libgl1-mesa-dri; do
+for pkg in libegl1 libgl1-mesa-dri glslang-tools; do
   dpkg -s "$pkg" >/dev/null 2>&1 || need+=("$pkg")
 done
 if ! "$PYTHON" -c 'import venv, ensurepip' >/dev/null 2>&1; then

@@ -39,7 +39,7 @@ from .state import RenderState, format_floors, stop_reason, stream_pending
 from .tasks import add_batch
 
 
-def _render(request: RenderRequest, key: str, state: RenderState | None, source, *, progress: bool) -> tuple:
+def render_into_state(request: RenderRequest, key: str, state: RenderState | None, source, *, progress: bool) -> tuple:
     """Render batches of both streams into ``state`` (a fresh one if None) until the
     settings are met (module docstring), read from ``source`` (``sources``) in the order
     the serial path renders them; returns (state, stopped_by, seconds of this call: its
@@ -100,7 +100,7 @@ def render_batches(scene, settings: ReferenceSettings, *, mode: str = "caustic",
     key = cache.request_key(request, variant_name())
     source = InProcess()
     try:
-        state, stopped_by, seconds, _ = _render(request, key, None, source, progress=progress)
+        state, stopped_by, seconds, _ = render_into_state(request, key, None, source, progress=progress)
     finally:
         source.drop(key)
     out = state.layers()
@@ -227,7 +227,7 @@ def _finish(plan: _Plan, source, progress: bool) -> ReferenceResult:
 
     scene, request, key, settings = plan.scene, plan.request, plan.key, plan.request.settings
     try:
-        state, stopped_by, seconds, where = _render(request, key, plan.state, source, progress=progress)
+        state, stopped_by, seconds, where = render_into_state(request, key, plan.state, source, progress=progress)
     except BatchError as exc:
         raise BatchError(f"the reference of {scene.name}: {exc} (nothing of it was stored)") from exc
     info = _info(state, settings, stopped_by, seconds)

@@ -30,7 +30,7 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _interrupted(exc: BaseException) -> bool:
+def interrupted(exc: BaseException) -> bool:
     """Whether ``exc`` is Ctrl-C as Dr.Jit/Mitsuba pass it on: a KeyboardInterrupt raised
     in Python code that C++ called (an integrator's method, a symbolic loop's body)
     comes back as a RuntimeError naming it or chained to it."""
@@ -142,7 +142,7 @@ def _run(argv, started=lambda: None) -> int | None:
         print(f"volcaustics: error: {exc}", file=sys.stderr)
         return EXIT_USAGE
     except RuntimeError as exc:
-        if not _interrupted(exc):
+        if not interrupted(exc):
             raise
         return None
     except BrokenPipeError:  # output piped into `head` and closed: not an error of ours

@@ -47,15 +47,15 @@ from .gltf_parts import (
     EXTRAS_KEY,
     FORMATS,
     GENERATOR,
-    _camera,
-    _diffuse_material,
-    _floats,
-    _glass_material,
-    _look_rotation,
-    _spot_light,
-    _up_hint,
+    camera_node,
+    diffuse_material,
+    float_list,
+    glass_material,
+    look_rotation,
     quaternion,
     scene_extras,
+    spot_light,
+    up_hint,
 )
 
 # glTF constants (glTF 2.0 spec, 3.6 and 3.7)
@@ -101,17 +101,17 @@ def gltf_document(scene):
     blob = _Blob(gltf)
     nodes = []
     for obj in scene.specular:
-        nodes.append(_object_node(gltf, blob, obj, _glass_material(obj, _object_space(obj))))
+        nodes.append(_object_node(gltf, blob, obj, glass_material(obj, _object_space(obj))))
     for obj in scene.diffuse:
-        nodes.append(_object_node(gltf, blob, obj, _diffuse_material(obj)))
-    light = _spot_light(scene.light)
+        nodes.append(_object_node(gltf, blob, obj, diffuse_material(obj)))
+    light = spot_light(scene.light)
     gltf.extensions["KHR_lights_punctual"] = {"lights": [light]}
-    nodes.append(Node(name="spot_light", translation=_floats(scene.light.position),
-                      rotation=quaternion(_look_rotation(scene.light.direction, _up_hint(scene.light.direction))),
+    nodes.append(Node(name="spot_light", translation=float_list(scene.light.position),
+                      rotation=quaternion(look_rotation(scene.light.direction, up_hint(scene.light.direction))),
                       extensions={"KHR_lights_punctual": {"light": 0}}))
-    gltf.cameras.append(_camera(scene.camera))
-    nodes.append(Node(name="camera", camera=0, translation=_floats(scene.camera.position),
-                      rotation=quaternion(_look_rotation(scene.camera.forward, scene.camera.up))))
+    gltf.cameras.append(camera_node(scene.camera))
+    nodes.append(Node(name="camera", camera=0, translation=float_list(scene.camera.position),
+                      rotation=quaternion(look_rotation(scene.camera.forward, scene.camera.up))))
     gltf.nodes = nodes
     gltf.scenes = [GltfScene(name=scene.name, nodes=list(range(len(nodes))),
                              extras={EXTRAS_KEY: scene_extras(scene)})]
@@ -181,7 +181,7 @@ def _object_node(gltf, blob: _Blob, obj, material):
         material=len(gltf.materials) - 1)]))
     t = obj.mesh.transform
     rotation = t.matrix()[:3, :3] / t.scale
-    return Node(name=obj.name, mesh=len(gltf.meshes) - 1, translation=_floats(t.translate),
+    return Node(name=obj.name, mesh=len(gltf.meshes) - 1, translation=float_list(t.translate),
                 rotation=quaternion(rotation), scale=[float(t.scale)] * 3)
 
 

@@ -33,7 +33,7 @@ SCATTERING_MODEL = ("single scattering (the paper's model): light scatters at mo
                     "are outside both renderers (mask_specular)")
 
 
-def _glass_material(obj, mesh):
+def glass_material(obj, mesh):
     from pygltflib import Material, PbrMetallicRoughness
 
     sigma = np.asarray(obj.absorption, np.float64)
@@ -51,7 +51,7 @@ def _glass_material(obj, mesh):
         extras={EXTRAS_KEY: {
             "bsdf": "smooth dielectric: Fresnel reflection and Snell refraction, outside ior 1",
             "ior": float(obj.ior),
-            "absorption_per_m": _floats(obj.absorption),
+            "absorption_per_m": float_list(obj.absorption),
             "absorption_model": "Beer-Lambert inside the glass: T = exp(-absorption_per_m * d), d in metres; "
                                 "KHR_materials_volume: absorption = -ln(attenuationColor) / attenuationDistance",
             "thicknessFactor": "the mesh's smallest bounding-box extent in its own coordinates (glTF's unit for "
@@ -59,19 +59,19 @@ def _glass_material(obj, mesh):
         }})
 
 
-def _diffuse_material(obj):
+def diffuse_material(obj):
     from pygltflib import Material, PbrMetallicRoughness
 
     return Material(
         name=obj.name, doubleSided=True,
-        pbrMetallicRoughness=PbrMetallicRoughness(baseColorFactor=[*_floats(obj.albedo), 1.0],
+        pbrMetallicRoughness=PbrMetallicRoughness(baseColorFactor=[*float_list(obj.albedo), 1.0],
                                                   metallicFactor=0.0, roughnessFactor=1.0),
-        extras={EXTRAS_KEY: {"bsdf": "Lambertian, lit from either side", "albedo": _floats(obj.albedo)}})
+        extras={EXTRAS_KEY: {"bsdf": "Lambertian, lit from either side", "albedo": float_list(obj.albedo)}})
 
 
 # --- light and camera ------------------------------------------------------------------
 
-def _spot_light(light) -> dict:
+def spot_light(light) -> dict:
     """The KHR_lights_punctual light (a dict: the extension has no pygltflib class)."""
     intensity = np.asarray(light.intensity, np.float64)
     peak = float(intensity.max())
@@ -79,11 +79,11 @@ def _spot_light(light) -> dict:
     beam = math.radians(light.beam_width)
     inner = max(0.0, min(beam, outer - CONE_GAP))
     extras = {
-        "intensity_W_per_sr": _floats(intensity),
+        "intensity_W_per_sr": float_list(intensity),
         "intensity_unit": "W/sr, radiant intensity on the axis (radiometric: not candela, no 683 lm/W factor); "
                           "glTF color * intensity is this value, color = intensity_W_per_sr / max",
-        "position": _floats(light.position),
-        "direction": _floats(light.direction),
+        "position": float_list(light.position),
+        "direction": float_list(light.direction),
         "cutoff_angle_deg": float(light.cutoff_angle),
         "cutoff_angle_rad": outer,
         "beam_width_deg": float(light.beam_width),
@@ -94,12 +94,12 @@ def _spot_light(light) -> dict:
         extras["innerConeAngle_adjusted"] = (f"beam_width is {beam!r} rad; glTF requires innerConeAngle < "
                                              f"outerConeAngle, so innerConeAngle = outerConeAngle - {CONE_GAP:g} "
                                              f"rad")
-    return {"type": "spot", "name": "spot_light", "color": _floats(intensity / peak), "intensity": peak,
+    return {"type": "spot", "name": "spot_light", "color": float_list(intensity / peak), "intensity": peak,
             "spot": {"innerConeAngle": inner, "outerConeAngle": outer},
             "extras": {EXTRAS_KEY: extras}}
 
 
-def _camera(camera):
+def camera_node(camera):
     from pygltflib import Camera, Perspective
 
     return Camera(type="perspective", name="camera",
@@ -108,16 +108,16 @@ def _camera(camera):
                   extras={EXTRAS_KEY: {
                       "model": "pinhole, vertical field of view (yfov), box pixel filter",
                       "fov_y_deg": float(camera.fov_y),
-                      "position": _floats(camera.position),
-                      "target": _floats(camera.target),
-                      "up": _floats(camera.up),
+                      "position": float_list(camera.position),
+                      "target": float_list(camera.target),
+                      "up": float_list(camera.up),
                       "width": int(camera.width),
                       "height": int(camera.height),
                       "znear": "glTF requires a near plane; ours has none (a pinhole sees from 0)",
                   }})
 
 
-def _look_rotation(forward, up) -> np.ndarray:
+def look_rotation(forward, up) -> np.ndarray:
     """3×3 rotation whose −Z is ``forward`` and whose +Y is ``up`` made orthogonal to it
     (columns x, y, z: a camera's or a light's frame, as a look-at)."""
     f = np.asarray(forward, np.float64)
@@ -127,7 +127,7 @@ def _look_rotation(forward, up) -> np.ndarray:
     return np.column_stack([s, np.cross(s, f), -f])
 
 
-def _up_hint(direction) -> tuple:
+def up_hint(direction) -> tuple:
     """The world axis least aligned with ``direction`` (a spot has no roll: any will do)."""
     axis = int(np.argmin(np.abs(np.asarray(direction, np.float64))))
     return tuple(1.0 if k == axis else 0.0 for k in range(3))
@@ -159,16 +159,16 @@ def scene_extras(scene) -> dict:
                   "radiance": "W·m⁻²·sr⁻¹, linear Rec.709 primaries"},
         "medium": {
             "kind": "homogeneous",
-            "sigma_s": _floats(medium.sigma_s),
-            "sigma_a": _floats(medium.sigma_a),
-            "sigma_t": _floats(medium.sigma_t),
+            "sigma_s": float_list(medium.sigma_s),
+            "sigma_a": float_list(medium.sigma_a),
+            "sigma_t": float_list(medium.sigma_t),
             "unit": "1/m, RGB",
             "phase": {"kind": medium.phase.kind, "g": float(medium.phase.g)},
             "extent": f"fills the scene outside the objects: the axis-aligned box [box_min, box_max] around every "
                       f"mesh, the light and the camera (margin {MARGIN:g} of its diagonal), less the glass "
                       f"interiors; vacuum outside the box",
-            "box_min": _floats(lo),
-            "box_max": _floats(hi),
+            "box_min": float_list(lo),
+            "box_max": float_list(hi),
             "vacuum": bool(medium.is_vacuum),
         },
         "image": {
@@ -188,5 +188,5 @@ def scene_extras(scene) -> dict:
     return extras
 
 
-def _floats(values) -> list:
+def float_list(values) -> list:
     return [float(x) for x in values]

@@ -227,7 +227,7 @@ Result <code>{escape(page['point'])}</code> {'measured in this run' if page['mea
 </section>"""
 
 
-def _sweep_section(sweep: dict, figures: dict) -> str:
+def sweep_section(sweep: dict, figures: dict) -> str:
     if sweep is None:
         return ""
     figs = "".join(f"<figure><img class='chart' src='{uri}' alt='{escape(name)}'><figcaption>{escape(name)}"
@@ -251,7 +251,7 @@ def _sweep_section(sweep: dict, figures: dict) -> str:
 <p class='note'>Per scene: the fewest layers / iterations / peak_samples whose error is within
 {_num(factor, '{:g}')}× the best over that parameter (the other varied parameters at their largest).</p>
 <table id='suffice'>{head}{rows}</table>
-{_variants_table(sweep.get('variants'))}
+{variants_table(sweep.get('variants'))}
 {_best_table(sweep.get('best'))}
 {figs}
 </section>"""
@@ -264,7 +264,7 @@ def _pm(value, se) -> str:
     return f"{100 * value:+.1f}%" + (f" ± {100 * se:.1f}" if se is not None else "")
 
 
-def _variants_table(variants: dict | None) -> str:
+def variants_table(variants: dict | None) -> str:
     if not variants:
         return ""
     head = ("<tr><th class='l'>scene</th><th class='l'></th><th class='l'>variant</th><th>layers</th>"
@@ -336,7 +336,7 @@ frames (0 = identical, 1 = worst). Budgets: <code>{escape(summary['budgets'])}</
 reference: <code>{escape(json.dumps(summary['reference_settings']))}</code><br>
 measurement: <code>{escape(json.dumps(summary.get('measurement', {})))}</code></p></details>
 {sections}
-{_sweep_section(summary['sweep'], sweep_figures)}
+{sweep_section(summary['sweep'], sweep_figures)}
 {over_time_section(animations, list(animation_media))}
 <script>{SCRIPT}</script>
 </body></html>

@@ -137,7 +137,7 @@ class BestSearch:
                 row[f"relmse_{term}"] = terms.get(term, {}).get("relmse_part_debiased")
             rows.append(row)
         table = pd.DataFrame(rows)
-        return _with_ratios(table, self.base) if len(table) else table
+        return with_ratios(table, self.base) if len(table) else table
 
     def adopted(self, table: pd.DataFrame) -> tuple | None:
         """The configuration (label) with the least worst ratio over the scenes, among
@@ -146,7 +146,7 @@ class BestSearch:
         return None if worst.empty else worst.idxmin()
 
 
-def _with_ratios(table: pd.DataFrame, base) -> pd.DataFrame:
+def with_ratios(table: pd.DataFrame, base) -> pd.DataFrame:
     """Per row: ``cost_ratio`` (the largest predicted ratio over the cost model's weight
     sets; the counted total's without them), ``time_ratio`` (measured frame time),
     ``relmse_ratio`` (debiased caustic relMSE) and ``frame_ratio`` (one frame's) against

@@ -22,7 +22,7 @@ def folder(tmp_path):
     shutil.copytree(APPROX, copy, ignore=shutil.ignore_patterns("__pycache__"))
 
     def hashed() -> str:
-        sources._folder_files.cache_clear()
+        sources.folder_files.cache_clear()
         return sources.source_hash({"approx": str(copy)})
     return copy, hashed
 

@@ -13,7 +13,7 @@ from scipy.stats import t as student_t
 
 from volcaustics.metrics.noise import (
     MIN_SEEDS_FOR_INTERVAL,
-    _bootstrap_weights,
+    bootstrap_weights,
     noisy_copy,
     seed_mean_interval,
     seed_relative_mse,
@@ -306,7 +306,7 @@ def test_seed_mean_interval():
     assert seed_mean_interval(values, resamples=500, seed=4) == result
     assert result["seeds"] == 6 and result["resamples"] == 500 and result["level"] == 0.95
     # the interval is the percentiles of means of explicit resamples with the same multiplicities
-    weights = _bootstrap_weights(6, 500, 4)
+    weights = bootstrap_weights(6, 500, 4)
     means = [np.repeat(values, w.astype(int)).mean() for w in weights]
     assert (lo, hi) == pytest.approx(tuple(np.percentile(means, [2.5, 97.5])), rel=1e-12)
 
@@ -323,9 +323,9 @@ def test_seed_mean_interval_needs_min_seeds(n):
 
 
 def test_bootstrap_weights_are_deterministic_multiplicities():
-    a, b = _bootstrap_weights(6, 50, 7), _bootstrap_weights(6, 50, 7)
+    a, b = bootstrap_weights(6, 50, 7), bootstrap_weights(6, 50, 7)
     np.testing.assert_array_equal(a, b)
-    assert not np.array_equal(a, _bootstrap_weights(6, 50, 8))
+    assert not np.array_equal(a, bootstrap_weights(6, 50, 8))
     assert np.all(a >= 0) and np.all(a == np.round(a)) and np.all(a.sum(axis=1) == 6)
 
 

@@ -18,7 +18,7 @@ class Batches(tuple):
     totals: np.ndarray
 
 
-def _batches(mi_scene, integrator, spp, batches, channels, seed0=0) -> Batches:
+def integrator_batches(mi_scene, integrator, spp, batches, channels, seed0=0) -> Batches:
     images = np.stack([np.asarray(mi.render(mi_scene, integrator=integrator, seed=seed0 + b, spp=spp))[..., channels]
                        for b in range(batches)]).astype(np.float64)
     out = Batches((images.mean(0), images.var(0, ddof=1) / batches))
@@ -26,7 +26,7 @@ def _batches(mi_scene, integrator, spp, batches, channels, seed0=0) -> Batches:
     return out
 
 
-def _agree(a: Batches, b: Batches) -> bool:
+def agree(a: Batches, b: Batches) -> bool:
     """Two estimates of one image agree: per-pixel z-test (Student's t, Šidák), and the
     image totals within 3 standard errors per channel (from the batches' totals, which
     include the covariance of pixels one light path splats into). The totals give the

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from volcaustics.reference.cache import read_state
-from volcaustics.reference.render import _render, render_references
+from volcaustics.reference.render import render_into_state, render_references
 from volcaustics.reference.render.sources import InProcess
 from volcaustics.reference.render.tasks import process_name, render_batch
 from volcaustics.reference.request import resolve
@@ -86,7 +86,7 @@ def test_batches_merged_out_of_order_are_told_apart(empty_cache, one_thread):
     the camera stream's arrays stay the same bytes."""
     request = resolve(*_jobs(4)[0])
     key = "negative-control"
-    digests = [_digests(_render(request, key, None, source, progress=False)[0].arrays(), {})
+    digests = [_digests(render_into_state(request, key, None, source, progress=False)[0].arrays(), {})
                for source in (InProcess(), _Swapped())]
     differ = {name for name in digests[0] if digests[0][name] != digests[1][name]}
     assert "light/group/caustic" in differ and "light/total/caustic" in differ

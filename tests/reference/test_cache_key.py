@@ -35,8 +35,9 @@ def test_identical_inputs_give_identical_keys():
 def test_key_is_stable_across_processes_and_needs_no_mitsuba():
     """Same key in a fresh process with another hash seed; computing it does not
     import Mitsuba (a cached `volcaustics reference` call stays cheap)."""
-    code = ("import sys; from reference import cache; from reference.settings import ReferenceSettings; "
-            "from scenes import load_builtin; "
+    code = ("import sys; from volcaustics.reference import cache; "
+            "from volcaustics.reference.settings import ReferenceSettings; "
+            "from volcaustics.scenes import load_builtin; "
             "s = ReferenceSettings(photons=100000, spp=8, batches=2, width=24, height=24); "
             "print(cache.cache_key(load_builtin('refocus'), s)); print('mitsuba' in sys.modules)")
     env = {**os.environ, "PYTHONHASHSEED": "4321", "VOLCAUSTICS_MI_VARIANT": "llvm_ad_rgb"}

@@ -12,7 +12,7 @@ event estimation, BSDF sampling) on scenes where the two count the same paths.
   first two tests check).
 
 Each comparison is a per-pixel z-test (Šidák, Student's t) with the image totals within
-3 standard errors (test_validation._agree), and has a negative control: volpath with
+3 standard errors (test_validation.agree), and has a negative control: volpath with
 one order fewer must fail it."""
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from tests.reference.agreement import Batches, _agree
+from tests.reference.agreement import Batches, agree
 from tests.shared import make_scene, sphere_spec
 from volcaustics.reference.mi_setup import mitsuba
 from volcaustics.reference.render.export import to_mitsuba
@@ -81,14 +81,14 @@ def test_fog_orders_match_volpath():
     mi_scene = mi.load_dict(to_mitsuba(scene))
     images, stacks = _ordered(mi_scene, _orders(scene, mi_scene), 256, 8)
     ours = _stats(images)
-    assert _agree(_stats(_volpath(mi_scene, K + 1, 1024, 8, 100)), ours)
+    assert agree(_stats(_volpath(mi_scene, K + 1, 1024, 8, 100)), ours)
     # every order's image is fog here, and they add up to the whole image (to float32 atomic
     # splat order: 1.6e-4 of the maximum measured; docs/decisions.md "Float32 atomic splats")
     assert np.allclose(sum(s[1].sum(0) for s in stacks) / len(stacks), ours[0], rtol=0, atol=1e-3 * ours[0].max())
     third = np.mean([s[1, K].sum() for s in stacks]) / np.mean([s[1].sum() for s in stacks])
     print("V7 fog: order", K, "share", third)
     # negative control: volpath with one order fewer
-    assert not _agree(_stats(_volpath(mi_scene, K, 1024, 8, 200)), ours)
+    assert not agree(_stats(_volpath(mi_scene, K, 1024, 8, 200)), ours)
 
 
 def _area_light_scene():
@@ -118,12 +118,12 @@ def test_caustic_orders_match_volpath_through_glass():
     images, stacks = _ordered(mi_scene, _orders(scene, mi_scene, ALL_ORDERS), 256, 8)
     ours = _stats(images, keep)
     theirs = _stats(_volpath(mi_scene, -1, 4096, 8, 100), keep)
-    assert _agree(theirs, ours)
+    assert agree(theirs, ours)
     caustic = np.mean([s[0, 2:][:, keep].sum() for s in stacks])
     print("V7 caustic: orders >= 2 of the caustic", caustic, "of all", ours[0].sum(), "volpath", theirs[0].sum())
     assert caustic > 0.2 * ours[0].sum()  # the test is about refracted light's higher orders
     assert np.mean([s[:, ALL_ORDERS][:, keep].sum() for s in stacks]) < 1e-6 * ours[0].sum()  # all orders: none left
-    assert not _agree(theirs, _stats([s[:, :3].sum(axis=(0, 1)) for s in stacks], keep))  # orders ≤ 2 only
+    assert not agree(theirs, _stats([s[:, :3].sum(axis=(0, 1)) for s in stacks], keep))  # orders ≤ 2 only
 
 
 def _seen_glass(scene, mi_scene) -> np.ndarray:
@@ -140,6 +140,6 @@ def test_direct_order_zero_matches_camera_direct():
     camera = configure(SingleScatterIntegrator(), scene, mi_scene)
     theirs = _stats([np.asarray(mi.render(mi_scene, integrator=camera, seed=100 + b, spp=32))[..., 6:9]
                      for b in range(8)])
-    assert _agree(theirs, _stats([s[2, 0] for s in stacks]))
+    assert agree(theirs, _stats([s[2, 0] for s in stacks]))
     # negative control: order 0 and order 1 together (light scattered once before the floor too)
-    assert not _agree(theirs, _stats([s[2, 0] + s[2, 1] for s in stacks]))
+    assert not agree(theirs, _stats([s[2, 0] + s[2, 1] for s in stacks]))

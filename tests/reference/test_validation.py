@@ -13,7 +13,7 @@ import math
 import numpy as np
 import pytest
 
-from tests.reference.agreement import _agree, _batches
+from tests.reference.agreement import agree, integrator_batches
 from tests.shared import fog_quadrature, make_scene, pixel_ray, sphere_spec
 from volcaustics.metrics.stats import z_test
 from volcaustics.reference.mi_setup import mitsuba
@@ -48,15 +48,15 @@ def _diffuse_scene(intensity=10.0, medium=None):
 def test_surface_light_tracer_matches_ptracer():
     scene = _diffuse_scene()
     mi_scene = mi.load_dict(to_mitsuba(scene))
-    ours = _batches(mi_scene, _tracer(scene, mi_scene, "surface"), 64, 8, slice(0, 3))
+    ours = integrator_batches(mi_scene, _tracer(scene, mi_scene, "surface"), 64, 8, slice(0, 3))
     ptracer = mi.load_dict({"type": "ptracer", "max_depth": 2})
-    theirs = _batches(mi_scene, ptracer, 64, 8, slice(0, 3), seed0=100)
-    assert _agree(theirs, ours)
+    theirs = integrator_batches(mi_scene, ptracer, 64, 8, slice(0, 3), seed0=100)
+    assert agree(theirs, ours)
     # A deliberately wrong light tracer (intensity × 1.1) must fail the same test.
     wrong = _diffuse_scene(intensity=11.0)
     wrong_mi = mi.load_dict(to_mitsuba(wrong))
-    bad = _batches(wrong_mi, _tracer(wrong, wrong_mi, "surface"), 64, 8, slice(0, 3), seed0=200)
-    assert not _agree(theirs, bad)
+    bad = integrator_batches(wrong_mi, _tracer(wrong, wrong_mi, "surface"), 64, 8, slice(0, 3), seed0=200)
+    assert not agree(theirs, bad)
 
 
 @pytest.mark.parametrize("phase", [Phase(), Phase("hg", 0.6)], ids=["isotropic", "hg0.6"])
@@ -64,9 +64,9 @@ def test_single_scatter_matches_volpath(phase):
     scene = _diffuse_scene(medium=Medium((0.3, 0.25, 0.2), (0.05, 0.05, 0.05), phase))
     mi_scene = mi.load_dict(to_mitsuba(scene))
     ss = configure(SingleScatterIntegrator(), scene, mi_scene)
-    ours = _batches(mi_scene, ss, 32, 8, slice(0, 3))
+    ours = integrator_batches(mi_scene, ss, 32, 8, slice(0, 3))
     volpath = mi.load_dict({"type": "volpath", "max_depth": 2})
-    theirs = _batches(mi_scene, volpath, 256, 8, slice(0, 3), seed0=100)
+    theirs = integrator_batches(mi_scene, volpath, 256, 8, slice(0, 3), seed0=100)
     # per pixel only: the totals' small difference is below what this test resolves
     # (docs/decisions.md "Single scatter against volpath")
     result = z_test(theirs[0], theirs[1], ours[0], ours[1], batches=(8, 8))
@@ -81,13 +81,13 @@ def test_light_tracer_fog_matches_camera_fog():
     scene = make_scene([(sphere_spec(0.35, (0.0, 1.5, 0.0), 12), 1.5, (0, 0, 0))], camera=cam, cutoff=25.0,
                        sigma_s=0.3, sigma_a=0.05, g=0.3)
     mi_scene = mi.load_dict(to_mitsuba(scene))
-    lt = _batches(mi_scene, _tracer(scene, mi_scene, "fog"), 128, 8, slice(0, 3))
+    lt = integrator_batches(mi_scene, _tracer(scene, mi_scene, "fog"), 128, 8, slice(0, 3))
     ss = configure(SingleScatterIntegrator(), scene, mi_scene)
-    camera_fog = _batches(mi_scene, ss, 32, 8, slice(3, 6), seed0=100)
-    assert _agree(camera_fog, lt)
+    camera_fog = integrator_batches(mi_scene, ss, 32, 8, slice(3, 6), seed0=100)
+    assert agree(camera_fog, lt)
     # ... and the comparison has power: counting refracted light too ('all') must fail it
-    both = _batches(mi_scene, _tracer(scene, mi_scene, "all"), 128, 8, slice(0, 3), seed0=300)
-    assert not _agree(camera_fog, both)
+    both = integrator_batches(mi_scene, _tracer(scene, mi_scene, "all"), 128, 8, slice(0, 3), seed0=300)
+    assert not agree(camera_fog, both)
 
 
 def test_fog_pixel_matches_quadrature():
@@ -98,7 +98,7 @@ def test_fog_pixel_matches_quadrature():
     scene = make_scene([], camera=cam, sigma_s=0.3, sigma_a=0.05, cutoff=25.0, beam=15.0, g=0.4)
     mi_scene = mi.load_dict(to_mitsuba(scene))
     ss = configure(SingleScatterIntegrator(), scene, mi_scene)
-    mean, var = _batches(mi_scene, ss, 8192, 8, slice(3, 6))
+    mean, var = integrator_batches(mi_scene, ss, 8192, 8, slice(3, 6))
     row, col = 10, 8
     eye = np.asarray(cam.position)
 

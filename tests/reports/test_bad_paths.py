@@ -253,10 +253,10 @@ def test_ctrl_c_inside_mitsuba_exits_130(tmp_path, monkeypatch, capsys, wrapped)
 
 
 def test_other_runtime_errors_are_not_taken_for_interrupts():
-    from volcaustics.reports.cli import _interrupted
+    from volcaustics.reports.cli import interrupted
 
-    assert not _interrupted(RuntimeError("out of memory"))
-    assert _interrupted(RuntimeError("x: KeyboardInterrupt"))
+    assert not interrupted(RuntimeError("out of memory"))
+    assert interrupted(RuntimeError("x: KeyboardInterrupt"))
 
 
 @pytest.mark.parametrize("command, other", [

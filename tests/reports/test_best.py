@@ -109,7 +109,7 @@ def _row(scene, config, cost, relmse, **terms):
 
 
 def _table(rows) -> pd.DataFrame:
-    return best._with_ratios(pd.DataFrame(rows), PAPER)
+    return best.with_ratios(pd.DataFrame(rows), PAPER)
 
 
 ROWS = [_row("a", "paper", 100, 0.10), _row("b", "paper", 100, 0.20),

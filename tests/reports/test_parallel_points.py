@@ -25,11 +25,11 @@ def _measure(store, **options):
 
 def test_parallel_points_store_what_this_process_stores(cache, tmp_path, monkeypatch):
     monkeypatch.setattr(runner, "default_workers", lambda: 2)
-    monkeypatch.setattr(runner, "_TOOLS", {})  # this process's renderers: none made when the workers measure
+    monkeypatch.setattr(runner, "TOOLS", {})  # this process's renderers: none made when the workers measure
     parallel = _measure(Store(str(tmp_path / "parallel")), parallel=True)
-    assert parallel.computed == 2 and runner._TOOLS == {}
+    assert parallel.computed == 2 and runner.TOOLS == {}
     here = _measure(Store(str(tmp_path / "here")))
-    assert here.keys == parallel.keys and runner._TOOLS
+    assert here.keys == parallel.keys and runner.TOOLS
     for key in here.keys:
         for table in TABLES:
             files = [os.path.join(tmp_path, side, "points", key, f"{table}.parquet") for side in ("parallel", "here")]
@@ -53,9 +53,9 @@ def test_points_whose_images_fit_the_memory_only_one_at_a_time_run_in_this_proce
     one = measurement_bytes(32, 32, POINT.seeds)
     monkeypatch.setattr(runner, "default_workers", lambda: 2)
     monkeypatch.setattr(runner, "memory_budget", lambda: int(1.5 * one))
-    monkeypatch.setattr(runner, "_TOOLS", {})
+    monkeypatch.setattr(runner, "TOOLS", {})
     assert _measure(Store(str(tmp_path / "store")), parallel=True).computed == 2
-    assert runner._TOOLS  # measured in this process
+    assert runner.TOOLS  # measured in this process
 
 
 def test_a_worker_reads_only_the_render_its_point_names(cache, tmp_path):

@@ -13,7 +13,7 @@ from volcaustics.approx.params import PARAMS, ApproxParams
 from volcaustics.infra.storage import file_sha256
 from volcaustics.reports.core.store import POINT_COLUMNS, document_sha256, point_row
 from volcaustics.reports.core.versions import code_version
-from volcaustics.reports.page.html import _sweep_section
+from volcaustics.reports.page.html import sweep_section
 from volcaustics.reports.report.sweep_store import ReportError, load_sweep
 from volcaustics.reports.sweep.run import MANIFEST_SEAL
 
@@ -56,7 +56,7 @@ def test_a_store_before_a_parameter_and_of_another_code_version_is_marked(tmp_pa
     assert list(sweep.tables["points"]["crossing"]) == ["sign", "sign"]  # what its points ran
     assert any("predates the parameter crossing" in n and "crossing = sign" in n for n in sweep.notes)
     assert any(n.startswith("measured by code version 0ld, not this code's") for n in sweep.notes)
-    html = _sweep_section({"folder": "s", "points": 2, "varied": ["layers"], "suffice": [], "suffice_factor": None,
+    html = sweep_section({"folder": "s", "points": 2, "varied": ["layers"], "suffice": [], "suffice_factor": None,
                            "notes": sweep.notes}, {})
     assert html.count("class='warn sweep-note'") == 2 and "predates the parameter crossing" in html
 

@@ -104,10 +104,10 @@ def test_the_report_shows_the_best_variants():
     """The page's Variants table (reports/page/html.py) shows each scene's paper point and
     best variant with their numbers; a sweep that varies no variant choice shows none."""
     from volcaustics.reports.core.tables import rows_of
-    from volcaustics.reports.page.html import _variants_table
+    from volcaustics.reports.page.html import variants_table
 
     best = rows_of(best_variants(variant_table(_tables(ROWS))))
-    html = _variants_table({"best": best, "points": []})
+    html = variants_table({"best": best, "points": []})
     assert "id='variants-best'" in html and "threshold / secant / offset" in html
     assert "+5.0% ± 0.5" in html and "0.42×" in html  # the best's term and its ratio to the paper's
-    assert _variants_table(None) == ""
+    assert variants_table(None) == ""

@@ -8,6 +8,7 @@ import math
 import pytest
 
 from volcaustics.scenes import SceneError, resolve_scene
+from volcaustics.scenes.catalogue import builtin_path
 from volcaustics.scenes.fields import field_columns, optical_depth, parse_field_value, scene_with
 
 
@@ -24,7 +25,8 @@ def test_a_changed_field_is_the_scene_with_that_value():
 
 def test_a_scene_file_by_path(tmp_path):
     path = tmp_path / "mine.toml"
-    path.write_text(open("scenes/builtin/refocus.toml").read().replace('name = "refocus"', 'name = "mine"'))
+    with open(builtin_path("refocus"), encoding="utf-8") as fh:
+        path.write_text(fh.read().replace('name = "refocus"', 'name = "mine"'))
     changed = scene_with(str(path), {"medium.sigma_a": 0.1})
     assert changed.name == "mine" and changed.medium.sigma_a == (0.1,) * 3
     assert changed.source == str(path)

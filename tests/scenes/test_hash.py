@@ -24,7 +24,7 @@ def test_builtin_hash_is_frozen():
 
 def test_hash_same_in_fresh_process_with_other_hash_seed():
     here = load_builtin("bunny").scene_hash()
-    code = "import scenes; print(scenes.load_builtin('bunny').scene_hash())"
+    code = "from volcaustics.scenes import load_builtin; print(load_builtin('bunny').scene_hash())"
     env = {**os.environ, "PYTHONHASHSEED": "12345"}
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=120)
     assert out.stdout.strip() == here
