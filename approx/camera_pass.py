@@ -8,7 +8,7 @@ import numpy as np
 from volcaustics.scenes.formats import KIND_DIFFUSE, KIND_SPECULAR
 
 from .context import bound
-from .glsl import program
+from .glsl import program, uniform
 from .glsl import set_uniforms as _set
 from .light import spot_constants
 from .transforms import gl_matrix, look_at, perspective
@@ -30,10 +30,10 @@ class CameraView:
     def set_uniforms(self, prog: moderngl.Program):
         for name, value in (("eye", tuple(self.eye)), ("viewport", (float(self.width), float(self.height)))):
             if name in prog:
-                prog[name].value = value
+                uniform(prog, name).value = value
         for name, m in (("view_proj", self.view_proj), ("inv_view_proj", self.inv_view_proj)):
             if name in prog:
-                prog[name].write(gl_matrix(m))
+                uniform(prog, name).write(gl_matrix(m))
 
 
 class CameraPasses:
@@ -51,7 +51,7 @@ class CameraPasses:
 
     def __init__(self, ctx: moderngl.Context, scene, fog_defines: dict):
         self.ctx = ctx
-        programs = {name: program(ctx, *stages, defines)
+        programs = {name: program(ctx, stages[0], stages[1], defines)
                     for name, (stages, defines) in self.programs(scene.medium, fog_defines).items()}
         self.gbuffer, self.fog, self.direct = programs["gbuffer"], programs["fog"], programs["direct"]
         self.empty_vao = ctx.vertex_array(self.fog, [])
@@ -94,7 +94,7 @@ class CameraPasses:
         view.set_uniforms(prog)
         for name, value in spot_constants(scene.light).items():
             _set(prog, **{name: value})
-        prog["light_view_proj"].write(gl_matrix(frustum.view_proj))
+        uniform(prog, "light_view_proj").write(gl_matrix(frustum.view_proj))
         _set(prog, light_res=light_res, sigma_t=tuple(scene.medium.sigma_t))
         shadow_map.use(location=0)
         gbuffer_geometry.use(location=1)

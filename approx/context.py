@@ -23,7 +23,7 @@ class ContextError(RuntimeError):
 def create_context() -> moderngl.Context:
     """A new standalone EGL OpenGL >= 4.5 core context (prefer :func:`shared_context`)."""
     try:
-        return moderngl.create_standalone_context(backend="egl", require=GL_REQUIRE)
+        return moderngl.create_standalone_context(backend="egl", require=GL_REQUIRE)  # type: ignore[arg-type]
     except Exception as exc:
         raise ContextError(
             f"cannot create a headless OpenGL {GL_REQUIRE // 100}.{GL_REQUIRE % 100 // 10} context through EGL "

@@ -19,7 +19,7 @@ import numpy as np
 
 from volcaustics.scenes.model import Transform
 
-from .glsl import attribute_layout
+from .glsl import attribute_layout, uniform
 
 VERTEX_FORMAT = "3f 3f 3f 1f"  # position, smooth normal, face normal, material index
 VERTEX_ATTRIBUTES = ("in_position", "in_normal", "in_face_normal", "in_material")
@@ -50,7 +50,7 @@ def bind_identity_models(ctx: moderngl.Context, program) -> moderngl.Buffer:
     identity matrices bound, model_base 0; returns the buffer (the caller releases it)."""
     models = ctx.buffer(np.tile(np.eye(4, dtype=np.float32), (MAX_MODELS, 1, 1)).tobytes())
     models.bind_to_uniform_block(MODELS_BINDING)
-    program["model_base"].value = 0
+    uniform(program, "model_base").value = 0
     return models
 
 
@@ -125,7 +125,7 @@ class SceneGeometry:
         matrices in the uniform block (a binding is context state that other renderers
         on the shared context change) and the index of ``which``'s first matrix."""
         self.models.bind_to_uniform_block(MODELS_BINDING)
-        program["model_base"].value = 0 if which == "specular" else len(self.meshes) - len(self.diffuse_ranges)
+        uniform(program, "model_base").value = 0 if which == "specular" else len(self.meshes) - len(self.diffuse_ranges)
 
     def vertex_array(self, ctx, program, which: str) -> moderngl.VertexArray | None:
         buf = self.specular if which == "specular" else self.diffuse

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import os
 import re
+from typing import cast
 
 import moderngl
 
@@ -69,12 +70,18 @@ def program(ctx: moderngl.Context, vertex: str, fragment: str, defines: dict | N
     return ctx.program(vertex_shader=load_source(vertex, defines), fragment_shader=load_source(fragment, defines))
 
 
+def uniform(prog, name: str) -> moderngl.Uniform:
+    """``prog``'s uniform ``name``, typed as one (moderngl types a program's members as
+    a union of uniform, block, attribute and varying); KeyError when it has none."""
+    return cast(moderngl.Uniform, prog[name])
+
+
 def set_uniforms(prog, **values) -> None:
     """Set the uniforms that the compiled program still has (unused ones are
     optimised away by the GLSL compiler, depending on defines)."""
     for name, value in values.items():
         if name in prog:
-            prog[name].value = value
+            uniform(prog, name).value = value
 
 
 def attribute_layout(prog, parts, per_instance: bool = False) -> tuple[str, list[str]]:

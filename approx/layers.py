@@ -22,7 +22,7 @@ import moderngl
 import numpy as np
 
 from .context import bound
-from .glsl import program
+from .glsl import program, uniform
 from .transforms import gl_matrix
 
 FRONT, BACK, BOTH = 1, -1, 0
@@ -55,7 +55,7 @@ class LightMapRenderer:
         self.vao_diffuse = geometry.vertex_array(ctx, self.program, "diffuse")
         self._empty = ctx.texture((1, 1), 4, dtype="f4")  # bound as previous_map when unused
         self._empty.filter = (moderngl.NEAREST, moderngl.NEAREST)
-        self._depth = {}  # resolution -> depth renderbuffer, reused by every map of that size
+        self._depth: dict[int, moderngl.Renderbuffer] = {}  # resolution -> depth renderbuffer, for every map of it
         self.drawn = (0, 0)  # (fragments, primitives) of the maps rendered since take_drawn
 
     def take_drawn(self) -> tuple:
@@ -82,15 +82,15 @@ class LightMapRenderer:
         attachments = [tex] if geometric is None else [tex, geometric]
         fbo = ctx.framebuffer(color_attachments=attachments, depth_attachment=self._depth[res])
         prog = self.program
-        prog["light_view_proj"].write(gl_matrix(frustum.view_proj))
-        prog["light_position"].value = tuple(frustum.position)
-        prog["light_direction"].value = tuple(frustum.direction)
-        prog["facing"].value = facing
-        prog["threshold"].value = float(max(threshold, -3.0e38))
-        prog["use_previous"].value = previous is not None
-        prog["peel_epsilon"].value = float(peel_epsilon)
+        uniform(prog, "light_view_proj").write(gl_matrix(frustum.view_proj))
+        uniform(prog, "light_position").value = tuple(frustum.position)
+        uniform(prog, "light_direction").value = tuple(frustum.direction)
+        uniform(prog, "facing").value = facing
+        uniform(prog, "threshold").value = float(max(threshold, -3.0e38))
+        uniform(prog, "use_previous").value = previous is not None
+        uniform(prog, "peel_epsilon").value = float(peel_epsilon)
         (previous or self._empty).use(location=0)
-        prog["previous_map"].value = 0
+        uniform(prog, "previous_map").value = 0
         with bound(ctx, fbo):
             ctx.enable(moderngl.DEPTH_TEST)
             ctx.disable(moderngl.CULL_FACE)
@@ -136,7 +136,8 @@ class LightMapRenderer:
         ``primitive_ids``.
 
         Also sets ``self.layer_used``: per map, whether any fragment was written."""
-        maps, used = [], []
+        maps: list[LightMap] = []
+        used: list[bool] = []
         peel_epsilon = 1e-5 * frustum.far
         thresholds = self.thresholds(frustum, layers)
         for level in range(layers):

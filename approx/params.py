@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass, field, replace
-from typing import Callable, ClassVar
+from typing import Callable, ClassVar, cast
 
 from volcaustics.infra.errors import InputError
 
@@ -73,9 +73,11 @@ class Param:
         if self.choices:
             ok = value in self.choices
         elif self.kind is float:
-            ok = isinstance(value, (int, float)) and not isinstance(value, bool) and self.low < value < self.high
+            low, high = cast(float, self.low), cast(float, self.high)  # a number parameter has both
+            ok = isinstance(value, (int, float)) and not isinstance(value, bool) and low < value < high
         else:
-            ok = isinstance(value, int) and not isinstance(value, bool) and self.low <= value <= self.high
+            low, high = cast(float, self.low), cast(float, self.high)
+            ok = isinstance(value, int) and not isinstance(value, bool) and low <= value <= high
         if not ok:
             raise ParamError(f"{self.name} = {value!r}: expected {self.expected()}")
 
@@ -299,7 +301,7 @@ def label(name: str) -> str:
 # The presets, one meaning in every command (docs/approx.md, its paragraph "Presets"): what each changes from
 # the table's defaults. paper: the paper's parameters at its image size (800×800, Table 1);
 # quick: small enough for tests and the report on 2 cores.
-PRESET_VALUES = {
+PRESET_VALUES: dict[str, dict[str, object]] = {
     "paper": {"width": 800, "height": 800},
     "quick": {"photon_res": 256, "light_res": 256, "width": 256, "height": 256, "fog_steps": 48, "splat_radius": 0.02},
 }

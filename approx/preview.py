@@ -15,7 +15,7 @@ import numpy as np
 
 from .context import bound
 from .geometry import bind_identity_models
-from .glsl import program
+from .glsl import program, uniform
 from .transforms import gl_matrix, look_at, perspective
 
 SPECULAR_PREVIEW_ALBEDO = (0.55, 0.75, 0.95)
@@ -49,27 +49,27 @@ def render_preview(ctx: moderngl.Context, scene, width: int | None = None, heigh
     prog = program(ctx, *PREVIEW_STAGES)
     view = look_at(cam.position, cam.target, cam.up)
     proj = perspective(cam.fov_y, width / height, 0.01, 2.0 * scene_extent(scene))
-    prog["view_proj"].write(gl_matrix(proj @ view))
-    prog["eye"].value = tuple(cam.position)
-    prog["light_position"].value = tuple(light.position)
-    prog["light_direction"].value = tuple(light.direction)
-    prog["cos_cutoff"].value = math.cos(math.radians(light.cutoff_angle))
-    prog["intensity"].value = tuple(light.intensity)
-    prog["headlight"].value = 0.15 * float(max(light.intensity)) / max(np.linalg.norm(
-        np.subtract(light.position, cam.target)), 1e-3) ** 2
+    uniform(prog, "view_proj").write(gl_matrix(proj @ view))
+    uniform(prog, "eye").value = tuple(cam.position)
+    uniform(prog, "light_position").value = tuple(light.position)
+    uniform(prog, "light_direction").value = tuple(light.direction)
+    uniform(prog, "cos_cutoff").value = math.cos(math.radians(light.cutoff_angle))
+    uniform(prog, "intensity").value = tuple(light.intensity)
+    uniform(prog, "headlight").value = 0.15 * float(max(light.intensity)) / max(float(np.linalg.norm(
+        np.subtract(light.position, cam.target))), 1e-3) ** 2
 
     color = ctx.texture((width, height), 4, dtype="f4")
     depth = ctx.depth_renderbuffer((width, height))
     fbo = ctx.framebuffer(color_attachments=[color], depth_attachment=depth)
     objects = [(o.mesh, o.albedo) for o in scene.diffuse] + [(o.mesh, SPECULAR_PREVIEW_ALBEDO) for o in scene.specular]
-    resources = [bind_identity_models(ctx, prog)]  # the vertices below are in world space
+    resources: list = [bind_identity_models(ctx, prog)]  # the vertices below are in world space
     with bound(ctx, fbo):
         ctx.enable(moderngl.DEPTH_TEST)
         fbo.clear(0.0, 0.0, 0.0, 1.0, depth=1.0)
         for spec, albedo in objects:
             vbo = ctx.buffer(flat_triangles(spec.load()).tobytes())
             vao = ctx.vertex_array(prog, [(vbo, "3f 3f", "in_position", "in_normal")])
-            prog["albedo"].value = tuple(albedo)
+            uniform(prog, "albedo").value = tuple(albedo)
             vao.render(moderngl.TRIANGLES)
             resources += [vao, vbo]
         ctx.disable(moderngl.DEPTH_TEST)

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
+from typing import cast
 
 import moderngl
 import numpy as np
@@ -85,7 +86,7 @@ class Renderer:
         self.controls = check_controls(controls)
         self.geometry = SceneGeometry.upload(self.ctx, scene)
         self.light_maps = LightMapRenderer(self.ctx, self.geometry)
-        self._programs = {}
+        self._programs: dict[tuple, object] = {}
         self._use_queries = timer_queries_work(self.ctx)
 
     def _cached(self, key, factory):
@@ -111,7 +112,7 @@ class Renderer:
 
     def _black_image(self, p: ApproxParams) -> moderngl.Texture:
         """An RGBA32F image of the frame's size cleared to 0 (splats add into it)."""
-        image = self.ctx.texture((p.width, p.height), 4, dtype="f4")
+        image = self.ctx.texture(image_size(p), 4, dtype="f4")
         fbo = self.ctx.framebuffer(color_attachments=[image])
         fbo.clear(0.0, 0.0, 0.0, 0.0)
         fbo.release()
@@ -134,7 +135,7 @@ class Renderer:
         tracer = self._tracer(p)
         tracer.check_limits(p, keep_records=keep_records)
         camera_passes, splatter = self._shading_programs(scene, p)
-        released = []
+        released: list = []
         maps = self._light_maps(timer, tracer, frustum, p, released)
         with timer.measure("emission", counted=False):  # the light map's own queries count it
             self.light_maps.take_drawn()
@@ -167,7 +168,7 @@ class Renderer:
         timings["frame_wall"] = time.perf_counter() - wall0
         if p.denoise == "oidn":  # after the frame's wall time: reported beside it (approx.denoise)
             images, timings["denoise"], _ = denoise_images(
-                images, *guides(scene, geometry, normal))
+                images, *guides(scene, geometry, cast(np.ndarray, normal)))  # read for the denoiser
         return Frame(images=images, caustic_steps=caustic_steps, records=records, timings=timings,
                      timing_method=timer.method, params=p.to_dict(), photons_emitted=emitted, gl=gl_info(ctx),
                      work={"fragments": dict(timer.fragments), "primitives": dict(timer.primitives),
@@ -367,10 +368,15 @@ class Renderer:
         self.geometry.release()
 
 
+def image_size(p: ApproxParams) -> tuple[int, int]:
+    """(width, height) of resolved parameters (``ApproxParams.resolved``: both set)."""
+    return cast(int, p.width), cast(int, p.height)
+
+
 def _compose(caustic_steps: list, fog, direct, gbuffer, p: ApproxParams) -> dict:
     """The frame's layers (``scenes.formats.LAYER_NAMES``) from the passes' images."""
     caustic = (np.sum(caustic_steps, axis=0).astype(np.float32) if caustic_steps
-               else np.zeros((p.height, p.width, 3), np.float32))
+               else np.zeros((*image_size(p)[::-1], 3), np.float32))
     kind = gbuffer[:, :, 1]
     mask = np.repeat((np.round(kind) == KIND_SPECULAR).astype(np.float32)[:, :, None], 3, axis=2)
     return {"caustic": caustic, "fog": fog, "direct": direct, "combined": caustic + fog + direct,
@@ -379,7 +385,7 @@ def _compose(caustic_steps: list, fog, direct, gbuffer, p: ApproxParams) -> dict
 
 def _camera_view(scene, p: ApproxParams, box) -> CameraView:
     """The camera of a frame at the resolved image size; the far plane beyond the medium's box."""
-    return CameraView(scene.camera, p.width, p.height, far=2.0 * float(np.linalg.norm(box[1] - box[0])))
+    return CameraView(scene.camera, *image_size(p), far=2.0 * float(np.linalg.norm(box[1] - box[0])))
 
 
 def render(scene, params: ApproxParams | None = None, **kwargs) -> Frame:

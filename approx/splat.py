@@ -13,7 +13,7 @@ import numpy as np
 from volcaustics.scenes.formats import SPLAT_DTYPE, STATUS_COLLIDED
 
 from .context import bound
-from .glsl import attribute_layout, load_source, program, set_uniforms
+from .glsl import attribute_layout, load_source, program, set_uniforms, uniform
 
 # Instance attributes of a splat (SPLAT_DTYPE, 48 bytes).
 INSTANCE_PARTS = [("4f", "in_end"), ("4f", "in_dir_t"), ("4f", "in_power")]
@@ -81,10 +81,14 @@ class Splatter:
                  controls: dict | None = None):
         self.ctx = ctx
         programs = self.programs(medium, adaptive=adaptive, density=density, controls=controls)
-        self.program = program(ctx, *programs["splat"][0], programs["splat"][1])
-        self.density_program = program(ctx, *programs["density"][0], programs["density"][1]) if density else None
+        (vertex, fragment), defines = programs["splat"]
+        self.program = program(ctx, vertex, fragment, defines)
+        self.density_program = None
+        if density:
+            (vertex, fragment), _ = programs["density"]
+            self.density_program = program(ctx, vertex, fragment)
         self.defines = programs["splat"][1]
-        self.widths_program = None  # the widths pass (density_widths), compiled when first used
+        self.widths_program: moderngl.Program | None = None  # the widths pass (density_widths), when first used
         corners = np.array([[-1, -1], [1, -1], [-1, 1], [1, 1]], np.float32)
         self.corners = ctx.buffer(corners.tobytes())
 
@@ -93,12 +97,13 @@ class Splatter:
         """name → (shader stages, defines) of every program a Splatter compiles: the
         constructor's list and the shader check's (scripts/check_shaders.py); "widths"
         (a vertex stage alone, by transform feedback) is compiled when first used."""
-        defines = {"PHASE_G": repr(float(medium.phase.g))} if medium.phase.kind == "hg" else {}
+        defines: dict[str, object] = {"PHASE_G": repr(float(medium.phase.g))} if medium.phase.kind == "hg" else {}
         if adaptive or density:  # per-splat kernels (SPLAT_DTYPE dir.w or the density), integrated over each pixel
             defines["SPLAT_ADAPTIVE"] = 1
         if density:
             defines.update({"SPLAT_DENSITY": 1, **(controls or {})})
-        out = {"splat": (("splat/splat.vert.glsl", "splat/splat.frag.glsl"), defines)}
+        out: dict[str, tuple[tuple[str, ...], dict]] = {
+            "splat": (("splat/splat.vert.glsl", "splat/splat.frag.glsl"), defines)}
         if density:
             out["density"] = (("splat/density.vert.glsl", "splat/density.frag.glsl"), {})
             out["widths"] = (("splat/widths.vert.glsl",), defines)
@@ -137,7 +142,7 @@ class Splatter:
         ctx = self.ctx
         if self.widths_program is None:
             self.widths_program = ctx.program(vertex_shader=load_source("splat/widths.vert.glsl", self.defines),
-                                              varyings=["out_sigma"])
+                                              varyings=("out_sigma",))
         prog = self.widths_program
         view.set_uniforms(prog)
         set_uniforms(prog, splat_radius=float(splat_radius), pixel_angle=2.0 / (float(view.proj[1, 1]) * view.height))
@@ -165,12 +170,12 @@ class Splatter:
             return
         ctx, prog = self.ctx, self.program
         view.set_uniforms(prog)
-        prog["scatter_weight"].value = tuple(s / sigma_bar for s in medium.sigma_s)
-        prog["sigma_t"].value = tuple(medium.sigma_t)
+        uniform(prog, "scatter_weight").value = tuple(s / sigma_bar for s in medium.sigma_s)
+        uniform(prog, "sigma_t").value = tuple(medium.sigma_t)
         set_uniforms(prog, splat_radius=float(splat_radius),
                      pixel_angle=2.0 / (float(view.proj[1, 1]) * view.height))
         scene_distance.use(location=0)
-        prog["scene_distance"].value = 0
+        uniform(prog, "scene_distance").value = 0
         own = None
         if self.density_program is not None:
             if grid is None:

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import contextlib
 import time
+from typing import cast
 
 import moderngl
 
@@ -60,6 +61,7 @@ class PassTimer:
         kinds = {"samples": counted, "primitives": counted, "time": self.use_queries}
         query = self.ctx.query(**kinds) if any(kinds.values()) else None
         if self.use_queries:
+            query = cast(moderngl.Query, query)  # made: the time is asked of it
             with query:
                 yield
             elapsed = query.elapsed
@@ -73,4 +75,5 @@ class PassTimer:
             seconds = time.perf_counter() - t0
         self.seconds[name] = self.seconds.get(name, 0.0) + seconds
         if counted:
+            query = cast(moderngl.Query, query)  # made: samples and primitives are asked of it
             self.add(name, query.samples, query.primitives)

@@ -14,7 +14,7 @@ paper's σs/σt.
 from __future__ import annotations
 
 import math
-from typing import NamedTuple
+from typing import NamedTuple, cast
 
 import moderngl
 import numpy as np
@@ -23,7 +23,7 @@ from volcaustics.scenes.formats import DIFFERENTIAL_DTYPE, PHOTON_DTYPE, RAW_REC
 
 from .controls import controls_for
 from .emission import draw_slots
-from .glsl import compute_shader, set_uniforms
+from .glsl import compute_shader, set_uniforms, uniform
 from .light import spot_constants
 from .limits import check_fits, max_image_size
 from .params import defines as table_defines
@@ -101,13 +101,14 @@ class PhotonTracer:
         self.pyramid = shaders.get("pyramid")
         self.compact_count, self.compact_write = shaders["compact_count"], shaders["compact_write"]
         self.adaptive = "SPLAT_ADAPTIVE" in defines
-        self.differentials = None  # splat = adaptive: the photons' DIFFERENTIAL_DTYPE buffer of this frame
+        # splat = adaptive: the photons' DIFFERENTIAL_DTYPE buffer of this frame
+        self.differentials: moderngl.Buffer | None = None
         self.emission_adaptive = "EMISSION_ADAPTIVE" in defines
         self.emission_shift = float(defines.get("EMISSION_SHIFT", 0.0))  # texels (a test's wrong grid, emit.comp.glsl)
         self.importance = shaders.get("importance")
         self.maps = defines["MAPS"]
         self.work = ctx.buffer(reserve=8)  # one dispatch's lookups, own and lockstep (trace.comp.glsl Work)
-        self._solid_angles = {}
+        self._solid_angles: dict[tuple, moderngl.Buffer] = {}
         self._max_groups = int(ctx.info["GL_MAX_COMPUTE_WORK_GROUP_COUNT"][0])
         self._max_size = max_image_size(ctx.info)
 
@@ -180,12 +181,12 @@ class PhotonTracer:
         """The uniforms of emission/map.glsl (the map bound at texture unit 0) and the spot."""
         set_uniforms(prog, **spot_constants(scene.light), emission_map=0, photon_res=photon_res,
                      tan_half=frustum.tan_half)
-        prog["light_basis"].write(np.asarray(frustum.basis, np.float32).T.tobytes())
+        uniform(prog, "light_basis").write(np.asarray(frustum.basis, np.float32).T.tobytes())
 
     def importance_map(self, scene, frustum, photon_res: int) -> np.ndarray:
         """photon_res² float32, row-major: adaptive emission's importance per texel
         (emission/importance.comp.glsl) of the emission map bound at texture unit 0."""
-        prog = self.importance
+        prog = cast(moderngl.ComputeShader, self.importance)  # adaptive emission's
         out = self.ctx.buffer(reserve=photon_res * photon_res * 4)
         self._set_emission_map(prog, scene, frustum, photon_res)
         out.bind_to_storage_buffer(0)
@@ -204,7 +205,7 @@ class PhotonTracer:
         """The photons' differential footprints (m) now (splat = adaptive), else None."""
         if not self.adaptive:
             return None
-        return np.frombuffer(self.differentials.read(size=count * DIFFERENTIAL_DTYPE.itemsize),
+        return np.frombuffer(cast(moderngl.Buffer, self.differentials).read(size=count * DIFFERENTIAL_DTYPE.itemsize),
                              DIFFERENTIAL_DTYPE)["footprint"].copy()
 
     def map_buffer(self, light_maps, light_res: int) -> tuple:
@@ -227,13 +228,13 @@ class PhotonTracer:
         geometric.bind_to_storage_buffer(3)
         if primitive is not None:
             primitive.bind_to_storage_buffer(4)
-        self.pack["res"].value = light_res
-        self.pack["map_texture"].value = 0
-        self.pack["geometric_texture"].value = 1
+        uniform(self.pack, "res").value = light_res
+        uniform(self.pack, "map_texture").value = 0
+        uniform(self.pack, "geometric_texture").value = 1
         for m, light_map in enumerate(light_maps):
             light_map.surface.use(location=0)
             light_map.geometric.use(location=1)
-            self.pack["map_index"].value = m
+            uniform(self.pack, "map_index").value = m
             self.pack.run(group_x=math.ceil(count / (PACK["PACK_BLOCK"] * PACK["PACK_TEXELS"])))
         bits = np.frombuffer(ranges.read(), np.uint32).reshape(-1, 2)
         ranges.release()
@@ -248,7 +249,7 @@ class PhotonTracer:
         pyramid = self.ctx.buffer(reserve=8 * stride * maps)
         distances.bind_to_storage_buffer(0)
         pyramid.bind_to_storage_buffer(1)
-        prog = self.pyramid
+        prog = cast(moderngl.ComputeShader, self.pyramid)  # search = hiz's
         set_uniforms(prog, light_res=light_res, map_stride=stride)
         for level in range(1, len(offsets)):
             cells = pyramid_cells(light_res, level)
@@ -273,9 +274,9 @@ class PhotonTracer:
             set_uniforms(prog, objects_min=tuple(np.subtract(objects_box[0], pad)),
                          objects_max=tuple(np.add(objects_box[1], pad)))
         ior, absorption = _materials(scene)
-        prog["light_view_proj"].write(gl_matrix(frustum.view_proj))
+        uniform(prog, "light_view_proj").write(gl_matrix(frustum.view_proj))
         if "light_basis" in prog:
-            prog["light_basis"].write(np.asarray(frustum.basis, np.float32).T.tobytes())
+            uniform(prog, "light_basis").write(np.asarray(frustum.basis, np.float32).T.tobytes())
         set_uniforms(prog, ior=ior, absorption=absorption,
                      map_used=[bool(u) for u, _, _ in map_info], map_min_dist=[float(a) for _, a, _ in map_info],
                      map_max_dist=[float(b) for _, _, b in map_info],
@@ -291,7 +292,7 @@ class PhotonTracer:
         if map_texels.primitive is not None:
             map_texels.primitive.bind_to_storage_buffer(5)
         if self.adaptive:
-            self.differentials.bind_to_storage_buffer(7)
+            cast(moderngl.Buffer, self.differentials).bind_to_storage_buffer(7)
         if map_texels.pyramid is not None:
             offsets, stride = pyramid_layout(light_res)
             map_texels.pyramid.bind_to_storage_buffer(6)
@@ -319,7 +320,7 @@ class PhotonTracer:
         records.bind_to_storage_buffer(0)
         block_buf.bind_to_storage_buffer(1)
         splats.bind_to_storage_buffer(2)
-        self.compact_count["photon_count"].value = count
+        uniform(self.compact_count, "photon_count").value = count
         self.compact_count.run(group_x=blocks)
         block_counts = np.frombuffer(block_buf.read(), np.uint32)
         offsets = np.concatenate([[0], np.cumsum(block_counts, dtype=np.uint64)[:-1]]).astype(np.uint32)
@@ -327,10 +328,10 @@ class PhotonTracer:
         if total:
             block_buf.write(offsets.tobytes())
             if self.adaptive:
-                self.differentials.bind_to_storage_buffer(3)
+                cast(moderngl.Buffer, self.differentials).bind_to_storage_buffer(3)
                 set_uniforms(self.compact_write, splat_radius=params.splat_radius,
                              splat_footprints=params.splat_footprints)
-            self.compact_write["photon_count"].value = count
+            uniform(self.compact_write, "photon_count").value = count
             self.compact_write.run(group_x=blocks)
         block_buf.release()
         return total
