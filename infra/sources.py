@@ -23,7 +23,7 @@ _GLSL_COMMENT = re.compile(r"//[^\n]*|/\*.*?\*/", re.DOTALL)
 
 @lru_cache(maxsize=None)
 def folder_files(folder: str) -> tuple:
-    files = []
+    files: list[str] = []
     for parent, dirs, names in os.walk(folder):
         dirs[:] = sorted(d for d in dirs if d != "__pycache__")
         files.extend(os.path.join(parent, n) for n in names if n.endswith(SOURCE_SUFFIXES))

@@ -70,6 +70,8 @@ plus A's variance, and the standard deviation of the energy difference.
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from volcaustics.metrics.groups import checked_groups, group_jackknife_se
@@ -297,7 +299,7 @@ def _rows(jack: _Jackknife, value: dict, leave_out: list, rv, reference_ratio, r
     ref_share_sigma = float(np.mean(total_sigma(rv, ratio=reference_ratio) / jack.channel_energy))
     rows = []
     for name in list(TERMS) + ["total"]:
-        row = {"term": name}
+        row: dict[str, Any] = {"term": name}
         for i, field in enumerate(("energy_share", "relmse_part", "relmse_own")):
             row[field] = value[name][i]
             row[f"{field}_se"] = _jackknife_se(leave_out, name, i)

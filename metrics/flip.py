@@ -116,7 +116,7 @@ def _gaussian(x2, a, b) -> F:
 def spatial_filters(ppd: float):
     """FLIP's separated CSF filters (setSpatialFilters): YCx (Y, Cx weights) and Cz (two
     Gaussians), float32, 2r + 1 taps each."""
-    ppd = F(ppd)
+    ppd = F(ppd)  # type: ignore[assignment]  # float32 from here, as FLIP computes
     scale = max(B1 + B2)
     radius = int(math.ceil(F(3.0) * F(math.sqrt(float(scale / (F(2.0) * PI_SQ)))) * ppd))
     dx = F(1.0) / ppd
@@ -215,7 +215,7 @@ def _features(ycxcz: list, ff: np.ndarray) -> tuple:
 def exposures(start: float, stop: float, count: int | None = None) -> list:
     """HDR-FLIP's exposures (float32) from ``start`` to ``stop``: ``count`` of them, or
     FLIP's own count max(2, ⌈stop − start⌉)."""
-    start, stop = F(start), F(stop)
+    start, stop = F(start), F(stop)  # type: ignore[assignment]  # float32, as FLIP's
     if count is None:
         count = int(max(F(2.0), F(math.ceil(stop - start))))
     step = (stop - start) / F(count - 1)

@@ -41,7 +41,7 @@ def _keep(reference, mask) -> np.ndarray:
     m = np.asarray(mask, dtype=bool)
     if m.shape[:2] != reference.shape[:2]:
         raise ValueError(f"mask shape {m.shape} does not match image shape {reference.shape}")
-    return m if m.ndim == 2 else m.all(axis=tuple(range(2, m.ndim)))
+    return m if m.ndim == 2 else np.asarray(m.all(axis=tuple(range(2, m.ndim))))
 
 
 def _images(reference, test):
@@ -89,7 +89,7 @@ def per_pixel_relative_mse(reference, test, *, mask=None, epsilon: float = 1e-2,
     if not floor > 0:
         raise ValueError("reference is zero everywhere: relative error undefined")
     per_pixel = np.mean((t - r) ** 2 / (r * r + floor), axis=2)
-    out = {"value": float(per_pixel[keep].mean()), "epsilon": epsilon, "epsilon_absolute": floor,
+    out: dict[str, object] = {"value": float(per_pixel[keep].mean()), "epsilon": epsilon, "epsilon_absolute": floor,
            "pixels": int(keep.sum())}
     if full:
         out["map"] = np.where(keep, per_pixel, np.nan)
@@ -209,7 +209,8 @@ def hdr_flip_frames(reference, tests, *, mask=None, start_exposure: float | None
     out = []
     for error_map in maps:
         error = np.asarray(error_map, np.float64)
-        value = {"value": float(error[keep].mean()), "start_exposure": start, "stop_exposure": stop,
+        value: dict[str, object] = {"value": float(error[keep].mean()), "start_exposure": start,
+                                    "stop_exposure": stop,
                  "num_exposures": len(exposures(start, stop)), "ppd": float(ppd), "pixels": int(keep.sum())}
         if full:
             value["map"] = np.where(keep, error, np.nan)

@@ -30,6 +30,8 @@ approximation.
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 TRUE_HIT = 0
@@ -307,7 +309,7 @@ def intersection_table(records, classes, *, group_by=GROUP_KEYS, parameters=None
         sel = inverse == g
         value = dict(zip(group_by, (int(x) for x in key)))
         m = value.get("map")
-        row = {"step": value.get("step"), "map": m,
+        row: dict[str, Any] = {"step": value.get("step"), "map": m,
                "layer": None if m is None or m < 0 else m // 2,
                "facing": None if m is None or m < 0 else ("front", "back")[m % 2],
                "inside": None if "inside" not in value else ("glass" if value["inside"] else "medium"),

@@ -68,7 +68,7 @@ def power_budget(records, *, tracer: str = "approx") -> list:
     total = float(_power(records[0]["power_start"]).sum())
     if not total > 0:  # no photon carries power (a dark light, a spot that misses the glass): undefined
         total = float("nan")
-    rows = []
+    rows: list[dict] = []
     for r in records:
         step = int(r["step"][0]) if len(r) else len(rows) + 1
         row = {"tracer": tracer, "step": step, "share_entering": float(_power(r["power_start"]).sum()) / total}

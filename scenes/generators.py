@@ -66,22 +66,23 @@ def sphere(radius: float = 1.0, subdivisions: int = 8) -> Mesh:
     # Barycentric lattice of one face: points (i, j) with i + j <= n.
     ij = np.array([(i, j) for i in range(n + 1) for j in range(n + 1 - i)], dtype=np.int64)
     index = {(i, j): k for k, (i, j) in enumerate(ij)}
-    tris = []
+    lattice: list[tuple[int, int, int]] = []
     for i in range(n):
         for j in range(n - i):
-            tris.append((index[i, j], index[i + 1, j], index[i, j + 1]))
+            lattice.append((index[i, j], index[i + 1, j], index[i, j + 1]))
             if i + j < n - 1:
-                tris.append((index[i + 1, j], index[i + 1, j + 1], index[i, j + 1]))
-    tris = np.asarray(tris, dtype=np.int64)
+                lattice.append((index[i + 1, j], index[i + 1, j + 1], index[i, j + 1]))
+    tris = np.asarray(lattice, dtype=np.int64)
     w1, w2 = ij[:, 0:1] / n, ij[:, 1:2] / n
-    points, faces = [], []
+    point_sets: list[np.ndarray] = []
+    face_sets: list[np.ndarray] = []
     for f in base_f:
         a, b, c = base_v[f]
         p = a + w1 * (b - a) + w2 * (c - a)
-        faces.append(tris + len(points) * len(ij))
-        points.append(p / np.linalg.norm(p, axis=1, keepdims=True))
-    points = np.concatenate(points)
-    faces = np.concatenate(faces)
+        face_sets.append(tris + len(point_sets) * len(ij))
+        point_sets.append(p / np.linalg.norm(p, axis=1, keepdims=True))
+    points = np.concatenate(point_sets)
+    faces = np.concatenate(face_sets)
     # Weld the lattice points shared along icosahedron edges.
     keys = np.round(points * 1e9).astype(np.int64)
     _, first, inverse = np.unique(keys, axis=0, return_index=True, return_inverse=True)

@@ -56,7 +56,7 @@ from dataclasses import replace
 try:
     import tomllib
 except ModuleNotFoundError:  # Python 3.10
-    import tomli as tomllib
+    import tomli as tomllib  # type: ignore[no-redef]
 
 from volcaustics.infra.storage import CacheError, file_sha256, special_file_kind
 
@@ -234,7 +234,7 @@ def parse_scene(data: dict, *, file: str | None = None, base_dir: str = ".", sou
     diffuse = t.get("diffuse", lambda c, k, v: object_list(c, k, v, _diffuse), ())
     animation = t.get("animation", lambda c, k, v: v, None)
     t.finish()
-    seen = {}
+    seen: dict = {}
     for kind, objs in (("specular", specular), ("diffuse", diffuse)):
         for i, obj in enumerate(objs):
             if obj.name in seen:

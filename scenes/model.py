@@ -78,7 +78,8 @@ class Medium:
     @property
     def sigma_t(self) -> RGB:
         """Extinction coefficient sigma_s + sigma_a (1/m, RGB)."""
-        return tuple(s + a for s, a in zip(self.sigma_s, self.sigma_a))
+        (s0, s1, s2), (a0, a1, a2) = self.sigma_s, self.sigma_a
+        return (s0 + a0, s1 + a1, s2 + a2)
 
     @property
     def sigma_bar(self) -> float:

@@ -21,8 +21,7 @@ SHIPPED_FOLDER = "shipped-meshes"  # the cache's folder of mesh files a scene br
 def packed(scene: Scene) -> tuple:
     """(``scene``, {content hash: (file extension, bytes)}) for every mesh file it names."""
     files = {}
-    for obj in (*scene.specular, *scene.diffuse):
-        spec = obj.mesh
+    for spec in [o.mesh for o in scene.specular] + [o.mesh for o in scene.diffuse]:
         if spec.path is not None and spec.content_hash not in files:
             with open(spec.path, "rb") as fh:
                 data = fh.read()

@@ -31,7 +31,8 @@ class Table:
     def __init__(self, ctx: Context, key: str, table: Any):
         if not isinstance(table, dict):
             raise ctx.error(key or "<top level>", table, "expected a table")
-        self.ctx, self.key, self.table, self.used = ctx, key, table, set()
+        self.ctx, self.key, self.table = ctx, key, table
+        self.used: set[str] = set()
 
     def path(self, k: str) -> str:
         return f"{self.key}.{k}" if self.key else k
