@@ -27,6 +27,7 @@ from __future__ import annotations
 import hashlib
 import json
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -114,7 +115,7 @@ def describe(scene, *, integrator: dict | None = None, spp: int = 16, medium_box
 
     cam, light, medium = scene.camera, scene.light, scene.medium
     has_fog = not medium.is_vacuum
-    d = {
+    d: dict[str, Any] = {
         "type": "scene",
         "integrator": integrator or {"type": "volpath", "max_depth": 2},
         "sensor": {

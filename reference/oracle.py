@@ -14,6 +14,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from volcaustics.scenes.bounds import box_exit, medium_bounds
@@ -80,7 +82,8 @@ class Oracle:
                                   np.maximum(L - eps, 0.0).astype(np.float32)))
         si = self.mi_scene.ray_intersect(ray)
         # every output in one kernel: each lazy value read on its own would launch (and trace) again
-        valid, sid = si.is_valid(), dr.reinterpret_array(mi.UInt32, si.shape)
+        valid = si.is_valid()
+        sid: Any = dr.reinterpret_array(mi.UInt32, si.shape)  # Dr.Jit's stubs say object
         normal, geometric = si.sh_frame.n, si.n
         dr.eval(valid, si.t, sid, normal, geometric)
         hit = valid.numpy().astype(bool) & (L > eps)

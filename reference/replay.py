@@ -122,6 +122,7 @@ def _seed_free(part: list, c: ReplayConstants, oracle: Oracle, light: np.ndarray
 def _packed(groups, size, launch, max_photons: int) -> list:
     """``launch`` over consecutive runs of ``groups`` of at most ``max_photons``
     (``size`` of each; a larger group is a run of its own), the results in order."""
+    part: list
     out, part, total = [], [], 0
     for group in groups:
         if part and total + size(group) > max_photons:
@@ -184,7 +185,8 @@ def _per_photon(groups: list, counts: list) -> tuple:
             np.repeat(np.asarray([seed for _, seed in groups], np.uint32), counts))
 
 
-def _collisions(kept: list, alive: tuple, steps: int, emitted: np.ndarray, photons: list) -> list:
+def _collisions(kept: list, alive: tuple[np.ndarray, np.ndarray], steps: int, emitted: np.ndarray,
+                photons: list) -> list:
     """One :class:`Collisions` per group of a launch from what its tracer returned:
     ``kept``, per step the collisions' group, photon, end, direction and power;
     ``alive``, the (group, power) of the photons alive after the last step; the
@@ -193,7 +195,7 @@ def _collisions(kept: list, alive: tuple, steps: int, emitted: np.ndarray, photo
     alive_power = _group_sums(*alive, groups)
     collided_power = np.zeros((groups, steps, 3))
     rows = np.zeros(sum(len(k["group"]) for k in kept), COLLISION_DTYPE)
-    for name in COLLISION_DTYPE.names:  # the records' float32 and integer fields, as exact_photon_records writes
+    for name in COLLISION_DTYPE.names or ():  # the records' float32 and integer fields, as exact_photon_records writes
         if kept:
             rows[name] = np.concatenate([np.full(len(k["group"]), k["step"]) if name == "step" else k[name]
                                          for k in kept])

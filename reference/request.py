@@ -12,6 +12,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 from dataclasses import dataclass
+from typing import Any
 
 from .settings import ReferenceSettings, check_mode
 
@@ -21,7 +22,7 @@ class RenderRequest:
     """scene: the scene as rendered, its camera at ``settings.width × settings.height``.
     settings: resolved (width and height set). mode: the light tracer's (settings.MODES)."""
 
-    scene: object
+    scene: Any  # scenes.Scene (its camera at the request's size)
     settings: ReferenceSettings
     mode: str = "caustic"
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass, replace
+from typing import cast
 
 from volcaustics.infra.errors import InputError
 from volcaustics.infra.memory import image_fits
@@ -91,10 +92,10 @@ class ReferenceSettings:
         render into passes that its sampler then refuses, a RuntimeError after the first
         batch)."""
         for what, spp in (("photons", self.photon_spp_per_batch()), ("spp", self.camera_spp_per_batch())):
-            samples = spp * self.width * self.height
+            samples = spp * self.pixels()
             if samples > MAX_SAMPLES_PER_RENDER:
-                per_pixel = MAX_SAMPLES_PER_RENDER // (self.width * self.height)  # a batch's samples per pixel
-                most = per_pixel * self.batches * (self.width * self.height if what == "photons" else 1)
+                per_pixel = MAX_SAMPLES_PER_RENDER // self.pixels()  # a batch's samples per pixel
+                most = per_pixel * self.batches * (self.pixels() if what == "photons" else 1)
                 raise SettingsError(f"{what} = {getattr(self, what)}: one batch of {what} / batches at "
                                     f"{self.width}x{self.height} is {samples:,} samples, more than Mitsuba renders "
                                     f"at once (2^32); use at most {most:,} {what} over {self.batches} batches, or "
@@ -111,13 +112,17 @@ class ReferenceSettings:
             d["target_noise"] = dict(self.target_noise)
         return d
 
+    def pixels(self) -> int:
+        """width × height of resolved settings (both set)."""
+        return cast(int, self.width) * cast(int, self.height)
+
     def photon_spp_per_batch(self) -> int:
         """Light paths per pixel of one light-tracer batch (resolved settings)."""
-        return max(1, math.ceil(self.photons / self.batches / (self.width * self.height)))
+        return max(1, math.ceil(self.photons / self.batches / self.pixels()))
 
     def photons_per_batch(self) -> int:
         """Light paths of one light-tracer batch (resolved settings)."""
-        return self.photon_spp_per_batch() * self.width * self.height
+        return self.photon_spp_per_batch() * self.pixels()
 
     def photon_cap_reached(self, photons: int) -> bool:
         """Whether one more light batch after ``photons`` would pass ``max_photons``."""

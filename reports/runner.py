@@ -195,6 +195,7 @@ def _parallel_processes(tasks) -> int:
 def _tasks(points, store, settings, measurement, policy, *, views, progress, hint, pool) -> tuple:
     """The plain-data task of every point not done, every point's key, the references
     by key (rendered on ``pool`` when it is not None) and the tasks' scenes by key."""
+    wanted: dict
     scenes, wanted, sizes = {}, {}, []
     for point in points:
         if (point.scene, point.fields) not in scenes:

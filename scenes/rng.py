@@ -27,7 +27,7 @@ PCG_MULT, PCG_INC, PCG_WORD = 747796405, 2891336453, 277803737  # the hash's con
 _MULT, _INC, _WORD = np.uint32(PCG_MULT), np.uint32(PCG_INC), np.uint32(PCG_WORD)
 
 
-def pcg_hash(v: np.ndarray) -> np.ndarray:
+def pcg_hash(v: np.ndarray | np.unsignedinteger) -> np.ndarray:
     """PCG hash (Jarzynski & Olano 2020) of uint32 values, elementwise.
 
     Parameters

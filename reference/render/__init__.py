@@ -22,6 +22,7 @@ from __future__ import annotations
 import json
 import time
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -53,6 +54,7 @@ def render_into_state(request: RenderRequest, key: str, state: RenderState | Non
     total = None if settings.targets() else sum(max(0, settings.batches - s.n) for s in state.streams().values())
     bar = tqdm(total=total, desc=f"reference {request.scene.name}", unit="batch", disable=not progress)
     timed_out = False
+    where: dict
     spent, where = 0.0, {}
     floors = state.floors()
     while True:
@@ -177,7 +179,7 @@ def render_reference(scene, settings: ReferenceSettings | None = None, *, mode: 
 
 @dataclass
 class _Plan:
-    scene: object  # as the caller gave it (its camera's size may not be the request's)
+    scene: Any  # as the caller gave it (its camera's size may not be the request's)
     request: RenderRequest
     key: str
     state: RenderState | None  # a cached state to continue

@@ -65,7 +65,7 @@ def configure(integrator, scene_model, mi_scene):
     return integrator
 
 
-class VolumetricLightTracer(mi.AdjointIntegrator):
+class VolumetricLightTracer(mi.AdjointIntegrator):  # type: ignore[name-defined]
     """The caustic (and check) light tracer; see the module docstring.
 
     Properties: ``mode`` (settings.MODES, default ``caustic``), ``max_scatter`` (real
@@ -270,7 +270,7 @@ class VolumetricLightTracer(mi.AdjointIntegrator):
         return f"VolumetricLightTracer[mode={self.mode}, max_scatter={self.max_scatter}]"
 
 
-class SingleScatterIntegrator(mi.SamplingIntegrator):
+class SingleScatterIntegrator(mi.SamplingIntegrator):  # type: ignore[name-defined]
     """Fog, direct and mask_specular from the camera; see the module docstring."""
 
     def __init__(self, props=mi.Properties()):

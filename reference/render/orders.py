@@ -88,6 +88,7 @@ def convergence(single: dict, single_var: dict, orders, keep: np.ndarray) -> dic
     rendered order is at most the floor; None when even the last is above it: not
     converged)."""
     max_scatter = stream_max_scatter(orders.names)
+    out: dict
     totals, out = _totals(single, orders), {}
     for c in ORDER_COMPONENTS:
         energy = float(np.sum(totals[c][keep] ** 2))

@@ -5,6 +5,7 @@ another batch (``reference.render`` drives it, the cache stores it)."""
 from __future__ import annotations
 
 import json
+from typing import cast
 
 import numpy as np
 
@@ -102,13 +103,13 @@ class RenderState:
         out = {k: (m.astype(np.float32), v.astype(np.float32)) for k, (m, v) in out.items()}
         if self.orders is not None:  # the model term: what orders beyond the paper's model add
             terms = {c: (self.orders.mean(f"{c}_ms"), self.orders.var(f"{c}_ms")) for c in scattering.ORDER_COMPONENTS}
-            terms["combined"] = (sum(m for m, _ in terms.values()), self.orders.var("combined_ms"))
+            terms["combined"] = (cast(np.ndarray, sum(m for m, _ in terms.values())), self.orders.var("combined_ms"))
             out.update({f"{c}_ms": (m.astype(np.float32), v.astype(np.float32)) for c, (m, v) in terms.items()})
-        m = np.repeat(self.mask.astype(np.float32)[..., None], 3, axis=2)
+        m = np.repeat(cast(np.ndarray, self.mask).astype(np.float32)[..., None], 3, axis=2)  # set by the first batch
         out[MASK_LAYER] = (m, np.zeros_like(m))
         return out
 
-    def single(self) -> tuple:
+    def single(self) -> tuple[dict, dict]:
         """({component: mean}, {component: var}) of the single-scattering streams."""
         light, camera = self.light, self.camera
         means = {"caustic": light.mean("caustic"), "fog": camera.mean("fog"), "direct": camera.mean("direct")}
@@ -147,7 +148,7 @@ class RenderState:
             out["combined"] = None
         if self.orders is not None:
             ready = min(s.n for s in self.streams().values()) >= 2 and keep is not None
-            out.update(scattering.model_floors(self.single()[0], self.orders, keep) if ready
+            out.update(scattering.model_floors(self.single()[0], self.orders, cast(np.ndarray, keep)) if ready
                        else {f"{c}_ms": None for c in scattering.ORDER_COMPONENTS})
         return out
 

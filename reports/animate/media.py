@@ -50,7 +50,7 @@ def write_mp4(path: str, pictures: list, fps: float) -> None:
     with imageio.get_writer(path, format="FFMPEG", fps=fps, codec="libx264", pixelformat="yuv420p", quality=8,
                             macro_block_size=BLOCK, ffmpeg_log_level="error") as writer:
         for picture in pictures:
-            writer.append_data(picture)
+            writer.append_data(picture)  # type: ignore[attr-defined]  # imageio's FFMPEG writer
 
 
 def web_format() -> str:

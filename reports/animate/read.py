@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import base64
 import os
+from typing import Any
 
 from volcaustics.infra.errors import InputError
 from volcaustics.infra.storage import read_json_object
@@ -48,7 +49,7 @@ def check_animation_shape(summary: dict, where: str, fix: str) -> None:
     gate read, of its type: scene, frames, animation.fps, seed_modes (a non-empty list),
     chains, seconds, video, and per seed mode a table of metrics per component."""
     def bad(field: str, expected: str):
-        value = summary
+        value: Any = summary
         for part in field.split("."):
             value = value.get(part) if isinstance(value, dict) else None
         raise InputError(f"{where}: {field} = {value!r}: expected {expected}: {fix}")
@@ -66,7 +67,7 @@ def check_animation_shape(summary: dict, where: str, fix: str) -> None:
     for field, kind in (("chains", int), ("seconds", dict), ("video", dict)):
         if isinstance(summary.get(field), bool) or not isinstance(summary.get(field), kind):
             bad(field, f"a{'n integer' if kind is int else ' table'}")
-    metrics = summary["metrics"]
+    metrics: dict = summary["metrics"]
     for mode in modes:
         table = metrics.get(mode)
         if not isinstance(table, dict) or not table or not all(isinstance(v, dict) for v in table.values()):

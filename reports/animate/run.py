@@ -78,8 +78,9 @@ def render_animation(scene, params, *, frames: list, modes: tuple, chains: int, 
     os.makedirs(work, exist_ok=True)
     animation = scene.animation
     renderer = None
-    images = {mode: {layer: [] for layer in (*COLOUR_LAYERS, MASK_LAYER)} for mode in modes}
-    guides = {name: [] for name in GUIDES}
+    images: dict = {mode: {layer: [] for layer in (*COLOUR_LAYERS, MASK_LAYER)} for mode in modes}
+    guides: dict = {name: [] for name in GUIDES}
+    gl: dict
     references, approx_seconds, reference_seconds, cached, resumed, gl = [], [], [], [], 0, {}
     try:
         for t in tqdm(frames, desc=f"animate {scene.name}", unit="frame", disable=not progress):
@@ -120,7 +121,7 @@ def render_animation(scene, params, *, frames: list, modes: tuple, chains: int, 
 def _render_frame(renderer, scene, params, t: int, modes, chains: int) -> dict:
     out, seconds = {}, []
     for mode in modes:
-        per_layer = {layer: [] for layer in (*COLOUR_LAYERS, MASK_LAYER)}
+        per_layer: dict = {layer: [] for layer in (*COLOUR_LAYERS, MASK_LAYER)}
         for chain in range(chains):
             p = dataclasses.replace(params, seed=chain_seed(mode, params.seed, chain, chains, t))
             frame = renderer.render(scene, p, keep_records=False, keep_guides=True)

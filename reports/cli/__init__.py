@@ -30,7 +30,7 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def interrupted(exc: BaseException) -> bool:
+def interrupted(exc: BaseException | None) -> bool:
     """Whether ``exc`` is Ctrl-C as Dr.Jit/Mitsuba pass it on: a KeyboardInterrupt raised
     in Python code that C++ called (an integrator's method, a symbolic loop's body)
     comes back as a RuntimeError naming it or chained to it."""

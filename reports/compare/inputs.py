@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import os
 from dataclasses import dataclass, field
+from typing import cast
 
 import numpy as np
 
@@ -80,6 +81,7 @@ def read_images(paths, scene) -> Inputs:
             raise CompareError(f"{paths[j]}: the same bytes as {paths[hashes.index(digest)]}: each file must be a "
                                f"render of its own seed (two copies of one frame make the renderer's noise 0)")
     layers = _layers(first_path, read[0])
+    warnings: list
     frames, files, warnings = [], [], []
     for path, channels, sha256 in zip(paths, read, hashes):
         h, w = next(iter(channels.values())).shape
@@ -238,7 +240,7 @@ def _frame_images(path: str, channels: dict, layers: tuple, warnings: list) -> d
                                f"(the first at row {y}, column {x}, {float(image[y, x].min()):.3g}): radiance is ≥ 0; "
                                f"render with a box pixel filter (a filter with negative lobes rings)")
     if SUMMED[0] in images:
-        total = sum(images[layer] for layer in SUMMED)
+        total = cast(np.ndarray, sum(images[layer] for layer in SUMMED))
         if ROOT in images:
             scale = float(np.abs(total).sum()) or 1.0
             off = float(np.abs(images[ROOT] - total).sum()) / scale

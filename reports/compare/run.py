@@ -62,7 +62,7 @@ def run_compare(scene, paths, *, name: str, reference_settings, policy: str = "c
         columns = {"scene": scene.name, "scene_hash": scene.scene_hash(), "renderer": name,
                    "seeds": len(inputs.frames), "width": inputs.width, "height": inputs.height,
                    "reference_key": reference.key, "code_version": code_version()}
-        maps = {}
+        maps: dict = {}
         rows, headline = image_rows(inputs.frames, reference, keep, columns, maps, components=inputs.components)
     clock.seconds["total"] = clock.total()
     summary = {

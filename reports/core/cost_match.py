@@ -44,7 +44,7 @@ class CostMatcher:
     def __init__(self, folder: str):
         self.path = os.path.join(folder, MATCHED)
         self.memo = {}
-        self.renderers = {}
+        self.renderers: dict = {}
         self.sets = weight_sets()
         if not self.sets:
             raise ValueError("approx/cost_weights holds no weight set: the cost model cannot price a frame")
@@ -158,7 +158,7 @@ def measured_time_ratio(scene_arg: str, params, paper, *, frames: int = 5) -> di
     try:
         for p in (paper, params):
             renderer.render(scene, p, keep_records=False)
-        times = {"paper": [], "config": []}
+        times: dict = {"paper": [], "config": []}
         for _ in range(frames):
             for name, p in (("paper", paper), ("config", params)):
                 times[name].append(renderer.render(scene, p, keep_records=False).timings["frame_wall"])

@@ -6,7 +6,16 @@ from __future__ import annotations
 
 import argparse
 
-from volcaustics.approx.params import PARAMS, PRESET_VALUES, PRESETS, ApproxParams, ParamError, param, preset
+from volcaustics.approx.params import (
+    PARAMS,
+    PRESET_VALUES,
+    PRESETS,
+    ApproxParams,
+    ParamError,
+    ParamsMethods,
+    param,
+    preset,
+)
 
 
 def flag(name: str) -> str:
@@ -41,7 +50,7 @@ def _parser(entry):
     return parse
 
 
-def params_from_args(args, cls: type = ApproxParams):
+def params_from_args(args, cls: type[ParamsMethods] = ApproxParams):
     """The preset of ``args.preset`` with every parameter flag given, as ``cls`` (the
     parameters of ``approx.params.params_class``; ParamError for a value out of range)."""
     changes = {p.name: getattr(args, p.name) for p in cls.TABLE if getattr(args, p.name, None) is not None}

@@ -23,7 +23,7 @@ REPORT_TARGET = "caustic=0.005,fog=0.002,direct=0.002,caustic_ms=0.005,fog_ms=0.
 # R_ms by a relative MSE of ~5e-6), and orders 5–8 cost little (docs/decisions.md
 # "Multiple scattering and the model term")
 REPORT_MAX_SCATTER = 8
-REPORT_REFERENCE = ReferenceSettings(photons=1 << 21, spp=32, batches=8, target_noise=REPORT_TARGET,
+REPORT_REFERENCE = ReferenceSettings(photons=1 << 21, spp=32, batches=8, target_noise=REPORT_TARGET,  # type: ignore[arg-type]
                                      max_seconds=120.0, max_scatter=REPORT_MAX_SCATTER)
 # what a sweep spec's or the budgets' [reference] table may change
 REFERENCE_KEYS = ("photons", "spp", "batches", "target_noise", "max_photons", "max_seconds", "max_scatter")

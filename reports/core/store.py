@@ -226,7 +226,7 @@ class Store:
         """One DataFrame per kind over the complete points of ``keys`` (a ``point``
         column first), plus "points" (one row per point); written by the caller
         (``reports.sweep.run`` writes them with its manifest as one set)."""
-        frames = {name: [] for name in TABLES}
+        frames: dict = {name: [] for name in TABLES}
         points = []
         for key in keys:
             summary = self.summary(key)

@@ -31,7 +31,7 @@ def code_version(folders: tuple = EXPERIMENT_FOLDERS) -> str:
 
 def library_versions() -> dict:
     """Versions of the libraries whose behaviour the numbers depend on."""
-    out = {}
+    out: dict[str, str | None] = {}
     for dist in ("volcaustics", "numpy", "mitsuba", "drjit", "moderngl", "flip-evaluator", "scikit-image",
                  "colour-science", "pandas", "pyarrow"):
         try:

@@ -147,8 +147,8 @@ def _exact_batches(scene, p, kernels, seeds, renderer, oracle, subphotons: int, 
     in every texel, the spot's exact profile), with the same replay seeds. ``kernels``:
     per seed, the kernels of its real frame (``kernels.frame_kernels``) for every image
     but E_∞,s, which takes the fixed small kernel whatever A's splat mode."""
-    out = {name: [] for name in EXACT_IMAGES}
-    alive = {}
+    out: dict = {name: [] for name in EXACT_IMAGES}
+    alive: dict = {}
     small = small_kernel_params(scene, p)
     frustum = LightFrustum.for_scene(scene, *medium_bounds(scene))
     replay_seeds = [[replay_seed(seed, m) for m in range(subphotons)] for seed in seeds]

@@ -91,6 +91,7 @@ def image_rows(frames, reference, keep, columns, maps=None, components=COLOUR_LA
     holding ``components`` (default every colour layer: an approximation's; ``compare``
     may have only ``combined``); ``metrics``: which of IMAGE_METRICS (a gate point: those
     its budgets read)."""
+    headline: dict
     rows, headline = [], {}
     for component in components:
         r, rv = reference.mean[component], reference.var[component]

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Callable
+from typing import cast
 
 import numpy as np
 
@@ -59,7 +60,7 @@ def frame_kernels(renderer, scene, p, collided: np.ndarray) -> Kernels:
         (``photon``, ``step``, ``end``, ``direction``, ``power``, ``footprint``).
     """
     if p.splat == "adaptive":
-        return _paired(collided, record_sigma(collided, p))
+        return _paired(collided, cast(np.ndarray, record_sigma(collided, p)))  # adaptive: per-record widths
     if p.splat == "density":
         return _density_field(renderer, scene, p, collided)
     return lambda splats, photon, step: splats

@@ -23,7 +23,8 @@ def model_rows(frames, reference, keep, columns) -> tuple:
     summary's ``model`` section (None, no rows, without the higher orders)."""
     if not has_model(reference):
         return [], None
-    rows, numbers = [], {}
+    rows: list = []
+    numbers: dict[str, dict] = {}
     for component in COLOUR_LAYERS:
         stack = [f.images[component] for f in frames]
         try:

@@ -21,7 +21,7 @@ def replay(scene, p, frame, seed, oracle) -> list:
 def photon_rows(frames, replays, columns) -> tuple:
     """Power budget per (tracer, step), the shares averaged over seeds, and the paths'
     first divergence per step (all seeds' photons pooled)."""
-    budgets = {}
+    budgets: dict = {}
     for tracer, runs in (("approx", [f.records for f in frames]), ("exact", replays)):
         per_seed = [power_budget(r, tracer=tracer) for r in runs]
         for rows in per_seed:

@@ -138,6 +138,7 @@ def run_experiment(scene, params, *, seeds: int = 1, reference_settings=None, pr
         if own_renderer:
             renderer.release()
     with clock.stage("metrics"):
+        maps: dict
         keep, maps = keep_mask(reference, frames), {}
         images, headline = image_rows(frames, reference, keep, columns, maps,
                                       metrics=IMAGE_METRICS if scope == "full" else GATE_IMAGE_METRICS)

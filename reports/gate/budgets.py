@@ -141,7 +141,7 @@ def _compare_budgets(path: str, tables) -> dict:
     (the component limits; another renderer has no segment records)."""
     if not isinstance(tables, dict):
         raise GateError(f"{path}: compare = {tables!r}: expected [compare.RENDERER.SCENE] tables")
-    out = {}
+    out: dict = {}
     for renderer, scenes in tables.items():
         if not isinstance(scenes, dict) or not scenes or not all(isinstance(t, dict) for t in scenes.values()):
             raise GateError(f"{path}: compare.{renderer}: expected [compare.{renderer}.SCENE] tables of limits")

@@ -5,6 +5,7 @@ the report leniently (what could not be checked becomes a note on the page)."""
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import cast
 
 from volcaustics.reports.gate.budgets import GateError, budget_checks
 from volcaustics.reports.gate.regression import baseline_entry, regression_check
@@ -45,17 +46,18 @@ def scene_verdict(name: str, result, limits: dict, baseline: dict | None = None,
 
 
 def _regression(verdict: Verdict, name: str, result, baseline: dict, strict: bool) -> None:
+    entry = cast(dict, verdict.entry)  # made before the regression test is asked for
     scene = result.summary["scene"]
     base = baseline["scenes"].get(scene)
     if base is None:
         problem = ("the baseline has no entry for this scene: no regression test",
                    f"{name}: the baseline has no entry for {scene!r}: update the baseline")
-    elif base.get("reference_key") != verdict.entry["reference_key"]:
+    elif base.get("reference_key") != entry["reference_key"]:
         problem = ("the baseline was measured against another reference: no regression test (update the baseline)",
                    f"{name}: the baseline was measured against reference {base.get('reference_key')}, this run "
-                   f"against {verdict.entry['reference_key']}: update the baseline")
+                   f"against {entry['reference_key']}: update the baseline")
     else:
-        verdict.checks.append(regression_check(name, verdict.entry, base))
+        verdict.checks.append(regression_check(name, entry, base))
         return
     if strict:
         raise GateError(problem[1])

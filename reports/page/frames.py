@@ -14,7 +14,7 @@ def _seconds(value) -> str:
     return "" if not value or value != value else f"{value:.2f}"
 
 
-def frames_rows(table) -> list:
+def frames_rows(table) -> list | None:
     """The table as plain rows for summary.json (None without a frame check)."""
     return None if table is None else [{k: (None if v != v else v) for k, v in r.items()}
                                        for r in table.to_dict("records")]

@@ -51,7 +51,7 @@ def component_images(views: dict, exposure: dict, own: str) -> dict:
     """Data URIs of the renders and error maps of every component in ``exposure``: the
     renderer's (``own``: "approx", "renderer") and the reference's at that exposure, the
     maps on the fixed scales (None where the metric had no value)."""
-    out = {}
+    out: dict[str, str | None] = {}
     for component, scale_by in exposure.items():
         out[f"{own}.{component}"] = render_uri(views[f"{own}.{component}"], scale_by)
         out[f"reference.{component}"] = render_uri(views[f"reference.{component}"], scale_by)

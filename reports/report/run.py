@@ -12,6 +12,7 @@ see the same data. ``reports.page`` draws from what :func:`run_report` gathers.
 from __future__ import annotations
 
 import os
+from typing import cast
 
 from volcaustics.reports import runner
 from volcaustics.reports.animate.read import load_animation
@@ -103,7 +104,7 @@ def run_report(out_dir: str, names, *, overrides: dict, seeds: int | None, seed:
     summary["animations"] = animation_rows(animations)
     summary["comparisons"] = [row for row, _ in compared]
     summary["frames"] = None if frames is None else {"rows": frames_rows(frames[0]), "verdict": frames[1]["verdict"],
-                                                     "folder": os.path.abspath(frames_dir)}
+                                                     "folder": os.path.abspath(cast(str, frames_dir))}
     return write_report(out_dir, results, summary, sweep, progress=progress, started=clock.started,
                         animation_media=[a["media"] for a in animations],
                         comparison_media=[comparison_images(row, views) for row, views in compared])
@@ -122,6 +123,7 @@ def load_comparisons(pairs, names) -> list:
     """(row, views) of every comparison ``report --compare NAME=DIR`` names, each of a
     scene the report shows (by content: the scene hash), in the order given."""
     shown = {resolve_scene(name).scene_hash(): name for name in names}
+    out: list
     out, seen = [], set()
     for name, folder in pairs:
         for path in comparison_folders(folder, f"--compare {name}="):

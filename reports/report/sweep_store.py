@@ -33,7 +33,7 @@ def load_sweep(folder: str) -> SweepTables:
     spec = doc.get("spec")
     if not isinstance(spec, dict) or not isinstance(spec.get("vary"), dict):
         raise ReportError(f"--sweep {folder}: sweep.json has no spec with a \"vary\" table: rerun the sweep")
-    names = ("segments", "photons", "images", "points")
+    names: tuple[str, ...] = ("segments", "photons", "images", "points")
     if isinstance(doc.get("files"), dict) and "best.parquet" in doc["files"]:
         names += ("best",)  # the best-configuration search's table (reports.sweep.best)
     hashes = _check_hashes(folder, doc, names)

@@ -41,7 +41,7 @@ class BestSpec:
         """As a sweep spec (its grids: the coarse grid and each refine axis alone), for
         validation and the manifest."""
         grids = (self.coarse, *(((name, values),) for name, values in self.refine))
-        merged = {}
+        merged: dict = {}
         for grid in grids:
             for name, values in grid:
                 merged.setdefault(name, [])
@@ -54,7 +54,7 @@ def load_best_spec(path: str = BEST_SPEC, scenes: list | None = None) -> BestSpe
     """The spec at ``path`` (SweepError naming the file, key and value otherwise);
     ``scenes`` replaces its scenes."""
     doc = load_toml(path, keys=BEST_KEYS, what="best-configuration spec")
-    axes = {}
+    axes: dict = {}
     for key in ("coarse", "refine"):
         table = doc.get(key, {})
         if not isinstance(table, dict):

@@ -70,6 +70,7 @@ def checked_scenes(scenes, seeds: int) -> list:
     work: InputError for a bad name or file, a medium without a caustic, a frame that
     cannot run, or two arguments of one scene name (their rows would collide)."""
     heldout = {os.path.abspath(heldout_path(name)) for name in HELDOUT_NAMES}
+    seen: dict
     out, seen = [], {}
     for arg in scenes:
         scene = resolve_scene(arg)

@@ -91,7 +91,7 @@ def spec_from_args(scenes: str | None, vary: list, fixed: list, *, preset: str, 
     """A spec from ``--scenes a,b``, ``--vary NAME=V1,V2`` and ``--set NAME=V``; more
     than ``max_points`` points (None: no limit) is refused."""
     names = [s.strip() for s in scenes.split(",")] if scenes is not None else list(BUILTIN_NAMES)
-    grid = []
+    grid: list = []
     for text in vary or []:
         name, values = _assignment(text, "--vary")
         if name in dict(grid):
@@ -204,7 +204,7 @@ def _assignment(text: str, where: str) -> tuple:
 
 def _merged(grids: list) -> tuple:
     """Every varied name of ``grids`` (first-seen order) with all its values."""
-    merged = {}
+    merged: dict = {}
     for grid in grids:
         for name, values in grid:
             merged.setdefault(name, [])
