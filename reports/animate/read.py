@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import base64
 import os
-from typing import Any
+from typing import Any, NoReturn
 
 from volcaustics.infra.errors import InputError
 from volcaustics.infra.storage import read_json_object
@@ -48,7 +48,7 @@ def check_animation_shape(summary: dict, where: str, fix: str) -> None:
     """InputError naming the field unless ``summary`` has every field the report and the
     gate read, of its type: scene, frames, animation.fps, seed_modes (a non-empty list),
     chains, seconds, video, and per seed mode a table of metrics per component."""
-    def bad(field: str, expected: str):
+    def bad(field: str, expected: str) -> NoReturn:
         value: Any = summary
         for part in field.split("."):
             value = value.get(part) if isinstance(value, dict) else None

@@ -76,7 +76,7 @@ class BatchImages:
     mean, its per-pixel variance and the variance of sums over pixels."""
 
     batch_images: np.ndarray
-    mask_specular: np.ndarray
+    mask_specular: np.ndarray | None
 
     @property
     def batches(self) -> int:
@@ -116,7 +116,7 @@ class ExactCaustic(BatchImages):
         width, height and the phase the splats were weighted with).
     """
 
-    photons: ExactPhotons = None
+    photons: ExactPhotons | None = None
     params: dict = field(default_factory=dict)
 
 

@@ -28,6 +28,7 @@ import json
 import math
 import os
 from functools import lru_cache
+from typing import Callable
 
 import numpy as np
 
@@ -61,14 +62,14 @@ IMAGE_COLUMNS = {"value": NAN, "reference_floor": NAN, "approx_noise": NAN, "deb
                  "reference_sigma": NAN, "note": "", "options": "{}"}
 HEADLINE_COLUMNS = ("value", "debiased", "standard_error", "ci_low", "ci_high", "reference_floor", "approx_noise",
                     "reference_sigma", "note")
-PER_FRAME = {  # metric: (value of one frame, debias: (mean, floor) -> debiased)
+PER_FRAME: dict[str, tuple[Callable, Callable]] = {  # metric: (value of one frame, debias: (mean, floor) -> debiased)
     "per_pixel_relative_mse": (im.per_pixel_relative_mse, lambda m, f: m - f),
     "ssim": (im.ssim, lambda m, f: 1.0 - ((1.0 - m) - (1.0 - f))),
     "hdr_flip": (im.hdr_flip, lambda m, f: m - f),
     "delta_e2000": (im.delta_e2000, lambda m, f: m - f),
 }
 # metrics with a function of every frame at once (the reference's half computed once): metric -> fn
-FRAMES = {"hdr_flip": im.hdr_flip_frames, "delta_e2000": im.delta_e2000_frames}
+FRAMES: dict[str, Callable] = {"hdr_flip": im.hdr_flip_frames, "delta_e2000": im.delta_e2000_frames}
 
 _FLOORS: dict = {}
 

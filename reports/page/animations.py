@@ -45,8 +45,8 @@ def _table(row: dict) -> str:
 
 
 def _cvvdp(rows: list) -> str:
-    reasons = {(r.get("perceptual_video_metric") or {}).get("reason") for r in rows} - {None}
-    return "".join(f"<p class='note cvvdp'>{escape(reason)}</p>" for reason in sorted(reasons))
+    reasons = {(r.get("perceptual_video_metric") or {}).get("reason") for r in rows}
+    return "".join(f"<p class='note cvvdp'>{escape(reason)}</p>" for reason in sorted(r for r in reasons if r))
 
 
 def over_time_section(rows: list, media: list) -> str:

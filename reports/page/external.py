@@ -62,7 +62,8 @@ def _component_table(row: dict) -> str:
 
 def comparison_section(prefix: str, row: dict, images: dict) -> str:
     """One renderer's section (``prefix``: unique per page, for element ids)."""
-    bars = {name: {"css": colour_bar_css(scale), "ticks": scale.ticks()} for name, scale in SCALES.items()}
+    bars: dict[str, dict] = {name: {"css": colour_bar_css(scale), "ticks": scale.ticks()}
+                             for name, scale in SCALES.items()}
     width = row["width"] * max(1, 256 // row["width"])  # small renders magnified, pixelated
     renders, maps = [], []
     for component in row["exposure"]:

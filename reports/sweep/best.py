@@ -139,7 +139,7 @@ class BestSearch:
         table = pd.DataFrame(rows)
         return with_ratios(table, self.base) if len(table) else table
 
-    def adopted(self, table: pd.DataFrame) -> tuple | None:
+    def adopted(self, table: pd.DataFrame) -> str | None:
         """The configuration (label) with the least worst ratio over the scenes, among
         those measured on every scene; None without one."""
         worst = worst_ratios(table, len(self.spec.scenes), CRITERIA[self.criterion][0])

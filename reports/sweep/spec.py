@@ -134,13 +134,13 @@ def spec_from_toml(path: str, max_points: int | None = MAX_POINTS, scenes: list 
     grids = []
     for k, table in enumerate(tables if several else [_table(doc, "vary", path)]):
         where = f"vary[{k}]" if several else "vary"
-        grid = []
+        axes = []
         for name, values in table.items():
             _unquoted(name, values, f"{path}: {where}")
             if not isinstance(values, list) or not values:
                 raise SweepError(f"{path}: {where}.{name} = {values!r}: expected a non-empty list")
-            grid.append((name, tuple(_value(name, v, f"{path}: {where}") for v in values)))
-        grids.append(tuple(grid))
+            axes.append((name, tuple(_value(name, v, f"{path}: {where}") for v in values)))
+        grids.append(tuple(axes))
     grid = _merged(grids)
     settled = {}
     for name, v in _table(doc, "set", path).items():
