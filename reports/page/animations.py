@@ -46,7 +46,8 @@ def _table(row: dict) -> str:
 
 def _cvvdp(rows: list) -> str:
     reasons = {(r.get("perceptual_video_metric") or {}).get("reason") for r in rows}
-    return "".join(f"<p class='note cvvdp'>{escape(reason)}</p>" for reason in sorted(r for r in reasons if r))
+    named = sorted(reason for reason in reasons if reason is not None)
+    return "".join(f"<p class='note cvvdp'>{escape(reason)}</p>" for reason in named)
 
 
 def over_time_section(rows: list, media: list) -> str:
