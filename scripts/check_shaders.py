@@ -62,7 +62,7 @@ def programs() -> list:
     from volcaustics.approx.camera_pass import CameraPasses
     from volcaustics.approx.controls import CONTROLS
     from volcaustics.approx.layers import LightMapRenderer
-    from volcaustics.approx.params import PARAMS, defines
+    from volcaustics.approx.params import PARAMS, ApproxParams, defines
     from volcaustics.approx.preview import PREVIEW_STAGES
     from volcaustics.approx.splat import Splatter
     from volcaustics.approx.trace import PhotonTracer
@@ -83,23 +83,19 @@ def programs() -> list:
                                                         controls=controls).items():
                 out.append((f"{name} splat={mode} phase={kind} {controls or ''}", stages, d))
         for steps in _int_values(fog):
-            for name, (stages, d) in CameraPasses.programs(medium, defines(_fog_params(steps), "fog")).items():
+            fog_defines = defines(ApproxParams(fog_steps=steps), "fog")
+            for name, (stages, d) in CameraPasses.programs(medium, fog_defines).items():
                 out.append((f"{name} fog_steps={steps} phase={kind}", stages, d))
     return out
 
 
-def _fog_params(steps: int):
-    from volcaustics.approx.params import ApproxParams
-
-    return ApproxParams(fog_steps=steps)
-
-
-def sources() -> list:
-    """(label, stage, GLSL source) of every distinct stage source of :func:`programs`."""
+def sources(checked: list | None = None) -> list:
+    """(label, stage, GLSL source) of every distinct stage source of ``checked`` (default
+    :func:`programs`)."""
     from volcaustics.approx.glsl import load_source
 
     seen, out = set(), []
-    for label, stages, d in programs():
+    for label, stages, d in programs() if checked is None else checked:
         for shader in stages:
             text = load_source(shader, d)
             if text not in seen:
@@ -112,11 +108,12 @@ def _suffix(name: str) -> str:
     return next(s for s in STAGE_SUFFIXES if name.endswith(s))
 
 
-def unchecked_stage_files() -> list:
-    """Stage files under approx/shaders that no checked program uses."""
+def unchecked_stage_files(checked: list | None = None) -> list:
+    """Stage files under approx/shaders that no program of ``checked`` (default
+    :func:`programs`) uses."""
     from volcaustics.approx.glsl import SHADER_DIR
 
-    used = {shader for _, stages, _ in programs() for shader in stages}
+    used = {shader for _, stages, _ in (programs() if checked is None else checked) for shader in stages}
     files = []
     for folder, _, names in os.walk(SHADER_DIR):
         files += [os.path.relpath(os.path.join(folder, n), SHADER_DIR).replace(os.sep, "/") for n in names
@@ -140,10 +137,8 @@ def compile_all(items: list, compiler: str = "glslangValidator") -> list:
             if result.returncode == 0:
                 continue
             errors = _errors_by_file(result.stdout + result.stderr, chunk)
-            for path in chunk:
-                if errors.get(path):
-                    label = items[paths.index(path)][0]
-                    problems.append(f"{label}: " + "; ".join(errors[path][:6]))
+            problems += [f"{items[start + i][0]}: " + "; ".join(errors[path][:6])
+                         for i, path in enumerate(chunk) if errors.get(path)]
     return problems
 
 
@@ -164,9 +159,10 @@ def main() -> int:
         print("check_shaders: glslangValidator not found: install Debian's glslang-tools (make setup does)",
               file=sys.stderr)
         return 2
-    items = sources()
+    checked = programs()
+    items = sources(checked)
     problems = [f"{name}: a stage file no checked program uses (add it to its class's programs)"
-                for name in unchecked_stage_files()]
+                for name in unchecked_stage_files(checked)]
     problems += compile_all(items, compiler)
     for line in problems:
         print(line)
