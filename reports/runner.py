@@ -1,7 +1,7 @@
 """The one measurement runner (docs/architecture.md): points → references by a stated policy
 (rendered on the executor's pool when there is one) → result-store lookup → experiments on
-an executor → results. The sweep, the gate and
-the report measure through it; nothing else renders a point or measures it.
+an executor → results. ``measure``, the sweep, the gate and the report measure through
+it (the frame check, ``reports.sweep.frames``, keeps a store of its own).
 
 A point is a scene, the approximation's parameters and a number of seeds. Its key
 (``reports.core.store.point_key``) hashes everything that determines its result, so
@@ -77,7 +77,8 @@ def point_scene(scene: str, fields=()):
 @dataclass
 class PointResult:
     """One point as the store holds it (``tables``: "segments", "photons", "images" →
-    DataFrame; ``views``: name → image, when the store keeps them)."""
+    DataFrame; ``views`` and ``layers``: name → image, when the run asked for them:
+    ``store.IMAGE_FILES``)."""
 
     point: Point
     key: str
@@ -85,6 +86,7 @@ class PointResult:
     tables: dict
     views: dict
     measured: bool           # measured in this run (False: from the store)
+    layers: dict = field(default_factory=dict)
 
     @property
     def segments(self) -> list:
@@ -132,7 +134,7 @@ def references_for(wanted: dict, policy: str, *, progress: bool = False, hint: s
 
 
 def measure(points: list, store: Store, *, reference_settings, measurement: MeasurementSettings, policy: str,
-            views: bool = False, workers: int | None = None, dask: str | None = None, parallel: bool = False,
+            images: tuple = (), workers: int | None = None, dask: str | None = None, parallel: bool = False,
             progress: bool = True, read_back: bool = True, hint: str = "") -> Measured:
     """Measure every point not in ``store`` yet and return them all.
 
@@ -145,15 +147,16 @@ def measure(points: list, store: Store, *, reference_settings, measurement: Meas
     reference whose batch fails raises ``BatchError``). ``parallel`` (the report, the gate): more than one
     point to measure run on local processes, one per core as far as their images fit the
     memory together (:func:`_parallel_processes`), and a failed point raises RunnerError as
-    in this process. ``views``: the store
-    keeps the images a report shows (a point without them counts as missing).
+    in this process. ``images``: which optional images the store keeps and the results
+    read back (``store.IMAGE_FILES``: "views", the images a report shows; "layers", the
+    decomposition's); a point stored without them counts as missing.
     ``read_back``: ``results`` holds every point as the store has it."""
     t0 = time.perf_counter()
     store.clean_stale()
     pooled = workers is not None or dask is not None
     with open_pool(workers=workers, dask=dask) if pooled else contextlib.nullcontext() as pool:
         tasks, keys, references, scenes = _tasks(points, store, reference_settings, measurement, policy,
-                                                 views=views, progress=progress, hint=hint, pool=pool)
+                                                 images=images, progress=progress, hint=hint, pool=pool)
         unique = list({t["key"]: t for t in tasks}.values())
         done_before = len(set(keys)) - len(unique)
         count = {"total": len(set(keys)), "done": done_before, "progress": progress}
@@ -178,7 +181,7 @@ def measure(points: list, store: Store, *, reference_settings, measurement: Meas
     failed = [o for o in outcomes if o.get("error")]
     done = [o for o in outcomes if not o.get("error")]
     computed = {o["key"] for o in done}
-    results = [_read_back(store, point, key, views, key in computed)
+    results = [_read_back(store, point, key, images, key in computed)
                for point, key in zip(points, keys)] if read_back else []
     return Measured(keys=keys, done_before=done_before, computed=len(done), failed=failed,
                     seconds=time.perf_counter() - t0, point_seconds=[o["seconds"] for o in done], results=results)
@@ -192,7 +195,7 @@ def _parallel_processes(tasks) -> int:
     return max(1, min(default_workers(), len(tasks), memory_budget() // need))
 
 
-def _tasks(points, store, settings, measurement, policy, *, views, progress, hint, pool) -> tuple:
+def _tasks(points, store, settings, measurement, policy, *, images, progress, hint, pool) -> tuple:
     """The plain-data task of every point not done, every point's key, the references
     by key (rendered on ``pool`` when it is not None) and the tasks' scenes by key."""
     wanted: dict
@@ -213,16 +216,17 @@ def _tasks(points, store, settings, measurement, policy, *, views, progress, hin
         key = point_key(document)
         if measurement.scope != "full":  # a full point (the report's) holds all a gate point would
             full = point_key({**document, "scope": "full"})
-            key = full if store.status(full, views=views) == "done" else key
+            key = full if store.status(full, images=images) == "done" else key
         keys.append(key)
-        if store.status(key, views=views) == "done":
+        if store.status(key, images=images) == "done":
             continue
-        store.remove_damaged(key, views=views)
+        store.remove_damaged(key, images=images)
         task_sizes.append(size)
         tasks.append({"key": key, "key_document": document, "scene": point.scene, "fields": list(point.fields),
                       "measurement": measurement.to_dict(),
                       "params": point.params.resolved(scene).to_dict(), "seeds": point.seeds,
-                      "reference_key": reference.key, "store": os.path.abspath(store.root), "views": views})
+                      "reference_key": reference.key, "store": os.path.abspath(store.root),
+                      "images": list(images)})
     scene_of = {task["key"]: wanted[size][0] for task, size in zip(tasks, task_sizes)}
     return tasks, keys, {r.key: r for r in references.values()}, scene_of
 
@@ -246,7 +250,7 @@ def _on_executor(tasks, store, pool, **options) -> list:
         raise
 
 
-def _read_back(store, point, key, views, measured) -> PointResult | None:
+def _read_back(store, point, key, images, measured) -> PointResult | None:
     summary = store.summary(key)
     if summary is None:
         return None  # a failed point (reported in Measured.failed)
@@ -255,8 +259,9 @@ def _read_back(store, point, key, views, measured) -> PointResult | None:
         tables = {t: pd.read_parquet(os.path.join(folder, f"{t}.parquet")) for t in TABLES}
     except Exception as exc:  # pyarrow raises its own types for a damaged file
         raise RunnerError(f"{folder}: the result of {point.scene} could not be read back ({exc})") from None
-    return PointResult(point=point, key=key, summary=summary, tables=tables,
-                       views=store.views(key) if views else {}, measured=measured)
+    read = {name: store.images(key, name) for name in images}
+    return PointResult(point=point, key=key, summary=summary, tables=tables, views=read.get("views", {}),
+                       layers=read.get("layers", {}), measured=measured)
 
 
 # --- one point, in whichever process runs it ------------------------------------------
@@ -276,7 +281,7 @@ def run_point(task: dict, *, progress: bool = False, reference=None) -> dict:
     with PROCESS_LOCK:
         t0 = time.perf_counter()
         store = Store(task["store"])
-        if store.status(task["key"], views=task["views"]) == "done":
+        if store.status(task["key"], images=tuple(task["images"])) == "done":
             return {"key": task["key"], "status": "done", "seconds": 0.0}
         fields = [tuple(f) for f in task.get("fields", ())]
         scene = point_scene(task["scene"], fields)
@@ -288,17 +293,15 @@ def run_point(task: dict, *, progress: bool = False, reference=None) -> dict:
                                f"({cache_dir('reference')}) as the run resolved it: the workers need the run's cache "
                                f"(VOLCAUSTICS_CACHE on a shared file system), not continued meanwhile")
         experiment = _experiment(task, scene, fields, reference, progress)
-        status = store.write_point(task["key"], task["key_document"], experiment, views=task["views"])
+        status = store.write_point(task["key"], task["key_document"], experiment, images=tuple(task["images"]))
         return {"key": task["key"], "status": status, "seconds": time.perf_counter() - t0}
 
 
 def _experiment(task: dict, scene, fields: list, reference, progress: bool):
     renderer, oracle = _tools(scene)
-    settings = MeasurementSettings(**task["measurement"])
     return run_experiment(scene, ApproxParams(**task["params"]), seeds=task["seeds"], reference=reference,
                           renderer=renderer, oracle=oracle, progress=progress, fields=dict(fields),
-                          subphotons=settings.exact_subphotons, scope=settings.scope,
-                          subset_batches=settings.subset_batches, exact_steps=settings.exact_steps)
+                          measurement=MeasurementSettings(**task["measurement"]))
 
 
 def _shipped(task: dict, *, progress: bool = False) -> dict:
@@ -315,7 +318,7 @@ def _shipped(task: dict, *, progress: bool = False) -> dict:
         experiment = _experiment(task, scene, fields, task["reference"], progress)
         with tempfile.TemporaryDirectory(prefix="volcaustics-point-") as folder:
             local = Store(folder)
-            local.write_point(task["key"], task["key_document"], experiment, views=task["views"])
+            local.write_point(task["key"], task["key_document"], experiment, images=tuple(task["images"]))
             files = local.point_files(task["key"])
         return {"key": task["key"], "status": "measured", "seconds": time.perf_counter() - t0, "files": files}
 

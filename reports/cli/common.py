@@ -9,7 +9,12 @@ import os
 from volcaustics.infra.errors import InputError
 from volcaustics.reference.settings import ReferenceSettings
 from volcaustics.reports.core.sizing import REPORT_REFERENCE, REPORT_TARGET
-from volcaustics.reports.experiment.measurement import MEASUREMENT_TABLE, MeasurementSettings, measurement_settings
+from volcaustics.reports.experiment.measurement import (
+    MEASUREMENT_KEYS,
+    MEASUREMENT_PARAMS,
+    MeasurementSettings,
+    measurement_settings,
+)
 
 
 class UsageError(InputError):
@@ -186,18 +191,18 @@ def add_measurement_flags(p, *, default: str = "{value}, the report's") -> None:
     """One flag per measurement setting (``reports.experiment.measurement``), e.g.
     ``--exact-subphotons N``; ``default`` says where an unset one comes from (``{value}``:
     the report's value)."""
-    for name, (_, text) in MEASUREMENT_TABLE.items():
-        value = getattr(MeasurementSettings(), name)
-        p.add_argument("--" + name.replace("_", "-"), dest=name, type=int, metavar="N",
-                       help=f"{text} (a measurement setting, part of a result's key; default: "
-                            f"{default.format(value=value)})")
+    for param in MEASUREMENT_PARAMS:
+        if param.name in MEASUREMENT_KEYS:
+            p.add_argument("--" + param.name.replace("_", "-"), dest=param.name, type=int, metavar="N",
+                           help=f"{param.help}, {param.low} to {param.high} (a measurement setting, part of a "
+                                f"result's key; default: {default.format(value=param.default)})")
 
 
 def measurement_from_args(args, base: MeasurementSettings | None = None) -> MeasurementSettings:
     """``base`` (default: the report's measurement settings) with every measurement flag
     given; ParamError naming the flag, its value and the range otherwise."""
     settings = base or MeasurementSettings()
-    for name in MEASUREMENT_TABLE:
+    for name in MEASUREMENT_KEYS:
         settings = measurement_settings({name: getattr(args, name, None)}, base=settings,
                                         where="--" + name.replace("_", "-"))
     return settings

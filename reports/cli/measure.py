@@ -36,9 +36,6 @@ def register(sub) -> None:
 def run(args) -> int:
     from volcaustics.reports import runner
     from volcaustics.reports.core.cost_match import equal_cost_check, with_auto_photon_res
-    from volcaustics.reports.core.sizing import sized
-    from volcaustics.reports.core.tables import plain
-    from volcaustics.reports.experiment.run import run_experiment
     from volcaustics.reports.experiment.settings import checked_settings
     from volcaustics.reports.experiment.summary import KIND as EXPERIMENT_KIND
     from volcaustics.reports.experiment.write import OUTPUT_FILES, write_experiment
@@ -50,17 +47,17 @@ def run(args) -> int:
     checked_settings(scene, params_from_args(args), args.seeds)  # a bad seed count or size: before the cost match
     params = with_auto_photon_res(args.scene, params_from_args(args), args.preset, args.photon_res is not None)
     checked_settings(scene, params, args.seeds)  # the matched frame too: before the reference
-    reference = runner.reference_for(scene, sized(report_settings(args), scene, params), "continue",
-                                     progress=not args.quiet)
-    experiment = run_experiment(scene, params, seeds=args.seeds, reference=reference, progress=not args.quiet,
-                                subphotons=measurement.exact_subphotons, subset_batches=measurement.subset_batches,
-                                exact_steps=measurement.exact_steps)
+    # through the runner and the store the report and the gate share: a point measured before is read back
+    run = runner.measure([runner.Point(args.scene, params, args.seeds)], runner.results_store(),
+                         reference_settings=report_settings(args), measurement=measurement, policy="continue",
+                         images=("layers",), progress=not args.quiet)
+    point = run.results[0]
     # a preset matched to the paper's cost (best): that cost, predicted under every weight set and measured
-    experiment.summary["equal_cost"] = equal_cost_check(args.scene, params, args.preset)
-    paths = write_experiment(experiment, args.output)
-    s = plain(experiment.summary)  # NaN → None
-    print(f"measure {scene.name}: {s['seeds']} seed(s), {s['experiment_seconds']['total']:.1f} s -> "
-          f"{paths['summary.json']}")
+    point.summary["equal_cost"] = equal_cost_check(args.scene, params, args.preset)
+    paths = write_experiment(point, args.output)
+    s = point.summary  # as stored: plain JSON data (NaN → None)
+    how = f"{s['experiment_seconds']['total']:.1f} s" if point.measured else f"from the store ({point.key[:12]})"
+    print(f"measure {scene.name}: {s['seeds']} seed(s), {how} -> {paths['summary.json']}")
     reads = s["map_reads"]
     print(f"  frame {1000 * s['approx_timings_s']['frame_wall']:.0f} ms ({s['timing_method']}), "
           f"{reads['per_frame'] / 1e6:.2f} M map reads ({reads['per_segment']:.1f} per segment), frame cost "

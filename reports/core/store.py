@@ -5,6 +5,8 @@ Layout of a store folder::
     points/<key>/segments.parquet, photons.parquet, images.parquet
     points/<key>/views.exr        optional: the images a report shows
                                   (``reports.experiment.summary.VIEWS``; the report's store)
+    points/<key>/layers.exr       optional: the error decomposition's images and terms
+                                  (what ``measure -o DIR`` writes as decomposition.exr)
     points/<key>/summary.json     written last: the experiment's summary, the key's
                                   document, the SHA-256 of every file and of
                                   itself (``summary_sha256``)
@@ -58,6 +60,8 @@ from volcaustics.scenes.fields import field_columns
 TABLES = ("segments", "photons", "images")
 TABLE_FILES = tuple(f"{name}.parquet" for name in TABLES)
 VIEWS = "views.exr"
+# the optional images of a point: the experiment's attribute → its file in the point's folder
+IMAGE_FILES = {"views": VIEWS, "layers": "layers.exr"}
 SUMMARY = "summary.json"
 SEAL = "summary_sha256"  # a summary's field holding the SHA-256 of the rest of it (summary_sha256)
 STORE_FORMAT = 1
@@ -108,23 +112,24 @@ class Store:
         store), counts as damaged: a sweep or the report recomputes the point."""
         return _complete_summary(self.point_dir(key), key)
 
-    def status(self, key: str, *, views: bool = False) -> str:
-        """"done" (complete and undamaged, with views.exr if ``views``), "damaged" (a
-        folder that is not) or "missing"."""
+    def status(self, key: str, *, images: tuple = ()) -> str:
+        """"done" (complete and undamaged, with the files of ``images``: names of
+        :data:`IMAGE_FILES`), "damaged" (a folder that is not) or "missing"."""
         summary = self.summary(key)
-        if summary is not None and (not views or VIEWS in summary["files"]):
+        if summary is not None and all(IMAGE_FILES[name] in summary["files"] for name in images):
             return "done"
         return "damaged" if os.path.isdir(self.point_dir(key)) else "missing"
 
-    def views(self, key: str) -> dict:
-        """The point's views (name → array; ``reports.experiment.summary.VIEWS``)."""
-        layers, _ = read_exr(os.path.join(self.point_dir(key), VIEWS))
+    def images(self, key: str, name: str) -> dict:
+        """The point's images ``name`` of :data:`IMAGE_FILES` (layer name → array): its
+        views (``reports.experiment.summary.VIEWS``) or its decomposition's layers."""
+        layers, _ = read_exr(os.path.join(self.point_dir(key), IMAGE_FILES[name]))
         return layers
 
-    def write_point(self, key: str, document: dict, experiment, *, views: bool = False) -> str:
-        """Write a point whole, or not at all, with the experiment's views when ``views``;
-        returns "written", or "kept" when a complete copy appeared meanwhile (another
-        sweep)."""
+    def write_point(self, key: str, document: dict, experiment, *, images: tuple = ()) -> str:
+        """Write a point whole, or not at all, with the experiment's images named in
+        ``images`` (:data:`IMAGE_FILES`); returns "written", or "kept" when a complete
+        copy appeared meanwhile (another sweep)."""
         tmp = os.path.join(self.points, f".tmp-{key}-{owner()}-{uuid.uuid4().hex[:8]}")
         os.makedirs(tmp)
         try:
@@ -133,11 +138,11 @@ class Store:
                 path = os.path.join(tmp, f"{name}.parquet")
                 table(getattr(experiment, name)).to_parquet(path, index=False)
                 files[f"{name}.parquet"] = file_sha256(path)
-            if views:
-                path = os.path.join(tmp, VIEWS)
-                write_exr(path, experiment.views, {"volcaustics_renderer": "experiment views",
-                                                   "volcaustics_scene": experiment.summary["scene"]})
-                files[VIEWS] = file_sha256(path)
+            for name in images:
+                path = os.path.join(tmp, IMAGE_FILES[name])
+                write_exr(path, getattr(experiment, name), {"volcaustics_renderer": f"experiment {name}",
+                                                            "volcaustics_scene": experiment.summary["scene"]})
+                files[IMAGE_FILES[name]] = file_sha256(path)
             summary = sealed({**plain(experiment.summary), "key": key, "key_document": document, "files": files})
             atomic_write_text(os.path.join(tmp, SUMMARY), json.dumps(summary, indent=1, allow_nan=False))
             return self._commit(tmp, key)
@@ -192,11 +197,10 @@ class Store:
                     pass
         raise OSError(f"{final}: cannot put the point in place")
 
-    def remove_damaged(self, key: str, *, views: bool = False) -> None:
-        """Set aside and remove the point's folder unless it is done (with views, if
-        ``views``)."""
+    def remove_damaged(self, key: str, *, images: tuple = ()) -> None:
+        """Set aside and remove the point's folder unless it is done (with ``images``)."""
         folder = self.point_dir(key)
-        if os.path.isdir(folder) and self.status(key, views=views) != "done":
+        if os.path.isdir(folder) and self.status(key, images=images) != "done":
             aside = f"{folder}.damaged-{uuid.uuid4().hex[:8]}"
             try:
                 os.rename(folder, aside)
@@ -312,13 +316,13 @@ def point_row(key: str, summary: dict) -> dict:
 
 def _complete_summary(folder: str, key: str) -> dict | None:
     """The summary in ``folder`` if it is of ``key``, matches its own SHA-256 and its files
-    match theirs (every table, views.exr if listed), else None."""
+    match theirs (every table, and the image files it lists), else None."""
     try:
         summary = read_json_object(os.path.join(folder, SUMMARY))
         if summary.get("key") != key or summary.get(SEAL) != summary_sha256(summary):
             return None
         hashes = summary.get("files")
-        if not isinstance(hashes, dict) or not set(hashes) <= {*TABLE_FILES, VIEWS} \
+        if not isinstance(hashes, dict) or not set(hashes) <= {*TABLE_FILES, *IMAGE_FILES.values()} \
                 or not set(TABLE_FILES) <= set(hashes):
             return None
         for name, digest in hashes.items():

@@ -33,11 +33,7 @@ from volcaustics.reference.replay import exact_replays
 from volcaustics.reports.experiment.exact import ExactPhotons, pixel_footprint, subset_images
 from volcaustics.reports.experiment.exact_store import EXACT_IMAGES, exact_document, exact_key, load_exact, save_exact
 from volcaustics.reports.experiment.kernels import KERNEL_RULES, frame_kernels, splat_params
-from volcaustics.reports.experiment.measurement import (
-    EXACT_STEPS,
-    SUBSET_BATCHES,
-    subphotons_setting,
-)
+from volcaustics.reports.experiment.measurement import EXACT_STEPS, SUBSET_BATCHES, MeasurementSettings
 from volcaustics.scenes.bounds import medium_bounds
 from volcaustics.scenes.formats import STATUS_COLLIDED
 from volcaustics.scenes.rng import pcg_hash
@@ -88,17 +84,19 @@ def small_kernel_params(scene, p):
     return dataclasses.replace(p, splat="fixed", splat_radius=small_radius(scene, p))
 
 
-def exact_images(scene, p, frames, seeds, renderer, oracle, subphotons: int | None = None, *,
-                 subset_batches: int = SUBSET_BATCHES, exact_steps: int = EXACT_STEPS) -> dict:
-    """Per seed, ``subset_batches`` paired subset images (``reports.experiment.exact.subset_images``)
-    of A, E_k, E_∞ (A's Fresnel), E_∞ (stochastic), E_em and E_∞,s, the E_∞ images from
-    ``subphotons`` replays of every texel (:func:`pooled`; None: :func:`subphotons_setting`);
-    all seeds' batches concatenated (batch j of every image: the same emission texels of
-    one seed). Every exact image replays from the emission ray (:func:`_exact_batches`).
+def exact_images(scene, p, frames, seeds, renderer, oracle, settings: MeasurementSettings | None = None) -> dict:
+    """Per seed, ``settings.subset_batches`` paired subset images
+    (``reports.experiment.exact.subset_images``) of A, E_k, E_∞ (A's Fresnel), E_∞
+    (stochastic), E_em and E_∞,s, the E_∞ images from ``settings.exact_subphotons``
+    replays of every texel (:func:`pooled`), ``settings.exact_steps`` steps each
+    (``settings`` None: the report's measurement settings); all seeds' batches
+    concatenated (batch j of every image: the same emission texels of one seed). Every
+    exact image replays from the emission ray (:func:`_exact_batches`).
     The E images are read from ``exact_store`` when a point with the same emission,
     replay and splat stored them (``exact_reused``); else every replay of one Fresnel
     mode is one wavefront (``reference.replay``) and they are stored."""
-    subphotons = subphotons_setting(subphotons)
+    settings = settings or MeasurementSettings()
+    subphotons, subset_batches, exact_steps = settings.exact_subphotons, settings.subset_batches, settings.exact_steps
     constants = {**CONSTANTS, "exact_steps": exact_steps, "subset_batches": subset_batches}
     document = exact_document(scene, p, seeds, subphotons, constants, renderer.controls)
     key = exact_key(document)

@@ -30,7 +30,7 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass
 
-from volcaustics.approx.params import ParamError
+from volcaustics.approx.params import Param, ParamError
 
 # E_∞'s steps: scenes.formats.PATH_INTERACTIONS, the reference's path length (a test ties the
 # two; not imported: that module loads numpy, and every command's parser reads this one)
@@ -39,59 +39,58 @@ SUBSET_BATCHES = 8           # paired photon subsets per seed of A and the E ima
 EXACT_SUBPHOTONS = 16        # exact replays of each emission texel in the E_∞ images (docs/decisions.md "Sub-photons")
 
 
-def _int_setting(name: str, low: int, high: int, what: str, default: int):
-    """A check of an integer measurement setting in [low, high]: value → value (None: the default)."""
-    def check(value: int | None = None) -> int:
-        if value is None:
-            return default
-        if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
-            raise ParamError(f"{name} = {value!r}: expected an integer in [{low}, {high}] ({what}; default {default})")
-        return value
-    return check
-
-
-# E_k is E_∞ cut at the approximation's steps (at most 32): E_∞ replays at least that many
-exact_steps_setting = _int_setting("exact_steps", 32, 1024, "steps of the exact replay in the E_∞ images",
-                                   EXACT_STEPS)
-# the decomposition's jackknife needs 4 batches in all; one seed gives subset_batches of them
-subset_batches_setting = _int_setting("subset_batches", 4, 64, "paired photon subsets per seed of A and the E "
-                                      "images, the decomposition's jackknife batches", SUBSET_BATCHES)
-
-
-# the E_∞ images' replays of each emission texel (docs/decisions.md "Sub-photons")
-subphotons_setting = _int_setting("exact_subphotons", 1, 64, "exact replays of each emission texel in the "
-                                  "decomposition's E_∞ images", EXACT_SUBPHOTONS)
-
-# name → (check: value → int, ParamError naming the range; help)
-MEASUREMENT_TABLE = {
-    "exact_subphotons": (subphotons_setting, "exact replays of each emission texel in the error decomposition's E_∞ "
-                                             "images, 1 to 64"),
-    "subset_batches": (subset_batches_setting, "paired photon subsets per seed of A and the E images: the "
-                                               "decomposition's jackknife batches, 4 to 64"),
-    "exact_steps": (exact_steps_setting, "steps of the exact replay in the decomposition's E_∞ images (E_k is it cut "
-                                         "at the approximation's steps), 32 to 1024"),
-}
-MEASUREMENT_KEYS = tuple(MEASUREMENT_TABLE)  # what a spec's or the budgets' [measurement] table may set
-SCOPES = ("full", "gate")
+# name, type, default, help, range: the settings a flag and a [measurement] table may set
+# (MEASUREMENT_KEYS), then scope (set by the command: the gate's points are "gate")
+MEASUREMENT_PARAMS: tuple = (
+    Param("exact_subphotons", int, EXACT_SUBPHOTONS, "exact replays of each emission texel in the error "
+          "decomposition's E_∞ images", low=1, high=64),
+    # the decomposition's jackknife needs 4 batches in all; one seed gives subset_batches of them
+    Param("subset_batches", int, SUBSET_BATCHES, "paired photon subsets per seed of A and the E images: the "
+          "decomposition's jackknife batches", low=4, high=64),
+    # E_k is E_∞ cut at the approximation's steps (at most 32): E_∞ replays at least that many
+    Param("exact_steps", int, EXACT_STEPS, "steps of the exact replay in the decomposition's E_∞ images (E_k is "
+          "it cut at the approximation's steps)", low=32, high=1024),
+    Param("scope", str, "full", "what a point measures: full, or gate (only what the gate's budgets read)",
+          choices=("full", "gate")),
+)
+MEASUREMENT_KEYS = tuple(p.name for p in MEASUREMENT_PARAMS if p.name != "scope")  # a flag and a table key each
+SCOPES = next(p.choices for p in MEASUREMENT_PARAMS if p.name == "scope")
+_BY_NAME = {p.name: p for p in MEASUREMENT_PARAMS}
 # the image metrics a gate budget can name (reports.gate.budgets.COMPONENT_KEYS: relmse_max,
 # frame_relmse_max, energy_ratio, hdr_flip_max; a test ties the two)
 GATE_IMAGE_METRICS = ("relative_mse", "frame_relative_mse", "energy_ratio", "hdr_flip")
 
 
+def _setting(name: str):
+    """The field of measurement setting ``name``: its default, and its :class:`Param` as
+    the field's metadata ``"param"`` (as ``approx.params.declared``)."""
+    return dataclasses.field(default=_BY_NAME[name].default, metadata={"param": _BY_NAME[name]})
+
+
+def check_setting(name: str, value) -> None:
+    """ParamError unless ``value`` is allowed for setting ``name``; the message names the
+    setting, the value, the range, what it sets and its default."""
+    param = _BY_NAME[name]
+    try:
+        param.check(value)
+    except ParamError as exc:
+        raise ParamError(f"{exc} ({param.help}; default {param.default})") from None
+
+
 @dataclass(frozen=True)
 class MeasurementSettings:
-    """How a point is measured (module docstring); validated when made (ParamError)."""
+    """How a point is measured (module docstring): one field per :data:`MEASUREMENT_PARAMS`
+    entry, which the field carries as its metadata ``"param"``; validated once, when made
+    (ParamError)."""
 
-    exact_subphotons: int = EXACT_SUBPHOTONS
-    subset_batches: int = SUBSET_BATCHES
-    exact_steps: int = EXACT_STEPS
-    scope: str = "full"          # "full", or "gate": only what the gate's budgets read (module docstring)
+    exact_subphotons: int = _setting("exact_subphotons")
+    subset_batches: int = _setting("subset_batches")
+    exact_steps: int = _setting("exact_steps")
+    scope: str = _setting("scope")
 
-    def __post_init__(self):
-        for name, (check, _) in MEASUREMENT_TABLE.items():
-            check(getattr(self, name))
-        if self.scope not in SCOPES:
-            raise ParamError(f"scope = {self.scope!r}: expected one of {', '.join(SCOPES)}")
+    def __post_init__(self) -> None:
+        for f in dataclasses.fields(self):
+            check_setting(f.name, getattr(self, f.name))
 
     def to_dict(self) -> dict:
         """The settings as plain data: a result's key holds them (``reports.runner``)."""
@@ -106,10 +105,10 @@ def measurement_settings(overrides: dict | None = None, *, where: str = "measure
     → ``FILE: measurement.exact_subphotons = 0: …``)."""
     changes = {k: v for k, v in (overrides or {}).items() if v is not None}
     for name, value in changes.items():
-        if name not in MEASUREMENT_TABLE:
+        if name not in MEASUREMENT_KEYS:
             raise ParamError(f"{where}.{name}: unknown; expected {', '.join(MEASUREMENT_KEYS)}")
         try:
-            MEASUREMENT_TABLE[name][0](value)
+            check_setting(name, value)
         except ParamError as exc:
             named = where if where.startswith("--") else f"{where}.{name}"
             raise ParamError(f"{named} = {str(exc).split(' = ', 1)[1]}") from None

@@ -41,12 +41,7 @@ from volcaustics.reports.experiment.decomposition import decompose, decompositio
 from volcaustics.reports.experiment.exact_images import exact_images
 from volcaustics.reports.experiment.frames import render_frames
 from volcaustics.reports.experiment.images import IMAGE_METRICS, image_rows, keep_mask
-from volcaustics.reports.experiment.measurement import (
-    GATE_IMAGE_METRICS,
-    exact_steps_setting,
-    subphotons_setting,
-    subset_batches_setting,
-)
+from volcaustics.reports.experiment.measurement import GATE_IMAGE_METRICS, MeasurementSettings
 from volcaustics.reports.experiment.model_term import model_rows
 from volcaustics.reports.experiment.photons import photon_rows, replay
 from volcaustics.reports.experiment.segments import segment_rows
@@ -77,8 +72,7 @@ class Experiment:
 
 def run_experiment(scene, params, *, seeds: int = 1, reference_settings=None, progress: bool = False,
                    renderer=None, oracle=None, reference=None, fields: dict | None = None,
-                   subphotons: int | None = None, scope: str = "full", subset_batches: int | None = None,
-                   exact_steps: int | None = None) -> Experiment:
+                   measurement: MeasurementSettings | None = None) -> Experiment:
     """Measure the approximation with ``params`` on ``scene`` against its reference.
 
     Parameters
@@ -94,18 +88,16 @@ def run_experiment(scene, params, *, seeds: int = 1, reference_settings=None, pr
         at the frames' size).
     fields : the scene fields this scene changed (dotted path → value, ``scenes.fields``):
         a column each in every row, and the summary's ``scene_fields``.
-    subphotons : exact replays per emission texel in the E_∞ images, the measurement
-        setting ``exact_subphotons`` (``reports.experiment.measurement``; None: the
-        report's, ``measurement.EXACT_SUBPHOTONS``).
-    scope : "full", or "gate": only what the gate's budgets read (the image metrics of
-        ``measurement.GATE_IMAGE_METRICS`` and the segments); the exact images, the
+    measurement : how the point is measured, ``reports.experiment.measurement.MeasurementSettings``
+        (None: the report's): the exact images' sub-photons, subset batches and steps, and
+        the scope: "full", or "gate": only what the gate's budgets read (the image metrics
+        of ``measurement.GATE_IMAGE_METRICS`` and the segments); the exact images, the
         caustic's decomposition and the model term are skipped (the summary's ``exact``,
         ``decomposition`` and ``model`` are then None).
     """
     p, seed_list = checked_settings(scene, params, seeds)
-    # the measurement settings: a bad one fails before the reference renders
-    exact_settings = {"subphotons": subphotons_setting(subphotons), "exact_steps": exact_steps_setting(exact_steps),
-                      "subset_batches": subset_batches_setting(subset_batches)}
+    measurement = measurement or MeasurementSettings()
+    scope = measurement.scope
     clock = Clock()
     bar = tqdm(total=len(STAGES), desc="measure", unit="stage", disable=not progress, leave=False)
     with clock.stage("reference"):
@@ -132,7 +124,7 @@ def run_experiment(scene, params, *, seeds: int = 1, reference_settings=None, pr
         exact = None
         if scope == "full":
             with clock.stage("exact_images"):
-                exact = exact_images(scene, p, frames, seed_list, renderer, oracle, **exact_settings)
+                exact = exact_images(scene, p, frames, seed_list, renderer, oracle, measurement)
         bar.update()
     finally:
         if own_renderer:

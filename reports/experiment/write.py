@@ -1,5 +1,6 @@
 """``measure -o DIR``: an experiment's tables (Parquet and CSV), ``decomposition.exr`` and,
-last, ``summary.json``, written as one set."""
+last, ``summary.json``, written as one set: from the point as the result store holds it
+(``reports.runner.PointResult``) or from an :class:`~reports.experiment.run.Experiment`."""
 
 from __future__ import annotations
 
@@ -22,17 +23,24 @@ def output_paths(out_dir: str) -> dict:
     return {name: os.path.join(out_dir, name) for name in OUTPUT_FILES}
 
 
+# what a stored summary holds for the store alone (its key's document, its files' hashes, its seal)
+STORE_FIELDS = ("key_document", "files", "summary_sha256")
+
+
 def write_experiment(experiment, out_dir: str) -> dict:
     """Write the tables (Parquet + CSV), ``decomposition.exr`` and, last,
     ``summary.json`` into ``out_dir`` as one set (``infra.storage.atomic_set``: an
-    interrupted write leaves the last complete set). Returns the paths."""
+    interrupted write leaves the last complete set). ``experiment``: a stored point
+    (``tables``: name → DataFrame, ``layers``, ``summary`` as stored: its store fields are
+    left out, its ``key`` kept) or an ``Experiment`` (rows per table). Returns the paths."""
     os.makedirs(out_dir, exist_ok=True)
     paths = output_paths(out_dir)  # summary.json last: the set's manifest
-    s = experiment.summary
+    s = {k: v for k, v in experiment.summary.items() if k not in STORE_FIELDS}
+    stored = getattr(experiment, "tables", None)
     with atomic_set(list(paths.values())) as temps:
         tmp = dict(zip(paths, temps))
         for name in TABLES:
-            frame = table(getattr(experiment, name))
+            frame = stored[name] if stored is not None else table(getattr(experiment, name))
             frame.to_parquet(tmp[f"{name}.parquet"], index=False)
             frame.to_csv(tmp[f"{name}.csv"], index=False)
         write_exr(tmp["decomposition.exr"], experiment.layers,

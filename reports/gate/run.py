@@ -74,7 +74,7 @@ def run_gate(budgets: dict, *, overrides: dict, baseline_dir: str | None, update
                          reference_settings=budgets["reference_settings"],
                          # the gate's points measure what its budgets read: no exact replay, no decomposition
                          measurement=replace(measurement or budgets["measurement"], scope="gate"),
-                         policy="missing" if render_references else "cached", views=True, parallel=True,
+                         policy="missing" if render_references else "cached", images=("views",), parallel=True,
                          progress=progress,
                          hint=MISSING_REFERENCE)
     checks, entries = [], {}

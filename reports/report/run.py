@@ -57,7 +57,7 @@ def collect_scenes(names, params, *, seeds: int, reference_settings, measurement
     with clock.stage("experiments"):
         run = runner.measure([runner.Point(name, params, seeds) for name in names], runner.results_store(),
                              reference_settings=reference_settings, measurement=measurement, policy="continue",
-                             views=True, parallel=True, progress=progress)
+                             images=("views",), parallel=True, progress=progress)
     with clock.stage("gate"):
         return [_scene_result(name, result, budgets, baseline) for name, result in zip(names, run.results)]
 

@@ -37,6 +37,7 @@ from volcaustics.reports.core.cost_match import with_auto_photon_res
 from volcaustics.reports.core.sizing import REPORT_REFERENCE, sized
 from volcaustics.reports.core.tables import plain
 from volcaustics.reports.core.versions import code_version
+from volcaustics.reports.experiment.measurement import MeasurementSettings
 from volcaustics.reports.experiment.run import run_experiment
 from volcaustics.reports.experiment.settings import checked_settings
 from volcaustics.reports.runner import reference_for
@@ -99,7 +100,8 @@ def run_frames(scenes, out_dir: str, *, seeds: int = FRAME_CHECK_SEEDS, progress
             row = stored_point(out_dir, key)
             if row is None:
                 reference = reference_for(scene, sized(REPORT_REFERENCE, scene, params), "continue")
-                summary = run_experiment(scene, params, seeds=seeds, reference=reference, scope="gate").summary
+                summary = run_experiment(scene, params, seeds=seeds, reference=reference,
+                                         measurement=MeasurementSettings(scope="gate")).summary
                 row = {"scene": scene.name, "heldout": group == "heldout", "group": group, "config": config,
                        "denoise": denoiser, **_row(summary)}
                 if row["frame_relmse"] is None or not math.isfinite(row["frame_relmse"]):

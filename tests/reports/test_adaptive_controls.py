@@ -12,6 +12,7 @@ import pytest
 from volcaustics.approx import Renderer
 from volcaustics.approx.params import QUICK
 from volcaustics.reference.settings import ReferenceSettings
+from volcaustics.reports.experiment.measurement import MeasurementSettings
 from volcaustics.reports.experiment.run import run_experiment
 from volcaustics.scenes import load_builtin
 
@@ -21,7 +22,8 @@ PARAMS = dataclasses.replace(QUICK, width=SIZE, height=SIZE, splat="adaptive")
 
 
 def _caustic_relmse(scene, controls: dict | None = None) -> float:
-    result = run_experiment(scene, PARAMS, seeds=2, reference_settings=REFERENCE, progress=False, subphotons=1,
+    result = run_experiment(scene, PARAMS, seeds=2, reference_settings=REFERENCE, progress=False,
+                            measurement=MeasurementSettings(exact_subphotons=1),
                             renderer=Renderer(scene, controls=controls))
     return result.summary["images"]["caustic"]["relative_mse"]["debiased"]
 

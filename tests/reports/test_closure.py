@@ -21,6 +21,7 @@ from volcaustics.metrics.decomposition import TERMS
 from volcaustics.reference.settings import ReferenceSettings
 from volcaustics.reports.core.cost_match import with_auto_photon_res
 from volcaustics.reports.experiment import exact_images
+from volcaustics.reports.experiment.measurement import MeasurementSettings
 from volcaustics.reports.experiment.run import run_experiment
 from volcaustics.scenes import load_builtin, load_scene, resolve_scene
 from volcaustics.scenes.catalogue import BUILTIN_NAMES, HELDOUT_NAMES, heldout_path
@@ -46,7 +47,8 @@ CONFIGS = {"paper": lambda scene_arg: QUICK,  # splat = fixed
 def _measure(scene, params, seeds: int = 2, **kwargs):
     # one exact replay per texel: R's covarying pixels are the weak spot at 16 (docs/decisions.md "Sub-photons")
     p = dataclasses.replace(params, width=SIZE, height=SIZE)
-    return run_experiment(scene, p, seeds=seeds, reference_settings=REFERENCE, subphotons=1, progress=False,
+    return run_experiment(scene, p, seeds=seeds, reference_settings=REFERENCE, progress=False,
+                          measurement=MeasurementSettings(exact_subphotons=1),
                           **kwargs)
 
 

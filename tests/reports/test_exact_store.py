@@ -17,6 +17,7 @@ from volcaustics.reference.oracle import Oracle
 from volcaustics.reference.render import render_reference
 from volcaustics.reference.settings import ReferenceSettings
 from volcaustics.reports.experiment.exact_store import EXACT_IMAGES
+from volcaustics.reports.experiment.measurement import MeasurementSettings
 from volcaustics.reports.experiment.run import run_experiment
 
 PARAMS = ApproxParams(photon_res=48, light_res=128, width=32, height=32, splat_radius=0.03, steps=3, seed=5)
@@ -37,7 +38,7 @@ def setup(tmp_path_factory):
 
         def measure(params, subphotons=2):
             return run_experiment(scene, params, seeds=2, reference=reference, renderer=renderer, oracle=oracle,
-                                  subphotons=subphotons)
+                                  measurement=MeasurementSettings(exact_subphotons=subphotons))
 
         yield scene, measure
         renderer.release()

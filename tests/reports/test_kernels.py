@@ -20,6 +20,7 @@ from volcaustics.reports.experiment import exact_images as exact_module
 from volcaustics.reports.experiment.exact import subset_images
 from volcaustics.reports.experiment.exact_images import approx_subsets, exact_images
 from volcaustics.reports.experiment.frames import render_frames
+from volcaustics.reports.experiment.measurement import MeasurementSettings
 from volcaustics.scenes import load_builtin, load_scene
 from volcaustics.scenes.catalogue import HELDOUT_NAMES, heldout_path
 from volcaustics.scenes.formats import STATUS_COLLIDED
@@ -113,8 +114,8 @@ def test_the_widths_pass_gives_each_splat_the_frames_density_width(ctx):
 
 def _small_images(scene, p, renderer, oracle) -> np.ndarray:
     frames, _ = render_frames(renderer, scene, p, SEEDS[:1], warm_up=False)
-    return exact_images(scene, p, frames, SEEDS[:1], renderer, oracle, 1, subset_batches=4,
-                        exact_steps=32)["batches"]["exact_all_small"]
+    settings = MeasurementSettings(exact_subphotons=1, subset_batches=4, exact_steps=32)
+    return exact_images(scene, p, frames, SEEDS[:1], renderer, oracle, settings)["batches"]["exact_all_small"]
 
 
 def test_the_small_kernel_image_does_not_depend_on_the_splat_mode(cache, ctx, monkeypatch):

@@ -41,7 +41,8 @@ def test_measure_writes_tidy_tables_exr_and_summary(cache, tmp_path, capsys, mon
             "--photon-res", "64", "--light-res", "64", "--layers", "2", "--photons", "65536", "--spp", "8",
             "--batches", "4", "--target-noise", "none", *SINGLE_SCATTERING]
     assert main(args) == 0
-    assert "caustic error decomposed" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    assert "caustic error decomposed" in printed and "from the store" not in printed  # measured
     summary = _strict_json(out / "summary.json")
     assert summary["exact"]["subphotons"] == 16  # the report's
     assert summary["params"]["layers"] == 2 and summary["seeds"] == 2 and summary["seed_values"] == [0, 1]
@@ -98,6 +99,15 @@ def test_measure_writes_tidy_tables_exr_and_summary(cache, tmp_path, capsys, mon
                   "term.residual"):
         assert f"{layer}.R" in channels or layer in channels, (layer, sorted(channels)[:8])
     assert not [p for p in out.iterdir() if p.name.startswith(".")]  # no temporary files left
+
+    # the same point again goes through the result store the report and the gate share:
+    # read back, not measured, and written byte for byte as the first time
+    again = tmp_path / "again"
+    assert main([*args[:2], "-o", str(again), *args[4:]]) == 0
+    assert "from the store" in capsys.readouterr().out
+    for name in ("segments.parquet", "photons.csv", "images.parquet", "decomposition.exr"):
+        assert (again / name).read_bytes() == (out / name).read_bytes(), name
+    assert _strict_json(again / "summary.json")["key"] == summary["key"]
 
     # Ctrl-C while a second run writes its set (inside the EXR writer, after the tables):
     # the first run's eight files stay, byte for byte, and no temporaries
@@ -227,6 +237,7 @@ def test_a_reference_stopped_at_its_time_cap_above_its_target_is_said(empty_cach
     """A reference whose time cap stops it above its noise target: summary.json names the
     component, its floor and target (its reference's ``short_of_target``) and warns; one that
     met its target (the negative control, another size so another cache entry) does not."""
+    from volcaustics.reports.experiment.measurement import MeasurementSettings
     from volcaustics.reports.experiment.run import run_experiment
     from volcaustics.scenes import load_builtin
 
@@ -236,7 +247,8 @@ def test_a_reference_stopped_at_its_time_cap_above_its_target_is_said(empty_cach
         settings = ReferenceSettings(photons=1 << 14, spp=4, batches=2, target_noise=target, max_seconds=1e-3,
                                      max_scatter=1, width=size, height=size)
         p = dataclasses.replace(PARAMS, width=size, height=size, photon_res=32, light_res=32)
-        summaries[target] = run_experiment(scene, p, seeds=1, reference_settings=settings, scope="gate").summary
+        summaries[target] = run_experiment(scene, p, seeds=1, reference_settings=settings,
+                                            measurement=MeasurementSettings(scope="gate")).summary
     capped, met = summaries[1e-9], summaries[0.9]
     assert capped["reference"]["stopped_by"] == "time cap"
     short = capped["reference"]["short_of_target"]
@@ -245,3 +257,20 @@ def test_a_reference_stopped_at_its_time_cap_above_its_target_is_said(empty_cach
     assert any("time cap above its noise target" in w and "caustic" in w for w in capped["warnings"])
     assert met["reference"]["stopped_by"] == "target" and met["reference"]["short_of_target"] == {}
     assert not any("noise target" in w for w in met["warnings"])
+
+
+def test_the_measurement_settings_are_one_table_checked_once_when_made():
+    """Every MeasurementSettings field carries its Param (the table the flags and the
+    [measurement] keys come from); a value out of range or of the wrong type is refused
+    when the settings are made, naming the setting and its default."""
+    from volcaustics.reports.experiment.measurement import MEASUREMENT_KEYS, MEASUREMENT_PARAMS, MeasurementSettings
+
+    fields = dataclasses.fields(MeasurementSettings)
+    assert [f.metadata["param"] for f in fields] == list(MEASUREMENT_PARAMS)
+    assert MEASUREMENT_KEYS == ("exact_subphotons", "subset_batches", "exact_steps")
+    for changes, message in (({"exact_subphotons": 65}, "exact_subphotons = 65: expected an integer in [1, 64]"),
+                             ({"exact_steps": 64.0}, "exact_steps = 64.0"), ({"scope": "all"}, "scope = 'all'")):
+        with pytest.raises(ParamError, match="default") as exc:
+            MeasurementSettings(**changes)
+        assert message in str(exc.value)
+    assert MeasurementSettings(exact_steps=64, scope="gate").to_dict()["exact_steps"] == 64  # the control

@@ -20,7 +20,7 @@ POINTS = [POINT, runner.Point(POINT.scene, dataclasses.replace(POINT.params, lay
 
 def _measure(store, **options):
     return runner.measure(POINTS, store, reference_settings=REFERENCE, measurement=FULL, policy="missing",
-                          views=True, progress=False, **options)
+                          images=("views",), progress=False, **options)
 
 
 def test_parallel_points_store_what_this_process_stores(cache, tmp_path, monkeypatch):
