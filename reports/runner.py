@@ -40,6 +40,7 @@ from volcaustics.reference.render.tasks import PROCESS_LOCK
 from volcaustics.reports.core.executors import default_workers, open_pool, run_tasks
 from volcaustics.reports.core.sizing import sized
 from volcaustics.reports.core.store import TABLES, Store, key_document, point_key
+from volcaustics.reports.core.summaries import ExperimentSummary
 from volcaustics.reports.core.tables import rows_of
 from volcaustics.reports.experiment.measurement import MeasurementSettings
 from volcaustics.reports.experiment.run import run_experiment
@@ -74,6 +75,32 @@ def point_scene(scene: str, fields=()):
     return scene_with(scene, fields) if fields else resolve_scene(scene)
 
 
+# The version of a point task's fields: a worker of another volcaustics (a Dask cluster whose
+# machines were not all updated) refuses a task of another version rather than misread it.
+TASK_VERSION = 1
+
+
+@dataclass(frozen=True)
+class PointTask:
+    """What a process needs to measure one point not in the store (plain data, picklable):
+    the point's key and the document it hashes, its scene (SCENE argument and changed
+    fields), its resolved parameters and measurement settings as dicts, the reference's
+    cache key, the store's folder and the optional images to store (``store.IMAGE_FILES``).
+    A shipped task's reference and scene go beside it (:func:`run_point`'s ``payload``)."""
+
+    key: str
+    key_document: dict
+    scene: str
+    params: dict             # ApproxParams.to_dict(), resolved
+    seeds: int
+    reference_key: str
+    store: str               # the store's folder (absolute)
+    measurement: dict = field(default_factory=lambda: MeasurementSettings().to_dict())
+    fields: tuple = ()       # ((dotted path, value), ...)
+    images: tuple = ()
+    version: int = TASK_VERSION
+
+
 @dataclass
 class PointResult:
     """One point as the store holds it (``tables``: "segments", "photons", "images" →
@@ -82,7 +109,7 @@ class PointResult:
 
     point: Point
     key: str
-    summary: dict
+    summary: ExperimentSummary
     tables: dict
     views: dict
     measured: bool           # measured in this run (False: from the store)
@@ -157,25 +184,26 @@ def measure(points: list, store: Store, *, reference_settings, measurement: Meas
     with open_pool(workers=workers, dask=dask) if pooled else contextlib.nullcontext() as pool:
         tasks, keys, references, scenes = _tasks(points, store, reference_settings, measurement, policy,
                                                  images=images, progress=progress, hint=hint, pool=pool)
-        unique = list({t["key"]: t for t in tasks}.values())
+        unique = list({t.key: t for t in tasks}.values())
         done_before = len(set(keys)) - len(unique)
         count = {"total": len(set(keys)), "done": done_before, "progress": progress}
         processes = _parallel_processes(unique) if parallel and not pooled else 1
         if processes > 1:
             with open_pool(workers=processes) as local:
                 outcomes = _on_executor(unique, store, local, desc="experiments", **count)
-            scene_of = {task["key"]: task["scene"] for task in unique}
+            scene_of = {task.key: task.scene for task in unique}
             for outcome in outcomes:
                 if outcome.get("error"):
                     failure = outcome["error"]
                     raise RunnerError(f"{scene_of[outcome['key']]}: its point failed on a worker process: {failure}")
         elif pool is None:  # this process: the references as resolved (rendered or cached)
-            outcomes = [run_point(task, progress=progress, reference=references[task["reference_key"]])
+            outcomes = [run_point(task, progress=progress, reference=references[task.reference_key])
                         for task in tqdm(unique, desc="experiments", unit="point", disable=not progress)]
         elif dask is not None:  # machines that may share no disk: the reference goes out, the point comes back
-            shipped = [{**task, "ship": True, "reference": references[task["reference_key"]],
-                        "scene_package": packed(scenes[task["key"]])} for task in unique]
-            outcomes = _on_executor(shipped, store, pool, **count)
+            payloads = [{"reference": (task.reference_key, references[task.reference_key]),
+                         "scene_package": (task.key_document["scene_hash"], packed(scenes[task.key]))}
+                        for task in unique]
+            outcomes = _on_executor(unique, store, pool, payloads=payloads, **count)
         else:
             outcomes = _on_executor(unique, store, pool, **count)
     failed = [o for o in outcomes if o.get("error")]
@@ -191,12 +219,12 @@ def _parallel_processes(tasks) -> int:
     """How many local processes measure ``tasks`` at once: one per core, at most as many
     as there are tasks, and only as many as the largest point's images fit the memory
     budget together (``check_frame`` lets one point have the whole budget)."""
-    need = max((measurement_bytes(t["params"]["width"], t["params"]["height"], t["seeds"]) for t in tasks), default=1)
+    need = max((measurement_bytes(t.params["width"], t.params["height"], t.seeds) for t in tasks), default=1)
     return max(1, min(default_workers(), len(tasks), memory_budget() // need))
 
 
 def _tasks(points, store, settings, measurement, policy, *, images, progress, hint, pool) -> tuple:
-    """The plain-data task of every point not done, every point's key, the references
+    """The :class:`PointTask` of every point not done, every point's key, the references
     by key (rendered on ``pool`` when it is not None) and the tasks' scenes by key."""
     wanted: dict
     scenes, wanted, sizes = {}, {}, []
@@ -222,21 +250,21 @@ def _tasks(points, store, settings, measurement, policy, *, images, progress, hi
             continue
         store.remove_damaged(key, images=images)
         task_sizes.append(size)
-        tasks.append({"key": key, "key_document": document, "scene": point.scene, "fields": list(point.fields),
-                      "measurement": measurement.to_dict(),
-                      "params": point.params.resolved(scene).to_dict(), "seeds": point.seeds,
-                      "reference_key": reference.key, "store": os.path.abspath(store.root),
-                      "images": list(images)})
-    scene_of = {task["key"]: wanted[size][0] for task, size in zip(tasks, task_sizes)}
+        tasks.append(PointTask(key=key, key_document=document, scene=point.scene, fields=tuple(point.fields),
+                               measurement=measurement.to_dict(), params=point.params.resolved(scene).to_dict(),
+                               seeds=point.seeds, reference_key=reference.key, store=os.path.abspath(store.root),
+                               images=tuple(images)))
+    scene_of = {task.key: wanted[size][0] for task, size in zip(tasks, task_sizes)}
     return tasks, keys, {r.key: r for r in references.values()}, scene_of
 
 
-def _on_executor(tasks, store, pool, **options) -> list:
-    """Every task's outcome; a point sent back as files (a shipped task) is put in the
-    store here, as it arrives, so that an interrupted run keeps what finished."""
+def _on_executor(tasks, store, pool, payloads=None, **options) -> list:
+    """Every task's outcome; a point sent back as files (a shipped task: ``payloads``, its
+    reference and scene) is put in the store here, as it arrives, so that an interrupted
+    run keeps what finished."""
     try:
         outcomes = []
-        for outcome in run_tasks(run_point, tasks, pool=pool, **options):
+        for outcome in run_tasks(run_point, tasks, pool=pool, payloads=payloads, **options):
             files = outcome.pop("files", None)
             if files is not None:
                 try:
@@ -250,7 +278,7 @@ def _on_executor(tasks, store, pool, **options) -> list:
         raise
 
 
-def _read_back(store, point, key, images, measured) -> PointResult | None:
+def _read_back(store: Store, point: Point, key: str, images: tuple, measured: bool) -> PointResult | None:
     summary = store.summary(key)
     if summary is None:
         return None  # a failed point (reported in Measured.failed)
@@ -269,42 +297,45 @@ def _read_back(store, point, key, images, measured) -> PointResult | None:
 TOOLS: dict = {}
 
 
-def run_point(task: dict, *, progress: bool = False, reference=None) -> dict:
+def run_point(task: PointTask, payload: dict | None = None, *, progress: bool = False, reference=None) -> dict:
     """One point (picklable: plain data in and out). Tasks of one process run one at a
     time, whatever the executor's threads (GL and Mitsuba are per process). A local
     worker reads the run's reference from the cache by key and writes the point into the
     store; this process passes the reference (``reference``: as resolved, rendered in this
-    run or cached). A shipped task (``ship``: a Dask worker, which may share no disk with
-    the run) carries its reference and sends the point back as files (:func:`_shipped`)."""
-    if task.get("ship"):
-        return _shipped(task, progress=progress)
+    run or cached). A shipped task (``payload``: its reference and its scene package, for a
+    Dask worker, which may share no disk with the run) sends the point back as files
+    (:func:`_shipped`)."""
+    if task.version != TASK_VERSION:
+        raise RuntimeError(f"a point task of version {task.version!r}; this worker's volcaustics runs version "
+                           f"{TASK_VERSION}: install the same volcaustics on every worker")
+    if payload is not None:
+        return _shipped(task, payload, progress=progress)
     with PROCESS_LOCK:
         t0 = time.perf_counter()
-        store = Store(task["store"])
-        if store.status(task["key"], images=tuple(task["images"])) == "done":
-            return {"key": task["key"], "status": "done", "seconds": 0.0}
-        fields = [tuple(f) for f in task.get("fields", ())]
-        scene = point_scene(task["scene"], fields)
+        store = Store(task.store)
+        if store.status(task.key, images=task.images) == "done":
+            return {"key": task.key, "status": "done", "seconds": 0.0}
+        scene = point_scene(task.scene, task.fields)
         # the run's own, never rendered here: the very render the point's key names
-        reference = reference or cached_reference(task["reference_key"], scene,
-                                                  task["key_document"].get("reference_content"))
+        reference = reference or cached_reference(task.reference_key, scene,
+                                                  task.key_document.get("reference_content"))
         if reference is None:
-            raise RuntimeError(f"{task['scene']}: reference {task['reference_key']} is not in this worker's cache "
+            raise RuntimeError(f"{task.scene}: reference {task.reference_key} is not in this worker's cache "
                                f"({cache_dir('reference')}) as the run resolved it: the workers need the run's cache "
                                f"(VOLCAUSTICS_CACHE on a shared file system), not continued meanwhile")
-        experiment = _experiment(task, scene, fields, reference, progress)
-        status = store.write_point(task["key"], task["key_document"], experiment, images=tuple(task["images"]))
-        return {"key": task["key"], "status": status, "seconds": time.perf_counter() - t0}
+        experiment = _experiment(task, scene, reference, progress)
+        status = store.write_point(task.key, task.key_document, experiment, images=task.images)
+        return {"key": task.key, "status": status, "seconds": time.perf_counter() - t0}
 
 
-def _experiment(task: dict, scene, fields: list, reference, progress: bool):
+def _experiment(task: PointTask, scene, reference, progress: bool):
     renderer, oracle = _tools(scene)
-    return run_experiment(scene, ApproxParams(**task["params"]), seeds=task["seeds"], reference=reference,
-                          renderer=renderer, oracle=oracle, progress=progress, fields=dict(fields),
-                          measurement=MeasurementSettings(**task["measurement"]))
+    return run_experiment(scene, ApproxParams(**task.params), seeds=task.seeds, reference=reference,
+                          renderer=renderer, oracle=oracle, progress=progress, fields=dict(task.fields),
+                          measurement=MeasurementSettings(**task.measurement))
 
 
-def _shipped(task: dict, *, progress: bool = False) -> dict:
+def _shipped(task: PointTask, payload: dict, *, progress: bool = False) -> dict:
     """A shipped point: measured with the reference it carries, written into a store of
     its own in a temporary folder, and returned as that point's files (the run puts them
     in its store: ``Store.adopt_point``). Nothing is read from or written to the run's
@@ -313,14 +344,13 @@ def _shipped(task: dict, *, progress: bool = False) -> dict:
 
     with PROCESS_LOCK:
         t0 = time.perf_counter()
-        fields = [tuple(f) for f in task.get("fields", ())]
-        scene = unpacked(task["scene_package"])  # its mesh files came with it
-        experiment = _experiment(task, scene, fields, task["reference"], progress)
+        scene = unpacked(payload["scene_package"])  # its mesh files came with it
+        experiment = _experiment(task, scene, payload["reference"], progress)
         with tempfile.TemporaryDirectory(prefix="volcaustics-point-") as folder:
             local = Store(folder)
-            local.write_point(task["key"], task["key_document"], experiment, images=tuple(task["images"]))
-            files = local.point_files(task["key"])
-        return {"key": task["key"], "status": "measured", "seconds": time.perf_counter() - t0, "files": files}
+            local.write_point(task.key, task.key_document, experiment, images=task.images)
+            files = local.point_files(task.key)
+        return {"key": task.key, "status": "measured", "seconds": time.perf_counter() - t0, "files": files}
 
 
 def _tools(scene) -> tuple:

@@ -31,18 +31,25 @@ def default_workers() -> int:
     return max(1, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1))
 
 
-def run_tasks(fn, tasks: list, *, pool, total: int, done: int = 0, progress: bool = True, desc: str = "sweep"):
+def run_tasks(fn, tasks: list, *, pool, total: int, done: int = 0, progress: bool = True, desc: str = "sweep",
+              payloads: list | None = None):
     """Yield ``fn(task)``'s results (dicts; a failed task gives {"key", "error"}) from
     ``pool`` (:func:`open_pool`) as they finish, with one progress bar (``desc``) of
-    points done / ``total`` (``done`` already)."""
+    points done / ``total`` (``done`` already). Each task has a ``key``. ``payloads``: per
+    task, what it ships beside it (name → (identity, value)): ``fn(task, payload)`` gets
+    name → value, each value sent to a cluster once per identity (:meth:`_DaskPool.scattered`)."""
     from tqdm import tqdm
 
     bar = tqdm(total=total, initial=done, desc=desc, unit="point", disable=not progress, smoothing=0.1)
     try:
         if not tasks:  # nothing to send: the pool is not started for it
             return
-        shipped = [pool.scattered(task) for task in tasks]  # all data out first, then the tasks
-        futures = {pool.submit(fn, task, key=pool.task_key(task)): task["key"] for task in shipped}
+        if payloads is None:
+            futures = {pool.submit(fn, task, key=pool.task_key(task.key)): task.key for task in tasks}
+        else:
+            sent = [pool.scattered(payload) for payload in payloads]  # all data out first, then the tasks
+            futures = {pool.submit(fn, task, payload, key=pool.task_key(task.key)): task.key
+                       for task, payload in zip(tasks, sent)}
         for future in pool.as_completed(list(futures)):
             try:
                 result = future.result()
@@ -189,10 +196,10 @@ class _LocalPool:
     def submit(self, fn, *args, key: str | None = None):
         return self._pool.submit(fn, *args)
 
-    def scattered(self, task: dict) -> dict:
-        return task  # what it ships is pickled with it
+    def scattered(self, payload: dict) -> dict:
+        return {name: value for name, (_, value) in payload.items()}  # pickled with the task
 
-    def task_key(self, task: dict) -> None:
+    def task_key(self, key: str) -> None:
         return None
 
     def as_completed(self, futures):
@@ -268,21 +275,19 @@ class _DaskPool:
                     raise
                 time.sleep(1.0)
 
-    def scattered(self, task: dict) -> dict:
-        """The task with what it ships (its reference, its scene with the mesh files) sent
-        once per reference and scene and named by its future: arrays and meshes travel
+    def scattered(self, payload: dict) -> dict:
+        """What a task ships (name → (identity, value): its reference, its scene with the
+        mesh files) as futures, each value sent once per identity: arrays and meshes travel
         once, not once per point (Dask resolves the futures before the worker runs it)."""
-        out = dict(task)
-        for name, identity in (("reference", task.get("reference_key")),
-                               ("scene_package", task.get("key_document", {}).get("scene_hash"))):
-            if name in task:
-                if (name, identity) not in self._sent:
-                    self._sent[(name, identity)] = self.scatter(task[name])
-                out[name] = self._sent[(name, identity)]
+        out = {}
+        for name, (identity, value) in payload.items():
+            if (name, identity) not in self._sent:
+                self._sent[(name, identity)] = self.scatter(value)
+            out[name] = self._sent[(name, identity)]
         return out
 
-    def task_key(self, task: dict) -> str:
-        return f"volcaustics-point-{task['key']}"
+    def task_key(self, key: str) -> str:
+        return f"volcaustics-point-{key}"
 
     def as_completed(self, futures):
         from dask.distributed import as_completed

@@ -39,6 +39,7 @@ import json
 import os
 import shutil
 import uuid
+from typing import cast
 
 import pandas as pd
 
@@ -53,6 +54,7 @@ from volcaustics.infra.storage import (
     read_json_object,
 )
 from volcaustics.metrics.decomposition import TERMS
+from volcaustics.reports.core.summaries import ExperimentSummary, of_schema
 from volcaustics.reports.core.tables import plain, table
 from volcaustics.reports.core.versions import code_version
 from volcaustics.scenes.fields import field_columns
@@ -105,7 +107,7 @@ class Store:
     def point_dir(self, key: str) -> str:
         return os.path.join(self.points, key)
 
-    def summary(self, key: str) -> dict | None:
+    def summary(self, key: str) -> ExperimentSummary | None:
         """The point's summary if the point is complete and undamaged (its summary of this
         key, matching its own SHA-256, its files matching theirs), else None. A summary
         edited by hand, or written before summaries carried their hash (an older
@@ -264,7 +266,7 @@ POINT_COLUMNS = ("point", "scene", "scene_hash", "seeds", "reference_key", "code
                    for metric in ("relmse_own", "relmse_own_se", "energy_share")))
 
 
-def point_row(key: str, summary: dict) -> dict:
+def point_row(key: str, summary: ExperimentSummary) -> dict:
     """The headline numbers of one point: parameters, frame time, errors (POINT_COLUMNS)."""
     images = summary.get("images", {})
     caustic, combined = images.get("caustic", {}), images.get("combined", {})
@@ -314,12 +316,14 @@ def point_row(key: str, summary: dict) -> dict:
     return {k: (float("nan") if v is None else v) for k, v in row.items()}
 
 
-def _complete_summary(folder: str, key: str) -> dict | None:
-    """The summary in ``folder`` if it is of ``key``, matches its own SHA-256 and its files
-    match theirs (every table, and the image files it lists), else None."""
+def _complete_summary(folder: str, key: str) -> ExperimentSummary | None:
+    """The summary in ``folder`` if it is of ``key`` and of this code's experiment schema
+    (``summaries.SCHEMAS``), matches its own SHA-256 and its files match theirs (every
+    table, and the image files it lists), else None."""
     try:
         summary = read_json_object(os.path.join(folder, SUMMARY))
-        if summary.get("key") != key or summary.get(SEAL) != summary_sha256(summary):
+        if summary.get("key") != key or summary.get(SEAL) != summary_sha256(summary) \
+                or not of_schema(summary, "experiment"):
             return None
         hashes = summary.get("files")
         if not isinstance(hashes, dict) or not set(hashes) <= {*TABLE_FILES, *IMAGE_FILES.values()} \
@@ -328,6 +332,6 @@ def _complete_summary(folder: str, key: str) -> dict | None:
         for name, digest in hashes.items():
             if file_sha256(os.path.join(folder, name)) != digest:
                 return None
-        return summary
+        return cast(ExperimentSummary, summary)
     except (OSError, ValueError):
         return None

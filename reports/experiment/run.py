@@ -36,6 +36,7 @@ from volcaustics.infra.errors import InputError
 from volcaustics.reference.oracle import Oracle
 from volcaustics.reference.render import render_reference
 from volcaustics.reports.core.sizing import REPORT_REFERENCE, sized
+from volcaustics.reports.core.summaries import ExperimentSummary
 from volcaustics.reports.core.timing import Clock
 from volcaustics.reports.experiment.decomposition import decompose, decomposition_rows
 from volcaustics.reports.experiment.exact_images import exact_images
@@ -65,7 +66,7 @@ class Experiment:
     segments: list
     photons: list
     images: list
-    summary: dict
+    summary: ExperimentSummary
     layers: dict = field(default_factory=dict)
     views: dict = field(default_factory=dict)
 
@@ -142,8 +143,7 @@ def run_experiment(scene, params, *, seeds: int = 1, reference_settings=None, pr
     bar.close()
     clock.seconds["total"] = clock.total()
     summary = experiment_summary(scene, p, seed_list, reference, frames, exact, headline, decomposition, divergence,
-                                 clock.seconds, keep, timed, model_summary)
-    summary["scene_fields"] = dict(fields or {})
+                                 clock.seconds, keep, timed, model_summary, fields)
     layers = {}
     if decomposition is not None:
         layers = {name: np.asarray(img, np.float32) for name, img in decomposition["images"].items()}

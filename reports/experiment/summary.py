@@ -9,6 +9,7 @@ from volcaustics.approx.context import gl_info, shared_context
 from volcaustics.approx.cost import COST_FIELDS, frame_cost
 from volcaustics.approx.cost_model import predicted_frames
 from volcaustics.metrics.noise import MIN_SEEDS_FOR_INTERVAL
+from volcaustics.reports.core.summaries import SCHEMAS, ExperimentSummary
 from volcaustics.reports.core.versions import code_version, library_versions
 from volcaustics.reports.experiment.exact_images import SMALL_SUPERSAMPLE
 from volcaustics.reports.experiment.frames import median_timings
@@ -90,7 +91,7 @@ def reference_summary(reference) -> dict:
 
 
 def experiment_summary(scene, p, seeds, reference, frames, exact, headline, decomposition, divergence, clock, keep,
-                       timed, model=None) -> dict:
+                       timed, model=None, fields: dict | None = None) -> ExperimentSummary:
     alive = {} if exact is None else {k: float(max(v)) for k, v in exact["alive"].items()}
     names = {k: "E_em" if k == "true_emission" else f"E_inf ({k} Fresnel)" for k in alive}
     warnings = [f"{names[k]} keeps {100 * v:.2f}% of the power alive after {exact['exact_steps']} steps "
@@ -115,7 +116,7 @@ def experiment_summary(scene, p, seeds, reference, frames, exact, headline, deco
                         + ("" if len(seeds) >= 2 else "; the approximation's own noise is not estimated, not "
                            "subtracted") + f"; use --seeds {MIN_SEEDS_FOR_INTERVAL} or more")
     return {
-        "kind": KIND, "scene": scene.name, "scene_hash": scene.scene_hash(),
+        "kind": KIND, "schema": SCHEMAS["experiment"], "scene": scene.name, "scene_hash": scene.scene_hash(),
         "optical_depth": optical_depth(scene),
         "description": scene.description, "params": p.to_dict(), "seeds": len(seeds), "seed_values": seeds,
         "reference": reference_summary(reference),
@@ -137,4 +138,5 @@ def experiment_summary(scene, p, seeds, reference, frames, exact, headline, deco
         "timing_method": frames[0].timing_method,
         "experiment_seconds": clock, "gl": gl_info(shared_context()),
         "code_version": code_version(), "versions": library_versions(), "warnings": warnings,
+        "scene_fields": dict(fields or {}),
     }

@@ -35,6 +35,7 @@ from volcaustics.infra.errors import InputError
 from volcaustics.infra.storage import atomic_path, read_json_object
 from volcaustics.reports.core.cost_match import with_auto_photon_res
 from volcaustics.reports.core.sizing import REPORT_REFERENCE, sized
+from volcaustics.reports.core.summaries import ExperimentSummary
 from volcaustics.reports.core.tables import plain
 from volcaustics.reports.core.versions import code_version
 from volcaustics.reports.experiment.measurement import MeasurementSettings
@@ -164,7 +165,7 @@ def store_point(out_dir: str, key: str, row: dict) -> None:
         json.dump(plain({"key": key, "row": row}), fh, allow_nan=False)
 
 
-def _row(summary: dict) -> dict:
+def _row(summary: ExperimentSummary) -> dict:
     """A point's numbers: photon_res, cost, one frame's and the mean's caustic errors, times."""
     caustic = summary["images"]["caustic"]
     frame, mean = caustic["frame_relative_mse"], caustic["relative_mse"]

@@ -122,3 +122,22 @@ def test_a_metric_floor_outlives_a_change_to_the_renderers(tmp_path, monkeypatch
         assert floor_with(("metrics",)) == (0.5, [1] * images.FLOOR_DRAWS)
     finally:
         images.floor_code_version.cache_clear()
+
+@pytest.mark.parametrize("schema, readable", [(None, True), (1, True), (2, False), (True, False), ("1", False)])
+def test_a_stored_point_of_another_summary_schema_is_measured_again(tmp_path, schema, readable):
+    """The store reads experiment summaries of this code's schema only (``SCHEMAS``): a
+    summary without the field predates it and is schema 1 (it loads); one of another
+    schema, sealed as it would be by that code, counts as damaged and is measured again,
+    never misread."""
+    from volcaustics.reports.core.store import SUMMARY, Store, sealed
+
+    store = Store(str(tmp_path / "store"))
+    key = "0123456789abcdef0123456789abcdef"
+    assert store.write_point(key, {"format": 1}, _Experiment(0.5)) == "written"
+    path = tmp_path / "store" / "points" / key / SUMMARY
+    summary = {k: v for k, v in json.loads(path.read_text()).items() if k not in ("schema", "summary_sha256")}
+    if schema is not None:
+        summary["schema"] = schema
+    path.write_text(json.dumps(sealed(summary), indent=1))
+    assert (store.status(key) == "done") is readable
+    assert (store.summary(key) is not None) is readable

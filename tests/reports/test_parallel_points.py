@@ -40,7 +40,7 @@ def test_parallel_points_store_what_this_process_stores(cache, tmp_path, monkeyp
 def test_a_point_failing_on_a_worker_fails_the_run(cache, tmp_path, monkeypatch):
     monkeypatch.setattr(runner, "default_workers", lambda: 2)
     monkeypatch.setattr(runner, "_on_executor", lambda tasks, store, pool, **_: [
-        {"key": t["key"], "error": "RuntimeError: out of memory"} for t in tasks])
+        {"key": t.key, "error": "RuntimeError: out of memory"} for t in tasks])
     with pytest.raises(runner.RunnerError, match="refocus: its point failed on a worker process: RuntimeError"):
         _measure(Store(str(tmp_path / "store")), parallel=True)
 

@@ -3,6 +3,7 @@ nothing on SIGINT and recomputes a damaged point, and a real Dask LocalCluster."
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 import signal
@@ -338,12 +339,15 @@ def test_two_sweeps_writing_one_store_do_not_corrupt_it(env, tmp_path):
 def test_a_worker_without_the_sweeps_reference_fails_its_point_with_the_fix(env):
     """Workers never render references: one that does not find the sweep's in its cache
     (another VOLCAUSTICS_CACHE on a cluster node) fails the point and says what to share."""
-    from volcaustics.reports.runner import run_point
+    from volcaustics.reports.runner import TASK_VERSION, PointTask, run_point
 
-    task = {"key": "0" * 32, "key_document": {}, "scene": "refocus", "params": {}, "seeds": 1,
-            "reference_key": "f" * 32, "store": str(env.parent / "store"), "views": False}
+    task = PointTask(key="0" * 32, key_document={}, scene="refocus", params={}, seeds=1, reference_key="f" * 32,
+                     store=str(env.parent / "store"))
     with pytest.raises(RuntimeError, match="VOLCAUSTICS_CACHE"):
         run_point(task)
+    # a task of another version (a worker of another volcaustics) is refused, naming both
+    with pytest.raises(RuntimeError, match=f"version {TASK_VERSION + 1}.*runs version {TASK_VERSION}"):
+        run_point(dataclasses.replace(task, version=TASK_VERSION + 1))
 
 
 VARIANTS_SPEC = SPEC.replace("""[vary]
