@@ -67,7 +67,7 @@ docs: setup
 doctor: setup
 	$(BIN)/volcaustics doctor
 
-# The regression gate on the built-ins: budgets (reports/gate/budgets.toml) and, once a
+# The regression gate on the built-ins: budgets (reports/studies/gate/budgets.toml) and, once a
 # baseline is accepted (`make gate-baseline`), the regression test against it.
 GATE_BASELINE ?= gate-baseline
 gate: setup
@@ -83,16 +83,16 @@ sweep: setup
 	$(BIN)/volcaustics sweep --vary layers=1,2,4,8 --vary iterations=4,8,16,30 -o runs/sweep
 
 # The variants sweep: every built-in x search x start_rule x layer_strategy x budgets
-# (reports/sweep/variants.toml), quick preset, 4 seeds; resumable. The report shows it.
+# (reports/studies/sweep/variants.toml), quick preset, 4 seeds; resumable. The report shows it.
 sweep-variants: setup
-	$(BIN)/volcaustics sweep reports/sweep/variants.toml -o runs/sweep-variants
+	$(BIN)/volcaustics sweep reports/studies/sweep/variants.toml -o runs/sweep-variants
 
-# The density sweep (reports/sweep/density.toml): sphere1 and bunny from haze to thick fog,
+# The density sweep (reports/studies/sweep/density.toml): sphere1 and bunny from haze to thick fog,
 # the approximation's error and the single-scattering model's against optical depth; resumable.
 sweep-density: setup
-	$(BIN)/volcaustics sweep reports/sweep/density.toml -o runs/sweep-density
+	$(BIN)/volcaustics sweep reports/studies/sweep/density.toml -o runs/sweep-density
 
-# The best-configuration search (reports/sweep/best.toml): every configuration at the paper
+# The best-configuration search (reports/studies/best/best.toml): every configuration at the paper
 # configuration's frame cost, coarse grid then refinement, on every built-in; resumable.
 sweep-best: setup
 	$(BIN)/volcaustics sweep --best -o runs/sweep-best

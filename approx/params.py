@@ -6,7 +6,7 @@ shaders: as a ``define`` of one program (it selects the program: a new value com
 another) or as a ``uniform`` (set per frame), or neither (``host``: the Python side
 uses it, e.g. to size a dispatch). From the table come :class:`ApproxParams`
 (validation in its constructor), every command's flags and the sweep's value parsing
-(``reports.core.params``), figure labels (:func:`label`) and the programs' cache
+(``reports.measuring.results.param_input``), figure labels (:func:`label`) and the programs' cache
 keys (:func:`defines`). Adding a parameter is a table entry and the code that uses it.
 """
 
@@ -39,7 +39,7 @@ class Param:
     to_defines  value → the program's #defines (default: {NAME_IN_CAPITALS: value})
     exact       False: the error decomposition's exact images do not depend on it (how the
                 approximation searches): they are reused across its values
-                (``reports.experiment.exact_store``)
+                (``reports.measuring.experiment.exact_store``)
     """
 
     name: str
@@ -308,7 +308,7 @@ PRESET_VALUES: dict[str, dict[str, object]] = {
 # best: the configuration the one-frame search adopted (docs/decisions.md "The one-frame
 # search"), at the quick preset's size; its photon_res is matched to the paper
 # configuration's frame cost on the scene at hand (AUTO_PHOTON_RES: the commands do it,
-# ``reports.core.cost_match``), unless --photon-res is given
+# ``approx.cost_match``), unless --photon-res is given
 BEST = {"splat": "density", "splat_neighbours": 4, "fresnel": "stochastic", "steps": 4, "layers": 2}
 PRESET_VALUES["best"] = {**PRESET_VALUES["quick"], **BEST}
 AUTO_PHOTON_RES = {"best": "quick"}  # preset → the preset whose frame cost its photon_res matches

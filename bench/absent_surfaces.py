@@ -78,7 +78,7 @@ def main(argv=None) -> int:
         classify_segments,
     )
     from volcaustics.reference.oracle import Oracle
-    from volcaustics.reports.experiment.segments import beyond, start_normals
+    from volcaustics.reports.measuring.experiment.segments import beyond, start_normals
     from volcaustics.scenes import load_builtin
     from volcaustics.scenes.bounds import medium_bounds
 

@@ -25,8 +25,8 @@ import time
 
 
 def config_params(name: str, scene: str):
+    from volcaustics.approx.cost_match import with_auto_photon_res
     from volcaustics.approx.params import PRESETS, QUICK
-    from volcaustics.reports.core.cost_match import with_auto_photon_res
 
     if name == "paper":
         return QUICK
@@ -39,8 +39,8 @@ def config_params(name: str, scene: str):
 
 def main(argv=None) -> int:
     from volcaustics.reference.render import render_reference
-    from volcaustics.reports.core.sizing import REPORT_REFERENCE, sized
-    from volcaustics.reports.experiment.run import run_experiment
+    from volcaustics.reports.measuring.experiment.pipeline import run_experiment
+    from volcaustics.reports.measuring.results.sizing import REPORT_REFERENCE, sized
     from volcaustics.scenes import resolve_scene
     from volcaustics.scenes.catalogue import BUILTIN_NAMES
 

@@ -30,7 +30,7 @@ def main(argv=None) -> int:
     parser.add_argument("--out", default="runs/bench-compare")
     args = parser.parse_args(argv)
 
-    from volcaustics.reports.core.sizing import REPORT_REFERENCE
+    from volcaustics.reports.measuring.results.sizing import REPORT_REFERENCE
     from volcaustics.scenes import resolve_scene
 
     print(f"{'scene':10} {'renderer':16} {'render s':>9} {'compare s':>10} {'ref s':>7}  "
@@ -50,7 +50,7 @@ def main(argv=None) -> int:
 
 def _export(scene, folder: str) -> float:
     from volcaustics.reference.render.export import export_xml
-    from volcaustics.reports.files.gltf import export_gltf
+    from volcaustics.reports.presenting.exports.gltf import export_gltf
 
     t0 = time.perf_counter()
     export_xml(scene, os.path.join(folder, "scene.xml"))
@@ -80,7 +80,7 @@ def _approx(scene, folder: str, args, seconds: dict) -> list:
     import dataclasses
 
     from volcaustics.approx.params import PAPER
-    from volcaustics.reports.files.approx import run_approx
+    from volcaustics.reports.presenting.exports.approx_files import run_approx
 
     t0 = time.perf_counter()
     paths = []
@@ -94,7 +94,7 @@ def _approx(scene, folder: str, args, seconds: dict) -> list:
 
 
 def _compare(scene, renderer: str, paths: list, folder: str, settings, seconds: dict) -> None:
-    from volcaustics.reports.compare.run import run_compare
+    from volcaustics.reports.studies.compare.comparison_run import run_compare
 
     t0 = time.perf_counter()
     comparison = run_compare(scene, paths, name=renderer, reference_settings=settings, progress=False)

@@ -19,8 +19,8 @@ def main(argv=None) -> int:
     from volcaustics.approx.params import QUICK
     from volcaustics.metrics.decomposition import TERMS
     from volcaustics.metrics.intersection import CLASS_NAMES
-    from volcaustics.reports.experiment.run import run_experiment
-    from volcaustics.reports.experiment.write import write_experiment
+    from volcaustics.reports.measuring.experiment.measure_outputs import write_experiment
+    from volcaustics.reports.measuring.experiment.pipeline import run_experiment
     from volcaustics.scenes import load_builtin
     from volcaustics.scenes.catalogue import BUILTIN_NAMES
 

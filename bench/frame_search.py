@@ -1,6 +1,6 @@
 """Candidate configurations ranked by one frame's caustic error at the paper
 configuration's frame cost: each candidate at the photon_res that matches the quick
-preset's frame cost on the scene (``reports.core.cost_match.CostMatcher``: predicted
+preset's frame cost on the scene (``approx.cost_match.CostMatcher``: predicted
 time under every weight set of the cost model), 6 seeds, the report's reference, the
 gate's scope (no decomposition); beside it the measured frame time against the paper's
 (``measured_time_ratio``).
@@ -74,11 +74,11 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     if args.table:
         return print_table(args.table)
+    from volcaustics.approx.cost_match import CostMatcher, cost_ratio, measured_time_ratio
     from volcaustics.approx.params import QUICK
     from volcaustics.reference.render import render_reference
-    from volcaustics.reports.core.cost_match import CostMatcher, cost_ratio, measured_time_ratio
-    from volcaustics.reports.core.sizing import REPORT_REFERENCE, sized
-    from volcaustics.reports.experiment.run import run_experiment
+    from volcaustics.reports.measuring.experiment.pipeline import run_experiment
+    from volcaustics.reports.measuring.results.sizing import REPORT_REFERENCE, sized
     from volcaustics.scenes import resolve_scene
     from volcaustics.scenes.catalogue import BUILTIN_NAMES
 

@@ -28,9 +28,9 @@ def main(argv=None) -> int:
 
     from volcaustics.approx.params import QUICK
     from volcaustics.reference.cache import existing_reference
-    from volcaustics.reports.core.sizing import REPORT_REFERENCE, sized
-    from volcaustics.reports.experiment.run import run_experiment
-    from volcaustics.reports.gate.regression import baseline_entry, regression_check
+    from volcaustics.reports.measuring.experiment.pipeline import run_experiment
+    from volcaustics.reports.measuring.results.sizing import REPORT_REFERENCE, sized
+    from volcaustics.reports.studies.gate.regression import baseline_entry, regression_check
     from volcaustics.scenes import load_builtin
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -46,7 +46,7 @@ def main(argv=None) -> int:
     if reference is None:
         print("no cached reference: run `make report` first", file=sys.stderr)
         return 2
-    from volcaustics.reports.core.params import parse_assignment
+    from volcaustics.reports.measuring.results.param_input import parse_assignment
 
     factors = []
     for text in args.degrade or ["splat_radius=0.0175"]:

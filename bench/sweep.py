@@ -28,9 +28,9 @@ STANDARD_VARY = {"layers": (1, 2, 4, 8), "iterations": (4, 8, 16, 30)}
 def main(argv=None) -> int:
     import numpy as np
 
-    from volcaustics.reports.core.executors import default_workers
-    from volcaustics.reports.sweep.run import run_sweep
-    from volcaustics.reports.sweep.spec import SweepSpec
+    from volcaustics.reports.measuring.pools.executors import default_workers
+    from volcaustics.reports.studies.sweep.sweep_run import run_sweep
+    from volcaustics.reports.studies.sweep.sweep_spec import SweepSpec
     from volcaustics.scenes.catalogue import BUILTIN_NAMES
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])

@@ -41,7 +41,7 @@ TRACK_PATHS = {
 }
 OBJECT_PATHS = {"translate": ("point", "linear"), "rotate": ("euler", "slerp"), "scale": ("scale", "linear")}
 MAX_FRAMES = 10_000
-# What the video writers accept (reports.animate.media): a GIF stores a frame's duration in
+# What the video writers accept (reports.studies.animate.media): a GIF stores a frame's duration in
 # 1/100 s in 16 bits (655 s at most), a WebP its timestamps in milliseconds in a C int
 # (2^31 over MAX_FRAMES frames); 1e-3 fps failed the GIF, 1e-6 the WebP. The top: 1,000.
 FPS_RANGE = (0.01, 1000.0)

@@ -80,7 +80,7 @@ def _names_defined(path: str) -> set:
 
 
 def dotted_resolves(name: str) -> bool:
-    """``volcaustics.reports.core.params.PARAMS`` or ``approx.trace.read_raw_records``:
+    """``volcaustics.reports.measuring.results.param_input.PARAMS`` or ``approx.trace.read_raw_records``:
     the longest prefix that is a module, the rest names defined in it (or its folder)."""
     parts = name.split(".")
     if parts[0] == "volcaustics":

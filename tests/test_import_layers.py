@@ -54,7 +54,7 @@ def imported_modules(source: str, package: list[str], runtime_only: bool = False
             if node.module:
                 module = ".".join(base + [node.module])
                 names = [module]
-                if module.count(".") < 2:  # from volcaustics.reports import runner: the names are modules
+                if module.count(".") < 2:  # from volcaustics.reports.measuring import runner: the names are modules
                     names += [f"{module}.{alias.name}" for alias in node.names]
             else:  # from . import x: the names are modules
                 names = [".".join(base + [alias.name]) for alias in node.names]
@@ -109,29 +109,57 @@ def test_package_imports_follow_the_layers(top):
     assert not wrong, "\n".join(wrong)
 
 
-def _level(sub: str) -> int | None:
+ROOMS = tuple(name for level in REPORTS_LEVELS for name in level)
+
+
+def _level(room: str | None) -> int | None:
     for i, names in enumerate(REPORTS_LEVELS):
-        if sub in names:
+        if room in names:
             return i
     return None
 
 
-def test_reports_subpackages_import_downwards():
+def room_of(name: str) -> str | None:
+    """The room of the layer line that module ``name`` (``volcaustics.reports.…``) is in:
+    the longest room (``measuring.experiment``, ``cli``) its dotted path starts with."""
+    parts = name.split(".")[2:]
+    for depth in range(len(parts), 0, -1):
+        if ".".join(parts[:depth]) in ROOMS:
+            return ".".join(parts[:depth])
+    return None
+
+
+def test_reports_rooms_import_downwards():
     wrong = []
     for path, package in modules("reports"):
-        own = package[2] if len(package) > 2 else os.path.splitext(os.path.basename(path))[0]
+        stem = os.path.splitext(os.path.basename(path))[0]
+        if len(package) == 2 or (stem == "__init__" and ".".join(package[2:]) not in ROOMS
+                                 and room_of(".".join(package)) is None):
+            continue  # reports/__init__.py and a group's own __init__ (measuring, studies, presenting)
+        own = room_of(".".join([*package, stem]))
+        assert own is not None, f"{path}: in no room of REPORTS_LEVELS"
         mine = _level(own)
-        assert mine is not None or own == "__init__", f"{path}: {own} is not in REPORTS_LEVELS"
         for name, line in _imports(path, package).items():
-            if project_part(name) != "reports":
+            if project_part(name) != "reports" or name == "volcaustics.reports":
                 continue
-            if name == "volcaustics.reports":  # the package itself (a docstring): `from volcaustics.reports import x`
+            theirs = room_of(name)
+            if theirs is None and name.count(".") == 2:  # a group package itself (a docstring)
                 continue
-            target = name.split(".")[2]
-            theirs = _level(target)
-            if target != own and (theirs is None or mine is None or theirs >= mine):
+            if theirs != own and (theirs is None or (level := _level(theirs)) is None or mine is None
+                                  or level >= mine):
                 wrong.append(f"{os.path.relpath(path, ROOT)}:{line} ({own}) imports {name}")
     assert not wrong, "\n".join(wrong)
+
+
+def test_no_two_modules_of_reports_share_a_name():
+    """A module's name says what it is wherever it is read (a traceback, an import): no
+    two modules of reports/ share one (before: run.py six times, write.py four)."""
+    seen: dict = {}
+    for path, _ in modules("reports"):
+        name = os.path.basename(path)
+        if name not in ("__init__.py", "__main__.py"):
+            seen.setdefault(name, []).append(os.path.relpath(path, ROOT))
+    assert not {n: p for n, p in seen.items() if len(p) > 1}
 
 
 @pytest.mark.parametrize("top", [*FOLDERS, "tests", "bench"])
@@ -158,14 +186,25 @@ def test_the_scan_sees_every_form_of_import():
 
 
 def test_the_page_states_every_folder_and_room():
-    """Every top-level package folder and every subpackage of reports is on the page."""
+    """Every top-level package folder and every room of reports (a subpackage, or a loose
+    module of a group folder) is on the page, and nothing else."""
     on_disk = {d for d in os.listdir(ROOT) if os.path.isfile(os.path.join(ROOT, d, "__init__.py"))}
     on_disk -= {"tests", "package"}
     assert on_disk == set(FOLDERS), sorted(on_disk ^ set(FOLDERS))
-    rooms = {d for d in os.listdir(os.path.join(ROOT, "reports"))
-             if os.path.isfile(os.path.join(ROOT, "reports", d, "__init__.py"))}
-    rooms |= {f[:-3] for f in os.listdir(os.path.join(ROOT, "reports")) if f.endswith(".py") and f != "__init__.py"}
-    assert rooms == {n for level in REPORTS_LEVELS for n in level}, sorted(rooms)
+    rooms = set()
+    top = os.path.join(ROOT, "reports")
+    for entry in os.listdir(top):
+        if entry.endswith(".py") and entry != "__init__.py":
+            rooms.add(entry[:-3])
+        elif entry in ROOMS:
+            rooms.add(entry)
+        elif os.path.isfile(os.path.join(top, entry, "__init__.py")):  # a group: its subpackages and modules
+            for sub in os.listdir(os.path.join(top, entry)):
+                if sub.endswith(".py") and sub != "__init__.py":
+                    rooms.add(f"{entry}.{sub[:-3]}")
+                elif os.path.isfile(os.path.join(top, entry, sub, "__init__.py")):
+                    rooms.add(f"{entry}.{sub}")
+    assert rooms == set(ROOMS), sorted(rooms ^ set(ROOMS))
 
 
 def module_graph() -> dict:

@@ -11,8 +11,8 @@ import zipfile
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 FOLDERS = ("infra", "scenes", "approx", "reference", "metrics", "reports")
-SHIPPED_SPECS = ("reports/gate/budgets.toml", "reports/sweep/variants.toml", "reports/sweep/best.toml",
-                 "reports/sweep/density.toml")
+SHIPPED_SPECS = ("reports/studies/gate/budgets.toml", "reports/studies/sweep/variants.toml",
+                 "reports/studies/best/best.toml", "reports/studies/sweep/density.toml")
 
 
 def test_every_spec_in_the_repository_is_shipped():
@@ -38,7 +38,7 @@ def test_the_wheel_installs_only_the_volcaustics_package(tmp_path):
     assert {t for t in tops if not t.endswith(".dist-info")} == {"volcaustics"}, sorted(tops)
     for folder in FOLDERS:  # every folder's modules, under the namespace
         assert f"volcaustics/{folder}/__init__.py" in names, folder
-    assert "volcaustics/reports/cli/__init__.py" in names and "volcaustics/reports/runner.py" in names
+    assert "volcaustics/reports/cli/__init__.py" in names and "volcaustics/reports/measuring/runner.py" in names
     data = [n for n in names if n.endswith((".glsl", ".toml", ".ply"))]
     assert any(n.startswith("volcaustics/approx/shaders/") and n.endswith(".glsl") for n in data)
     assert any(n.startswith("volcaustics/scenes/builtin/") and n.endswith(".toml") for n in data)

@@ -30,7 +30,7 @@ def test_a_private_name_crossing_a_module_boundary_is_flagged(tmp_path):
     path.write_text("import argparse, os\n"
                     "from volcaustics.scenes.toml_values import _REQUIRED, ranged\n"
                     "from .loader import _mesh_spec\n"
-                    "from volcaustics.reports import runner\n"
+                    "from volcaustics.reports.measuring import runner\n"
                     "import volcaustics.metrics.flip\n"
                     "_mine = 1\n"
                     "runner._TOOLS, runner.TOOLS, os._exit, argparse._SubParsersAction, _mine, ranged\n"

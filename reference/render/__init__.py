@@ -187,7 +187,7 @@ class _Plan:
 
 def render_references(jobs, *, force: bool = False, progress: bool = True, pool=None) -> list:
     """:func:`render_reference` of every job ((scene, settings, mode)), in order. With
-    ``pool`` (an open ``reports.core.executors`` pool) the batches of every reference
+    ``pool`` (an open ``reports.measuring.pools.executors`` pool) the batches of every reference
     that renders go to its workers at once; each is added here in the order the serial
     path renders it (``sources.Pooled``). A job whose key an earlier job renders takes
     that render."""

@@ -1,6 +1,6 @@
 """Where a reference's batches render: in this process, one after another
 (:class:`InProcess`), or on a pool of workers (:class:`Pooled`: local processes or a
-Dask cluster, ``reports.core.executors``), all wanted batches of every reference of
+Dask cluster, ``reports.measuring.pools.executors``), all wanted batches of every reference of
 the run at once. Either way the render reads the batches in the order the serial
 path renders them, and adds them in that order (``tasks.add_batch``), so the sums,
 the per-batch totals and the group sums are the serial path's.
@@ -34,7 +34,7 @@ class BatchError(RuntimeError):
 
 
 class Pooled:
-    """Batches rendered on ``pool`` (an open ``reports.core.executors`` pool: ``submit``,
+    """Batches rendered on ``pool`` (an open ``reports.measuring.pools.executors`` pool: ``submit``,
     ``cancel``, ``workers``), submitted in the order they are wanted and
     read in the order the render needs them. At most ``ahead`` (default: twice the
     workers) are out at once, rendering or done and not read yet, so the images held

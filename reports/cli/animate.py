@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import dataclasses
 
-from volcaustics.reports.animate.settings import (
+from volcaustics.reports.cli.common import UsageError, add_report_reference, check_output_set, pct, report_settings
+from volcaustics.reports.measuring.results.param_input import add_param_flags, params_from_args
+from volcaustics.reports.studies.animate.animation_settings import (
     ANIMATION_REFERENCE,
     ANIMATION_SIZE,
     DEFAULT_CHAINS,
@@ -13,8 +15,6 @@ from volcaustics.reports.animate.settings import (
     chain_seed,
     frame_list,
 )
-from volcaustics.reports.cli.common import UsageError, add_report_reference, check_output_set, pct, report_settings
-from volcaustics.reports.core.params import add_param_flags, params_from_args
 
 # native extensions loaded at start-up, with Ctrl-C held (cli.main)
 NATIVE = ("drjit", "mitsuba", "moderngl")
@@ -46,12 +46,12 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    from volcaustics.reports.animate.measure import run_animate
-    from volcaustics.reports.animate.read import KIND
-    from volcaustics.reports.animate.run import WORK
-    from volcaustics.reports.animate.write import output_files
-    from volcaustics.reports.core.cost_match import with_auto_photon_res
-    from volcaustics.reports.experiment.settings import checked_settings
+    from volcaustics.approx.cost_match import with_auto_photon_res
+    from volcaustics.reports.measuring.experiment.point_checks import checked_settings
+    from volcaustics.reports.studies.animate.animation_frames import WORK
+    from volcaustics.reports.studies.animate.animation_measure import run_animate
+    from volcaustics.reports.studies.animate.animation_read import KIND
+    from volcaustics.reports.studies.animate.animation_write import output_files
     from volcaustics.scenes import resolve_scene
 
     check_output_set(args.output, "-o", files=output_files(), folders=(WORK,), kind=KIND)

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from volcaustics.reports.cli.common import UsageError, check_output_file
-from volcaustics.reports.core.params import add_param_flags, params_from_args
+from volcaustics.reports.measuring.results.param_input import add_param_flags, params_from_args
 
 # native extensions loaded at start-up, with Ctrl-C held (cli.main)
 NATIVE = ("moderngl",)
@@ -20,9 +20,9 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    from volcaustics.reports.core.cost_match import with_auto_photon_res
-    from volcaustics.reports.experiment.settings import check_denoiser
-    from volcaustics.reports.files.approx import run_approx
+    from volcaustics.approx.cost_match import with_auto_photon_res
+    from volcaustics.reports.measuring.experiment.point_checks import check_denoiser
+    from volcaustics.reports.presenting.exports.approx_files import run_approx
     from volcaustics.scenes import resolve_scene
 
     check_output_file(args.output, "-o", ".exr", (".png", ".json", ".records.npz"))

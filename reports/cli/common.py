@@ -8,13 +8,13 @@ import os
 
 from volcaustics.infra.errors import InputError
 from volcaustics.reference.settings import ReferenceSettings
-from volcaustics.reports.core.sizing import REPORT_REFERENCE, REPORT_TARGET
-from volcaustics.reports.experiment.measurement import (
+from volcaustics.reports.measuring.experiment.measurement import (
     MEASUREMENT_KEYS,
     MEASUREMENT_PARAMS,
     MeasurementSettings,
     measurement_settings,
 )
+from volcaustics.reports.measuring.results.sizing import REPORT_REFERENCE, REPORT_TARGET
 
 
 class UsageError(InputError):
@@ -188,7 +188,7 @@ def report_settings(args) -> ReferenceSettings:
 
 
 def add_measurement_flags(p, *, default: str = "{value}, the report's") -> None:
-    """One flag per measurement setting (``reports.experiment.measurement``), e.g.
+    """One flag per measurement setting (``reports.measuring.experiment.measurement``), e.g.
     ``--exact-subphotons N``; ``default`` says where an unset one comes from (``{value}``:
     the report's value)."""
     for param in MEASUREMENT_PARAMS:
@@ -217,6 +217,6 @@ def add_gate_inputs(p, *, scenes: str) -> None:
     p.add_argument("--seeds", type=int, help="frames per scene (default: the budgets' seeds; the built-in ones say 6)")
     p.add_argument("--seed", type=int, default=0, help="the first seed (default 0)")
     p.add_argument("--budgets", type=path_type, metavar="FILE.toml",
-                   help="budgets per scene (default: reports/gate/budgets.toml)")
+                   help="budgets per scene (default: reports/studies/gate/budgets.toml)")
     p.add_argument("--baseline", type=path_type, metavar="DIR",
                    help="the last accepted results (DIR/baseline.json): also test for a regression against them")

@@ -28,10 +28,10 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    from volcaustics.reports.compare.run import KIND, run_compare
-    from volcaustics.reports.compare.write import OUTPUT_FILES, write_comparison
-    from volcaustics.reports.core.tables import plain
-    from volcaustics.reports.page.external import comparison_images, comparison_page, comparison_row
+    from volcaustics.reports.measuring.results.tables import plain
+    from volcaustics.reports.presenting.page.external import comparison_images, comparison_page, comparison_row
+    from volcaustics.reports.studies.compare.comparison_run import KIND, run_compare
+    from volcaustics.reports.studies.compare.comparison_write import OUTPUT_FILES, write_comparison
     from volcaustics.scenes import resolve_scene
 
     check_output_set(args.output, "-o", files=OUTPUT_FILES, kind=KIND)

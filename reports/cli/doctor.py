@@ -11,7 +11,7 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    from volcaustics.reports.core.doctor import format_report, run_doctor
+    from volcaustics.reports.measuring.machine_check import format_report, run_doctor
 
     report = run_doctor()
     print(format_report(report))

@@ -22,7 +22,7 @@ def register(sub) -> None:
 
 def run(args) -> int:
     from volcaustics.reference.render.export import export_xml
-    from volcaustics.reports.files.gltf import FORMATS, export_gltf
+    from volcaustics.reports.presenting.exports.gltf import FORMATS, export_gltf
     from volcaustics.scenes import resolve_scene
 
     if args.mitsuba_xml is None and args.gltf is None:

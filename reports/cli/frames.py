@@ -1,11 +1,11 @@
 """``volcaustics frames [SCENE ...] -o DIR``: the paper's configuration against
 ``--preset best``, one frame and the mean, without and with OIDN, per scene
-(``reports.sweep.frames``)."""
+(``reports.studies.best.frame_check``)."""
 
 from __future__ import annotations
 
 from volcaustics.reports.cli.common import UsageError, check_output_set, pct
-from volcaustics.reports.sweep.settings import FRAME_CHECK_SEEDS as SEEDS
+from volcaustics.reports.studies.sweep.study_limits import FRAME_CHECK_SEEDS as SEEDS
 
 NATIVE = ("drjit", "mitsuba", "moderngl")
 
@@ -23,7 +23,7 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    from volcaustics.reports.sweep.frames import (
+    from volcaustics.reports.studies.best.frame_check import (
         FRAMES_FILE,
         GROUPS,
         KIND,

@@ -39,12 +39,12 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    from volcaustics.reports.compare.read import parse_named
-    from volcaustics.reports.core.params import parse_overrides
-    from volcaustics.reports.gate.budgets import default_budgets_path, load_budgets
-    from volcaustics.reports.gate.outputs import VERDICT, console_table
-    from volcaustics.reports.gate.regression import BASELINE
-    from volcaustics.reports.gate.run import run_gate
+    from volcaustics.reports.measuring.results.param_input import parse_overrides
+    from volcaustics.reports.studies.compare.comparison_read import parse_named
+    from volcaustics.reports.studies.gate.budgets import default_budgets_path, load_budgets
+    from volcaustics.reports.studies.gate.gate_outputs import VERDICT, console_table
+    from volcaustics.reports.studies.gate.gate_run import run_gate
+    from volcaustics.reports.studies.gate.regression import BASELINE
 
     check_output_set(args.out, "--out", files=(VERDICT,), kind="gate")
     if args.junit is not None:

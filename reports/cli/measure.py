@@ -11,7 +11,7 @@ from volcaustics.reports.cli.common import (
     pct,
     report_settings,
 )
-from volcaustics.reports.core.params import add_param_flags, params_from_args
+from volcaustics.reports.measuring.results.param_input import add_param_flags, params_from_args
 
 # native extensions loaded at start-up, with Ctrl-C held (cli.main)
 NATIVE = ("drjit", "mitsuba", "moderngl")
@@ -34,11 +34,11 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    from volcaustics.reports import runner
-    from volcaustics.reports.core.cost_match import equal_cost_check, with_auto_photon_res
-    from volcaustics.reports.experiment.settings import checked_settings
-    from volcaustics.reports.experiment.summary import KIND as EXPERIMENT_KIND
-    from volcaustics.reports.experiment.write import OUTPUT_FILES, write_experiment
+    from volcaustics.approx.cost_match import equal_cost_check, with_auto_photon_res
+    from volcaustics.reports.measuring import runner
+    from volcaustics.reports.measuring.experiment.measure_outputs import OUTPUT_FILES, write_experiment
+    from volcaustics.reports.measuring.experiment.point_checks import checked_settings
+    from volcaustics.reports.measuring.experiment.point_summary import KIND as EXPERIMENT_KIND
     from volcaustics.scenes import resolve_scene
 
     check_output_set(args.output, "-o", files=OUTPUT_FILES, kind=EXPERIMENT_KIND)

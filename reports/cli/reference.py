@@ -28,7 +28,7 @@ def register(sub) -> None:
 
 def run(args) -> int:
     from volcaustics.reference.settings import ReferenceSettings
-    from volcaustics.reports.files.reference import run_reference
+    from volcaustics.reports.presenting.exports.reference_files import run_reference
     from volcaustics.scenes import resolve_scene
 
     check_output_file(args.output, "-o", ".exr", (".png", ".json"))

@@ -43,11 +43,11 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    from volcaustics.reports.compare.read import parse_named
-    from volcaustics.reports.core.params import parse_overrides
-    from volcaustics.reports.gate.budgets import default_budgets_path, load_budgets
-    from volcaustics.reports.page.summary import OUTPUT_FILES
-    from volcaustics.reports.report.run import run_report
+    from volcaustics.reports.measuring.results.param_input import parse_overrides
+    from volcaustics.reports.presenting.page.report_summary import OUTPUT_FILES
+    from volcaustics.reports.presenting.report.report_run import run_report
+    from volcaustics.reports.studies.compare.comparison_read import parse_named
+    from volcaustics.reports.studies.gate.budgets import default_budgets_path, load_budgets
     from volcaustics.scenes import BUILTIN_NAMES
 
     check_output_set(args.out, "--out", files=OUTPUT_FILES, folders=("figures",))

@@ -7,9 +7,9 @@ import sys
 
 from volcaustics.approx.params import PARAMS, PRESETS
 from volcaustics.reports.cli.common import UsageError, add_measurement_flags, check_output_set, measurement_from_args
-from volcaustics.reports.core.dask_address import WORKER_WAIT, check_reachable, parse_dask
-from volcaustics.reports.experiment.measurement import MEASUREMENT_KEYS
-from volcaustics.reports.sweep.settings import CRITERIA, MAX_POINTS
+from volcaustics.reports.measuring.experiment.measurement import MEASUREMENT_KEYS
+from volcaustics.reports.measuring.pools.dask_address import WORKER_WAIT, check_reachable, parse_dask
+from volcaustics.reports.studies.sweep.study_limits import CRITERIA, MAX_POINTS
 
 # native extensions loaded at start-up, with Ctrl-C held (cli.main)
 NATIVE = ("drjit", "mitsuba", "moderngl")
@@ -41,9 +41,9 @@ def register(sub) -> None:
                    help=f"run a grid of more than {MAX_POINTS:,} points (refused without it: a typo more often than a "
                         f"plan)")
     p.add_argument("--best", action="store_true",
-                   help="the best-configuration search instead of a grid: SPEC (default reports/sweep/best.toml) "
-                        "states its coarse and refine axes; every configuration at the paper's frame cost "
-                        "(docs/concepts/equal-cost.md)")
+                   help="the best-configuration search instead of a grid: SPEC (default "
+                        "reports/studies/best/best.toml) states its coarse and refine axes; every configuration "
+                        "at the paper's frame cost (docs/concepts/equal-cost.md)")
     p.add_argument("--criterion", choices=tuple(CRITERIA),
                    help="what --best ranks by (default frame): frame (one frame's caustic relative MSE less the "
                         "reference's floor: bias and the frame's own noise, what a viewer sees) or bias (the seeds' "
@@ -55,7 +55,7 @@ def register(sub) -> None:
 
 def run(args) -> int:
     from volcaustics.reference.render.sources import BatchError
-    from volcaustics.reports.sweep.run import OUTPUT_FILES, OUTPUT_FOLDERS
+    from volcaustics.reports.studies.sweep.sweep_run import OUTPUT_FILES, OUTPUT_FOLDERS
 
     check_output_set(args.output, "-o", files=OUTPUT_FILES, folders=OUTPUT_FOLDERS, kind="sweep")
     if args.spec and (args.vary or args.set or args.preset or args.seeds is not None):
@@ -86,9 +86,9 @@ def run(args) -> int:
 
 
 def _run_grid(args) -> int:
-    from volcaustics.reports.core.executors import default_workers
-    from volcaustics.reports.sweep.run import run_sweep
-    from volcaustics.reports.sweep.spec import spec_from_args, spec_from_toml
+    from volcaustics.reports.measuring.pools.executors import default_workers
+    from volcaustics.reports.studies.sweep.sweep_run import run_sweep
+    from volcaustics.reports.studies.sweep.sweep_spec import spec_from_args, spec_from_toml
 
     max_points = None if args.yes else MAX_POINTS
     if args.spec:
@@ -111,9 +111,9 @@ def _run_grid(args) -> int:
 def _run_best(args) -> int:
     import pandas as pd
 
-    from volcaustics.reports.core.executors import default_workers
-    from volcaustics.reports.sweep.best import run_best
-    from volcaustics.reports.sweep.best_spec import BEST_SPEC, load_best_spec
+    from volcaustics.reports.measuring.pools.executors import default_workers
+    from volcaustics.reports.studies.best.best_search import run_best
+    from volcaustics.reports.studies.best.best_spec import BEST_SPEC, load_best_spec
 
     if args.vary or args.set or args.preset or args.seeds is not None:
         raise UsageError("--best", "", "the search's axes, preset and seeds belong to its SPEC file; only --scenes "
@@ -159,7 +159,7 @@ def _measured(spec, args):
 
 
 def _print_suffice(suffice) -> None:
-    from volcaustics.reports.sweep.variants import variant_name
+    from volcaustics.reports.studies.sweep.variants import variant_name
 
     if suffice is None or not len(suffice):
         return
@@ -185,7 +185,7 @@ def _print_crossing(crossing) -> None:
 
 
 def _print_variants(best) -> None:
-    from volcaustics.reports.sweep.variants import variant_name
+    from volcaustics.reports.studies.sweep.variants import variant_name
 
     if best is None or not len(best):
         return

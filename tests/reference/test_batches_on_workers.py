@@ -18,7 +18,7 @@ from volcaustics.reference.render.sources import InProcess
 from volcaustics.reference.render.tasks import process_name, render_batch
 from volcaustics.reference.request import resolve
 from volcaustics.reference.settings import ReferenceSettings
-from volcaustics.reports.core.executors import open_pool
+from volcaustics.reports.measuring.pools.executors import open_pool
 from volcaustics.scenes import load_builtin
 
 SETTINGS = ReferenceSettings(photons=1 << 16, spp=8, batches=4, width=48, height=36)

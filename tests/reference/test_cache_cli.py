@@ -43,7 +43,7 @@ def test_an_entry_continued_by_another_process_while_copied_out_is_served_anew(t
     cache file; it now serves the continued entry."""
     import shutil
 
-    import volcaustics.reports.files.reference as command
+    import volcaustics.reports.presenting.exports.reference_files as command
 
     scene = load_builtin("refocus")
     small = ReferenceSettings(photons=100000, spp=8, batches=2, width=16, height=12)

@@ -12,8 +12,8 @@ import pytest
 from volcaustics.approx import Renderer
 from volcaustics.approx.params import QUICK
 from volcaustics.reference.settings import ReferenceSettings
-from volcaustics.reports.experiment.measurement import MeasurementSettings
-from volcaustics.reports.experiment.run import run_experiment
+from volcaustics.reports.measuring.experiment.measurement import MeasurementSettings
+from volcaustics.reports.measuring.experiment.pipeline import run_experiment
 from volcaustics.scenes import load_builtin
 
 SIZE = 64

@@ -14,8 +14,8 @@ import pytest
 from volcaustics.metrics.temporal import flicker
 from volcaustics.reference.render import render_reference
 from volcaustics.reference.settings import ReferenceSettings
-from volcaustics.reports.animate.settings import frame_list, reference_seed
 from volcaustics.reports.cli import main
+from volcaustics.reports.studies.animate.animation_settings import frame_list, reference_seed
 from volcaustics.scenes import load_builtin
 from volcaustics.scenes.catalogue import builtin_path
 

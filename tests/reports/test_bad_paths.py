@@ -215,7 +215,7 @@ def test_an_interrupted_approx_keeps_the_last_complete_set(tmp_path, monkeypatch
     """Ctrl-C while the outputs are written (here: inside the PNG writer of the second
     run) leaves the first run's EXR, PNG, records and JSON, byte for byte, and no
     temporary files."""
-    import volcaustics.reports.files.approx as job
+    import volcaustics.reports.presenting.exports.approx_files as job
 
     out = tmp_path / "o.exr"
     small = ["--preset", "quick", "--photon-res", "32", "--light-res", "32", "--width", "24", "--height", "24"]
@@ -236,7 +236,7 @@ def test_ctrl_c_inside_mitsuba_exits_130(tmp_path, monkeypatch, capsys, wrapped)
     """Ctrl-C during Mitsuba's render reaches Python as a RuntimeError from C++ (naming
     KeyboardInterrupt, or chained to it): exit 130 and "interrupted", not a traceback
     with exit 1. The interrupt is injected where the render runs."""
-    import volcaustics.reports.files.reference as job
+    import volcaustics.reports.presenting.exports.reference_files as job
 
     def render(*args, **kwargs):
         if wrapped == "message":

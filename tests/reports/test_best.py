@@ -1,4 +1,4 @@
-"""The best-configuration search (reports/sweep/best.py, `sweep --best`): its spec, the
+"""The best-configuration search (reports/studies/best/best_search.py, `sweep --best`): its spec, the
 cost matching, the choice of the adopted configuration and each scene's best (on
 tables built by hand, with negative controls), and the whole search into a store that
 the report shows."""
@@ -16,12 +16,14 @@ import pytest
 
 from tests.shared import FAST_MEASUREMENT, SINGLE_SCATTERING
 from tests.shared import SWEEP_TABLES as SMALL_TABLES
+from volcaustics.approx.cost_match import MATCHED, CostMatcher, cost_ratio
 from volcaustics.approx.params import PAPER, QUICK
 from volcaustics.infra.errors import InputError
 from volcaustics.reports.cli import main
-from volcaustics.reports.core.cost_match import MATCHED, CostMatcher, cost_ratio
-from volcaustics.reports.sweep import best, best_figures, best_spec
-from volcaustics.reports.sweep.settings import CRITERIA
+from volcaustics.reports.studies.best import best_search as best
+from volcaustics.reports.studies.best import best_spec
+from volcaustics.reports.studies.sweep import best_figures
+from volcaustics.reports.studies.sweep.study_limits import CRITERIA
 
 TINY = """
 scenes = ["refocus"]
@@ -82,7 +84,7 @@ def test_scenes_follow_one_rule_in_both_spec_kinds(tmp_path, monkeypatch):
     """A best spec's scenes once were relative to the working folder (a grid spec's to the
     file), a string listed its letters, and --scenes beside a grid spec was refused. Now,
     for both: a list, paths relative to the spec file, --scenes in its place."""
-    from volcaustics.reports.sweep.spec import spec_from_toml
+    from volcaustics.reports.studies.sweep.sweep_spec import spec_from_toml
 
     (tmp_path / "specs").mkdir()
     (tmp_path / "scenes").mkdir()
@@ -219,7 +221,7 @@ def test_an_edited_or_damaged_match_is_recomputed(matched_memo, value):
 def test_a_match_on_a_cache_that_cannot_be_written_is_computed_not_stored(tmp_path, monkeypatch, capsys):
     """`--preset best` on a cache that cannot be written: the match is made, said once on
     stderr, nothing raised (the cache folder's parent is a file here)."""
-    from volcaustics.reports.core.cost_match import with_auto_photon_res
+    from volcaustics.approx.cost_match import with_auto_photon_res
 
     (tmp_path / "file").write_text("")
     monkeypatch.setenv("VOLCAUSTICS_CACHE", str(tmp_path / "file" / "cache"))
@@ -238,9 +240,9 @@ def test_a_sweep_of_the_preset_best_matches_each_points_photon_res(tmp_path, mon
     """`sweep --preset best` once measured best at the preset's photon_res 256: matching
     ran only in approx, measure and animate. Each point is now matched like them (the
     same function), and a photon_res the sweep sets is kept (the negative control)."""
+    from volcaustics.approx.cost_match import with_auto_photon_res
     from volcaustics.approx.params import PRESETS
-    from volcaustics.reports.core.cost_match import with_auto_photon_res
-    from volcaustics.reports.sweep.spec import points, spec_from_args
+    from volcaustics.reports.studies.sweep.sweep_spec import points, spec_from_args
 
     monkeypatch.setenv("VOLCAUSTICS_CACHE", str(tmp_path / "cache"))
     size = ["width=32", "height=32", "light_res=64"]
@@ -331,8 +333,8 @@ def test_preset_best_matches_the_papers_frame_cost_on_any_scene_file(monkeypatch
     best configuration costs at most the paper configuration at the same size, and 5%
     more photons per side would cost more (the match spent what it could); an explicit
     photon_res is kept (the negative control: no matching)."""
+    from volcaustics.approx.cost_match import with_auto_photon_res
     from volcaustics.approx.params import preset
-    from volcaustics.reports.core.cost_match import with_auto_photon_res
     from volcaustics.scenes.catalogue import heldout_path
 
     monkeypatch.setenv("VOLCAUSTICS_CACHE", str(tmp_path))

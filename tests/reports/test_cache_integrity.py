@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from volcaustics.metrics import image as im
-from volcaustics.reports.experiment import images
+from volcaustics.reports.measuring.experiment import image_rows as images
 
 FLOOR_DAMAGES = {
     "NaN": '{"value": NaN}', "Infinity": '{"value": Infinity}', "null value": '{"value": null}',
@@ -70,7 +70,7 @@ def test_an_edited_point_summary_counts_as_damaged(tmp_path, damage):
     hand (a number, a key), or without that hash (a store written before it), is
     damaged: recomputed by a sweep or the report, never read (before: an edited number
     was shown on the page)."""
-    from volcaustics.reports.core.store import SUMMARY, Store
+    from volcaustics.reports.measuring.results.store import SUMMARY, Store
 
     store = Store(str(tmp_path / "store"))
     key = "0123456789abcdef0123456789abcdef"
@@ -98,7 +98,7 @@ def test_an_edited_point_summary_counts_as_damaged(tmp_path, damage):
 
 def test_a_metric_floor_outlives_a_change_to_the_renderers(tmp_path, monkeypatch):
     """A floor is the reference against its own noisy copy: its key holds the metrics'
-    code (metrics/ and reports/experiment/images.py), not the renderers', so the floors
+    code (metrics/ and reports/measuring/experiment/image_rows.py), not the renderers', so the floors
     cached before a shader or exact-replay change still serve; a change to the metrics
     computes them again."""
     monkeypatch.setenv("VOLCAUSTICS_CACHE", str(tmp_path))
@@ -129,7 +129,7 @@ def test_a_stored_point_of_another_summary_schema_is_measured_again(tmp_path, sc
     summary without the field predates it and is schema 1 (it loads); one of another
     schema, sealed as it would be by that code, counts as damaged and is measured again,
     never misread."""
-    from volcaustics.reports.core.store import SUMMARY, Store, sealed
+    from volcaustics.reports.measuring.results.store import SUMMARY, Store, sealed
 
     store = Store(str(tmp_path / "store"))
     key = "0123456789abcdef0123456789abcdef"

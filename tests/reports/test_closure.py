@@ -16,13 +16,13 @@ import pytest
 
 from tests.shared import flat_spot
 from volcaustics.approx import Renderer
+from volcaustics.approx.cost_match import with_auto_photon_res
 from volcaustics.approx.params import PRESETS, QUICK
 from volcaustics.metrics.decomposition import TERMS
 from volcaustics.reference.settings import ReferenceSettings
-from volcaustics.reports.core.cost_match import with_auto_photon_res
-from volcaustics.reports.experiment import exact_images
-from volcaustics.reports.experiment.measurement import MeasurementSettings
-from volcaustics.reports.experiment.run import run_experiment
+from volcaustics.reports.measuring.experiment import exact_images
+from volcaustics.reports.measuring.experiment.measurement import MeasurementSettings
+from volcaustics.reports.measuring.experiment.pipeline import run_experiment
 from volcaustics.scenes import load_builtin, load_scene, resolve_scene
 from volcaustics.scenes.catalogue import BUILTIN_NAMES, HELDOUT_NAMES, heldout_path
 
@@ -34,7 +34,7 @@ SCENES = [*BUILTIN_NAMES, *(heldout_path(name) for name in HELDOUT_NAMES)]  # sc
 
 def _best(scene_arg: str):
     """``--preset best`` at the test's size: photon_res matched to the paper configuration's
-    frame cost on the scene (``reports.core.cost_match``), as the commands do."""
+    frame cost on the scene (``approx.cost_match``), as the commands do."""
     return with_auto_photon_res(scene_arg, dataclasses.replace(PRESETS["best"], width=SIZE, height=SIZE), "best",
                                 given=False)
 

@@ -91,7 +91,7 @@ def test_a_sweep_runs_on_workers_that_share_no_cache(cluster, empty_cache, tmp_p
 def test_a_point_sent_back_is_stored_whole_or_refused(tmp_path, cache, capsys):
     """What a worker sends back is put in the store only when its files match its
     summary: a byte changed on the way is refused and nothing is stored (negative control)."""
-    from volcaustics.reports.core.store import Store
+    from volcaustics.reports.measuring.results.store import Store
 
     spec = tmp_path / "sweep.toml"
     spec.write_text(SPEC.replace('["refocus", "sphere1"]', '["refocus"]').replace("[1, 2, 4]", "[1]"))
@@ -119,7 +119,7 @@ def test_a_worker_killed_mid_sweep_loses_nothing_and_stores_nothing_half_written
     reference in the cache is whole, and a rerun completes the rest."""
 
     from volcaustics.reference import cache
-    from volcaustics.reports.core.store import Store
+    from volcaustics.reports.measuring.results.store import Store
 
     address, _, workers, _, _ = cluster
     spec = tmp_path / "sweep.toml"
@@ -171,7 +171,7 @@ def test_a_scheduler_lost_mid_sweep_ends_in_one_line_and_keeps_what_was_stored(c
     """SIGKILL the scheduler while a worker measures a point: the sweep exits 1 within
     a bounded time, says the scheduler was lost in one line per point with no
     traceback, and every point it stored is whole (a local rerun completes the rest)."""
-    from volcaustics.reports.core.store import Store
+    from volcaustics.reports.measuring.results.store import Store
 
     address, _, _, _, scheduler = cluster
     spec = tmp_path / "sweep.toml"

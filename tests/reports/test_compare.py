@@ -16,7 +16,7 @@ import pytest
 from tests.shared import FAST_MEASUREMENT, SINGLE_SCATTERING, SMALL_REFERENCE_TABLES, with_shared_references
 from volcaustics.infra.imageio import read_exr, write_exr, write_png
 from volcaustics.reports.cli import main
-from volcaustics.reports.compare.inputs import CompareError, read_images
+from volcaustics.reports.studies.compare.comparison_inputs import CompareError, read_images
 from volcaustics.scenes import load_builtin
 from volcaustics.scenes.formats import COLOUR_LAYERS, MASK_LAYER
 
@@ -62,7 +62,7 @@ def _image_numbers(path) -> pd.DataFrame:
 
 def test_compare_reproduces_measure_on_the_approximations_own_files(env, capsys):
     """The same frames through files: every image metric, floor, noise and interval equal
-    to `measure`'s (one code path: reports.experiment.images)."""
+    to `measure`'s (one code path: reports.measuring.experiment.image_rows)."""
     assert compare(env, env / "s0.exr", env / "s1.exr", name="approx-files") == 0
     assert "relative MSE debiased" in capsys.readouterr().out
     ours, theirs = _image_numbers(env / "cmp" / "images.parquet"), _image_numbers(env / "measure" / "images.parquet")
@@ -215,7 +215,8 @@ def test_images_beyond_memory_are_refused_before_their_pixels_load(env, tmp_path
     import volcaustics.infra.memory as memory
 
     monkeypatch.setattr(memory, "memory_budget", lambda: 1 << 20)
-    monkeypatch.setattr("volcaustics.reports.compare.inputs._channels", lambda *_: pytest.fail("pixels read"))
+    monkeypatch.setattr("volcaustics.reports.studies.compare.comparison_inputs._channels",
+                        lambda *_: pytest.fail("pixels read"))
     monkeypatch.setenv("VOLCAUSTICS_CACHE", str(tmp_path / "empty-cache"))
     capsys.readouterr()
     assert main(["compare", "refocus", str(env / "s0.exr"), str(env / "s1.exr"), "-o", str(tmp_path / "out"),
@@ -294,8 +295,8 @@ def test_a_resealed_summary_missing_what_is_read_is_refused(env, tmp_path, field
     load naming the field. The intact folder loads (the negative control)."""
     from volcaustics.infra.errors import InputError
     from volcaustics.infra.storage import document_sha256
-    from volcaustics.reports.compare.read import load_comparison
-    from volcaustics.reports.compare.write import SEAL
+    from volcaustics.reports.studies.compare.comparison_read import load_comparison
+    from volcaustics.reports.studies.compare.comparison_write import SEAL
 
     assert compare(env, env / "s0.exr", env / "s1.exr", out="cmp_read") == 0
     folder = tmp_path / "cmp"

@@ -121,7 +121,7 @@ def test_check_fits_counts_the_light_maps(monkeypatch):
 def test_ctrl_c_inside_the_reference_render_exits_130(cache, tmp_path, monkeypatch, capsys, command):
     """Dr.Jit hands a KeyboardInterrupt raised during its loops back as a RuntimeError
     chained to it; every command that renders a reference exits 130 with "interrupted"."""
-    import volcaustics.reports.runner as runner
+    import volcaustics.reports.measuring.runner as runner
 
     def render(*args, **kwargs):
         try:
@@ -187,7 +187,7 @@ def test_an_interrupted_sweep_keeps_its_last_complete_set_of_tables(cache, tmp_p
 def test_an_interrupted_gate_leaves_no_earlier_verdict(cache, tmp_path, monkeypatch):
     """A stopped gate must not leave the last run's gate.json or JUnit file for CI to
     read as this run's verdict: both are removed when the run starts measuring."""
-    import volcaustics.reports.runner as runner
+    import volcaustics.reports.measuring.runner as runner
 
     out, junit = tmp_path / "gate", tmp_path / "junit.xml"
     out.mkdir()
@@ -261,7 +261,7 @@ def _a_complete_point(tmp_path):
     """A store holding one complete point (real Parquet tables, their hashes in its
     summary): (store, key, summary)."""
     from volcaustics.infra.storage import file_sha256
-    from volcaustics.reports.core.store import SUMMARY, TABLE_FILES, Store, sealed
+    from volcaustics.reports.measuring.results.store import SUMMARY, TABLE_FILES, Store, sealed
 
     store = Store(str(tmp_path / "store"))
     key = "0123456789abcdef0123456789abcdef"
@@ -281,7 +281,7 @@ def _a_complete_point(tmp_path):
 def test_a_damaged_store_point_counts_as_damaged(tmp_path, damage):
     """A point whose summary is not its own object, or whose files do not match the
     hashes it lists, is "damaged" (recomputed by the sweep and the report), never read."""
-    from volcaustics.reports.core.store import SUMMARY, TABLE_FILES, sealed
+    from volcaustics.reports.measuring.results.store import SUMMARY, TABLE_FILES, sealed
 
     store, key, summary = _a_complete_point(tmp_path)
     folder, files = Path(store.point_dir(key)), summary["files"]
@@ -352,7 +352,7 @@ def test_a_fifo_inside_a_store_point_is_damage_not_a_hang(tmp_path, where):
     folder = Path(store.point_dir(key))
     (folder / where).unlink()
     os.mkfifo(folder / where)
-    code = (f"from volcaustics.reports.core.store import Store; s = Store({str(store.root)!r}); "
+    code = (f"from volcaustics.reports.measuring.results.store import Store; s = Store({str(store.root)!r}); "
             f"print(s.status({key!r})); s.remove_damaged({key!r}); print(s.status({key!r}))")
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=REPO, timeout=60)
     assert done.stdout.split() == ["damaged", "missing"], done.stderr[-2000:]
@@ -365,15 +365,15 @@ def test_a_sweep_table_that_is_a_fifo_is_refused_by_the_report(tmp_path):
     for name in ("segments", "photons", "images"):
         pd.DataFrame({"x": [1.0]}).to_parquet(folder / f"{name}.parquet")
     os.mkfifo(folder / "points.parquet")
-    code = f"from volcaustics.reports.report.sweep_store import load_sweep; load_sweep({str(folder)!r})"
+    code = f"from volcaustics.reports.presenting.report.sweep_store import load_sweep; load_sweep({str(folder)!r})"
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=REPO, timeout=60)
     assert "points.parquet is not a regular file" in done.stderr
 
 
 def test_a_baseline_with_more_values_than_seeds_is_damaged(tmp_path):
     """The paired regression test broadcast (2,) against (3,): a traceback after measuring."""
-    from volcaustics.reports.gate.budgets import GateError
-    from volcaustics.reports.gate.regression import load_baseline
+    from volcaustics.reports.studies.gate.budgets import GateError
+    from volcaustics.reports.studies.gate.regression import load_baseline
 
     entry = {"reference_key": "k", "seeds": [0, 1], "caustic_relmse_per_seed": [0.1, 0.2, 0.3]}
     (tmp_path / "baseline.json").write_text(json.dumps({"format": 1, "scenes": {"sphere1": entry}}))
@@ -480,7 +480,7 @@ def test_an_interrupted_gate_writes_no_baseline_without_its_verdict(cache, tmp_p
     """The accepted baseline, the JUnit file and gate.json are one set: Ctrl-C while it is
     written (here: drawing the JUnit XML) keeps the old baseline byte for byte and writes
     no verdict; the baseline used to be written first and the JUnit file last (class B)."""
-    import volcaustics.reports.gate.outputs as gate
+    import volcaustics.reports.studies.gate.gate_outputs as gate
 
     budgets = tmp_path / "budgets.toml"
     budgets.write_text(LOOSE)

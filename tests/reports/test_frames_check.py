@@ -1,4 +1,4 @@
-"""The frame check's table (reports.sweep.frames): ratios against each scene's paper
+"""The frame check's table (reports.studies.best.frame_check): ratios against each scene's paper
 configuration without a denoiser, the verdict apart for built-in and held-out scenes
 (a configuration that wins only where it was chosen is not met: the negative control),
 and the report's section showing it."""
@@ -11,8 +11,8 @@ import re
 import pandas as pd
 import pytest
 
-from volcaustics.reports.page.frames import frames_rows, frames_section
-from volcaustics.reports.sweep.frames import verdict, with_ratios
+from volcaustics.reports.presenting.page.frame_check_section import frames_rows, frames_section
+from volcaustics.reports.studies.best.frame_check import verdict, with_ratios
 
 
 def _row(scene, heldout, config, denoise, frame, mean=0.05, cost=100.0):
@@ -47,7 +47,7 @@ def test_the_report_section_shows_every_row_and_the_verdict():
 def test_the_manifest_is_strict_json_when_a_ratio_is_not_a_number(tmp_path):
     """frames.json once held bare NaN tokens (a scene whose time or caustic error was not
     a number), which JSON readers refuse; now null."""
-    from volcaustics.reports.sweep.frames import MANIFEST, write_manifest
+    from volcaustics.reports.studies.best.frame_check import MANIFEST, write_manifest
 
     write_manifest(str(tmp_path), {"kind": "frames", "verdict": {"none_builtin_worst_time_ratio": float("nan")}})
     text = (tmp_path / MANIFEST).read_text()
@@ -60,7 +60,7 @@ def test_a_stored_point_is_reused_only_under_its_own_key(tmp_path):
     import dataclasses
 
     from volcaustics.approx.params import preset
-    from volcaustics.reports.sweep.frames import point_key, store_point, stored_point
+    from volcaustics.reports.studies.best.frame_check import point_key, store_point, stored_point
     from volcaustics.scenes import load_builtin
 
     scene = load_builtin("refocus")
@@ -75,7 +75,7 @@ def test_a_stored_point_is_reused_only_under_its_own_key(tmp_path):
 
 def _frame_check(folder, manifest_changes=None, drop=None) -> str:
     """A frame check's folder as ``volcaustics frames`` writes it, then changed."""
-    from volcaustics.reports.sweep.frames import FRAMES_FILE, KIND, MANIFEST, SCHEMA, write_manifest
+    from volcaustics.reports.studies.best.frame_check import FRAMES_FILE, KIND, MANIFEST, SCHEMA, write_manifest
 
     table = _table(0.045)
     folder.mkdir(exist_ok=True)
@@ -101,7 +101,7 @@ def test_a_frame_check_read_back_is_checked_against_its_shape(tmp_path, capsys, 
     after measuring); each damage is refused naming the file and what was expected, and
     the intact folder loads (the negative control)."""
     from volcaustics.reports.cli import main
-    from volcaustics.reports.sweep.frames import load_frames
+    from volcaustics.reports.studies.best.frame_check import load_frames
 
     table, _ = load_frames(_frame_check(tmp_path / "good"))
     assert len(table) == 12

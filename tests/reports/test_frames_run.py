@@ -14,8 +14,8 @@ import pytest
 from tests.shared import GATE_REFERENCE
 from volcaustics.approx.params import preset
 from volcaustics.reports.cli import main
-from volcaustics.reports.core.sizing import sized
-from volcaustics.reports.sweep import frames
+from volcaustics.reports.measuring.results.sizing import sized
+from volcaustics.reports.studies.best import frame_check as frames
 
 
 @pytest.fixture

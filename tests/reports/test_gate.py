@@ -97,8 +97,8 @@ def test_unmodified_passes_and_degraded_fail_the_right_check(env, capsys):
 def test_junit_validates_against_the_junit_schema(env, capsys):
     import xmlschema
 
-    from volcaustics.reports.gate.budgets import Check
-    from volcaustics.reports.gate.outputs import junit_xml
+    from volcaustics.reports.studies.gate.budgets import Check
+    from volcaustics.reports.studies.gate.gate_outputs import junit_xml
 
     checks = [Check("bunny", "caustic.relmse_max", 0.2, "≤ 0.3", True),
               Check("bunny", "segments.missed_step2_max", 0.09, "≤ 0.06", False, "bunny: missed <&> 0.09",
@@ -165,7 +165,7 @@ def test_fail_closed_cases_exit_2(bare, capsys, case):
 
 
 def test_a_nan_metric_is_an_error_not_a_pass():
-    from volcaustics.reports.gate.budgets import GateError, budget_checks
+    from volcaustics.reports.studies.gate.budgets import GateError, budget_checks
 
     class Fake:
         summary = {"images": {"caustic": {"hdr_flip": {"value": float("nan")}}}}
@@ -177,11 +177,11 @@ def test_a_nan_metric_is_an_error_not_a_pass():
 
 @pytest.mark.slow  # the report's references rendered to their noise targets (about a minute)
 def test_the_unmodified_approximation_passes_the_default_budgets(env, capsys):
-    """The shipped budgets (reports/gate/budgets.toml, quick preset, 4 seeds) on two built-ins
+    """The shipped budgets (reports/studies/gate/budgets.toml, quick preset, 4 seeds) on two built-ins
     with the report's references rendered here; `make gate` runs all seven. Single
     scattering and one exact replay per texel: no budget reads the model term or the
     decomposition (the scattering orders leave the single-scattering layers as they are)."""
-    from volcaustics.reports.gate.budgets import default_budgets_path
+    from volcaustics.reports.studies.gate.budgets import default_budgets_path
 
     shipped = Path(default_budgets_path()).read_text()
     assert "[reference]" not in shipped  # the report's reference, which this adds one key to

@@ -7,11 +7,11 @@ from __future__ import annotations
 import dataclasses
 
 from tests.shared import FULL_MEASUREMENT, GATE_POINT, GATE_REFERENCE
-from volcaustics.reports import runner
-from volcaustics.reports.core.store import Store
-from volcaustics.reports.experiment.images import IMAGE_METRICS
-from volcaustics.reports.experiment.measurement import GATE_IMAGE_METRICS
-from volcaustics.reports.gate.budgets import COMPONENT_KEYS
+from volcaustics.reports.measuring import runner
+from volcaustics.reports.measuring.experiment.image_rows import IMAGE_METRICS
+from volcaustics.reports.measuring.experiment.measurement import GATE_IMAGE_METRICS
+from volcaustics.reports.measuring.results.store import Store
+from volcaustics.reports.studies.gate.budgets import COMPONENT_KEYS
 
 REFERENCE, POINT, FULL = GATE_REFERENCE, GATE_POINT, FULL_MEASUREMENT
 LEAN = dataclasses.replace(FULL, scope="gate")

@@ -1,4 +1,4 @@
-"""glTF 2.0 export (reports/files/gltf.py): every built-in passes the Khronos glTF-Validator
+"""glTF 2.0 export (reports/presenting/exports/gltf.py): every built-in passes the Khronos glTF-Validator
 with no error, a broken file does not (the hook reports), and everything read back with
 pygltflib is the scene: transforms, meshes in world space, normals, glass, albedo, light,
 camera and the extras glTF has no field for."""
@@ -15,8 +15,8 @@ import numpy as np
 import pytest
 from pygltflib import GLTF2
 
-from volcaustics.reports.files.gltf import export_gltf, unit_vertex_normals
-from volcaustics.reports.files.gltf_parts import CONE_GAP, EXTRAS_KEY, quaternion
+from volcaustics.reports.presenting.exports.gltf import export_gltf, unit_vertex_normals
+from volcaustics.reports.presenting.exports.gltf_parts import CONE_GAP, EXTRAS_KEY, quaternion
 from volcaustics.scenes import BUILTIN_NAMES, Phase, Transform, resolve_scene
 from volcaustics.scenes.formats import LAYER_NAMES
 

@@ -1,4 +1,4 @@
-"""The kernels of the decomposition's images (``reports.experiment.kernels``): A's paired
+"""The kernels of the decomposition's images (``reports.measuring.experiment.kernels``): A's paired
 subsets average to the real frames for every splat mode (negative control: subsets
 splatted with their own density, the old path), the widths pass gives the frame's own
 density widths, and E_∞,s is the fixed small kernel whatever A's splat mode (negative
@@ -16,11 +16,11 @@ from volcaustics.approx.params import PRESETS, QUICK
 from volcaustics.approx.splat import splats_from_arrays
 from volcaustics.metrics.noise import debiased_relative_mse
 from volcaustics.reference.oracle import Oracle
-from volcaustics.reports.experiment import exact_images as exact_module
-from volcaustics.reports.experiment.exact import subset_images
-from volcaustics.reports.experiment.exact_images import approx_subsets, exact_images
-from volcaustics.reports.experiment.frames import render_frames
-from volcaustics.reports.experiment.measurement import MeasurementSettings
+from volcaustics.reports.measuring.experiment import exact_images as exact_module
+from volcaustics.reports.measuring.experiment.approx_frames import render_frames
+from volcaustics.reports.measuring.experiment.exact import subset_images
+from volcaustics.reports.measuring.experiment.exact_images import approx_subsets, exact_images
+from volcaustics.reports.measuring.experiment.measurement import MeasurementSettings
 from volcaustics.scenes import load_builtin, load_scene
 from volcaustics.scenes.catalogue import HELDOUT_NAMES, heldout_path
 from volcaustics.scenes.formats import STATUS_COLLIDED

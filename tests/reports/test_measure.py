@@ -1,4 +1,4 @@
-"""`volcaustics measure` and ``reports.experiment``: one experiment, its tables, and
+"""`volcaustics measure` and ``reports.measuring.experiment``: one experiment, its tables, and
 the caustic's error decomposition explaining the whole error on every built-in."""
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ from volcaustics.approx.params import QUICK, ApproxParams, ParamError
 from volcaustics.metrics.intersection import CLASS_NAMES
 from volcaustics.reference.settings import ReferenceSettings
 from volcaustics.reports.cli import main
-from volcaustics.reports.experiment.images import IMAGE_METRICS
+from volcaustics.reports.measuring.experiment.image_rows import IMAGE_METRICS
 from volcaustics.scenes.formats import COLOUR_LAYERS
 
 SIZE = 64
@@ -111,7 +111,7 @@ def test_measure_writes_tidy_tables_exr_and_summary(cache, tmp_path, capsys, mon
 
     # Ctrl-C while a second run writes its set (inside the EXR writer, after the tables):
     # the first run's eight files stay, byte for byte, and no temporaries
-    import volcaustics.reports.experiment.write as write
+    import volcaustics.reports.measuring.experiment.measure_outputs as write
 
     first = {p.name: p.read_bytes() for p in out.iterdir()}
     assert len(first) == 8
@@ -150,7 +150,7 @@ def test_measure_output_that_is_a_file_exits_2_before_rendering(empty_cache, tmp
 def test_start_normals_follow_the_photon_across_steps():
     """Step k's start normal is step k−1's hit normal of the same photon (records are
     not in photon order after compaction), nan at step 1 and where there was no hit."""
-    from volcaustics.reports.experiment.segments import start_normals as _start_normals
+    from volcaustics.reports.measuring.experiment.segments import start_normals as _start_normals
     from volcaustics.scenes.formats import RECORD_DTYPE
 
     step1 = np.zeros(3, RECORD_DTYPE)
@@ -192,9 +192,9 @@ def test_measure_passes_every_measurement_setting_on(cache, tmp_path):
 def test_the_sub_photons_are_a_setting_of_the_result(cache, tmp_path):
     """The measurement setting exact_subphotons is recorded in the summary and part of a
     stored result's key: the runner measures a point once per setting."""
-    from volcaustics.reports import runner
-    from volcaustics.reports.core.store import Store
-    from volcaustics.reports.experiment.measurement import MeasurementSettings
+    from volcaustics.reports.measuring import runner
+    from volcaustics.reports.measuring.experiment.measurement import MeasurementSettings
+    from volcaustics.reports.measuring.results.store import Store
 
     keys = {}
     point = runner.Point("refocus", dataclasses.replace(PARAMS, width=32, height=32, photon_res=64, light_res=64),
@@ -214,9 +214,9 @@ def test_subset_batches_and_exact_steps_are_settings_of_the_result(cache, tmp_pa
     """The other measurement settings reach the measurement: the decomposition's batches are
     subset_batches per seed, E_∞ replays exact_steps steps; each is in the result's key and
     its summary. Negative control: a value out of range is refused by name, before any work."""
-    from volcaustics.reports import runner
-    from volcaustics.reports.core.store import Store
-    from volcaustics.reports.experiment.measurement import MeasurementSettings
+    from volcaustics.reports.measuring import runner
+    from volcaustics.reports.measuring.experiment.measurement import MeasurementSettings
+    from volcaustics.reports.measuring.results.store import Store
 
     point = runner.Point("refocus", dataclasses.replace(PARAMS, width=32, height=32, photon_res=64, light_res=64),
                          seeds=2)
@@ -237,8 +237,8 @@ def test_a_reference_stopped_at_its_time_cap_above_its_target_is_said(empty_cach
     """A reference whose time cap stops it above its noise target: summary.json names the
     component, its floor and target (its reference's ``short_of_target``) and warns; one that
     met its target (the negative control, another size so another cache entry) does not."""
-    from volcaustics.reports.experiment.measurement import MeasurementSettings
-    from volcaustics.reports.experiment.run import run_experiment
+    from volcaustics.reports.measuring.experiment.measurement import MeasurementSettings
+    from volcaustics.reports.measuring.experiment.pipeline import run_experiment
     from volcaustics.scenes import load_builtin
 
     scene = load_builtin("sphere1")
@@ -263,7 +263,11 @@ def test_the_measurement_settings_are_one_table_checked_once_when_made():
     """Every MeasurementSettings field carries its Param (the table the flags and the
     [measurement] keys come from); a value out of range or of the wrong type is refused
     when the settings are made, naming the setting and its default."""
-    from volcaustics.reports.experiment.measurement import MEASUREMENT_KEYS, MEASUREMENT_PARAMS, MeasurementSettings
+    from volcaustics.reports.measuring.experiment.measurement import (
+        MEASUREMENT_KEYS,
+        MEASUREMENT_PARAMS,
+        MeasurementSettings,
+    )
 
     fields = dataclasses.fields(MeasurementSettings)
     assert [f.metadata["param"] for f in fields] == list(MEASUREMENT_PARAMS)

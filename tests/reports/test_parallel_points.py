@@ -12,8 +12,8 @@ import pytest
 from tests.shared import FULL_MEASUREMENT as FULL
 from tests.shared import GATE_POINT as POINT
 from tests.shared import GATE_REFERENCE as REFERENCE
-from volcaustics.reports import runner
-from volcaustics.reports.core.store import TABLES, Store
+from volcaustics.reports.measuring import runner
+from volcaustics.reports.measuring.results.store import TABLES, Store
 
 POINTS = [POINT, runner.Point(POINT.scene, dataclasses.replace(POINT.params, layers=2), seeds=POINT.seeds)]
 
@@ -48,7 +48,7 @@ def test_a_point_failing_on_a_worker_fails_the_run(cache, tmp_path, monkeypatch)
 def test_points_whose_images_fit_the_memory_only_one_at_a_time_run_in_this_process(cache, tmp_path, monkeypatch):
     """``check_frame`` gives one point the whole memory budget: two such points at once
     could exhaust the machine, so they run one after another here."""
-    from volcaustics.reports.experiment.settings import measurement_bytes
+    from volcaustics.reports.measuring.experiment.point_checks import measurement_bytes
 
     one = measurement_bytes(32, 32, POINT.seeds)
     monkeypatch.setattr(runner, "default_workers", lambda: 2)

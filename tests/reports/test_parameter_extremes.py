@@ -14,7 +14,7 @@ import pytest
 from tests.shared import FAST_MEASUREMENT, SINGLE_SCATTERING
 from volcaustics.approx.params import PARAMS
 from volcaustics.reports.cli import main
-from volcaustics.reports.core.params import flag
+from volcaustics.reports.measuring.results.param_input import flag
 
 # tiny: 16×12 pixels, 64 photons (most die before step 4: the empty late steps are the point)
 TINY = {"width": 16, "height": 12, "photon_res": 8, "light_res": 16}

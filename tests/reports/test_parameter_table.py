@@ -13,8 +13,8 @@ import pytest
 from volcaustics.approx.params import PARAMS, ApproxParams, Param, ParamError, params_class, preset
 from volcaustics.approx.trace import PhotonTracer
 from volcaustics.reports.cli import build_parser, main
-from volcaustics.reports.core.params import add_param_flags, flag, params_from_args, parse_assignment
-from volcaustics.reports.sweep.spec import ANIMATE_ONLY, SweepSpec, points
+from volcaustics.reports.measuring.results.param_input import add_param_flags, flag, params_from_args, parse_assignment
+from volcaustics.reports.studies.sweep.sweep_spec import ANIMATE_ONLY, SweepSpec, points
 
 
 def _bad_value(entry: Param):

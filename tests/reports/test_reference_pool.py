@@ -17,7 +17,7 @@ from pathlib import Path
 import psutil
 import pytest
 
-from volcaustics.reports.core.executors import open_pool
+from volcaustics.reports.measuring.pools.executors import open_pool
 
 SPEC = """
 scenes = ["refocus"]

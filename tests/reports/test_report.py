@@ -299,7 +299,7 @@ def test_a_warm_report_measures_nothing_and_says_the_same(built):
 def test_a_point_measured_again_draws_its_pictures_again(built, monkeypatch, tmp_path):
     """Negative control for the pictures' cache: a stored summary that changed (a point
     measured again) is a new cache entry, not the old pictures."""
-    from volcaustics.reports.page import write
+    from volcaustics.reports.presenting.page import write
 
     monkeypatch.setenv("VOLCAUSTICS_CACHE", str(tmp_path))
     drawn = []
@@ -332,7 +332,7 @@ def test_the_page_survives_missing_numbers_and_odd_names(built):
     and keeps its ids and swaps working (ids are by position, not by name)."""
     import copy
 
-    from volcaustics.reports.page.html import render_page
+    from volcaustics.reports.presenting.page.html import render_page
 
     summary = copy.deepcopy(built["cold"])
     page = summary["scenes"][0]
@@ -564,7 +564,7 @@ def test_the_error_by_cause_chart_draws_negative_parts_and_missing_numbers():
     """The chart takes a part below zero (drawn leftwards), a null part and a scene without a
     one-frame error; it is a PNG."""
     from volcaustics.metrics.decomposition import TERMS
-    from volcaustics.reports.page.first_screen import error_by_cause_chart
+    from volcaustics.reports.presenting.page.first_screen import error_by_cause_chart
 
     terms = [{"term": t, "relmse_part_debiased": (-0.01 if i == 0 else None if i == 1 else 0.02)}
              for i, t in enumerate(TERMS)]

@@ -11,8 +11,8 @@ import pytest
 
 from tests.shared import BASE_SCENE
 from volcaustics.reports.cli import main
-from volcaustics.reports.gate.budgets import load_budgets
-from volcaustics.reports.sweep.spec import spec_from_toml
+from volcaustics.reports.studies.gate.budgets import load_budgets
+from volcaustics.reports.studies.sweep.sweep_spec import spec_from_toml
 from volcaustics.scenes import resolve_scene
 
 BUDGETS = """

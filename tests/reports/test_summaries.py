@@ -6,8 +6,8 @@ import json
 import pytest
 
 from volcaustics.infra.errors import InputError
-from volcaustics.reports.animate.read import KIND, load_animation
-from volcaustics.reports.core.summaries import SCHEMAS, check_schema
+from volcaustics.reports.measuring.results.summaries import SCHEMAS, check_schema
+from volcaustics.reports.studies.animate.animation_read import KIND, load_animation
 
 
 def test_the_current_schema_and_one_without_the_field_are_read():

@@ -22,7 +22,7 @@ from tests.shared import FAST_MEASUREMENT, SINGLE_SCATTERING
 from tests.shared import SWEEP_SPEC as SPEC
 from tests.shared import SWEEP_TABLES as SMALL_TABLES
 from volcaustics.reports.cli import main
-from volcaustics.reports.core.store import SUMMARY, Store, sealed
+from volcaustics.reports.measuring.results.store import SUMMARY, Store, sealed
 
 
 @pytest.fixture
@@ -274,7 +274,7 @@ def test_a_scheduler_without_workers_is_refused_after_the_stated_wait(empty_cach
 def test_a_grid_above_the_limit_is_refused_before_it_is_expanded_unless_asked_for():
     """Counted, not expanded: 10^12 points are refused at once (expanding them would never
     end); at or below the limit, or with max_points None (--yes), the spec stands."""
-    from volcaustics.reports.sweep.spec import SweepError, grid_size, spec_from_args
+    from volcaustics.reports.studies.sweep.sweep_spec import SweepError, grid_size, spec_from_args
 
     huge = [f"{name}={','.join(map(str, range(1, 9 if name == 'layers' else 60)))}"
             for name in ("layers", "iterations", "peak_samples", "steps", "fog_steps", "light_res")]
@@ -339,7 +339,7 @@ def test_two_sweeps_writing_one_store_do_not_corrupt_it(env, tmp_path):
 def test_a_worker_without_the_sweeps_reference_fails_its_point_with_the_fix(env):
     """Workers never render references: one that does not find the sweep's in its cache
     (another VOLCAUSTICS_CACHE on a cluster node) fails the point and says what to share."""
-    from volcaustics.reports.runner import TASK_VERSION, PointTask, run_point
+    from volcaustics.reports.measuring.runner import TASK_VERSION, PointTask, run_point
 
     task = PointTask(key="0" * 32, key_document={}, scene="refocus", params={}, seeds=1, reference_key="f" * 32,
                      store=str(env.parent / "store"))
@@ -457,8 +457,8 @@ def test_bad_scene_fields_in_a_spec_exit_2(env, tmp_path, capsys, table, message
 def test_rgb_scene_fields_in_a_spec_and_the_scenes_own_values():
     """An RGB list in a spec reaches the scene (the loader reads TOML arrays); a field one
     grid varies keeps the scene's own value in the others (a column, never NaN)."""
-    from volcaustics.reports.runner import point_scene
-    from volcaustics.reports.sweep.spec import SweepSpec, points
+    from volcaustics.reports.measuring.runner import point_scene
+    from volcaustics.reports.studies.sweep.sweep_spec import SweepSpec, points
 
     spec = SweepSpec(("refocus",), (("medium.sigma_s", ((0.1, 0.2, 0.3),)), ("layers", (1, 2))),
                      grids=((("medium.sigma_s", ((0.1, 0.2, 0.3),)),), (("layers", (1, 2)),)))
@@ -473,7 +473,7 @@ def test_a_point_dask_cancelled_says_its_worker_was_lost():
     error keeps its own type and message (the negative control)."""
     from distributed.client import FutureCancelledError
 
-    from volcaustics.reports.core.executors import describe_failure
+    from volcaustics.reports.measuring.pools.executors import describe_failure
 
     lost = describe_failure(FutureCancelledError("volcaustics-point-abc", reason="already forgotten"))
     assert "lost with its worker" in lost and "already forgotten" in lost

@@ -11,11 +11,11 @@ import pytest
 
 from volcaustics.approx.params import PARAMS, ApproxParams
 from volcaustics.infra.storage import file_sha256
-from volcaustics.reports.core.store import POINT_COLUMNS, document_sha256, point_row
-from volcaustics.reports.core.versions import code_version
-from volcaustics.reports.page.html import sweep_section
-from volcaustics.reports.report.sweep_store import ReportError, load_sweep
-from volcaustics.reports.sweep.run import MANIFEST_SEAL
+from volcaustics.reports.measuring.results.store import POINT_COLUMNS, document_sha256, point_row
+from volcaustics.reports.measuring.results.versions import code_version
+from volcaustics.reports.presenting.page.html import sweep_section
+from volcaustics.reports.presenting.report.sweep_store import ReportError, load_sweep
+from volcaustics.reports.studies.sweep.sweep_run import MANIFEST_SEAL
 
 
 def _store(folder, drop=(), version=None):

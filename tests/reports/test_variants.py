@@ -1,4 +1,4 @@
-"""The variants view of a sweep (reports/sweep/variants.py) and sweep specs with
+"""The variants view of a sweep (reports/studies/sweep/variants.py) and sweep specs with
 several grids ([[vary]]), on tables built by hand."""
 
 from __future__ import annotations
@@ -7,8 +7,8 @@ import pandas as pd
 import pytest
 
 from volcaustics.approx.params import PAPER
-from volcaustics.reports.sweep.spec import SweepError, points, spec_from_toml
-from volcaustics.reports.sweep.variants import best_variants, draw_variants, variant_table
+from volcaustics.reports.studies.sweep.sweep_spec import SweepError, points, spec_from_toml
+from volcaustics.reports.studies.sweep.variants import best_variants, draw_variants, variant_table
 
 
 def _tables(rows):
@@ -85,7 +85,7 @@ def test_several_grids_join_and_run_a_point_once(tmp_path):
 def test_the_shipped_variants_spec_loads():
     import os
 
-    from volcaustics.reports.sweep import spec as spec_module
+    from volcaustics.reports.studies.sweep import sweep_spec as spec_module
 
     path = os.path.join(os.path.dirname(spec_module.__file__), "variants.toml")
     spec = spec_from_toml(path)
@@ -101,10 +101,10 @@ def test_the_shipped_variants_spec_loads():
 
 
 def test_the_report_shows_the_best_variants():
-    """The page's Variants table (reports/page/html.py) shows each scene's paper point and
+    """The page's Variants table (reports/presenting/page/html.py) shows each scene's paper point and
     best variant with their numbers; a sweep that varies no variant choice shows none."""
-    from volcaustics.reports.core.tables import rows_of
-    from volcaustics.reports.page.html import variants_table
+    from volcaustics.reports.measuring.results.tables import rows_of
+    from volcaustics.reports.presenting.page.html import variants_table
 
     best = rows_of(best_variants(variant_table(_tables(ROWS))))
     html = variants_table({"best": best, "points": []})

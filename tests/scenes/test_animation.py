@@ -163,7 +163,7 @@ def test_bad_animation_names_file_key_value(tmp_path, capsys, mutate, key, value
 @pytest.mark.parametrize("fmt", ["mp4", "webp", "gif"])
 def test_the_videos_are_written_at_both_ends_of_the_fps_range(tmp_path, fps, fmt):
     """The loader's fps bounds are what the writers accept: 24 frames written at each end."""
-    from volcaustics.reports.animate.media import write_mp4, write_web
+    from volcaustics.reports.studies.animate.media import write_mp4, write_web
 
     pictures = [np.full((16, 16, 3), 10 * i, np.uint8) for i in range(24)]
     path = str(tmp_path / f"video.{fmt}")

@@ -1,0 +1,202 @@
+"""Equal cost (docs/concepts/equal-cost.md): the photon_res at which a configuration's
+frame costs at most a target on a scene — the best search's step 1
+(``reports.studies.best.best_search``) and ``photon_res`` = auto (the preset ``best``: the paper
+configuration's frame at the same image size, on the scene at hand).
+
+A frame's cost is its predicted time under every shipped weight set of the cost model
+(``approx.cost_model``: the counted work of every pass, fragments included, weighted by
+fitted per-count times); a configuration is within the target when it is at most 1.0×
+under each. photon_res ← photon_res·√(1 / ratio), re-rendered until it stays, then
+lowered 1% at a time until within; remembered in ``FOLDER/matched.json`` under a key of
+the scene, the parameters, the target (its costs, or the paper configuration's parameters:
+:meth:`CostMatcher.match_to`), the weight sets and the code version. An entry is sealed
+(``infra.storage.document_sha256``): one edited, damaged or out of range is recomputed,
+and a cache that cannot be written leaves the match computed, not stored.
+:func:`measured_time_ratio` checks the match in time (alternating frames).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import math
+import os
+import statistics
+from functools import lru_cache
+
+from volcaustics import scenes
+from volcaustics.approx import Renderer
+from volcaustics.approx.cost import frame_cost
+from volcaustics.approx.cost_model import predicted_frames, weight_sets
+from volcaustics.approx.params import AUTO_PHOTON_RES, preset
+from volcaustics.infra.sources import source_hash
+from volcaustics.infra.storage import atomic_path, cache_path, document_sha256, note_not_cached, read_json_object
+from volcaustics.scenes import resolve_scene
+
+
+@lru_cache(maxsize=None)
+def code_version() -> str:
+    """The code a frame's cost depends on, part of every memo key: the approximation's
+    and the scenes' sources (``infra.sources``), wherever the packages are installed."""
+    return source_hash({"approx": os.path.dirname(os.path.abspath(__file__)), "scenes": scenes.__path__[0]})
+
+
+MATCHED = "matched.json"  # the cost-matched photon_res per scene and configuration (a memo: recomputed if lost)
+MIN_PHOTON_RES = 16
+MAX_PHOTON_RES = 8192  # the search's ceiling (a memo entry beyond it is damaged)
+
+
+class CostMatcher:
+    """The photon_res at which a configuration's frame costs at most a target on a scene
+    (module docstring), remembered in ``FOLDER/matched.json``."""
+
+    def __init__(self, folder: str):
+        self.path = os.path.join(folder, MATCHED)
+        self.memo = {}
+        self.renderers: dict = {}
+        self.sets = weight_sets()
+        if not self.sets:
+            raise ValueError("approx/cost_weights holds no weight set: the cost model cannot price a frame")
+        try:
+            self.memo = read_json_object(self.path)
+        except (OSError, ValueError):
+            pass  # none yet, or damaged (a special file is never opened): recomputed
+
+    def cost(self, scene_name: str, params) -> dict:
+        """One frame of ``params``: its predicted time under each weight set (name → value,
+        ``approx.cost_model``)."""
+        scene = resolve_scene(scene_name)
+        if scene_name not in self.renderers:
+            self.renderers[scene_name] = Renderer(scene)
+        frame = self.renderers[scene_name].render(scene, params, keep_records=True)
+        p = params.resolved(scene)
+        return predicted_frames(frame_cost(frame.records, p, frame.work), p, self.sets)
+
+    def match(self, scene_name: str, params, target: dict):
+        """``params`` with the largest photon_res found whose cost is ≤ ``target`` (the
+        paper configuration's :meth:`cost`) under every weight set."""
+        key = self._key(scene_name, params, {k: float(v) for k, v in target.items()})
+        return self._remembered(key, params) or self._search(key, scene_name, params, target)
+
+    def match_to(self, scene_name: str, params, paper):
+        """:meth:`match` against the frame of ``paper`` (resolved parameters), which is
+        rendered only when the memo does not have the answer."""
+        key = self._key(scene_name, params, {"paper": paper.to_dict()})
+        return self._remembered(key, params) or self._search(key, scene_name, params, self.cost(scene_name, paper))
+
+    def _key(self, scene_name: str, params, target) -> str:
+        doc = [resolve_scene(scene_name).scene_hash(), params.to_dict(), target,
+               {name: ws.weights for name, ws in self.sets.items()}, code_version()]
+        return hashlib.sha256(json.dumps(doc, sort_keys=True).encode()).hexdigest()[:20]
+
+    def _remembered(self, key: str, params):
+        """``params`` with the memo's photon_res for ``key``; None when there is none or
+        its entry is not sealed, not an integer in range (recomputed)."""
+        entry = self.memo.get(key)
+        if not isinstance(entry, dict):
+            return None
+        res = entry.get("photon_res")
+        if isinstance(res, bool) or not isinstance(res, int) or not MIN_PHOTON_RES <= res <= MAX_PHOTON_RES:
+            return None
+        if entry.get("sha256") != document_sha256({**entry, "key": key}, "sha256"):
+            return None
+        return dataclasses.replace(params, photon_res=res)
+
+    def _search(self, key: str, scene_name: str, params, target: dict):
+        res = params.photon_res
+        cost = cost_ratio(self.cost(scene_name, params), target)
+        for _ in range(6):
+            new = max(MIN_PHOTON_RES, min(MAX_PHOTON_RES, int(res * math.sqrt(1.0 / max(cost, 1e-9)))))
+            if new == res:
+                break
+            res, cost = new, cost_ratio(self.cost(scene_name, dataclasses.replace(params, photon_res=new)), target)
+        while cost > 1.0 and res > MIN_PHOTON_RES:
+            res = max(MIN_PHOTON_RES, res - max(1, res // 100))
+            cost = cost_ratio(self.cost(scene_name, dataclasses.replace(params, photon_res=res)), target)
+        entry = {"photon_res": res, "cost_ratio": float(cost)}
+        self.memo[key] = {**entry, "sha256": document_sha256({**entry, "key": key}, "sha256")}
+        return dataclasses.replace(params, photon_res=res)
+
+    def save(self) -> None:
+        """Store the memo; a cache that cannot be written is said once and the run goes on
+        (the matches are computed again next time)."""
+        try:
+            os.makedirs(os.path.dirname(self.path), exist_ok=True)
+            with atomic_path(self.path) as tmp, open(tmp, "w", encoding="utf-8") as fh:
+                json.dump(self.memo, fh)
+        except OSError as exc:
+            note_not_cached(exc, "cost-matched photon_res values")
+
+    def release(self) -> None:
+        for renderer in self.renderers.values():
+            renderer.release()
+        self.renderers = {}
+
+
+
+
+def with_auto_photon_res(scene_arg: str, params, preset_name: str | None, given: bool):
+    """``params`` with photon_res matched to the paper configuration's frame cost at the
+    same image size on ``scene_arg`` when the preset asks for it (AUTO_PHOTON_RES) and no
+    photon_res was ``given``; else ``params`` unchanged."""
+    if preset_name not in AUTO_PHOTON_RES or given:
+        return params
+    scene = resolve_scene(scene_arg)
+    paper = preset(AUTO_PHOTON_RES[preset_name], width=params.width, height=params.height)
+    matcher = CostMatcher(cache_path("cost_match"))  # read as it is; written only if it can be
+    try:
+        matched = matcher.match_to(scene_arg, params, paper.resolved(scene))
+        matcher.save()
+    finally:
+        matcher.release()
+    return matched
+
+
+def cost_ratio(cost: dict, target: dict) -> float:
+    """The largest ratio of a predicted cost (:meth:`CostMatcher.cost`) to a target's
+    over the weight sets: within the target when ≤ 1."""
+    return max(cost[name] / target[name] for name in target)
+
+
+def measured_time_ratio(scene_arg: str, params, paper, *, frames: int = 5) -> dict:
+    """Measured frame time of ``params`` against ``paper`` on ``scene_arg``: one renderer,
+    a warm-up frame of each, then ``frames`` frames of each alternating (no records);
+    medians (s) and their ratio."""
+    scene = resolve_scene(scene_arg)
+    renderer = Renderer(scene)
+    try:
+        for p in (paper, params):
+            renderer.render(scene, p, keep_records=False)
+        times: dict = {"paper": [], "config": []}
+        for _ in range(frames):
+            for name, p in (("paper", paper), ("config", params)):
+                times[name].append(renderer.render(scene, p, keep_records=False).timings["frame_wall"])
+    finally:
+        renderer.release()
+    paper_s, config_s = statistics.median(times["paper"]), statistics.median(times["config"])
+    return {"paper_s": paper_s, "config_s": config_s, "ratio": config_s / paper_s, "frames": frames,
+            "method": "median of alternating frames, one renderer"}
+
+
+def equal_cost_check(scene_arg: str, params, preset_name: str) -> dict | None:
+    """For a preset matched to the paper configuration's cost (AUTO_PHOTON_RES): its
+    predicted cost ratio under every weight set and its measured frame time ratio
+    (:func:`measured_time_ratio`), and whether it is at the paper's cost (≤ 1.0× under
+    every set, ≤ TIME_SLACK× in time); None for another preset."""
+    if preset_name not in AUTO_PHOTON_RES:
+        return None
+    scene = resolve_scene(scene_arg)
+    paper = preset(AUTO_PHOTON_RES[preset_name], width=params.width, height=params.height)
+    matcher = CostMatcher(cache_path("cost_match"))
+    try:
+        own, target = matcher.cost(scene_arg, params), matcher.cost(scene_arg, paper.resolved(scene))
+    finally:
+        matcher.release()
+    predicted = {name: own[name] / target[name] for name in target}
+    time = measured_time_ratio(scene_arg, params.resolved(scene), paper.resolved(scene))
+    return {"predicted_ratio": predicted, "measured_time": time,
+            "at_paper_cost": bool(max(predicted.values()) <= 1.0 and time["ratio"] <= TIME_SLACK)}
+
+
+TIME_SLACK = 1.05  # "at the paper's cost" in measured time: ≤ 1.05× its frame (docs/concepts/equal-cost.md)

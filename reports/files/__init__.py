@@ -1,1 +1,0 @@
-"""One render and its files: the ``approx`` and ``reference`` commands' outputs."""

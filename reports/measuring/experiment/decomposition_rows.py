@@ -1,0 +1,33 @@
+"""The caustic's error decomposed (``metrics.decomposition``) and its image rows."""
+
+from __future__ import annotations
+
+from volcaustics.metrics.decomposition import decompose_caustic
+from volcaustics.reports.measuring.experiment.image_rows import IMAGE_COLUMNS, NAN
+
+
+def decompose(exact, reference, keep) -> dict:
+    return decompose_caustic(exact["batches"], reference.mean["caustic"], keep=keep,
+                             reference_var=reference.var["caustic"],
+                             reference_ratio=reference.total_variance_ratio("caustic"),
+                             reference_groups=reference.groups("caustic"))
+
+
+def decomposition_rows(decomposition, columns) -> list:
+    """The decomposition as image rows (component ``caustic``, ``term`` set): per term
+    and the total, energy_share, relmse_part, relmse_own with standard errors; the
+    noise row's energy_sigma and relmse; the residual's z-scores and verdict."""
+    def row(term, metric, value, se=NAN):
+        return {"component": "caustic", "metric": metric, "term": term, **IMAGE_COLUMNS, "value": float(value),
+                "standard_error": float(se), **columns}
+
+    rows = []
+    for r in decomposition["rows"]:
+        for metric, value in r.items():
+            if metric != "term" and not metric.endswith("_se"):
+                rows.append(row(r["term"], metric, value, r.get(f"{metric}_se", NAN)))
+    res = decomposition["residual"]
+    rows += [row("residual", "energy_z", res["energy_z"]), row("residual", "debiased_relmse", res["debiased_relmse"],
+                                                                res["relmse_se"]),
+             row("residual", "relmse_z", res["relmse_z"]), row("residual", "within_noise", res["within_noise"])]
+    return rows

@@ -1,0 +1,200 @@
+"""The exact caustic images of the decomposition, as paired photon subsets: A, E_k,
+E_∞ (A's Fresnel), E_∞ (stochastic), E_em (the light's true emission) and E_∞,s (the
+true emission, small kernel, supersampled). Every image but E_∞,s takes its kernels from
+the seed's real frame (``reports.measuring.experiment.kernels``: A's own for A, so A's subsets
+average to the real frame whatever the splat mode); E_∞,s always takes the fixed small
+kernel, so kernel_blur = E_∞,s − E_em is the blur of A's kernels.
+
+Every E image replays from the emission ray: E_k and both E_∞ from A's own
+emission rays (texel centres, or A's adaptive draw) traced exactly to their first
+surface, so A's step-1 interaction at the light map is the intersection term's; E_em
+and E_∞,s from photons jittered in every texel with the spot's exact profile, so the
+emission grid's aliasing (and any emission rule's bias) is the emission term E_em − E_∞
+(docs/decisions.md "The emission term").
+
+The E_∞ images replay every emission texel EXACT_SUBPHOTONS times (the first replay
+with A's random numbers, the others with seeds of their own, :func:`replay_seed`), each
+at 1/EXACT_SUBPHOTONS of the power: the subsets stay paired by emission texel, and the
+terms that difference E_∞ images with the reference (reflections, residual) lose the
+noise of one exact photon per texel (docs/decisions.md "Sub-photons"). The
+count is the measurement setting ``exact_subphotons`` (``reports.measuring.experiment.measurement``:
+a flag and a ``[measurement]`` key, part of a result's key)."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from volcaustics.approx.emission import true_rays
+from volcaustics.approx.light import LightFrustum
+from volcaustics.approx.splat import splats_from_arrays
+from volcaustics.reference.replay import exact_replays
+from volcaustics.reports.measuring.experiment.exact import ExactPhotons, pixel_footprint, subset_images
+from volcaustics.reports.measuring.experiment.exact_store import (
+    EXACT_IMAGES,
+    exact_document,
+    exact_key,
+    load_exact,
+    save_exact,
+)
+from volcaustics.reports.measuring.experiment.kernels import KERNEL_RULES, frame_kernels, splat_params
+from volcaustics.reports.measuring.experiment.measurement import EXACT_STEPS, SUBSET_BATCHES, MeasurementSettings
+from volcaustics.scenes.bounds import medium_bounds
+from volcaustics.scenes.formats import STATUS_COLLIDED
+from volcaustics.scenes.rng import pcg_hash
+
+# E_∞ and E_∞,s: docs/decisions.md "Exact steps and the small kernel"
+SMALL_SUPERSAMPLE = 4        # E_∞,s: splatted at 4× and box-averaged (the reference's pixel filter)
+SMALL_KERNEL_FINE_PIXELS = 0.3  # E_∞,s kernel σ in fine pixels (0.075 pixel): its aliasing is noise, not bias
+_SUBPHOTON_SALT = 0x5EB9_07A1  # keeps the replays' seeds apart from the frames' seeds (seed, seed + 1, …)
+# what the E images depend on beyond the parameters: part of their key (exact_store)
+CONSTANTS = {"exact_steps": EXACT_STEPS, "small_supersample": SMALL_SUPERSAMPLE,
+             "small_kernel_fine_pixels": SMALL_KERNEL_FINE_PIXELS, "subset_batches": SUBSET_BATCHES,
+             "subphoton_salt": _SUBPHOTON_SALT}
+
+
+def replay_seed(seed: int, replay: int) -> int:
+    """The seed of exact replay ``replay`` of a frame with ``seed``: the frame's own for
+    replay 0 (A's random numbers), a PCG hash of both otherwise."""
+    if replay == 0:
+        return seed
+    return int(pcg_hash(np.uint32(seed) ^ pcg_hash(np.uint32(_SUBPHOTON_SALT + replay))))
+
+
+def pooled(replays: list) -> ExactPhotons:
+    """Several exact replays of one emission grid as one set of photons: their splats
+    together at 1/len(replays) of their power each (the same texel indices, so subsets
+    stay paired), the power budgets averaged."""
+    n = len(replays)
+    if n == 1:
+        return replays[0]
+    splats = np.concatenate([r.splats for r in replays])
+    splats["power"] /= np.float32(n)
+    first = replays[0]
+    return dataclasses.replace(
+        first, splats=splats, photon=np.concatenate([r.photon for r in replays]),
+        step=np.concatenate([r.step for r in replays]),
+        emitted_power=np.mean([r.emitted_power for r in replays], axis=0),
+        alive_power=np.mean([r.alive_power for r in replays], axis=0),
+        collided_power=np.mean([r.collided_power for r in replays], axis=0),
+        params={**first.params, "subphotons": n})
+
+
+def small_radius(scene, p) -> float:
+    return SMALL_KERNEL_FINE_PIXELS * pixel_footprint(scene.camera, p.height * SMALL_SUPERSAMPLE)
+
+
+def small_kernel_params(scene, p):
+    """What E_∞,s is splatted with whatever A's splat mode: the fixed small kernel."""
+    return dataclasses.replace(p, splat="fixed", splat_radius=small_radius(scene, p))
+
+
+def exact_images(scene, p, frames, seeds, renderer, oracle, settings: MeasurementSettings | None = None) -> dict:
+    """Per seed, ``settings.subset_batches`` paired subset images
+    (``reports.measuring.experiment.exact.subset_images``) of A, E_k, E_∞ (A's Fresnel), E_∞
+    (stochastic), E_em and E_∞,s, the E_∞ images from ``settings.exact_subphotons``
+    replays of every texel (:func:`pooled`), ``settings.exact_steps`` steps each
+    (``settings`` None: the report's measurement settings); all seeds' batches
+    concatenated (batch j of every image: the same emission texels of one seed). Every
+    exact image replays from the emission ray (:func:`_exact_batches`).
+    The E images are read from ``exact_store`` when a point with the same emission,
+    replay and splat stored them (``exact_reused``); else every replay of one Fresnel
+    mode is one wavefront (``reference.replay``) and they are stored."""
+    settings = settings or MeasurementSettings()
+    subphotons, subset_batches, exact_steps = settings.exact_subphotons, settings.subset_batches, settings.exact_steps
+    constants = {**CONSTANTS, "exact_steps": exact_steps, "subset_batches": subset_batches}
+    document = exact_document(scene, p, seeds, subphotons, constants, renderer.controls)
+    key = exact_key(document)
+    approx, kernels = approx_subsets(scene, p, frames, seeds, renderer, subset_batches)
+    exact = load_exact(key, document)
+    reused = exact is not None
+    if exact is None:
+        exact = _exact_batches(scene, p, kernels, seeds, renderer, oracle, subphotons, subset_batches, exact_steps)
+        save_exact(key, document, exact)
+    return {"batches": {"approx": approx, **exact["batches"]}, "alive": exact["alive"],
+            "small_radius": exact["small_radius"], "subphotons": subphotons, "exact_key": key,
+            "exact_reused": reused, "exact_steps": exact_steps, "subset_batches": subset_batches,
+            "kernels": KERNEL_RULES[p.splat]}
+
+
+def approx_subsets(scene, p, frames, seeds, renderer, batches: int = SUBSET_BATCHES) -> tuple:
+    """(A's paired subset images, every seed's kernels): per seed, ``batches`` subset
+    images of its frame's medium collisions with the frame's own kernels (so their mean
+    is the frame's caustic, whatever the splat mode), all seeds' concatenated; and per
+    seed the kernels of its real frame (``kernels.frame_kernels``) for the E images."""
+    images, kernels = [], []
+    for frame, seed in zip(frames, seeds):
+        collided = np.concatenate([r[r["status"] == STATUS_COLLIDED] for r in frame.records])
+        kernel = frame_kernels(renderer, scene, p, collided)
+        splats = splats_from_arrays(collided["end"], collided["direction"], collided["power"])
+        images.append(_subsets(renderer, scene, dataclasses.replace(splat_params(p), seed=seed),
+                               kernel(splats, collided["photon"], collided["step"]), collided["photon"], batches))
+        kernels.append(kernel)
+    return np.concatenate(images), kernels
+
+
+def _subsets(renderer, scene, params, splats, photon, batches: int, supersample: int = 1) -> np.ndarray:
+    """``batches`` paired subset images of ``splats`` (``exact.subset_images``), splatted
+    with ``params`` (its seed, size and splat mode) at ``supersample``× the pixels."""
+    return subset_images(renderer, splats, photon, params.photon_res, batches, params, scene,
+                         supersample=supersample)
+
+
+def _exact_batches(scene, p, kernels, seeds, renderer, oracle, subphotons: int, batches: int, steps: int) -> dict:
+    """The E images of :func:`exact_images` (``exact_store.EXACT_IMAGES``), their alive
+    fractions and the small kernel, computed. Every one replays from the emission ray
+    (``reference.replay.exact_emission``): E_k, E_∞ (A's Fresnel) and E_∞ (stochastic)
+    from A's own emission rays (``Renderer.emission_rays``: texel centres or the
+    adaptive draw; E_k is replay 0, A's random numbers, cut at ``steps``), E_em and
+    E_∞,s from the light's true distribution (``approx.emission.true_rays``: jittered
+    in every texel, the spot's exact profile), with the same replay seeds. ``kernels``:
+    per seed, the kernels of its real frame (``kernels.frame_kernels``) for every image
+    but E_∞,s, which takes the fixed small kernel whatever A's splat mode."""
+    out: dict = {name: [] for name in EXACT_IMAGES}
+    alive: dict = {}
+    small = small_kernel_params(scene, p)
+    frustum = LightFrustum.for_scene(scene, *medium_bounds(scene))
+    replay_seeds = [[replay_seed(seed, m) for m in range(subphotons)] for seed in seeds]
+    own = [(rays, s) for rays, seeds_of in zip(renderer.emission_rays(scene, p, seeds), replay_seeds)
+           for s in seeds_of]
+    true = [(true_rays(scene.light, frustum, p.photon_res, s), s) for seeds_of in replay_seeds for s in seeds_of]
+    stochastic = replayed(scene, p, "stochastic", own + true, oracle, steps)  # one wavefront for both emissions
+    everything_all, true_all = stochastic[:len(own)], stochastic[len(own):]
+    same_all = everything_all if p.fresnel == "stochastic" else replayed(scene, p, p.fresnel, own, oracle, steps)
+    for i, (kernel, seed) in enumerate(zip(kernels, seeds)):
+        ps = dataclasses.replace(splat_params(p), seed=seed)
+        mine = slice(i * subphotons, (i + 1) * subphotons)
+        same, everything, emitted = (pooled(replays[mine]) for replays in (same_all, everything_all, true_all))
+        e_k = _cut(same_all[i * subphotons], p.steps)
+        for name, photons in (("exact_steps", e_k), ("exact_all_same", same), ("exact_all", everything),
+                              ("exact_emission", emitted)):
+            out[name].append(_subsets(renderer, scene, ps, kernel(photons.splats, photons.photon, photons.step),
+                                      photons.photon, batches))
+        out["exact_all_small"].append(_subsets(renderer, scene, dataclasses.replace(small, seed=seed),
+                                               emitted.splats, emitted.photon, batches, SMALL_SUPERSAMPLE))
+        for name, photons in {p.fresnel: same, "stochastic": everything, "true_emission": emitted}.items():
+            alive.setdefault(name, []).append(photons.alive_fraction)
+    return {"batches": {name: np.concatenate(images) for name, images in out.items()}, "alive": alive,
+            "small_radius": small.splat_radius}
+
+
+def _cut(photons: ExactPhotons, steps: int) -> ExactPhotons:
+    """The collisions of ``photons`` at steps 1..``steps``: the replay cut there (its
+    first steps are the same whatever follows them). Its power budget is not kept."""
+    keep = photons.step <= steps
+    return dataclasses.replace(photons, splats=photons.splats[keep], photon=photons.photon[keep],
+                               step=photons.step[keep], params={**photons.params, "steps": steps})
+
+
+def replayed(scene, p, fresnel: str, groups: list, oracle, steps: int) -> list:
+    """One :class:`ExactPhotons` per (rays, seed) of ``groups``: the rays emitted exactly
+    and replayed ``steps`` steps with ``fresnel`` and that seed, all of them one
+    wavefront on the device (``reference.replay.exact_replays``)."""
+    done = exact_replays(scene, groups, steps=steps, fresnel=fresnel, oracle=oracle)
+    used = {**p.to_dict(), "steps": steps, "fresnel": fresnel, "emission_fresnel": fresnel}
+    return [ExactPhotons(splats=splats_from_arrays(c.rows["end"], c.rows["direction"], c.rows["power"]),
+                         photon=c.rows["photon"].astype(np.uint32), step=c.rows["step"].astype(np.int64),
+                         emitted_power=c.emitted_power, alive_power=c.alive_power,
+                         collided_power=c.collided_power, photons=c.photons, params={**used, "seed": int(s)})
+            for c, (_, s) in zip(done, groups)]

@@ -1,0 +1,54 @@
+"""``measure -o DIR``: an experiment's tables (Parquet and CSV), ``decomposition.exr`` and,
+last, ``summary.json``, written as one set: from the point as the result store holds it
+(``reports.measuring.runner.PointResult``) or from an :class:`~reports.measuring.experiment.pipeline.Experiment`."""
+
+from __future__ import annotations
+
+import json
+import os
+
+from volcaustics.infra.imageio import write_exr
+from volcaustics.infra.storage import atomic_set
+from volcaustics.reports.measuring.results.store import TABLES
+from volcaustics.reports.measuring.results.tables import plain, table
+
+OUTPUT_FILES = (*(f"{name}.{ext}" for name in TABLES for ext in ("parquet", "csv")), "decomposition.exr",
+                "summary.json")  # what `measure -o DIR` writes; the manifest, summary.json, last
+DECOMPOSITION_IMAGES = {"approx": "A", "exact_steps": "E_k", "exact_all_same": "E_inf(A's fresnel)",
+                        "exact_all": "E_inf", "exact_emission": "E_em", "exact_all_small": "E_inf,s",
+                        "reference": "R"}
+
+
+def output_paths(out_dir: str) -> dict:
+    return {name: os.path.join(out_dir, name) for name in OUTPUT_FILES}
+
+
+# what a stored summary holds for the store alone (its key's document, its files' hashes, its seal)
+STORE_FIELDS = ("key_document", "files", "summary_sha256")
+
+
+def write_experiment(experiment, out_dir: str) -> dict:
+    """Write the tables (Parquet + CSV), ``decomposition.exr`` and, last,
+    ``summary.json`` into ``out_dir`` as one set (``infra.storage.atomic_set``: an
+    interrupted write leaves the last complete set). ``experiment``: a stored point
+    (``tables``: name → DataFrame, ``layers``, ``summary`` as stored: its store fields are
+    left out, its ``key`` kept) or an ``Experiment`` (rows per table). Returns the paths."""
+    os.makedirs(out_dir, exist_ok=True)
+    paths = output_paths(out_dir)  # summary.json last: the set's manifest
+    s = {k: v for k, v in experiment.summary.items() if k not in STORE_FIELDS}
+    stored = getattr(experiment, "tables", None)
+    with atomic_set(list(paths.values())) as temps:
+        tmp = dict(zip(paths, temps))
+        for name in TABLES:
+            frame = stored[name] if stored is not None else table(getattr(experiment, name))
+            frame.to_parquet(tmp[f"{name}.parquet"], index=False)
+            frame.to_csv(tmp[f"{name}.csv"], index=False)
+        write_exr(tmp["decomposition.exr"], experiment.layers,
+                  {"volcaustics_scene": s["scene"], "volcaustics_scene_hash": s["scene_hash"],
+                   "volcaustics_renderer": "experiment",
+                   "volcaustics_layers": json.dumps({**DECOMPOSITION_IMAGES, "term.*": "the decomposition's terms"}),
+                   "volcaustics_params": json.dumps(s["params"], sort_keys=True)})
+        summary = {**s, "outputs": {k: os.path.abspath(v) for k, v in paths.items()}}
+        with open(tmp["summary.json"], "w", encoding="utf-8") as fh:
+            fh.write(json.dumps(plain(summary), indent=2, allow_nan=False))
+    return paths

@@ -1,0 +1,163 @@
+"""One experiment: a scene, the approximation's parameters and a reference → both
+renders, the exact replay and every metric (docs/concepts/measuring.md.
+
+For each of the approximation's seeds (``params.seed``, +1, …) one frame is rendered
+with its segment records. Then:
+
+* **segments**: every searched segment is asked of the exact oracle on the same
+  interval and classified (``metrics.intersection``); the start surface's normal of
+  a segment is the approximation's hit normal of the step before (unknown at step 1);
+* **photons**: the frame's photons are replayed exactly with the same random numbers,
+  ``steps`` and ``fresnel`` (``reference.oracle.exact_photon_records``): power by
+  fate per step for both tracers, and where each path first leaves its replay
+  (``metrics.paths``);
+* **images**: each colour component of the frames against the reference
+  (``metrics.image``, ``metrics.noise``), the single-scattering model's own error
+  when the reference has higher scattering orders (``model``), and the caustic's error decomposed
+  (``metrics.decomposition``) with E_k (the replay above, splatted by the
+  approximation's splatter), E_∞ (``measurement.EXACT_STEPS`` steps, A's Fresnel and
+  stochastic), E_∞,s (small kernel, ``exact_images.SMALL_SUPERSAMPLE``× pixels box-filtered).
+
+:func:`run_experiment` computes, stage by stage, each stage in its own module
+(``frames``, ``segments``, ``photons``, ``exact_images``, ``images``,
+``decomposition``, ``summary``); ``measure_outputs.write_experiment`` writes the tables (Parquet
+and CSV), ``decomposition.exr`` and ``summary.json`` (last).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from tqdm import tqdm
+
+from volcaustics.approx import Renderer
+from volcaustics.infra.errors import InputError
+from volcaustics.reference.oracle import Oracle
+from volcaustics.reference.render import render_reference
+from volcaustics.reports.measuring.experiment.approx_frames import render_frames
+from volcaustics.reports.measuring.experiment.decomposition_rows import decompose, decomposition_rows
+from volcaustics.reports.measuring.experiment.exact_images import exact_images
+from volcaustics.reports.measuring.experiment.image_rows import IMAGE_METRICS, image_rows, keep_mask
+from volcaustics.reports.measuring.experiment.measurement import GATE_IMAGE_METRICS, MeasurementSettings
+from volcaustics.reports.measuring.experiment.model_rows import model_rows
+from volcaustics.reports.measuring.experiment.photons import photon_rows, replay
+from volcaustics.reports.measuring.experiment.point_checks import checked_settings
+from volcaustics.reports.measuring.experiment.point_summary import (
+    experiment_summary,
+    experiment_views,
+    parameter_columns,
+)
+from volcaustics.reports.measuring.experiment.segments import segment_rows
+from volcaustics.reports.measuring.results.sizing import REPORT_REFERENCE, sized
+from volcaustics.reports.measuring.results.summaries import ExperimentSummary
+from volcaustics.reports.measuring.results.timing import Clock
+
+STAGES = ("reference", "oracle", "approx", "segments", "photons", "exact_images", "metrics")
+
+
+class ExperimentError(InputError):
+    """The experiment cannot say anything about this scene (e.g. no caustic reaches the
+    pixels it compares); the message names the scene and the reason."""
+
+
+@dataclass
+class Experiment:
+    """What :func:`run_experiment` measured: tidy rows and what ``summary.json`` holds,
+    the decomposition images (name → H×W×3 float32) for the EXR, and the images a
+    report shows (``point_summary.VIEWS``)."""
+
+    segments: list
+    photons: list
+    images: list
+    summary: ExperimentSummary
+    layers: dict = field(default_factory=dict)
+    views: dict = field(default_factory=dict)
+
+
+def run_experiment(scene, params, *, seeds: int = 1, reference_settings=None, progress: bool = False,
+                   renderer=None, oracle=None, reference=None, fields: dict | None = None,
+                   measurement: MeasurementSettings | None = None) -> Experiment:
+    """Measure the approximation with ``params`` on ``scene`` against its reference.
+
+    Parameters
+    ----------
+    scene : ``scenes.model.Scene``.
+    params : ``approx.ApproxParams`` (width/height unset: the scene camera's).
+    seeds : frames with seeds params.seed … params.seed + seeds − 1 (≥ 1; the
+        approximation's own noise and the bootstrap intervals need ≥ 2).
+    reference_settings : ``reference.settings.ReferenceSettings`` (default: the
+        report's, ``reports.measuring.results.sizing.REPORT_REFERENCE``), sized to the frames;
+        rendered when not cached (``reference`` None).
+    renderer, oracle, reference : reused when given (a ``reference.render.ReferenceResult``
+        at the frames' size).
+    fields : the scene fields this scene changed (dotted path → value, ``scenes.fields``):
+        a column each in every row, and the summary's ``scene_fields``.
+    measurement : how the point is measured, ``reports.measuring.experiment.measurement.MeasurementSettings``
+        (None: the report's): the exact images' sub-photons, subset batches and steps, and
+        the scope: "full", or "gate": only what the gate's budgets read (the image metrics
+        of ``measurement.GATE_IMAGE_METRICS`` and the segments); the exact images, the
+        caustic's decomposition and the model term are skipped (the summary's ``exact``,
+        ``decomposition`` and ``model`` are then None).
+    """
+    p, seed_list = checked_settings(scene, params, seeds)
+    measurement = measurement or MeasurementSettings()
+    scope = measurement.scope
+    clock = Clock()
+    bar = tqdm(total=len(STAGES), desc="measure", unit="stage", disable=not progress, leave=False)
+    with clock.stage("reference"):
+        if reference is None:
+            reference = render_reference(scene, sized(reference_settings or REPORT_REFERENCE, scene, p),
+                                         progress=progress)
+    bar.update()
+    own_renderer = renderer is None
+    renderer = renderer or Renderer(scene)
+    columns = parameter_columns(scene, p, seed_list, reference.key, fields)
+    try:
+        with clock.stage("oracle"):
+            oracle = oracle or Oracle(scene)
+        with clock.stage("approx"):
+            frames, timed = render_frames(renderer, scene, p, seed_list, warm_up=own_renderer)
+        bar.update(2)
+        with clock.stage("segments"):
+            segments = segment_rows(scene, p, frames, oracle, columns)
+        bar.update()
+        with clock.stage("photons"):
+            replays = [replay(scene, p, f, s, oracle) for f, s in zip(frames, seed_list)]
+            photons, divergence = photon_rows(frames, replays, columns)
+        bar.update()
+        exact = None
+        if scope == "full":
+            with clock.stage("exact_images"):
+                exact = exact_images(scene, p, frames, seed_list, renderer, oracle, measurement)
+        bar.update()
+    finally:
+        if own_renderer:
+            renderer.release()
+    with clock.stage("metrics"):
+        maps: dict
+        keep, maps = keep_mask(reference, frames), {}
+        images, headline = image_rows(frames, reference, keep, columns, maps,
+                                      metrics=IMAGE_METRICS if scope == "full" else GATE_IMAGE_METRICS)
+        decomposition = None if exact is None else _decomposed(scene, exact, reference, keep)
+        images += [] if decomposition is None else decomposition_rows(decomposition, columns)
+        model, model_summary = model_rows(frames, reference, keep, columns) if scope == "full" else ([], None)
+        images += model
+    bar.update()
+    bar.close()
+    clock.seconds["total"] = clock.total()
+    summary = experiment_summary(scene, p, seed_list, reference, frames, exact, headline, decomposition, divergence,
+                                 clock.seconds, keep, timed, model_summary, fields)
+    layers = {}
+    if decomposition is not None:
+        layers = {name: np.asarray(img, np.float32) for name, img in decomposition["images"].items()}
+        layers.update({f"term.{name}": np.asarray(img, np.float32) for name, img in decomposition["terms"].items()})
+    return Experiment(segments=segments, photons=photons, images=images, summary=summary, layers=layers,
+                      views=experiment_views(frames, reference, keep, layers, maps))
+
+
+def _decomposed(scene, exact, reference, keep) -> dict:
+    try:
+        return decompose(exact, reference, keep)
+    except ValueError as exc:
+        raise ExperimentError(f"{scene.name}: cannot decompose the caustic's error: {exc}") from None

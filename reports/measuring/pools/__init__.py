@@ -1,0 +1,2 @@
+"""Where a run's work goes: local worker processes or a Dask cluster, and the ``--dask``
+address."""

@@ -1,0 +1,103 @@
+"""The results that cross subpackages, typed: a field renamed fails in one place.
+
+``ExperimentSummary`` (one experiment's summary.json, as measured and as stored),
+``SceneResult`` (one scene's experiment and the gate's verdicts on it, as the report
+gathers them) and ``SweepTables`` (a sweep store's consolidated tables) are what
+``reports.presenting.report`` hands ``reports.presenting.page``; the summaries written to disk carry a
+``schema`` version (:data:`SCHEMAS`) that their readers check.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import NotRequired, TypedDict
+
+from volcaustics.infra.errors import InputError
+
+# The version of each summary.json a command writes and another reads back: bumped when a
+# field is renamed or its meaning changes, so that a reader refuses a folder it would misread.
+# A summary without the field predates it and is version 1 (its fields are those of 1).
+SCHEMAS = {"animation": 1, "comparison": 1, "experiment": 1}
+
+
+class ExperimentSummary(TypedDict):
+    """One experiment's summary (``reports.measuring.experiment.point_summary.experiment_summary``): what
+    ``measure -o DIR`` writes as summary.json and a result store keeps with each point
+    (``reports.measuring.results.store``: with ``key``, ``key_document``, ``files``, ``summary_sha256``).
+    Plain JSON data once stored (NaN as None). Its ``schema`` is ``SCHEMAS["experiment"]``:
+    the store counts a point of another schema as missing (measured again)."""
+
+    kind: str                    # reports.measuring.experiment.point_summary.KIND
+    schema: int
+    scene: str
+    scene_hash: str
+    optical_depth: float
+    description: str
+    params: dict                 # ApproxParams.to_dict(), resolved
+    seeds: int
+    seed_values: list
+    reference: dict              # reports.measuring.experiment.point_summary.reference_summary
+    exact: dict | None           # None: a gate point (scope "gate")
+    compared_pixels: int
+    images: dict                 # component → metric → {"value", "debiased", …}
+    decomposition: dict | None   # {"rows", "residual", "options"}; None: a gate point
+    model: dict | None           # the model term; None: a gate point
+    paths: dict
+    map_reads: dict
+    cost: dict
+    predicted_frame: dict
+    approx_timings_s: dict
+    timed_frames: int
+    timing_method: str
+    experiment_seconds: dict     # stage → seconds
+    gl: dict
+    code_version: str
+    versions: dict
+    warnings: list
+    scene_fields: dict           # dotted path → value of the fields a sweep changed
+    key: NotRequired[str]                # the store's
+    key_document: NotRequired[dict]
+    files: NotRequired[dict]
+    summary_sha256: NotRequired[str]
+    equal_cost: NotRequired[dict | None]  # measure: a preset matched to the paper's cost
+    outputs: NotRequired[dict]           # measure -o DIR: the files written
+
+
+@dataclass
+class SceneResult:
+    """One scene's experiment as the store holds it, and the gate's verdicts on it."""
+
+    name: str
+    key: str
+    summary: ExperimentSummary  # the experiment's, as the store holds it
+    tables: dict             # "segments", "photons", "images" → pandas DataFrame
+    views: dict              # reports.measuring.experiment.point_summary.VIEWS name → H×W×3 float32
+    checks: list = field(default_factory=list)   # reports.studies.gate.budgets.Check
+    gate_note: str = ""      # why the gate could not check this scene (no budgets, a GateError)
+    budgeted: bool = False   # the budgets have this scene
+    measured: bool = False   # measured in this run (False: from the store)
+
+
+@dataclass
+class SweepTables:
+    """A sweep store's consolidated tables and the parameters it varied."""
+
+    folder: str
+    tables: dict             # "segments", "photons", "images", "points" → DataFrame
+    varied: list
+    spec: dict
+    notes: list = field(default_factory=list)  # what differs from this code (shown on the page)
+
+
+def of_schema(summary: dict, kind: str) -> bool:
+    """Whether ``summary`` is of this code's schema for ``kind`` (no ``schema``: 1)."""
+    found = summary.get("schema", 1)
+    return type(found) is int and found == SCHEMAS[kind]  # true is not schema 1
+
+
+def check_schema(summary: dict, kind: str, where: str, fix: str) -> None:
+    """InputError naming ``where`` and ``fix`` unless ``summary`` is of this code's
+    schema for ``kind``."""
+    if not of_schema(summary, kind):
+        raise InputError(f"{where}: summary.json is of {kind} schema {summary.get('schema', 1)!r}, this volcaustics "
+                         f"reads {SCHEMAS[kind]}: {fix}")

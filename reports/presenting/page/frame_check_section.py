@@ -1,0 +1,56 @@
+"""The report's "One frame" section: the frame check's table (``volcaustics frames``,
+``reports.studies.best.frame_check``), per scene the paper's configuration against the preset best,
+one frame's caustic error and the mean's, without and with OIDN, held-out scenes
+marked; and whether best meets the goal."""
+
+from __future__ import annotations
+
+from html import escape
+
+from volcaustics.reports.presenting.page.best_table import percent_pm as _pct
+
+
+def _seconds(value) -> str:
+    return "" if not value or value != value else f"{value:.2f}"
+
+
+def frames_rows(table) -> list | None:
+    """The table as plain rows for summary.json (None without a frame check)."""
+    return None if table is None else [{k: (None if v != v else v) for k, v in r.items()}
+                                       for r in table.to_dict("records")]
+
+
+def _ratio(value) -> str:
+    return "–" if value is None or value != value else f"{value:.2f}×"
+
+
+def frames_section(frames: dict | None) -> str:
+    """HTML of ``summary["frames"]`` (rows and verdict), "" without one."""
+    if not frames:
+        return ""
+    v = frames["verdict"]
+    head = ("<tr><th class='l'>scene</th><th class='l'>configuration</th><th class='l'>denoiser</th>"
+            "<th>photon_res</th><th>predicted cost vs paper</th><th>measured time vs paper</th>"
+            "<th>one frame's relMSE</th><th>vs paper</th>"
+            "<th>mean's relMSE, debiased</th><th>vs paper</th><th>OIDN s/frame</th></tr>")
+    body = "".join(
+        f"<tr><td class='l'>{escape(r['scene'])}{' <i>(held out)</i>' if r['heldout'] else ''}</td>"
+        f"<td class='l'>{escape(r['config'])}</td><td class='l'>{escape(r['denoise'])}</td><td>{r['photon_res']}</td>"
+        f"<td>{r['cost_ratio']:.3f}×</td><td>{_ratio(r.get('time_ratio'))}</td>"
+        f"<td>{_pct(r['frame_relmse'], r['frame_relmse_se'])}</td>"
+        f"<td>{r['frame_ratio']:.2f}×</td><td>{_pct(r['relmse_debiased'], r['relmse_se'])}</td>"
+        f"<td>{r['relmse_ratio']:.2f}×</td><td>{_seconds(r.get('denoise_s'))}</td></tr>"
+        for r in frames["rows"])
+    worst = (f"best's worst one-frame ratio without a denoiser: "
+             f"{v.get('none_builtin_worst_frame_ratio', float('nan')):.2f}× on the built-ins, "
+             f"{v.get('none_heldout_worst_frame_ratio', float('nan')):.2f}× on the held-out scenes "
+             f"(goal ≤ {v['goal']:g}× on every scene: <b>{'met' if v['met'] else 'not met'}</b>); with OIDN "
+             f"{v.get('oidn_builtin_worst_frame_ratio', float('nan')):.2f}× and "
+             f"{v.get('oidn_heldout_worst_frame_ratio', float('nan')):.2f}×")
+    return f"""<h2 id='one-frame'>One frame: the paper's configuration against the preset best</h2>
+<p class='note'>What a viewer sees is one frame: its relative MSE less the reference's floor (bias and that frame's
+own noise, ± SE over the seeds), beside the seeds' mean's debiased error. best's photon_res matches the paper
+configuration's frame cost on each scene: its predicted time under every weight set of the cost model (the largest
+ratio is shown), with the measured frame time beside it; OIDN is shown beside, never inside the cost. Held-out
+scenes were seen by no search. {worst}.</p>
+<table id='frames-table'>{head}{body}</table>"""

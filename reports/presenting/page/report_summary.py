@@ -1,0 +1,197 @@
+"""The accuracy report (``volcaustics report``, ``make report``): one self-contained
+HTML page and ``summary.json``, drawn from results only (``reports.presenting.report`` renders
+and measures; nothing here does).
+
+:func:`report_summary` picks, groups and converts what the page shows (shares to
+percent, pass times to shares of the frame) — every number on the page comes from it,
+and it is written as ``summary.json`` — and :func:`write_report` draws the page from
+that very data (``page.html``, ``page.write``) with the images of each scene's views.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import time
+
+import numpy as np
+
+from volcaustics.approx.cost import TIMED_PASSES
+from volcaustics.approx.params import PARAMS
+from volcaustics.metrics.decomposition import TERMS
+from volcaustics.metrics.intersection import OUTCOME_CLASSES
+from volcaustics.reports.measuring.experiment.photons import FATES
+from volcaustics.reports.measuring.results.tables import rows_of
+from volcaustics.reports.measuring.results.versions import code_version, library_versions
+from volcaustics.reports.presenting.page.data_uris import SCALES, exposures
+from volcaustics.reports.studies.best.best_search import verdict
+from volcaustics.reports.studies.sweep.best_figures import role_rows
+from volcaustics.reports.studies.sweep.suffice import settings_that_suffice
+from volcaustics.reports.studies.sweep.variants import best_variants, is_variants_sweep, variant_table
+from volcaustics.scenes.formats import COLOUR_LAYERS
+
+# Wang, Wang & Chen: intersection estimation takes about 70% of a frame and splatting about 23% on their GPU
+OUTPUT_FILES = ("index.html", "summary.json")  # in --out; the manifest, summary.json, last
+
+PAPER_SHARES = {"trace": 0.70, "splat": 0.23, "other": 0.07}
+PASSES = TIMED_PASSES
+HEADLINE = ("relative_mse", "frame_relative_mse", "energy_ratio", "hdr_flip", "per_pixel_relative_mse")
+SHOWN_PARAMS = tuple(p.name for p in PARAMS if p.name != "seed")  # the page's parameter list
+
+
+def _finite(value):
+    return value if isinstance(value, (int, float)) and np.isfinite(value) else None
+
+
+def _percent_of(count, total):
+    """100 · count / total; None without a total."""
+    return 100.0 * float(count) / float(total) if total else None
+
+
+def hit_classes(segments) -> dict:
+    """Segment classes as % of each step's segments: per step and light-map layer of the
+    approximation's hit (``"none"`` when it found none), and per step with the |Δt|
+    percentiles of true hits (mm). Self re-hits are counted by their class beyond the
+    re-hit surface and given apart as ``self_rehit`` (docs/concepts/measuring.md)."""
+    def classes(frame, total):
+        out = {}
+        for name in OUTCOME_CLASSES:
+            count = frame[f"count_{name}"].sum()
+            if f"count_beyond_self_rehit_{name}" in frame:
+                count += frame[f"count_beyond_self_rehit_{name}"].sum()
+            out[name] = _percent_of(count, total)
+        out["self_rehit"] = _percent_of(frame["count_self_rehit"].sum(), total)
+        return out
+
+    by_map = segments[segments["grouping"] == "step,map,inside"]
+    by_step = segments[segments["grouping"] == "step"]
+    totals = {int(r["step"]): int(r["segments"]) for _, r in by_step.iterrows()}
+    rows = []
+    layer = by_map["layer"].astype("Int64").astype(object).where(by_map["layer"].notna(), "none")
+    for (step, name), frame in by_map.groupby([by_map["step"].astype(int), layer], sort=False):
+        rows.append({"step": int(step), "layer": name if name == "none" else int(name),
+                     "segments": int(frame["segments"].sum()), **classes(frame, totals[int(step)])})
+    rows.sort(key=lambda r: (r["step"], r["layer"] == "none", r["layer"] if r["layer"] != "none" else 0))
+    steps = []
+    for index in by_step.sort_values("step").index:
+        r = by_step.loc[index]
+        steps.append({"step": int(r["step"]), "segments": int(r["segments"]),
+                      **classes(by_step.loc[[index]], int(r["segments"])),
+                      "abs_dt_mm": {q: _finite(1000.0 * float(r[f"abs_dt_{q}"])) for q in ("median", "p90", "p99")}})
+    return {"rows": rows, "by_step": steps}
+
+
+def power_budget(photons) -> list:
+    """Power by fate per (tracer, step), % of the power entering step 1."""
+    out = []
+    for _, r in photons.sort_values(["tracer", "step"]).iterrows():
+        out.append({"tracer": r["tracer"], "step": int(r["step"]),
+                    **{fate: 100.0 * float(r[f"share_{fate}"]) for fate in FATES},
+                    "alive_after_last": _finite(100.0 * float(r["share_alive_after_last"]))})
+    return out
+
+
+def timing(summary: dict) -> dict:
+    """One frame's time per pass (the experiment's timed frame with the median frame
+    time, rendered without records) and its share of that frame; ``other``: the frame's
+    time outside the passes (reading images back, the host's work)."""
+    t = summary["approx_timings_s"]
+    frame = t["frame_wall"]
+    passes = [{"pass": name, "seconds": t[name], "share": t[name] / frame} for name in PASSES if name in t]
+    other = max(frame - sum(p["seconds"] for p in passes), 0.0)
+    passes.append({"pass": "other", "seconds": other, "share": other / frame})
+    return {"method": summary["timing_method"], "frame_s": frame, "passes": passes, "paper_shares": PAPER_SHARES,
+            "timed_frames": summary.get("timed_frames"), "gl_renderer": (summary.get("gl") or {}).get("renderer"),
+            "map_reads": summary.get("map_reads")}
+
+
+def scene_page(result, *, exposures: dict) -> dict:
+    """Everything the page shows of one scene (``result``: ``reports.measuring.results.summaries.SceneResult``)."""
+    s = result.summary
+    components = {}
+    for component in COLOUR_LAYERS:
+        metrics = s["images"][component]
+        components[component] = {name: metrics.get(name, {}) for name in HEADLINE}
+        # the floor over the compared pixels: what the debiased error had subtracted
+        components[component]["reference_noise_floor"] = metrics.get("relative_mse", {}).get("reference_floor")
+    rows = {r["term"]: r for r in s["decomposition"]["rows"]}
+    checks = sorted(result.checks, key=lambda c: (c.passed, c.name))
+    return {
+        "scene": result.name, "description": s["description"], "scene_hash": s["scene_hash"], "point": result.key,
+        "measured_in_this_run": result.measured, "params": s["params"],
+        "shown_params": {k: s["params"][k] for k in SHOWN_PARAMS}, "seed_values": s["seed_values"],
+        "reference": s["reference"], "compared_pixels": s["compared_pixels"], "components": components,
+        "gate": {"passed": None if not checks else all(c.passed for c in checks), "note": result.gate_note,
+                 "budgeted": result.budgeted, "checks": [dataclasses.asdict(c) for c in checks]},
+        "timing": timing(s), "hit_classes": hit_classes(result.tables["segments"]),
+        "power_budget": power_budget(result.tables["photons"]),
+        "decomposition": {"terms": [rows[t] for t in TERMS],
+                          "total": rows["total"], "noise": rows["noise"], "residual": s["decomposition"]["residual"]},
+        "model": s.get("model"), "paths": s["paths"], "exposure": exposures, "warnings": s["warnings"],
+    }
+
+
+def scene_exposures(result) -> dict:
+    """One exposure per shown component: the reference's (its bright pixels to 1)."""
+    return exposures(result.views)
+
+
+def report_summary(results: list, *, params, seeds: int, reference_settings, budgets: dict, measurement,
+                   baseline_dir: str | None, sweep=None, clock: dict) -> dict:
+    pages = [scene_page(r, exposures=scene_exposures(r)) for r in results]
+    checks = [c for p in pages for c in p["gate"]["checks"]]
+    failed = [c for c in checks if not c["passed"]]
+    # a scene with budgets that could not be checked: the gate would fail closed (exit 2), never pass
+    unchecked = [p["scene"] for p in pages if p["gate"]["budgeted"] and not p["gate"]["checks"]]
+    unbudgeted = [p["scene"] for p in pages if not p["gate"]["budgeted"]]
+    passed = False if failed else (None if unchecked or not checks else True)
+    summary = {
+        "kind": "accuracy report", "created": time.strftime("%Y-%m-%d %H:%M:%S %Z"),
+        "params": params.to_dict(), "seeds": seeds, "reference_settings": reference_settings.to_dict(),
+        "measurement": measurement.to_dict(),
+        "budgets": budgets["path"], "baseline": baseline_dir,
+        "gate": {"passed": passed, "checks": len(checks), "failed": len(failed), "unchecked_scenes": unchecked,
+                 "scenes_without_budgets": unbudgeted},
+        "scales": {name: scale.to_dict() for name, scale in SCALES.items()},
+        "exposure_rule": "per scene and component: the reference's 99.5th percentile of lit luminance over the "
+                         "compared pixels maps to 1 (metrics.image.reference_exposure); all images of that "
+                         "component share it",
+        "scenes": pages, "sweep": _sweep_summary(sweep) if sweep is not None else None,
+        "gl_renderers": sorted({str((r.summary.get("gl") or {}).get("renderer")) for r in results}),
+        "code_version": code_version(), "versions": library_versions(), "seconds": clock,
+    }
+    return summary
+
+
+def _sweep_summary(sweep) -> dict:
+    suffice = settings_that_suffice(sweep.tables["points"], sweep.varied)
+    wanted = suffice[suffice["parameter"].isin(("layers", "iterations", "peak_samples"))] if len(suffice) else suffice
+    return {"folder": os.path.abspath(sweep.folder), "varied": sweep.varied, "spec": sweep.spec,
+            "points": int(len(sweep.tables["points"])), "suffice": rows_of(wanted),
+            # what the sweep's figures plot (one row per point: parameters, errors, frame time); the segment and
+            # photon tables they also draw stay in the store (DIR/segments.parquet, DIR/photons.parquet)
+            "point_rows": rows_of(sweep.tables["points"]),
+            "suffice_factor": float(wanted["factor"].iloc[0]) if len(wanted) else None, "figures": [],
+            "variants": _variants_summary(sweep), "best": _best_summary(sweep),
+            "notes": list(getattr(sweep, "notes", []))}
+
+
+def _best_summary(sweep) -> dict | None:
+    """The best-configuration search's rows with a role (paper, adopted, scene best) and
+    its verdict (reports/studies/best/best_search.py); None for another sweep."""
+    table = sweep.tables.get("best")
+    if table is None or not len(table):
+        return None
+    adopted = next((r["config"] for _, r in table.iterrows() if "adopted" in str(r["role"]).split(", ")), None)
+    criterion = str(table["criterion"].iloc[0]) if "criterion" in table else "bias"  # older searches: bias
+    return {"rows": rows_of(role_rows(table)), "verdict": verdict(table, adopted, criterion),
+            "points": int(len(table))}
+
+
+def _variants_summary(sweep) -> dict | None:
+    """A variants sweep's table per point and, per scene, the paper's point and the best
+    variant at no more map reads per segment (reports/studies/sweep/variants.py); else None."""
+    if not is_variants_sweep(sweep.varied) or "best" in sweep.tables:  # the best search has its own view
+        return None
+    table = variant_table(sweep.tables)
+    return {"best": rows_of(best_variants(table)), "points": rows_of(table)}

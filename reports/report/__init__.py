@@ -1,3 +1,0 @@
-"""``volcaustics report``: gather every scene's results, the sweep's, the animations' and
-other renderers' (``run``; a sweep store read back by ``sweep_store``), then draw the page
-(``reports.page``). The only part of the report that measures."""

@@ -1,0 +1,51 @@
+"""An animation measured (``volcaustics animate``): every frame of the approximation and the
+reference through one Renderer and the cache (``run``), temporal reuse beside, the tables,
+the summary (its ``schema``: ``reports.measuring.results.summaries.SCHEMAS``) and the media written."""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+
+from volcaustics.reports.measuring.results.summaries import SCHEMAS
+from volcaustics.reports.measuring.results.versions import code_version
+from volcaustics.reports.studies.animate.animation_frames import render_animation
+from volcaustics.reports.studies.animate.animation_metrics import frame_rows, summarize, temporal_rows
+from volcaustics.reports.studies.animate.animation_read import KIND
+from volcaustics.reports.studies.animate.animation_settings import CVVDP_SKIPPED
+from volcaustics.reports.studies.animate.animation_write import write_animation
+from volcaustics.reports.studies.animate.temporal import add_ema
+
+
+def run_animate(scene, params, *, frames: list, modes: tuple, chains: int, reference_settings, out_dir: str,
+                progress: bool = True) -> tuple:
+    """Measure ``scene``'s animation at ``frames`` in each seed mode of ``modes`` (with
+    ``temporal = ema``, also per-frame beside it) over ``chains`` chains, and write it
+    into ``out_dir``; returns (summary, paths written)."""
+    t0 = time.perf_counter()
+    modes = modes + (("per-frame",) if params.temporal == "ema" and "per-frame" not in modes else ())
+    run_ = render_animation(scene, params, frames=frames, modes=modes, chains=chains,
+                            reference_settings=reference_settings, out_dir=out_dir, progress=progress)
+    add_ema(run_, params)  # temporal = ema: a seed mode of its own, beside per-frame
+    frames_table, temporal = frame_rows(run_), temporal_rows(run_)
+    summary = {"kind": KIND, "schema": SCHEMAS["animation"], "scene": scene.name, "scene_hash": scene.scene_hash(),
+               "animation": scene.animation.canonical_dict(),
+               "frames": frames, "seed_modes": list(run_.modes), "chains": chains, "params": params.to_dict(),
+               "reference": {**dataclasses.asdict(reference_settings), "width": params.width, "height": params.height,
+                             "keys": [r.key for r in run_.references]},
+               "metrics": summarize(run_, frames_table, temporal),
+               "seconds": {"approx_frame_median": _median(run_.approx_seconds),
+                           "reference_frame_median": _median(run_.reference_seconds),
+                           "references_cached": sum(run_.reference_cached), "frames_resumed": run_.resumed,
+                           "total": time.perf_counter() - t0},
+               "perceptual_video_metric": {"name": "ColorVideoVDP", "measured": False, "reason": CVVDP_SKIPPED},
+               "gl": run_.gl, "code_version": code_version()}
+    paths = write_animation(run_, frames_table, temporal, summary, out_dir)
+    return summary, paths
+
+
+def _median(values) -> float:
+    ordered = sorted(values)
+    return ordered[len(ordered) // 2] if ordered else float("nan")
+
+

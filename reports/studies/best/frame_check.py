@@ -1,0 +1,245 @@
+"""The frame check (``volcaustics frames``, ``make frames``): per scene, the paper's
+configuration against ``--preset best`` (its photon_res matched to the paper's frame
+cost on that scene, ``approx.cost_match``), each without and with OIDN
+(``denoise``: the same seeds, so the same frames, denoised), by one frame's caustic
+error and the seeds' mean's debiased error. The scenes are the built-ins and the
+held-out scenes (``scenes/heldout``), which no search saw: a configuration that wins
+only where it was chosen shows it here.
+
+Every scene is resolved and checked before any work (a bad name, a medium without a
+caustic, two files of one scene name are refused at once). Each measured point is kept
+in ``DIR/points/`` under a key of its scene, parameters, seeds and the code version, so
+an interrupted check resumes where it stopped. A scene whose reference has no caustic
+over the compared pixels is refused after its first reference, naming it.
+
+Output (``DIR``): ``frames.parquet`` (one row per scene, configuration and denoiser;
+``group``: builtin, heldout or yours) and ``frames.json`` (its manifest, ``kind`` frames,
+strict JSON, last), both written to a temporary file and renamed. The report's "One
+frame" section reads them (``report --frames DIR``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import math
+import os
+import time
+
+import pandas as pd
+from tqdm import tqdm
+
+from volcaustics.approx.cost_match import with_auto_photon_res
+from volcaustics.approx.params import preset
+from volcaustics.infra.errors import InputError
+from volcaustics.infra.storage import atomic_path, read_json_object
+from volcaustics.reports.measuring.experiment.measurement import MeasurementSettings
+from volcaustics.reports.measuring.experiment.pipeline import run_experiment
+from volcaustics.reports.measuring.experiment.point_checks import checked_settings
+from volcaustics.reports.measuring.results.sizing import REPORT_REFERENCE, sized
+from volcaustics.reports.measuring.results.summaries import ExperimentSummary
+from volcaustics.reports.measuring.results.tables import plain
+from volcaustics.reports.measuring.results.versions import code_version
+from volcaustics.reports.measuring.runner import reference_for
+from volcaustics.reports.studies.sweep.study_limits import FRAME_CHECK_SEEDS
+from volcaustics.scenes import resolve_scene
+from volcaustics.scenes.catalogue import BUILTIN_NAMES, HELDOUT_NAMES, heldout_path
+
+CONFIGS = ("paper", "best")       # the quick preset (the paper's method) and the preset best
+DENOISERS = ("none", "oidn")
+FRAMES_FILE, MANIFEST = "frames.parquet", "frames.json"
+KIND = "frames"                   # frames.json's "kind" (reports.cli.common.FOLDER_MARKERS)
+SCHEMA = 1                        # frames.json's "schema": its shape, checked when read back
+POINTS = "points"                 # DIR/points/: one JSON file per measured point, for resuming
+GROUPS = ("builtin", "heldout", "yours")  # a scene's group: a built-in, a held-out scene, a file of yours
+
+
+def default_scenes() -> list:
+    """Every built-in, then every held-out scene (by path)."""
+    return [*BUILTIN_NAMES, *(heldout_path(name) for name in HELDOUT_NAMES)]
+
+
+def config_params(config: str, scene_arg: str):
+    """The parameters of ``config`` on ``scene_arg`` (best: photon_res matched)."""
+    if config == "paper":
+        return preset("quick")
+    return with_auto_photon_res(scene_arg, preset("best"), "best", given=False)
+
+
+def checked_scenes(scenes, seeds: int) -> list:
+    """(argument, scene, group) per scene, every one resolved and checked before any
+    work: InputError for a bad name or file, a medium without a caustic, a frame that
+    cannot run, or two arguments of one scene name (their rows would collide)."""
+    heldout = {os.path.abspath(heldout_path(name)) for name in HELDOUT_NAMES}
+    seen: dict
+    out, seen = [], {}
+    for arg in scenes:
+        scene = resolve_scene(arg)
+        checked_settings(scene, preset("quick"), seeds)
+        if scene.name in seen:
+            raise InputError(f"frames: {seen[scene.name]} and {arg} are both scene {scene.name!r}: a scene is "
+                             f"measured once (rename one, its [scene] name)")
+        seen[scene.name] = arg
+        group = ("builtin" if arg in BUILTIN_NAMES else "heldout" if os.path.abspath(arg) in heldout else "yours")
+        out.append((arg, scene, group))
+    return out
+
+
+def run_frames(scenes, out_dir: str, *, seeds: int = FRAME_CHECK_SEEDS, progress: bool = True) -> pd.DataFrame:
+    """Measure every (scene, configuration, denoiser), reusing the points ``out_dir``
+    already holds; write and return the table."""
+    checked = checked_scenes(scenes, seeds)
+    denoisers = usable_denoisers(progress)
+    rows, t0, version = [], time.perf_counter(), code_version()
+    todo = [(s, c) for s in checked for c in CONFIGS]
+    for (scene_arg, scene, group), config in tqdm(todo, desc="frames", unit="configuration", disable=not progress):
+        matched = config_params(config, scene_arg)  # once: the denoiser is beside the cost
+        for denoiser in denoisers:
+            params = dataclasses.replace(matched, denoise=denoiser)
+            key = point_key(scene, params, seeds, version)
+            row = stored_point(out_dir, key)
+            if row is None:
+                reference = reference_for(scene, sized(REPORT_REFERENCE, scene, params), "continue")
+                summary = run_experiment(scene, params, seeds=seeds, reference=reference,
+                                         measurement=MeasurementSettings(scope="gate")).summary
+                row = {"scene": scene.name, "heldout": group == "heldout", "group": group, "config": config,
+                       "denoise": denoiser, **_row(summary)}
+                if row["frame_relmse"] is None or not math.isfinite(row["frame_relmse"]):
+                    raise InputError(f"frames: {scene_arg}: the reference's caustic is zero over the compared "
+                                     f"pixels, so there is no caustic error to measure (does the light's beam "
+                                     f"reach the glass, and the glass's light the medium?)")
+                store_point(out_dir, key, row)
+            rows.append({name: math.nan if value is None else value for name, value in row.items()})
+    table = with_ratios(pd.DataFrame(rows))  # None as NaN: a stored row's NaN came back as null
+    os.makedirs(out_dir, exist_ok=True)
+    with atomic_path(os.path.join(out_dir, FRAMES_FILE)) as tmp:
+        table.to_parquet(tmp, index=False)
+    manifest = {"kind": KIND, "schema": SCHEMA, "scenes": list(scenes), "seeds": seeds, "configs": list(CONFIGS),
+                "denoisers": list(denoisers), "code_version": version, "seconds": time.perf_counter() - t0,
+                "verdict": verdict(table)}
+    write_manifest(out_dir, manifest)
+    return table
+
+
+def write_manifest(out_dir: str, manifest: dict) -> None:
+    """``DIR/frames.json``, strict JSON (NaN as null), through a temporary file."""
+    with atomic_path(os.path.join(out_dir, MANIFEST)) as tmp, open(tmp, "w", encoding="utf-8") as fh:
+        json.dump(plain(manifest), fh, indent=1, allow_nan=False)
+
+
+def usable_denoisers(say: bool = True) -> tuple:
+    """DENOISERS less OIDN where its binding cannot load here (said on stderr): the frame
+    check's rows without a denoiser are its verdict, OIDN's are beside it."""
+    from volcaustics.approx.denoise import unavailable
+
+    reason = unavailable()
+    if reason is None:
+        return DENOISERS
+    if say:
+        import sys
+
+        print(f"frames: note: {reason}; measuring without the denoiser rows", file=sys.stderr)
+    return tuple(d for d in DENOISERS if d != "oidn")
+
+
+def point_key(scene, params, seeds: int, version: str) -> str:
+    doc = [scene.scene_hash(), params.to_dict(), seeds, version]
+    return hashlib.sha256(json.dumps(doc, sort_keys=True).encode()).hexdigest()[:24]
+
+
+def stored_point(out_dir: str, key: str) -> dict | None:
+    """The row a previous run stored under ``key``; None when there is none or it cannot
+    be read (measured again)."""
+    try:
+        doc = read_json_object(os.path.join(out_dir, POINTS, f"{key}.json"))
+    except (OSError, ValueError):
+        return None
+    row = doc.get("row")
+    return row if doc.get("key") == key and isinstance(row, dict) else None
+
+
+def store_point(out_dir: str, key: str, row: dict) -> None:
+    os.makedirs(os.path.join(out_dir, POINTS), exist_ok=True)
+    with atomic_path(os.path.join(out_dir, POINTS, f"{key}.json")) as tmp, open(tmp, "w", encoding="utf-8") as fh:
+        json.dump(plain({"key": key, "row": row}), fh, allow_nan=False)
+
+
+def _row(summary: ExperimentSummary) -> dict:
+    """A point's numbers: photon_res, cost, one frame's and the mean's caustic errors, times."""
+    caustic = summary["images"]["caustic"]
+    frame, mean = caustic["frame_relative_mse"], caustic["relative_mse"]
+    timings = summary["approx_timings_s"]
+    return {"photon_res": summary["params"]["photon_res"], "frame_cost": summary["cost"]["total"],
+            **{f"predicted_{name}": value for name, value in summary.get("predicted_frame", {}).items()},
+            "frame_relmse": frame["debiased"], "frame_relmse_se": frame["standard_error"],
+            "relmse_debiased": mean["debiased"], "relmse_se": mean["standard_error"],
+            "hdr_flip": caustic["hdr_flip"]["value"], "frame_s": timings.get("frame_wall"),
+            "denoise_s": timings.get("denoise"), "denoised_pixels": summary["cost"].get("denoised_pixels")}
+
+
+def with_ratios(table: pd.DataFrame) -> pd.DataFrame:
+    """Per row its cost, time, one-frame and debiased errors against its scene's paper
+    configuration without a denoiser: ``counted_ratio`` (the counted total), ``cost_ratio``
+    (the largest predicted ratio over the cost model's weight sets, ``predicted_<set>``
+    columns), ``time_ratio`` (measured frame time, each point's own timed frames)."""
+    table = table.copy()
+    paper = table[(table["config"] == "paper") & (table["denoise"] == "none")].set_index("scene")
+    table["counted_ratio"] = table["frame_cost"] / table["scene"].map(paper["frame_cost"])
+    predicted = [c for c in table.columns if c.startswith("predicted_")]
+    ratios = [table[c] / table["scene"].map(paper[c]) for c in predicted]
+    table["cost_ratio"] = pd.concat(ratios, axis=1).max(axis=1) if ratios else table["counted_ratio"]
+    table["time_ratio"] = (table["frame_s"] / table["scene"].map(paper["frame_s"]) if "frame_s" in table
+                           else float("nan"))
+    table["frame_ratio"] = table["frame_relmse"] / table["scene"].map(paper["frame_relmse"])
+    table["relmse_ratio"] = table["relmse_debiased"].clip(lower=0.0) / table["scene"].map(paper["relmse_debiased"])
+    return table
+
+
+GOAL = 0.5  # the goal: one frame's caustic relMSE at most half the paper configuration's on every scene
+
+
+def verdict(table: pd.DataFrame) -> dict:
+    """best without a denoiser against the goal, on the built-ins, the held-out scenes
+    and the user's scenes apart (GROUPS); the same with OIDN beside."""
+    out = {"goal": GOAL}
+    groups = table["group"] if "group" in table else table["heldout"].map({True: "heldout", False: "builtin"})
+    for denoiser in DENOISERS:
+        best = table[(table["config"] == "best") & (table["denoise"] == denoiser)]
+        for group in GROUPS:
+            rows = best[groups[best.index] == group]
+            if len(rows):
+                out[f"{denoiser}_{group}_worst_frame_ratio"] = float(rows["frame_ratio"].max())
+                out[f"{denoiser}_{group}_worst_cost_ratio"] = float(rows["cost_ratio"].max())
+                out[f"{denoiser}_{group}_worst_time_ratio"] = float(rows["time_ratio"].max())
+    plain = table[(table["config"] == "best") & (table["denoise"] == "none")]
+    out["met"] = bool(len(plain) and (plain["frame_ratio"] <= GOAL).all() and (plain["cost_ratio"] <= 1.01).all())
+    return out
+
+
+# the columns the report's "One frame" section reads (reports.presenting.page.frame_check_section)
+READ_COLUMNS = ("scene", "heldout", "config", "denoise", "photon_res", "cost_ratio", "frame_relmse", "frame_relmse_se",
+                "frame_ratio", "relmse_debiased", "relmse_se", "relmse_ratio")
+
+
+def load_frames(folder: str) -> tuple:
+    """(table, manifest) of a frame check's folder, checked against the shape this
+    module writes (``kind``, ``schema``, a verdict with a numeric goal, the columns the
+    report reads); FileNotFoundError, or ValueError naming the file, field and what was
+    expected."""
+    path = os.path.join(folder, MANIFEST)
+    manifest = read_json_object(path)
+    if manifest.get("kind") != KIND:
+        raise ValueError(f"{path}: kind = {manifest.get('kind')!r}: expected {KIND!r} (written by volcaustics frames)")
+    if type(manifest.get("schema")) is not int or manifest["schema"] != SCHEMA:
+        raise ValueError(f"{path}: schema = {manifest.get('schema')!r}: expected {SCHEMA}")
+    v = manifest.get("verdict")
+    if not isinstance(v, dict) or isinstance(v.get("goal"), bool) or not isinstance(v.get("goal"), (int, float)) \
+            or not isinstance(v.get("met"), bool):
+        raise ValueError(f"{path}: verdict = {v!r}: expected an object with a number goal and a true/false met")
+    table = pd.read_parquet(os.path.join(folder, FRAMES_FILE))
+    missing = [c for c in READ_COLUMNS if c not in table.columns]
+    if missing:
+        raise ValueError(f"{os.path.join(folder, FRAMES_FILE)}: no column {missing[0]!r}: not a frame check's table "
+                         f"(another command's, or damaged)")
+    return table, manifest
