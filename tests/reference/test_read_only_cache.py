@@ -39,6 +39,7 @@ def _make_read_only(folder):
     os.chmod(folder, 0o555)
 
 
+@pytest.mark.slow  # end to end, several points (10-50 s on 2 cores): `make test-fast` skips it
 def test_a_read_only_cache_serves_its_entries_and_refuses_only_a_write(tmp_path, monkeypatch, capsys):
     cache = tmp_path / "cache"
     monkeypatch.setenv("VOLCAUSTICS_CACHE", str(cache))

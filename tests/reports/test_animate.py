@@ -60,6 +60,7 @@ def _brightening(tmp_path) -> str:
     return str(path)
 
 
+@pytest.mark.slow  # end to end, several points (10-50 s on 2 cores): `make test-fast` skips it
 def test_animate_writes_the_set_and_a_new_seed_per_frame_flickers_more(cache, tmp_path):
     """End to end at 32² with 32² photons: the tables, the MP4 (imageio reads back the
     frame count), the WebP, the plot and the summary. The metric's negative control: a

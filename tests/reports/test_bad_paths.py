@@ -73,6 +73,7 @@ def test_a_read_only_output_folder(tmp_path, capsys):
         folder.chmod(0o755)
 
 
+@pytest.mark.slow  # end to end, several points (10-50 s on 2 cores): `make test-fast` skips it
 def test_a_cache_that_is_a_file_is_named_as_such(tmp_path):
     """Not "an error in the scene's mesh": the cache folder, and the variable to fix (in a
     fresh process: this one may hold the generated meshes in memory already). Listing

@@ -236,6 +236,7 @@ def test_a_match_on_a_cache_that_cannot_be_written_is_computed_not_stored(tmp_pa
         matcher.release()
 
 
+@pytest.mark.slow  # end to end, several points (10-50 s on 2 cores): `make test-fast` skips it
 def test_a_sweep_of_the_preset_best_matches_each_points_photon_res(tmp_path, monkeypatch):
     """`sweep --preset best` once measured best at the preset's photon_res 256: matching
     ran only in approx, measure and animate. Each point is now matched like them (the
@@ -328,6 +329,7 @@ def test_the_frame_criterion_ranks_by_one_frames_error_and_its_goal_is_half():
     assert v["worst_bias_ratio"] == pytest.approx(0.5)
 
 
+@pytest.mark.slow  # end to end, several points (10-50 s on 2 cores): `make test-fast` skips it
 def test_preset_best_matches_the_papers_frame_cost_on_any_scene_file(monkeypatch, tmp_path):
     """photon_res = auto (the preset best): on a held-out scene file, at 48², the matched
     best configuration costs at most the paper configuration at the same size, and 5%

@@ -88,6 +88,7 @@ def test_a_sweep_runs_on_workers_that_share_no_cache(cluster, empty_cache, tmp_p
     assert "6 already in the store, 0 computed" in capsys.readouterr().out
 
 
+@pytest.mark.slow  # end to end, several points (10-50 s on 2 cores): `make test-fast` skips it
 def test_a_point_sent_back_is_stored_whole_or_refused(tmp_path, cache, capsys):
     """What a worker sends back is put in the store only when its files match its
     summary: a byte changed on the way is refused and nothing is stored (negative control)."""

@@ -46,6 +46,7 @@ def _exit_2(capsys, argv, fragment, *, within=20.0) -> str:
 
 # --- D: limits before the references ------------------------------------------------
 
+@pytest.mark.slow  # end to end, several points (10-50 s on 2 cores): `make test-fast` skips it
 @pytest.mark.parametrize("command", ["measure", "sweep", "gate", "report"])
 def test_a_frame_beyond_memory_fails_before_any_reference_renders(cache, tmp_path, capsys, command):
     """photon_res passes its range but the frame cannot run: measure, sweep, gate and
@@ -146,6 +147,7 @@ def _files(folder: Path) -> dict:
     return {p.name: p.read_bytes() for p in folder.iterdir() if p.is_file()}
 
 
+@pytest.mark.slow  # end to end, several points (10-50 s on 2 cores): `make test-fast` skips it
 def test_an_interrupted_sweep_keeps_its_last_complete_set_of_tables(cache, tmp_path, monkeypatch, capsys):
     """Ctrl-C while the second sweep writes its tables (after its points are stored):
     sweep.json, the four tables and suffice.csv stay the first sweep's, byte for byte, so
@@ -239,6 +241,7 @@ def test_a_damaged_baseline_or_sweep_manifest_exits_2(cache, tmp_path, capsys, c
     assert _nothing_rendered(cache)
 
 
+@pytest.mark.slow  # end to end, several points (10-50 s on 2 cores): `make test-fast` skips it
 @pytest.mark.parametrize("case", ["gate-baseline", "report-sweep"])
 def test_a_manifest_that_is_a_fifo_does_not_hang(tmp_path, case):
     """Opening a FIFO blocks until a writer comes: a fresh process with a time limit, so

@@ -41,6 +41,7 @@ def small(monkeypatch, cache):
     return state
 
 
+@pytest.mark.slow  # end to end, several points (10-50 s on 2 cores): `make test-fast` skips it
 def test_an_interrupted_frame_check_resumes_and_a_finished_one_measures_nothing(small, tmp_path):
     out = tmp_path / "frames"
     total = len(frames.CONFIGS) * len(frames.usable_denoisers(False))

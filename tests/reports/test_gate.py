@@ -59,6 +59,7 @@ def gate(tmp_path, *args, out="gate"):
     return main(["gate", "--out", str(tmp_path / out), "--quiet", *SIZE, *args])
 
 
+@pytest.mark.slow  # end to end, several points (10-50 s on 2 cores): `make test-fast` skips it
 def test_unmodified_passes_and_degraded_fail_the_right_check(env, capsys):
     tmp = env
     spec = budgets(tmp, BUNNY)
@@ -200,6 +201,7 @@ caustic = { energy_ratio = [0.0, 10.0] }
 """
 
 
+@pytest.mark.slow  # end to end, several points (10-50 s on 2 cores): `make test-fast` skips it
 def test_flicker_budgets_on_an_animation(env, capsys):
     """`gate --animation DIR` holds an animation to [animation.SCENE] flicker budgets: a
     limit above the measured flicker passes, one below it (but resolvable) fails with exit

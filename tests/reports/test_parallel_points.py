@@ -23,6 +23,7 @@ def _measure(store, **options):
                           images=("views",), progress=False, **options)
 
 
+@pytest.mark.slow  # end to end, several points (10-50 s on 2 cores): `make test-fast` skips it
 def test_parallel_points_store_what_this_process_stores(cache, tmp_path, monkeypatch):
     monkeypatch.setattr(runner, "default_workers", lambda: 2)
     monkeypatch.setattr(runner, "TOOLS", {})  # this process's renderers: none made when the workers measure

@@ -111,6 +111,7 @@ def _parse(page: str) -> _Page:
     return parser
 
 
+@pytest.mark.slow  # the whole report on the built-ins (about 40 s, once a run): `make test-fast` skips it
 def test_summary_holds_every_scene_and_the_gate_verdicts(built):
     s = built["cold"]
     assert [p["scene"] for p in s["scenes"]] == list(SCENES)
@@ -146,6 +147,7 @@ def test_summary_holds_every_scene_and_the_gate_verdicts(built):
         assert 0 < inside <= page["timing"]["frame_s"] and passes["other"]["seconds"] >= 0
 
 
+@pytest.mark.slow  # the whole report on the built-ins (about 40 s, once a run): `make test-fast` skips it
 def test_the_page_shows_the_summary_numbers(built):
     """Every overview cell is the summary's number as the page formats it."""
     s, parsed = built["cold"], _parse(built["page"])
@@ -189,6 +191,7 @@ def test_the_page_shows_the_summary_numbers(built):
     assert sphere["cells"][9].startswith("✗ FAIL caustic.hdr_flip_max")
 
 
+@pytest.mark.slow  # the whole report on the built-ins (about 40 s, once a run): `make test-fast` skips it
 def test_the_page_is_self_contained(built):
     parsed = _parse(built["page"])
     assert parsed.external == []
@@ -204,6 +207,7 @@ def test_the_page_is_self_contained(built):
     assert "image-rendering:pixelated" in built["page"]
 
 
+@pytest.mark.slow  # the whole report on the built-ins (about 40 s, once a run): `make test-fast` skips it
 def test_another_renderer_beside_the_approximation(built):
     """`report --compare files=DIR`: one more row for refocus in the Renderers table, its
     numbers those `compare` wrote, its images in refocus's section; sphere1 has none."""
@@ -221,6 +225,7 @@ def test_another_renderer_beside_the_approximation(built):
     assert "id='compare-0-renderer-caustic'" in section and "id='compare-0'" not in page[page.index("id='scene-1'"):]
 
 
+@pytest.mark.slow  # the whole report on the built-ins (about 40 s, once a run): `make test-fast` skips it
 def test_a_comparison_the_report_cannot_show_exits_2(built, tmp_path, capsys):
     """A comparison of a scene the report does not show, or one edited since written
     (its summary's own SHA-256), exits 2 before anything renders."""
@@ -240,6 +245,7 @@ def test_a_comparison_the_report_cannot_show_exits_2(built, tmp_path, capsys):
     assert not (tmp_path / "a").exists() and not (tmp_path / "b").exists()
 
 
+@pytest.mark.slow  # the whole report on the built-ins (about 40 s, once a run): `make test-fast` skips it
 def test_the_over_time_section(built):
     """An animation measured by `animate` shows as "Over time": its embedded animated
     WebP, its plot and its flicker numbers, the same as its own summary.json."""
@@ -254,6 +260,7 @@ def test_the_over_time_section(built):
     assert f"{100 * flicker:.2f}%" in page
 
 
+@pytest.mark.slow  # the whole report on the built-ins (about 40 s, once a run): `make test-fast` skips it
 def test_the_sweep_section(built):
     sweep = built["cold"]["sweep"]
     assert sweep["varied"] == ["layers"] and sweep["points"] == 2
@@ -265,6 +272,7 @@ def test_the_sweep_section(built):
     assert "Settings that suffice" in built["page"] and "id='suffice'" in built["page"]
 
 
+@pytest.mark.slow  # the whole report on the built-ins (about 40 s, once a run): `make test-fast` skips it
 def test_a_report_keeps_only_its_own_figures(built):
     """An earlier --sweep's figures do not outlive it: a report rewritten with a sweep keeps
     just this sweep's figures (and files that are not figures); without one, none."""
@@ -283,6 +291,7 @@ def test_a_report_keeps_only_its_own_figures(built):
     assert sorted(p.name for p in (out / "figures").iterdir()) == ["notes.txt"]
 
 
+@pytest.mark.slow  # the whole report on the built-ins (about 40 s, once a run): `make test-fast` skips it
 def test_a_warm_report_measures_nothing_and_says_the_same(built):
     cold, warm = built["cold"], built["warm"]
     assert [p["measured_in_this_run"] for p in warm["scenes"]] == [False, False]
@@ -296,6 +305,7 @@ def test_a_warm_report_measures_nothing_and_says_the_same(built):
     assert images[0] == images[1]
 
 
+@pytest.mark.slow  # the whole report on the built-ins (about 40 s, once a run): `make test-fast` skips it
 def test_a_point_measured_again_draws_its_pictures_again(built, monkeypatch, tmp_path):
     """Negative control for the pictures' cache: a stored summary that changed (a point
     measured again) is a new cache entry, not the old pictures."""
@@ -312,6 +322,7 @@ def test_a_point_measured_again_draws_its_pictures_again(built, monkeypatch, tmp
     assert drawn == ["k", "k"]
 
 
+@pytest.mark.slow  # the whole report on the built-ins (about 40 s, once a run): `make test-fast` skips it
 def test_a_damaged_stored_result_is_measured_again(built, monkeypatch):
     root = built["root"]
     monkeypatch.setenv("VOLCAUSTICS_CACHE", str(root / "cache"))
@@ -326,6 +337,7 @@ def test_a_damaged_stored_result_is_measured_again(built, monkeypatch):
     assert second["components"] == first["components"]   # same seeds, same reference: the same numbers
 
 
+@pytest.mark.slow  # the whole report on the built-ins (about 40 s, once a run): `make test-fast` skips it
 def test_the_page_survives_missing_numbers_and_odd_names(built):
     """A metric the store holds as null (NaN), a map that was not computed and a scene
     named with quotes and markup: the page still renders, shows "–", escapes the name
@@ -360,6 +372,7 @@ def test_the_page_survives_missing_numbers_and_odd_names(built):
     assert all(img.get("id", "s").startswith("s") for img in parsed.images)
 
 
+@pytest.mark.slow  # the whole report on the built-ins (about 40 s, once a run): `make test-fast` skips it
 def test_the_gate_with_a_baseline_keeps_budget_failures(built, monkeypatch, tmp_path):
     """A regression test where the baseline has the scene, a note where it has not;
     the budget failure stays whatever the regression part finds."""
@@ -546,6 +559,7 @@ def test_report_and_reference_cli_share_one_cache_entry(tmp_path, monkeypatch, c
     assert os.path.exists(tmp_path / "rep" / "index.html")
 
 
+@pytest.mark.slow  # the whole report on the built-ins (about 40 s, once a run): `make test-fast` skips it
 def test_the_first_screen_answers_the_question(built):
     """The page opens on every scene's caustic error by cause, then the gate's verdict; the
     parameters the scenes share are stated once, and a scene's row lists only its own."""

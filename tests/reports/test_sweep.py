@@ -44,6 +44,7 @@ def _complete(store: Path) -> dict:
             if not p.name.startswith(".") and s.summary(p.name) is not None}
 
 
+@pytest.mark.slow  # end to end, several points (10-50 s on 2 cores): `make test-fast` skips it
 def test_dask_local_cluster_runs_a_sweep_and_writes_tables_and_figures(env, tmp_path, capsys):
     out = tmp_path / "store"
     assert main(["sweep", _spec(tmp_path), "-o", str(out), "--dask", "local:2", "--quiet"]) == 0
@@ -68,6 +69,7 @@ def test_dask_local_cluster_runs_a_sweep_and_writes_tables_and_figures(env, tmp_
     assert _complete(out) == before
 
 
+@pytest.mark.slow  # end to end, several points (10-50 s on 2 cores): `make test-fast` skips it
 def test_a_damaged_point_is_detected_and_recomputed(env, tmp_path, capsys):
     out = tmp_path / "store"
     spec = _spec(tmp_path, SPEC.replace("iterations = [4, 8]", "iterations = [4]"))
@@ -108,6 +110,7 @@ def _interrupted_sweep(tmp_path, *pool) -> tuple:
     return command, out, process.returncode, err.decode()
 
 
+@pytest.mark.slow  # end to end, several points (10-50 s on 2 cores): `make test-fast` skips it
 def test_sigint_keeps_finished_points_and_the_rerun_computes_only_the_rest(env, tmp_path):
     """SIGINT to the whole process group (Ctrl-C at a terminal) after the first point is
     in the store: exit 130, no partial point and no temporary left (the workers ignore
@@ -232,6 +235,7 @@ class _Silent(threading.Thread):
     (None, "no Dask scheduler answered"),
     (b"HTTP/1.1 200 OK\r\nContent-Length: 2\r\n\r\nok" * 64, "not a Dask scheduler"),
 ])
+@pytest.mark.slow  # end to end, several points (10-50 s on 2 cores): `make test-fast` skips it
 def test_a_port_that_is_not_a_scheduler_is_refused_in_bounded_time(empty_cache, tmp_path, capsys, reply, message):
     """A port that accepts but never answers once hung the sweep silently; an HTTP server
     ended in numpy's "Unable to allocate 3.07 EiB". Both exit 2 naming the address, within
@@ -313,6 +317,7 @@ def test_store_commit_keeps_a_complete_copy_and_replaces_a_damaged_one(tmp_path)
     assert pd.read_parquet(Path(store.point_dir(key)) / "images.parquet")["x"].tolist() == [3]
 
 
+@pytest.mark.slow  # end to end, several points (10-50 s on 2 cores): `make test-fast` skips it
 def test_two_sweeps_writing_one_store_do_not_corrupt_it(env, tmp_path):
     """Two sweeps of one spec started together on one store: both succeed, every point
     is there once and whole, and the consolidated tables hold each point once."""
@@ -359,6 +364,7 @@ search = ["dda"]
 start_rule = ["id"]""")
 
 
+@pytest.mark.slow  # end to end, several points (10-50 s on 2 cores): `make test-fast` skips it
 def test_a_variants_sweep_writes_its_tables_and_figures_and_the_report_shows_it(env, tmp_path, capsys):
     """search / start_rule varied over two grids: variants.csv (the paper's point marked,
     map reads and the intersection term per point), variants_best.csv, the Pareto figure,
@@ -383,6 +389,7 @@ def test_a_variants_sweep_writes_its_tables_and_figures_and_the_report_shows_it(
     assert "id='variants-best'" in html and "variants_refocus" in html
 
 
+@pytest.mark.slow  # end to end, several points (10-50 s on 2 cores): `make test-fast` skips it
 def test_a_later_sweep_into_the_same_folder_leaves_no_output_of_the_earlier(env, tmp_path, capsys):
     """A variants sweep, then one over layers into the same folder: variants.csv,
     variants_best.csv and the variants figure of the first stayed beside the second's
@@ -415,6 +422,7 @@ def test_bad_scene_fields_exit_2_naming_the_key(env, tmp_path, capsys, args, mes
     assert not out.exists()
 
 
+@pytest.mark.slow  # end to end, several points (10-50 s on 2 cores): `make test-fast` skips it
 def test_a_density_sweep_reads_the_model_term_against_optical_depth(env, tmp_path, capsys):
     """Two densities of one scene with 2 scattering orders: the scene fields and the
     optical depth are columns, the model's own error is measured at each point and grows
