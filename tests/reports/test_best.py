@@ -207,15 +207,34 @@ def test_a_remembered_match_renders_nothing_not_even_the_papers_frame(matched_me
     assert _reread(folder, base, adaptive, memo, may_render=False) == matched
 
 
+class _WouldRender(Exception):
+    pass
+
+
 @pytest.mark.parametrize("value", [2000, 0, -5, True, "256", None])
 def test_an_edited_or_damaged_match_is_recomputed(matched_memo, value):
     """An entry is sealed: a photon_res edited by hand (a plausible 2000, whose frame would
     cost 400× the paper's), out of range or of the wrong type is not used but recomputed
-    (negative control: the test above, where the intact entry is used)."""
+    (negative control: the test above, where the intact entry is used). Every value is
+    refused (the matcher goes on to render); the recomputation itself runs once, for 2000."""
     folder, base, adaptive, matched, memo = matched_memo
     (key, entry), = memo.items()
     edited = {key: {**entry, "photon_res": value}}
-    assert _reread(folder, base, adaptive, edited, may_render=True) == matched
+    if value == 2000:
+        assert _reread(folder, base, adaptive, edited, may_render=True) == matched
+        return
+    (folder / MATCHED).write_text(json.dumps(edited))
+    again = CostMatcher(str(folder))
+
+    def render(*_):
+        raise _WouldRender
+
+    again.cost = render
+    try:
+        with pytest.raises(_WouldRender):
+            again.match_to("refocus", adaptive, base)
+    finally:
+        again.release()
 
 
 def test_a_match_on_a_cache_that_cannot_be_written_is_computed_not_stored(tmp_path, monkeypatch, capsys):
