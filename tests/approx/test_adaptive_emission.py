@@ -101,6 +101,7 @@ def _z(a: np.ndarray, b: np.ndarray) -> float:
     return float((a.mean() - b.mean()) / np.hypot(a.std(ddof=1) / np.sqrt(len(a)), b.std(ddof=1) / np.sqrt(len(b))))
 
 
+@pytest.mark.slow  # statistical: a z-test over frames of both emissions (about 6 s a scene)
 @pytest.mark.parametrize("name", ["sphere1", "bunny"])
 def test_adaptive_emission_splats_the_uniform_energy_in_expectation(name):
     scene = resolve_scene(name)
