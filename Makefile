@@ -46,14 +46,16 @@ test-fast: setup
 # ruff (pyproject.toml [tool.ruff]), the reference check (every path, module name and docs
 # section named anywhere exists), the import-resolution check (mypy follows every
 # volcaustics.* import of the package and its tests; its rules limited to imports), mypy on
-# the package with pyproject.toml's [tool.mypy] (0 errors; the modules not yet typed are
-# listed there), the private-name check (no module imports or reaches another module's
-# _name) and the shader check (every program variant under glslangValidator).
+# the package with pyproject.toml's [tool.mypy] (0 errors), the annotation check (every
+# public function annotates its parameters and return), the private-name check (no module
+# imports or reaches another module's _name) and the shader check (every program variant
+# under glslangValidator).
 lint: setup
 	$(BIN)/ruff check .
 	$(BIN)/python scripts/check_references.py
 	$(BIN)/python scripts/check_imports.py
 	$(BIN)/python -m mypy -p volcaustics
+	$(BIN)/python scripts/check_annotations.py
 	$(BIN)/python scripts/check_private_names.py
 	$(BIN)/python scripts/check_shaders.py
 

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import moderngl
 import numpy as np
 
@@ -12,6 +14,12 @@ from .glsl import program, uniform
 from .glsl import set_uniforms as _set
 from .light import spot_constants
 from .transforms import gl_matrix, look_at, perspective
+
+if TYPE_CHECKING:
+    from volcaustics.scenes.model import Medium, Scene
+
+    from .geometry import SceneGeometry
+    from .light import LightFrustum
 
 MAX_DIFFUSE = 16
 
@@ -27,7 +35,7 @@ class CameraView:
         self.view_proj = self.proj @ self.view
         self.inv_view_proj = np.linalg.inv(self.view_proj)
 
-    def set_uniforms(self, prog: moderngl.Program):
+    def set_uniforms(self, prog: moderngl.Program) -> None:
         for name, value in (("eye", tuple(self.eye)), ("viewport", (float(self.width), float(self.height)))):
             if name in prog:
                 uniform(prog, name).value = value
@@ -41,7 +49,7 @@ class CameraPasses:
     (``approx.params.defines(params, "fog")``: FOG_STEPS) and the phase function."""
 
     @staticmethod
-    def programs(medium, fog_defines: dict) -> dict:
+    def programs(medium: Medium, fog_defines: dict) -> dict:
         """name → (shader stages, defines) of the camera passes' programs: the
         constructor's list and the shader check's (scripts/check_shaders.py)."""
         phase = {"PHASE_G": repr(float(medium.phase.g))} if medium.phase.kind == "hg" else {}
@@ -57,7 +65,7 @@ class CameraPasses:
         self.empty_vao = ctx.vertex_array(self.fog, [])
         self.empty_vao_direct = ctx.vertex_array(self.direct, [])
 
-    def render_gbuffer(self, geometry, view: CameraView):
+    def render_gbuffer(self, geometry: SceneGeometry, view: CameraView) -> tuple[moderngl.Texture, moderngl.Texture]:
         """(geometry, normal) RGBA32F textures: (distance to eye, KIND_*, material, 0) and world normals
         (cleared to 0: KIND_NONE where no surface is seen)."""
         ctx = self.ctx
@@ -110,7 +118,9 @@ class CameraPasses:
         fbo.release()
         return out
 
-    def render_fog(self, scene, view, frustum, box, shadow_map, light_res, gbuffer_geometry) -> moderngl.Texture:
+    def render_fog(self, scene: Scene, view: CameraView, frustum: LightFrustum, box: tuple[np.ndarray, np.ndarray],
+                   shadow_map: moderngl.Texture, light_res: int,
+                   gbuffer_geometry: moderngl.Texture) -> moderngl.Texture:
         """Fog of ``scene`` inside ``box``, the (min, max) corners of its medium (scenes.bounds)."""
         prog = self.fog
         self._common(prog, scene, view, frustum, shadow_map, light_res, gbuffer_geometry)
@@ -118,7 +128,9 @@ class CameraPasses:
              scene_max=tuple(box[1]))
         return self._draw(self.empty_vao, view)
 
-    def render_direct(self, scene, view, frustum, shadow_map, light_res, gbuffer_geometry, gbuffer_normal):
+    def render_direct(self, scene: Scene, view: CameraView, frustum: LightFrustum, shadow_map: moderngl.Texture,
+                      light_res: int, gbuffer_geometry: moderngl.Texture,
+                      gbuffer_normal: moderngl.Texture) -> moderngl.Texture:
         prog = self.direct
         self._common(prog, scene, view, frustum, shadow_map, light_res, gbuffer_geometry)
         gbuffer_normal.use(location=2)
@@ -127,6 +139,6 @@ class CameraPasses:
         _set(prog, gbuffer_normal=2, albedo=albedo, texel_angle=2.0 * frustum.tan_half / light_res)
         return self._draw(self.empty_vao_direct, view)
 
-    def release(self):
+    def release(self) -> None:
         for r in (self.empty_vao, self.empty_vao_direct, self.gbuffer, self.fog, self.direct):
             r.release()

@@ -10,6 +10,7 @@ docs/decisions.md "Shaders under the reference compiler").
 from __future__ import annotations
 
 import contextlib
+from collections.abc import Iterator
 
 import moderngl
 
@@ -51,7 +52,7 @@ _HOME: dict[int, moderngl.Framebuffer] = {}
 
 
 @contextlib.contextmanager
-def bound(ctx: moderngl.Context, fbo: moderngl.Framebuffer):
+def bound(ctx: moderngl.Context, fbo: moderngl.Framebuffer) -> Iterator[moderngl.Framebuffer]:
     """Render into ``fbo`` inside the block; afterwards bind what was bound before.
 
     Standalone contexts have no default framebuffer; without this, releasing the

@@ -26,12 +26,17 @@ light layers draw every mesh twice per layer, which their written fragments do n
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING, cast
+
 import numpy as np
 
 from volcaustics.scenes.formats import STATUS_COLLIDED
 
 from .denoise import DENOISED
 from .emission import emission_reads
+
+if TYPE_CHECKING:
+    from .params import ApproxParams
 
 # denoised_pixels (denoise = oidn, approx.denoise): beside the cost, never in its total
 # a frame's passes as Frame.timings names them (trace: its steps summed), in frame order
@@ -47,7 +52,7 @@ COST_FIELDS = ("map_reads", "emission_reads", "splats", "density_reads", "total"
 DENSITY_READS = 5
 
 
-def frame_cost(records: list, params, work: dict | None = None) -> dict:
+def frame_cost(records: list, params: ApproxParams, work: dict | None = None) -> dict:
     """One frame's cost (COST_FIELDS) from its per-step records (``Frame.records``),
     its resolved parameters and its counted work (``Frame.work``: fragments and
     primitives per pass, the trace loop's lookups, own and lockstep; None: those fields
@@ -58,7 +63,8 @@ def frame_cost(records: list, params, work: dict | None = None) -> dict:
     splats = sum(int(np.count_nonzero(r["status"] == STATUS_COLLIDED)) for r in records)
     emitted = len(records[0]) if records else 0
     emission = emission_reads(params.photon_res, emitted, emission=params.emission, splat=params.splat)
-    denoised = len(DENOISED) * params.width * params.height if params.denoise == "oidn" else 0
+    # resolved parameters: width and height set
+    denoised = len(DENOISED) * cast(int, params.width) * cast(int, params.height) if params.denoise == "oidn" else 0
     density = DENSITY_READS * splats if params.splat == "density" else 0
     counted = {f"fragments_{name}": float("nan") if fragments is None else int(fragments.get(name, 0))
                for name in FRAGMENT_PASSES}

@@ -24,6 +24,7 @@ import math
 import os
 import statistics
 from functools import lru_cache
+from typing import TYPE_CHECKING
 
 from volcaustics import scenes
 from volcaustics.approx import Renderer
@@ -33,6 +34,9 @@ from volcaustics.approx.params import AUTO_PHOTON_RES, preset
 from volcaustics.infra.sources import source_hash
 from volcaustics.infra.storage import atomic_path, cache_path, document_sha256, note_not_cached, read_json_object
 from volcaustics.scenes import resolve_scene
+
+if TYPE_CHECKING:
+    from volcaustics.approx.params import ApproxParams
 
 
 @lru_cache(maxsize=None)
@@ -63,7 +67,7 @@ class CostMatcher:
         except (OSError, ValueError):
             pass  # none yet, or damaged (a special file is never opened): recomputed
 
-    def cost(self, scene_name: str, params) -> dict:
+    def cost(self, scene_name: str, params: ApproxParams) -> dict:
         """One frame of ``params``: its predicted time under each weight set (name → value,
         ``approx.cost_model``)."""
         scene = resolve_scene(scene_name)
@@ -73,13 +77,13 @@ class CostMatcher:
         p = params.resolved(scene)
         return predicted_frames(frame_cost(frame.records, p, frame.work), p, self.sets)
 
-    def match(self, scene_name: str, params, target: dict):
+    def match(self, scene_name: str, params: ApproxParams, target: dict) -> ApproxParams:
         """``params`` with the largest photon_res found whose cost is ≤ ``target`` (the
         paper configuration's :meth:`cost`) under every weight set."""
         key = self._key(scene_name, params, {k: float(v) for k, v in target.items()})
         return self._remembered(key, params) or self._search(key, scene_name, params, target)
 
-    def match_to(self, scene_name: str, params, paper):
+    def match_to(self, scene_name: str, params: ApproxParams, paper: ApproxParams) -> ApproxParams:
         """:meth:`match` against the frame of ``paper`` (resolved parameters), which is
         rendered only when the memo does not have the answer."""
         key = self._key(scene_name, params, {"paper": paper.to_dict()})
@@ -136,7 +140,7 @@ class CostMatcher:
 
 
 
-def with_auto_photon_res(scene_arg: str, params, preset_name: str | None, given: bool):
+def with_auto_photon_res(scene_arg: str, params: ApproxParams, preset_name: str | None, given: bool) -> ApproxParams:
     """``params`` with photon_res matched to the paper configuration's frame cost at the
     same image size on ``scene_arg`` when the preset asks for it (AUTO_PHOTON_RES) and no
     photon_res was ``given``; else ``params`` unchanged."""
@@ -159,7 +163,7 @@ def cost_ratio(cost: dict, target: dict) -> float:
     return max(cost[name] / target[name] for name in target)
 
 
-def measured_time_ratio(scene_arg: str, params, paper, *, frames: int = 5) -> dict:
+def measured_time_ratio(scene_arg: str, params: ApproxParams, paper: ApproxParams, *, frames: int = 5) -> dict:
     """Measured frame time of ``params`` against ``paper`` on ``scene_arg``: one renderer,
     a warm-up frame of each, then ``frames`` frames of each alternating (no records);
     medians (s) and their ratio."""
@@ -179,7 +183,7 @@ def measured_time_ratio(scene_arg: str, params, paper, *, frames: int = 5) -> di
             "method": "median of alternating frames, one renderer"}
 
 
-def equal_cost_check(scene_arg: str, params, preset_name: str) -> dict | None:
+def equal_cost_check(scene_arg: str, params: ApproxParams, preset_name: str) -> dict | None:
     """For a preset matched to the paper configuration's cost (AUTO_PHOTON_RES): its
     predicted cost ratio under every weight set and its measured frame time ratio
     (:func:`measured_time_ratio`), and whether it is at the paper's cost (≤ 1.0× under

@@ -13,8 +13,12 @@ from __future__ import annotations
 import json
 import os
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, cast
 
 from .cost import TIMED_PASSES
+
+if TYPE_CHECKING:
+    from .params import ApproxParams
 
 WEIGHTS_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "cost_weights")
 #: the passes a frame's time is split into: the GPU passes and ``other`` (the host's share of
@@ -22,7 +26,7 @@ WEIGHTS_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "cost_wei
 MODEL_PASSES = (*TIMED_PASSES, "other")
 
 
-def features(cost: dict, params) -> dict:
+def features(cost: dict, params: ApproxParams) -> dict:
     """pass → {feature: value}: the counts each pass's time is modelled on, from a frame's
     cost (``approx.cost.frame_cost``, its ``fragments_*`` counted) and its resolved
     parameters. ``calls``: the pass's dispatches or draws (a fixed cost each);
@@ -30,7 +34,7 @@ def features(cost: dict, params) -> dict:
     ``maps``, ``texels``: the light maps drawn and their texels (cleared and packed)."""
     launched = float(params.photon_res) ** 2
     steps = float(params.steps)
-    pixels = float(params.width * params.height)
+    pixels = float(cast(int, params.width) * cast(int, params.height))  # resolved: both set
     density = params.splat == "density"
     maps = 2.0 * float(params.layers) + 1.0  # a front and a back map per layer, and the shadow map
     return {
@@ -64,7 +68,7 @@ class WeightSet:
     weights: dict
     provenance: dict = field(default_factory=dict)
 
-    def predict(self, cost: dict, params) -> dict:
+    def predict(self, cost: dict, params: ApproxParams) -> dict:
         """pass → predicted time, and ``frame``: their sum."""
         x = features(cost, params)
         out = {name: sum(w * x[name].get(feature, 0.0) for feature, w in self.weights.get(name, {}).items())
@@ -72,7 +76,7 @@ class WeightSet:
         out["frame"] = sum(out.values())
         return out
 
-    def frame(self, cost: dict, params) -> float:
+    def frame(self, cost: dict, params: ApproxParams) -> float:
         return self.predict(cost, params)["frame"]
 
     def to_dict(self) -> dict:
@@ -91,7 +95,7 @@ def read_weight_set(path: str) -> WeightSet:
             doc = json.load(fh)
     except (OSError, ValueError) as exc:
         raise WeightSetError(f"{path}: cannot be read as JSON ({exc})") from None
-    known = features({name: 0.0 for name in _COST_NAMES}, _Probe())
+    known = features({name: 0.0 for name in _COST_NAMES}, cast("ApproxParams", _Probe()))  # _Probe: its fields
     weights = doc.get("weights") if isinstance(doc, dict) else None
     if not isinstance(weights, dict):
         raise WeightSetError(f"{path}: expected an object with 'weights' (pass -> feature -> weight)")
@@ -118,7 +122,7 @@ def weight_sets(folder: str = WEIGHTS_DIR) -> dict:
     return out
 
 
-def predicted_frames(cost: dict, params, sets: dict | None = None) -> dict:
+def predicted_frames(cost: dict, params: ApproxParams, sets: dict | None = None) -> dict:
     """name → predicted frame time of (cost, params) under each weight set (default: the
     shipped ones; each in its set's unit)."""
     sets = weight_sets() if sets is None else sets

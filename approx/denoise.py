@@ -10,10 +10,14 @@ and shown with it (docs/decisions.md "Denoising, measured beside").
 from __future__ import annotations
 
 import time
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from volcaustics.scenes.formats import KIND_DIFFUSE, KIND_SPECULAR
+
+if TYPE_CHECKING:
+    from volcaustics.scenes.model import Scene
 
 DENOISED = ("caustic", "fog")  # the layers with photon or marching noise; direct is noise-free
 
@@ -27,7 +31,7 @@ def unavailable() -> str | None:
     return None
 
 
-def guides(scene, geometry: np.ndarray, normal: np.ndarray) -> tuple:
+def guides(scene: Scene, geometry: np.ndarray, normal: np.ndarray) -> tuple:
     """(albedo, normal), each H×W×3 float32 in OIDN's ranges, from the G-buffer's
     geometry (distance, kind, material) and world normal images."""
     kind = np.round(geometry[..., 1]).astype(int)

@@ -19,7 +19,9 @@ scan the importance in parallel. Its cost in map reads is counted like the searc
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -27,6 +29,11 @@ from volcaustics.scenes.rng import uniform
 from volcaustics.scenes.sobol import morton, sobol_2d
 
 from .light import spot_falloff
+
+if TYPE_CHECKING:
+    from volcaustics.scenes.model import SpotLight
+
+    from .light import LightFrustum
 
 # One slot of emit.comp.glsl's Slots buffer: the texel (row-major index, -1: no photon)
 # and the weight that multiplies the uniform photon's power.
@@ -116,7 +123,7 @@ def _within(jitter: str, seed: int, photon, texel: np.ndarray, photon_res: int, 
     return np.full((len(texel), 2), 0.5 + shift)
 
 
-def approx_rays(light, frustum, photon_res: int, seed: int, *, slots: np.ndarray | None = None,
+def approx_rays(light: SpotLight, frustum: LightFrustum, photon_res: int, seed: int, *, slots: np.ndarray | None = None,
                 shift: float = 0.0, jitter: str = "center") -> EmissionRays:
     """The approximation's own emission (``emit.comp.glsl``): one photon per texel
     through the point ``jitter`` gives (its centre, moved by ``shift`` texels: a test's
@@ -140,7 +147,8 @@ def approx_rays(light, frustum, photon_res: int, seed: int, *, slots: np.ndarray
     return EmissionRays(photon.astype(np.uint32), d, power)
 
 
-def true_rays(light, frustum, photon_res: int, seed: int, profile=None) -> EmissionRays:
+def true_rays(light: SpotLight, frustum: LightFrustum, photon_res: int, seed: int,
+              profile: Callable[[SpotLight, np.ndarray], np.ndarray] | None = None) -> EmissionRays:
     """Photons from the light's true distribution I·falloff(ω) dω: one per texel through
     a uniformly random point of it, u(seed, texel, 0, 2..3), with power
     I·falloff(d)·ΔA/ρ³ (ΔA the texel's area on the unit-distance image plane, ρ the

@@ -13,6 +13,7 @@ computed per frame from the scene being rendered.
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
 
 import moderngl
 import numpy as np
@@ -21,6 +22,10 @@ from volcaustics.scenes.model import Transform
 
 from .glsl import attribute_layout, uniform
 
+if TYPE_CHECKING:
+    from volcaustics.scenes.mesh import Mesh
+    from volcaustics.scenes.model import DiffuseSurface, MeshSpec, Scene, SpecularObject
+
 VERTEX_FORMAT = "3f 3f 3f 1f"  # position, smooth normal, face normal, material index
 VERTEX_ATTRIBUTES = ("in_position", "in_normal", "in_face_normal", "in_material")
 VERTEX_FLOATS = 10
@@ -28,15 +33,15 @@ MAX_MODELS = 256  # objects (specular + diffuse): 256 mat4 fill the 16 KiB every
 MODELS_BINDING = 0  # the uniform block binding of shaders/common/model.glsl
 
 
-def object_space(spec):
+def object_space(spec: SpecularObject | DiffuseSurface) -> MeshSpec:
     """The mesh spec without its placement: what the vertex buffers hold."""
     return replace(spec.mesh, transform=Transform())
 
 
-def model_matrices(scene) -> np.ndarray:
+def model_matrices(scene: Scene) -> np.ndarray:
     """MAX_MODELS×4×4 float32 object-to-world matrices, column-major per matrix (std140
     ``mat4``): specular objects first, then diffuse surfaces, then identity padding."""
-    objects = (*scene.specular, *scene.diffuse)
+    objects: tuple[SpecularObject | DiffuseSurface, ...] = (*scene.specular, *scene.diffuse)
     if len(objects) > MAX_MODELS:
         raise ValueError(f"at most {MAX_MODELS} objects (specular + diffuse) are supported, scene has {len(objects)}")
     models = np.tile(np.eye(4, dtype=np.float32), (MAX_MODELS, 1, 1))
@@ -45,7 +50,7 @@ def model_matrices(scene) -> np.ndarray:
     return models
 
 
-def bind_identity_models(ctx: moderngl.Context, program) -> moderngl.Buffer:
+def bind_identity_models(ctx: moderngl.Context, program: moderngl.Program) -> moderngl.Buffer:
     """For a draw of world-space vertices through the shared vertex stage (the preview):
     identity matrices bound, model_base 0; returns the buffer (the caller releases it)."""
     models = ctx.buffer(np.tile(np.eye(4, dtype=np.float32), (MAX_MODELS, 1, 1)).tobytes())
@@ -54,7 +59,7 @@ def bind_identity_models(ctx: moderngl.Context, program) -> moderngl.Buffer:
     return models
 
 
-def specular_bounds(scene) -> tuple[np.ndarray, np.ndarray]:
+def specular_bounds(scene: Scene) -> tuple[np.ndarray, np.ndarray]:
     """(min, max) of the specular objects' world vertices (float32-rounded, as the GPU holds
     them up to its own rounding: users pad), each (3,) float64; zeros without objects."""
     if not scene.specular:
@@ -63,7 +68,7 @@ def specular_bounds(scene) -> tuple[np.ndarray, np.ndarray]:
     return points.min(0).astype(np.float64), points.max(0).astype(np.float64)
 
 
-def interleave(mesh, material: int) -> np.ndarray:
+def interleave(mesh: Mesh, material: int) -> np.ndarray:
     """(3·F)×10 float32 un-indexed triangles: position, angle-weighted vertex normal
     (shading), the triangle's geometric normal (outward; the inside/outside rule of
     docs/conventions.md needs it at every hit), material."""
@@ -90,8 +95,9 @@ class SceneGeometry:
     objects_box: tuple  # the placed specular objects' bounds (specular_bounds)
 
     @classmethod
-    def upload(cls, ctx: moderngl.Context, scene) -> "SceneGeometry":
-        meshes = tuple(object_space(o) for o in (*scene.specular, *scene.diffuse))
+    def upload(cls, ctx: moderngl.Context, scene: Scene) -> "SceneGeometry":
+        objects: tuple[SpecularObject | DiffuseSurface, ...] = (*scene.specular, *scene.diffuse)
+        meshes = tuple(object_space(o) for o in objects)
         spec = [interleave(m.load(), i) for i, m in enumerate(meshes[:len(scene.specular)])]
         diff = [interleave(m.load(), i) for i, m in enumerate(meshes[len(scene.specular):])]
         spec_data = np.concatenate(spec) if spec else np.zeros((0, VERTEX_FLOATS), np.float32)
@@ -110,31 +116,32 @@ class SceneGeometry:
             objects_box=specular_bounds(scene),
         )
 
-    def place(self, scene) -> None:
+    def place(self, scene: Scene) -> None:
         """Put every object where ``scene`` has it (its transforms) for the next passes;
         ``scene`` must hold the uploaded meshes, in the same order."""
-        meshes = tuple(object_space(o) for o in (*scene.specular, *scene.diffuse))
+        objects: tuple[SpecularObject | DiffuseSurface, ...] = (*scene.specular, *scene.diffuse)
+        meshes = tuple(object_space(o) for o in objects)
         if meshes != self.meshes:
             raise ValueError(f"{scene.name}: its meshes differ from the ones this renderer uploaded (objects may move, "
                              "rotate and scale between frames, not change shape or number): use a new Renderer")
         self.models.write(model_matrices(scene).tobytes())
         self.objects_box = specular_bounds(scene)
 
-    def use(self, program, which: str) -> None:
+    def use(self, program: moderngl.Program, which: str) -> None:
         """Before drawing ``which`` ("specular" or "diffuse") with ``program``: this scene's
         matrices in the uniform block (a binding is context state that other renderers
         on the shared context change) and the index of ``which``'s first matrix."""
         self.models.bind_to_uniform_block(MODELS_BINDING)
         uniform(program, "model_base").value = 0 if which == "specular" else len(self.meshes) - len(self.diffuse_ranges)
 
-    def vertex_array(self, ctx, program, which: str) -> moderngl.VertexArray | None:
+    def vertex_array(self, ctx: moderngl.Context, program: moderngl.Program, which: str) -> moderngl.VertexArray | None:
         buf = self.specular if which == "specular" else self.diffuse
         if buf is None or (which == "specular" and self.specular_vertices == 0):
             return None
         fmt, names = attribute_layout(program, list(zip(VERTEX_FORMAT.split(), VERTEX_ATTRIBUTES)))
         return ctx.vertex_array(program, [(buf, fmt, *names)])
 
-    def release(self):
+    def release(self) -> None:
         self.models.release()
         self.specular.release()
         if self.diffuse is not None:

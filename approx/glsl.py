@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import os
 import re
+from collections.abc import Iterable
 from typing import cast
 
 import moderngl
@@ -70,13 +71,13 @@ def program(ctx: moderngl.Context, vertex: str, fragment: str, defines: dict | N
     return ctx.program(vertex_shader=load_source(vertex, defines), fragment_shader=load_source(fragment, defines))
 
 
-def uniform(prog, name: str) -> moderngl.Uniform:
+def uniform(prog: moderngl.Program | moderngl.ComputeShader, name: str) -> moderngl.Uniform:
     """``prog``'s uniform ``name``, typed as one (moderngl types a program's members as
     a union of uniform, block, attribute and varying); KeyError when it has none."""
     return cast(moderngl.Uniform, prog[name])
 
 
-def set_uniforms(prog, **values) -> None:
+def set_uniforms(prog: moderngl.Program | moderngl.ComputeShader, **values: object) -> None:
     """Set the uniforms that the compiled program still has (unused ones are
     optimised away by the GLSL compiler, depending on defines)."""
     for name, value in values.items():
@@ -84,7 +85,8 @@ def set_uniforms(prog, **values) -> None:
             uniform(prog, name).value = value
 
 
-def attribute_layout(prog, parts, per_instance: bool = False) -> tuple[str, list[str]]:
+def attribute_layout(prog: moderngl.Program, parts: Iterable[tuple[str, str | None]],
+                     per_instance: bool = False) -> tuple[str, list[str]]:
     """moderngl buffer format and attribute names for ``parts`` = [(format, name or None)],
     turning attributes the program does not use into padding."""
     fmt, names = [], []

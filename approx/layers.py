@@ -16,7 +16,7 @@ the triangle's primitive id + 1 (:class:`LightMap`). Strategies:
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import moderngl
 import numpy as np
@@ -24,6 +24,9 @@ import numpy as np
 from .context import bound
 from .glsl import program, uniform
 from .transforms import gl_matrix
+
+if TYPE_CHECKING:
+    from .light import LightFrustum
 
 FRONT, BACK, BOTH = 1, -1, 0
 
@@ -37,7 +40,7 @@ class LightMap(NamedTuple):
     surface: moderngl.Texture
     geometric: moderngl.Texture
 
-    def release(self):
+    def release(self) -> None:
         self.surface.release()
         self.geometric.release()
 
@@ -64,7 +67,7 @@ class LightMapRenderer:
         drawn, self.drawn = self.drawn, (0, 0)
         return drawn
 
-    def render_map(self, frustum, res: int, *, facing: int = BOTH, threshold: float = -np.inf,
+    def render_map(self, frustum: LightFrustum, res: int, *, facing: int = BOTH, threshold: float = -np.inf,
                    previous: moderngl.Texture | None = None, peel_epsilon: float = 0.0,
                    include_diffuse: bool = False, target: moderngl.Texture | None = None,
                    geometric: moderngl.Texture | None = None) -> moderngl.Texture:
@@ -109,14 +112,15 @@ class LightMapRenderer:
         fbo.release()
         return tex
 
-    def render_light_map(self, frustum, res: int, *, primitive_ids: bool = True, **filters) -> LightMap:
+    def render_light_map(self, frustum: LightFrustum, res: int, *, primitive_ids: bool = True,
+                         **filters: Any) -> LightMap:
         """One map with its geometric normals, and with the primitive ids when
         ``primitive_ids`` (``filters`` as :meth:`render_map`)."""
         geometric = self.ctx.texture((res, res), 4 if primitive_ids else 2, dtype="f4")
         geometric.filter = (moderngl.NEAREST, moderngl.NEAREST)
         return LightMap(self.render_map(frustum, res, geometric=geometric, **filters), geometric)
 
-    def thresholds(self, frustum, layers: int) -> list[float]:
+    def thresholds(self, frustum: LightFrustum, layers: int) -> list[float]:
         """Level thresholds along the spot axis: uniform over the specular objects' extent.
 
         Level 0 keeps everything; level i > 0 starts at d_min + i·(d_max − d_min)/layers,
@@ -130,7 +134,7 @@ class LightMapRenderer:
         lo, hi = float(along.min()), float(along.max())
         return [-np.inf] + [lo + i * (hi - lo) / layers for i in range(1, layers)]
 
-    def render_layers(self, frustum, res: int, layers: int, strategy: str, *,
+    def render_layers(self, frustum: LightFrustum, res: int, layers: int, strategy: str, *,
                       primitive_ids: bool = True) -> list["LightMap"]:
         """The 2·layers maps in map order (2·level + facing), with the primitive ids when
         ``primitive_ids``.
@@ -154,7 +158,7 @@ class LightMapRenderer:
         self.layer_used = used
         return maps
 
-    def release(self):
+    def release(self) -> None:
         for vao in (self.vao_specular, self.vao_diffuse):
             if vao is not None:
                 vao.release()

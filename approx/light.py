@@ -9,13 +9,17 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .transforms import look_at, perspective
 
+if TYPE_CHECKING:
+    from volcaustics.scenes.model import Scene, SpotLight
 
-def spot_constants(light) -> dict:
+
+def spot_constants(light: SpotLight) -> dict:
     """Uniform values of ``common/spot.glsl``, computed in float32 like Mitsuba's spot.cpp."""
     f32 = np.float32
     cutoff = f32(light.cutoff_angle) * f32(math.pi / 180.0)
@@ -32,7 +36,7 @@ def spot_constants(light) -> dict:
     }
 
 
-def spot_falloff(light, directions: np.ndarray) -> np.ndarray:
+def spot_falloff(light: SpotLight, directions: np.ndarray) -> np.ndarray:
     """Mitsuba's spot falloff for unit world directions (...×3) leaving the light; float32, in [0, 1]."""
     c = spot_constants(light)
     cos_theta = (np.asarray(directions, np.float32) @ np.asarray(light.direction, np.float32)).astype(np.float32)
@@ -62,7 +66,7 @@ class LightFrustum:
     proj: np.ndarray  # 4×4 light projection
 
     @classmethod
-    def for_scene(cls, scene, bounds_min, bounds_max) -> "LightFrustum":
+    def for_scene(cls, scene: Scene, bounds_min: np.ndarray, bounds_max: np.ndarray) -> "LightFrustum":
         light = scene.light
         pos = np.asarray(light.position, np.float64)
         axis = np.asarray(light.direction, np.float64)

@@ -5,11 +5,15 @@ work-group limit, image sides against its largest texture, checked before any GL
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING, Any
 
 from volcaustics.infra.memory import image_fits, memory_budget
 from volcaustics.scenes.formats import PHOTON_DTYPE, RAW_RECORD_DTYPE, RECORD_DTYPE, SPLAT_DTYPE
 
 from .params import ParamError
+
+if TYPE_CHECKING:
+    from .params import ApproxParams
 
 # The approximation's image buffers per pixel (G-buffer, fog, direct, per-step caustic
 # targets and their read-backs): 264 B measured as peak RSS per pixel, rounded up
@@ -22,8 +26,8 @@ IMAGE_BYTES_PER_PIXEL = 300
 LIGHT_MAP_BYTES_PER_TEXEL = 80
 
 
-def check_fits(params, *, keep_records: bool = False, max_groups: int | None = None, max_size: int | None = None,
-               supersample: int = 1) -> None:
+def check_fits(params: ApproxParams, *, keep_records: bool = False, max_groups: int | None = None,
+               max_size: int | None = None, supersample: int = 1) -> None:
     """Raise ParamError, before any GL work, when ``params`` need buffers beyond
     :func:`memory_budget` (photon, record and splat buffers, and with ``keep_records``
     every step's records read back: photon_res 8192 asked for 7.5 GB of records), or more
@@ -89,7 +93,7 @@ def gl_limits() -> tuple:
     return int(info["GL_MAX_COMPUTE_WORK_GROUP_COUNT"][0]), max_image_size(info)
 
 
-def max_image_size(info) -> int:
+def max_image_size(info: dict[str, Any]) -> int:
     return int(min(info["GL_MAX_TEXTURE_SIZE"], *info["GL_MAX_VIEWPORT_DIMS"]))
 
 

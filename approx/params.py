@@ -14,9 +14,14 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass, field, replace
-from typing import Callable, ClassVar, cast
+from typing import TYPE_CHECKING, Any, Callable, ClassVar, TypeVar, cast, overload
 
 from volcaustics.infra.errors import InputError
+
+if TYPE_CHECKING:
+    from typing import Self
+
+    from volcaustics.scenes.model import Scene
 
 
 class ParamError(InputError):
@@ -66,7 +71,7 @@ class Param:
             text = f"an integer in [{self.low}, {self.high}]"
         return text + (f" (or unset: {self.unset})" if self.unset else "")
 
-    def check(self, value) -> None:
+    def check(self, value: object) -> None:
         """Raise ParamError unless ``value`` is allowed."""
         if value is None and self.unset:
             return
@@ -81,7 +86,7 @@ class Param:
         if not ok:
             raise ParamError(f"{self.name} = {value!r}: expected {self.expected()}")
 
-    def parse(self, text):
+    def parse(self, text: object) -> int | float | str:
         """A value from command-line text or a TOML value, typed as declared (ParamError
         naming what is expected otherwise; the range is checked by :meth:`check`)."""
         if isinstance(text, str):
@@ -90,18 +95,18 @@ class Param:
             if self.kind is int:
                 if isinstance(text, bool) or (isinstance(text, float) and not text.is_integer()):
                     raise ValueError
-                return int(text)
+                return int(cast("str | float", text))  # any other value: TypeError, caught below
             if self.kind is float:
                 if isinstance(text, bool):
                     raise ValueError
-                return float(text)
+                return float(cast("str | float", text))
         except (TypeError, ValueError):
             raise ParamError(f"{self.name} = {text!r}: expected {self.expected()}") from None
         if not isinstance(text, str) or not text:
             raise ParamError(f"{self.name} = {text!r}: expected {self.expected()}")
         return text
 
-    def defines(self, value) -> dict:
+    def defines(self, value: object) -> dict:
         """The #defines this value gives its program (``glsl`` "define" only)."""
         return self.to_defines(value) if self.to_defines else {self.name.upper(): value}
 
@@ -194,18 +199,22 @@ class ParamsMethods:
     filled in, a plain dict, the names in order."""
 
     TABLE: ClassVar[tuple] = ()
+    if TYPE_CHECKING:  # every parameters class is a dataclass of (at least) these fields
+        __dataclass_fields__: ClassVar[dict[str, Any]]
+        width: int | None
+        height: int | None
 
     def __post_init__(self) -> None:
         for param in self.TABLE:
             param.check(getattr(self, param.name))
 
-    def resolved(self, scene):
+    def resolved(self, scene: Scene) -> Self:
         """The parameters with width/height filled from the scene camera."""
         return replace(self, width=self.width or scene.camera.width,
                        height=self.height or scene.camera.height)
 
     def to_dict(self) -> dict:
-        return dataclasses.asdict(self)  # type: ignore[call-overload]
+        return dataclasses.asdict(self)
 
     @classmethod
     def names(cls) -> list:
@@ -215,7 +224,7 @@ class ParamsMethods:
 _BY_NAME = {p.name: p for p in _DECLARED}
 
 
-def declared(name: str):
+def declared(name: str) -> Any:
     """The field of parameter ``name`` of :data:`_DECLARED`: its default, and the
     :class:`Param` as the field's metadata ``"param"``."""
     return field(default=_BY_NAME[name].default, metadata={"param": _BY_NAME[name]})
@@ -280,7 +289,7 @@ def param(name: str, table: tuple = PARAMS) -> Param:
     raise ParamError(f"unknown parameter {name!r}; expected one of {', '.join(p.name for p in table)}")
 
 
-def defines(params, program: str) -> dict:
+def defines(params: ParamsMethods, program: str) -> dict:
     """The #defines that ``params`` give ``program`` ("trace", "fog"): what selects a
     compiled program, so also its cache key."""
     out = {}
@@ -314,7 +323,14 @@ PRESET_VALUES["best"] = {**PRESET_VALUES["quick"], **BEST}
 AUTO_PHOTON_RES = {"best": "quick"}  # preset → the preset whose frame cost its photon_res matches
 
 
-def preset(name: str, cls: type = ApproxParams, **changes):
+_P = TypeVar("_P", bound=ParamsMethods)
+
+
+@overload
+def preset(name: str, cls: type[ApproxParams] = ..., **changes: object) -> ApproxParams: ...
+@overload
+def preset(name: str, cls: type[_P], **changes: object) -> _P: ...
+def preset(name: str, cls: type = ApproxParams, **changes: object) -> ParamsMethods:
     """The preset ``name`` as ``cls`` (a :func:`params_class`) with ``changes``
     (ParamError for an unknown preset or a bad value)."""
     if name not in PRESET_VALUES:

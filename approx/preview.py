@@ -9,6 +9,7 @@ dim headlight.
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import moderngl
 import numpy as np
@@ -18,10 +19,14 @@ from .geometry import bind_identity_models
 from .glsl import program, uniform
 from .transforms import gl_matrix, look_at, perspective
 
+if TYPE_CHECKING:
+    from volcaustics.scenes.mesh import Mesh
+    from volcaustics.scenes.model import DiffuseSurface, Scene, SpecularObject
+
 SPECULAR_PREVIEW_ALBEDO = (0.55, 0.75, 0.95)
 
 
-def flat_triangles(mesh) -> np.ndarray:
+def flat_triangles(mesh: Mesh) -> np.ndarray:
     """Interleaved (position, face normal) vertices, (3·F)×6 float32, world space."""
     tri = mesh.vertices[mesh.faces]  # F×3×3
     normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
@@ -30,11 +35,12 @@ def flat_triangles(mesh) -> np.ndarray:
     return data.reshape(-1, 6).astype(np.float32)
 
 
-def scene_extent(scene) -> float:
+def scene_extent(scene: Scene) -> float:
     """Distance from the camera to the farthest object vertex (m), for the far plane."""
     eye = np.asarray(scene.camera.position)
     far = 1.0
-    for obj in (*scene.specular, *scene.diffuse):
+    objects: tuple[SpecularObject | DiffuseSurface, ...] = (*scene.specular, *scene.diffuse)
+    for obj in objects:
         far = max(far, float(np.linalg.norm(obj.mesh.load().vertices - eye, axis=1).max()))
     return far
 
@@ -42,7 +48,8 @@ def scene_extent(scene) -> float:
 PREVIEW_STAGES = ("camera/gbuffer.vert.glsl", "preview/preview.frag.glsl")  # the G-buffer's vertex stage, no defines
 
 
-def render_preview(ctx: moderngl.Context, scene, width: int | None = None, height: int | None = None) -> np.ndarray:
+def render_preview(ctx: moderngl.Context, scene: Scene, width: int | None = None,
+                   height: int | None = None) -> np.ndarray:
     """Preview image, H×W×3 float32, linear, >= 0, row 0 at the top."""
     cam, light = scene.camera, scene.light
     width, height = width or cam.width, height or cam.height

@@ -12,8 +12,9 @@ computed per frame from the scene being rendered.
 from __future__ import annotations
 
 import time
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
-from typing import cast
+from typing import TYPE_CHECKING, cast
 
 import moderngl
 import numpy as np
@@ -34,6 +35,9 @@ from .records import emission_records, records_from_raw
 from .splat import Splatter
 from .timing import PassTimer, timer_queries_work
 from .trace import PhotonTracer, read_raw_records
+
+if TYPE_CHECKING:
+    from volcaustics.scenes.model import Scene
 
 
 @dataclass
@@ -86,7 +90,7 @@ class Renderer:
         self.controls = check_controls(controls)
         self.geometry = SceneGeometry.upload(self.ctx, scene)
         self.light_maps = LightMapRenderer(self.ctx, self.geometry)
-        self._programs: dict[tuple, object] = {}
+        self._programs: dict[tuple, PhotonTracer | CameraPasses | Splatter] = {}
         self._use_queries = timer_queries_work(self.ctx)
 
     def _cached(self, key, factory):
@@ -118,7 +122,7 @@ class Renderer:
         fbo.release()
         return image
 
-    def render(self, scene=None, params: ApproxParams | None = None, *, keep_records: bool = True,
+    def render(self, scene: Scene | None = None, params: ApproxParams | None = None, *, keep_records: bool = True,
                keep_guides: bool = False) -> Frame:
         """Render one frame. ``scene`` (None: the construction's) may replace light,
         medium, camera, materials or object transforms of the scene given at
@@ -175,7 +179,7 @@ class Renderer:
                            **loop_work},
                      guides={"distance": geometry[..., 0], "normal": normal} if keep_guides else {})
 
-    def first_records(self, scene, params: ApproxParams, seeds) -> list:
+    def first_records(self, scene: Scene | None, params: ApproxParams, seeds: Iterable[int]) -> list:
         """Per seed in ``seeds``, the emission state an exact replay starts from: the
         fields photon, start, direction, inside and power_start of the step-1 records
         (RECORD_DTYPE, the other fields 0) of a frame with ``params`` and that seed,
@@ -201,7 +205,7 @@ class Renderer:
             emission_map.release()
         return out
 
-    def emission_rays(self, scene, params: ApproxParams, seeds) -> list:
+    def emission_rays(self, scene: Scene | None, params: ApproxParams, seeds: Sequence[int]) -> list:
         """Per seed in ``seeds``, the rays the approximation emits along
         (``approx.emission.approx_rays``: emission_jitter's points in every texel, or
         adaptive emission's slots, drawn from the importance of the emission map rendered
@@ -279,7 +283,7 @@ class Renderer:
                                                 footprint=tracer.footprints(count)))
         return records, caustic_steps, loop_work
 
-    def splat(self, splats: np.ndarray, scene=None, params: ApproxParams | None = None) -> np.ndarray:
+    def splat(self, splats: np.ndarray, scene: Scene | None = None, params: ApproxParams | None = None) -> np.ndarray:
         """The caustic image of photons from any source, through this frame's own
         splatting (paper §3, Eq. 5, §4.3): the same view, G-buffer depth test,
         ``splat_radius``, medium weights and phase as :meth:`render`.
@@ -304,7 +308,8 @@ class Renderer:
         """
         return self.splat_many([splats], scene, params)[0]
 
-    def splat_many(self, splat_sets, scene=None, params: ApproxParams | None = None) -> list:
+    def splat_many(self, splat_sets: Iterable[np.ndarray], scene: Scene | None = None,
+                   params: ApproxParams | None = None) -> list:
         """:meth:`splat` for several photon sets in one view: one image per set, the
         G-buffer rendered once (independent photon subsets, batches)."""
         sets = [np.ascontiguousarray(s) for s in splat_sets]
@@ -338,7 +343,7 @@ class Renderer:
             gbuf_nrm.release()
         return images
 
-    def density_widths(self, splats: np.ndarray, field: np.ndarray, scene=None,
+    def density_widths(self, splats: np.ndarray, field: np.ndarray, scene: Scene | None = None,
                        params: ApproxParams | None = None) -> np.ndarray:
         """splat = density: the kernel σ (m, float32 per row of ``splats``; 0 for a row that
         is not a collision) :meth:`splat` gives ``splats`` (SPLAT_DTYPE) when its density
@@ -361,7 +366,7 @@ class Renderer:
             for b in buffers:
                 b.release()
 
-    def release(self):
+    def release(self) -> None:
         for prog in self._programs.values():
             prog.release()
         self.light_maps.release()
@@ -388,7 +393,7 @@ def _camera_view(scene, p: ApproxParams, box) -> CameraView:
     return CameraView(scene.camera, *image_size(p), far=2.0 * float(np.linalg.norm(box[1] - box[0])))
 
 
-def render(scene, params: ApproxParams | None = None, **kwargs) -> Frame:
+def render(scene: Scene, params: ApproxParams | None = None, **kwargs: bool) -> Frame:
     """Render one frame of ``scene`` with the paper's method (see :class:`Renderer`)."""
     renderer = Renderer(scene)
     try:

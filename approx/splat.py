@@ -7,6 +7,8 @@ arrays (for instance from the exact photon tracer) via :func:`splats_from_arrays
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING, cast
+
 import moderngl
 import numpy as np
 
@@ -14,6 +16,14 @@ from volcaustics.scenes.formats import SPLAT_DTYPE, STATUS_COLLIDED
 
 from .context import bound
 from .glsl import attribute_layout, load_source, program, set_uniforms, uniform
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
+
+    from volcaustics.scenes.model import Medium
+
+    from .camera_pass import CameraView
+    from .params import ApproxParams
 
 # Instance attributes of a splat (SPLAT_DTYPE, 48 bytes).
 INSTANCE_PARTS = [("4f", "in_end"), ("4f", "in_dir_t"), ("4f", "in_power")]
@@ -26,7 +36,8 @@ DENSITY_CELL = 4
 DENSITY_FLOOR = 0.5
 
 
-def splats_from_arrays(end, direction, power, sigma=None) -> np.ndarray:
+def splats_from_arrays(end: ArrayLike, direction: ArrayLike, power: ArrayLike,
+                       sigma: ArrayLike | None = None) -> np.ndarray:
     """Splat rows (SPLAT_DTYPE) from numpy arrays: end (N×3 collision points, m),
     direction (N×3 unit, propagation before scattering), power (N×3 W, RGB, after
     transmittance), and optionally each one's kernel standard deviation sigma (N, m;
@@ -42,7 +53,7 @@ def splats_from_arrays(end, direction, power, sigma=None) -> np.ndarray:
     return out
 
 
-def adaptive_sigma(footprint, params) -> np.ndarray:
+def adaptive_sigma(footprint: ArrayLike, params: ApproxParams) -> np.ndarray:
     """The kernel widths (m, float32) that splat = adaptive gives photons of differential
     ``footprint`` (m): numpy twin of splat/compact.comp.glsl, bit for bit
     (splat_footprints × |footprint| within [splat_radius/16, 4·splat_radius])."""
@@ -51,7 +62,7 @@ def adaptive_sigma(footprint, params) -> np.ndarray:
     return np.clip(scaled, radius / np.float32(16.0), np.float32(4.0) * radius)
 
 
-def record_sigma(records: np.ndarray, params) -> np.ndarray | None:
+def record_sigma(records: np.ndarray, params: ApproxParams) -> np.ndarray | None:
     """Per record (RECORD_DTYPE) the kernel its collision was splatted with: None for
     splat = fixed (splat_radius for all)."""
     return adaptive_sigma(records["footprint"], params) if params.splat == "adaptive" else None
@@ -93,7 +104,8 @@ class Splatter:
         self.corners = ctx.buffer(corners.tobytes())
 
     @staticmethod
-    def programs(medium, *, adaptive: bool = False, density: bool = False, controls: dict | None = None) -> dict:
+    def programs(medium: Medium, *, adaptive: bool = False, density: bool = False,
+                 controls: dict | None = None) -> dict:
         """name → (shader stages, defines) of every program a Splatter compiles: the
         constructor's list and the shader check's (scripts/check_shaders.py); "widths"
         (a vertex stage alone, by transform feedback) is compiled when first used."""
@@ -109,10 +121,10 @@ class Splatter:
             out["widths"] = (("splat/widths.vert.glsl",), defines)
         return out
 
-    def density_grid(self, splats: moderngl.Buffer, count: int, view) -> moderngl.Texture:
+    def density_grid(self, splats: moderngl.Buffer, count: int, view: CameraView) -> moderngl.Texture:
         """The pre-pass: photons per DENSITY_CELL² cell of the image (R32F, bilinear) of
         ``count`` splats; the caller releases it."""
-        ctx, prog = self.ctx, self.density_program
+        ctx, prog = self.ctx, cast(moderngl.Program, self.density_program)  # a density Splatter's
         size = (-(-view.width // DENSITY_CELL), -(-view.height // DENSITY_CELL))
         grid = ctx.texture(size, 1, np.zeros(size[0] * size[1], np.float32).tobytes(), dtype="f4")  # counts from 0
         grid.filter = moderngl.LINEAR, moderngl.LINEAR
@@ -131,8 +143,8 @@ class Splatter:
         set_uniforms(prog, density=1, density_cell=float(DENSITY_CELL), splat_neighbours=float(splat_neighbours),
                      mean_per_pixel=count / float(view.width * view.height), density_floor=DENSITY_FLOOR)
 
-    def density_widths(self, splats: moderngl.Buffer, count: int, field: moderngl.Buffer, field_count: int, view,
-                       splat_radius: float, splat_neighbours: int = 16) -> np.ndarray:
+    def density_widths(self, splats: moderngl.Buffer, count: int, field: moderngl.Buffer, field_count: int,
+                       view: CameraView, splat_radius: float, splat_neighbours: int = 16) -> np.ndarray:
         """splat = density: the kernel σ (m, float32, one per row; 0 for a row that is not
         a collision) that :meth:`splat` gives each of ``count`` splats when the density
         pre-pass counts the ``field_count`` splats of ``field`` instead of their own: the
@@ -159,7 +171,7 @@ class Splatter:
             out.release()
             grid.release()
 
-    def splat(self, splats: moderngl.Buffer, count: int, view, medium, splat_radius: float,
+    def splat(self, splats: moderngl.Buffer, count: int, view: CameraView, medium: Medium, splat_radius: float,
               scene_distance: moderngl.Texture, target: moderngl.Texture, splat_neighbours: int = 16,
               grid: moderngl.Texture | None = None) -> None:
         """Add ``count`` splats (SPLAT_DTYPE rows of ``splats``) into ``target`` (RGBA32F);
@@ -187,7 +199,7 @@ class Splatter:
         if own is not None:
             own.release()
 
-    def release(self):
+    def release(self) -> None:
         self.program.release()
         for prog in (self.density_program, self.widths_program):
             if prog is not None:

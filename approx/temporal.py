@@ -23,8 +23,14 @@ test (no motion vectors are traced).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
 import numpy as np
 from scipy.ndimage import uniform_filter
+
+if TYPE_CHECKING:
+    from volcaustics.scenes.model import SpotLight
 
 DISTANCE_TOLERANCE = 0.02
 NORMAL_COS = 0.95
@@ -34,7 +40,7 @@ CLIP_SIGMAS = 1.0
 REUSED = ("caustic", "fog")  # the noisy layers; direct is noise-free and follows the frame
 
 
-def light_cut(before, after, centre) -> bool:
+def light_cut(before: SpotLight, after: SpotLight, centre: np.ndarray) -> bool:
     """Whether the spot light moved or turned by more than CUT_DEGREES between two
     frames (``centre``: the medium's centre, from which its position's move is seen)."""
     def angle(u, v):
@@ -45,7 +51,8 @@ def light_cut(before, after, centre) -> bool:
     return max(moved, angle(before.direction, after.direction)) > CUT_DEGREES
 
 
-def history_valid(distance_before, distance, normal_before, normal) -> np.ndarray:
+def history_valid(distance_before: np.ndarray, distance: np.ndarray, normal_before: np.ndarray,
+                  normal: np.ndarray) -> np.ndarray:
     """H×W bool: where the pixel sees the same surface as the frame before."""
     close = np.abs(distance - distance_before) <= DISTANCE_TOLERANCE * np.maximum(distance, 1e-6)
     facing = np.sum(normal * normal_before, axis=-1) >= NORMAL_COS
@@ -60,7 +67,7 @@ def _clip(history: np.ndarray, current: np.ndarray) -> np.ndarray:
     return np.clip(history, mean - CLIP_SIGMAS * sigma, mean + CLIP_SIGMAS * sigma)
 
 
-def ema(frames: np.ndarray, distance: np.ndarray, normal: np.ndarray, cuts, weight: float,
+def ema(frames: np.ndarray, distance: np.ndarray, normal: np.ndarray, cuts: Sequence[bool], weight: float,
         *, clip: bool = True, reject: bool = True) -> np.ndarray:
     """T×H×W×C: the moving average of ``frames`` (T×H×W×C, a new seed each) with the
     history rejected, reset and clipped as the module docstring says; ``distance``

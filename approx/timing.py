@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import contextlib
 import time
+from collections.abc import Iterator
 from typing import cast
 
 import moderngl
@@ -56,7 +57,7 @@ class PassTimer:
         self.primitives[name] = self.primitives.get(name, 0) + int(primitives)
 
     @contextlib.contextmanager
-    def measure(self, name: str, counted: bool = True):
+    def measure(self, name: str, counted: bool = True) -> Iterator[None]:
         """Time the pass ``name`` and, when ``counted``, count its fragments and primitives."""
         kinds = {"samples": counted, "primitives": counted, "time": self.use_queries}
         query = self.ctx.query(**kinds) if any(kinds.values()) else None

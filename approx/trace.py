@@ -14,7 +14,8 @@ paper's σs/σt.
 from __future__ import annotations
 
 import math
-from typing import NamedTuple, cast
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, NamedTuple, cast
 
 import moderngl
 import numpy as np
@@ -28,6 +29,13 @@ from .light import spot_constants
 from .limits import check_fits, max_image_size
 from .params import defines as table_defines
 from .transforms import gl_matrix
+
+if TYPE_CHECKING:
+    from volcaustics.scenes.model import Scene
+
+    from .layers import LightMap
+    from .light import LightFrustum
+    from .params import ApproxParams, ParamsMethods
 
 MAX_MATERIALS = 16
 COMPACT_BLOCK = 256  # BLOCK of splat/compact.comp.glsl
@@ -51,7 +59,7 @@ class MapBuffers(NamedTuple):
     primitive: moderngl.Buffer | None
     pyramid: moderngl.Buffer | None
 
-    def release(self):
+    def release(self) -> None:
         for buf in self:
             if buf is not None:
                 buf.release()
@@ -113,7 +121,7 @@ class PhotonTracer:
         self._max_size = max_image_size(ctx.info)
 
     @staticmethod
-    def defines(params, controls: dict | None = None) -> dict:
+    def defines(params: ParamsMethods, controls: dict | None = None) -> dict:
         """The #defines of the emission and trace programs for ``params``: the fixed
         ones and those the parameter table derives (``approx.params.defines``). Equal
         defines, equal programs: the renderer's cache key."""
@@ -122,7 +130,7 @@ class PhotonTracer:
         return {**fixed, **table_defines(params, "trace")}
 
     @staticmethod
-    def programs(params, controls: dict | None = None) -> dict:
+    def programs(params: ParamsMethods, controls: dict | None = None) -> dict:
         """name → (shader, defines) of every compute program a tracer for ``params``
         compiles: the constructor's list and the shader check's (scripts/check_shaders.py)."""
         defines = PhotonTracer.defines(params, controls)
@@ -138,7 +146,7 @@ class PhotonTracer:
             out["importance"] = ("emission/importance.comp.glsl", {})
         return out
 
-    def check_limits(self, params, *, keep_records: bool = False) -> None:
+    def check_limits(self, params: ApproxParams, *, keep_records: bool = False) -> None:
         """:func:`check_fits` with this tracer's GL driver."""
         check_fits(params, keep_records=keep_records, max_groups=self._max_groups, max_size=self._max_size)
 
@@ -150,7 +158,8 @@ class PhotonTracer:
             self._solid_angles = {key: self.ctx.buffer(frustum.texel_solid_angles(res).astype(np.float32).tobytes())}
         return self._solid_angles[key]
 
-    def emit_photons(self, scene, frustum, emission_map, photon_res: int, seed: int) -> moderngl.Buffer:
+    def emit_photons(self, scene: Scene, frustum: LightFrustum, emission_map: LightMap, photon_res: int,
+                     seed: int) -> moderngl.Buffer:
         """Photon buffer (photon_res² slots of PHOTON_DTYPE) after emission and the first
         interaction; ``emission_map`` is a :class:`approx.layers.LightMap` at photon_res.
         With adaptive emission the slots are drawn first (:meth:`draw_slots`)."""
@@ -183,7 +192,7 @@ class PhotonTracer:
                      tan_half=frustum.tan_half)
         uniform(prog, "light_basis").write(np.asarray(frustum.basis, np.float32).T.tobytes())
 
-    def importance_map(self, scene, frustum, photon_res: int) -> np.ndarray:
+    def importance_map(self, scene: Scene, frustum: LightFrustum, photon_res: int) -> np.ndarray:
         """photon_res² float32, row-major: adaptive emission's importance per texel
         (emission/importance.comp.glsl) of the emission map bound at texture unit 0."""
         prog = cast(moderngl.ComputeShader, self.importance)  # adaptive emission's
@@ -196,7 +205,7 @@ class PhotonTracer:
         out.release()
         return importance
 
-    def draw_slots(self, scene, frustum, photon_res: int, seed: int) -> moderngl.Buffer:
+    def draw_slots(self, scene: Scene, frustum: LightFrustum, photon_res: int, seed: int) -> moderngl.Buffer:
         """Adaptive emission's slots (``approx.emission.draw_slots`` of
         :meth:`importance_map`) as a storage buffer."""
         return self.ctx.buffer(draw_slots(self.importance_map(scene, frustum, photon_res), seed).tobytes())
@@ -208,7 +217,7 @@ class PhotonTracer:
         return np.frombuffer(cast(moderngl.Buffer, self.differentials).read(size=count * DIFFERENTIAL_DTYPE.itemsize),
                              DIFFERENTIAL_DTYPE)["footprint"].copy()
 
-    def map_buffer(self, light_maps, light_res: int) -> tuple:
+    def map_buffer(self, light_maps: Sequence[LightMap], light_res: int) -> tuple:
         """The light maps (:class:`approx.layers.LightMap`) copied into the tracer's
         storage buffers (:class:`MapBuffers`, release them); and per map the exact (min,
         max) of its surface distances, None for an empty map. With the ``hiz`` search
@@ -258,9 +267,11 @@ class PhotonTracer:
             self.ctx.memory_barrier()  # the next level (and the trace) read what this one wrote
         return pyramid
 
-    def trace_step(self, scene, frustum, box, map_texels: MapBuffers, map_info, light_res: int,
+    def trace_step(self, scene: Scene, frustum: LightFrustum, box: tuple[np.ndarray, np.ndarray],
+                   map_texels: MapBuffers, map_info: Sequence[tuple[bool, float, float]], light_res: int,
                    photons: moderngl.Buffer,
-                   records: moderngl.Buffer, count: int, step: int, seed: int, objects_box=None) -> None:
+                   records: moderngl.Buffer, count: int, step: int, seed: int,
+                   objects_box: tuple[np.ndarray, np.ndarray] | None = None) -> None:
         """Advance every photon by one interaction step, writing one raw record per slot.
 
         ``box``: (min, max) corners of the medium's box of ``scene``
@@ -310,7 +321,8 @@ class PhotonTracer:
         lookups, lockstep = np.frombuffer(self.work.read(), np.uint32)[:2]
         return int(lookups), int(lockstep)
 
-    def compact_splats(self, records: moderngl.Buffer, count: int, splats: moderngl.Buffer, params=None) -> int:
+    def compact_splats(self, records: moderngl.Buffer, count: int, splats: moderngl.Buffer,
+                       params: ApproxParams | None = None) -> int:
         """Gather the medium collisions of one step's records into ``splats`` (SPLAT_DTYPE
         rows, capacity ``count``) in photon order; returns how many. With ``splat =
         adaptive`` each row carries its kernel width from the photons' differentials and
@@ -329,14 +341,14 @@ class PhotonTracer:
             block_buf.write(offsets.tobytes())
             if self.adaptive:
                 cast(moderngl.Buffer, self.differentials).bind_to_storage_buffer(3)
-                set_uniforms(self.compact_write, splat_radius=params.splat_radius,
-                             splat_footprints=params.splat_footprints)
+                p = cast("ApproxParams", params)  # given with splat = adaptive (the docstring)
+                set_uniforms(self.compact_write, splat_radius=p.splat_radius, splat_footprints=p.splat_footprints)
             uniform(self.compact_write, "photon_count").value = count
             self.compact_write.run(group_x=blocks)
         block_buf.release()
         return total
 
-    def release(self):
+    def release(self) -> None:
         self.work.release()
         if self.differentials is not None:
             self.differentials.release()

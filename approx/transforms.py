@@ -7,11 +7,15 @@ upload them to GLSL with :func:`gl_matrix` (column-major bytes).
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
 
-def look_at(position, target, up) -> np.ndarray:
+
+def look_at(position: ArrayLike, target: ArrayLike, up: ArrayLike) -> np.ndarray:
     """World-to-view matrix: camera at ``position`` looking at ``target`` (view −z), ``up`` roughly +y."""
     eye = np.asarray(position, dtype=np.float64)
     f = np.asarray(target, dtype=np.float64) - eye

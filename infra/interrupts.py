@@ -21,13 +21,18 @@ from __future__ import annotations
 import contextlib
 import signal
 import threading
+from collections.abc import Callable, Iterator
+from typing import Any, ParamSpec, TypeVar
+
+_P = ParamSpec("_P")
+_T = TypeVar("_T")
 
 HELD = ("SIGINT", "SIGTERM")
 _abandoned = threading.Event()
 
 
 @contextlib.contextmanager
-def interrupts_held():
+def interrupts_held() -> Iterator[None]:
     """Hold SIGINT and SIGTERM back for the block (a set of renames): one that came
     meanwhile, in whichever thread, is recorded and delivered right after the block to
     the handler that was in place (Ctrl-C: KeyboardInterrupt; SIGTERM: its handler, or
@@ -36,8 +41,8 @@ def interrupts_held():
     if threading.current_thread() is not threading.main_thread():
         yield
         return
-    came = []
-    previous = {}
+    came: list[int] = []
+    previous: dict[int, Any] = {}
     for name in HELD:
         number = getattr(signal, name, None)
         if number is None or signal.getsignal(number) in (signal.SIG_IGN, None):
@@ -52,7 +57,7 @@ def interrupts_held():
             signal.raise_signal(number)  # the handler put back runs now, as if it came now
 
 
-def interruptible(call, *args, **kwargs):
+def interruptible(call: Callable[_P, _T], *args: _P.args, **kwargs: _P.kwargs) -> _T:
     """``call(*args, **kwargs)`` in a worker thread while this thread waits where
     signal handlers run; returns its result or raises its exception. An interrupt
     (KeyboardInterrupt, or whatever a SIGTERM handler raises) ends the wait at once and
@@ -61,10 +66,10 @@ def interruptible(call, *args, **kwargs):
     Outside the main thread, calls directly (no handler would run there anyway)."""
     if threading.current_thread() is not threading.main_thread():
         return call(*args, **kwargs)
-    outcome = {}
+    outcome: dict[str, Any] = {}
     done = threading.Event()  # not Thread.is_alive: an interrupted join marks the thread stopped (bpo-45274)
 
-    def work():
+    def work() -> None:
         try:
             outcome["value"] = call(*args, **kwargs)
         except BaseException as exc:  # handed to the waiting thread, raised there

@@ -12,6 +12,7 @@ import os
 import re
 import socket
 import tempfile
+from collections.abc import Iterator
 
 from .interrupts import interrupts_held
 
@@ -62,7 +63,7 @@ def note_not_cached(exc: OSError, what: str) -> None:
 
 
 @contextlib.contextmanager
-def atomic_path(path: str):
+def atomic_path(path: str) -> Iterator[str]:
     """Yield a temporary path next to ``path``; on success rename it onto ``path``.
 
     On an exception the temporary file is removed and ``path`` is untouched. The
@@ -194,7 +195,7 @@ def _usual_mode(path: str) -> None:
 
 
 @contextlib.contextmanager
-def atomic_set(paths: list):
+def atomic_set(paths: list) -> Iterator[list[str]]:
     """Write several files as one unit: yields temporary paths (in ``paths``' order) to
     write; when the block succeeds they replace ``paths`` together, with interrupts
     (SIGINT, SIGTERM: ``infra.interrupts.interrupts_held``) held back: the last path
@@ -203,7 +204,7 @@ def atomic_set(paths: list):
     error, Ctrl-C) the temporaries go and every old file stays as it was."""
     for path in paths:
         _not_a_folder(path)
-    temps = []
+    temps: list[str] = []
     try:
         with interrupts_held():  # each temporary made is known to the cleanup below
             for path in paths:

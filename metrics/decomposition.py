@@ -70,12 +70,16 @@ plus A's variance, and the standard deviation of the energy difference.
 
 from __future__ import annotations
 
-from typing import Any
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
 from volcaustics.metrics.groups import checked_groups, group_jackknife_se
 from volcaustics.metrics.noise import total_sigma
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
 
 IMAGES = ("approx", "exact_steps", "exact_all_same", "exact_all", "exact_emission", "exact_all_small", "reference")
 BATCHED = IMAGES[:-1]  # every image but the reference comes as paired batches
@@ -145,7 +149,7 @@ def _grouped_se(groups, keep, e, a, noise: float) -> float:
     def product(images, scales):
         return float(np.sum((images[0] - e) * (images[0] - a))) - noise * scales[0]
 
-    return group_jackknife_se([(means[:, keep], counts)], product)
+    return cast(float, group_jackknife_se([(means[:, keep], counts)], product))  # one statistic: one SE
 
 
 def caustic_terms(images: dict) -> dict:
@@ -158,8 +162,10 @@ def caustic_terms(images: dict) -> dict:
     return {term: full[near] - full[far] for term, (near, far) in TERMS.items()}
 
 
-def decompose_caustic(batches: dict, reference, *, keep=None, reference_var=None, reference_ratio=None,
-                      reference_groups=None, z_limit: float = 3.0) -> dict:
+def decompose_caustic(batches: dict, reference: ArrayLike, *, keep: ArrayLike | None = None,
+                      reference_var: ArrayLike | None = None,
+                      reference_ratio: Sequence[float] | np.ndarray | None = None,
+                      reference_groups: tuple[ArrayLike, ArrayLike] | None = None, z_limit: float = 3.0) -> dict:
     """Split the caustic's error R − A into the terms of this module.
 
     Parameters
@@ -194,7 +200,8 @@ def decompose_caustic(batches: dict, reference, *, keep=None, reference_var=None
         renderers disagree when it is not;
       ``options``: what was used.
     """
-    stacks, r_full, keep, rv = _checked(batches, reference, keep, reference_var)
+    stacks, r_full, keep, rv = cast("tuple[dict, np.ndarray, np.ndarray, np.ndarray]",
+                                    _checked(batches, reference, keep, reference_var))
     k = len(stacks[BATCHED[0]])
     r = r_full[keep]
     channel_energy = r.sum(axis=0)

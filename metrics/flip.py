@@ -25,8 +25,12 @@ from __future__ import annotations
 import ctypes
 import ctypes.util
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
 
 F = np.float32
 GQC, GPC, GPT, GW, GQF = F(0.7), F(0.4), F(0.95), F(0.082), F(0.5)   # FLIPConstants
@@ -113,7 +117,7 @@ def _gaussian(x2, a, b) -> F:
     return a * F(math.sqrt(float(PI / b))) * _expf(-PI_SQ * x2 / b)
 
 
-def spatial_filters(ppd: float):
+def spatial_filters(ppd: float) -> tuple[np.ndarray, np.ndarray]:
     """FLIP's separated CSF filters (setSpatialFilters): YCx (Y, Cx weights) and Cz (two
     Gaussians), float32, 2r + 1 taps each."""
     ppd = F(ppd)  # type: ignore[assignment]  # float32 from here, as FLIP computes
@@ -222,8 +226,8 @@ def exposures(start: float, stop: float, count: int | None = None) -> list:
     return [start + F(i) * step for i in range(count)]
 
 
-def hdr_flip_maps(reference, tests, *, start_exposure: float, stop_exposure: float, ppd: float = 67.0,
-                  num_exposures: int | None = None) -> np.ndarray:
+def hdr_flip_maps(reference: ArrayLike, tests: ArrayLike, *, start_exposure: float, stop_exposure: float,
+                  ppd: float = 67.0, num_exposures: int | None = None) -> np.ndarray:
     """HDR-FLIP error maps of each test against the reference (``flip_evaluator.evaluate``
     with "HDR", the ACES tone mapper and the given exposures).
 

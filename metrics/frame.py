@@ -15,10 +15,14 @@ d², less var_R, clipped at 0 as a sum); docs/decisions.md "The one-frame error"
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .noise import masked_pixels
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
 
 
 @dataclass(frozen=True)
@@ -36,7 +40,8 @@ class FrameRelMSE:
     level: float
 
 
-def frame_relative_mse(reference, reference_var, frames, *, mask=None, level: float = 0.95) -> FrameRelMSE:
+def frame_relative_mse(reference: ArrayLike, reference_var: ArrayLike, frames: ArrayLike, *,
+                       mask: ArrayLike | None = None, level: float = 0.95) -> FrameRelMSE:
     """The one-frame error (module docstring) of S frames (S×H×W×C) against a reference
     (H×W×C) and the variance of its mean per pixel; ``mask`` (H×W) selects pixels."""
     r = np.asarray(reference, np.float64)

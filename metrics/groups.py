@@ -13,12 +13,18 @@ pure noise it errs on the large side, the Efron–Stein bias: docs/decisions.md
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
+from typing import TYPE_CHECKING
+
 import numpy as np
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
 
 MIN_GROUPS = 4
 
 
-def checked_groups(groups, name: str = "reference_groups") -> tuple:
+def checked_groups(groups: tuple[ArrayLike, ArrayLike], name: str = "reference_groups") -> tuple:
     """(G×… float64 means, G float64 batch counts) of ``groups``; ValueError unless at
     least MIN_GROUPS groups with a batch each."""
     means, counts = groups
@@ -29,7 +35,8 @@ def checked_groups(groups, name: str = "reference_groups") -> tuple:
     return means, counts
 
 
-def group_jackknife_se(groups: list, statistic):
+def group_jackknife_se(groups: list, statistic: Callable[[list[np.ndarray], list[float]], float | Sequence[float]]
+                       ) -> float | np.ndarray:
     """The delete-one-group jackknife SE of ``statistic(images, scales)`` (a number, or a
     sequence of numbers: their SEs as an array, from one pass over the groups).
 

@@ -2,7 +2,12 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
 
 
 def _check(reference, test, mask):
@@ -18,7 +23,7 @@ def _check(reference, test, mask):
     return r[m], t[m]
 
 
-def relative_mse(reference, test, *, mask=None) -> float:
+def relative_mse(reference: ArrayLike, test: ArrayLike, *, mask: ArrayLike | None = None) -> float:
     """Σ(test − reference)² / Σ reference²: the mean squared error relative to the
     reference's energy (0 for identical images).
 
@@ -65,7 +70,8 @@ def _frames(reference, tests):
     return r, t
 
 
-def per_pixel_relative_mse(reference, test, *, mask=None, epsilon: float = 1e-2, full: bool = False) -> dict:
+def per_pixel_relative_mse(reference: ArrayLike, test: ArrayLike, *, mask: ArrayLike | None = None,
+                           epsilon: float = 1e-2, full: bool = False) -> dict:
     """Mean over pixels of (test − reference)² / (reference² + ε), ε = ``epsilon`` times
     the mean of reference² over the compared pixels (so the floor scales with the image):
     large errors in dark pixels count without dividing by zero.
@@ -96,7 +102,7 @@ def per_pixel_relative_mse(reference, test, *, mask=None, epsilon: float = 1e-2,
     return out
 
 
-def reference_exposure(reference, *, mask=None, percentile: float = 99.5) -> float:
+def reference_exposure(reference: ArrayLike, *, mask: ArrayLike | None = None, percentile: float = 99.5) -> float:
     """Exposure that maps the reference's bright pixels (``percentile`` of the nonzero
     luminance over the compared pixels) to 1: one exposure for both images."""
     return float(1.0 / np.percentile(_lit_luminance(reference, mask), percentile))
@@ -124,7 +130,8 @@ SSIM_SIGMA = 1.5  # Wang et al. 2004's Gaussian weights
 SSIM_WINDOW = 2 * int(3.5 * SSIM_SIGMA + 0.5) + 1
 
 
-def ssim(reference, test, *, mask=None, exposure: float | None = None) -> dict:
+def ssim(reference: ArrayLike, test: ArrayLike, *, mask: ArrayLike | None = None,
+         exposure: float | None = None) -> dict:
     """SSIM (scikit-image, Gaussian weights as Wang et al. 2004) of the two images shown
     with one exposure (the reference's, :func:`reference_exposure`, unless given),
     clipped and sRGB-encoded, averaged over the compared pixels; 1 for identical images."""
@@ -139,7 +146,8 @@ def ssim(reference, test, *, mask=None, exposure: float | None = None) -> dict:
             "sigma": SSIM_SIGMA, "pixels": int(keep.sum())}
 
 
-def delta_e2000(reference, test, *, mask=None, exposure: float | None = None) -> dict:
+def delta_e2000(reference: ArrayLike, test: ArrayLike, *, mask: ArrayLike | None = None,
+                exposure: float | None = None) -> dict:
     """Mean and 99th percentile CIEDE2000 colour difference (colour-science) of the two
     images shown with one exposure (the reference's unless given), via sRGB → XYZ → CIELAB
     (D65), over the compared pixels; 0 for identical images."""
@@ -150,7 +158,8 @@ def delta_e2000(reference, test, *, mask=None, exposure: float | None = None) ->
     return delta_e2000_frames(reference, t[None], mask=mask, exposure=exposure)[0]
 
 
-def delta_e2000_frames(reference, tests, *, mask=None, exposure: float | None = None) -> list:
+def delta_e2000_frames(reference: ArrayLike, tests: ArrayLike, *, mask: ArrayLike | None = None,
+                       exposure: float | None = None) -> list:
     """:func:`delta_e2000` of each of ``tests`` (S×H×W×3, linear radiance) against one
     ``reference`` (H×W×3): the reference's CIELAB once, every test's pixels in one call
     (colour-science's functions are per pixel, so each value is the one-pair call's)."""
@@ -171,7 +180,8 @@ def delta_e2000_frames(reference, tests, *, mask=None, exposure: float | None = 
             for x in de]
 
 
-def hdr_flip(reference, test, *, mask=None, start_exposure: float | None = None,
+def hdr_flip(reference: ArrayLike, test: ArrayLike, *, mask: ArrayLike | None = None,
+             start_exposure: float | None = None,
              stop_exposure: float | None = None, ppd: float = 67.0, full: bool = False) -> dict:
     """HDR-FLIP (Andersson et al. 2021, as NVIDIA's ``flip-evaluator``: ``metrics.flip``)
     over the compared pixels; 0 for identical images.
@@ -190,7 +200,8 @@ def hdr_flip(reference, test, *, mask=None, start_exposure: float | None = None,
                            ppd=ppd, full=full)[0]
 
 
-def hdr_flip_frames(reference, tests, *, mask=None, start_exposure: float | None = None,
+def hdr_flip_frames(reference: ArrayLike, tests: ArrayLike, *, mask: ArrayLike | None = None,
+                    start_exposure: float | None = None,
                     stop_exposure: float | None = None, ppd: float = 67.0, full: bool = False) -> list:
     """:func:`hdr_flip` of each of ``tests`` (S×H×W×3, linear radiance) against one
     ``reference`` (H×W×3), in one pass (``metrics.flip.hdr_flip_maps``): a list of S
@@ -218,7 +229,7 @@ def hdr_flip_frames(reference, tests, *, mask=None, start_exposure: float | None
     return out
 
 
-def energy_ratio(reference, test, *, mask=None) -> dict:
+def energy_ratio(reference: ArrayLike, test: ArrayLike, *, mask: ArrayLike | None = None) -> dict:
     """Σ test / Σ reference per colour channel over the compared pixels (1 = same energy)."""
     r, t = _images(reference, test)
     keep = _keep(r, mask)

@@ -30,9 +30,13 @@ approximation.
 
 from __future__ import annotations
 
-from typing import Any
+from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
 
 TRUE_HIT = 0
 WRONG_SURFACE = 1
@@ -88,8 +92,10 @@ def _unit(v):
         return v / norm
 
 
-def classify_segments(records, exact, *, texel_angle, light_position, start_normal=None,
-                      tolerance_texels=3.0, tolerance_floor=1e-4, self_normal_cos=0.9, exact_beyond=None) -> dict:
+def classify_segments(records: np.ndarray | Mapping[str, ArrayLike], exact: Mapping[str, ArrayLike], *,
+                      texel_angle: float, light_position: ArrayLike, start_normal: ArrayLike | None = None,
+                      tolerance_texels: float = 3.0, tolerance_floor: float = 1e-4, self_normal_cos: float = 0.9,
+                      exact_beyond: Mapping[str, ArrayLike] | None = None) -> dict:
     """Class, Δt and normal error of every segment the approximation searched.
 
     Parameters
@@ -246,7 +252,8 @@ def _option_columns(options):
     return out
 
 
-def intersection_table(records, classes, *, group_by=GROUP_KEYS, parameters=None) -> list:
+def intersection_table(records: np.ndarray | Mapping[str, ArrayLike], classes: dict, *,
+                       group_by: Sequence[str] = GROUP_KEYS, parameters: dict | None = None) -> list:
     """Tidy rows of the segment classes, one per group.
 
     Parameters

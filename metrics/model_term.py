@@ -30,10 +30,15 @@ intervals are ±1.96 SE (normal).
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
 
 from volcaustics.metrics.groups import group_jackknife_se
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
 
 Z95 = 1.959963984540054  # two-sided 95% normal quantile
 
@@ -48,8 +53,10 @@ def _propagated(gradient, variance) -> float:
     return float(np.sum(np.sum(np.abs(gradient) * np.sqrt(variance), axis=1) ** 2))
 
 
-def model_term(r_ss, r_ss_var, term, term_var, approx_stack, keep, term_ratio=None, term_groups=None,
-               reference_groups=None) -> dict:
+def model_term(r_ss: ArrayLike, r_ss_var: ArrayLike, term: ArrayLike, term_var: ArrayLike,
+               approx_stack: Iterable[ArrayLike], keep: np.ndarray, term_ratio: ArrayLike | None = None,
+               term_groups: tuple[ArrayLike, ArrayLike] | None = None,
+               reference_groups: tuple[ArrayLike, ArrayLike] | None = None) -> dict:
     """The model term's numbers for one component (module docstring): {metric: (value,
     debiased, standard error)}. ``approx_stack``: S×H×W×3 frames (S ≥ 1; with S ≥ 2
     their variance over the seeds enters the SE); ``keep``: H×W compared pixels;
@@ -90,7 +97,7 @@ def model_term(r_ss, r_ss_var, term, term_var, approx_stack, keep, term_ratio=No
                 (float(np.sum(t_g * (ms_g - a))) - noise * scales[0]) / e_g
 
         rest = _propagated(t, av) + (_propagated(t, rv) if reference_groups is None else 0.0)
-        own_se, part_se = (float(x) for x in group_jackknife_se(grouped, values))
+        own_se, part_se = (float(x) for x in cast(np.ndarray, group_jackknife_se(grouped, values)))  # two SEs
         part_se = math.sqrt(part_se**2 + rest / energy**2)
     approx_part = float(np.sum((r - a) * err_ms)) / energy
     return {"energy_share": (share, share, share_se),

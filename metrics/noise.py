@@ -15,11 +15,15 @@ pixels) and a distribution-free standard error (photon noise is heavy-tailed).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
 
-def masked_pixels(image, mask):
+
+def masked_pixels(image: np.ndarray, mask: ArrayLike | None) -> np.ndarray:
     """Pixels of ``image`` (H×W×C or H×W) under ``mask`` (H×W or H×W×C) as N×C."""
     m = np.ones(image.shape[:2], bool) if mask is None else np.asarray(mask, dtype=bool)
     if m.ndim < 2 or m.shape != image.shape[: m.ndim]:
@@ -55,7 +59,7 @@ def _variance_squared(batches):
     return sigma4 / n**2
 
 
-def noise_floor(reference, reference_var, *, mask=None) -> float:
+def noise_floor(reference: ArrayLike, reference_var: ArrayLike, *, mask: ArrayLike | None = None) -> float:
     """Σ var / Σ mean² over the pixels of ``mask``: the reference's own noise as a
     relative MSE (docs/concepts/measuring.md.
 
@@ -78,7 +82,7 @@ def noise_floor(reference, reference_var, *, mask=None) -> float:
     return float(np.sum(rv) / energy)
 
 
-def total_sigma(image_var, *, mask=None, ratio=None) -> np.ndarray:
+def total_sigma(image_var: ArrayLike, *, mask: ArrayLike | None = None, ratio: ArrayLike | None = None) -> np.ndarray:
     """Per channel, the standard deviation of an image's total over ``mask`` from its
     per-pixel variances ``image_var`` (…×C; ``mask`` None: every pixel): √(ratio_c · Σ var_c), ``ratio`` the image's
     measured variance of the total over Σ var (``reference.render.batches.
@@ -103,7 +107,8 @@ class EnergyRatio:
     reference_batches: int
 
 
-def batch_energy_ratio(reference_batches, test_batches, *, mask=None) -> EnergyRatio:
+def batch_energy_ratio(reference_batches: ArrayLike, test_batches: ArrayLike, *,
+                       mask: ArrayLike | None = None) -> EnergyRatio:
     """Energy of a test image relative to a reference, both as independent batches.
 
     Parameters
@@ -153,7 +158,8 @@ class DebiasedRelMSE:
     reference_batches: int
 
 
-def debiased_relative_mse(reference_batches, test_batches, *, mask=None) -> DebiasedRelMSE:
+def debiased_relative_mse(reference_batches: ArrayLike, test_batches: ArrayLike, *,
+                          mask: ArrayLike | None = None) -> DebiasedRelMSE:
     """Relative MSE of a batched test image against a batched reference, less what
     their noise explains, with a standard error.
 
@@ -228,7 +234,8 @@ class SeedsRelMSE:
     pixels: int
 
 
-def seed_relative_mse(reference, reference_var, seed_images, *, mask=None, level: float = 0.95) -> SeedsRelMSE:
+def seed_relative_mse(reference: ArrayLike, reference_var: ArrayLike, seed_images: ArrayLike, *,
+                      mask: ArrayLike | None = None, level: float = 0.95) -> SeedsRelMSE:
     """Debiased relative MSE of S approximation frames (S×H×W×C) against a reference
     (mean H×W×C and the variance of that mean per pixel), with its standard error.
 
@@ -298,7 +305,7 @@ def bootstrap_weights(seeds: int, resamples: int, seed: int) -> np.ndarray:
     return (idx[:, :, None] == np.arange(seeds)).sum(axis=1).astype(np.float64)
 
 
-def seed_mean_interval(values, *, resamples: int = 2000, level: float = 0.95, seed: int = 0) -> dict:
+def seed_mean_interval(values: ArrayLike, *, resamples: int = 2000, level: float = 0.95, seed: int = 0) -> dict:
     """Mean of a per-frame metric over S seeds and its percentile bootstrap interval
     (None below MIN_SEEDS_FOR_INTERVAL seeds)."""
     v = np.asarray(values, np.float64).reshape(-1)
@@ -315,7 +322,7 @@ def seed_mean_interval(values, *, resamples: int = 2000, level: float = 0.95, se
             "resamples": resamples if interval else 0, "level": level}
 
 
-def noisy_copy(reference, reference_var, *, seed: int = 0) -> np.ndarray:
+def noisy_copy(reference: ArrayLike, reference_var: ArrayLike, *, seed: int = 0) -> np.ndarray:
     """The reference plus Gaussian noise of its own per-pixel variance, clipped at 0:
     an image as far from the reference as an exact renderer with the reference's noise
     would be. Metrics that are not quadratic (SSIM, FLIP, ΔE) cannot subtract a floor

@@ -16,6 +16,8 @@ replays the same photons with the same random numbers. From them (docs/concepts/
 
 from __future__ import annotations
 
+from collections.abc import Iterable
+
 import numpy as np
 
 from volcaustics.scenes.formats import STATUS_COLLIDED, STATUS_LEFT_SCENE, STATUS_LOST, STATUS_NAMES, STATUS_SURFACE
@@ -44,7 +46,7 @@ def _power(x) -> np.ndarray:
     return x.reshape(len(x), int(np.prod(x.shape[1:]))).mean(axis=1)
 
 
-def power_budget(records, *, tracer: str = "approx") -> list:
+def power_budget(records: np.ndarray | Iterable[np.ndarray], *, tracer: str = "approx") -> list:
     """Power by fate per step, as tidy rows.
 
     Parameters
@@ -82,7 +84,8 @@ def power_budget(records, *, tracer: str = "approx") -> list:
     return rows
 
 
-def path_divergence(approx, exact, *, place_tolerance: float = 1e-3) -> dict:
+def path_divergence(approx: np.ndarray | Iterable[np.ndarray], exact: np.ndarray | Iterable[np.ndarray], *,
+                    place_tolerance: float = 1e-3) -> dict:
     """Per photon of step 1, the first step where the approximation leaves its exact
     replay.
 

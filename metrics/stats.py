@@ -17,8 +17,12 @@ counts, the p-values come from t with the Welch–Satterthwaite degrees of freed
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
 
 
 @dataclass(frozen=True)
@@ -40,7 +44,7 @@ def sidak_alpha(alpha: float, n: int) -> float:
     return float(-np.expm1(np.log1p(-alpha) / max(n, 1)))
 
 
-def welch_dof(var_a, batches_a: int, var_b, batches_b: int) -> np.ndarray:
+def welch_dof(var_a: ArrayLike, batches_a: int, var_b: ArrayLike, batches_b: int) -> np.ndarray:
     """Welch–Satterthwaite degrees of freedom of var_a + var_b, each the variance of a
     mean over that many batches (per pixel; ∞ where both are 0)."""
     va, vb = np.asarray(var_a, np.float64), np.asarray(var_b, np.float64)
@@ -50,7 +54,7 @@ def welch_dof(var_a, batches_a: int, var_b, batches_b: int) -> np.ndarray:
         return np.where(den > 0, num / den, np.inf)
 
 
-def p_values(z, dof=None) -> np.ndarray:
+def p_values(z: ArrayLike, dof: ArrayLike | None = None) -> np.ndarray:
     """Two-sided p-values of |z|: normal, or Student's t with ``dof`` (scalar or per value)."""
     from scipy.special import erfc
     from scipy.stats import t as student_t
@@ -65,8 +69,9 @@ def p_values(z, dof=None) -> np.ndarray:
     return out
 
 
-def z_test(reference_mean, reference_var, test_mean, test_var, *, alpha: float = 0.01,
-           min_pass_rate: float = 0.99, var_floor: float = 0.0, batches: tuple | None = None) -> ZTestResult:
+def z_test(reference_mean: ArrayLike, reference_var: ArrayLike, test_mean: ArrayLike, test_var: ArrayLike, *,
+           alpha: float = 0.01, min_pass_rate: float = 0.99, var_floor: float = 0.0,
+           batches: tuple | None = None) -> ZTestResult:
     """Per-pixel z-test of two independent unbiased estimates of the same image.
 
     Parameters

@@ -17,12 +17,24 @@ then subtracted as well, so two references of the same frames score 0 within noi
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 
 from volcaustics.metrics.groups import group_jackknife_se
 from volcaustics.metrics.noise import total_sigma
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
+
+    class _FrameGroups(Protocol):
+        """``flicker``'s reference_groups: per frame None or (means, counts, variance), read on indexing."""
+
+        def __len__(self) -> int: ...
+
+        def __getitem__(self, t: int, /) -> tuple[ArrayLike, ArrayLike, ArrayLike] | None: ...
 
 NAN = float("nan")
 
@@ -51,7 +63,8 @@ class PairFlicker:
     chains: int
 
 
-def flicker(reference, reference_var, chains, *, test_var=None, mask=None, reference_groups=None) -> list[PairFlicker]:
+def flicker(reference: ArrayLike, reference_var: ArrayLike, chains: ArrayLike, *, test_var: ArrayLike | None = None,
+            mask: ArrayLike | None = None, reference_groups: _FrameGroups | None = None) -> list[PairFlicker]:
     """Flicker of every frame pair of a sequence against its reference.
 
     Parameters
@@ -164,7 +177,8 @@ def _pair(t, r, rv, a, tv, keep, groups=None) -> PairFlicker:
                        energy=energy, pixels=int(keep.sum()), chains=s)
 
 
-def energy_jitter(reference, reference_var, chains, *, mask=None, ratios=None) -> list[dict]:
+def energy_jitter(reference: ArrayLike, reference_var: ArrayLike, chains: ArrayLike, *, mask: ArrayLike | None = None,
+                  ratios: Sequence[ArrayLike | None] | None = None) -> list[dict]:
     """The energy ratio's frame-to-frame change: per frame t, e_t = Σ Ā_t / Σ R̂_t over the
     kept pixels (channels averaged, Ā the chains' mean) and per pair Δe = e_t − e_{t−1},
     with the SE of Δe that the reference totals' noise gives (``metrics.noise.total_sigma``
@@ -196,7 +210,8 @@ def energy_jitter(reference, reference_var, chains, *, mask=None, ratios=None) -
     return rows
 
 
-def trailing_lag(frames, references, *, mask=None, max_shift: int = 4) -> int:
+def trailing_lag(frames: ArrayLike, references: ArrayLike, *, mask: ArrayLike | None = None,
+                 max_shift: int = 4) -> int:
     """How many frames a sequence trails its reference: the shift s in 0 … max_shift
     that minimises Σ_t Σ(A_t − R_{t−s})² / Σ R_{t−s}² over the frames both cover
     (``frames``, ``references``: T×H×W×C; ``mask``: T×H×W). 0 for a filter without
@@ -216,7 +231,8 @@ def trailing_lag(frames, references, *, mask=None, max_shift: int = 4) -> int:
     return best
 
 
-def recovery_frames(errors, change: int, without_history, *, factor: float = 1.0) -> int:
+def recovery_frames(errors: Sequence[float] | np.ndarray, change: int, without_history: ArrayLike, *,
+                    factor: float = 1.0) -> int:
     """Frames after ``change`` until a per-frame error series first comes back within
     ``factor`` × the error the frames have without history (``without_history``: that
     series, or its level): how long a temporal filter ghosts after a change.

@@ -26,6 +26,7 @@ import os
 import re
 import uuid
 import zipfile
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -50,6 +51,12 @@ from volcaustics.scenes.formats import COLOUR_LAYERS, LAYER_NAMES, MASK_LAYER, M
 
 from . import mi_setup
 
+if TYPE_CHECKING:
+    from volcaustics.scenes.model import Scene
+
+    from .request import RenderRequest
+    from .settings import ReferenceSettings
+
 KEY_FORMAT = "volcaustics-reference-key/3"
 # The code that turns a description into pixels is the folder reference/render/ (the
 # integrators, their shape table, the conversion to Mitsuba objects, the batches and
@@ -67,7 +74,7 @@ def code_version() -> str:
     return source_hash({"reference/render": RENDER_FOLDER})
 
 
-def key_document(request, variant: str) -> dict:
+def key_document(request: RenderRequest, variant: str) -> dict:
     """What the key of a resolved :class:`reference.request.RenderRequest` rendered
     with Mitsuba ``variant`` hashes."""
     return {
@@ -82,13 +89,14 @@ def key_document(request, variant: str) -> dict:
     }
 
 
-def request_key(request, variant: str) -> str:
+def request_key(request: RenderRequest, variant: str) -> str:
     """Key of a resolved request rendered with ``variant``."""
     text = json.dumps(key_document(request, variant), sort_keys=True, separators=(",", ":"), allow_nan=False)
     return hashlib.sha256(text.encode()).hexdigest()[:32]
 
 
-def cache_key(scene, settings=None, *, mode: str = "caustic", variant: str | None = None) -> str:
+def cache_key(scene: Scene, settings: ReferenceSettings | None = None, *, mode: str = "caustic",
+              variant: str | None = None) -> str:
     """Key of the reference of ``scene`` with ``settings`` (resolved here, see
     reference.request) and ``mode``, rendered with ``variant`` (default: the one this
     process renders with)."""
@@ -97,7 +105,7 @@ def cache_key(scene, settings=None, *, mode: str = "caustic", variant: str | Non
     return request_key(resolve(scene, settings, mode), variant or mi_setup.render_variant())
 
 
-def lookup(request):
+def lookup(request: RenderRequest) -> tuple[str, dict, dict] | None:
     """(key, manifest, layers) of a complete, verified cache entry for ``request``
     rendered with one of the variants this process serves (mi_setup.served_variants,
     in order), else None."""
@@ -129,7 +137,7 @@ def entry_file(key: str, manifest: dict, kind: str) -> str:
     return os.path.join(cache_path("reference"), name)
 
 
-def load(key: str, size: tuple | None = None):
+def load(key: str, size: tuple | None = None) -> tuple[dict, dict] | None:
     """(manifest, layers) of a complete, undamaged entry, else None: the manifest is a
     JSON object of this key naming its files, with fields of the types the cache writes
     (:func:`_manifest_size`), the EXR and PNG match its SHA-256s, and the layers are
@@ -321,14 +329,14 @@ class ReferenceResult:
             return None
 
 
-def for_caller(manifest: dict, scene) -> dict:
+def for_caller(manifest: dict, scene: Scene) -> dict:
     """A cached manifest with the caller's scene name and hash: one entry serves every
     scene that renders the same (other labels, another camera size with settings naming
     the size), and the caller is told about the scene it passed."""
     return {**manifest, "scene": scene.name, "scene_hash": scene.scene_hash()}
 
 
-def cached_reference(key: str, scene, content: str | None = None) -> ReferenceResult | None:
+def cached_reference(key: str, scene: Scene, content: str | None = None) -> ReferenceResult | None:
     """The complete, verified cache entry ``key`` as a result for ``scene``, or None if
     this cache does not hold it, or (``content``: its EXR's SHA-256) holds another render
     under the key, an entry continued since: a worker measures exactly the reference its
@@ -339,7 +347,8 @@ def cached_reference(key: str, scene, content: str | None = None) -> ReferenceRe
     return ReferenceResult(key, for_caller(entry[0], scene), cached=True, layers=entry[1])
 
 
-def existing_reference(scene, settings=None, *, mode: str = "caustic") -> ReferenceResult | None:
+def existing_reference(scene: Scene, settings: ReferenceSettings | None = None, *,
+                       mode: str = "caustic") -> ReferenceResult | None:
     """The cache entry for ``scene`` and ``settings`` as it is (whatever its batches or
     floors, never continued), or None when there is none."""
     from .request import resolve

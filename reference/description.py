@@ -26,12 +26,17 @@ from __future__ import annotations
 
 import hashlib
 import json
+from collections.abc import Iterable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from volcaustics.scenes.bounds import medium_bounds
+
+if TYPE_CHECKING:
+    from volcaustics.scenes.mesh import Mesh
+    from volcaustics.scenes.model import Scene, SpotLight
 
 FOG_ID = "fog"
 
@@ -49,7 +54,7 @@ class Description:
         return json.dumps(self.tree, sort_keys=True, separators=(",", ":"), allow_nan=False)
 
 
-def ply_bytes(mesh) -> bytes:
+def ply_bytes(mesh: Mesh) -> bytes:
     """Binary little-endian PLY: float32 positions and vertex normals, int32 triangles."""
     normals = mesh.vertex_normals()
     v = np.zeros(len(mesh.vertices), dtype=[("x", "<f4"), ("y", "<f4"), ("z", "<f4"),
@@ -76,11 +81,11 @@ def _vec(v) -> list:
     return [float(x) for x in v]
 
 
-def look_at(origin, target, up) -> dict:
+def look_at(origin: Iterable[float], target: Iterable[float], up: Iterable[float]) -> dict:
     return {"type": "transform", "ops": [["look_at", _vec(origin), _vec(target), _vec(up)]]}
 
 
-def spot_to_world(light) -> dict:
+def spot_to_world(light: SpotLight) -> dict:
     """The spot's frame: looking along its axis from its position."""
     pos = np.asarray(light.position, float)
     axis = np.asarray(light.direction, float)
@@ -103,11 +108,11 @@ def _homogeneous(sigma_t, albedo, phase=None) -> dict:
     return d
 
 
-def describe(scene, *, integrator: dict | None = None, spp: int = 16, medium_box: bool = True) -> Description:
+def describe(scene: Scene, *, integrator: dict | None = None, spp: int = 16, medium_box: bool = True) -> Description:
     """The Mitsuba scene of ``scene`` as plain data; ``integrator`` defaults to volpath."""
-    meshes = {}
+    meshes: dict[str, bytes] = {}
 
-    def ply(mesh) -> dict:
+    def ply(mesh: Mesh) -> dict:
         data = ply_bytes(mesh)
         digest = ply_digest(data)
         meshes[digest] = data
@@ -149,8 +154,8 @@ def describe(scene, *, integrator: dict | None = None, spp: int = 16, medium_box
         if has_fog:
             shape["exterior"] = {"type": "ref", "id": FOG_ID}
         d[f"specular_{i}"] = shape
-    for i, obj in enumerate(scene.diffuse):
-        d[f"diffuse_{i}"] = {**ply(obj.mesh.load()),
+    for i, surface in enumerate(scene.diffuse):
+        d[f"diffuse_{i}"] = {**ply(surface.mesh.load()),
                              "bsdf": {"type": "twosided", "material": {"type": "diffuse",
-                                                                        "reflectance": _rgb(obj.albedo)}}}
+                                                                        "reflectance": _rgb(surface.albedo)}}}
     return Description(d, meshes)

@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import functools
 import os
+from types import ModuleType
+from typing import cast
 
 from .variant import PREFERRED, VariantError, reference_variant
 
@@ -49,7 +51,7 @@ def served_variants() -> tuple[str, ...]:
 
 
 @functools.lru_cache(maxsize=1)
-def mitsuba():
+def mitsuba() -> ModuleType:
     """The ``mitsuba`` module with the reference variant set."""
     from .llvm import MIN_MAJOR, ensure_libllvm, libllvm_major
 
@@ -57,7 +59,7 @@ def mitsuba():
     override = variant_override()
     # checked before the probe, which would only report that no variant renders
     if how == "environment" and not (override or "llvm").startswith("cuda") and (
-            not _shared_library(path) or (libllvm_major(path) or MIN_MAJOR) < MIN_MAJOR):
+            not _shared_library(cast(str, path)) or (libllvm_major(cast(str, path)) or MIN_MAJOR) < MIN_MAJOR):
         raise VariantError(f"DRJIT_LIBLLVM_PATH = {path!r}: not a libLLVM {MIN_MAJOR} or newer file (Dr.Jit's LLVM "
                            f"backend needs one); unset it to let volcaustics find one, or apt-get install libllvm19")
     variant = render_variant()

@@ -14,7 +14,7 @@
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
@@ -29,6 +29,11 @@ from volcaustics.scenes.formats import (
     STATUS_SURFACE,
 )
 from volcaustics.scenes.rng import uniform
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
+
+    from volcaustics.scenes.model import Scene
 
 
 class Oracle:
@@ -57,7 +62,7 @@ class Oracle:
         self.rays = 0  # segments queried so far (bench/exact_replay.py: throughput)
         self.segments = None  # a list: every query's float32 rays (origin, direction, maxt), for the same bench
 
-    def first_hits(self, starts, directions, max_lengths) -> dict:
+    def first_hits(self, starts: ArrayLike, directions: ArrayLike, max_lengths: ArrayLike) -> dict:
         """Exact first hits on segments start + t·direction, t in (0, max_length].
 
         Parameters: starts, directions N×3 (directions unit), max_lengths N; metres.
@@ -99,7 +104,7 @@ class Oracle:
                 "geometric_normal": np.where(hit[:, None], vec(geometric), nan3), "shape": shape}
 
 
-def fresnel_dielectric(cos_i, eta):
+def fresnel_dielectric(cos_i: np.ndarray, eta: np.ndarray | float) -> np.ndarray:
     """Unpolarised Fresnel reflectance (numpy twin of common/optics.glsl), 1 under TIR."""
     sin2_t = (1.0 - cos_i * cos_i) / (eta * eta)
     cos_t = np.sqrt(np.maximum(1.0 - sin2_t, 0.0))
@@ -108,7 +113,9 @@ def fresnel_dielectric(cos_i, eta):
     return np.where(sin2_t >= 1.0, 1.0, 0.5 * (r_s * r_s + r_p * r_p))
 
 
-def surface_interaction(d, power, n, n_geometric, hit_material, xi, ior, stochastic: bool):
+def surface_interaction(d: np.ndarray, power: np.ndarray, n: np.ndarray, n_geometric: np.ndarray,
+                        hit_material: np.ndarray, xi: np.ndarray, ior: np.ndarray,
+                        stochastic: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Vectorised twin of common/interaction.glsl; returns (d, power, inside, flags).
 
     n: outward shading normals, n_geometric: outward geometric normals (N×3). As
@@ -119,7 +126,7 @@ def surface_interaction(d, power, n, n_geometric, hit_material, xi, ior, stochas
                               stochastic)
 
 
-def interaction_geometry(d, n, hit_material, ior) -> dict:
+def interaction_geometry(d: np.ndarray, n: np.ndarray, hit_material: np.ndarray, ior: np.ndarray) -> dict:
     """What a surface interaction is before its Fresnel choice (no random number): the
     reflected and refracted directions, the reflectance R and total internal reflection
     (``tir``), for directions ``d`` at outward shading normals ``n`` (N×3)."""
@@ -137,7 +144,8 @@ def interaction_geometry(d, n, hit_material, ior) -> dict:
     return {"reflected": reflected, "refracted": refracted, "R": R, "tir": tir}
 
 
-def interaction_choice(geometry: dict, power, n_geometric, hit_material, xi, stochastic: bool):
+def interaction_choice(geometry: dict, power: np.ndarray, n_geometric: np.ndarray, hit_material: np.ndarray,
+                       xi: np.ndarray, stochastic: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The interaction's Fresnel choice with ``xi`` (N) on :func:`interaction_geometry`'s
     ``geometry``: (d, power, inside, flags) as :func:`surface_interaction`."""
     tir, R = geometry["tir"], geometry["R"]
@@ -164,7 +172,8 @@ class ReplayConstants:
         self.stochastic = fresnel == "stochastic"
 
 
-def advance(c: ReplayConstants, oracle: Oracle, step: int, seed, idx, o, d, inside, power) -> dict:
+def advance(c: ReplayConstants, oracle: Oracle, step: int, seed: int | np.ndarray, idx: np.ndarray, o: np.ndarray,
+            d: np.ndarray, inside: np.ndarray, power: np.ndarray) -> dict:
     """One interaction step of photons ``idx`` (emission texels) at ``o`` going ``d``
     (N×3 float64, unit), ``inside`` (object index, −1 medium), ``power`` (N×3 W): free
     flight from u(seed, photon, step, 0), the exact first hit, transmittance, and at a
@@ -197,7 +206,7 @@ def advance(c: ReplayConstants, oracle: Oracle, step: int, seed, idx, o, d, insi
     status[~hit & collides] = STATUS_COLLIDED
     new_d, new_inside = d.copy(), inside.copy()
     if hit.any():
-        seed_hit = seed[hit] if np.ndim(seed) else seed
+        seed_hit = cast(np.ndarray, seed)[hit] if np.ndim(seed) else seed
         xi = uniform(seed_hit, idx[hit].astype(np.uint32), step, 1).astype(np.float64)
         dd, pp, ii, ff = surface_interaction(d[hit], new_power[hit], q["normal"][hit], q["geometric_normal"][hit],
                                              q["shape"][hit], xi, c.ior, c.stochastic)
@@ -211,8 +220,8 @@ def alive_after(status: np.ndarray) -> np.ndarray:
     return (status == STATUS_SURFACE) | (status == STATUS_COLLIDED)
 
 
-def exact_photon_records(scene, first_records, *, steps: int, seed: int, fresnel: str = "deterministic",
-                         oracle: Oracle | None = None) -> list:
+def exact_photon_records(scene: Scene, first_records: np.ndarray, *, steps: int, seed: int,
+                         fresnel: str = "deterministic", oracle: Oracle | None = None) -> list:
     """Replay photons from the approximation's step-1 records (their emission state:
     start, direction, inside, power_start) with exact intersections; returns one
     RECORD_DTYPE array per step (photons alive at that step)."""
@@ -231,7 +240,7 @@ def exact_photon_records(scene, first_records, *, steps: int, seed: int, fresnel
     return out
 
 
-def emission_state(first_records) -> tuple:
+def emission_state(first_records: np.ndarray) -> tuple:
     """(photon index, start, unit direction, inside, power) of step-1 records, in the
     replay's float64."""
     d = first_records["direction"].astype(np.float64)

@@ -16,7 +16,9 @@ direction, power, as the records hold them) and the power budgets.
 from __future__ import annotations
 
 import functools
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 
@@ -34,9 +36,27 @@ from .oracle import (
     interaction_geometry,
 )
 
+if TYPE_CHECKING:
+    from volcaustics.scenes.model import Scene
+
 # Photons per launch: about 1 kB each of float64 state and temporaries at the widest step
 MAX_PHOTONS = 1 << 21
 COLLISION_DTYPE = np.dtype([(name, RECORD_DTYPE[name]) for name in ("photon", "step", "end", "direction", "power")])
+
+
+class Rays(Protocol):
+    """A set of rays leaving the light, as :func:`exact_emission` reads them (e.g.
+    ``approx.emission.EmissionRays``): ``photon`` (N indices), ``direction`` (N×3 unit,
+    from the light) and ``power`` (N×3 W)."""
+
+    @property
+    def photon(self) -> np.ndarray: ...
+
+    @property
+    def direction(self) -> np.ndarray: ...
+
+    @property
+    def power(self) -> np.ndarray: ...
 
 
 @dataclass
@@ -58,8 +78,8 @@ class Collisions:
     photons: int
 
 
-def exact_emission(scene, groups, *, fresnel: str, oracle: Oracle | None = None,
-                   max_photons: int = MAX_PHOTONS) -> list:
+def exact_emission(scene: Scene, groups: Iterable[tuple[Rays, int]], *, fresnel: str,
+                   oracle: Oracle | None = None, max_photons: int = MAX_PHOTONS) -> list:
     """Per group, the emission state (step-1 records: photon, start, direction, inside,
     power_start; RECORD_DTYPE) of photons leaving the light exactly: each ray from the
     light's position to its exact first specular surface, its power times the medium's
@@ -133,8 +153,8 @@ def _packed(groups, size, launch, max_photons: int) -> list:
     return out + (launch(part) if part else [])
 
 
-def exact_collisions(scene, groups, *, steps: int, fresnel: str, oracle: Oracle | None = None,
-                     max_photons: int = MAX_PHOTONS, engine: str = "drjit") -> list:
+def exact_collisions(scene: Scene, groups: Iterable[tuple[np.ndarray, int]], *, steps: int, fresnel: str,
+                     oracle: Oracle | None = None, max_photons: int = MAX_PHOTONS, engine: str = "drjit") -> list:
     """Replay every group exactly for ``steps`` steps with ``fresnel``; one
     :class:`Collisions` per group, in order.
 
@@ -208,8 +228,8 @@ def _collisions(kept: list, alive: tuple[np.ndarray, np.ndarray], steps: int, em
                        collided_power=collided_power[g], photons=photons[g]) for g in range(groups)]
 
 
-def exact_replays(scene, groups, *, steps: int, fresnel: str, oracle: Oracle | None = None,
-                  max_photons: int = MAX_PHOTONS, engine: str = "drjit") -> list:
+def exact_replays(scene: Scene, groups: Sequence[tuple[Rays, int]], *, steps: int, fresnel: str,
+                  oracle: Oracle | None = None, max_photons: int = MAX_PHOTONS, engine: str = "drjit") -> list:
     """:func:`exact_emission`, then :func:`exact_collisions` from what it emitted: one
     :class:`Collisions` per (rays, seed) group. With the "drjit" engine the emitted
     state is made on the device (``Wavefront.emitted``: the records' float32 values,

@@ -12,9 +12,14 @@ from __future__ import annotations
 import dataclasses
 import functools
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any, cast
 
 from .settings import ReferenceSettings, check_mode
+
+if TYPE_CHECKING:
+    from volcaustics.scenes.model import Scene
+
+    from .description import Description
 
 
 @dataclass(frozen=True)
@@ -27,15 +32,15 @@ class RenderRequest:
     mode: str = "caustic"
 
     @functools.cached_property
-    def description(self):
+    def description(self) -> Description:
         """The Mitsuba scene as plain data (reference.description), built once per request."""
         from .description import describe
 
         return describe(self.scene)
 
 
-def resolve(scene, settings: ReferenceSettings | None = None, mode: str = "caustic") -> RenderRequest:
+def resolve(scene: Scene, settings: ReferenceSettings | None = None, mode: str = "caustic") -> RenderRequest:
     """The request for ``scene`` with ``settings`` (default :class:`ReferenceSettings`) and ``mode``."""
     settings = (settings or ReferenceSettings()).resolved(scene)
-    camera = dataclasses.replace(scene.camera, width=settings.width, height=settings.height)
+    camera = dataclasses.replace(scene.camera, width=cast(int, settings.width), height=cast(int, settings.height))
     return RenderRequest(dataclasses.replace(scene, camera=camera), settings, check_mode(mode))

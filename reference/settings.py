@@ -3,11 +3,15 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable, Mapping
 from dataclasses import asdict, dataclass, replace
-from typing import cast
+from typing import TYPE_CHECKING, cast
 
 from volcaustics.infra.errors import InputError
 from volcaustics.infra.memory import image_fits
+
+if TYPE_CHECKING:
+    from volcaustics.scenes.model import Scene
 
 # which light paths the light tracer counts (reference.integrators); "orders" is the
 # higher-orders stream's own (max_scatter > 1), not a mode a reference is requested in
@@ -101,7 +105,7 @@ class ReferenceSettings:
                                     f"at once (2^32); use at most {most:,} {what} over {self.batches} batches, or "
                                     f"more batches")
 
-    def resolved(self, scene) -> "ReferenceSettings":
+    def resolved(self, scene: Scene) -> "ReferenceSettings":
         """The settings with width/height filled from the scene camera (SettingsError
         when a batch is then too large to render)."""
         return replace(self, width=self.width or scene.camera.width, height=self.height or scene.camera.height)
@@ -152,7 +156,7 @@ class ReferenceSettings:
                 if self.max_scatter > 1 or not name.endswith("_ms")}
 
 
-def parse_target_noise(value) -> tuple:
+def parse_target_noise(value: float | str | Mapping[str, float | str] | Iterable[tuple[str, float | str]]) -> tuple:
     """((component, floor), ...) in NOISE_COMPONENTS order from a number (every
     component), a mapping, pairs, or text "0.005" / "caustic=0.005,fog=0.002"."""
     if isinstance(value, str):
@@ -160,7 +164,7 @@ def parse_target_noise(value) -> tuple:
         if "=" not in text:
             value = _floor_value("target_noise", text)
         else:
-            pairs = {}
+            pairs: dict[str, float | str] = {}
             for part in text.split(","):
                 name, _, number = part.partition("=")
                 if name.strip() in pairs:
@@ -169,7 +173,11 @@ def parse_target_noise(value) -> tuple:
             value = pairs
     if isinstance(value, (int, float)) and not isinstance(value, bool):
         value = {name: value for name in NOISE_COMPONENTS}
-    pairs = dict(value)
+    try:
+        pairs = dict(cast("Mapping[str, float | str] | Iterable[tuple[str, float | str]]", value))
+    except (TypeError, ValueError):  # true, a list of numbers: not a floor, a mapping or pairs
+        raise SettingsError(f"target_noise = {value!r}: expected a noise floor (0.005), \"none\" or floors per "
+                            f"component (caustic=0.005,fog=0.002)") from None
     for name in pairs:
         if name not in NOISE_COMPONENTS:
             raise SettingsError(f"target_noise component {name!r}: expected one of {', '.join(NOISE_COMPONENTS)}")

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import sys
 from functools import lru_cache
+from typing import Any
 
 import numpy as np
 
@@ -64,7 +65,7 @@ class Wavefront:
     def _hash(self, seed, photon, step, dim: int):
         return self._pcg(self._pcg(self._pcg(self._pcg(seed) + photon) + step) + dim)
 
-    def uniform(self, seed, photon, step, dim: int):
+    def uniform(self, seed: Any, photon: Any, step: int | Any, dim: int) -> Any:
         """``scenes.rng.uniform(seed, photon, step, dim)`` as Dr.Jit float32 (U32 seed and
         photon; ``step`` an int, or a U32 made opaque so one kernel serves every step)."""
         if isinstance(step, int):
@@ -72,7 +73,7 @@ class Wavefront:
         return self.F32(self._hash(seed, photon, step, dim) >> 8) * (2.0**-24)
 
     # --- one step ---------------------------------------------------------------------
-    def step(self, step: int, seed, idx, o, d, inside, power) -> dict:
+    def step(self, step: int, seed: Any, idx: Any, o: Any, d: Any, inside: Any, power: Any) -> dict:
         """``oracle.advance`` for the photons ``idx`` with ``seed`` (U32), at ``o`` going
         ``d`` (V64), ``inside`` (I32, −1 medium), ``power`` (V64): lazy arrays of the
         step's end, status, new power and the state after it."""
@@ -136,7 +137,7 @@ class Wavefront:
         shape = dr.select(hit, dr.gather(self.I32, self.shape_index, self.U32(sid)), -1)
         return hit, t, shape, V64(si.sh_frame.n), V64(si.n)
 
-    def light_hits(self, light, direction: np.ndarray, power: np.ndarray, photon: np.ndarray) -> tuple:
+    def light_hits(self, light: np.ndarray, direction: np.ndarray, power: np.ndarray, photon: np.ndarray) -> tuple:
         """Rays from the point ``light`` along ``direction`` (numpy N×3 float64, with
         their ``power`` N×3 and ``photon`` N) to their exact first surface, as
         ``reference.replay``'s seed-free emission: rays without power are not cast.
@@ -196,7 +197,8 @@ class Wavefront:
         return new_d, power, new_inside
 
     # --- a launch ---------------------------------------------------------------------
-    def trace(self, steps: int, group, seed, idx, o, d, inside, power) -> tuple:
+    def trace(self, steps: int, group: np.ndarray, seed: np.ndarray, idx: np.ndarray, o: np.ndarray, d: np.ndarray,
+              inside: np.ndarray, power: np.ndarray) -> tuple:
         """Replay the photons (numpy: group, seed uint32, idx int64, o, d N×3 float64,
         inside int64, power N×3 float64) ``steps`` steps: (collisions, alive) where
         collisions holds per step the medium collisions' group, photon, step, end,

@@ -23,9 +23,14 @@ see nothing new; the animation itself does not enter the static scene's hash.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from .model import Scene
 
 # path → (value kind, interpolation). Object paths are "specular.NAME.translate" etc.
 TRACK_PATHS = {
@@ -76,7 +81,7 @@ class Animation:
     fps: float
     tracks: tuple
 
-    def scene_at(self, scene, t: int):
+    def scene_at(self, scene: Scene, t: int) -> Scene:
         """The static scene of frame ``t`` (0 ≤ t < frames): ``scene`` with every track's value."""
         if not 0 <= t < self.frames:
             raise ValueError(f"frame {t}: expected 0 ≤ frame < {self.frames}")
@@ -99,7 +104,8 @@ def track_kind(path: str) -> tuple:
     raise KeyError(path)
 
 
-def interpolate(frames, values, t: float, interpolation: str, kind: str) -> tuple:
+def interpolate(frames: Sequence[float], values: Sequence[Sequence[float]], t: float, interpolation: str,
+                kind: str) -> tuple:
     """The keyed ``values`` at frame ``t``: linear, or slerp for unit directions and
     rotations (``kind`` "euler": Euler degrees about x, then y, then z, as
     ``scenes.model.Transform``); held before the first key and after the last."""
@@ -121,7 +127,7 @@ def interpolate(frames, values, t: float, interpolation: str, kind: str) -> tupl
     return tuple(float(x) for x in Slerp([0.0, 1.0], rotations)([u]).as_euler("xyz", degrees=True)[0])
 
 
-def slerp_direction(a, b, u: float) -> np.ndarray:
+def slerp_direction(a: np.ndarray, b: np.ndarray, u: float) -> np.ndarray:
     """The unit vector a fraction ``u`` of the great-circle arc from unit ``a`` to unit ``b``."""
     cos = float(np.clip(np.dot(a, b), -1.0, 1.0))
     angle = math.acos(cos)
@@ -131,7 +137,7 @@ def slerp_direction(a, b, u: float) -> np.ndarray:
     return d / np.linalg.norm(d)
 
 
-def apply_values(scene, values: dict):
+def apply_values(scene: Scene, values: dict) -> Scene:
     """``scene`` with the tracks' ``values`` (path → value) set."""
     r = replace
     v = {path: (value[0] if track_kind(path)[0] in ("angle", "scale") else tuple(value))
@@ -151,7 +157,7 @@ def apply_values(scene, values: dict):
     return r(scene, camera=camera, light=light, medium=medium, specular=tuple(specular))
 
 
-def aim(position, target) -> tuple:
+def aim(position: Sequence[float], target: Sequence[float]) -> tuple:
     """The unit direction from ``position`` to ``target`` (ValueError when they meet)."""
     d = np.subtract(target, position, dtype=np.float64)
     norm = float(np.linalg.norm(d))

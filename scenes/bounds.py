@@ -10,15 +10,21 @@ is convex and holds all geometry), camera rays see fog only inside it;
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
+
+if TYPE_CHECKING:
+    from .model import DiffuseSurface, Scene, SpecularObject
 
 MARGIN = 1e-3
 
 
-def medium_bounds(scene) -> tuple[np.ndarray, np.ndarray]:
+def medium_bounds(scene: Scene) -> tuple[np.ndarray, np.ndarray]:
     """(min, max) corners of the scene box, each (3,) float64, metres."""
     points = [np.asarray([scene.light.position, scene.camera.position], np.float64)]
-    for obj in (*scene.specular, *scene.diffuse):
+    objects: tuple[SpecularObject | DiffuseSurface, ...] = (*scene.specular, *scene.diffuse)
+    for obj in objects:
         points.append(obj.mesh.load().vertices)
     allp = np.concatenate(points)
     lo, hi = allp.min(axis=0), allp.max(axis=0)
@@ -26,7 +32,7 @@ def medium_bounds(scene) -> tuple[np.ndarray, np.ndarray]:
     return lo - margin, hi + margin
 
 
-def box_exit(origins, directions, lo, hi) -> np.ndarray:
+def box_exit(origins: np.ndarray, directions: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
     """Distance along each ray to the exit of the box [lo, hi] (numpy twin of
     ``approx/shaders/common/box.glsl``).
 

@@ -13,12 +13,17 @@ from __future__ import annotations
 
 import math
 import os
+from collections.abc import Iterable
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from .catalogue import BUILTIN_NAMES, builtin_path
 from .errors import SceneError
 from .loader import parse_scene, tomllib  # tomllib, or tomli on Python 3.10
+
+if TYPE_CHECKING:
+    from .model import Scene
 
 TABLES = ("camera", "light", "medium", "specular", "diffuse")  # what a path may start with
 ARRAYS = ("specular", "diffuse")                               # ... indexed by the object's number
@@ -29,7 +34,7 @@ def is_scene_field(name: str) -> bool:
     return "." in name
 
 
-def parse_field_value(name: str, text):
+def parse_field_value(name: str, text: object) -> int | float | str | bool | tuple[float, ...]:
     """A scene field's value from text (CLI: a TOML value, ``0.3`` or ``[0.3, 0.2, 0.1]``
     or a bare word as a string) or as TOML gave it, as a hashable value (a list as a
     tuple): a number, a word, a boolean or a flat list of numbers; SceneError for the
@@ -101,7 +106,7 @@ def _assign(doc: dict, name: str, value, label: str) -> None:
     node[parts[-1]] = list(value) if isinstance(value, tuple) else value  # the loader reads TOML arrays
 
 
-def scene_with(arg: str, fields) -> object:
+def scene_with(arg: str, fields: dict[str, Any] | Iterable[tuple[str, Any]]) -> Scene:
     """The scene of SCENE argument ``arg`` with ``fields`` ((path, value) pairs or a
     mapping) changed, validated by the loader (SceneError naming the key)."""
     doc, path, base = _document(arg)
@@ -116,7 +121,7 @@ def scene_with(arg: str, fields) -> object:
     return parse_scene(doc, file=label, base_dir=base, source=None if arg in BUILTIN_NAMES else os.path.abspath(path))
 
 
-def optical_depth(scene) -> float:
+def optical_depth(scene: Scene) -> float:
     """The medium's optical depth along the light's way to what the camera looks at
     and on to the eye: σ̄_t · (|target − light| + |eye − target|), σ̄_t the mean of the
     RGB extinction (docs/decisions.md "Optical depth")."""
@@ -132,11 +137,11 @@ def field_columns(fields: dict | None) -> dict:
             for name, value in (fields or {}).items()}
 
 
-def field_value(scene, name: str):
+def field_value(scene: Scene, name: str) -> int | float | str | bool | tuple | None:
     """The value of the scene field ``name`` in ``scene`` (a Scene), as a sweep's column
     shows it: a number or word as it is, an RGB triple as a tuple; None where the model
     has no such attribute."""
-    node = scene
+    node: Any = scene
     for part in _parts(name):
         if isinstance(node, (list, tuple)) and _index(part):
             node = node[int(part)] if int(part) < len(node) else None

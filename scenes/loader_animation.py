@@ -4,7 +4,7 @@ frame checked as a scene (``scenes.loader`` calls it after the static scene)."""
 from __future__ import annotations
 
 from dataclasses import replace
-from typing import Callable
+from typing import TYPE_CHECKING, Callable
 
 import numpy as np
 
@@ -25,6 +25,9 @@ from .toml_values import (
     vec3_value,
     view_angle,
 )
+
+if TYPE_CHECKING:
+    from .toml_values import Context
 
 
 def _track_values(kind: str) -> Callable:
@@ -80,7 +83,7 @@ def _key_values(ctx, key, v, count: int, kind: str):
     return tuple(tuple(parse(ctx, f"{key}[{i}]", x)) for i, x in enumerate(v))
 
 
-def parse_animation(ctx, value, scene: Scene) -> Animation:
+def parse_animation(ctx: Context, value: object, scene: Scene) -> Animation:
     t = Table(ctx, "animation", value)
     frames = t.get("frames", integer_in(1, MAX_FRAMES))
     fps = t.get("fps", ranged(*FPS_RANGE, unit="frames per second (what the video writers store)"), 24.0)

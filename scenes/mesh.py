@@ -8,10 +8,14 @@ from __future__ import annotations
 
 import os
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from volcaustics.infra.errors import InputError
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
 
 
 class MeshReadError(InputError):
@@ -99,7 +103,7 @@ def closedness_problem(mesh: Mesh) -> str | None:
     return None
 
 
-def winding_number(mesh: Mesh, point) -> float:
+def winding_number(mesh: Mesh, point: ArrayLike) -> float:
     """Generalised winding number of a closed mesh around ``point`` (≈1 inside, ≈0 outside).
 
     Sum of signed solid angles of the triangles (Van Oosterom & Strackee 1983) over 4π.

@@ -7,6 +7,7 @@ from __future__ import annotations
 import functools
 import hashlib
 import os
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
 
@@ -15,15 +16,18 @@ from volcaustics.infra.storage import atomic_path, cache_dir, cache_path, note_n
 from .generators import GENERATOR_VERSION, generate
 from .mesh import Mesh, read_mesh_file
 
+if TYPE_CHECKING:
+    from .model import MeshSpec
+
 
 @functools.lru_cache(maxsize=32)
-def load_mesh_spec(spec) -> Mesh:
+def load_mesh_spec(spec: MeshSpec) -> Mesh:
     """World-space mesh for a :class:`scenes.model.MeshSpec` (cached by spec in
     memory; generated meshes also on disk, see :func:`generated_mesh`)."""
     if spec.path is not None:
         mesh = read_mesh_file(spec.path)
     else:
-        mesh = generated_mesh(spec.generator, spec.params)
+        mesh = generated_mesh(cast(str, spec.generator), spec.params)  # no path: the loader set a generator
     return mesh.transformed(spec.transform.matrix())
 
 

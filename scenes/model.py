@@ -9,9 +9,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from .mesh import Mesh
 
 Vec3 = tuple[float, float, float]
 RGB = tuple[float, float, float]
@@ -133,7 +136,7 @@ class MeshSpec:
     transform: Transform = field(default_factory=Transform)
     content_hash: str | None = None
 
-    def load(self):
+    def load(self) -> Mesh:
         """The world-space :class:`scenes.mesh.Mesh` (cached per spec)."""
         from .mesh_cache import load_mesh_spec  # deferred: loading meshes needs numpy, the model does not
 

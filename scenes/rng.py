@@ -21,7 +21,12 @@ Specification (all arithmetic in uint32 with wrap-around):
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
 
 PCG_MULT, PCG_INC, PCG_WORD = 747796405, 2891336453, 277803737  # the hash's constants (its twins read them)
 _MULT, _INC, _WORD = np.uint32(PCG_MULT), np.uint32(PCG_INC), np.uint32(PCG_WORD)
@@ -45,7 +50,7 @@ def pcg_hash(v: np.ndarray | np.unsignedinteger) -> np.ndarray:
     return (word >> np.uint32(22)) ^ word
 
 
-def hash4(seed, photon, step, dim) -> np.ndarray:
+def hash4(seed: ArrayLike, photon: ArrayLike, step: ArrayLike, dim: ArrayLike) -> np.ndarray:
     """uint32 hash of (seed, photon, step, dim); arguments broadcast."""
     seed, photon, step, dim = (np.asarray(a, dtype=np.uint32) for a in (seed, photon, step, dim))
     with np.errstate(over="ignore"):
@@ -55,7 +60,7 @@ def hash4(seed, photon, step, dim) -> np.ndarray:
         return pcg_hash(h + dim)
 
 
-def uniform(seed, photon, step, dim) -> np.ndarray:
+def uniform(seed: ArrayLike, photon: ArrayLike, step: ArrayLike, dim: ArrayLike) -> np.ndarray:
     """Uniform float32 in [0, 1) for (seed, photon, step, dim); arguments broadcast.
 
     Returns

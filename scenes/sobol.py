@@ -25,9 +25,14 @@ stratified over the block.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from .rng import pcg_hash
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
 
 _PERMUTATION = tuple(np.uint32(c) for c in (0x6C50B47C, 0xB82F1E52, 0xC7AFE638, 0x8D22F6E6))
 
@@ -59,7 +64,7 @@ def _sobol_dim1(index: np.ndarray) -> np.ndarray:
     return x
 
 
-def sobol_2d(seed, index) -> np.ndarray:
+def sobol_2d(seed: ArrayLike, index: ArrayLike) -> np.ndarray:
     """…×2 float32 points in [0, 1)²: the Owen-scrambled Sobol points ``index`` (uint32)
     of the scramble ``seed`` (module docstring); arguments broadcast."""
     seed, index = np.broadcast_arrays(np.asarray(seed, np.uint32), np.asarray(index, np.uint32))
@@ -69,7 +74,7 @@ def sobol_2d(seed, index) -> np.ndarray:
     return np.stack([(x >> np.uint32(8)).astype(np.float32) * np.float32(2.0**-24) for x in dims], axis=-1)
 
 
-def morton(x, y) -> np.ndarray:
+def morton(x: ArrayLike, y: ArrayLike) -> np.ndarray:
     """The Z-order index of texel (x, y) (each < 2¹⁶): x's bits at the even positions."""
     def spread(v):
         v = np.asarray(v, np.uint32) & np.uint32(0xFFFF)

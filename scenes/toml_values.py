@@ -6,11 +6,12 @@ from __future__ import annotations
 
 import math
 import re
-from typing import Any, Callable
+from typing import Any, Callable, TypeVar
 
 from .errors import SceneError
 from .model import Camera
 
+_T = TypeVar("_T")
 _REQUIRED = object()
 
 
@@ -21,7 +22,7 @@ class Context:
         self.file = file
         self.base_dir = base_dir
 
-    def error(self, key, value, allowed) -> SceneError:
+    def error(self, key: str | None, value: Any, allowed: str) -> SceneError:
         return SceneError(self.file, key, value, allowed)
 
 
@@ -37,7 +38,7 @@ class Table:
     def path(self, k: str) -> str:
         return f"{self.key}.{k}" if self.key else k
 
-    def get(self, k: str, parse: Callable, default: Any = _REQUIRED):
+    def get(self, k: str, parse: Callable, default: Any = _REQUIRED) -> Any:
         self.used.add(k)
         if k not in self.table:
             if default is _REQUIRED:
@@ -45,7 +46,7 @@ class Table:
             return default
         return parse(self.ctx, self.path(k), self.table[k])
 
-    def finish(self):
+    def finish(self) -> None:
         unknown = sorted(set(self.table) - self.used)
         if unknown:
             allowed = ", ".join(sorted(self.used))
@@ -74,7 +75,8 @@ def _number(ctx, key, v, what="a number"):
     return v
 
 
-def ranged(low=None, high=None, *, low_open=False, high_open=False, unit=""):
+def ranged(low: float | None = None, high: float | None = None, *, low_open: bool = False, high_open: bool = False,
+           unit: str = "") -> Callable[[Context, str, Any], float]:
     lo_b, hi_b = ("(" if low_open else "["), (")" if high_open else "]")
     what = (f"a number in {lo_b}{'-inf' if low is None else low}, {'inf' if high is None else high}{hi_b}"
             f"{' ' + unit if unit else ''}")
@@ -90,7 +92,7 @@ def ranged(low=None, high=None, *, low_open=False, high_open=False, unit=""):
     return parse
 
 
-def integer_in(low, high):
+def integer_in(low: int, high: int) -> Callable[[Context, str, Any], int]:
     def parse(ctx, key, v):
         if isinstance(v, bool) or not isinstance(v, int) or not low <= v <= high:
             raise ctx.error(key, v, f"expected an integer in [{low}, {high}]")
@@ -99,7 +101,7 @@ def integer_in(low, high):
     return parse
 
 
-def string_value(ctx, key, v):
+def string_value(ctx: Context, key: str, v: Any) -> str:
     if not isinstance(v, str):
         raise ctx.error(key, v, "expected a string")
     return v
@@ -108,7 +110,7 @@ def string_value(ctx, key, v):
 NAME_PATTERN = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.-]{0,63}")
 
 
-def name_value(ctx, key, v):
+def name_value(ctx: Context, key: str, v: Any) -> str:
     """A scene's name: it becomes a file name (previews, reports), so letters, digits,
     '_', '.', '-' only, not starting with '.' or '-', at most 64 characters."""
     v = string_value(ctx, key, v)
@@ -147,7 +149,8 @@ euler_value = _three(ranged(-COORDINATE_LIMIT, COORDINATE_LIMIT, unit="degrees")
                 "angles in degrees [about x, about y, about z]")
 
 
-def rgb_value(low=0.0, high=None, unit=""):
+def rgb_value(low: float | None = 0.0, high: float | None = None,
+              unit: str = "") -> Callable[[Context, str, Any], tuple[float, float, float]]:
     one = ranged(low, high, unit=unit)
 
     def parse(ctx, key, v):
@@ -166,7 +169,7 @@ def _describe(low, high, unit):
     return f"{text} {unit}".rstrip()
 
 
-def direction_value(ctx, key, v):
+def direction_value(ctx: Context, key: str, v: Any) -> tuple[float, ...]:
     d = vec3_value(ctx, key, v)
     n = math.sqrt(sum(x * x for x in d))
     if n < 1e-12:
@@ -177,13 +180,14 @@ def direction_value(ctx, key, v):
 # --- sections -------------------------------------------------------------------
 
 
-def object_list(ctx, key, value, build):
+def object_list(ctx: Context, key: str, value: Any,
+                build: Callable[[Context, str, Any, int], _T]) -> tuple[_T, ...]:
     if not isinstance(value, list):
         raise ctx.error(key, value, f"expected an array of tables [[{key}]]")
     return tuple(build(ctx, f"{key}[{i}]", item, i) for i, item in enumerate(value))
 
 
-def check_view(ctx, cam: Camera, where: str = "") -> None:
+def check_view(ctx: Context, cam: Camera, where: str = "") -> None:
     """The camera looks somewhere: target ≠ position, up not along the view."""
     forward = [b - a for a, b in zip(cam.position, cam.target)]
     norm = math.sqrt(sum(x * x for x in forward))

@@ -21,8 +21,9 @@ from __future__ import annotations
 
 import json
 import time
+from collections.abc import Iterable
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -35,12 +36,16 @@ from ..request import RenderRequest, resolve
 from ..settings import ReferenceSettings
 from . import orders as scattering
 from .batches import CAMERA, LIGHT_GROUPS
-from .sources import BatchError, InProcess, Pooled
+from .sources import BatchError, BatchPool, InProcess, Pooled
 from .state import RenderState, format_floors, stop_reason, stream_pending
 from .tasks import add_batch
 
+if TYPE_CHECKING:
+    from volcaustics.scenes.model import Scene
 
-def render_into_state(request: RenderRequest, key: str, state: RenderState | None, source, *, progress: bool) -> tuple:
+
+def render_into_state(request: RenderRequest, key: str, state: RenderState | None, source: InProcess | Pooled, *,
+                      progress: bool) -> tuple:
     """Render batches of both streams into ``state`` (a fresh one if None) until the
     settings are met (module docstring), read from ``source`` (``sources``) in the order
     the serial path renders them; returns (state, stopped_by, seconds of this call: its
@@ -93,7 +98,7 @@ def _minimum(state: RenderState, settings: ReferenceSettings) -> list:
             if i >= counts[s]]
 
 
-def render_batches(scene, settings: ReferenceSettings, *, mode: str = "caustic", progress: bool = True) -> dict:
+def render_batches(scene: Scene, settings: ReferenceSettings, *, mode: str = "caustic", progress: bool = True) -> dict:
     """Render without the cache; returns {layer: (mean, var)} for the colour layers
     and the mask, plus timing, counts and noise floors under the key ``"_info"``."""
     from ..mi_setup import variant_name
@@ -166,8 +171,8 @@ def _resumable(arrays: dict | None, settings: ReferenceSettings) -> RenderState 
     return state if all(a.shape == shape and np.isfinite(a).all() for a in images) else None
 
 
-def render_reference(scene, settings: ReferenceSettings | None = None, *, mode: str = "caustic",
-                     force: bool = False, progress: bool = True, pool=None) -> ReferenceResult:
+def render_reference(scene: Scene, settings: ReferenceSettings | None = None, *, mode: str = "caustic",
+                     force: bool = False, progress: bool = True, pool: BatchPool | None = None) -> ReferenceResult:
     """The reference for ``scene``: from the cache when a valid entry meets ``settings``
     (and not ``force``); an entry that does not (fewer batches, a noise floor above
     ``target_noise``) is continued batch by batch, never thrown away; else rendered and
@@ -185,7 +190,8 @@ class _Plan:
     state: RenderState | None  # a cached state to continue
 
 
-def render_references(jobs, *, force: bool = False, progress: bool = True, pool=None) -> list:
+def render_references(jobs: Iterable[tuple[Scene, ReferenceSettings | None, str]], *, force: bool = False,
+                      progress: bool = True, pool: BatchPool | None = None) -> list:
     """:func:`render_reference` of every job ((scene, settings, mode)), in order. With
     ``pool`` (an open ``reports.measuring.pools.executors`` pool) the batches of every reference
     that renders go to its workers at once; each is added here in the order the serial

@@ -23,6 +23,8 @@ against this reference).
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
+
 import numpy as np
 
 from volcaustics.scenes.rng import pcg_hash
@@ -111,7 +113,7 @@ class BatchStats:
         return out
 
     @staticmethod
-    def stored_group_means(arrays, prefix: str, name: str, groups: int) -> tuple | None:
+    def stored_group_means(arrays: Mapping[str, np.ndarray], prefix: str, name: str, groups: int) -> tuple | None:
         """:meth:`group_means` of ``name`` from the arrays :meth:`arrays` wrote (only the
         group sums and the counts read), or None (none stored, fewer batches than
         groups; ValueError: stored with another number of groups)."""
@@ -125,7 +127,8 @@ class BatchStats:
         return _group_means(np.array(arrays[key], np.float64), n, groups)
 
     @classmethod
-    def from_arrays(cls, names, arrays, prefix: str, groups: int = 0, grouped: tuple | None = None) -> "BatchStats":
+    def from_arrays(cls, names: Sequence[str], arrays: Mapping[str, np.ndarray], prefix: str, groups: int = 0,
+                    grouped: tuple | None = None) -> "BatchStats":
         """The state ``arrays`` wrote, for ``groups`` groups of ``grouped`` (ValueError:
         stored with others)."""
         n = int(arrays[f"{prefix}/n"])
@@ -157,7 +160,7 @@ def noise_floor(mean: np.ndarray, var: np.ndarray, keep: np.ndarray) -> float | 
     return float(np.sum(var[keep]) / energy) if energy > 0 else None
 
 
-def total_variance_ratio(*parts, keep: np.ndarray | None = None) -> list | None:
+def total_variance_ratio(*parts: tuple[BatchStats, str], keep: np.ndarray | None = None) -> list | None:
     """Per channel, the variance of an image's total over Σ of its per-pixel variances
     (both of the mean, over the pixels ``keep`` the totals were taken over; None: all):
     1 for independent pixels, more where one sample reaches many pixels. The image is

@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import os
 import shutil
+from types import ModuleType
+from typing import TYPE_CHECKING, Any
 from xml.sax.saxutils import quoteattr
 
 import numpy as np
@@ -18,6 +20,10 @@ import numpy as np
 from volcaustics.infra.storage import atomic_path, atomic_write_bytes, cache_dir, cache_path, special_file_kind
 
 from ..description import FOG_ID, Description, describe, ply_bytes, ply_digest
+
+if TYPE_CHECKING:
+    from volcaustics.scenes.mesh import Mesh
+    from volcaustics.scenes.model import Scene
 
 PLY_NAME_DIGITS = 32  # hex digits of the content hash in a PLY file name
 MESH_FOLDER = "mitsuba-meshes"  # the cache's folder of PLY files
@@ -47,13 +53,13 @@ def _holds(path: str, data: bytes) -> bool:
         return False
 
 
-def mesh_file(mesh, folder: str | None = None) -> str:
+def mesh_file(mesh: Mesh, folder: str | None = None) -> str:
     """PLY of ``mesh`` (positions, vertex normals, faces) in ``folder`` (default: the
     cache), named by its content."""
     return ply_file(ply_bytes(mesh), folder)
 
 
-def write_ply(path: str, mesh) -> None:
+def write_ply(path: str, mesh: Mesh) -> None:
     """Binary little-endian PLY with positions, vertex normals and triangles (atomic)."""
     atomic_write_bytes(path, ply_bytes(mesh))
 
@@ -71,7 +77,7 @@ def _transform(mi, ops):
     return t
 
 
-def load_scene(mi, description):
+def load_scene(mi: ModuleType, description: Description) -> Any:
     """The Mitsuba scene of ``description``, its objects as they are: Mitsuba's load-time
     optimisation merges objects with identical BSDFs and media into one shape without an
     id, and the light tracer tells its shapes apart by id (``shapes.ShapeTable``): nine
@@ -102,14 +108,14 @@ def mitsuba_dict(description: Description, mesh_dir: str | None = None) -> dict:
     return convert(description.tree)
 
 
-def to_mitsuba(scene, *, integrator: dict | None = None, spp: int = 16, mesh_dir: str | None = None,
+def to_mitsuba(scene: Scene, *, integrator: dict | None = None, spp: int = 16, mesh_dir: str | None = None,
                medium_box: bool = True) -> dict:
     """Mitsuba scene dict of ``scene`` (see reference.description). ``integrator``
     defaults to volpath; ``mesh_dir`` (default: the cache) receives the PLY files."""
     return mitsuba_dict(describe(scene, integrator=integrator, spp=spp, medium_box=medium_box), mesh_dir)
 
 
-def export_xml(scene, path: str) -> None:
+def export_xml(scene: Scene, path: str) -> None:
     """Write a Mitsuba 3 XML scene (volpath) with its PLY meshes next to it (atomic)."""
     folder = os.path.dirname(os.path.abspath(path))
     mesh_dir = os.path.join(folder, os.path.splitext(os.path.basename(path))[0] + "_meshes")

@@ -29,6 +29,7 @@ Mitsuba scene): the medium coefficients and the shape table.
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import drjit as dr
 
@@ -48,9 +49,16 @@ from .sampling import (
 )
 from .shapes import ShapeTable
 
-mi = mitsuba()
+if TYPE_CHECKING:
+    import numpy as np
 
-def configure(integrator, scene_model, mi_scene):
+    from volcaustics.scenes.model import Scene
+
+mi = mitsuba()
+# configure() returns the integrator it was given
+_Integrator = TypeVar("_Integrator", bound="VolumetricLightTracer | SingleScatterIntegrator")
+
+def configure(integrator: _Integrator, scene_model: Scene, mi_scene: Any) -> _Integrator:
     """Give an integrator of this module the scene's medium and shape table."""
     medium = scene_model.medium
     integrator.sigma_s = mi.Color3f(*(float(x) for x in medium.sigma_s))
@@ -94,7 +102,7 @@ class VolumetricLightTracer(mi.AdjointIntegrator):  # type: ignore[name-defined]
         if not self.geometry_per_connection > 0.0:
             raise ValueError(f"geometry_per_connection {self.geometry_per_connection!r}: expected > 0 (1/m)")
 
-    def connections(self, view, ray, t_end):
+    def connections(self, view: ViewPyramid, ray: Any, t_end: Any) -> tuple[Any, Any, Any, Any]:
         """The camera connections of the medium segment ray(t), t in [0, t_end]: the part
         [s_in, s_out] the eye sees (``view``: :class:`ViewPyramid`), whether there is one,
         and how many stratified connections it gets (≥ 1): one per
@@ -113,7 +121,7 @@ class VolumetricLightTracer(mi.AdjointIntegrator):  # type: ignore[name-defined]
         self.order_block = mi.ImageBlock([width, rows], [0, 0], 3, mi.load_dict({"type": "box"}))
         self.order_block.clear()
 
-    def order_images(self):
+    def order_images(self) -> np.ndarray:
         """The images of the last render in mode ``orders`` as an array
         [component, order, H, W, 3] (float64; order 0 is empty but for ``direct``)."""
         import numpy as np
@@ -136,7 +144,7 @@ class VolumetricLightTracer(mi.AdjointIntegrator):  # type: ignore[name-defined]
         return dr.full(mi.Bool, True, dr.width(specular))
 
     @dr.syntax
-    def sample(self, scene, sensor, sampler, block, sample_scale):
+    def sample(self, scene: Any, sensor: Any, sampler: Any, block: Any, sample_scale: Any) -> None:
         table = self.table
         view = ViewPyramid(sensor)
         volume = self.mode != "surface" and self.has_medium
@@ -263,10 +271,10 @@ class VolumetricLightTracer(mi.AdjointIntegrator):  # type: ignore[name-defined]
             active &= (on_specular | (hit & ~reach_surface)) & (depth < self.max_path)
             active &= dr.any(throughput > 0.0)
 
-    def aov_names(self):
+    def aov_names(self) -> list[str]:
         return []
 
-    def to_string(self):
+    def to_string(self) -> str:
         return f"VolumetricLightTracer[mode={self.mode}, max_scatter={self.max_scatter}]"
 
 
@@ -276,11 +284,12 @@ class SingleScatterIntegrator(mi.SamplingIntegrator):  # type: ignore[name-defin
     def __init__(self, props=mi.Properties()):
         mi.SamplingIntegrator.__init__(self, props)
 
-    def aov_names(self):
+    def aov_names(self) -> list[str]:
         return ["fog.R", "fog.G", "fog.B", "direct.R", "direct.G", "direct.B", "mask.Y"]
 
     @dr.syntax
-    def sample(self, scene, sampler, ray, medium=None, active=True):
+    def sample(self, scene: Any, sampler: Any, ray: Any, medium: Any = None,
+               active: Any = True) -> tuple[Any, Any, list[Any]]:
         ray = mi.Ray3f(ray)
         si = scene.ray_intersect(ray, active)
         hit = active & si.is_valid()
@@ -317,7 +326,7 @@ class SingleScatterIntegrator(mi.SamplingIntegrator):  # type: ignore[name-defin
         total = fog + direct
         return total, active, [fog.x, fog.y, fog.z, direct.x, direct.y, direct.z, mask]
 
-    def to_string(self):
+    def to_string(self) -> str:
         return "SingleScatterIntegrator[]"
 
 

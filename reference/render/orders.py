@@ -20,7 +20,13 @@ component's K.
 
 from __future__ import annotations
 
+from collections.abc import Iterable
+from typing import TYPE_CHECKING
+
 import numpy as np
+
+if TYPE_CHECKING:
+    from .batches import BatchStats
 
 # mode "orders" counts a path by its last vertex: a medium vertex after ≥ 1 specular
 # interaction (caustic) or none (fog), or a diffuse surface reached without one (direct)
@@ -57,7 +63,7 @@ def batch_images(stack: np.ndarray, max_scatter: int) -> dict:
     return out
 
 
-def stream_max_scatter(names) -> int:
+def stream_max_scatter(names: Iterable[str]) -> int:
     """K of an orders stream from its image names (the highest order it holds)."""
     return max(int(name.split("@")[1]) for name in names if "@" in name)
 
@@ -69,7 +75,7 @@ def _totals(single: dict, orders) -> dict:
     return out
 
 
-def model_floors(single: dict, orders, keep: np.ndarray) -> dict:
+def model_floors(single: dict, orders: BatchStats, keep: np.ndarray) -> dict:
     """The model term's noise floor per component (``<component>_ms``): the variance of
     the term over Σ R_ms² on the pixels ``keep`` (None without energy). The term's
     noise is what the multiple-scattering stream adds to R_ms's floor."""
@@ -80,7 +86,7 @@ def model_floors(single: dict, orders, keep: np.ndarray) -> dict:
     return out
 
 
-def convergence(single: dict, single_var: dict, orders, keep: np.ndarray) -> dict:
+def convergence(single: dict, single_var: dict, orders: BatchStats, keep: np.ndarray) -> dict:
     """Per component: ``order_relmse`` (each order's debiased Σ (o² − var o) / Σ R_ms²,
     from the first beyond the paper's model), ``floor`` (R_ms's noise floor: the
     single-scattering variance plus the term's, over Σ R_ms²), ``energy_share`` (each

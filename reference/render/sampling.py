@@ -6,6 +6,7 @@ segment is clipped to, and the interval of a ray inside the spot's cone."""
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import drjit as dr
 
@@ -18,7 +19,7 @@ INV_FOUR_PI = 1.0 / (4.0 * math.pi)
 GEOMETRY_PER_CONNECTION = 0.0025  # 1/m: VolumetricLightTracer's default, measured in bench/reference_fireflies.py
 
 
-def hg_phase(cos_theta, g: float):
+def hg_phase(cos_theta: Any, g: float) -> Any:
     """Henyey–Greenstein phase (per sr); cos_theta between propagation before and after."""
     if g == 0.0:
         return dr.full(mi.Float, INV_FOUR_PI, dr.width(cos_theta))
@@ -26,7 +27,7 @@ def hg_phase(cos_theta, g: float):
     return INV_FOUR_PI * (1.0 - g * g) / (denom * dr.sqrt(denom))
 
 
-def hg_sample(d, g: float, sample):
+def hg_sample(d: Any, g: float, sample: Any) -> Any:
     """Direction scattered from propagation direction ``d`` by HG sampling."""
     if g == 0.0:
         cos_theta = 1.0 - 2.0 * sample.x
@@ -39,7 +40,7 @@ def hg_sample(d, g: float, sample):
     return frame.to_world(mi.Vector3f(sin_theta * dr.cos(phi), sin_theta * dr.sin(phi), cos_theta))
 
 
-def closest_approach(origin, d, target):
+def closest_approach(origin: Any, d: Any, target: Any) -> tuple[Any, Any]:
     """Where the line origin + t·d (unit d) passes ``target``: the parameter ``delta`` of
     its closest point and the distance ``dist`` from it to ``target`` (≥ 1e-6)."""
     delta = dr.dot(target - origin, d)
@@ -47,7 +48,7 @@ def closest_approach(origin, d, target):
     return delta, dist
 
 
-def subtended_angle(origin, d, length, target):
+def subtended_angle(origin: Any, d: Any, length: Any, target: Any) -> tuple[Any, Any]:
     """Angle θb − θa that the segment origin + t·d, t in [0, length], subtends at
     ``target``, and its line's distance D to ``target``. Their ratio is the segment's
     geometric term seen from ``target``: ∫ dt / |x(t) − target|² = (θb − θa) / D."""
@@ -55,7 +56,7 @@ def subtended_angle(origin, d, length, target):
     return dr.atan2(length - delta, dist) - dr.atan2(-delta, dist), dist
 
 
-def equiangular(origin, d, length, target, sample):
+def equiangular(origin: Any, d: Any, length: Any, target: Any, sample: Any) -> tuple[Any, Any]:
     """Distance t in [0, length] along origin + t·d with pdf ∝ 1/|x(t) − target|²
     (Kulla & Fajardo 2012); returns (t, pdf)."""
     delta, dist = closest_approach(origin, d, target)
@@ -96,7 +97,7 @@ class ViewPyramid:
         self.pixel_angle = dr.atan2(dr.norm(dr.cross(centre, below)), dr.dot(centre, below))
         self.pixels = mi.Float(size.x + size.y)  # the most pixels a segment's image crosses
 
-    def clip(self, origin, d, length):
+    def clip(self, origin: Any, d: Any, length: Any) -> tuple[Any, Any, Any]:
         """Part [s_in, s_out] of origin + s·d, s in [0, length], inside the pyramid: the
         intersection of the four half-spaces n·(x − eye) ≥ 0 (one interval, as the pyramid
         is convex). Returns (s_in, s_out, nonempty)."""
@@ -109,7 +110,7 @@ class ViewPyramid:
         return s_in, s_out, s_out > s_in
 
 
-def cone_interval(o, d, s_end, apex, axis, cos_cutoff: float):
+def cone_interval(o: Any, d: Any, s_end: Any, apex: Any, axis: Any, cos_cutoff: float) -> tuple[Any, Any, Any]:
     """Part [s_in, s_out] of the ray o + s·d, s in [0, s_end], inside the cone (apex,
     unit axis, half-angle with cosine cos_cutoff < 1); the cone is convex so the part is
     one interval, found between the roots of the cone's quadratic by testing the

@@ -7,6 +7,9 @@ index in our scene model and the glass absorption coefficient.
 
 from __future__ import annotations
 
+from types import ModuleType
+from typing import Any
+
 from volcaustics.scenes.formats import KIND_BOUNDARY, KIND_DIFFUSE, KIND_NONE, KIND_SPECULAR
 
 
@@ -41,11 +44,11 @@ class ShapeTable:
                                      [a[2] for a in absorption])
         self.entries = entries
 
-    def lookup(self, mi, si, active):
+    def lookup(self, mi: ModuleType, si: Any, active: Any) -> tuple[Any, Any, Any]:
         """(kind, index, absorption) of the shapes hit by ``si`` (KIND_NONE on a miss)."""
         import drjit as dr
 
-        sid = dr.reinterpret_array(mi.UInt32, si.shape)
+        sid: Any = dr.reinterpret_array(mi.UInt32, si.shape)  # Dr.Jit's stubs say object
         ok = active & si.is_valid()
         return (dr.gather(mi.UInt32, self.kind, sid, ok), dr.gather(mi.Int32, self.index, sid, ok, ),
                 dr.gather(mi.Color3f, self.absorption, sid, ok))

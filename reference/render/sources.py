@@ -10,8 +10,25 @@ from __future__ import annotations
 
 import uuid
 from collections import deque
+from collections.abc import Callable, Iterable
+from typing import TYPE_CHECKING, Any, Protocol
 
 from .tasks import forget, render_batch
+
+if TYPE_CHECKING:
+    from ..request import RenderRequest
+
+
+class BatchPool(Protocol):
+    """What :class:`Pooled` uses of a pool (``reports.measuring.pools.executors``): its
+    ``workers``, ``submit`` (a future with ``result()``) and ``cancel``."""
+
+    @property
+    def workers(self) -> int: ...
+
+    def submit(self, fn: Callable[..., Any], *args: Any, key: str | None = None) -> Any: ...
+
+    def cancel(self, futures: list) -> None: ...
 
 
 class InProcess:
@@ -19,10 +36,10 @@ class InProcess:
 
     spare = 1
 
-    def want(self, key: str, request, batches) -> None:
+    def want(self, key: str, request: RenderRequest, batches: Iterable[tuple[str, int]]) -> None:
         """Nothing ahead: a batch renders when it is read."""
 
-    def images(self, key: str, request, stream: str, index: int) -> tuple:
+    def images(self, key: str, request: RenderRequest, stream: str, index: int) -> tuple:
         return render_batch(key, request, stream, index)
 
     def drop(self, key: str) -> None:
@@ -41,7 +58,7 @@ class Pooled:
     here stay bounded however many references the run has; a batch the render waits
     for goes out at once."""
 
-    def __init__(self, pool, ahead: int | None = None):
+    def __init__(self, pool: BatchPool, ahead: int | None = None) -> None:
         self.pool = pool
         self.spare = max(1, pool.workers)  # batches wanted ahead beyond a render's minimum (noise targets)
         self.ahead = ahead or 2 * self.spare
@@ -49,7 +66,7 @@ class Pooled:
         self.out: dict = {}        # (key, stream, index) -> future
         self.queue: deque = deque()
 
-    def want(self, key: str, request, batches) -> None:
+    def want(self, key: str, request: RenderRequest, batches: Iterable[tuple[str, int]]) -> None:
         """Queue ``batches`` ((stream, index), in the order they will be read) of ``request``.
         The request goes with each batch task, not scattered once: a task's own arguments
         stay with the scheduler, which sends them again when a worker dies under it, while
@@ -65,7 +82,7 @@ class Pooled:
                 queued.add(item)
         self._fill()
 
-    def images(self, key: str, request, stream: str, index: int) -> tuple:
+    def images(self, key: str, request: RenderRequest, stream: str, index: int) -> tuple:
         """Batch ``index`` of ``stream``, waited for (sent now if it is not out yet)."""
         item = (key, stream, index)
         if item not in self.out:

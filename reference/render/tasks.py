@@ -21,6 +21,7 @@ import socket
 import threading
 import time
 from collections import OrderedDict
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -28,6 +29,10 @@ from volcaustics.infra.interrupts import interruptible
 
 from . import orders as scattering
 from .batches import CAMERA, LIGHT, ORDERS, batch_seed
+
+if TYPE_CHECKING:
+    from ..request import RenderRequest
+    from .state import RenderState
 
 # GL contexts and Mitsuba belong to a process: a worker with more than one thread (a Dask
 # worker started without --nthreads 1) runs its batches and points one at a time
@@ -38,7 +43,7 @@ _PREPARED: OrderedDict = OrderedDict()
 _KEEP = 2
 
 
-def render_batch(key: str, request, stream: str, index: int) -> tuple:
+def render_batch(key: str, request: RenderRequest, stream: str, index: int) -> tuple:
     """(images, seconds, where) of batch ``index`` of ``stream`` (LIGHT, ORDERS or CAMERA) of
     ``request`` (a ``reference.request.RenderRequest``; ``key``: its cache key, naming
     the Mitsuba scene this process keeps for it). ``seconds`` includes loading that
@@ -66,7 +71,7 @@ def process_name() -> str:
     return f"{socket.gethostname()}:{os.getpid()}"
 
 
-def add_batch(state, stream: str, images: dict) -> None:
+def add_batch(state: RenderState, stream: str, images: dict) -> None:
     """Add one batch's ``images`` (:func:`render_batch`) to ``state`` (a RenderState). The
     camera's glass mask grows with each of its batches, and its first batch fixes the
     pixels of every stream's totals (the camera's batch of a round is added first)."""

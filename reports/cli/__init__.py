@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from collections.abc import Sequence
 
 EXIT_USAGE = 2
 COMMANDS = ("doctor", "scenes", "approx", "reference", "export", "measure", "compare", "animate", "sweep", "frames",
@@ -53,7 +54,7 @@ class Interrupted(KeyboardInterrupt):
         self.signum = signum
 
 
-def main(argv=None) -> int:
+def main(argv: Sequence[str] | None = None) -> int:
     """Run the command; exit 130 whenever Ctrl-C came (143 for SIGTERM), also during
     the imports and when Python dropped the KeyboardInterrupt ("Exception ignored in
     ...": raised inside a finalizer or weakref callback).

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+from typing import TYPE_CHECKING
 
 from volcaustics.reports.cli.common import UsageError, add_report_reference, check_output_set, pct, report_settings
 from volcaustics.reports.measuring.results.param_input import add_param_flags, params_from_args
@@ -16,11 +17,14 @@ from volcaustics.reports.studies.animate.animation_settings import (
     frame_list,
 )
 
+if TYPE_CHECKING:
+    import argparse
+
 # native extensions loaded at start-up, with Ctrl-C held (cli.main)
 NATIVE = ("drjit", "mitsuba", "moderngl")
 
 
-def register(sub) -> None:
+def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser("animate", help="SCENE's [animation] over time: approximation and reference per frame -> "
                                        "DIR/{frames,temporal}.{parquet,csv}, animation.mp4/.webp, timeseries.png, "
                                        "summary.json")
@@ -45,7 +49,7 @@ def register(sub) -> None:
                 "are measured unless one is chosen; the video shows the first.")
 
 
-def run(args) -> int:
+def run(args: argparse.Namespace) -> int:
     from volcaustics.approx.cost_match import with_auto_photon_res
     from volcaustics.reports.measuring.experiment.point_checks import checked_settings
     from volcaustics.reports.studies.animate.animation_frames import WORK

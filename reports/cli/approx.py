@@ -2,14 +2,19 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from volcaustics.reports.cli.common import UsageError, check_output_file
 from volcaustics.reports.measuring.results.param_input import add_param_flags, params_from_args
+
+if TYPE_CHECKING:
+    import argparse
 
 # native extensions loaded at start-up, with Ctrl-C held (cli.main)
 NATIVE = ("moderngl",)
 
 
-def register(sub) -> None:
+def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser("approx", help="render SCENE with the paper's method: OUT.exr, .png, .records.npz, .json")
     p.add_argument("scene", metavar="SCENE", help="built-in scene name or path to a .toml scene file")
     p.add_argument("-o", "--output", required=True, metavar="OUT.exr", help="output EXR (siblings share its name)")
@@ -19,7 +24,7 @@ def register(sub) -> None:
     p.set_defaults(func=run)
 
 
-def run(args) -> int:
+def run(args: argparse.Namespace) -> int:
     from volcaustics.approx.cost_match import with_auto_photon_res
     from volcaustics.reports.measuring.experiment.point_checks import check_denoiser
     from volcaustics.reports.presenting.exports.approx_files import run_approx

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import os
+from collections.abc import Iterable
 
 from volcaustics.infra.errors import InputError
 from volcaustics.reference.settings import ReferenceSettings
@@ -25,11 +26,11 @@ class UsageError(InputError):
         super().__init__(f"{option} = {value!r}: {fix}")
 
 
-def pct(x) -> str:
+def pct(x: float | None) -> str:
     return "   n/a" if x is None else f"{100 * x:6.2f}%"
 
 
-def num(x) -> str:
+def num(x: float | None) -> str:
     return "n/a" if x is None else f"{x:.3f}"
 
 
@@ -40,7 +41,7 @@ def path_type(text: str) -> str:
     return text
 
 
-def scene_list(text, option: str):
+def scene_list(text: str | None, option: str) -> list[str] | None:
     """A comma-separated list of SCENE arguments; None when not given; an empty list
     or an empty name is an error (not "everything")."""
     if text is None:
@@ -72,7 +73,7 @@ def check_output_file(path: str, option: str, extension: str, siblings: tuple = 
     check_output_dir(os.path.dirname(os.path.abspath(path)), option)
 
 
-def check_no_folder_at(files, option: str, value) -> None:
+def check_no_folder_at(files: Iterable[str], option: str, value: object) -> None:
     """Fail before any work when a folder is where one of the output ``files`` goes (the
     set's last rename would fail after the work, halfway through the set)."""
     for path in files:
@@ -86,7 +87,8 @@ def check_no_folder_at(files, option: str, value) -> None:
 FOLDER_MARKERS = {"frames.json": "frames", "sweep.json": "sweep", "gate.json": "gate"}
 
 
-def check_output_set(folder: str, option: str, files=(), folders=(), kind: str | None = None) -> None:
+def check_output_set(folder: str, option: str, files: Iterable[str] = (), folders: Iterable[str] = (),
+                     kind: str | None = None) -> None:
     """``folder`` must be (or become) a writable folder holding no folder where one of
     its output ``files`` goes and no file where one of its ``folders`` goes; with
     ``kind`` (the command's: its summary.json's "kind", or FOLDER_MARKERS'), no other
@@ -141,7 +143,7 @@ def check_output_dir(path: str, option: str = "-o") -> None:
 
 # --- option groups ---------------------------------------------------------------------
 
-def add_budget(p, *, target: str | None, max_seconds: float) -> None:
+def add_budget(p: argparse.ArgumentParser, *, target: str | None, max_seconds: float) -> None:
     """--target-noise and its caps (the reference's render budget)."""
     p.add_argument("--target-noise", dest="target_noise", default=target, metavar="F",
                    help="render batches until every colour component's noise floor (sum var / sum mean^2 over "
@@ -153,7 +155,7 @@ def add_budget(p, *, target: str | None, max_seconds: float) -> None:
                    help=f"time cap of a --target-noise render, seconds (default {max_seconds:g})")
 
 
-def budget(args) -> dict:
+def budget(args: argparse.Namespace) -> dict:
     """target_noise and its caps from the command line ("none" turns the target off)."""
     target = args.target_noise
     if target is not None and target.strip().lower() == "none":
@@ -161,8 +163,8 @@ def budget(args) -> dict:
     return {"target_noise": target, "max_photons": args.max_photons, "max_seconds": args.max_seconds}
 
 
-def add_report_reference(p, defaults: ReferenceSettings = REPORT_REFERENCE, target: str | None = REPORT_TARGET,
-                         per: str = "") -> None:
+def add_report_reference(p: argparse.ArgumentParser, defaults: ReferenceSettings = REPORT_REFERENCE,
+                         target: str | None = REPORT_TARGET, per: str = "") -> None:
     """The reference options of ``report`` and ``measure`` (default: the report's budget);
     ``animate`` passes its own ``defaults`` and ``target`` (``per``: " per frame")."""
     photons = f"2^{defaults.photons.bit_length() - 1}" if defaults.photons & (defaults.photons - 1) == 0 \
@@ -180,14 +182,14 @@ def add_report_reference(p, defaults: ReferenceSettings = REPORT_REFERENCE, targ
     add_budget(p, target=target, max_seconds=defaults.max_seconds)
 
 
-def report_settings(args) -> ReferenceSettings:
+def report_settings(args: argparse.Namespace) -> ReferenceSettings:
     """The reference settings of ``report``, ``measure`` and ``animate`` (unsized: the
     runner, or ``animate``, sizes them)."""
     return ReferenceSettings(photons=args.photons, spp=args.spp, batches=args.batches, max_scatter=args.max_scatter,
                              **budget(args))
 
 
-def add_measurement_flags(p, *, default: str = "{value}, the report's") -> None:
+def add_measurement_flags(p: argparse.ArgumentParser, *, default: str = "{value}, the report's") -> None:
     """One flag per measurement setting (``reports.measuring.experiment.measurement``), e.g.
     ``--exact-subphotons N``; ``default`` says where an unset one comes from (``{value}``:
     the report's value)."""
@@ -198,7 +200,7 @@ def add_measurement_flags(p, *, default: str = "{value}, the report's") -> None:
                                 f"result's key; default: {default.format(value=param.default)})")
 
 
-def measurement_from_args(args, base: MeasurementSettings | None = None) -> MeasurementSettings:
+def measurement_from_args(args: argparse.Namespace, base: MeasurementSettings | None = None) -> MeasurementSettings:
     """``base`` (default: the report's measurement settings) with every measurement flag
     given; ParamError naming the flag, its value and the range otherwise."""
     settings = base or MeasurementSettings()
@@ -208,7 +210,7 @@ def measurement_from_args(args, base: MeasurementSettings | None = None) -> Meas
     return settings
 
 
-def add_gate_inputs(p, *, scenes: str) -> None:
+def add_gate_inputs(p: argparse.ArgumentParser, *, scenes: str) -> None:
     """What the gate and the report measure and check: scenes, parameters over the
     budgets' preset, seeds, budgets and the baseline."""
     p.add_argument("--scenes", help=scenes)

@@ -4,14 +4,18 @@ images against the reference, measured as the approximation is."""
 from __future__ import annotations
 
 import os
+from typing import TYPE_CHECKING
 
 from volcaustics.reports.cli.common import UsageError, add_report_reference, check_output_set, num, pct, report_settings
+
+if TYPE_CHECKING:
+    import argparse
 
 # native extensions loaded at start-up, with Ctrl-C held (cli.main)
 NATIVE = ("drjit", "mitsuba")
 
 
-def register(sub) -> None:
+def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser("compare", help="another renderer's EXRs of SCENE against the reference: the image metrics, "
                                        "noise debiasing and error maps the approximation gets -> DIR/images.parquet, "
                                        "views.exr, index.html, summary.json")
@@ -27,7 +31,7 @@ def register(sub) -> None:
     p.set_defaults(func=run)
 
 
-def run(args) -> int:
+def run(args: argparse.Namespace) -> int:
     from volcaustics.reports.measuring.results.tables import plain
     from volcaustics.reports.presenting.page.external import comparison_images, comparison_page, comparison_row
     from volcaustics.reports.studies.compare.comparison_run import KIND, run_compare

@@ -4,11 +4,15 @@ scene for Mitsuba 3 itself and for real-time engines (glTF 2.0); at least one.""
 from __future__ import annotations
 
 import os
+from typing import TYPE_CHECKING
 
 from volcaustics.reports.cli.common import UsageError, check_output_file
 
+if TYPE_CHECKING:
+    import argparse
 
-def register(sub) -> None:
+
+def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser("export", help="write SCENE as a Mitsuba 3 XML file (with PLY meshes beside it) and/or as "
                                       "glTF 2.0 (.glb, or .gltf with a .bin beside it)")
     p.add_argument("scene", metavar="SCENE")
@@ -20,7 +24,7 @@ def register(sub) -> None:
     p.set_defaults(func=run)
 
 
-def run(args) -> int:
+def run(args: argparse.Namespace) -> int:
     from volcaustics.reference.render.export import export_xml
     from volcaustics.reports.presenting.exports.gltf import FORMATS, export_gltf
     from volcaustics.scenes import resolve_scene

@@ -4,13 +4,18 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from volcaustics.reports.cli.common import UsageError, check_output_set, pct
 from volcaustics.reports.studies.sweep.study_limits import FRAME_CHECK_SEEDS as SEEDS
+
+if TYPE_CHECKING:
+    import argparse
 
 NATIVE = ("drjit", "mitsuba", "moderngl")
 
 
-def register(sub) -> None:
+def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser("frames", help="the paper's configuration against --preset best on every built-in and "
                                       "held-out scene: one frame's caustic error and the mean's, without and "
                                       "with OIDN -> DIR/frames.parquet, frames.json")
@@ -22,7 +27,7 @@ def register(sub) -> None:
     p.set_defaults(func=run)
 
 
-def run(args) -> int:
+def run(args: argparse.Namespace) -> int:
     from volcaustics.reports.studies.best.frame_check import (
         FRAMES_FILE,
         GROUPS,

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from volcaustics.reports.cli.common import (
     UsageError,
     add_gate_inputs,
@@ -13,11 +15,14 @@ from volcaustics.reports.cli.common import (
     scene_list,
 )
 
+if TYPE_CHECKING:
+    import argparse
+
 # native extensions loaded at start-up, with Ctrl-C held (cli.main)
 NATIVE = ("drjit", "mitsuba", "moderngl")
 
 
-def register(sub) -> None:
+def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser("gate", help="fail (exit 1) when the approximation exceeds its budgets or regresses against "
                                     "the baseline; exit 2 on bad input or missing data")
     add_gate_inputs(p, scenes="comma-separated budgeted scenes (default: all in the budgets)")
@@ -38,7 +43,7 @@ def register(sub) -> None:
     p.set_defaults(func=run)
 
 
-def run(args) -> int:
+def run(args: argparse.Namespace) -> int:
     from volcaustics.reports.measuring.results.param_input import parse_overrides
     from volcaustics.reports.studies.compare.comparison_read import parse_named
     from volcaustics.reports.studies.gate.budgets import default_budgets_path, load_budgets

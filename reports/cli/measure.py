@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from volcaustics.reports.cli.common import (
     add_measurement_flags,
     add_report_reference,
@@ -13,11 +15,14 @@ from volcaustics.reports.cli.common import (
 )
 from volcaustics.reports.measuring.results.param_input import add_param_flags, params_from_args
 
+if TYPE_CHECKING:
+    import argparse
+
 # native extensions loaded at start-up, with Ctrl-C held (cli.main)
 NATIVE = ("drjit", "mitsuba", "moderngl")
 
 
-def register(sub) -> None:
+def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser("measure", help="one experiment on SCENE: approximation vs reference, exact replay, all "
                                        "metrics -> DIR/{segments,photons,images}.{parquet,csv}, decomposition.exr, "
                                        "summary.json")
@@ -33,7 +38,7 @@ def register(sub) -> None:
     p.set_defaults(func=run)
 
 
-def run(args) -> int:
+def run(args: argparse.Namespace) -> int:
     from volcaustics.approx.cost_match import equal_cost_check, with_auto_photon_res
     from volcaustics.reports.measuring import runner
     from volcaustics.reports.measuring.experiment.measure_outputs import OUTPUT_FILES, write_experiment

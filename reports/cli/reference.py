@@ -2,13 +2,18 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from volcaustics.reports.cli.common import add_budget, budget, check_output_file
+
+if TYPE_CHECKING:
+    import argparse
 
 # native extensions loaded at start-up, with Ctrl-C held (cli.main)
 NATIVE = ("drjit", "mitsuba")
 
 
-def register(sub) -> None:
+def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser("reference", help="ground truth of SCENE with Mitsuba 3 (cached): OUT.exr, .png, .json")
     p.add_argument("scene", metavar="SCENE", help="built-in scene name or path to a .toml scene file")
     p.add_argument("-o", "--output", required=True, metavar="OUT.exr", help="output EXR (mean and _var layers)")
@@ -26,7 +31,7 @@ def register(sub) -> None:
     p.set_defaults(func=run)
 
 
-def run(args) -> int:
+def run(args: argparse.Namespace) -> int:
     from volcaustics.reference.settings import ReferenceSettings
     from volcaustics.reports.presenting.exports.reference_files import run_reference
     from volcaustics.scenes import resolve_scene

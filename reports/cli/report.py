@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from volcaustics.reports.cli.common import (
     add_gate_inputs,
     add_measurement_flags,
@@ -15,11 +17,14 @@ from volcaustics.reports.cli.common import (
     scene_list,
 )
 
+if TYPE_CHECKING:
+    import argparse
+
 # native extensions loaded at start-up, with Ctrl-C held (cli.main)
 NATIVE = ("drjit", "mitsuba", "moderngl")
 
 
-def register(sub) -> None:
+def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser("report", help="the main job: the accuracy report (one HTML page + summary.json) of the "
                                       "approximation against ground truth, with the gate's verdicts")
     p.add_argument("--out", default="runs/report", help="output folder (default runs/report)")
@@ -42,7 +47,7 @@ def register(sub) -> None:
     p.set_defaults(func=run)
 
 
-def run(args) -> int:
+def run(args: argparse.Namespace) -> int:
     from volcaustics.reports.measuring.results.param_input import parse_overrides
     from volcaustics.reports.presenting.page.report_summary import OUTPUT_FILES
     from volcaustics.reports.presenting.report.report_run import run_report

@@ -3,11 +3,15 @@
 from __future__ import annotations
 
 import os
+from typing import TYPE_CHECKING
 
 from volcaustics.reports.cli.common import check_output_dir
 
+if TYPE_CHECKING:
+    import argparse
 
-def register(sub) -> None:
+
+def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = sub.add_parser("scenes", help="list the built-in scenes, or validate a scene file with --check")
     p.add_argument("--check", metavar="FILE.toml",
                    help="validate a scene file: exit 0 and a summary, or exit 2 and the error")
@@ -16,7 +20,7 @@ def register(sub) -> None:
     p.set_defaults(func=run)
 
 
-def run(args) -> int:
+def run(args: argparse.Namespace) -> int:
     from volcaustics.scenes import BUILTIN_NAMES, load_builtin, load_scene
 
     if args.preview is not None:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import sys
+from typing import TYPE_CHECKING
 
 from volcaustics.approx.params import PARAMS, PRESETS
 from volcaustics.reports.cli.common import UsageError, add_measurement_flags, check_output_set, measurement_from_args
@@ -11,11 +12,14 @@ from volcaustics.reports.measuring.experiment.measurement import MEASUREMENT_KEY
 from volcaustics.reports.measuring.pools.dask_address import WORKER_WAIT, check_reachable, parse_dask
 from volcaustics.reports.studies.sweep.study_limits import CRITERIA, MAX_POINTS
 
+if TYPE_CHECKING:
+    import argparse
+
 # native extensions loaded at start-up, with Ctrl-C held (cli.main)
 NATIVE = ("drjit", "mitsuba", "moderngl")
 
 
-def register(sub) -> None:
+def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     names = ", ".join(p.name for p in PARAMS)
     p = sub.add_parser("sweep", help="a grid of experiments over approximation parameters, resumable, on local "
                                      "processes or Dask -> DIR (store, tables, figures)")
@@ -53,7 +57,7 @@ def register(sub) -> None:
     p.set_defaults(func=run)
 
 
-def run(args) -> int:
+def run(args: argparse.Namespace) -> int:
     from volcaustics.reference.render.sources import BatchError
     from volcaustics.reports.studies.sweep.sweep_run import OUTPUT_FILES, OUTPUT_FOLDERS
 

@@ -24,6 +24,7 @@ import contextlib
 import os
 import time
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, cast
 
 import pandas as pd
 from tqdm import tqdm
@@ -33,7 +34,7 @@ from volcaustics.approx.params import ApproxParams
 from volcaustics.infra.errors import InputError
 from volcaustics.infra.memory import memory_budget
 from volcaustics.infra.storage import cache_dir
-from volcaustics.reference.cache import cached_reference, existing_reference
+from volcaustics.reference.cache import ReferenceResult, cached_reference, existing_reference
 from volcaustics.reference.oracle import Oracle
 from volcaustics.reference.render import render_references
 from volcaustics.reference.render.tasks import PROCESS_LOCK
@@ -48,6 +49,11 @@ from volcaustics.reports.measuring.results.tables import rows_of
 from volcaustics.scenes import resolve_scene
 from volcaustics.scenes.fields import scene_with
 from volcaustics.scenes.portable import packed, unpacked
+
+if TYPE_CHECKING:
+    from volcaustics.reference.settings import ReferenceSettings
+    from volcaustics.reports.measuring.pools.executors import Pool
+    from volcaustics.scenes.model import Scene
 
 POLICIES = ("cached", "missing", "continue")
 RESULTS_STORE = "report-results"  # $VOLCAUSTICS_CACHE/report-results: the report's and the gate's results
@@ -70,9 +76,9 @@ class Point:
     fields: tuple = ()       # scene fields changed: ((dotted path, value), ...) (scenes.fields)
 
 
-def point_scene(scene: str, fields=()):
+def point_scene(scene: str, fields: tuple = ()) -> Scene:
     """The scene of a point: the SCENE argument with its changed fields."""
-    return scene_with(scene, fields) if fields else resolve_scene(scene)
+    return cast("Scene", scene_with(scene, fields)) if fields else resolve_scene(scene)
 
 
 # The version of a point task's fields: a worker of another volcaustics (a Dask cluster whose
@@ -134,12 +140,14 @@ class Measured:
     results: list = field(default_factory=list)
 
 
-def reference_for(scene, settings, policy: str, *, progress: bool = False, hint: str = ""):
+def reference_for(scene: Scene, settings: ReferenceSettings, policy: str, *, progress: bool = False,
+                  hint: str = "") -> ReferenceResult:
     """The reference of ``scene`` at ``settings`` (already sized) under ``policy``."""
     return references_for({0: (scene, settings)}, policy, progress=progress, hint=hint)[0]
 
 
-def references_for(wanted: dict, policy: str, *, progress: bool = False, hint: str = "", pool=None) -> dict:
+def references_for(wanted: dict, policy: str, *, progress: bool = False, hint: str = "",
+                   pool: Pool | None = None) -> dict:
     """The reference of every entry of ``wanted`` (name → (scene, settings already
     sized)) under ``policy``, by name. Those to render render together: on ``pool``
     (``executors.open_pool``) their batches go to its workers at once."""
@@ -160,9 +168,9 @@ def references_for(wanted: dict, policy: str, *, progress: bool = False, hint: s
     return out
 
 
-def measure(points: list, store: Store, *, reference_settings, measurement: MeasurementSettings, policy: str,
-            images: tuple = (), workers: int | None = None, dask: str | None = None, parallel: bool = False,
-            progress: bool = True, read_back: bool = True, hint: str = "") -> Measured:
+def measure(points: list, store: Store, *, reference_settings: ReferenceSettings, measurement: MeasurementSettings,
+            policy: str, images: tuple = (), workers: int | None = None, dask: str | None = None,
+            parallel: bool = False, progress: bool = True, read_back: bool = True, hint: str = "") -> Measured:
     """Measure every point not in ``store`` yet and return them all.
 
     References are resolved once per scene and image size before any point runs: those
@@ -297,7 +305,8 @@ def _read_back(store: Store, point: Point, key: str, images: tuple, measured: bo
 TOOLS: dict = {}
 
 
-def run_point(task: PointTask, payload: dict | None = None, *, progress: bool = False, reference=None) -> dict:
+def run_point(task: PointTask, payload: dict | None = None, *, progress: bool = False,
+              reference: ReferenceResult | None = None) -> dict:
     """One point (picklable: plain data in and out). Tasks of one process run one at a
     time, whatever the executor's threads (GL and Mitsuba are per process). A local
     worker reads the run's reference from the cache by key and writes the point into the

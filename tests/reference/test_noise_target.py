@@ -121,7 +121,7 @@ def test_target_noise_settings_and_cli(tmp_path, empty_cache, capsys):
     assert ReferenceSettings(target_noise=0.01).targets() == {"caustic": 0.01, "fog": 0.01, "direct": 0.01}
     assert ReferenceSettings(target_noise="caustic=0.005,direct=0.002").targets() == {"caustic": 0.005,
                                                                                      "direct": 0.002}
-    for bad in ("fog=2", "smoke=0.1", "x", 0, -0.1, "fog=0.01,fog=0.02", "0.5%"):
+    for bad in ("fog=2", "smoke=0.1", "x", 0, -0.1, "fog=0.01,fog=0.02", "0.5%", True, [0.01]):  # true: a TOML typo
         with pytest.raises(SettingsError, match="target_noise"):
             ReferenceSettings(target_noise=bad)
     out = tmp_path / "r.exr"

@@ -4,11 +4,18 @@ and the pass times of frames rendered as a user would (no records)."""
 from __future__ import annotations
 
 import dataclasses
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from volcaustics.approx.params import ApproxParams
+    from volcaustics.approx.renderer import Frame, Renderer
+    from volcaustics.scenes.model import Scene
 
 TIMED_FRAMES = 3             # frames without records timed per experiment (the median one is reported)
 
 
-def render_frames(renderer, scene, p, seeds, *, warm_up: bool) -> tuple:
+def render_frames(renderer: Renderer, scene: Scene, p: ApproxParams, seeds: list[int], *,
+                  warm_up: bool) -> tuple[list[Frame], list[dict]]:
     """One frame per seed, with records, and the pass times of TIMED_FRAMES frames
     rendered as a user would (no records: reading them back is the harness's cost, not
     the method's). A fresh renderer compiles its shaders in its first frame, so it

@@ -2,18 +2,25 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from volcaustics.metrics.decomposition import decompose_caustic
 from volcaustics.reports.measuring.experiment.image_rows import IMAGE_COLUMNS, NAN
 
+if TYPE_CHECKING:
+    import numpy as np
 
-def decompose(exact, reference, keep) -> dict:
+    from volcaustics.reference.cache import ReferenceResult
+
+
+def decompose(exact: dict, reference: ReferenceResult, keep: np.ndarray) -> dict:
     return decompose_caustic(exact["batches"], reference.mean["caustic"], keep=keep,
                              reference_var=reference.var["caustic"],
                              reference_ratio=reference.total_variance_ratio("caustic"),
                              reference_groups=reference.groups("caustic"))
 
 
-def decomposition_rows(decomposition, columns) -> list:
+def decomposition_rows(decomposition: dict, columns: dict) -> list:
     """The decomposition as image rows (component ``caustic``, ``term`` set): per term
     and the total, energy_share, relmse_part, relmse_own with standard errors; the
     noise row's energy_sigma and relmse; the residual's z-scores and verdict."""

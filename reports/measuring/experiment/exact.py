@@ -23,7 +23,9 @@ from __future__ import annotations
 
 import dataclasses
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
@@ -32,6 +34,11 @@ from volcaustics.approx.splat import splats_from_arrays
 from volcaustics.reference.oracle import Oracle, exact_photon_records
 from volcaustics.reference.render import render_batches
 from volcaustics.scenes.formats import STATUS_COLLIDED, STATUS_SURFACE
+
+if TYPE_CHECKING:
+    from volcaustics.approx.params import ApproxParams
+    from volcaustics.reference.settings import ReferenceSettings
+    from volcaustics.scenes.model import Camera, Scene
 
 
 @dataclass
@@ -93,7 +100,7 @@ class BatchImages:
         b = self.batch_images.astype(np.float64)
         return (b.var(axis=0, ddof=1) / len(b)).astype(np.float32)
 
-    def total(self, mask=None) -> tuple[np.ndarray, np.ndarray]:
+    def total(self, mask: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """RGB sum over the pixels of ``mask`` (H×W bool; all pixels when None): its
         value and the variance of that value, from the batches' totals (so the
         covariance of neighbouring pixels, which one splat shares, is included)."""
@@ -120,8 +127,8 @@ class ExactCaustic(BatchImages):
     params: dict = field(default_factory=dict)
 
 
-def exact_photons(scene, params, *, steps: int, fresnel: str, renderer=None, oracle=None,
-                  first_records: np.ndarray | None = None) -> ExactPhotons:
+def exact_photons(scene: Scene, params: ApproxParams, *, steps: int, fresnel: str, renderer: Renderer | None = None,
+                  oracle: Oracle | None = None, first_records: np.ndarray | None = None) -> ExactPhotons:
     """Replay the approximation's photons exactly and collect their medium collisions.
 
     Parameters
@@ -155,8 +162,8 @@ def exact_photons(scene, params, *, steps: int, fresnel: str, renderer=None, ora
     return photons_from_records(records, first_records, p, steps=steps, fresnel=fresnel, mask_specular=mask)
 
 
-def photons_from_records(records: list, first_records: np.ndarray, params, *, steps: int, fresnel: str,
-                         mask_specular=None) -> ExactPhotons:
+def photons_from_records(records: list, first_records: np.ndarray, params: ApproxParams, *, steps: int,
+                         fresnel: str, mask_specular: np.ndarray | None = None) -> ExactPhotons:
     """The medium collisions of an exact replay's per-step records
     (``reference.oracle.exact_photon_records``) as :class:`ExactPhotons`, for callers
     that also use the records (power budgets, divergence)."""
@@ -191,7 +198,7 @@ def interleaved_subsets(photon: np.ndarray, photon_res: int, batches: int) -> np
     return ((photon // photon_res) % a) * b + (photon % photon_res) % b
 
 
-def pixel_footprint(camera, height: int, distance: float | None = None) -> float:
+def pixel_footprint(camera: Camera, height: int, distance: float | None = None) -> float:
     """Width (m) of one pixel of an image ``height`` pixels tall, at ``distance`` (m,
     default: the camera's target distance) along the view axis: the pinhole's vertical
     field of view over the rows."""
@@ -200,7 +207,7 @@ def pixel_footprint(camera, height: int, distance: float | None = None) -> float
     return 2.0 * distance * float(np.tan(np.radians(camera.fov_y) / 2.0)) / height
 
 
-def box_downsample(image: np.ndarray, factor: int, reduce=np.mean) -> np.ndarray:
+def box_downsample(image: np.ndarray, factor: int, reduce: Callable[..., Any] = np.mean) -> np.ndarray:
     """H·f×W·f×C → H×W×C: each output pixel reduces (mean: the box filter) its f×f block."""
     if factor == 1:
         return image
@@ -209,7 +216,8 @@ def box_downsample(image: np.ndarray, factor: int, reduce=np.mean) -> np.ndarray
     return reduce(blocks, axis=(1, 3)).astype(image.dtype)
 
 
-def subset_images(renderer, splats, photon, photon_res: int, batches: int, params, scene=None, *,
+def subset_images(renderer: Renderer, splats: np.ndarray, photon: np.ndarray, photon_res: int, batches: int,
+                  params: ApproxParams, scene: Scene | None = None, *,
                   supersample: int = 1) -> np.ndarray:
     """K × H × W × 3 float32: photon subset k's caustic (:func:`interleaved_subsets`)
     times K, through ``renderer``'s splatter: K independent unbiased estimates of the
@@ -218,14 +226,15 @@ def subset_images(renderer, splats, photon, photon_res: int, batches: int, param
     the same emission texels in each. ``supersample``: splat at S× the size and average
     S×S blocks (the reference's box filter)."""
     p = params.resolved(scene or renderer.scene)
-    fine = dataclasses.replace(p, width=p.width * supersample, height=p.height * supersample)
+    fine = dataclasses.replace(p, width=cast(int, p.width) * supersample, height=cast(int, p.height) * supersample)
     subset = interleaved_subsets(photon, photon_res, batches)
     images = renderer.splat_many([splats[subset == k] for k in range(batches)], scene, fine)
     return np.stack([box_downsample(image, supersample) * np.float32(batches) for image in images]).astype(np.float32)
 
 
-def exact_caustic(scene, params, *, steps: int, fresnel: str, batches: int = 8, supersample: int = 1,
-                  renderer=None, oracle=None, photons: ExactPhotons | None = None,
+def exact_caustic(scene: Scene, params: ApproxParams, *, steps: int, fresnel: str, batches: int = 8,
+                  supersample: int = 1, renderer: Renderer | None = None, oracle: Oracle | None = None,
+                  photons: ExactPhotons | None = None,
                   with_mask: bool = True) -> ExactCaustic:
     """E_k / E_∞: the exact photons' caustic through the approximation's splatter.
 
@@ -258,7 +267,7 @@ def exact_caustic(scene, params, *, steps: int, fresnel: str, batches: int = 8, 
     if isinstance(supersample, bool) or not isinstance(supersample, int) or supersample < 1:
         raise ValueError(f"supersample = {supersample!r}: expected an integer >= 1")
     p = params.resolved(scene)
-    fine = dataclasses.replace(p, width=p.width * supersample, height=p.height * supersample)
+    fine = dataclasses.replace(p, width=cast(int, p.width) * supersample, height=cast(int, p.height) * supersample)
     own = renderer is None
     renderer = renderer or Renderer(scene)
     try:
@@ -298,7 +307,7 @@ class ReferenceCaustic(BatchImages):
     params: dict = field(default_factory=dict)
 
 
-def reference_caustic(scene, settings, *, mode: str = "caustic") -> ReferenceCaustic:
+def reference_caustic(scene: Scene, settings: ReferenceSettings, *, mode: str = "caustic") -> ReferenceCaustic:
     """The reference caustic in ``settings.batches`` independent batch images (uncached).
 
     ``reference.render.render_batches`` keeps only each pixel's mean and variance;

@@ -23,6 +23,7 @@ a flag and a ``[measurement]`` key, part of a result's key)."""
 from __future__ import annotations
 
 import dataclasses
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
 
@@ -43,6 +44,13 @@ from volcaustics.reports.measuring.experiment.measurement import EXACT_STEPS, SU
 from volcaustics.scenes.bounds import medium_bounds
 from volcaustics.scenes.formats import STATUS_COLLIDED
 from volcaustics.scenes.rng import pcg_hash
+
+if TYPE_CHECKING:
+    from volcaustics.approx.params import ApproxParams
+    from volcaustics.approx.renderer import Frame, Renderer
+    from volcaustics.reference.oracle import Oracle
+    from volcaustics.reports.measuring.experiment.kernels import Kernels
+    from volcaustics.scenes.model import Scene
 
 # E_∞ and E_∞,s: docs/decisions.md "Exact steps and the small kernel"
 SMALL_SUPERSAMPLE = 4        # E_∞,s: splatted at 4× and box-averaged (the reference's pixel filter)
@@ -81,16 +89,17 @@ def pooled(replays: list) -> ExactPhotons:
         params={**first.params, "subphotons": n})
 
 
-def small_radius(scene, p) -> float:
-    return SMALL_KERNEL_FINE_PIXELS * pixel_footprint(scene.camera, p.height * SMALL_SUPERSAMPLE)
+def small_radius(scene: Scene, p: ApproxParams) -> float:
+    return SMALL_KERNEL_FINE_PIXELS * pixel_footprint(scene.camera, cast(int, p.height) * SMALL_SUPERSAMPLE)
 
 
-def small_kernel_params(scene, p):
+def small_kernel_params(scene: Scene, p: ApproxParams) -> ApproxParams:
     """What E_∞,s is splatted with whatever A's splat mode: the fixed small kernel."""
     return dataclasses.replace(p, splat="fixed", splat_radius=small_radius(scene, p))
 
 
-def exact_images(scene, p, frames, seeds, renderer, oracle, settings: MeasurementSettings | None = None) -> dict:
+def exact_images(scene: Scene, p: ApproxParams, frames: list[Frame], seeds: list[int], renderer: Renderer,
+                 oracle: Oracle, settings: MeasurementSettings | None = None) -> dict:
     """Per seed, ``settings.subset_batches`` paired subset images
     (``reports.measuring.experiment.exact.subset_images``) of A, E_k, E_∞ (A's Fresnel), E_∞
     (stochastic), E_em and E_∞,s, the E_∞ images from ``settings.exact_subphotons``
@@ -118,7 +127,8 @@ def exact_images(scene, p, frames, seeds, renderer, oracle, settings: Measuremen
             "kernels": KERNEL_RULES[p.splat]}
 
 
-def approx_subsets(scene, p, frames, seeds, renderer, batches: int = SUBSET_BATCHES) -> tuple:
+def approx_subsets(scene: Scene, p: ApproxParams, frames: list[Frame], seeds: list[int], renderer: Renderer,
+                   batches: int = SUBSET_BATCHES) -> tuple[np.ndarray, list[Kernels]]:
     """(A's paired subset images, every seed's kernels): per seed, ``batches`` subset
     images of its frame's medium collisions with the frame's own kernels (so their mean
     is the frame's caustic, whatever the splat mode), all seeds' concatenated; and per
@@ -187,7 +197,8 @@ def _cut(photons: ExactPhotons, steps: int) -> ExactPhotons:
                                step=photons.step[keep], params={**photons.params, "steps": steps})
 
 
-def replayed(scene, p, fresnel: str, groups: list, oracle, steps: int) -> list:
+def replayed(scene: Scene, p: ApproxParams, fresnel: str, groups: list, oracle: Oracle,
+             steps: int) -> list[ExactPhotons]:
     """One :class:`ExactPhotons` per (rays, seed) of ``groups``: the rays emitted exactly
     and replayed ``steps`` steps with ``fresnel`` and that seed, all of them one
     wavefront on the device (``reference.replay.exact_replays``)."""

@@ -23,6 +23,7 @@ import hashlib
 import io
 import json
 import os
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -38,13 +39,18 @@ from volcaustics.infra.storage import (
 )
 from volcaustics.reports.measuring.results.versions import code_version
 
+if TYPE_CHECKING:
+    from volcaustics.approx.params import ApproxParams
+    from volcaustics.scenes.model import Scene
+
 FOLDER = "exact-images"
 FORMAT = 3  # 2: every E image from the emission ray, and E_em; 3: the real frame's kernels, E_∞,s fixed
 EXACT_IMAGES = ("exact_steps", "exact_all_same", "exact_all", "exact_emission", "exact_all_small")
 SEARCH_ONLY = tuple(p.name for p in PARAMS if not p.exact)  # what the E images do not depend on
 
 
-def exact_document(scene, p, seeds: list, subphotons: int, constants: dict, controls: dict) -> dict:
+def exact_document(scene: Scene, p: ApproxParams, seeds: list, subphotons: int, constants: dict,
+                   controls: dict) -> dict:
     """What determines the E images of a point: the scene, the resolved parameters
     without SEARCH_ONLY (all of them for splat = adaptive), the seeds, the sub-photons,
     the replay's constants and the code version."""

@@ -27,8 +27,9 @@ import hashlib
 import json
 import math
 import os
+from collections.abc import Sequence
 from functools import lru_cache
-from typing import Callable
+from typing import TYPE_CHECKING, Callable, Protocol
 
 import numpy as np
 
@@ -46,6 +47,16 @@ from volcaustics.metrics.frame import frame_relative_mse
 from volcaustics.metrics.noise import noisy_copy, seed_mean_interval, seed_relative_mse, total_sigma
 from volcaustics.reports.measuring.results.versions import code_version
 from volcaustics.scenes.formats import COLOUR_LAYERS, MASK_LAYER
+
+if TYPE_CHECKING:
+    from volcaustics.reference.cache import ReferenceResult
+
+    class _Imaged(Protocol):
+        """A frame as the image metrics read it (``approx.renderer.Frame``, or another
+        renderer's images): layer name → H×W×3."""
+
+        @property
+        def images(self) -> dict: ...
 
 FLOOR_SEAL = "sha256"  # a floor file's field holding the SHA-256 of the rest of it
 
@@ -74,7 +85,7 @@ FRAMES: dict[str, Callable] = {"hdr_flip": im.hdr_flip_frames, "delta_e2000": im
 _FLOORS: dict = {}
 
 
-def keep_mask(reference, frames) -> np.ndarray:
+def keep_mask(reference: ReferenceResult, frames: Sequence[_Imaged]) -> np.ndarray:
     """H×W bool: pixels where neither the reference nor any frame sees glass."""
     keep = reference.mean[MASK_LAYER][..., 0] < 0.5
     for f in frames:
@@ -82,8 +93,9 @@ def keep_mask(reference, frames) -> np.ndarray:
     return keep
 
 
-def image_rows(frames, reference, keep, columns, maps=None, components=COLOUR_LAYERS,
-               metrics=IMAGE_METRICS) -> tuple:
+def image_rows(frames: Sequence[_Imaged], reference: ReferenceResult, keep: np.ndarray, columns: dict,
+               maps: dict | None = None, components: Sequence[str] = COLOUR_LAYERS,
+               metrics: Sequence[str] = IMAGE_METRICS) -> tuple:
     """(rows, headline): one row per (component, metric) with the columns of
     IMAGE_COLUMNS and ``columns``; headline: component → metric → the summary's
     numbers (``relative_mse`` with each frame's own value, ``per_seed``). ``maps`` (a
@@ -186,7 +198,9 @@ def floor_code_version() -> str:
         return code_version(("metrics",)) + hashlib.sha256(fh.read()).hexdigest()[:16]
 
 
-def metric_floor(metric, reference_key, component, keep, r, rv, compute, *, frames=None) -> float:
+def metric_floor(metric: str, reference_key: str, component: str, keep: np.ndarray, r: np.ndarray, rv: np.ndarray,
+                 compute: Callable[[np.ndarray, np.ndarray], float], *,
+                 frames: Callable[[np.ndarray, np.ndarray], list] | None = None) -> float:
     """A non-quadratic metric's value for the reference against its noisy copy
     (``metrics.noise.noisy_copy``, the mean over FLOOR_DRAWS draws), cached in-process
     and on disk per (reference, component, metric, compared pixels, :func:`floor_code_version`);

@@ -25,11 +25,16 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Callable
-from typing import cast
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
 
 from volcaustics.approx.splat import record_sigma, splats_from_arrays
+
+if TYPE_CHECKING:
+    from volcaustics.approx.params import ApproxParams
+    from volcaustics.approx.renderer import Renderer
+    from volcaustics.scenes.model import Scene
 
 #: What summary.json says of the kernels of the decomposition's images, per splat mode.
 KERNEL_RULES = {
@@ -42,14 +47,14 @@ KERNEL_RULES = {
 Kernels = Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray]
 
 
-def splat_params(p):
+def splat_params(p: ApproxParams) -> ApproxParams:
     """The parameters an image with a frame's kernels is splatted with: ``p`` itself for
     fixed and adaptive splats; for density splats the per-splat path (``splat =
     adaptive``), which draws each splat with the σ it carries."""
     return dataclasses.replace(p, splat="adaptive") if p.splat == "density" else p
 
 
-def frame_kernels(renderer, scene, p, collided: np.ndarray) -> Kernels:
+def frame_kernels(renderer: Renderer, scene: Scene, p: ApproxParams, collided: np.ndarray) -> Kernels:
     """The kernels of a seed's real frame, for any photons of that seed.
 
     Parameters

@@ -6,11 +6,26 @@ from __future__ import annotations
 
 import json
 import os
+from typing import TYPE_CHECKING, Protocol
 
 from volcaustics.infra.imageio import write_exr
 from volcaustics.infra.storage import atomic_set
 from volcaustics.reports.measuring.results.store import TABLES
 from volcaustics.reports.measuring.results.tables import plain, table
+
+if TYPE_CHECKING:
+    from volcaustics.reports.measuring.results.summaries import ExperimentSummary
+
+    class _Written(Protocol):
+        """What :func:`write_experiment` reads: a stored point
+        (``reports.measuring.runner.PointResult``) or an ``Experiment``; the tables it
+        reads by attribute."""
+
+        @property
+        def summary(self) -> ExperimentSummary: ...
+
+        @property
+        def layers(self) -> dict: ...
 
 OUTPUT_FILES = (*(f"{name}.{ext}" for name in TABLES for ext in ("parquet", "csv")), "decomposition.exr",
                 "summary.json")  # what `measure -o DIR` writes; the manifest, summary.json, last
@@ -27,7 +42,7 @@ def output_paths(out_dir: str) -> dict:
 STORE_FIELDS = ("key_document", "files", "summary_sha256")
 
 
-def write_experiment(experiment, out_dir: str) -> dict:
+def write_experiment(experiment: _Written, out_dir: str) -> dict:
     """Write the tables (Parquet + CSV), ``decomposition.exr`` and, last,
     ``summary.json`` into ``out_dir`` as one set (``infra.storage.atomic_set``: an
     interrupted write leaves the last complete set). ``experiment``: a stored point

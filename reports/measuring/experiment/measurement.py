@@ -67,7 +67,7 @@ def _setting(name: str):
     return dataclasses.field(default=_BY_NAME[name].default, metadata={"param": _BY_NAME[name]})
 
 
-def check_setting(name: str, value) -> None:
+def check_setting(name: str, value: object) -> None:
     """ParamError unless ``value`` is allowed for setting ``name``; the message names the
     setting, the value, the range, what it sets and its default."""
     param = _BY_NAME[name]

@@ -5,20 +5,29 @@ reference was rendered with max_scatter > 1 (its ``<component>_ms`` layers)."""
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
 from volcaustics.metrics.model_term import interval, model_term
 from volcaustics.reports.measuring.experiment.image_rows import IMAGE_COLUMNS, NAN
 from volcaustics.scenes.formats import COLOUR_LAYERS
+
+if TYPE_CHECKING:
+    import numpy as np
+
+    from volcaustics.approx.renderer import Frame
+    from volcaustics.reference.cache import ReferenceResult
 
 TERM = "model"  # the rows' ``term``
 METRICS = ("energy_share", "relmse_own", "relmse_part", "approx_part")
 
 
-def has_model(reference) -> bool:
+def has_model(reference: ReferenceResult) -> bool:
     """Whether ``reference`` holds the higher scattering orders."""
     return all(f"{c}_ms" in reference.mean for c in COLOUR_LAYERS)
 
 
-def model_rows(frames, reference, keep, columns) -> tuple:
+def model_rows(frames: Sequence[Frame], reference: ReferenceResult, keep: np.ndarray, columns: dict) -> tuple:
     """(rows, summary): one row per (component, metric) with term ``model`` and the
     summary's ``model`` section (None, no rows, without the higher orders)."""
     if not has_model(reference):

@@ -4,21 +4,30 @@ replay (``metrics.paths``)."""
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from volcaustics.metrics.paths import FATES as FATE_OF_STATUS
 from volcaustics.metrics.paths import path_divergence, power_budget
 from volcaustics.reference.oracle import exact_photon_records
 
+if TYPE_CHECKING:
+    from volcaustics.approx.params import ApproxParams
+    from volcaustics.approx.renderer import Frame
+    from volcaustics.reference.oracle import Oracle
+    from volcaustics.scenes.model import Scene
+
 FATES = tuple(FATE_OF_STATUS.values())   # the power budget's share_<fate> columns, in order
 
 
-def replay(scene, p, frame, seed, oracle) -> list:
+def replay(scene: Scene, p: ApproxParams, frame: Frame, seed: int, oracle: Oracle) -> list:
     """The frame's photons replayed exactly with its steps and Fresnel."""
     return exact_photon_records(scene, frame.records[0], steps=p.steps, seed=seed, fresnel=p.fresnel, oracle=oracle)
 
 
-def photon_rows(frames, replays, columns) -> tuple:
+def photon_rows(frames: Sequence[Frame], replays: list, columns: dict) -> tuple:
     """Power budget per (tracer, step), the shares averaged over seeds, and the paths'
     first divergence per step (all seeds' photons pooled)."""
     budgets: dict = {}

@@ -27,6 +27,7 @@ and CSV), ``decomposition.exr`` and ``summary.json`` (last).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 from tqdm import tqdm
@@ -53,6 +54,12 @@ from volcaustics.reports.measuring.results.sizing import REPORT_REFERENCE, sized
 from volcaustics.reports.measuring.results.summaries import ExperimentSummary
 from volcaustics.reports.measuring.results.timing import Clock
 
+if TYPE_CHECKING:
+    from volcaustics.approx.params import ApproxParams
+    from volcaustics.reference.cache import ReferenceResult
+    from volcaustics.reference.settings import ReferenceSettings
+    from volcaustics.scenes.model import Scene
+
 STAGES = ("reference", "oracle", "approx", "segments", "photons", "exact_images", "metrics")
 
 
@@ -75,8 +82,10 @@ class Experiment:
     views: dict = field(default_factory=dict)
 
 
-def run_experiment(scene, params, *, seeds: int = 1, reference_settings=None, progress: bool = False,
-                   renderer=None, oracle=None, reference=None, fields: dict | None = None,
+def run_experiment(scene: Scene, params: ApproxParams, *, seeds: int = 1,
+                   reference_settings: ReferenceSettings | None = None, progress: bool = False,
+                   renderer: Renderer | None = None, oracle: Oracle | None = None,
+                   reference: ReferenceResult | None = None, fields: dict | None = None,
                    measurement: MeasurementSettings | None = None) -> Experiment:
     """Measure the approximation with ``params`` on ``scene`` against its reference.
 

@@ -5,11 +5,17 @@ read and the memory a whole measurement holds."""
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING, cast
+
 from volcaustics.approx.limits import check_fits
 from volcaustics.approx.params import ParamError, preset
 from volcaustics.infra.memory import image_fits
 from volcaustics.metrics.image import SSIM_WINDOW
 from volcaustics.reports.measuring.experiment.exact_images import SMALL_SUPERSAMPLE
+
+if TYPE_CHECKING:
+    from volcaustics.approx.params import ApproxParams
+    from volcaustics.scenes.model import Scene
 
 # What a measurement holds per pixel (both renders, the reference, the decomposition's
 # subset images at 16× the pixels, every metric): 2.9 kB + 0.65–0.84 kB per seed measured
@@ -19,7 +25,7 @@ BYTES_PER_PIXEL = 3000
 BYTES_PER_PIXEL_PER_SEED = 850
 
 
-def check_frame(p, seeds: int) -> None:
+def check_frame(p: ApproxParams, seeds: int) -> None:
     """ParamError unless ``p`` (width/height resolved) can be measured with ``seeds`` seeds."""
     for name in ("width", "height"):
         size = getattr(p, name)
@@ -27,7 +33,7 @@ def check_frame(p, seeds: int) -> None:
             raise ParamError(f"{name} = {size}: a measurement needs images of at least {SSIM_WINDOW} × "
                              f"{SSIM_WINDOW} pixels (SSIM's Gaussian window, σ 1.5); {name} ≥ {SSIM_WINDOW}")
     check_fits(p, keep_records=True, supersample=SMALL_SUPERSAMPLE)
-    check_images_fit(p.width, p.height, seeds, (BYTES_PER_PIXEL, BYTES_PER_PIXEL_PER_SEED),
+    check_images_fit(cast(int, p.width), cast(int, p.height), seeds, (BYTES_PER_PIXEL, BYTES_PER_PIXEL_PER_SEED),
                      f"the images of a measurement with {seeds} seed(s) (both renders, the reference, "
                      f"the error decomposition's at {SMALL_SUPERSAMPLE}× per side)")
 
@@ -54,7 +60,7 @@ def check_images_fit(width: int, height: int, seeds: int, cost: tuple, what: str
 MAX_OPTICAL_DEPTH = 24.0
 
 
-def check_medium(scene) -> None:
+def check_medium(scene: Scene) -> None:
     """ParamError unless ``scene``'s medium gives a volume caustic to measure: it scatters
     in every colour channel (the error's shares divide by the reference caustic, per
     channel) and its optical depth leaves the camera some light (MAX_OPTICAL_DEPTH).
@@ -74,7 +80,7 @@ def check_medium(scene) -> None:
                     f"camera; give a thinner medium")
 
 
-def check_denoiser(params) -> None:
+def check_denoiser(params: ApproxParams) -> None:
     """ParamError before any work when ``params`` ask for a denoiser this machine cannot
     load (``denoise = oidn`` without a loadable OIDN binding: it failed mid-render)."""
     if params.denoise == "oidn":
@@ -85,7 +91,7 @@ def check_denoiser(params) -> None:
             raise ParamError(f"denoise = oidn: {reason}; install it (pip install pyoidn) or use denoise = none")
 
 
-def checked_settings(scene, params, seeds: int) -> tuple:
+def checked_settings(scene: Scene, params: ApproxParams, seeds: int) -> tuple:
     """(resolved params, seed list); ParamError before any work for a bad seed count,
     a frame that cannot be measured, a denoiser that cannot load (:func:`check_denoiser`)
     or a medium without a caustic (:func:`check_medium`)."""

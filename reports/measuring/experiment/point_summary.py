@@ -3,6 +3,9 @@ the images a report shows (:data:`VIEWS`)."""
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, cast
+
 import numpy as np
 
 from volcaustics.approx.context import gl_info, shared_context
@@ -16,6 +19,12 @@ from volcaustics.reports.measuring.results.versions import code_version, library
 from volcaustics.scenes.fields import field_columns, optical_depth
 from volcaustics.scenes.formats import COLOUR_LAYERS
 
+if TYPE_CHECKING:
+    from volcaustics.approx.params import ApproxParams
+    from volcaustics.approx.renderer import Frame
+    from volcaustics.reference.cache import ReferenceResult
+    from volcaustics.scenes.model import Scene
+
 KIND = "experiment"  # summary.json "kind" of a measure output folder
 
 ALIVE_BUDGET = 1e-3          # above it, summary.json warns that E_∞ is truncated
@@ -28,7 +37,8 @@ VIEWS = {"approx.<component>": "the approximation, mean over the seeds (H×W×3)
          "compared": "1 where pixels are compared (neither renderer sees glass), else 0 (H×W)"}
 
 
-def parameter_columns(scene, params, seeds: list, reference_key: str, fields: dict | None = None) -> dict:
+def parameter_columns(scene: Scene, params: ApproxParams, seeds: list, reference_key: str,
+                      fields: dict | None = None) -> dict:
     """The columns every row of every table carries: scene, its hash, its optical depth,
     every approximation parameter (``seed``: the first seed), the seeds, the reference's
     cache key, the code version and the scene fields a sweep changed (``fields``)."""
@@ -37,7 +47,7 @@ def parameter_columns(scene, params, seeds: list, reference_key: str, fields: di
             **field_columns(fields)}
 
 
-def map_reads(frames) -> dict:
+def map_reads(frames: Sequence[Frame]) -> dict:
     """Light-map texels the search read (the cost that travels across hardware): per
     frame (mean over the seeds), per searched segment, and per segment at each step."""
     steps = len(frames[0].records)
@@ -48,14 +58,15 @@ def map_reads(frames) -> dict:
             "per_segment": sum(map(sum, reads)) / max(sum(map(sum, segments)), 1), "per_step": per_step}
 
 
-def frame_costs(frames, params) -> dict:
+def frame_costs(frames: Sequence[Frame], params: ApproxParams) -> dict:
     """A frame's cost (``approx.cost.frame_cost``: map reads, emission reads, splats and
     their total, photons, segments, fragments per pass), the mean over the seeds' frames."""
     costs = [frame_cost(f.records, params, f.work) for f in frames]
     return {name: float(np.mean([c[name] for c in costs])) for name in COST_FIELDS}
 
 
-def experiment_views(frames, reference, keep, layers, maps) -> dict:
+def experiment_views(frames: Sequence[Frame], reference: ReferenceResult, keep: np.ndarray, layers: dict,
+                     maps: dict) -> dict:
     """The images a report shows (:data:`VIEWS`), float32."""
     out = {}
     for component in COLOUR_LAYERS:
@@ -79,7 +90,7 @@ def short_of_target(manifest: dict) -> dict:
             if floors.get(name) is not None and floors[name] > target}
 
 
-def reference_summary(reference) -> dict:
+def reference_summary(reference: ReferenceResult) -> dict:
     """What a summary says of the reference a result was measured against."""
     m = reference.manifest
     return {"key": reference.key, "settings": m.get("settings"), "photons": m.get("photons"),
@@ -90,11 +101,13 @@ def reference_summary(reference) -> dict:
             "reference_code_version": m.get("reference_code_version")}
 
 
-def experiment_summary(scene, p, seeds, reference, frames, exact, headline, decomposition, divergence, clock, keep,
-                       timed, model=None, fields: dict | None = None) -> ExperimentSummary:
+def experiment_summary(scene: Scene, p: ApproxParams, seeds: list[int], reference: ReferenceResult,
+                       frames: Sequence[Frame], exact: dict | None, headline: dict, decomposition: dict | None,
+                       divergence: dict, clock: dict[str, float], keep: np.ndarray, timed: list[dict],
+                       model: dict | None = None, fields: dict | None = None) -> ExperimentSummary:
     alive = {} if exact is None else {k: float(max(v)) for k, v in exact["alive"].items()}
     names = {k: "E_em" if k == "true_emission" else f"E_inf ({k} Fresnel)" for k in alive}
-    warnings = [f"{names[k]} keeps {100 * v:.2f}% of the power alive after {exact['exact_steps']} steps "
+    warnings = [f"{names[k]} keeps {100 * v:.2f}% of the power alive after {cast(dict, exact)['exact_steps']} steps "
                 f"(> {100 * ALIVE_BUDGET:.1f}%): the truncation term is understated" for k, v in alive.items()
                 if v > ALIVE_BUDGET]
     short = short_of_target(reference.manifest)

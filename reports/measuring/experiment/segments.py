@@ -3,11 +3,20 @@ classified (``metrics.intersection``), tabulated per grouping."""
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any
+
 import numpy as np
 
 from volcaustics.approx.light import LightFrustum
 from volcaustics.metrics.intersection import SELF_REHIT, classify_segments, intersection_table
 from volcaustics.scenes.bounds import medium_bounds
+
+if TYPE_CHECKING:
+    from volcaustics.approx.params import ApproxParams
+    from volcaustics.approx.renderer import Frame
+    from volcaustics.reference.oracle import Oracle
+    from volcaustics.scenes.model import Scene
 
 SEGMENT_GROUPINGS = (("step", "map", "inside"), ("step", "inside"), ("step",), ())
 BEYOND_SKIP = 10.0           # a self re-hit's re-query starts this many oracle epsilons past the surface
@@ -30,12 +39,12 @@ def start_normals(records: list) -> list:
     return out
 
 
-def segment_rows(scene, p, frames, oracle, columns) -> list:
+def segment_rows(scene: Scene, p: ApproxParams, frames: Sequence[Frame], oracle: Oracle, columns: dict) -> list:
     records = np.concatenate([r for f in frames for r in f.records])
     start_normal = np.concatenate([n for f in frames for n in start_normals(f.records)])
     exact = oracle.first_hits(records["start"], records["direction"], records["search_length"])
     frustum = LightFrustum.for_scene(scene, *medium_bounds(scene))
-    options = {"texel_angle": 2.0 * frustum.tan_half / p.light_res,
+    options: dict[str, Any] = {"texel_angle": 2.0 * frustum.tan_half / p.light_res,
                "light_position": np.asarray(scene.light.position), "start_normal": start_normal}
     first = classify_segments(records, exact, **options)
     beyond_hits = beyond(records, exact, first["cls"] == SELF_REHIT, oracle)
@@ -47,7 +56,7 @@ def segment_rows(scene, p, frames, oracle, columns) -> list:
     return rows
 
 
-def beyond(records, exact, self_rehit, oracle) -> dict:
+def beyond(records: np.ndarray, exact: dict, self_rehit: np.ndarray, oracle: Oracle) -> dict:
     """The exact first hits beyond each self re-hit's surface (from just past it to
     the end of the searched segment; t from the segment's start), no hit elsewhere."""
     n = len(records)

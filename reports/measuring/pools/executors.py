@@ -19,6 +19,8 @@ from __future__ import annotations
 import contextlib
 import logging
 import os
+from collections.abc import Callable, Iterator
+from typing import Any, Protocol
 
 from volcaustics.reports.measuring.pools.dask_address import ExecutorError, parse_dask
 
@@ -27,12 +29,34 @@ from volcaustics.reports.measuring.pools.dask_address import ExecutorError, pars
 SCATTER_SECONDS = 120
 
 
+class Pool(Protocol):
+    """What :func:`open_pool` yields (local worker processes or a Dask client, started
+    when first used), as :func:`run_tasks` and ``reference.render.sources.Pooled`` use it."""
+
+    @property
+    def workers(self) -> int: ...
+
+    def submit(self, fn: Callable[..., Any], *args: Any, key: str | None = None) -> Any: ...
+
+    def scattered(self, payload: dict) -> dict: ...
+
+    def task_key(self, key: str) -> str | None: ...
+
+    def as_completed(self, futures: list) -> Iterator[Any]: ...
+
+    def cancel(self, futures: list) -> None: ...
+
+    def abort(self) -> None: ...
+
+    def close(self) -> None: ...
+
+
 def default_workers() -> int:
     return max(1, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1))
 
 
-def run_tasks(fn, tasks: list, *, pool, total: int, done: int = 0, progress: bool = True, desc: str = "sweep",
-              payloads: list | None = None):
+def run_tasks(fn: Callable[..., dict], tasks: list, *, pool: Pool, total: int, done: int = 0, progress: bool = True,
+              desc: str = "sweep", payloads: list | None = None) -> Iterator[dict]:
     """Yield ``fn(task)``'s results (dicts; a failed task gives {"key", "error"}) from
     ``pool`` (:func:`open_pool`) as they finish, with one progress bar (``desc``) of
     points done / ``total`` (``done`` already). Each task has a ``key``. ``payloads``: per
@@ -64,7 +88,7 @@ def run_tasks(fn, tasks: list, *, pool, total: int, done: int = 0, progress: boo
 
 
 @contextlib.contextmanager
-def open_pool(*, workers: int | None = None, dask: str | None = None):
+def open_pool(*, workers: int | None = None, dask: str | None = None) -> Iterator[Pool]:
     """A pool of worker processes for a run's reference batches and points: ``dask``
     (``parse_dask``) or ``workers`` local processes (default: one per core). On an
     exception or Ctrl-C what has not started is cancelled and local workers are killed,

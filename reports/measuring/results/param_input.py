@@ -5,6 +5,8 @@ derived from ``approx.params.PARAMS``."""
 from __future__ import annotations
 
 import argparse
+from collections.abc import Iterable
+from typing import TypeVar, overload
 
 from volcaustics.approx.params import (
     PARAMS,
@@ -17,13 +19,15 @@ from volcaustics.approx.params import (
     preset,
 )
 
+_Params = TypeVar("_Params", bound=ParamsMethods)
+
 
 def flag(name: str) -> str:
     """The command-line flag of a parameter: ``photon_res`` → ``--photon-res``."""
     return "--" + name.replace("_", "-")
 
 
-def add_param_flags(parser, *, default_preset: str, table: tuple = PARAMS) -> None:
+def add_param_flags(parser: argparse.ArgumentParser, *, default_preset: str, table: tuple = PARAMS) -> None:
     """``--preset`` and one flag per parameter of ``table``, typed, with its range,
     unit and the presets' values in the help."""
     group = parser.add_argument_group("approximation parameters (default: --preset)")
@@ -50,7 +54,15 @@ def _parser(entry):
     return parse
 
 
-def params_from_args(args, cls: type[ParamsMethods] = ApproxParams):
+@overload
+def params_from_args(args: argparse.Namespace) -> ApproxParams: ...
+
+
+@overload
+def params_from_args(args: argparse.Namespace, cls: type[_Params]) -> _Params: ...
+
+
+def params_from_args(args: argparse.Namespace, cls: type[ParamsMethods] = ApproxParams) -> ParamsMethods:
     """The preset of ``args.preset`` with every parameter flag given, as ``cls`` (the
     parameters of ``approx.params.params_class``; ParamError for a value out of range)."""
     changes = {p.name: getattr(args, p.name) for p in cls.TABLE if getattr(args, p.name, None) is not None}
@@ -69,7 +81,7 @@ def parse_assignment(text: str, where: str, *, table: tuple = PARAMS) -> tuple:
     return name, [parse_value(name, v, where, table=table) for v in items]
 
 
-def parse_value(name: str, text, where: str, *, table: tuple = PARAMS):
+def parse_value(name: str, text: object, where: str, *, table: tuple = PARAMS) -> int | float | str:
     """A parameter value from text (CLI) or TOML, typed as the table declares it."""
     try:
         return param(name, table).parse(text)
@@ -77,7 +89,7 @@ def parse_value(name: str, text, where: str, *, table: tuple = PARAMS):
         raise ParamError(f"{where}: {exc}") from None
 
 
-def parse_overrides(assignments, *, seed_option: bool = True) -> dict:
+def parse_overrides(assignments: Iterable[str] | None, *, seed_option: bool = True) -> dict:
     """``--set NAME=VALUE`` (repeatable) as parameters; with ``seed_option`` (the gate,
     the report) ``seed`` is refused: it has its own option there."""
     overrides = {}

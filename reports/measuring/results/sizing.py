@@ -14,9 +14,14 @@ at 16 (docs/decisions.md "References held to what their noise needs").
 from __future__ import annotations
 
 import dataclasses
+from typing import TYPE_CHECKING, cast
 
 from volcaustics.infra.errors import InputError
 from volcaustics.reference.settings import ReferenceSettings, SettingsError
+
+if TYPE_CHECKING:
+    from volcaustics.approx.params import ApproxParams
+    from volcaustics.scenes.model import Scene
 
 REPORT_TARGET = "caustic=0.005,fog=0.002,direct=0.002,caustic_ms=0.005,fog_ms=0.005,direct_ms=0.005"
 # K = 8 scattering orders: the convergence rule needs 2–4 on the built-ins (order 5 changes
@@ -44,11 +49,11 @@ def reference_settings(overrides: dict) -> ReferenceSettings:
         raise InputError(f"reference: {exc}") from None
 
 
-def sized(settings: ReferenceSettings, scene, params) -> ReferenceSettings:
+def sized(settings: ReferenceSettings, scene: Scene, params: ApproxParams) -> ReferenceSettings:
     """``settings`` at the image size of the approximation's ``params`` on ``scene``
     (width/height unset: the scene camera's): one render, one cache key."""
     p = params.resolved(scene)
-    return at_size(settings, p.width, p.height)
+    return at_size(settings, cast(int, p.width), cast(int, p.height))  # resolved: the scene camera's size
 
 
 def at_size(settings: ReferenceSettings, width: int, height: int) -> ReferenceSettings:

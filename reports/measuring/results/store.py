@@ -39,7 +39,8 @@ import json
 import os
 import shutil
 import uuid
-from typing import cast
+from collections.abc import Iterable
+from typing import TYPE_CHECKING, Protocol, cast
 
 import pandas as pd
 
@@ -59,6 +60,19 @@ from volcaustics.reports.measuring.results.tables import plain, table
 from volcaustics.reports.measuring.results.versions import code_version
 from volcaustics.scenes.fields import field_columns
 
+if TYPE_CHECKING:
+    from volcaustics.approx.params import ApproxParams
+    from volcaustics.reference.cache import ReferenceResult
+    from volcaustics.scenes.model import Scene
+
+    class _Experiment(Protocol):
+        """What :meth:`Store.write_point` reads of an experiment
+        (``reports.measuring.experiment.pipeline.Experiment``): its summary, and the
+        tables and images it names by attribute."""
+
+        @property
+        def summary(self) -> ExperimentSummary: ...
+
 TABLES = ("segments", "photons", "images")
 TABLE_FILES = tuple(f"{name}.parquet" for name in TABLES)
 VIEWS = "views.exr"
@@ -75,7 +89,7 @@ def point_key(document: dict) -> str:
     return hashlib.sha256(text.encode()).hexdigest()[:32]
 
 
-def key_document(scene, params, seeds: int, reference) -> dict:
+def key_document(scene: Scene, params: ApproxParams, seeds: int, reference: ReferenceResult) -> dict:
     """Everything that determines a point's result: the scene, the resolved parameters,
     the seeds, the reference (``reference.render.ReferenceResult``: its cache key and,
     since an entry can be continued with more batches under one key, the hash of its
@@ -128,7 +142,7 @@ class Store:
         layers, _ = read_exr(os.path.join(self.point_dir(key), IMAGE_FILES[name]))
         return layers
 
-    def write_point(self, key: str, document: dict, experiment, *, images: tuple = ()) -> str:
+    def write_point(self, key: str, document: dict, experiment: _Experiment, *, images: tuple = ()) -> str:
         """Write a point whole, or not at all, with the experiment's images named in
         ``images`` (:data:`IMAGE_FILES`); returns "written", or "kept" when a complete
         copy appeared meanwhile (another sweep)."""
@@ -228,7 +242,7 @@ class Store:
                 removed += 1
         return removed
 
-    def tables(self, keys) -> dict:
+    def tables(self, keys: Iterable[str]) -> dict:
         """One DataFrame per kind over the complete points of ``keys`` (a ``point``
         column first), plus "points" (one row per point); written by the caller
         (``reports.studies.sweep.sweep_run`` writes them with its manifest as one set)."""

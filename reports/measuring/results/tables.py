@@ -4,6 +4,8 @@ code that reads rows (every parameter a column, so a sweep is one
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 import pandas as pd
 
@@ -27,7 +29,7 @@ def rows_of(frame: pd.DataFrame) -> list:
     return frame.astype(object).where(frame.notna(), None).to_dict("records")
 
 
-def plain(value):
+def plain(value: object) -> Any:
     """``value`` as strict JSON data: numpy scalars and arrays as Python numbers and
     lists, tuples as lists, NaN and ±inf as None (JSON has no NaN)."""
     if isinstance(value, dict):

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import time
+from collections.abc import Iterator
 from contextlib import contextmanager
 
 
@@ -10,12 +11,12 @@ class Clock:
     """Seconds per named stage: ``with clock.stage("exact"): ...``; ``seconds`` maps
     each stage (in the order first run) to its time, summed over repeats."""
 
-    def __init__(self):
+    def __init__(self) -> None:
         self.seconds: dict = {}
         self.started = time.perf_counter()
 
     @contextmanager
-    def stage(self, name: str):
+    def stage(self, name: str) -> Iterator[None]:
         t0 = time.perf_counter()
         try:
             yield

@@ -3,6 +3,8 @@ an InputError naming the file and what is wrong — never a traceback."""
 
 from __future__ import annotations
 
+from collections.abc import Collection
+
 try:
     import tomllib
 except ModuleNotFoundError:  # Python 3.10
@@ -12,7 +14,7 @@ from volcaustics.infra.errors import InputError
 from volcaustics.infra.storage import special_file_kind
 
 
-def load_toml(path: str, *, keys, what: str) -> dict:
+def load_toml(path: str, *, keys: Collection[str], what: str) -> dict:
     """The TOML document at ``path`` whose top-level keys are among ``keys``; InputError
     (an exception type) for an unreadable file, bad TOML or an unknown key."""
     kind = special_file_kind(path)

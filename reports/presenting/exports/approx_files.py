@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 import os
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -14,6 +15,10 @@ from volcaustics.approx import render
 from volcaustics.infra.imageio import write_exr, write_png
 from volcaustics.infra.storage import atomic_set
 from volcaustics.reports.presenting.exports.output_paths import render_outputs
+
+if TYPE_CHECKING:
+    from volcaustics.approx.params import ApproxParams
+    from volcaustics.scenes.model import Scene
 
 
 def output_paths(out: str) -> dict:
@@ -30,7 +35,7 @@ def subsample_records(records: list, max_per_step: int) -> tuple[np.ndarray, int
     return np.concatenate([r[::stride] for r in records]), stride
 
 
-def run_approx(scene, params, out: str, *, records_max: int = 200_000) -> dict:
+def run_approx(scene: Scene, params: ApproxParams, out: str, *, records_max: int = 200_000) -> dict:
     """Render and write the outputs; returns the JSON summary written."""
     frame = render(scene, params, keep_records=records_max != 0)
     paths = output_paths(out)

@@ -37,6 +37,7 @@ from __future__ import annotations
 import dataclasses
 import os
 import urllib.parse
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -58,12 +59,18 @@ from .gltf_parts import (
     up_hint,
 )
 
+if TYPE_CHECKING:
+    from pygltflib import GLTF2
+
+    from volcaustics.scenes.mesh import Mesh
+    from volcaustics.scenes.model import Scene
+
 # glTF constants (glTF 2.0 spec, 3.6 and 3.7)
 _FLOAT, _UINT = 5126, 5125
 _ARRAY_BUFFER, _ELEMENT_ARRAY_BUFFER = 34962, 34963
 
 
-def export_gltf(scene, path: str) -> dict:
+def export_gltf(scene: Scene, path: str) -> dict:
     """Write ``scene`` (at rest) as glTF 2.0: ``path`` ending in ``.glb`` (one binary
     file) or ``.gltf`` (JSON, its buffer in a ``.bin`` of the same stem beside it);
     atomically (a ``.gltf`` and its ``.bin`` as one unit). Returns what was written:
@@ -91,7 +98,7 @@ def export_gltf(scene, path: str) -> dict:
     return {"files": files, **document_counts(gltf), "bytes": len(blob)}
 
 
-def gltf_document(scene):
+def gltf_document(scene: Scene) -> tuple[GLTF2, bytes]:
     """(pygltflib.GLTF2, buffer bytes) of ``scene`` at rest (module docstring); the
     document's one buffer has no uri yet (a .glb's own chunk, or a .bin to name)."""
     from pygltflib import GLTF2, Asset, Buffer, Node
@@ -102,8 +109,8 @@ def gltf_document(scene):
     nodes = []
     for obj in scene.specular:
         nodes.append(_object_node(gltf, blob, obj, glass_material(obj, _object_space(obj))))
-    for obj in scene.diffuse:
-        nodes.append(_object_node(gltf, blob, obj, diffuse_material(obj)))
+    for surface in scene.diffuse:
+        nodes.append(_object_node(gltf, blob, surface, diffuse_material(surface)))
     light = spot_light(scene.light)
     gltf.extensions["KHR_lights_punctual"] = {"lights": [light]}
     nodes.append(Node(name="spot_light", translation=float_list(scene.light.position),
@@ -124,7 +131,7 @@ def gltf_document(scene):
     return gltf, bytes(blob.data)
 
 
-def document_counts(gltf) -> dict:
+def document_counts(gltf: GLTF2) -> dict:
     """What a glTF document holds, counted from it: nodes, meshes, triangles, vertices,
     materials, and whether the spot's innerConeAngle was moved below beam_width."""
     primitives = [p for mesh in gltf.meshes for p in mesh.primitives]
@@ -185,7 +192,7 @@ def _object_node(gltf, blob: _Blob, obj, material):
                 rotation=quaternion(rotation), scale=[float(t.scale)] * 3)
 
 
-def unit_vertex_normals(mesh) -> np.ndarray:
+def unit_vertex_normals(mesh: Mesh) -> np.ndarray:
     """:meth:`Mesh.vertex_normals` (V×3 float64, unit), where a vertex touched only by
     zero-area faces (whose normal is 0: the skull stand-in has one) takes the mean of its
     neighbours' normals, or +Y: glTF wants every NORMAL unit, and such a vertex shades no

@@ -5,11 +5,21 @@ spot light, the camera, node rotations, and the scene's extras (what glTF cannot
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from volcaustics.scenes.bounds import MARGIN, medium_bounds
 from volcaustics.scenes.formats import COLOUR_LAYERS, LAYER_MEANINGS, MASK_LAYER
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
+    from pygltflib import Camera as GltfCamera
+    from pygltflib import Material
+
+    from volcaustics.scenes.mesh import Mesh
+    from volcaustics.scenes.model import Camera, DiffuseSurface, Scene, SpecularObject, SpotLight
 
 GENERATOR = "volcaustics"
 EXTRAS_KEY = "volcaustics"
@@ -33,12 +43,13 @@ SCATTERING_MODEL = ("single scattering (the paper's model): light scatters at mo
                     "are outside both renderers (mask_specular)")
 
 
-def glass_material(obj, mesh):
+def glass_material(obj: SpecularObject, mesh: Mesh) -> Material:
     from pygltflib import Material, PbrMetallicRoughness
 
     sigma = np.asarray(obj.absorption, np.float64)
     extent = np.ptp(mesh.vertices, axis=0)
-    volume = {"thicknessFactor": float(extent[extent > 0].min()) if np.any(extent > 0) else 1.0}  # mesh space
+    volume: dict[str, float | list[float]] = {  # mesh space
+        "thicknessFactor": float(extent[extent > 0].min()) if np.any(extent > 0) else 1.0}
     if np.any(sigma > 0):
         volume["attenuationDistance"] = 1.0  # m (world space): attenuationColor = exp(-sigma * 1 m)
         volume["attenuationColor"] = [float(x) for x in np.exp(-sigma)]
@@ -59,7 +70,7 @@ def glass_material(obj, mesh):
         }})
 
 
-def diffuse_material(obj):
+def diffuse_material(obj: DiffuseSurface) -> Material:
     from pygltflib import Material, PbrMetallicRoughness
 
     return Material(
@@ -71,7 +82,7 @@ def diffuse_material(obj):
 
 # --- light and camera ------------------------------------------------------------------
 
-def spot_light(light) -> dict:
+def spot_light(light: SpotLight) -> dict:
     """The KHR_lights_punctual light (a dict: the extension has no pygltflib class)."""
     intensity = np.asarray(light.intensity, np.float64)
     peak = float(intensity.max())
@@ -99,7 +110,7 @@ def spot_light(light) -> dict:
             "extras": {EXTRAS_KEY: extras}}
 
 
-def camera_node(camera):
+def camera_node(camera: Camera) -> GltfCamera:
     from pygltflib import Camera, Perspective
 
     return Camera(type="perspective", name="camera",
@@ -117,7 +128,7 @@ def camera_node(camera):
                   }})
 
 
-def look_rotation(forward, up) -> np.ndarray:
+def look_rotation(forward: ArrayLike, up: ArrayLike) -> np.ndarray:
     """3×3 rotation whose −Z is ``forward`` and whose +Y is ``up`` made orthogonal to it
     (columns x, y, z: a camera's or a light's frame, as a look-at)."""
     f = np.asarray(forward, np.float64)
@@ -127,7 +138,7 @@ def look_rotation(forward, up) -> np.ndarray:
     return np.column_stack([s, np.cross(s, f), -f])
 
 
-def up_hint(direction) -> tuple:
+def up_hint(direction: ArrayLike) -> tuple:
     """The world axis least aligned with ``direction`` (a spot has no roll: any will do)."""
     axis = int(np.argmin(np.abs(np.asarray(direction, np.float64))))
     return tuple(1.0 if k == axis else 0.0 for k in range(3))
@@ -144,7 +155,7 @@ def quaternion(rotation: np.ndarray) -> list:
 
 # --- what glTF cannot express ----------------------------------------------------------
 
-def scene_extras(scene) -> dict:
+def scene_extras(scene: Scene) -> dict:
     """The scene's ``extras["volcaustics"]``: the facts of docs/conventions.md
     that glTF has no field for (glTF has no ratified participating-media extension)."""
     medium = scene.medium
@@ -188,5 +199,5 @@ def scene_extras(scene) -> dict:
     return extras
 
 
-def float_list(values) -> list:
+def float_list(values: Iterable[float]) -> list:
     return [float(x) for x in values]

@@ -9,13 +9,18 @@ from __future__ import annotations
 import json
 import os
 import shutil
+from typing import TYPE_CHECKING
 
 from volcaustics.infra.storage import atomic_set
 from volcaustics.reference.render import render_reference
 from volcaustics.reports.presenting.exports.output_paths import render_outputs
 
+if TYPE_CHECKING:
+    from volcaustics.reference.settings import ReferenceSettings
+    from volcaustics.scenes.model import Scene
 
-def run_reference(scene, settings, out: str, *, force: bool = False) -> dict:
+
+def run_reference(scene: Scene, settings: ReferenceSettings | None, out: str, *, force: bool = False) -> dict:
     result = render_reference(scene, settings, force=force)
     paths = render_outputs(out, {"png": ".png", "json": ".json"})
     try:

@@ -4,14 +4,19 @@ from __future__ import annotations
 
 import io
 import os
+from types import ModuleType
+from typing import TYPE_CHECKING
 
 from volcaustics.infra.storage import atomic_path
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 # Okabe & Ito's colour-blind-safe palette
 OKABE_ITO = ("#E69F00", "#56B4E9", "#009E73", "#D55E00", "#0072B2", "#CC79A7", "#F0E442", "#000000")
 
 
-def pyplot():
+def pyplot() -> ModuleType:
     """matplotlib.pyplot on the Agg backend (no display; imported on first use: slow)."""
     import matplotlib
 
@@ -21,7 +26,7 @@ def pyplot():
     return plt
 
 
-def save_figure(fig, folder: str, name: str) -> list:
+def save_figure(fig: Figure, folder: str, name: str) -> list:
     """``folder``/``name``.png and .svg, each written whole; the figure is closed."""
     os.makedirs(folder, exist_ok=True)
     paths = []
@@ -34,7 +39,7 @@ def save_figure(fig, folder: str, name: str) -> list:
     return paths
 
 
-def png_bytes(fig, dpi: int = 100) -> bytes:
+def png_bytes(fig: Figure, dpi: int = 100) -> bytes:
     """The figure as PNG bytes; the figure is closed."""
     buffer = io.BytesIO()
     fig.savefig(buffer, format="png", dpi=dpi, bbox_inches="tight")

@@ -10,7 +10,7 @@ from volcaustics.metrics.decomposition import TERMS as BEST_TERMS
 from volcaustics.reports.presenting.page.parts import num as _num
 
 
-def percent_pm(value, se, fmt="{:.2f}") -> str:
+def percent_pm(value: float | None, se: float | None, fmt: str = "{:.2f}") -> str:
     """A relative MSE in % (two decimals) with its standard error."""
     if value is None:
         return "–"

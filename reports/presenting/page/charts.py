@@ -7,12 +7,18 @@ Okabe–Ito and every bar carries its number or a legend entry (not colour alone
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from volcaustics.metrics.decomposition import TERMS
 from volcaustics.metrics.intersection import OUTCOME_CLASSES
 from volcaustics.reports.measuring.experiment.photons import FATES
 from volcaustics.reports.presenting.figures.plotting import OKABE_ITO, png_bytes, pyplot
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
 
 CLASS_COLOURS = dict(zip(OUTCOME_CLASSES, ("#009E73", "#E69F00", "#D55E00", "#CC79A7", "#0072B2", "#BBBBBB")))
 PASS_COLOURS = {"trace": "#D55E00", "splat": "#0072B2", "layers": "#E69F00", "emission": "#56B4E9",
@@ -71,7 +77,8 @@ def power_budget_chart(budget: list) -> bytes:
     return png_bytes(fig)
 
 
-def signed_stack(ax, y, values, colours, labels, fmt) -> None:
+def signed_stack(ax: Axes, y: float, values: Sequence[float], colours: Sequence[str], labels: Sequence[str | None],
+                 fmt: Callable[[float], str]) -> None:
     """One horizontal bar: positive parts stacked rightwards from 0, negative ones
     leftwards, each labelled with its number when it is wide enough."""
     span = max(sum(v for v in values if v > 0), -sum(v for v in values if v < 0), 1e-12)

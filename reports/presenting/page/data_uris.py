@@ -5,6 +5,7 @@ bars that go with them."""
 from __future__ import annotations
 
 import base64
+from collections.abc import Collection
 
 import numpy as np
 
@@ -32,7 +33,7 @@ def heatmap_uri(values: np.ndarray, scale: Scale) -> str:
     return data_uri(png_bytes(heatmap_rgb8(values, scale)))
 
 
-def exposures(views: dict, components=SHOWN) -> dict:
+def exposures(views: dict, components: Collection[str] = SHOWN) -> dict:
     """One exposure per shown component (of ``components``): the reference's bright
     pixels to 1 (``metrics.image.reference_exposure`` over the compared pixels), 1 for a
     black reference. ``views``: ``reference.<component>`` and ``compared`` (H×W or H×W×3)."""

@@ -6,15 +6,19 @@ marked; and whether best meets the goal."""
 from __future__ import annotations
 
 from html import escape
+from typing import TYPE_CHECKING
 
 from volcaustics.reports.presenting.page.best_table import percent_pm as _pct
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 
 def _seconds(value) -> str:
     return "" if not value or value != value else f"{value:.2f}"
 
 
-def frames_rows(table) -> list | None:
+def frames_rows(table: pd.DataFrame | None) -> list | None:
     """The table as plain rows for summary.json (None without a frame check)."""
     return None if table is None else [{k: (None if v != v else v) for k, v in r.items()}
                                        for r in table.to_dict("records")]

@@ -9,6 +9,7 @@ reference in its place, clicking keeps it (Blender's render report does this).
 from __future__ import annotations
 
 import json
+from collections.abc import Iterable, Sequence
 from html import escape
 
 from volcaustics.metrics.intersection import OUTCOME_CLASSES
@@ -294,7 +295,8 @@ Figures <code>variants_&lt;scene&gt;</code> below: every variant, the Pareto fro
 <table id='variants-best'>{head}{rows}</table>"""
 
 
-def render_page(summary: dict, images: dict, sweep_figures: dict, animation_media=(), comparison_media=()) -> str:
+def render_page(summary: dict, images: dict, sweep_figures: dict, animation_media: Iterable[dict] = (),
+                comparison_media: Sequence[dict] = ()) -> str:
     """The page; ``images``: scene → name → data URI (``page.write.scene_images``);
     ``animation_media``: per ``summary["animations"]`` row its data URIs;
     ``comparison_media``: per ``summary["comparisons"]`` row its data URIs

@@ -7,6 +7,8 @@ import hashlib
 import json
 import os
 import time
+from collections.abc import Iterable
+from typing import TYPE_CHECKING
 
 from tqdm import tqdm
 
@@ -29,9 +31,13 @@ from volcaustics.reports.studies.sweep.best_figures import draw_best
 from volcaustics.reports.studies.sweep.sweep_figures import draw_figures
 from volcaustics.reports.studies.sweep.variants import draw_variants, is_variants_sweep, variant_table
 
+if TYPE_CHECKING:
+    from volcaustics.reports.measuring.results.summaries import SceneResult, SweepTables
 
-def write_report(out_dir: str, results: list, summary: dict, sweep=None, *, progress: bool = False,
-                 started: float | None = None, animation_media=(), comparison_media=()) -> dict:
+
+def write_report(out_dir: str, results: list, summary: dict, sweep: SweepTables | None = None, *,
+                 progress: bool = False, started: float | None = None, animation_media: Iterable[dict] = (),
+                 comparison_media: Iterable[dict] = ()) -> dict:
     """Draw ``index.html`` from ``summary`` (and each scene's views), write it and,
     last, ``summary.json``; the sweep's figures also as files under ``figures/`` (an
     earlier run's figures removed). The
@@ -74,7 +80,7 @@ def write_report(out_dir: str, results: list, summary: dict, sweep=None, *, prog
 PAGE_FOLDERS = ("reports/presenting/page", "reports/core", "infra", "scenes")
 
 
-def cached_scene_images(result, page: dict) -> dict:
+def cached_scene_images(result: SceneResult, page: dict) -> dict:
     """:func:`scene_images`, from the cache when this code drew them for this stored result
     (its key and its summary) before: a warm report draws no picture. A cache that cannot
     be written is noted."""
@@ -92,7 +98,7 @@ def cached_scene_images(result, page: dict) -> dict:
     return images
 
 
-def scene_images(result, page: dict) -> dict:
+def scene_images(result: SceneResult, page: dict) -> dict:
     """Data URIs of one scene: renders at the page's exposures, error maps on the fixed
     scales, charts."""
     v = result.views

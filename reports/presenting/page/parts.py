@@ -47,7 +47,7 @@ document.querySelectorAll('img.swap').forEach(function (img) {
 """
 
 
-def verdict(passed, text) -> str:
+def verdict(passed: bool | None, text: str) -> str:
     """A pass / FAIL / none mark with ``text`` (escaped)."""
     if passed is None:
         return f"<span class='verdict none'>– {escape(text)}</span>"
@@ -55,13 +55,13 @@ def verdict(passed, text) -> str:
             f"{escape(text)}</span>")
 
 
-def num(value, fmt="{:.3g}", missing="–") -> str:
+def num(value: float | None, fmt: str = "{:.3g}", missing: str = "–") -> str:
     if value is None or (isinstance(value, float) and value != value):
         return missing
     return fmt.format(value)
 
 
-def pct(value, digits=2) -> str:
+def pct(value: float | None, digits: int = 2) -> str:
     return num(None if value is None else 100.0 * value, "{:.%df}%%" % digits)
 
 

@@ -13,6 +13,7 @@ from __future__ import annotations
 import dataclasses
 import os
 import time
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
 
@@ -29,6 +30,14 @@ from volcaustics.reports.studies.sweep.best_figures import role_rows
 from volcaustics.reports.studies.sweep.suffice import settings_that_suffice
 from volcaustics.reports.studies.sweep.variants import best_variants, is_variants_sweep, variant_table
 from volcaustics.scenes.formats import COLOUR_LAYERS
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+    from volcaustics.approx.params import ApproxParams
+    from volcaustics.reference.settings import ReferenceSettings
+    from volcaustics.reports.measuring.experiment.measurement import MeasurementSettings
+    from volcaustics.reports.measuring.results.summaries import SceneResult, SweepTables
 
 # Wang, Wang & Chen: intersection estimation takes about 70% of a frame and splatting about 23% on their GPU
 OUTPUT_FILES = ("index.html", "summary.json")  # in --out; the manifest, summary.json, last
@@ -48,7 +57,7 @@ def _percent_of(count, total):
     return 100.0 * float(count) / float(total) if total else None
 
 
-def hit_classes(segments) -> dict:
+def hit_classes(segments: pd.DataFrame) -> dict:
     """Segment classes as % of each step's segments: per step and light-map layer of the
     approximation's hit (``"none"`` when it found none), and per step with the |Δt|
     percentiles of true hits (mm). Self re-hits are counted by their class beyond the
@@ -81,7 +90,7 @@ def hit_classes(segments) -> dict:
     return {"rows": rows, "by_step": steps}
 
 
-def power_budget(photons) -> list:
+def power_budget(photons: pd.DataFrame) -> list:
     """Power by fate per (tracer, step), % of the power entering step 1."""
     out = []
     for _, r in photons.sort_values(["tracer", "step"]).iterrows():
@@ -105,7 +114,7 @@ def timing(summary: dict) -> dict:
             "map_reads": summary.get("map_reads")}
 
 
-def scene_page(result, *, exposures: dict) -> dict:
+def scene_page(result: SceneResult, *, exposures: dict) -> dict:
     """Everything the page shows of one scene (``result``: ``reports.measuring.results.summaries.SceneResult``)."""
     s = result.summary
     components = {}
@@ -114,7 +123,8 @@ def scene_page(result, *, exposures: dict) -> dict:
         components[component] = {name: metrics.get(name, {}) for name in HEADLINE}
         # the floor over the compared pixels: what the debiased error had subtracted
         components[component]["reference_noise_floor"] = metrics.get("relative_mse", {}).get("reference_floor")
-    rows = {r["term"]: r for r in s["decomposition"]["rows"]}
+    decomposition = cast(dict, s["decomposition"])  # the report measures scope "full": None only at a gate point
+    rows = {r["term"]: r for r in decomposition["rows"]}
     checks = sorted(result.checks, key=lambda c: (c.passed, c.name))
     return {
         "scene": result.name, "description": s["description"], "scene_hash": s["scene_hash"], "point": result.key,
@@ -123,21 +133,22 @@ def scene_page(result, *, exposures: dict) -> dict:
         "reference": s["reference"], "compared_pixels": s["compared_pixels"], "components": components,
         "gate": {"passed": None if not checks else all(c.passed for c in checks), "note": result.gate_note,
                  "budgeted": result.budgeted, "checks": [dataclasses.asdict(c) for c in checks]},
-        "timing": timing(s), "hit_classes": hit_classes(result.tables["segments"]),
+        "timing": timing(cast(dict, s)), "hit_classes": hit_classes(result.tables["segments"]),
         "power_budget": power_budget(result.tables["photons"]),
         "decomposition": {"terms": [rows[t] for t in TERMS],
-                          "total": rows["total"], "noise": rows["noise"], "residual": s["decomposition"]["residual"]},
+                          "total": rows["total"], "noise": rows["noise"], "residual": decomposition["residual"]},
         "model": s.get("model"), "paths": s["paths"], "exposure": exposures, "warnings": s["warnings"],
     }
 
 
-def scene_exposures(result) -> dict:
+def scene_exposures(result: SceneResult) -> dict:
     """One exposure per shown component: the reference's (its bright pixels to 1)."""
     return exposures(result.views)
 
 
-def report_summary(results: list, *, params, seeds: int, reference_settings, budgets: dict, measurement,
-                   baseline_dir: str | None, sweep=None, clock: dict) -> dict:
+def report_summary(results: list, *, params: ApproxParams, seeds: int, reference_settings: ReferenceSettings,
+                   budgets: dict, measurement: MeasurementSettings, baseline_dir: str | None,
+                   sweep: SweepTables | None = None, clock: dict) -> dict:
     pages = [scene_page(r, exposures=scene_exposures(r)) for r in results]
     checks = [c for p in pages for c in p["gate"]["checks"]]
     failed = [c for c in checks if not c["passed"]]

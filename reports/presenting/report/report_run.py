@@ -12,7 +12,8 @@ see the same data. ``reports.presenting.page`` draws from what :func:`run_report
 from __future__ import annotations
 
 import os
-from typing import cast
+from collections.abc import Iterable, Sequence
+from typing import TYPE_CHECKING, cast
 
 from volcaustics.reports.measuring import runner
 from volcaustics.reports.measuring.experiment.point_checks import measured_settings
@@ -31,9 +32,15 @@ from volcaustics.reports.studies.gate.regression import load_baseline
 from volcaustics.reports.studies.gate.verdict import scene_verdict
 from volcaustics.scenes import SceneError, resolve_scene
 
+if TYPE_CHECKING:
+    from volcaustics.approx.params import ApproxParams
+    from volcaustics.reference.settings import ReferenceSettings
+    from volcaustics.reports.measuring.experiment.measurement import MeasurementSettings
 
-def collect_scenes(names, params, *, seeds: int, reference_settings, measurement, budgets: dict,
-                   baseline: dict | None = None, progress: bool = True, clock: Clock | None = None) -> list:
+
+def collect_scenes(names: Sequence[str], params: ApproxParams, *, seeds: int, reference_settings: ReferenceSettings,
+                   measurement: MeasurementSettings, budgets: dict, baseline: dict | None = None,
+                   progress: bool = True, clock: Clock | None = None) -> list:
     """Every scene's result (measured or from the store), with the gate's verdicts.
 
     Parameters
@@ -75,9 +82,11 @@ def _scene_result(name, result, budgets: dict, baseline: dict | None) -> SceneRe
     return out
 
 
-def run_report(out_dir: str, names, *, overrides: dict, seeds: int | None, seed: int, reference_settings,
-               budgets: dict, measurement=None, baseline_dir: str | None = None, sweep_dir: str | None = None,
-               animation_dirs=(), comparisons=(), frames_dir: str | None = None, progress: bool = True) -> dict:
+def run_report(out_dir: str, names: Sequence[str], *, overrides: dict, seeds: int | None, seed: int,
+               reference_settings: ReferenceSettings, budgets: dict, measurement: MeasurementSettings | None = None,
+               baseline_dir: str | None = None, sweep_dir: str | None = None, animation_dirs: Iterable[str] = (),
+               comparisons: Iterable[tuple[str, str]] = (), frames_dir: str | None = None,
+               progress: bool = True) -> dict:
     """Gather every scene's results and the sweep's, then draw the report into
     ``out_dir`` (``page.write``). Returns the report's summary.
 
@@ -119,7 +128,7 @@ def _load_frames(folder: str) -> tuple:
                           f"{folder}`") from None
 
 
-def load_comparisons(pairs, names) -> list:
+def load_comparisons(pairs: Iterable[tuple[str, str]], names: Iterable[str]) -> list:
     """(row, views) of every comparison ``report --compare NAME=DIR`` names, each of a
     scene the report shows (by content: the scene hash), in the order given."""
     shown = {resolve_scene(name).scene_hash(): name for name in names}

@@ -19,7 +19,9 @@ import json
 import os
 import time
 import zipfile
+from collections.abc import Iterable
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 from tqdm import tqdm
@@ -33,6 +35,11 @@ from volcaustics.reports.measuring.runner import reference_for
 from volcaustics.reports.studies.animate.animation_settings import chain_seed, reference_seed
 from volcaustics.scenes.formats import COLOUR_LAYERS, MASK_LAYER
 
+if TYPE_CHECKING:
+    from volcaustics.approx.params import ApproxParams
+    from volcaustics.reference.settings import ReferenceSettings
+    from volcaustics.scenes.model import Scene
+
 WORK = ".animate"  # DIR/.animate: the frames rendered so far
 GUIDES = {"distance": 0, "normal": 3}  # the G-buffer stored with each frame: name → channels (0: H×W)
 
@@ -45,7 +52,7 @@ class AnimationFrames:
     median frame time over its renders; ``reference_seconds``: per frame the wall time
     of its reference render (the cache's record when it came from the cache)."""
 
-    scene: object
+    scene: Scene
     frames: list
     modes: tuple
     chains: int
@@ -59,7 +66,7 @@ class AnimationFrames:
     guides: dict = field(default_factory=dict)  # GUIDES name → T×H×W(×3): each frame's G-buffer (approx.temporal)
 
 
-def frame_key(frame_scene, params, modes, chains, frame: int) -> str:
+def frame_key(frame_scene: Scene, params: ApproxParams, modes: Iterable[str], chains: int, frame: int) -> str:
     """SHA-256 of everything that decides one stored frame: its scene, the parameters, seed
     modes and chains (its seeds follow from them and the frame number) and the code."""
     doc = {"scene_hash": frame_scene.scene_hash(), "frame": frame, "params": params.to_dict(), "modes": list(modes),
@@ -67,8 +74,8 @@ def frame_key(frame_scene, params, modes, chains, frame: int) -> str:
     return hashlib.sha256(json.dumps(plain(doc), sort_keys=True).encode()).hexdigest()
 
 
-def render_animation(scene, params, *, frames: list, modes: tuple, chains: int, reference_settings, out_dir: str,
-                     progress: bool = True) -> AnimationFrames:
+def render_animation(scene: Scene, params: ApproxParams, *, frames: list, modes: tuple, chains: int,
+                     reference_settings: ReferenceSettings, out_dir: str, progress: bool = True) -> AnimationFrames:
     """Render (or read back) every frame of ``frames`` of ``scene.animation``.
 
     ``params``: resolved approximation parameters (width/height set); the reference is

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import dataclasses
 import time
+from typing import TYPE_CHECKING
 
 from volcaustics.reports.measuring.results.summaries import SCHEMAS
 from volcaustics.reports.measuring.results.versions import code_version
@@ -16,9 +17,14 @@ from volcaustics.reports.studies.animate.animation_settings import CVVDP_SKIPPED
 from volcaustics.reports.studies.animate.animation_write import write_animation
 from volcaustics.reports.studies.animate.temporal import add_ema
 
+if TYPE_CHECKING:
+    from volcaustics.approx.params import ApproxParams
+    from volcaustics.reference.settings import ReferenceSettings
+    from volcaustics.scenes.model import Scene
 
-def run_animate(scene, params, *, frames: list, modes: tuple, chains: int, reference_settings, out_dir: str,
-                progress: bool = True) -> tuple:
+
+def run_animate(scene: Scene, params: ApproxParams, *, frames: list, modes: tuple, chains: int,
+                reference_settings: ReferenceSettings, out_dir: str, progress: bool = True) -> tuple:
     """Measure ``scene``'s animation at ``frames`` in each seed mode of ``modes`` (with
     ``temporal = ema``, also per-frame beside it) over ``chains`` chains, and write it
     into ``out_dir``; returns (summary, paths written)."""

@@ -8,12 +8,16 @@ from __future__ import annotations
 
 import math
 from types import SimpleNamespace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from volcaustics.metrics.temporal import energy_jitter, flicker, trailing_lag
 from volcaustics.reports.measuring.experiment.image_rows import image_rows, keep_mask
 from volcaustics.scenes.formats import COLOUR_LAYERS, MASK_LAYER
+
+if TYPE_CHECKING:
+    from volcaustics.reports.studies.animate.animation_frames import AnimationFrames
 
 NAN = float("nan")
 # per-frame series the summary condenses
@@ -23,14 +27,14 @@ SUMMARY_METRICS = ("relative_mse", "frame_relative_mse", "hdr_flip", "energy_rat
 COVARYING = ("caustic", "combined")
 
 
-def keep_masks(run, mode: str) -> np.ndarray:
+def keep_masks(run: AnimationFrames, mode: str) -> np.ndarray:
     """T×H×W: per frame the pixels where neither the reference nor any chain sees glass."""
     masks = run.approx[mode][MASK_LAYER]  # S×T×H×W×1
     return np.stack([keep_mask(ref, [SimpleNamespace(images={MASK_LAYER: m[t]}) for m in masks])
                      for t, ref in enumerate(run.references)])
 
 
-def frame_rows(run) -> list:
+def frame_rows(run: AnimationFrames) -> list:
     """Per seed mode and frame, every image metric of the chains' frames against that
     frame's reference (the chains are the seeds: their noise is removed with 2 or more)."""
     rows, fps = [], run.scene.animation.fps
@@ -62,7 +66,7 @@ class _CausticGroups:
         return None if groups is None else (*groups, self.references[t].var["caustic"])
 
 
-def temporal_rows(run) -> list:
+def temporal_rows(run: AnimationFrames) -> list:
     """Per seed mode, colour component and frame pair: flicker (``metrics.temporal``) and the
     energy ratio's jitter. Consecutive *rendered* frames form the pairs (``--frames`` may
     skip some: ``frame_gap`` says how many animation frames apart they are)."""
@@ -99,7 +103,7 @@ def temporal_rows(run) -> list:
     return rows
 
 
-def summarize(run, frames: list, temporal: list) -> dict:
+def summarize(run: AnimationFrames, frames: list, temporal: list) -> dict:
     """Per seed mode and component: mean flicker over the pairs (± the SE of that mean,
     pairs taken as independent), its systematic part, the RMS of the energy ratio's
     jitter, and the per-frame series' mean and worst; times per frame for both renderers."""

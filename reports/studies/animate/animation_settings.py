@@ -8,7 +8,12 @@ caustic's noise floor 0.04–0.1%, the fog's 0.3%: docs/decisions.md "Dynamic sc
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from volcaustics.reference.settings import ReferenceSettings
+
+if TYPE_CHECKING:
+    from volcaustics.scenes.model import Camera
 
 ANIMATION_SIZE = 128  # pixels on the longer side when no width/height is given
 ANIMATION_REFERENCE = ReferenceSettings(photons=1 << 22, spp=32, batches=8, target_noise=None, max_seconds=600.0)
@@ -39,7 +44,7 @@ def chain_seed(mode: str, base: int, chain: int, chains: int, frame: int) -> int
     raise ValueError(f"seed mode {mode!r}: expected one of {', '.join(SEED_MODES)}")
 
 
-def animation_size(camera) -> tuple[int, int]:
+def animation_size(camera: Camera) -> tuple[int, int]:
     """(width, height) with the camera's aspect, ANIMATION_SIZE on the longer side."""
     scale = ANIMATION_SIZE / max(camera.width, camera.height)
     return max(1, round(camera.width * scale)), max(1, round(camera.height * scale))

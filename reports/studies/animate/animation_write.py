@@ -5,10 +5,14 @@ from __future__ import annotations
 
 import json
 import os
+from typing import TYPE_CHECKING
 
 from volcaustics.infra.storage import atomic_set
 from volcaustics.reports.measuring.results.tables import plain, table
 from volcaustics.reports.studies.animate.media import plot_png, video_frames, web_format, write_mp4, write_web
+
+if TYPE_CHECKING:
+    from volcaustics.reports.studies.animate.animation_frames import AnimationFrames
 
 TABLE_FILES = ("frames", "temporal")
 
@@ -19,7 +23,7 @@ def output_files(fmt: str | None = None) -> tuple:
             f"animation.{fmt or web_format()}", "timeseries.png", "summary.json")
 
 
-def write_animation(run, frames: list, temporal: list, summary: dict, out_dir: str) -> dict:
+def write_animation(run: AnimationFrames, frames: list, temporal: list, summary: dict, out_dir: str) -> dict:
     """Write the set into ``out_dir``; returns name → path. The video shows the first seed
     mode's first chain."""
     fmt = web_format()

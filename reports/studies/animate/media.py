@@ -5,6 +5,8 @@ per-frame errors and the flicker over time."""
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from volcaustics.infra.imageio import auto_exposure, tonemap_srgb8
@@ -13,11 +15,14 @@ from volcaustics.reports.presenting.figures.plotting import OKABE_ITO, png_bytes
 from volcaustics.reports.presenting.figures.scales import SCALES, heatmap_rgb8
 from volcaustics.reports.studies.animate.animation_metrics import keep_masks
 
+if TYPE_CHECKING:
+    from volcaustics.reports.studies.animate.animation_frames import AnimationFrames
+
 BLOCK = 16  # H.264 macroblock: frames are padded to a multiple (black), never resampled
 LAYER = "combined"
 
 
-def video_frames(run, mode: str) -> list:
+def video_frames(run: AnimationFrames, mode: str) -> list:
     """One H×3W×3 uint8 picture per frame: chain 0 of ``mode`` | the reference | its error
     map (SCALES["per_pixel_relative_mse"]), at one exposure for the whole animation (the
     reference frames' 99.5th luminance percentile), padded to BLOCK."""
@@ -70,7 +75,7 @@ def write_web(path: str, pictures: list, fps: float, fmt: str) -> None:
                    duration=max(int(round(1000.0 / fps)), 20), loop=0, **options)
 
 
-def plot_png(run, frames: list, temporal: list) -> bytes:
+def plot_png(run: AnimationFrames, frames: list, temporal: list) -> bytes:
     """Two panels over time: each frame's caustic and combined debiased relative MSE,
     and each frame pair's flicker (± SE), per seed mode."""
     plt = pyplot()

@@ -5,16 +5,22 @@ flicker, lag), so that the page and the tables show the two side by side."""
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from volcaustics.approx.temporal import REUSED, ema, light_cut
 from volcaustics.scenes.bounds import medium_bounds
 
+if TYPE_CHECKING:
+    from volcaustics.approx.params import ApproxParams
+    from volcaustics.reports.studies.animate.animation_frames import AnimationFrames
+
 EMA_MODE = "per-frame+ema"
 SOURCE_MODE = "per-frame"
 
 
-def cuts(run) -> list:
+def cuts(run: AnimationFrames) -> list:
     """Per rendered frame, whether it starts afresh: the light jumped since the last one."""
     lo, hi = medium_bounds(run.scene)
     centre = (np.asarray(lo, float) + np.asarray(hi, float)) / 2.0
@@ -22,7 +28,7 @@ def cuts(run) -> list:
     return [False] + [light_cut(a.light, b.light, centre) for a, b in zip(scenes, scenes[1:])]
 
 
-def add_ema(run, params) -> None:
+def add_ema(run: AnimationFrames, params: ApproxParams) -> None:
     """Add EMA_MODE to ``run`` (``reports.studies.animate.animation_frames.AnimationFrames``) when
     ``params.temporal`` is ema; the per-frame seed mode must have been rendered."""
     if params.temporal != "ema" or EMA_MODE in run.approx:

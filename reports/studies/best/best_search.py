@@ -33,6 +33,8 @@ from __future__ import annotations
 import dataclasses
 import itertools
 import time
+from collections.abc import Iterable
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
@@ -50,13 +52,16 @@ from volcaustics.reports.studies.sweep.study_limits import CRITERIA
 from volcaustics.reports.studies.sweep.sweep_run import consolidate
 from volcaustics.reports.studies.sweep.sweep_spec import SweepError
 
+if TYPE_CHECKING:
+    from volcaustics.approx.params import ApproxParams
 
-def configuration(params, names) -> tuple:
+
+def configuration(params: ApproxParams, names: Iterable[str]) -> tuple:
     """The searched parameters' values of ``params``, as a hashable key."""
     return tuple((name, getattr(params, name)) for name in names)
 
 
-def config_label(config: tuple, base) -> str:
+def config_label(config: tuple, base: ApproxParams) -> str:
     """What a configuration changes from the paper's ("paper" for none)."""
     changed = [f"{name}={value}" for name, value in config if getattr(base, name) != value]
     return ", ".join(changed) or "paper"
@@ -146,7 +151,7 @@ class BestSearch:
         return None if worst.empty else worst.idxmin()
 
 
-def with_ratios(table: pd.DataFrame, base) -> pd.DataFrame:
+def with_ratios(table: pd.DataFrame, base: ApproxParams) -> pd.DataFrame:
     """Per row: ``cost_ratio`` (the largest predicted ratio over the cost model's weight
     sets; the counted total's without them), ``time_ratio`` (measured frame time),
     ``relmse_ratio`` (debiased caustic relMSE) and ``frame_ratio`` (one frame's) against

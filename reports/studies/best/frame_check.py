@@ -26,6 +26,8 @@ import json
 import math
 import os
 import time
+from collections.abc import Iterable, Sequence
+from typing import TYPE_CHECKING
 
 import pandas as pd
 from tqdm import tqdm
@@ -46,6 +48,10 @@ from volcaustics.reports.studies.sweep.study_limits import FRAME_CHECK_SEEDS
 from volcaustics.scenes import resolve_scene
 from volcaustics.scenes.catalogue import BUILTIN_NAMES, HELDOUT_NAMES, heldout_path
 
+if TYPE_CHECKING:
+    from volcaustics.approx.params import ApproxParams
+    from volcaustics.scenes.model import Scene
+
 CONFIGS = ("paper", "best")       # the quick preset (the paper's method) and the preset best
 DENOISERS = ("none", "oidn")
 FRAMES_FILE, MANIFEST = "frames.parquet", "frames.json"
@@ -60,14 +66,14 @@ def default_scenes() -> list:
     return [*BUILTIN_NAMES, *(heldout_path(name) for name in HELDOUT_NAMES)]
 
 
-def config_params(config: str, scene_arg: str):
+def config_params(config: str, scene_arg: str) -> ApproxParams:
     """The parameters of ``config`` on ``scene_arg`` (best: photon_res matched)."""
     if config == "paper":
         return preset("quick")
     return with_auto_photon_res(scene_arg, preset("best"), "best", given=False)
 
 
-def checked_scenes(scenes, seeds: int) -> list:
+def checked_scenes(scenes: Iterable[str], seeds: int) -> list:
     """(argument, scene, group) per scene, every one resolved and checked before any
     work: InputError for a bad name or file, a medium without a caustic, a frame that
     cannot run, or two arguments of one scene name (their rows would collide)."""
@@ -86,7 +92,8 @@ def checked_scenes(scenes, seeds: int) -> list:
     return out
 
 
-def run_frames(scenes, out_dir: str, *, seeds: int = FRAME_CHECK_SEEDS, progress: bool = True) -> pd.DataFrame:
+def run_frames(scenes: Sequence[str], out_dir: str, *, seeds: int = FRAME_CHECK_SEEDS,
+               progress: bool = True) -> pd.DataFrame:
     """Measure every (scene, configuration, denoiser), reusing the points ``out_dir``
     already holds; write and return the table."""
     checked = checked_scenes(scenes, seeds)
@@ -143,7 +150,7 @@ def usable_denoisers(say: bool = True) -> tuple:
     return tuple(d for d in DENOISERS if d != "oidn")
 
 
-def point_key(scene, params, seeds: int, version: str) -> str:
+def point_key(scene: Scene, params: ApproxParams, seeds: int, version: str) -> str:
     doc = [scene.scene_hash(), params.to_dict(), seeds, version]
     return hashlib.sha256(json.dumps(doc, sort_keys=True).encode()).hexdigest()[:24]
 

@@ -12,8 +12,9 @@ be finite and ≥ 0 (linear radiance, box pixel filter: docs/conventions.md).
 from __future__ import annotations
 
 import os
+from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import cast
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
 
@@ -21,6 +22,9 @@ from volcaustics.infra.errors import InputError
 from volcaustics.infra.storage import file_sha256, special_file_kind
 from volcaustics.reports.measuring.experiment.point_checks import check_images_fit
 from volcaustics.scenes.formats import COLOUR_LAYERS, MASK_LAYER
+
+if TYPE_CHECKING:
+    from volcaustics.scenes.model import Scene
 
 EXR_MAGIC = b"\x76\x2f\x31\x01"   # OpenEXR's first four bytes
 PNG_MAGIC = b"\x89PNG"
@@ -60,7 +64,7 @@ class Inputs:
     warnings: list = field(default_factory=list)
 
 
-def read_images(paths, scene) -> Inputs:
+def read_images(paths: Sequence[str], scene: Scene) -> Inputs:
     """The files ``paths`` (one per seed) as frames of ``scene``, checked (CompareError)."""
     if not paths:
         raise CompareError("no image given: compare SCENE IMAGE.exr [IMAGE2.exr …]")

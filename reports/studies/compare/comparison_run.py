@@ -7,7 +7,9 @@ numbers). The segment and photon metrics need the approximation's records and st
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -21,6 +23,10 @@ from volcaustics.reports.measuring.results.summaries import SCHEMAS
 from volcaustics.reports.measuring.results.timing import Clock
 from volcaustics.reports.measuring.results.versions import code_version, library_versions
 from volcaustics.reports.studies.compare.comparison_inputs import CompareError, read_images
+
+if TYPE_CHECKING:
+    from volcaustics.reference.settings import ReferenceSettings
+    from volcaustics.scenes.model import Scene
 
 KIND = "compare"  # summary.json "kind" of a compare output folder
 VIEWS = {"renderer.<component>": "the renderer's images, mean over the files (H×W×3)",
@@ -41,8 +47,8 @@ class Comparison:
     views: dict = field(default_factory=dict)
 
 
-def run_compare(scene, paths, *, name: str, reference_settings, policy: str = "continue",
-                progress: bool = False) -> Comparison:
+def run_compare(scene: Scene, paths: Iterable[str], *, name: str, reference_settings: ReferenceSettings,
+                policy: str = "continue", progress: bool = False) -> Comparison:
     """Measure the images ``paths`` (one per seed) of ``scene`` by the renderer ``name``
     against the reference at their size (``reference_settings``, unsized: the runner's
     reference under ``policy``). CompareError for images that cannot be judged, before

@@ -7,10 +7,14 @@ from __future__ import annotations
 
 import json
 import os
+from typing import TYPE_CHECKING
 
 from volcaustics.infra.imageio import write_exr
 from volcaustics.infra.storage import atomic_set, document_sha256, file_sha256
 from volcaustics.reports.measuring.results.tables import plain, table
+
+if TYPE_CHECKING:
+    from volcaustics.reports.studies.compare.comparison_run import Comparison
 
 SUMMARY = "summary.json"
 SEAL = "summary_sha256"   # summary.json's field holding the SHA-256 of the rest of it
@@ -19,7 +23,7 @@ PAGE = "index.html"
 OUTPUT_FILES = (*DATA_FILES, PAGE, SUMMARY)
 
 
-def write_comparison(comparison, out_dir: str, page: str) -> dict:
+def write_comparison(comparison: Comparison, out_dir: str, page: str) -> dict:
     """Write the comparison and its ``page`` (HTML text) into ``out_dir`` as one set
     (``infra.storage.atomic_set``: an interrupted write leaves the last complete set).
     Returns the paths."""

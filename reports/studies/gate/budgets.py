@@ -30,7 +30,9 @@ from __future__ import annotations
 
 import math
 import os
+from collections.abc import Iterable
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 from volcaustics.approx.params import PRESETS
 from volcaustics.infra.errors import InputError
@@ -39,6 +41,23 @@ from volcaustics.reports.measuring.results.sizing import REFERENCE_KEYS, referen
 from volcaustics.reports.measuring.results.tomlfile import load_toml
 from volcaustics.scenes import SceneError, resolve_scene
 from volcaustics.scenes.catalogue import scene_relative_to
+
+if TYPE_CHECKING:
+    from collections.abc import Mapping
+    from typing import Any, Protocol
+
+    from volcaustics.approx.params import ApproxParams
+
+    class MeasuredResult(Protocol):
+        """What the gate reads of a measured result (``reports.measuring.runner.PointResult``,
+        ``reports.measuring.experiment.pipeline.Experiment``, a comparison's summary): its
+        summary and its segment records."""
+
+        @property
+        def summary(self) -> Mapping[str, Any]: ...
+
+        @property
+        def segments(self) -> list: ...
 
 RESOLVE_SIGMAS = 3.0    # a budget must lie this many standard errors beyond the noise
 COMPONENT_KEYS = ("relmse_max", "frame_relmse_max", "energy_ratio", "hdr_flip_max")
@@ -230,7 +249,7 @@ def flicker_checks(animation: dict, limits: dict, path: str) -> list:
     return checks
 
 
-def check_measurable(budgets: dict, names, params) -> None:
+def check_measurable(budgets: dict, names: Iterable[str], params: ApproxParams) -> None:
     """GateError, before anything is measured, for a budget these parameters leave nothing
     to check: segment budgets (step 2) with steps < 2."""
     for name in names:
@@ -253,7 +272,7 @@ def _step2(segments: list, scene: str) -> dict:
     return rows[0]
 
 
-def budget_checks(scene: str, limits: dict, experiment) -> list:
+def budget_checks(scene: str, limits: dict, experiment: MeasuredResult) -> list:
     """The scene's budgets against its experiment; GateError for a budget the noise
     cannot resolve or a NaN metric."""
     s = experiment.summary

@@ -6,6 +6,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import os
+from typing import TYPE_CHECKING
 from xml.sax.saxutils import escape, quoteattr
 
 import numpy as np
@@ -15,10 +16,15 @@ from volcaustics.infra.storage import atomic_write_texts
 from volcaustics.metrics.image import reference_exposure
 from volcaustics.reports.measuring.results.tables import plain
 
+if TYPE_CHECKING:
+    from volcaustics.approx.params import ApproxParams
+    from volcaustics.reports.studies.gate.budgets import Check
+    from volcaustics.reports.studies.gate.gate_run import GateResult
+
 VERDICT = "gate.json"      # in --out; written last, with the baseline and the JUnit file
 
 
-def failure_images(out_dir, scene, check, views) -> dict:
+def failure_images(out_dir: str, scene: str, check: Check, views: dict) -> dict:
     """The caustic as the approximation and the reference see it, and |A − R|, at the
     reference's exposure (PNG) — what a reader of the failure looks at first.
     ``views``: the point's views (``reports.measuring.experiment.point_summary.VIEWS``)."""
@@ -36,7 +42,8 @@ def failure_images(out_dir, scene, check, views) -> dict:
     return paths
 
 
-def write_outputs(out_dir, result, params, seeds, budgets, *, baseline: str | None, junit: str | None) -> None:
+def write_outputs(out_dir: str, result: GateResult, params: ApproxParams, seeds: int, budgets: dict, *,
+                  baseline: str | None, junit: str | None) -> None:
     """The new baseline (when accepted), the JUnit file and, last, gate.json as one set
     (``infra.storage.atomic_set``): an interrupted gate never leaves a new baseline
     without its verdict."""

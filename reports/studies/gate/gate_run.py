@@ -12,7 +12,9 @@ from __future__ import annotations
 
 import os
 import time
+from collections.abc import Iterable
 from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
 
 from volcaustics.approx.cost_match import with_auto_photon_res
 from volcaustics.infra.storage import remove_file
@@ -26,6 +28,9 @@ from volcaustics.reports.studies.gate.gate_outputs import VERDICT, failure_image
 from volcaustics.reports.studies.gate.regression import BASELINE, baseline_text, load_baseline
 from volcaustics.reports.studies.gate.verdict import scene_verdict
 from volcaustics.scenes import SceneError, resolve_scene
+
+if TYPE_CHECKING:
+    from volcaustics.reports.measuring.experiment.measurement import MeasurementSettings
 
 MISSING_REFERENCE = "run `make report` (or the gate with --render-references) first"
 
@@ -42,8 +47,9 @@ class GateResult:
 
 
 def run_gate(budgets: dict, *, overrides: dict, baseline_dir: str | None, update_baseline: bool, out_dir: str,
-             scenes=None, seeds: int | None = None, seed: int = 0, render_references: bool = False,
-             junit: str | None = None, animation_dirs=(), comparisons=(), measurement=None,
+             scenes: Iterable[str] | None = None, seeds: int | None = None, seed: int = 0,
+             render_references: bool = False, junit: str | None = None, animation_dirs: Iterable[str] = (),
+             comparisons: Iterable[tuple[str, str]] = (), measurement: MeasurementSettings | None = None,
              progress: bool = True) -> GateResult:
     """Measure every budgeted scene (or ``scenes``) not in the result store, check
     budgets and the baseline, write the failure images under ``out_dir`` and then, as

@@ -10,12 +10,16 @@ from __future__ import annotations
 import json
 import math
 import os
+from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy.stats import t as student_t
 
 from volcaustics.infra.storage import read_json_object
 from volcaustics.reports.studies.gate.budgets import Check, GateError
+
+if TYPE_CHECKING:
+    from volcaustics.reports.studies.gate.budgets import MeasuredResult
 
 ALPHA = 0.01            # one-sided false-alarm rate of the regression test
 POWER = 0.95            # for the stated detectable increase
@@ -65,7 +69,7 @@ def regression_check(scene: str, current: dict, baseline: dict) -> Check:
     return check
 
 
-def baseline_entry(experiment) -> dict:
+def baseline_entry(experiment: MeasuredResult) -> dict:
     s = experiment.summary
     per_seed = s["images"]["caustic"].get("relative_mse", {}).get("per_seed")
     if not per_seed:

@@ -5,10 +5,13 @@ the report leniently (what could not be checked becomes a note on the page)."""
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import cast
+from typing import TYPE_CHECKING, cast
 
 from volcaustics.reports.studies.gate.budgets import GateError, budget_checks
 from volcaustics.reports.studies.gate.regression import baseline_entry, regression_check
+
+if TYPE_CHECKING:
+    from volcaustics.reports.studies.gate.budgets import MeasuredResult
 
 
 @dataclass
@@ -18,7 +21,8 @@ class Verdict:
     notes: list = field(default_factory=list)  # lenient mode: what was not checked, and why
 
 
-def scene_verdict(name: str, result, limits: dict, baseline: dict | None = None, *, strict: bool = True) -> Verdict:
+def scene_verdict(name: str, result: MeasuredResult, limits: dict, baseline: dict | None = None, *,
+                  strict: bool = True) -> Verdict:
     """The budgets ``limits`` of scene ``name`` checked on ``result`` (``.summary`` and
     ``.segments``, e.g. ``reports.measuring.runner.PointResult``) and, with ``baseline`` (the
     baseline file's document), the regression test against its entry for the scene.

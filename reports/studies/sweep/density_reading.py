@@ -36,7 +36,7 @@ def _series(points: pd.DataFrame, scene: str, component: str) -> tuple:
             rows[f"model_{component}_relmse_own_se"][ok].fillna(0).to_numpy(float))
 
 
-def crossing(depth, approx, model) -> float | None:
+def crossing(depth: np.ndarray, approx: np.ndarray, model: np.ndarray) -> float | None:
     """The optical depth where the model's error first exceeds the approximation's: the
     first sign change of model − approx, interpolated linearly in log depth; the first
     depth if the model is already larger there; None if it never is."""

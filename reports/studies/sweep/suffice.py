@@ -3,6 +3,8 @@ error is within a factor of the best (``suffice.csv``, the console, the report).
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Sequence
+
 import numpy as np
 import pandas as pd
 
@@ -19,18 +21,18 @@ CRITERIA = {"caustic_relmse_debiased": "caustic relative MSE, debiased (%)",
             "intersection_relmse_own": "intersection error Σ(E_k − A)²/ΣR² (%)"}
 
 
-def variant_keys(points) -> list:
+def variant_keys(points: pd.DataFrame) -> list:
     """The columns a sweep's points are grouped by: the scene, each variant choice and
     each scene field the sweep changed (another medium is another scene)."""
     return ["scene", *(c for c in VARIANT_CHOICES if c in points), *field_keys(points)]
 
 
-def field_keys(points) -> list:
+def field_keys(points: pd.DataFrame) -> list:
     """The scene-field columns (dotted paths, ``scenes.fields``) of a points table."""
     return [c for c in points.columns if is_scene_field(str(c))]
 
 
-def at_best(points, varied, x):
+def at_best(points: pd.DataFrame, varied: Iterable[str], x: str) -> tuple[pd.DataFrame, str]:
     """The points with every varied numeric parameter but ``x`` at its largest value
     (per scene and variant: a grid of one search need not vary another's knobs), and a
     note saying so."""
@@ -43,7 +45,7 @@ def at_best(points, varied, x):
     return points[keep], note
 
 
-def settings_that_suffice(points, varied, factor: float = SUFFICE_FACTOR):
+def settings_that_suffice(points: pd.DataFrame, varied: Sequence[str], factor: float = SUFFICE_FACTOR) -> pd.DataFrame:
     """Per scene, variant (VARIANT_CHOICES: layer strategy, search, start rule), varied
     numeric parameter and criterion (CRITERIA:
     the caustic's debiased relative MSE, the intersection term's own relative MSE): the

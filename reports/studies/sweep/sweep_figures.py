@@ -9,6 +9,9 @@ others at their largest value (the most accurate setting), and says so.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from volcaustics.approx.params import label as param_label
@@ -16,6 +19,9 @@ from volcaustics.reports.measuring.experiment.photons import FATES
 from volcaustics.reports.presenting.figures.plotting import OKABE_ITO, pyplot, save_figure
 from volcaustics.reports.studies.sweep.density_reading import draw_model_vs_depth, has_depth_sweep
 from volcaustics.reports.studies.sweep.suffice import CRITERIA, NUMERIC, at_best, field_keys
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 LINESTYLES = {"threshold": "-", "peel": "--"}
 CLASS_GROUPS = {"true_hit": ("true_hit",), "wrong_surface": ("wrong_surface",), "false_hit": ("false_hit",),
@@ -50,7 +56,7 @@ def _series(points):
         yield f"{scene} ({strategy}{extra})", colours[scene], LINESTYLES.get(strategy, ":"), rows
 
 
-def draw_figures(tables: dict, folder: str, *, varied) -> list:
+def draw_figures(tables: dict, folder: str, *, varied: Sequence[str]) -> list:
     """Every figure for the sweep's tables; returns the paths written."""
     points = tables.get("points")
     if points is None or len(points) == 0:
@@ -67,7 +73,7 @@ def draw_figures(tables: dict, folder: str, *, varied) -> list:
     return paths
 
 
-def step_rows(tables, points):
+def step_rows(tables: dict, points: pd.DataFrame) -> pd.DataFrame:
     """The segments table's per-step rows of ``points`` with class shares (% of the
     step's segments, CLASS_GROUPS; self re-hits counted by their class beyond)."""
     seg = tables["segments"]
@@ -136,7 +142,7 @@ def _error_vs(points, varied, x, folder) -> list:
     return save_figure(fig, folder, f"caustic_error_vs_{x}")
 
 
-def pareto_front(times, errors) -> np.ndarray:
+def pareto_front(times: np.ndarray, errors: np.ndarray) -> np.ndarray:
     """Indices of the points no other point beats in both frame time and error, by time."""
     order = np.lexsort((errors, times))
     front, best = [], np.inf

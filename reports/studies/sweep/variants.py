@@ -11,6 +11,9 @@ independent, the criterion) and llvmpipe ``frame_time_s`` (reported beside it).
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Mapping
+from typing import Any
+
 import numpy as np
 import pandas as pd
 
@@ -25,13 +28,13 @@ VARIANT_NAME = ("layer_strategy", "search", "start_rule", "crossing")
 SEARCH_MARKERS = {"bisection": "o", "secant": "s", "dda": "^", "hiz": "D"}
 
 
-def variant_name(row) -> str:
+def variant_name(row: Mapping[str, Any] | pd.Series) -> str:
     """layer_strategy / search / start_rule / crossing of a row (a dict or a table row),
     those it has."""
     return " / ".join(str(row[k]) for k in VARIANT_NAME if k in row and row[k] is not None)
 
 
-def is_variants_sweep(varied) -> bool:
+def is_variants_sweep(varied: Iterable[str]) -> bool:
     """A sweep varies a variant choice (search, start_rule or crossing)."""
     return bool({"search", "start_rule", "crossing"} & set(varied))
 
