@@ -11,7 +11,7 @@ run to run (docs/decisions.md "Float32 atomic splats"); the copied entries are t
 pixels. ``compare`` byte-compares
 the tables of two result folders (a `measure -o DIR` or a sweep store) without the columns
 that name the code or the run: code_version, reference_key and point (they hash the code)
-and the frame times; rows in the order of scene and the varied parameters (a sweep orders
+and every time (``*_time_s``); rows in the order of scene and the varied parameters (a sweep orders
 its tables by point key). Exit 0 when every table is identical.
 """
 
@@ -25,7 +25,7 @@ import os
 import shutil
 import sys
 
-VOLATILE = ("code_version", "reference_key", "point", "frame_time_s", "trace_time_s", "splat_time_s")
+VOLATILE = ("code_version", "reference_key", "point")  # and every column of seconds (*_time_s): the clock
 ORDER = ("scene", "photon_res", "layers", "layer_strategy", "iterations", "peak_samples", "steps", "splat_radius",
          "light_res", "width", "height", "fog_steps", "fresnel", "seed")
 
@@ -64,7 +64,7 @@ def rekey(src: str, dst: str) -> None:
 
 
 def _stable(frame):
-    frame = frame.drop(columns=[c for c in VOLATILE if c in frame.columns])
+    frame = frame.drop(columns=[c for c in frame.columns if c in VOLATILE or c.endswith("_time_s")])
     order = [c for c in ORDER if c in frame.columns]
     return frame.sort_values(order, kind="stable").reset_index(drop=True) if order else frame
 
