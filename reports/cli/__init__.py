@@ -84,6 +84,15 @@ def main(argv: Sequence[str] | None = None) -> int:
         if came:
             raise Interrupted(came[0])
 
+    def on_unraisable(unraisable: sys.UnraisableHookArgs) -> None:
+        # an interrupt raised inside a finalizer or a weakref callback (importlib's module
+        # locks) is dropped by Python with "Exception ignored in …" and a traceback: it came
+        if isinstance(unraisable.exc_value, KeyboardInterrupt):
+            came.append(getattr(unraisable.exc_value, "signum", signal.SIGINT))
+        else:
+            hook(unraisable)
+
+    hook, sys.unraisablehook = sys.unraisablehook, on_unraisable
     previous = {}
     for number in (signal.SIGINT, signal.SIGTERM):
         try:
@@ -104,6 +113,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     finally:
         for number, handler in previous.items():
             signal.signal(number, handler)
+        sys.unraisablehook = hook
     if code is None or (came and code < 128):
         print("volcaustics: interrupted", file=sys.stderr)
         code = 128 + (came[0] if came else signal.SIGINT)

@@ -33,7 +33,7 @@ from volcaustics.approx import Renderer
 from volcaustics.approx.params import ApproxParams
 from volcaustics.infra.errors import InputError
 from volcaustics.infra.memory import memory_budget
-from volcaustics.infra.storage import cache_dir
+from volcaustics.infra.storage import CacheError, cache_dir, cache_path
 from volcaustics.reference.cache import ReferenceResult, cached_reference, existing_reference
 from volcaustics.reference.oracle import Oracle
 from volcaustics.reference.render import render_references
@@ -64,8 +64,11 @@ class RunnerError(InputError):
 
 
 def results_store() -> Store:
-    """The result store the report and the gate share (with the views a report shows)."""
-    return Store(cache_dir(RESULTS_STORE))
+    """The result store ``measure``, the report and the gate share (with the views a report
+    shows). A read-only cache serves the points it holds; measuring a point there is refused
+    before it starts (:func:`measure`)."""
+    folder = cache_path(RESULTS_STORE)
+    return Store(folder if os.path.isdir(folder) else cache_dir(RESULTS_STORE))  # made, or CacheError
 
 
 @dataclass(frozen=True)
@@ -193,6 +196,9 @@ def measure(points: list, store: Store, *, reference_settings: ReferenceSettings
         tasks, keys, references, scenes = _tasks(points, store, reference_settings, measurement, policy,
                                                  images=images, progress=progress, hint=hint, pool=pool)
         unique = list({t.key: t for t in tasks}.values())
+        if unique and not os.access(store.points, os.W_OK | os.X_OK):  # before anything is measured
+            raise CacheError(f"result store {store.root} is not a writable folder, and {len(unique)} point(s) are "
+                             f"not in it: point VOLCAUSTICS_CACHE (the report's store) or -o at a writable folder")
         done_before = len(set(keys)) - len(unique)
         count = {"total": len(set(keys)), "done": done_before, "progress": progress}
         processes = _parallel_processes(unique) if parallel and not pooled else 1

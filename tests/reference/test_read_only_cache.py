@@ -54,6 +54,11 @@ def test_a_read_only_cache_serves_its_entries_and_refuses_only_a_write(tmp_path,
         measured = _read_only_run(["measure", "sphere1", "-o", str(tmp_path / "m2"), "--width", "16", *TINY,
                                    *MEASURE], env)
         assert measured.returncode == 0, measured.stderr
+        assert "from the store" in measured.stdout  # the point measured above, read back
+        other = _read_only_run(["measure", "sphere1", "-o", str(tmp_path / "m3"), "--width", "16", *TINY, *MEASURE,
+                                "--seed", "7"], env)  # not in the store: refused before it is measured
+        assert other.returncode == 2 and "result store" in other.stderr and "not a writable folder" in other.stderr
+        assert not (tmp_path / "m3").exists() and "Traceback" not in other.stderr, other.stderr
         t0 = time.perf_counter()
         missing = _read_only_run(["reference", "sphere1", "-o", str(tmp_path / "r3.exr"), "--width", "24", *TINY],
                                  env)

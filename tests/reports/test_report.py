@@ -309,7 +309,7 @@ def test_a_warm_report_measures_nothing_and_says_the_same(built):
 def test_a_point_measured_again_draws_its_pictures_again(built, monkeypatch, tmp_path):
     """Negative control for the pictures' cache: a stored summary that changed (a point
     measured again) is a new cache entry, not the old pictures."""
-    from volcaustics.reports.presenting.page import write
+    from volcaustics.reports.presenting.page import page_write as write
 
     monkeypatch.setenv("VOLCAUSTICS_CACHE", str(tmp_path))
     drawn = []
