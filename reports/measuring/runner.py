@@ -43,7 +43,7 @@ from volcaustics.reports.measuring.experiment.pipeline import run_experiment
 from volcaustics.reports.measuring.experiment.point_checks import measurement_bytes
 from volcaustics.reports.measuring.pools.executors import default_workers, open_pool, run_tasks
 from volcaustics.reports.measuring.results.sizing import sized
-from volcaustics.reports.measuring.results.store import TABLES, Store, key_document, point_key
+from volcaustics.reports.measuring.results.store import IMAGE_FILES, TABLES, Store, key_document, point_key
 from volcaustics.reports.measuring.results.summaries import ExperimentSummary
 from volcaustics.reports.measuring.results.tables import rows_of
 from volcaustics.scenes import resolve_scene
@@ -262,12 +262,15 @@ def _tasks(points, store, settings, measurement, policy, *, images, progress, hi
         keys.append(key)
         if store.status(key, images=images) == "done":
             continue
+        # a complete point without the images asked for is measured again with its own too:
+        # the report's views and measure's layers do not push each other out of the store
+        kept = store.stored_images(key)
         store.remove_damaged(key, images=images)
         task_sizes.append(size)
         tasks.append(PointTask(key=key, key_document=document, scene=point.scene, fields=tuple(point.fields),
                                measurement=measurement.to_dict(), params=point.params.resolved(scene).to_dict(),
                                seeds=point.seeds, reference_key=reference.key, store=os.path.abspath(store.root),
-                               images=tuple(images)))
+                               images=tuple(n for n in IMAGE_FILES if n in {*images, *kept})))
     scene_of = {task.key: wanted[size][0] for task, size in zip(tasks, task_sizes)}
     return tasks, keys, {r.key: r for r in references.values()}, scene_of
 

@@ -278,3 +278,29 @@ def test_the_measurement_settings_are_one_table_checked_once_when_made():
             MeasurementSettings(**changes)
         assert message in str(exc.value)
     assert MeasurementSettings(exact_steps=64, scope="gate").to_dict()["exact_steps"] == 64  # the control
+
+
+def test_the_reports_views_and_measures_layers_do_not_push_each_other_out(cache, tmp_path):
+    """A point stored with the report's views and then asked for with measure's layers is
+    measured once more, and kept with both: neither command measures it again after that
+    (before: each removed the other's copy, so the report and measure took turns)."""
+    from tests.shared import GATE_POINT, GATE_REFERENCE
+    from volcaustics.reports.measuring import runner
+    from volcaustics.reports.measuring.experiment.measurement import MeasurementSettings
+    from volcaustics.reports.measuring.results.store import Store
+
+    store = Store(str(tmp_path / "store"))
+
+    def run(images):
+        return runner.measure([GATE_POINT], store, reference_settings=GATE_REFERENCE,
+                              measurement=MeasurementSettings(exact_subphotons=1), policy="missing", images=images,
+                              progress=False)
+
+    assert run(("views",)).computed == 1
+    assert run(("layers",)).computed == 1  # the layers were not stored: measured again
+    assert store.stored_images(run(()).keys[0]) == ("views", "layers")
+    for images in (("views",), ("layers",), ("views", "layers")):
+        done = run(images)
+        assert done.computed == 0, images
+        point = done.results[0]
+        assert bool(point.views) == ("views" in images) and bool(point.layers) == ("layers" in images), images

@@ -136,6 +136,12 @@ class Store:
             return "done"
         return "damaged" if os.path.isdir(self.point_dir(key)) else "missing"
 
+    def stored_images(self, key: str) -> tuple:
+        """The optional images (names of :data:`IMAGE_FILES`) a complete, undamaged point
+        holds; () for a point missing or damaged."""
+        summary = self.summary(key)
+        return () if summary is None else tuple(n for n, f in IMAGE_FILES.items() if f in summary["files"])
+
     def images(self, key: str, name: str) -> dict:
         """The point's images ``name`` of :data:`IMAGE_FILES` (layer name → array): its
         views (``reports.measuring.experiment.point_summary.VIEWS``) or its decomposition's layers."""
