@@ -77,6 +77,7 @@ def main(argv=None) -> int:
     from volcaustics.approx.cost_match import CostMatcher, cost_ratio, measured_time_ratio
     from volcaustics.approx.params import QUICK
     from volcaustics.reference.render import render_reference
+    from volcaustics.reports.measuring.experiment.measurement import MeasurementSettings
     from volcaustics.reports.measuring.experiment.pipeline import run_experiment
     from volcaustics.reports.measuring.results.sizing import REPORT_REFERENCE, sized
     from volcaustics.scenes import resolve_scene
@@ -94,7 +95,8 @@ def main(argv=None) -> int:
                 matcher.save()
             reference = render_reference(scene, sized(REPORT_REFERENCE, scene, params), progress=False)
             t0 = time.perf_counter()
-            s = run_experiment(scene, params, seeds=args.seeds, reference=reference, scope="gate").summary
+            s = run_experiment(scene, params, seeds=args.seeds, reference=reference,
+                               measurement=MeasurementSettings(scope="gate")).summary
             c = s["images"]["caustic"]
             point = {"scene": scene.name, "candidate": label, "photon_res": params.photon_res,
                      "cost_ratio": cost_ratio(s["predicted_frame"], target),

@@ -47,6 +47,7 @@ def config_params(name: str, scene: str):
 def main(argv=None) -> int:
     from volcaustics.approx.cost_match import measured_time_ratio
     from volcaustics.reference.render import render_reference
+    from volcaustics.reports.measuring.experiment.measurement import MeasurementSettings
     from volcaustics.reports.measuring.experiment.pipeline import run_experiment
     from volcaustics.reports.measuring.results.sizing import REPORT_REFERENCE, sized
     from volcaustics.scenes import resolve_scene
@@ -68,7 +69,8 @@ def main(argv=None) -> int:
             p = config_params(config, name)
             reference = render_reference(scene, sized(REPORT_REFERENCE, scene, p), progress=False)
             t0 = time.perf_counter()
-            s = run_experiment(scene, p, seeds=args.seeds, reference=reference, scope="gate").summary
+            s = run_experiment(scene, p, seeds=args.seeds, reference=reference,
+                               measurement=MeasurementSettings(scope="gate")).summary
             c = s["images"]["caustic"]
             point = {"scene": name, "config": config, "seconds": time.perf_counter() - t0, "cost": s["cost"],
                      "predicted": s["predicted_frame"], "photon_res": p.photon_res,

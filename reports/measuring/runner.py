@@ -198,7 +198,8 @@ def measure(points: list, store: Store, *, reference_settings: ReferenceSettings
         unique = list({t.key: t for t in tasks}.values())
         if unique and not os.access(store.points, os.W_OK | os.X_OK):  # before anything is measured
             raise CacheError(f"result store {store.root} is not a writable folder, and {len(unique)} point(s) are "
-                             f"not in it: point VOLCAUSTICS_CACHE (the report's store) or -o at a writable folder")
+                             f"not in it with the images asked for: make it writable, or point VOLCAUSTICS_CACHE (the "
+                             f"store of measure, the report and the gate) or a sweep's -o at a writable folder")
         done_before = len(set(keys)) - len(unique)
         count = {"total": len(set(keys)), "done": done_before, "progress": progress}
         processes = _parallel_processes(unique) if parallel and not pooled else 1
@@ -262,10 +263,11 @@ def _tasks(points, store, settings, measurement, policy, *, images, progress, hi
         keys.append(key)
         if store.status(key, images=images) == "done":
             continue
-        # a complete point without the images asked for is measured again with its own too:
-        # the report's views and measure's layers do not push each other out of the store
+        # a complete point without the images asked for is measured again with its own too,
+        # and stays until its replacement is in place: the report's views and measure's
+        # layers do not push each other out of the store, nor does a failed measurement
         kept = store.stored_images(key)
-        store.remove_damaged(key, images=images)
+        store.remove_damaged(key)
         task_sizes.append(size)
         tasks.append(PointTask(key=key, key_document=document, scene=point.scene, fields=tuple(point.fields),
                                measurement=measurement.to_dict(), params=point.params.resolved(scene).to_dict(),

@@ -67,3 +67,15 @@ def test_a_file_added_or_one_that_does_not_parse_changes_the_hash(folder):
     assert broken != before
     (copy / "extra.py").write_text("def broken(: \n", encoding="utf-8")  # unparsable: its bytes count
     assert hashed() != broken
+
+
+def test_every_folder_a_key_hashes_exists_and_a_missing_one_is_an_error():
+    """A folder moved away would hash nothing, leaving a key blind to its code (the page
+    pictures' key named a folder after it had moved): every folder the result and page
+    keys name exists, and a missing one raises (the negative control)."""
+    from volcaustics.reports.measuring.results.versions import EXPERIMENT_FOLDERS, code_version
+    from volcaustics.reports.presenting.page.page_write import PAGE_FOLDERS
+
+    assert len(code_version(EXPERIMENT_FOLDERS)) == 16 and len(code_version(PAGE_FOLDERS)) == 16
+    with pytest.raises(FileNotFoundError, match="reports/MOVED"):
+        code_version(("reports/presenting/page", "reports/MOVED"))

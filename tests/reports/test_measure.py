@@ -297,8 +297,17 @@ def test_the_reports_views_and_measures_layers_do_not_push_each_other_out(cache,
                               progress=False)
 
     assert run(("views",)).computed == 1
-    assert run(("layers",)).computed == 1  # the layers were not stored: measured again
-    assert store.stored_images(run(()).keys[0]) == ("views", "layers")
+    key = run(()).keys[0]
+    with pytest.MonkeyPatch.context() as mp:  # a measurement for the layers that fails keeps the stored point
+        mp.setattr(runner, "run_experiment", lambda *a, **k: (_ for _ in ()).throw(RuntimeError("out of memory")))
+        with pytest.raises(RuntimeError, match="out of memory"):
+            run(("layers",))
+    assert store.stored_images(key) == ("views",)
+    twice = runner.measure([GATE_POINT, GATE_POINT], store, reference_settings=GATE_REFERENCE,  # one key, twice
+                           measurement=MeasurementSettings(exact_subphotons=1), policy="missing", images=("layers",),
+                           progress=False)
+    assert twice.computed == 1  # the layers were not stored: measured again
+    assert store.stored_images(key) == ("views", "layers")
     for images in (("views",), ("layers",), ("views", "layers")):
         done = run(images)
         assert done.computed == 0, images

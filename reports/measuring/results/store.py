@@ -167,7 +167,7 @@ class Store:
                 files[IMAGE_FILES[name]] = file_sha256(path)
             summary = sealed({**plain(experiment.summary), "key": key, "key_document": document, "files": files})
             atomic_write_text(os.path.join(tmp, SUMMARY), json.dumps(summary, indent=1, allow_nan=False))
-            return self._commit(tmp, key)
+            return self._commit(tmp, key, images)
         finally:
             if os.path.isdir(tmp):
                 shutil.rmtree(tmp, ignore_errors=True)
@@ -196,21 +196,23 @@ class Store:
                     fh.write(data)
             if _complete_summary(tmp, key) is None:
                 raise OSError(f"point {key[:12]}: the files sent back do not match its summary")
-            return self._commit(tmp, key)
+            return self._commit(tmp, key, tuple(n for n, f in IMAGE_FILES.items() if f in files))
         finally:
             if os.path.isdir(tmp):
                 shutil.rmtree(tmp, ignore_errors=True)
 
-    def _commit(self, tmp: str, key: str) -> str:
+    def _commit(self, tmp: str, key: str, images: tuple = ()) -> str:
+        """Put ``tmp`` in place as point ``key``: "written", or "kept" when a complete copy
+        with ``images`` is there already (one without them is replaced, as a damaged one)."""
         final = self.point_dir(key)
         for _ in range(3):
             try:
                 os.rename(tmp, final)
                 return "written"
             except OSError:
-                if self.summary(key) is not None:
+                if self.status(key, images=images) == "done":
                     return "kept"
-                # a damaged or half-removed copy: move it aside, then retry
+                # a damaged, half-removed or image-less copy: move it aside, then retry
                 aside = f"{final}.damaged-{uuid.uuid4().hex[:8]}"
                 try:
                     os.rename(final, aside)

@@ -10,7 +10,7 @@ gathers them) and ``SweepTables`` (a sweep store's consolidated tables) are what
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import NotRequired, TypedDict
+from typing import TypedDict
 
 from volcaustics.infra.errors import InputError
 
@@ -20,12 +20,9 @@ from volcaustics.infra.errors import InputError
 SCHEMAS = {"animation": 1, "comparison": 1, "experiment": 1}
 
 
-class ExperimentSummary(TypedDict):
-    """One experiment's summary (``reports.measuring.experiment.point_summary.experiment_summary``): what
-    ``measure -o DIR`` writes as summary.json and a result store keeps with each point
-    (``reports.measuring.results.store``: with ``key``, ``key_document``, ``files``, ``summary_sha256``).
-    Plain JSON data once stored (NaN as None). Its ``schema`` is ``SCHEMAS["experiment"]``:
-    the store counts a point of another schema as missing (measured again)."""
+class _Measured(TypedDict):
+    """The keys every experiment summary has (:class:`ExperimentSummary`; two classes, as
+    Python 3.10 has no ``NotRequired``)."""
 
     kind: str                    # reports.measuring.experiment.point_summary.KIND
     schema: int
@@ -55,12 +52,22 @@ class ExperimentSummary(TypedDict):
     versions: dict
     warnings: list
     scene_fields: dict           # dotted path → value of the fields a sweep changed
-    key: NotRequired[str]                # the store's
-    key_document: NotRequired[dict]
-    files: NotRequired[dict]
-    summary_sha256: NotRequired[str]
-    equal_cost: NotRequired[dict | None]  # measure: a preset matched to the paper's cost
-    outputs: NotRequired[dict]           # measure -o DIR: the files written
+
+
+class ExperimentSummary(_Measured, total=False):
+    """One experiment's summary
+    (``reports.measuring.experiment.point_summary.experiment_summary``): what ``measure -o
+    DIR`` writes as summary.json and a result store keeps with each point
+    (``reports.measuring.results.store``: with the keys below, which only some have).
+    Plain JSON data once stored (NaN as None). Its ``schema`` is ``SCHEMAS["experiment"]``:
+    the store counts a point of another schema as missing (measured again)."""
+
+    key: str                     # the store's
+    key_document: dict
+    files: dict
+    summary_sha256: str
+    equal_cost: dict | None      # measure: a preset matched to the paper's cost
+    outputs: dict                # measure -o DIR: the files written
 
 
 @dataclass

@@ -20,7 +20,10 @@ def _folder(name: str) -> str:
     top-level folders are installed as volcaustics.<folder> (setup.py)."""
     top, _, rest = name.partition("/")
     package = importlib.import_module(f"volcaustics.{top}")
-    return os.path.join(package.__path__[0], *rest.split("/")) if rest else package.__path__[0]
+    folder = os.path.join(package.__path__[0], *rest.split("/")) if rest else package.__path__[0]
+    if not os.path.isdir(folder):  # a folder moved away would hash nothing: a key blind to its code
+        raise FileNotFoundError(f"code version of {name!r}: no folder {folder}")
+    return folder
 
 
 @lru_cache(maxsize=None)

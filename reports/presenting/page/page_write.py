@@ -77,7 +77,7 @@ def write_report(out_dir: str, results: list, summary: dict, sweep: SweepTables 
 
 
 # the code a scene's pictures come from: with the stored result's key, their cache key
-PAGE_FOLDERS = ("reports/presenting/page", "reports/core", "infra", "scenes")
+PAGE_FOLDERS = ("reports/presenting/page", "reports/presenting/figures", "infra", "scenes")
 
 
 def cached_scene_images(result: SceneResult, page: dict) -> dict:
