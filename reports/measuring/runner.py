@@ -261,13 +261,15 @@ def _tasks(points, store, settings, measurement, policy, *, images, progress, hi
             full = point_key({**document, "scope": "full"})
             key = full if store.status(full, images=images) == "done" else key
         keys.append(key)
-        if store.status(key, images=images) == "done":
+        held = store.stored_images(key)  # the point's files read (and hashed) once
+        if held is not None and set(images) <= set(held):  # done
             continue
         # a complete point without the images asked for is measured again with its own too,
         # and stays until its replacement is in place: the report's views and measure's
         # layers do not push each other out of the store, nor does a failed measurement
-        kept = store.stored_images(key)
-        store.remove_damaged(key)
+        kept = held or ()
+        if held is None:
+            store.remove_damaged(key)
         task_sizes.append(size)
         tasks.append(PointTask(key=key, key_document=document, scene=point.scene, fields=tuple(point.fields),
                                measurement=measurement.to_dict(), params=point.params.resolved(scene).to_dict(),

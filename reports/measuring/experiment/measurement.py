@@ -104,12 +104,11 @@ def measurement_settings(overrides: dict | None = None, *, where: str = "measure
     ``where``: a flag (``--exact-subphotons = 0: …``) or a table (``FILE: measurement``
     → ``FILE: measurement.exact_subphotons = 0: …``)."""
     changes = {k: v for k, v in (overrides or {}).items() if v is not None}
-    for name, value in changes.items():
+    for name in changes:
         if name not in MEASUREMENT_KEYS:
             raise ParamError(f"{where}.{name}: unknown; expected {', '.join(MEASUREMENT_KEYS)}")
-        try:
-            check_setting(name, value)
-        except ParamError as exc:
-            named = where if where.startswith("--") else f"{where}.{name}"
-            raise ParamError(f"{named} = {str(exc).split(' = ', 1)[1]}") from None
-    return dataclasses.replace(base or MeasurementSettings(), **changes)
+    try:  # checked once, by the settings themselves; the message then names where the value came from
+        return dataclasses.replace(base or MeasurementSettings(), **changes)
+    except ParamError as exc:
+        name, _, rest = str(exc).partition(" = ")
+        raise ParamError(f"{where if where.startswith('--') else f'{where}.{name}'} = {rest}") from None

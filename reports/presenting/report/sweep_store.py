@@ -10,7 +10,8 @@ import pandas as pd
 from volcaustics.approx.params import PARAMS, ApproxParams
 from volcaustics.infra.errors import InputError
 from volcaustics.infra.storage import file_sha256, read_json_object, special_file_kind
-from volcaustics.reports.measuring.results.store import POINT_COLUMNS, document_sha256
+from volcaustics.reports.measuring.results.points_table import POINT_COLUMNS
+from volcaustics.reports.measuring.results.store import document_sha256
 from volcaustics.reports.measuring.results.summaries import SweepTables
 from volcaustics.reports.measuring.results.versions import code_version
 from volcaustics.reports.studies.sweep.sweep_run import MANIFEST_SEAL
@@ -73,7 +74,7 @@ def _check_hashes(folder: str, doc: dict, names) -> list:
 
 
 def _check_schema(folder: str, points: pd.DataFrame) -> list:
-    """Check a store's points table against this code's (``store.POINT_COLUMNS`` and the
+    """Check a store's points table against this code's (``points_table.POINT_COLUMNS`` and the
     parameter table); returns the notes the page shows. A column of numbers missing: an
     older store, refused (ReportError naming them). A parameter missing: the store
     predates it, so its points ran the parameter's default, which is filled in and noted.
