@@ -16,6 +16,8 @@ CONTROLS = {
                                            "(common/differential.glsl)"),
     "EMISSION_SHIFT": ("trace", "photons leave this many texels off their emission points (emit.comp.glsl)"),
     "DENSITY_IGNORED": ("splat", "density splats ignore the density pre-pass (splat/density.*.glsl)"),
+    "BEAM_NO_SINE": ("splat", "beams without the estimator's 1/sin θ (splat/beam.frag.glsl)"),
+    "BEAM_NO_CAMERA_TRANSMITTANCE": ("splat", "beams without the transmittance to the camera (splat/beam.frag.glsl)"),
 }
 
 

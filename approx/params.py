@@ -152,8 +152,10 @@ _DECLARED: tuple = (  # one entry per ApproxParams field, in its order
           "as a ray differential through every refraction and reflection, within [splat_radius/16, "
           "4·splat_radius] and at least a pixel) or density (the radius of a screen disc holding "
           "splat_neighbours photons of its step, from a pre-pass counting them per 4×4-pixel cell: "
-          "Abramson's square-root law, within [splat_radius/2, 4·splat_radius])",
-          choices=("fixed", "adaptive", "density"),
+          "Abramson's square-root law, within [splat_radius/2, 4·splat_radius]) or beams (no free flights: "
+          "each photon's segment in the medium is a beam, estimated along every camera ray that passes within "
+          "3·splat_radius of it with a 1-D Gaussian kernel: Jarosz et al. 2011)",
+          choices=("fixed", "adaptive", "density", "beams"),
           program="trace",
           glsl="define", to_defines=lambda v: {f"SPLAT_{v.upper()}": 1} if v != "fixed" else {}),
     Param("splat_neighbours", int, 16, "density splats: the photons a kernel's σ-disc holds on average", "", 1,

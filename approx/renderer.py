@@ -20,7 +20,7 @@ import moderngl
 import numpy as np
 
 from volcaustics.scenes.bounds import medium_bounds
-from volcaustics.scenes.formats import KIND_SPECULAR, PHOTON_DTYPE, RAW_RECORD_DTYPE, SPLAT_DTYPE
+from volcaustics.scenes.formats import BEAM_DTYPE, KIND_SPECULAR, PHOTON_DTYPE, RAW_RECORD_DTYPE, SPLAT_DTYPE
 
 from .camera_pass import CameraPasses, CameraView
 from .context import gl_info, shared_context
@@ -108,10 +108,11 @@ class Renderer:
         phase_key = (scene.medium.phase.kind, scene.medium.phase.g)
         fog = defines(p, "fog")
         camera = self._cached(("camera", *sorted(fog.items()), phase_key), lambda: CameraPasses(self.ctx, scene, fog))
-        density = controls_for(self.controls, "splat") if p.splat == "density" else {}
-        splatter = self._cached(("splat", phase_key, p.splat, *sorted(density.items())),
+        controls = controls_for(self.controls, "splat") if p.splat in ("density", "beams") else {}
+        splatter = self._cached(("splat", phase_key, p.splat, *sorted(controls.items())),
                                 lambda: Splatter(self.ctx, scene.medium, adaptive=p.splat == "adaptive",
-                                                 density=p.splat == "density", controls=density))
+                                                 density=p.splat == "density", beams=p.splat == "beams",
+                                                 controls=controls))
         return camera, splatter
 
     def _black_image(self, p: ApproxParams) -> moderngl.Texture:
@@ -294,11 +295,13 @@ class Renderer:
             positions in metres, unit propagation directions before scattering, RGB
             power in W after transmittance), e.g. from
             :func:`approx.splat.splats_from_arrays`. Rows whose status is not
-            STATUS_COLLIDED draw nothing.
+            STATUS_COLLIDED draw nothing. With ``params.splat`` = beams: BEAM_DTYPE rows
+            (photon beams, e.g. from :func:`approx.splat.beams_from_arrays`).
         scene : replaces light, camera or medium of the construction's scene (same
             meshes), as in :meth:`render`.
         params : the approximation's parameters; only width, height and
-            splat_radius matter (width/height unset take the scene camera's).
+            splat_radius and splat = beams or not matter (width/height unset take the
+            scene camera's).
 
         Returns
         -------
@@ -313,12 +316,14 @@ class Renderer:
         """:meth:`splat` for several photon sets in one view: one image per set, the
         G-buffer rendered once (independent photon subsets, batches)."""
         sets = [np.ascontiguousarray(s) for s in splat_sets]
-        for splats in sets:
-            if splats.dtype != SPLAT_DTYPE or splats.ndim != 1:
-                raise ValueError(f"splats: expected a 1-D array of SPLAT_DTYPE rows, got {splats.dtype} {splats.shape}")
         ctx = self.ctx
         scene = scene or self.scene
         p = (params or ApproxParams()).resolved(scene)
+        dtype, name = (BEAM_DTYPE, "BEAM_DTYPE") if p.splat == "beams" else (SPLAT_DTYPE, "SPLAT_DTYPE")
+        for splats in sets:
+            if splats.dtype != dtype or splats.ndim != 1:
+                raise ValueError(f"splats: expected a 1-D array of {name} rows (splat = {p.splat}), "
+                                 f"got {splats.dtype} {splats.shape}")
         self.geometry.place(scene)
         view = _camera_view(scene, p, medium_bounds(scene))
         camera_passes, splatter = self._shading_programs(scene, p)

@@ -1,5 +1,7 @@
 """Photon splatting (paper §3, Eq. 5, §4.3): medium-collision photons as 3D
-Gaussians, closed-form line integrals along pixel rays, additive float blending.
+Gaussians, closed-form line integrals along pixel rays, additive float blending; or
+(splat = beams) photon beams, each estimated along every pixel ray that passes near it
+(splat/beam.*.glsl).
 
 Accepts photons from any source: the GPU tracer's compact splat lists, or numpy
 arrays (for instance from the exact photon tracer) via :func:`splats_from_arrays`.
@@ -12,7 +14,7 @@ from typing import TYPE_CHECKING, cast
 import moderngl
 import numpy as np
 
-from volcaustics.scenes.formats import SPLAT_DTYPE, STATUS_COLLIDED
+from volcaustics.scenes.formats import BEAM_DTYPE, SPLAT_DTYPE, STATUS_COLLIDED
 
 from .context import bound
 from .glsl import attribute_layout, load_source, program, set_uniforms, uniform
@@ -25,8 +27,9 @@ if TYPE_CHECKING:
     from .camera_pass import CameraView
     from .params import ApproxParams
 
-# Instance attributes of a splat (SPLAT_DTYPE, 48 bytes).
+# Instance attributes of a splat (SPLAT_DTYPE, 48 bytes) and of a beam (BEAM_DTYPE, 48 bytes).
 INSTANCE_PARTS = [("4f", "in_end"), ("4f", "in_dir_t"), ("4f", "in_power")]
+BEAM_PARTS = [("4f", "in_start_length"), ("4f", "in_dir"), ("4f", "in_power")]
 # splat = density: the pre-pass's grid cell (pixels a side): coarse enough that a cell holds
 # several photons where the caustic is, fine enough to follow it; read bilinearly
 DENSITY_CELL = 4
@@ -46,6 +49,23 @@ def splats_from_arrays(end: ArrayLike, direction: ArrayLike, power: ArrayLike,
     out = np.zeros(len(end), dtype=SPLAT_DTYPE)
     out["center_status"][:, :3] = end
     out["center_status"][:, 3] = STATUS_COLLIDED
+    out["dir"][:, :3] = np.asarray(direction, np.float32).reshape(-1, 3)
+    out["power"][:, :3] = np.asarray(power, np.float32).reshape(-1, 3)
+    if sigma is not None:
+        out["dir"][:, 3] = np.asarray(sigma, np.float32).reshape(-1)
+    return out
+
+
+def beams_from_arrays(start: ArrayLike, direction: ArrayLike, length: ArrayLike, power: ArrayLike,
+                      sigma: ArrayLike | None = None) -> np.ndarray:
+    """Beam rows (BEAM_DTYPE, splat = beams) from numpy arrays: start (N×3, m), direction
+    (N×3 unit), length (N, m, to the next surface or the medium's end), power (N×3 W,
+    RGB, at the start), and optionally each one's kernel standard deviation sigma (N, m);
+    without it every beam takes splat_radius."""
+    start = np.asarray(start, np.float32).reshape(-1, 3)
+    out = np.zeros(len(start), dtype=BEAM_DTYPE)
+    out["start_length"][:, :3] = start
+    out["start_length"][:, 3] = np.asarray(length, np.float32).reshape(-1)
     out["dir"][:, :3] = np.asarray(direction, np.float32).reshape(-1, 3)
     out["power"][:, :3] = np.asarray(power, np.float32).reshape(-1, 3)
     if sigma is not None:
@@ -85,13 +105,14 @@ def _add_into(ctx, target: moderngl.Texture, vao, mode, vertices: int, instances
 class Splatter:
     """Splat program for one phase function and splat mode (``adaptive``: each splat's
     own kernel, where it has one; ``density``: each splat's kernel from the photons per
-    cell of a pre-pass, ``splat_neighbours`` of them within it; ``controls``: a
-    test's changes to the splat program)."""
+    cell of a pre-pass, ``splat_neighbours`` of them within it; ``beams``: the rows are
+    beams, BEAM_DTYPE; ``controls``: a test's changes to the splat program)."""
 
     def __init__(self, ctx: moderngl.Context, medium, *, adaptive: bool = False, density: bool = False,
-                 controls: dict | None = None):
+                 beams: bool = False, controls: dict | None = None):
         self.ctx = ctx
-        programs = self.programs(medium, adaptive=adaptive, density=density, controls=controls)
+        self.beams = beams
+        programs = self.programs(medium, adaptive=adaptive, density=density, beams=beams, controls=controls)
         (vertex, fragment), defines = programs["splat"]
         self.program = program(ctx, vertex, fragment, defines)
         self.density_program = None
@@ -104,7 +125,7 @@ class Splatter:
         self.corners = ctx.buffer(corners.tobytes())
 
     @staticmethod
-    def programs(medium: Medium, *, adaptive: bool = False, density: bool = False,
+    def programs(medium: Medium, *, adaptive: bool = False, density: bool = False, beams: bool = False,
                  controls: dict | None = None) -> dict:
         """name → (shader stages, defines) of every program a Splatter compiles: the
         constructor's list and the shader check's (scripts/check_shaders.py); "widths"
@@ -114,6 +135,8 @@ class Splatter:
             defines["SPLAT_ADAPTIVE"] = 1
         if density:
             defines.update({"SPLAT_DENSITY": 1, **(controls or {})})
+        if beams:
+            return {"splat": (("splat/beam.vert.glsl", "splat/beam.frag.glsl"), {**defines, **(controls or {})})}
         out: dict[str, tuple[tuple[str, ...], dict]] = {
             "splat": (("splat/splat.vert.glsl", "splat/splat.frag.glsl"), defines)}
         if density:
@@ -174,15 +197,19 @@ class Splatter:
     def splat(self, splats: moderngl.Buffer, count: int, view: CameraView, medium: Medium, splat_radius: float,
               scene_distance: moderngl.Texture, target: moderngl.Texture, splat_neighbours: int = 16,
               grid: moderngl.Texture | None = None) -> None:
-        """Add ``count`` splats (SPLAT_DTYPE rows of ``splats``) into ``target`` (RGBA32F);
-        each collision weighs sigma_s / sigma_bar (the tracer's free-flight rate). Density
-        splats take ``grid`` (:meth:`density_grid` of these splats) or make their own."""
+        """Add ``count`` splats (SPLAT_DTYPE rows of ``splats``; a beams splatter's: BEAM_DTYPE)
+        into ``target`` (RGBA32F); each collision weighs sigma_s / sigma_bar (the tracer's
+        free-flight rate), a beam sigma_s per metre. Density splats take ``grid``
+        (:meth:`density_grid` of these splats) or make their own."""
         sigma_bar = medium.sigma_bar
         if count == 0 or sigma_bar <= 0:
             return
         ctx, prog = self.ctx, self.program
         view.set_uniforms(prog)
-        uniform(prog, "scatter_weight").value = tuple(s / sigma_bar for s in medium.sigma_s)
+        if self.beams:
+            uniform(prog, "sigma_s").value = tuple(medium.sigma_s)
+        else:
+            uniform(prog, "scatter_weight").value = tuple(s / sigma_bar for s in medium.sigma_s)
         uniform(prog, "sigma_t").value = tuple(medium.sigma_t)
         set_uniforms(prog, splat_radius=float(splat_radius),
                      pixel_angle=2.0 / (float(view.proj[1, 1]) * view.height))
@@ -193,7 +220,7 @@ class Splatter:
             if grid is None:
                 grid = own = self.density_grid(splats, count, view)
             self._use_density(prog, grid, count, view, splat_neighbours)
-        fmt, names = attribute_layout(prog, INSTANCE_PARTS, per_instance=True)
+        fmt, names = attribute_layout(prog, BEAM_PARTS if self.beams else INSTANCE_PARTS, per_instance=True)
         vao = ctx.vertex_array(prog, [(self.corners, "2f", "in_corner"), (splats, fmt, *names)])
         _add_into(ctx, target, vao, moderngl.TRIANGLE_STRIP, 4, count)
         if own is not None:

@@ -134,12 +134,13 @@ class PhotonTracer:
         """name → (shader, defines) of every compute program a tracer for ``params``
         compiles: the constructor's list and the shader check's (scripts/check_shaders.py)."""
         defines = PhotonTracer.defines(params, controls)
+        beams = {"SPLAT_BEAMS": 1} if "SPLAT_BEAMS" in defines else {}
         out = {"emit": ("emission/emit.comp.glsl", defines), "trace": ("trace/trace.comp.glsl", defines),
                "pack": ("trace/pack_distances.comp.glsl",
                         {**PACK, **({"PACK_PRIMITIVE": 1} if "START_RULE_ID" in defines else {})}),
-               "compact_count": ("splat/compact.comp.glsl", {"PASS_COUNT": 1}),
+               "compact_count": ("splat/compact.comp.glsl", {"PASS_COUNT": 1, **beams}),
                "compact_write": ("splat/compact.comp.glsl", {"SPLAT_ADAPTIVE": 1} if "SPLAT_ADAPTIVE" in defines
-                                 else {})}
+                                 else beams)}
         if "SEARCH_HIZ" in defines:
             out["pyramid"] = ("trace/pyramid.comp.glsl", {})
         if "EMISSION_ADAPTIVE" in defines:
@@ -326,7 +327,8 @@ class PhotonTracer:
         """Gather the medium collisions of one step's records into ``splats`` (SPLAT_DTYPE
         rows, capacity ``count``) in photon order; returns how many. With ``splat =
         adaptive`` each row carries its kernel width from the photons' differentials and
-        ``params``' splat_radius and splat_footprints."""
+        ``params``' splat_radius and splat_footprints; with ``splat = beams`` the rows are
+        the step's segments in the medium (BEAM_DTYPE)."""
         blocks = math.ceil(count / COMPACT_BLOCK)
         block_buf = self.ctx.buffer(reserve=4 * blocks)
         records.bind_to_storage_buffer(0)

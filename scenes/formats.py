@@ -93,6 +93,14 @@ DIFFERENTIAL_DTYPE = np.dtype([("footprint", "<f4"), ("rate", "<f4")])
 #   power          rgb power at the collision, after transmittance (W); w unused
 SPLAT_DTYPE = np.dtype([("center_status", "<f4", 4), ("dir", "<f4", 4), ("power", "<f4", 4)])
 
+# One photon beam to splat, a photon's segment in the medium (splat = beams; std430 struct
+# Beam, 48 bytes):
+#   start_length  xyz where the segment starts (m); w: its length to the next surface or
+#                 the medium's end (m)
+#   dir           xyz unit direction; w: the kernel's standard deviation (m), 0: splat_radius
+#   power         rgb power at the start (W), before the medium's transmittance; w unused
+BEAM_DTYPE = np.dtype([("start_length", "<f4", 4), ("dir", "<f4", 4), ("power", "<f4", 4)])
+
 # --- segment records
 # One segment as the GPU tracer writes it (std430 struct Record, 112 bytes):
 #   start_maxlen  xyz segment start (m); w: sampled max length (free flight, or scene span inside glass)

@@ -13,9 +13,17 @@ import pytest
 from volcaustics.approx import glsl
 from volcaustics.approx.glsl import SHADER_DIR, SHARED_DEFINES, build_source
 from volcaustics.scenes.bounds import box_exit
-from volcaustics.scenes.formats import FLAG_BITS, PHOTON_DTYPE, RAW_RECORD_DTYPE, SHAPE_KINDS, SPLAT_DTYPE, STATUS_CODES
+from volcaustics.scenes.formats import (
+    BEAM_DTYPE,
+    FLAG_BITS,
+    PHOTON_DTYPE,
+    RAW_RECORD_DTYPE,
+    SHAPE_KINDS,
+    SPLAT_DTYPE,
+    STATUS_CODES,
+)
 
-STRUCTS = [("Photon", PHOTON_DTYPE), ("Record", RAW_RECORD_DTYPE), ("Splat", SPLAT_DTYPE)]
+STRUCTS = [("Photon", PHOTON_DTYPE), ("Record", RAW_RECORD_DTYPE), ("Splat", SPLAT_DTYPE), ("Beam", BEAM_DTYPE)]
 # numpy kind → (GLSL scalar type, vector prefix, literal suffix)
 GLSL_TYPES = {"f": ("float", "vec", ".0"), "u": ("uint", "uvec", "u"), "i": ("int", "ivec", "")}
 COUNT = 3  # structs written: element i lands at i × stride, so a wrong stride shows

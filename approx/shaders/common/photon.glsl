@@ -61,4 +61,11 @@ struct Splat {
     vec4 power;          // rgb power at the collision (after transmittance)
 };
 
+// A photon beam to splat (splat = beams: compacted list of this step's medium segments).
+struct Beam {
+    vec4 start_length;  // xyz segment start; w: its length to the next surface or the medium's end (m)
+    vec4 dir;           // xyz unit direction; w: kernel σ (m), 0: splat_radius
+    vec4 power;         // rgb power at the start (before the medium's transmittance)
+};
+
 #endif

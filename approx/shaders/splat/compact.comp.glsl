@@ -1,5 +1,5 @@
-// Gather one step's medium collisions from the per-photon records into a compact
-// splat list, in photon order, so that additive blending sums them in the same
+// Gather one step's medium collisions (SPLAT_BEAMS: its segments in the medium, each a
+// beam) from the per-photon records into a compact splat list, in photon order, so that additive blending sums them in the same
 // order on every run (bit-identical images for a seed). Two dispatches:
 //   PASS_COUNT: per block of BLOCK photons, the number of collisions;
 //   PASS_WRITE: each collision goes to block_offset[block] + its rank in the block
@@ -11,7 +11,11 @@ layout(local_size_x = BLOCK) in;
 
 layout(std430, binding = 0) readonly buffer Records { Record records[]; };
 layout(std430, binding = 1) buffer BlockCounts { uint block_value[]; };  // counts, then offsets
+#ifdef SPLAT_BEAMS
+layout(std430, binding = 2) writeonly buffer Beams { Beam beams[]; };
+#else
 layout(std430, binding = 2) writeonly buffer Splats { Splat splats[]; };
+#endif
 uniform uint photon_count;
 #ifdef SPLAT_ADAPTIVE
 // The kernel of a collision: splat_footprints × the photon's footprint there (its ray
@@ -26,8 +30,15 @@ shared uint rank[BLOCK];
 void main() {
     uint i = gl_GlobalInvocationID.x;
     uint lane = gl_LocalInvocationID.x;
-    bool collided = i < photon_count && int(records[i].end_status.w + 0.5) == STATUS_COLLIDED;
-    rank[lane] = collided ? 1u : 0u;
+#ifdef SPLAT_BEAMS
+    // a segment that ran in the medium (inside -1 at its start) and ended at a surface or
+    // the medium's end; a photon lost or dead draws none
+    int status = i < photon_count ? int(records[i].end_status.w + 0.5) : STATUS_DEAD;
+    bool kept = (status == STATUS_SURFACE || status == STATUS_LEFT_SCENE) && records[i].power_inside.w < 0.0;
+#else
+    bool kept = i < photon_count && int(records[i].end_status.w + 0.5) == STATUS_COLLIDED;
+#endif
+    rank[lane] = kept ? 1u : 0u;
     barrier();
     // Hillis–Steele inclusive scan over the block.
     for (uint offset = 1u; offset < uint(BLOCK); offset <<= 1) {
@@ -39,7 +50,7 @@ void main() {
 #ifdef PASS_COUNT
     if (lane == uint(BLOCK) - 1u) block_value[gl_WorkGroupID.x] = rank[lane];
 #else
-    if (collided) {
+    if (kept) {
         Record r = records[i];
         uint slot = block_value[gl_WorkGroupID.x] + rank[lane] - 1u;
 #ifdef SPLAT_ADAPTIVE
@@ -47,8 +58,13 @@ void main() {
 #else
         float sigma = 0.0;  // the uniform splat_radius
 #endif
+#ifdef SPLAT_BEAMS
+        float len = status == STATUS_SURFACE ? r.dir_t.w : r.extra.z;  // to the hit, or the searched span
+        beams[slot] = Beam(vec4(r.start_maxlen.xyz, len), vec4(r.dir_t.xyz, sigma), vec4(r.power_start.rgb, 0.0));
+#else
         splats[slot] = Splat(vec4(r.end_status.xyz, float(STATUS_COLLIDED)), vec4(r.dir_t.xyz, sigma),
                              vec4(r.power_inside.rgb, 0.0));
+#endif
     }
 #endif
 }

@@ -36,7 +36,9 @@
 //
 // Defines: MAPS (2 × layers), PEAK_SAMPLES, ITERATIONS, MAX_MATERIALS, SEARCH_*
 // (one of BISECTION, SECANT, DDA, HIZ), the start-offset constants, START_RULE_ID or START_RULE_FACING,
-// CROSSING_SURFACE (with CROSSING_TEXELS), FRESNEL_STOCHASTIC and CLIP_TO_OBJECTS when chosen.
+// CROSSING_SURFACE (with CROSSING_TEXELS), FRESNEL_STOCHASTIC and CLIP_TO_OBJECTS when chosen;
+// SPLAT_BEAMS (splat = beams): no free flight in the medium, a segment runs to the next
+// surface or the medium's end, and splat/compact.comp.glsl makes it a beam.
 // Where the driver has subgroups (GL_ARB_shader_ballot, 64-bit ballots), the loop work
 // is also counted in lockstep: a subgroup runs until its longest search ends.
 #extension GL_ARB_shader_ballot : enable
@@ -367,9 +369,11 @@ void main() {
     // --- segment: free flight in the medium, or the way out of the glass
     float span = box_exit(o, d, scene_min, scene_max);
     float max_len = span;
+#ifndef SPLAT_BEAMS
     if (inside < 0 && sigma_bar > 0.0) {
         max_len = -log(1.0 - rng_uniform(seed, i, step_index, 0u)) / sigma_bar;
     }
+#endif  // splat = beams: no free flight; the whole segment to the next surface is a beam
     float search = min(max_len, span);
 
     // --- intersection estimation over all light maps, on the part of [t_eps, search]
@@ -450,12 +454,14 @@ void main() {
     } else if (inside >= 0) {
         end = o + d * search;
         status = STATUS_LOST;
+#ifndef SPLAT_BEAMS
     } else if (max_len <= span) {
         end = o + d * max_len;
         power *= exp(-sigma_t * max_len);
         status = STATUS_COLLIDED;
 #ifdef SPLAT_ADAPTIVE
         diff.x += diff.y * max_len;  // the footprint where it is splatted (compact.comp.glsl)
+#endif
 #endif
     } else {
         end = o + d * span;
