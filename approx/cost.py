@@ -5,7 +5,7 @@ beside it, never instead: the method's claims are about GPUs.
 ``map_reads`` are the search's (every traced segment's, counted by the trace shader),
 ``emission_reads`` the emission's (``approx.emission.emission_reads``: what adaptive
 emission's importance pass and adaptive splats' curvature add), ``splats`` the medium
-collisions splatted over all steps, ``density_reads`` the density pre-pass's (splat =
+collisions splatted over all steps (splat = beams: the beams), ``density_reads`` the density pre-pass's (splat =
 density: a write and a bilinear read per splat). ``total`` = map reads + emission reads +
 splats + density reads:
 one texel read or one splat, each a unit (the fog, direct and camera passes cost the
@@ -30,10 +30,9 @@ from typing import TYPE_CHECKING, cast
 
 import numpy as np
 
-from volcaustics.scenes.formats import STATUS_COLLIDED
-
 from .denoise import DENOISED
 from .emission import emission_reads
+from .splat import splatted
 
 if TYPE_CHECKING:
     from .params import ApproxParams
@@ -60,7 +59,7 @@ def frame_cost(records: list, params: ApproxParams, work: dict | None = None) ->
     fragments = None if work is None else work["fragments"]
     primitives = None if work is None else work["primitives"]
     search = sum(int(np.asarray(r["map_reads"], np.int64).sum()) for r in records)
-    splats = sum(int(np.count_nonzero(r["status"] == STATUS_COLLIDED)) for r in records)
+    splats = sum(int(np.count_nonzero(splatted(r, params.splat))) for r in records)
     emitted = len(records[0]) if records else 0
     emission = emission_reads(params.photon_res, emitted, emission=params.emission, splat=params.splat)
     # resolved parameters: width and height set

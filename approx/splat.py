@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING, cast
 import moderngl
 import numpy as np
 
-from volcaustics.scenes.formats import BEAM_DTYPE, SPLAT_DTYPE, STATUS_COLLIDED
+from volcaustics.scenes.formats import BEAM_DTYPE, SPLAT_DTYPE, STATUS_COLLIDED, STATUS_LEFT_SCENE, STATUS_SURFACE
 
 from .context import bound
 from .glsl import attribute_layout, load_source, program, set_uniforms, uniform
@@ -71,6 +71,15 @@ def beams_from_arrays(start: ArrayLike, direction: ArrayLike, length: ArrayLike,
     if sigma is not None:
         out["dir"][:, 3] = np.asarray(sigma, np.float32).reshape(-1)
     return out
+
+
+def splatted(records: np.ndarray, splat: str) -> np.ndarray:
+    """Which records (RECORD_DTYPE) a frame splats: its medium collisions, or with
+    ``splat`` = beams its segments in the medium that reached a surface or the medium's
+    end (what splat/compact.comp.glsl gathers)."""
+    if splat == "beams":
+        return (records["inside"] < 0) & np.isin(records["status"], (STATUS_SURFACE, STATUS_LEFT_SCENE))
+    return records["status"] == STATUS_COLLIDED
 
 
 def adaptive_sigma(footprint: ArrayLike, params: ApproxParams) -> np.ndarray:

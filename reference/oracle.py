@@ -161,15 +161,17 @@ def interaction_choice(geometry: dict, power: np.ndarray, n_geometric: np.ndarra
 class ReplayConstants:
     """What every step of an exact replay of ``scene`` reads: the medium's box, sigma_t
     and the GPU tracer's float32 sigma_bar, each material's IOR and interior absorption
-    (the last row: the medium's), and the Fresnel mode."""
+    (the last row: the medium's), the Fresnel mode and whether photons fly free in the
+    medium (points) or run to the next surface (``beams``: splat = beams, no free flight)."""
 
-    def __init__(self, scene, fresnel: str):
+    def __init__(self, scene, fresnel: str, *, beams: bool = False):
         self.lo, self.hi = medium_bounds(scene)
         self.sigma_t = np.asarray(scene.medium.sigma_t, np.float64)
         self.sigma_bar = float(np.float32(scene.medium.sigma_bar))  # the GPU tracer's float32 uniform
         self.ior = np.asarray([o.ior for o in scene.specular] + [1.0], np.float64)
         self.absorption = np.asarray([o.absorption for o in scene.specular] + [(0.0, 0.0, 0.0)], np.float64)
         self.stochastic = fresnel == "stochastic"
+        self.beams = beams
 
 
 def advance(c: ReplayConstants, oracle: Oracle, step: int, seed: int | np.ndarray, idx: np.ndarray, o: np.ndarray,
@@ -185,7 +187,7 @@ def advance(c: ReplayConstants, oracle: Oracle, step: int, seed: int | np.ndarra
     span = box_exit(o, d, c.lo, c.hi)
     max_len = span.copy()
     medium = inside < 0
-    if c.sigma_bar > 0:
+    if c.sigma_bar > 0 and not c.beams:
         u = uniform(seed, idx.astype(np.uint32), step, 0).astype(np.float32)
         free = (-np.log(np.float32(1.0) - u) / np.float32(c.sigma_bar)).astype(np.float64)
         max_len = np.where(medium, free, span)
@@ -195,7 +197,7 @@ def advance(c: ReplayConstants, oracle: Oracle, step: int, seed: int | np.ndarra
     t = np.where(hit, q["t"], 0.0)
     status = np.full(n, STATUS_LEFT_SCENE, np.int64)
     flags = np.zeros(n, np.int64)
-    collides = medium & (max_len <= span)
+    collides = medium & (max_len <= span) & (not c.beams)
     end = o + d * np.where(hit, t, np.where(collides, max_len, search))[:, None]
     # transmittance of the distance travelled
     coeff = np.where(medium[:, None], c.sigma_t[None, :], c.absorption[np.where(medium, -1, inside)])
@@ -221,12 +223,13 @@ def alive_after(status: np.ndarray) -> np.ndarray:
 
 
 def exact_photon_records(scene: Scene, first_records: np.ndarray, *, steps: int, seed: int,
-                         fresnel: str = "deterministic", oracle: Oracle | None = None) -> list:
+                         fresnel: str = "deterministic", oracle: Oracle | None = None, beams: bool = False) -> list:
     """Replay photons from the approximation's step-1 records (their emission state:
     start, direction, inside, power_start) with exact intersections; returns one
-    RECORD_DTYPE array per step (photons alive at that step)."""
+    RECORD_DTYPE array per step (photons alive at that step). ``beams``: no free flight
+    in the medium (splat = beams), as the tracer's."""
     oracle = oracle or Oracle(scene)
-    c = ReplayConstants(scene, fresnel)
+    c = ReplayConstants(scene, fresnel, beams=beams)
     idx, o, d, inside, power = emission_state(first_records)
     out = []
     for step in range(1, steps + 1):

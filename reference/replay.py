@@ -10,7 +10,9 @@ seed, and each step is one query for all of them (``oracle.advance``, the physic
 launches of at most ``max_photons`` photons, which bounds memory.
 
 Only what the E images read is kept: each medium collision (photon, step, end,
-direction, power, as the records hold them) and the power budgets.
+direction, power, as the records hold them), or with ``beams`` (splat = beams, no free
+flight) each segment in the medium (photon, step, start, direction, length, power at
+its start), and the power budgets.
 """
 
 from __future__ import annotations
@@ -23,7 +25,7 @@ from typing import TYPE_CHECKING, Protocol
 import numpy as np
 
 from volcaustics.scenes.bounds import box_exit
-from volcaustics.scenes.formats import RECORD_DTYPE, STATUS_COLLIDED
+from volcaustics.scenes.formats import RECORD_DTYPE, STATUS_COLLIDED, STATUS_LEFT_SCENE, STATUS_SURFACE
 from volcaustics.scenes.rng import uniform
 
 from .oracle import (
@@ -42,6 +44,9 @@ if TYPE_CHECKING:
 # Photons per launch: about 1 kB each of float64 state and temporaries at the widest step
 MAX_PHOTONS = 1 << 21
 COLLISION_DTYPE = np.dtype([(name, RECORD_DTYPE[name]) for name in ("photon", "step", "end", "direction", "power")])
+# beams: a segment in the medium, from where it starts to the next surface or the medium's end
+BEAM_ROW_DTYPE = np.dtype([(name, RECORD_DTYPE[name]) for name in ("photon", "step", "start", "direction")]
+                          + [("length", "<f4"), ("power", "<f4", 3)])
 
 
 class Rays(Protocol):
@@ -63,11 +68,12 @@ class Rays(Protocol):
 class Collisions:
     """The medium collisions of one replay and its power budget.
 
-    rows: COLLISION_DTYPE, in the order ``exact_photon_records`` gives them (by step,
-        then by photon order), with the records' float32 fields.
+    rows: COLLISION_DTYPE (beams: BEAM_ROW_DTYPE), in the order ``exact_photon_records``
+        gives them (by step, then by photon order), with the records' float32 fields.
     emitted_power: RGB power (W) of the replayed photons at their start.
     alive_power: RGB power (W) still travelling after the last step.
-    collided_power: steps×3, RGB power (W) of the collisions per step.
+    collided_power: steps×3, RGB power (W) of the collisions per step (beams: the
+        power at their starts).
     photons: photons replayed.
     """
 
@@ -154,7 +160,8 @@ def _packed(groups, size, launch, max_photons: int) -> list:
 
 
 def exact_collisions(scene: Scene, groups: Iterable[tuple[np.ndarray, int]], *, steps: int, fresnel: str,
-                     oracle: Oracle | None = None, max_photons: int = MAX_PHOTONS, engine: str = "drjit") -> list:
+                     oracle: Oracle | None = None, max_photons: int = MAX_PHOTONS, engine: str = "drjit",
+                     beams: bool = False) -> list:
     """Replay every group exactly for ``steps`` steps with ``fresnel``; one
     :class:`Collisions` per group, in order.
 
@@ -168,11 +175,12 @@ def exact_collisions(scene: Scene, groups: Iterable[tuple[np.ndarray, int]], *, 
     engine : "drjit", the steps as Dr.Jit kernels on the oracle's variant
         (``reference.wavefront``), or "numpy", one numpy pass after another per step
         (``oracle.advance``: the physics' reference, which a test holds the other to).
+    beams : no free flight; the segments in the medium are kept (BEAM_ROW_DTYPE).
     """
     if engine not in ENGINES:
         raise ValueError(f"engine = {engine!r}: expected one of {', '.join(ENGINES)}")
     oracle = oracle or Oracle(scene)
-    constants = ReplayConstants(scene, fresnel)
+    constants = ReplayConstants(scene, fresnel, beams=beams)
     tracer = (functools.partial(_numpy_steps, c=constants, oracle=oracle) if engine == "numpy"
               else _wavefront(constants, oracle).trace)
     return _packed(groups, lambda group: len(group[0]), lambda part: _launch(constants, oracle, part, steps, tracer),
@@ -195,7 +203,7 @@ def _launch(c: ReplayConstants, oracle: Oracle, groups: list, steps: int, tracer
     group, seed = _per_photon(groups, [len(first) for first, _ in groups])
     kept, alive = tracer(steps, group, seed, idx, o, d, inside, power)
     emitted = np.stack([first["power_start"].astype(np.float64).sum(axis=0) for first, _ in groups])
-    return _collisions(kept, alive, steps, emitted, [len(first) for first, _ in groups])
+    return _collisions(kept, alive, steps, emitted, [len(first) for first, _ in groups], beams=c.beams)
 
 
 def _per_photon(groups: list, counts: list) -> tuple:
@@ -206,16 +214,17 @@ def _per_photon(groups: list, counts: list) -> tuple:
 
 
 def _collisions(kept: list, alive: tuple[np.ndarray, np.ndarray], steps: int, emitted: np.ndarray,
-                photons: list) -> list:
+                photons: list, beams: bool = False) -> list:
     """One :class:`Collisions` per group of a launch from what its tracer returned:
     ``kept``, per step the collisions' group, photon, end, direction and power;
     ``alive``, the (group, power) of the photons alive after the last step; the
-    groups' ``emitted`` power and ``photons``."""
+    groups' ``emitted`` power and ``photons``; ``beams``: the rows are beams."""
     groups = len(photons)
     alive_power = _group_sums(*alive, groups)
     collided_power = np.zeros((groups, steps, 3))
-    rows = np.zeros(sum(len(k["group"]) for k in kept), COLLISION_DTYPE)
-    for name in COLLISION_DTYPE.names or ():  # the records' float32 and integer fields, as exact_photon_records writes
+    dtype = BEAM_ROW_DTYPE if beams else COLLISION_DTYPE
+    rows = np.zeros(sum(len(k["group"]) for k in kept), dtype)
+    for name in dtype.names or ():  # the records' float32 and integer fields, as exact_photon_records writes
         if kept:
             rows[name] = np.concatenate([np.full(len(k["group"]), k["step"]) if name == "step" else k[name]
                                          for k in kept])
@@ -229,17 +238,19 @@ def _collisions(kept: list, alive: tuple[np.ndarray, np.ndarray], steps: int, em
 
 
 def exact_replays(scene: Scene, groups: Sequence[tuple[Rays, int]], *, steps: int, fresnel: str,
-                  oracle: Oracle | None = None, max_photons: int = MAX_PHOTONS, engine: str = "drjit") -> list:
+                  oracle: Oracle | None = None, max_photons: int = MAX_PHOTONS, engine: str = "drjit",
+                  beams: bool = False) -> list:
     """:func:`exact_emission`, then :func:`exact_collisions` from what it emitted: one
     :class:`Collisions` per (rays, seed) group. With the "drjit" engine the emitted
     state is made on the device (``Wavefront.emitted``: the records' float32 values,
-    as the two steps pass them) and never comes back to numpy."""
+    as the two steps pass them) and never comes back to numpy. ``beams``: as for
+    :func:`exact_collisions`."""
     oracle = oracle or Oracle(scene)
     if engine == "numpy":
         firsts = exact_emission(scene, groups, fresnel=fresnel, oracle=oracle, max_photons=max_photons)
         return exact_collisions(scene, [(first, seed) for first, (_, seed) in zip(firsts, groups)], steps=steps,
-                                fresnel=fresnel, oracle=oracle, max_photons=max_photons, engine=engine)
-    c = ReplayConstants(scene, fresnel)
+                                fresnel=fresnel, oracle=oracle, max_photons=max_photons, engine=engine, beams=beams)
+    c = ReplayConstants(scene, fresnel, beams=beams)
     wavefront, light = _wavefront(c, oracle), np.asarray(scene.light.position, np.float64)
 
     def launch(part):
@@ -249,7 +260,7 @@ def exact_replays(scene: Scene, groups: Sequence[tuple[Rays, int]], *, steps: in
                      for name in ("direction", "power", "photon")))
         if hits is None:  # no photon of the launch reaches a surface: every replay empty
             nothing = (np.zeros(0, np.int64), np.zeros((0, 3)))
-            return _collisions([], nothing, steps, np.zeros((len(part), 3)), [0] * len(part))
+            return _collisions([], nothing, steps, np.zeros((len(part), 3)), [0] * len(part), beams=beams)
         bounds = np.cumsum([0] + [len(rays.photon) for rays in distinct])
         per_set = np.diff(np.searchsorted(where, bounds))  # each set's photons that hit (in input order)
         offset = dict(zip(map(id, distinct), np.cumsum([0, *per_set])))
@@ -261,7 +272,7 @@ def exact_replays(scene: Scene, groups: Sequence[tuple[Rays, int]], *, steps: in
         kept, alive = wavefront.run(steps, state)
         starts = np.cumsum([0] + counts)
         emitted = np.stack([power[lo:hi].astype(np.float64).sum(axis=0) for lo, hi in zip(starts[:-1], starts[1:])])
-        return _collisions(kept, alive, steps, emitted, counts)
+        return _collisions(kept, alive, steps, emitted, counts, beams=beams)
 
     return _packed(groups, lambda group: len(group[0].photon), launch, max_photons)
 
@@ -272,10 +283,14 @@ def _numpy_steps(steps, group, seed, idx, o, d, inside, power, *, c, oracle) -> 
     alive_group, alive_power = np.zeros(0, np.int64), np.zeros((0, 3))
     for step in range(1, steps + 1):
         s = advance(c, oracle, step, seed, idx, o, d, inside, power)
-        hit = s["status"] == STATUS_COLLIDED
-        if hit.any():
-            kept.append({"step": step, "group": group[hit], "photon": idx[hit], "end": s["end"][hit],
-                         "direction": d[hit], "power": s["new_power"][hit]})
+        if c.beams:  # the segments in the medium that reached a surface or the medium's end
+            keep = (inside < 0) & np.isin(s["status"], (STATUS_SURFACE, STATUS_LEFT_SCENE))
+            row = {"start": o[keep], "length": np.linalg.norm(s["end"][keep] - o[keep], axis=1), "power": power[keep]}
+        else:
+            keep = s["status"] == STATUS_COLLIDED
+            row = {"end": s["end"][keep], "power": s["new_power"][keep]}
+        if keep.any():
+            kept.append({"step": step, "group": group[keep], "photon": idx[keep], "direction": d[keep], **row})
         alive = alive_after(s["status"])
         if step == steps:
             alive_group, alive_power = group[alive], s["new_power"][alive]

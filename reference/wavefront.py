@@ -54,7 +54,7 @@ class Wavefront:
         self.ior = self.F64(c.ior)                   # per object, the medium's last
         self.absorption = [self.F64(c.absorption[:, k]) for k in range(3)]
         self.shape_index = self.I32(oracle.shape_index.astype(np.int32))
-        self.free = self.F32(free_flight_table(c.sigma_bar)) if c.sigma_bar > 0 else None
+        self.free = self.F32(free_flight_table(c.sigma_bar)) if c.sigma_bar > 0 and not c.beams else None
 
     # --- the counter-based random numbers (scenes.rng) ---------------------------------
     def _pcg(self, v):
@@ -89,7 +89,7 @@ class Wavefront:
             max_len = F64(span)
         search = dr.minimum(max_len, span)
         hit, t, shape, n, n_geometric = self._first_hit(o, d, search)
-        collides = medium & (max_len <= span)
+        collides = medium & (max_len <= span) & (not self.c.beams)
         along = dr.select(hit, t, dr.select(collides, max_len, search))
         end = o + d * along
         # transmittance of the distance travelled (the medium's, or the glass's inside)
@@ -103,7 +103,8 @@ class Wavefront:
         # the surface interaction where it hit (oracle.surface_interaction)
         xi = F64(self.uniform(seed, idx, step_u, 1))
         new_d, interacted_power, new_inside = self._interaction(d, new_power, n, n_geometric, shape, xi)
-        return {"end": end, "status": self.I32(status), "new_power": dr.select(hit, interacted_power, new_power),
+        return {"end": end, "along": along, "status": self.I32(status),
+                "new_power": dr.select(hit, interacted_power, new_power),
                 "new_d": dr.select(hit, new_d, d), "new_inside": dr.select(hit, new_inside, inside)}
 
     def _box_exit(self, o, d):
@@ -250,12 +251,19 @@ class Wavefront:
             s = self.step(step, state["seed"], state["idx"], state["o"], state["d"], state["inside"], state["power"])
             collided = s["status"] == STATUS_COLLIDED
             alive = (s["status"] == STATUS_SURFACE) | collided
-            dr.eval(s, collided, alive)
-            at = dr.compress(collided)
+            # what is splatted: the medium collisions, or (beams) the segments in the medium
+            splatted = ((state["inside"] < 0) & (alive | (s["status"] == STATUS_LEFT_SCENE)) if self.c.beams
+                        else collided)
+            dr.eval(s, collided, alive, splatted)
+            at = dr.compress(splatted)
             if dr.width(at):
                 row = {"group": dr.gather(U32, state["group"], at), "photon": dr.gather(U32, state["idx"], at),
-                       "end": dr.gather(V64, s["end"], at), "direction": dr.gather(V64, state["d"], at),
-                       "power": dr.gather(V64, s["new_power"], at)}
+                       "direction": dr.gather(V64, state["d"], at)}
+                if self.c.beams:  # a beam: where the segment starts, its length, the power there
+                    row.update(start=dr.gather(V64, state["o"], at), length=dr.gather(self.F64, s["along"], at),
+                               power=dr.gather(V64, state["power"], at))
+                else:
+                    row.update(end=dr.gather(V64, s["end"], at), power=dr.gather(V64, s["new_power"], at))
                 dr.eval(row)
                 kept.append({"step": step, **{name: _numpy(value) for name, value in row.items()}})
             on = dr.compress(alive)

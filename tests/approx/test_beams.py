@@ -103,8 +103,8 @@ def test_a_beam_is_its_dense_point_splats_pixel_by_pixel(ctx):
         start, length, d, power = row["start_length"][:3], row["start_length"][3], row["dir"][:3], row["power"][0]
         n = int(2000 * length)
         s = (np.arange(n) + 0.5) / n * length
-        points.append(splats_from_arrays(start + s[:, None] * d, np.tile(d, (n, 1)),
-                                         np.repeat((power * np.exp(-sigma_t * s) * sigma_t * length / n)[:, None], 3, 1)))
+        each = power * np.exp(-sigma_t * s) * sigma_t * length / n
+        points.append(splats_from_arrays(start + s[:, None] * d, np.tile(d, (n, 1)), np.repeat(each[:, None], 3, 1)))
     beam_image = _image(ctx, rows, beams=True, sigma_t=sigma_t, sigma_s=sigma_s)
     point_image = _image(ctx, np.concatenate(points), beams=False, sigma_t=sigma_t, sigma_s=sigma_s)
 
@@ -132,8 +132,8 @@ def test_the_tracers_beams_carry_the_power_its_photons_splat(ctx):
     try:
         beams = renderer.render(scene, dataclasses.replace(base, splat="beams", steps=3), keep_records=False)
         again = renderer.render(scene, dataclasses.replace(base, splat="beams", steps=3, seed=7), keep_records=False)
-        points = np.array([renderer.render(scene, dataclasses.replace(base, steps=16, seed=s),
-                                           keep_records=False).images["caustic"][..., 0] for s in range(32)], np.float64)
+        points = np.array([renderer.render(scene, dataclasses.replace(base, steps=16, seed=s), keep_records=False)
+                           .images["caustic"][..., 0] for s in range(32)], np.float64)
     finally:
         renderer.release()
     b = beams.images["caustic"][..., 0].astype(np.float64)

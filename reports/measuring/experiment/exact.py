@@ -30,7 +30,7 @@ from typing import TYPE_CHECKING, Any, cast
 import numpy as np
 
 from volcaustics.approx import Renderer
-from volcaustics.approx.splat import splats_from_arrays
+from volcaustics.approx.splat import beams_from_arrays, splats_from_arrays, splatted
 from volcaustics.reference.oracle import Oracle, exact_photon_records
 from volcaustics.reference.render import render_batches
 from volcaustics.scenes.formats import STATUS_COLLIDED, STATUS_SURFACE
@@ -46,7 +46,8 @@ class ExactPhotons:
     """Every medium collision of the exact replay, ready to splat.
 
     splats: N rows of ``scenes.formats.SPLAT_DTYPE`` (collision point in metres,
-        unit direction before scattering, RGB power in W after transmittance).
+        unit direction before scattering, RGB power in W after transmittance); with
+        splat = beams BEAM_DTYPE rows, the replay's segments in the medium.
     photon: N photon indices (emission texel, uint32) of the splats.
     step: N interaction steps (1..steps) of the splats.
     emitted_power: RGB power (W) of the replayed photons at their start, after the
@@ -158,8 +159,25 @@ def exact_photons(scene: Scene, params: ApproxParams, *, steps: int, fresnel: st
         first_records = frame.records[0]
         mask = frame.images["mask_specular"]
     records = exact_photon_records(scene, first_records, steps=steps, seed=p.seed, fresnel=fresnel,
-                                   oracle=oracle or Oracle(scene))
+                                   oracle=oracle or Oracle(scene), beams=p.splat == "beams")
     return photons_from_records(records, first_records, p, steps=steps, fresnel=fresnel, mask_specular=mask)
+
+
+def splatted_records(records: np.ndarray, p: ApproxParams) -> np.ndarray:
+    """The records (RECORD_DTYPE) of what a frame with ``p`` splats: its medium
+    collisions, or with splat = beams its segments in the medium that reached a surface
+    or the medium's end (as splat/compact.comp.glsl gathers them)."""
+    return records[splatted(records, p.splat)]
+
+
+def record_splats(records: np.ndarray, p: ApproxParams) -> np.ndarray:
+    """The rows the splatter draws for :func:`splatted_records` ``records``: SPLAT_DTYPE,
+    or BEAM_DTYPE from each segment's start, direction, length (to its hit, or the
+    length searched) and power at its start."""
+    if p.splat == "beams":
+        length = np.where(records["status"] == STATUS_SURFACE, records["t"], records["search_length"])
+        return beams_from_arrays(records["start"], records["direction"], length, records["power_start"])
+    return splats_from_arrays(records["end"], records["direction"], records["power"])
 
 
 def photons_from_records(records: list, first_records: np.ndarray, params: ApproxParams, *, steps: int,
@@ -167,10 +185,11 @@ def photons_from_records(records: list, first_records: np.ndarray, params: Appro
     """The medium collisions of an exact replay's per-step records
     (``reference.oracle.exact_photon_records``) as :class:`ExactPhotons`, for callers
     that also use the records (power budgets, divergence)."""
-    collided = [r[r["status"] == STATUS_COLLIDED] for r in records]
+    collided = [splatted_records(r, params) for r in records]
     collided_power = np.zeros((steps, 3))
+    power = "power_start" if params.splat == "beams" else "power"  # what is splatted: beams carry their start's
     for k, c in enumerate(collided):
-        collided_power[k] = c["power"].astype(np.float64).sum(axis=0)
+        collided_power[k] = c[power].astype(np.float64).sum(axis=0)
     rows = np.concatenate(collided) if collided else np.zeros(0, first_records.dtype)
     last = records[-1] if len(records) == steps else None  # shorter: every photon ended early
     alive = np.zeros(3)
@@ -178,7 +197,7 @@ def photons_from_records(records: list, first_records: np.ndarray, params: Appro
         keep = (last["status"] == STATUS_SURFACE) | (last["status"] == STATUS_COLLIDED)
         alive = last["power"][keep].astype(np.float64).sum(axis=0)
     used = {**params.to_dict(), "steps": steps, "fresnel": fresnel, "emission_fresnel": fresnel}
-    return ExactPhotons(splats=splats_from_arrays(rows["end"], rows["direction"], rows["power"]),
+    return ExactPhotons(splats=record_splats(rows, params),
                         photon=rows["photon"].astype(np.uint32), step=rows["step"].astype(np.int64),
                         emitted_power=first_records["power_start"].astype(np.float64).sum(axis=0),
                         alive_power=alive, collided_power=collided_power, photons=len(first_records),

@@ -29,9 +29,15 @@ import numpy as np
 
 from volcaustics.approx.emission import true_rays
 from volcaustics.approx.light import LightFrustum
-from volcaustics.approx.splat import splats_from_arrays
+from volcaustics.approx.splat import beams_from_arrays, splats_from_arrays
 from volcaustics.reference.replay import exact_replays
-from volcaustics.reports.measuring.experiment.exact import ExactPhotons, pixel_footprint, subset_images
+from volcaustics.reports.measuring.experiment.exact import (
+    ExactPhotons,
+    pixel_footprint,
+    record_splats,
+    splatted_records,
+    subset_images,
+)
 from volcaustics.reports.measuring.experiment.exact_store import (
     EXACT_IMAGES,
     exact_document,
@@ -42,7 +48,6 @@ from volcaustics.reports.measuring.experiment.exact_store import (
 from volcaustics.reports.measuring.experiment.kernels import KERNEL_RULES, frame_kernels, splat_params
 from volcaustics.reports.measuring.experiment.measurement import EXACT_STEPS, SUBSET_BATCHES, MeasurementSettings
 from volcaustics.scenes.bounds import medium_bounds
-from volcaustics.scenes.formats import STATUS_COLLIDED
 from volcaustics.scenes.rng import pcg_hash
 
 if TYPE_CHECKING:
@@ -94,8 +99,9 @@ def small_radius(scene: Scene, p: ApproxParams) -> float:
 
 
 def small_kernel_params(scene: Scene, p: ApproxParams) -> ApproxParams:
-    """What E_∞,s is splatted with whatever A's splat mode: the fixed small kernel."""
-    return dataclasses.replace(p, splat="fixed", splat_radius=small_radius(scene, p))
+    """What E_∞,s is splatted with whatever A's splat mode: the fixed small kernel (beams
+    stay beams: E_∞,s's photons are then beams, the small kernel theirs)."""
+    return dataclasses.replace(p, splat="beams" if p.splat == "beams" else "fixed", splat_radius=small_radius(scene, p))
 
 
 def exact_images(scene: Scene, p: ApproxParams, frames: list[Frame], seeds: list[int], renderer: Renderer,
@@ -135,9 +141,9 @@ def approx_subsets(scene: Scene, p: ApproxParams, frames: list[Frame], seeds: li
     seed the kernels of its real frame (``kernels.frame_kernels``) for the E images."""
     images, kernels = [], []
     for frame, seed in zip(frames, seeds):
-        collided = np.concatenate([r[r["status"] == STATUS_COLLIDED] for r in frame.records])
+        collided = np.concatenate([splatted_records(r, p) for r in frame.records])
         kernel = frame_kernels(renderer, scene, p, collided)
-        splats = splats_from_arrays(collided["end"], collided["direction"], collided["power"])
+        splats = record_splats(collided, p)
         images.append(_subsets(renderer, scene, dataclasses.replace(splat_params(p), seed=seed),
                                kernel(splats, collided["photon"], collided["step"]), collided["photon"], batches))
         kernels.append(kernel)
@@ -202,9 +208,12 @@ def replayed(scene: Scene, p: ApproxParams, fresnel: str, groups: list, oracle: 
     """One :class:`ExactPhotons` per (rays, seed) of ``groups``: the rays emitted exactly
     and replayed ``steps`` steps with ``fresnel`` and that seed, all of them one
     wavefront on the device (``reference.replay.exact_replays``)."""
-    done = exact_replays(scene, groups, steps=steps, fresnel=fresnel, oracle=oracle)
+    beams = p.splat == "beams"
+    done = exact_replays(scene, groups, steps=steps, fresnel=fresnel, oracle=oracle, beams=beams)
     used = {**p.to_dict(), "steps": steps, "fresnel": fresnel, "emission_fresnel": fresnel}
-    return [ExactPhotons(splats=splats_from_arrays(c.rows["end"], c.rows["direction"], c.rows["power"]),
+    return [ExactPhotons(splats=beams_from_arrays(c.rows["start"], c.rows["direction"], c.rows["length"],
+                                                  c.rows["power"]) if beams
+                         else splats_from_arrays(c.rows["end"], c.rows["direction"], c.rows["power"]),
                          photon=c.rows["photon"].astype(np.uint32), step=c.rows["step"].astype(np.int64),
                          emitted_power=c.emitted_power, alive_power=c.alive_power,
                          collided_power=c.collided_power, photons=c.photons, params={**used, "seed": int(s)})

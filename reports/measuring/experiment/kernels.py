@@ -5,7 +5,8 @@ One rule for every splat mode: **every image of a seed takes its kernel widths f
 that seed's real frame**, so that each term changes one thing and the decomposition's A
 image is the real frames' mean:
 
-* ``fixed``: splat_radius for every photon (nothing depends on the photons);
+* ``fixed``: splat_radius for every photon (nothing depends on the photons); ``beams``
+  the same for every beam;
 * ``adaptive``: the kernel A gave the same photon (emission texel) at the same step
   (its ray differential's footprint), else, for a photon A did not splat there (another
   path, or a step beyond A's), the median of A's kernels;
@@ -41,6 +42,7 @@ KERNEL_RULES = {
     "fixed": "splat_radius for every image",
     "adaptive": "A's kernel of the same photon and step (A's median where A has none)",
     "density": "the density field of A's own collisions of the photon's step (beyond A's steps: its last)",
+    "beams": "splat_radius for every beam",
 }
 
 #: splats, photon indices, steps → the same splats with their kernel σ (SPLAT_DTYPE dir.w)
