@@ -82,6 +82,17 @@ def splatted(records: np.ndarray, splat: str) -> np.ndarray:
     return records["status"] == STATUS_COLLIDED
 
 
+def record_splats(records: np.ndarray, splat: str) -> np.ndarray:
+    """The rows the splatter draws for :func:`splatted` records (RECORD_DTYPE):
+    SPLAT_DTYPE from each collision, or with ``splat`` = beams BEAM_DTYPE from each
+    segment's start, direction, length (to its hit, or the length searched) and power
+    at its start."""
+    if splat == "beams":
+        length = np.where(records["status"] == STATUS_SURFACE, records["t"], records["search_length"])
+        return beams_from_arrays(records["start"], records["direction"], length, records["power_start"])
+    return splats_from_arrays(records["end"], records["direction"], records["power"])
+
+
 def adaptive_sigma(footprint: ArrayLike, params: ApproxParams) -> np.ndarray:
     """The kernel widths (m, float32) that splat = adaptive gives photons of differential
     ``footprint`` (m): numpy twin of splat/compact.comp.glsl, bit for bit

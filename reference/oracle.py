@@ -181,8 +181,8 @@ def advance(c: ReplayConstants, oracle: Oracle, step: int, seed: int | np.ndarra
     flight from u(seed, photon, step, 0), the exact first hit, transmittance, and at a
     hit the surface interaction (Fresnel choice from u(seed, photon, step, 1)).
     ``seed``: one seed, or one per photon (N uint32). Returns the step's segment
-    (max_len, search, q: the oracle's answer), where it ended (end, status, flags,
-    new_power) and the state after it (new_d, new_inside)."""
+    (max_len, search, q: the oracle's answer), where it ended (end, how far it went:
+    along, status, flags, new_power) and the state after it (new_d, new_inside)."""
     n = len(idx)
     span = box_exit(o, d, c.lo, c.hi)
     max_len = span.copy()
@@ -198,7 +198,8 @@ def advance(c: ReplayConstants, oracle: Oracle, step: int, seed: int | np.ndarra
     status = np.full(n, STATUS_LEFT_SCENE, np.int64)
     flags = np.zeros(n, np.int64)
     collides = medium & (max_len <= span) & (not c.beams)
-    end = o + d * np.where(hit, t, np.where(collides, max_len, search))[:, None]
+    along = np.where(hit, t, np.where(collides, max_len, search))  # how far the photon went
+    end = o + d * along[:, None]
     # transmittance of the distance travelled
     coeff = np.where(medium[:, None], c.sigma_t[None, :], c.absorption[np.where(medium, -1, inside)])
     travelled = np.where(hit, t, np.where(collides, max_len, 0.0))
@@ -213,8 +214,8 @@ def advance(c: ReplayConstants, oracle: Oracle, step: int, seed: int | np.ndarra
         dd, pp, ii, ff = surface_interaction(d[hit], new_power[hit], q["normal"][hit], q["geometric_normal"][hit],
                                              q["shape"][hit], xi, c.ior, c.stochastic)
         new_d[hit], new_power[hit], new_inside[hit], flags[hit] = dd, pp, ii, ff
-    return {"max_len": max_len, "search": search, "q": q, "end": end, "new_power": new_power, "status": status,
-            "flags": flags, "new_d": new_d, "new_inside": new_inside}
+    return {"max_len": max_len, "search": search, "q": q, "end": end, "along": along, "new_power": new_power,
+            "status": status, "flags": flags, "new_d": new_d, "new_inside": new_inside}
 
 
 def alive_after(status: np.ndarray) -> np.ndarray:

@@ -285,7 +285,7 @@ def _numpy_steps(steps, group, seed, idx, o, d, inside, power, *, c, oracle) -> 
         s = advance(c, oracle, step, seed, idx, o, d, inside, power)
         if c.beams:  # the segments in the medium that reached a surface or the medium's end
             keep = (inside < 0) & np.isin(s["status"], (STATUS_SURFACE, STATUS_LEFT_SCENE))
-            row = {"start": o[keep], "length": np.linalg.norm(s["end"][keep] - o[keep], axis=1), "power": power[keep]}
+            row = {"start": o[keep], "length": s["along"][keep], "power": power[keep]}
         else:
             keep = s["status"] == STATUS_COLLIDED
             row = {"end": s["end"][keep], "power": s["new_power"][keep]}

@@ -21,13 +21,13 @@ PHOTON_RES = 40  # 1,600 photons a replay, 3 replays: every built-in in about a 
 STEPS = 512      # the replay's own (measurement.EXACT_STEPS)
 
 
-def _both(name: str, fresnel: str) -> tuple:
+def _both(name: str, fresnel: str, beams: bool = False) -> tuple:
     scene = load_builtin(name)
     oracle = Oracle(scene)
     frustum = LightFrustum.for_scene(scene, *medium_bounds(scene))
     groups = [(true_rays(scene.light, frustum, PHOTON_RES, seed), seed) for seed in (3, 4, 5)]
-    return tuple(replay.exact_replays(scene, groups, steps=STEPS, fresnel=fresnel, oracle=oracle, engine=engine)
-                 for engine in ("numpy", "drjit"))
+    return tuple(replay.exact_replays(scene, groups, steps=STEPS, fresnel=fresnel, oracle=oracle, engine=engine,
+                                      beams=beams) for engine in ("numpy", "drjit"))
 
 
 def _same(a, b) -> list:
@@ -37,7 +37,7 @@ def _same(a, b) -> list:
         if len(x.rows) != len(y.rows):
             wrong.append(f"replay {k}: {len(x.rows)} against {len(y.rows)} collisions")
             continue
-        for field in ("photon", "step", "end", "direction", "power"):
+        for field in x.rows.dtype.names:
             if not np.array_equal(x.rows[field], y.rows[field]):
                 wrong.append(f"replay {k}: {field} differs in {int((x.rows[field] != y.rows[field]).sum())} values")
         for budget in ("emitted_power", "alive_power", "collided_power"):
@@ -52,6 +52,16 @@ def _same(a, b) -> list:
 def test_the_drjit_replay_is_the_numpy_replay(name, fresnel):
     numpy_engine, drjit_engine = _both(name, fresnel)
     assert sum(len(c.rows) for c in numpy_engine) > 100, "too few collisions to compare"
+    assert _same(numpy_engine, drjit_engine) == []
+
+
+@pytest.mark.parametrize("name", ["sphere1", "bunny", "refocus"])
+def test_the_drjit_beams_are_the_numpy_beams(name):
+    """splat = beams: no free flight, every segment in the medium kept as a beam (start,
+    direction, length, power at its start): the same rows from both engines."""
+    numpy_engine, drjit_engine = _both(name, "stochastic", beams=True)
+    assert numpy_engine[0].rows.dtype == replay.BEAM_ROW_DTYPE
+    assert sum(len(c.rows) for c in numpy_engine) > 100, "too few beams to compare"
     assert _same(numpy_engine, drjit_engine) == []
 
 

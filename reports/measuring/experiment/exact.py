@@ -30,7 +30,7 @@ from typing import TYPE_CHECKING, Any, cast
 import numpy as np
 
 from volcaustics.approx import Renderer
-from volcaustics.approx.splat import beams_from_arrays, splats_from_arrays, splatted
+from volcaustics.approx.splat import record_splats, splatted
 from volcaustics.reference.oracle import Oracle, exact_photon_records
 from volcaustics.reference.render import render_batches
 from volcaustics.scenes.formats import STATUS_COLLIDED, STATUS_SURFACE
@@ -163,29 +163,12 @@ def exact_photons(scene: Scene, params: ApproxParams, *, steps: int, fresnel: st
     return photons_from_records(records, first_records, p, steps=steps, fresnel=fresnel, mask_specular=mask)
 
 
-def splatted_records(records: np.ndarray, p: ApproxParams) -> np.ndarray:
-    """The records (RECORD_DTYPE) of what a frame with ``p`` splats: its medium
-    collisions, or with splat = beams its segments in the medium that reached a surface
-    or the medium's end (as splat/compact.comp.glsl gathers them)."""
-    return records[splatted(records, p.splat)]
-
-
-def record_splats(records: np.ndarray, p: ApproxParams) -> np.ndarray:
-    """The rows the splatter draws for :func:`splatted_records` ``records``: SPLAT_DTYPE,
-    or BEAM_DTYPE from each segment's start, direction, length (to its hit, or the
-    length searched) and power at its start."""
-    if p.splat == "beams":
-        length = np.where(records["status"] == STATUS_SURFACE, records["t"], records["search_length"])
-        return beams_from_arrays(records["start"], records["direction"], length, records["power_start"])
-    return splats_from_arrays(records["end"], records["direction"], records["power"])
-
-
 def photons_from_records(records: list, first_records: np.ndarray, params: ApproxParams, *, steps: int,
                          fresnel: str, mask_specular: np.ndarray | None = None) -> ExactPhotons:
     """The medium collisions of an exact replay's per-step records
     (``reference.oracle.exact_photon_records``) as :class:`ExactPhotons`, for callers
     that also use the records (power budgets, divergence)."""
-    collided = [splatted_records(r, params) for r in records]
+    collided = [r[splatted(r, params.splat)] for r in records]
     collided_power = np.zeros((steps, 3))
     power = "power_start" if params.splat == "beams" else "power"  # what is splatted: beams carry their start's
     for k, c in enumerate(collided):
@@ -197,7 +180,7 @@ def photons_from_records(records: list, first_records: np.ndarray, params: Appro
         keep = (last["status"] == STATUS_SURFACE) | (last["status"] == STATUS_COLLIDED)
         alive = last["power"][keep].astype(np.float64).sum(axis=0)
     used = {**params.to_dict(), "steps": steps, "fresnel": fresnel, "emission_fresnel": fresnel}
-    return ExactPhotons(splats=record_splats(rows, params),
+    return ExactPhotons(splats=record_splats(rows, params.splat),
                         photon=rows["photon"].astype(np.uint32), step=rows["step"].astype(np.int64),
                         emitted_power=first_records["power_start"].astype(np.float64).sum(axis=0),
                         alive_power=alive, collided_power=collided_power, photons=len(first_records),

@@ -29,13 +29,11 @@ import numpy as np
 
 from volcaustics.approx.emission import true_rays
 from volcaustics.approx.light import LightFrustum
-from volcaustics.approx.splat import beams_from_arrays, splats_from_arrays
+from volcaustics.approx.splat import beams_from_arrays, record_splats, splats_from_arrays, splatted
 from volcaustics.reference.replay import exact_replays
 from volcaustics.reports.measuring.experiment.exact import (
     ExactPhotons,
     pixel_footprint,
-    record_splats,
-    splatted_records,
     subset_images,
 )
 from volcaustics.reports.measuring.experiment.exact_store import (
@@ -141,9 +139,9 @@ def approx_subsets(scene: Scene, p: ApproxParams, frames: list[Frame], seeds: li
     seed the kernels of its real frame (``kernels.frame_kernels``) for the E images."""
     images, kernels = [], []
     for frame, seed in zip(frames, seeds):
-        collided = np.concatenate([splatted_records(r, p) for r in frame.records])
+        collided = np.concatenate([r[splatted(r, p.splat)] for r in frame.records])
         kernel = frame_kernels(renderer, scene, p, collided)
-        splats = record_splats(collided, p)
+        splats = record_splats(collided, p.splat)
         images.append(_subsets(renderer, scene, dataclasses.replace(splat_params(p), seed=seed),
                                kernel(splats, collided["photon"], collided["step"]), collided["photon"], batches))
         kernels.append(kernel)
