@@ -92,21 +92,15 @@ def test_the_decomposition_closes_on_every_builtin_and_held_out_scene(cache, con
             "energy_share"] < 1
 
 
-# Not yet closing (docs/decisions.md "Points against beams"): E_∞,s's small beams, point-sampled across at 0.3
-# fine pixel, alias with their offset, and near-parallel bundles share offsets (relMSE z 3.2 on sphere1, 7.3 on
-# refocus); a wider kernel blurs the sharp caustics more than the noise allows (z up to 29 at 1 fine pixel)
-BEAMS_OPEN = {"sphere1", "refocus"}
-
-
 @pytest.mark.slow  # statistical (about 10 s a point)
-@pytest.mark.parametrize("scene_arg", [pytest.param(name, marks=pytest.mark.xfail(
-    reason="small-kernel beams alias (BEAMS_OPEN)", strict=False)) if name in BEAMS_OPEN else name
-    for name in BUILTIN_NAMES])
+@pytest.mark.parametrize("scene_arg", BUILTIN_NAMES)
 def test_the_decomposition_closes_with_beams_on_every_builtin(cache, scene_arg):
     """splat = beams: the E images are the exact replay's beams (no free flight) through the
-    beam splatter, E_∞,s small-kernel beams; the residual R − E_∞,s within noise as for
-    points (|z| ≤ 3), and one frame is the mean image (a beam frame has no free-flight
-    noise: its seeds differ only where stochastic Fresnel would choose)."""
+    beam splatter, E_∞,s small-kernel beams integrated over each fine pixel (point-sampled
+    at 0.3 fine pixel, near-parallel beams aliased with their shared offset: sphere1 z 3.2,
+    refocus 7.3); the residual R − E_∞,s within noise as for points (|z| ≤ 3), and one
+    frame is the mean image (a beam frame has no free-flight noise: its seeds differ only
+    where stochastic Fresnel would choose)."""
     scene = resolve_scene(scene_arg)
     result = _measure(scene, dataclasses.replace(QUICK, splat="beams"))
     assert (message := _closes(result, f"{scene.name} beams")) is None, message

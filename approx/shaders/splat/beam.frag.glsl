@@ -13,7 +13,10 @@
 // in a few pixels, do not alias (a sharp cut lost or gained 2% of a beam at sin θ = 0.3
 // and 160 pixels). Only closest approaches in front of the camera and before its first
 // surface (the G-buffer) count; the transmittances are taken at the closest approach
-// within [0, length]. Point-sampled at the pixel centre, as the paper's splats.
+// within [0, length]. Point-sampled at the pixel centre, as the paper's splats; a beam
+// that carries its own σ (Beam.dir.w > 0: the decomposition's small kernel) has its
+// kernel integrated over the pixel's area instead (beam_pixel_mass), so that a kernel
+// narrower than a pixel keeps its integral whatever its offset from the pixel centres.
 // Controls (negative controls of tests): BEAM_NO_SINE drops 1/sin θ,
 // BEAM_NO_CAMERA_TRANSMITTANCE drops exp(−σt·t).
 #include "common/erf.glsl"
@@ -32,12 +35,51 @@ flat in vec3 v_dir;
 flat in float v_length;
 flat in float v_sigma;
 flat in vec3 v_power;
+flat in float v_boxed;  // 1: the kernel integrated over each pixel's area; 0: point-sampled
 
 out vec4 out_color;
+
+float std_cdf(float z) { return 0.5 + 0.5 * erf_approx(z * 0.7071067811865476); }
+float std_pdf(float z) { return 0.3989422804014327 * exp(-0.5 * z * z); }
+
+// The kernel's CDF (z in σ: the Gaussian cut at ±TRUNCATION, divided by the mass kept) and
+// its integral H(z) = ∫_{−∞}^{z} C = [z·(Φ(z) − Φ(−T)) + φ(z) − φ(T)] / AXIS_KEPT_MASS within
+// the cut (0 below it, z above it: the kernel's mean is 0).
+float kernel_cdf(float z) {
+    return (std_cdf(clamp(z, -TRUNCATION, TRUNCATION)) - std_cdf(-TRUNCATION)) / AXIS_KEPT_MASS;
+}
+float kernel_cdf_integral(float z) {
+    if (z <= -TRUNCATION) return 0.0;
+    if (z >= TRUNCATION) return z;
+    return (z * (std_cdf(z) - std_cdf(-TRUNCATION)) + std_pdf(z) - std_pdf(TRUNCATION)) / AXIS_KEPT_MASS;
+}
+
+// The 1-D kernel (per σ) averaged over a pixel across which the distance to the beam is
+// z + α·x + β·y, x and y uniform in [−½, ½] (a pixel is a square; its distance to a line
+// is then the sum of two uniform offsets): the kernel convolved with two boxes, by the
+// second difference of H. A box under 1% of σ is taken as none (its variance α²/12 is
+// then under 1e-5 of the kernel's).
+float beam_pixel_mass(float z, float alpha, float beta) {
+    float a = max(alpha, beta), b = min(alpha, beta);
+    if (a < 0.01) return abs(z) > TRUNCATION ? 0.0 : std_pdf(z) / AXIS_KEPT_MASS;
+    if (b < 0.01) return (kernel_cdf(z + 0.5 * a) - kernel_cdf(z - 0.5 * a)) / a;
+    float hi = 0.5 * (a + b), lo = 0.5 * (a - b);
+    return (kernel_cdf_integral(z + hi) - kernel_cdf_integral(z + lo) - kernel_cdf_integral(z - lo)
+            + kernel_cdf_integral(z - hi)) / (a * b);
+}
 
 void main() {
     vec3 ray = normalize(v_corner - eye);
     vec3 w0 = eye - v_start;
+    // the signed distance between pixel ray and beam and its change per pixel (m), taken
+    // before any fragment of the 2×2 quad is discarded (v_boxed is the primitive's: uniform there)
+    float u_signed = 0.0;
+    vec2 du = vec2(0.0);
+    if (v_boxed > 0.5) {
+        vec3 normal = cross(ray, v_dir);
+        u_signed = dot(w0, normal) * inversesqrt(max(dot(normal, normal), 1e-16));
+        du = vec2(dFdx(u_signed), dFdy(u_signed));
+    }
     float b = dot(ray, v_dir);
     float sin2 = 1.0 - b * b;
     if (sin2 < 1e-8) discard;  // along the beam: a set of rays of measure zero
@@ -49,11 +91,19 @@ void main() {
     if (s < -reach || s > v_length + reach || t <= 0.0) discard;
     vec4 g = texelFetch(scene_distance, ivec2(gl_FragCoord.xy), 0);
     if (gbuffer_kind(g) != KIND_NONE && t > g.x) discard;
-    vec3 gap = w0 + t * ray - s * v_dir;
-    float u2 = dot(gap, gap);
-    float R = TRUNCATION * v_sigma;
-    if (u2 > R * R) discard;
-    float k = exp(-u2 / (2.0 * v_sigma * v_sigma)) / (2.5066282746310002 * v_sigma * AXIS_KEPT_MASS);
+    float k;
+    if (v_boxed > 0.5) {
+        vec2 box = abs(du) / v_sigma;
+        float z = u_signed / v_sigma;
+        if (abs(z) > TRUNCATION + 0.5 * (box.x + box.y)) discard;
+        k = beam_pixel_mass(z, box.x, box.y) / v_sigma;
+    } else {
+        vec3 gap = w0 + t * ray - s * v_dir;
+        float u2 = dot(gap, gap);
+        float R = TRUNCATION * v_sigma;
+        if (u2 > R * R) discard;
+        k = exp(-u2 / (2.0 * v_sigma * v_sigma)) / (2.5066282746310002 * v_sigma * AXIS_KEPT_MASS);
+    }
     float along = sin_theta * 0.7071067811865476 / v_sigma;
     float ends = 0.5 * (erf_approx((v_length - s) * along) + erf_approx(s * along));
 #ifdef BEAM_NO_SINE

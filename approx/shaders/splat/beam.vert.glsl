@@ -24,6 +24,7 @@ flat out vec3 v_dir;
 flat out float v_length;
 flat out float v_sigma;
 flat out vec3 v_power;
+flat out float v_boxed;       // 1: the beam carries its own σ, integrated over each pixel (beam.frag.glsl)
 
 // The beam's clip w (the distance in front of the camera) is affine along it; its part
 // with w >= W_NEAR (the projection's near plane) is drawn.
@@ -34,6 +35,7 @@ void main() {
     vec3 d = in_dir.xyz;
     float len = in_start_length.w;
     float sigma = in_dir.w > 0.0 ? in_dir.w : splat_radius;
+    v_boxed = in_dir.w > 0.0 ? 1.0 : 0.0;
     v_start = a;
     v_dir = d;
     v_length = len;
@@ -59,7 +61,8 @@ void main() {
     vec3 side = cross(w, across);
     float R = TRUNCATION * sigma;
     // the tangent cone's radius in the plane facing the camera, 5% and a pixel more: the
-    // quad's straight edges between the two ends stay outside the cones between them
+    // quad's straight edges between the two ends stay outside the cones between them, and
+    // a pixel-integrated kernel's ½·(|α| + |β|) ≤ 0.71 pixel beyond the cut is inside
     float extent = 1.05 * R * dist / sqrt(max(dist * dist - R * R, 1e-4 * R * R)) + pixel_angle * dist;
     v_corner = p + ((far_end ? 1.0 : -1.0) * across + in_corner.y * side) * extent;
     gl_Position = view_proj * vec4(v_corner, 1.0);

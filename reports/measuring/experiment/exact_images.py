@@ -58,10 +58,14 @@ if TYPE_CHECKING:
 # E_∞ and E_∞,s: docs/decisions.md "Exact steps and the small kernel"
 SMALL_SUPERSAMPLE = 4        # E_∞,s: splatted at 4× and box-averaged (the reference's pixel filter)
 SMALL_KERNEL_FINE_PIXELS = 0.3  # E_∞,s kernel σ in fine pixels (0.075 pixel): its aliasing is noise, not bias
+# splat = beams: E_∞,s's beams integrate their kernel over each fine pixel, so a narrower one
+# costs no aliasing and blurs less (docs/decisions.md "Points against beams")
+SMALL_BEAM_FINE_PIXELS = 0.1
 _SUBPHOTON_SALT = 0x5EB9_07A1  # keeps the replays' seeds apart from the frames' seeds (seed, seed + 1, …)
 # what the E images depend on beyond the parameters: part of their key (exact_store)
 CONSTANTS = {"exact_steps": EXACT_STEPS, "small_supersample": SMALL_SUPERSAMPLE,
-             "small_kernel_fine_pixels": SMALL_KERNEL_FINE_PIXELS, "subset_batches": SUBSET_BATCHES,
+             "small_kernel_fine_pixels": SMALL_KERNEL_FINE_PIXELS, "small_beam_fine_pixels": SMALL_BEAM_FINE_PIXELS,
+             "subset_batches": SUBSET_BATCHES,
              "subphoton_salt": _SUBPHOTON_SALT}
 
 
@@ -93,13 +97,30 @@ def pooled(replays: list) -> ExactPhotons:
 
 
 def small_radius(scene: Scene, p: ApproxParams) -> float:
-    return SMALL_KERNEL_FINE_PIXELS * pixel_footprint(scene.camera, cast(int, p.height) * SMALL_SUPERSAMPLE)
+    """E_∞,s's kernel σ (m) at the camera's target distance: SMALL_KERNEL_FINE_PIXELS fine
+    pixels, SMALL_BEAM_FINE_PIXELS with splat = beams."""
+    fine = SMALL_BEAM_FINE_PIXELS if p.splat == "beams" else SMALL_KERNEL_FINE_PIXELS
+    return fine * pixel_footprint(scene.camera, cast(int, p.height) * SMALL_SUPERSAMPLE)
 
 
 def small_kernel_params(scene: Scene, p: ApproxParams) -> ApproxParams:
     """What E_∞,s is splatted with whatever A's splat mode: the fixed small kernel (beams
     stay beams: E_∞,s's photons are then beams, the small kernel theirs)."""
     return dataclasses.replace(p, splat="beams" if p.splat == "beams" else "fixed", splat_radius=small_radius(scene, p))
+
+
+def small_kernel_rows(rows: np.ndarray, small: ApproxParams) -> np.ndarray:
+    """E_∞,s's rows: point splats as they are (the small kernel point-sampled: its
+    aliasing is noise over photons at continuous positions); beams carrying the small σ,
+    which the splatter integrates over each fine pixel (splat/beam.frag.glsl), since
+    near-parallel beams share their offset from the pixel centres and a point-sampled
+    kernel of 0.3 fine pixel would alias as a pattern, not as noise (docs/decisions.md
+    "Points against beams")."""
+    if small.splat != "beams":
+        return rows
+    out = rows.copy()
+    out["dir"][:, 3] = np.float32(small.splat_radius)
+    return out
 
 
 def exact_images(scene: Scene, p: ApproxParams, frames: list[Frame], seeds: list[int], renderer: Renderer,
@@ -186,7 +207,8 @@ def _exact_batches(scene, p, kernels, seeds, renderer, oracle, subphotons: int, 
             out[name].append(_subsets(renderer, scene, ps, kernel(photons.splats, photons.photon, photons.step),
                                       photons.photon, batches))
         out["exact_all_small"].append(_subsets(renderer, scene, dataclasses.replace(small, seed=seed),
-                                               emitted.splats, emitted.photon, batches, SMALL_SUPERSAMPLE))
+                                               small_kernel_rows(emitted.splats, small), emitted.photon, batches,
+                                               SMALL_SUPERSAMPLE))
         for name, photons in {p.fresnel: same, "stochastic": everything, "true_emission": emitted}.items():
             alive.setdefault(name, []).append(photons.alive_fraction)
     return {"batches": {name: np.concatenate(images) for name, images in out.items()}, "alive": alive,
