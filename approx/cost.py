@@ -21,7 +21,10 @@ spends while its lanes wait for the last), and per raster pass
 the fragments it wrote (``fragments_<pass>``, GL samples-passed queries of the frame:
 ``Frame.work``), which the splat pass's footprint drives, and per pass that draws the
 scene's meshes the primitives it drew (``primitives_<pass>``, ``Frame.work``: the
-light layers draw every mesh twice per layer, which their written fragments do not show).
+light layers draw every mesh twice per layer, which their written fragments do not show),
+and the splat pass's shaded fragments (``shaded_splat``: fragment shader invocations,
+discards included, ``approx.invocations``; NaN where the driver cannot count them): a
+beam's quad is shaded over far more pixels than it writes.
 """
 
 from __future__ import annotations
@@ -46,7 +49,7 @@ FRAGMENT_PASSES = tuple(name for name in TIMED_PASSES if name != "trace")
 MESH_PASSES = ("layers", "emission", "camera")
 COST_FIELDS = ("map_reads", "emission_reads", "splats", "density_reads", "total", "denoised_pixels", "photons",
                "segments", "lookups", "lockstep_lookups", *(f"fragments_{name}" for name in FRAGMENT_PASSES),
-               *(f"primitives_{name}" for name in MESH_PASSES))
+               *(f"primitives_{name}" for name in MESH_PASSES), "shaded_splat")
 # splat = density: each splat writes its cell in the pre-pass and reads the grid (4 texels, bilinear) for its width
 DENSITY_READS = 5
 
@@ -69,6 +72,8 @@ def frame_cost(records: list, params: ApproxParams, work: dict | None = None) ->
                for name in FRAGMENT_PASSES}
     counted.update({f"primitives_{name}": float("nan") if primitives is None else int(primitives.get(name, 0))
                     for name in MESH_PASSES})
+    shaded = None if work is None else work.get("shaded", {}).get("splat")
+    counted["shaded_splat"] = float("nan") if shaded is None else int(shaded)
     return {"map_reads": search, "emission_reads": emission, "splats": splats, "density_reads": density,
             "total": search + emission + splats + density, "denoised_pixels": denoised, "photons": emitted,
             "segments": sum(len(r) for r in records),

@@ -159,8 +159,14 @@ def with_auto_photon_res(scene_arg: str, params: ApproxParams, preset_name: str 
 
 def cost_ratio(cost: dict, target: dict) -> float:
     """The largest ratio of a predicted cost (:meth:`CostMatcher.cost`) to a target's
-    over the weight sets: within the target when ≤ 1."""
-    return max(cost[name] / target[name] for name in target)
+    over the weight sets that price both (a set's fit that never saw a splat mode does
+    not price it: ``WeightSet.prices``): within the target when ≤ 1. ValueError when no
+    set prices both."""
+    shared = [name for name in target if name in cost]
+    if not shared:
+        raise ValueError(f"no weight set prices both frames (sets {sorted(cost)} against {sorted(target)}): "
+                         f"fit the cost model with the configuration's splat mode (bench/cost_model.py)")
+    return max(cost[name] / target[name] for name in shared)
 
 
 def measured_time_ratio(scene_arg: str, params: ApproxParams, paper: ApproxParams, *, frames: int = 5) -> dict:
@@ -185,7 +191,7 @@ def measured_time_ratio(scene_arg: str, params: ApproxParams, paper: ApproxParam
 
 def equal_cost_check(scene_arg: str, params: ApproxParams, preset_name: str) -> dict | None:
     """For a preset matched to the paper configuration's cost (AUTO_PHOTON_RES): its
-    predicted cost ratio under every weight set and its measured frame time ratio
+    predicted cost ratio under every weight set that prices it and its measured frame time ratio
     (:func:`measured_time_ratio`), and whether it is at the paper's cost (≤ 1.0× under
     every set, ≤ TIME_SLACK× in time); None for another preset."""
     if preset_name not in AUTO_PHOTON_RES:
@@ -197,7 +203,7 @@ def equal_cost_check(scene_arg: str, params: ApproxParams, preset_name: str) -> 
         own, target = matcher.cost(scene_arg, params), matcher.cost(scene_arg, paper.resolved(scene))
     finally:
         matcher.release()
-    predicted = {name: own[name] / target[name] for name in target}
+    predicted = {name: own[name] / target[name] for name in target if name in own}
     time = measured_time_ratio(scene_arg, params.resolved(scene), paper.resolved(scene))
     return {"predicted_ratio": predicted, "measured_time": time,
             "at_paper_cost": bool(max(predicted.values()) <= 1.0 and time["ratio"] <= TIME_SLACK)}

@@ -11,11 +11,13 @@ ratios between configurations are compared across sets.
 from __future__ import annotations
 
 import json
+import math
 import os
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, cast
 
 from .cost import TIMED_PASSES
+from .params import param
 
 if TYPE_CHECKING:
     from .params import ApproxParams
@@ -36,6 +38,11 @@ def features(cost: dict, params: ApproxParams) -> dict:
     steps = float(params.steps)
     pixels = float(cast(int, params.width) * cast(int, params.height))  # resolved: both set
     density = params.splat == "density"
+    beams = params.splat == "beams"  # a beam's fragment costs what its own shader does: priced apart
+    # a beam pass's time follows the fragments it shades, most of them discarded (approx.cost);
+    # where the driver cannot count them, the written ones
+    shaded = cost.get("shaded_splat", math.nan)
+    beam_fragments = shaded if beams and math.isfinite(shaded) else cost["fragments_splat"] if beams else 0.0
     maps = 2.0 * float(params.layers) + 1.0  # a front and a back map per layer, and the shadow map
     return {
         "layers": {"calls": 1.0, "maps": maps, "texels": maps * float(params.light_res) ** 2,
@@ -49,8 +56,9 @@ def features(cost: dict, params: ApproxParams) -> dict:
                   "lockstep_lookups": cost["lockstep_lookups"]},
         "density": {"calls": steps if density else 0.0, "splats": cost["splats"] if density else 0.0,
                     "fragments": cost["fragments_density"]},
-        "splat": {"calls": steps, "invocations": launched * steps, "splats": cost["splats"],
-                  "fragments": cost["fragments_splat"]},
+        "splat": {"calls": steps, "invocations": launched * steps,
+                  "splats": 0.0 if beams else cost["splats"], "fragments": 0.0 if beams else cost["fragments_splat"],
+                  "beams": cost["splats"] if beams else 0.0, "beam_fragments": beam_fragments},
         "fog": {"calls": 1.0, "fragments": cost["fragments_fog"] * float(params.fog_steps)},
         "direct": {"calls": 1.0, "fragments": cost["fragments_direct"]},
         "other": {"calls": 1.0, "pixels": pixels, "step_pixels": pixels * steps},
@@ -67,6 +75,23 @@ class WeightSet:
     unit: str
     weights: dict
     provenance: dict = field(default_factory=dict)
+
+    @property
+    def splat_modes(self) -> tuple:
+        """The splat modes the set can price: those its fit measured (``provenance``'s
+        ``splat_modes``, else its fit's configurations' and the preset's, fixed); a set
+        without a fit's record, every mode. A mode the fit never saw has counts (a beam's
+        fragments) whose weight it never learnt: its 0 would price them as free."""
+        if "splat_modes" in self.provenance:
+            return tuple(self.provenance["splat_modes"])
+        configs = self.provenance.get("fit", {}).get("configs")
+        if not isinstance(configs, dict):
+            return tuple(param("splat").choices)
+        return tuple(sorted({"fixed", *(str(c.get("splat", "fixed")) for c in configs.values())}))
+
+    def prices(self, params: ApproxParams) -> bool:
+        """Whether the set can price a frame of ``params`` (:attr:`splat_modes`)."""
+        return params.splat in self.splat_modes
 
     def predict(self, cost: dict, params: ApproxParams) -> dict:
         """pass → predicted time, and ``frame``: their sum."""
@@ -123,10 +148,10 @@ def weight_sets(folder: str = WEIGHTS_DIR) -> dict:
 
 
 def predicted_frames(cost: dict, params: ApproxParams, sets: dict | None = None) -> dict:
-    """name → predicted frame time of (cost, params) under each weight set (default: the
-    shipped ones; each in its set's unit)."""
+    """name → predicted frame time of (cost, params) under each weight set that prices it
+    (:meth:`WeightSet.prices`; default: the shipped ones; each in its set's unit)."""
     sets = weight_sets() if sets is None else sets
-    return {name: ws.frame(cost, params) for name, ws in sets.items()}
+    return {name: ws.frame(cost, params) for name, ws in sets.items() if ws.prices(params)}
 
 
 _COST_NAMES = ("map_reads", "emission_reads", "splats", "segments", "lookups", "lockstep_lookups",

@@ -322,7 +322,12 @@ PRESET_VALUES: dict[str, dict[str, object]] = {
 # ``approx.cost_match``), unless --photon-res is given
 BEST = {"splat": "density", "splat_neighbours": 4, "fresnel": "stochastic", "steps": 4, "layers": 2}
 PRESET_VALUES["best"] = {**PRESET_VALUES["quick"], **BEST}
-AUTO_PHOTON_RES = {"best": "quick"}  # preset → the preset whose frame cost its photon_res matches
+# beams: the preset best with its density splats replaced by photon beams (splat = beams), at
+# the kernel width the one-frame search measured best for beams (docs/decisions.md "Points
+# against beams"); its photon_res is matched to the paper configuration's cost as best's
+BEAMS = {"splat": "beams", "fresnel": "stochastic", "steps": 4, "layers": 2}
+PRESET_VALUES["beams"] = {**PRESET_VALUES["quick"], **BEAMS}
+AUTO_PHOTON_RES = {"best": "quick", "beams": "quick"}  # preset → the preset whose frame cost its photon_res matches
 
 
 _P = TypeVar("_P", bound=ParamsMethods)

@@ -177,7 +177,7 @@ class Renderer:
         return Frame(images=images, caustic_steps=caustic_steps, records=records, timings=timings,
                      timing_method=timer.method, params=p.to_dict(), photons_emitted=emitted, gl=gl_info(ctx),
                      work={"fragments": dict(timer.fragments), "primitives": dict(timer.primitives),
-                           **loop_work},
+                           "shaded": dict(timer.shaded), **loop_work},
                      guides={"distance": geometry[..., 0], "normal": normal} if keep_guides else {})
 
     def first_records(self, scene: Scene | None, params: ApproxParams, seeds: Iterable[int]) -> list:

@@ -2,8 +2,10 @@
 ``ctx.finish()`` and a wall clock (llvmpipe answers 4294967295 to timer queries,
 a sentinel that is never reported); and per pass the fragments it wrote (a GL
 samples-passed query: fragments that reach the framebuffer, so a fragment shader's
-discards are not counted) and the primitives it drew (a primitives-generated query: a
-pass's vertex work), work that travels across hardware (``approx.cost``)."""
+discards are not counted), the fragments it shaded (discards included:
+``approx.invocations``, where the driver has pipeline statistics) and the primitives it
+drew (a primitives-generated query: a pass's vertex work), work that travels across
+hardware (``approx.cost``)."""
 
 from __future__ import annotations
 
@@ -13,6 +15,8 @@ from collections.abc import Iterator
 from typing import cast
 
 import moderngl
+
+from .invocations import InvocationQuery
 
 TIMER_SENTINEL = 4294967295
 
@@ -39,8 +43,9 @@ def timer_queries_work(ctx: moderngl.Context) -> bool:
 
 
 class PassTimer:
-    """Accumulates seconds and fragments written per pass name; ``method`` says how the
-    seconds were measured. Passes never nest (one query of a kind at a time)."""
+    """Accumulates seconds, fragments written and shaded, and primitives per pass name;
+    ``method`` says how the seconds were measured. Passes never nest (one query of a kind
+    at a time). ``shaded`` holds a pass only where the driver counts invocations."""
 
     def __init__(self, ctx: moderngl.Context, use_queries: bool):
         self.ctx = ctx
@@ -49,6 +54,7 @@ class PassTimer:
         self.seconds: dict[str, float] = {}
         self.fragments: dict[str, int] = {}
         self.primitives: dict[str, int] = {}
+        self.shaded: dict[str, int] = {}
 
     def add(self, name: str, fragments: int, primitives: int) -> None:
         """Count work of pass ``name`` that its own queries measured (``measure(...,
@@ -58,9 +64,13 @@ class PassTimer:
 
     @contextlib.contextmanager
     def measure(self, name: str, counted: bool = True) -> Iterator[None]:
-        """Time the pass ``name`` and, when ``counted``, count its fragments and primitives."""
+        """Time the pass ``name`` and, when ``counted``, count its fragments (written and
+        shaded) and primitives."""
         kinds = {"samples": counted, "primitives": counted, "time": self.use_queries}
         query = self.ctx.query(**kinds) if any(kinds.values()) else None
+        invocations = InvocationQuery(self.ctx) if counted else None
+        if invocations is not None:
+            invocations.begin()
         if self.use_queries:
             query = cast(moderngl.Query, query)  # made: the time is asked of it
             with query:
@@ -75,6 +85,11 @@ class PassTimer:
             self.ctx.finish()
             seconds = time.perf_counter() - t0
         self.seconds[name] = self.seconds.get(name, 0.0) + seconds
+        if invocations is not None:
+            shaded = invocations.end()
+            invocations.release()
+            if shaded is not None:
+                self.shaded[name] = self.shaded.get(name, 0) + shaded
         if counted:
             query = cast(moderngl.Query, query)  # made: samples and primitives are asked of it
             self.add(name, query.samples, query.primitives)

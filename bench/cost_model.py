@@ -41,6 +41,8 @@ FIT = {
     "emission": {"emission": "adaptive"}, "fog24": {"fog_steps": 24}, "size128": {"width": 128, "height": 128},
     "best": {"splat": "density", "splat_neighbours": 8, "fresnel": "stochastic", "steps": 6, "layers": 2,
              "photon_res": 352},
+    "beams": {"splat": "beams"}, "beams_radius0.01": {"splat": "beams", "splat_radius": 0.01},
+    "beams_steps2": {"splat": "beams", "steps": 2}, "beams_res128": {"splat": "beams", "photon_res": 128},
 }
 HELD_OUT = {  # never in the fit: several axes at once
     "best300": {"splat": "density", "splat_neighbours": 8, "fresnel": "stochastic", "steps": 6, "layers": 2,
@@ -49,6 +51,8 @@ HELD_OUT = {  # never in the fit: several axes at once
     "density16": {"splat": "density", "splat_neighbours": 16, "splat_radius": 0.03, "photon_res": 200},
     "adaptive3": {"splat": "adaptive", "steps": 3, "photon_res": 200, "search": "dda"},
     "size192": {"width": 192, "height": 192, "photon_res": 300, "layers": 2},
+    "beams_mixed": {"splat": "beams", "fresnel": "stochastic", "steps": 6, "layers": 2, "photon_res": 200,
+                    "splat_radius": 0.015},
 }
 PAPER_SHARES = {"trace": 0.70, "splatting": 0.23}  # the paper's Table 1, at its configuration
 # the weight files go to the checkout's package folder (an editable install's link tree is not it)
@@ -168,7 +172,7 @@ def paper_anchor(ws, scene_arg: str):
     return WeightSet(name="paper_gpu", unit="the paper configuration's frame", weights=weights, provenance={
         "anchor": "Wang, Wang & Chen, Table 1: at the paper's configuration (800x800, photon_res 1500, 4 layers, "
                   "4 steps) intersection estimation ~70% and splatting ~23% of a frame on their GPU",
-        "from": ws.name, "scene": scene_arg, "paper_counts": cost,
+        "from": ws.name, "splat_modes": list(ws.splat_modes), "scene": scene_arg, "paper_counts": cost,
         "method": "the fitted set's per-pass weights scaled per group (trace; splat and density; the rest) to "
                   "those shares at that frame, which is 1 unit", "date": datetime.date.today().isoformat()})
 
@@ -216,7 +220,9 @@ def main(argv=None) -> int:
     for r, pred, e in errors(held + held_scenes, ws):
         print(f"| {os.path.basename(r['scene']).removesuffix('.toml')} | {r['config']} | {1000 * r['frame']:.0f} | "
               f"{1000 * pred:.0f} | {100 * e:+.1f}% |")
-    provenance = {"gl_renderer": renderer_name, "machine": f"{platform.machine()}, {os.cpu_count()} cores, "
+    provenance = {"gl_renderer": renderer_name,
+                  "splat_modes": sorted({"fixed", *(str(c.get("splat", "fixed")) for c in FIT.values())}),
+                  "machine": f"{platform.machine()}, {os.cpu_count()} cores, "
                   f"{platform.system()} {platform.release()}", "date": datetime.date.today().isoformat(),
                   "fit": {"scenes": fit_scenes, "configs": FIT, "size": args.size, "rounds": args.rounds,
                           "r2": fitted["r2"], **report["fit"]},

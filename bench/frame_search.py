@@ -62,6 +62,16 @@ CANDIDATES.update({
     "k4-steps4-deterministic": {**_BEST, "splat_neighbours": 4, "steps": 4, "fresnel": "deterministic"},
     "steps4-deterministic": {**_BEST, "steps": 4, "fresnel": "deterministic"},
 })
+# points against beams (splat = beams): on the paper's configuration and on the preset best's
+# (its density splats replaced by beams), each at three kernel widths, and with deterministic
+# Fresnel (a beam frame then has no noise of its own: every seed draws the same frame)
+_BEAMS = {"splat": "beams", "fresnel": "stochastic", "steps": 4, "layers": 2}
+CANDIDATES.update({
+    "beams": {"splat": "beams"}, "beams-r0.01": {"splat": "beams", "splat_radius": 0.01},
+    "beams-r0.04": {"splat": "beams", "splat_radius": 0.04},
+    "bbest": _BEAMS, "bbest-r0.01": {**_BEAMS, "splat_radius": 0.01}, "bbest-r0.04": {**_BEAMS, "splat_radius": 0.04},
+    "bbest-deterministic": {**_BEAMS, "fresnel": "deterministic"},
+})
 
 
 def main(argv=None) -> int:

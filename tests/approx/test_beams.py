@@ -145,6 +145,39 @@ def test_a_beam_carrying_its_own_kernel_keeps_its_energy_however_narrow(ctx):
         assert np.abs(np.array(sampled) - 1.0).max() > 0.3, (fraction, sampled)
 
 
+def test_a_beam_pass_counts_the_fragments_it_shades_beside_those_it_writes(ctx):
+    """The beam pass's time follows the fragments it shades (approx.invocations), most of
+    them discarded; the written ones (samples passed) miss those. The same beams drawn
+    in front of a wall and behind it (a G-buffer of a diffuse surface at 1 m: the
+    negative control) shade the same fragments, while behind it they write none."""
+    from volcaustics.approx.timing import PassTimer
+    from volcaustics.scenes.formats import KIND_DIFFUSE
+
+    scene = make_scene([], camera=CAMERA, sigma_s=0.3, sigma_a=0.2, floor=False)
+    view = CameraView(CAMERA, CAMERA.width, CAMERA.height, far=100.0)
+    splatter = Splatter(ctx, scene.medium, beams=True)
+    rows = _beams()
+    buf = ctx.buffer(rows.tobytes())
+    target = ctx.texture((CAMERA.width, CAMERA.height), 4, dtype="f4")
+    pixels = CAMERA.width * CAMERA.height
+    open_view = ctx.texture((CAMERA.width, CAMERA.height), 4, np.zeros(pixels * 4, "f4").tobytes(), dtype="f4")
+    wall = np.zeros((pixels, 4), "f4")
+    wall[:, 0], wall[:, 1] = 1.0, KIND_DIFFUSE
+    walled = ctx.texture((CAMERA.width, CAMERA.height), 4, wall.tobytes(), dtype="f4")
+    counts = {}
+    for name, gbuffer in (("open", open_view), ("walled", walled)):
+        timer = PassTimer(ctx, use_queries=False)
+        with timer.measure("splat"):
+            splatter.splat(buf, len(rows), view, scene.medium, SIGMA, gbuffer, target)
+        counts[name] = (timer.fragments["splat"], timer.shaded.get("splat"))
+    for r in (buf, target, open_view, walled, splatter):
+        r.release()
+    assert "GL_ARB_pipeline_statistics_query" in ctx.extensions  # Mesa and NVIDIA have it: not optional here
+    (open_written, open_shaded), (walled_written, walled_shaded) = counts["open"], counts["walled"]
+    assert open_shaded > open_written > 0
+    assert walled_written == 0 and walled_shaded == open_shaded
+
+
 def test_the_tracers_beams_carry_the_power_its_photons_splat(ctx):
     """A glass sphere under the spot above a floor: the frame's caustic with splat = beams
     (one segment per step, no free flight) and the mean caustic of 32 seeds of point

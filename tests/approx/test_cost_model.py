@@ -84,3 +84,37 @@ def test_a_damaged_weight_file_is_refused_naming_file_key_and_value(tmp_path, do
     with pytest.raises(WeightSetError) as exc:
         read_weight_set(str(path))
     assert str(path) in str(exc.value) and says in str(exc.value)
+
+
+def test_a_set_prices_only_the_splat_modes_its_fit_measured():
+    """A beam's fragment runs its own shader, so it has its own weight, which only a fit
+    that measured beams has learnt: the llvmpipe fit (and the paper anchor made from it)
+    prices beams, and a beam's fragments cost time under it; a set whose fit never saw a
+    beam (the negative control: a copy of the llvmpipe set whose fit record lacks its
+    beam configurations) does not price them, rather than pricing them at its 0, and
+    ``cost_ratio`` compares a beams frame under the sets that price both."""
+    import dataclasses
+
+    from volcaustics.approx.cost_match import cost_ratio
+    from volcaustics.approx.cost_model import predicted_frames
+
+    sets = weight_sets()
+    beams = dataclasses.replace(PAPER, splat="beams").resolved(_scene("sphere1"))
+    counts = dict(sets["paper_gpu"].provenance["paper_counts"])
+    for name in ("llvmpipe", "paper_gpu"):
+        assert sets[name].prices(beams)
+        more = {**counts, "shaded_splat": 4 * counts["shaded_splat"]}  # a beam pass is priced by what it shades
+        assert sets[name].frame(more, beams) > sets[name].frame(counts, beams)
+    llvmpipe = sets["llvmpipe"]
+    configs = {k: v for k, v in llvmpipe.provenance["fit"]["configs"].items() if v.get("splat") != "beams"}
+    provenance = {k: v for k, v in llvmpipe.provenance.items() if k != "splat_modes"}
+    unaware = dataclasses.replace(llvmpipe, name="unaware",
+                                  provenance={**provenance, "fit": {**provenance["fit"], "configs": configs}})
+    assert not unaware.prices(beams) and unaware.prices(PAPER)
+    both = {"llvmpipe": llvmpipe, "unaware": unaware}
+    own = predicted_frames(counts, beams, both)
+    paper = predicted_frames(counts, PAPER.resolved(_scene("sphere1")), both)
+    assert set(own) == {"llvmpipe"} and set(paper) == {"llvmpipe", "unaware"}
+    assert cost_ratio(own, paper) == pytest.approx(own["llvmpipe"] / paper["llvmpipe"])
+    with pytest.raises(ValueError, match="no weight set prices both"):
+        cost_ratio({}, paper)

@@ -1,6 +1,7 @@
 """The frame check (``volcaustics frames``, ``make frames``): per scene, the paper's
-configuration against ``--preset best`` (its photon_res matched to the paper's frame
-cost on that scene, ``approx.cost_match``), each without and with OIDN
+configuration against ``--preset best`` and ``--preset beams`` (the paper's competitors:
+best with photon beams; both with photon_res matched to the paper's frame cost on that
+scene, ``approx.cost_match``), each without and with OIDN
 (``denoise``: the same seeds, so the same frames, denoised), by one frame's caustic
 error and the seeds' mean's debiased error. The scenes are the built-ins and the
 held-out scenes (``scenes/heldout``), which no search saw: a configuration that wins
@@ -52,7 +53,7 @@ if TYPE_CHECKING:
     from volcaustics.approx.params import ApproxParams
     from volcaustics.scenes.model import Scene
 
-CONFIGS = ("paper", "best")       # the quick preset (the paper's method) and the preset best
+CONFIGS = ("paper", "best", "beams")  # the quick preset (the paper's method), the presets best and beams
 DENOISERS = ("none", "oidn")
 FRAMES_FILE, MANIFEST = "frames.parquet", "frames.json"
 KIND = "frames"                   # frames.json's "kind" (reports.cli.common.FOLDER_MARKERS)
@@ -67,10 +68,10 @@ def default_scenes() -> list:
 
 
 def config_params(config: str, scene_arg: str) -> ApproxParams:
-    """The parameters of ``config`` on ``scene_arg`` (best: photon_res matched)."""
+    """The parameters of ``config`` on ``scene_arg`` (best, beams: photon_res matched)."""
     if config == "paper":
         return preset("quick")
-    return with_auto_photon_res(scene_arg, preset("best"), "best", given=False)
+    return with_auto_photon_res(scene_arg, preset(config), config, given=False)
 
 
 def checked_scenes(scenes: Iterable[str], seeds: int) -> list:
@@ -208,17 +209,19 @@ GOAL = 0.5  # the goal: one frame's caustic relMSE at most half the paper config
 
 def verdict(table: pd.DataFrame) -> dict:
     """best without a denoiser against the goal, on the built-ins, the held-out scenes
-    and the user's scenes apart (GROUPS); the same with OIDN beside."""
+    and the user's scenes apart (GROUPS); the same with OIDN beside; beams' worst ratios
+    the same way (keys ``beams_…``) beside."""
     out = {"goal": GOAL}
     groups = table["group"] if "group" in table else table["heldout"].map({True: "heldout", False: "builtin"})
-    for denoiser in DENOISERS:
-        best = table[(table["config"] == "best") & (table["denoise"] == denoiser)]
-        for group in GROUPS:
-            rows = best[groups[best.index] == group]
-            if len(rows):
-                out[f"{denoiser}_{group}_worst_frame_ratio"] = float(rows["frame_ratio"].max())
-                out[f"{denoiser}_{group}_worst_cost_ratio"] = float(rows["cost_ratio"].max())
-                out[f"{denoiser}_{group}_worst_time_ratio"] = float(rows["time_ratio"].max())
+    for config, prefix in (("best", ""), ("beams", "beams_")):
+        for denoiser in DENOISERS:
+            rows_of = table[(table["config"] == config) & (table["denoise"] == denoiser)]
+            for group in GROUPS:
+                rows = rows_of[groups[rows_of.index] == group]
+                if len(rows):
+                    out[f"{prefix}{denoiser}_{group}_worst_frame_ratio"] = float(rows["frame_ratio"].max())
+                    out[f"{prefix}{denoiser}_{group}_worst_cost_ratio"] = float(rows["cost_ratio"].max())
+                    out[f"{prefix}{denoiser}_{group}_worst_time_ratio"] = float(rows["time_ratio"].max())
     plain = table[(table["config"] == "best") & (table["denoise"] == "none")]
     out["met"] = bool(len(plain) and (plain["frame_ratio"] <= GOAL).all() and (plain["cost_ratio"] <= 1.01).all())
     return out
