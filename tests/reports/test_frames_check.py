@@ -37,6 +37,22 @@ def test_best_meets_the_goal_only_when_it_holds_on_the_heldout_scenes_too():
     assert bad["none_heldout_worst_frame_ratio"] == 2.0
 
 
+def test_beams_worst_ratios_stand_beside_bests_verdict_which_they_do_not_change():
+    """The frame check's beams rows (the preset beams) get their own worst ratios
+    (``beams_…``) and a line in the report; best's verdict is best's alone: beams at
+    twice the paper's on a held-out scene leave a met verdict met."""
+    table = _table(0.045)
+    beams = pd.DataFrame([_row(scene, heldout, "beams", "none", frame, cost=98.0)
+                          for scene, heldout, frame in (("a", False, 0.02), ("b", False, 0.03), ("k", True, 0.20))])
+    table = with_ratios(pd.concat([table.drop(columns=[c for c in table.columns if c.endswith("_ratio")]), beams],
+                                  ignore_index=True))
+    v = verdict(table)
+    assert v["met"] and v["beams_none_builtin_worst_frame_ratio"] == 0.3
+    assert v["beams_none_heldout_worst_frame_ratio"] == 2.0 and "beams_oidn_builtin_worst_frame_ratio" not in v
+    html = frames_section({"rows": frames_rows(table), "verdict": v})
+    assert "beams' worst one-frame ratio without a denoiser: 0.30× on the built-ins, 2.00× on the held-out" in html
+
+
 def test_the_report_section_shows_every_row_and_the_verdict():
     table = _table(0.045)
     html = frames_section({"rows": frames_rows(table), "verdict": verdict(table)})

@@ -32,7 +32,7 @@ def small(monkeypatch, cache):
         return real(*args, **kwargs)
 
     def params(config, scene_arg):
-        base = preset("quick" if config == "paper" else "best")
+        base = preset("quick" if config == "paper" else config)
         return dataclasses.replace(base, width=32, height=32, photon_res=64, light_res=64)
 
     monkeypatch.setattr(frames, "run_experiment", counted)
