@@ -325,7 +325,7 @@ PRESET_VALUES["best"] = {**PRESET_VALUES["quick"], **BEST}
 # beams: the preset best with its density splats replaced by photon beams (splat = beams), at
 # the kernel width the one-frame search measured best for beams (docs/decisions.md "Points
 # against beams"); its photon_res is matched to the paper configuration's cost as best's
-BEAMS = {"splat": "beams", "fresnel": "stochastic", "steps": 4, "layers": 2}
+BEAMS = {"splat": "beams", "splat_radius": 0.01, "fresnel": "stochastic", "steps": 4, "layers": 2}
 PRESET_VALUES["beams"] = {**PRESET_VALUES["quick"], **BEAMS}
 AUTO_PHOTON_RES = {"best": "quick", "beams": "quick"}  # preset → the preset whose frame cost its photon_res matches
 
