@@ -72,6 +72,7 @@ CANDIDATES.update({
     "bbest": _BEAMS, "bbest-r0.01": {**_BEAMS, "splat_radius": 0.01}, "bbest-r0.04": {**_BEAMS, "splat_radius": 0.04},
     "bbest-r0.005": {**_BEAMS, "splat_radius": 0.005}, "bbest-r0.0025": {**_BEAMS, "splat_radius": 0.0025},
     "bbest-r0.005-deterministic": {**_BEAMS, "splat_radius": 0.005, "fresnel": "deterministic"},
+    "bbest-r0.01-deterministic": {**_BEAMS, "splat_radius": 0.01, "fresnel": "deterministic"},
     "bbest-deterministic": {**_BEAMS, "fresnel": "deterministic"},
 })
 
