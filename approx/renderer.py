@@ -51,9 +51,10 @@ class Frame:
     timings: pass name → seconds; ``timing_method`` says how they were measured.
     work: what ``approx.cost`` counts beside the records: ``fragments`` and ``primitives``
         (pass name → fragments written, GL samples passed, and primitives drawn, summed
-        over its steps; 0 for a compute pass), ``lookups`` and ``lockstep_lookups`` (the
-        trace loop's map lookups over every step: the photons' own, and their subgroups'
-        in lockstep, ``Tracer.loop_work``).
+        over its steps; 0 for a compute pass), ``shaded`` (pass name → fragments shaded,
+        discards included, where the driver counts them: ``approx.invocations``),
+        ``lookups`` and ``lockstep_lookups`` (the trace loop's map lookups over every
+        step: the photons' own, and their subgroups' in lockstep, ``Tracer.loop_work``).
     params: the parameters actually used (width/height resolved).
     guides: the G-buffer a temporal filter or denoiser reads: ``distance`` (H×W, to the
         eye, 0 where nothing is hit) and ``normal`` (H×W×3, world).
