@@ -41,8 +41,9 @@ def features(cost: dict, params: ApproxParams) -> dict:
     beams = params.splat == "beams"  # a beam's fragment costs what its own shader does: priced apart
     # a beam pass's time follows the fragments it shades, most of them discarded (approx.cost);
     # where the driver cannot count them, the written ones
-    shaded = cost.get("shaded_splat", math.nan)
-    beam_fragments = shaded if beams and math.isfinite(shaded) else cost["fragments_splat"] if beams else 0.0
+    shaded = cost.get("shaded_splat")  # NaN, or None from a stored summary's null, where not counted
+    counted = isinstance(shaded, (int, float)) and math.isfinite(shaded)
+    beam_fragments = (float(cast(float, shaded)) if counted else cost["fragments_splat"]) if beams else 0.0
     maps = 2.0 * float(params.layers) + 1.0  # a front and a back map per layer, and the shadow map
     return {
         "layers": {"calls": 1.0, "maps": maps, "texels": maps * float(params.light_res) ** 2,

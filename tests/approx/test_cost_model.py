@@ -105,6 +105,10 @@ def test_a_set_prices_only_the_splat_modes_its_fit_measured():
         assert sets[name].prices(beams)
         more = {**counts, "shaded_splat": 4 * counts["shaded_splat"]}  # a beam pass is priced by what it shades
         assert sets[name].frame(more, beams) > sets[name].frame(counts, beams)
+    assert features(counts, beams)["splat"]["beam_fragments"] == counts["shaded_splat"] != counts["fragments_splat"]
+    for uncounted in (None, float("nan")):  # a driver without pipeline statistics, or a stored summary's null
+        assert features({**counts, "shaded_splat": uncounted}, beams)["splat"]["beam_fragments"] == \
+            counts["fragments_splat"]
     llvmpipe = sets["llvmpipe"]
     configs = {k: v for k, v in llvmpipe.provenance["fit"]["configs"].items() if v.get("splat") != "beams"}
     provenance = {k: v for k, v in llvmpipe.provenance.items() if k != "splat_modes"}
