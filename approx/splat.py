@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING, cast
 import moderngl
 import numpy as np
 
-from volcaustics.scenes.formats import BEAM_DTYPE, SPLAT_DTYPE, STATUS_COLLIDED, STATUS_LEFT_SCENE, STATUS_SURFACE
+from volcaustics.scenes.formats import BEAM_DTYPE, SPLAT_DTYPE, STATUS_COLLIDED, STATUS_SURFACE, splatted_mask
 
 from .context import bound
 from .glsl import attribute_layout, load_source, program, set_uniforms, uniform
@@ -45,15 +45,7 @@ def splats_from_arrays(end: ArrayLike, direction: ArrayLike, power: ArrayLike,
     direction (N×3 unit, propagation before scattering), power (N×3 W, RGB, after
     transmittance), and optionally each one's kernel standard deviation sigma (N, m;
     at least a pixel where it is drawn); without it every splat takes splat_radius."""
-    end = np.asarray(end, np.float32).reshape(-1, 3)
-    out = np.zeros(len(end), dtype=SPLAT_DTYPE)
-    out["center_status"][:, :3] = end
-    out["center_status"][:, 3] = STATUS_COLLIDED
-    out["dir"][:, :3] = np.asarray(direction, np.float32).reshape(-1, 3)
-    out["power"][:, :3] = np.asarray(power, np.float32).reshape(-1, 3)
-    if sigma is not None:
-        out["dir"][:, 3] = np.asarray(sigma, np.float32).reshape(-1)
-    return out
+    return _rows(SPLAT_DTYPE, "center_status", end, STATUS_COLLIDED, direction, power, sigma)
 
 
 def beams_from_arrays(start: ArrayLike, direction: ArrayLike, length: ArrayLike, power: ArrayLike,
@@ -62,10 +54,17 @@ def beams_from_arrays(start: ArrayLike, direction: ArrayLike, length: ArrayLike,
     (N×3 unit), length (N, m, to the next surface or the medium's end), power (N×3 W,
     RGB, at the start), and optionally each one's kernel standard deviation sigma (N, m);
     without it every beam takes splat_radius."""
-    start = np.asarray(start, np.float32).reshape(-1, 3)
-    out = np.zeros(len(start), dtype=BEAM_DTYPE)
-    out["start_length"][:, :3] = start
-    out["start_length"][:, 3] = np.asarray(length, np.float32).reshape(-1)
+    return _rows(BEAM_DTYPE, "start_length", start, length, direction, power, sigma)
+
+
+def _rows(dtype: np.dtype, point: str, position: ArrayLike, w: ArrayLike, direction: ArrayLike,
+          power: ArrayLike, sigma: ArrayLike | None) -> np.ndarray:
+    """Rows of ``dtype`` (three vec4: ``point`` = position and ``w``, ``dir`` = direction
+    and σ, ``power``) from numpy arrays, as float32."""
+    position = np.asarray(position, np.float32).reshape(-1, 3)
+    out = np.zeros(len(position), dtype=dtype)
+    out[point][:, :3] = position
+    out[point][:, 3] = np.asarray(w, np.float32).reshape(-1) if np.ndim(w) else w
     out["dir"][:, :3] = np.asarray(direction, np.float32).reshape(-1, 3)
     out["power"][:, :3] = np.asarray(power, np.float32).reshape(-1, 3)
     if sigma is not None:
@@ -77,9 +76,7 @@ def splatted(records: np.ndarray, splat: str) -> np.ndarray:
     """Which records (RECORD_DTYPE) a frame splats: its medium collisions, or with
     ``splat`` = beams its segments in the medium that reached a surface or the medium's
     end (what splat/compact.comp.glsl gathers)."""
-    if splat == "beams":
-        return (records["inside"] < 0) & np.isin(records["status"], (STATUS_SURFACE, STATUS_LEFT_SCENE))
-    return records["status"] == STATUS_COLLIDED
+    return splatted_mask(records["inside"], records["status"], splat == "beams")
 
 
 def record_splats(records: np.ndarray, splat: str) -> np.ndarray:

@@ -25,7 +25,7 @@ from typing import TYPE_CHECKING, Protocol
 import numpy as np
 
 from volcaustics.scenes.bounds import box_exit
-from volcaustics.scenes.formats import RECORD_DTYPE, STATUS_COLLIDED, STATUS_LEFT_SCENE, STATUS_SURFACE
+from volcaustics.scenes.formats import RECORD_DTYPE, splatted_mask
 from volcaustics.scenes.rng import uniform
 
 from .oracle import (
@@ -284,10 +284,10 @@ def _numpy_steps(steps, group, seed, idx, o, d, inside, power, *, c, oracle) -> 
     for step in range(1, steps + 1):
         s = advance(c, oracle, step, seed, idx, o, d, inside, power)
         if c.beams:  # the segments in the medium that reached a surface or the medium's end
-            keep = (inside < 0) & np.isin(s["status"], (STATUS_SURFACE, STATUS_LEFT_SCENE))
+            keep = splatted_mask(inside, s["status"], beams=True)
             row = {"start": o[keep], "length": s["along"][keep], "power": power[keep]}
         else:
-            keep = s["status"] == STATUS_COLLIDED
+            keep = splatted_mask(inside, s["status"], beams=False)
             row = {"end": s["end"][keep], "power": s["new_power"][keep]}
         if keep.any():
             kept.append({"step": step, "group": group[keep], "photon": idx[keep], "direction": d[keep], **row})

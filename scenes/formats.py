@@ -34,6 +34,16 @@ STATUS_LOST = 4        # inside glass and no exit found: terminated
 STATUS_NAMES = {STATUS_DEAD: "dead", STATUS_SURFACE: "surface", STATUS_COLLIDED: "collided",
                 STATUS_LEFT_SCENE: "left_scene", STATUS_LOST: "lost"}
 
+def splatted_mask(inside: np.ndarray, status: np.ndarray, beams: bool) -> np.ndarray:
+    """Which segments a step splats, from the medium (``inside`` < 0) or glass it started
+    in and its status after the step: the medium collisions, or with ``beams`` (splat =
+    beams) the segments in the medium that reached a surface or the medium's end (the
+    numpy twin of splat/compact.comp.glsl's rule)."""
+    if beams:
+        return (np.asarray(inside) < 0) & np.isin(status, (STATUS_SURFACE, STATUS_LEFT_SCENE))
+    return np.asarray(status) == STATUS_COLLIDED
+
+
 # --- flag bits of a segment (Record.extra.x, RECORD_DTYPE["flags"])
 FLAG_LEFT_FRUSTUM = 1  # part of the segment lay outside the light maps
 FLAG_REFLECTED = 2     # the interaction at the end reflected (Fresnel choice or TIR)

@@ -1,6 +1,7 @@
 // Gather one step's medium collisions (SPLAT_BEAMS: its segments in the medium, each a
-// beam) from the per-photon records into a compact splat list, in photon order, so that additive blending sums them in the same
-// order on every run (bit-identical images for a seed). Two dispatches:
+// beam) from the per-photon records into a compact splat list, in photon order, so that
+// additive blending sums them in the same order on every run (bit-identical images for a
+// seed). Two dispatches:
 //   PASS_COUNT: per block of BLOCK photons, the number of collisions;
 //   PASS_WRITE: each collision goes to block_offset[block] + its rank in the block
 //               (exclusive prefix sum in shared memory; offsets summed on the CPU).
