@@ -35,6 +35,7 @@ import numpy as np
 
 from .denoise import DENOISED
 from .emission import emission_reads
+from .params import carries_differentials
 from .splat import splatted
 
 if TYPE_CHECKING:
@@ -64,7 +65,8 @@ def frame_cost(records: list, params: ApproxParams, work: dict | None = None) ->
     search = sum(int(np.asarray(r["map_reads"], np.int64).sum()) for r in records)
     splats = sum(int(np.count_nonzero(splatted(r, params.splat))) for r in records)
     emitted = len(records[0]) if records else 0
-    emission = emission_reads(params.photon_res, emitted, emission=params.emission, splat=params.splat)
+    emission = emission_reads(params.photon_res, emitted, emission=params.emission,
+                              differentials=carries_differentials(params))
     # resolved parameters: width and height set
     denoised = len(DENOISED) * cast(int, params.width) * cast(int, params.height) if params.denoise == "oidn" else 0
     density = DENSITY_READS * splats if params.splat == "density" else 0

@@ -40,7 +40,7 @@ if TYPE_CHECKING:
 SLOT_DTYPE = np.dtype([("texel", "<i4"), ("weight", "<f4")])
 
 # The importance pass reads each texel and its 4 neighbours; emission reads the map and the
-# geometric normals of a photon's texel, and adaptive splats 2 or 4 neighbours more for the
+# geometric normals of a photon's texel, and ray differentials 2 or 4 neighbours more for the
 # curvature (emit.comp.glsl's emission_curvature; 4 counted, its worst case).
 IMPORTANCE_READS = 5
 EMISSION_READS = 2
@@ -67,11 +67,11 @@ def draw_slots(importance: np.ndarray, seed: int) -> np.ndarray:
     return slots
 
 
-def emission_reads(photon_res: int, emitted: int, *, emission: str, splat: str) -> int:
+def emission_reads(photon_res: int, emitted: int, *, emission: str, differentials: bool) -> int:
     """Emission-map texels a frame reads: the importance pass's (adaptive emission) and
-    each photon's own (``emitted``: photons that hit a surface), with adaptive splats'
-    curvature neighbours."""
-    per_photon = EMISSION_READS + (CURVATURE_READS if splat == "adaptive" else 0)
+    each photon's own (``emitted``: photons that hit a surface), with the curvature
+    neighbours of photons that carry ray differentials (``params.carries_differentials``)."""
+    per_photon = EMISSION_READS + (CURVATURE_READS if differentials else 0)
     return (IMPORTANCE_READS * photon_res**2 if emission == "adaptive" else 0) + per_photon * emitted
 
 

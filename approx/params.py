@@ -160,8 +160,14 @@ _DECLARED: tuple = (  # one entry per ApproxParams field, in its order
           glsl="define", to_defines=lambda v: {f"SPLAT_{v.upper()}": 1} if v != "fixed" else {}),
     Param("splat_neighbours", int, 16, "density splats: the photons a kernel's σ-disc holds on average", "", 1,
           4096, glsl="uniform"),
-    Param("splat_footprints", float, 4.0, "adaptive splats: the kernel's standard deviation in photon footprints",
-          "", 0, 100, glsl="uniform"),
+    Param("splat_footprints", float, 4.0, "adaptive splats and differential beams: the kernel's standard deviation "
+          "in photon footprints", "", 0, 100, glsl="uniform"),
+    Param("beam_width", str, "fixed", "beams' kernel width: fixed (splat_radius along every beam) or differential "
+          "(splat_footprints × the photon's ray-differential footprint, which changes linearly along the beam at "
+          "the rate the differential carries, within [splat_radius/16, 4·splat_radius]: beams widen where the "
+          "light spreads and narrow where it focuses); other splat modes ignore it",
+          choices=("fixed", "differential"), program="trace", glsl="define",
+          to_defines=lambda v: {"BEAM_DIFFERENTIAL": 1} if v == "differential" else {}),
     Param("emission", str, "uniform", "where photons start: uniform (paper: one per covered texel of the photon "
           "map) or adaptive (the photon_res² photons drawn over the texels in proportion to their power times 1 + "
           "3 where the surface turns sharply or breaks, each weighted by 1/its expected count: unbiased)",
@@ -250,6 +256,7 @@ class ApproxParams(ParamsMethods):
     splat: str = declared("splat")
     splat_neighbours: int = declared("splat_neighbours")
     splat_footprints: float = declared("splat_footprints")
+    beam_width: str = declared("beam_width")
     emission: str = declared("emission")
     emission_jitter: str = declared("emission_jitter")
     denoise: str = declared("denoise")
@@ -299,6 +306,14 @@ def defines(params: ParamsMethods, program: str) -> dict:
         if p.glsl == "define" and p.program == program:
             out.update(p.defines(getattr(params, p.name)))
     return out
+
+
+def carries_differentials(params: ParamsMethods) -> bool:
+    """Whether ``params``' photons carry ray differentials (common/differential.glsl):
+    their kernels come from them (splat = adaptive, or beams with beam_width =
+    differential)."""
+    splat = getattr(params, "splat", "fixed")
+    return splat == "adaptive" or (splat == "beams" and getattr(params, "beam_width", "fixed") == "differential")
 
 
 def label(name: str) -> str:

@@ -14,11 +14,13 @@ from volcaustics.scenes.formats import RECORD_DTYPE, STATUS_COLLIDED, STATUS_DEA
 
 
 def records_from_raw(raw: np.ndarray, step: int, *, active_only: bool = True,
-                     footprint: np.ndarray | None = None) -> np.ndarray:
+                     differentials: np.ndarray | None = None) -> np.ndarray:
     """Convert one step's raw GPU records (N rows of RAW_RECORD_DTYPE) to RECORD_DTYPE
     (photons not dead at this step, or every slot when ``active_only`` is false);
-    ``footprint``: per slot, the photons' differential footprint after the step
-    (``PhotonTracer.footprints``, splat = adaptive), else 0."""
+    ``differentials``: per slot, what the step's kernels were made of
+    (``PhotonTracer.kernel_differentials``, DIFFERENTIAL_DTYPE: splat = adaptive the
+    footprint after the step, beam_width = differential the footprint at the segment's
+    start and its rate), else 0."""
     status = raw["end_status"][:, 3].astype(np.int64)
     index = np.nonzero(status != STATUS_DEAD)[0] if active_only else np.arange(len(raw))
     r = raw[index]
@@ -43,7 +45,8 @@ def records_from_raw(raw: np.ndarray, step: int, *, active_only: bool = True,
     out["status"] = r["end_status"][:, 3]
     out["flags"] = r["extra"][:, 0]
     out["map_reads"] = r["power_start"][:, 3]
-    out["footprint"] = 0.0 if footprint is None else footprint[index]
+    out["footprint"] = 0.0 if differentials is None else differentials["footprint"][index]
+    out["footprint_rate"] = 0.0 if differentials is None else differentials["rate"][index]
     return out
 
 

@@ -282,7 +282,7 @@ class Renderer:
             step_image.release()
             if keep_records:
                 records.append(records_from_raw(read_raw_records(record_buf, count), step,
-                                                footprint=tracer.footprints(count)))
+                                                differentials=tracer.kernel_differentials(count)))
         return records, caustic_steps, loop_work
 
     def splat(self, splats: np.ndarray, scene: Scene | None = None, params: ApproxParams | None = None) -> np.ndarray:

@@ -37,6 +37,9 @@ DENSITY_CELL = 4
 # photon near the camera a kernel a few pixels wide, a few millimetres in the medium: its
 # 1/d² makes it a firefly (docs/decisions.md "Bandwidth from density")
 DENSITY_FLOOR = 0.5
+# beam_width = differential: the least σ0 a row carries (m), so that one whose footprint is 0
+# where it starts (at a focus) still carries its own kernel (Beam.dir.w > 0; compact.comp.glsl)
+BEAM_SIGMA_FLOOR = 1e-20
 
 
 def splats_from_arrays(end: ArrayLike, direction: ArrayLike, power: ArrayLike,
@@ -99,10 +102,40 @@ def adaptive_sigma(footprint: ArrayLike, params: ApproxParams) -> np.ndarray:
     return np.clip(scaled, radius / np.float32(16.0), np.float32(4.0) * radius)
 
 
-def record_sigma(records: np.ndarray, params: ApproxParams) -> np.ndarray | None:
-    """Per record (RECORD_DTYPE) the kernel its collision was splatted with: None for
-    splat = fixed (splat_radius for all)."""
-    return adaptive_sigma(records["footprint"], params) if params.splat == "adaptive" else None
+def beam_kernels(footprint: ArrayLike, rate: ArrayLike, params: ApproxParams) -> tuple[np.ndarray, np.ndarray]:
+    """(σ0, its rate) per beam (m and m/m, float32) that beam_width = differential gives
+    segments starting with differential ``footprint`` (m, signed) changing at ``rate``
+    along them: numpy twin of splat/compact.comp.glsl, bit for bit (σ0 = |a|, a =
+    splat_footprints × footprint, at least BEAM_SIGMA_FLOOR; the rate sign(a) ×
+    splat_footprints × rate, so that |σ0 + rate·s| is the footprint's at s; the splatter
+    clamps it, splat/beam_width.glsl)."""
+    scale = np.float32(params.splat_footprints)
+    a = scale * np.asarray(footprint, np.float32)
+    sigma0 = np.maximum(np.abs(a), np.float32(BEAM_SIGMA_FLOOR))
+    return sigma0, np.where(a < 0, -scale, scale) * np.asarray(rate, np.float32)
+
+
+def record_kernels(records: np.ndarray, params: ApproxParams) -> np.ndarray | None:
+    """Per record (RECORD_DTYPE) the kernel its row was splatted with, N×2 float32 (the
+    row's σ and its rate along a beam: SPLAT_DTYPE/BEAM_DTYPE dir.w and power.w): splat =
+    adaptive the collision's σ (rate 0), beams with beam_width = differential
+    :func:`beam_kernels`; None where every row takes splat_radius."""
+    if params.splat == "adaptive":
+        sigma = adaptive_sigma(records["footprint"], params)
+        return np.stack([sigma, np.zeros_like(sigma)], axis=1)
+    if params.splat == "beams" and params.beam_width == "differential":
+        return np.stack(beam_kernels(records["footprint"], records["footprint_rate"], params), axis=1)
+    return None
+
+
+def with_kernels(rows: np.ndarray, kernels: ArrayLike) -> np.ndarray:
+    """``rows`` (SPLAT_DTYPE or BEAM_DTYPE) carrying ``kernels`` (N×2: σ as dir.w, its rate
+    along a beam as power.w; :func:`record_kernels`), a copy."""
+    kernels = np.asarray(kernels, np.float32).reshape(-1, 2)
+    out = rows.copy()
+    out["dir"][:, 3] = kernels[:, 0]
+    out["power"][:, 3] = kernels[:, 1]
+    return out
 
 
 def _add_into(ctx, target: moderngl.Texture, vao, mode, vertices: int, instances: int) -> None:

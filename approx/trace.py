@@ -27,7 +27,9 @@ from .emission import draw_slots
 from .glsl import compute_shader, set_uniforms, uniform
 from .light import spot_constants
 from .limits import check_fits, max_image_size
+from .params import carries_differentials
 from .params import defines as table_defines
+from .splat import BEAM_SIGMA_FLOOR
 from .transforms import gl_matrix
 
 if TYPE_CHECKING:
@@ -109,8 +111,12 @@ class PhotonTracer:
         self.pyramid = shaders.get("pyramid")
         self.compact_count, self.compact_write = shaders["compact_count"], shaders["compact_write"]
         self.adaptive = "SPLAT_ADAPTIVE" in defines
-        # splat = adaptive: the photons' DIFFERENTIAL_DTYPE buffer of this frame
+        self.beam_differential = "BEAM_DIFFERENTIAL" in defines
+        self.carries_differentials = "DIFFERENTIALS" in defines
+        # splat = adaptive or beam_width = differential: the photons' DIFFERENTIAL_DTYPE buffer of this frame
         self.differentials: moderngl.Buffer | None = None
+        # beam_width = differential: per photon the differential at its step's segment start (DIFFERENTIAL_DTYPE)
+        self.segment_differentials: moderngl.Buffer | None = None
         self.emission_adaptive = "EMISSION_ADAPTIVE" in defines
         self.emission_shift = float(defines.get("EMISSION_SHIFT", 0.0))  # texels (a test's wrong grid, emit.comp.glsl)
         self.importance = shaders.get("importance")
@@ -127,20 +133,25 @@ class PhotonTracer:
         defines, equal programs: the renderer's cache key."""
         fixed = {"MAX_MATERIALS": MAX_MATERIALS, **START_OFFSET,
                  **controls_for(controls, "trace")}
-        return {**fixed, **table_defines(params, "trace")}
+        table = table_defines(params, "trace")
+        if "SPLAT_BEAMS" not in table:
+            table.pop("BEAM_DIFFERENTIAL", None)  # beam_width: beams only (one program for the others)
+        if carries_differentials(params):
+            table["DIFFERENTIALS"] = 1  # emission and trace propagate them
+        return {**fixed, **table}
 
     @staticmethod
     def programs(params: ParamsMethods, controls: dict | None = None) -> dict:
         """name → (shader, defines) of every compute program a tracer for ``params``
         compiles: the constructor's list and the shader check's (scripts/check_shaders.py)."""
         defines = PhotonTracer.defines(params, controls)
-        beams = {"SPLAT_BEAMS": 1} if "SPLAT_BEAMS" in defines else {}
+        beams = {name: 1 for name in ("SPLAT_BEAMS", "BEAM_DIFFERENTIAL") if name in defines}
         out = {"emit": ("emission/emit.comp.glsl", defines), "trace": ("trace/trace.comp.glsl", defines),
                "pack": ("trace/pack_distances.comp.glsl",
                         {**PACK, **({"PACK_PRIMITIVE": 1} if "START_RULE_ID" in defines else {})}),
                "compact_count": ("splat/compact.comp.glsl", {"PASS_COUNT": 1, **beams}),
                "compact_write": ("splat/compact.comp.glsl", {"SPLAT_ADAPTIVE": 1} if "SPLAT_ADAPTIVE" in defines
-                                 else beams)}
+                                 else {**beams, "BEAM_SIGMA_FLOOR": BEAM_SIGMA_FLOOR} if beams else {})}
         if "SEARCH_HIZ" in defines:
             out["pyramid"] = ("trace/pyramid.comp.glsl", {})
         if "EMISSION_ADAPTIVE" in defines:
@@ -177,11 +188,14 @@ class PhotonTracer:
             slots.bind_to_storage_buffer(3)
         photons.bind_to_storage_buffer(0)
         self._solid_angle_buffer(frustum, photon_res).bind_to_storage_buffer(1)
-        if self.adaptive:  # the frame's differentials, beside the photons (emission, trace and compaction use them)
-            if self.differentials is not None:
-                self.differentials.release()
+        if self.carries_differentials:  # the frame's differentials, beside the photons (emission, trace, compaction)
+            for buf in (self.differentials, self.segment_differentials):
+                if buf is not None:
+                    buf.release()
             self.differentials = ctx.buffer(reserve=n * DIFFERENTIAL_DTYPE.itemsize)
             self.differentials.bind_to_storage_buffer(2)
+            self.segment_differentials = (ctx.buffer(reserve=n * DIFFERENTIAL_DTYPE.itemsize)
+                                          if self.beam_differential else None)
         prog.run(group_x=math.ceil(photon_res / 8), group_y=math.ceil(photon_res / 8))
         if slots is not None:
             slots.release()
@@ -211,12 +225,16 @@ class PhotonTracer:
         :meth:`importance_map`) as a storage buffer."""
         return self.ctx.buffer(draw_slots(self.importance_map(scene, frustum, photon_res), seed).tobytes())
 
-    def footprints(self, count: int) -> np.ndarray | None:
-        """The photons' differential footprints (m) now (splat = adaptive), else None."""
-        if not self.adaptive:
+    def kernel_differentials(self, count: int) -> np.ndarray | None:
+        """What the last step's kernels were made of, per photon slot (DIFFERENTIAL_DTYPE):
+        with splat = adaptive the photons' differentials now (the footprint where they
+        ended: compact.comp.glsl scales it), with beam_width = differential those at the
+        start of the step's segment (the beam's footprint there and its rate along it);
+        else None."""
+        buf = self.segment_differentials if self.beam_differential else self.differentials if self.adaptive else None
+        if buf is None:
             return None
-        return np.frombuffer(cast(moderngl.Buffer, self.differentials).read(size=count * DIFFERENTIAL_DTYPE.itemsize),
-                             DIFFERENTIAL_DTYPE)["footprint"].copy()
+        return np.frombuffer(buf.read(size=count * DIFFERENTIAL_DTYPE.itemsize), DIFFERENTIAL_DTYPE).copy()
 
     def map_buffer(self, light_maps: Sequence[LightMap], light_res: int) -> tuple:
         """The light maps (:class:`approx.layers.LightMap`) copied into the tracer's
@@ -303,8 +321,10 @@ class PhotonTracer:
         map_texels.geometric.bind_to_storage_buffer(4)
         if map_texels.primitive is not None:
             map_texels.primitive.bind_to_storage_buffer(5)
-        if self.adaptive:
+        if self.carries_differentials:
             cast(moderngl.Buffer, self.differentials).bind_to_storage_buffer(7)
+        if self.segment_differentials is not None:
+            self.segment_differentials.bind_to_storage_buffer(9)
         if map_texels.pyramid is not None:
             offsets, stride = pyramid_layout(light_res)
             map_texels.pyramid.bind_to_storage_buffer(6)
@@ -328,7 +348,9 @@ class PhotonTracer:
         rows, capacity ``count``) in photon order; returns how many. With ``splat =
         adaptive`` each row carries its kernel width from the photons' differentials and
         ``params``' splat_radius and splat_footprints; with ``splat = beams`` the rows are
-        the step's segments in the medium (BEAM_DTYPE)."""
+        the step's segments in the medium (BEAM_DTYPE), with beam_width = differential each
+        carrying its kernel at its start and the kernel's rate along it
+        (``approx.splat.beam_kernels``)."""
         blocks = math.ceil(count / COMPACT_BLOCK)
         block_buf = self.ctx.buffer(reserve=4 * blocks)
         records.bind_to_storage_buffer(0)
@@ -341,9 +363,10 @@ class PhotonTracer:
         total = int(block_counts.sum(dtype=np.uint64))
         if total:
             block_buf.write(offsets.tobytes())
-            if self.adaptive:
-                cast(moderngl.Buffer, self.differentials).bind_to_storage_buffer(3)
-                p = cast("ApproxParams", params)  # given with splat = adaptive (the docstring)
+            if self.adaptive or self.beam_differential:
+                kernel_source = self.segment_differentials if self.beam_differential else self.differentials
+                cast(moderngl.Buffer, kernel_source).bind_to_storage_buffer(3)
+                p = cast("ApproxParams", params)  # given with splat = adaptive or differential beams (the docstring)
                 set_uniforms(self.compact_write, splat_radius=p.splat_radius, splat_footprints=p.splat_footprints)
             uniform(self.compact_write, "photon_count").value = count
             self.compact_write.run(group_x=blocks)
@@ -352,8 +375,9 @@ class PhotonTracer:
 
     def release(self) -> None:
         self.work.release()
-        if self.differentials is not None:
-            self.differentials.release()
+        for buf in (self.differentials, self.segment_differentials):
+            if buf is not None:
+                buf.release()
         for prog in (self.emit, self.trace, self.pack, self.pyramid, self.compact_count, self.compact_write):
             if prog is not None:
                 prog.release()

@@ -148,5 +148,7 @@ RECORD_DTYPE = np.dtype([
     ("flags", "<u1"),           # FLAG_* bits
     ("map_reads", "<u4"),       # light-map texels the search read (0 for the exact tracer): cost across hardware
     ("footprint", "<f4"),       # splat = adaptive: the photon's ray-differential footprint where the step
-                                # ended (m, signed; DIFFERENTIAL_DTYPE); 0 otherwise and for the exact tracer
+                                # ended (m, signed; DIFFERENTIAL_DTYPE); beam_width = differential: at the
+                                # segment's start; 0 otherwise and for the exact tracer
+    ("footprint_rate", "<f4"),  # beam_width = differential: the footprint's rate along the segment (m/m); else 0
 ])

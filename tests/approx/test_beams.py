@@ -145,6 +145,47 @@ def test_a_beam_carrying_its_own_kernel_keeps_its_energy_however_narrow(ctx):
         assert np.abs(np.array(sampled) - 1.0).max() > 0.3, (fraction, sampled)
 
 
+def _spread(image: np.ndarray, column: int, rows_m: np.ndarray) -> float:
+    """The variance (m²) across a horizontal beam of one image column, rows at ``rows_m``."""
+    weight = image[:, column]
+    mean = float((weight * rows_m).sum() / weight.sum())
+    return float((weight * rows_m**2).sum() / weight.sum()) - mean**2
+
+
+def test_a_beam_whose_kernel_changes_along_it_draws_its_widths_and_keeps_its_energy(ctx):
+    """beam_width = differential: a row carrying σ0 at its start and a rate along it
+    (splat/beam_width.glsl). A beam across the view at 4 m, σ from 0.6 to 2.4 pixels: each
+    column's spread across it is the kernel there, σ(s)² times the cut Gaussian's factor
+    plus a pixel's box (1/12 px²), within 1% (the pixel grid, as for an adaptive splat;
+    measured ≤ 0.1%), and Σ L·Ω is the quadrature's to 1% (the 1-D kernel keeps its
+    integral at every s, the ends' Gaussians take the nearer end's σ; measured 0.01%).
+    The negative control: the same row without its rate is drawn σ0 wide all along, so
+    the far end's spread is flagged."""
+    sigma_t = sigma_s = 0.1
+    _, omega = pixel_solid_angles(CAMERA.fov_y, CAMERA.width)
+    half = math.tan(math.radians(CAMERA.fov_y / 2))
+    pixel = 4.0 * 2.0 * half / CAMERA.height
+    sigma0, rate, length = 0.6 * pixel, 0.9 * pixel, 2.0  # σ(s) = σ0 + rate·s: 0.6 to 2.4 pixels
+    y = 1.0 + 0.3 * pixel
+    widening = beams_from_arrays([(-1.0, y, 0.0)], [(1.0, 0.0, 0.0)], [length], [(0.2, 0.2, 0.2)], sigma=[sigma0])
+    widening["power"][:, 3] = rate
+    radius = 2.0 * pixel  # the clamp [radius/16, 4·radius] holds the whole beam
+    image = _image(ctx, widening, beams=True, sigma_t=sigma_t, sigma_s=sigma_s, radius=radius)
+    assert float((image * omega).sum()) == pytest.approx(_quadrature(widening, sigma_t, sigma_s), rel=1e-2)
+    centres = ((np.arange(CAMERA.height) + 0.5) / CAMERA.height * 2 - 1) * half * 4.0 + 1.0  # rows at z = 0 (m)
+    cut = 1 - 6 * math.exp(-4.5) / math.sqrt(2 * math.pi) / math.erf(3 / math.sqrt(2))
+    constant = widening.copy()
+    constant["power"][:, 3] = 0.0
+    flat = _image(ctx, constant, beams=True, sigma_t=sigma_t, sigma_s=sigma_s, radius=radius)
+    for x in (-0.6, 0.0, 0.6):  # the columns over x (m) on the beam
+        column = int((x / 4.0 / half + 1) / 2 * CAMERA.width)
+        x_centre = ((column + 0.5) / CAMERA.width * 2 - 1) * half * 4.0
+        sigma = sigma0 + rate * (x_centre + 1.0)
+        expected = sigma**2 * cut + pixel**2 / 12
+        assert _spread(image, column, centres) == pytest.approx(expected, rel=1e-2), x
+    assert _spread(flat, column, centres) < 0.5 * expected  # the far column: σ0 wide, not σ(s)
+
+
 def test_a_beam_pass_counts_the_fragments_it_shades_beside_those_it_writes(ctx):
     """The beam pass's time follows the fragments it shades (approx.invocations), most of
     them discarded; the written ones (samples passed) miss those. The same beams drawn

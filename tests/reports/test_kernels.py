@@ -1,5 +1,6 @@
 """The kernels of the decomposition's images (``reports.measuring.experiment.kernels``): A's paired
-subsets average to the real frames for every splat mode (negative control: subsets
+subsets average to the real frames for every splat mode (differential beams included: their
+kernels rebuilt from the records are the frame's, bit for bit) (negative control: subsets
 splatted with their own density, the old path), the widths pass gives the frame's own
 density widths, and E_∞,s is the fixed small kernel whatever A's splat mode (negative
 control: the density splatter)."""
@@ -13,7 +14,7 @@ import pytest
 
 from volcaustics.approx import Renderer
 from volcaustics.approx.params import PRESETS, QUICK
-from volcaustics.approx.splat import splats_from_arrays
+from volcaustics.approx.splat import record_kernels, record_splats, splats_from_arrays, splatted, with_kernels
 from volcaustics.metrics.noise import debiased_relative_mse
 from volcaustics.reference.oracle import Oracle
 from volcaustics.reports.measuring.experiment import exact_images as exact_module
@@ -29,7 +30,8 @@ SIZE = 64
 BATCHES = 8
 SEEDS = [0, 1]
 SPLATS = {"fixed": {}, "adaptive": {"splat": "adaptive"},
-          "density": {key: getattr(PRESETS["best"], key) for key in ("splat", "splat_neighbours", "fresnel", "steps")}}
+          "density": {key: getattr(PRESETS["best"], key) for key in ("splat", "splat_neighbours", "fresnel", "steps")},
+          "differential beams": {"splat": "beams", "beam_width": "differential"}}
 
 
 def _scene(name: str):
@@ -108,6 +110,25 @@ def test_the_widths_pass_gives_each_splat_the_frames_density_width(ctx):
         sparse["dir"][:, 3] = renderer.density_widths(splats, splats[::8], scene, p)
         assert np.mean(sparse["dir"][:, 3]) > 1.5 * np.mean(own["dir"][:, 3])
         assert not np.allclose(renderer.splat(sparse, scene, per_splat), frames[0].caustic_steps[1])
+    finally:
+        renderer.release()
+
+
+def test_differential_beams_from_their_records_are_the_frames_beams(ctx):
+    """A step's beams rebuilt from its records with the kernels the records give them
+    (``approx.splat.record_kernels``: σ at the start and its rate, the numpy twin of the
+    compaction) are that step's beams image bit for bit; with the rates dropped (every
+    beam σ0 wide all along) the image changes."""
+    scene = load_builtin("sphere1")
+    renderer, p, frames = _frames(scene, "differential beams", photon_res=128)
+    try:
+        records = frames[0].records[1]  # step 2: the beams leaving the sphere
+        beams = records[splatted(records, p.splat)]
+        rows = with_kernels(record_splats(beams, p.splat), record_kernels(beams, p))
+        assert np.array_equal(renderer.splat(rows, scene, p), frames[0].caustic_steps[1])
+        assert np.abs(rows["power"][:, 3]).max() > 0
+        rows["power"][:, 3] = 0.0
+        assert not np.allclose(renderer.splat(rows, scene, p), frames[0].caustic_steps[1])
     finally:
         renderer.release()
 

@@ -65,7 +65,8 @@ struct Splat {
 struct Beam {
     vec4 start_length;  // xyz segment start; w: its length to the next surface or the medium's end (m)
     vec4 dir;           // xyz unit direction; w: kernel σ (m), 0: splat_radius
-    vec4 power;         // rgb power at the start (before the medium's transmittance)
+    vec4 power;         // rgb power at the start (before the medium's transmittance); w: the kernel σ's
+                        // rate along the beam (m/m; beam_width = differential, else 0)
 };
 
 #endif

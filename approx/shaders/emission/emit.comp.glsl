@@ -11,6 +11,8 @@
 // a uniformly random point u(seed, texel, 0, 2..3) (EMISSION_JITTER_RANDOM) or at the
 // Owen-scrambled Sobol point of its texel's Morton index, scrambled by the seed
 // (EMISSION_JITTER_SOBOL; scenes/sobol.py).
+// DIFFERENTIALS (splat = adaptive, beam_width = differential): each photon's ray
+// differential at its first surface (common/differential.glsl).
 #include "common/rng.glsl"
 #include "common/sobol.glsl"
 #include "common/optics.glsl"
@@ -35,7 +37,7 @@ struct Slot { int texel; float weight; };
 layout(std430, binding = 3) readonly buffer Slots { Slot slots[]; };
 #endif
 
-#ifdef SPLAT_ADAPTIVE
+#ifdef DIFFERENTIALS
 // per photon: (footprint, rate), scenes.formats.DIFFERENTIAL_DTYPE
 layout(std430, binding = 2) writeonly buffer Differentials { vec2 differentials[]; };
 #include "common/differential.glsl"
@@ -114,7 +116,7 @@ void main() {
         uint flags = surface_interaction(d, power, inside, octa_decode(map.ba), geometric, int(map.g + 0.5),
                                          rng_uniform(seed, index, 0u, 1u));
         vec3 from_light = d_in * r;
-#ifdef SPLAT_ADAPTIVE
+#ifdef DIFFERENTIALS
         // From the light the photons' rays spread by the grid's angular spacing (with adaptive
         // emission over √(expected photons of the texel) = √weight of it).
         float spread = ray_spread(plane);
@@ -141,7 +143,7 @@ void main() {
 #endif
     }
     photons[index] = ph;
-#ifdef SPLAT_ADAPTIVE
+#ifdef DIFFERENTIALS
     differentials[index] = diff;
 #endif
 }

@@ -17,23 +17,29 @@
 // that carries its own σ (Beam.dir.w > 0: the decomposition's small kernel) has its
 // kernel integrated over the pixel's area instead (beam_pixel_mass), so that a kernel
 // narrower than a pixel keeps its integral whatever its offset from the pixel centres.
+// A kernel whose σ changes along the beam (beam_width = differential) is taken at the
+// closest approach: the 1-D kernel keeps its integral across the beam at every s, so the
+// beam keeps its energy; only its ends' Gaussians take the σ of the nearer end.
 // Controls (negative controls of tests): BEAM_NO_SINE drops 1/sin θ,
 // BEAM_NO_CAMERA_TRANSMITTANCE drops exp(−σt·t).
 #include "common/erf.glsl"
 #include "common/phase.glsl"
 #include "splat/kernel.glsl"
+#include "splat/beam_width.glsl"
 #include "common/kinds.glsl"
 
 uniform vec3 eye;
 uniform vec3 sigma_s;
 uniform vec3 sigma_t;
+uniform float splat_radius;        // the kernel σ (m), or the bounds of a beam's own (splat/beam_width.glsl)
 uniform sampler2D scene_distance;  // G-buffer (distance to the first surface, KIND_*, material, 0)
 
 in vec3 v_corner;
 flat in vec3 v_start;
 flat in vec3 v_dir;
 flat in float v_length;
-flat in float v_sigma;
+flat in float v_sigma0;
+flat in float v_rate;
 flat in vec3 v_power;
 flat in float v_boxed;  // 1: the kernel integrated over each pixel's area; 0: point-sampled
 
@@ -87,24 +93,26 @@ void main() {
     float t = (b * d_beam - d_ray) / sin2;  // closest approach along the pixel ray (m from the eye)
     float s = (d_beam - b * d_ray) / sin2;  // ... along the beam (m from its start)
     float sin_theta = sqrt(sin2);
-    float reach = TRUNCATION * v_sigma / sin_theta;  // the ends' Gaussians, cut as the kernel
+    // the kernel where the ray passes (at the nearer end past the beam's ends)
+    float sigma = beam_sigma(v_sigma0, v_rate, clamp(s, 0.0, v_length), splat_radius);
+    float reach = TRUNCATION * sigma / sin_theta;  // the ends' Gaussians, cut as the kernel
     if (s < -reach || s > v_length + reach || t <= 0.0) discard;
     vec4 g = texelFetch(scene_distance, ivec2(gl_FragCoord.xy), 0);
     if (gbuffer_kind(g) != KIND_NONE && t > g.x) discard;
     float k;
     if (v_boxed > 0.5) {
-        vec2 box = abs(du) / v_sigma;
-        float z = u_signed / v_sigma;
+        vec2 box = abs(du) / sigma;
+        float z = u_signed / sigma;
         if (abs(z) > TRUNCATION + 0.5 * (box.x + box.y)) discard;
-        k = beam_pixel_mass(z, box.x, box.y) / v_sigma;
+        k = beam_pixel_mass(z, box.x, box.y) / sigma;
     } else {
         vec3 gap = w0 + t * ray - s * v_dir;
         float u2 = dot(gap, gap);
-        float R = TRUNCATION * v_sigma;
+        float R = TRUNCATION * sigma;
         if (u2 > R * R) discard;
-        k = exp(-u2 / (2.0 * v_sigma * v_sigma)) / (2.5066282746310002 * v_sigma * AXIS_KEPT_MASS);
+        k = exp(-u2 / (2.0 * sigma * sigma)) / (2.5066282746310002 * sigma * AXIS_KEPT_MASS);
     }
-    float along = sin_theta * 0.7071067811865476 / v_sigma;
+    float along = sin_theta * 0.7071067811865476 / sigma;
     float ends = 0.5 * (erf_approx((v_length - s) * along) + erf_approx(s * along));
 #ifdef BEAM_NO_SINE
     float jacobian = 1.0;

@@ -7,10 +7,11 @@
 // beam's direction across the view. The fragment stage (beam.frag.glsl) does the estimate.
 #include "common/photon.glsl"
 #include "splat/kernel.glsl"
+#include "splat/beam_width.glsl"
 
 uniform mat4 view_proj;
 uniform vec3 eye;
-uniform float splat_radius;   // kernel standard deviation (m), unless the beam carries its own
+uniform float splat_radius;   // kernel standard deviation (m), unless the beam carries its own (then its bounds)
 uniform float pixel_angle;    // 2·tan(fov_y/2)/height: a pixel's width per metre of distance
 
 in vec2 in_corner;            // per vertex: (±1, ±1): (start or end, side)
@@ -22,7 +23,8 @@ out vec3 v_corner;            // world position on the quad: the pixel ray passe
 flat out vec3 v_start;
 flat out vec3 v_dir;
 flat out float v_length;
-flat out float v_sigma;
+flat out float v_sigma0;      // the row's own σ at the start (m), 0: splat_radius (splat/beam_width.glsl)
+flat out float v_rate;        // ... and its rate along the beam (m/m)
 flat out vec3 v_power;
 flat out float v_boxed;       // 1: the beam carries its own σ, integrated over each pixel (beam.frag.glsl)
 
@@ -34,12 +36,12 @@ void main() {
     vec3 a = in_start_length.xyz;
     vec3 d = in_dir.xyz;
     float len = in_start_length.w;
-    float sigma = in_dir.w > 0.0 ? in_dir.w : splat_radius;
     v_boxed = in_dir.w > 0.0 ? 1.0 : 0.0;
     v_start = a;
     v_dir = d;
     v_length = len;
-    v_sigma = sigma;
+    v_sigma0 = in_dir.w;
+    v_rate = in_power.w;
     v_power = in_power.rgb;
     float wa = (view_proj * vec4(a, 1.0)).w;
     float wb = (view_proj * vec4(a + d * len, 1.0)).w;
@@ -59,6 +61,10 @@ void main() {
     float n = length(across);
     across = n > 1e-4 ? across / n : normalize(cross(abs(w.y) < 0.99 ? vec3(0.0, 1.0, 0.0) : vec3(1.0, 0.0, 0.0), w));
     vec3 side = cross(w, across);
+    // the widest kernel of the drawn part (|σ0 + rate·s| clamped is largest at an end), at
+    // both ends: the quad's straight edges then hold every kernel between them
+    float sigma = max(beam_sigma(in_dir.w, in_power.w, lo, splat_radius),
+                      beam_sigma(in_dir.w, in_power.w, hi, splat_radius));
     float R = TRUNCATION * sigma;
     // the tangent cone's radius in the plane facing the camera, 5% and a pixel more: the
     // quad's straight edges between the two ends stay outside the cones between them, and

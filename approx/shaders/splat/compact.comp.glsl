@@ -18,12 +18,20 @@ layout(std430, binding = 2) writeonly buffer Beams { Beam beams[]; };
 layout(std430, binding = 2) writeonly buffer Splats { Splat splats[]; };
 #endif
 uniform uint photon_count;
-#ifdef SPLAT_ADAPTIVE
-// The kernel of a collision: splat_footprints × the photon's footprint there (its ray
-// differential, trace.comp.glsl), within [splat_radius / 16, 4 · splat_radius].
+#if defined(SPLAT_ADAPTIVE) || defined(BEAM_DIFFERENTIAL)
+// SPLAT_ADAPTIVE: the kernel of a collision is splat_footprints × the photon's footprint
+// there (its ray differential, trace.comp.glsl), within [splat_radius / 16, 4 · splat_radius].
+// BEAM_DIFFERENTIAL: a beam's kernel is splat_footprints × the footprint w + r·s at s along
+// it, (w, r) the differential at its start; the row carries σ0 = |a| (a = splat_footprints·w,
+// at least BEAM_SIGMA_FLOOR so that it counts as the beam's own) and the rate sign(a)·
+// splat_footprints·r, so that |σ0 + rate·s| = |a + b·s|; the splatter clamps it
+// (splat/beam.vert.glsl). Numpy twin: approx.splat.beam_kernels.
 layout(std430, binding = 3) readonly buffer Differentials { vec2 differentials[]; };  // (footprint, rate)
 uniform float splat_radius;
 uniform float splat_footprints;
+#endif
+#ifndef BEAM_SIGMA_FLOOR
+#define BEAM_SIGMA_FLOOR 1e-20
 #endif
 
 shared uint rank[BLOCK];
@@ -56,12 +64,18 @@ void main() {
         uint slot = block_value[gl_WorkGroupID.x] + rank[lane] - 1u;
 #ifdef SPLAT_ADAPTIVE
         float sigma = clamp(splat_footprints * abs(differentials[i].x), splat_radius / 16.0, 4.0 * splat_radius);
+        float rate = 0.0;
+#elif defined(BEAM_DIFFERENTIAL)
+        float a = splat_footprints * differentials[i].x;
+        float sigma = max(abs(a), BEAM_SIGMA_FLOOR);
+        float rate = (a < 0.0 ? -splat_footprints : splat_footprints) * differentials[i].y;
 #else
         float sigma = 0.0;  // the uniform splat_radius
+        float rate = 0.0;
 #endif
 #ifdef SPLAT_BEAMS
         float len = status == STATUS_SURFACE ? r.dir_t.w : r.extra.z;  // to the hit, or the searched span
-        beams[slot] = Beam(vec4(r.start_maxlen.xyz, len), vec4(r.dir_t.xyz, sigma), vec4(r.power_start.rgb, 0.0));
+        beams[slot] = Beam(vec4(r.start_maxlen.xyz, len), vec4(r.dir_t.xyz, sigma), vec4(r.power_start.rgb, rate));
 #else
         splats[slot] = Splat(vec4(r.end_status.xyz, float(STATUS_COLLIDED)), vec4(r.dir_t.xyz, sigma),
                              vec4(r.power_inside.rgb, 0.0));

@@ -39,6 +39,9 @@
 // CROSSING_SURFACE (with CROSSING_TEXELS), FRESNEL_STOCHASTIC and CLIP_TO_OBJECTS when chosen;
 // SPLAT_BEAMS (splat = beams): no free flight in the medium, a segment runs to the next
 // surface or the medium's end, and splat/compact.comp.glsl makes it a beam.
+// DIFFERENTIALS (splat = adaptive, beam_width = differential): the photons carry ray
+// differentials through every step; BEAM_DIFFERENTIAL also keeps each photon's at its
+// segment's start (the beam's footprint there and its rate along it) for the compaction.
 // Where the driver has subgroups (GL_ARB_shader_ballot, 64-bit ballots), the loop work
 // is also counted in lockstep: a subgroup runs until its longest search ends.
 #extension GL_ARB_shader_ballot : enable
@@ -88,10 +91,13 @@ layout(std430, binding = 4) readonly buffer LightMapGeometric { vec2 map_geometr
 layout(std430, binding = 5) readonly buffer LightMapPrimitive { float map_primitive[]; };
 #endif
 
-#ifdef SPLAT_ADAPTIVE
+#ifdef DIFFERENTIALS
 // per photon: (footprint, rate), scenes.formats.DIFFERENTIAL_DTYPE
 layout(std430, binding = 7) buffer Differentials { vec2 differentials[]; };
 #include "common/differential.glsl"
+#endif
+#ifdef BEAM_DIFFERENTIAL
+layout(std430, binding = 9) writeonly buffer SegmentDifferentials { vec2 segment_differentials[]; };
 #endif
 
 // the trace loop's work this dispatch (approx.cost: lookups, one atomic add per photon;
@@ -280,7 +286,7 @@ float search_maps(vec3 o, vec3 d, vec4 c0, vec4 c1, float search, float t0, floa
     return best_t;
 }
 
-#ifdef SPLAT_ADAPTIVE
+#ifdef DIFFERENTIALS
 // World position of map texel `index` holding distance r (its ray from the light).
 vec3 map_texel_point(int index, float r) {
     int x = index % light_res, y = (index / light_res) % light_res;
@@ -355,8 +361,11 @@ void main() {
         return;
     }
 
-#ifdef SPLAT_ADAPTIVE
+#ifdef DIFFERENTIALS
     vec2 diff = differentials[i];
+#endif
+#ifdef BEAM_DIFFERENTIAL
+    segment_differentials[i] = diff;  // the beam's footprint at its start, and its rate along it
 #endif
     vec3 o = ph.pos.xyz;
     vec3 d = ph.dir.xyz;
@@ -432,7 +441,7 @@ void main() {
         uint interaction = surface_interaction(d, power, inside, normal, geometric, material_hit,
                                                rng_uniform(seed, i, step_index, 1u));
         g_flags |= interaction;
-#ifdef SPLAT_ADAPTIVE
+#ifdef DIFFERENTIALS
         diff.x += diff.y * best_t;
         float kappa = 0.0;
         if (best_index >= 0) {
@@ -459,7 +468,7 @@ void main() {
         end = o + d * max_len;
         power *= exp(-sigma_t * max_len);
         status = STATUS_COLLIDED;
-#ifdef SPLAT_ADAPTIVE
+#ifdef DIFFERENTIALS
         diff.x += diff.y * max_len;  // the footprint where it is splatted (compact.comp.glsl)
 #endif
 #endif
@@ -472,7 +481,7 @@ void main() {
     ph.dir = vec4(d, float(status));
     ph.power = vec4(power, next_offset);
     photons[i] = ph;
-#ifdef SPLAT_ADAPTIVE
+#ifdef DIFFERENTIALS
     differentials[i] = diff;
 #endif
 

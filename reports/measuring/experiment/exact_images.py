@@ -43,7 +43,7 @@ from volcaustics.reports.measuring.experiment.exact_store import (
     load_exact,
     save_exact,
 )
-from volcaustics.reports.measuring.experiment.kernels import KERNEL_RULES, frame_kernels, splat_params
+from volcaustics.reports.measuring.experiment.kernels import frame_kernels, kernel_rule, splat_params
 from volcaustics.reports.measuring.experiment.measurement import EXACT_STEPS, SUBSET_BATCHES, MeasurementSettings
 from volcaustics.scenes.bounds import medium_bounds
 from volcaustics.scenes.rng import pcg_hash
@@ -106,7 +106,8 @@ def small_radius(scene: Scene, p: ApproxParams) -> float:
 def small_kernel_params(scene: Scene, p: ApproxParams) -> ApproxParams:
     """What E_∞,s is splatted with whatever A's splat mode: the fixed small kernel (beams
     stay beams: E_∞,s's photons are then beams, the small kernel theirs)."""
-    return dataclasses.replace(p, splat="beams" if p.splat == "beams" else "fixed", splat_radius=small_radius(scene, p))
+    return dataclasses.replace(p, splat="beams" if p.splat == "beams" else "fixed", beam_width="fixed",
+                               splat_radius=small_radius(scene, p))
 
 
 def small_kernel_rows(rows: np.ndarray, small: ApproxParams) -> np.ndarray:
@@ -120,6 +121,7 @@ def small_kernel_rows(rows: np.ndarray, small: ApproxParams) -> np.ndarray:
         return rows
     out = rows.copy()
     out["dir"][:, 3] = np.float32(small.splat_radius)
+    out["power"][:, 3] = 0.0  # the same σ all along
     return out
 
 
@@ -149,7 +151,7 @@ def exact_images(scene: Scene, p: ApproxParams, frames: list[Frame], seeds: list
     return {"batches": {"approx": approx, **exact["batches"]}, "alive": exact["alive"],
             "small_radius": exact["small_radius"], "subphotons": subphotons, "exact_key": key,
             "exact_reused": reused, "exact_steps": exact_steps, "subset_batches": subset_batches,
-            "kernels": KERNEL_RULES[p.splat]}
+            "kernels": kernel_rule(p)}
 
 
 def approx_subsets(scene: Scene, p: ApproxParams, frames: list[Frame], seeds: list[int], renderer: Renderer,

@@ -6,10 +6,12 @@ that seed's real frame**, so that each term changes one thing and the decomposit
 image is the real frames' mean:
 
 * ``fixed``: splat_radius for every photon (nothing depends on the photons); ``beams``
-  the same for every beam;
+  the same for every beam (beam_width = fixed);
 * ``adaptive``: the kernel A gave the same photon (emission texel) at the same step
   (its ray differential's footprint), else, for a photon A did not splat there (another
-  path, or a step beyond A's), the median of A's kernels;
+  path, or a step beyond A's), the median of A's kernels; ``beams`` with beam_width =
+  differential the same rule for a beam's kernel at its start and its rate along it
+  (A's median σ0 at rate 0 where A has none);
 * ``density``: the width the density pre-pass of A's own collisions of the photon's step
   gives at the photon's position (``approx.Renderer.density_widths``: the frame's
   pre-pass and width, by transform feedback), for a step beyond A's ``steps`` A's last
@@ -26,11 +28,11 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Callable
-from typing import TYPE_CHECKING, cast
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from volcaustics.approx.splat import record_sigma, splats_from_arrays
+from volcaustics.approx.splat import record_kernels, splats_from_arrays, with_kernels
 
 if TYPE_CHECKING:
     from volcaustics.approx.params import ApproxParams
@@ -43,7 +45,16 @@ KERNEL_RULES = {
     "adaptive": "A's kernel of the same photon and step (A's median where A has none)",
     "density": "the density field of A's own collisions of the photon's step (beyond A's steps: its last)",
     "beams": "splat_radius for every beam",
+    "beams, differential": "A's kernel (σ at the start, its rate) of the same photon and step (A's median σ, "
+                           "rate 0, where A has none)",
 }
+
+
+def kernel_rule(p: ApproxParams) -> str:
+    """What summary.json says of the decomposition's kernels for ``p`` (KERNEL_RULES)."""
+    if p.splat == "beams" and p.beam_width == "differential":
+        return KERNEL_RULES["beams, differential"]
+    return KERNEL_RULES[p.splat]
 
 #: splats, photon indices, steps → the same splats with their kernel σ (SPLAT_DTYPE dir.w)
 Kernels = Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray]
@@ -66,30 +77,29 @@ def frame_kernels(renderer: Renderer, scene: Scene, p: ApproxParams, collided: n
     collided : the frame's medium collisions, RECORD_DTYPE rows of every step
         (``photon``, ``step``, ``end``, ``direction``, ``power``, ``footprint``).
     """
-    if p.splat == "adaptive":
-        return _paired(collided, cast(np.ndarray, record_sigma(collided, p)))  # adaptive: per-record widths
+    own = record_kernels(collided, p)
+    if own is not None:  # adaptive splats, differential beams: per-record kernels
+        return _paired(collided, own)
     if p.splat == "density":
         return _density_field(renderer, scene, p, collided)
     return lambda splats, photon, step: splats
 
 
-def _paired(collided: np.ndarray, sigma: np.ndarray) -> Kernels:
-    """Adaptive splats: the kernel of the same photon's collision at the same step of A
-    (``collided``, kernels ``sigma``), else the median of A's kernels."""
+def _paired(collided: np.ndarray, own: np.ndarray) -> Kernels:
+    """Adaptive splats and differential beams: the kernel (``own``, N×2: σ and its rate
+    along a beam, ``approx.splat.record_kernels``) of the same photon's row at the same
+    step of A (``collided``), else A's median σ at rate 0."""
     order = np.lexsort((collided["step"], collided["photon"]))
     keys = collided["photon"][order].astype(np.int64) << 16 | collided["step"][order].astype(np.int64)
-    sorted_sigma = sigma[order]
-    fallback = np.float32(np.median(sigma)) if len(sigma) else np.float32(0)
+    sorted_own = own[order]
+    fallback = np.array([np.median(own[:, 0]) if len(own) else 0.0, 0.0], np.float32)
 
     def kernels(splats, photon, step):
-        out = splats.copy()
         if not len(keys):
-            out["dir"][:, 3] = fallback
-            return out
+            return with_kernels(splats, np.tile(fallback, (len(splats), 1)))
         wanted = np.asarray(photon, np.int64) << 16 | np.asarray(step, np.int64)
         at = np.clip(np.searchsorted(keys, wanted), 0, len(keys) - 1)
-        out["dir"][:, 3] = np.where(keys[at] == wanted, sorted_sigma[at], fallback)
-        return out
+        return with_kernels(splats, np.where((keys[at] == wanted)[:, None], sorted_own[at], fallback))
 
     return kernels
 
