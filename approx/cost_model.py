@@ -28,6 +28,19 @@ WEIGHTS_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "cost_wei
 MODEL_PASSES = (*TIMED_PASSES, "other")
 
 
+#: the splat mode of differential beams (splat = beams, beam_width = differential) in a weight
+#: set's ``splat_modes``: their fragments have a weight of their own
+DIFFERENTIAL_BEAMS = "beams/differential"
+
+
+def splat_mode(params: ApproxParams) -> str:
+    """What a weight set must have measured to price a frame of ``params``: its splat mode,
+    DIFFERENTIAL_BEAMS for beams with beam_width = differential."""
+    if params.splat == "beams" and getattr(params, "beam_width", "fixed") == "differential":
+        return DIFFERENTIAL_BEAMS
+    return params.splat
+
+
 def features(cost: dict, params: ApproxParams) -> dict:
     """pass → {feature: value}: the counts each pass's time is modelled on, from a frame's
     cost (``approx.cost.frame_cost``, its ``fragments_*`` counted) and its resolved
@@ -44,6 +57,9 @@ def features(cost: dict, params: ApproxParams) -> dict:
     shaded = cost.get("shaded_splat")  # NaN, or None from a stored summary's null, where not counted
     counted = isinstance(shaded, (int, float)) and math.isfinite(shaded)
     beam_fragments = (float(cast(float, shaded)) if counted else cost["fragments_splat"]) if beams else 0.0
+    # a differential beam's fragment integrates its kernel over the pixel (splat/beam.frag.glsl):
+    # its own weight
+    own = splat_mode(params) == DIFFERENTIAL_BEAMS
     maps = 2.0 * float(params.layers) + 1.0  # a front and a back map per layer, and the shadow map
     return {
         "layers": {"calls": 1.0, "maps": maps, "texels": maps * float(params.light_res) ** 2,
@@ -59,7 +75,8 @@ def features(cost: dict, params: ApproxParams) -> dict:
                     "fragments": cost["fragments_density"]},
         "splat": {"calls": steps, "invocations": launched * steps,
                   "splats": 0.0 if beams else cost["splats"], "fragments": 0.0 if beams else cost["fragments_splat"],
-                  "beams": cost["splats"] if beams else 0.0, "beam_fragments": beam_fragments},
+                  "beams": cost["splats"] if beams else 0.0, "beam_fragments": 0.0 if own else beam_fragments,
+                  "own_beam_fragments": beam_fragments if own else 0.0},
         "fog": {"calls": 1.0, "fragments": cost["fragments_fog"] * float(params.fog_steps)},
         "direct": {"calls": 1.0, "fragments": cost["fragments_direct"]},
         "other": {"calls": 1.0, "pixels": pixels, "step_pixels": pixels * steps},
@@ -87,12 +104,12 @@ class WeightSet:
             return tuple(self.provenance["splat_modes"])
         configs = self.provenance.get("fit", {}).get("configs")
         if not isinstance(configs, dict):
-            return tuple(param("splat").choices)
-        return tuple(sorted({"fixed", *(str(c.get("splat", "fixed")) for c in configs.values())}))
+            return (*param("splat").choices, DIFFERENTIAL_BEAMS)
+        return config_splat_modes(configs)
 
     def prices(self, params: ApproxParams) -> bool:
-        """Whether the set can price a frame of ``params`` (:attr:`splat_modes`)."""
-        return params.splat in self.splat_modes
+        """Whether the set can price a frame of ``params`` (:attr:`splat_modes`, :func:`splat_mode`)."""
+        return splat_mode(params) in self.splat_modes
 
     def predict(self, cost: dict, params: ApproxParams) -> dict:
         """pass → predicted time, and ``frame``: their sum."""
@@ -107,6 +124,16 @@ class WeightSet:
 
     def to_dict(self) -> dict:
         return {"name": self.name, "unit": self.unit, "weights": self.weights, "provenance": self.provenance}
+
+
+def config_splat_modes(configs: dict) -> tuple:
+    """The splat modes (:func:`splat_mode`) of a fit's configurations (name → changes from
+    the quick preset), fixed always among them: what a set fitted on them prices."""
+    modes = {"fixed"}
+    for changes in configs.values():
+        splat, width = str(changes.get("splat", "fixed")), str(changes.get("beam_width", "fixed"))
+        modes.add(DIFFERENTIAL_BEAMS if splat == "beams" and width == "differential" else splat)
+    return tuple(sorted(modes))
 
 
 class WeightSetError(ValueError):
@@ -164,3 +191,4 @@ class _Probe:
 
     photon_res = steps = width = height = fog_steps = layers = light_res = 1
     splat = "density"
+    beam_width = "fixed"

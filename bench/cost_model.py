@@ -2,6 +2,7 @@
 configurations and scenes left out of the fit.
 
     .venv/bin/python bench/cost_model.py [--rounds N] [--size PX] [--write] [--json FILE]
+        [--points FILE [--measure NAME,...]]
 
 Every built-in renders the FIT configurations (changes from the quick preset, one axis
 at a time: photon_res, splat_radius, layers, steps, iterations, the searches, the splat
@@ -43,6 +44,9 @@ FIT = {
              "photon_res": 352},
     "beams": {"splat": "beams"}, "beams_radius0.01": {"splat": "beams", "splat_radius": 0.01},
     "beams_steps2": {"splat": "beams", "steps": 2}, "beams_res128": {"splat": "beams", "photon_res": 128},
+    "beams_differential": {"splat": "beams", "beam_width": "differential", "splat_radius": 0.01,
+                           "splat_footprints": 1.0},
+    "beams_differential_fp4": {"splat": "beams", "beam_width": "differential", "photon_res": 128},
 }
 HELD_OUT = {  # never in the fit: several axes at once
     "best300": {"splat": "density", "splat_neighbours": 8, "fresnel": "stochastic", "steps": 6, "layers": 2,
@@ -53,6 +57,9 @@ HELD_OUT = {  # never in the fit: several axes at once
     "size192": {"width": 192, "height": 192, "photon_res": 300, "layers": 2},
     "beams_mixed": {"splat": "beams", "fresnel": "stochastic", "steps": 6, "layers": 2, "photon_res": 200,
                     "splat_radius": 0.015},
+    "beams_differential_mixed": {"splat": "beams", "beam_width": "differential", "fresnel": "stochastic",
+                                 "steps": 4, "layers": 2, "photon_res": 150, "splat_radius": 0.01,
+                                 "splat_footprints": 2.0},
 }
 PAPER_SHARES = {"trace": 0.70, "splatting": 0.23}  # the paper's Table 1, at its configuration
 # the weight files go to the checkout's package folder (an editable install's link tree is not it)
@@ -150,7 +157,7 @@ def paper_anchor(ws, scene_arg: str):
     7%, in units of that frame (the paper's Table 1 gives shares, not counts)."""
     from volcaustics.approx import Renderer
     from volcaustics.approx.cost import frame_cost
-    from volcaustics.approx.cost_model import WeightSet
+    from volcaustics.approx.cost_model import WeightSet, config_splat_modes
     from volcaustics.approx.params import PAPER
     from volcaustics.scenes import resolve_scene
 
@@ -185,27 +192,40 @@ def main(argv=None) -> int:
     parser.add_argument("--write", action="store_true", help="store the weight sets in approx/cost_weights/")
     parser.add_argument("--json", help="write every measured point to this file")
     parser.add_argument("--points", help="fit the points a --json run wrote instead of measuring (same --size)")
+    parser.add_argument("--measure", help="with --points: measure these configurations (names, comma-separated) "
+                        "anew on every scene and take the others from the file")
     parser.add_argument("--anchor", action=argparse.BooleanOptionalAction, default=True,
                         help="with --write, also write paper_gpu.json anchored in this fit (default: yes)")
     args = parser.parse_args(argv)
 
     from volcaustics.approx.context import shared_context
-    from volcaustics.approx.cost_model import WeightSet
+    from volcaustics.approx.cost_model import WeightSet, config_splat_modes
     from volcaustics.scenes.catalogue import BUILTIN_NAMES, HELDOUT_NAMES, heldout_path
 
     fit_scenes = args.scenes.split(",") if args.scenes else list(BUILTIN_NAMES)
-    points = read_points(args.points, args.size) if args.points else None
+    configs = {**FIT, **HELD_OUT}
+    anew = args.measure.split(",") if args.measure else []
+    unknown = [name for name in anew if name not in configs]
+    if unknown or (anew and not args.points):
+        parser.error(f"--measure: {', '.join(unknown) or 'needs --points'} "
+                     f"(configurations: {', '.join(configs)})")
+    points = [r for r in read_points(args.points, args.size) if r["config"] not in anew] if args.points else None
+
+    def scene_points(scene_arg: str) -> list:
+        """The scene's points: measured, or from --points with the --measure ones measured anew."""
+        if points is None:
+            return measure(scene_arg, configs, args.rounds, args.size)
+        stored = [r for r in points if os.path.basename(r["scene"]) == os.path.basename(scene_arg)]
+        return stored + (measure(scene_arg, {n: configs[n] for n in anew}, args.rounds, args.size) if anew else [])
+
     rows, held, held_scenes = [], [], []
     for scene in fit_scenes:
-        measured = [r for r in points if r["scene"] == scene] if points else measure(
-            scene, {**FIT, **HELD_OUT}, args.rounds, args.size)
+        measured = scene_points(scene)
         rows += [r for r in measured if r["config"] in FIT]
         held += [r for r in measured if r["config"] in HELD_OUT]
-        print(f"{scene}: {len(measured)} configurations measured", flush=True)
+        print(f"{scene}: {len(measured)} configurations", flush=True)
     for name in HELDOUT_NAMES:
-        path = heldout_path(name)
-        held_scenes += [r for r in points if os.path.basename(r["scene"]) == os.path.basename(path)] if points \
-            else measure(path, {**FIT, **HELD_OUT}, args.rounds, args.size)
+        held_scenes += scene_points(heldout_path(name))
         print(f"{name} (held out): measured", flush=True)
     fitted = fit(rows)
     renderer_name = shared_context().info["GL_RENDERER"]
@@ -221,7 +241,7 @@ def main(argv=None) -> int:
         print(f"| {os.path.basename(r['scene']).removesuffix('.toml')} | {r['config']} | {1000 * r['frame']:.0f} | "
               f"{1000 * pred:.0f} | {100 * e:+.1f}% |")
     provenance = {"gl_renderer": renderer_name,
-                  "splat_modes": sorted({"fixed", *(str(c.get("splat", "fixed")) for c in FIT.values())}),
+                  "splat_modes": list(config_splat_modes(FIT)),
                   "machine": f"{platform.machine()}, {os.cpu_count()} cores, "
                   f"{platform.system()} {platform.release()}", "date": datetime.date.today().isoformat(),
                   "fit": {"scenes": fit_scenes, "configs": FIT, "size": args.size, "rounds": args.rounds,

@@ -75,6 +75,15 @@ CANDIDATES.update({
     "bbest-r0.01-deterministic": {**_BEAMS, "splat_radius": 0.01, "fresnel": "deterministic"},
     "bbest-deterministic": {**_BEAMS, "fresnel": "deterministic"},
 })
+# beams whose widths follow the photon's ray differential (beam_width = differential):
+# splat_footprints footprints wide, within [splat_radius/16, 4·splat_radius]
+_DIFF = {**_BEAMS, "beam_width": "differential"}
+CANDIDATES.update({
+    "bdiff-fp1": {**_DIFF, "splat_radius": 0.01, "splat_footprints": 1.0},
+    "bdiff-fp2": {**_DIFF, "splat_radius": 0.01, "splat_footprints": 2.0},
+    "bdiff-fp4": {**_DIFF, "splat_radius": 0.01, "splat_footprints": 4.0},
+    "bdiff-fp1-r0.005": {**_DIFF, "splat_radius": 0.005, "splat_footprints": 1.0},
+})
 
 
 def main(argv=None) -> int:

@@ -122,3 +122,28 @@ def test_a_set_prices_only_the_splat_modes_its_fit_measured():
     assert cost_ratio(own, paper) == pytest.approx(own["llvmpipe"] / paper["llvmpipe"])
     with pytest.raises(ValueError, match="no weight set prices both"):
         cost_ratio({}, paper)
+
+
+def test_differential_beams_have_a_fragment_weight_of_their_own():
+    """A differential beam's fragment integrates its kernel over the pixel, a dearer shader
+    than a fixed beam's point sample: the llvmpipe fit measured both and prices each
+    fragment by its own weight, which is larger; a set whose fit measured fixed beams
+    only (the negative control) does not price differential beams."""
+    import dataclasses
+
+    sets = weight_sets()
+    fixed = dataclasses.replace(PAPER, splat="beams").resolved(_scene("sphere1"))
+    differential = dataclasses.replace(fixed, beam_width="differential")
+    counts = dict(sets["paper_gpu"].provenance["paper_counts"])
+    assert features(counts, differential)["splat"]["own_beam_fragments"] == counts["shaded_splat"]
+    assert features(counts, differential)["splat"]["beam_fragments"] == 0.0
+    assert features(counts, fixed)["splat"]["own_beam_fragments"] == 0.0
+    llvmpipe = sets["llvmpipe"]
+    assert llvmpipe.prices(differential) and sets["paper_gpu"].prices(differential)
+    weights = llvmpipe.weights["splat"]
+    assert weights["own_beam_fragments"] > weights["beam_fragments"]
+    configs = {k: v for k, v in llvmpipe.provenance["fit"]["configs"].items() if v.get("beam_width") != "differential"}
+    provenance = {k: v for k, v in llvmpipe.provenance.items() if k != "splat_modes"}
+    fixed_only = dataclasses.replace(llvmpipe, name="fixed beams only",
+                                     provenance={**provenance, "fit": {**provenance["fit"], "configs": configs}})
+    assert fixed_only.prices(fixed) and not fixed_only.prices(differential)

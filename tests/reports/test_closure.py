@@ -94,16 +94,20 @@ def test_the_decomposition_closes_on_every_builtin_and_held_out_scene(cache, con
 
 @pytest.mark.slow  # statistical (about 10 s a point)
 @pytest.mark.parametrize("scene_arg", BUILTIN_NAMES)
-def test_the_decomposition_closes_with_beams_on_every_builtin(cache, scene_arg):
+@pytest.mark.parametrize("beam_width", ["fixed", "differential"])
+def test_the_decomposition_closes_with_beams_on_every_builtin(cache, beam_width, scene_arg):
     """splat = beams: the E images are the exact replay's beams (no free flight) through the
     beam splatter, E_∞,s small-kernel beams integrated over each fine pixel (point-sampled
     at 0.3 fine pixel, near-parallel beams aliased with their shared offset: sphere1 z 3.2,
     refocus 7.3); the residual R − E_∞,s within noise as for points (|z| ≤ 3), and one
     frame is the mean image (a beam frame has no free-flight noise: its seeds differ only
-    where stochastic Fresnel would choose)."""
+    where stochastic Fresnel would choose). With beam_width = differential the E images'
+    beams take A's kernels of the same photon and step (the preset beams' widths)."""
     scene = resolve_scene(scene_arg)
-    result = _measure(scene, dataclasses.replace(QUICK, splat="beams"))
-    assert (message := _closes(result, f"{scene.name} beams")) is None, message
+    width = {"beam_width": "differential", "splat_footprints": PRESETS["beams"].splat_footprints,
+             "splat_radius": PRESETS["beams"].splat_radius} if beam_width == "differential" else {}
+    result = _measure(scene, dataclasses.replace(QUICK, splat="beams", **width))
+    assert (message := _closes(result, f"{scene.name} beams ({beam_width})")) is None, message
     caustic = result.summary["images"]["caustic"]
     assert math.isclose(caustic["frame_relative_mse"]["value"], caustic["relative_mse"]["value"], rel_tol=1e-3,
                         abs_tol=1e-6)
