@@ -79,6 +79,7 @@ CANDIDATES.update({
 # splat_footprints footprints wide, within [splat_radius/16, 4·splat_radius]
 _DIFF = {**_BEAMS, "beam_width": "differential"}
 CANDIDATES.update({
+    "bdiff-fp0.5": {**_DIFF, "splat_radius": 0.01, "splat_footprints": 0.5},
     "bdiff-fp1": {**_DIFF, "splat_radius": 0.01, "splat_footprints": 1.0},
     "bdiff-fp2": {**_DIFF, "splat_radius": 0.01, "splat_footprints": 2.0},
     "bdiff-fp4": {**_DIFF, "splat_radius": 0.01, "splat_footprints": 4.0},

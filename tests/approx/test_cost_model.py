@@ -125,10 +125,11 @@ def test_a_set_prices_only_the_splat_modes_its_fit_measured():
 
 
 def test_differential_beams_have_a_fragment_weight_of_their_own():
-    """A differential beam's fragment integrates its kernel over the pixel, a dearer shader
+    """A differential beam's fragment integrates its kernel over the pixel, another shader
     than a fixed beam's point sample: the llvmpipe fit measured both and prices each
-    fragment by its own weight, which is larger; a set whose fit measured fixed beams
-    only (the negative control) does not price differential beams."""
+    fragment by its own weight (on llvmpipe within 1% of each other: most fragments are
+    discarded before the kernel); a set whose fit measured fixed beams only (the negative
+    control) does not price differential beams, rather than at its 0."""
     import dataclasses
 
     sets = weight_sets()
@@ -140,8 +141,8 @@ def test_differential_beams_have_a_fragment_weight_of_their_own():
     assert features(counts, fixed)["splat"]["own_beam_fragments"] == 0.0
     llvmpipe = sets["llvmpipe"]
     assert llvmpipe.prices(differential) and sets["paper_gpu"].prices(differential)
-    weights = llvmpipe.weights["splat"]
-    assert weights["own_beam_fragments"] > weights["beam_fragments"]
+    more = {**counts, "shaded_splat": 4 * counts["shaded_splat"]}  # priced by what it shades
+    assert llvmpipe.frame(more, differential) > llvmpipe.frame(counts, differential)
     configs = {k: v for k, v in llvmpipe.provenance["fit"]["configs"].items() if v.get("beam_width") != "differential"}
     provenance = {k: v for k, v in llvmpipe.provenance.items() if k != "splat_modes"}
     fixed_only = dataclasses.replace(llvmpipe, name="fixed beams only",
