@@ -157,7 +157,7 @@ def paper_anchor(ws, scene_arg: str):
     7%, in units of that frame (the paper's Table 1 gives shares, not counts)."""
     from volcaustics.approx import Renderer
     from volcaustics.approx.cost import frame_cost
-    from volcaustics.approx.cost_model import WeightSet, config_splat_modes
+    from volcaustics.approx.cost_model import WeightSet
     from volcaustics.approx.params import PAPER
     from volcaustics.scenes import resolve_scene
 
