@@ -114,11 +114,19 @@ def test_an_added_parameter_reaches_the_program_key(table):
     assert {k: v for k, v in one.items() if k != "SEARCH_BUDGET"} == PhotonTracer.defines(ApproxParams())
 
 
+# define parameters that select a program only beside another parameter's value: beam_width
+# changes nothing but beams (one program for the other splat modes)
+_CONTEXT = {"beam_width": {"splat": "beams"}}
+
+
 def test_the_program_key_follows_the_define_parameters_only():
-    base = PhotonTracer.defines(ApproxParams())
     for entry in PARAMS:
-        changed = PhotonTracer.defines(dataclasses.replace(ApproxParams(), **{entry.name: _good_value(entry)}))
+        context = ApproxParams(**_CONTEXT.get(entry.name, {}))
+        base = PhotonTracer.defines(context)
+        changed = PhotonTracer.defines(dataclasses.replace(context, **{entry.name: _good_value(entry)}))
         assert (changed != base) == (entry.glsl == "define" and entry.program == "trace"), entry.name
+    # and where it changes nothing, it is not in the key
+    assert PhotonTracer.defines(ApproxParams(beam_width="differential")) == PhotonTracer.defines(ApproxParams())
 
 
 def test_the_docs_list_every_parameter_with_its_default():
