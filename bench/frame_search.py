@@ -85,6 +85,12 @@ CANDIDATES.update({
     "bdiff-fp4": {**_DIFF, "splat_radius": 0.01, "splat_footprints": 4.0},
     "bdiff-fp1-r0.005": {**_DIFF, "splat_radius": 0.005, "splat_footprints": 1.0},
 })
+# what the meshes (bunny, feline, skull) keep at 0.25–0.30 whatever the width: more layers or steps
+_PRESET_DIFF = {**_DIFF, "splat_radius": 0.01, "splat_footprints": 1.0}
+CANDIDATES.update({
+    "bdiff-layers4": {**_PRESET_DIFF, "layers": 4}, "bdiff-steps6": {**_PRESET_DIFF, "steps": 6},
+    "bdiff-steps8": {**_PRESET_DIFF, "steps": 8},
+})
 
 
 def main(argv=None) -> int:
