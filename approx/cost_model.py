@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, cast
 
 from .cost import TIMED_PASSES
-from .params import param
+from .params import differential_beams, param
 
 if TYPE_CHECKING:
     from .params import ApproxParams
@@ -36,7 +36,7 @@ DIFFERENTIAL_BEAMS = "beams/differential"
 def splat_mode(params: ApproxParams) -> str:
     """What a weight set must have measured to price a frame of ``params``: its splat mode,
     DIFFERENTIAL_BEAMS for beams with beam_width = differential."""
-    if params.splat == "beams" and getattr(params, "beam_width", "fixed") == "differential":
+    if differential_beams(params):
         return DIFFERENTIAL_BEAMS
     return params.splat
 

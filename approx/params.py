@@ -308,12 +308,16 @@ def defines(params: ParamsMethods, program: str) -> dict:
     return out
 
 
+def differential_beams(params: ParamsMethods) -> bool:
+    """Whether ``params`` draw beams as wide as their photons' ray differentials (splat =
+    beams, beam_width = differential): the one test of it."""
+    return getattr(params, "splat", "fixed") == "beams" and getattr(params, "beam_width", "fixed") == "differential"
+
+
 def carries_differentials(params: ParamsMethods) -> bool:
     """Whether ``params``' photons carry ray differentials (common/differential.glsl):
-    their kernels come from them (splat = adaptive, or beams with beam_width =
-    differential)."""
-    splat = getattr(params, "splat", "fixed")
-    return splat == "adaptive" or (splat == "beams" and getattr(params, "beam_width", "fixed") == "differential")
+    their kernels come from them (splat = adaptive, or :func:`differential_beams`)."""
+    return getattr(params, "splat", "fixed") == "adaptive" or differential_beams(params)
 
 
 def label(name: str) -> str:

@@ -18,6 +18,7 @@ from volcaustics.scenes.formats import BEAM_DTYPE, SPLAT_DTYPE, STATUS_COLLIDED,
 
 from .context import bound
 from .glsl import attribute_layout, load_source, program, set_uniforms, uniform
+from .params import differential_beams
 
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
@@ -123,7 +124,7 @@ def record_kernels(records: np.ndarray, params: ApproxParams) -> np.ndarray | No
     if params.splat == "adaptive":
         sigma = adaptive_sigma(records["footprint"], params)
         return np.stack([sigma, np.zeros_like(sigma)], axis=1)
-    if params.splat == "beams" and params.beam_width == "differential":
+    if differential_beams(params):
         return np.stack(beam_kernels(records["footprint"], records["footprint_rate"], params), axis=1)
     return None
 

@@ -32,6 +32,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from volcaustics.approx.params import differential_beams
 from volcaustics.approx.splat import record_kernels, splats_from_arrays, with_kernels
 
 if TYPE_CHECKING:
@@ -52,7 +53,7 @@ KERNEL_RULES = {
 
 def kernel_rule(p: ApproxParams) -> str:
     """What summary.json says of the decomposition's kernels for ``p`` (KERNEL_RULES)."""
-    if p.splat == "beams" and p.beam_width == "differential":
+    if differential_beams(p):
         return KERNEL_RULES["beams, differential"]
     return KERNEL_RULES[p.splat]
 
