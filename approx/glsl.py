@@ -6,7 +6,7 @@ then one ``#define NAME VALUE`` per entry of :data:`SHARED_DEFINES` and of
 by that file (paths relative to the shaders folder, each file included once).
 
 :data:`SHARED_DEFINES` are the codes GLSL shares with Python, whose one source is
-``scenes.formats``: every shader gets them. A shader (or the common file it
+``scenes.formats`` (and ``scenes.rng``): every shader gets them. A shader (or the common file it
 includes) states their defaults under ``#ifndef NAME`` so that it compiles on its
 own; the loader's lines come first, so its values win.
 """
@@ -21,13 +21,16 @@ from typing import cast
 import moderngl
 
 from volcaustics.scenes.formats import FLAG_BITS, SHAPE_KINDS, STATUS_CODES
+from volcaustics.scenes.rng import FRESNEL_DIM, GOLDEN, ROTATION_PHOTON
 
 SHADER_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "shaders")
 GLSL_VERSION = "#version 450 core"
 _INCLUDE = re.compile(r'^\s*#include\s+"([^"]+)"\s*$', re.MULTILINE)
 
-#: Status codes and shape kinds as int, flag bits as uint (GLSL ``1u``: they are or-ed into uints).
-SHARED_DEFINES = {**STATUS_CODES, **{name: f"{bit}u" for name, bit in FLAG_BITS.items()}, **SHAPE_KINDS}
+#: Status codes and shape kinds as int, flag bits and the stratified numbers' constants
+#: (``scenes.rng``) as uint (GLSL ``1u``: they are or-ed and added into uints).
+SHARED_DEFINES = {**STATUS_CODES, **{name: f"{bit}u" for name, bit in FLAG_BITS.items()}, **SHAPE_KINDS,
+                  "GOLDEN": f"{GOLDEN}u", "ROTATION_PHOTON": f"{ROTATION_PHOTON}u", "FRESNEL_DIM": f"{FRESNEL_DIM}u"}
 
 
 def _expand(text: str, seen: set[str]) -> str:

@@ -17,6 +17,7 @@ from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any, Callable, ClassVar, TypeVar, cast, overload
 
 from volcaustics.infra.errors import InputError
+from volcaustics.scenes.rng import FRESNEL_MODES, stochastic_fresnel
 
 if TYPE_CHECKING:
     from typing import Self
@@ -194,9 +195,11 @@ _DECLARED: tuple = (  # one entry per ApproxParams field, in its order
     Param("height", int, None, "image height", "pixels", 1, 16384, unset="the scene's"),
     Param("fog_steps", int, 64, "ray-marching samples of the fog integral per pixel", "", 1, 4096, program="fog",
           glsl="define", exact=False),
-    Param("fresnel", str, "deterministic", "deterministic (refracted power × (1 − R)) or stochastic (choose by R)",
-          choices=("deterministic", "stochastic"), program="trace", glsl="define",
-          to_defines=lambda v: {"FRESNEL_STOCHASTIC": 1} if v == "stochastic" else {}),
+    Param("fresnel", str, "deterministic", "deterministic (refracted power × (1 − R)), stochastic (choose by R) or "
+          "stratified (choose by R with numbers stratified over the photons: neighbours split in proportion to R, "
+          "scenes.rng.stratified)", choices=FRESNEL_MODES, program="trace", glsl="define",
+          to_defines=lambda v: {"FRESNEL_STOCHASTIC": 1, **({"FRESNEL_STRATIFIED": 1} if v == "stratified" else {})}
+          if stochastic_fresnel(v) else {}),
     Param("seed", int, 0, "seed of the shared RNG", "", 0, 2**32 - 1, glsl="uniform"),
 )
 

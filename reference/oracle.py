@@ -28,7 +28,7 @@ from volcaustics.scenes.formats import (
     STATUS_LOST,
     STATUS_SURFACE,
 )
-from volcaustics.scenes.rng import uniform
+from volcaustics.scenes.rng import FRESNEL_MODES, fresnel_uniform, stochastic_fresnel, uniform
 
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
@@ -170,7 +170,10 @@ class ReplayConstants:
         self.sigma_bar = float(np.float32(scene.medium.sigma_bar))  # the GPU tracer's float32 uniform
         self.ior = np.asarray([o.ior for o in scene.specular] + [1.0], np.float64)
         self.absorption = np.asarray([o.absorption for o in scene.specular] + [(0.0, 0.0, 0.0)], np.float64)
-        self.stochastic = fresnel == "stochastic"
+        if fresnel not in FRESNEL_MODES:
+            raise ValueError(f"fresnel {fresnel!r}: expected one of {', '.join(FRESNEL_MODES)}")
+        self.fresnel = fresnel
+        self.stochastic = stochastic_fresnel(fresnel)
         self.beams = beams
 
 
@@ -179,7 +182,7 @@ def advance(c: ReplayConstants, oracle: Oracle, step: int, seed: int | np.ndarra
     """One interaction step of photons ``idx`` (emission texels) at ``o`` going ``d``
     (N×3 float64, unit), ``inside`` (object index, −1 medium), ``power`` (N×3 W): free
     flight from u(seed, photon, step, 0), the exact first hit, transmittance, and at a
-    hit the surface interaction (Fresnel choice from u(seed, photon, step, 1)).
+    hit the surface interaction (Fresnel choice from ``scenes.rng.fresnel_uniform``).
     ``seed``: one seed, or one per photon (N uint32). Returns the step's segment
     (max_len, search, q: the oracle's answer), where it ended (end, how far it went:
     along, status, flags, new_power) and the state after it (new_d, new_inside)."""
@@ -210,7 +213,7 @@ def advance(c: ReplayConstants, oracle: Oracle, step: int, seed: int | np.ndarra
     new_d, new_inside = d.copy(), inside.copy()
     if hit.any():
         seed_hit = cast(np.ndarray, seed)[hit] if np.ndim(seed) else seed
-        xi = uniform(seed_hit, idx[hit].astype(np.uint32), step, 1).astype(np.float64)
+        xi = fresnel_uniform(c.fresnel, seed_hit, idx[hit].astype(np.uint32), step).astype(np.float64)
         dd, pp, ii, ff = surface_interaction(d[hit], new_power[hit], q["normal"][hit], q["geometric_normal"][hit],
                                              q["shape"][hit], xi, c.ior, c.stochastic)
         new_d[hit], new_power[hit], new_inside[hit], flags[hit] = dd, pp, ii, ff

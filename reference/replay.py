@@ -26,7 +26,7 @@ import numpy as np
 
 from volcaustics.scenes.bounds import box_exit
 from volcaustics.scenes.formats import RECORD_DTYPE, splatted_mask
-from volcaustics.scenes.rng import uniform
+from volcaustics.scenes.rng import fresnel_uniform
 
 from .oracle import (
     Oracle,
@@ -90,7 +90,8 @@ def exact_emission(scene: Scene, groups: Iterable[tuple[Rays, int]], *, fresnel:
     power_start; RECORD_DTYPE) of photons leaving the light exactly: each ray from the
     light's position to its exact first specular surface, its power times the medium's
     transmittance to it, then that surface's interaction with the Fresnel choice
-    u(seed, photon, 0, 1), as ``emit.comp.glsl`` does at the emission map's surface.
+    ``scenes.rng.fresnel_uniform(fresnel, seed, photon, 0)``, as ``emit.comp.glsl`` does at
+    the emission map's surface.
     Rays without power or without a hit emit nothing.
 
     groups : (rays, seed) pairs, ``rays`` with fields ``photon`` (N indices),
@@ -109,7 +110,7 @@ def exact_emission(scene: Scene, groups: Iterable[tuple[Rays, int]], *, fresnel:
         out = []
         for rays, seed in part:
             photon, start, carried, q, geometry = traced[id(rays)]
-            xi = uniform(seed, photon.astype(np.uint32), 0, 1).astype(np.float64)
+            xi = fresnel_uniform(c.fresnel, seed, photon.astype(np.uint32), 0).astype(np.float64)
             new_d, new_power, inside, _ = interaction_choice(geometry, carried, q["geometric_normal"], q["shape"], xi,
                                                              c.stochastic)
             first = np.zeros(len(photon), RECORD_DTYPE)

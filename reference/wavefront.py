@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 
 from volcaustics.scenes.formats import STATUS_COLLIDED, STATUS_LEFT_SCENE, STATUS_LOST, STATUS_SURFACE
-from volcaustics.scenes.rng import PCG_INC, PCG_MULT, PCG_WORD
+from volcaustics.scenes.rng import FRESNEL_DIM, GOLDEN, PCG_INC, PCG_MULT, PCG_WORD, ROTATION_PHOTON
 
 from .oracle import Oracle, ReplayConstants
 
@@ -72,6 +72,16 @@ class Wavefront:
             step = self.dr.opaque(self.U32, step)
         return self.F32(self._hash(seed, photon, step, dim) >> 8) * (2.0**-24)
 
+    def fresnel_uniform(self, seed: Any, photon: Any, step: int | Any) -> Any:
+        """``scenes.rng.fresnel_uniform(c.fresnel, seed, photon, step)`` as Dr.Jit float32:
+        ``stratified``'s Weyl sequence for fresnel = stratified, else :meth:`uniform`."""
+        if self.c.fresnel != "stratified":
+            return self.uniform(seed, photon, step, FRESNEL_DIM)
+        if isinstance(step, int):
+            step = self.dr.opaque(self.U32, step)
+        rotation = self._hash(seed, self.U32(ROTATION_PHOTON), step, FRESNEL_DIM)
+        return self.F32((rotation + photon * self.U32(GOLDEN)) >> 8) * (2.0**-24)
+
     # --- one step ---------------------------------------------------------------------
     def step(self, step: int, seed: Any, idx: Any, o: Any, d: Any, inside: Any, power: Any) -> dict:
         """``oracle.advance`` for the photons ``idx`` with ``seed`` (U32), at ``o`` going
@@ -101,7 +111,7 @@ class Wavefront:
         status = dr.select(hit, STATUS_SURFACE, dr.select(~medium, STATUS_LOST,
                                                           dr.select(collides, STATUS_COLLIDED, STATUS_LEFT_SCENE)))
         # the surface interaction where it hit (oracle.surface_interaction)
-        xi = F64(self.uniform(seed, idx, step_u, 1))
+        xi = F64(self.fresnel_uniform(seed, idx, step_u))
         new_d, interacted_power, new_inside = self._interaction(d, new_power, n, n_geometric, shape, xi)
         return {"end": end, "along": along, "status": self.I32(status),
                 "new_power": dr.select(hit, interacted_power, new_power),
@@ -230,7 +240,7 @@ class Wavefront:
         photon = dr.gather(U32, hits["photon"], index)
         shape = dr.gather(I32, hits["shape"], index)
         seed_u = U32(seed.astype(np.uint32))
-        xi = F64(self.uniform(seed_u, photon, 0, 1))
+        xi = F64(self.fresnel_uniform(seed_u, photon, 0))
         new_d, power, inside = self._interaction(at["d"], at["carried"], at["normal"], at["geometric_normal"], shape,
                                                  xi)
         d = V64(F32(new_d[0]), F32(new_d[1]), F32(new_d[2]))   # the record's float32, renormalised

@@ -17,6 +17,14 @@ Specification (all arithmetic in uint32 with wrap-around):
 * ``hash(seed, photon, step, dim) = pcg(pcg(pcg(pcg(seed) + photon) + step) + dim)``
 * ``u = (hash >> 8) * 2**-24``: a float32 in [0, 1) on a 2**-24 grid, exactly
   representable, so GLSL and numpy produce identical floats.
+* ``stratified(seed, photon, step, dim) = ((hash(seed, 2**32 − 1, step, dim) + photon *
+  0x9E3779B9) >> 8) * 2**-24``: the golden-ratio Weyl sequence over the photon index,
+  rotated by one random number per (seed, step, dim) (2**32 − 1 is no photon's index).
+  Each photon's number is uniform and those of different steps independent, as ``u``'s,
+  but any run of consecutive photons covers [0, 1) evenly (Weyl's equidistribution; the
+  golden ratio's gaps are the most even, Knuth TAOCP 3 §6.4): n photons of equal
+  probability R choose within one of n·R, where independent numbers scatter by
+  √(n·R(1 − R)) (``fresnel = stratified``, docs/decisions.md "Stratified Fresnel choices").
 """
 
 from __future__ import annotations
@@ -29,6 +37,10 @@ if TYPE_CHECKING:
     from numpy.typing import ArrayLike
 
 PCG_MULT, PCG_INC, PCG_WORD = 747796405, 2891336453, 277803737  # the hash's constants (its twins read them)
+GOLDEN = 0x9E3779B9          # 2**32 / golden ratio, rounded: the Weyl sequence's step (its twins read it)
+ROTATION_PHOTON = 2**32 - 1  # the "photon" whose hash rotates a stratified sequence (no photon has this index)
+FRESNEL_MODES = ("deterministic", "stochastic", "stratified")  # the parameter fresnel's values
+FRESNEL_DIM = 1              # the dimension a Fresnel choice draws (0: free flight, 2–3: emission jitter)
 _MULT, _INC, _WORD = np.uint32(PCG_MULT), np.uint32(PCG_INC), np.uint32(PCG_WORD)
 
 
@@ -69,3 +81,32 @@ def uniform(seed: ArrayLike, photon: ArrayLike, step: ArrayLike, dim: ArrayLike)
     """
     h = hash4(seed, photon, step, dim)
     return (h >> np.uint32(8)).astype(np.float32) * np.float32(2.0**-24)
+
+
+def stratified(seed: ArrayLike, photon: ArrayLike, step: ArrayLike, dim: ArrayLike) -> np.ndarray:
+    """The stratified float32 in [0, 1) for (seed, photon, step, dim) (module docstring):
+    uniform for each photon, evenly spread over any run of consecutive photons;
+    arguments broadcast.
+
+    Returns
+    -------
+    ndarray of float32, values k * 2**-24 with integer k in [0, 2**24)
+    """
+    photon = np.asarray(photon, dtype=np.uint32)
+    with np.errstate(over="ignore"):
+        h = hash4(seed, ROTATION_PHOTON, step, dim) + photon * np.uint32(GOLDEN)
+    return (h >> np.uint32(8)).astype(np.float32) * np.float32(2.0**-24)
+
+
+def stochastic_fresnel(fresnel: str) -> bool:
+    """Whether ``fresnel`` (one of FRESNEL_MODES) chooses reflection or refraction by R
+    (stochastic, stratified) rather than weighting the refracted power (deterministic)."""
+    return fresnel != "deterministic"
+
+
+def fresnel_uniform(fresnel: str, seed: ArrayLike, photon: ArrayLike, step: ArrayLike) -> np.ndarray:
+    """The number photon ``photon`` compares with R at ``step`` under ``fresnel``: the
+    stratified one for ``stratified``, else ``uniform``'s (the twin of
+    ``fresnel_uniform`` in approx/shaders/common/interaction.glsl)."""
+    draw = stratified if fresnel == "stratified" else uniform
+    return draw(seed, photon, step, FRESNEL_DIM)

@@ -103,3 +103,43 @@ def test_exact_tracer_replays_approx_photons(gl_context):
     # which the division by sigma_bar turns into 2^-21 / sigma_bar metres.
     sigma_bar = float(np.mean(scene.medium.sigma_t))
     assert np.allclose(a2["max_length"][ia][medium], e2["max_length"][ie][medium], rtol=1e-6, atol=2**-21 / sigma_bar)
+
+
+def _reflected(records) -> dict:
+    from volcaustics.scenes.formats import FLAG_REFLECTED, FLAG_TIR
+
+    chosen = (records["flags"] & FLAG_REFLECTED > 0) & (records["flags"] & FLAG_TIR == 0) & records["hit"]
+    return dict(zip(records["photon"].tolist(), chosen.tolist()))
+
+
+def test_exact_replays_make_the_gpus_stratified_fresnel_choices(gl_context):
+    """fresnel = stratified: the exact replay draws each photon's stratified number
+    (scenes.rng.stratified) as the GPU did, at the emission and at every step, so it
+    reflects the same photons (a choice within float32 rounding of R may differ: < 1%).
+    Negative control: replayed with independent numbers (stochastic), the choices differ."""
+    from volcaustics.approx import ApproxParams
+    from volcaustics.approx.renderer import Renderer
+    from volcaustics.reference.replay import exact_emission
+
+    scene = load_builtin("sphere1")
+    params = ApproxParams(photon_res=96, light_res=512, width=32, height=32, steps=2, fresnel="stratified", seed=5)
+    renderer = Renderer(scene)
+    try:
+        frame = renderer.render(scene, params, keep_records=True)
+        rays = renderer.emission_rays(scene, params, [params.seed])[0]
+    finally:
+        renderer.release()
+    gpu_inside = dict(zip(frame.records[0]["photon"].tolist(), frame.records[0]["inside"].tolist()))
+    gpu = _reflected(frame.records[0])
+    for fresnel, agree in (("stratified", True), ("stochastic", False)):
+        emitted = exact_emission(scene, [(rays, params.seed)], fresnel=fresnel)[0]
+        inside = [gpu_inside[p] == i for p, i in zip(emitted["photon"].tolist(), emitted["inside"].tolist())
+                  if p in gpu_inside]
+        exact = _reflected(exact_photon_records(scene, frame.records[0], steps=1, seed=params.seed,
+                                                fresnel=fresnel)[0])
+        same = [gpu[p] == exact[p] for p in gpu.keys() & exact.keys()]
+        assert len(inside) > 3000 and len(same) > 3000 and sum(exact.values()) > 100
+        if agree:
+            assert np.mean(inside) > 0.99 and np.mean(same) > 0.99, (np.mean(inside), np.mean(same))
+        else:
+            assert np.mean(inside) < 0.99 and np.mean(same) < 0.97, (np.mean(inside), np.mean(same))

@@ -48,7 +48,7 @@ def _same(a, b) -> list:
 
 
 @pytest.mark.parametrize("name", BUILTIN_NAMES)
-@pytest.mark.parametrize("fresnel", ["deterministic", "stochastic"])
+@pytest.mark.parametrize("fresnel", ["deterministic", "stochastic", "stratified"])
 def test_the_drjit_replay_is_the_numpy_replay(name, fresnel):
     numpy_engine, drjit_engine = _both(name, fresnel)
     assert sum(len(c.rows) for c in numpy_engine) > 100, "too few collisions to compare"

@@ -1,12 +1,28 @@
 // The specular interaction at a surface hit (paper §4.3): Snell refraction or
 // reflection, Fresnel weighting (deterministic: refracted power × (1 - R), total
 // internal reflection keeps the power; FRESNEL_STOCHASTIC: reflect with
-// probability R, power unchanged). Numpy twin: reference/oracle.py. Requires
-// common/optics.glsl and the uniform array `ior` (defined by the including shader).
+// probability R, power unchanged; FRESNEL_STRATIFIED: the choices' numbers stratified
+// over the photons, scenes/rng.py). Numpy twin: reference/oracle.py. Requires
+// common/optics.glsl, common/rng.glsl and the uniform array `ior` (defined by the
+// including shader).
 #ifndef VOLCAUSTICS_INTERACTION_GLSL
 #define VOLCAUSTICS_INTERACTION_GLSL
 
 #include "common/photon.glsl"
+#include "common/rng.glsl"
+
+#ifndef FRESNEL_DIM
+#define FRESNEL_DIM 1u  // scenes.rng.FRESNEL_DIM
+#endif
+
+// The number photon `photon` compares with R at step `step` (scenes.rng.fresnel_uniform).
+float fresnel_uniform(uint seed, uint photon, uint step) {
+#ifdef FRESNEL_STRATIFIED
+    return stratified_uniform(seed, photon, step, FRESNEL_DIM);
+#else
+    return rng_uniform(seed, photon, step, FRESNEL_DIM);
+#endif
+}
 
 // d: incoming unit direction; n: the hit's outward shading normal; n_geometric: the
 // outward geometric normal of its triangle; inside: set to the material the photon

@@ -114,7 +114,7 @@ void main() {
         int inside = -1;
         vec3 d_in = d;
         uint flags = surface_interaction(d, power, inside, octa_decode(map.ba), geometric, int(map.g + 0.5),
-                                         rng_uniform(seed, index, 0u, 1u));
+                                         fresnel_uniform(seed, index, 0u));
         vec3 from_light = d_in * r;
 #ifdef DIFFERENTIALS
         // From the light the photons' rays spread by the grid's angular spacing (with adaptive

@@ -439,7 +439,7 @@ void main() {
         material_hit = int(best_texel.g + 0.5);
         vec3 d_in = d;
         uint interaction = surface_interaction(d, power, inside, normal, geometric, material_hit,
-                                               rng_uniform(seed, i, step_index, 1u));
+                                               fresnel_uniform(seed, i, step_index));
         g_flags |= interaction;
 #ifdef DIFFERENTIALS
         diff.x += diff.y * best_t;
