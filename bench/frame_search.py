@@ -91,6 +91,11 @@ CANDIDATES.update({
     "bdiff-layers4": {**_PRESET_DIFF, "layers": 4}, "bdiff-steps6": {**_PRESET_DIFF, "steps": 6},
     "bdiff-steps8": {**_PRESET_DIFF, "steps": 8},
 })
+# the Fresnel choices' numbers stratified over the photons (fresnel = stratified): the preset
+# beams at 4 steps, and the steps its meshes wanted, which more Fresnel noise made unsafe
+_STRAT = {**_PRESET_DIFF, "fresnel": "stratified"}
+CANDIDATES.update({"bstrat-steps4": _STRAT, "bstrat-steps6": {**_STRAT, "steps": 6},
+                   "bstrat-steps8": {**_STRAT, "steps": 8}})
 
 
 def main(argv=None) -> int:
