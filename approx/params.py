@@ -346,12 +346,12 @@ BEST = {"splat": "density", "splat_neighbours": 4, "fresnel": "stochastic", "ste
 PRESET_VALUES["best"] = {**PRESET_VALUES["quick"], **BEST}
 # beams: the preset best with its density splats replaced by photon beams (splat = beams),
 # each as wide as its photon's ray-differential footprint (beam_width = differential, one
-# footprint, within [splat_radius/16, 4·splat_radius]): what the one-frame search measured
-# best for beams and the held-out scenes confirmed (8 steps did better on the built-ins but
-# not on dense_forward: docs/decisions.md "Points against beams"); its photon_res is
-# matched to the paper configuration's cost as best's
+# footprint, within [splat_radius/16, 4·splat_radius]), its Fresnel choices stratified over
+# the photons, 8 steps: what the one-frame search measured best for beams on the built-ins,
+# judged on the held-out scenes (docs/decisions.md "Stratified Fresnel choices"); its
+# photon_res is matched to the paper configuration's cost as best's
 BEAMS = {"splat": "beams", "beam_width": "differential", "splat_footprints": 1.0, "splat_radius": 0.01,
-         "fresnel": "stochastic", "steps": 4, "layers": 2}
+         "fresnel": "stratified", "steps": 8, "layers": 2}
 PRESET_VALUES["beams"] = {**PRESET_VALUES["quick"], **BEAMS}
 AUTO_PHOTON_RES = {"best": "quick", "beams": "quick"}  # preset → the preset whose frame cost its photon_res matches
 
