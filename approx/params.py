@@ -348,7 +348,7 @@ PRESET_VALUES["best"] = {**PRESET_VALUES["quick"], **BEST}
 # each as wide as its photon's ray-differential footprint (beam_width = differential, one
 # footprint, within [splat_radius/16, 4·splat_radius]), its Fresnel choices stratified over
 # the photons, 8 steps: what the one-frame search measured best for beams on the built-ins,
-# judged on the held-out scenes (docs/decisions.md "Stratified Fresnel choices"); its
+# judged on the held-out scenes (docs/decisions.md "Points against beams"); its
 # photon_res is matched to the paper configuration's cost as best's
 BEAMS = {"splat": "beams", "beam_width": "differential", "splat_footprints": 1.0, "splat_radius": 0.01,
          "fresnel": "stratified", "steps": 8, "layers": 2}

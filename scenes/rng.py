@@ -24,7 +24,7 @@ Specification (all arithmetic in uint32 with wrap-around):
   but any run of consecutive photons covers [0, 1) evenly (Weyl's equidistribution; the
   golden ratio's gaps are the most even, Knuth TAOCP 3 §6.4): n photons of equal
   probability R choose within one of n·R, where independent numbers scatter by
-  √(n·R(1 − R)) (``fresnel = stratified``, docs/decisions.md "Stratified Fresnel choices").
+  √(n·R(1 − R)) (``fresnel = stratified``, docs/decisions.md "Points against beams").
 """
 
 from __future__ import annotations
