@@ -22,6 +22,7 @@ from volcaustics.scenes.formats import (
     SPLAT_DTYPE,
     STATUS_CODES,
 )
+from volcaustics.scenes.rng import FRESNEL_DIM, GOLDEN, ROTATION_PHOTON
 
 STRUCTS = [("Photon", PHOTON_DTYPE), ("Record", RAW_RECORD_DTYPE), ("Splat", SPLAT_DTYPE), ("Beam", BEAM_DTYPE)]
 # numpy kind → (GLSL scalar type, vector prefix, literal suffix)
@@ -112,12 +113,15 @@ def read_codes(ctx, names) -> dict:
 
 
 PYTHON_CODES = {**STATUS_CODES, **FLAG_BITS, **SHAPE_KINDS}
+# the stratified numbers' constants (uint beyond int32: test_rng_glsl.py checks them in use)
+RNG_CONSTANTS = {"GOLDEN": GOLDEN, "ROTATION_PHOTON": ROTATION_PHOTON, "FRESNEL_DIM": FRESNEL_DIM}
 
 
 def test_shared_defines_are_the_python_codes():
-    assert set(SHARED_DEFINES) == set(PYTHON_CODES)
+    expected = {**PYTHON_CODES, **RNG_CONSTANTS}
+    assert set(SHARED_DEFINES) == set(expected)
     for name, value in SHARED_DEFINES.items():
-        assert str(value).rstrip("u") == str(PYTHON_CODES[name]), name
+        assert str(value).rstrip("u") == str(expected[name]), name
 
 
 def test_shaders_receive_the_python_codes(ctx):
