@@ -18,6 +18,10 @@ CONTROLS = {
     "DENSITY_IGNORED": ("splat", "density splats ignore the density pre-pass (splat/density.*.glsl)"),
     "BEAM_NO_SINE": ("splat", "beams without the estimator's 1/sin θ (splat/beam.frag.glsl)"),
     "BEAM_NO_CAMERA_TRANSMITTANCE": ("splat", "beams without the transmittance to the camera (splat/beam.frag.glsl)"),
+    "BEAM_CLOSEST_DEPTH": ("splat", "beams depth-tested at their closest approach alone, not cut at the surface "
+                                    "(splat/beam.frag.glsl)"),
+    "BEAM_RECTANGLE": ("splat", "beams drawn as their widest kernel's rectangle, not a trapezoid "
+                                "(splat/beam.vert.glsl)"),
 }
 
 

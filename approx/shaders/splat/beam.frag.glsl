@@ -21,7 +21,8 @@
 // closest approach: the 1-D kernel keeps its integral across the beam at every s, so the
 // beam keeps its energy; only its ends' Gaussians take the σ of the nearer end.
 // Controls (negative controls of tests): BEAM_NO_SINE drops 1/sin θ,
-// BEAM_NO_CAMERA_TRANSMITTANCE drops exp(−σt·t).
+// BEAM_NO_CAMERA_TRANSMITTANCE drops exp(−σt·t), BEAM_CLOSEST_DEPTH depth-tests the
+// closest approach alone instead of cutting the beam at the surface.
 #include "common/erf.glsl"
 #include "common/phase.glsl"
 #include "splat/kernel.glsl"
@@ -93,12 +94,29 @@ void main() {
     float t = (b * d_beam - d_ray) / sin2;  // closest approach along the pixel ray (m from the eye)
     float s = (d_beam - b * d_ray) / sin2;  // ... along the beam (m from its start)
     float sin_theta = sqrt(sin2);
-    // the kernel where the ray passes (at the nearer end past the beam's ends)
-    float sigma = beam_sigma(v_sigma0, v_rate, clamp(s, 0.0, v_length), splat_radius);
-    float reach = TRUNCATION * sigma / sin_theta;  // the ends' Gaussians, cut as the kernel
-    if (s < -reach || s > v_length + reach || t <= 0.0) discard;
+    // the part of the beam in front of the camera and of its first surface along this ray:
+    // the beam's point at s' lies at depth s'·b − d_ray along it, which must be in (0, far]
     vec4 g = texelFetch(scene_distance, ivec2(gl_FragCoord.xy), 0);
-    if (gbuffer_kind(g) != KIND_NONE && t > g.x) discard;
+    float far = gbuffer_kind(g) != KIND_NONE ? g.x : 1e30;
+    float s_lo = 0.0, s_hi = v_length;
+    if (abs(b) > 1e-6) {
+        float at_eye = d_ray / b, at_far = (far + d_ray) / b;
+        s_lo = max(s_lo, min(at_eye, at_far));
+        s_hi = min(s_hi, max(at_eye, at_far));
+    } else if (!(-d_ray > 0.0 && -d_ray <= far)) {
+        discard;
+    }
+#ifdef BEAM_CLOSEST_DEPTH
+    if (t <= 0.0 || t > far) discard;  // a test's wrong estimator: the closest approach's depth alone
+    s_lo = 0.0;
+    s_hi = v_length;
+#endif
+    if (s_hi <= s_lo) discard;
+    // the kernel where the ray passes (at the nearer end past the visible part's ends)
+    float on_beam = clamp(s, s_lo, s_hi);
+    float sigma = beam_sigma(v_sigma0, v_rate, on_beam, splat_radius);
+    float reach = TRUNCATION * sigma / sin_theta;  // the ends' Gaussians, cut as the kernel
+    if (s < s_lo - reach || s > s_hi + reach) discard;
     float k;
     if (v_boxed > 0.5) {
         vec2 box = abs(du) / sigma;
@@ -113,15 +131,14 @@ void main() {
         k = exp(-u2 / (2.0 * sigma * sigma)) / (2.5066282746310002 * sigma * AXIS_KEPT_MASS);
     }
     float along = sin_theta * 0.7071067811865476 / sigma;
-    float ends = 0.5 * (erf_approx((v_length - s) * along) + erf_approx(s * along));
+    float ends = 0.5 * (erf_approx((s_hi - s) * along) - erf_approx((s_lo - s) * along));
 #ifdef BEAM_NO_SINE
     float jacobian = 1.0;
 #else
     float jacobian = 1.0 / sin_theta;
 #endif
     // the transmittance along the beam and from there to the eye, at the closest approach
-    // within the beam (past its ends, where its Gaussians still reach, at the end itself)
-    float on_beam = clamp(s, 0.0, v_length);
+    // within the visible part (past its ends, where its Gaussians still reach, at the end itself)
 #ifdef BEAM_NO_CAMERA_TRANSMITTANCE
     vec3 transmittance = exp(-sigma_t * on_beam);
 #else

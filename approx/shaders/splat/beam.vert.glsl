@@ -4,7 +4,8 @@
 // as a quad over every pixel whose ray may pass within TRUNCATION·σ of it: at each end of
 // the part in front of the camera, the end's tangent cone of radius TRUNCATION·σ cut by
 // the plane facing the camera there (as a point splat's billboard), stretched along the
-// beam's direction across the view. The fragment stage (beam.frag.glsl) does the estimate.
+// beam's direction across the view (a trapezoid where the kernel widens along the beam).
+// The fragment stage (beam.frag.glsl) does the estimate.
 #include "common/photon.glsl"
 #include "splat/kernel.glsl"
 #include "splat/beam_width.glsl"
@@ -61,10 +62,21 @@ void main() {
     float n = length(across);
     across = n > 1e-4 ? across / n : normalize(cross(abs(w.y) < 0.99 ? vec3(0.0, 1.0, 0.0) : vec3(1.0, 0.0, 0.0), w));
     vec3 side = cross(w, across);
-    // the widest kernel of the drawn part (|σ0 + rate·s| clamped is largest at an end), at
-    // both ends: the quad's straight edges then hold every kernel between them
-    float sigma = max(beam_sigma(in_dir.w, in_power.w, lo, splat_radius),
-                      beam_sigma(in_dir.w, in_power.w, hi, splat_radius));
+    // a radius at each end whose line along the drawn part bounds every kernel between:
+    // the widest kernel at both ends (|σ0 + rate·s| clamped is largest at an end), or, where
+    // narrower, the ends' max(|σ0 + rate·s|, radius/16), a convex bound of σ that its chord
+    // holds (a trapezoid: a beam that widens along its length shades fewer fragments)
+    float widest = max(beam_sigma(in_dir.w, in_power.w, lo, splat_radius),
+                       beam_sigma(in_dir.w, in_power.w, hi, splat_radius));
+    float sigma = widest;
+#ifndef BEAM_RECTANGLE  // a test's control: the widest kernel's rectangle
+    if (in_dir.w > 0.0) {
+        float floor_sigma = splat_radius / 16.0;
+        float at_lo = max(abs(in_dir.w + in_power.w * lo), floor_sigma);
+        float at_hi = max(abs(in_dir.w + in_power.w * hi), floor_sigma);
+        if (at_lo + at_hi < 2.0 * widest) sigma = far_end ? at_hi : at_lo;
+    }
+#endif
     float R = TRUNCATION * sigma;
     // the tangent cone's radius in the plane facing the camera, 5% and a pixel more: the
     // quad's straight edges between the two ends stay outside the cones between them, and
