@@ -246,6 +246,7 @@ def test_dda_and_hiz_find_the_same_crossings(ctx):
     assert hiz["map_reads"].sum() < 0.8 * dda["map_reads"].sum()
 
 
+@pytest.mark.slow  # about 12 s on 2 cores (the marker's 10 s and more)
 def test_dda_is_the_oracle_at_the_maps_resolution(ctx):
     """The DDA's first crossing on one map equals the dense-sampling oracle's (texel and t
     within the oracle's sampling step) on 300 random segments."""
