@@ -33,11 +33,13 @@ BEAMS = [((-0.9, 0.6, 0.8), (0.8, 0.3, -0.52), 1.4), ((0.6, 1.5, -0.5), (-0.3, -
          ((-0.2, 1.3, 1.0), (0.35, 0.1, -0.93), 1.6)]
 
 
-def _image(ctx, rows, *, beams: bool, sigma_t: float, sigma_s: float, controls: dict | None = None,
-           radius: float = SIGMA, wall: float | None = None) -> np.ndarray:
-    """The R channel (float64, rows bottom-up as GL draws them) of ``rows`` (BEAM_DTYPE or
-    SPLAT_DTYPE) splatted with kernel ``radius`` in an open medium of isotropic phase;
-    ``wall``: a G-buffer whose every pixel sees a diffuse surface at that distance (m)."""
+def _draw(ctx, rows, *, beams: bool, sigma_t: float, sigma_s: float, controls: dict | None = None,
+          radius: float = SIGMA, wall: float | None = None) -> tuple:
+    """``rows`` (BEAM_DTYPE or SPLAT_DTYPE) splatted with kernel ``radius`` in an open medium
+    of isotropic phase: the R channel (float64, rows bottom-up as GL draws them) and the pass's
+    PassTimer (its fragments written and shaded); ``wall``: a G-buffer whose every pixel sees
+    a diffuse surface at that distance (m), else none."""
+    from volcaustics.approx.timing import PassTimer
     from volcaustics.scenes.formats import KIND_DIFFUSE
 
     scene = make_scene([], camera=CAMERA, sigma_s=sigma_s, sigma_a=sigma_t - sigma_s, floor=False)
@@ -50,11 +52,18 @@ def _image(ctx, rows, *, beams: bool, sigma_t: float, sigma_s: float, controls: 
     if wall is not None:
         geometry[:, 0], geometry[:, 1] = wall, KIND_DIFFUSE
     gbuffer = ctx.texture((CAMERA.width, CAMERA.height), 4, geometry.tobytes(), dtype="f4")
-    splatter.splat(buf, len(rows), view, scene.medium, radius, gbuffer, target)
+    timer = PassTimer(ctx, use_queries=False)
+    with timer.measure("splat"):
+        splatter.splat(buf, len(rows), view, scene.medium, radius, gbuffer, target)
     image = np.frombuffer(target.read(), np.float32).reshape(CAMERA.height, CAMERA.width, 4)[..., 0].astype(np.float64)
     for r in (buf, target, gbuffer, splatter):
         r.release()
-    return image
+    return image, timer
+
+
+def _image(ctx, rows, **kwargs) -> np.ndarray:
+    """The image of :func:`_draw`."""
+    return _draw(ctx, rows, **kwargs)[0]
 
 
 def _beams(power: float = 0.2) -> np.ndarray:
@@ -240,29 +249,16 @@ def test_a_widening_beam_is_drawn_as_a_trapezoid_that_holds_its_kernels(ctx):
     frames, turned to the eye, twist the edges and lose up to 1.1e-5 there, 2e-6 of the
     image), and shades fewer fragments (measured 15% fewer: the second beam's clamp keeps
     its far end wide)."""
-    from volcaustics.approx.timing import PassTimer
-
     half = math.tan(math.radians(CAMERA.fov_y / 2))
     pixel = 4.0 * 2.0 * half / CAMERA.height
     radius = 0.6 * pixel  # the clamp [radius/16, 4·radius]: 0.04 to 2.4 pixels
     rows = beams_from_arrays([(-1.0, 0.8, 0.0), (-1.2, 1.3, 0.3)], [(1.0, 0.0, 0.0), (0.9, 0.1, -0.3)], [2.0, 2.2],
                              np.full((2, 3), 0.2), sigma=[0.5 * pixel, 0.3 * pixel])
     rows["power"][:, 3] = [0.95 * pixel, 2.0 * pixel]  # σ per metre: the second reaches the clamp at 0.9 m
-    scene = make_scene([], camera=CAMERA, sigma_s=0.1, sigma_a=0.0, floor=False)
-    view = CameraView(CAMERA, CAMERA.width, CAMERA.height, far=100.0)
     out = {}
     for name, controls in (("trapezoid", None), ("rectangle", {"BEAM_RECTANGLE": 1})):
-        splatter = Splatter(ctx, scene.medium, beams=True, controls=controls)
-        buf = ctx.buffer(rows.tobytes())
-        target = ctx.texture((CAMERA.width, CAMERA.height), 4, dtype="f4")
-        gbuffer = ctx.texture((CAMERA.width, CAMERA.height), 4, dtype="f4")
-        timer = PassTimer(ctx, use_queries=False)
-        with timer.measure("splat"):
-            splatter.splat(buf, len(rows), view, scene.medium, radius, gbuffer, target)
-        image = np.frombuffer(target.read(), np.float32).reshape(CAMERA.height, CAMERA.width, 4)[..., 0]
-        out[name] = (image.astype(np.float64), timer.shaded["splat"])
-        for r in (buf, target, gbuffer, splatter):
-            r.release()
+        image, timer = _draw(ctx, rows, beams=True, sigma_t=0.1, sigma_s=0.1, controls=controls, radius=radius)
+        out[name] = (image, timer.shaded["splat"])
     (trapezoid, shaded), (rectangle, rectangle_shaded) = out["trapezoid"], out["rectangle"]
     assert rectangle.sum() > 0
     assert np.abs(trapezoid - rectangle).max() <= 1e-4 * rectangle.max()
@@ -274,28 +270,10 @@ def test_a_beam_pass_counts_the_fragments_it_shades_beside_those_it_writes(ctx):
     them discarded; the written ones (samples passed) miss those. The same beams drawn
     in front of a wall and behind it (a G-buffer of a diffuse surface at 1 m: the
     negative control) shade the same fragments, while behind it they write none."""
-    from volcaustics.approx.timing import PassTimer
-    from volcaustics.scenes.formats import KIND_DIFFUSE
-
-    scene = make_scene([], camera=CAMERA, sigma_s=0.3, sigma_a=0.2, floor=False)
-    view = CameraView(CAMERA, CAMERA.width, CAMERA.height, far=100.0)
-    splatter = Splatter(ctx, scene.medium, beams=True)
-    rows = _beams()
-    buf = ctx.buffer(rows.tobytes())
-    target = ctx.texture((CAMERA.width, CAMERA.height), 4, dtype="f4")
-    pixels = CAMERA.width * CAMERA.height
-    open_view = ctx.texture((CAMERA.width, CAMERA.height), 4, np.zeros(pixels * 4, "f4").tobytes(), dtype="f4")
-    wall = np.zeros((pixels, 4), "f4")
-    wall[:, 0], wall[:, 1] = 1.0, KIND_DIFFUSE
-    walled = ctx.texture((CAMERA.width, CAMERA.height), 4, wall.tobytes(), dtype="f4")
     counts = {}
-    for name, gbuffer in (("open", open_view), ("walled", walled)):
-        timer = PassTimer(ctx, use_queries=False)
-        with timer.measure("splat"):
-            splatter.splat(buf, len(rows), view, scene.medium, SIGMA, gbuffer, target)
+    for name, wall in (("open", None), ("walled", 1.0)):
+        _, timer = _draw(ctx, _beams(), beams=True, sigma_t=0.5, sigma_s=0.3, wall=wall)
         counts[name] = (timer.fragments["splat"], timer.shaded.get("splat"))
-    for r in (buf, target, open_view, walled, splatter):
-        r.release()
     assert "GL_ARB_pipeline_statistics_query" in ctx.extensions  # Mesa and NVIDIA have it: not optional here
     (open_written, open_shaded), (walled_written, walled_shaded) = counts["open"], counts["walled"]
     assert open_shaded > open_written > 0

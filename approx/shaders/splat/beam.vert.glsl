@@ -64,16 +64,15 @@ void main() {
     vec3 side = cross(w, across);
     // a radius at each end whose line along the drawn part bounds every kernel between:
     // the widest kernel at both ends (|σ0 + rate·s| clamped is largest at an end), or, where
-    // narrower, the ends' max(|σ0 + rate·s|, radius/16), a convex bound of σ that its chord
-    // holds (a trapezoid: a beam that widens along its length shades fewer fragments)
+    // narrower, the ends' floored σ, a convex bound of σ that its chord holds (a trapezoid:
+    // a beam that widens along its length shades fewer fragments)
     float widest = max(beam_sigma(in_dir.w, in_power.w, lo, splat_radius),
                        beam_sigma(in_dir.w, in_power.w, hi, splat_radius));
     float sigma = widest;
 #ifndef BEAM_RECTANGLE  // a test's control: the widest kernel's rectangle
     if (in_dir.w > 0.0) {
-        float floor_sigma = splat_radius / 16.0;
-        float at_lo = max(abs(in_dir.w + in_power.w * lo), floor_sigma);
-        float at_hi = max(abs(in_dir.w + in_power.w * hi), floor_sigma);
+        float at_lo = beam_sigma_floored(in_dir.w, in_power.w, lo, splat_radius);
+        float at_hi = beam_sigma_floored(in_dir.w, in_power.w, hi, splat_radius);
         if (at_lo + at_hi < 2.0 * widest) sigma = far_end ? at_hi : at_lo;
     }
 #endif

@@ -6,8 +6,13 @@
 // uniform splat_radius.
 #ifndef VOLCAUSTICS_BEAM_WIDTH_GLSL
 #define VOLCAUSTICS_BEAM_WIDTH_GLSL
+// The row's own σ held above its floor only: a convex function of s, so the chord between
+// two points bounds it between them (splat/beam.vert.glsl draws trapezoids with it).
+float beam_sigma_floored(float sigma0, float rate, float s, float radius) {
+    return max(abs(sigma0 + rate * s), radius / 16.0);
+}
 float beam_sigma(float sigma0, float rate, float s, float radius) {
     if (!(sigma0 > 0.0)) return radius;
-    return clamp(abs(sigma0 + rate * s), radius / 16.0, 4.0 * radius);
+    return min(beam_sigma_floored(sigma0, rate, s, radius), 4.0 * radius);
 }
 #endif
