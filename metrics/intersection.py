@@ -252,6 +252,24 @@ def _option_columns(options):
     return out
 
 
+def _unique_rows(columns: Sequence[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """What ``np.unique(np.stack(columns, 1), axis=0, return_inverse=True)`` returns (the
+    distinct rows in lexicographic order, each row's index among them), by one 1-D unique
+    of a mixed-radix key of the columns' ranks: the rows' own unique sorts them as void
+    records, 0.2 s on a frame's segments."""
+    ranks = [np.unique(np.asarray(c), return_inverse=True) for c in columns]
+    key = np.zeros(len(ranks[0][1]), np.int64)
+    for values, rank in ranks:  # the first column most significant: the rows' lexicographic order
+        key = key * len(values) + rank.reshape(-1)
+    distinct, inverse = np.unique(key, return_inverse=True)
+    digits, rest = [], distinct
+    for values, _ in reversed(ranks):
+        digits.append(values[rest % len(values)])
+        rest = rest // len(values)
+    groups = np.stack(digits[::-1], axis=1) if len(distinct) else np.zeros((0, len(columns)), np.int64)
+    return groups, inverse.reshape(-1)
+
+
 def intersection_table(records: np.ndarray | Mapping[str, ArrayLike], classes: dict, *,
                        group_by: Sequence[str] = GROUP_KEYS, parameters: dict | None = None) -> list:
     """Tidy rows of the segment classes, one per group.
@@ -305,9 +323,7 @@ def intersection_table(records: np.ndarray | Mapping[str, ArrayLike], classes: d
 
     columns = [keys[k] for k in group_by]
     if columns:
-        table = np.stack(columns, axis=1)
-        groups, inverse = np.unique(table, axis=0, return_inverse=True)
-        inverse = inverse.reshape(-1)
+        groups, inverse = _unique_rows(columns)
     else:
         groups, inverse = np.zeros((1 if n else 0, 0), np.int64), np.zeros(n, np.int64)
 

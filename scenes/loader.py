@@ -65,6 +65,7 @@ from .errors import SceneError
 from .generators import GENERATORS
 from .loader_animation import parse_animation
 from .mesh import MeshReadError, closedness_problem, winding_number
+from .mesh_cache import MESHES_KEPT
 from .model import Camera, DiffuseSurface, Medium, MeshSpec, Phase, Scene, SpecularObject, SpotLight, Transform
 from .toml_values import (
     ANGLE_MIN,
@@ -173,7 +174,7 @@ def _mesh(ctx, key, value, transform: Transform) -> MeshSpec:
     return MeshSpec(generator=name, params=tuple(sorted(params.items())), transform=transform)
 
 
-@lru_cache(maxsize=32)
+@lru_cache(maxsize=MESHES_KEPT)
 def _closed_check(spec: MeshSpec) -> tuple[str | None, float]:
     """Why ``spec``'s mesh is not closed (None if it is) and its signed volume, once per spec
     as its mesh is loaded (``mesh_cache.load_mesh_spec``): a command resolves its scene

@@ -51,8 +51,9 @@ def empty_cache(tmp_path, monkeypatch):
 
 @pytest.fixture
 def cache(empty_cache, shared_references):
-    """A private ``$VOLCAUSTICS_CACHE`` (result stores, meshes, metric floors) whose
-    ``reference/`` folder is the run's shared one (:func:`shared_references`)."""
+    """A private ``$VOLCAUSTICS_CACHE`` (result stores, metric floors) whose
+    ``reference/`` and ``meshes/`` folders are the run's shared ones
+    (:func:`shared_references`, ``tests.shared.with_shared_references``)."""
     return with_shared_references(empty_cache, shared_references)
 
 

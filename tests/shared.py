@@ -69,9 +69,14 @@ FULL_MEASUREMENT = MeasurementSettings(exact_subphotons=1)
 
 def with_shared_references(root, shared_references):
     """``root`` made a cache folder whose ``reference/`` is the run's shared one (for a
-    module-scoped fixture's own cache); returns ``root``."""
+    module-scoped fixture's own cache), and whose ``meshes/`` (generated meshes, written
+    whole by rename as references are) is the run's too, beside it: Feline's takes 5 s to
+    build in each process; returns ``root``."""
     root.mkdir(parents=True, exist_ok=True)
     (root / "reference").symlink_to(shared_references, target_is_directory=True)
+    meshes = shared_references.parent / "meshes"
+    meshes.mkdir(exist_ok=True)
+    (root / "meshes").symlink_to(meshes, target_is_directory=True)
     return root
 
 

@@ -240,3 +240,17 @@ def test_bad_input_raises():
         _classify(recs, bad)
     with pytest.raises(ValueError, match="group_by"):
         ix.intersection_table(recs, _classify(recs, ex), group_by=("photon",))
+
+
+
+def test_the_groups_are_numpys_distinct_rows_in_order():
+    """The table's groups (one 1-D unique of a key of the columns' ranks) are what numpy's
+    unique of the (step, map, inside) rows gives: the same rows in lexicographic order, each
+    with its records' count; map −1 and the boolean inside column included."""
+    recs, ex = _mixed(np.random.default_rng(7))
+    rows = ix.intersection_table(recs, _classify(recs, ex))
+    table = np.stack([recs["step"].astype(np.int64), recs["map"].astype(np.int64), recs["inside"] >= 0], axis=1)
+    want, counts = np.unique(table, axis=0, return_counts=True)
+    assert [(r["step"], r["map"], r["inside"] == "glass") for r in rows] == [tuple(int(x) for x in w) for w in want]
+    assert [r["segments"] for r in rows] == counts.tolist()
+    assert -1 in want[:, 1] and len(set(want[:, 2])) == 2  # the cases the key must order: a miss, both sides
