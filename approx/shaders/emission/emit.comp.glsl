@@ -113,8 +113,19 @@ void main() {
 #endif
         int inside = -1;
         vec3 d_in = d;
+#ifdef EMISSION_FRESNEL
+        // a bench's control (approx/controls.py, bench/emission_split.py), under a stochastic
+        // fresnel: every photon reflects at R of its power (1) or refracts at 1 − R of it (2),
+        // so that the two frames sum to an emission that splits each photon at its first surface
+        vec3 n_first = octa_decode(map.ba);
+        int object = int(map.g + 0.5);
+        float R_first = fresnel_dielectric(abs(dot(d, n_first)), dot(d, n_first) <= 0.0 ? ior[object] : 1.0 / ior[object]);
+        uint flags = surface_interaction(d, power, inside, n_first, geometric, object, EMISSION_FRESNEL == 1 ? -1.0 : 2.0);
+        if ((flags & FLAG_TIR) == 0u) power *= EMISSION_FRESNEL == 1 ? R_first : 1.0 - R_first;
+#else
         uint flags = surface_interaction(d, power, inside, octa_decode(map.ba), geometric, int(map.g + 0.5),
                                          fresnel_uniform(seed, index, 0u));
+#endif
         vec3 from_light = d_in * r;
 #ifdef DIFFERENTIALS
         // From the light the photons' rays spread by the grid's angular spacing (with adaptive
