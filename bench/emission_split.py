@@ -75,7 +75,7 @@ def main() -> None:
     costs = _costs(scene, params)
     print(f"{scene.name}: preset beams at photon_res {params.photon_res}, {args.seeds} seeds, reference "
           f"{R.shape[1]}x{R.shape[0]}; relMSE over the compared pixels")
-    print("| frames | one frame: mean | median | worst | mean image | energy / R | predicted cost / paper |")
+    print("| frames | one frame: mean ± SE | median | worst | mean image | energy / R | predicted cost / paper |")
     print("|---|---|---|---|---|---|---|")
     for label, stack in (("preset", np.stack(frames["preset"])),
                          ("split", np.stack(frames["reflect"]) + np.stack(frames["refract"]))):
@@ -83,8 +83,9 @@ def main() -> None:
         err = ((stack - R) ** 2).reshape(len(stack), -1).sum(1) / energy
         mean = ((stack.mean(0) - R) ** 2).sum() / energy
         cost = ", ".join(f"{k} {v:.3f}" for k, v in costs[label].items())
-        print(f"| {label} | {100 * err.mean():.1f}% | {100 * np.median(err):.1f}% | {100 * err.max():.1f}% | "
-              f"{100 * mean:.1f}% | {stack.sum() / len(stack) / R.sum():.3f} | {cost} |")
+        se = err.std(ddof=1) / np.sqrt(len(err))
+        print(f"| {label} | {100 * err.mean():.1f}% ± {100 * se:.1f} | {100 * np.median(err):.1f}% | "
+              f"{100 * err.max():.1f}% | {100 * mean:.1f}% | {stack.sum() / len(stack) / R.sum():.3f} | {cost} |")
 
 
 if __name__ == "__main__":
