@@ -242,7 +242,6 @@ def test_bad_input_raises():
         ix.intersection_table(recs, _classify(recs, ex), group_by=("photon",))
 
 
-
 def test_the_groups_are_numpys_distinct_rows_in_order():
     """The table's groups (one 1-D unique of a key of the columns' ranks) are what numpy's
     unique of the (step, map, inside) rows gives: the same rows in lexicographic order, each
