@@ -24,6 +24,14 @@ float fresnel_uniform(uint seed, uint photon, uint step) {
 #endif
 }
 
+// The Fresnel reflectance R for the incoming unit direction d at a surface of hit_material
+// whose outward shading normal is n: the side it arrives from, hence eta, read from n.
+float fresnel_at(vec3 d, vec3 n, int hit_material) {
+    bool from_outside = dot(d, n) <= 0.0;
+    float eta = from_outside ? ior[hit_material] : 1.0 / ior[hit_material];
+    return fresnel_dielectric(-dot(d, from_outside ? n : -n), eta);
+}
+
 // d: incoming unit direction; n: the hit's outward shading normal; n_geometric: the
 // outward geometric normal of its triangle; inside: set to the material the photon
 // travels in afterwards (-1 medium); hit_material: object whose surface was hit. As Mitsuba's dielectric
@@ -34,11 +42,10 @@ float fresnel_uniform(uint seed, uint photon, uint step) {
 // Updates d, power, inside; returns FLAG_* bits.
 uint surface_interaction(inout vec3 d, inout vec3 power, out int inside, vec3 n, vec3 n_geometric,
                          int hit_material, float xi) {
+    float R = fresnel_at(d, n, hit_material);
     bool from_outside = dot(d, n) <= 0.0;
     if (!from_outside) n = -n;  // shading normal on the incident side
     float eta = from_outside ? ior[hit_material] : 1.0 / ior[hit_material];
-    float cos_i = -dot(d, n);
-    float R = fresnel_dielectric(cos_i, eta);
     vec3 t;
     uint flags = 0u;
     if (!refract_dir(d, n, eta, t)) {

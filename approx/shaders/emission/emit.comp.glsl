@@ -119,7 +119,7 @@ void main() {
         // so that the two frames sum to an emission that splits each photon at its first surface
         vec3 n_first = octa_decode(map.ba);
         int object = int(map.g + 0.5);
-        float R_first = fresnel_dielectric(abs(dot(d, n_first)), dot(d, n_first) <= 0.0 ? ior[object] : 1.0 / ior[object]);
+        float R_first = fresnel_at(d, n_first, object);
         uint flags = surface_interaction(d, power, inside, n_first, geometric, object, EMISSION_FRESNEL == 1 ? -1.0 : 2.0);
         if ((flags & FLAG_TIR) == 0u) power *= EMISSION_FRESNEL == 1 ? R_first : 1.0 - R_first;
 #else
