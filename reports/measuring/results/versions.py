@@ -36,7 +36,7 @@ def library_versions() -> dict:
     """Versions of the libraries whose behaviour the numbers depend on."""
     out: dict[str, str | None] = {}
     for dist in ("volcaustics", "numpy", "mitsuba", "drjit", "moderngl", "flip-evaluator", "scikit-image",
-                 "colour-science", "pandas", "pyarrow"):
+                 "pandas", "pyarrow"):
         try:
             out[dist] = version(dist)
         except PackageNotFoundError:
