@@ -164,8 +164,8 @@ def delta_e2000_frames(reference: ArrayLike, tests: ArrayLike, *, mask: ArrayLik
     """:func:`delta_e2000` of each of ``tests`` (S×H×W×3, linear radiance) against one
     ``reference`` (H×W×3): the reference's CIELAB once, every test's pixels in one call
     (the difference is per pixel, so each value is the one-pair call's). scikit-image, not
-    colour-science, whose import alone costs 1.3–3 s a process (docs/decisions.md "ΔE2000
-    without colour-science"); the two agree within 1e-3 ΔE."""
+    colour-science, whose import alone costs 1.3–3 s a process; the two agree within
+    1e-3 ΔE (docs/decisions.md "ΔE2000 without colour-science")."""
     from skimage.color import deltaE_ciede2000, xyz2lab
     from skimage.color.colorconv import xyz_from_rgb
 
