@@ -6,8 +6,8 @@ from __future__ import annotations
 
 # CLIP_TO_OBJECTS clips searched segments to the specular objects' box as well
 # (trace.comp.glsl; off by default: it changed little and not always for the better,
-# bench/agreement.py, docs/decisions.md "Clip to objects"); EMISSION_FRESNEL is a bench's
-# (bench/emission_split.py); the others are deliberate faults a test must see flagged.
+# bench/agreement.py, docs/decisions.md "Clip to objects"); the others are deliberate faults
+# a test must see flagged.
 # name → (the programs it goes to: "trace" the emission and trace programs, "splat" the
 # density splat's, what it does)
 CONTROLS = {
@@ -15,9 +15,6 @@ CONTROLS = {
     "DIFFERENTIAL_UNPROPAGATED": ("trace", "photon differentials not propagated through interactions "
                                            "(common/differential.glsl)"),
     "EMISSION_SHIFT": ("trace", "photons leave this many texels off their emission points (emit.comp.glsl)"),
-    "EMISSION_FRESNEL": ("trace", "every photon reflects (1, at R of its power) or refracts (2, at 1 − R) "
-                                  "at its first surface, under a stochastic fresnel (emit.comp.glsl; "
-                                  "bench/emission_split.py)"),
     "DENSITY_IGNORED": ("splat", "density splats ignore the density pre-pass (splat/density.*.glsl)"),
     "BEAM_NO_SINE": ("splat", "beams without the estimator's 1/sin θ (splat/beam.frag.glsl)"),
     "BEAM_NO_CAMERA_TRANSMITTANCE": ("splat", "beams without the transmittance to the camera (splat/beam.frag.glsl)"),

@@ -63,7 +63,7 @@ def frame_cost(records: list, params: ApproxParams, work: dict | None = None) ->
     fragments = None if work is None else work["fragments"]
     primitives = None if work is None else work["primitives"]
     search = sum(int(np.asarray(r["map_reads"], np.int64).sum()) for r in records)
-    splats = sum(int(np.count_nonzero(splatted(r, params.splat))) for r in records)
+    splats = sum(int(np.count_nonzero(splatted(r, params))) for r in records)
     emitted = len(records[0]) if records else 0
     emission = emission_reads(params.photon_res, emitted, emission=params.emission,
                               differentials=carries_differentials(params))

@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, cast
 
 from .cost import TIMED_PASSES
-from .params import differential_beams, param
+from .params import differential_beams, param, photon_slots
 
 if TYPE_CHECKING:
     from .params import ApproxParams
@@ -45,9 +45,9 @@ def features(cost: dict, params: ApproxParams) -> dict:
     """pass → {feature: value}: the counts each pass's time is modelled on, from a frame's
     cost (``approx.cost.frame_cost``, its ``fragments_*`` counted) and its resolved
     parameters. ``calls``: the pass's dispatches or draws (a fixed cost each);
-    ``invocations``: compute invocations launched (photon_res² per dispatch, alive or not);
+    ``invocations``: compute invocations launched (every photon slot per dispatch, alive or not: ``params.photon_slots``);
     ``maps``, ``texels``: the light maps drawn and their texels (cleared and packed)."""
-    launched = float(params.photon_res) ** 2
+    launched = float(photon_slots(params))
     steps = float(params.steps)
     pixels = float(cast(int, params.width) * cast(int, params.height))  # resolved: both set
     density = params.splat == "density"

@@ -41,11 +41,12 @@ def check_fits(params: ApproxParams, *, keep_records: bool = False, max_groups: 
     if max_groups is None:
         max_groups = gl_limits()[0]
     # the largest photon_res and light_res one dispatch runs: a size suggested for memory stays within it
-    dispatchable = {"photon_res": math.isqrt(max_groups * 64), "light_res": math.isqrt(max_groups * 256)}
-    need = frame_bytes(params.photon_res, params.steps, keep_records=keep_records)
+    batches = params.fresnel_splits + 1  # photon_res² slots each (scenes.splitting)
+    dispatchable = {"photon_res": math.isqrt(max_groups * 64 // batches), "light_res": math.isqrt(max_groups * 256)}
+    need = batches * frame_bytes(params.photon_res, params.steps, keep_records=keep_records)
     budget = memory_budget()
     if need > budget:
-        fits = min(math.isqrt(int(budget / frame_bytes(1, params.steps, keep_records=keep_records))),
+        fits = min(math.isqrt(int(budget / (batches * frame_bytes(1, params.steps, keep_records=keep_records)))),
                    dispatchable["photon_res"])
         raise ParamError(f"photon_res = {params.photon_res}: a frame needs {need / 2**30:.1f} GiB of photon, "
                          f"record and splat buffers{' and records read back' if keep_records else ''}, more than "
@@ -58,8 +59,9 @@ def check_fits(params: ApproxParams, *, keep_records: bool = False, max_groups: 
                          f"{params.layers}) need {maps / 2**30:.1f} GiB beside the frame's "
                          f"{need / 2**30:.1f} GiB, more than half of this machine's memory "
                          f"({budget / 2**30:.1f} GiB); light_res ≤ {fits} fits")
-    for name, res, per_group in (("photon_res", params.photon_res, 64), ("light_res", params.light_res, 256)):
-        if math.ceil(res * res / per_group) > max_groups:
+    for name, res, per_group, copies in (("photon_res", params.photon_res, 64, batches),
+                                         ("light_res", params.light_res, 256, 1)):
+        if math.ceil(copies * res * res / per_group) > max_groups:
             limit = dispatchable[name]
             raise ParamError(f"{name} = {res}: this GL driver runs at most {max_groups} work groups of "
                              f"{per_group} in one dispatch, so {name} must be at most {limit}")

@@ -200,6 +200,10 @@ _DECLARED: tuple = (  # one entry per ApproxParams field, in its order
           "scenes.rng.stratified)", choices=FRESNEL_MODES, program="trace", glsl="define",
           to_defines=lambda v: {"FRESNEL_STOCHASTIC": 1, **({"FRESNEL_STRATIFIED": 1} if v == "stratified" else {})}
           if stochastic_fresnel(v) else {}),
+    Param("fresnel_splits", int, 0, "the first interactions along the refracted chain at which every photon "
+          "splits in two, reflected at R of its power and refracted at 1 − R, before fresnel chooses "
+          "(scenes.splitting: fresnel_splits + 1 batches of photon_res² photons)", "", 0, 4, program="trace",
+          glsl="define", to_defines=lambda v: {"FRESNEL_SPLITS": v} if v else {}),
     Param("seed", int, 0, "seed of the shared RNG", "", 0, 2**32 - 1, glsl="uniform"),
 )
 
@@ -270,6 +274,7 @@ class ApproxParams(ParamsMethods):
     height: int | None = declared("height")
     fog_steps: int = declared("fog_steps")
     fresnel: str = declared("fresnel")
+    fresnel_splits: int = declared("fresnel_splits")
     seed: int = declared("seed")
 
 
@@ -315,6 +320,12 @@ def differential_beams(params: ParamsMethods) -> bool:
     """Whether ``params`` draw beams as wide as their photons' ray differentials (splat =
     beams, beam_width = differential): the one test of it."""
     return getattr(params, "splat", "fixed") == "beams" and getattr(params, "beam_width", "fixed") == "differential"
+
+
+def photon_slots(params: ParamsMethods) -> int:
+    """The photon slots a frame of ``params`` traces: photon_res² per batch, fresnel_splits
+    + 1 batches (``scenes.splitting``)."""
+    return (getattr(params, "fresnel_splits", 0) + 1) * getattr(params, "photon_res") ** 2
 
 
 def carries_differentials(params: ParamsMethods) -> bool:

@@ -30,7 +30,7 @@ from .emission import RULES, approx_rays, draw_slots
 from .geometry import SceneGeometry
 from .layers import BOTH, LightMapRenderer
 from .light import LightFrustum
-from .params import ApproxParams, defines
+from .params import ApproxParams, defines, photon_slots
 from .records import emission_records, records_from_raw
 from .splat import Splatter
 from .timing import PassTimer, timer_queries_work
@@ -255,7 +255,7 @@ class Renderer:
         """Every interaction step: trace (paper §4.1), then splat its medium collisions
         (§4.3) into one image per step; (records per step, caustic image per step, the
         trace loop's work over the steps: ``lookups`` and ``lockstep_lookups``)."""
-        count = p.photon_res * p.photon_res
+        count = photon_slots(p)
         records, caustic_steps, loop_work = [], [], {"lookups": 0, "lockstep_lookups": 0}
         record_buf = self.ctx.buffer(reserve=count * RAW_RECORD_DTYPE.itemsize)
         splat_buf = self.ctx.buffer(reserve=count * SPLAT_DTYPE.itemsize)
@@ -268,7 +268,7 @@ class Renderer:
             for name, n in zip(loop_work, tracer.loop_work()):
                 loop_work[name] += n
             with timer.measure("splat"):
-                n_splats = tracer.compact_splats(record_buf, count, splat_buf, p)
+                n_splats = tracer.compact_splats(record_buf, count, splat_buf, p, step)
             grid = None
             if splatter.density_program is not None:  # the density pre-pass, a pass of its own
                 with timer.measure("density"):

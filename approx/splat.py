@@ -15,6 +15,7 @@ import moderngl
 import numpy as np
 
 from volcaustics.scenes.formats import BEAM_DTYPE, SPLAT_DTYPE, STATUS_COLLIDED, STATUS_SURFACE, splatted_mask
+from volcaustics.scenes.splitting import silent
 
 from .context import bound
 from .glsl import attribute_layout, load_source, program, set_uniforms, uniform
@@ -76,11 +77,15 @@ def _rows(dtype: np.dtype, point: str, position: ArrayLike, w: ArrayLike, direct
     return out
 
 
-def splatted(records: np.ndarray, splat: str) -> np.ndarray:
-    """Which records (RECORD_DTYPE) a frame splats: its medium collisions, or with
-    ``splat`` = beams its segments in the medium that reached a surface or the medium's
-    end (what splat/compact.comp.glsl gathers)."""
-    return splatted_mask(records["inside"], records["status"], splat == "beams")
+def splatted(records: np.ndarray, params: ApproxParams) -> np.ndarray:
+    """Which records (RECORD_DTYPE) a frame of ``params`` splats: its medium collisions, or
+    with splat = beams its segments in the medium that reached a surface or the medium's
+    end, but for a split batch's share of another's (``scenes.splitting.silent``): what
+    splat/compact.comp.glsl gathers."""
+    keep = splatted_mask(records["inside"], records["status"], params.splat == "beams")
+    if params.fresnel_splits:
+        keep &= ~silent(records["photon"], records["step"], params.fresnel_splits, params.photon_res**2)
+    return keep
 
 
 def record_splats(records: np.ndarray, splat: str) -> np.ndarray:

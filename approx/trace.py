@@ -117,6 +117,7 @@ class PhotonTracer:
         self.differentials: moderngl.Buffer | None = None
         # beam_width = differential: per photon the differential at its step's segment start (DIFFERENTIAL_DTYPE)
         self.segment_differentials: moderngl.Buffer | None = None
+        self.splits = int(defines.get("FRESNEL_SPLITS", 0))  # fresnel_splits (scenes.splitting)
         self.emission_adaptive = "EMISSION_ADAPTIVE" in defines
         self.emission_shift = float(defines.get("EMISSION_SHIFT", 0.0))  # texels (a test's wrong grid, emit.comp.glsl)
         self.importance = shaders.get("importance")
@@ -146,12 +147,14 @@ class PhotonTracer:
         compiles: the constructor's list and the shader check's (scripts/check_shaders.py)."""
         defines = PhotonTracer.defines(params, controls)
         beams = {name: 1 for name in ("SPLAT_BEAMS", "BEAM_DIFFERENTIAL") if name in defines}
+        splits = {"FRESNEL_SPLITS": defines["FRESNEL_SPLITS"]} if "FRESNEL_SPLITS" in defines else {}
         out = {"emit": ("emission/emit.comp.glsl", defines), "trace": ("trace/trace.comp.glsl", defines),
                "pack": ("trace/pack_distances.comp.glsl",
                         {**PACK, **({"PACK_PRIMITIVE": 1} if "START_RULE_ID" in defines else {})}),
-               "compact_count": ("splat/compact.comp.glsl", {"PASS_COUNT": 1, **beams}),
-               "compact_write": ("splat/compact.comp.glsl", {"SPLAT_ADAPTIVE": 1} if "SPLAT_ADAPTIVE" in defines
-                                 else {**beams, "BEAM_SIGMA_FLOOR": BEAM_SIGMA_FLOOR} if beams else {})}
+               "compact_count": ("splat/compact.comp.glsl", {"PASS_COUNT": 1, **beams, **splits}),
+               "compact_write": ("splat/compact.comp.glsl", {**splits, **(
+                   {"SPLAT_ADAPTIVE": 1} if "SPLAT_ADAPTIVE" in defines
+                   else {**beams, "BEAM_SIGMA_FLOOR": BEAM_SIGMA_FLOOR} if beams else {})})}
         if "SEARCH_HIZ" in defines:
             out["pyramid"] = ("trace/pyramid.comp.glsl", {})
         if "EMISSION_ADAPTIVE" in defines:
@@ -176,13 +179,15 @@ class PhotonTracer:
         interaction; ``emission_map`` is a :class:`approx.layers.LightMap` at photon_res.
         With adaptive emission the slots are drawn first (:meth:`draw_slots`)."""
         ctx, prog = self.ctx, self.emit
-        n = photon_res * photon_res
+        batches = self.splits + 1  # fresnel_splits: photon_res² slots per batch (scenes.splitting)
+        n = batches * photon_res * photon_res
         photons = ctx.buffer(reserve=n * PHOTON_DTYPE.itemsize)
         ior, _ = _materials(scene)
         emission_map.surface.use(location=0)
         emission_map.geometric.use(location=1)
         self._set_emission_map(prog, scene, frustum, photon_res)
-        set_uniforms(prog, ior=ior, emission_geometric=1, seed=seed, sigma_t=tuple(scene.medium.sigma_t))
+        set_uniforms(prog, ior=ior, emission_geometric=1, seed=seed, sigma_t=tuple(scene.medium.sigma_t),
+                     batch_slots=photon_res * photon_res)
         slots = self.draw_slots(scene, frustum, photon_res, seed) if self.emission_adaptive else None
         if slots is not None:
             slots.bind_to_storage_buffer(3)
@@ -196,7 +201,7 @@ class PhotonTracer:
             self.differentials.bind_to_storage_buffer(2)
             self.segment_differentials = (ctx.buffer(reserve=n * DIFFERENTIAL_DTYPE.itemsize)
                                           if self.beam_differential else None)
-        prog.run(group_x=math.ceil(photon_res / 8), group_y=math.ceil(photon_res / 8))
+        prog.run(group_x=math.ceil(photon_res / 8), group_y=math.ceil(photon_res / 8), group_z=batches)
         if slots is not None:
             slots.release()
         return photons
@@ -313,7 +318,8 @@ class PhotonTracer:
                      light_position=tuple(frustum.position), light_res=light_res,
                      texel_angle=2.0 * frustum.tan_half / light_res, sigma_t=tuple(scene.medium.sigma_t),
                      sigma_bar=scene.medium.sigma_bar, scene_min=tuple(box[0]),
-                     scene_max=tuple(box[1]), seed=seed, step_index=step, photon_count=count)
+                     scene_max=tuple(box[1]), seed=seed, step_index=step, photon_count=count,
+                     batch_slots=count // (self.splits + 1))
         photons.bind_to_storage_buffer(0)
         records.bind_to_storage_buffer(1)
         map_texels.texels.bind_to_storage_buffer(2)
@@ -343,7 +349,7 @@ class PhotonTracer:
         return int(lookups), int(lockstep)
 
     def compact_splats(self, records: moderngl.Buffer, count: int, splats: moderngl.Buffer,
-                       params: ApproxParams | None = None) -> int:
+                       params: ApproxParams | None = None, step: int = 1) -> int:
         """Gather the medium collisions of one step's records into ``splats`` (SPLAT_DTYPE
         rows, capacity ``count``) in photon order; returns how many. With ``splat =
         adaptive`` each row carries its kernel width from the photons' differentials and
@@ -356,6 +362,9 @@ class PhotonTracer:
         records.bind_to_storage_buffer(0)
         block_buf.bind_to_storage_buffer(1)
         splats.bind_to_storage_buffer(2)
+        batch = count // (self.splits + 1)  # photon_res²: one batch's slots (scenes.splitting)
+        for prog in (self.compact_count, self.compact_write):
+            set_uniforms(prog, step_index=step, batch_slots=batch)
         uniform(self.compact_count, "photon_count").value = count
         self.compact_count.run(group_x=blocks)
         block_counts = np.frombuffer(block_buf.read(), np.uint32)

@@ -29,6 +29,7 @@ from volcaustics.scenes.formats import (
     STATUS_SURFACE,
 )
 from volcaustics.scenes.rng import FRESNEL_MODES, fresnel_uniform, stochastic_fresnel, uniform
+from volcaustics.scenes.splitting import split_number
 
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
@@ -147,11 +148,17 @@ def interaction_geometry(d: np.ndarray, n: np.ndarray, hit_material: np.ndarray,
 def interaction_choice(geometry: dict, power: np.ndarray, n_geometric: np.ndarray, hit_material: np.ndarray,
                        xi: np.ndarray, stochastic: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The interaction's Fresnel choice with ``xi`` (N) on :func:`interaction_geometry`'s
-    ``geometry``: (d, power, inside, flags) as :func:`surface_interaction`."""
+    ``geometry``: (d, power, inside, flags) as :func:`surface_interaction`; ``xi`` below 0
+    or above 1 is a split's forced choice (``scenes.splitting``), whatever ``stochastic``."""
     tir, R = geometry["tir"], geometry["R"]
-    reflect = tir | (stochastic & (xi < R))
+    # a split's forced choices (scenes.splitting.FORCED_NUMBER): reflect at R, refract at 1 − R (none under TIR)
+    forced_reflect, forced_refract = xi < 0, xi > 1
+    free = ~(forced_reflect | forced_refract)
+    reflect = tir | forced_reflect | (stochastic & free & (xi < R))
     if not stochastic:
-        power = np.where(tir[:, None], power, power * (1.0 - R)[:, None])
+        power = np.where((tir | ~free)[:, None], power, power * (1.0 - R)[:, None])
+    power = np.where(forced_reflect[:, None], power * R[:, None],
+                     np.where(forced_refract[:, None], power * np.where(tir, 0.0, 1.0 - R)[:, None], power))
     new_d = np.where(reflect[:, None], geometry["reflected"], geometry["refracted"])
     new_inside = np.where(np.einsum("ij,ij->i", new_d, n_geometric) < 0, hit_material, -1)
     flags = np.where(reflect, FLAG_REFLECTED, 0) | np.where(tir, FLAG_TIR, 0)
@@ -164,7 +171,7 @@ class ReplayConstants:
     (the last row: the medium's), the Fresnel mode and whether photons fly free in the
     medium (points) or run to the next surface (``beams``: splat = beams, no free flight)."""
 
-    def __init__(self, scene, fresnel: str, *, beams: bool = False):
+    def __init__(self, scene, fresnel: str, *, beams: bool = False, splits: int = 0, slots: int = 0):
         self.lo, self.hi = medium_bounds(scene)
         self.sigma_t = np.asarray(scene.medium.sigma_t, np.float64)
         self.sigma_bar = float(np.float32(scene.medium.sigma_bar))  # the GPU tracer's float32 uniform
@@ -175,6 +182,7 @@ class ReplayConstants:
         self.fresnel = fresnel
         self.stochastic = stochastic_fresnel(fresnel)
         self.beams = beams
+        self.splits, self.slots = splits, slots  # fresnel_splits and a batch's photon slots (scenes.splitting)
 
 
 def advance(c: ReplayConstants, oracle: Oracle, step: int, seed: int | np.ndarray, idx: np.ndarray, o: np.ndarray,
@@ -213,7 +221,8 @@ def advance(c: ReplayConstants, oracle: Oracle, step: int, seed: int | np.ndarra
     new_d, new_inside = d.copy(), inside.copy()
     if hit.any():
         seed_hit = cast(np.ndarray, seed)[hit] if np.ndim(seed) else seed
-        xi = fresnel_uniform(c.fresnel, seed_hit, idx[hit].astype(np.uint32), step).astype(np.float64)
+        xi = split_number(fresnel_uniform(c.fresnel, seed_hit, idx[hit].astype(np.uint32), step).astype(np.float64),
+                          idx[hit], step, c.splits, c.slots)
         dd, pp, ii, ff = surface_interaction(d[hit], new_power[hit], q["normal"][hit], q["geometric_normal"][hit],
                                              q["shape"][hit], xi, c.ior, c.stochastic)
         new_d[hit], new_power[hit], new_inside[hit], flags[hit] = dd, pp, ii, ff
@@ -227,13 +236,15 @@ def alive_after(status: np.ndarray) -> np.ndarray:
 
 
 def exact_photon_records(scene: Scene, first_records: np.ndarray, *, steps: int, seed: int,
-                         fresnel: str = "deterministic", oracle: Oracle | None = None, beams: bool = False) -> list:
+                         fresnel: str = "deterministic", oracle: Oracle | None = None, beams: bool = False,
+                         splits: int = 0, slots: int = 0) -> list:
     """Replay photons from the approximation's step-1 records (their emission state:
     start, direction, inside, power_start) with exact intersections; returns one
     RECORD_DTYPE array per step (photons alive at that step). ``beams``: no free flight
-    in the medium (splat = beams), as the tracer's."""
+    in the medium (splat = beams), as the tracer's; ``splits``, ``slots``: fresnel_splits
+    and one batch's photon slots (``scenes.splitting``)."""
     oracle = oracle or Oracle(scene)
-    c = ReplayConstants(scene, fresnel, beams=beams)
+    c = ReplayConstants(scene, fresnel, beams=beams, splits=splits, slots=slots)
     idx, o, d, inside, power = emission_state(first_records)
     out = []
     for step in range(1, steps + 1):

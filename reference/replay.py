@@ -27,6 +27,7 @@ import numpy as np
 from volcaustics.scenes.bounds import box_exit
 from volcaustics.scenes.formats import RECORD_DTYPE, splatted_mask
 from volcaustics.scenes.rng import fresnel_uniform
+from volcaustics.scenes.splitting import silent, split_number, split_rays
 
 from .oracle import (
     Oracle,
@@ -85,7 +86,8 @@ class Collisions:
 
 
 def exact_emission(scene: Scene, groups: Iterable[tuple[Rays, int]], *, fresnel: str,
-                   oracle: Oracle | None = None, max_photons: int = MAX_PHOTONS) -> list:
+                   oracle: Oracle | None = None, max_photons: int = MAX_PHOTONS, splits: int = 0,
+                   slots: int = 0) -> list:
     """Per group, the emission state (step-1 records: photon, start, direction, inside,
     power_start; RECORD_DTYPE) of photons leaving the light exactly: each ray from the
     light's position to its exact first specular surface, its power times the medium's
@@ -98,9 +100,12 @@ def exact_emission(scene: Scene, groups: Iterable[tuple[Rays, int]], *, fresnel:
         ``direction`` (N×3 unit, from the light) and ``power`` (N×3 W), e.g.
         ``approx.emission.EmissionRays``; in launches of at most ``max_photons`` rays,
         groups that share one ``rays`` object traced once.
+    splits, slots : fresnel_splits and one batch's photon slots: the rays' photons are
+        slots of split batches (:func:`split_groups`), forced at the first surface as
+        ``scenes.splitting`` says.
     """
     oracle = oracle or Oracle(scene)
-    c = ReplayConstants(scene, fresnel)
+    c = ReplayConstants(scene, fresnel, splits=splits, slots=slots)
     light = np.asarray(scene.light.position, np.float64)
 
     def launch(part):
@@ -110,7 +115,8 @@ def exact_emission(scene: Scene, groups: Iterable[tuple[Rays, int]], *, fresnel:
         out = []
         for rays, seed in part:
             photon, start, carried, q, geometry = traced[id(rays)]
-            xi = fresnel_uniform(c.fresnel, seed, photon.astype(np.uint32), 0).astype(np.float64)
+            xi = split_number(fresnel_uniform(c.fresnel, seed, photon.astype(np.uint32), 0).astype(np.float64),
+                              photon, 0, c.splits, c.slots)
             new_d, new_power, inside, _ = interaction_choice(geometry, carried, q["geometric_normal"], q["shape"], xi,
                                                              c.stochastic)
             first = np.zeros(len(photon), RECORD_DTYPE)
@@ -121,6 +127,31 @@ def exact_emission(scene: Scene, groups: Iterable[tuple[Rays, int]], *, fresnel:
         return out
 
     return _packed(groups, lambda group: len(group[0].photon), launch, max_photons)
+
+
+@dataclass
+class SplitRays:
+    """Rays of every batch of a split emission (:func:`split_groups`): ``Rays``' fields."""
+
+    photon: np.ndarray
+    direction: np.ndarray
+    power: np.ndarray
+
+
+def split_groups(groups: Sequence[tuple[Rays, int]], splits: int, slots: int) -> list:
+    """``groups`` with every set of rays repeated over the fresnel_splits + 1 batches of
+    ``scenes.splitting`` (photon b·``slots`` + p, batch-major), each set once for the
+    groups that share it; the groups themselves when ``splits`` is 0."""
+    if not splits:
+        return list(groups)
+    made: dict = {}
+    for rays, _ in groups:
+        if id(rays) not in made:
+            copies = splits + 1
+            made[id(rays)] = SplitRays(split_rays(np.asarray(rays.photon), splits, slots).astype(np.uint32),
+                                       np.tile(np.asarray(rays.direction), (copies, 1)),
+                                       np.tile(np.asarray(rays.power), (copies, 1)))
+    return [(made[id(rays)], seed) for rays, seed in groups]
 
 
 def _seed_free(part: list, c: ReplayConstants, oracle: Oracle, light: np.ndarray) -> dict:
@@ -162,7 +193,7 @@ def _packed(groups, size, launch, max_photons: int) -> list:
 
 def exact_collisions(scene: Scene, groups: Iterable[tuple[np.ndarray, int]], *, steps: int, fresnel: str,
                      oracle: Oracle | None = None, max_photons: int = MAX_PHOTONS, engine: str = "drjit",
-                     beams: bool = False) -> list:
+                     beams: bool = False, splits: int = 0, slots: int = 0) -> list:
     """Replay every group exactly for ``steps`` steps with ``fresnel``; one
     :class:`Collisions` per group, in order.
 
@@ -177,11 +208,12 @@ def exact_collisions(scene: Scene, groups: Iterable[tuple[np.ndarray, int]], *, 
         (``reference.wavefront``), or "numpy", one numpy pass after another per step
         (``oracle.advance``: the physics' reference, which a test holds the other to).
     beams : no free flight; the segments in the medium are kept (BEAM_ROW_DTYPE).
+    splits, slots : fresnel_splits and one batch's photon slots (``scenes.splitting``).
     """
     if engine not in ENGINES:
         raise ValueError(f"engine = {engine!r}: expected one of {', '.join(ENGINES)}")
     oracle = oracle or Oracle(scene)
-    constants = ReplayConstants(scene, fresnel, beams=beams)
+    constants = ReplayConstants(scene, fresnel, beams=beams, splits=splits, slots=slots)
     tracer = (functools.partial(_numpy_steps, c=constants, oracle=oracle) if engine == "numpy"
               else _wavefront(constants, oracle).trace)
     return _packed(groups, lambda group: len(group[0]), lambda part: _launch(constants, oracle, part, steps, tracer),
@@ -240,18 +272,23 @@ def _collisions(kept: list, alive: tuple[np.ndarray, np.ndarray], steps: int, em
 
 def exact_replays(scene: Scene, groups: Sequence[tuple[Rays, int]], *, steps: int, fresnel: str,
                   oracle: Oracle | None = None, max_photons: int = MAX_PHOTONS, engine: str = "drjit",
-                  beams: bool = False) -> list:
+                  beams: bool = False, splits: int = 0, slots: int = 0) -> list:
     """:func:`exact_emission`, then :func:`exact_collisions` from what it emitted: one
     :class:`Collisions` per (rays, seed) group. With the "drjit" engine the emitted
     state is made on the device (``Wavefront.emitted``: the records' float32 values,
     as the two steps pass them) and never comes back to numpy. ``beams``: as for
-    :func:`exact_collisions`."""
+    :func:`exact_collisions`; ``splits``, ``slots``: fresnel_splits and photon_res², the
+    rays (one per emission photon, indices < ``slots``) split into its batches first
+    (:func:`split_groups`)."""
     oracle = oracle or Oracle(scene)
+    groups = split_groups(groups, splits, slots)
+    split = {"splits": splits, "slots": slots}
     if engine == "numpy":
-        firsts = exact_emission(scene, groups, fresnel=fresnel, oracle=oracle, max_photons=max_photons)
+        firsts = exact_emission(scene, groups, fresnel=fresnel, oracle=oracle, max_photons=max_photons, **split)
         return exact_collisions(scene, [(first, seed) for first, (_, seed) in zip(firsts, groups)], steps=steps,
-                                fresnel=fresnel, oracle=oracle, max_photons=max_photons, engine=engine, beams=beams)
-    c = ReplayConstants(scene, fresnel, beams=beams)
+                                fresnel=fresnel, oracle=oracle, max_photons=max_photons, engine=engine, beams=beams,
+                                **split)
+    c = ReplayConstants(scene, fresnel, beams=beams, **split)
     wavefront, light = _wavefront(c, oracle), np.asarray(scene.light.position, np.float64)
 
     def launch(part):
@@ -284,11 +321,12 @@ def _numpy_steps(steps, group, seed, idx, o, d, inside, power, *, c, oracle) -> 
     alive_group, alive_power = np.zeros(0, np.int64), np.zeros((0, 3))
     for step in range(1, steps + 1):
         s = advance(c, oracle, step, seed, idx, o, d, inside, power)
-        if c.beams:  # the segments in the medium that reached a surface or the medium's end
-            keep = splatted_mask(inside, s["status"], beams=True)
+        # the segments in the medium that reached a surface or the medium's end (beams), or the
+        # collisions; a split batch's share of another's is not splatted
+        keep = splatted_mask(inside, s["status"], beams=c.beams) & ~silent(idx, step, c.splits, c.slots)
+        if c.beams:
             row = {"start": o[keep], "length": s["along"][keep], "power": power[keep]}
         else:
-            keep = splatted_mask(inside, s["status"], beams=False)
             row = {"end": s["end"][keep], "power": s["new_power"][keep]}
         if keep.any():
             kept.append({"step": step, "group": group[keep], "photon": idx[keep], "direction": d[keep], **row})

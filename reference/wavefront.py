@@ -82,6 +82,24 @@ class Wavefront:
         rotation = self._hash(seed, self.U32(ROTATION_PHOTON), step, FRESNEL_DIM)
         return self.F32((rotation + photon * self.U32(GOLDEN)) >> 8) * (2.0**-24)
 
+    # --- Fresnel splitting (scenes.splitting) ---------------------------------------------
+    def split_number(self, xi: Any, photon: Any, step: Any) -> Any:
+        """``scenes.splitting.split_number``: ``xi`` (F64), or the forced choice's number of
+        photon slot ``photon`` (U32) at interaction ``step`` (U32)."""
+        splits = self.c.splits
+        if not splits:
+            return xi
+        dr, U32 = self.dr, self.U32
+        batch = photon // U32(self.c.slots)
+        chain = step < dr.minimum(batch, U32(splits))
+        off = (step == batch) & (batch < U32(splits))
+        return dr.select(chain, 2.0, dr.select(off, -1.0, xi))
+
+    def silent(self, photon: Any, step: int) -> Any:
+        """``scenes.splitting.silent`` of photon slots ``photon`` (U32) at ``step``."""
+        batch = photon // self.U32(max(self.c.slots, 1))
+        return (batch < self.U32(self.c.splits)) & (self.U32(step) <= batch)
+
     # --- one step ---------------------------------------------------------------------
     def step(self, step: int, seed: Any, idx: Any, o: Any, d: Any, inside: Any, power: Any) -> dict:
         """``oracle.advance`` for the photons ``idx`` with ``seed`` (U32), at ``o`` going
@@ -111,7 +129,7 @@ class Wavefront:
         status = dr.select(hit, STATUS_SURFACE, dr.select(~medium, STATUS_LOST,
                                                           dr.select(collides, STATUS_COLLIDED, STATUS_LEFT_SCENE)))
         # the surface interaction where it hit (oracle.surface_interaction)
-        xi = F64(self.fresnel_uniform(seed, idx, step_u))
+        xi = self.split_number(F64(self.fresnel_uniform(seed, idx, step_u)), idx, step_u)
         new_d, interacted_power, new_inside = self._interaction(d, new_power, n, n_geometric, shape, xi)
         return {"end": end, "along": along, "status": self.I32(status),
                 "new_power": dr.select(hit, interacted_power, new_power),
@@ -200,9 +218,14 @@ class Wavefront:
         refracted = V64(*(refracted[k] / length for k in range(3)))
         twice = 2.0 * _dot(d, n)
         reflected = V64(*(d[k] - twice * n[k] for k in range(3)))
-        reflect = tir | ((xi < R) if c.stochastic else False)
+        # a split's forced choices (scenes.splitting.FORCED_NUMBER): reflect at R, refract at 1 − R (none under TIR)
+        forced_reflect, forced_refract = xi < 0.0, xi > 1.0
+        free = ~(forced_reflect | forced_refract)
+        reflect = tir | forced_reflect | ((free & (xi < R)) if c.stochastic else False)
         if not c.stochastic:
-            power = dr.select(tir, power, V64(*(power[k] * (1.0 - R) for k in range(3))))
+            power = dr.select(tir | ~free, power, V64(*(power[k] * (1.0 - R) for k in range(3))))
+        factor = dr.select(forced_reflect, R, dr.select(forced_refract, dr.select(tir, 0.0, 1.0 - R), 1.0))
+        power = dr.select(free, power, V64(*(power[k] * factor for k in range(3))))
         new_d = dr.select(reflect, reflected, refracted)
         new_inside = dr.select(_dot(new_d, n_geometric) < 0, material, -1)
         return new_d, power, new_inside
@@ -240,7 +263,7 @@ class Wavefront:
         photon = dr.gather(U32, hits["photon"], index)
         shape = dr.gather(I32, hits["shape"], index)
         seed_u = U32(seed.astype(np.uint32))
-        xi = F64(self.fresnel_uniform(seed_u, photon, 0))
+        xi = self.split_number(F64(self.fresnel_uniform(seed_u, photon, 0)), photon, self.dr.opaque(self.U32, 0))
         new_d, power, inside = self._interaction(at["d"], at["carried"], at["normal"], at["geometric_normal"], shape,
                                                  xi)
         d = V64(F32(new_d[0]), F32(new_d[1]), F32(new_d[2]))   # the record's float32, renormalised
@@ -264,6 +287,8 @@ class Wavefront:
             # what is splatted: the medium collisions, or (beams) the segments in the medium
             splatted = ((state["inside"] < 0) & (alive | (s["status"] == STATUS_LEFT_SCENE)) if self.c.beams
                         else collided)
+            if self.c.splits:  # a split batch's share of another's segments is not splatted
+                splatted = splatted & ~self.silent(state["idx"], step)
             dr.eval(s, collided, alive, splatted)
             at = dr.compress(splatted)
             if dr.width(at):

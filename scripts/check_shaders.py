@@ -45,7 +45,7 @@ def trace_variants() -> list:
 
     table = [p for p in PARAMS if p.glsl == "define" and p.program == "trace"]
     strings = [p for p in table if p.choices]
-    on = {"CLIP_TO_OBJECTS": 1, "DIFFERENTIAL_UNPROPAGATED": 1, "EMISSION_SHIFT": 0.5, "EMISSION_FRESNEL": 1}
+    on = {"CLIP_TO_OBJECTS": 1, "DIFFERENTIAL_UNPROPAGATED": 1, "EMISSION_SHIFT": 0.5}
     controls = [{}] + [{name: on[name]} for name, (program, _) in CONTROLS.items() if program == "trace"]
     out = []
     for values in itertools.product(*(p.choices for p in strings)):

@@ -75,9 +75,17 @@ def _run_glsl(ctx, d, n_sh, n_geo, xi, material, stochastic):
     return res[:, 0, :3], res[:, 0, 3].astype(int), res[:, 1, 0], res[:, 1, 1].astype(int)
 
 
+@pytest.mark.parametrize("forced", [False, True], ids=["chosen", "split"])
 @pytest.mark.parametrize("stochastic", [False, True], ids=["deterministic", "stochastic"])
-def test_inside_follows_the_geometric_normal_in_both_tracers(ctx, stochastic):
+def test_inside_follows_the_geometric_normal_in_both_tracers(ctx, stochastic, forced):
+    """``forced``: a third of the numbers a split's forced reflection, a third its forced
+    refraction (scenes.splitting.FORCED_NUMBER), in either mode."""
     d, n_sh, n_geo, xi, material = _cases(20000)
+    if forced:
+        from volcaustics.scenes.splitting import FORCED_NUMBER, REFLECT, REFRACT
+
+        xi = np.where(np.arange(len(xi)) % 3 == 0, FORCED_NUMBER[REFLECT],
+                      np.where(np.arange(len(xi)) % 3 == 1, FORCED_NUMBER[REFRACT], xi))
     d_gl, inside_gl, power_gl, flags_gl = _run_glsl(ctx, d, n_sh, n_geo, xi, material, stochastic)
     d_np, power_np, inside_np, flags_np = surface_interaction(d, np.ones((len(d), 3)), n_sh, n_geo, material, xi,
                                                               np.asarray(IOR), stochastic)
@@ -101,6 +109,8 @@ def test_inside_follows_the_geometric_normal_in_both_tracers(ctx, stochastic):
         cos_i = np.abs(np.einsum("ij,ij->i", d, n_sh))
         eta = np.where(from_outside, np.asarray(IOR)[material], 1 / np.asarray(IOR)[material])
         robust &= np.abs(xi - fresnel_dielectric(cos_i, eta)) > 1e-4
+    if forced:  # a forced reflection carries R of the power: not the unit power of a choice
+        assert np.ptp(power_gl[xi < 0]) > 0.1
     assert np.array_equal(inside_gl[robust], inside_np[robust])
     assert np.array_equal(flags_gl[robust], flags_np[robust])
     assert np.allclose(d_gl[robust], d_np[robust], atol=2e-5)

@@ -123,7 +123,7 @@ def test_differential_beams_from_their_records_are_the_frames_beams(ctx):
     renderer, p, frames = _frames(scene, "differential beams", photon_res=128)
     try:
         records = frames[0].records[1]  # step 2: the beams leaving the sphere
-        beams = records[splatted(records, p.splat)]
+        beams = records[splatted(records, p)]
         rows = with_kernels(record_splats(beams, p.splat), record_kernels(beams, p))
         assert np.array_equal(renderer.splat(rows, scene, p), frames[0].caustic_steps[1])
         assert np.abs(rows["power"][:, 3]).max() > 0

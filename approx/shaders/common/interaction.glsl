@@ -4,7 +4,8 @@
 // probability R, power unchanged; FRESNEL_STRATIFIED: the choices' numbers stratified
 // over the photons, scenes/rng.py). Numpy twin: reference/oracle.py. Requires
 // common/optics.glsl, common/rng.glsl and the uniform array `ior` (defined by the
-// including shader).
+// including shader). A number xi below 0 or above 1 is a split's forced choice
+// (common/split.glsl): reflection at R of the power, refraction at 1 − R, whatever the mode.
 #ifndef VOLCAUSTICS_INTERACTION_GLSL
 #define VOLCAUSTICS_INTERACTION_GLSL
 
@@ -51,6 +52,14 @@ uint surface_interaction(inout vec3 d, inout vec3 power, out int inside, vec3 n,
     if (!refract_dir(d, n, eta, t)) {
         d = reflect_dir(d, n);
         flags = FLAG_REFLECTED | FLAG_TIR;
+        if (xi > 1.0) power = vec3(0.0);  // a split's forced refraction: none under TIR
+    } else if (xi < 0.0) {  // a split's forced reflection (common/split.glsl), at R of the power
+        power *= R;
+        d = reflect_dir(d, n);
+        flags = FLAG_REFLECTED;
+    } else if (xi > 1.0) {  // its forced refraction, at 1 − R
+        power *= (1.0 - R);
+        d = t;
     } else {
 #ifdef FRESNEL_STOCHASTIC
         if (xi < R) {

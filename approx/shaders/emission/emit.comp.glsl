@@ -13,6 +13,8 @@
 // (EMISSION_JITTER_SOBOL; scenes/sobol.py).
 // DIFFERENTIALS (splat = adaptive, beam_width = differential): each photon's ray
 // differential at its first surface (common/differential.glsl).
+// FRESNEL_SPLITS (fresnel_splits = k): the dispatch's z is the batch; every batch emits the
+// same photon per texel, each splitting at its first surface as common/split.glsl says.
 #include "common/rng.glsl"
 #include "common/sobol.glsl"
 #include "common/optics.glsl"
@@ -24,6 +26,8 @@ layout(local_size_x = 8, local_size_y = 8) in;
 
 uniform float ior[MAX_MATERIALS];
 #include "common/interaction.glsl"
+uniform uint batch_slots;        // photon_res²: the slots of one batch (common/split.glsl)
+#include "common/split.glsl"
 
 uniform sampler2D emission_geometric;  // its octahedral outward geometric normal, primitive id + 1
 uniform uint seed;
@@ -61,7 +65,8 @@ float emission_curvature(ivec2 texel, vec4 map, vec3 p0, vec3 n0, ivec2 axis, fl
 void main() {
     ivec2 slot = ivec2(gl_GlobalInvocationID.xy);
     if (slot.x >= photon_res || slot.y >= photon_res) return;
-    uint index = uint(slot.y * photon_res + slot.x);
+    uint index = uint(slot.y * photon_res + slot.x);  // the texel's (adaptive emission: the slot's) photon
+    uint slot_index = gl_GlobalInvocationID.z * batch_slots + index;  // its slot in batch z (common/split.glsl)
 
     Photon ph;
     ph.pos = vec4(0.0, 0.0, 0.0, -1.0);
@@ -113,19 +118,8 @@ void main() {
 #endif
         int inside = -1;
         vec3 d_in = d;
-#ifdef EMISSION_FRESNEL
-        // a bench's control (approx/controls.py, bench/emission_split.py), under a stochastic
-        // fresnel: every photon reflects at R of its power (1) or refracts at 1 − R of it (2),
-        // so that the two frames sum to an emission that splits each photon at its first surface
-        vec3 n_first = octa_decode(map.ba);
-        int object = int(map.g + 0.5);
-        float R_first = fresnel_at(d, n_first, object);
-        uint flags = surface_interaction(d, power, inside, n_first, geometric, object, EMISSION_FRESNEL == 1 ? -1.0 : 2.0);
-        if ((flags & FLAG_TIR) == 0u) power *= EMISSION_FRESNEL == 1 ? R_first : 1.0 - R_first;
-#else
         uint flags = surface_interaction(d, power, inside, octa_decode(map.ba), geometric, int(map.g + 0.5),
-                                         fresnel_uniform(seed, index, 0u));
-#endif
+                                         split_number(fresnel_uniform(seed, slot_index, 0u), slot_index, 0u));
         vec3 from_light = d_in * r;
 #ifdef DIFFERENTIALS
         // From the light the photons' rays spread by the grid's angular spacing (with adaptive
@@ -153,8 +147,8 @@ void main() {
         ph.power = vec4(power, start_offset(from_light, d, geometric));
 #endif
     }
-    photons[index] = ph;
+    photons[slot_index] = ph;
 #ifdef DIFFERENTIALS
-    differentials[index] = diff;
+    differentials[slot_index] = diff;
 #endif
 }

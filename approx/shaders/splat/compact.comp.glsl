@@ -18,6 +18,9 @@ layout(std430, binding = 2) writeonly buffer Beams { Beam beams[]; };
 layout(std430, binding = 2) writeonly buffer Splats { Splat splats[]; };
 #endif
 uniform uint photon_count;
+uniform uint step_index;   // the step's (1-based), for common/split.glsl
+uniform uint batch_slots;  // photon_res²: the slots of one batch
+#include "common/split.glsl"
 #if defined(SPLAT_ADAPTIVE) || defined(BEAM_DIFFERENTIAL)
 // SPLAT_ADAPTIVE: the kernel of a collision is splat_footprints × the photon's footprint
 // there (its ray differential, trace.comp.glsl), within [splat_radius / 16, 4 · splat_radius].
@@ -47,6 +50,7 @@ void main() {
 #else
     bool kept = i < photon_count && int(records[i].end_status.w + 0.5) == STATUS_COLLIDED;
 #endif
+    kept = kept && !split_silent(i, step_index);  // a split batch's share of another's segments (fresnel_splits)
     rank[lane] = kept ? 1u : 0u;
     barrier();
     // Hillis–Steele inclusive scan over the block.

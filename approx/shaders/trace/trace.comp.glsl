@@ -61,6 +61,8 @@ layout(local_size_x = 64) in;
 uniform float ior[MAX_MATERIALS];
 uniform vec3 absorption[MAX_MATERIALS];
 #include "common/interaction.glsl"
+uniform uint batch_slots;  // photon_res²: the slots of one batch (common/split.glsl)
+#include "common/split.glsl"
 
 uniform bool map_used[MAPS];         // the map holds at least one surface texel
 uniform float map_min_dist[MAPS];    // bounds of the map's distances to the light
@@ -439,7 +441,7 @@ void main() {
         material_hit = int(best_texel.g + 0.5);
         vec3 d_in = d;
         uint interaction = surface_interaction(d, power, inside, normal, geometric, material_hit,
-                                               fresnel_uniform(seed, i, step_index));
+                                               split_number(fresnel_uniform(seed, i, step_index), i, step_index));
         g_flags |= interaction;
 #ifdef DIFFERENTIALS
         diff.x += diff.y * best_t;

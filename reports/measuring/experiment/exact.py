@@ -159,7 +159,8 @@ def exact_photons(scene: Scene, params: ApproxParams, *, steps: int, fresnel: st
         first_records = frame.records[0]
         mask = frame.images["mask_specular"]
     records = exact_photon_records(scene, first_records, steps=steps, seed=p.seed, fresnel=fresnel,
-                                   oracle=oracle or Oracle(scene), beams=p.splat == "beams")
+                                   oracle=oracle or Oracle(scene), beams=p.splat == "beams",
+                                   splits=p.fresnel_splits, slots=p.photon_res**2)
     return photons_from_records(records, first_records, p, steps=steps, fresnel=fresnel, mask_specular=mask)
 
 
@@ -168,7 +169,7 @@ def photons_from_records(records: list, first_records: np.ndarray, params: Appro
     """The medium collisions of an exact replay's per-step records
     (``reference.oracle.exact_photon_records``) as :class:`ExactPhotons`, for callers
     that also use the records (power budgets, divergence)."""
-    collided = [r[splatted(r, params.splat)] for r in records]
+    collided = [r[splatted(r, params)] for r in records]
     collided_power = np.zeros((steps, 3))
     power = "power_start" if params.splat == "beams" else "power"  # what is splatted: beams carry their start's
     for k, c in enumerate(collided):
@@ -193,10 +194,12 @@ def interleaved_subsets(photon: np.ndarray, photon_res: int, batches: int) -> np
     grid at a (b) times its spacing, stratified over the light like the whole grid, so
     the subsets' spread measures the noise of the whole; subsets of whole columns
     (index mod K) differ in the light they cover and overstated the standard
-    deviation of the energy 2× (sphere1, 8 seeds)."""
+    deviation of the energy 2× (sphere1, 8 seeds). A photon slot of a split batch
+    (``scenes.splitting``: b·photon_res² + texel) is its texel's: the batches of one
+    photon stay in one subset."""
     a = max(d for d in range(1, int(np.sqrt(batches)) + 1) if batches % d == 0)
     b = batches // a
-    photon = np.asarray(photon, np.int64)
+    photon = np.asarray(photon, np.int64) % (photon_res * photon_res)
     return ((photon // photon_res) % a) * b + (photon % photon_res) % b
 
 

@@ -162,7 +162,7 @@ def approx_subsets(scene: Scene, p: ApproxParams, frames: list[Frame], seeds: li
     seed the kernels of its real frame (``kernels.frame_kernels``) for the E images."""
     images, kernels = [], []
     for frame, seed in zip(frames, seeds):
-        collided = np.concatenate([r[splatted(r, p.splat)] for r in frame.records])
+        collided = np.concatenate([r[splatted(r, p)] for r in frame.records])
         kernel = frame_kernels(renderer, scene, p, collided)
         splats = record_splats(collided, p.splat)
         images.append(_subsets(renderer, scene, dataclasses.replace(splat_params(p), seed=seed),
@@ -198,7 +198,8 @@ def _exact_batches(scene, p, kernels, seeds, renderer, oracle, subphotons: int, 
     true = [(true_rays(scene.light, frustum, p.photon_res, s), s) for seeds_of in replay_seeds for s in seeds_of]
     stochastic = replayed(scene, p, "stochastic", own + true, oracle, steps)  # one wavefront for both emissions
     everything_all, true_all = stochastic[:len(own)], stochastic[len(own):]
-    same_all = everything_all if p.fresnel == "stochastic" else replayed(scene, p, p.fresnel, own, oracle, steps)
+    same_all = (everything_all if p.fresnel == "stochastic" and not p.fresnel_splits
+                else replayed(scene, p, p.fresnel, own, oracle, steps, splits=p.fresnel_splits))
     for i, (kernel, seed) in enumerate(zip(kernels, seeds)):
         ps = dataclasses.replace(splat_params(p), seed=seed)
         mine = slice(i * subphotons, (i + 1) * subphotons)
@@ -226,13 +227,15 @@ def _cut(photons: ExactPhotons, steps: int) -> ExactPhotons:
 
 
 def replayed(scene: Scene, p: ApproxParams, fresnel: str, groups: list, oracle: Oracle,
-             steps: int) -> list[ExactPhotons]:
+             steps: int, splits: int = 0) -> list[ExactPhotons]:
     """One :class:`ExactPhotons` per (rays, seed) of ``groups``: the rays emitted exactly
-    and replayed ``steps`` steps with ``fresnel`` and that seed, all of them one
-    wavefront on the device (``reference.replay.exact_replays``)."""
+    and replayed ``steps`` steps with ``fresnel`` and that seed (split into ``splits`` + 1
+    batches first, ``scenes.splitting``), all of them one wavefront on the device
+    (``reference.replay.exact_replays``)."""
     beams = p.splat == "beams"
-    done = exact_replays(scene, groups, steps=steps, fresnel=fresnel, oracle=oracle, beams=beams)
-    used = {**p.to_dict(), "steps": steps, "fresnel": fresnel, "emission_fresnel": fresnel}
+    done = exact_replays(scene, groups, steps=steps, fresnel=fresnel, oracle=oracle, beams=beams, splits=splits,
+                         slots=p.photon_res**2)
+    used = {**p.to_dict(), "steps": steps, "fresnel": fresnel, "emission_fresnel": fresnel, "fresnel_splits": splits}
     return [ExactPhotons(splats=beams_from_arrays(c.rows["start"], c.rows["direction"], c.rows["length"],
                                                   c.rows["power"]) if beams
                          else splats_from_arrays(c.rows["end"], c.rows["direction"], c.rows["power"]),

@@ -25,7 +25,7 @@ FATES = tuple(FATE_OF_STATUS.values())   # the power budget's share_<fate> colum
 def replay(scene: Scene, p: ApproxParams, frame: Frame, seed: int, oracle: Oracle) -> list:
     """The frame's photons replayed exactly with its steps and Fresnel."""
     return exact_photon_records(scene, frame.records[0], steps=p.steps, seed=seed, fresnel=p.fresnel, oracle=oracle,
-                                beams=p.splat == "beams")
+                                beams=p.splat == "beams", splits=p.fresnel_splits, slots=p.photon_res**2)
 
 
 def photon_rows(frames: Sequence[Frame], replays: list, columns: dict) -> tuple:

@@ -1,0 +1,30 @@
+// Fresnel splitting along the refracted chain (FRESNEL_SPLITS = k, the parameter
+// fresnel_splits): photon slot j = b·batch_slots + i is emission texel i's photon in batch
+// b of k + 1. Batch b < k refracts at interactions 0..b−1 (0: the emission's), reflects at
+// b; batch k refracts at 0..k−1; then each chooses by its Fresnel number. Twin of
+// scenes/splitting.py (the specification lives there). Requires the uniform `batch_slots`.
+#ifndef VOLCAUSTICS_SPLIT_GLSL
+#define VOLCAUSTICS_SPLIT_GLSL
+
+// xi, or the number of interaction `step`'s forced choice for slot `photon`: −1 reflects at
+// R of the power, 2 refracts at 1 − R (common/interaction.glsl)
+float split_number(float xi, uint photon, uint step) {
+#ifdef FRESNEL_SPLITS
+    uint batch = photon / batch_slots;
+    if (step < min(batch, uint(FRESNEL_SPLITS))) return 2.0;
+    if (step == batch && batch < uint(FRESNEL_SPLITS)) return -1.0;
+#endif
+    return xi;
+}
+
+// Whether the segment of step `step` (1-based) of slot `photon` is another batch's: not splatted
+bool split_silent(uint photon, uint step) {
+#ifdef FRESNEL_SPLITS
+    uint batch = photon / batch_slots;
+    return batch < uint(FRESNEL_SPLITS) && step <= batch;
+#else
+    return false;
+#endif
+}
+
+#endif
