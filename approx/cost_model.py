@@ -45,7 +45,8 @@ def features(cost: dict, params: ApproxParams) -> dict:
     """pass → {feature: value}: the counts each pass's time is modelled on, from a frame's
     cost (``approx.cost.frame_cost``, its ``fragments_*`` counted) and its resolved
     parameters. ``calls``: the pass's dispatches or draws (a fixed cost each);
-    ``invocations``: compute invocations launched (every photon slot per dispatch, alive or not: ``params.photon_slots``);
+    ``invocations``: compute invocations launched (every photon slot per dispatch, alive or
+    not: ``params.photon_slots``);
     ``maps``, ``texels``: the light maps drawn and their texels (cleared and packed)."""
     launched = float(photon_slots(params))
     steps = float(params.steps)

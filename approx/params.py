@@ -204,6 +204,9 @@ _DECLARED: tuple = (  # one entry per ApproxParams field, in its order
           "splits in two, reflected at R of its power and refracted at 1 − R, before fresnel chooses "
           "(scenes.splitting: fresnel_splits + 1 batches of photon_res² photons)", "", 0, 4, program="trace",
           glsl="define", to_defines=lambda v: {"FRESNEL_SPLITS": v} if v else {}),
+    Param("split_every", int, 1, "fresnel_splits: one photon in this many traces each reflected branch, at as "
+          "many times its power (stratified over the texels; scenes.splitting.kept)", "", 1, 64, program="trace",
+          glsl="define", to_defines=lambda v: {"SPLIT_EVERY": v} if v > 1 else {}),
     Param("seed", int, 0, "seed of the shared RNG", "", 0, 2**32 - 1, glsl="uniform"),
 )
 
@@ -275,6 +278,7 @@ class ApproxParams(ParamsMethods):
     fog_steps: int = declared("fog_steps")
     fresnel: str = declared("fresnel")
     fresnel_splits: int = declared("fresnel_splits")
+    split_every: int = declared("split_every")
     seed: int = declared("seed")
 
 
@@ -325,7 +329,7 @@ def differential_beams(params: ParamsMethods) -> bool:
 def photon_slots(params: ParamsMethods) -> int:
     """The photon slots a frame of ``params`` traces: photon_res² per batch, fresnel_splits
     + 1 batches (``scenes.splitting``)."""
-    return (getattr(params, "fresnel_splits", 0) + 1) * getattr(params, "photon_res") ** 2
+    return (getattr(params, "fresnel_splits", 0) + 1) * params.photon_res ** 2
 
 
 def carries_differentials(params: ParamsMethods) -> bool:

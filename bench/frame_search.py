@@ -96,6 +96,12 @@ CANDIDATES.update({
 _STRAT = {**_PRESET_DIFF, "fresnel": "stratified"}
 CANDIDATES.update({"bstrat-steps4": _STRAT, "bstrat-steps6": {**_STRAT, "steps": 6},
                    "bstrat-steps8": {**_STRAT, "steps": 8}})
+# the preset beams (bstrat-steps8) with every photon split at its first interactions along the
+# refracted chain (fresnel_splits, scenes.splitting): each reflection off it traced by every photon
+CANDIDATES.update({f"bsplit{k}": {**_STRAT, "steps": 8, "fresnel_splits": k} for k in (1, 2, 3)})
+# a reflected branch traced by one photon in m (split_every), at m times its power
+CANDIDATES.update({f"bsplit{k}-e{m}": {**_STRAT, "steps": 8, "fresnel_splits": k, "split_every": m}
+                   for k in (1, 2, 3) for m in (2, 3, 4, 8)})
 
 
 def main(argv=None) -> int:

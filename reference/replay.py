@@ -27,7 +27,7 @@ import numpy as np
 from volcaustics.scenes.bounds import box_exit
 from volcaustics.scenes.formats import RECORD_DTYPE, splatted_mask
 from volcaustics.scenes.rng import fresnel_uniform
-from volcaustics.scenes.splitting import silent, split_number, split_rays
+from volcaustics.scenes.splitting import kept, silent, split_number, split_rays
 
 from .oracle import (
     Oracle,
@@ -138,20 +138,25 @@ class SplitRays:
     power: np.ndarray
 
 
-def split_groups(groups: Sequence[tuple[Rays, int]], splits: int, slots: int) -> list:
+def split_groups(groups: Sequence[tuple[Rays, int]], splits: int, slots: int, every: int = 1) -> list:
     """``groups`` with every set of rays repeated over the fresnel_splits + 1 batches of
-    ``scenes.splitting`` (photon b·``slots`` + p, batch-major), each set once for the
-    groups that share it; the groups themselves when ``splits`` is 0."""
+    ``scenes.splitting`` (photon b·``slots`` + p, batch-major), the reflected batches'
+    rays kept and weighted as split_every = ``every`` says (``scenes.splitting.kept``,
+    which depends on the seed), each set once for the groups that share it and a seed;
+    the groups themselves when ``splits`` is 0."""
     if not splits:
         return list(groups)
     made: dict = {}
-    for rays, _ in groups:
-        if id(rays) not in made:
+    for rays, seed in groups:
+        key = (id(rays), seed if every > 1 else None)
+        if key not in made:
             copies = splits + 1
-            made[id(rays)] = SplitRays(split_rays(np.asarray(rays.photon), splits, slots).astype(np.uint32),
-                                       np.tile(np.asarray(rays.direction), (copies, 1)),
-                                       np.tile(np.asarray(rays.power), (copies, 1)))
-    return [(made[id(rays)], seed) for rays, seed in groups]
+            photon = split_rays(np.asarray(rays.photon), splits, slots)
+            keep, factor = kept(seed, photon, splits, slots, every)
+            direction = np.tile(np.asarray(rays.direction), (copies, 1))[keep]
+            power = np.tile(np.asarray(rays.power), (copies, 1))[keep] * factor[keep, None]
+            made[key] = SplitRays(photon[keep].astype(np.uint32), direction, power)
+    return [(made[(id(rays), seed if every > 1 else None)], seed) for rays, seed in groups]
 
 
 def _seed_free(part: list, c: ReplayConstants, oracle: Oracle, light: np.ndarray) -> dict:
@@ -272,16 +277,16 @@ def _collisions(kept: list, alive: tuple[np.ndarray, np.ndarray], steps: int, em
 
 def exact_replays(scene: Scene, groups: Sequence[tuple[Rays, int]], *, steps: int, fresnel: str,
                   oracle: Oracle | None = None, max_photons: int = MAX_PHOTONS, engine: str = "drjit",
-                  beams: bool = False, splits: int = 0, slots: int = 0) -> list:
+                  beams: bool = False, splits: int = 0, slots: int = 0, every: int = 1) -> list:
     """:func:`exact_emission`, then :func:`exact_collisions` from what it emitted: one
     :class:`Collisions` per (rays, seed) group. With the "drjit" engine the emitted
     state is made on the device (``Wavefront.emitted``: the records' float32 values,
     as the two steps pass them) and never comes back to numpy. ``beams``: as for
     :func:`exact_collisions`; ``splits``, ``slots``: fresnel_splits and photon_res², the
     rays (one per emission photon, indices < ``slots``) split into its batches first
-    (:func:`split_groups`)."""
+    (:func:`split_groups`, ``every``: split_every)."""
     oracle = oracle or Oracle(scene)
-    groups = split_groups(groups, splits, slots)
+    groups = split_groups(groups, splits, slots, every)
     split = {"splits": splits, "slots": slots}
     if engine == "numpy":
         firsts = exact_emission(scene, groups, fresnel=fresnel, oracle=oracle, max_photons=max_photons, **split)

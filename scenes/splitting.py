@@ -20,6 +20,12 @@ reflection: its segments of steps 1..b are batch k's and are not splatted
 (:func:`silent`), so that each branch is counted once. The sum over the batches has the
 expectation of one photon choosing at every interaction (``tests/approx/test_splits.py``).
 
+With ``split_every`` = m > 1 a reflected batch (b < k) keeps one photon in m of its slots,
+chosen by stratified numbers over the texels (``scenes.rng.stratified(seed, texel, b,
+SPLIT_DIM)`` below 1/m: about N/m of them, evenly spread), at m times its power
+(:func:`kept`): a reflected beam costs a frame as much as any other, and carries R ≈ 4–10%
+of the light, so it needs fewer photons than the refracted chain.
+
 Why: where R is small the reflected light is made by few photons, and its noise is a
 frame's largest share (docs/decisions.md "Splitting at the first surfaces").
 """
@@ -30,10 +36,13 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from volcaustics.scenes.rng import stratified
+
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
 
 FREE, REFLECT, REFRACT = 0, 1, 2  # what a photon does at an interaction
+SPLIT_DIM = 4  # the dimension of a reflected batch's keep numbers (scenes.rng: 0 free flight, 1 Fresnel, 2–3 jitter)
 # the numbers a forced choice puts in place of the Fresnel number (common/interaction.glsl):
 # below 0 reflects at R of the power, above 1 refracts at 1 − R, whatever the fresnel mode
 FORCED_NUMBER = {REFLECT: -1.0, REFRACT: 2.0}
@@ -70,3 +79,17 @@ def split_rays(photon: np.ndarray, splits: int, slots: int) -> np.ndarray:
     batch-major, (splits + 1)·len(photon) indices b·slots + photon."""
     photon = np.asarray(photon, np.int64)
     return (np.arange(splits + 1, dtype=np.int64)[:, None] * slots + photon[None, :]).ravel()
+
+
+def kept(seed: int, photon: ArrayLike, splits: int, slots: int, every: int) -> tuple[np.ndarray, np.ndarray]:
+    """(whether photon slot ``photon`` is emitted, the factor on its power) under
+    ``split_every`` = ``every``: a reflected batch's slot kept where its stratified number
+    is below 1/every, at ``every`` times the power; batch ``splits``' always, at 1."""
+    photon = np.asarray(photon, np.int64)
+    batch = photon // max(slots, 1)
+    reflected = batch < splits
+    if every == 1 or not splits:
+        return np.ones(photon.shape, bool), np.ones(photon.shape)
+    u = stratified(seed, (photon % slots).astype(np.uint32), batch.astype(np.uint32), SPLIT_DIM)
+    keep = ~reflected | (u < np.float32(1.0 / every))
+    return keep, np.where(reflected, float(every), 1.0)

@@ -1,16 +1,12 @@
 """Renderer controls (``approx.controls.CONTROLS``): #defines that are not parameters of the
 method reach the programs only through a Renderer's ``controls``, never a module global."""
 
-import dataclasses
 
-import numpy as np
 import pytest
 
-from volcaustics.approx import ApproxParams, Renderer
+from volcaustics.approx import ApproxParams
 from volcaustics.approx.controls import CONTROLS, check_controls
-from volcaustics.approx.params import QUICK
 from volcaustics.approx.trace import PhotonTracer
-from volcaustics.scenes import load_builtin
 
 
 def test_a_control_reaches_the_tracers_defines_and_its_key():

@@ -23,19 +23,21 @@ def _tree_weights(R: list, splits: int, count_silent: bool = False) -> dict:
     has reflectance R[t] whatever the path (a test's simplification)."""
     slots = 1
     out: dict = {}
+
+    def walk(batch, t, path, weight):
+        if t == len(R):
+            return
+        choice = int(forced(batch * slots, t, splits, slots))
+        options = ({REFLECT: R[t], REFRACT: 1 - R[t]} if choice == FREE
+                   else {choice: R[t] if choice == REFLECT else 1 - R[t]})
+        for c, w in options.items():
+            step = t + 1  # the segment after interaction t is step t + 1's
+            if count_silent or not silent(batch * slots, step, splits, slots):
+                out[path + (c,)] = out.get(path + (c,), 0.0) + weight * w
+            walk(batch, t + 1, path + (c,), weight * w)
+
     for batch in range(splits + 1):
-        def walk(t, path, weight):
-            if t == len(R):
-                return
-            choice = int(forced(batch * slots, t, splits, slots))
-            options = ({REFLECT: R[t], REFRACT: 1 - R[t]} if choice == FREE
-                       else {choice: R[t] if choice == REFLECT else 1 - R[t]})
-            for c, w in options.items():
-                step = t + 1  # the segment after interaction t is step t + 1's
-                if count_silent or not silent(batch * slots, step, splits, slots):
-                    out[path + (c,)] = out.get(path + (c,), 0.0) + weight * w
-                walk(t + 1, path + (c,), weight * w)
-        walk(0, (), 1.0)
+        walk(batch, 0, (), 1.0)
     return out
 
 
@@ -94,3 +96,25 @@ def test_the_first_surfaces_batches_sum_to_the_photons_power(ctx):
     assert np.allclose(power.sum(axis=0)[lit], unsplit[lit], rtol=1e-5)  # float32 products
     share = power[0, lit, 0] / unsplit[lit, 0]
     assert 0.02 < share.mean() < 0.2  # a sphere seen from its light: R from 4% up, no TIR there
+
+
+def test_split_every_keeps_the_slots_scenes_splitting_keeps(ctx):
+    """split_every = 4 on the GPU: the reflected batch's photons are the slots
+    ``scenes.splitting.kept`` keeps (about a quarter of the lit texels) at 4× the power of
+    split_every = 1's; the refracted batch is untouched."""
+    from volcaustics.scenes.splitting import kept
+
+    scene = load_builtin("sphere1")
+    params = dataclasses.replace(QUICK, fresnel="stochastic", width=64, height=64, photon_res=64, light_res=64,
+                                 fresnel_splits=1, seed=7)
+    n = params.photon_res**2
+    renderer = Renderer(scene, ctx)
+    every = renderer.render(scene, dataclasses.replace(params, split_every=4), keep_records=True).records[0]
+    whole = renderer.render(scene, params, keep_records=True).records[0]
+    reflected = whole[whole["photon"] < n]
+    keep, factor = kept(params.seed, reflected["photon"], 1, n, 4)
+    assert 0.2 < keep.mean() < 0.3
+    mine = every[every["photon"] < n]
+    assert np.array_equal(mine["photon"], reflected["photon"][keep])
+    assert np.allclose(mine["power_start"], reflected["power_start"][keep] * 4, rtol=1e-6)
+    assert np.array_equal(every[every["photon"] >= n]["photon"], whole[whole["photon"] >= n]["photon"])

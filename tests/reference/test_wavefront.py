@@ -21,13 +21,13 @@ PHOTON_RES = 40  # 1,600 photons a replay, 3 replays: every built-in in about a 
 STEPS = 512      # the replay's own (measurement.EXACT_STEPS)
 
 
-def _both(name: str, fresnel: str, beams: bool = False, splits: int = 0) -> tuple:
+def _both(name: str, fresnel: str, beams: bool = False, splits: int = 0, every: int = 1) -> tuple:
     scene = load_builtin(name)
     oracle = Oracle(scene)
     frustum = LightFrustum.for_scene(scene, *medium_bounds(scene))
     groups = [(true_rays(scene.light, frustum, PHOTON_RES, seed), seed) for seed in (3, 4, 5)]
     return tuple(replay.exact_replays(scene, groups, steps=STEPS, fresnel=fresnel, oracle=oracle, engine=engine,
-                                      beams=beams, splits=splits, slots=PHOTON_RES**2)
+                                      beams=beams, splits=splits, slots=PHOTON_RES**2, every=every)
                  for engine in ("numpy", "drjit"))
 
 
@@ -66,11 +66,12 @@ def test_the_drjit_beams_are_the_numpy_beams(name):
     assert _same(numpy_engine, drjit_engine) == []
 
 
-@pytest.mark.parametrize("beams", [False, True])
-def test_the_drjit_splits_are_the_numpy_splits(beams):
+@pytest.mark.parametrize(("beams", "every"), [(False, 1), (True, 1), (True, 3)])
+def test_the_drjit_splits_are_the_numpy_splits(beams, every):
     """fresnel_splits (scenes.splitting): the forced choices and the silent segments of
-    each batch the same in both engines; the three batches' photons all there."""
-    numpy_engine, drjit_engine = _both("two_spheres", "stratified", beams=beams, splits=2)
+    each batch (and split_every's kept photons) the same in both engines; the three
+    batches' photons all there."""
+    numpy_engine, drjit_engine = _both("two_spheres", "stratified", beams=beams, splits=2, every=every)
     assert {int(p) // PHOTON_RES**2 for p in numpy_engine[0].rows["photon"]} == {0, 1, 2}
     assert _same(numpy_engine, drjit_engine) == []
 

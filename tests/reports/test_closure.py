@@ -233,3 +233,25 @@ def test_an_exact_emission_without_the_spot_profile_is_flagged(cache, monkeypatc
     monkeypatch.setattr(exact_images, "load_exact", lambda key, document: None)  # the stored E images had the profile
     message = _closes(_measure(scene, params), "sphere1 without the profile")
     assert message is not None and "disagree" in message
+
+
+SPLIT_SCENES = ["two_spheres", "bunny", heldout_path("dense_forward")]
+
+
+@pytest.mark.slow  # statistical (about 10 s a point)
+@pytest.mark.parametrize("scene_arg", SPLIT_SCENES, ids=[a.rsplit("/", 1)[-1].removesuffix(".toml")
+                                                         for a in SPLIT_SCENES])
+def test_the_decomposition_closes_with_fresnel_splits(cache, scene_arg):
+    """fresnel_splits (scenes.splitting): A's batches and the exact replays' split as one
+    (the forced choices, the silent segments, split_every's kept photons at its weight),
+    so E_k is A's photons and E_∞ the split's exact counterpart: the residual within noise
+    as without splits, on differential beams; the split carries the light stochastic
+    choices carry (the reflections term within its noise)."""
+    scene = resolve_scene(scene_arg)
+    params = dataclasses.replace(PRESETS["beams"], fresnel_splits=2, split_every=2, photon_res=96)
+    result = _measure(scene, params)
+    assert (message := _closes(result, f"{scene.name} splits")) is None, message
+    # E_∞ split against E_∞ stochastic: the same light in expectation (the rule's own test:
+    # tests/approx/test_splits.py), so the reflections term's energy is within its noise
+    reflections = next(r for r in result.summary["decomposition"]["rows"] if r["term"] == "reflections")
+    assert abs(reflections["energy_share"]) <= 3 * reflections["energy_share_se"], reflections

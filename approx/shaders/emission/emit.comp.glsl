@@ -101,7 +101,9 @@ void main() {
     vec2 plane = texel_plane(texel, within);
     vec3 d = normalize(light_basis * vec3(plane, 1.0));
     float falloff = spot_falloff(d);
-    if (map.r > 0.0 && falloff > 0.0) {
+    float split_factor;
+    bool emitted = split_kept(seed, slot_index, split_factor);  // split_every (common/split.glsl)
+    if (map.r > 0.0 && falloff > 0.0 && emitted) {
         vec4 geometric_id = texelFetch(emission_geometric, texel, 0);
         vec3 geometric = octa_decode(geometric_id.xy);
         float r = map.r;
@@ -116,6 +118,7 @@ void main() {
 #else
         vec3 power = light_intensity * falloff * solid_angle[texel_index] * exp(-sigma_t * r);
 #endif
+        power *= split_factor;
         int inside = -1;
         vec3 d_in = d;
         uint flags = surface_interaction(d, power, inside, octa_decode(map.ba), geometric, int(map.g + 0.5),

@@ -234,7 +234,7 @@ def replayed(scene: Scene, p: ApproxParams, fresnel: str, groups: list, oracle: 
     (``reference.replay.exact_replays``)."""
     beams = p.splat == "beams"
     done = exact_replays(scene, groups, steps=steps, fresnel=fresnel, oracle=oracle, beams=beams, splits=splits,
-                         slots=p.photon_res**2)
+                         slots=p.photon_res**2, every=p.split_every)
     used = {**p.to_dict(), "steps": steps, "fresnel": fresnel, "emission_fresnel": fresnel, "fresnel_splits": splits}
     return [ExactPhotons(splats=beams_from_arrays(c.rows["start"], c.rows["direction"], c.rows["length"],
                                                   c.rows["power"]) if beams
