@@ -363,10 +363,13 @@ PRESET_VALUES["best"] = {**PRESET_VALUES["quick"], **BEST}
 # each as wide as its photon's ray-differential footprint (beam_width = differential, one
 # footprint, within [splat_radius/16, 4·splat_radius]), its Fresnel choices stratified over
 # the photons, 8 steps: what the one-frame search measured best for beams on the built-ins,
-# judged on the held-out scenes (docs/decisions.md "Points against beams"); its
-# photon_res is matched to the paper configuration's cost as best's
+# judged on the held-out scenes (docs/decisions.md "Points against beams"); every photon
+# split at its first two interactions along the refracted chain, each reflected branch
+# traced by one photon in two (docs/decisions.md "Splitting at the first surfaces",
+# chosen on dense_forward); its photon_res is matched to the paper configuration's cost
+# as best's
 BEAMS = {"splat": "beams", "beam_width": "differential", "splat_footprints": 1.0, "splat_radius": 0.01,
-         "fresnel": "stratified", "steps": 8, "layers": 2}
+         "fresnel": "stratified", "steps": 8, "layers": 2, "fresnel_splits": 2, "split_every": 2}
 PRESET_VALUES["beams"] = {**PRESET_VALUES["quick"], **BEAMS}
 AUTO_PHOTON_RES = {"best": "quick", "beams": "quick"}  # preset → the preset whose frame cost its photon_res matches
 

@@ -248,7 +248,7 @@ def test_the_decomposition_closes_with_fresnel_splits(cache, scene_arg):
     as without splits, on differential beams; the split carries the light stochastic
     choices carry (the reflections term within its noise)."""
     scene = resolve_scene(scene_arg)
-    params = dataclasses.replace(PRESETS["beams"], fresnel_splits=2, split_every=2, photon_res=96)
+    params = dataclasses.replace(PRESETS["beams"], photon_res=96)  # the preset: 2 splits, every 2
     result = _measure(scene, params)
     assert (message := _closes(result, f"{scene.name} splits")) is None, message
     # E_∞ split against E_∞ stochastic: the same light in expectation (the rule's own test:
