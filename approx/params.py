@@ -326,10 +326,10 @@ def differential_beams(params: ParamsMethods) -> bool:
     return getattr(params, "splat", "fixed") == "beams" and getattr(params, "beam_width", "fixed") == "differential"
 
 
-def photon_slots(params: ParamsMethods) -> int:
+def photon_slots(params: ApproxParams) -> int:
     """The photon slots a frame of ``params`` traces: photon_res² per batch, fresnel_splits
     + 1 batches (``scenes.splitting``)."""
-    return (getattr(params, "fresnel_splits", 0) + 1) * params.photon_res ** 2
+    return (params.fresnel_splits + 1) * params.photon_res**2
 
 
 def carries_differentials(params: ParamsMethods) -> bool:
