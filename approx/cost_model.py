@@ -191,5 +191,6 @@ class _Probe:
     """Parameters for listing the features (any values)."""
 
     photon_res = steps = width = height = fog_steps = layers = light_res = 1
+    fresnel_splits = 0
     splat = "density"
     beam_width = "fixed"
