@@ -28,7 +28,9 @@ def _good_value(entry: Param):
     """An allowed value other than the default."""
     if entry.choices:
         return entry.choices[-1]
-    return entry.low if entry.kind is int else entry.high / 4
+    if entry.kind is int:
+        return entry.low if entry.low != entry.default else entry.high  # fresnel_splits: its default is its low
+    return entry.high / 4
 
 
 def _help(command: str) -> str:
