@@ -27,7 +27,7 @@ import numpy as np
 from volcaustics.scenes.bounds import box_exit
 from volcaustics.scenes.formats import RECORD_DTYPE, splatted_mask
 from volcaustics.scenes.rng import fresnel_uniform
-from volcaustics.scenes.splitting import kept, silent, split_number, split_rays
+from volcaustics.scenes.splitting import silent, split_groups, split_number
 
 from .oracle import (
     Oracle,
@@ -101,7 +101,7 @@ def exact_emission(scene: Scene, groups: Iterable[tuple[Rays, int]], *, fresnel:
         ``approx.emission.EmissionRays``; in launches of at most ``max_photons`` rays,
         groups that share one ``rays`` object traced once.
     splits, slots : fresnel_splits and one batch's photon slots: the rays' photons are
-        slots of split batches (:func:`split_groups`), forced at the first surface as
+        slots of split batches (``scenes.splitting.split_groups``), forced at the first surface as
         ``scenes.splitting`` says.
     """
     oracle = oracle or Oracle(scene)
@@ -127,36 +127,6 @@ def exact_emission(scene: Scene, groups: Iterable[tuple[Rays, int]], *, fresnel:
         return out
 
     return _packed(groups, lambda group: len(group[0].photon), launch, max_photons)
-
-
-@dataclass
-class SplitRays:
-    """Rays of every batch of a split emission (:func:`split_groups`): ``Rays``' fields."""
-
-    photon: np.ndarray
-    direction: np.ndarray
-    power: np.ndarray
-
-
-def split_groups(groups: Sequence[tuple[Rays, int]], splits: int, slots: int, every: int = 1) -> list:
-    """``groups`` with every set of rays repeated over the fresnel_splits + 1 batches of
-    ``scenes.splitting`` (photon b·``slots`` + p, batch-major), the reflected batches'
-    rays kept and weighted as split_every = ``every`` says (``scenes.splitting.kept``,
-    which depends on the seed), each set once for the groups that share it and a seed;
-    the groups themselves when ``splits`` is 0."""
-    if not splits:
-        return list(groups)
-    made: dict = {}
-    for rays, seed in groups:
-        key = (id(rays), seed if every > 1 else None)
-        if key not in made:
-            copies = splits + 1
-            photon = split_rays(np.asarray(rays.photon), splits, slots)
-            keep, factor = kept(seed, photon, splits, slots, every)
-            direction = np.tile(np.asarray(rays.direction), (copies, 1))[keep]
-            power = np.tile(np.asarray(rays.power), (copies, 1))[keep] * factor[keep, None]
-            made[key] = SplitRays(photon[keep].astype(np.uint32), direction, power)
-    return [(made[(id(rays), seed if every > 1 else None)], seed) for rays, seed in groups]
 
 
 def _seed_free(part: list, c: ReplayConstants, oracle: Oracle, light: np.ndarray) -> dict:
@@ -284,7 +254,7 @@ def exact_replays(scene: Scene, groups: Sequence[tuple[Rays, int]], *, steps: in
     as the two steps pass them) and never comes back to numpy. ``beams``: as for
     :func:`exact_collisions`; ``splits``, ``slots``: fresnel_splits and photon_res², the
     rays (one per emission photon, indices < ``slots``) split into its batches first
-    (:func:`split_groups`, ``every``: split_every)."""
+    (``scenes.splitting.split_groups``, ``every``: split_every)."""
     oracle = oracle or Oracle(scene)
     groups = split_groups(groups, splits, slots, every)
     split = {"splits": splits, "slots": slots}

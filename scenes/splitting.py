@@ -32,7 +32,9 @@ frame's largest share (docs/decisions.md "Splitting at the first surfaces").
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -93,3 +95,36 @@ def kept(seed: int, photon: ArrayLike, splits: int, slots: int, every: int) -> t
     u = stratified(seed, (photon % slots).astype(np.uint32), batch.astype(np.uint32), SPLIT_DIM)
     keep = ~reflected | (u < np.float32(1.0 / every))
     return keep, np.where(reflected, float(every), 1.0)
+
+
+@dataclass
+class SplitRays:
+    """Rays of every batch of a split emission (:func:`split_groups`): ``reference.replay.Rays``' fields."""
+
+    photon: np.ndarray
+    direction: np.ndarray
+    power: np.ndarray
+
+
+def split_groups(groups: Sequence[tuple[Any, int]], splits: int, slots: int, every: int = 1) -> list:
+    """``groups`` with every set of rays repeated over the fresnel_splits + 1 batches
+    (module docstring) (photon b·``slots`` + p, batch-major), the reflected batches'
+    rays kept and weighted as split_every = ``every`` says (:func:`kept`,
+    which depends on the seed), each set once for the groups that share it and a seed;
+    the groups themselves when ``splits`` is 0."""
+    if not splits:
+        return list(groups)
+    made: dict = {}
+
+    def key(rays, seed):  # the kept slots depend on the seed only with split_every > 1
+        return id(rays), seed if every > 1 else None
+
+    for rays, seed in groups:
+        if key(rays, seed) not in made:
+            copies = splits + 1
+            photon = split_rays(np.asarray(rays.photon), splits, slots)
+            keep, factor = kept(seed, photon, splits, slots, every)
+            direction = np.tile(np.asarray(rays.direction), (copies, 1))[keep]
+            power = np.tile(np.asarray(rays.power), (copies, 1))[keep] * factor[keep, None]
+            made[key(rays, seed)] = SplitRays(photon[keep].astype(np.uint32), direction, power)
+    return [(made[key(rays, seed)], seed) for rays, seed in groups]
