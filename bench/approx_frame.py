@@ -2,6 +2,7 @@
 
     .venv/bin/python bench/approx_frame.py [SCENE] [--frames N]
 
+Any preset by name (--presets quick,beams; beams at its own photon_res 256, not matched).
 Paper (Wang, Wang & Chen): 800×800, photon_res 1500, layers 4, steps 4,
 iterations 30, peak_samples 8; intersection estimation ≈ 70% and splatting ≈ 23%
 of a frame on their GPU. Each preset renders one warm-up frame (shader
@@ -26,12 +27,12 @@ def main(argv=None) -> int:
 
     from volcaustics.approx import Renderer
     from volcaustics.approx.cost import frame_cost
-    from volcaustics.approx.params import PAPER, QUICK
+    from volcaustics.approx.params import PRESETS
     from volcaustics.scenes import resolve_scene
 
     scene = resolve_scene(args.scene)
     renderer = Renderer(scene)
-    presets = {"quick": QUICK, "paper": PAPER}
+    presets = PRESETS  # every preset by name (beams: its photon_res unmatched)
     print(f"scene {scene.name}; GL: {renderer.ctx.info['GL_RENDERER']}")
     for name in args.presets.split(","):
         params = presets[name]
