@@ -104,9 +104,9 @@ def parse_animation(ctx: Context, value: object, scene: Scene) -> Animation:
 
 def _check_frames(ctx, animation: Animation, scene: Scene) -> None:
     """Every frame is a valid scene: the camera looks somewhere from outside the glass,
-    the light aims somewhere."""
+    the light aims somewhere from outside the glass."""
     paths = {tr.path for tr in animation.tracks}
-    moves = any(p.startswith(("camera.", "specular.")) for p in paths)
+    moves = any(p.startswith(("camera.", "specular.")) or p == "light.position" for p in paths)
     for frame in range(animation.frames):
         values = {tr.path: tr.at(frame) for tr in animation.tracks}
         where = f" (animation frame {frame})"
@@ -120,11 +120,13 @@ def _check_frames(ctx, animation: Animation, scene: Scene) -> None:
             at = animation.scene_at(scene, frame)
             check_view(ctx, at.camera, where)
             for i, obj in enumerate(at.specular):  # in object space: no mesh is built per frame
-                local = np.linalg.solve(obj.mesh.transform.matrix(), [*at.camera.position, 1.0])[:3]
-                if winding_number(replace(obj.mesh, transform=Transform()).load(), local) > 0.5:
-                    raise ctx.error("camera.position", list(at.camera.position),
-                                    f"the camera must be outside every specular object (it is inside specular[{i}] "
-                                    f"'{obj.name}'){where}")
+                mesh = replace(obj.mesh, transform=Transform()).load()
+                for what, position in (("camera", at.camera.position), ("light", at.light.position)):
+                    local = np.linalg.solve(obj.mesh.transform.matrix(), [*position, 1.0])[:3]
+                    if winding_number(mesh, local) > 0.5:
+                        raise ctx.error(f"{what}.position", list(position),
+                                        f"the {what} must be outside every specular object (it is inside "
+                                        f"specular[{i}] '{obj.name}'){where}")
 
 
 # --- entry points -----------------------------------------------------------------
