@@ -25,7 +25,9 @@ def scene_verdict(name: str, result: MeasuredResult, limits: dict, baseline: dic
                   strict: bool = True) -> Verdict:
     """The budgets ``limits`` of scene ``name`` checked on ``result`` (``.summary`` and
     ``.segments``, e.g. ``reports.measuring.runner.PointResult``) and, with ``baseline`` (the
-    baseline file's document), the regression test against its entry for the scene.
+    baseline file's document), the regression test against its entry ``name``: the budgets
+    key as written (``scenes/mine.toml`` for a scene file, not the scene's own name), the
+    key the gate accepts a baseline under.
 
     strict: a budget the noise cannot resolve, a NaN metric, a missing or mismatching
     baseline entry raise GateError; lenient: they become ``notes``."""
@@ -45,17 +47,16 @@ def scene_verdict(name: str, result: MeasuredResult, limits: dict, baseline: dic
             verdict.notes.append(f"regression not tested: {exc}")
         return verdict
     if baseline is not None:
-        _regression(verdict, name, result, baseline, strict)
+        _regression(verdict, name, baseline, strict)
     return verdict
 
 
-def _regression(verdict: Verdict, name: str, result, baseline: dict, strict: bool) -> None:
+def _regression(verdict: Verdict, name: str, baseline: dict, strict: bool) -> None:
     entry = cast(dict, verdict.entry)  # made before the regression test is asked for
-    scene = result.summary["scene"]
-    base = baseline["scenes"].get(scene)
+    base = baseline["scenes"].get(name)  # keyed as the gate wrote it: the budgets key, never the scene's name
     if base is None:
         problem = ("the baseline has no entry for this scene: no regression test",
-                   f"{name}: the baseline has no entry for {scene!r}: update the baseline")
+                   f"the baseline has no entry for {name!r}: update the baseline")
     elif base.get("reference_key") != entry["reference_key"]:
         problem = ("the baseline was measured against another reference: no regression test (update the baseline)",
                    f"{name}: the baseline was measured against reference {base.get('reference_key')}, this run "
