@@ -11,7 +11,7 @@ Every problem raises :class:`scenes.errors.SceneError` naming the file, the key
     position = [0, 1.2, 4]        # metres
     target = [0, 0.9, 0]
     up = [0, 1, 0]                # optional
-    fov_y = 40                    # vertical field of view, degrees, 0.1 <= fov_y < 180
+    fov_y = 40                    # vertical field of view, degrees, 0.1 <= fov_y <= 160
     width = 512
     height = 512
 

@@ -139,6 +139,8 @@ BAD = [
     ("camera into the glass", lambda a: a["track"].append({"path": "camera.position", "frame": [0, 7],
                                                            "value": [[0, 1, 4], [0, 1, 0.2]]}),
      "camera.position", "animation frame 7"),
+    ("fov near 180", lambda a: a["track"].append({"path": "camera.fov_y", "frame": [0, 7], "value": [40, 179.999]}),
+     "animation.track[1].value[1]", "179.999"),
     ("light into the glass", lambda a: a["track"][0].update(frame=[0, 7], value=[[0, 3, 0], [0, 1, 0.1]]),
      "light.position", "inside specular[0] 'ball') (animation frame 6)"),
     ("glass onto the light", lambda a: a["track"].append({"path": "specular.ball.translate", "frame": [0, 7],

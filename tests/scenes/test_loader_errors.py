@@ -46,6 +46,9 @@ CASES = [
     ("fov wrong type", _set(["camera", "fov_y"], "wide"), "camera.fov_y", "'wide'"),
     ("fov far below float32", _set(["camera", "fov_y"], 1e-30), "camera.fov_y", "1e-30"),  # hung the reference
     ("fov below the minimum", _set(["camera", "fov_y"], 0.05), "camera.fov_y", "0.05"),
+    # the centre pixels held the whole scene: approx (a sample per pixel centre) rendered 0, the reference not
+    ("fov near 180", _set(["camera", "fov_y"], 179.999), "camera.fov_y", "179.999"),
+    ("fov beyond the widest", _set(["camera", "fov_y"], 160.001), "camera.fov_y", "160.001"),
     ("cutoff far below float32", _set(["light", "cutoff_angle"], 1e-30), "light.cutoff_angle", "1e-30"),
     ("beam below the minimum", _set(["light", "beam_width"], 1e-12), "light.beam_width", "1e-12"),
     ("width not integer", _set(["camera", "width"], 64.5), "camera.width", "64.5"),
