@@ -16,6 +16,9 @@ import os
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, cast
 
+from volcaustics.infra.errors import InputError
+from volcaustics.infra.storage import special_file_kind
+
 from .cost import TIMED_PASSES
 from .params import differential_beams, param, photon_slots
 
@@ -103,7 +106,7 @@ class WeightSet:
         fragments) whose weight it never learnt: its 0 would price them as free."""
         if "splat_modes" in self.provenance:
             return tuple(self.provenance["splat_modes"])
-        configs = self.provenance.get("fit", {}).get("configs")
+        configs = (self.provenance.get("fit") or {}).get("configs")
         if not isinstance(configs, dict):
             return (*param("splat").choices, DIFFERENTIAL_BEAMS)
         return config_splat_modes(configs)
@@ -137,42 +140,129 @@ def config_splat_modes(configs: dict) -> tuple:
     return tuple(sorted(modes))
 
 
-class WeightSetError(ValueError):
-    """A weight file that cannot be used: its path and what is wrong."""
+class WeightSetError(InputError):
+    """A weight file that cannot be used: its path, the key, the value and what is allowed."""
+
+
+#: the top-level keys of a weight file (what ``WeightSet.to_dict`` writes)
+WEIGHT_FILE_KEYS = ("name", "unit", "weights", "provenance")
+# A weight is 0 or within [MIN_WEIGHT, MAX_WEIGHT] (seconds, or a set's unit, per count): the
+# shipped sets span 1.9e-11 to 0.011. With every count below 2^64 and ~45 features, a frame's
+# predicted time stays below 1e33, and the ratio of two frames (cost_match.cost_ratio: a
+# frame priced at least MIN_WEIGHT, see always_counted) below 1e63: finite in float64, where
+# a weight of 1e308 summed to inf and the ratio to NaN.
+MIN_WEIGHT = 1e-30
+MAX_WEIGHT = 1e12
+
+
+def always_counted() -> dict:
+    """pass → the features every frame counts at least once, whatever its parameters (a
+    pass's calls, the light maps and their texels, the photon slots launched, the pixels):
+    a weight set prices every frame above 0 only if one of them has a weight > 0."""
+    x = features({name: 0.0 for name in _COST_NAMES}, cast("ApproxParams", _Least()))
+    return {name: tuple(f for f, v in fs.items() if v > 0) for name, fs in x.items()}
 
 
 def read_weight_set(path: str) -> WeightSet:
-    """A weight set from its JSON file, checked (every pass a mapping of known features to
-    finite weights ≥ 0)."""
+    """A weight set from its JSON file, the whole document checked: an object of
+    WEIGHT_FILE_KEYS; ``name`` and ``unit`` non-empty strings; ``weights``: every pass a
+    mapping of known features to weights 0 or within [MIN_WEIGHT, MAX_WEIGHT], one > 0 on
+    a feature every frame counts (:func:`always_counted`); ``provenance`` an object whose
+    ``splat_modes`` (when given) is a non-empty list of splat modes (:func:`splat_mode`)
+    and whose ``fit.configs`` (when given) maps names to objects. :class:`WeightSetError`
+    (an ``InputError``) naming the file, the key and the value otherwise."""
+    special = special_file_kind(path)
+    if special:  # opening a FIFO blocks, a device never ends
+        raise WeightSetError(f"{path}: {special}, expected a JSON file")
     try:
         with open(path, encoding="utf-8") as fh:
             doc = json.load(fh)
     except (OSError, ValueError) as exc:
         raise WeightSetError(f"{path}: cannot be read as JSON ({exc})") from None
-    known = features({name: 0.0 for name in _COST_NAMES}, cast("ApproxParams", _Probe()))  # _Probe: its fields
-    weights = doc.get("weights") if isinstance(doc, dict) else None
+    if not isinstance(doc, dict):
+        raise WeightSetError(f"{path}: holds {type(doc).__name__} {_short(doc)}: expected an object with "
+                             f"'weights' (pass -> feature -> weight)")
+    unknown = sorted(set(doc) - set(WEIGHT_FILE_KEYS))
+    if unknown:
+        raise WeightSetError(f"{path}: unknown key {unknown[0]!r}; expected {', '.join(WEIGHT_FILE_KEYS)}")
+    weights = doc.get("weights")
     if not isinstance(weights, dict):
-        raise WeightSetError(f"{path}: expected an object with 'weights' (pass -> feature -> weight)")
+        raise WeightSetError(f"{path}: weights = {_short(weights)}: expected an object with 'weights' "
+                             f"(pass -> feature -> weight)")
+    _check_weights(path, weights)
+    for key in ("name", "unit"):
+        if key in doc and not (isinstance(doc[key], str) and doc[key].strip()):
+            raise WeightSetError(f"{path}: {key} = {_short(doc[key])}: expected a non-empty string, or no {key} "
+                                 f"(name: the file's name; unit: s)")
+    provenance = doc.get("provenance", {})
+    _check_provenance(path, provenance)
+    return WeightSet(name=str(doc.get("name") or os.path.splitext(os.path.basename(path))[0]),
+                     unit=str(doc.get("unit", "s")), weights=weights, provenance=provenance)
+
+
+def _check_weights(path: str, weights: dict) -> None:
+    known = features({name: 0.0 for name in _COST_NAMES}, cast("ApproxParams", _Probe()))  # _Probe: its fields
     for name, ws in weights.items():
         if name not in known or not isinstance(ws, dict):
-            raise WeightSetError(f"{path}: weights.{name}: expected one of {', '.join(MODEL_PASSES)} with an object")
+            raise WeightSetError(f"{path}: weights.{name} = {_short(ws)}: expected one of {', '.join(MODEL_PASSES)} "
+                                 f"with an object (feature -> weight)")
         for feature, w in ws.items():
             if feature not in known[name]:
                 raise WeightSetError(f"{path}: weights.{name}.{feature}: unknown feature (expected "
                                      f"{', '.join(known[name])})")
-            if isinstance(w, bool) or not isinstance(w, (int, float)) or not 0.0 <= w < float("inf"):
-                raise WeightSetError(f"{path}: weights.{name}.{feature} = {w!r}: expected a finite number >= 0")
-    return WeightSet(name=str(doc.get("name") or os.path.splitext(os.path.basename(path))[0]),
-                     unit=str(doc.get("unit", "s")), weights=weights, provenance=doc.get("provenance", {}))
+            if isinstance(w, bool) or not isinstance(w, (int, float)) or not (
+                    w == 0.0 or MIN_WEIGHT <= w <= MAX_WEIGHT):
+                raise WeightSetError(f"{path}: weights.{name}.{feature} = {w!r}: expected 0 or a number within "
+                                     f"[{MIN_WEIGHT:g}, {MAX_WEIGHT:g}] (per count, in the set's unit)")
+    always = always_counted()
+    if not any(w > 0 for name, ws in weights.items() for feature, w in ws.items() if feature in always[name]):
+        every = ", ".join(f"{name}.{f}" for name, fs in always.items() for f in fs)
+        raise WeightSetError(f"{path}: weights = {_short(weights)}: no weight > 0 on what every frame counts, so "
+                             f"every frame would be priced at 0 (and no two compared); give one of {every} a "
+                             f"weight > 0")
 
 
-def weight_sets(folder: str = WEIGHTS_DIR) -> dict:
-    """name → :class:`WeightSet`: every ``*.json`` of ``folder`` (the shipped sets)."""
-    out = {}
+def _check_provenance(path: str, provenance) -> None:
+    if not isinstance(provenance, dict):
+        raise WeightSetError(f"{path}: provenance = {_short(provenance)}: expected an object (where the weights "
+                             f"come from: machine, date, the fit's configurations, splat_modes)")
+    modes = (*param("splat").choices, DIFFERENTIAL_BEAMS)
+    if "splat_modes" in provenance:
+        given = provenance["splat_modes"]
+        if not isinstance(given, list) or not given or any(m not in modes for m in given):
+            raise WeightSetError(f"{path}: provenance.splat_modes = {_short(given)}: expected a non-empty list of "
+                                 f"the splat modes the fit measured, among {', '.join(modes)}")
+    fit = provenance.get("fit")
+    if fit is None:
+        return
+    if not isinstance(fit, dict):
+        raise WeightSetError(f"{path}: provenance.fit = {_short(fit)}: expected an object (the fit's record)")
+    configs = fit.get("configs")
+    if configs is not None and not (isinstance(configs, dict) and all(isinstance(c, dict) for c in configs.values())):
+        raise WeightSetError(f"{path}: provenance.fit.configs = {_short(configs)}: expected an object of "
+                             f"configuration name -> parameter changes (an object)")
+
+
+def _short(value) -> str:
+    """``value`` as JSON, cut to a line's length."""
+    text = json.dumps(value) if isinstance(value, (dict, list, str, int, float, bool, type(None))) else repr(value)
+    return text if len(text) <= 80 else text[:77] + "..."
+
+
+def weight_sets(folder: str | None = None) -> dict:
+    """name → :class:`WeightSet`: every ``*.json`` of ``folder`` (default WEIGHTS_DIR, the
+    shipped sets), each checked (:func:`read_weight_set`); two files of one name are refused."""
+    folder = WEIGHTS_DIR if folder is None else folder
+    out: dict = {}
+    where: dict = {}
     for entry in sorted(os.listdir(folder)) if os.path.isdir(folder) else []:
         if entry.endswith(".json"):
-            ws = read_weight_set(os.path.join(folder, entry))
-            out[ws.name] = ws
+            path = os.path.join(folder, entry)
+            ws = read_weight_set(path)
+            if ws.name in out:
+                raise WeightSetError(f"{path}: name = {ws.name!r}: {where[ws.name]} names its set so too; give each "
+                                     f"weight set its own name")
+            out[ws.name], where[ws.name] = ws, path
     return out
 
 
@@ -194,3 +284,9 @@ class _Probe:
     fresnel_splits = 0
     splat = "density"
     beam_width = "fixed"
+
+
+class _Least(_Probe):
+    """The least a frame counts: every size at its minimum, no density pre-pass."""
+
+    splat = "fixed"

@@ -30,6 +30,7 @@ import pandas as pd
 from tqdm import tqdm
 
 from volcaustics.approx import Renderer
+from volcaustics.approx.cost_model import weight_sets
 from volcaustics.approx.params import ApproxParams
 from volcaustics.infra.errors import InputError
 from volcaustics.infra.memory import memory_budget
@@ -190,6 +191,7 @@ def measure(points: list, store: Store, *, reference_settings: ReferenceSettings
     decomposition's); a point stored without them counts as missing.
     ``read_back``: ``results`` holds every point as the store has it."""
     t0 = time.perf_counter()
+    weight_sets()  # every point prices its frame with them: a damaged weight file is refused before any render
     store.clean_stale()
     pooled = workers is not None or dask is not None
     with open_pool(workers=workers, dask=dask) if pooled else contextlib.nullcontext() as pool:

@@ -5,18 +5,27 @@ value; a frame's predicted time grows with its splat fragments."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
+import math
+import os
 
 import pytest
 
 from volcaustics.approx.cost_model import (
+    MAX_WEIGHT,
+    MIN_WEIGHT,
     MODEL_PASSES,
+    WEIGHTS_DIR,
+    WeightSet,
     WeightSetError,
+    always_counted,
     features,
     read_weight_set,
     weight_sets,
 )
-from volcaustics.approx.params import PAPER
+from volcaustics.approx.params import PAPER, param
+from volcaustics.infra.errors import InputError
 
 HELD_OUT_GOAL = 0.15  # the cost model's goal on what its fit left out: the median point's frame time error
 HELD_OUT_WORST = 0.25  # measured worst: llvmpipe 23% (dense_forward), H200 24.6% (docs/decisions.md "Frame cost")
@@ -148,3 +157,63 @@ def test_differential_beams_have_a_fragment_weight_of_their_own():
     fixed_only = dataclasses.replace(llvmpipe, name="fixed beams only",
                                      provenance={**provenance, "fit": {**provenance["fit"], "configs": configs}})
     assert fixed_only.prices(fixed) and not fixed_only.prices(differential)
+
+
+def _shipped(name: str = "llvmpipe") -> dict:
+    with open(os.path.join(WEIGHTS_DIR, f"{name}.json"), encoding="utf-8") as fh:
+        return json.load(fh)
+
+
+def _with_provenance(**changes) -> dict:
+    doc = _shipped()
+    return {**doc, "provenance": {**doc["provenance"], **changes}}
+
+
+@pytest.mark.parametrize("doc, says", [
+    ({**_shipped(), "provenance": [1, 2]}, "provenance = [1, 2]"),              # read as an object: AttributeError
+    (_with_provenance(splat_modes="fixed"), 'provenance.splat_modes = "fixed"'),  # iterated per character
+    (_with_provenance(splat_modes=3), "provenance.splat_modes = 3"),             # TypeError
+    (_with_provenance(splat_modes=[]), "provenance.splat_modes = []"),           # prices no frame
+    (_with_provenance(splat_modes=["beam"]), 'provenance.splat_modes = ["beam"]'),
+    (_with_provenance(fit=[]), "provenance.fit = []"),
+    (_with_provenance(fit={"configs": {"a": "splat=beams"}}), "provenance.fit.configs = "),
+    ({**_shipped(), "weights": {}}, "weights = {}: no weight > 0"),              # ZeroDivisionError in cost_ratio
+    ({"weights": {"density": {"splats": 1.0}}}, "no weight > 0 on what every frame counts"),  # 0 but for density
+    ({"weights": {"trace": {"calls": 1e308}}}, "weights.trace.calls = 1e+308"),  # the sum overflows: NaN to int
+    ({"weights": {"trace": {"calls": 1e-300}}}, "weights.trace.calls = 1e-300"),  # a ratio against it overflows
+    ({**_shipped(), "name": 3}, "name = 3"),
+    ({**_shipped(), "unit": ""}, 'unit = ""'),
+    ({**_shipped(), "weight": {}}, "unknown key 'weight'"),
+    ([1], "holds list [1]"),
+])
+def test_every_defect_of_a_weight_file_is_bad_input_naming_file_key_and_value(tmp_path, doc, says):
+    """The whole document is checked when read: each defect is an InputError (exit 2 on the
+    command line) naming the file, the key and the value, never a traceback later or a set
+    that silently prices nothing."""
+    path = tmp_path / "mine.json"
+    path.write_text(json.dumps(doc))
+    with pytest.raises(InputError) as exc:
+        read_weight_set(str(path))
+    assert str(path) in str(exc.value) and says in str(exc.value), str(exc.value)
+
+
+def test_the_weight_bounds_keep_every_frame_and_its_ratio_finite():
+    """The bounds' analysis (cost_model.MIN_WEIGHT, MAX_WEIGHT): every feature weighed at
+    MAX_WEIGHT with every count at 2^64 and every size at the parameter table's maximum
+    prices a finite frame, and its ratio to the cheapest frame a set can price (one
+    always-counted feature at MIN_WEIGHT, every size at its minimum) is finite; the
+    shipped sets lie within the bounds."""
+    from volcaustics.approx.cost_match import cost_ratio
+
+    sizes = ("photon_res", "steps", "width", "height", "fog_steps", "layers", "light_res", "fresnel_splits")
+    largest = dataclasses.replace(PAPER, splat="density", **{n: param(n).high for n in sizes})
+    smallest = dataclasses.replace(PAPER, splat="fixed", **{n: param(n).low for n in sizes})
+    counts = dict.fromkeys(weight_sets()["paper_gpu"].provenance["paper_counts"], float(2**64))
+    heavy = WeightSet("heavy", "s", {p: dict.fromkeys(fs, MAX_WEIGHT) for p, fs in features(counts, largest).items()})
+    calls = next(p for p, fs in always_counted().items() if "calls" in fs)
+    light = WeightSet("light", "s", {calls: {"calls": MIN_WEIGHT}})
+    top, bottom = heavy.frame(counts, largest), light.frame(dict.fromkeys(counts, 0.0), smallest)
+    assert math.isfinite(top) and bottom >= MIN_WEIGHT
+    assert math.isfinite(cost_ratio({"x": top}, {"x": bottom}))
+    for ws in weight_sets().values():
+        assert all(w == 0 or MIN_WEIGHT <= w <= MAX_WEIGHT for fs in ws.weights.values() for w in fs.values())
