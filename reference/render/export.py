@@ -17,6 +17,7 @@ from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
+from volcaustics.infra.errors import InputError
 from volcaustics.infra.storage import atomic_path, atomic_write_bytes, cache_dir, cache_path, special_file_kind
 
 from ..description import FOG_ID, Description, describe, ply_bytes, ply_digest
@@ -24,6 +25,10 @@ from ..description import FOG_ID, Description, describe, ply_bytes, ply_digest
 if TYPE_CHECKING:
     from volcaustics.scenes.mesh import Mesh
     from volcaustics.scenes.model import Scene
+
+class ExportError(InputError):
+    """An export whose outputs cannot be written where they go (the message names the path)."""
+
 
 PLY_NAME_DIGITS = 32  # hex digits of the content hash in a PLY file name
 MESH_FOLDER = "mitsuba-meshes"  # the cache's folder of PLY files
@@ -115,10 +120,32 @@ def to_mitsuba(scene: Scene, *, integrator: dict | None = None, spp: int = 16, m
     return mitsuba_dict(describe(scene, integrator=integrator, spp=spp, medium_box=medium_box), mesh_dir)
 
 
+def mesh_folder(path: str) -> str:
+    """The folder of the PLY meshes beside the XML file ``path``: ``OUT_meshes``."""
+    return os.path.join(os.path.dirname(os.path.abspath(path)), os.path.splitext(os.path.basename(path))[0] + "_meshes")
+
+
+def mesh_folder_problem(path: str) -> str | None:
+    """Why the mesh folder of the XML file ``path`` cannot be written (None if it can): a
+    file there, or a symbolic link (the meshes would be written through it, into the
+    folder it names, and a dangling one failed with "File exists")."""
+    mesh_dir = mesh_folder(path)
+    if os.path.islink(mesh_dir):
+        return (f"{mesh_dir} (where its meshes go) is a symbolic link (to {os.readlink(mesh_dir)}): the meshes "
+                f"are not written through it; remove it or choose another name")
+    if os.path.exists(mesh_dir) and not os.path.isdir(mesh_dir):
+        return f"{mesh_dir} (where its meshes go) is a file: move it or choose another name"
+    return None
+
+
 def export_xml(scene: Scene, path: str) -> None:
-    """Write a Mitsuba 3 XML scene (volpath) with its PLY meshes next to it (atomic)."""
+    """Write a Mitsuba 3 XML scene (volpath) with its PLY meshes next to it, in ``OUT_meshes/``
+    (atomic); raises :class:`ExportError` where that folder is a file or a symbolic link."""
     folder = os.path.dirname(os.path.abspath(path))
-    mesh_dir = os.path.join(folder, os.path.splitext(os.path.basename(path))[0] + "_meshes")
+    mesh_dir = mesh_folder(path)
+    problem = mesh_folder_problem(path)
+    if problem is not None:
+        raise ExportError(f"{path}: {problem}")
     created = not os.path.isdir(mesh_dir)
     os.makedirs(mesh_dir, exist_ok=True)
     try:

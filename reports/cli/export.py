@@ -3,7 +3,6 @@ scene for Mitsuba 3 itself and for real-time engines (glTF 2.0); at least one.""
 
 from __future__ import annotations
 
-import os
 from typing import TYPE_CHECKING
 
 from volcaustics.reports.cli.common import UsageError, check_output_file
@@ -25,7 +24,7 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from volcaustics.reference.render.export import export_xml
+    from volcaustics.reference.render.export import export_xml, mesh_folder_problem
     from volcaustics.reports.presenting.exports.gltf import FORMATS, export_gltf
     from volcaustics.scenes import resolve_scene
 
@@ -34,10 +33,9 @@ def run(args: argparse.Namespace) -> int:
                                                          "--gltf OUT.glb|OUT.gltf, or both")
     if args.mitsuba_xml is not None:
         check_output_file(args.mitsuba_xml, "--mitsuba-xml", ".xml")
-        meshes = args.mitsuba_xml[: -len(".xml")] + "_meshes"
-        if os.path.exists(meshes) and not os.path.isdir(meshes):
-            raise UsageError("--mitsuba-xml", args.mitsuba_xml, f"{meshes} (where its meshes go) is a file: move it "
-                                                                f"or choose another name")
+        problem = mesh_folder_problem(args.mitsuba_xml)
+        if problem is not None:
+            raise UsageError("--mitsuba-xml", args.mitsuba_xml, problem)
     if args.gltf is not None:
         ext = next((e for e in FORMATS if args.gltf.lower().endswith(e)), None)
         if ext is None:

@@ -62,6 +62,27 @@ def test_bad_outputs_of_export(tmp_path, capsys, monkeypatch, target, fragment):
     _fails_fast(capsys, ["export", "sphere1", "--mitsuba-xml", target], fragment)
 
 
+@pytest.mark.parametrize("dangling", [False, True])
+def test_export_refuses_a_mesh_folder_that_is_a_symlink(tmp_path, capsys, dangling):
+    """OUT_meshes/ as a symbolic link was written through: the PLY files went into the
+    folder it names (or a dangling one ended in a traceback). Refused, naming it; the
+    folder it names is left as it was."""
+    elsewhere = tmp_path / "elsewhere"
+    if not dangling:
+        elsewhere.mkdir()
+    (tmp_path / "s_meshes").symlink_to(elsewhere, target_is_directory=True)
+    err = _fails_fast(capsys, ["export", "sphere1", "--mitsuba-xml", str(tmp_path / "s.xml")], "symbolic link")
+    assert str(tmp_path / "s_meshes") in err
+    assert not (tmp_path / "s.xml").exists()
+    assert (sorted(p.name for p in elsewhere.iterdir()) == []) if not dangling else not elsewhere.exists()
+    from volcaustics.reference.render.export import ExportError, export_xml
+    from volcaustics.scenes import load_builtin
+
+    with pytest.raises(ExportError, match="symbolic link"):  # the library refuses it too
+        export_xml(load_builtin("sphere1"), str(tmp_path / "s.xml"))
+    assert (sorted(p.name for p in elsewhere.iterdir()) == []) if not dangling else not elsewhere.exists()
+
+
 @pytest.mark.skipif(ROOT, reason="root writes into read-only folders: the case cannot be made as root")
 def test_a_read_only_output_folder(tmp_path, capsys):
     folder = tmp_path / "ro"
