@@ -11,7 +11,12 @@ lowered 1% at a time until within; remembered in ``FOLDER/matched.json`` under a
 the scene, the parameters, the target (its costs, or the paper configuration's parameters:
 :meth:`CostMatcher.match_to`), the weight sets and the code version. An entry is sealed
 (``infra.storage.document_sha256``): one edited, damaged or out of range is recomputed,
-and a cache that cannot be written leaves the match computed, not stored.
+and a cache that cannot be written leaves the match computed, not stored. The seal proves
+integrity, not provenance: anyone who can write the cache can re-seal an entry with another
+value (a plain SHA-256, no secret; a key kept in the same cache would prove no more), and it
+is used. A code change makes every entry stale (the key's code version); ``measure --preset
+best`` prices and times the match again (:func:`equal_cost_check`, ``at_paper_cost`` in its
+summary); removing ``matched.json`` or giving ``--photon-res`` sets the memo aside.
 :func:`measured_time_ratio` checks the match in time (alternating frames).
 """
 
