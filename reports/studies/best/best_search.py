@@ -42,6 +42,7 @@ from tqdm import tqdm
 
 from volcaustics.approx.cost_match import CostMatcher
 from volcaustics.approx.params import ParamError, preset
+from volcaustics.infra.folder_lock import folder_lock
 from volcaustics.metrics.decomposition import TERMS
 from volcaustics.reports.measuring import runner
 from volcaustics.reports.measuring.experiment.measurement import measurement_settings
@@ -246,15 +247,17 @@ def run_best(spec: BestSpec, out_dir: str, *, workers: int | None = None, dask: 
              progress: bool = True, criterion: str = "frame") -> BestResult:
     """The search (module docstring) by ``criterion`` (CRITERIA), its points in the store at
     ``out_dir`` and, consolidated there as a sweep's, their tables with ``best.parquet`` and
-    the verdict in the manifest."""
+    the verdict in the manifest. The folder is the search's for the whole run, as a sweep's
+    (``infra.folder_lock``)."""
     t0 = time.perf_counter()
-    table, adopted, failed, keys = _search(spec, out_dir, workers=workers, dask=dask, progress=progress,
-                                           criterion=criterion)
-    if table.empty:  # nothing measured: no roles, verdict or tables to write
-        return BestResult(table, None, {}, failed, keys, time.perf_counter() - t0)
-    result = verdict(table, adopted, criterion)
-    consolidate(Store(out_dir), out_dir, spec.sweep_spec(), sorted(set(keys)), extra={"best": table},
-                manifest={"best": result})
+    with folder_lock(out_dir, what="sweep --best"):
+        table, adopted, failed, keys = _search(spec, out_dir, workers=workers, dask=dask, progress=progress,
+                                               criterion=criterion)
+        if table.empty:  # nothing measured: no roles, verdict or tables to write
+            return BestResult(table, None, {}, failed, keys, time.perf_counter() - t0)
+        result = verdict(table, adopted, criterion)
+        consolidate(Store(out_dir), out_dir, spec.sweep_spec(), sorted(set(keys)), extra={"best": table},
+                    manifest={"best": result})
     return BestResult(table, adopted, result, failed, keys, time.perf_counter() - t0)
 
 

@@ -11,6 +11,7 @@ from dataclasses import dataclass, field
 
 import pandas as pd
 
+from volcaustics.infra.folder_lock import folder_lock
 from volcaustics.infra.storage import atomic_set, file_sha256, remove_file
 from volcaustics.reports.measuring import runner
 from volcaustics.reports.measuring.experiment.measurement import measurement_settings
@@ -52,14 +53,17 @@ def run_sweep(spec: SweepSpec, out_dir: str, *, workers: int | None = None, dask
     """Run every point not yet in the store at ``out_dir`` (references: the cached one
     as it is, a missing one rendered, so a resumed sweep measures against the reference
     its first points had); then consolidate the tables and draw the figures. Ctrl-C
-    stops it with the finished points kept."""
+    stops it with the finished points kept. The folder is this sweep's for the whole run
+    (``infra.folder_lock``): a sweep into a folder another live sweep holds is refused
+    (FolderBusyError, exit 2), before anything renders."""
     t0 = time.perf_counter()
-    store = Store(out_dir)
-    run = runner.measure(points(spec), store, reference_settings=reference_settings(spec.reference),
-                         measurement=measurement_settings(spec.measurement),
-                         policy="missing", workers=workers, dask=dask, progress=progress, read_back=False)
-    keys = sorted(set(run.keys))
-    tables, figures = consolidate(store, out_dir, spec, keys)
+    with folder_lock(out_dir, what="sweep"):
+        store = Store(out_dir)
+        run = runner.measure(points(spec), store, reference_settings=reference_settings(spec.reference),
+                             measurement=measurement_settings(spec.measurement),
+                             policy="missing", workers=workers, dask=dask, progress=progress, read_back=False)
+        keys = sorted(set(run.keys))
+        tables, figures = consolidate(store, out_dir, spec, keys)
     return SweepResult(total=len(keys), done_before=run.done_before, computed=run.computed, failed=run.failed,
                        seconds=time.perf_counter() - t0, tables=tables, figures=figures,
                        point_seconds=run.point_seconds)
