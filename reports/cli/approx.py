@@ -2,10 +2,11 @@
 
 from __future__ import annotations
 
+import sys
 from typing import TYPE_CHECKING
 
 from volcaustics.reports.cli.common import UsageError, check_output_file
-from volcaustics.reports.measuring.results.param_input import add_param_flags, params_from_args
+from volcaustics.reports.measuring.results.param_input import add_param_flags, params_from_args, preset_size_note
 
 if TYPE_CHECKING:
     import argparse
@@ -36,6 +37,9 @@ def run(args: argparse.Namespace) -> int:
     scene = resolve_scene(args.scene)
     check_denoiser(params_from_args(args))  # before the cost match renders
     params = with_auto_photon_res(args.scene, params_from_args(args), args.preset, args.photon_res is not None)
+    note = preset_size_note(args, params, scene)
+    if note:
+        print(f"approx: {note}", file=sys.stderr)
     summary = run_approx(scene, params, args.output, records_max=args.records_max)
     t = summary["timings_s"]
     print(f"approx {scene.name}: {t['frame_wall']:.2f} s ({summary['timing_method']}), "

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import sys
 from typing import TYPE_CHECKING
 
 from volcaustics.reports.cli.common import (
@@ -13,7 +14,7 @@ from volcaustics.reports.cli.common import (
     pct,
     report_settings,
 )
-from volcaustics.reports.measuring.results.param_input import add_param_flags, params_from_args
+from volcaustics.reports.measuring.results.param_input import add_param_flags, params_from_args, preset_size_note
 
 if TYPE_CHECKING:
     import argparse
@@ -52,6 +53,9 @@ def run(args: argparse.Namespace) -> int:
     checked_settings(scene, params_from_args(args), args.seeds)  # a bad seed count or size: before the cost match
     params = with_auto_photon_res(args.scene, params_from_args(args), args.preset, args.photon_res is not None)
     checked_settings(scene, params, args.seeds)  # the matched frame too: before the reference
+    note = preset_size_note(args, params, scene)
+    if note:
+        print(f"measure: {note}", file=sys.stderr)
     # through the runner and the store the report and the gate share: a point measured before is read back
     run = runner.measure([runner.Point(args.scene, params, args.seeds)], runner.results_store(),
                          reference_settings=report_settings(args), measurement=measurement, policy="continue",

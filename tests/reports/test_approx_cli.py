@@ -63,3 +63,21 @@ def test_an_upper_case_extension_is_kept(tmp_path, capsys):
                  "--height", "16", "-o", str(tmp_path / "shot.EXR")]) == 0
     assert sorted(p.name for p in tmp_path.iterdir()) == ["shot.EXR", "shot.json", "shot.png", "shot.records.npz"]
     assert json.loads((tmp_path / "shot.json").read_text())["outputs"]["exr"].endswith("shot.EXR")
+
+
+def test_a_preset_that_resizes_the_scenes_camera_says_so(tmp_path, capsys, write_scene):
+    """The presets set width and height: a 96 × 54 scene file rendered 256 × 256 (another
+    aspect, a narrower view) without a word. It is said on the console, with the flags that
+    keep the scene's size; given those flags, nothing is said."""
+    text = open(write_scene()).read().replace("width = 64", "width = 96").replace("height = 48", "height = 54")
+    scene = tmp_path / "wide.toml"
+    scene.write_text(text)
+    small = ["--photon-res", "16", "--light-res", "16", "--fog-steps", "4", "--steps", "1"]
+    assert main(["approx", str(scene), "--preset", "quick", *small, "-o", str(tmp_path / "q.exr")]) == 0
+    err = capsys.readouterr().err
+    assert "256 × 256" in err and "96 × 54" in err and "--width 96 --height 54" in err, err
+    assert read_exr(str(tmp_path / "q.exr"))[0]["combined"].shape == (256, 256, 3)  # the preset's size, as said
+    assert main(["approx", str(scene), "--preset", "quick", *small, "--width", "96", "--height", "54",
+                 "-o", str(tmp_path / "s.exr")]) == 0
+    assert "note" not in capsys.readouterr().err
+    assert read_exr(str(tmp_path / "s.exr"))[0]["combined"].shape == (54, 96, 3)

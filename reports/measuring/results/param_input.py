@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import argparse
 from collections.abc import Iterable
-from typing import TypeVar, overload
+from typing import TYPE_CHECKING, TypeVar, overload
 
 from volcaustics.approx.params import (
     PARAMS,
@@ -18,6 +18,9 @@ from volcaustics.approx.params import (
     param,
     preset,
 )
+
+if TYPE_CHECKING:
+    from volcaustics.scenes.model import Scene
 
 _Params = TypeVar("_Params", bound=ParamsMethods)
 
@@ -67,6 +70,20 @@ def params_from_args(args: argparse.Namespace, cls: type[ParamsMethods] = Approx
     parameters of ``approx.params.params_class``; ParamError for a value out of range)."""
     changes = {p.name: getattr(args, p.name) for p in cls.TABLE if getattr(args, p.name, None) is not None}
     return preset(args.preset, cls, **changes)
+
+
+def preset_size_note(args: argparse.Namespace, params: ParamsMethods, scene: Scene) -> str | None:
+    """A line saying that the preset (not ``--width``/``--height``) sets an image size other
+    than ``scene``'s camera (width, height in its file): every preset has a size, which
+    replaced the scene's without a word (96 × 54 rendered 256 × 256, another aspect). None
+    when the size is the scene's or both flags were given."""
+    size, own = (params.width, params.height), (scene.camera.width, scene.camera.height)
+    if None in size or size == own or (getattr(args, "width", None) is not None
+                                        and getattr(args, "height", None) is not None):
+        return None
+    return (f"note: the preset {args.preset} renders {size[0]} × {size[1]}, not the scene's camera "
+            f"{own[0]} × {own[1]} (camera.width, camera.height); give --width {own[0]} --height {own[1]} "
+            f"for the scene's size")
 
 
 def parse_assignment(text: str, where: str, *, table: tuple = PARAMS) -> tuple:
