@@ -16,6 +16,7 @@ from volcaustics.reports.measuring.experiment.measurement import (
     measurement_settings,
 )
 from volcaustics.reports.measuring.results.sizing import REPORT_REFERENCE, REPORT_TARGET
+from volcaustics.reports.presenting.page.parts import debiased_pct
 
 
 class UsageError(InputError):
@@ -28,6 +29,13 @@ class UsageError(InputError):
 
 def pct(x: float | None) -> str:
     return "   n/a" if x is None else f"{100 * x:6.2f}%"
+
+
+def debiased(x: float | None, *, se: float | None = None, low: float | None = None,
+             high: float | None = None) -> str:
+    """A debiased relative MSE on the console, padded as :func:`pct`, with its ± SE or
+    95% interval (``parts.debiased_pct``: a negative estimate reads "≤ noise")."""
+    return "   n/a" if x is None else f"{debiased_pct(x, se=se, low=low, high=high):>7}"
 
 
 def num(x: float | None) -> str:

@@ -6,7 +6,14 @@ from __future__ import annotations
 import os
 from typing import TYPE_CHECKING
 
-from volcaustics.reports.cli.common import UsageError, add_report_reference, check_output_set, num, pct, report_settings
+from volcaustics.reports.cli.common import (
+    UsageError,
+    add_report_reference,
+    check_output_set,
+    debiased,
+    num,
+    report_settings,
+)
 
 if TYPE_CHECKING:
     import argparse
@@ -53,8 +60,8 @@ def run(args: argparse.Namespace) -> int:
           f"{s['compared_pixels']:,} pixels compared, {s['seconds']['total']:.1f} s -> {paths['summary.json']}")
     for component, m in s["images"].items():
         relmse, ratio, flip = m["relative_mse"], m["energy_ratio"], m["hdr_flip"]
-        ci = f" [{100 * relmse['ci_low']:.2f}, {100 * relmse['ci_high']:.2f}]" if relmse["ci_low"] is not None else ""
-        print(f"  {component:<9} relative MSE debiased {pct(relmse['debiased'])}{ci}, "
+        mean = debiased(relmse["debiased"], low=relmse["ci_low"], high=relmse["ci_high"])
+        print(f"  {component:<9} relative MSE debiased {mean}, "
               f"energy ratio {num(ratio['value'])}, HDR-FLIP {num(flip['value'])}")
     for warning in s["warnings"]:
         print(f"  warning: {warning}")

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from volcaustics.reports.cli.common import UsageError, check_output_set, pct
+from volcaustics.reports.cli.common import UsageError, check_output_set, debiased
 from volcaustics.reports.studies.sweep.study_limits import FRAME_CHECK_SEEDS as SEEDS
 
 if TYPE_CHECKING:
@@ -47,8 +47,8 @@ def run(args: argparse.Namespace) -> int:
     for _, r in table.iterrows():
         print(f"  {r['scene']:<14}{label[r['group']]:<11} {r['config']:<6} {r['denoise']:<5} "
               f"cost {r['cost_ratio']:.3f}x predicted, time {r['time_ratio']:.2f}x measured, "
-              f"one frame {pct(r['frame_relmse'])} ({r['frame_ratio']:.2f}x), "
-              f"mean {pct(r['relmse_debiased'])} ({r['relmse_ratio']:.2f}x)")
+              f"one frame {debiased(r['frame_relmse'], se=r['frame_relmse_se'])} ({r['frame_ratio']:.2f}x), "
+              f"mean {debiased(r['relmse_debiased'], se=r['relmse_se'])} ({r['relmse_ratio']:.2f}x)")
     v = verdict(table)
     names = {"builtin": "on the built-ins", "heldout": "held out", "yours": "on your scenes"}
     worst = ", ".join(f"{v[f'none_{g}_worst_frame_ratio']:.2f}x {names[g]}" for g in GROUPS

@@ -9,9 +9,9 @@ from volcaustics.reports.cli.common import (
     add_measurement_flags,
     add_report_reference,
     check_output_set,
+    debiased,
     measurement_from_args,
     num,
-    pct,
     report_settings,
 )
 from volcaustics.reports.measuring.results.param_input import add_param_flags, params_from_args, preset_size_note
@@ -93,12 +93,11 @@ def _print_equal_cost(check: dict | None) -> None:
 def _print_images(s: dict) -> None:
     for component, m in s["images"].items():
         relmse, ratio, flip = m["relative_mse"], m["energy_ratio"], m["hdr_flip"]
-        ci = f" [{100 * relmse['ci_low']:.2f}, {100 * relmse['ci_high']:.2f}]" if relmse["ci_low"] is not None else ""
+        mean = debiased(relmse["debiased"], low=relmse["ci_low"], high=relmse["ci_high"])
         frame = m.get("frame_relative_mse") or {}
-        se = frame.get("standard_error")
         one = "" if frame.get("debiased") is None else (
-            f"one frame {pct(frame['debiased'])}" + ("" if se is None else f" ± {100 * se:.2f}") + ", ")
-        print(f"  {component:<9} relative MSE debiased {pct(relmse['debiased'])}{ci}, {one}"
+            f"one frame {debiased(frame['debiased'], se=frame.get('standard_error'))}, ")
+        print(f"  {component:<9} relative MSE debiased {mean}, {one}"
               f"energy ratio {num(ratio['value'])}, HDR-FLIP per frame {num(flip['value'])}")
 
 
@@ -115,7 +114,7 @@ def _print_model(s: dict) -> None:
             continue
         share, own, part = m["energy_share"], m["relmse_own"], m["relmse_part"]
         print(f"    {component:<9} {100 * share['value']:6.2f}% ± {100 * share['standard_error']:.2f}  "
-              f"{pct(own['debiased'])} ± {100 * own['standard_error']:.2f}  "
+              f"{debiased(own['debiased'], se=own['standard_error'])}  "
               f"{100 * part['value']:+7.2f}% ± {100 * part['standard_error']:.2f}")
 
 

@@ -9,6 +9,7 @@ from volcaustics.reports.cli.common import (
     add_measurement_flags,
     add_report_reference,
     check_output_set,
+    debiased,
     measurement_from_args,
     num,
     path_type,
@@ -71,9 +72,9 @@ def run(args: argparse.Namespace) -> int:
         note = page["gate"].get("note")
         gate = ("FAIL " + ", ".join(failed)) if failed else ("pass" if page["gate"]["checks"] else
                                                              f"not checked ({note})" if note else "not checked")
-        print(f"{page['scene']:<12} caustic relMSE {pct(c['caustic']['relative_mse'].get('debiased'))}, "
+        print(f"{page['scene']:<12} caustic relMSE {debiased(c['caustic']['relative_mse'].get('debiased'))}, "
               f"energy {num(c['caustic']['energy_ratio'].get('value'))}; combined relMSE "
-              f"{pct(c['combined']['relative_mse'].get('debiased'))}; gate {gate}")
+              f"{debiased(c['combined']['relative_mse'].get('debiased'))}; gate {gate}")
     gate = summary["gate"]
     verdict = "passed" if gate["passed"] else "FAILED" if gate["failed"] else "not checked"
     for row in summary["animations"]:
@@ -83,7 +84,7 @@ def run(args: argparse.Namespace) -> int:
     for row in summary["comparisons"]:
         m = row["images"].get("caustic") or row["images"]["combined"]
         print(f"{row['scene']:<12} {row['renderer']}: {'caustic' if 'caustic' in row['images'] else 'combined'} "
-              f"relMSE {pct(m['relative_mse'].get('debiased'))}, energy {num(m['energy_ratio'].get('value'))}")
+              f"relMSE {debiased(m['relative_mse'].get('debiased'))}, energy {num(m['energy_ratio'].get('value'))}")
     print(f"report: {len(summary['scenes'])} scenes, gate {verdict} ({gate['failed']} of {gate['checks']} checks "
           f"failed), {summary['seconds']['total']:.0f} s -> {args.out}/index.html")
     return 0

@@ -7,6 +7,7 @@ from __future__ import annotations
 from html import escape
 
 from volcaustics.metrics.decomposition import TERMS as BEST_TERMS
+from volcaustics.reports.presenting.page.parts import debiased_pct
 from volcaustics.reports.presenting.page.parts import num as _num
 
 
@@ -30,9 +31,9 @@ def best_table(best: dict | None) -> str:
         f"<td class='l'>{escape(r['config'])}</td><td>{r['photon_res']}</td>"
         f"<td>{_num((r.get('frame_cost') or 0) / 1e6 or None, '{:.2f} M')}</td>"
         f"<td>{_num(r['cost_ratio'], '{:.3f}×')}</td>"
-        f"<td>{percent_pm(r['caustic_relmse_debiased'], r.get('caustic_relmse_se'))}</td>"
+        f"<td>{debiased_pct(r['caustic_relmse_debiased'], se=r.get('caustic_relmse_se'))}</td>"
         f"<td>{_num(r['relmse_ratio'], '{:.2f}×')}</td>"
-        f"<td>{percent_pm(r.get('frame_relmse'), r.get('frame_relmse_se'))}</td>"
+        f"<td>{debiased_pct(r.get('frame_relmse'), se=r.get('frame_relmse_se'))}</td>"
         f"<td>{_num(r.get('frame_ratio'), '{:.2f}×')}</td>"
         + "".join(f"<td>{percent_pm(r.get(f'relmse_{t}'), None, '{:+.2f}')}</td>" for t in BEST_TERMS) + "</tr>"
         for r in best["rows"])

@@ -10,7 +10,7 @@ from html import escape
 
 from volcaustics.reports.measuring.results.versions import code_version
 from volcaustics.reports.presenting.page.data_uris import SCALES, colour_bar_css, component_images, exposures
-from volcaustics.reports.presenting.page.parts import CSS, SCRIPT
+from volcaustics.reports.presenting.page.parts import CSS, SCRIPT, debiased_pct
 from volcaustics.reports.presenting.page.parts import colour_bar as _colour_bar
 from volcaustics.reports.presenting.page.parts import figure as _figure
 from volcaustics.reports.presenting.page.parts import num as _num
@@ -47,10 +47,9 @@ def _component_table(row: dict) -> str:
     for component in row["components"]:
         m = row["images"][component]
         relmse, energy = m["relative_mse"], m["energy_ratio"]
-        interval = (f" [{_pct(relmse.get('ci_low'))}, {_pct(relmse.get('ci_high'))}]"
-                    if relmse.get("ci_low") is not None else "")
         body.append(f"<tr class='compare-row' data-component='{component}'><td class='l'>{component}</td>"
-                    f"<td>{_pct(relmse.get('debiased'))}{interval}</td>"
+                    f"<td>{debiased_pct(relmse.get('debiased'), low=relmse.get('ci_low'), high=relmse.get('ci_high'))}"
+                    "</td>"
                     f"<td>{_pct(relmse.get('reference_floor'), 3)}</td><td>{_pct(relmse.get('approx_noise'), 3)}</td>"
                     f"<td>{_num(energy.get('value'), '{:.3f}')}"
                     + (f" [{_num(energy.get('ci_low'), '{:.3f}')}, {_num(energy.get('ci_high'), '{:.3f}')}]"
@@ -145,7 +144,7 @@ def renderers_table(summary: dict) -> str:
             continue
         for k, (name, w, h, seeds, images, anchor) in enumerate(entries):
             cells = "".join(
-                f"<td>{_pct((images.get(c) or {}).get('relative_mse', {}).get('debiased'))}</td>"
+                f"<td>{debiased_pct((images.get(c) or {}).get('relative_mse', {}).get('debiased'))}</td>"
                 f"<td>{_num((images.get(c) or {}).get('energy_ratio', {}).get('value'), '{:.3f}')}</td>"
                 for c in ("caustic", "combined"))
             flip = (images.get("combined") or {}).get("hdr_flip", {}).get("value")

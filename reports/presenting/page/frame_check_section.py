@@ -8,7 +8,7 @@ from __future__ import annotations
 from html import escape
 from typing import TYPE_CHECKING
 
-from volcaustics.reports.presenting.page.best_table import percent_pm as _pct
+from volcaustics.reports.presenting.page.parts import debiased_pct
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -41,8 +41,8 @@ def frames_section(frames: dict | None) -> str:
         f"<tr><td class='l'>{escape(r['scene'])}{' <i>(held out)</i>' if r['heldout'] else ''}</td>"
         f"<td class='l'>{escape(r['config'])}</td><td class='l'>{escape(r['denoise'])}</td><td>{r['photon_res']}</td>"
         f"<td>{r['cost_ratio']:.3f}×</td><td>{_ratio(r.get('time_ratio'))}</td>"
-        f"<td>{_pct(r['frame_relmse'], r['frame_relmse_se'])}</td>"
-        f"<td>{r['frame_ratio']:.2f}×</td><td>{_pct(r['relmse_debiased'], r['relmse_se'])}</td>"
+        f"<td>{debiased_pct(r['frame_relmse'], se=r['frame_relmse_se'])}</td>"
+        f"<td>{r['frame_ratio']:.2f}×</td><td>{debiased_pct(r['relmse_debiased'], se=r['relmse_se'])}</td>"
         f"<td>{r['relmse_ratio']:.2f}×</td><td>{_seconds(r.get('denoise_s'))}</td></tr>"
         for r in frames["rows"])
     worst = (f"best's worst one-frame ratio without a denoiser: "

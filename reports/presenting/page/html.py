@@ -15,7 +15,6 @@ from html import escape
 from volcaustics.metrics.intersection import OUTCOME_CLASSES
 from volcaustics.reports.presenting.page.animations import over_time_section
 from volcaustics.reports.presenting.page.best_table import best_table as _best_table
-from volcaustics.reports.presenting.page.best_table import percent_pm as _percent_pm
 from volcaustics.reports.presenting.page.data_uris import SCALES, colour_bar_css, data_uri
 from volcaustics.reports.presenting.page.decomposition_section import OVERVIEW_HEAD as DECOMPOSITION_HEAD
 from volcaustics.reports.presenting.page.decomposition_section import decomposition_table
@@ -29,7 +28,7 @@ from volcaustics.reports.presenting.page.first_screen import (
 )
 from volcaustics.reports.presenting.page.frame_check_section import frames_section
 from volcaustics.reports.presenting.page.model_section import OVERVIEW_HEAD, model_section, overview_cell
-from volcaustics.reports.presenting.page.parts import CSS, SCRIPT
+from volcaustics.reports.presenting.page.parts import CSS, SCRIPT, debiased_pct
 from volcaustics.reports.presenting.page.parts import colour_bar as _colour_bar
 from volcaustics.reports.presenting.page.parts import figure as _figure
 from volcaustics.reports.presenting.page.parts import num as _num
@@ -83,11 +82,10 @@ def _overview(summary: dict, shared: dict) -> str:
             c = page["components"][component]
             relmse, energy, flip = c["relative_mse"], c["energy_ratio"], c["hdr_flip"]
             frame_err = c.get("frame_relative_mse") or {}
-            interval = (f" [{_pct(relmse.get('ci_low'))}, {_pct(relmse.get('ci_high'))}]"
-                        if relmse.get("ci_low") is not None else "")
             cells = [f"<td class='l'>{component}</td>",
-                     f"<td>{_pct(relmse.get('debiased'))}{interval}</td>",
-                     f"<td>{_percent_pm(frame_err.get('debiased'), frame_err.get('standard_error'))}</td>",
+                     f"<td>{debiased_pct(relmse.get('debiased'), low=relmse.get('ci_low'), high=relmse.get('ci_high'))}"
+                     "</td>",
+                     f"<td>{debiased_pct(frame_err.get('debiased'), se=frame_err.get('standard_error'))}</td>",
                      f"<td>{_pct(c['reference_noise_floor'], 3)}</td>",
                      f"<td>{_num(energy.get('value'), '{:.3f}')}"
                      + (f" [{_num(energy.get('ci_low'), '{:.3f}')}, {_num(energy.get('ci_high'), '{:.3f}')}]"

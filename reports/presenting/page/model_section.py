@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from html import escape
 
-from volcaustics.reports.presenting.page.parts import num, pct
+from volcaustics.reports.presenting.page.parts import debiased_pct, num, pct
 from volcaustics.scenes.formats import COLOUR_LAYERS
 
 OVERVIEW_HEAD = "<th>single-scattering model:<br>its relative MSE (energy left out)</th>"
@@ -23,7 +23,7 @@ def overview_cell(page: dict, component: str) -> str:
     m = _numbers(page, component)
     if m is None:
         return "<td class='note'>n/a</td>"
-    return f"<td>{pct(m['relmse_own']['debiased'])} ({pct(m['energy_share']['value'], 1)})</td>"
+    return f"<td>{debiased_pct(m['relmse_own']['debiased'])} ({pct(m['energy_share']['value'], 1)})</td>"
 
 
 def larger_error(page: dict, component: str) -> str | None:
@@ -55,9 +55,9 @@ def model_section(page: dict) -> str:
         approx = page["components"][component]["relative_mse"].get("debiased")
         rows.append(f"<tr><td class='l'>{component}</td>"
                     f"<td>{pct(share['value'], 1)} ± {num(100 * share['standard_error'], '{:.2f}')}</td>"
-                    f"<td>{pct(own['debiased'])} ± {num(100 * own['standard_error'], '{:.2f}')}</td>"
+                    f"<td>{debiased_pct(own['debiased'], se=own['standard_error'])}</td>"
                     f"<td>{num(100 * part['value'], '{:+.2f}')} ± {num(100 * part['standard_error'], '{:.2f}')}</td>"
-                    f"<td>{pct(approx)}</td><td class='l'>{larger_error(page, component) or 'n/a'}</td></tr>")
+                    f"<td>{debiased_pct(approx)}</td><td class='l'>{larger_error(page, component) or 'n/a'}</td></tr>")
     more = f"more than {model['max_scatter']}"
     needed = ", ".join(f"{c} {more if n is None else n}" for c, n in model["orders_needed"].items())
     verdict = "" if model["converged"] else (" <span class='warn'>Not converged: the last order still changes the "
