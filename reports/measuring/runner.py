@@ -42,7 +42,7 @@ from volcaustics.reference.render.tasks import PROCESS_LOCK
 from volcaustics.reports.measuring.experiment.measurement import MeasurementSettings
 from volcaustics.reports.measuring.experiment.pipeline import run_experiment
 from volcaustics.reports.measuring.experiment.point_checks import measurement_bytes
-from volcaustics.reports.measuring.pools.executors import default_workers, open_pool, run_tasks
+from volcaustics.reports.measuring.pools.executors import default_workers, disk_full, open_pool, run_tasks
 from volcaustics.reports.measuring.results.sizing import sized
 from volcaustics.reports.measuring.results.store import IMAGE_FILES, TABLES, Store, key_document, point_key
 from volcaustics.reports.measuring.results.summaries import ExperimentSummary
@@ -293,6 +293,8 @@ def _on_executor(tasks, store, pool, payloads=None, **options) -> list:
                 try:
                     outcome["status"] = store.adopt_point(outcome["key"], files)
                 except (OSError, ValueError) as exc:
+                    if disk_full(exc):  # this disk, for every point: the run stops, naming the point (exit 2)
+                        raise
                     outcome = {"key": outcome["key"], "error": f"its files could not be stored: {exc}"}
             outcomes.append(outcome)
         return outcomes

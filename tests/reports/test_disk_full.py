@@ -9,14 +9,17 @@ from pathlib import Path
 
 import pytest
 
+from tests.shared import SWEEP_SPEC
 from volcaustics.reports.cli import main
 
 
 @pytest.fixture
-def full_disk(tmp_path):
+def full_disk(tmp_path, request):
+    """A tmpfs of 12 KiB (or ``request.param``: parametrize indirectly)."""
     folder = tmp_path / "full"
     folder.mkdir()
-    mounted = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=12k", "tmpfs", str(folder)],
+    size = getattr(request, "param", "12k")
+    mounted = subprocess.run(["mount", "-t", "tmpfs", "-o", f"size={size}", "tmpfs", str(folder)],
                              capture_output=True, text=True)
     if mounted.returncode != 0:
         pytest.skip(f"cannot mount a small tmpfs here (needs root): {mounted.stderr.strip()}")
@@ -75,3 +78,22 @@ def test_an_output_name_near_the_limit_is_written(tmp_path):
             Path(tmp).write_text("new")
     atomic_write_text(str(tmp_path / f"{long}.txt"), "x")
     assert sorted(p.name for p in tmp_path.iterdir()) == sorted([f"{long}.exr", f"{long}.json", f"{long}.txt"])
+
+
+# 12 KiB: neither a point nor the tables fit; 40 KiB: a point's first table (47 KB at this size) does not, the
+# tables of no point (a page each) do: the sweep then wrote sweep.json and empty tables, exit 1
+@pytest.mark.parametrize("full_disk", ["12k", "40k"], indirect=True)
+def test_a_sweep_onto_a_full_disk_exits_2_naming_the_point_and_writes_no_tables(full_disk, tmp_path, capsys, cache):
+    """A point whose worker found the disk full was "point failed" (exit 1) naming no
+    file, and the sweep then wrote sweep.json and empty tables. A full disk is the
+    machine's fault, not the point's: the sweep stops, exit 2, naming the point's folder
+    (not its hidden temporary), with no table, manifest or half point left."""
+    spec = tmp_path / "sweep.toml"
+    spec.write_text(SWEEP_SPEC)
+    out = full_disk / "store"
+    assert main(["sweep", str(spec), "-o", str(out), "--workers", "1", "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert f"{out / 'points'}/" in err and ": No space left on device" in err, err
+    assert ".tmp-" not in err and "Traceback" not in err and "failed" not in err, err
+    assert not (out / "sweep.json").exists() and not list(out.glob("*.parquet"))
+    assert list((out / "points").iterdir()) == []  # no half point, no temporary

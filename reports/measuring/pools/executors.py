@@ -78,6 +78,8 @@ def run_tasks(fn: Callable[..., dict], tasks: list, *, pool: Pool, total: int, d
             try:
                 result = future.result()
             except Exception as exc:  # a point that fails is reported; the others go on
+                if disk_full(exc):  # ...but a full disk is every point's: the run stops, naming the file (exit 2)
+                    raise
                 result = {"key": futures[future], "error": describe_failure(exc)}
             bar.update()
             if result.get("error"):
@@ -143,6 +145,15 @@ def _signals_ignored_by_children():
     finally:
         for number, handler in previous.items():
             signal.signal(number, handler)
+
+
+def disk_full(exc: BaseException) -> bool:
+    """Whether ``exc`` is a full disk or an exceeded quota (ENOSPC, EDQUOT): a fault of the
+    machine, not of a point, that ends the run (exit 2 naming the file) rather than fail
+    each point that follows in turn."""
+    import errno
+
+    return isinstance(exc, OSError) and exc.errno in (errno.ENOSPC, errno.EDQUOT)
 
 
 def describe_failure(exc: BaseException) -> str:

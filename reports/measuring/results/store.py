@@ -34,12 +34,13 @@ and table is what makes writing append-safe without a database server.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import os
 import shutil
 import uuid
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
 from typing import TYPE_CHECKING, Protocol, cast
 
 import pandas as pd
@@ -151,20 +152,22 @@ class Store:
         ``images`` (:data:`IMAGE_FILES`); returns "written", or "kept" when a complete
         copy appeared meanwhile (another sweep)."""
         tmp = os.path.join(self.points, f".tmp-{key}-{owner()}-{uuid.uuid4().hex[:8]}")
-        os.makedirs(tmp)
+        with _naming_the_point(tmp, self.point_dir(key)):
+            os.makedirs(tmp)
         try:
-            files = {}
-            for name in TABLES:
-                path = os.path.join(tmp, f"{name}.parquet")
-                table(getattr(experiment, name)).to_parquet(path, index=False)
-                files[f"{name}.parquet"] = file_sha256(path)
-            for name in images:
-                path = os.path.join(tmp, IMAGE_FILES[name])
-                write_exr(path, getattr(experiment, name), {"volcaustics_renderer": f"experiment {name}",
-                                                            "volcaustics_scene": experiment.summary["scene"]})
-                files[IMAGE_FILES[name]] = file_sha256(path)
-            summary = sealed({**plain(experiment.summary), "key": key, "key_document": document, "files": files})
-            atomic_write_text(os.path.join(tmp, SUMMARY), json.dumps(summary, indent=1, allow_nan=False))
+            with _naming_the_point(tmp, self.point_dir(key)):
+                files = {}
+                for name in TABLES:
+                    path = os.path.join(tmp, f"{name}.parquet")
+                    table(getattr(experiment, name)).to_parquet(path, index=False)
+                    files[f"{name}.parquet"] = file_sha256(path)
+                for name in images:
+                    path = os.path.join(tmp, IMAGE_FILES[name])
+                    write_exr(path, getattr(experiment, name), {"volcaustics_renderer": f"experiment {name}",
+                                                                "volcaustics_scene": experiment.summary["scene"]})
+                    files[IMAGE_FILES[name]] = file_sha256(path)
+                summary = sealed({**plain(experiment.summary), "key": key, "key_document": document, "files": files})
+                atomic_write_text(os.path.join(tmp, SUMMARY), json.dumps(summary, indent=1, allow_nan=False))
             return self._commit(tmp, key, images)
         finally:
             if os.path.isdir(tmp):
@@ -185,12 +188,13 @@ class Store:
         all; "written", or "kept" when a complete copy appeared meanwhile. A point whose
         files do not match its summary is refused (OSError), never stored."""
         tmp = os.path.join(self.points, f".tmp-{key}-{owner()}-{uuid.uuid4().hex[:8]}")
-        os.makedirs(tmp)
+        with _naming_the_point(tmp, self.point_dir(key)):
+            os.makedirs(tmp)
         try:
             for name, data in files.items():
                 if os.path.basename(name) != name:
                     raise OSError(f"{name!r}: not a file name of a point")
-                with open(os.path.join(tmp, name), "wb") as fh:
+                with _naming_the_point(tmp, self.point_dir(key)), open(os.path.join(tmp, name), "wb") as fh:
                     fh.write(data)
             if _complete_summary(tmp, key) is None:
                 raise OSError(f"point {key[:12]}: the files sent back do not match its summary")
@@ -267,6 +271,21 @@ class Store:
                for name, parts in frames.items()}
         out["points"] = table(points) if points else pd.DataFrame()
         return out
+
+
+@contextlib.contextmanager
+def _naming_the_point(tmp: str, final: str) -> Iterator[None]:
+    """An OSError while a point is written into its temporary folder ``tmp`` names the
+    point's folder ``final`` (or the file in it), never the hidden temporary: a full disk
+    in pyarrow's writer names no file at all, and says "Error writing bytes to file"."""
+    try:
+        yield
+    except OSError as exc:
+        if exc.errno is None:  # one of ours, worded already
+            raise
+        name = os.fspath(exc.filename) if exc.filename else ""
+        where = final + name[len(tmp):] if name.startswith(tmp) else (name or final)
+        raise OSError(exc.errno, os.strerror(exc.errno), where) from exc
 
 
 def _complete_summary(folder: str, key: str) -> ExperimentSummary | None:
