@@ -17,6 +17,7 @@ import pytest
 from tests.shared import FAST_MEASUREMENT, with_shared_references
 from tests.shared import SWEEP_SPEC as SPEC
 from volcaustics.reports.cli import main
+from volcaustics.reports.presenting.page.parts import debiased_pct
 from volcaustics.scenes.formats import COLOUR_LAYERS
 
 REPO = Path(__file__).resolve().parents[2]
@@ -161,15 +162,15 @@ def test_the_page_shows_the_summary_numbers(built):
                 cells = cells[1:]
             c = page["components"][component]
             assert cells[0] == component
-            debiased = c["relative_mse"]["debiased"]
-            assert cells[1].startswith(f"{100 * debiased:.2f}%")
+            mean = c["relative_mse"]  # a negative estimate reads "≤ noise (…)" (parts.debiased_pct)
+            assert cells[1] == debiased_pct(mean["debiased"], low=mean["ci_low"], high=mean["ci_high"])
             frame = c["frame_relative_mse"]  # one frame's error beside the mean's
-            assert cells[2] == f"{100 * frame['debiased']:.2f}% ± {100 * frame['standard_error']:.2f}"
+            assert cells[2] == debiased_pct(frame["debiased"], se=frame["standard_error"])
             assert cells[3] == f"{100 * c['reference_noise_floor']:.3f}%"
             assert cells[4].startswith(f"{c['energy_ratio']['value']:.3f}")
             assert cells[5] == f"{c['hdr_flip']['value']:.3g}"
             model = page["model"]["components"][component]  # the single-scattering model's own error
-            assert cells[6] == (f"{100 * model['relmse_own']['debiased']:.2f}% "
+            assert cells[6] == (f"{debiased_pct(model['relmse_own']['debiased'])} "
                                 f"({100 * model['energy_share']['value']:.1f}%)")
             # the caustic's error by cause, emission first, and whether the residual closes
             d = page["decomposition"]
