@@ -97,3 +97,16 @@ def test_a_sweep_onto_a_full_disk_exits_2_naming_the_point_and_writes_no_tables(
     assert ".tmp-" not in err and "Traceback" not in err and "failed" not in err, err
     assert not (out / "sweep.json").exists() and not list(out.glob("*.parquet"))
     assert list((out / "points").iterdir()) == []  # no half point, no temporary
+
+
+def test_a_point_sent_back_onto_a_full_disk_names_the_point_not_its_temporary(full_disk):
+    """A Dask worker's point is written into this store by the run (``Store.adopt_point``):
+    a full disk there (the write names no file) names the point's folder, never the
+    hidden temporary folder, and leaves nothing behind."""
+    from volcaustics.reports.measuring.results.store import Store
+
+    store, key = Store(str(full_disk / "store")), "0" * 32
+    with pytest.raises(OSError) as info:
+        store.adopt_point(key, {"segments.parquet": bytes(1 << 16)})  # 64 KiB onto 12 KiB
+    assert info.value.errno == 28 and info.value.filename == str(full_disk / "store" / "points" / key)
+    assert list((full_disk / "store" / "points").iterdir()) == []
