@@ -89,6 +89,23 @@ class ReferenceSettings:
             if reason:
                 raise SettingsError(reason)
             self._check_samples_per_render()
+        self._check_photon_cap()
+
+    def _check_photon_cap(self) -> None:
+        """With a noise target, ``max_photons`` must be at least the photons every render
+        draws (``batches`` light batches; unsized, ``photons``): the cap limits the batches
+        the target adds beyond them, so a cap below (below one batch: ``--max-photons 1``)
+        could never stop anything and passed silently."""
+        if self.target_noise is None:
+            return
+        sized = self.width is not None and self.height is not None
+        least = self.batches * self.photons_per_batch() if sized else self.photons
+        if self.max_photons < least:
+            where = f" at {self.width}x{self.height}" if sized else ""
+            raise SettingsError(f"max_photons = {self.max_photons}: below the {least:,} photons every render with a "
+                                f"noise target draws (photons = {self.photons} over {self.batches} batches{where}), "
+                                f"beyond which the cap stops the batches the target adds; give max_photons >= "
+                                f"{least} or fewer photons")
 
     def _check_samples_per_render(self) -> None:
         """One batch is one Mitsuba render of width × height × its samples per pixel,

@@ -33,6 +33,7 @@ from volcaustics.scenes.formats import MASK_LAYER
 from .. import cache
 from ..cache import ReferenceResult, for_caller
 from ..request import RenderRequest, resolve
+from ..served import meets
 from ..settings import ReferenceSettings
 from . import orders as scattering
 from .batches import CAMERA, LIGHT_GROUPS
@@ -127,24 +128,6 @@ def _info(state: RenderState, settings: ReferenceSettings, stopped_by: str, seco
             "total_variance_ratio": state.total_variance_ratios(), "seconds_to_target": dict(state.floor_seconds)}
 
 
-def _satisfied(manifest: dict, settings: ReferenceSettings) -> bool:
-    """Whether a cached entry already meets ``settings``: its batches, or its floors
-    below every target (or its photon cap reached)."""
-    if manifest.get("batches", 0) < settings.batches or manifest.get("camera_batches", 0) < settings.batches:
-        return False
-    if settings.max_scatter > 1 and manifest.get("orders_batches", 0) < settings.batches:
-        return False
-    targets = settings.targets()
-    floors = manifest.get("noise_floor", {})
-    for name, target in targets.items():
-        floor = floors.get(name)
-        if floor is not None and floor > target:
-            if name != "fog" and name != "direct" and settings.photon_cap_reached(manifest.get("photons", 0)):
-                continue
-            return False
-    return True
-
-
 def _resumable(arrays: dict | None, settings: ReferenceSettings) -> RenderState | None:
     """The batch state ``arrays`` (cache.read_state) to continue, or None (render afresh)
     when there is none or it is not a state of this image: arrays missing, of another
@@ -221,7 +204,7 @@ def _plan(scene, request: RenderRequest, variant: str, force: bool):
         served = cache.lookup(request)
         if served is not None:
             served_key, manifest, layers = served
-            if _satisfied(manifest, settings):
+            if meets(manifest, settings):
                 return ReferenceResult(served_key, for_caller(manifest, scene), cached=True, layers=layers)
             if served_key == key:
                 state = _resumable(cache.read_state(served_key, manifest), settings)

@@ -32,6 +32,7 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from volcaustics.reference.served import describe_budget
     from volcaustics.reference.settings import ReferenceSettings
     from volcaustics.reports.presenting.exports.reference_files import run_reference
     from volcaustics.scenes import resolve_scene
@@ -46,7 +47,10 @@ def run(args: argparse.Namespace) -> int:
     floors = ", ".join(f"{k} {100 * v:.3f}%" for k, v in summary["noise_floor"].items() if v is not None)
     orders = (f" + {summary['orders_batches']} of {summary['max_scatter']} scattering orders"
               if summary.get("orders_batches") else "")
+    served = summary["served_to"]  # judged against this request (reference.served)
+    other = ("" if served["rendered_for"] is None else
+             f"; rendered for another request: {describe_budget(served['rendered_for'])}")
     print(f"reference {scene.name}: {summary['photons']:,} photons, {summary['batches']} + "
           f"{summary['camera_batches']}{orders} batches ({source}, {summary['mitsuba_variant']}; stopped by "
-          f"{summary['stopped_by']}); noise floor {floors} -> {summary['outputs']['exr']}")
+          f"{served['stopped_by']}{other}); noise floor {floors} -> {summary['outputs']['exr']}")
     return 0

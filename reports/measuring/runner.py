@@ -39,6 +39,7 @@ from volcaustics.reference.cache import ReferenceResult, cached_reference, exist
 from volcaustics.reference.oracle import Oracle
 from volcaustics.reference.render import render_references
 from volcaustics.reference.render.tasks import PROCESS_LOCK
+from volcaustics.reference.settings import ReferenceSettings
 from volcaustics.reports.measuring.experiment.measurement import MeasurementSettings
 from volcaustics.reports.measuring.experiment.pipeline import run_experiment
 from volcaustics.reports.measuring.experiment.point_checks import measurement_bytes
@@ -52,7 +53,6 @@ from volcaustics.scenes.fields import scene_with
 from volcaustics.scenes.portable import packed, unpacked
 
 if TYPE_CHECKING:
-    from volcaustics.reference.settings import ReferenceSettings
     from volcaustics.reports.measuring.pools.executors import Pool
     from volcaustics.scenes.model import Scene
 
@@ -87,7 +87,8 @@ def point_scene(scene: str, fields: tuple = ()) -> Scene:
 
 # The version of a point task's fields: a worker of another volcaustics (a Dask cluster whose
 # machines were not all updated) refuses a task of another version rather than misread it.
-TASK_VERSION = 1
+# 2: the key document carries the run's reference request (``reference_request``).
+TASK_VERSION = 2
 
 
 @dataclass(frozen=True)
@@ -257,7 +258,8 @@ def _tasks(points, store, settings, measurement, policy, *, images, progress, hi
     tasks, keys, task_sizes = [], [], []
     for point, size in zip(points, sizes):
         scene, reference = wanted[size][0], references[size]
-        document = {**key_document(scene, point.params, point.seeds, reference), **measurement.to_dict()}
+        document = {**key_document(scene, point.params, point.seeds, reference, wanted[size][1]),
+                    **measurement.to_dict()}
         key = point_key(document)
         if measurement.scope != "full":  # a full point (the report's) holds all a gate point would
             full = point_key({**document, "scope": "full"})
@@ -356,9 +358,10 @@ def run_point(task: PointTask, payload: dict | None = None, *, progress: bool = 
 
 def _experiment(task: PointTask, scene, reference, progress: bool):
     renderer, oracle = _tools(scene)
+    request = ReferenceSettings(**task.key_document["reference_request"])  # the run's, which the summary judges by
     return run_experiment(scene, ApproxParams(**task.params), seeds=task.seeds, reference=reference,
-                          renderer=renderer, oracle=oracle, progress=progress, fields=dict(task.fields),
-                          measurement=MeasurementSettings(**task.measurement))
+                          reference_settings=request, renderer=renderer, oracle=oracle, progress=progress,
+                          fields=dict(task.fields), measurement=MeasurementSettings(**task.measurement))
 
 
 def _shipped(task: PointTask, payload: dict, *, progress: bool = False) -> dict:

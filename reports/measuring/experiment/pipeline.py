@@ -97,7 +97,9 @@ def run_experiment(scene: Scene, params: ApproxParams, *, seeds: int = 1,
         approximation's own noise and the bootstrap intervals need ≥ 2).
     reference_settings : ``reference.settings.ReferenceSettings`` (default: the
         report's, ``reports.measuring.results.sizing.REPORT_REFERENCE``), sized to the frames;
-        rendered when not cached (``reference`` None).
+        rendered when not cached (``reference`` None). The request the summary judges the
+        reference by (``reference.served.judged``: its target and caps; with ``reference``
+        given and no settings, the request the entry was rendered for).
     renderer, oracle, reference : reused when given (a ``reference.render.ReferenceResult``
         at the frames' size).
     fields : the scene fields this scene changed (dotted path → value, ``scenes.fields``):
@@ -114,10 +116,11 @@ def run_experiment(scene: Scene, params: ApproxParams, *, seeds: int = 1,
     scope = measurement.scope
     clock = Clock()
     bar = tqdm(total=len(STAGES), desc="measure", unit="stage", disable=not progress, leave=False)
+    request = sized(reference_settings or REPORT_REFERENCE, scene, p)
+    judged_by = None if reference is not None and reference_settings is None else request  # None: the entry's own
     with clock.stage("reference"):
         if reference is None:
-            reference = render_reference(scene, sized(reference_settings or REPORT_REFERENCE, scene, p),
-                                         progress=progress)
+            reference = render_reference(scene, request, progress=progress)
     bar.update()
     own_renderer = renderer is None
     renderer = renderer or Renderer(scene)
@@ -156,7 +159,7 @@ def run_experiment(scene: Scene, params: ApproxParams, *, seeds: int = 1,
     bar.close()
     clock.seconds["total"] = clock.total()
     summary = experiment_summary(scene, p, seed_list, reference, frames, exact, headline, decomposition, divergence,
-                                 clock.seconds, keep, timed, model_summary, fields)
+                                 clock.seconds, keep, timed, model_summary, fields, request=judged_by)
     layers = {}
     if decomposition is not None:
         layers = {name: np.asarray(img, np.float32) for name, img in decomposition["images"].items()}

@@ -12,6 +12,7 @@ from volcaustics.approx.context import gl_info, shared_context
 from volcaustics.approx.cost import COST_FIELDS, frame_cost
 from volcaustics.approx.cost_model import predicted_frames
 from volcaustics.metrics.noise import MIN_SEEDS_FOR_INTERVAL
+from volcaustics.reference.served import AS_CACHED, describe_budget, judged
 from volcaustics.reports.measuring.experiment.approx_frames import median_timings
 from volcaustics.reports.measuring.experiment.exact_images import SMALL_SUPERSAMPLE
 from volcaustics.reports.measuring.results.summaries import SCHEMAS, ExperimentSummary
@@ -23,6 +24,7 @@ if TYPE_CHECKING:
     from volcaustics.approx.params import ApproxParams
     from volcaustics.approx.renderer import Frame
     from volcaustics.reference.cache import ReferenceResult
+    from volcaustics.reference.settings import ReferenceSettings
     from volcaustics.scenes.model import Scene
 
 KIND = "experiment"  # summary.json "kind" of a measure output folder
@@ -80,43 +82,54 @@ def experiment_views(frames: Sequence[Frame], reference: ReferenceResult, keep: 
     return {name: np.asarray(image, np.float32) for name, image in out.items()}
 
 
-def short_of_target(manifest: dict) -> dict:
-    """component → {"noise_floor", "target"} for each component of a reference's
-    ``manifest`` whose noise floor stayed above its target (``target_noise``): a render a
-    cap stopped (``stopped_by`` "time cap" or "photon cap") before its noise was met."""
-    targets = (manifest.get("settings") or {}).get("target_noise") or {}
-    floors = manifest.get("noise_floor") or {}
-    return {name: {"noise_floor": floors[name], "target": target} for name, target in targets.items()
-            if floors.get(name) is not None and floors[name] > target}
-
-
-def reference_summary(reference: ReferenceResult) -> dict:
-    """What a summary says of the reference a result was measured against."""
+def reference_summary(reference: ReferenceResult, request: ReferenceSettings | None = None) -> dict:
+    """What a summary says of the reference a result was measured against: the entry
+    (``settings``: those it was rendered with) judged against the run's ``request``
+    (``reference.served.judged``; None: the request it was rendered for): ``request``,
+    ``rendered_for`` (None, or the other request's budget), ``stopped_by`` and
+    ``short_of_target`` (component → its floor and the request's target)."""
     m = reference.manifest
+    verdict = judged(m, request)
     return {"key": reference.key, "settings": m.get("settings"), "photons": m.get("photons"),
             "batches": m.get("batches"), "camera_batches": m.get("camera_batches"),
-            "noise_floor": m.get("noise_floor"), "stopped_by": m.get("stopped_by"),
-            "short_of_target": short_of_target(m),
+            "noise_floor": m.get("noise_floor"), "stopped_by": verdict["stopped_by"],
+            "short_of_target": verdict["short_of_target"], "request": verdict["request"],
+            "rendered_for": verdict["rendered_for"],
             "mitsuba_variant": m.get("mitsuba_variant"), "cached": reference.cached,
             "reference_code_version": m.get("reference_code_version")}
+
+
+def reference_warnings(summary: dict) -> list:
+    """The warnings a result's reference (``summary``: :func:`reference_summary`) gives:
+    its floors above the request's targets, and an entry rendered for another request."""
+    out = []
+    short, stopped_by = summary["short_of_target"], summary["stopped_by"]
+    if short:
+        floors = ", ".join(f"{c} {100 * v['noise_floor']:.2f}% (target {100 * v['target']:.2f}%)"
+                           for c, v in short.items())
+        how = (f"stopped at its {stopped_by} above its noise target" if stopped_by != AS_CACHED else
+               "was served from the cache as it is, above this run's noise target")
+        out.append(f"the reference {how}: {floors}; its noise is debiased, but the numbers are less precise than "
+                   f"asked (raise --max-seconds or --max-photons and run again: the cached reference is continued)")
+    if summary["rendered_for"] is not None:
+        out.append(f"the reference was rendered for another request ({describe_budget(summary['rendered_for'])}) "
+                   f"and served from the cache; against this run's request ({describe_budget(summary['request'])}) "
+                   f"it stops by: {stopped_by}")
+    return out
 
 
 def experiment_summary(scene: Scene, p: ApproxParams, seeds: list[int], reference: ReferenceResult,
                        frames: Sequence[Frame], exact: dict | None, headline: dict, decomposition: dict | None,
                        divergence: dict, clock: dict[str, float], keep: np.ndarray, timed: list[dict],
-                       model: dict | None = None, fields: dict | None = None) -> ExperimentSummary:
+                       model: dict | None = None, fields: dict | None = None,
+                       request: ReferenceSettings | None = None) -> ExperimentSummary:
     alive = {} if exact is None else {k: float(max(v)) for k, v in exact["alive"].items()}
     names = {k: "E_em" if k == "true_emission" else f"E_inf ({k} Fresnel)" for k in alive}
     warnings = [f"{names[k]} keeps {100 * v:.2f}% of the power alive after {cast(dict, exact)['exact_steps']} steps "
                 f"(> {100 * ALIVE_BUDGET:.1f}%): the truncation term is understated" for k, v in alive.items()
                 if v > ALIVE_BUDGET]
-    short = short_of_target(reference.manifest)
-    if short:
-        floors = ", ".join(f"{c} {100 * v['noise_floor']:.2f}% (target {100 * v['target']:.2f}%)"
-                           for c, v in short.items())
-        warnings.append(f"the reference stopped at its {reference.manifest.get('stopped_by')} above its noise "
-                        f"target: {floors}; its noise is debiased, but the numbers are less precise than asked "
-                        f"(raise --max-seconds or --max-photons and run again: the cached reference is continued)")
+    reference_part = reference_summary(reference, request)
+    warnings += reference_warnings(reference_part)
     if decomposition is not None and not decomposition["residual"]["within_noise"]:
         warnings.append(decomposition["residual"]["message"])
     if model is not None and not model["converged"]:
@@ -132,7 +145,7 @@ def experiment_summary(scene: Scene, p: ApproxParams, seeds: list[int], referenc
         "kind": KIND, "schema": SCHEMAS["experiment"], "scene": scene.name, "scene_hash": scene.scene_hash(),
         "optical_depth": optical_depth(scene),
         "description": scene.description, "params": p.to_dict(), "seeds": len(seeds), "seed_values": seeds,
-        "reference": reference_summary(reference),
+        "reference": reference_part,
         "exact": None if exact is None else {
             "steps": exact["exact_steps"], "subset_batches": exact["subset_batches"], "alive_after": alive,
             "small_splat_radius": exact["small_radius"], "kernels": exact["kernels"],

@@ -62,6 +62,7 @@ from volcaustics.reports.measuring.results.versions import code_version
 if TYPE_CHECKING:
     from volcaustics.approx.params import ApproxParams
     from volcaustics.reference.cache import ReferenceResult
+    from volcaustics.reference.settings import ReferenceSettings
     from volcaustics.scenes.model import Scene
 
     class _Experiment(Protocol):
@@ -88,14 +89,17 @@ def point_key(document: dict) -> str:
     return hashlib.sha256(text.encode()).hexdigest()[:32]
 
 
-def key_document(scene: Scene, params: ApproxParams, seeds: int, reference: ReferenceResult) -> dict:
+def key_document(scene: Scene, params: ApproxParams, seeds: int, reference: ReferenceResult,
+                 request: ReferenceSettings) -> dict:
     """Everything that determines a point's result: the scene, the resolved parameters,
     the seeds, the reference (``reference.render.ReferenceResult``: its cache key and,
     since an entry can be continued with more batches under one key, the hash of its
-    content) and the code version."""
+    content), the request it was served to (``request``, sized: its summary judges the
+    entry against that request's target and caps, ``reference.served``) and the code version."""
     return {"format": STORE_FORMAT, "scene_hash": scene.scene_hash(), "params": params.resolved(scene).to_dict(),
             "seeds": seeds, "reference_key": reference.key,
-            "reference_content": reference.manifest.get("exr_sha256"), "code_version": code_version()}
+            "reference_content": reference.manifest.get("exr_sha256"), "reference_request": request.to_dict(),
+            "code_version": code_version()}
 
 
 def summary_sha256(summary: dict) -> str:

@@ -17,7 +17,7 @@ from volcaustics.metrics.noise import MIN_SEEDS_FOR_INTERVAL
 from volcaustics.reports.measuring import runner
 from volcaustics.reports.measuring.experiment.image_rows import image_rows, keep_mask
 from volcaustics.reports.measuring.experiment.point_checks import check_medium
-from volcaustics.reports.measuring.experiment.point_summary import reference_summary
+from volcaustics.reports.measuring.experiment.point_summary import reference_summary, reference_warnings
 from volcaustics.reports.measuring.results.sizing import at_size
 from volcaustics.reports.measuring.results.summaries import SCHEMAS
 from volcaustics.reports.measuring.results.timing import Clock
@@ -57,9 +57,9 @@ def run_compare(scene: Scene, paths: Iterable[str], *, name: str, reference_sett
     clock = Clock()
     with clock.stage("read"):
         inputs = read_images(list(paths), scene)
+    request = at_size(reference_settings, inputs.width, inputs.height)
     with clock.stage("reference"):
-        reference = runner.reference_for(scene, at_size(reference_settings, inputs.width, inputs.height), policy,
-                                         progress=progress)
+        reference = runner.reference_for(scene, request, policy, progress=progress)
     with clock.stage("metrics"):
         keep = keep_mask(reference, inputs.frames)
         if not keep.any():
@@ -71,14 +71,16 @@ def run_compare(scene: Scene, paths: Iterable[str], *, name: str, reference_sett
         maps: dict = {}
         rows, headline = image_rows(inputs.frames, reference, keep, columns, maps, components=inputs.components)
     clock.seconds["total"] = clock.total()
+    judged = reference_summary(reference, request)  # against this run's target and caps
     summary = {
         "kind": KIND, "schema": SCHEMAS["comparison"], "renderer": name, "scene": scene.name,
         "scene_hash": scene.scene_hash(),
         "description": scene.description, "width": inputs.width, "height": inputs.height,
         "seeds": len(inputs.frames), "inputs": inputs.files, "components": list(inputs.components),
-        "mask": inputs.mask, "reference": reference_summary(reference), "compared_pixels": int(keep.sum()),
+        "mask": inputs.mask, "reference": judged, "compared_pixels": int(keep.sum()),
         "images": headline, "seconds": clock.seconds, "code_version": code_version(),
-        "versions": library_versions(), "warnings": inputs.warnings + _seed_warnings(len(inputs.frames)),
+        "versions": library_versions(),
+        "warnings": inputs.warnings + reference_warnings(judged) + _seed_warnings(len(inputs.frames)),
     }
     return Comparison(images=rows, summary=summary, views=_views(inputs, reference, keep, maps))
 
