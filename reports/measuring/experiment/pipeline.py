@@ -116,11 +116,13 @@ def run_experiment(scene: Scene, params: ApproxParams, *, seeds: int = 1,
     scope = measurement.scope
     clock = Clock()
     bar = tqdm(total=len(STAGES), desc="measure", unit="stage", disable=not progress, leave=False)
-    request = sized(reference_settings or REPORT_REFERENCE, scene, p)
-    judged_by = None if reference is not None and reference_settings is None else request  # None: the entry's own
+    # the request the summary judges the reference by (None: the one the given entry was rendered for)
+    request = None if reference is not None and reference_settings is None else \
+        sized(reference_settings or REPORT_REFERENCE, scene, p)
     with clock.stage("reference"):
         if reference is None:
-            reference = render_reference(scene, request, progress=progress)
+            reference = render_reference(scene, sized(reference_settings or REPORT_REFERENCE, scene, p),
+                                         progress=progress)
     bar.update()
     own_renderer = renderer is None
     renderer = renderer or Renderer(scene)
@@ -159,7 +161,7 @@ def run_experiment(scene: Scene, params: ApproxParams, *, seeds: int = 1,
     bar.close()
     clock.seconds["total"] = clock.total()
     summary = experiment_summary(scene, p, seed_list, reference, frames, exact, headline, decomposition, divergence,
-                                 clock.seconds, keep, timed, model_summary, fields, request=judged_by)
+                                 clock.seconds, keep, timed, model_summary, fields, request=request)
     layers = {}
     if decomposition is not None:
         layers = {name: np.asarray(img, np.float32) for name, img in decomposition["images"].items()}
