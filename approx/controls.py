@@ -22,6 +22,8 @@ CONTROLS = {
                                     "(splat/beam.frag.glsl)"),
     "BEAM_RECTANGLE": ("splat", "beams drawn as their widest kernel's rectangle, not a trapezoid "
                                 "(splat/beam.vert.glsl)"),
+    "BEAM_FULLSCREEN": ("splat", "beams drawn over the whole image, not the quad that holds their kernels "
+                                 "(splat/beam.vert.glsl)"),
 }
 
 

@@ -29,13 +29,14 @@
 #include "splat/beam_width.glsl"
 #include "common/kinds.glsl"
 
+uniform mat4 view_proj;
+uniform vec2 viewport;             // image size (pixels)
 uniform vec3 eye;
 uniform vec3 sigma_s;
 uniform vec3 sigma_t;
 uniform float splat_radius;        // the kernel σ (m), or the bounds of a beam's own (splat/beam_width.glsl)
 uniform sampler2D scene_distance;  // G-buffer (distance to the first surface, KIND_*, material, 0)
 
-in vec3 v_corner;
 flat in vec3 v_start;
 flat in vec3 v_dir;
 flat in float v_length;
@@ -75,8 +76,19 @@ float beam_pixel_mass(float z, float alpha, float beta) {
             + kernel_cdf_integral(z - hi)) / (a * b);
 }
 
+// The camera ray through this pixel's centre (unit, world space): the image-plane point
+// (x/P00, y/P11) at NDC (x, y), along view_proj's rows (row 0 = P00·right, row 1 = P11·up,
+// row 3 = forward).
+vec3 pixel_ray() {
+    vec2 ndc = gl_FragCoord.xy / viewport * 2.0 - 1.0;
+    vec3 right = vec3(view_proj[0][0], view_proj[1][0], view_proj[2][0]);
+    vec3 up = vec3(view_proj[0][1], view_proj[1][1], view_proj[2][1]);
+    vec3 forward = vec3(view_proj[0][3], view_proj[1][3], view_proj[2][3]);
+    return normalize(forward + ndc.x / dot(right, right) * right + ndc.y / dot(up, up) * up);
+}
+
 void main() {
-    vec3 ray = normalize(v_corner - eye);
+    vec3 ray = pixel_ray();
     vec3 w0 = eye - v_start;
     // the signed distance between pixel ray and beam and its change per pixel (m), taken
     // before any fragment of the 2×2 quad is discarded (v_boxed is the primitive's: uniform there)
