@@ -81,3 +81,51 @@ def test_a_preset_that_resizes_the_scenes_camera_says_so(tmp_path, capsys, write
                  "-o", str(tmp_path / "s.exr")]) == 0
     assert "note" not in capsys.readouterr().err
     assert read_exr(str(tmp_path / "s.exr"))[0]["combined"].shape == (54, 96, 3)
+
+
+NARROW_SPOT = """name = "narrow"
+[camera]
+position = [0.0, 1.2, 4.5]
+target = [0.0, 1.0, 0.0]
+fov_y = 36.0
+width = 96
+height = 96
+[light]
+position = [0.0, 3.0, 0.0]
+direction = [0.0, -1.0, 0.0]
+intensity = 10.0
+cutoff_angle = 6.0
+beam_width = 5.0
+[medium]
+sigma_s = 0.2
+sigma_a = 0.02
+[[diffuse]]
+name = "floor"
+mesh = { generator = "quad", size_x = 10.0, size_z = 10.0 }
+albedo = 0.6
+[[specular]]
+name = "sphere"
+mesh = { generator = "sphere", radius = 0.4, subdivisions = 32 }
+transform = { translate = [0.0, 1.4, 0.0] }
+ior = 1.5
+"""
+
+
+def test_a_beams_frame_passes_compares_own_input_check(tmp_path, write_scene):
+    """The preset beams on a narrow spot (6°): most of the image lies beyond every beam's
+    kernel, where beams carrying their own σ average the kernel over each pixel by a
+    second difference in float32 (splat/beam.frag.glsl). It cancelled to pixels of
+    −1e-13 beside a peak of 0.018 (3 of 96², photon_res 64), and compare, reading the
+    harness's own EXR, refused it (exit 2: radiance is ≥ 0). The frame's caustic is ≥ 0
+    with pixels of exactly 0, and compare's input check reads it."""
+    from volcaustics.reports.studies.compare.comparison_inputs import read_images
+    from volcaustics.scenes import resolve_scene
+
+    path = write_scene(NARROW_SPOT)
+    out = str(tmp_path / "beams.exr")
+    assert main(["approx", path, "--preset", "beams", "--photon-res", "64", "--width", "96", "--height", "96",
+                 "-o", out]) == 0
+    inputs = read_images([out], resolve_scene(path))  # CompareError on a negative pixel
+    assert inputs.components and not inputs.warnings
+    caustic = read_exr(out)[0]["caustic"]
+    assert caustic.min() == 0.0 and caustic.max() > 0
