@@ -13,6 +13,7 @@ keys (:func:`defines`). Adding a parameter is a table entry and the code that us
 from __future__ import annotations
 
 import dataclasses
+import struct
 from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any, Callable, ClassVar, TypeVar, cast, overload
 
@@ -80,7 +81,8 @@ class Param:
             ok = value in self.choices
         elif self.kind is float:
             low, high = cast(float, self.low), cast(float, self.high)  # a number parameter has both
-            ok = isinstance(value, (int, float)) and not isinstance(value, bool) and low < value < high
+            ok = (isinstance(value, (int, float)) and not isinstance(value, bool) and low < value < high
+                  and low < float32(value) < high)  # as the shaders get it, too
         else:
             low, high = cast(float, self.low), cast(float, self.high)
             ok = isinstance(value, int) and not isinstance(value, bool) and low <= value <= high
@@ -116,6 +118,14 @@ class Param:
         return f"{self.name} ({self.unit})" if self.unit else self.name
 
 
+# The least a float parameter may be (its open range's low end): 1e-6, so that what the
+# shaders make of it stays in float32's range and resolution. A kernel σ of 1e-6 m is about
+# what float32 resolves of a position 4 m away (its ulp: 4.8e-7 m), and σ² a normal number
+# (at 1e-38 it was 0: the caustic was NaN; at 1e-30, too narrow for any pixel centre, 0);
+# splat_footprints × a footprint is such a σ; temporal_weight's history weight 1 − w is
+# 1 in float32 below w = 6e-8 (the average would never move).
+FLOAT32_FLOOR = 1e-6
+
 _DECLARED: tuple = (  # one entry per ApproxParams field, in its order
     Param("photon_res", int, 1500, "photon map resolution N: one photon per covered texel of N²", "texels per side",
           1, 8192),
@@ -146,7 +156,8 @@ _DECLARED: tuple = (  # one entry per ApproxParams field, in its order
           glsl="define", to_defines=lambda v: {"CROSSING_SURFACE": 1, "CROSSING_TEXELS": "2.0"} if v == "surface"
           else {}, exact=False),
     Param("steps", int, 4, "interaction steps (photon maps) traced", "", 1, 32),
-    Param("splat_radius", float, 0.01, "standard deviation of the splatted 3D Gaussian", "m", 0, 10,
+    # float bounds hold in float32, where the shaders take them (FLOAT32_FLOOR)
+    Param("splat_radius", float, 0.01, "standard deviation of the splatted 3D Gaussian", "m", FLOAT32_FLOOR, 10,
           glsl="uniform"),
     Param("splat", str, "fixed", "the splat kernel's width: fixed (paper: splat_radius for every photon), "
           "adaptive (splat_footprints × the photon's footprint, its distance to its neighbours' rays carried "
@@ -162,7 +173,7 @@ _DECLARED: tuple = (  # one entry per ApproxParams field, in its order
     Param("splat_neighbours", int, 16, "density splats: the photons a kernel's σ-disc holds on average", "", 1,
           4096, glsl="uniform"),
     Param("splat_footprints", float, 4.0, "adaptive splats and differential beams: the kernel's standard deviation "
-          "in photon footprints", "", 0, 100, glsl="uniform"),
+          "in photon footprints", "", FLOAT32_FLOOR, 100, glsl="uniform"),
     Param("beam_width", str, "fixed", "beams' kernel width: fixed (splat_radius along every beam) or differential "
           "(splat_footprints × the photon's ray-differential footprint, which changes linearly along the beam at "
           "the rate the differential carries, within [splat_radius/16, 4·splat_radius]: beams widen where the "
@@ -187,8 +198,8 @@ _DECLARED: tuple = (  # one entry per ApproxParams field, in its order
           "and fog over frames, a new seed each, by an exponential moving average whose history is rejected where "
           "the G-buffer changed, reset when the light jumps and clipped to the frame's neighbourhood "
           "(approx.temporal; a still frame has no history)", choices=("none", "ema"), exact=False),
-    Param("temporal_weight", float, 0.25, "ema: the current frame's weight w (noise variance → w/(2 − w))", "", 0,
-          1, exact=False),
+    Param("temporal_weight", float, 0.25, "ema: the current frame's weight w (noise variance → w/(2 − w))", "",
+          FLOAT32_FLOOR, 1, exact=False),
     Param("light_res", int, 1024, "resolution of the light layer maps and the shadow map", "texels per side", 16,
           8192, glsl="uniform", exact=False),
     Param("width", int, None, "image width", "pixels", 1, 16384, unset="the scene's"),
@@ -240,6 +251,11 @@ class ParamsMethods:
 
 
 _BY_NAME = {p.name: p for p in _DECLARED}
+
+
+def float32(value: float) -> float:
+    """``value`` rounded to float32, as a shader's uniform holds it (within float32's range)."""
+    return float(struct.unpack("f", struct.pack("f", value))[0])
 
 
 def declared(name: str) -> Any:

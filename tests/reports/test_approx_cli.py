@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 
 import numpy as np
+import pytest
 
 from volcaustics.infra.imageio import read_exr
 from volcaustics.reports.cli import main
@@ -129,3 +130,52 @@ def test_a_beams_frame_passes_compares_own_input_check(tmp_path, write_scene):
     assert inputs.components and not inputs.warnings
     caustic = read_exr(out)[0]["caustic"]
     assert caustic.min() == 0.0 and caustic.max() > 0
+
+
+@pytest.mark.parametrize("flags", [["--preset", "beams", "--splat-radius", "1e-38"],
+                                   ["--preset", "quick", "--splat", "density", "--splat-radius", "1e-38"],
+                                   ["--preset", "quick", "--splat-radius", "1e-30"],
+                                   ["--preset", "beams", "--splat-footprints", "1e-38"],
+                                   ["--preset", "quick", "--splat-radius", "9.9999999999"]])
+def test_a_float_parameter_float32_cannot_hold_exits_2_naming_it(tmp_path, capsys, flags):
+    """splat_radius 1e-38 was inside (0, 10) in float64: the beams' and density splats'
+    caustic came out mostly NaN, 1e-30 all 0, both written with exit 0. A float's range
+    now holds in float32 (approx.params.FLOAT32_FLOOR, and the value rounded to float32:
+    9.9999999999 is 10 there): exit 2 naming the parameter, nothing written."""
+    out = tmp_path / "x.exr"
+    code = main(["approx", "refocus", *flags, "--photon-res", "32", "--width", "16", "--height", "16",
+                 "-o", str(out)])
+    err = capsys.readouterr().err
+    name = flags[-2].lstrip("-").replace("-", "_")
+    assert code == 2 and f"{name} = {float(flags[-1])!r}" in err and "(1e-06, " in err, err
+    assert not list(tmp_path.iterdir())
+
+
+def test_a_frame_float32_cannot_hold_is_refused_before_it_is_written(ctx, tmp_path):
+    """The check behind the bounds (approx.frame_checks): with a table that still allows
+    splat_radius 1e-38 (a parameter being added, approx.params.params_class), the beams
+    frame is NaN; `approx` refuses it naming the layer and the float parameters, and
+    writes none of its files; `measure`'s frames are refused the same way before any
+    metric reads them."""
+    import dataclasses
+
+    from volcaustics.approx import Renderer
+    from volcaustics.approx.frame_checks import NonFiniteFrame
+    from volcaustics.approx.params import PARAMS, PRESETS, params_class
+    from volcaustics.reports.measuring.experiment.approx_frames import render_frames
+    from volcaustics.reports.presenting.exports.approx_files import run_approx
+    from volcaustics.scenes import resolve_scene
+
+    loose = params_class(tuple(dataclasses.replace(p, low=0.0) if p.name == "splat_radius" else p for p in PARAMS))
+    params = loose(**{**PRESETS["beams"].to_dict(), "photon_res": 32, "light_res": 32, "width": 16, "height": 16,
+                      "splat_radius": 1e-38})
+    scene = resolve_scene("refocus")
+    with pytest.raises(NonFiniteFrame, match=r"caustic layer has \d+ pixel\(s\) with NaN .* splat_radius = 1e-38"):
+        run_approx(scene, params, str(tmp_path / "x.exr"))
+    assert not list(tmp_path.iterdir())
+    renderer = Renderer(scene)
+    try:
+        with pytest.raises(NonFiniteFrame, match="seed 0.*splat_radius = 1e-38"):
+            render_frames(renderer, scene, params, [0], warm_up=False)
+    finally:
+        renderer.release()

@@ -6,6 +6,8 @@ from __future__ import annotations
 import dataclasses
 from typing import TYPE_CHECKING
 
+from volcaustics.approx.frame_checks import check_finite_frame
+
 if TYPE_CHECKING:
     from volcaustics.approx.params import ApproxParams
     from volcaustics.approx.renderer import Frame, Renderer
@@ -23,6 +25,8 @@ def render_frames(renderer: Renderer, scene: Scene, p: ApproxParams, seeds: list
     if warm_up:
         renderer.render(scene, dataclasses.replace(p, seed=seeds[0]), keep_records=False)
     frames = [renderer.render(scene, dataclasses.replace(p, seed=s), keep_records=True) for s in seeds]
+    for seed, frame in zip(seeds, frames):  # NonFiniteFrame: exit 2 before any metric reads NaN
+        check_finite_frame(frame.images, p, f"{scene.name}: the approximation's frame of seed {seed}")
     timed = [renderer.render(scene, dataclasses.replace(p, seed=seeds[i % len(seeds)]), keep_records=False).timings
              for i in range(TIMED_FRAMES)]
     return frames, timed

@@ -12,6 +12,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from volcaustics.approx import render
+from volcaustics.approx.frame_checks import check_finite_frame
 from volcaustics.infra.imageio import write_exr, write_png
 from volcaustics.infra.storage import atomic_set
 from volcaustics.reports.presenting.exports.output_paths import render_outputs
@@ -39,6 +40,7 @@ def run_approx(scene: Scene, params: ApproxParams, out: str, *, records_max: int
     """Render and write the outputs; returns the JSON summary written."""
     frame = render(scene, params, keep_records=records_max != 0)
     paths = output_paths(out)
+    check_finite_frame(frame.images, params, paths["exr"])  # NonFiniteFrame: exit 2, nothing written
     metadata = {"volcaustics_scene": scene.name, "volcaustics_scene_hash": scene.scene_hash(),
                 "volcaustics_renderer": "approx", "volcaustics_params": json.dumps(frame.params, sort_keys=True)}
     recs, stride = subsample_records(frame.records, records_max)

@@ -27,6 +27,7 @@ import numpy as np
 from tqdm import tqdm
 
 from volcaustics.approx import Renderer
+from volcaustics.approx.frame_checks import check_finite_frame
 from volcaustics.infra.storage import atomic_path
 from volcaustics.reports.measuring.results.sizing import sized
 from volcaustics.reports.measuring.results.tables import plain
@@ -132,6 +133,7 @@ def _render_frame(renderer, scene, params, t: int, modes, chains: int) -> dict:
         for chain in range(chains):
             p = dataclasses.replace(params, seed=chain_seed(mode, params.seed, chain, chains, t))
             frame = renderer.render(scene, p, keep_records=False, keep_guides=True)
+            check_finite_frame(frame.images, p, f"{scene.name}: frame {t}")  # NonFiniteFrame: exit 2, none stored
             seconds.append(frame.timings["frame_wall"])
             out["gl"] = frame.gl
             out.update({f"guide/{name}": frame.guides[name].astype(np.float32) for name in GUIDES})
