@@ -61,9 +61,10 @@ def test_the_report_section_shows_every_row_and_the_verdict():
 def test_the_manifest_is_strict_json_when_a_ratio_is_not_a_number(tmp_path):
     """frames.json once held bare NaN tokens (a scene whose time or caustic error was not
     a number), which JSON readers refuse; now null."""
-    from volcaustics.reports.studies.best.frame_check import MANIFEST, write_manifest
+    from volcaustics.reports.studies.best.frame_check import MANIFEST, write_frames
 
-    write_manifest(str(tmp_path), {"kind": "frames", "verdict": {"none_builtin_worst_time_ratio": float("nan")}})
+    verdict_of_nan = {"none_builtin_worst_time_ratio": float("nan")}
+    write_frames(str(tmp_path), _table(0.045), {"kind": "frames", "verdict": verdict_of_nan})
     text = (tmp_path / MANIFEST).read_text()
     assert "NaN" not in text and json.loads(text)["verdict"]["none_builtin_worst_time_ratio"] is None
 
@@ -80,22 +81,81 @@ def test_a_stored_point_is_reused_only_under_its_own_key(tmp_path):
     scene = load_builtin("refocus")
     params = preset("quick")
     key = point_key(scene, params, 6, "v1")
-    store_point(str(tmp_path), key, {"scene": "refocus", "frame_relmse": 0.1})
-    assert stored_point(str(tmp_path), key) == {"scene": "refocus", "frame_relmse": 0.1}
+    store_point(str(tmp_path), key, _point_row())
+    assert stored_point(str(tmp_path), key, _POINT_IDENTITY) == _point_row()
     for other in (point_key(scene, dataclasses.replace(params, steps=6), 6, "v1"), point_key(scene, params, 4, "v1"),
                   point_key(scene, params, 6, "v2")):
-        assert other != key and stored_point(str(tmp_path), other) is None
+        assert other != key and stored_point(str(tmp_path), other, _POINT_IDENTITY) is None
 
 
-def _frame_check(folder, manifest_changes=None, drop=None) -> str:
-    """A frame check's folder as ``volcaustics frames`` writes it, then changed."""
-    from volcaustics.reports.studies.best.frame_check import FRAMES_FILE, KIND, MANIFEST, SCHEMA, write_manifest
+def _point_row(**changes) -> dict:
+    """A row as ``run_frames`` stores it for one point (the fields ``_row`` measures)."""
+    row = {"scene": "refocus", "heldout": False, "group": "builtin", "config": "best", "denoise": "none",
+           "photon_res": 181, "frame_cost": 1.25e6, "predicted_llvmpipe": 0.021, "frame_relmse": 0.08,
+           "frame_relmse_se": 0.004, "relmse_debiased": 0.02, "relmse_se": 0.001, "hdr_flip": 0.1, "frame_s": 0.5,
+           "denoise_s": None, "denoised_pixels": None}
+    return {**row, **changes}
 
-    table = _table(0.045)
-    folder.mkdir(exist_ok=True)
-    table.drop(columns=drop or []).to_parquet(folder / FRAMES_FILE, index=False)
+
+_POINT_IDENTITY = {"scene": "refocus", "config": "best", "denoise": "none"}
+
+
+@pytest.mark.parametrize("damage", [
+    lambda row: {**row, "frame_relmse": row["frame_relmse"] / 100},  # the verdict flipped from not met to met
+    lambda row: {},                                                    # a KeyError traceback
+    lambda row: {**row, "frame_relmse": "0.08"},                       # a TypeError
+    lambda row: {**row, "scene": "renamed"},                           # a NaN ratio (no paper row of that name)
+    lambda row: {**row, "relmse_se": float("inf")},
+    lambda row: {**row, "photon_res": 181.5},
+], ids=["divided", "empty", "string", "renamed", "infinite", "fractional"])
+def test_a_damaged_stored_point_is_measured_again(tmp_path, damage):
+    """A point in DIR/points/ is sealed with the SHA-256 of its key and row: one edited by
+    hand, or of the wrong fields, types or non-finite numbers, is not served (``frames``
+    measures it again); the intact point is (the negative control)."""
+    from volcaustics.reports.studies.best.frame_check import POINTS, store_point, stored_point
+
+    key = "0123456789abcdef01234567"
+    store_point(str(tmp_path), key, _point_row())
+    assert stored_point(str(tmp_path), key, _POINT_IDENTITY) == _point_row()
+    path = tmp_path / POINTS / f"{key}.json"
+    doc = json.loads(path.read_text())
+    path.write_text(json.dumps({**doc, "row": damage(doc["row"])}))
+    assert stored_point(str(tmp_path), key, _POINT_IDENTITY) is None
+
+
+@pytest.mark.parametrize("damage", [
+    lambda row: {},
+    lambda row: {**row, "frame_relmse": "0.08"},
+    lambda row: {**row, "frame_cost": None},
+    lambda row: {**row, "photon_res": True},
+    lambda row: {**row, "scene": "renamed"},
+    lambda row: {**row, "config": "paper"},
+    lambda row: {**row, "extra": 1.0},
+], ids=["empty", "string", "null", "boolean", "renamed", "other_config", "unknown_field"])
+def test_a_resealed_point_of_the_wrong_shape_is_measured_again(tmp_path, damage):
+    """The fields, their types and the point's scene, configuration and denoiser are
+    checked beside the seal: a damaged row sealed again (by hand, or by a writer of
+    another shape) is not served either."""
+    from volcaustics.infra.storage import document_sha256
+    from volcaustics.reports.studies.best.frame_check import POINT_SEAL, POINTS, store_point, stored_point
+
+    key = "0123456789abcdef01234567"
+    store_point(str(tmp_path), key, _point_row())
+    path = tmp_path / POINTS / f"{key}.json"
+    doc = json.loads(path.read_text())
+    doc = {"key": key, "row": damage(doc["row"])}
+    path.write_text(json.dumps({**doc, POINT_SEAL: document_sha256(doc, POINT_SEAL)}))
+    assert stored_point(str(tmp_path), key, _POINT_IDENTITY) is None
+
+
+def _frame_check(folder, manifest_changes=None, drop=None, table=None) -> str:
+    """A frame check's folder as ``volcaustics frames`` writes it (``table``, default
+    best at 0.45× the paper's everywhere), then changed."""
+    from volcaustics.reports.studies.best.frame_check import KIND, MANIFEST, SCHEMA, write_frames
+
+    table = _table(0.045) if table is None else table
     manifest = {"kind": KIND, "schema": SCHEMA, "verdict": verdict(table)}
-    write_manifest(str(folder), manifest)
+    write_frames(str(folder), table.drop(columns=drop or []), manifest)
     if manifest_changes is not None:
         doc = json.loads((folder / MANIFEST).read_text())
         (folder / MANIFEST).write_text(json.dumps(manifest_changes(doc)))
@@ -106,7 +166,8 @@ def _frame_check(folder, manifest_changes=None, drop=None) -> str:
     (lambda d: [d], None, "expected a JSON object"),
     (lambda d: {k: v for k, v in d.items() if k != "verdict"}, None, "verdict = None"),
     (lambda d: {**d, "verdict": {**d["verdict"], "goal": "half"}}, None, "expected an object with a number goal"),
-    (lambda d: {**d, "schema": True}, None, "schema = True: expected 1"),
+    (lambda d: {**d, "schema": True}, None, "schema = True: expected 2"),
+    (lambda d: {**d, "schema": 1}, None, "schema = 1: expected 2"),  # an older frames.json: no SHA-256s
     (lambda d: {k: v for k, v in d.items() if k != "kind"}, None, "kind = None: expected 'frames'"),
     (None, ["frame_ratio"], "no column 'frame_ratio'"),
 ])
@@ -125,3 +186,44 @@ def test_a_frame_check_read_back_is_checked_against_its_shape(tmp_path, capsys, 
     assert main(["report", "--frames", folder, "--out", str(tmp_path / "report"), "--scenes", "sphere1"]) == 2
     err = capsys.readouterr().err
     assert message in err and "Traceback" not in err and not (tmp_path / "report").exists()
+
+
+def test_another_runs_table_beside_the_manifest_is_refused_before_any_work(tmp_path, capsys):
+    """frames.parquet and frames.json are one set: the manifest records the table's
+    SHA-256 and its own. Another run's table beside it (the two were renamed apart), or a
+    verdict edited by hand, is refused naming the file, before the report measures
+    anything (it once crashed after measuring, and drew no report)."""
+    import shutil
+
+    from volcaustics.reports.cli import main
+    from volcaustics.reports.studies.best.frame_check import FRAMES_FILE, MANIFEST, load_frames
+
+    met = _frame_check(tmp_path / "met")
+    not_met = _frame_check(tmp_path / "not_met", table=_table(0.20))
+    assert load_frames(met)[1]["verdict"]["met"] and not load_frames(not_met)[1]["verdict"]["met"]
+    shutil.copyfile(tmp_path / "not_met" / FRAMES_FILE, tmp_path / "met" / FRAMES_FILE)
+    edited = _frame_check(tmp_path / "edited", table=_table(0.20),
+                          manifest_changes=lambda d: {**d, "verdict": {**d["verdict"], "met": True}})
+    for folder, name in ((met, FRAMES_FILE), (edited, MANIFEST)):
+        with pytest.raises(ValueError, match=re.escape(name) + ".*SHA-256"):
+            load_frames(folder)
+        out = tmp_path / f"report_{name}"
+        assert main(["report", "--frames", folder, "--out", str(out), "--scenes", "sphere1"]) == 2
+        err = capsys.readouterr().err
+        assert "SHA-256" in err and "Traceback" not in err and not out.exists(), err
+
+
+def test_the_report_section_shows_a_missing_number_as_a_dash(tmp_path):
+    """A scene without its paper row has no ratios (NaN in the table, null in frames.json's
+    verdict): the section draws "–" where the number is missing (it formatted None with
+    ``:.3f`` and the report died after measuring)."""
+    from volcaustics.reports.studies.best.frame_check import load_frames
+
+    table = _table(0.045)
+    measured = table[~((table["scene"] == "k") & (table["config"] == "paper"))][list(_row("k", True, "", "", 0))]
+    table, manifest = load_frames(_frame_check(tmp_path / "frames", table=with_ratios(measured)))
+    assert manifest["verdict"]["none_heldout_worst_frame_ratio"] is None
+    html = frames_section({"rows": frames_rows(table), "verdict": manifest["verdict"]})
+    assert html.count("<tr>") == len(table) + 1 and "– on the held-out scenes" in html
+    k_best = next(row for row in html.split("<tr>") if row.startswith("<td class='l'>k") and ">best<" in row)
+    assert k_best.count("<td>–</td>") == 4, k_best  # cost, time, one frame's and the mean's ratios

@@ -24,8 +24,9 @@ def frames_rows(table: pd.DataFrame | None) -> list | None:
                                        for r in table.to_dict("records")]
 
 
-def _ratio(value) -> str:
-    return "–" if value is None or value != value else f"{value:.2f}×"
+def _ratio(value, fmt: str = "{:.2f}×") -> str:
+    """``value`` in ``fmt``; "–" for a missing number (None: frames.json holds NaN as null)."""
+    return "–" if value is None or value != value else fmt.format(value)
 
 
 def frames_section(frames: dict | None) -> str:
@@ -39,22 +40,23 @@ def frames_section(frames: dict | None) -> str:
             "<th>mean's relMSE, debiased</th><th>vs paper</th><th>OIDN s/frame</th></tr>")
     body = "".join(
         f"<tr><td class='l'>{escape(r['scene'])}{' <i>(held out)</i>' if r['heldout'] else ''}</td>"
-        f"<td class='l'>{escape(r['config'])}</td><td class='l'>{escape(r['denoise'])}</td><td>{r['photon_res']}</td>"
-        f"<td>{r['cost_ratio']:.3f}×</td><td>{_ratio(r.get('time_ratio'))}</td>"
+        f"<td class='l'>{escape(r['config'])}</td><td class='l'>{escape(r['denoise'])}</td>"
+        f"<td>{_ratio(r['photon_res'], '{:.0f}')}</td><td>{_ratio(r['cost_ratio'], '{:.3f}×')}</td>"
+        f"<td>{_ratio(r.get('time_ratio'))}</td>"
         f"<td>{debiased_pct(r['frame_relmse'], se=r['frame_relmse_se'])}</td>"
-        f"<td>{r['frame_ratio']:.2f}×</td><td>{debiased_pct(r['relmse_debiased'], se=r['relmse_se'])}</td>"
-        f"<td>{r['relmse_ratio']:.2f}×</td><td>{_seconds(r.get('denoise_s'))}</td></tr>"
+        f"<td>{_ratio(r['frame_ratio'])}</td><td>{debiased_pct(r['relmse_debiased'], se=r['relmse_se'])}</td>"
+        f"<td>{_ratio(r['relmse_ratio'])}</td><td>{_seconds(r.get('denoise_s'))}</td></tr>"
         for r in frames["rows"])
     worst = (f"best's worst one-frame ratio without a denoiser: "
-             f"{v.get('none_builtin_worst_frame_ratio', float('nan')):.2f}× on the built-ins, "
-             f"{v.get('none_heldout_worst_frame_ratio', float('nan')):.2f}× on the held-out scenes "
+             f"{_ratio(v.get('none_builtin_worst_frame_ratio'))} on the built-ins, "
+             f"{_ratio(v.get('none_heldout_worst_frame_ratio'))} on the held-out scenes "
              f"(goal ≤ {v['goal']:g}× on every scene: <b>{'met' if v['met'] else 'not met'}</b>); with OIDN "
-             f"{v.get('oidn_builtin_worst_frame_ratio', float('nan')):.2f}× and "
-             f"{v.get('oidn_heldout_worst_frame_ratio', float('nan')):.2f}×")
+             f"{_ratio(v.get('oidn_builtin_worst_frame_ratio'))} and "
+             f"{_ratio(v.get('oidn_heldout_worst_frame_ratio'))}")
     if "beams_none_builtin_worst_frame_ratio" in v:
         worst += (f". beams' worst one-frame ratio without a denoiser: "
-                  f"{v['beams_none_builtin_worst_frame_ratio']:.2f}× on the built-ins, "
-                  f"{v.get('beams_none_heldout_worst_frame_ratio', float('nan')):.2f}× on the held-out scenes")
+                  f"{_ratio(v['beams_none_builtin_worst_frame_ratio'])} on the built-ins, "
+                  f"{_ratio(v.get('beams_none_heldout_worst_frame_ratio'))} on the held-out scenes")
     return f"""<h2 id='one-frame'>One frame: the paper's configuration against the presets best and beams</h2>
 <p class='note'>What a viewer sees is one frame: its relative MSE less the reference's floor (bias and that frame's
 own noise, ± SE over the seeds), beside the seeds' mean's debiased error. best's and beams' photon_res matches the paper

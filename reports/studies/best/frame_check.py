@@ -9,14 +9,16 @@ only where it was chosen shows it here.
 
 Every scene is resolved and checked before any work (a bad name, a medium without a
 caustic, two files of one scene name are refused at once). Each measured point is kept
-in ``DIR/points/`` under a key of its scene, parameters, seeds and the code version, so
-an interrupted check resumes where it stopped. A scene whose reference has no caustic
-over the compared pixels is refused after its first reference, naming it.
+in ``DIR/points/`` under a key of its scene, parameters, seeds and the code version,
+sealed with the SHA-256 of its key and row, so an interrupted check resumes where it
+stopped; a point edited or damaged since is measured again. A scene whose reference has
+no caustic over the compared pixels is refused after its first reference, naming it.
 
 Output (``DIR``): ``frames.parquet`` (one row per scene, configuration and denoiser;
 ``group``: builtin, heldout or yours) and ``frames.json`` (its manifest, ``kind`` frames,
-strict JSON, last), both written to a temporary file and renamed. The report's "One
-frame" section reads them (``report --frames DIR``).
+strict JSON, recording the table's SHA-256 and its own), written as one set
+(``infra.storage.atomic_set``). The report's "One frame" section reads them
+(``report --frames DIR``), refusing a table or manifest that does not match.
 """
 
 from __future__ import annotations
@@ -36,7 +38,7 @@ from tqdm import tqdm
 from volcaustics.approx.cost_match import with_auto_photon_res
 from volcaustics.approx.params import preset
 from volcaustics.infra.errors import InputError
-from volcaustics.infra.storage import atomic_path, read_json_object
+from volcaustics.infra.storage import atomic_path, atomic_set, document_sha256, file_sha256, read_json_object
 from volcaustics.reports.measuring.experiment.measurement import MeasurementSettings
 from volcaustics.reports.measuring.experiment.pipeline import run_experiment
 from volcaustics.reports.measuring.experiment.point_checks import checked_settings
@@ -57,8 +59,10 @@ CONFIGS = ("paper", "best", "beams")  # the quick preset (the paper's method), t
 DENOISERS = ("none", "oidn")
 FRAMES_FILE, MANIFEST = "frames.parquet", "frames.json"
 KIND = "frames"                   # frames.json's "kind" (reports.cli.common.FOLDER_MARKERS)
-SCHEMA = 1                        # frames.json's "schema": its shape, checked when read back
+SCHEMA = 2                        # frames.json's "schema": its shape, checked when read back (2: sealed)
+MANIFEST_SEAL = "frames_sha256"   # frames.json's field holding the SHA-256 of the rest of it
 POINTS = "points"                 # DIR/points/: one JSON file per measured point, for resuming
+POINT_SEAL = "point_sha256"       # a point's field holding the SHA-256 of its key and row
 GROUPS = ("builtin", "heldout", "yours")  # a scene's group: a built-in, a held-out scene, a file of yours
 
 
@@ -106,13 +110,14 @@ def run_frames(scenes: Sequence[str], out_dir: str, *, seeds: int = FRAME_CHECK_
         for denoiser in denoisers:
             params = dataclasses.replace(matched, denoise=denoiser)
             key = point_key(scene, params, seeds, version)
-            row = stored_point(out_dir, key)
+            identity = {"scene": scene.name, "heldout": group == "heldout", "group": group, "config": config,
+                        "denoise": denoiser}
+            row = stored_point(out_dir, key, identity)
             if row is None:
                 reference = reference_for(scene, sized(REPORT_REFERENCE, scene, params), "continue")
                 summary = run_experiment(scene, params, seeds=seeds, reference=reference,
                                          measurement=MeasurementSettings(scope="gate")).summary
-                row = {"scene": scene.name, "heldout": group == "heldout", "group": group, "config": config,
-                       "denoise": denoiser, **_row(summary)}
+                row = {**identity, **_row(summary)}
                 if row["frame_relmse"] is None or not math.isfinite(row["frame_relmse"]):
                     raise InputError(f"frames: {scene_arg}: the reference's caustic is zero over the compared "
                                      f"pixels, so there is no caustic error to measure (does the light's beam "
@@ -120,20 +125,36 @@ def run_frames(scenes: Sequence[str], out_dir: str, *, seeds: int = FRAME_CHECK_
                 store_point(out_dir, key, row)
             rows.append({name: math.nan if value is None else value for name, value in row.items()})
     table = with_ratios(pd.DataFrame(rows))  # None as NaN: a stored row's NaN came back as null
-    os.makedirs(out_dir, exist_ok=True)
-    with atomic_path(os.path.join(out_dir, FRAMES_FILE)) as tmp:
-        table.to_parquet(tmp, index=False)
     manifest = {"kind": KIND, "schema": SCHEMA, "scenes": list(scenes), "seeds": seeds, "configs": list(CONFIGS),
                 "denoisers": list(denoisers), "code_version": version, "seconds": time.perf_counter() - t0,
                 "verdict": verdict(table)}
-    write_manifest(out_dir, manifest)
+    write_frames(out_dir, table, manifest)
     return table
 
 
-def write_manifest(out_dir: str, manifest: dict) -> None:
-    """``DIR/frames.json``, strict JSON (NaN as null), through a temporary file."""
-    with atomic_path(os.path.join(out_dir, MANIFEST)) as tmp, open(tmp, "w", encoding="utf-8") as fh:
-        json.dump(plain(manifest), fh, indent=1, allow_nan=False)
+def write_frames(out_dir: str, table: pd.DataFrame, manifest: dict) -> None:
+    """``DIR/frames.parquet`` and, last, ``DIR/frames.json`` as one set
+    (``infra.storage.atomic_set``: an interrupted write leaves the previous set): the
+    manifest strict JSON (NaN as null), recording the table's SHA-256 (``files``) and
+    its own (MANIFEST_SEAL), which :func:`load_frames` checks.
+
+    Parameters
+    ----------
+    out_dir : the frame check's folder (created if missing).
+    table : the table (one row per scene, configuration and denoiser).
+    manifest : its manifest, without ``files`` and the seal (added here).
+
+    Example
+    -------
+    >>> write_frames("runs/frames", table, {"kind": KIND, "schema": SCHEMA, "verdict": verdict(table)})
+    """
+    os.makedirs(out_dir, exist_ok=True)
+    with atomic_set([os.path.join(out_dir, FRAMES_FILE), os.path.join(out_dir, MANIFEST)]) as (table_tmp, tmp):
+        table.to_parquet(table_tmp, index=False)
+        doc = plain({**manifest, "files": {FRAMES_FILE: file_sha256(table_tmp)}})
+        doc[MANIFEST_SEAL] = document_sha256(doc, MANIFEST_SEAL)
+        with open(tmp, "w", encoding="utf-8") as fh:
+            json.dump(doc, fh, indent=1, allow_nan=False)
 
 
 def usable_denoisers(say: bool = True) -> tuple:
@@ -156,21 +177,62 @@ def point_key(scene: Scene, params: ApproxParams, seeds: int, version: str) -> s
     return hashlib.sha256(json.dumps(doc, sort_keys=True).encode()).hexdigest()[:24]
 
 
-def stored_point(out_dir: str, key: str) -> dict | None:
-    """The row a previous run stored under ``key``; None when there is none or it cannot
-    be read (measured again)."""
+def stored_point(out_dir: str, key: str, identity: dict) -> dict | None:
+    """The row a previous run stored under ``key``, with ``identity``'s fields (scene,
+    config and denoise must be the stored ones; group and heldout are this run's: how the
+    scene was named); None when there is none, or it is damaged (measured again): not of
+    ``key``, not matching its seal (POINT_SEAL: a number edited by hand), or a row not of
+    the fields, types and finite numbers :func:`run_frames` stores (:func:`row_problem`)."""
     try:
         doc = read_json_object(os.path.join(out_dir, POINTS, f"{key}.json"))
-    except (OSError, ValueError):
+        sealed = doc.get(POINT_SEAL) == document_sha256(doc, POINT_SEAL)
+    except (OSError, ValueError):  # ValueError: unreadable, or NaN/inf in an edited file (no strict JSON)
         return None
     row = doc.get("row")
-    return row if doc.get("key") == key and isinstance(row, dict) else None
+    if doc.get("key") != key or not sealed or not isinstance(row, dict) or row_problem(row) is not None:
+        return None
+    if any(row[name] != identity[name] for name in ("scene", "config", "denoise")):
+        return None
+    return {**row, **identity}
 
 
 def store_point(out_dir: str, key: str, row: dict) -> None:
+    """Keep ``row`` in ``DIR/points/<key>.json``, sealed with the SHA-256 of its key and
+    row (POINT_SEAL), through a temporary file."""
+    doc = plain({"key": key, "row": row})
+    doc[POINT_SEAL] = document_sha256(doc, POINT_SEAL)
     os.makedirs(os.path.join(out_dir, POINTS), exist_ok=True)
     with atomic_path(os.path.join(out_dir, POINTS, f"{key}.json")) as tmp, open(tmp, "w", encoding="utf-8") as fh:
-        json.dump(plain({"key": key, "row": row}), fh, allow_nan=False)
+        json.dump(doc, fh, allow_nan=False)
+
+
+# a stored row's fields (``_row`` and the identity run_frames adds), by what each must hold
+ROW_TEXT = ("scene", "group", "config", "denoise")
+ROW_NUMBERS = ("frame_cost", "frame_relmse")  # finite: the ratios and the verdict divide by them
+ROW_OPTIONAL = ("frame_relmse_se", "relmse_debiased", "relmse_se", "hdr_flip", "frame_s", "denoise_s",
+                "denoised_pixels")  # finite or null (a metric without a value, a stage not timed, no denoiser)
+
+
+def row_problem(row: dict) -> str | None:
+    """What is wrong with a stored point's row, or None: a field missing or unknown, of
+    another type, or a number that is not finite (``predicted_<set>`` columns are
+    optional numbers, one per weight set that prices the configuration)."""
+    def number(value: object) -> bool:
+        return not isinstance(value, bool) and isinstance(value, (int, float)) and math.isfinite(value)
+
+    fields = {*ROW_TEXT, "heldout", "photon_res", *ROW_NUMBERS, *ROW_OPTIONAL}
+    missing = sorted(fields - set(row))
+    unknown = sorted(name for name in set(row) - fields if not name.startswith("predicted_"))
+    if missing or unknown:
+        return f"fields {missing or unknown}: {'missing' if missing else 'unknown'}"
+    bad = [name for name in ROW_TEXT if not isinstance(row[name], str)]
+    bad += [] if isinstance(row["heldout"], bool) else ["heldout"]
+    photon_res = row["photon_res"]
+    bad += [] if type(photon_res) is int and photon_res >= 1 else ["photon_res"]
+    bad += [name for name in ROW_NUMBERS if not number(row[name])]
+    bad += [name for name in row if (name in ROW_OPTIONAL or name.startswith("predicted_"))
+            and row[name] is not None and not number(row[name])]
+    return f"{bad[0]} = {row[bad[0]]!r}: not of its type or not finite" if bad else None
 
 
 def _row(summary: ExperimentSummary) -> dict:
@@ -234,9 +296,10 @@ READ_COLUMNS = ("scene", "heldout", "config", "denoise", "photon_res", "cost_rat
 
 def load_frames(folder: str) -> tuple:
     """(table, manifest) of a frame check's folder, checked against the shape this
-    module writes (``kind``, ``schema``, a verdict with a numeric goal, the columns the
-    report reads); FileNotFoundError, or ValueError naming the file, field and what was
-    expected."""
+    module writes (``kind``, ``schema``, a verdict with a numeric goal, the manifest's
+    SHA-256 of itself and of the table, the columns the report reads), before anything
+    else is done with them; FileNotFoundError, or ValueError naming the file, field and
+    what was expected (another run's table beside the manifest is refused)."""
     path = os.path.join(folder, MANIFEST)
     manifest = read_json_object(path)
     if manifest.get("kind") != KIND:
@@ -247,9 +310,21 @@ def load_frames(folder: str) -> tuple:
     if not isinstance(v, dict) or isinstance(v.get("goal"), bool) or not isinstance(v.get("goal"), (int, float)) \
             or not isinstance(v.get("met"), bool):
         raise ValueError(f"{path}: verdict = {v!r}: expected an object with a number goal and a true/false met")
-    table = pd.read_parquet(os.path.join(folder, FRAMES_FILE))
+    try:
+        sealed = manifest.get(MANIFEST_SEAL) == document_sha256(manifest, MANIFEST_SEAL)
+    except ValueError:  # NaN or inf: not strict JSON, so not as written
+        sealed = False
+    if not sealed:
+        raise ValueError(f"{path}: does not match the SHA-256 it records of itself ({MANIFEST_SEAL}): edited or "
+                         f"damaged since `volcaustics frames` wrote it")
+    files = manifest.get("files")
+    table_path = os.path.join(folder, FRAMES_FILE)
+    if not isinstance(files, dict) or files.get(FRAMES_FILE) != file_sha256(table_path):
+        raise ValueError(f"{table_path}: does not match the SHA-256 its {MANIFEST} records (another run's table, "
+                         f"or edited or damaged since `volcaustics frames` wrote the pair)")
+    table = pd.read_parquet(table_path)
     missing = [c for c in READ_COLUMNS if c not in table.columns]
     if missing:
-        raise ValueError(f"{os.path.join(folder, FRAMES_FILE)}: no column {missing[0]!r}: not a frame check's table "
+        raise ValueError(f"{table_path}: no column {missing[0]!r}: not a frame check's table "
                          f"(another command's, or damaged)")
     return table, manifest
