@@ -1,4 +1,4 @@
-"""The gate with a budgets entry keyed by a scene file (``[scene."scenes/mine.toml"]``):
+"""The gate with a budgets entry keyed by a scene file (``[scene."mine/scene.toml"]``):
 the baseline it accepts is keyed as the budgets file writes the entry, and the next run
 finds it there. The store kept it under that key and looked it up under the scene's
 own name ("base"): every later run exited 2 with "the baseline has no entry"."""
@@ -16,21 +16,21 @@ SIZE = ["--set", "width=32", "--set", "height=32", "--set", "photon_res=64", "--
 BUDGETS = f"""preset = "quick"
 seeds = 2
 {SMALL_REFERENCE_TABLES}
-[scene."scenes/mine.toml"]
+[scene."mine/scene.toml"]
 caustic = {{ relmse_max = 1000.0 }}
 """
 
 
 def test_a_budgets_entry_keyed_by_a_scene_file_reads_back_its_own_baseline(cache, tmp_path, capsys):
-    (tmp_path / "scenes").mkdir()
-    (tmp_path / "scenes" / "mine.toml").write_text(BASE_SCENE)  # its scene's name is "base"
+    (tmp_path / "mine").mkdir()
+    (tmp_path / "mine" / "scene.toml").write_text(BASE_SCENE)  # its scene's name is "base"
     (tmp_path / "budgets.toml").write_text(BUDGETS)
     gate = ["gate", "--budgets", str(tmp_path / "budgets.toml"), "--baseline", str(tmp_path / "baseline"), *SIZE]
     assert main([*gate, "--update-baseline", "--render-references", "--out", str(tmp_path / "g1")]) == 0
     capsys.readouterr()
     accepted = json.loads((tmp_path / "baseline" / "baseline.json").read_text())
-    assert list(accepted["scenes"]) == ["scenes/mine.toml"]  # the key as the budgets file writes it
+    assert list(accepted["scenes"]) == ["mine/scene.toml"]  # the key as the budgets file writes it
     # the next run (from the store: nothing measured) tests against that entry
     assert main([*gate, "--out", str(tmp_path / "g2")]) == 0, capsys.readouterr().err
     checks = json.loads((tmp_path / "g2" / "gate.json").read_text())["checks"]
-    assert [c["scene"] for c in checks if c["name"] == "regression.caustic_relmse"] == ["scenes/mine.toml"]
+    assert [c["scene"] for c in checks if c["name"] == "regression.caustic_relmse"] == ["mine/scene.toml"]

@@ -26,7 +26,7 @@ def scene_verdict(name: str, result: MeasuredResult, limits: dict, baseline: dic
     """The budgets ``limits`` of scene ``name`` checked on ``result`` (``.summary`` and
     ``.segments``, e.g. ``reports.measuring.runner.PointResult``) and, with ``baseline`` (the
     baseline file's document), the regression test against its entry ``name``: the budgets
-    key as written (``scenes/mine.toml`` for a scene file, not the scene's own name), the
+    key as written (``mine/scene.toml`` for a scene file, not the scene's own name), the
     key the gate accepts a baseline under.
 
     strict: a budget the noise cannot resolve, a NaN metric, a missing or mismatching
