@@ -32,9 +32,9 @@ from functools import lru_cache
 from typing import TYPE_CHECKING
 
 from volcaustics import scenes
-from volcaustics.approx import Renderer
+from volcaustics.approx import Renderer, cost_model
 from volcaustics.approx.cost import frame_cost
-from volcaustics.approx.cost_model import predicted_frames, weight_sets
+from volcaustics.approx.cost_model import WeightSetError, predicted_frames, weight_sets
 from volcaustics.approx.params import AUTO_PHOTON_RES, preset
 from volcaustics.infra.sources import source_hash
 from volcaustics.infra.storage import atomic_path, cache_path, document_sha256, note_not_cached, read_json_object
@@ -66,7 +66,8 @@ class CostMatcher:
         self.renderers: dict = {}
         self.sets = weight_sets()
         if not self.sets:
-            raise ValueError("approx/cost_weights holds no weight set: the cost model cannot price a frame")
+            raise WeightSetError(f"{cost_model.WEIGHTS_DIR}: holds no weight set (*.json): the cost model cannot "
+                                 f"price a frame; restore the shipped sets or fit one (bench/cost_model.py --write)")
         try:
             self.memo = read_json_object(self.path)
         except (OSError, ValueError):
@@ -165,11 +166,11 @@ def with_auto_photon_res(scene_arg: str, params: ApproxParams, preset_name: str 
 def cost_ratio(cost: dict, target: dict) -> float:
     """The largest ratio of a predicted cost (:meth:`CostMatcher.cost`) to a target's
     over the weight sets that price both (a set's fit that never saw a splat mode does
-    not price it: ``WeightSet.prices``): within the target when ≤ 1. ValueError when no
-    set prices both."""
+    not price it: ``WeightSet.prices``): within the target when ≤ 1. WeightSetError (bad
+    input) when no set prices both."""
     shared = [name for name in target if name in cost]
     if not shared:
-        raise ValueError(f"no weight set prices both frames (sets {sorted(cost)} against {sorted(target)}): "
+        raise WeightSetError(f"no weight set prices both frames (sets {sorted(cost)} against {sorted(target)}): "
                          f"fit the cost model with the configuration's splat mode (bench/cost_model.py)")
     return max(cost[name] / target[name] for name in shared)
 

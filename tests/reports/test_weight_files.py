@@ -52,3 +52,13 @@ def test_measure_refuses_a_weight_file_without_weights_before_any_reference(weig
     assert f"{path}: weights = {{}}: no weight > 0" in err and "Traceback" not in err, err
     assert not (out / "summary.json").exists()
     assert not empty_cache.exists() or not any(empty_cache.rglob("*.exr"))  # nothing rendered
+
+
+def test_approx_best_with_no_weight_set_is_bad_input(weight_folder, empty_cache, tmp_path, capsys):
+    for path in weight_folder.glob("*.json"):
+        path.unlink()
+    out = tmp_path / "x.exr"
+    assert main(["approx", "refocus", "--preset", "best", "--width", "32", "--height", "32", "-o", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert f"{weight_folder}: holds no weight set" in err and "Traceback" not in err, err
+    assert not out.exists()
