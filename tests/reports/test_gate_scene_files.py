@@ -34,3 +34,20 @@ def test_a_budgets_entry_keyed_by_a_scene_file_reads_back_its_own_baseline(cache
     assert main([*gate, "--out", str(tmp_path / "g2")]) == 0, capsys.readouterr().err
     checks = json.loads((tmp_path / "g2" / "gate.json").read_text())["checks"]
     assert [c["scene"] for c in checks if c["name"] == "regression.caustic_relmse"] == ["mine/scene.toml"]
+
+
+def test_the_report_checks_a_scene_files_budgets_and_baseline_under_its_key(cache, tmp_path, capsys):
+    (tmp_path / "mine").mkdir()
+    (tmp_path / "mine" / "scene.toml").write_text(BASE_SCENE)  # its scene's name is "base"
+    (tmp_path / "budgets.toml").write_text(BUDGETS)
+    budgets, baseline = ["--budgets", str(tmp_path / "budgets.toml")], ["--baseline", str(tmp_path / "baseline")]
+    assert main(["gate", *budgets, *baseline, *SIZE, "--update-baseline", "--render-references",
+                 "--out", str(tmp_path / "g")]) == 0
+    # the report names the scene file from elsewhere (another spelling of the same file)
+    spelt = str(tmp_path / "mine" / ".." / "mine" / "scene.toml")
+    assert main(["report", *budgets, *baseline, *SIZE, "--scenes", spelt, "--out", str(tmp_path / "r")]) == 0, \
+        capsys.readouterr().err
+    page = json.loads((tmp_path / "r" / "summary.json").read_text())["scenes"][0]
+    gate = page["gate"]
+    assert [(c["scene"], c["name"]) for c in gate["checks"]] == [("mine/scene.toml", "caustic.relmse_max")], gate
+    assert "no entry" not in gate["note"], gate  # the baseline's entry found under the same key

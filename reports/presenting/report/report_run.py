@@ -69,15 +69,28 @@ def collect_scenes(names: Sequence[str], params: ApproxParams, *, seeds: int, re
         return [_scene_result(name, result, budgets, baseline) for name, result in zip(names, run.results)]
 
 
+def budgets_key(name: str, budgets: dict) -> str | None:
+    """The key of SCENE argument ``name`` in ``budgets`` (``load_budgets``): the key as written,
+    a built-in's name, or the entry whose scene file (relative to the budgets file) is the
+    file ``name`` names, however spelt; the gate's baseline holds its entry under that key."""
+    if name in budgets["scenes"]:
+        return name
+    if not os.path.isfile(name):
+        return None
+    for key, arg in budgets.get("scene_args", {}).items():
+        if os.path.isfile(arg) and os.path.samefile(arg, name):
+            return key
+    return None
+
+
 def _scene_result(name, result, budgets: dict, baseline: dict | None) -> SceneResult:
-    scene = result.summary["scene"]
     out = SceneResult(name=name, key=result.key, summary=result.summary, tables=result.tables, views=result.views,
                       measured=result.measured)
-    limits = budgets["scenes"].get(scene)
-    if limits is None:
-        out.gate_note = f"no budgets for {scene} in {budgets['path']}"
+    key = budgets_key(name, budgets)
+    if key is None:
+        out.gate_note = f"no budgets for {name} in {budgets['path']}"
         return out
-    verdict = scene_verdict(scene, result, limits, baseline, strict=False)
+    verdict = scene_verdict(key, result, budgets["scenes"][key], baseline, strict=False)
     out.budgeted, out.checks, out.gate_note = True, verdict.checks, "; ".join(verdict.notes)
     return out
 
