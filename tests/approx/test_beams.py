@@ -360,3 +360,40 @@ def test_a_wide_beam_is_drawn_whole_and_keeps_its_energy_against_points(ctx):
             assert beams_total == pytest.approx(points_total, rel=0.02), sigma
         else:
             assert beams_total >= 0.98 * points_total > 0, sigma
+
+
+def _toward_eye(target, angle_deg: float, sign: float, length: float):
+    """A beam ending (or starting) at ``target`` at ``angle_deg`` to the line from the eye,
+    pointing away from the eye (sign 1) or towards it (−1)."""
+    target, eye = np.asarray(target), np.asarray(CAMERA.position)
+    view = (target - eye) / np.linalg.norm(target - eye)
+    across = np.cross(view, (0.0, 1.0, 0.0))
+    across /= np.linalg.norm(across)
+    a = math.radians(angle_deg)
+    d = sign * (math.cos(a) * view + math.sin(a) * across)
+    start = target if sign > 0 else target - d * length
+    return tuple(start), tuple(d), length
+
+
+# Beams seen nearly end-on, within 0–10° of the view (where the rays past an end reach up to
+# √2·R there, and where one end's cone holds the other's: splat/beam.vert.glsl end_reach,
+# beam_planes), pointing away from the eye and towards it.
+END_ON = [_toward_eye((0.3, 1.2, 1.0), angle, sign, 1.2) for angle in (0.0, 0.5, 2.0, 5.0, 10.0)
+          for sign in (1.0, -1.0)]
+
+
+def test_a_beam_seen_end_on_is_drawn_whole(ctx):
+    """Beams within 10° of the view, both ways, at σ from 3 mm to 0.3 m: the image equals
+    the one drawn over the whole image (BEAM_FULLSCREEN), pixel by pixel, so the quad's
+    caps past the ends (c·R, from the beam's angle to the view) and the pyramid around an
+    end-on beam's cone leave out no pixel the estimate reaches; and the end-on beams are not
+    drawn over the whole image (their quads shade fewer fragments than the control's)."""
+    rows = _rows(END_ON)
+    for sigma in (0.003, 0.03, 0.3):
+        image, timer = _draw(ctx, rows, beams=True, sigma_t=0.01, sigma_s=0.01, radius=sigma)
+        whole, whole_timer = _draw(ctx, rows, beams=True, sigma_t=0.01, sigma_s=0.01, radius=sigma,
+                                   controls={"BEAM_FULLSCREEN": 1})
+        assert image.sum() > 0
+        np.testing.assert_array_equal(image, whole, err_msg=f"σ = {sigma} m")
+        if sigma < 0.3 and timer.shaded.get("splat") is not None:  # counted where the driver has the query
+            assert timer.shaded["splat"] < 0.5 * whole_timer.shaded["splat"], sigma

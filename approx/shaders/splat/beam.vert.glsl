@@ -8,7 +8,8 @@
 // balls of the beam's kernel (R along the beam's line past its ends too: the chord of its
 // ends' R, raised where a narrowing kernel's line would pass inside an end's R within √2·R
 // past it), and two caps, each at the angular extreme, in the plane of the eye and the
-// beam, of the ends' balls of √2·R. Their four lines of intersection, the quad's corners,
+// beam, of the ends' balls of c·R (end_reach: R for a beam seen across, up to √2·R for one
+// within a few degrees of the view). Their four lines of intersection, the quad's corners,
 // are drawn as directions (homogeneous: w = their depth), so that the rasteriser's
 // clipping gives the exact cone of rays on the image, whether or not a corner lies in
 // front of the camera. Where no such planes exist (the eye inside or between the balls),
@@ -58,12 +59,34 @@ void keep_where(float f0, float f1, inout float lo, inout float hi) {
     else if (f0 < 0.0) hi = lo - 1.0;
 }
 
+// A ball's angle from the eye: the angle between `axis` and its centre c, plus its half-angle.
+float ball_angle(vec3 axis, vec3 c, float r) {
+    return atan(length(cross(axis, c)), dot(axis, c)) + asin(r / length(c));
+}
+
+// Four planes through the eye around the cone of half-angle H about `axis` (unit): a square
+// pyramid holding it; false where the cone is half the view sphere or more.
+bool cone_planes(vec3 axis, float H, out vec3 side0, out vec3 side1, out vec3 cap_near, out vec3 cap_far) {
+    side0 = side1 = cap_near = cap_far = vec3(0.0);
+    if (!(H < 1.55)) return false;
+    vec3 u2 = normalize(abs(axis.y) < 0.9 ? cross(axis, vec3(0.0, 1.0, 0.0)) : cross(axis, vec3(1.0, 0.0, 0.0)));
+    vec3 k = cross(axis, u2);
+    float sH = sin(H), cH = cos(H);
+    side0 = sH * axis + cH * k;
+    side1 = sH * axis - cH * k;
+    cap_near = sH * axis + cH * u2;
+    cap_far = sH * axis - cH * u2;
+    return true;
+}
+
 // Four planes through the eye (unit normals; inside: n·(x − eye) ≥ 0) holding, on a line
 // through A and B (relative to the eye), the sides' balls (rA around A, rB around B) and
 // the hull between them, and the caps' balls (cap_r0 around C0, cap_r1 around C1, on the
 // same line): the sides are tangent to both sides' balls, the caps pass at the extreme
-// angles, in the plane of the eye and the line, of all four balls. False where there are
-// none: the eye is inside a ball, or the balls span half the view sphere.
+// angles, in the plane of the eye and the line, of all four balls. Where no plane touches
+// both sides' balls (a beam seen nearly end-on: one ball's cone holds the other's), a
+// pyramid around the cone that holds all four balls. False where there are none: the eye
+// is inside a ball, or the balls span half the view sphere.
 bool beam_planes(vec3 A, float rA, vec3 B, float rB, vec3 C0, float cap_r0, vec3 C1, float cap_r1,
                  out vec3 side0, out vec3 side1, out vec3 cap_near, out vec3 cap_far) {
     float lA = length(A), lB = length(B);
@@ -72,20 +95,17 @@ bool beam_planes(vec3 A, float rA, vec3 B, float rB, vec3 C0, float cap_r0, vec3
     vec3 u1 = A / lA;
     vec3 normal = B - dot(B, u1) * u1;
     float b2 = length(normal);
-    if (!(b2 > 1e-5 * lB)) {  // the line points at the eye: one ball around all four
-        float r = max(max(rA, distance(A, B) + rB), max(distance(A, C0) + cap_r0, distance(A, C1) + cap_r1));
-        if (!(r < lA)) return false;
-        rA = rB = cap_r0 = cap_r1 = r;
-        B = C0 = C1 = A;
-        normal = abs(u1.y) < 0.9 ? cross(u1, vec3(0.0, 1.0, 0.0)) : cross(u1, vec3(1.0, 0.0, 0.0));
-        b2 = 0.0;
+    // the sides: m·A = rA, m·B = rB, |m| = 1 (x along u1, y along the line's normal in the plane)
+    float x = rA / lA, y = b2 > 1e-5 * lB ? (rB - x * dot(B, u1)) / b2 : 0.0;
+    float z2 = 1.0 - x * x - y * y;
+    if (!(b2 > 1e-5 * lB) || !(z2 > 1e-6)) {  // end-on: the cone around all four balls
+        vec3 axis = normalize(A / lA + B / lB);
+        float H = max(max(ball_angle(axis, A, rA), ball_angle(axis, B, rB)),
+                      max(ball_angle(axis, C0, cap_r0), ball_angle(axis, C1, cap_r1)));
+        return cone_planes(axis, H, side0, side1, cap_near, cap_far);
     }
     vec3 u2 = normalize(normal);
     vec3 k = cross(u1, u2);
-    // the sides: m·A = rA, m·B = rB, |m| = 1
-    float x = rA / lA, y = b2 > 0.0 ? (rB - x * dot(B, u1)) / b2 : 0.0;
-    float z2 = 1.0 - x * x - y * y;
-    if (!(z2 > 1e-6)) return false;
     side0 = x * u1 + y * u2 + sqrt(z2) * k;
     side1 = x * u1 + y * u2 - sqrt(z2) * k;
     // the caps: the angles (from u1 towards u2) that the caps' balls and the sides' span
@@ -98,6 +118,25 @@ bool beam_planes(vec3 A, float rA, vec3 B, float rB, vec3 C0, float cap_r0, vec3
     cap_near = cos(lo) * u2 - sin(lo) * u1;
     cap_far = sin(hi) * u1 - cos(hi) * u2;
     return true;
+}
+
+// How far past an end, in R, the rays the estimate reaches lie in the plane of the eye and
+// the beam. In a ray's own cross-section they fill a rectangle past the end: R along the
+// beam's image and R across it (a ray counts while its closest approach is within R of the
+// line and within R/sin θ of the end along it). Seen across, that is R; perspective turns
+// the rectangle by τ for rays off the plane, tan τ ≤ sin ψ · cot θ (ψ: their angle off the
+// plane, within √2·R of the end; θ: the beam's angle to the view less ψ), which reaches
+// R·(cos τ + sin τ) ≤ √2·R. Checked against the rays' extreme angle past an end on 6,000
+// random geometries, half of them beams within 20° of the view (docs/decisions.md "Wide
+// beams drawn whole"): never beyond it. √2 where the bound does not hold (near the eye).
+float end_reach(vec3 end_from_eye, vec3 d, float R) {
+    float dist = length(end_from_eye);
+    float sin_psi = SQRT2 * R / dist;
+    if (!(sin_psi < 0.4)) return SQRT2;
+    float theta = atan(length(cross(d, end_from_eye)), abs(dot(d, end_from_eye))) - asin(sin_psi);
+    if (!(theta > 0.0)) return SQRT2;
+    float tau = atan(sin_psi, tan(theta));
+    return tau >= 0.7853981633974483 ? SQRT2 : cos(tau) + sin(tau);
 }
 
 // The line where planes p and q meet, its direction inside planes r and t; false if none.
@@ -157,17 +196,20 @@ void main() {
     }
 #endif
     // each ball a pixel wider (a pixel at its distance); the sides' balls at the ends of the
-    // line √2·R past the ends, R on the chord raised by what a narrowing kernel needs there
+    // line c·R past the ends (end_reach), R on the chord raised by what a narrowing kernel
+    // needs there; the caps' balls c·(R + a pixel) around the ends
     float R_lo = BALL_MARGIN * TRUNCATION * sigma_lo, R_hi = BALL_MARGIN * TRUNCATION * sigma_hi;
     vec3 A = a + d * lo - eye, B = a + d * hi - eye;
-    float past_lo = SQRT2 * R_lo, past_hi = SQRT2 * R_hi;
+    float R_lo_px = R_lo + pixel_angle * length(A), R_hi_px = R_hi + pixel_angle * length(B);
+    float c_lo = end_reach(A, d, R_lo_px), c_hi = end_reach(B, d, R_hi_px);
+    float past_lo = c_lo * R_lo, past_hi = c_hi * R_hi;
     float slope = (R_hi - R_lo) / (hi - lo);
     float raise = abs(slope) * (R_lo < R_hi ? past_lo : past_hi);
     vec3 A_side = A - d * past_lo, B_side = B + d * past_hi;
     float r_lo = R_lo + raise - slope * past_lo, r_hi = R_hi + raise + slope * past_hi;
     vec3 side0, side1, cap_near, cap_far;
     bool drawn = beam_planes(A_side, r_lo + pixel_angle * length(A_side), B_side, r_hi + pixel_angle * length(B_side),
-                             A, past_lo + pixel_angle * length(A), B, past_hi + pixel_angle * length(B),
+                             A, c_lo * R_lo_px, B, c_hi * R_hi_px,
                              side0, side1, cap_near, cap_far);
     // the four corners (each vertex finds all four, so that a beam is drawn whole or over the image)
     vec3 v00, v01, v10, v11;
