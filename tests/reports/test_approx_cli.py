@@ -7,6 +7,7 @@ import json
 import numpy as np
 import pytest
 
+from tests.shared import BASE_SCENE
 from volcaustics.infra.imageio import read_exr
 from volcaustics.reports.cli import main
 from volcaustics.scenes.formats import LAYER_NAMES, STATUS_COLLIDED, STATUS_SURFACE
@@ -84,32 +85,10 @@ def test_a_preset_that_resizes_the_scenes_camera_says_so(tmp_path, capsys, write
     assert read_exr(str(tmp_path / "s.exr"))[0]["combined"].shape == (54, 96, 3)
 
 
-NARROW_SPOT = """name = "narrow"
-[camera]
-position = [0.0, 1.2, 4.5]
-target = [0.0, 1.0, 0.0]
-fov_y = 36.0
-width = 96
-height = 96
-[light]
-position = [0.0, 3.0, 0.0]
-direction = [0.0, -1.0, 0.0]
-intensity = 10.0
-cutoff_angle = 6.0
-beam_width = 5.0
-[medium]
-sigma_s = 0.2
-sigma_a = 0.02
-[[diffuse]]
-name = "floor"
-mesh = { generator = "quad", size_x = 10.0, size_z = 10.0 }
-albedo = 0.6
-[[specular]]
-name = "sphere"
-mesh = { generator = "sphere", radius = 0.4, subdivisions = 32 }
-transform = { translate = [0.0, 1.4, 0.0] }
-ior = 1.5
-"""
+# BASE_SCENE under a 6° spot, seen at 96²
+NARROW_SPOT = (BASE_SCENE.replace("cutoff_angle = 25.0", "cutoff_angle = 6.0")
+               .replace("beam_width = 20.0", "beam_width = 5.0").replace("width = 64", "width = 96")
+               .replace("height = 48", "height = 96"))
 
 
 def test_a_beams_frame_passes_compares_own_input_check(tmp_path, write_scene):
