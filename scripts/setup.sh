@@ -26,6 +26,10 @@ done
 if ! "$PYTHON" -c 'import venv, ensurepip' >/dev/null 2>&1; then
   need+=(python3-venv)
 fi
+# apitrace, with --browser (make test): required, the display frame's test traces its GL calls for stalls.
+if [ "${1:-}" = "--browser" ]; then
+  dpkg -s apitrace >/dev/null 2>&1 || need+=(apitrace)
+fi
 # chromium + chromium-driver: the report's browser test (headless), with --browser
 # (make test). Optional: without them that test is skipped and says why.
 browser=()
