@@ -1,4 +1,5 @@
-"""Camera passes: the G-buffer of primary hits, fog and direct lighting."""
+"""Camera passes: the G-buffer of primary hits, fog and direct lighting, and the
+composition of the frame's layers on the GPU."""
 
 from __future__ import annotations
 
@@ -13,6 +14,7 @@ from .context import bound
 from .glsl import program, uniform
 from .glsl import set_uniforms as _set
 from .light import spot_constants
+from .resources import FrameResources
 from .transforms import gl_matrix, look_at, perspective
 
 if TYPE_CHECKING:
@@ -55,47 +57,49 @@ class CameraPasses:
         phase = {"PHASE_G": repr(float(medium.phase.g))} if medium.phase.kind == "hg" else {}
         return {"gbuffer": (("camera/gbuffer.vert.glsl", "camera/gbuffer.frag.glsl"), {}),
                 "fog": (("shade/fullscreen.vert.glsl", "shade/fog.frag.glsl"), {**fog_defines, **phase}),
-                "direct": (("shade/fullscreen.vert.glsl", "shade/direct.frag.glsl"), {"MAX_DIFFUSE": MAX_DIFFUSE})}
+                "direct": (("shade/fullscreen.vert.glsl", "shade/direct.frag.glsl"), {"MAX_DIFFUSE": MAX_DIFFUSE}),
+                "add": (("shade/fullscreen.vert.glsl", "shade/add.frag.glsl"), {})}
 
-    def __init__(self, ctx: moderngl.Context, scene, fog_defines: dict):
+    def __init__(self, ctx: moderngl.Context, scene, fog_defines: dict, pool: FrameResources | None = None):
         self.ctx = ctx
         programs = {name: program(ctx, stages[0], stages[1], defines)
                     for name, (stages, defines) in self.programs(scene.medium, fog_defines).items()}
         self.gbuffer, self.fog, self.direct = programs["gbuffer"], programs["fog"], programs["direct"]
+        self.add = programs["add"]
         self.empty_vao = ctx.vertex_array(self.fog, [])
         self.empty_vao_direct = ctx.vertex_array(self.direct, [])
+        self.empty_vao_add = ctx.vertex_array(self.add, [])
+        # where its images, framebuffers and vertex arrays live across frames: the renderer's
+        # (one pool, so that what they name is held or tracked there) or its own
+        self.pool = pool or FrameResources(ctx)
+        self._own_pool = pool is None
+        self.pool.track(self.gbuffer)
 
     def render_gbuffer(self, geometry: SceneGeometry, view: CameraView) -> tuple[moderngl.Texture, moderngl.Texture]:
         """(geometry, normal) RGBA32F textures: (distance to eye, KIND_*, material, 0) and world normals
-        (cleared to 0: KIND_NONE where no surface is seen)."""
-        ctx = self.ctx
+        (cleared to 0: KIND_NONE where no surface is seen); the pool's, kept across frames."""
+        ctx, pool = self.ctx, self.pool
         size = (view.width, view.height)
-        geo, nrm = ctx.texture(size, 4, dtype="f4"), ctx.texture(size, 4, dtype="f4")
-        for t in (geo, nrm):
-            t.filter = (moderngl.NEAREST, moderngl.NEAREST)
-        depth = ctx.depth_renderbuffer(size)
-        fbo = ctx.framebuffer(color_attachments=[geo, nrm], depth_attachment=depth)
+        geo, nrm = pool.texture("gbuffer_geometry", size), pool.texture("gbuffer_normal", size)
+        fbo = pool.framebuffer("gbuffer_framebuffer", [geo, nrm], pool.depth("gbuffer_depth", size))
         prog = self.gbuffer
         view.set_uniforms(prog)
         with bound(ctx, fbo):
             ctx.enable(moderngl.DEPTH_TEST)
             fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
-            vao = geometry.vertex_array(ctx, prog, "specular")
-            if vao is not None:
+            content = geometry.vertex_content(prog, "specular")
+            if content is not None:
                 geometry.use(prog, "specular")
                 _set(prog, kind=float(KIND_SPECULAR), material=0.0)
-                vao.render(moderngl.TRIANGLES)
-                vao.release()
-            vao = geometry.vertex_array(ctx, prog, "diffuse")
-            if vao is not None:
+                pool.vertex_array("gbuffer_specular_vertex_array", prog, content).render(moderngl.TRIANGLES)
+            content = geometry.vertex_content(prog, "diffuse")
+            if content is not None:
                 geometry.use(prog, "diffuse")
+                vao = pool.vertex_array("gbuffer_diffuse_vertex_array", prog, content)
                 for i, (first, count) in enumerate(geometry.diffuse_ranges):
                     _set(prog, kind=float(KIND_DIFFUSE), material=float(i))
                     vao.render(moderngl.TRIANGLES, vertices=count, first=first)
-                vao.release()
             ctx.disable(moderngl.DEPTH_TEST)
-        fbo.release()
-        depth.release()
         return geo, nrm
 
     def _common(self, prog, scene, view, frustum, shadow_map, light_res, gbuffer_geometry):
@@ -108,14 +112,32 @@ class CameraPasses:
         gbuffer_geometry.use(location=1)
         _set(prog, shadow_map=0, gbuffer_geometry=1)
 
-    def _draw(self, vao, view) -> moderngl.Texture:
-        ctx = self.ctx
-        out = ctx.texture((view.width, view.height), 4, dtype="f4")
-        fbo = ctx.framebuffer(color_attachments=[out])
-        with bound(ctx, fbo):
+    def _draw(self, vao, view, name: str) -> moderngl.Texture:
+        """Draw the fullscreen ``vao`` into the pool's image ``name`` (kept across frames)."""
+        out = self.pool.texture(name, (view.width, view.height))
+        fbo = self.pool.framebuffer(f"{name}_framebuffer", [out])
+        with bound(self.ctx, fbo):
             fbo.clear(0.0, 0.0, 0.0, 0.0)
             vao.render(moderngl.TRIANGLES, vertices=3)
-        fbo.release()
+        return out
+
+    def compose(self, images: list[moderngl.Texture], view: CameraView, name: str) -> moderngl.Texture:
+        """The sum of ``images`` (RGBA32F, the view's size), added in their order into the
+        pool's image ``name``: float32 adds, texel for texel, as numpy sums them on the
+        host (left to right), so both give the same bits."""
+        ctx = self.ctx
+        out = self.pool.texture(name, (view.width, view.height))
+        fbo = self.pool.framebuffer(f"{name}_framebuffer", [out])
+        _set(self.add, image=0)
+        with bound(ctx, fbo):
+            fbo.clear(0.0, 0.0, 0.0, 0.0)
+            ctx.enable(moderngl.BLEND)
+            ctx.blend_func = moderngl.ONE, moderngl.ONE
+            ctx.blend_equation = moderngl.FUNC_ADD, moderngl.FUNC_ADD  # colour and alpha
+            for image in images:
+                image.use(location=0)
+                self.empty_vao_add.render(moderngl.TRIANGLES, vertices=3)
+            ctx.disable(moderngl.BLEND)
         return out
 
     def render_fog(self, scene: Scene, view: CameraView, frustum: LightFrustum, box: tuple[np.ndarray, np.ndarray],
@@ -126,7 +148,7 @@ class CameraPasses:
         self._common(prog, scene, view, frustum, shadow_map, light_res, gbuffer_geometry)
         _set(prog, sigma_s=tuple(scene.medium.sigma_s), scene_min=tuple(box[0]),
              scene_max=tuple(box[1]))
-        return self._draw(self.empty_vao, view)
+        return self._draw(self.empty_vao, view, "fog")
 
     def render_direct(self, scene: Scene, view: CameraView, frustum: LightFrustum, shadow_map: moderngl.Texture,
                       light_res: int, gbuffer_geometry: moderngl.Texture,
@@ -137,8 +159,11 @@ class CameraPasses:
         albedo = [tuple(o.albedo) for o in scene.diffuse][:MAX_DIFFUSE]
         albedo += [(0.0, 0.0, 0.0)] * (MAX_DIFFUSE - len(albedo))
         _set(prog, gbuffer_normal=2, albedo=albedo, texel_angle=2.0 * frustum.tan_half / light_res)
-        return self._draw(self.empty_vao_direct, view)
+        return self._draw(self.empty_vao_direct, view, "direct")
 
     def release(self) -> None:
-        for r in (self.empty_vao, self.empty_vao_direct, self.gbuffer, self.fog, self.direct):
+        if self._own_pool:
+            self.pool.release()
+        for r in (self.empty_vao, self.empty_vao_direct, self.empty_vao_add, self.gbuffer, self.fog, self.direct,
+                  self.add):
             r.release()

@@ -9,7 +9,7 @@ from __future__ import annotations
 # bench/agreement.py, docs/decisions.md "Clip to objects"); the others are deliberate faults
 # a test must see flagged.
 # name → (the programs it goes to: "trace" the emission and trace programs, "splat" the
-# density splat's, what it does)
+# density splat's, "frame" none: the renderer reads it, what it does)
 CONTROLS = {
     "CLIP_TO_OBJECTS": ("trace", "clip searched segments to the specular objects' box too"),
     "DIFFERENTIAL_UNPROPAGATED": ("trace", "photon differentials not propagated through interactions "
@@ -24,6 +24,8 @@ CONTROLS = {
                                 "(splat/beam.vert.glsl)"),
     "BEAM_FULLSCREEN": ("splat", "beams drawn over the whole image, not the quad that holds their kernels "
                                  "(splat/beam.vert.glsl)"),
+    "STEP_IMAGES_KEPT": ("frame", "the step images not cleared between frames: what a frame leaves in the "
+                                  "resources it keeps reaches the next (approx.renderer)"),
 }
 
 

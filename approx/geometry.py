@@ -134,12 +134,18 @@ class SceneGeometry:
         self.models.bind_to_uniform_block(MODELS_BINDING)
         uniform(program, "model_base").value = 0 if which == "specular" else len(self.meshes) - len(self.diffuse_ranges)
 
-    def vertex_array(self, ctx: moderngl.Context, program: moderngl.Program, which: str) -> moderngl.VertexArray | None:
+    def vertex_content(self, program: moderngl.Program, which: str) -> list | None:
+        """The vertex array content (moderngl's) of ``which`` ("specular" or "diffuse")
+        for ``program``; None where the scene has none."""
         buf = self.specular if which == "specular" else self.diffuse
         if buf is None or (which == "specular" and self.specular_vertices == 0):
             return None
         fmt, names = attribute_layout(program, list(zip(VERTEX_FORMAT.split(), VERTEX_ATTRIBUTES)))
-        return ctx.vertex_array(program, [(buf, fmt, *names)])
+        return [(buf, fmt, *names)]
+
+    def vertex_array(self, ctx: moderngl.Context, program: moderngl.Program, which: str) -> moderngl.VertexArray | None:
+        content = self.vertex_content(program, which)
+        return None if content is None else ctx.vertex_array(program, content)
 
     def release(self) -> None:
         self.models.release()

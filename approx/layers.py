@@ -16,6 +16,7 @@ the triangle's primitive id + 1 (:class:`LightMap`). Strategies:
 
 from __future__ import annotations
 
+import contextlib
 from typing import TYPE_CHECKING, Any, NamedTuple
 
 import moderngl
@@ -27,6 +28,7 @@ from .transforms import gl_matrix
 
 if TYPE_CHECKING:
     from .light import LightFrustum
+    from .resources import FrameResources
 
 FRONT, BACK, BOTH = 1, -1, 0
 
@@ -59,31 +61,44 @@ class LightMapRenderer:
         self._empty = ctx.texture((1, 1), 4, dtype="f4")  # bound as previous_map when unused
         self._empty.filter = (moderngl.NEAREST, moderngl.NEAREST)
         self._depth: dict[int, moderngl.Renderbuffer] = {}  # resolution -> depth renderbuffer, for every map of it
-        self.drawn = (0, 0)  # (fragments, primitives) of the maps rendered since take_drawn
+        # (samples, primitives) queries of the maps rendered since take_queries, unread (reading waits for the GPU)
+        self.queries: list[moderngl.Query] = []
+        self.layer_queries: list[moderngl.Query] = []  # the last render_layers' maps', in map order
 
-    def take_drawn(self) -> tuple:
-        """(fragments, primitives) of the maps rendered since the last call (the light
-        maps' own occlusion queries: a pass timer's cannot nest around them)."""
-        drawn, self.drawn = self.drawn, (0, 0)
-        return drawn
+    def take_queries(self) -> list[moderngl.Query]:
+        """The (samples, primitives) queries of the maps rendered since the last call, to be
+        read once the frame is done (a pass timer's queries cannot nest around them)."""
+        queries, self.queries = self.queries, []
+        return queries
+
+    @property
+    def layer_used(self) -> list[bool]:
+        """Per map of the last :meth:`render_layers` (counted), whether any fragment was
+        written (reads its occlusion queries: waits for the GPU)."""
+        return [q.samples > 0 for q in self.layer_queries]
 
     def render_map(self, frustum: LightFrustum, res: int, *, facing: int = BOTH, threshold: float = -np.inf,
                    previous: moderngl.Texture | None = None, peel_epsilon: float = 0.0,
                    include_diffuse: bool = False, target: moderngl.Texture | None = None,
-                   geometric: moderngl.Texture | None = None) -> moderngl.Texture:
-        """One map at res×res; returns the texture (``target`` reused if given). The
-        geometric normals (and primitive ids) go to ``geometric`` (res×res, :class:`LightMap`) when given.
+                   geometric: moderngl.Texture | None = None, count: bool = True,
+                   pool: FrameResources | None = None, name: str = "map") -> moderngl.Texture:
+        """One map at res×res; returns the texture (``target`` reused if given; with
+        ``pool`` its framebuffer is ``pool``'s ``name``, kept for the next frame). The geometric normals (and primitive
+        ids) go to ``geometric`` (res×res, :class:`LightMap`) when given.
 
-        ``self.last_samples`` holds the number of fragments that passed (occlusion
-        query): 0 means the map is empty; ``self.drawn`` adds them and the primitives
-        drawn to its running (fragments, primitives) (:meth:`take_drawn`)."""
+        ``count``: an occlusion query counts the fragments that passed (0: the map is
+        empty) and the primitives drawn, appended unread to ``self.queries``
+        (:meth:`take_queries`); a display frame counts nothing."""
         ctx = self.ctx
         tex = target or ctx.texture((res, res), 4, dtype="f4")
         tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
-        if res not in self._depth:
+        if pool is None and res not in self._depth:
             self._depth[res] = ctx.depth_renderbuffer((res, res))
         attachments = [tex] if geometric is None else [tex, geometric]
-        fbo = ctx.framebuffer(color_attachments=attachments, depth_attachment=self._depth[res])
+        if pool is not None:  # one depth buffer per resolution, shared by the maps (each clears it)
+            fbo = pool.framebuffer(f"{name}_framebuffer", attachments, pool.depth(f"light_depth_{res}", (res, res)))
+        else:
+            fbo = ctx.framebuffer(color_attachments=attachments, depth_attachment=self._depth[res])
         prog = self.program
         uniform(prog, "light_view_proj").write(gl_matrix(frustum.view_proj))
         uniform(prog, "light_position").value = tuple(frustum.position)
@@ -98,8 +113,8 @@ class LightMapRenderer:
             ctx.enable(moderngl.DEPTH_TEST)
             ctx.disable(moderngl.CULL_FACE)
             fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
-            query = ctx.query(samples=True, primitives=True)
-            with query:
+            query = ctx.query(samples=True, primitives=True) if count else None
+            with query if query is not None else contextlib.nullcontext():
                 if self.vao_specular is not None:
                     self.geometry.use(prog, "specular")
                     self.vao_specular.render(moderngl.TRIANGLES)
@@ -107,15 +122,22 @@ class LightMapRenderer:
                     self.geometry.use(prog, "diffuse")
                     self.vao_diffuse.render(moderngl.TRIANGLES)
             ctx.disable(moderngl.DEPTH_TEST)
-        self.last_samples = query.samples
-        self.drawn = (self.drawn[0] + query.samples, self.drawn[1] + query.primitives)
-        fbo.release()
+        if query is not None:
+            self.queries.append(query)
+        if pool is None:
+            fbo.release()
         return tex
 
     def render_light_map(self, frustum: LightFrustum, res: int, *, primitive_ids: bool = True,
-                         **filters: Any) -> LightMap:
+                         pool: FrameResources | None = None, name: str = "light_map", **filters: Any) -> LightMap:
         """One map with its geometric normals, and with the primitive ids when
-        ``primitive_ids`` (``filters`` as :meth:`render_map`)."""
+        ``primitive_ids`` (``filters`` as :meth:`render_map`); its textures are ``pool``'s
+        ``name`` (kept across frames) when given, else new ones (the caller releases them)."""
+        if pool is not None:
+            target = pool.texture(name, (res, res), 4)
+            geometric = pool.texture(f"{name}_geometric", (res, res), 4 if primitive_ids else 2)
+            return LightMap(self.render_map(frustum, res, geometric=geometric, target=target, pool=pool, name=name,
+                                            **filters), geometric)
         geometric = self.ctx.texture((res, res), 4 if primitive_ids else 2, dtype="f4")
         geometric.filter = (moderngl.NEAREST, moderngl.NEAREST)
         return LightMap(self.render_map(frustum, res, geometric=geometric, **filters), geometric)
@@ -135,27 +157,31 @@ class LightMapRenderer:
         return [-np.inf] + [lo + i * (hi - lo) / layers for i in range(1, layers)]
 
     def render_layers(self, frustum: LightFrustum, res: int, layers: int, strategy: str, *,
-                      primitive_ids: bool = True) -> list["LightMap"]:
+                      primitive_ids: bool = True, pool: FrameResources | None = None,
+                      count: bool = True) -> list["LightMap"]:
         """The 2·layers maps in map order (2·level + facing), with the primitive ids when
-        ``primitive_ids``.
+        ``primitive_ids``; in ``pool``'s textures ``layer{m}`` when given.
 
-        Also sets ``self.layer_used``: per map, whether any fragment was written."""
+        ``count``: also keeps each map's occlusion query in ``self.layer_queries``
+        (:attr:`layer_used`: per map, whether any fragment was written)."""
         maps: list[LightMap] = []
-        used: list[bool] = []
+        queries: list[moderngl.Query] = []
         peel_epsilon = 1e-5 * frustum.far
         thresholds = self.thresholds(frustum, layers)
         for level in range(layers):
             for k, facing in enumerate((FRONT, BACK)):
+                name = f"layer{len(maps)}"
                 if strategy == "threshold":
-                    m = self.render_light_map(frustum, res, facing=facing, threshold=thresholds[level],
-                                              primitive_ids=primitive_ids)
+                    m = self.render_light_map(frustum, res, facing=facing, threshold=thresholds[level], pool=pool,
+                                              name=name, primitive_ids=primitive_ids, count=count)
                 else:
                     previous = maps[2 * (level - 1) + k].surface if level > 0 else None
-                    m = self.render_light_map(frustum, res, facing=facing, previous=previous,
-                                              peel_epsilon=peel_epsilon, primitive_ids=primitive_ids)
+                    m = self.render_light_map(frustum, res, facing=facing, previous=previous, peel_epsilon=peel_epsilon,
+                                              pool=pool, name=name, primitive_ids=primitive_ids, count=count)
                 maps.append(m)
-                used.append(self.last_samples > 0)
-        self.layer_used = used
+                if count:
+                    queries.append(self.queries[-1])
+        self.layer_queries = queries
         return maps
 
     def release(self) -> None:

@@ -1,4 +1,5 @@
-"""``approx.render(scene, params) -> Frame``: the paper's whole pipeline, one frame.
+"""``approx.render(scene, params) -> Frame`` and ``Renderer.draw``: the paper's whole
+pipeline, one frame, to measure or to draw.
 
 A :class:`Renderer` keeps the GL context, compiled programs and the scene's
 vertex buffers (object space); changing the light, the camera, the medium, the
@@ -7,75 +8,69 @@ re-uploading geometry (the paper retraces every frame). Everything that depends 
 them — the objects' matrices, the medium's box, which holds every mesh, the light
 and the camera (``scenes.bounds``), the light frustum, the camera's far plane — is
 computed per frame from the scene being rendered.
+
+One frame pipeline, two ways to run it (docs/approx.md "A frame to draw and a frame to
+measure"). :meth:`Renderer.draw` is the display frame: every pass on the GPU with no
+CPU–GPU synchronization between its first pass and its composed image (the splat counts
+stay on the GPU and drive indirect draws, the step images are added on the GPU, every
+buffer and image persists across frames in :class:`approx.resources.FrameResources`,
+pass times are timestamps read frames later). :meth:`Renderer.render` is the measured
+frame: the same passes, then one read of what it reports (records, step images, counts,
+pass times) after the last pass.
 """
 
 from __future__ import annotations
 
 import time
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, cast
 
 import moderngl
 import numpy as np
 
 from volcaustics.scenes.bounds import medium_bounds
-from volcaustics.scenes.formats import BEAM_DTYPE, KIND_SPECULAR, PHOTON_DTYPE, RAW_RECORD_DTYPE, SPLAT_DTYPE
+from volcaustics.scenes.formats import (
+    BEAM_DTYPE,
+    DIFFERENTIAL_DTYPE,
+    PHOTON_DTYPE,
+    RAW_RECORD_DTYPE,
+    SPLAT_DTYPE,
+)
 
-from .camera_pass import CameraPasses, CameraView
+from .camera_pass import CameraPasses
 from .context import gl_info, shared_context
 from .controls import check_controls, controls_for
+from .debug_groups import DISPLAY_FRAME, debug_group
 from .denoise import denoise_images, guides
 from .emission import RULES, approx_rays, draw_slots
+from .frame import Frame, camera_view, compose, image_size, read_rgb
 from .geometry import SceneGeometry
+from .late_timer import LateTimer
 from .layers import BOTH, LightMapRenderer
 from .light import LightFrustum
 from .params import ApproxParams, defines, photon_slots
 from .records import emission_records, records_from_raw
-from .splat import Splatter
-from .timing import PassTimer, timer_queries_work
-from .trace import PhotonTracer, read_raw_records
+from .resources import FrameResources
+from .splat import SPLAT_COMMANDS, Splatter, splat_commands
+from .timing import DisplayTimer, PassTimer, timer_queries_work
+from .trace import PhotonTracer
 
 if TYPE_CHECKING:
     from volcaustics.scenes.model import Scene
 
+__all__ = ["Frame", "Renderer", "render"]
 
-@dataclass
-class Frame:
-    """One rendered frame.
-
-    images: layer name (``scenes.formats.LAYER_NAMES``) → H×W×3 float32, linear Rec.709,
-        radiance W·m⁻²·sr⁻¹, row 0 at the top (``mask_specular`` is 0/1 in all three channels).
-    caustic_steps: per interaction step, the caustic image of that step's photons.
-    records: per step, the segment records (scenes.formats.RECORD_DTYPE, active photons).
-    timings: pass name → seconds; ``timing_method`` says how they were measured.
-    work: what ``approx.cost`` counts beside the records: ``fragments`` and ``primitives``
-        (pass name → fragments written, GL samples passed, and primitives drawn, summed
-        over its steps; 0 for a compute pass), ``shaded`` (pass name → fragments shaded,
-        discards included, where the driver counts them: ``approx.invocations``),
-        ``lookups`` and ``lockstep_lookups`` (the trace loop's map lookups over every
-        step: the photons' own, and their subgroups' in lockstep, ``Tracer.loop_work``).
-    params: the parameters actually used (width/height resolved).
-    guides: the G-buffer a temporal filter or denoiser reads: ``distance`` (H×W, to the
-        eye, 0 where nothing is hit) and ``normal`` (H×W×3, world).
-    """
-
-    images: dict
-    caustic_steps: list
-    records: list
-    timings: dict
-    timing_method: str
-    params: dict
-    photons_emitted: int | None
-    gl: dict = field(default_factory=dict)
-    guides: dict = field(default_factory=dict)
-    work: dict = field(default_factory=dict)
+# a storage buffer range starts at a multiple of GL_SHADER_STORAGE_BUFFER_OFFSET_ALIGNMENT,
+# at most 256 bytes on every driver (GL 4.3 §6.1.1's maximum): each step's records start on it
+RANGE_ALIGNMENT = 256
+# what a display frame cannot do on the GPU alone: parameter → (the value that needs the host, why)
+HOST_STAGES = {"denoise": ("oidn", "OIDN denoises on the host (approx.denoise)"),
+               "temporal": ("ema", "the moving average is taken on the host (approx.temporal)"),
+               "emission": ("adaptive", "adaptive emission draws its slots on the host (approx.emission)")}
 
 
-def _read_rgb(tex: moderngl.Texture) -> np.ndarray:
-    w, h = tex.size
-    rgba = np.frombuffer(tex.read(), dtype=np.float32).reshape(h, w, 4)
-    return np.ascontiguousarray(rgba[::-1, :, :3])
+def _aligned(nbytes: int) -> int:
+    return -(-nbytes // RANGE_ALIGNMENT) * RANGE_ALIGNMENT
 
 
 class Renderer:
@@ -83,16 +78,22 @@ class Renderer:
 
     ``controls``: #defines that are not parameters of the method (``approx.controls.CONTROLS``:
     clipping to the objects' box, the deliberate faults of negative controls); every program
-    this renderer compiles gets them."""
+    this renderer compiles gets them. ``frames_in_flight``: how many display frames the
+    late timer keeps before it drops the oldest unread one's times."""
 
-    def __init__(self, scene, ctx: moderngl.Context | None = None, *, controls: dict | None = None):
+    def __init__(self, scene, ctx: moderngl.Context | None = None, *, controls: dict | None = None,
+                 frames_in_flight: int = 4):
         self.ctx = ctx or shared_context()
         self.scene = scene
         self.controls = check_controls(controls)
         self.geometry = SceneGeometry.upload(self.ctx, scene)
         self.light_maps = LightMapRenderer(self.ctx, self.geometry)
+        self.pool = FrameResources(self.ctx)  # every frame's buffers and images, across frames
+        self.pool.track(*(b for b in (self.geometry.specular, self.geometry.diffuse) if b is not None))
         self._programs: dict[tuple, PhotonTracer | CameraPasses | Splatter] = {}
         self._use_queries = timer_queries_work(self.ctx)
+        # display frames' pass times, read frames later (where the driver's timer queries work)
+        self.late_timer = LateTimer(self.ctx, frames_in_flight) if self._use_queries else None
 
     def _cached(self, key, factory):
         if key not in self._programs:
@@ -108,67 +109,63 @@ class Renderer:
         """(CameraPasses, Splatter) for the fog program's defines and the phase function."""
         phase_key = (scene.medium.phase.kind, scene.medium.phase.g)
         fog = defines(p, "fog")
-        camera = self._cached(("camera", *sorted(fog.items()), phase_key), lambda: CameraPasses(self.ctx, scene, fog))
+        camera = self._cached(("camera", *sorted(fog.items()), phase_key),
+                              lambda: CameraPasses(self.ctx, scene, fog, pool=self.pool))
         controls = controls_for(self.controls, "splat") if p.splat in ("density", "beams") else {}
         splatter = self._cached(("splat", phase_key, p.splat, *sorted(controls.items())),
                                 lambda: Splatter(self.ctx, scene.medium, adaptive=p.splat == "adaptive",
                                                  density=p.splat == "density", beams=p.splat == "beams",
-                                                 controls=controls))
+                                                 controls=controls, pool=self.pool))
         return camera, splatter
 
-    def _black_image(self, p: ApproxParams) -> moderngl.Texture:
-        """An RGBA32F image of the frame's size cleared to 0 (splats add into it)."""
-        image = self.ctx.texture(image_size(p), 4, dtype="f4")
-        fbo = self.ctx.framebuffer(color_attachments=[image])
-        fbo.clear(0.0, 0.0, 0.0, 0.0)
-        fbo.release()
-        return image
+    def draw(self, scene: Scene | None = None, params: ApproxParams | None = None) -> moderngl.Texture:
+        """Draw one display frame and return its composed image (the ``combined`` layer)
+        as an RGBA32F texture of the frame's size (row 0 at the bottom, GL's order),
+        without reading anything back: no ``finish``, no read, no query wait between the
+        frame's first pass and its image. The texture is the renderer's and is drawn
+        over by the next frame. ``scene`` and ``params`` as :meth:`render`; the
+        parameters that need the host (:data:`HOST_STAGES`) are refused (ValueError).
+
+        Pass times, where the driver's timer queries work, come frames later from
+        ``self.late_timer`` (``approx.late_timer.LateTimer``: its ``collected``)."""
+        scene = scene or self.scene
+        p = (params or ApproxParams()).resolved(scene)
+        for name, (value, why) in HOST_STAGES.items():
+            if getattr(p, name) == value:
+                raise ValueError(f"draw: {name} = {value!r} needs the host ({why}); render() measures it")
+        late = self.late_timer
+        with debug_group(DISPLAY_FRAME):
+            if late is not None:
+                late.begin_frame()
+            passes = self._passes(scene, p, DisplayTimer(late), keep_records=False, counted=False)
+            if late is not None:
+                late.end_frame()
+        return passes["combined"]
 
     def render(self, scene: Scene | None = None, params: ApproxParams | None = None, *, keep_records: bool = True,
                keep_guides: bool = False) -> Frame:
-        """Render one frame. ``scene`` (None: the construction's) may replace light,
-        medium, camera, materials or object transforms of the scene given at
-        construction (same meshes, in the same order: else ValueError);
-        ``params`` None: the paper's defaults; ``keep_guides``: fill ``Frame.guides``."""
+        """Render one measured frame: the display frame's passes, then one read of its
+        records, step images, layers, counts and pass times. ``scene`` (None: the
+        construction's) may replace light, medium, camera, materials or object
+        transforms of the scene given at construction (same meshes, in the same order:
+        else ValueError); ``params`` None: the paper's defaults; ``keep_guides``: fill
+        ``Frame.guides``."""
         ctx = self.ctx
         scene = scene or self.scene
         p = (params or ApproxParams()).resolved(scene)
-        self.geometry.place(scene)  # this frame's object transforms (meshes stay uploaded)
         timer = PassTimer(ctx, self._use_queries)
         wall0 = time.perf_counter()
-        box = medium_bounds(scene)  # holds light and camera: this frame's, not the construction's
-        frustum = LightFrustum.for_scene(scene, *box)
-        tracer = self._tracer(p)
-        tracer.check_limits(p, keep_records=keep_records)
-        camera_passes, splatter = self._shading_programs(scene, p)
-        released: list = []
-        maps = self._light_maps(timer, tracer, frustum, p, released)
-        with timer.measure("emission", counted=False):  # the light map's own queries count it
-            self.light_maps.take_drawn()
-            emission_map = self.light_maps.render_light_map(frustum, p.photon_res, facing=BOTH,
-                                                            primitive_ids=tracer.id_rule)
-            photons = tracer.emit_photons(scene, frustum, emission_map, p.photon_res, p.seed)
-        timer.add("emission", *self.light_maps.take_drawn())
-        released += [emission_map, photons]
-        view = _camera_view(scene, p, box)
-        with timer.measure("camera"):
-            gbuf_geo, gbuf_nrm = camera_passes.render_gbuffer(self.geometry, view)
-        released += [gbuf_geo, gbuf_nrm]
-        records, caustic_steps, loop_work = self._trace_and_splat(timer, tracer, splatter, scene, frustum, box, maps,
-                                                                photons, view, gbuf_geo, p, keep_records, released)
-        with timer.measure("fog"):
-            fog_tex = camera_passes.render_fog(scene, view, frustum, box, maps["shadow"], p.light_res, gbuf_geo)
-        with timer.measure("direct"):
-            direct_tex = camera_passes.render_direct(scene, view, frustum, maps["shadow"], p.light_res, gbuf_geo,
-                                                     gbuf_nrm)
-        released += [fog_tex, direct_tex]
-        geometry = _read_rgb(gbuf_geo)
-        images = _compose(caustic_steps, _read_rgb(fog_tex), _read_rgb(direct_tex), geometry, p)
+        passes = self._passes(scene, p, timer, keep_records=keep_records, counted=True)
+        # the frame is drawn: everything it reports is read from here on
+        caustic_steps = [read_rgb(image) for image in passes["steps"]]
+        geometry = read_rgb(passes["gbuffer_geometry"])
+        images = compose(caustic_steps, read_rgb(passes["fog"]), read_rgb(passes["direct"]), geometry, p)
         # the G-buffer's normal leaves the GPU only for a denoiser or a temporal filter that reads it
-        normal = _read_rgb(gbuf_nrm) if keep_guides or p.denoise == "oidn" else None
+        normal = read_rgb(passes["gbuffer_normal"]) if keep_guides or p.denoise == "oidn" else None
+        records = self._read_records(passes, p) if keep_records else []
         emitted = len(records[0]) if keep_records and records else None  # photons alive after emission
-        for r in released:
-            r.release()
+        timer.collect()
+        loop_work = dict(zip(("lookups", "lockstep_lookups"), passes["tracer"].loop_work(p.steps)))
         timings = dict(timer.seconds)
         timings["trace"] = sum(v for k, v in timings.items() if k.startswith("trace_step"))
         timings["frame_wall"] = time.perf_counter() - wall0
@@ -180,6 +177,109 @@ class Renderer:
                      work={"fragments": dict(timer.fragments), "primitives": dict(timer.primitives),
                            "shaded": dict(timer.shaded), **loop_work},
                      guides={"distance": geometry[..., 0], "normal": normal} if keep_guides else {})
+
+    def _passes(self, scene: Scene, p: ApproxParams, timer: PassTimer | DisplayTimer, *, keep_records: bool,
+                counted: bool) -> dict:
+        """Every pass of one frame, in order, into the pool's buffers and images; nothing
+        read. ``keep_records``: each step's records (and kernel differentials) kept in
+        its own range for the read after the frame, else one range reused by every step;
+        ``counted``: the light maps count their fragments (queries read after the frame).
+        Returns the frame's GPU objects by name."""
+        pool = self.pool
+        self.geometry.place(scene)  # this frame's object transforms (meshes stay uploaded)
+        box = medium_bounds(scene)  # holds light and camera: this frame's, not the construction's
+        frustum = LightFrustum.for_scene(scene, *box)
+        tracer = self._tracer(p)
+        tracer.check_limits(p, keep_records=keep_records)
+        camera_passes, splatter = self._shading_programs(scene, p)
+        with timer.measure("layers", counted=False):  # the light maps' own queries count it
+            layer_maps = self.light_maps.render_layers(frustum, p.light_res, p.layers, p.layer_strategy,
+                                                       primitive_ids=tracer.id_rule, pool=pool, count=counted)
+            maps = tracer.pack_maps(layer_maps, p.light_res, pool)
+            shadow_map = self.light_maps.render_map(
+                frustum, p.light_res, facing=BOTH, include_diffuse=True, count=counted, pool=pool, name="shadow_map",
+                target=pool.texture("shadow_map", (p.light_res, p.light_res)))
+        timer.count("layers", self.light_maps.take_queries())
+        with timer.measure("emission", counted=False):  # the light map's own queries count it
+            emission_map = self.light_maps.render_light_map(frustum, p.photon_res, facing=BOTH, pool=pool,
+                                                            name="emission_map", primitive_ids=tracer.id_rule,
+                                                            count=counted)
+            photons = tracer.emit_photons(scene, frustum, emission_map, p.photon_res, p.seed, pool)
+        timer.count("emission", self.light_maps.take_queries())
+        view = camera_view(scene, p, box)
+        with timer.measure("camera"):
+            gbuf_geo, gbuf_nrm = camera_passes.render_gbuffer(self.geometry, view)
+        steps = self._trace_and_splat(timer, tracer, splatter, scene, frustum, box, maps, photons, view, gbuf_geo, p,
+                                      keep_records)
+        with timer.measure("fog"):
+            fog = camera_passes.render_fog(scene, view, frustum, box, shadow_map, p.light_res, gbuf_geo)
+        with timer.measure("direct"):
+            direct = camera_passes.render_direct(scene, view, frustum, shadow_map, p.light_res, gbuf_geo, gbuf_nrm)
+        with timer.measure("compose", counted=False):  # the caustic as the host sums it, then the frame
+            caustic = camera_passes.compose(steps["images"], view, "caustic")
+            combined = camera_passes.compose([caustic, fog, direct], view, "combined")
+        return {"tracer": tracer, "steps": steps["images"], "records": steps["records"],
+                "kernels": steps["kernels"], "record_stride": steps["stride"], "gbuffer_geometry": gbuf_geo,
+                "gbuffer_normal": gbuf_nrm, "fog": fog, "direct": direct, "caustic": caustic, "combined": combined}
+
+    def _trace_and_splat(self, timer, tracer, splatter, scene, frustum, box, maps, photons, view, gbuf_geo,
+                         p: ApproxParams, keep_records: bool) -> dict:
+        """Every interaction step: trace (paper §4.1), then splat its medium collisions
+        (§4.3) into one image per step (the pool's ``caustic_step{k}``), the splat count
+        on the GPU from the compaction to the indirect draw. Returns the step images,
+        the records buffer, the kernel differentials' buffer (or None) and the records'
+        stride per step (0: one range for every step)."""
+        pool, count = self.pool, photon_slots(p)
+        slots = p.steps if keep_records else 1
+        stride = _aligned(count * RAW_RECORD_DTYPE.itemsize) if keep_records else 0
+        record_buf = pool.buffer("records", _aligned(count * RAW_RECORD_DTYPE.itemsize) * slots)
+        splat_buf = pool.buffer("splats", count * SPLAT_DTYPE.itemsize)
+        commands = pool.buffer("splat_commands", SPLAT_COMMANDS["nbytes"])
+        kernel_source = tracer.kernel_source()
+        kernels = (pool.buffer("kernel_differentials", p.steps * count * DIFFERENTIAL_DTYPE.itemsize)
+                   if keep_records and kernel_source is not None else None)
+        tracer.start_frame(p.steps, pool)
+        images = []
+        for step in range(1, p.steps + 1):
+            offset = (step - 1) * stride
+            with timer.measure(f"trace_step{step}"):
+                tracer.trace_step(scene, frustum, box, maps, p.light_res, photons, record_buf, count, step, p.seed,
+                                  objects_box=self.geometry.objects_box, records_offset=offset)
+            if kernels is not None:  # this step's kernels, kept for the read after the frame
+                self.ctx.memory_barrier()
+                size = count * DIFFERENTIAL_DTYPE.itemsize
+                self.ctx.copy_buffer(kernels, cast(moderngl.Buffer, tracer.kernel_source()), size,
+                                     write_offset=(step - 1) * size)
+            with timer.measure("splat"):
+                tracer.compact_splats(record_buf, count, splat_buf, commands, p, step, pool=pool,
+                                      records_offset=offset)
+            grid = None
+            if splatter.density_program is not None:  # the density pre-pass, a pass of its own
+                with timer.measure("density"):
+                    grid = splatter.density_grid(splat_buf, commands, view)
+            with timer.measure("splat"):
+                image = pool.texture(f"caustic_step{step}", image_size(p))
+                if "STEP_IMAGES_KEPT" not in self.controls:  # the control: last frame's splats stay
+                    pool.framebuffer(f"caustic_step{step}_framebuffer", [image]).clear(0.0, 0.0, 0.0, 0.0)
+                splatter.splat(splat_buf, commands, view, scene.medium, p.splat_radius, gbuf_geo, image,
+                               p.splat_neighbours, grid=grid, name=f"caustic_step{step}")
+            images.append(image)
+        return {"images": images, "records": record_buf, "kernels": kernels, "stride": stride}
+
+    def _read_records(self, passes: dict, p: ApproxParams) -> list:
+        """Per step its records (RECORD_DTYPE, active photons) from a measured frame's buffers."""
+        count, stride = photon_slots(p), passes["record_stride"]
+        records = []
+        for step in range(1, p.steps + 1):
+            raw = np.frombuffer(passes["records"].read(size=count * RAW_RECORD_DTYPE.itemsize,
+                                                       offset=(step - 1) * stride), RAW_RECORD_DTYPE)
+            kernels = None
+            if passes["kernels"] is not None:
+                size = count * DIFFERENTIAL_DTYPE.itemsize
+                kernels = np.frombuffer(passes["kernels"].read(size=size, offset=(step - 1) * size),
+                                        DIFFERENTIAL_DTYPE).copy()
+            records.append(records_from_raw(raw, step, differentials=kernels))
+        return records
 
     def first_records(self, scene: Scene | None, params: ApproxParams, seeds: Iterable[int]) -> list:
         """Per seed in ``seeds``, the emission state an exact replay starts from: the
@@ -193,18 +293,13 @@ class Renderer:
         frustum = LightFrustum.for_scene(scene, *medium_bounds(scene))
         tracer = self._tracer(p)
         tracer.check_limits(p, keep_records=True)
-        emission_map = self.light_maps.render_light_map(frustum, p.photon_res, facing=BOTH,
-                                                        primitive_ids=tracer.id_rule)
+        emission_map = self.light_maps.render_light_map(frustum, p.photon_res, facing=BOTH, pool=self.pool,
+                                                        name="emission_map", primitive_ids=tracer.id_rule, count=False)
         out = []
-        try:
-            for seed in seeds:
-                photons = tracer.emit_photons(scene, frustum, emission_map, p.photon_res, seed)
-                try:
-                    out.append(emission_records(np.frombuffer(photons.read(), PHOTON_DTYPE)))
-                finally:
-                    photons.release()
-        finally:
-            emission_map.release()
+        for seed in seeds:
+            photons = tracer.emit_photons(scene, frustum, emission_map, p.photon_res, seed, self.pool)
+            self.ctx.memory_barrier()
+            out.append(emission_records(np.frombuffer(photons.read(), PHOTON_DTYPE)))
         return out
 
     def emission_rays(self, scene: Scene | None, params: ApproxParams, seeds: Sequence[int]) -> list:
@@ -222,68 +317,16 @@ class Renderer:
         importance = None
         if tracer.emission_adaptive:
             self.geometry.place(scene)
-            emission_map = self.light_maps.render_light_map(frustum, p.photon_res, facing=BOTH,
-                                                            primitive_ids=tracer.id_rule)
-            try:
-                emission_map.surface.use(location=0)
-                importance = tracer.importance_map(scene, frustum, p.photon_res)
-            finally:
-                emission_map.release()
+            emission_map = self.light_maps.render_light_map(frustum, p.photon_res, facing=BOTH, pool=self.pool,
+                                                            name="emission_map", primitive_ids=tracer.id_rule,
+                                                            count=False)
+            emission_map.surface.use(location=0)
+            importance = tracer.importance_map(scene, frustum, p.photon_res)
         if importance is None and p.emission_jitter == "center":  # texel centres whatever the seed: one set for all
             return [approx_rays(scene.light, frustum, p.photon_res, 0, shift=tracer.emission_shift)] * len(seeds)
         return [approx_rays(scene.light, frustum, p.photon_res, seed, jitter=p.emission_jitter,
                             slots=None if importance is None else draw_slots(importance, seed))
                 for seed in seeds]
-
-    def _light_maps(self, timer, tracer, frustum, p: ApproxParams, released: list) -> dict:
-        """The light layers (paper Fig. 1A, 3) packed for the tracer, and the shadow map."""
-        self.light_maps.take_drawn()
-        with timer.measure("layers", counted=False):  # the light maps' own queries count it
-            layer_maps = self.light_maps.render_layers(frustum, p.light_res, p.layers, p.layer_strategy,
-                                                       primitive_ids=tracer.id_rule)
-            map_texels, map_bounds = tracer.map_buffer(layer_maps, p.light_res)
-            # exact distance range of each map's surfaces (a little slack for float rounding)
-            map_info = [(b is not None, b[0] * (1 - 1e-5), b[1] * (1 + 1e-5)) if b else (False, 0.0, 0.0)
-                        for b in map_bounds]
-            shadow_map = self.light_maps.render_map(frustum, p.light_res, facing=BOTH, include_diffuse=True)
-        timer.add("layers", *self.light_maps.take_drawn())
-        released += layer_maps + [shadow_map, map_texels]
-        return {"texels": map_texels, "info": map_info, "shadow": shadow_map}
-
-    def _trace_and_splat(self, timer, tracer, splatter, scene, frustum, box, maps, photons, view, gbuf_geo,
-                         p: ApproxParams, keep_records: bool, released: list) -> tuple:
-        """Every interaction step: trace (paper §4.1), then splat its medium collisions
-        (§4.3) into one image per step; (records per step, caustic image per step, the
-        trace loop's work over the steps: ``lookups`` and ``lockstep_lookups``)."""
-        count = photon_slots(p)
-        records, caustic_steps, loop_work = [], [], {"lookups": 0, "lockstep_lookups": 0}
-        record_buf = self.ctx.buffer(reserve=count * RAW_RECORD_DTYPE.itemsize)
-        splat_buf = self.ctx.buffer(reserve=count * SPLAT_DTYPE.itemsize)
-        released += [record_buf, splat_buf]
-        geo = self.geometry
-        for step in range(1, p.steps + 1):
-            with timer.measure(f"trace_step{step}"):
-                tracer.trace_step(scene, frustum, box, maps["texels"], maps["info"], p.light_res, photons, record_buf,
-                                  count, step, p.seed, objects_box=geo.objects_box)
-            for name, n in zip(loop_work, tracer.loop_work()):
-                loop_work[name] += n
-            with timer.measure("splat"):
-                n_splats = tracer.compact_splats(record_buf, count, splat_buf, p, step)
-            grid = None
-            if splatter.density_program is not None:  # the density pre-pass, a pass of its own
-                with timer.measure("density"):
-                    grid = splatter.density_grid(splat_buf, n_splats, view)
-                released.append(grid)
-            with timer.measure("splat"):
-                step_image = self._black_image(p)
-                splatter.splat(splat_buf, n_splats, view, scene.medium, p.splat_radius, gbuf_geo, step_image,
-                               p.splat_neighbours, grid=grid)
-            caustic_steps.append(_read_rgb(step_image))
-            step_image.release()
-            if keep_records:
-                records.append(records_from_raw(read_raw_records(record_buf, count), step,
-                                                differentials=tracer.kernel_differentials(count)))
-        return records, caustic_steps, loop_work
 
     def splat(self, splats: np.ndarray, scene: Scene | None = None, params: ApproxParams | None = None) -> np.ndarray:
         """The caustic image of photons from any source, through this frame's own
@@ -317,7 +360,6 @@ class Renderer:
         """:meth:`splat` for several photon sets in one view: one image per set, the
         G-buffer rendered once (independent photon subsets, batches)."""
         sets = [np.ascontiguousarray(s) for s in splat_sets]
-        ctx = self.ctx
         scene = scene or self.scene
         p = (params or ApproxParams()).resolved(scene)
         dtype, name = (BEAM_DTYPE, "BEAM_DTYPE") if p.splat == "beams" else (SPLAT_DTYPE, "SPLAT_DTYPE")
@@ -326,27 +368,21 @@ class Renderer:
                 raise ValueError(f"splats: expected a 1-D array of {name} rows (splat = {p.splat}), "
                                  f"got {splats.dtype} {splats.shape}")
         self.geometry.place(scene)
-        view = _camera_view(scene, p, medium_bounds(scene))
+        view = camera_view(scene, p, medium_bounds(scene))
         camera_passes, splatter = self._shading_programs(scene, p)
-        gbuf_geo, gbuf_nrm = camera_passes.render_gbuffer(self.geometry, view)
+        gbuf_geo, _ = camera_passes.render_gbuffer(self.geometry, view)
+        commands = self.pool.buffer("splat_commands", SPLAT_COMMANDS["nbytes"])
+        image = self.pool.texture("splat_image", image_size(p))
         images = []
-        try:
-            for splats in sets:
-                image = self._black_image(p)
-                try:
-                    if len(splats):
-                        buf = ctx.buffer(splats.tobytes())
-                        try:
-                            splatter.splat(buf, len(splats), view, scene.medium, p.splat_radius, gbuf_geo, image,
-                                           p.splat_neighbours)
-                        finally:
-                            buf.release()
-                    images.append(_read_rgb(image))
-                finally:
-                    image.release()
-        finally:
-            gbuf_geo.release()
-            gbuf_nrm.release()
+        for splats in sets:
+            self.pool.framebuffer("splat_image_framebuffer", [image]).clear(0.0, 0.0, 0.0, 0.0)
+            if len(splats):
+                buf = self.pool.buffer("splat_rows", splats.nbytes)
+                buf.write(splats.tobytes())
+                commands.write(splat_commands(len(splats)))
+                splatter.splat(buf, commands, view, scene.medium, p.splat_radius, gbuf_geo, image,
+                               p.splat_neighbours, name="splat_image")
+            images.append(read_rgb(image))
         return images
 
     def density_widths(self, splats: np.ndarray, field: np.ndarray, scene: Scene | None = None,
@@ -362,7 +398,7 @@ class Renderer:
         if not len(splats):
             return np.zeros(0, np.float32)
         _, splatter = self._shading_programs(scene, p)
-        view = _camera_view(scene, p, medium_bounds(scene))
+        view = camera_view(scene, p, medium_bounds(scene))
         buffers = [self.ctx.buffer(np.ascontiguousarray(a, SPLAT_DTYPE).tobytes() or bytes(SPLAT_DTYPE.itemsize))
                    for a in (splats, field)]
         try:
@@ -373,30 +409,13 @@ class Renderer:
                 b.release()
 
     def release(self) -> None:
+        if self.late_timer is not None:
+            self.late_timer.release()
         for prog in self._programs.values():
             prog.release()
+        self.pool.release()
         self.light_maps.release()
         self.geometry.release()
-
-
-def image_size(p: ApproxParams) -> tuple[int, int]:
-    """(width, height) of resolved parameters (``ApproxParams.resolved``: both set)."""
-    return cast(int, p.width), cast(int, p.height)
-
-
-def _compose(caustic_steps: list, fog, direct, gbuffer, p: ApproxParams) -> dict:
-    """The frame's layers (``scenes.formats.LAYER_NAMES``) from the passes' images."""
-    caustic = (np.sum(caustic_steps, axis=0).astype(np.float32) if caustic_steps
-               else np.zeros((*image_size(p)[::-1], 3), np.float32))
-    kind = gbuffer[:, :, 1]
-    mask = np.repeat((np.round(kind) == KIND_SPECULAR).astype(np.float32)[:, :, None], 3, axis=2)
-    return {"caustic": caustic, "fog": fog, "direct": direct, "combined": caustic + fog + direct,
-            "mask_specular": mask}
-
-
-def _camera_view(scene, p: ApproxParams, box) -> CameraView:
-    """The camera of a frame at the resolved image size; the far plane beyond the medium's box."""
-    return CameraView(scene.camera, *image_size(p), far=2.0 * float(np.linalg.norm(box[1] - box[0])))
 
 
 def render(scene: Scene, params: ApproxParams | None = None, **kwargs: bool) -> Frame:

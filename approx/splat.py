@@ -20,6 +20,7 @@ from volcaustics.scenes.splitting import silent
 from .context import bound
 from .glsl import attribute_layout, load_source, program, set_uniforms, uniform
 from .params import differential_beams
+from .resources import FrameResources
 
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
@@ -42,6 +43,23 @@ DENSITY_FLOOR = 0.5
 # beam_width = differential: the least σ0 a row carries (m), so that one whose footprint is 0
 # where it starts (at a focus) still carries its own kernel (Beam.dir.w > 0; compact.comp.glsl)
 BEAM_SIGMA_FLOOR = 1e-20
+
+# The splat pass's indirect draw commands (compact.comp.glsl PASS_SCAN): two
+# DrawArraysIndirectCommand rows 5 uint32 apart (moderngl's render_indirect stride), the
+# splats' quads (4 vertices) then their points (1 vertex), one instance a splat
+SPLAT_COMMANDS = {"quads": 0, "points": 1, "stride": 20, "nbytes": 40}
+SPLAT_COMMANDS_BINDING = 2  # the uniform block the DENSITY_IGNORED control reads the count from
+
+
+def splat_commands(count: int) -> bytes:
+    """The commands of ``count`` splats known on the host (splats from any source)."""
+    return np.array([4, count, 0, 0, 0, 1, count, 0, 0, 0], np.uint32).tobytes()
+
+
+def splat_count(commands: moderngl.Buffer) -> int:
+    """The splats :meth:`approx.trace.PhotonTracer.compact_splats` gathered into ``commands`` (reads
+    it: waits for the GPU)."""
+    return int(np.frombuffer(commands.read(size=8), np.uint32)[1])
 
 
 def splats_from_arrays(end: ArrayLike, direction: ArrayLike, power: ArrayLike,
@@ -144,18 +162,15 @@ def with_kernels(rows: np.ndarray, kernels: ArrayLike) -> np.ndarray:
     return out
 
 
-def _add_into(ctx, target: moderngl.Texture, vao, mode, vertices: int, instances: int) -> None:
-    """Draw ``instances`` of ``vao`` added into ``target`` (additive float blending);
-    releases ``vao``."""
-    fbo = ctx.framebuffer(color_attachments=[target])
+def _add_into(ctx, fbo: moderngl.Framebuffer, vao, mode, commands: moderngl.Buffer, command: str) -> None:
+    """Draw ``vao`` as ``commands``' row ``command`` (:data:`SPLAT_COMMANDS`: the count
+    stays on the GPU) added into ``fbo``'s image (additive float blending)."""
     with bound(ctx, fbo):
         ctx.enable(moderngl.BLEND)
         ctx.blend_func = moderngl.ONE, moderngl.ONE
         ctx.blend_equation = moderngl.FUNC_ADD
-        vao.render(mode, vertices=vertices, instances=instances)
+        vao.render_indirect(commands, mode, count=1, first=SPLAT_COMMANDS[command])
         ctx.disable(moderngl.BLEND)
-    fbo.release()
-    vao.release()
 
 
 class Splatter:
@@ -165,7 +180,7 @@ class Splatter:
     beams, BEAM_DTYPE; ``controls``: a test's changes to the splat program)."""
 
     def __init__(self, ctx: moderngl.Context, medium, *, adaptive: bool = False, density: bool = False,
-                 beams: bool = False, controls: dict | None = None):
+                 beams: bool = False, controls: dict | None = None, pool: FrameResources | None = None):
         self.ctx = ctx
         self.beams = beams
         programs = self.programs(medium, adaptive=adaptive, density=density, beams=beams, controls=controls)
@@ -179,6 +194,11 @@ class Splatter:
         self.widths_program: moderngl.Program | None = None  # the widths pass (density_widths), when first used
         corners = np.array([[-1, -1], [1, -1], [-1, 1], [1, 1]], np.float32)
         self.corners = ctx.buffer(corners.tobytes())
+        # where its framebuffers, vertex arrays and pre-pass grid live across frames: the
+        # renderer's (one pool, so that what they name is held or tracked there) or its own
+        self.pool = pool or FrameResources(ctx)
+        self._own_pool = pool is None
+        self.pool.track(self.program, self.corners, *([self.density_program] if self.density_program else []))
 
     @staticmethod
     def programs(medium: Medium, *, adaptive: bool = False, density: bool = False, beams: bool = False,
@@ -200,27 +220,36 @@ class Splatter:
             out["widths"] = (("splat/widths.vert.glsl",), defines)
         return out
 
-    def density_grid(self, splats: moderngl.Buffer, count: int, view: CameraView) -> moderngl.Texture:
+    def density_grid(self, splats: moderngl.Buffer, commands: moderngl.Buffer, view: CameraView,
+                     target: moderngl.Texture | None = None) -> moderngl.Texture:
         """The pre-pass: photons per DENSITY_CELL² cell of the image (R32F, bilinear) of
-        ``count`` splats; the caller releases it."""
+        the splats ``commands`` counts (:data:`SPLAT_COMMANDS`), into ``target`` (a
+        texture of :meth:`grid_size`) or the splatter's own grid, kept across frames."""
         ctx, prog = self.ctx, cast(moderngl.Program, self.density_program)  # a density Splatter's
-        size = (-(-view.width // DENSITY_CELL), -(-view.height // DENSITY_CELL))
-        grid = ctx.texture(size, 1, np.zeros(size[0] * size[1], np.float32).tobytes(), dtype="f4")  # counts from 0
-        grid.filter = moderngl.LINEAR, moderngl.LINEAR
-        grid.repeat_x = grid.repeat_y = False
-        if count:  # no photons (a step of the frame that splatted none): every cell 0
-            view.set_uniforms(prog)
-            fmt, names = attribute_layout(prog, INSTANCE_PARTS, per_instance=True)
-            _add_into(ctx, grid, ctx.vertex_array(prog, [(splats, fmt, *names)]), moderngl.POINTS, 1, count)
+        grid = target or self.pool.texture("density_grid", self.grid_size(view), 1, linear=True)
+        fbo = self.pool.framebuffer("density_grid_framebuffer", [grid])
+        fbo.clear(0.0, 0.0, 0.0, 0.0)  # counts from 0; no photons (a step that splatted none): every cell 0
+        view.set_uniforms(prog)
+        fmt, names = attribute_layout(prog, INSTANCE_PARTS, per_instance=True)
+        vao = self.pool.vertex_array("density_vertex_array", prog, [(splats, fmt, *names)])
+        _add_into(ctx, fbo, vao, moderngl.POINTS, commands, "points")
         return grid
 
     @staticmethod
-    def _use_density(prog, grid: moderngl.Texture, count: int, view, splat_neighbours: int) -> None:
-        """Bind the density pre-pass ``grid`` of ``count`` splats for ``prog`` (texture unit
-        1, the width's uniforms, splat/density_width.glsl)."""
+    def grid_size(view: CameraView) -> tuple[int, int]:
+        """(width, height) of the density pre-pass's grid for ``view``."""
+        return -(-view.width // DENSITY_CELL), -(-view.height // DENSITY_CELL)
+
+    def _use_density(self, prog, grid: moderngl.Texture, commands: moderngl.Buffer, splat_neighbours: int) -> None:
+        """Bind the density pre-pass ``grid`` of the splats ``commands`` counts for ``prog``
+        (texture unit 1, the width's uniforms, splat/density_width.glsl; the count itself
+        only for the DENSITY_IGNORED control, read on the GPU)."""
         grid.use(location=1)
         set_uniforms(prog, density=1, density_cell=float(DENSITY_CELL), splat_neighbours=float(splat_neighbours),
-                     mean_per_pixel=count / float(view.width * view.height), density_floor=DENSITY_FLOOR)
+                     density_floor=DENSITY_FLOOR)
+        if "SplatCommands" in prog:
+            commands.bind_to_uniform_block(SPLAT_COMMANDS_BINDING)
+            prog["SplatCommands"].binding = SPLAT_COMMANDS_BINDING
 
     def density_widths(self, splats: moderngl.Buffer, count: int, field: moderngl.Buffer, field_count: int,
                        view: CameraView, splat_radius: float, splat_neighbours: int = 16) -> np.ndarray:
@@ -237,30 +266,34 @@ class Splatter:
         prog = self.widths_program
         view.set_uniforms(prog)
         set_uniforms(prog, splat_radius=float(splat_radius), pixel_angle=2.0 / (float(view.proj[1, 1]) * view.height))
-        grid = self.density_grid(field, field_count, view)
-        self._use_density(prog, grid, field_count, view, splat_neighbours)
+        commands = ctx.buffer(splat_commands(field_count))
         out = ctx.buffer(reserve=4 * max(count, 1))
         fmt, names = attribute_layout(prog, INSTANCE_PARTS)
         vao = ctx.vertex_array(prog, [(splats, fmt, *names)])
         try:
+            grid = self.density_grid(field, commands, view)
+            self._use_density(prog, grid, commands, splat_neighbours)
             vao.transform(out, moderngl.POINTS, vertices=count)
             return np.frombuffer(out.read(), np.float32)[:count].copy()
         finally:
-            vao.release()
-            out.release()
-            grid.release()
+            for r in (vao, out, commands):
+                r.release()
 
-    def splat(self, splats: moderngl.Buffer, count: int, view: CameraView, medium: Medium, splat_radius: float,
-              scene_distance: moderngl.Texture, target: moderngl.Texture, splat_neighbours: int = 16,
-              grid: moderngl.Texture | None = None) -> None:
-        """Add ``count`` splats (SPLAT_DTYPE rows of ``splats``; a beams splatter's: BEAM_DTYPE)
-        into ``target`` (RGBA32F); each collision weighs sigma_s / sigma_bar (the tracer's
-        free-flight rate), a beam sigma_s per metre. Density splats take ``grid``
-        (:meth:`density_grid` of these splats) or make their own."""
+    def splat(self, splats: moderngl.Buffer, commands: moderngl.Buffer, view: CameraView, medium: Medium,
+              splat_radius: float, scene_distance: moderngl.Texture, target: moderngl.Texture,
+              splat_neighbours: int = 16, grid: moderngl.Texture | None = None, name: str = "splat") -> None:
+        """Add the splats ``commands`` counts (:data:`SPLAT_COMMANDS`; SPLAT_DTYPE rows of
+        ``splats``; a beams splatter's: BEAM_DTYPE) into ``target`` (RGBA32F), drawn
+        indirectly (the count stays on the GPU); each collision weighs sigma_s / sigma_bar
+        (the tracer's free-flight rate), a beam sigma_s per metre. Density splats take
+        ``grid`` (:meth:`density_grid` of these splats) or make their own. ``name``: the
+        target's framebuffer in the pool (one per target the caller keeps)."""
         sigma_bar = medium.sigma_bar
-        if count == 0 or sigma_bar <= 0:
+        if sigma_bar <= 0:
             return
         ctx, prog = self.ctx, self.program
+        if self.density_program is not None and grid is None:
+            grid = self.density_grid(splats, commands, view)
         view.set_uniforms(prog)
         if self.beams:
             uniform(prog, "sigma_s").value = tuple(medium.sigma_s)
@@ -271,18 +304,17 @@ class Splatter:
                      pixel_angle=2.0 / (float(view.proj[1, 1]) * view.height))
         scene_distance.use(location=0)
         uniform(prog, "scene_distance").value = 0
-        own = None
-        if self.density_program is not None:
-            if grid is None:
-                grid = own = self.density_grid(splats, count, view)
-            self._use_density(prog, grid, count, view, splat_neighbours)
+        if grid is not None:
+            self._use_density(prog, grid, commands, splat_neighbours)
         fmt, names = attribute_layout(prog, BEAM_PARTS if self.beams else INSTANCE_PARTS, per_instance=True)
-        vao = ctx.vertex_array(prog, [(self.corners, "2f", "in_corner"), (splats, fmt, *names)])
-        _add_into(ctx, target, vao, moderngl.TRIANGLE_STRIP, 4, count)
-        if own is not None:
-            own.release()
+        content = [(self.corners, "2f", "in_corner"), (splats, fmt, *names)]
+        vao = self.pool.vertex_array("splat_vertex_array", prog, content)
+        fbo = self.pool.framebuffer(f"{name}_framebuffer", [target])
+        _add_into(ctx, fbo, vao, moderngl.TRIANGLE_STRIP, commands, "quads")
 
     def release(self) -> None:
+        if self._own_pool:
+            self.pool.release()
         self.program.release()
         for prog in (self.density_program, self.widths_program):
             if prog is not None:

@@ -12,11 +12,14 @@ from __future__ import annotations
 import contextlib
 import time
 from collections.abc import Iterator
-from typing import cast
+from typing import TYPE_CHECKING
 
 import moderngl
 
 from .invocations import InvocationQuery
+
+if TYPE_CHECKING:
+    from .late_timer import LateTimer
 
 TIMER_SENTINEL = 4294967295
 
@@ -43,9 +46,12 @@ def timer_queries_work(ctx: moderngl.Context) -> bool:
 
 
 class PassTimer:
-    """Accumulates seconds, fragments written and shaded, and primitives per pass name;
-    ``method`` says how the seconds were measured. Passes never nest (one query of a kind
-    at a time). ``shaded`` holds a pass only where the driver counts invocations."""
+    """The measured frame's per-pass seconds, fragments written and shaded, and
+    primitives; ``method`` says how the seconds were measured. Passes never nest (one
+    query of a kind at a time). Query results are read once, by :meth:`collect` after
+    the frame's last pass, not per pass; with the wall clock (no timer queries) each pass
+    still ends with ``ctx.finish()``. ``shaded`` holds a pass only where the driver counts
+    invocations."""
 
     def __init__(self, ctx: moderngl.Context, use_queries: bool):
         self.ctx = ctx
@@ -55,12 +61,18 @@ class PassTimer:
         self.fragments: dict[str, int] = {}
         self.primitives: dict[str, int] = {}
         self.shaded: dict[str, int] = {}
+        self._pending: list[tuple] = []  # (pass name, its query or None, its invocation query or None)
 
     def add(self, name: str, fragments: int, primitives: int) -> None:
-        """Count work of pass ``name`` that its own queries measured (``measure(...,
-        counted=False)``: GL queries of one kind cannot nest)."""
+        """Count work of pass ``name`` measured elsewhere."""
         self.fragments[name] = self.fragments.get(name, 0) + int(fragments)
         self.primitives[name] = self.primitives.get(name, 0) + int(primitives)
+
+    def count(self, name: str, queries: list[moderngl.Query]) -> None:
+        """Count the work of pass ``name`` that its own (samples, primitives) queries
+        measure (``measure(..., counted=False)``: GL queries of one kind cannot nest),
+        read by :meth:`collect`."""
+        self._pending += [(name, ("counted", q), None) for q in queries]
 
     @contextlib.contextmanager
     def measure(self, name: str, counted: bool = True) -> Iterator[None]:
@@ -71,25 +83,47 @@ class PassTimer:
         invocations = InvocationQuery(self.ctx) if counted else None
         if invocations is not None:
             invocations.begin()
-        if self.use_queries:
-            query = cast(moderngl.Query, query)  # made: the time is asked of it
-            with query:
-                yield
-            elapsed = query.elapsed
-            seconds = elapsed / 1e9 if elapsed != TIMER_SENTINEL else float("nan")
-        else:
+        if not self.use_queries:
             self.ctx.finish()
-            t0 = time.perf_counter()
-            with query if query is not None else contextlib.nullcontext():
-                yield
+        t0 = time.perf_counter()
+        with query if query is not None else contextlib.nullcontext():
+            yield
+        if not self.use_queries:
             self.ctx.finish()
-            seconds = time.perf_counter() - t0
-        self.seconds[name] = self.seconds.get(name, 0.0) + seconds
+            self.seconds[name] = self.seconds.get(name, 0.0) + time.perf_counter() - t0
         if invocations is not None:
-            shaded = invocations.end()
-            invocations.release()
-            if shaded is not None:
-                self.shaded[name] = self.shaded.get(name, 0) + shaded
-        if counted:
-            query = cast(moderngl.Query, query)  # made: samples and primitives are asked of it
-            self.add(name, query.samples, query.primitives)
+            invocations.stop()
+        self._pending.append((name, (("timed" if self.use_queries else "") + ("counted" if counted else ""), query),
+                              invocations))
+
+    def collect(self) -> None:
+        """Read every query of the frame (after its last pass: one wait, not one per pass)."""
+        for name, (kind, query), invocations in self._pending:
+            if "timed" in kind:
+                elapsed = query.elapsed
+                seconds = elapsed / 1e9 if elapsed != TIMER_SENTINEL else float("nan")
+                self.seconds[name] = self.seconds.get(name, 0.0) + seconds
+            if "counted" in kind:
+                self.add(name, query.samples, query.primitives)
+            if invocations is not None:
+                shaded = invocations.read()
+                invocations.release()
+                if shaded is not None:
+                    self.shaded[name] = self.shaded.get(name, 0) + shaded
+        self._pending = []
+
+
+class DisplayTimer:
+    """A display frame's pass timer: ``late``'s timestamps (``approx.late_timer.LateTimer``,
+    read frames later) where timer queries work, else nothing; it counts no work and never
+    waits (``approx.renderer.Renderer.draw``)."""
+
+    def __init__(self, late: LateTimer | None):
+        self.late = late
+        self.method = late.method if late is not None else "none"
+
+    def measure(self, name: str, counted: bool = True) -> contextlib.AbstractContextManager:
+        return self.late.measure(name) if self.late is not None else contextlib.nullcontext()
+
+    def count(self, name: str, queries: list) -> None:
+        """Nothing: a display frame makes no counting queries."""

@@ -38,6 +38,7 @@ if TYPE_CHECKING:
     from .layers import LightMap
     from .light import LightFrustum
     from .params import ApproxParams, ParamsMethods
+    from .resources import FrameResources
 
 MAX_MATERIALS = 16
 COMPACT_BLOCK = 256  # BLOCK of splat/compact.comp.glsl
@@ -53,13 +54,17 @@ class MapBuffers(NamedTuple):
     bottom-up): every texel (RGBA32F: distance, material, octahedral shading normal),
     the distances alone (R32F), the octahedral geometric normals (2 floats), for the
     start rule ``id`` only the primitive ids + 1 (R32F; 0 = none) and for the ``hiz``
-    search only the min–max pyramid (:func:`pyramid_layout`); None where not needed."""
+    search only the min–max pyramid (:func:`pyramid_layout`); None where not needed;
+    and per map the exact range of its surface distances, two uint32 (the float bits of
+    the min and the max; max 0: an empty map), which the tracer reads on the GPU
+    (:func:`map_bounds` reads it on the host)."""
 
     texels: moderngl.Buffer
     distances: moderngl.Buffer
     geometric: moderngl.Buffer
     primitive: moderngl.Buffer | None
     pyramid: moderngl.Buffer | None
+    ranges: moderngl.Buffer
 
     def release(self) -> None:
         for buf in self:
@@ -97,6 +102,14 @@ def _materials(scene):
     return ior, absorption
 
 
+def map_bounds(buffers: MapBuffers, maps: int) -> list:
+    """Per map of ``buffers`` the exact (min, max) of its surface distances (m), None for
+    an empty map (reads the GPU's reduction: waits for it)."""
+    bits = np.frombuffer(buffers.ranges.read(size=8 * maps), np.uint32).reshape(-1, 2)
+    values = bits.view(np.float32)
+    return [None if b[1] == 0 else (float(v[0]), float(v[1])) for b, v in zip(bits, values)]
+
+
 class PhotonTracer:
     """Holds the compute programs for one setting of the trace program's defines
     (:meth:`defines`: the parameter table's ``program="trace"`` entries)."""
@@ -110,6 +123,7 @@ class PhotonTracer:
         self.hiz = "SEARCH_HIZ" in defines
         self.pyramid = shaders.get("pyramid")
         self.compact_count, self.compact_write = shaders["compact_count"], shaders["compact_write"]
+        self.compact_scan = shaders["compact_scan"]
         self.adaptive = "SPLAT_ADAPTIVE" in defines
         self.beam_differential = "BEAM_DIFFERENTIAL" in defines
         self.carries_differentials = "DIFFERENTIALS" in defines
@@ -117,12 +131,15 @@ class PhotonTracer:
         self.differentials: moderngl.Buffer | None = None
         # beam_width = differential: per photon the differential at its step's segment start (DIFFERENTIAL_DTYPE)
         self.segment_differentials: moderngl.Buffer | None = None
+        self._owns_differentials = False  # made here (no pool): released here
+        self._pool_work: moderngl.Buffer | None = None  # the work counters when a pool holds them
         self.splits = int(defines.get("FRESNEL_SPLITS", 0))  # fresnel_splits (scenes.splitting)
         self.emission_adaptive = "EMISSION_ADAPTIVE" in defines
         self.emission_shift = float(defines.get("EMISSION_SHIFT", 0.0))  # texels (a test's wrong grid, emit.comp.glsl)
         self.importance = shaders.get("importance")
         self.maps = defines["MAPS"]
-        self.work = ctx.buffer(reserve=8)  # one dispatch's lookups, own and lockstep (trace.comp.glsl Work)
+        # per step its lookups, own and lockstep (trace.comp.glsl Work), zeroed by start_frame
+        self.work: moderngl.Buffer | None = None
         self._solid_angles: dict[tuple, moderngl.Buffer] = {}
         self._max_groups = int(ctx.info["GL_MAX_COMPUTE_WORK_GROUP_COUNT"][0])
         self._max_size = max_image_size(ctx.info)
@@ -152,6 +169,7 @@ class PhotonTracer:
                "pack": ("trace/pack_distances.comp.glsl",
                         {**PACK, **({"PACK_PRIMITIVE": 1} if "START_RULE_ID" in defines else {})}),
                "compact_count": ("splat/compact.comp.glsl", {"PASS_COUNT": 1, **beams, **splits}),
+               "compact_scan": ("splat/compact.comp.glsl", {"PASS_SCAN": 1}),
                "compact_write": ("splat/compact.comp.glsl", {**splits, **(
                    {"SPLAT_ADAPTIVE": 1} if "SPLAT_ADAPTIVE" in defines
                    else {**beams, "BEAM_SIGMA_FLOOR": BEAM_SIGMA_FLOOR} if beams else {})})}
@@ -174,14 +192,17 @@ class PhotonTracer:
         return self._solid_angles[key]
 
     def emit_photons(self, scene: Scene, frustum: LightFrustum, emission_map: LightMap, photon_res: int,
-                     seed: int) -> moderngl.Buffer:
+                     seed: int, pool: FrameResources | None = None) -> moderngl.Buffer:
         """Photon buffer (photon_res² slots of PHOTON_DTYPE) after emission and the first
         interaction; ``emission_map`` is a :class:`approx.layers.LightMap` at photon_res.
-        With adaptive emission the slots are drawn first (:meth:`draw_slots`)."""
+        With adaptive emission the slots are drawn first (:meth:`draw_slots`). The buffer
+        (and the differentials') is ``pool``'s, kept across frames, when given; else new
+        (the caller releases the photons)."""
         ctx, prog = self.ctx, self.emit
         batches = self.splits + 1  # fresnel_splits: photon_res² slots per batch (scenes.splitting)
         n = batches * photon_res * photon_res
-        photons = ctx.buffer(reserve=n * PHOTON_DTYPE.itemsize)
+        photons = pool.buffer("photons", n * PHOTON_DTYPE.itemsize) if pool else ctx.buffer(
+            reserve=n * PHOTON_DTYPE.itemsize)
         ior, _ = _materials(scene)
         emission_map.surface.use(location=0)
         emission_map.geometric.use(location=1)
@@ -194,13 +215,18 @@ class PhotonTracer:
         photons.bind_to_storage_buffer(0)
         self._solid_angle_buffer(frustum, photon_res).bind_to_storage_buffer(1)
         if self.carries_differentials:  # the frame's differentials, beside the photons (emission, trace, compaction)
-            for buf in (self.differentials, self.segment_differentials):
-                if buf is not None:
-                    buf.release()
-            self.differentials = ctx.buffer(reserve=n * DIFFERENTIAL_DTYPE.itemsize)
+            if self._owns_differentials:  # made by the last call without a pool
+                for buf in (self.differentials, self.segment_differentials):
+                    if buf is not None:
+                        buf.release()
+            nbytes = n * DIFFERENTIAL_DTYPE.itemsize
+            self.differentials = pool.buffer("differentials", nbytes) if pool else ctx.buffer(reserve=nbytes)
             self.differentials.bind_to_storage_buffer(2)
-            self.segment_differentials = (ctx.buffer(reserve=n * DIFFERENTIAL_DTYPE.itemsize)
-                                          if self.beam_differential else None)
+            self.segment_differentials = None
+            if self.beam_differential:
+                self.segment_differentials = (pool.buffer("segment_differentials", nbytes) if pool
+                                              else ctx.buffer(reserve=nbytes))
+            self._owns_differentials = pool is None
         prog.run(group_x=math.ceil(photon_res / 8), group_y=math.ceil(photon_res / 8), group_z=batches)
         if slots is not None:
             slots.release()
@@ -236,25 +262,42 @@ class PhotonTracer:
         ended: compact.comp.glsl scales it), with beam_width = differential those at the
         start of the step's segment (the beam's footprint there and its rate along it);
         else None."""
-        buf = self.segment_differentials if self.beam_differential else self.differentials if self.adaptive else None
+        buf = self.kernel_source()
         if buf is None:
             return None
         return np.frombuffer(buf.read(size=count * DIFFERENTIAL_DTYPE.itemsize), DIFFERENTIAL_DTYPE).copy()
 
+    def kernel_source(self) -> moderngl.Buffer | None:
+        """The buffer :meth:`kernel_differentials` reads (this frame's), or None."""
+        return self.segment_differentials if self.beam_differential else self.differentials if self.adaptive else None
+
     def map_buffer(self, light_maps: Sequence[LightMap], light_res: int) -> tuple:
+        """:meth:`pack_maps` into new buffers (release them), and per map the exact (min,
+        max) of its surface distances, None for an empty map (:func:`map_bounds`: waits
+        for the GPU)."""
+        buffers = self.pack_maps(light_maps, light_res)
+        return buffers, map_bounds(buffers, len(light_maps))
+
+    def pack_maps(self, light_maps: Sequence[LightMap], light_res: int,
+                  pool: FrameResources | None = None) -> MapBuffers:
         """The light maps (:class:`approx.layers.LightMap`) copied into the tracer's
-        storage buffers (:class:`MapBuffers`, release them); and per map the exact (min,
-        max) of its surface distances, None for an empty map. With the ``hiz`` search
-        the min–max pyramid is built here too (once per frame, like the maps)."""
+        storage buffers (:class:`MapBuffers`: ``pool``'s, kept across frames, when given;
+        else new ones, release them), with the range of each map's distances reduced on
+        the GPU, never read here. With the ``hiz`` search the min–max pyramid is built
+        here too (once per frame, like the maps)."""
         count = light_res * light_res
         n = len(light_maps)
-        texels = self.ctx.buffer(reserve=16 * count * n)
-        distances = self.ctx.buffer(reserve=4 * count * n)
-        geometric = self.ctx.buffer(reserve=8 * count * n)
-        primitive = self.ctx.buffer(reserve=4 * count * n) if self.id_rule else None
+
+        def buffer(name: str, nbytes: int) -> moderngl.Buffer:
+            return pool.buffer(name, nbytes) if pool else self.ctx.buffer(reserve=nbytes)
+
+        texels, distances = buffer("map_texels", 16 * count * n), buffer("map_distances", 4 * count * n)
+        geometric = buffer("map_geometric", 8 * count * n)
+        primitive = buffer("map_primitive", 4 * count * n) if self.id_rule else None
         init = np.zeros((n, 2), np.uint32)
         init[:, 0] = 0xFFFFFFFF
-        ranges = self.ctx.buffer(init.tobytes())
+        ranges = buffer("map_ranges", init.nbytes)
+        ranges.write(init.tobytes())
         texels.bind_to_storage_buffer(0)
         distances.bind_to_storage_buffer(1)
         ranges.bind_to_storage_buffer(2)
@@ -269,17 +312,16 @@ class PhotonTracer:
             light_map.geometric.use(location=1)
             uniform(self.pack, "map_index").value = m
             self.pack.run(group_x=math.ceil(count / (PACK["PACK_BLOCK"] * PACK["PACK_TEXELS"])))
-        bits = np.frombuffer(ranges.read(), np.uint32).reshape(-1, 2)
-        ranges.release()
-        values = bits.view(np.float32)
-        bounds = [None if b[1] == 0 else (float(v[0]), float(v[1])) for b, v in zip(bits, values)]
-        pyramid = self._build_pyramid(distances, n, light_res) if self.hiz else None
-        return MapBuffers(texels, distances, geometric, primitive, pyramid), bounds
+        pyramid = None
+        if self.hiz:
+            pyramid = buffer("map_pyramid", 8 * pyramid_layout(light_res)[1] * n)
+            self._build_pyramid(distances, pyramid, n, light_res)
+        return MapBuffers(texels, distances, geometric, primitive, pyramid, ranges)
 
-    def _build_pyramid(self, distances: moderngl.Buffer, maps: int, light_res: int) -> moderngl.Buffer:
-        """The min–max pyramid of every map (trace/pyramid.comp.glsl), level by level."""
+    def _build_pyramid(self, distances: moderngl.Buffer, pyramid: moderngl.Buffer, maps: int,
+                       light_res: int) -> None:
+        """The min–max pyramid of every map (trace/pyramid.comp.glsl) into ``pyramid``, level by level."""
         offsets, stride = pyramid_layout(light_res)
-        pyramid = self.ctx.buffer(reserve=8 * stride * maps)
         distances.bind_to_storage_buffer(0)
         pyramid.bind_to_storage_buffer(1)
         prog = cast(moderngl.ComputeShader, self.pyramid)  # search = hiz's
@@ -289,20 +331,20 @@ class PhotonTracer:
             set_uniforms(prog, level=level, source_offset=offsets[level - 1], target_offset=offsets[level])
             prog.run(group_x=math.ceil(cells / 8), group_y=math.ceil(cells / 8), group_z=maps)
             self.ctx.memory_barrier()  # the next level (and the trace) read what this one wrote
-        return pyramid
 
     def trace_step(self, scene: Scene, frustum: LightFrustum, box: tuple[np.ndarray, np.ndarray],
-                   map_texels: MapBuffers, map_info: Sequence[tuple[bool, float, float]], light_res: int,
-                   photons: moderngl.Buffer,
+                   map_texels: MapBuffers, light_res: int, photons: moderngl.Buffer,
                    records: moderngl.Buffer, count: int, step: int, seed: int,
-                   objects_box: tuple[np.ndarray, np.ndarray] | None = None) -> None:
-        """Advance every photon by one interaction step, writing one raw record per slot.
+                   objects_box: tuple[np.ndarray, np.ndarray] | None = None, records_offset: int = 0) -> None:
+        """Advance every photon by one interaction step, writing one raw record per slot
+        (``count`` of them from byte ``records_offset`` of ``records``).
 
         ``box``: (min, max) corners of the medium's box of ``scene``
         (``scenes.bounds.medium_bounds``), which photons do not leave;
-        ``map_texels``: :meth:`map_buffer` of the layer maps; ``map_info``: per map (used,
-        min distance, max distance), see LightMapRenderer.render_layers; ``objects_box``:
-        (min, max) of the specular objects, used with the CLIP_TO_OBJECTS control."""
+        ``map_texels``: :meth:`pack_maps` of the layer maps (the tracer reads each map's
+        distance range from it); ``objects_box``: (min, max) of the specular objects, used
+        with the CLIP_TO_OBJECTS control. The step's loop work adds into slot ``step`` of
+        :meth:`start_frame`'s counters (made there if this frame has none yet)."""
         prog = self.trace
         if objects_box is not None:
             pad = 1e-4 * float(np.linalg.norm(np.subtract(objects_box[1], objects_box[0])))
@@ -312,19 +354,17 @@ class PhotonTracer:
         uniform(prog, "light_view_proj").write(gl_matrix(frustum.view_proj))
         if "light_basis" in prog:
             uniform(prog, "light_basis").write(np.asarray(frustum.basis, np.float32).T.tobytes())
-        set_uniforms(prog, ior=ior, absorption=absorption,
-                     map_used=[bool(u) for u, _, _ in map_info], map_min_dist=[float(a) for _, a, _ in map_info],
-                     map_max_dist=[float(b) for _, _, b in map_info],
-                     light_position=tuple(frustum.position), light_res=light_res,
+        set_uniforms(prog, ior=ior, absorption=absorption, light_position=tuple(frustum.position), light_res=light_res,
                      texel_angle=2.0 * frustum.tan_half / light_res, sigma_t=tuple(scene.medium.sigma_t),
                      sigma_bar=scene.medium.sigma_bar, scene_min=tuple(box[0]),
                      scene_max=tuple(box[1]), seed=seed, step_index=step, photon_count=count,
                      batch_slots=count // (self.splits + 1))
         photons.bind_to_storage_buffer(0)
-        records.bind_to_storage_buffer(1)
+        records.bind_to_storage_buffer(1, offset=records_offset, size=count * RAW_RECORD_DTYPE.itemsize)
         map_texels.texels.bind_to_storage_buffer(2)
         map_texels.distances.bind_to_storage_buffer(3)
         map_texels.geometric.bind_to_storage_buffer(4)
+        map_texels.ranges.bind_to_storage_buffer(10)
         if map_texels.primitive is not None:
             map_texels.primitive.bind_to_storage_buffer(5)
         if self.carries_differentials:
@@ -336,58 +376,78 @@ class PhotonTracer:
             map_texels.pyramid.bind_to_storage_buffer(6)
             set_uniforms(prog, pyramid_offset=offsets + [0] * (16 - len(offsets)), pyramid_stride=stride,
                          pyramid_top=len(offsets) - 1)
-        self.work.write(bytes(8))
-        self.work.bind_to_storage_buffer(8)
+        if self.work is None or self.work.size < 8 * step:
+            self.start_frame(step)
+        work = cast(moderngl.Buffer, self.work)
+        work.bind_to_storage_buffer(8)
+        self.ctx.memory_barrier()  # the photons and maps the passes before wrote
         prog.run(group_x=math.ceil(count / 64))
 
-    def loop_work(self) -> tuple:
-        """The last :meth:`trace_step`'s loop work: (lookups, lockstep lookups). Lookups:
-        the map distances its photons looked up (every search loop iteration, whether it
-        read memory or a register); lockstep: per subgroup its longest photon's lookups ×
-        the subgroup's size (where the driver has subgroups; else the lookups)."""
-        lookups, lockstep = np.frombuffer(self.work.read(), np.uint32)[:2]
-        return int(lookups), int(lockstep)
+    def start_frame(self, steps: int, pool: FrameResources | None = None) -> None:
+        """Zero the trace loop's work counters of a frame of ``steps`` steps (``pool``'s,
+        kept across frames, when given)."""
+        if self.work is not None and self.work is not self._pool_work:
+            self.work.release()
+        self.work = pool.buffer("trace_work", 8 * steps) if pool else self.ctx.buffer(reserve=8 * steps)
+        self._pool_work = self.work if pool else None
+        self.work.write(bytes(self.work.size))
+
+    def loop_work(self, steps: int) -> tuple:
+        """The loop work of the frame's ``steps`` steps: (lookups, lockstep lookups), each
+        summed over the steps (reads the counters: waits for the GPU). Lookups: the map
+        distances its photons looked up (every search loop iteration, whether it read
+        memory or a register); lockstep: per subgroup its longest photon's lookups × the
+        subgroup's size (where the driver has subgroups; else the lookups)."""
+        work = np.frombuffer(cast(moderngl.Buffer, self.work).read(size=8 * steps), np.uint32).reshape(steps, 2)
+        return tuple(int(n) for n in work.sum(axis=0, dtype=np.uint64))
 
     def compact_splats(self, records: moderngl.Buffer, count: int, splats: moderngl.Buffer,
-                       params: ApproxParams | None = None, step: int = 1) -> int:
-        """Gather the medium collisions of one step's records into ``splats`` (SPLAT_DTYPE
-        rows, capacity ``count``) in photon order; returns how many. With ``splat =
+                       commands: moderngl.Buffer, params: ApproxParams | None = None, step: int = 1, *,
+                       pool: FrameResources | None = None, records_offset: int = 0) -> None:
+        """Gather the medium collisions of one step's records (``count`` of them from byte
+        ``records_offset`` of ``records``) into ``splats`` (SPLAT_DTYPE rows, capacity
+        ``count``) in photon order, and their number into ``commands``
+        (:data:`SPLAT_COMMANDS`, the splat pass's indirect draws): counted, summed and
+        placed on the GPU, never read here (:func:`splat_count` reads it). With ``splat =
         adaptive`` each row carries its kernel width from the photons' differentials and
         ``params``' splat_radius and splat_footprints; with ``splat = beams`` the rows are
         the step's segments in the medium (BEAM_DTYPE), with beam_width = differential each
         carrying its kernel at its start and the kernel's rate along it
         (``approx.splat.beam_kernels``)."""
         blocks = math.ceil(count / COMPACT_BLOCK)
-        block_buf = self.ctx.buffer(reserve=4 * blocks)
-        records.bind_to_storage_buffer(0)
+        block_buf = pool.buffer("compact_blocks", 4 * blocks) if pool else self.ctx.buffer(reserve=4 * blocks)
+        records.bind_to_storage_buffer(0, offset=records_offset, size=count * RAW_RECORD_DTYPE.itemsize)
         block_buf.bind_to_storage_buffer(1)
-        splats.bind_to_storage_buffer(2)
         batch = count // (self.splits + 1)  # photon_res²: one batch's slots (scenes.splitting)
         for prog in (self.compact_count, self.compact_write):
-            set_uniforms(prog, step_index=step, batch_slots=batch)
-        uniform(self.compact_count, "photon_count").value = count
+            set_uniforms(prog, step_index=step, batch_slots=batch, photon_count=count)
+        self.ctx.memory_barrier()  # the records the trace wrote
         self.compact_count.run(group_x=blocks)
-        block_counts = np.frombuffer(block_buf.read(), np.uint32)
-        offsets = np.concatenate([[0], np.cumsum(block_counts, dtype=np.uint64)[:-1]]).astype(np.uint32)
-        total = int(block_counts.sum(dtype=np.uint64))
-        if total:
-            block_buf.write(offsets.tobytes())
-            if self.adaptive or self.beam_differential:
-                kernel_source = self.segment_differentials if self.beam_differential else self.differentials
-                cast(moderngl.Buffer, kernel_source).bind_to_storage_buffer(3)
-                p = cast("ApproxParams", params)  # given with splat = adaptive or differential beams (the docstring)
-                set_uniforms(self.compact_write, splat_radius=p.splat_radius, splat_footprints=p.splat_footprints)
-            uniform(self.compact_write, "photon_count").value = count
-            self.compact_write.run(group_x=blocks)
-        block_buf.release()
-        return total
+        self.ctx.memory_barrier()
+        commands.bind_to_storage_buffer(2)
+        uniform(self.compact_scan, "block_count").value = blocks
+        self.compact_scan.run(group_x=1)
+        self.ctx.memory_barrier()
+        splats.bind_to_storage_buffer(2)
+        if self.adaptive or self.beam_differential:
+            kernel_source = self.segment_differentials if self.beam_differential else self.differentials
+            cast(moderngl.Buffer, kernel_source).bind_to_storage_buffer(3)
+            p = cast("ApproxParams", params)  # given with splat = adaptive or differential beams (the docstring)
+            set_uniforms(self.compact_write, splat_radius=p.splat_radius, splat_footprints=p.splat_footprints)
+        self.compact_write.run(group_x=blocks)
+        self.ctx.memory_barrier()  # the splat pass draws from the rows and the commands written here
+        if pool is None:
+            block_buf.release()
 
     def release(self) -> None:
-        self.work.release()
-        for buf in (self.differentials, self.segment_differentials):
-            if buf is not None:
-                buf.release()
-        for prog in (self.emit, self.trace, self.pack, self.pyramid, self.compact_count, self.compact_write):
+        if self.work is not None and self.work is not self._pool_work:
+            self.work.release()
+        if self._owns_differentials:
+            for buf in (self.differentials, self.segment_differentials):
+                if buf is not None:
+                    buf.release()
+        for prog in (self.emit, self.trace, self.pack, self.pyramid, self.compact_count, self.compact_scan,
+                     self.compact_write):
             if prog is not None:
                 prog.release()
         for buf in self._solid_angles.values():

@@ -64,8 +64,7 @@ def trace_segments(ctx, distances, starts, directions, *, primitive=None, start_
     sc, fr = scene(), frustum()
     tracer = PhotonTracer(ctx, p)
     maps = rendered or light_maps(ctx, distances, primitive, geometric_normals)
-    buffers, bounds = tracer.map_buffer(maps, res)
-    info = [(b is not None, b[0] * (1 - 1e-5), b[1] * (1 + 1e-5)) if b else (False, 0.0, 0.0) for b in bounds]
+    buffers = tracer.pack_maps(maps, res)
     n = len(starts)
     photons = np.zeros(n, PHOTON_DTYPE)
     photons["pos"][:, :3] = starts
@@ -76,7 +75,7 @@ def trace_segments(ctx, distances, starts, directions, *, primitive=None, start_
     if start_ids is not None:
         photons["power"][:, 3] = start_ids
     pbuf, rbuf = ctx.buffer(photons.tobytes()), ctx.buffer(reserve=n * RAW_RECORD_DTYPE.itemsize)
-    tracer.trace_step(sc, fr, BOX, buffers, info, res, pbuf, rbuf, n, 1, 0)
+    tracer.trace_step(sc, fr, BOX, buffers, res, pbuf, rbuf, n, 1, 0)
     records = records_from_raw(np.frombuffer(rbuf.read(), RAW_RECORD_DTYPE), 1, active_only=False)
     for r in ((*maps,) if rendered is None else ()) + (buffers, pbuf, rbuf, tracer):
         r.release()

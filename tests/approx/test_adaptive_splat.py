@@ -19,7 +19,7 @@ from volcaustics.approx.camera_pass import CameraView
 from volcaustics.approx.geometry import SceneGeometry
 from volcaustics.approx.layers import BOTH, LightMapRenderer
 from volcaustics.approx.light import LightFrustum
-from volcaustics.approx.splat import Splatter, splats_from_arrays
+from volcaustics.approx.splat import Splatter, splat_commands, splats_from_arrays
 from volcaustics.approx.trace import PhotonTracer, read_photons
 from volcaustics.scenes.bounds import medium_bounds
 from volcaustics.scenes.formats import DIFFERENTIAL_DTYPE, STATUS_SURFACE
@@ -101,7 +101,8 @@ def test_a_splat_of_any_width_keeps_its_integral(ctx, sigma_px):
     empty = ctx.texture((cam.width, cam.height), 4, dtype="f4")
     query = ctx.query(samples=True)
     with query:
-        splatter.splat(records, 1, view, scene.medium, 1.0, empty, target)  # a 1 m splat_radius: never used
+        commands = ctx.buffer(splat_commands(1))
+        splatter.splat(records, commands, view, scene.medium, 1.0, empty, target)  # a 1 m splat_radius: never used
     # the billboard reaches the kernel's ±3σ square and a pixel, no further (the splat's cost)
     assert query.samples <= (2 * (3 * sigma_px + 1) + 1) ** 2
     image = np.frombuffer(target.read(), np.float32).reshape(cam.height, cam.width, 4)[..., 0].astype(np.float64)

@@ -23,7 +23,7 @@ from tests.shared import make_scene, pixel_solid_angles, sphere_spec
 from volcaustics.approx import Renderer
 from volcaustics.approx.camera_pass import CameraView
 from volcaustics.approx.params import QUICK
-from volcaustics.approx.splat import Splatter, beams_from_arrays, splats_from_arrays
+from volcaustics.approx.splat import Splatter, beams_from_arrays, splat_commands, splats_from_arrays
 from volcaustics.scenes.model import Camera
 
 CAMERA = Camera(position=(0.0, 1.0, 4.0), target=(0.0, 1.0, 0.0), fov_y=36.0, width=160, height=160)
@@ -54,7 +54,8 @@ def _draw(ctx, rows, *, beams: bool, sigma_t: float, sigma_s: float, controls: d
     gbuffer = ctx.texture((CAMERA.width, CAMERA.height), 4, geometry.tobytes(), dtype="f4")
     timer = PassTimer(ctx, use_queries=False)
     with timer.measure("splat"):
-        splatter.splat(buf, len(rows), view, scene.medium, radius, gbuffer, target)
+        splatter.splat(buf, ctx.buffer(splat_commands(len(rows))), view, scene.medium, radius, gbuffer, target)
+    timer.collect()  # the pass's counts, read once it is done
     image = np.frombuffer(target.read(), np.float32).reshape(CAMERA.height, CAMERA.width, 4)[..., 0].astype(np.float64)
     for r in (buf, target, gbuffer, splatter):
         r.release()

@@ -19,7 +19,7 @@ from volcaustics.approx import Renderer
 from volcaustics.approx.camera_pass import CameraView
 from volcaustics.approx.cost import DENSITY_READS, frame_cost
 from volcaustics.approx.params import QUICK
-from volcaustics.approx.splat import Splatter, splats_from_arrays
+from volcaustics.approx.splat import Splatter, splat_commands, splats_from_arrays
 from volcaustics.metrics.frame import frame_relative_mse
 from volcaustics.scenes import load_builtin
 from volcaustics.scenes.model import Camera
@@ -36,7 +36,8 @@ def _splat(ctx, centres, power, neighbours=16):
     records = ctx.buffer(raw.tobytes())
     target = ctx.texture((cam.width, cam.height), 4, dtype="f4")
     empty = ctx.texture((cam.width, cam.height), 4, dtype="f4")
-    splatter.splat(records, len(raw), view, scene.medium, 0.01, empty, target, neighbours)  # 3σ ≤ 12 cm: in view
+    commands = ctx.buffer(splat_commands(len(raw)))
+    splatter.splat(records, commands, view, scene.medium, 0.01, empty, target, neighbours)  # 3σ ≤ 12 cm: in view
     image = np.frombuffer(target.read(), np.float32).reshape(cam.height, cam.width, 4)[..., 0].astype(np.float64)
     for r in (records, target, empty):
         r.release()

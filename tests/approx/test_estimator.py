@@ -44,9 +44,8 @@ def trace_one(ctx, scene, start, direction, inside, status, params, offset=0.0):
     photon["dir"] = [*(np.asarray(direction) / np.linalg.norm(direction)), status]
     photon["power"] = [1.0, 1.0, 1.0, offset]
     pbuf, rbuf = ctx.buffer(photon.tobytes()), ctx.buffer(reserve=RAW_RECORD_DTYPE.itemsize)
-    texels, bounds = tracer.map_buffer(maps, LIGHT_RES)
-    info = [(b is not None, *(b or (0.0, 0.0))) for b in bounds]
-    tracer.trace_step(scene, frustum, medium_bounds(scene), texels, info, LIGHT_RES, pbuf, rbuf, 1, 1, SEED)
+    texels = tracer.pack_maps(maps, LIGHT_RES)
+    tracer.trace_step(scene, frustum, medium_bounds(scene), texels, LIGHT_RES, pbuf, rbuf, 1, 1, SEED)
     rec = records_from_raw(np.frombuffer(rbuf.read(), RAW_RECORD_DTYPE), 1)[0]
     for r in (*maps, pbuf, rbuf, texels):
         r.release()

@@ -15,7 +15,7 @@ from volcaustics.approx.camera_pass import CameraView
 from volcaustics.approx.geometry import SceneGeometry
 from volcaustics.approx.layers import BOTH, LightMapRenderer
 from volcaustics.approx.light import LightFrustum
-from volcaustics.approx.splat import Splatter, splats_from_arrays
+from volcaustics.approx.splat import Splatter, splat_commands, splats_from_arrays
 from volcaustics.approx.trace import PhotonTracer, read_photons
 from volcaustics.scenes.bounds import medium_bounds
 from volcaustics.scenes.formats import STATUS_COLLIDED, STATUS_SURFACE
@@ -77,7 +77,7 @@ def test_single_splat_integrates_to_analytic_value(ctx):
     records = ctx.buffer(raw.tobytes())
     target = ctx.texture((cam.width, cam.height), 4, dtype="f4")
     empty = ctx.texture((cam.width, cam.height), 4, dtype="f4")  # G-buffer: nothing hit
-    splatter.splat(records, 1, view, scene.medium, sigma_k, empty, target)
+    splatter.splat(records, ctx.buffer(splat_commands(1)), view, scene.medium, sigma_k, empty, target)
     image = np.frombuffer(target.read(), np.float32).reshape(cam.height, cam.width, 4)[..., 0].astype(np.float64)
     edges, omega = pixel_solid_angles(cam.fov_y, cam.width)  # exact, of the image plane at unit distance
     measured = float((image * omega).sum())
@@ -106,7 +106,7 @@ def test_small_far_splat_matches_the_kernel_per_pixel(ctx):
     records = ctx.buffer(raw.tobytes())
     target = ctx.texture((cam.width, cam.height), 4, dtype="f4")
     empty = ctx.texture((cam.width, cam.height), 4, dtype="f4")  # G-buffer: nothing hit
-    splatter.splat(records, 1, view, scene.medium, sigma_k, empty, target)
+    splatter.splat(records, ctx.buffer(splat_commands(1)), view, scene.medium, sigma_k, empty, target)
     image = np.frombuffer(target.read(), np.float32).reshape(cam.height, cam.width, 4)[::-1, :, 0]
     ys, xs = np.mgrid[0:size, 0:size] + 0.5
     dirs = np.stack([pixel_ray(cam, x, y) for x, y in zip(xs.ravel(), ys.ravel())]).reshape(size, size, 3)

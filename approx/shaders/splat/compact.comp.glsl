@@ -1,17 +1,53 @@
 // Gather one step's medium collisions (SPLAT_BEAMS: its segments in the medium, each a
 // beam) from the per-photon records into a compact splat list, in photon order, so that
 // additive blending sums them in the same order on every run (bit-identical images for a
-// seed). Two dispatches:
+// seed). Three dispatches, the counts never leaving the GPU:
 //   PASS_COUNT: per block of BLOCK photons, the number of collisions;
-//   PASS_WRITE: each collision goes to block_offset[block] + its rank in the block
-//               (exclusive prefix sum in shared memory; offsets summed on the CPU).
+//   PASS_SCAN:  one work group turns the block counts into offsets (exclusive prefix sum)
+//               and writes the total into the splat pass's indirect draw commands;
+//   (write):    each collision goes to block_offset[block] + its rank in the block
+//               (exclusive prefix sum in shared memory).
 #include "common/photon.glsl"
 
 #define BLOCK 256
 layout(local_size_x = BLOCK) in;
 
-layout(std430, binding = 0) readonly buffer Records { Record records[]; };
 layout(std430, binding = 1) buffer BlockCounts { uint block_value[]; };  // counts, then offsets
+#ifdef PASS_SCAN
+// DrawArraysIndirectCommand rows, 5 uints apart (moderngl's render_indirect stride): the
+// splats' quads (4 vertices, one instance a splat), then their points (the density pre-pass)
+layout(std430, binding = 2) writeonly buffer Commands { uint commands[10]; };
+uniform uint block_count;
+shared uint partial[BLOCK];
+
+void main() {
+    uint lane = gl_LocalInvocationID.x;
+    uint per = (block_count + uint(BLOCK) - 1u) / uint(BLOCK);  // blocks a lane sums, in order
+    uint begin = min(lane * per, block_count), end = min(begin + per, block_count);
+    uint own = 0u;
+    for (uint b = begin; b < end; ++b) own += block_value[b];
+    partial[lane] = own;
+    barrier();
+    for (uint offset = 1u; offset < uint(BLOCK); offset <<= 1) {  // Hillis–Steele, inclusive
+        uint add = lane >= offset ? partial[lane - offset] : 0u;
+        barrier();
+        partial[lane] += add;
+        barrier();
+    }
+    uint running = partial[lane] - own;  // exclusive: the splats of every block before begin
+    for (uint b = begin; b < end; ++b) {
+        uint n = block_value[b];
+        block_value[b] = running;
+        running += n;
+    }
+    if (lane == uint(BLOCK) - 1u) {
+        uint total = partial[lane];
+        commands[0] = 4u; commands[1] = total; commands[2] = 0u; commands[3] = 0u; commands[4] = 0u;
+        commands[5] = 1u; commands[6] = total; commands[7] = 0u; commands[8] = 0u; commands[9] = 0u;
+    }
+}
+#else
+layout(std430, binding = 0) readonly buffer Records { Record records[]; };
 #ifdef SPLAT_BEAMS
 layout(std430, binding = 2) writeonly buffer Beams { Beam beams[]; };
 #else
@@ -87,3 +123,4 @@ void main() {
     }
 #endif
 }
+#endif

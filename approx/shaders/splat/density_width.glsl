@@ -10,14 +10,19 @@
 uniform sampler2D density;     // photons per cell (density.vert.glsl)
 uniform float density_cell;    // a cell's side (pixels)
 uniform float splat_neighbours;
-uniform float mean_per_pixel;  // the frame's photons per pixel² over the whole image (DENSITY_IGNORED)
+#ifdef DENSITY_IGNORED
+// the splat pass's indirect draw command (approx.splat.SPLAT_COMMANDS): its instances are the
+// frame's splats, counted on the GPU
+layout(std140) uniform SplatCommands { uint command_vertices; uint splat_count; };
+#endif
 uniform float density_floor;   // the narrowest kernel, in splat_radius (approx.splat.DENSITY_FLOOR)
 
 // σ (m) of a splat whose centre lies at window coordinates center_px (pixels) of an image
 // of size viewport, dist metres from the eye; pixel_angle: a pixel's width per metre.
 float density_sigma(vec2 center_px, vec2 viewport, float dist, float pixel_angle, float splat_radius) {
 #ifdef DENSITY_IGNORED
-    float per_pixel = mean_per_pixel;  // a test's negative control: one width for the frame's photons
+    // a test's negative control: one width for the frame's photons, their mean per pixel²
+    float per_pixel = float(splat_count) / (viewport.x * viewport.y);
 #else
     float per_pixel = max(texture(density, center_px / viewport).r, 1.0) / (density_cell * density_cell);
 #endif

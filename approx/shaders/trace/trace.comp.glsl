@@ -64,9 +64,23 @@ uniform vec3 absorption[MAX_MATERIALS];
 uniform uint batch_slots;  // photon_res²: the slots of one batch (common/split.glsl)
 #include "common/split.glsl"
 
-uniform bool map_used[MAPS];         // the map holds at least one surface texel
-uniform float map_min_dist[MAPS];    // bounds of the map's distances to the light
-uniform float map_max_dist[MAPS];
+// per map the exact (min, max) of its surface distances as float bits (the pack pass's uint
+// atomics; max 0: no surface), read here, never on the host (approx.trace.MapBuffers)
+layout(std430, binding = 10) readonly buffer MapRanges { uvec2 map_range_bits[]; };
+bool map_used[MAPS];                 // the map holds at least one surface texel
+float map_min_dist[MAPS];            // bounds of the map's distances to the light, a little slack for rounding
+float map_max_dist[MAPS];
+
+// map_used, map_min_dist, map_max_dist from the ranges, the slack (1 ∓ 1e-5) taken in double
+// and rounded once to float, as the host computed it before (so the records did not change)
+void load_map_ranges() {
+    for (int m = 0; m < MAPS; ++m) {
+        uvec2 bits = map_range_bits[m];
+        map_used[m] = bits.y != 0u;
+        map_min_dist[m] = map_used[m] ? float(double(uintBitsToFloat(bits.x)) * (1.0lf - 1.0e-5lf)) : 0.0;
+        map_max_dist[m] = map_used[m] ? float(double(uintBitsToFloat(bits.y)) * (1.0lf + 1.0e-5lf)) : 0.0;
+    }
+}
 uniform mat4 light_view_proj;
 uniform mat3 light_basis;            // columns: light right, up, spot axis (world): texel directions
 uniform vec3 light_position;
@@ -102,10 +116,13 @@ layout(std430, binding = 7) buffer Differentials { vec2 differentials[]; };
 layout(std430, binding = 9) writeonly buffer SegmentDifferentials { vec2 segment_differentials[]; };
 #endif
 
-// the trace loop's work this dispatch (approx.cost: lookups, one atomic add per photon;
-// lockstep_lookups, one per subgroup: its longest search × its size, what a SIMD machine
-// spends on it, since every lane waits for the last; without subgroups the photons' own)
-layout(std430, binding = 8) buffer Work { uint work_lookups; uint work_lockstep; };
+// the trace loop's work per step, two counters a step (approx.cost: lookups, one atomic add
+// per photon; lockstep_lookups, one per subgroup: its longest search × its size, what a SIMD
+// machine spends on it, since every lane waits for the last; without subgroups the photons'
+// own), read once after the frame
+layout(std430, binding = 8) buffer Work { uint work[]; };
+#define WORK_LOOKUPS work[2u * (step_index - 1u)]
+#define WORK_LOCKSTEP work[2u * (step_index - 1u) + 1u]
 
 uint g_flags;
 uint g_map_reads;  // map texels the search read for this segment (map_reads: cost that travels across hardware)
@@ -337,15 +354,16 @@ void count_lockstep_work() {
         }
     }
     uint first = lanes.x != 0u ? uint(findLSB(lanes.x)) : uint(findLSB(lanes.y) + 32);
-    if (gl_SubGroupInvocationARB == first) atomicAdd(work_lockstep, longest * gl_SubGroupSizeARB);
+    if (gl_SubGroupInvocationARB == first) atomicAdd(WORK_LOCKSTEP, longest * gl_SubGroupSizeARB);
 #else
-    atomicAdd(work_lockstep, g_lookups);
+    atomicAdd(WORK_LOCKSTEP, g_lookups);
 #endif
 }
 
 void main() {
     uint i = gl_GlobalInvocationID.x;
     if (i >= photon_count) return;
+    load_map_ranges();
     Photon ph = photons[i];
     Record rec;
     rec.start_maxlen = vec4(ph.pos.xyz, 0.0);
@@ -495,6 +513,6 @@ void main() {
     rec.extra = vec4(float(g_flags), float(material_hit), search, t_eps);
     rec.power_start.w = float(g_map_reads);
     records[i] = rec;
-    atomicAdd(work_lookups, g_lookups);
+    atomicAdd(WORK_LOOKUPS, g_lookups);
     count_lockstep_work();
 }
