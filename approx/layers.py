@@ -91,7 +91,8 @@ class LightMapRenderer:
         (:meth:`take_queries`); a display frame counts nothing."""
         ctx = self.ctx
         tex = target or ctx.texture((res, res), 4, dtype="f4")
-        tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        if pool is None:  # a pool's target already is (FrameResources)
+            tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
         if pool is None and res not in self._depth:
             self._depth[res] = ctx.depth_renderbuffer((res, res))
         attachments = [tex] if geometric is None else [tex, geometric]
@@ -113,7 +114,8 @@ class LightMapRenderer:
             ctx.enable(moderngl.DEPTH_TEST)
             ctx.disable(moderngl.CULL_FACE)
             fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
-            query = ctx.query(samples=True, primitives=True) if count else None
+            make = pool.query if pool is not None else ctx.query  # a pool's are handed back once read
+            query = make(samples=True, primitives=True) if count else None
             with query if query is not None else contextlib.nullcontext():
                 if self.vao_specular is not None:
                     self.geometry.use(prog, "specular")

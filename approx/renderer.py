@@ -153,7 +153,7 @@ class Renderer:
         ctx = self.ctx
         scene = scene or self.scene
         p = (params or ApproxParams()).resolved(scene)
-        timer = PassTimer(ctx, self._use_queries)
+        timer = PassTimer(ctx, self._use_queries, self.pool)
         wall0 = time.perf_counter()
         passes = self._passes(scene, p, timer, keep_records=keep_records, counted=True)
         # the frame is drawn: everything it reports is read from here on

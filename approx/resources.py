@@ -25,6 +25,9 @@ class FrameResources:
         self._serials: dict[int, int] = {}  # id(object) → serial, for what depends on it
         self._tracked: list[object] = []  # objects the caller keeps, referenced here so that their ids stay theirs
         self.made = 0  # GL objects made so far (each remade one counts again)
+        # queries read and handed back, by their kinds: moderngl's queries cannot be deleted, so they are reused
+        self._queries: dict[tuple, list[moderngl.Query]] = {}
+        self._query_kinds: dict[int, tuple] = {}
         self._next = 0  # serials
 
     def _get(self, name: str, spec: tuple, make):
@@ -100,6 +103,26 @@ class FrameResources:
         spec = ("vertex_array", self.key(program),
                 tuple((self.key(entry[0]), *entry[1:]) for entry in content))
         return self._get(name, spec, lambda: self.ctx.vertex_array(program, list(content)))
+
+    def query(self, **kinds: bool) -> moderngl.Query:
+        """A query of ``kinds`` (moderngl's ``ctx.query`` keywords), one handed back by
+        :meth:`recycle` when there is one: a measured frame's queries are read after the
+        frame, then reused by the next (moderngl cannot delete a query)."""
+        key = tuple(sorted(k for k, v in kinds.items() if v))
+        free = self._queries.setdefault(key, [])
+        if free:
+            return free.pop()
+        query = self.ctx.query(**kinds)
+        self.made += 1
+        self._query_kinds[id(query)] = key
+        return query
+
+    def recycle(self, queries: Sequence[moderngl.Query]) -> None:
+        """Hand back queries of :meth:`query` whose results were read."""
+        for query in queries:
+            key = self._query_kinds.get(id(query))
+            if key is not None:
+                self._queries[key].append(query)
 
     def release(self) -> None:
         # dependents first (framebuffers and vertex arrays name the textures and buffers)

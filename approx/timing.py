@@ -20,6 +20,7 @@ from .invocations import InvocationQuery
 
 if TYPE_CHECKING:
     from .late_timer import LateTimer
+    from .resources import FrameResources
 
 TIMER_SENTINEL = 4294967295
 
@@ -53,8 +54,9 @@ class PassTimer:
     still ends with ``ctx.finish()``. ``shaded`` holds a pass only where the driver counts
     invocations."""
 
-    def __init__(self, ctx: moderngl.Context, use_queries: bool):
+    def __init__(self, ctx: moderngl.Context, use_queries: bool, pool: FrameResources | None = None):
         self.ctx = ctx
+        self.pool = pool  # where its queries come from and go back to once read (else new ones)
         self.use_queries = use_queries
         self.method = "gl_timer_query" if use_queries else "finish_wall_clock"
         self.seconds: dict[str, float] = {}
@@ -79,7 +81,8 @@ class PassTimer:
         """Time the pass ``name`` and, when ``counted``, count its fragments (written and
         shaded) and primitives."""
         kinds = {"samples": counted, "primitives": counted, "time": self.use_queries}
-        query = self.ctx.query(**kinds) if any(kinds.values()) else None
+        make = self.pool.query if self.pool is not None else self.ctx.query
+        query = make(**kinds) if any(kinds.values()) else None
         invocations = InvocationQuery(self.ctx) if counted else None
         if invocations is not None:
             invocations.begin()
@@ -110,6 +113,8 @@ class PassTimer:
                 invocations.release()
                 if shaded is not None:
                     self.shaded[name] = self.shaded.get(name, 0) + shaded
+        if self.pool is not None:
+            self.pool.recycle([query for _, (_, query), _ in self._pending if query is not None])
         self._pending = []
 
 
