@@ -16,8 +16,9 @@ from volcaustics.approx.debug_groups import DISPLAY_FRAME
 
 from .gl_calls import GLCall, blocking_calls, frames, parse_dump, trace_script
 
-# One display frame per argument, each doing the draws and uploads plus that argument's read.
-FRAME_SCRIPT = textwrap.dedent('''
+# What both scripts start with: a context, a program and a triangle to draw
+SETUP = textwrap.dedent('''
+    import json
     import sys
 
     import moderngl
@@ -31,6 +32,10 @@ FRAME_SCRIPT = textwrap.dedent('''
         fragment_shader="#version 330\\nout vec4 c;\\nvoid main() { c = vec4(1.0); }")
     vbo = ctx.buffer(np.array([-1, -1, 3, -1, -1, 3], "f4"))
     vao = ctx.vertex_array(prog, vbo, "p")
+''')
+
+# One display frame per argument, each doing the draws and uploads plus that argument's read.
+FRAME_SCRIPT = SETUP + textwrap.dedent('''
     tex = ctx.texture((16, 16), 4)
     fbo = ctx.framebuffer([tex])
     query = ctx.query(time=True)
@@ -47,22 +52,9 @@ FRAME_SCRIPT = textwrap.dedent('''
 ''')
 
 # Frames timed by LateTimer around draws and uploads; what it collected goes to timer.json.
-TIMER_SCRIPT = textwrap.dedent('''
-    import json
-    import sys
-
-    import moderngl
-    import numpy as np
-
-    from volcaustics.approx.debug_groups import DISPLAY_FRAME, debug_group
+TIMER_SCRIPT = SETUP + textwrap.dedent('''
     from volcaustics.approx.late_timer import LateTimer
 
-    ctx = moderngl.create_standalone_context(backend="egl")
-    prog = ctx.program(
-        vertex_shader="#version 330\\nin vec2 p;\\nvoid main() { gl_Position = vec4(p, 0.0, 1.0); }",
-        fragment_shader="#version 330\\nout vec4 c;\\nvoid main() { c = vec4(1.0); }")
-    vbo = ctx.buffer(np.array([-1, -1, 3, -1, -1, 3], "f4"))
-    vao = ctx.vertex_array(prog, vbo, "p")
     fbo = ctx.framebuffer([ctx.texture((64, 64), 4)])
     timer = LateTimer(ctx, frames_in_flight=4)
     for frame in range(int(sys.argv[1])):
