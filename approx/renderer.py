@@ -103,7 +103,7 @@ class Renderer:
     def _tracer(self, p: ApproxParams) -> PhotonTracer:
         """The emission and trace programs for ``p`` (equal defines, one program)."""
         key = ("tracer", *sorted(PhotonTracer.defines(p, self.controls).items()))
-        return self._cached(key, lambda: PhotonTracer(self.ctx, p, self.controls))
+        return self._cached(key, lambda: PhotonTracer(self.ctx, p, self.controls, self.pool))
 
     def _shading_programs(self, scene, p: ApproxParams) -> tuple:
         """(CameraPasses, Splatter) for the fog program's defines and the phase function."""
@@ -137,7 +137,7 @@ class Renderer:
         with debug_group(DISPLAY_FRAME):
             if late is not None:
                 late.begin_frame()
-            passes = self._passes(scene, p, DisplayTimer(late), keep_records=False, counted=False)
+            passes = self._passes(scene, p, DisplayTimer(late), keep_records=False)
             if late is not None:
                 late.end_frame()
         return passes["combined"]
@@ -155,7 +155,7 @@ class Renderer:
         p = (params or ApproxParams()).resolved(scene)
         timer = PassTimer(ctx, self._use_queries, self.pool)
         wall0 = time.perf_counter()
-        passes = self._passes(scene, p, timer, keep_records=keep_records, counted=True)
+        passes = self._passes(scene, p, timer, keep_records=keep_records)
         # the frame is drawn: everything it reports is read from here on
         caustic_steps = [read_rgb(image) for image in passes["steps"]]
         geometry = read_rgb(passes["gbuffer_geometry"])
@@ -178,14 +178,13 @@ class Renderer:
                            "shaded": dict(timer.shaded), **loop_work},
                      guides={"distance": geometry[..., 0], "normal": normal} if keep_guides else {})
 
-    def _passes(self, scene: Scene, p: ApproxParams, timer: PassTimer | DisplayTimer, *, keep_records: bool,
-                counted: bool) -> dict:
+    def _passes(self, scene: Scene, p: ApproxParams, timer: PassTimer | DisplayTimer, *, keep_records: bool) -> dict:
         """Every pass of one frame, in order, into the pool's buffers and images; nothing
         read. ``keep_records``: each step's records (and kernel differentials) kept in
         its own range for the read after the frame, else one range reused by every step;
-        ``counted``: the light maps count their fragments (queries read after the frame).
+        the light maps count their fragments where ``timer`` counts work (queries read after the frame).
         Returns the frame's GPU objects by name."""
-        pool = self.pool
+        pool, counted = self.pool, timer.counts
         self.geometry.place(scene)  # this frame's object transforms (meshes stay uploaded)
         box = medium_bounds(scene)  # holds light and camera: this frame's, not the construction's
         frustum = LightFrustum.for_scene(scene, *box)
@@ -195,7 +194,7 @@ class Renderer:
         with timer.measure("layers", counted=False):  # the light maps' own queries count it
             layer_maps = self.light_maps.render_layers(frustum, p.light_res, p.layers, p.layer_strategy,
                                                        primitive_ids=tracer.id_rule, pool=pool, count=counted)
-            maps = tracer.pack_maps(layer_maps, p.light_res, pool)
+            maps = tracer.pack_maps(layer_maps, p.light_res)
             shadow_map = self.light_maps.render_map(
                 frustum, p.light_res, facing=BOTH, include_diffuse=True, count=counted, pool=pool, name="shadow_map",
                 target=pool.texture("shadow_map", (p.light_res, p.light_res)))
@@ -204,7 +203,7 @@ class Renderer:
             emission_map = self.light_maps.render_light_map(frustum, p.photon_res, facing=BOTH, pool=pool,
                                                             name="emission_map", primitive_ids=tracer.id_rule,
                                                             count=counted)
-            photons = tracer.emit_photons(scene, frustum, emission_map, p.photon_res, p.seed, pool)
+            photons = tracer.emit_photons(scene, frustum, emission_map, p.photon_res, p.seed)
         timer.count("emission", self.light_maps.take_queries())
         view = camera_view(scene, p, box)
         with timer.measure("camera"):
@@ -238,7 +237,7 @@ class Renderer:
         kernel_source = tracer.kernel_source()
         kernels = (pool.buffer("kernel_differentials", p.steps * count * DIFFERENTIAL_DTYPE.itemsize)
                    if keep_records and kernel_source is not None else None)
-        tracer.start_frame(p.steps, pool)
+        tracer.start_frame(p.steps)
         images = []
         for step in range(1, p.steps + 1):
             offset = (step - 1) * stride
@@ -251,8 +250,7 @@ class Renderer:
                 self.ctx.copy_buffer(kernels, cast(moderngl.Buffer, tracer.kernel_source()), size,
                                      write_offset=(step - 1) * size)
             with timer.measure("splat"):
-                tracer.compact_splats(record_buf, count, splat_buf, commands, p, step, pool=pool,
-                                      records_offset=offset)
+                tracer.compact_splats(record_buf, count, splat_buf, commands, p, step, records_offset=offset)
             grid = None
             if splatter.density_program is not None:  # the density pre-pass, a pass of its own
                 with timer.measure("density"):
@@ -297,7 +295,7 @@ class Renderer:
                                                         name="emission_map", primitive_ids=tracer.id_rule, count=False)
         out = []
         for seed in seeds:
-            photons = tracer.emit_photons(scene, frustum, emission_map, p.photon_res, seed, self.pool)
+            photons = tracer.emit_photons(scene, frustum, emission_map, p.photon_res, seed)
             self.ctx.memory_barrier()
             out.append(emission_records(np.frombuffer(photons.read(), PHOTON_DTYPE)))
         return out

@@ -59,6 +59,7 @@ class PassTimer:
         self.pool = pool  # where its queries come from and go back to once read (else new ones)
         self.use_queries = use_queries
         self.method = "gl_timer_query" if use_queries else "finish_wall_clock"
+        self.counts = True  # it counts each pass's work (fragments, primitives)
         self.seconds: dict[str, float] = {}
         self.fragments: dict[str, int] = {}
         self.primitives: dict[str, int] = {}
@@ -126,6 +127,7 @@ class DisplayTimer:
     def __init__(self, late: LateTimer | None):
         self.late = late
         self.method = late.method if late is not None else "none"
+        self.counts = False
 
     def measure(self, name: str, counted: bool = True) -> contextlib.AbstractContextManager:
         return self.late.measure(name) if self.late is not None else contextlib.nullcontext()

@@ -114,8 +114,12 @@ class PhotonTracer:
     """Holds the compute programs for one setting of the trace program's defines
     (:meth:`defines`: the parameter table's ``program="trace"`` entries)."""
 
-    def __init__(self, ctx: moderngl.Context, params, controls: dict | None = None):
+    def __init__(self, ctx: moderngl.Context, params, controls: dict | None = None,
+                 pool: FrameResources | None = None):
         self.ctx = ctx
+        # where the frame's buffers live across frames (a renderer's); without one each call
+        # makes its own: the photons for the caller to release, the rest released here
+        self.pool = pool
         defines = self.defines(params, controls)
         shaders = {name: compute_shader(ctx, *source) for name, source in self.programs(params, controls).items()}
         self.emit, self.trace, self.pack = shaders["emit"], shaders["trace"], shaders["pack"]
@@ -131,8 +135,6 @@ class PhotonTracer:
         self.differentials: moderngl.Buffer | None = None
         # beam_width = differential: per photon the differential at its step's segment start (DIFFERENTIAL_DTYPE)
         self.segment_differentials: moderngl.Buffer | None = None
-        self._owns_differentials = False  # made here (no pool): released here
-        self._pool_work: moderngl.Buffer | None = None  # the work counters when a pool holds them
         self.splits = int(defines.get("FRESNEL_SPLITS", 0))  # fresnel_splits (scenes.splitting)
         self.emission_adaptive = "EMISSION_ADAPTIVE" in defines
         self.emission_shift = float(defines.get("EMISSION_SHIFT", 0.0))  # texels (a test's wrong grid, emit.comp.glsl)
@@ -192,17 +194,16 @@ class PhotonTracer:
         return self._solid_angles[key]
 
     def emit_photons(self, scene: Scene, frustum: LightFrustum, emission_map: LightMap, photon_res: int,
-                     seed: int, pool: FrameResources | None = None) -> moderngl.Buffer:
+                     seed: int) -> moderngl.Buffer:
         """Photon buffer (photon_res² slots of PHOTON_DTYPE) after emission and the first
         interaction; ``emission_map`` is a :class:`approx.layers.LightMap` at photon_res.
         With adaptive emission the slots are drawn first (:meth:`draw_slots`). The buffer
-        (and the differentials') is ``pool``'s, kept across frames, when given; else new
-        (the caller releases the photons)."""
-        ctx, prog = self.ctx, self.emit
+        (and the differentials') is the pool's, kept across frames, when the tracer has
+        one; else new (the caller releases the photons)."""
+        prog = self.emit
         batches = self.splits + 1  # fresnel_splits: photon_res² slots per batch (scenes.splitting)
         n = batches * photon_res * photon_res
-        photons = pool.buffer("photons", n * PHOTON_DTYPE.itemsize) if pool else ctx.buffer(
-            reserve=n * PHOTON_DTYPE.itemsize)
+        photons = self._buffer("photons", n * PHOTON_DTYPE.itemsize)
         ior, _ = _materials(scene)
         emission_map.surface.use(location=0)
         emission_map.geometric.use(location=1)
@@ -215,18 +216,12 @@ class PhotonTracer:
         photons.bind_to_storage_buffer(0)
         self._solid_angle_buffer(frustum, photon_res).bind_to_storage_buffer(1)
         if self.carries_differentials:  # the frame's differentials, beside the photons (emission, trace, compaction)
-            if self._owns_differentials:  # made by the last call without a pool
-                for buf in (self.differentials, self.segment_differentials):
-                    if buf is not None:
-                        buf.release()
+            self._release_own(self.differentials, self.segment_differentials)  # the last frame's
             nbytes = n * DIFFERENTIAL_DTYPE.itemsize
-            self.differentials = pool.buffer("differentials", nbytes) if pool else ctx.buffer(reserve=nbytes)
+            self.differentials = self._buffer("differentials", nbytes)
             self.differentials.bind_to_storage_buffer(2)
-            self.segment_differentials = None
-            if self.beam_differential:
-                self.segment_differentials = (pool.buffer("segment_differentials", nbytes) if pool
-                                              else ctx.buffer(reserve=nbytes))
-            self._owns_differentials = pool is None
+            self.segment_differentials = self._buffer("segment_differentials", nbytes) if self.beam_differential \
+                else None
         prog.run(group_x=math.ceil(photon_res / 8), group_y=math.ceil(photon_res / 8), group_z=batches)
         if slots is not None:
             slots.release()
@@ -278,19 +273,15 @@ class PhotonTracer:
         buffers = self.pack_maps(light_maps, light_res)
         return buffers, map_bounds(buffers, len(light_maps))
 
-    def pack_maps(self, light_maps: Sequence[LightMap], light_res: int,
-                  pool: FrameResources | None = None) -> MapBuffers:
+    def pack_maps(self, light_maps: Sequence[LightMap], light_res: int) -> MapBuffers:
         """The light maps (:class:`approx.layers.LightMap`) copied into the tracer's
-        storage buffers (:class:`MapBuffers`: ``pool``'s, kept across frames, when given;
-        else new ones, release them), with the range of each map's distances reduced on
+        storage buffers (:class:`MapBuffers`: the pool's, kept across frames, when the
+        tracer has one; else new ones, release them), with the range of each map's distances reduced on
         the GPU, never read here. With the ``hiz`` search the min–max pyramid is built
         here too (once per frame, like the maps)."""
         count = light_res * light_res
         n = len(light_maps)
-
-        def buffer(name: str, nbytes: int) -> moderngl.Buffer:
-            return pool.buffer(name, nbytes) if pool else self.ctx.buffer(reserve=nbytes)
-
+        buffer = self._buffer
         texels, distances = buffer("map_texels", 16 * count * n), buffer("map_distances", 4 * count * n)
         geometric = buffer("map_geometric", 8 * count * n)
         primitive = buffer("map_primitive", 4 * count * n) if self.id_rule else None
@@ -383,14 +374,22 @@ class PhotonTracer:
         self.ctx.memory_barrier()  # the photons and maps the passes before wrote
         prog.run(group_x=math.ceil(count / 64))
 
-    def start_frame(self, steps: int, pool: FrameResources | None = None) -> None:
-        """Zero the trace loop's work counters of a frame of ``steps`` steps (``pool``'s,
-        kept across frames, when given)."""
-        if self.work is not None and self.work is not self._pool_work:
-            self.work.release()
-        self.work = pool.buffer("trace_work", 8 * steps) if pool else self.ctx.buffer(reserve=8 * steps)
-        self._pool_work = self.work if pool else None
+    def start_frame(self, steps: int) -> None:
+        """Zero the trace loop's work counters of a frame of ``steps`` steps."""
+        self._release_own(self.work)
+        self.work = self._buffer("trace_work", 8 * steps)
         self.work.write(bytes(self.work.size))
+
+    def _buffer(self, name: str, nbytes: int) -> moderngl.Buffer:
+        """The pool's buffer ``name``, or without a pool a new one."""
+        return self.pool.buffer(name, nbytes) if self.pool is not None else self.ctx.buffer(reserve=nbytes)
+
+    def _release_own(self, *buffers: moderngl.Buffer | None) -> None:
+        """Release buffers :meth:`_buffer` made without a pool (a pool's stay its own)."""
+        if self.pool is None:
+            for buf in buffers:
+                if buf is not None:
+                    buf.release()
 
     def loop_work(self, steps: int) -> tuple:
         """The loop work of the frame's ``steps`` steps: (lookups, lockstep lookups), each
@@ -403,7 +402,7 @@ class PhotonTracer:
 
     def compact_splats(self, records: moderngl.Buffer, count: int, splats: moderngl.Buffer,
                        commands: moderngl.Buffer, params: ApproxParams | None = None, step: int = 1, *,
-                       pool: FrameResources | None = None, records_offset: int = 0) -> None:
+                       records_offset: int = 0) -> None:
         """Gather the medium collisions of one step's records (``count`` of them from byte
         ``records_offset`` of ``records``) into ``splats`` (SPLAT_DTYPE rows, capacity
         ``count``) in photon order, and their number into ``commands``
@@ -415,7 +414,7 @@ class PhotonTracer:
         carrying its kernel at its start and the kernel's rate along it
         (``approx.splat.beam_kernels``)."""
         blocks = math.ceil(count / COMPACT_BLOCK)
-        block_buf = pool.buffer("compact_blocks", 4 * blocks) if pool else self.ctx.buffer(reserve=4 * blocks)
+        block_buf = self._buffer("compact_blocks", 4 * blocks)
         records.bind_to_storage_buffer(0, offset=records_offset, size=count * RAW_RECORD_DTYPE.itemsize)
         block_buf.bind_to_storage_buffer(1)
         batch = count // (self.splits + 1)  # photon_res²: one batch's slots (scenes.splitting)
@@ -436,16 +435,10 @@ class PhotonTracer:
             set_uniforms(self.compact_write, splat_radius=p.splat_radius, splat_footprints=p.splat_footprints)
         self.compact_write.run(group_x=blocks)
         self.ctx.memory_barrier()  # the splat pass draws from the rows and the commands written here
-        if pool is None:
-            block_buf.release()
+        self._release_own(block_buf)
 
     def release(self) -> None:
-        if self.work is not None and self.work is not self._pool_work:
-            self.work.release()
-        if self._owns_differentials:
-            for buf in (self.differentials, self.segment_differentials):
-                if buf is not None:
-                    buf.release()
+        self._release_own(self.work, self.differentials, self.segment_differentials)
         for prog in (self.emit, self.trace, self.pack, self.pyramid, self.compact_count, self.compact_scan,
                      self.compact_write):
             if prog is not None:
