@@ -1,10 +1,11 @@
-"""What a frame of the approximation is on the host: :class:`Frame` (the measured
-frame's images, records, times and counts) and the helpers that read and compose it."""
+"""What a frame of the approximation is: :class:`FramePasses` (what its passes leave on the
+GPU), :class:`Frame` (the measured frame on the host: images, records, times and counts) and
+the helpers that read and compose it."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, cast
+from typing import TYPE_CHECKING, NamedTuple, cast
 
 import moderngl
 import numpy as np
@@ -17,6 +18,7 @@ if TYPE_CHECKING:
     from volcaustics.scenes.model import Scene
 
     from .params import ApproxParams
+    from .trace import PhotonTracer
 
 
 @dataclass
@@ -49,6 +51,25 @@ class Frame:
     gl: dict = field(default_factory=dict)
     guides: dict = field(default_factory=dict)
     work: dict = field(default_factory=dict)
+
+
+class FramePasses(NamedTuple):
+    """What one frame's passes leave on the GPU (the renderer's pool): the tracer that ran,
+    per step its caustic image, the records buffer (each step ``record_stride`` bytes on,
+    or all in one range: stride 0), the kernel differentials per step (or None), the
+    G-buffer, the fog and direct images, the caustic and the composed frame."""
+
+    tracer: PhotonTracer
+    steps: list
+    records: moderngl.Buffer
+    kernels: moderngl.Buffer | None
+    record_stride: int
+    gbuffer_geometry: moderngl.Texture
+    gbuffer_normal: moderngl.Texture
+    fog: moderngl.Texture
+    direct: moderngl.Texture
+    caustic: moderngl.Texture
+    combined: moderngl.Texture
 
 
 def read_rgb(tex: moderngl.Texture) -> np.ndarray:

@@ -18,7 +18,7 @@ def records_from_raw(raw: np.ndarray, step: int, *, active_only: bool = True,
     """Convert one step's raw GPU records (N rows of RAW_RECORD_DTYPE) to RECORD_DTYPE
     (photons not dead at this step, or every slot when ``active_only`` is false);
     ``differentials``: per slot, what the step's kernels were made of
-    (``PhotonTracer.kernel_differentials``, DIFFERENTIAL_DTYPE: splat = adaptive the
+    (``PhotonTracer.kernel_source``, DIFFERENTIAL_DTYPE: splat = adaptive the
     footprint after the step, beam_width = differential the footprint at the segment's
     start and its rate), else 0."""
     status = raw["end_status"][:, 3].astype(np.int64)

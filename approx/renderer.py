@@ -43,7 +43,7 @@ from .controls import check_controls, controls_for
 from .debug_groups import DISPLAY_FRAME, debug_group
 from .denoise import denoise_images, guides
 from .emission import RULES, approx_rays, draw_slots
-from .frame import Frame, camera_view, compose, image_size, read_rgb
+from .frame import Frame, FramePasses, camera_view, compose, image_size, read_rgb
 from .geometry import SceneGeometry
 from .late_timer import LateTimer
 from .layers import BOTH, LightMapRenderer
@@ -53,7 +53,7 @@ from .records import emission_records, records_from_raw
 from .resources import FrameResources
 from .splat import SPLAT_COMMANDS, Splatter, splat_commands
 from .timing import DisplayTimer, PassTimer, timer_queries_work
-from .trace import PhotonTracer
+from .trace import PhotonTracer, read_raw_records
 
 if TYPE_CHECKING:
     from volcaustics.scenes.model import Scene
@@ -140,7 +140,7 @@ class Renderer:
             passes = self._passes(scene, p, DisplayTimer(late), keep_records=False)
             if late is not None:
                 late.end_frame()
-        return passes["combined"]
+        return passes.combined
 
     def render(self, scene: Scene | None = None, params: ApproxParams | None = None, *, keep_records: bool = True,
                keep_guides: bool = False) -> Frame:
@@ -157,15 +157,15 @@ class Renderer:
         wall0 = time.perf_counter()
         passes = self._passes(scene, p, timer, keep_records=keep_records)
         # the frame is drawn: everything it reports is read from here on
-        caustic_steps = [read_rgb(image) for image in passes["steps"]]
-        geometry = read_rgb(passes["gbuffer_geometry"])
-        images = compose(caustic_steps, read_rgb(passes["fog"]), read_rgb(passes["direct"]), geometry, p)
+        caustic_steps = [read_rgb(image) for image in passes.steps]
+        geometry = read_rgb(passes.gbuffer_geometry)
+        images = compose(caustic_steps, read_rgb(passes.fog), read_rgb(passes.direct), geometry, p)
         # the G-buffer's normal leaves the GPU only for a denoiser or a temporal filter that reads it
-        normal = read_rgb(passes["gbuffer_normal"]) if keep_guides or p.denoise == "oidn" else None
+        normal = read_rgb(passes.gbuffer_normal) if keep_guides or p.denoise == "oidn" else None
         records = self._read_records(passes, p) if keep_records else []
         emitted = len(records[0]) if keep_records and records else None  # photons alive after emission
         timer.collect()
-        loop_work = dict(zip(("lookups", "lockstep_lookups"), passes["tracer"].loop_work(p.steps)))
+        loop_work = dict(zip(("lookups", "lockstep_lookups"), passes.tracer.loop_work(p.steps)))
         timings = dict(timer.seconds)
         timings["trace"] = sum(v for k, v in timings.items() if k.startswith("trace_step"))
         timings["frame_wall"] = time.perf_counter() - wall0
@@ -178,12 +178,13 @@ class Renderer:
                            "shaded": dict(timer.shaded), **loop_work},
                      guides={"distance": geometry[..., 0], "normal": normal} if keep_guides else {})
 
-    def _passes(self, scene: Scene, p: ApproxParams, timer: PassTimer | DisplayTimer, *, keep_records: bool) -> dict:
+    def _passes(self, scene: Scene, p: ApproxParams, timer: PassTimer | DisplayTimer, *,
+                keep_records: bool) -> FramePasses:
         """Every pass of one frame, in order, into the pool's buffers and images; nothing
         read. ``keep_records``: each step's records (and kernel differentials) kept in
         its own range for the read after the frame, else one range reused by every step;
         the light maps count their fragments where ``timer`` counts work (queries read after the frame).
-        Returns the frame's GPU objects by name."""
+        Returns the frame's GPU objects."""
         pool, counted = self.pool, timer.counts
         self.geometry.place(scene)  # this frame's object transforms (meshes stay uploaded)
         box = medium_bounds(scene)  # holds light and camera: this frame's, not the construction's
@@ -217,9 +218,8 @@ class Renderer:
         with timer.measure("compose", counted=False):  # the caustic as the host sums it, then the frame
             caustic = camera_passes.compose(steps["images"], view, "caustic")
             combined = camera_passes.compose([caustic, fog, direct], view, "combined")
-        return {"tracer": tracer, "steps": steps["images"], "records": steps["records"],
-                "kernels": steps["kernels"], "record_stride": steps["stride"], "gbuffer_geometry": gbuf_geo,
-                "gbuffer_normal": gbuf_nrm, "fog": fog, "direct": direct, "caustic": caustic, "combined": combined}
+        return FramePasses(tracer, steps["images"], steps["records"], steps["kernels"], steps["stride"], gbuf_geo,
+                           gbuf_nrm, fog, direct, caustic, combined)
 
     def _trace_and_splat(self, timer, tracer, splatter, scene, frustum, box, maps, photons, view, gbuf_geo,
                          p: ApproxParams, keep_records: bool) -> dict:
@@ -229,9 +229,9 @@ class Renderer:
         the records buffer, the kernel differentials' buffer (or None) and the records'
         stride per step (0: one range for every step)."""
         pool, count = self.pool, photon_slots(p)
-        slots = p.steps if keep_records else 1
-        stride = _aligned(count * RAW_RECORD_DTYPE.itemsize) if keep_records else 0
-        record_buf = pool.buffer("records", _aligned(count * RAW_RECORD_DTYPE.itemsize) * slots)
+        step_bytes = _aligned(count * RAW_RECORD_DTYPE.itemsize)
+        stride = step_bytes if keep_records else 0
+        record_buf = pool.buffer("records", step_bytes * (p.steps if keep_records else 1))
         splat_buf = pool.buffer("splats", count * SPLAT_DTYPE.itemsize)
         commands = pool.buffer("splat_commands", SPLAT_COMMANDS["nbytes"])
         kernel_source = tracer.kernel_source()
@@ -247,7 +247,7 @@ class Renderer:
             if kernels is not None:  # this step's kernels, kept for the read after the frame
                 self.ctx.memory_barrier()
                 size = count * DIFFERENTIAL_DTYPE.itemsize
-                self.ctx.copy_buffer(kernels, cast(moderngl.Buffer, tracer.kernel_source()), size,
+                self.ctx.copy_buffer(kernels, cast(moderngl.Buffer, kernel_source), size,
                                      write_offset=(step - 1) * size)
             with timer.measure("splat"):
                 tracer.compact_splats(record_buf, count, splat_buf, commands, p, step, records_offset=offset)
@@ -264,17 +264,16 @@ class Renderer:
             images.append(image)
         return {"images": images, "records": record_buf, "kernels": kernels, "stride": stride}
 
-    def _read_records(self, passes: dict, p: ApproxParams) -> list:
+    def _read_records(self, passes: FramePasses, p: ApproxParams) -> list:
         """Per step its records (RECORD_DTYPE, active photons) from a measured frame's buffers."""
-        count, stride = photon_slots(p), passes["record_stride"]
+        count, stride = photon_slots(p), passes.record_stride
         records = []
         for step in range(1, p.steps + 1):
-            raw = np.frombuffer(passes["records"].read(size=count * RAW_RECORD_DTYPE.itemsize,
-                                                       offset=(step - 1) * stride), RAW_RECORD_DTYPE)
+            raw = read_raw_records(passes.records, count, (step - 1) * stride)
             kernels = None
-            if passes["kernels"] is not None:
+            if passes.kernels is not None:
                 size = count * DIFFERENTIAL_DTYPE.itemsize
-                kernels = np.frombuffer(passes["kernels"].read(size=size, offset=(step - 1) * size),
+                kernels = np.frombuffer(passes.kernels.read(size=size, offset=(step - 1) * size),
                                         DIFFERENTIAL_DTYPE).copy()
             records.append(records_from_raw(raw, step, differentials=kernels))
         return records

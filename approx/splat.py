@@ -56,12 +56,6 @@ def splat_commands(count: int) -> bytes:
     return np.array([4, count, 0, 0, 0, 1, count, 0, 0, 0], np.uint32).tobytes()
 
 
-def splat_count(commands: moderngl.Buffer) -> int:
-    """The splats :meth:`approx.trace.PhotonTracer.compact_splats` gathered into ``commands`` (reads
-    it: waits for the GPU)."""
-    return int(np.frombuffer(commands.read(size=8), np.uint32)[1])
-
-
 def splats_from_arrays(end: ArrayLike, direction: ArrayLike, power: ArrayLike,
                        sigma: ArrayLike | None = None) -> np.ndarray:
     """Splat rows (SPLAT_DTYPE) from numpy arrays: end (N×3 collision points, m),

@@ -251,19 +251,12 @@ class PhotonTracer:
         :meth:`importance_map`) as a storage buffer."""
         return self.ctx.buffer(draw_slots(self.importance_map(scene, frustum, photon_res), seed).tobytes())
 
-    def kernel_differentials(self, count: int) -> np.ndarray | None:
-        """What the last step's kernels were made of, per photon slot (DIFFERENTIAL_DTYPE):
-        with splat = adaptive the photons' differentials now (the footprint where they
-        ended: compact.comp.glsl scales it), with beam_width = differential those at the
-        start of the step's segment (the beam's footprint there and its rate along it);
-        else None."""
-        buf = self.kernel_source()
-        if buf is None:
-            return None
-        return np.frombuffer(buf.read(size=count * DIFFERENTIAL_DTYPE.itemsize), DIFFERENTIAL_DTYPE).copy()
-
     def kernel_source(self) -> moderngl.Buffer | None:
-        """The buffer :meth:`kernel_differentials` reads (this frame's), or None."""
+        """What the last step's kernels were made of, per photon slot (DIFFERENTIAL_DTYPE;
+        this frame's buffer): with splat = adaptive the photons' differentials now (the
+        footprint where they ended: compact.comp.glsl scales it), with beam_width =
+        differential those at the start of the step's segment (the beam's footprint there
+        and its rate along it); else None."""
         return self.segment_differentials if self.beam_differential else self.differentials if self.adaptive else None
 
     def map_buffer(self, light_maps: Sequence[LightMap], light_res: int) -> tuple:
@@ -407,7 +400,7 @@ class PhotonTracer:
         ``records_offset`` of ``records``) into ``splats`` (SPLAT_DTYPE rows, capacity
         ``count``) in photon order, and their number into ``commands``
         (:data:`SPLAT_COMMANDS`, the splat pass's indirect draws): counted, summed and
-        placed on the GPU, never read here (:func:`splat_count` reads it). With ``splat =
+        placed on the GPU, never read here. With ``splat =
         adaptive`` each row carries its kernel width from the photons' differentials and
         ``params``' splat_radius and splat_footprints; with ``splat = beams`` the rows are
         the step's segments in the medium (BEAM_DTYPE), with beam_width = differential each
@@ -447,8 +440,9 @@ class PhotonTracer:
             buf.release()
 
 
-def read_raw_records(buf: moderngl.Buffer, count: int) -> np.ndarray:
-    return np.frombuffer(buf.read(size=count * RAW_RECORD_DTYPE.itemsize), dtype=RAW_RECORD_DTYPE)
+def read_raw_records(buf: moderngl.Buffer, count: int, offset: int = 0) -> np.ndarray:
+    """``count`` raw records (RAW_RECORD_DTYPE) of ``buf`` from byte ``offset`` (waits for the GPU)."""
+    return np.frombuffer(buf.read(size=count * RAW_RECORD_DTYPE.itemsize, offset=offset), dtype=RAW_RECORD_DTYPE)
 
 
 def read_photons(buf: moderngl.Buffer, count: int) -> np.ndarray:
