@@ -5,7 +5,8 @@ examples of the format). Paper Table 1: ``sphere1``, ``sphere2``, ``bunny``,
 ``feline`` (stand-in), ``skull`` (stand-in); paper Figure 5: ``two_spheres``,
 ``refocus``.
 
-Held-out scenes (``scenes/heldout/``: ``knot``, ``lens_array``, ``dense_forward``) are
+Held-out scenes (``scenes/heldout/``: ``knot``, ``lens_array``, ``dense_forward``,
+``water``, ``coil``) are
 scene files of other character that no search may tune on: the cross-validation of a
 configuration chosen on the built-ins (docs/decisions.md "Held-out scenes"). They are
 named by path (:func:`heldout_path`), never by a built-in name.
@@ -24,7 +25,7 @@ BUILTIN_NAMES = ("sphere1", "sphere2", "bunny", "feline", "skull", "two_spheres"
 
 
 HELDOUT_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "heldout")
-HELDOUT_NAMES = ("knot", "lens_array", "dense_forward")
+HELDOUT_NAMES = ("knot", "lens_array", "dense_forward", "water", "coil")
 
 
 def heldout_path(name: str) -> str:

@@ -14,6 +14,11 @@ origin. Closed generators return closed, outward-wound meshes.
 * ``skull_standin``: stand-in for the paper's Skull (10k triangles): a hollow
   closed shell (outer and inner surface nested) with eye, nose, top and
   foramen openings. Marching cubes of an implicit surface.
+* ``knot``, ``coil``: a tube swept along a torus knot or an upright helix (marching
+  cubes of the distance to the curve): rays along the axis meet many surfaces.
+* ``plate``: a thin plate with rounded edges.
+* ``water``: a slab whose top is a seeded sum of sine waves (a heightfield; flat bottom
+  and sides): a refracting surface that focuses light into a network of caustics.
 """
 
 from __future__ import annotations
@@ -200,20 +205,68 @@ def knot(radius: float = 0.35, tube: float = 0.06, p: int = 2, q: int = 3, resol
     """A (p, q) torus-knot tube (2, 3: the trefoil) about 2·(radius + tube) across: the
     curve r(t) = radius·(1 + ½cos qt)·(cos pt, ½ sin qt, sin pt) swept by a tube; it
     crosses over itself, so rays from above meet up to eight surfaces."""
-    from scipy.spatial import cKDTree
-
     t = np.linspace(0.0, 2.0 * np.pi, 4000, endpoint=False)
     ring = radius * (1.0 + 0.5 * np.cos(q * t))
     curve = np.stack([ring * np.cos(p * t), 0.5 * radius * np.sin(q * t), ring * np.sin(p * t)], axis=1)
+    extent = 1.5 * radius + tube
+    return _tube_along(curve, tube, (-extent, -0.5 * radius - tube, -extent), (extent, 0.5 * radius + tube, extent),
+                       resolution)
+
+
+def _tube_along(curve: np.ndarray, tube: float, lo, hi, resolution: int) -> Mesh:
+    """Closed mesh of the points within ``tube`` of the polyline ``curve`` (K×3)."""
+    from scipy.spatial import cKDTree
+
     tree = cKDTree(curve)
 
     def field(points):
         distance, _ = tree.query(points.reshape(-1, 3))
         return distance.reshape(points.shape[:-1]) - tube
 
-    extent = 1.5 * radius + tube
-    return _mesh_from_field(field, (-extent, -0.5 * radius - tube, -extent), (extent, 0.5 * radius + tube, extent),
-                            resolution)
+    return _mesh_from_field(field, lo, hi, resolution)
+
+
+def coil(radius: float = 0.25, tube: float = 0.045, pitch: float = 0.13, turns: float = 5.0,
+         resolution: int = 80) -> Mesh:
+    """An upright helix tube (a spring) of ``turns`` turns about the y axis, centred at the
+    origin: a ray along the axis through the tube's ring meets two surfaces per turn."""
+    t = np.linspace(0.0, 2.0 * np.pi * turns, int(800 * turns))
+    height = pitch * turns
+    curve = np.stack([radius * np.cos(t), pitch * t / (2.0 * np.pi) - height / 2.0, radius * np.sin(t)], axis=1)
+    reach = radius + tube
+    return _tube_along(curve, tube, (-reach, -height / 2.0 - tube, -reach), (reach, height / 2.0 + tube, reach),
+                       resolution)
+
+
+def water(size_x: float = 1.6, size_z: float = 1.6, depth: float = 0.06, amplitude: float = 0.006,
+          wavelength: float = 0.2, seed: int = 0, resolution: int = 128) -> Mesh:
+    """A slab of ``size_x`` × ``size_z`` whose top, ``depth`` above its flat bottom, is a
+    sum of five sine waves (wavelengths 0.7–1.3 × ``wavelength``, directions and phases
+    drawn from ``seed``) scaled to peak ``amplitude``: a heightfield on a
+    ``resolution``² grid, with flat bottom and sides; the bottom at y = 0."""
+    rng = np.random.default_rng(seed)
+    angles = rng.uniform(0.0, np.pi, 5)
+    phases = rng.uniform(0.0, 2.0 * np.pi, 5)
+    lengths = wavelength * np.array([1.0, 0.8, 1.3, 0.7, 1.1])
+    n = resolution
+    x = np.linspace(-size_x / 2.0, size_x / 2.0, n + 1)
+    z = np.linspace(-size_z / 2.0, size_z / 2.0, n + 1)
+    gx, gz = np.meshgrid(x, z, indexing="ij")
+    waves = sum(np.sin(2.0 * np.pi / lam * (np.cos(a) * gx + np.sin(a) * gz) + ph)
+                for a, ph, lam in zip(angles, phases, lengths))
+    heights = depth + amplitude * waves / np.abs(waves).max()
+    top = np.stack([gx, heights, gz], axis=-1).reshape(-1, 3)
+    bottom = np.stack([gx, np.zeros_like(gx), gz], axis=-1).reshape(-1, 3)
+    index = np.arange((n + 1) ** 2).reshape(n + 1, n + 1)
+    a, b, c, d = index[:-1, :-1], index[1:, :-1], index[1:, 1:], index[:-1, 1:]  # a cell, counter-clockwise in x, z
+    cells = np.stack([np.stack([a, c, b], -1), np.stack([a, d, c], -1)], axis=2).reshape(-1, 3)
+    ring = np.concatenate([index[:, 0], index[-1, 1:], index[-2::-1, -1], index[0, -2:0:-1]])  # boundary loop
+    following = np.roll(ring, -1)
+    offset = len(top)
+    sides = np.concatenate([np.stack([ring, following, following + offset], -1),
+                            np.stack([ring, following + offset, ring + offset], -1)])
+    faces = np.concatenate([cells, cells[:, ::-1] + offset, sides])
+    return _outward(Mesh(np.concatenate([top, bottom]), faces.astype(np.int64)))
 
 
 def plate(size_x: float = 0.6, size_z: float = 0.4, thickness: float = 0.04, resolution: int = 150) -> Mesh:
@@ -259,6 +312,22 @@ GENERATORS: dict[str, Generator] = {
         "thickness": ParamSpec(float, 0.04, 1e-4, 1e2, "thickness along y (m)"),
         "resolution": ParamSpec(int, 150, 8, 400, "marching-cubes cells along the longest side"),
     }, True, "a thin plate with rounded edges"),
+    "coil": Generator(coil, {
+        "radius": ParamSpec(float, 0.25, 1e-3, 1e3, "the helix's radius (m)"),
+        "tube": ParamSpec(float, 0.045, 1e-4, 1e2, "the tube's radius (m)"),
+        "pitch": ParamSpec(float, 0.13, 1e-3, 1e3, "rise per turn (m)"),
+        "turns": ParamSpec(float, 5.0, 0.1, 100, "turns"),
+        "resolution": ParamSpec(int, 80, 8, 400, "marching-cubes cells along the longest side"),
+    }, True, "an upright helix tube (many layers along its axis)"),
+    "water": Generator(water, {
+        "size_x": ParamSpec(float, 1.6, 1e-3, 1e3, "extent along x (m)"),
+        "size_z": ParamSpec(float, 1.6, 1e-3, 1e3, "extent along z (m)"),
+        "depth": ParamSpec(float, 0.06, 1e-4, 1e2, "mean depth, bottom to surface (m)"),
+        "amplitude": ParamSpec(float, 0.006, 0.0, 1e2, "the waves' peak height (m), < depth"),
+        "wavelength": ParamSpec(float, 0.2, 1e-3, 1e3, "the waves' mean wavelength (m)"),
+        "seed": ParamSpec(int, 0, 0, 2**31 - 1, "seed of the waves' directions and phases"),
+        "resolution": ParamSpec(int, 128, 2, 1024, "heightfield cells per side"),
+    }, True, "a slab with a wavy top (a caustic network)"),
     "skull_standin": Generator(skull_standin, {
         "resolution": ParamSpec(int, 31, 8, 400, "marching-cubes cells along the longest side"),
     }, True, "stand-in for the paper's Skull"),

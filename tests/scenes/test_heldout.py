@@ -1,5 +1,6 @@
 """The held-out scenes: they load, differ in character from the built-ins (a
-self-occluding knot, a lens array over a thin plate, a dense forward-scattering medium),
+self-occluding knot, a lens array over a thin plate, a dense forward-scattering medium,
+a wavy water surface, an upright coil),
 and no search spec names them (what a search tunes on cannot be where it is judged)."""
 
 from __future__ import annotations
@@ -46,6 +47,10 @@ def test_heldout_scenes_load_with_their_character():
     assert np.ptp(centred @ thinnest) <= 0.031  # a thin plate, 3 cm
     medium = scenes["dense_forward"].medium
     assert medium.phase.kind == "hg" and medium.phase.g >= 0.7 and min(medium.sigma_s) >= 0.5
+    assert _crossings(scenes["coil"], "coil") >= 10  # two surfaces a turn, five turns
+    surface = [o for o in scenes["water"].specular if o.name == "water"][0].mesh.load().vertices
+    top = surface[surface[:, 1] > surface[:, 1].min() + 1e-6, 1]  # the top: every vertex off the flat bottom
+    assert 0.03 <= np.ptp(top) <= 0.045  # waves of ±2 cm peak (the top's range), not a flat slab
     assert not set(HELDOUT_NAMES) & set(BUILTIN_NAMES)
 
 
