@@ -24,6 +24,8 @@ CONTROLS = {
                                 "(splat/beam.vert.glsl)"),
     "BEAM_FULLSCREEN": ("splat", "beams drawn over the whole image, not the quad that holds their kernels "
                                  "(splat/beam.vert.glsl)"),
+    "BALANCE_MIRRORED": ("splat", "balanced beam widths take the curvature of the mirrored pilot pixel: a wrong "
+                                  "curvature (splat/balance.frag.glsl)"),
     "STEP_IMAGES_KEPT": ("frame", "the step images not cleared between frames: what a frame leaves in the "
                                   "resources it keeps reaches the next (approx.renderer)"),
 }

@@ -1,7 +1,8 @@
 """Equal cost (docs/concepts/equal-cost.md): the photon_res at which a configuration's
 frame costs at most a target on a scene — the best search's step 1
 (``reports.studies.best.best_search``) and ``photon_res`` = auto (the preset ``best``: the paper
-configuration's frame at the same image size, on the scene at hand).
+configuration's frame at the same image size, on the scene at hand), after layers = auto
+(:func:`auto_layers`: the presets' layers from the scene's depth complexity).
 
 A frame's cost is its predicted time under every shipped weight set of the cost model
 (``approx.cost_model``: the counted work of every pass, fragments included, weighted by
@@ -35,7 +36,8 @@ from volcaustics import scenes
 from volcaustics.approx import Renderer, cost_model
 from volcaustics.approx.cost import frame_cost
 from volcaustics.approx.cost_model import WeightSetError, predicted_frames, weight_sets
-from volcaustics.approx.params import AUTO_PHOTON_RES, preset
+from volcaustics.approx.layers import levels_needed
+from volcaustics.approx.params import AUTO_LAYERS, AUTO_PHOTON_RES, preset
 from volcaustics.infra.sources import source_hash
 from volcaustics.infra.storage import atomic_path, cache_path, document_sha256, note_not_cached, read_json_object
 from volcaustics.scenes import resolve_scene
@@ -146,10 +148,16 @@ class CostMatcher:
 
 
 
-def with_auto_photon_res(scene_arg: str, params: ApproxParams, preset_name: str | None, given: bool) -> ApproxParams:
-    """``params`` with photon_res matched to the paper configuration's frame cost at the
-    same image size on ``scene_arg`` when the preset asks for it (AUTO_PHOTON_RES) and no
-    photon_res was ``given``; else ``params`` unchanged."""
+def with_auto_values(scene_arg: str, params: ApproxParams, preset_name: str | None, given: bool, *,
+                     layers_given: bool = False) -> ApproxParams:
+    """``params`` with the values the preset takes from the scene at hand: layers from
+    the scene's depth complexity (:func:`auto_layers`) when the preset asks for it
+    (AUTO_LAYERS) and no layers were given (``layers_given``); then photon_res matched
+    to the paper configuration's frame cost at the same image size on ``scene_arg`` when
+    the preset asks for it (AUTO_PHOTON_RES) and no photon_res was ``given``: the extra
+    layers' maps and lookups are paid for with photons. Else ``params`` unchanged."""
+    if preset_name in AUTO_LAYERS and not layers_given:
+        params = dataclasses.replace(params, layers=auto_layers(scene_arg, params.light_res))
     if preset_name not in AUTO_PHOTON_RES or given:
         return params
     scene = resolve_scene(scene_arg)
@@ -161,6 +169,23 @@ def with_auto_photon_res(scene_arg: str, params: ApproxParams, preset_name: str 
     finally:
         matcher.release()
     return matched
+
+
+@lru_cache(maxsize=64)
+def _levels(scene_hash: str, scene_arg: str, light_res: int) -> tuple:
+    scene = resolve_scene(scene_arg)
+    renderer = Renderer(scene)
+    try:
+        return tuple(renderer.depth_levels(scene, light_res))
+    finally:
+        renderer.release()
+
+
+def auto_layers(scene_arg: str, light_res: int) -> int:
+    """layers = auto on ``scene_arg``: the peeled light-map levels that hold a share of the
+    light's texels that is not negligible (``approx.layers.levels_needed``), at the
+    frame's ``light_res``, up to 8; 1 for a single convex object."""
+    return levels_needed(list(_levels(resolve_scene(scene_arg).scene_hash(), scene_arg, light_res)))
 
 
 def cost_ratio(cost: dict, target: dict) -> float:

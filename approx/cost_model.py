@@ -20,7 +20,7 @@ from volcaustics.infra.errors import InputError
 from volcaustics.infra.storage import special_file_kind
 
 from .cost import TIMED_PASSES
-from .params import differential_beams, param, photon_slots
+from .params import balanced_beams, differential_beams, param, photon_slots
 
 if TYPE_CHECKING:
     from .params import ApproxParams
@@ -65,6 +65,9 @@ def features(cost: dict, params: ApproxParams) -> dict:
     # its own weight
     own = splat_mode(params) == DIFFERENTIAL_BEAMS
     maps = 2.0 * float(params.layers) + 1.0  # a front and a back map per layer, and the shadow map
+    # beam_width = balanced: per step a pilot draw, the balance pass and a second compaction
+    # (their fragments are the splat pass's, counted with it: the pilot's shader is the beams')
+    compactions = 2.0 if balanced_beams(params) else 1.0
     return {
         "layers": {"calls": 1.0, "maps": maps, "texels": maps * float(params.light_res) ** 2,
                    "primitives": cost["primitives_layers"], "fragments": cost["fragments_layers"]},
@@ -77,7 +80,7 @@ def features(cost: dict, params: ApproxParams) -> dict:
                   "lockstep_lookups": cost["lockstep_lookups"]},
         "density": {"calls": steps if density else 0.0, "splats": cost["splats"] if density else 0.0,
                     "fragments": cost["fragments_density"]},
-        "splat": {"calls": steps, "invocations": launched * steps,
+        "splat": {"calls": steps * compactions, "invocations": launched * steps * compactions,
                   "splats": 0.0 if beams else cost["splats"], "fragments": 0.0 if beams else cost["fragments_splat"],
                   "beams": cost["splats"] if beams else 0.0, "beam_fragments": 0.0 if own else beam_fragments,
                   "own_beam_fragments": beam_fragments if own else 0.0},
@@ -136,7 +139,7 @@ def config_splat_modes(configs: dict) -> tuple:
     modes = {"fixed"}
     for changes in configs.values():
         splat, width = str(changes.get("splat", "fixed")), str(changes.get("beam_width", "fixed"))
-        modes.add(DIFFERENTIAL_BEAMS if splat == "beams" and width == "differential" else splat)
+        modes.add(DIFFERENTIAL_BEAMS if splat == "beams" and width != "fixed" else splat)
     return tuple(sorted(modes))
 
 

@@ -31,6 +31,12 @@ if TYPE_CHECKING:
     from .resources import FrameResources
 
 FRONT, BACK, BOTH = 1, -1, 0
+# layers = auto (the presets best and beams): the most levels it peels, the table's ceiling
+MOST_LEVELS = 8
+# ... and the share of the light's covered texels below which a level is negligible: a
+# level that 1% of the first level's texels reach carries about 1% of the photons that meet
+# the objects, what a layer fewer can lose at most (docs/decisions.md "Layers from the scene")
+LEVEL_SHARE = 0.01
 
 
 class LightMap(NamedTuple):
@@ -186,6 +192,19 @@ class LightMapRenderer:
         self.layer_queries = queries
         return maps
 
+    def depth_levels(self, frustum: LightFrustum, res: int, *, most: int = MOST_LEVELS) -> list[int]:
+        """Per peeled level (the i-th front and the i-th back face along each light ray,
+        ``peel``), the texels of res×res its two maps cover, from their occlusion queries
+        (read here: waits for the GPU), ``most`` levels."""
+        maps = self.render_layers(frustum, res, most, "peel", primitive_ids=False)
+        try:
+            self.queries = [q for q in self.queries if q not in self.layer_queries]  # read here, not by a frame
+            samples = [q.samples for q in self.layer_queries]
+        finally:
+            for m in maps:
+                m.release()
+        return [samples[2 * i] + samples[2 * i + 1] for i in range(most)]
+
     def release(self) -> None:
         for vao in (self.vao_specular, self.vao_diffuse):
             if vao is not None:
@@ -194,6 +213,17 @@ class LightMapRenderer:
         self._empty.release()
         for depth in self._depth.values():
             depth.release()
+
+
+def levels_needed(covered: list[int], share: float = LEVEL_SHARE) -> int:
+    """layers = auto: the levels of :meth:`LightMapRenderer.depth_levels` (texels covered
+    per peeled level) that hold at least ``share`` of the first level's texels, at least 1
+    (peeled levels only shrink: the first below the share ends the count)."""
+    first = covered[0] if covered else 0
+    count = 1
+    while count < len(covered) and first > 0 and covered[count] >= share * first:
+        count += 1
+    return count
 
 
 def read_map(tex: moderngl.Texture) -> np.ndarray:

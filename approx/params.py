@@ -177,9 +177,13 @@ _DECLARED: tuple = (  # one entry per ApproxParams field, in its order
     Param("beam_width", str, "fixed", "beams' kernel width: fixed (splat_radius along every beam) or differential "
           "(splat_footprints × the photon's ray-differential footprint, which changes linearly along the beam at "
           "the rate the differential carries, within [splat_radius/16, 4·splat_radius]: beams widen where the "
-          "light spreads and narrow where it focuses); other splat modes ignore it",
-          choices=("fixed", "differential"), program="trace", glsl="define",
-          to_defines=lambda v: {"BEAM_DIFFERENTIAL": 1} if v == "differential" else {}),
+          "light spreads and narrow where it focuses) or balanced (the differential width times a factor in "
+          "[1/8, 4] that balances the kernel's blur against its noise along the beam, from a pilot of the "
+          "step's beams at a quarter of the pixels: its curvature against its beams' variance); other splat "
+          "modes ignore it",
+          choices=("fixed", "differential", "balanced"), program="trace", glsl="define",
+          to_defines=lambda v: {"BEAM_DIFFERENTIAL": 1, **({"BEAM_BALANCED": 1} if v == "balanced" else {})}
+          if v != "fixed" else {}),
     Param("emission", str, "uniform", "where photons start: uniform (paper: one per covered texel of the photon "
           "map) or adaptive (the photon_res² photons drawn over the texels in proportion to their power times 1 + "
           "3 where the surface turns sharply or breaks, each weighted by 1/its expected count: unbiased)",
@@ -338,8 +342,14 @@ def defines(params: ParamsMethods, program: str) -> dict:
 
 def differential_beams(params: ParamsMethods) -> bool:
     """Whether ``params`` draw beams as wide as their photons' ray differentials (splat =
-    beams, beam_width = differential): the one test of it."""
-    return getattr(params, "splat", "fixed") == "beams" and getattr(params, "beam_width", "fixed") == "differential"
+    beams, beam_width = differential, or balanced: scaled by a pilot): the one test of it."""
+    return getattr(params, "splat", "fixed") == "beams" and getattr(params, "beam_width", "fixed") != "fixed"
+
+
+def balanced_beams(params: ParamsMethods) -> bool:
+    """Whether ``params``' beam widths are balanced by a pilot (splat = beams, beam_width =
+    balanced: approx.splat.Splatter.balance_map)."""
+    return getattr(params, "splat", "fixed") == "beams" and getattr(params, "beam_width", "fixed") == "balanced"
 
 
 def photon_slots(params: ApproxParams) -> int:
@@ -388,6 +398,9 @@ BEAMS = {"splat": "beams", "beam_width": "differential", "splat_footprints": 1.0
          "fresnel": "stratified", "steps": 8, "layers": 2, "fresnel_splits": 2, "split_every": 2}
 PRESET_VALUES["beams"] = {**PRESET_VALUES["quick"], **BEAMS}
 AUTO_PHOTON_RES = {"best": "quick", "beams": "quick"}  # preset → the preset whose frame cost its photon_res matches
+# the presets whose layers come from the scene (layers = auto, approx.cost_match.auto_layers:
+# the peeled light-map levels that hold ≥ 1% of the light's texels), unless --layers is given
+AUTO_LAYERS: tuple[str, ...] = ()
 
 
 _P = TypeVar("_P", bound=ParamsMethods)

@@ -48,7 +48,7 @@ from .geometry import SceneGeometry
 from .late_timer import LateTimer
 from .layers import BOTH, LightMapRenderer
 from .light import LightFrustum
-from .params import ApproxParams, defines, photon_slots
+from .params import ApproxParams, balanced_beams, defines, photon_slots
 from .records import emission_records, records_from_raw
 from .resources import FrameResources
 from .splat import SPLAT_COMMANDS, Splatter, splat_commands
@@ -112,10 +112,11 @@ class Renderer:
         camera = self._cached(("camera", *sorted(fog.items()), phase_key),
                               lambda: CameraPasses(self.ctx, scene, fog, pool=self.pool))
         controls = controls_for(self.controls, "splat") if p.splat in ("density", "beams") else {}
-        splatter = self._cached(("splat", phase_key, p.splat, *sorted(controls.items())),
+        balanced = balanced_beams(p)
+        splatter = self._cached(("splat", phase_key, p.splat, balanced, *sorted(controls.items())),
                                 lambda: Splatter(self.ctx, scene.medium, adaptive=p.splat == "adaptive",
                                                  density=p.splat == "density", beams=p.splat == "beams",
-                                                 controls=controls, pool=self.pool))
+                                                 balanced=balanced, controls=controls, pool=self.pool))
         return camera, splatter
 
     def draw(self, scene: Scene | None = None, params: ApproxParams | None = None) -> moderngl.Texture:
@@ -244,13 +245,17 @@ class Renderer:
             with timer.measure(f"trace_step{step}"):
                 tracer.trace_step(scene, frustum, box, maps, p.light_res, photons, record_buf, count, step, p.seed,
                                   objects_box=self.geometry.objects_box, records_offset=offset)
-            if kernels is not None:  # this step's kernels, kept for the read after the frame
+            with timer.measure("splat"):
+                tracer.compact_splats(record_buf, count, splat_buf, commands, p, step, records_offset=offset)
+                if tracer.balanced:  # a pilot of the beams at their differential widths, then widths it balances
+                    balance = splatter.balance_map(splat_buf, commands, view, scene.medium, p.splat_radius, gbuf_geo)
+                    tracer.compact_splats(record_buf, count, splat_buf, commands, p, step, records_offset=offset,
+                                          balance=(balance, view))
+            if kernels is not None:  # this step's kernels (as the compaction left them), for the read after the frame
                 self.ctx.memory_barrier()
                 size = count * DIFFERENTIAL_DTYPE.itemsize
                 self.ctx.copy_buffer(kernels, cast(moderngl.Buffer, kernel_source), size,
                                      write_offset=(step - 1) * size)
-            with timer.measure("splat"):
-                tracer.compact_splats(record_buf, count, splat_buf, commands, p, step, records_offset=offset)
             grid = None
             if splatter.density_program is not None:  # the density pre-pass, a pass of its own
                 with timer.measure("density"):
@@ -277,6 +282,16 @@ class Renderer:
                                         DIFFERENTIAL_DTYPE).copy()
             records.append(records_from_raw(raw, step, differentials=kernels))
         return records
+
+    def depth_levels(self, scene: Scene | None = None, light_res: int = 256) -> list[int]:
+        """Per peeled level of the light maps (``approx.layers``: the i-th front and back
+        face along each light ray), the texels of a light_res² map it covers on ``scene``
+        (None: the construction's): the scene's depth complexity from the light, which
+        ``layers_needed`` turns into layers = auto. Reads queries: not a display frame's."""
+        scene = scene or self.scene
+        self.geometry.place(scene)
+        frustum = LightFrustum.for_scene(scene, *medium_bounds(scene))
+        return self.light_maps.depth_levels(frustum, light_res)
 
     def first_records(self, scene: Scene | None, params: ApproxParams, seeds: Iterable[int]) -> list:
         """Per seed in ``seeds``, the emission state an exact replay starts from: the

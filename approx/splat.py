@@ -9,6 +9,7 @@ arrays (for instance from the exact photon tracer) via :func:`splats_from_arrays
 
 from __future__ import annotations
 
+import copy
 from typing import TYPE_CHECKING, cast
 
 import moderngl
@@ -43,6 +44,9 @@ DENSITY_FLOOR = 0.5
 # beam_width = differential: the least σ0 a row carries (m), so that one whose footprint is 0
 # where it starts (at a focus) still carries its own kernel (Beam.dir.w > 0; compact.comp.glsl)
 BEAM_SIGMA_FLOOR = 1e-20
+# beam_width = balanced: the pilot's pixels are this many of the image's a side (a quarter
+# of the fragments), fine enough for the curvature of a caustic a few pixels wide
+PILOT_DIVISOR = 2
 
 # The splat pass's indirect draw commands (compact.comp.glsl PASS_SCAN): two
 # DrawArraysIndirectCommand rows 5 uint32 apart (moderngl's render_indirect stride), the
@@ -171,15 +175,24 @@ class Splatter:
     """Splat program for one phase function and splat mode (``adaptive``: each splat's
     own kernel, where it has one; ``density``: each splat's kernel from the photons per
     cell of a pre-pass, ``splat_neighbours`` of them within it; ``beams``: the rows are
-    beams, BEAM_DTYPE; ``controls``: a test's changes to the splat program)."""
+    beams, BEAM_DTYPE; ``balanced``: beams whose widths a pilot balances
+    (:meth:`balance_map`); ``controls``: a test's changes to the splat program)."""
 
     def __init__(self, ctx: moderngl.Context, medium, *, adaptive: bool = False, density: bool = False,
-                 beams: bool = False, controls: dict | None = None, pool: FrameResources | None = None):
+                 beams: bool = False, balanced: bool = False, controls: dict | None = None,
+                 pool: FrameResources | None = None):
         self.ctx = ctx
         self.beams = beams
-        programs = self.programs(medium, adaptive=adaptive, density=density, beams=beams, controls=controls)
+        programs = self.programs(medium, adaptive=adaptive, density=density, beams=beams, balanced=balanced,
+                                 controls=controls)
         (vertex, fragment), defines = programs["splat"]
         self.program = program(ctx, vertex, fragment, defines)
+        self.pilot_program = self.balance_program = None
+        if balanced:
+            (vertex, fragment), pilot = programs["pilot"]
+            self.pilot_program = program(ctx, vertex, fragment, pilot)
+            (vertex, fragment), balance = programs["balance"]
+            self.balance_program = program(ctx, vertex, fragment, balance)
         self.density_program = None
         if density:
             (vertex, fragment), _ = programs["density"]
@@ -192,11 +205,12 @@ class Splatter:
         # renderer's (one pool, so that what they name is held or tracked there) or its own
         self.pool = pool or FrameResources(ctx)
         self._own_pool = pool is None
-        self.pool.track(self.program, self.corners, *([self.density_program] if self.density_program else []))
+        self.pool.track(self.program, self.corners, *(p for p in (self.density_program, self.pilot_program,
+                                                                  self.balance_program) if p is not None))
 
     @staticmethod
     def programs(medium: Medium, *, adaptive: bool = False, density: bool = False, beams: bool = False,
-                 controls: dict | None = None) -> dict:
+                 balanced: bool = False, controls: dict | None = None) -> dict:
         """name → (shader stages, defines) of every program a Splatter compiles: the
         constructor's list and the shader check's (scripts/check_shaders.py); "widths"
         (a vertex stage alone, by transform feedback) is compiled when first used."""
@@ -206,7 +220,14 @@ class Splatter:
         if density:
             defines.update({"SPLAT_DENSITY": 1, **(controls or {})})
         if beams:
-            return {"splat": (("splat/beam.vert.glsl", "splat/beam.frag.glsl"), {**defines, **(controls or {})})}
+            stages = ("splat/beam.vert.glsl", "splat/beam.frag.glsl")
+            beam_defines = {**defines, **(controls or {})}
+            out_beams = {"splat": (stages, beam_defines)}
+            if balanced:
+                out_beams["pilot"] = (stages, {**beam_defines, "BEAM_PILOT": 1})
+                out_beams["balance"] = (("shade/fullscreen.vert.glsl", "splat/balance.frag.glsl"),
+                                        {k: v for k, v in (controls or {}).items() if k.startswith("BALANCE_")})
+            return out_beams
         out: dict[str, tuple[tuple[str, ...], dict]] = {
             "splat": (("splat/splat.vert.glsl", "splat/splat.frag.glsl"), defines)}
         if density:
@@ -285,7 +306,7 @@ class Splatter:
         sigma_bar = medium.sigma_bar
         if sigma_bar <= 0:
             return
-        ctx, prog = self.ctx, self.program
+        prog = self.program
         if self.density_program is not None and grid is None:
             grid = self.density_grid(splats, commands, view)
         view.set_uniforms(prog)
@@ -300,17 +321,54 @@ class Splatter:
         uniform(prog, "scene_distance").value = 0
         if grid is not None:
             self._use_density(prog, grid, commands, splat_neighbours)
+        self._add(prog, splats, commands, target, name)
+
+    def _add(self, prog: moderngl.Program, splats: moderngl.Buffer, commands: moderngl.Buffer,
+             target: moderngl.Texture, name: str) -> None:
+        """Draw the rows ``commands`` counts with ``prog`` (its uniforms set) into ``target``."""
         fmt, names = attribute_layout(prog, BEAM_PARTS if self.beams else INSTANCE_PARTS, per_instance=True)
         content = [(self.corners, "2f", "in_corner"), (splats, fmt, *names)]
-        vao = self.pool.vertex_array("splat_vertex_array", prog, content)
+        vao = self.pool.vertex_array(f"{name}_vertex_array" if prog is not self.program else "splat_vertex_array",
+                                     prog, content)
         fbo = self.pool.framebuffer(f"{name}_framebuffer", [target])
-        _add_into(ctx, fbo, vao, moderngl.TRIANGLE_STRIP, commands, "quads")
+        _add_into(self.ctx, fbo, vao, moderngl.TRIANGLE_STRIP, commands, "quads")
+
+    def balance_map(self, beams: moderngl.Buffer, commands: moderngl.Buffer, view: CameraView, medium: Medium,
+                    splat_radius: float, scene_distance: moderngl.Texture) -> moderngl.Texture:
+        """beam_width = balanced: the pilot of the beams ``commands`` counts (BEAM_DTYPE rows
+        at their differential widths, estimated at 1/PILOT_DIVISOR of the view's pixels a
+        side) and from it the balance map (R32F, bilinear, the pilot's size: per pixel ln
+        of the width factor that balances the blur's bias against the noise there,
+        splat/balance.frag.glsl), the pool's, kept across frames. Nothing is read."""
+        ctx = self.ctx
+        prog, balance = cast(moderngl.Program, self.pilot_program), cast(moderngl.Program, self.balance_program)
+        pilot_view = copy.copy(view)  # the same projection at coarser pixels
+        pilot_view.width, pilot_view.height = -(-view.width // PILOT_DIVISOR), -(-view.height // PILOT_DIVISOR)
+        size = (pilot_view.width, pilot_view.height)
+        pilot = self.pool.texture("balance_pilot", size)
+        self.pool.framebuffer("balance_pilot_framebuffer", [pilot]).clear(0.0, 0.0, 0.0, 0.0)
+        pilot_view.set_uniforms(prog)
+        uniform(prog, "sigma_s").value = tuple(medium.sigma_s)
+        uniform(prog, "sigma_t").value = tuple(medium.sigma_t)
+        set_uniforms(prog, splat_radius=float(splat_radius), gbuffer_step=float(PILOT_DIVISOR),
+                     pixel_angle=2.0 / (float(view.proj[1, 1]) * pilot_view.height))
+        scene_distance.use(location=0)
+        uniform(prog, "scene_distance").value = 0
+        self._add(prog, beams, commands, pilot, "balance_pilot")
+        out = self.pool.texture("balance_map", size, 1, linear=True)
+        pilot.use(location=0)
+        uniform(balance, "pilot").value = 0
+        fbo = self.pool.framebuffer("balance_map_framebuffer", [out])
+        vao = self.pool.vertex_array("balance_vertex_array", balance, [])
+        with bound(ctx, fbo):
+            vao.render(moderngl.TRIANGLES, vertices=3)
+        return out
 
     def release(self) -> None:
         if self._own_pool:
             self.pool.release()
         self.program.release()
-        for prog in (self.density_program, self.widths_program):
+        for prog in (self.density_program, self.widths_program, self.pilot_program, self.balance_program):
             if prog is not None:
                 prog.release()
         self.corners.release()

@@ -130,6 +130,7 @@ class PhotonTracer:
         self.compact_scan = shaders["compact_scan"]
         self.adaptive = "SPLAT_ADAPTIVE" in defines
         self.beam_differential = "BEAM_DIFFERENTIAL" in defines
+        self.balanced = "BEAM_BALANCED" in defines  # beam_width = balanced: compact_splats scales by a balance map
         self.carries_differentials = "DIFFERENTIALS" in defines
         # splat = adaptive or beam_width = differential: the photons' DIFFERENTIAL_DTYPE buffer of this frame
         self.differentials: moderngl.Buffer | None = None
@@ -155,7 +156,8 @@ class PhotonTracer:
                  **controls_for(controls, "trace")}
         table = table_defines(params, "trace")
         if "SPLAT_BEAMS" not in table:
-            table.pop("BEAM_DIFFERENTIAL", None)  # beam_width: beams only (one program for the others)
+            for name in ("BEAM_DIFFERENTIAL", "BEAM_BALANCED"):  # beam_width: beams only (one program for the others)
+                table.pop(name, None)
         if carries_differentials(params):
             table["DIFFERENTIALS"] = 1  # emission and trace propagate them
         return {**fixed, **table}
@@ -174,7 +176,8 @@ class PhotonTracer:
                "compact_scan": ("splat/compact.comp.glsl", {"PASS_SCAN": 1}),
                "compact_write": ("splat/compact.comp.glsl", {**splits, **(
                    {"SPLAT_ADAPTIVE": 1} if "SPLAT_ADAPTIVE" in defines
-                   else {**beams, "BEAM_SIGMA_FLOOR": BEAM_SIGMA_FLOOR} if beams else {})})}
+                   else {**beams, "BEAM_SIGMA_FLOOR": BEAM_SIGMA_FLOOR,
+                         **({"BEAM_BALANCED": 1} if "BEAM_BALANCED" in defines else {})} if beams else {})})}
         if "SEARCH_HIZ" in defines:
             out["pyramid"] = ("trace/pyramid.comp.glsl", {})
         if "EMISSION_ADAPTIVE" in defines:
@@ -395,7 +398,7 @@ class PhotonTracer:
 
     def compact_splats(self, records: moderngl.Buffer, count: int, splats: moderngl.Buffer,
                        commands: moderngl.Buffer, params: ApproxParams | None = None, step: int = 1, *,
-                       records_offset: int = 0) -> None:
+                       records_offset: int = 0, balance: tuple | None = None) -> None:
         """Gather the medium collisions of one step's records (``count`` of them from byte
         ``records_offset`` of ``records``) into ``splats`` (SPLAT_DTYPE rows, capacity
         ``count``) in photon order, and their number into ``commands``
@@ -405,7 +408,11 @@ class PhotonTracer:
         ``params``' splat_radius and splat_footprints; with ``splat = beams`` the rows are
         the step's segments in the medium (BEAM_DTYPE), with beam_width = differential each
         carrying its kernel at its start and the kernel's rate along it
-        (``approx.splat.beam_kernels``)."""
+        (``approx.splat.beam_kernels``). With beam_width = balanced, ``balance`` (the
+        balance map of the step's pilot, ``approx.splat.Splatter.balance_map``, and the
+        camera's view) scales each beam's differential in place by the balance along it
+        (splat/balance.glsl) before its kernel is made; None: the widths as they are (the
+        pilot's)."""
         blocks = math.ceil(count / COMPACT_BLOCK)
         block_buf = self._buffer("compact_blocks", 4 * blocks)
         records.bind_to_storage_buffer(0, offset=records_offset, size=count * RAW_RECORD_DTYPE.itemsize)
@@ -426,6 +433,13 @@ class PhotonTracer:
             cast(moderngl.Buffer, kernel_source).bind_to_storage_buffer(3)
             p = cast("ApproxParams", params)  # given with splat = adaptive or differential beams (the docstring)
             set_uniforms(self.compact_write, splat_radius=p.splat_radius, splat_footprints=p.splat_footprints)
+        if self.balanced:
+            set_uniforms(self.compact_write, balance_apply=int(balance is not None))
+            if balance is not None:
+                balance_map, view = balance
+                balance_map.use(location=0)
+                set_uniforms(self.compact_write, balance_map=0)
+                view.set_uniforms(self.compact_write)
         self.compact_write.run(group_x=blocks)
         self.ctx.memory_barrier()  # the splat pass draws from the rows and the commands written here
         self._release_own(block_buf)

@@ -25,7 +25,7 @@ import time
 
 
 def config_params(name: str, scene: str):
-    from volcaustics.approx.cost_match import with_auto_photon_res
+    from volcaustics.approx.cost_match import with_auto_values
     from volcaustics.approx.params import PRESETS, QUICK
 
     if name == "paper":
@@ -33,7 +33,7 @@ def config_params(name: str, scene: str):
     if name == "adaptive":
         return dataclasses.replace(QUICK, splat="adaptive", emission="adaptive")
     if name == "best":
-        return with_auto_photon_res(scene, PRESETS["best"], "best", given=False)
+        return with_auto_values(scene, PRESETS["best"], "best", given=False)
     raise SystemExit(f"--configs: unknown configuration {name!r} (paper, adaptive, best)")
 
 

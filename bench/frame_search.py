@@ -103,6 +103,24 @@ CANDIDATES.update({f"bsplit{k}": {**_STRAT, "steps": 8, "fresnel_splits": k} for
 CANDIDATES.update({f"bsplit{k}-e{m}": {**_STRAT, "steps": 8, "fresnel_splits": k, "split_every": m}
                    for k in (1, 2, 3) for m in (2, 3, 4, 8)})
 
+# issue 71: the preset beams as it is, and with its layers from the scene (layers = auto,
+# approx.cost_match.auto_layers: resolved per scene before the cost match pays for them)
+AUTO = "auto"
+_PRESET_BEAMS = {"splat": "beams", "beam_width": "differential", "splat_footprints": 1.0, "splat_radius": 0.01,
+                 "fresnel": "stratified", "steps": 8, "layers": 2, "fresnel_splits": 2, "split_every": 2}
+CANDIDATES.update({"preset-beams": _PRESET_BEAMS, "beams-auto-layers": {**_PRESET_BEAMS, "layers": AUTO}})
+
+
+def candidate(name: str, label: str, base):
+    """The candidate ``label``'s parameters on scene ``name`` (its layers resolved there
+    where it asks for layers = auto)."""
+    from volcaustics.approx.cost_match import auto_layers
+
+    changes = dict(CANDIDATES[label])
+    if changes.get("layers") == AUTO:
+        changes["layers"] = auto_layers(name, changes.get("light_res", base.light_res))
+    return dataclasses.replace(base, **changes)
+
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -129,7 +147,7 @@ def main(argv=None) -> int:
         scene = resolve_scene(name)
         target = matcher.cost(name, QUICK)
         for label in args.candidates.split(","):
-            params = dataclasses.replace(QUICK, **CANDIDATES[label])
+            params = candidate(name, label, QUICK)
             if label != "paper":
                 params = matcher.match(name, params, target)
                 matcher.save()
@@ -138,7 +156,7 @@ def main(argv=None) -> int:
             s = run_experiment(scene, params, seeds=args.seeds, reference=reference,
                                measurement=MeasurementSettings(scope="gate")).summary
             c = s["images"]["caustic"]
-            point = {"scene": scene.name, "candidate": label, "photon_res": params.photon_res,
+            point = {"scene": scene.name, "candidate": label, "photon_res": params.photon_res, "layers": params.layers,
                      "cost_ratio": cost_ratio(s["predicted_frame"], target),
                      "time_ratio": measured_time_ratio(name, params, QUICK)["ratio"],
                      "frame": c["frame_relative_mse"]["debiased"],

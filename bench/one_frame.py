@@ -28,11 +28,11 @@ CONFIGS = {"paper": {}, "random": {"emission_jitter": "random"}, "sobol": {"emis
 
 
 def config_params(name: str, scene: str):
-    from volcaustics.approx.cost_match import with_auto_photon_res
+    from volcaustics.approx.cost_match import with_auto_values
     from volcaustics.approx.params import PRESETS, QUICK
 
     if name == "best" or name.startswith("best+"):
-        best = with_auto_photon_res(scene, PRESETS["best"], "best", given=False)
+        best = with_auto_values(scene, PRESETS["best"], "best", given=False)
         return dataclasses.replace(best, **CONFIGS[name.split("+", 1)[1]]) if "+" in name else best
     if "=" in name:  # NAME=VALUE/NAME=VALUE…: any parameters on the quick preset
         from volcaustics.approx.params import param

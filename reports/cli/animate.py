@@ -50,7 +50,7 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from volcaustics.approx.cost_match import with_auto_photon_res
+    from volcaustics.approx.cost_match import with_auto_values
     from volcaustics.reports.measuring.experiment.point_checks import checked_settings
     from volcaustics.reports.studies.animate.animation_frames import WORK
     from volcaustics.reports.studies.animate.animation_measure import run_animate
@@ -77,7 +77,8 @@ def run(args: argparse.Namespace) -> int:
     if args.width is None and args.height is None:
         width, height = animation_size(scene.camera)
         params = dataclasses.replace(params, width=width, height=height)
-    params = with_auto_photon_res(args.scene, params, args.preset, args.photon_res is not None)  # at the frames' size
+    params = with_auto_values(args.scene, params, args.preset, args.photon_res is not None,  # at the frames' size
+                              layers_given=args.layers is not None)
     base = params.seed
     top_seed = max(chain_seed(m, base, c, args.chains, t) for t in frames for m in args.modes
                    for c in range(args.chains))

@@ -26,7 +26,7 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from volcaustics.approx.cost_match import with_auto_photon_res
+    from volcaustics.approx.cost_match import with_auto_values
     from volcaustics.reports.measuring.experiment.point_checks import check_denoiser
     from volcaustics.reports.presenting.exports.approx_files import run_approx
     from volcaustics.scenes import resolve_scene
@@ -36,7 +36,8 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError("--records-max", args.records_max, "expected 0 (none), -1 (all) or a positive count")
     scene = resolve_scene(args.scene)
     check_denoiser(params_from_args(args))  # before the cost match renders
-    params = with_auto_photon_res(args.scene, params_from_args(args), args.preset, args.photon_res is not None)
+    params = with_auto_values(args.scene, params_from_args(args), args.preset, args.photon_res is not None,
+                              layers_given=args.layers is not None)
     note = preset_size_note(args, params, scene)
     if note:
         print(f"approx: {note}", file=sys.stderr)

@@ -40,7 +40,7 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from volcaustics.approx.cost_match import equal_cost_check, with_auto_photon_res
+    from volcaustics.approx.cost_match import equal_cost_check, with_auto_values
     from volcaustics.reports.measuring import runner
     from volcaustics.reports.measuring.experiment.measure_outputs import OUTPUT_FILES, write_experiment
     from volcaustics.reports.measuring.experiment.point_checks import checked_settings
@@ -51,7 +51,8 @@ def run(args: argparse.Namespace) -> int:
     scene = resolve_scene(args.scene)
     measurement = measurement_from_args(args)  # a bad --exact-subphotons: before the cost match and the reference
     checked_settings(scene, params_from_args(args), args.seeds)  # a bad seed count or size: before the cost match
-    params = with_auto_photon_res(args.scene, params_from_args(args), args.preset, args.photon_res is not None)
+    params = with_auto_values(args.scene, params_from_args(args), args.preset, args.photon_res is not None,
+                              layers_given=args.layers is not None)
     checked_settings(scene, params, args.seeds)  # the matched frame too: before the reference
     note = preset_size_note(args, params, scene)
     if note:

@@ -7,7 +7,7 @@ import pytest
 
 from tests.shared import make_scene, ray_sphere, shell_spec, sphere_spec
 from volcaustics.approx.geometry import SceneGeometry
-from volcaustics.approx.layers import LightMapRenderer, decode_normals, read_map
+from volcaustics.approx.layers import LightMapRenderer, decode_normals, levels_needed, read_map
 from volcaustics.approx.light import LightFrustum
 from volcaustics.scenes.bounds import medium_bounds
 
@@ -176,3 +176,26 @@ def test_geometric_normals_are_the_outward_triangle_normals(ctx, strategy):
     for r in (texels, distances, geometric, *light_maps):
         r.release()
     tracer.release(), lm.release(), geo.release()
+
+
+def test_levels_needed_counts_the_levels_above_the_share():
+    """layers = auto's rule on texel counts per peeled level: levels down to the first that
+    holds less than the share of the first level's texels; at least one."""
+    assert levels_needed([1000, 0, 0]) == 1
+    assert levels_needed([1000, 10, 9]) == 2  # 10 is 1% of 1000: kept; 9 is below
+    assert levels_needed([1000, 500, 200, 9, 0]) == 3
+    assert levels_needed([0, 0]) == 1  # nothing in the light: the least
+    assert levels_needed([1000] * 8) == 8
+
+
+@pytest.mark.parametrize(("scene_arg", "least", "most"), [
+    ("sphere1", 1, 1),  # the negative control: one convex sphere is one front and one back face
+    ("coil", 5, 8),  # held out, five turns: up to ten surfaces along the axis
+])
+def test_auto_layers_follow_the_scenes_depth(ctx, scene_arg, least, most):
+    """layers = auto from the occlusion counts of peeled light maps: the minimum on a single
+    convex sphere, about a level per two surfaces on the coil (measured: 5 of 8)."""
+    from volcaustics.approx.cost_match import auto_layers
+    from volcaustics.scenes.catalogue import HELDOUT_NAMES, heldout_path
+
+    assert least <= auto_layers(heldout_path(scene_arg) if scene_arg in HELDOUT_NAMES else scene_arg, 128) <= most

@@ -240,12 +240,12 @@ def test_an_edited_or_damaged_match_is_recomputed(matched_memo, value):
 def test_a_match_on_a_cache_that_cannot_be_written_is_computed_not_stored(tmp_path, monkeypatch, capsys):
     """`--preset best` on a cache that cannot be written: the match is made, said once on
     stderr, nothing raised (the cache folder's parent is a file here)."""
-    from volcaustics.approx.cost_match import with_auto_photon_res
+    from volcaustics.approx.cost_match import with_auto_values
 
     (tmp_path / "file").write_text("")
     monkeypatch.setenv("VOLCAUSTICS_CACHE", str(tmp_path / "file" / "cache"))
     base = dataclasses.replace(QUICK, width=32, height=32, photon_res=96, light_res=64)
-    params = with_auto_photon_res("refocus", dataclasses.replace(base, emission="adaptive"), "best", given=False)
+    params = with_auto_values("refocus", dataclasses.replace(base, emission="adaptive"), "best", given=False)
     assert "not cached" in capsys.readouterr().err
     matcher = CostMatcher(str(tmp_path / "check"))  # the match holds: within the paper's (quick's) frame
     try:
@@ -260,7 +260,7 @@ def test_a_sweep_of_the_preset_best_matches_each_points_photon_res(tmp_path, mon
     """`sweep --preset best` once measured best at the preset's photon_res 256: matching
     ran only in approx, measure and animate. Each point is now matched like them (the
     same function), and a photon_res the sweep sets is kept (the negative control)."""
-    from volcaustics.approx.cost_match import with_auto_photon_res
+    from volcaustics.approx.cost_match import with_auto_values
     from volcaustics.approx.params import PRESETS
     from volcaustics.reports.studies.sweep.sweep_spec import points, spec_from_args
 
@@ -270,7 +270,7 @@ def test_a_sweep_of_the_preset_best_matches_each_points_photon_res(tmp_path, mon
     assert [p.params.steps for p in grid] == [2, 4]
     for point in grid:
         unmatched = dataclasses.replace(point.params, photon_res=PRESETS["best"].photon_res)
-        expected = with_auto_photon_res("refocus", unmatched, "best", given=False)
+        expected = with_auto_values("refocus", unmatched, "best", given=False)
         assert point.params.photon_res == expected.photon_res != PRESETS["best"].photon_res
     kept = points(spec_from_args("refocus", ["steps=2,4"], [*size, "photon_res=40"], preset="best", seeds=2))
     assert {p.params.photon_res for p in kept} == {40}
@@ -354,14 +354,14 @@ def test_preset_best_matches_the_papers_frame_cost_on_any_scene_file(monkeypatch
     best configuration costs at most the paper configuration at the same size, and 5%
     more photons per side would cost more (the match spent what it could); an explicit
     photon_res is kept (the negative control: no matching)."""
-    from volcaustics.approx.cost_match import with_auto_photon_res
+    from volcaustics.approx.cost_match import with_auto_values
     from volcaustics.approx.params import preset
     from volcaustics.scenes.catalogue import heldout_path
 
     monkeypatch.setenv("VOLCAUSTICS_CACHE", str(tmp_path))
     scene = heldout_path("lens_array")
     params = preset("best", width=48, height=48, light_res=64)
-    matched = with_auto_photon_res(scene, params, "best", given=False)
+    matched = with_auto_values(scene, params, "best", given=False)
     matcher = CostMatcher(str(tmp_path / "probe"))
     try:
         paper = matcher.cost(scene, preset("quick", width=48, height=48))
@@ -370,5 +370,5 @@ def test_preset_best_matches_the_papers_frame_cost_on_any_scene_file(monkeypatch
     finally:
         matcher.release()
     assert matched.photon_res != params.photon_res
-    assert with_auto_photon_res(scene, params, "best", given=True) is params
-    assert with_auto_photon_res(scene, params, "quick", given=False) is params
+    assert with_auto_values(scene, params, "best", given=True) is params
+    assert with_auto_values(scene, params, "quick", given=False) is params

@@ -18,7 +18,7 @@ import pytest
 
 from tests.shared import flat_spot
 from volcaustics.approx import Renderer
-from volcaustics.approx.cost_match import with_auto_photon_res
+from volcaustics.approx.cost_match import with_auto_values
 from volcaustics.approx.params import PRESETS, QUICK
 from volcaustics.metrics.decomposition import TERMS
 from volcaustics.reference.settings import ReferenceSettings
@@ -37,7 +37,7 @@ SCENES = [*BUILTIN_NAMES, *(heldout_path(name) for name in HELDOUT_NAMES)]  # sc
 def _best(scene_arg: str):
     """``--preset best`` at the test's size: photon_res matched to the paper configuration's
     frame cost on the scene (``approx.cost_match``), as the commands do."""
-    return with_auto_photon_res(scene_arg, dataclasses.replace(PRESETS["best"], width=SIZE, height=SIZE), "best",
+    return with_auto_values(scene_arg, dataclasses.replace(PRESETS["best"], width=SIZE, height=SIZE), "best",
                                 given=False)
 
 

@@ -20,6 +20,11 @@
 // A kernel whose σ changes along the beam (beam_width = differential) is taken at the
 // closest approach: the 1-D kernel keeps its integral across the beam at every s, so the
 // beam keeps its energy; only its ends' Gaussians take the σ of the nearer end.
+// BEAM_PILOT (beam_width = balanced, approx.splat.Splatter.balance_map): the same estimate
+// at the pilot's coarser pixels, written as what the balance needs per pixel: the
+// luminance Y of each half of the beams (alternate rows: two interleaved estimates, whose
+// difference is the frame's own noise, stratified or not) and the sum of Y·σ² (σ the
+// kernel in pilot pixels at the closest approach).
 // Controls (negative controls of tests): BEAM_NO_SINE drops 1/sin θ,
 // BEAM_NO_CAMERA_TRANSMITTANCE drops exp(−σt·t), BEAM_CLOSEST_DEPTH depth-tests the
 // closest approach alone instead of cutting the beam at the surface.
@@ -36,6 +41,11 @@ uniform vec3 sigma_s;
 uniform vec3 sigma_t;
 uniform float splat_radius;        // the kernel σ (m), or the bounds of a beam's own (splat/beam_width.glsl)
 uniform sampler2D scene_distance;  // G-buffer (distance to the first surface, KIND_*, material, 0)
+#ifdef BEAM_PILOT
+uniform float gbuffer_step;        // the G-buffer's pixels per pilot pixel
+uniform float pixel_angle;         // a pilot pixel's width per metre of distance
+flat in float v_half;
+#endif
 
 flat in vec3 v_start;
 flat in vec3 v_dir;
@@ -114,7 +124,11 @@ void main() {
     float sin_theta = sqrt(sin2);
     // the part of the beam in front of the camera and of its first surface along this ray:
     // the beam's point at s' lies at depth s'·b − d_ray along it, which must be in (0, far]
+#ifdef BEAM_PILOT
+    vec4 g = texelFetch(scene_distance, ivec2(gl_FragCoord.xy * gbuffer_step), 0);
+#else
     vec4 g = texelFetch(scene_distance, ivec2(gl_FragCoord.xy), 0);
+#endif
     float far = gbuffer_kind(g) != KIND_NONE ? g.x : 1e30;
     float s_lo = 0.0, s_hi = v_length;
     if (abs(b) > 1e-6) {
@@ -163,5 +177,12 @@ void main() {
 #else
     vec3 transmittance = exp(-sigma_t * (on_beam + distance(v_start + on_beam * v_dir, eye)));
 #endif
-    out_color = vec4(v_power * sigma_s * phase_eval(-b) * transmittance * k * ends * jacobian, 1.0);
+    vec3 radiance = v_power * sigma_s * phase_eval(-b) * transmittance * k * ends * jacobian;
+#ifdef BEAM_PILOT
+    float y = dot(radiance, vec3(0.2126, 0.7152, 0.0722));
+    float sigma_px = sigma / (pixel_angle * max(t, 1e-6));
+    out_color = vec4(y * (1.0 - v_half), y * v_half, y * sigma_px * sigma_px, 0.0);
+#else
+    out_color = vec4(radiance, 1.0);
+#endif
 }

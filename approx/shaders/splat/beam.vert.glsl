@@ -42,6 +42,9 @@ flat out float v_sigma0;      // the row's own σ at the start (m), 0: splat_rad
 flat out float v_rate;        // ... and its rate along the beam (m/m)
 flat out vec3 v_power;
 flat out float v_boxed;       // 1: the beam carries its own σ, integrated over each pixel (beam.frag.glsl)
+#ifdef BEAM_PILOT
+flat out float v_half;        // which half of the beams (alternate rows, in photon order): 0 or 1
+#endif
 
 // The beam's clip w (the distance in front of the camera) is affine along it; its part
 // with w >= W_NEAR (the projection's near plane) is drawn.
@@ -154,6 +157,9 @@ void main() {
     vec3 d = in_dir.xyz;
     float len = in_start_length.w;
     v_boxed = in_dir.w > 0.0 ? 1.0 : 0.0;
+#ifdef BEAM_PILOT
+    v_half = float(gl_InstanceID & 1);
+#endif
     v_start = a;
     v_dir = d;
     v_length = len;

@@ -65,7 +65,15 @@ uniform uint batch_slots;  // photon_res²: the slots of one batch
 // at least BEAM_SIGMA_FLOOR so that it counts as the beam's own) and the rate sign(a)·
 // splat_footprints·r, so that |σ0 + rate·s| = |a + b·s|; the splatter clamps it
 // (splat/beam.vert.glsl). Numpy twin: approx.splat.beam_kernels.
+#ifdef BEAM_BALANCED
+// beam_width = balanced: the second compaction of a step scales each beam's differential
+// (its footprint and rate, in place: what the measured frame reads) by the balance the
+// frame's pilot found along it (splat/balance.glsl)
+layout(std430, binding = 3) buffer Differentials { vec2 differentials[]; };  // (footprint, rate)
+#include "splat/balance.glsl"
+#else
 layout(std430, binding = 3) readonly buffer Differentials { vec2 differentials[]; };  // (footprint, rate)
+#endif
 uniform float splat_radius;
 uniform float splat_footprints;
 #endif
@@ -106,6 +114,12 @@ void main() {
         float sigma = clamp(splat_footprints * abs(differentials[i].x), splat_radius / 16.0, 4.0 * splat_radius);
         float rate = 0.0;
 #elif defined(BEAM_DIFFERENTIAL)
+#ifdef BEAM_BALANCED
+        if (balance_apply != 0u) {
+            float len = status == STATUS_SURFACE ? r.dir_t.w : r.extra.z;
+            differentials[i] *= beam_balance(r.start_maxlen.xyz, r.dir_t.xyz, len);
+        }
+#endif
         float a = splat_footprints * differentials[i].x;
         float sigma = max(abs(a), BEAM_SIGMA_FLOOR);
         float rate = (a < 0.0 ? -splat_footprints : splat_footprints) * differentials[i].y;

@@ -35,7 +35,7 @@ from typing import TYPE_CHECKING
 import pandas as pd
 from tqdm import tqdm
 
-from volcaustics.approx.cost_match import with_auto_photon_res
+from volcaustics.approx.cost_match import with_auto_values
 from volcaustics.approx.params import preset
 from volcaustics.infra.errors import InputError
 from volcaustics.infra.storage import atomic_path, atomic_set, document_sha256, file_sha256, read_json_object
@@ -75,7 +75,7 @@ def config_params(config: str, scene_arg: str) -> ApproxParams:
     """The parameters of ``config`` on ``scene_arg`` (best, beams: photon_res matched)."""
     if config == "paper":
         return preset("quick")
-    return with_auto_photon_res(scene_arg, preset(config), config, given=False)
+    return with_auto_values(scene_arg, preset(config), config, given=False)
 
 
 def checked_scenes(scenes: Iterable[str], seeds: int) -> list:

@@ -16,7 +16,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
-from volcaustics.approx.cost_match import with_auto_photon_res
+from volcaustics.approx.cost_match import with_auto_values
 from volcaustics.infra.storage import remove_file
 from volcaustics.reports.measuring import runner
 from volcaustics.reports.measuring.experiment.point_checks import measured_settings
@@ -74,7 +74,8 @@ def run_gate(budgets: dict, *, overrides: dict, baseline_dir: str | None, update
         if stale:
             remove_file(stale)
     # a preset whose photon_res is matched (best): per scene, unless --set gives photon_res
-    points = [runner.Point(arg, with_auto_photon_res(arg, params, budgets["preset"], "photon_res" in overrides),
+    points = [runner.Point(arg, with_auto_values(arg, params, budgets["preset"], "photon_res" in overrides,
+                                                       layers_given="layers" in overrides),
                            n_seeds) for arg in (budgets["scene_args"][name] for name in names)]
     run = runner.measure(points, runner.results_store(),
                          reference_settings=budgets["reference_settings"],

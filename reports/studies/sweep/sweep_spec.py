@@ -292,15 +292,17 @@ def _own_values(scene: str, names: list) -> dict:
 
 def points(spec: SweepSpec, cls: type = ApproxParams) -> list:
     """Every point of the grid (``reports.measuring.runner.Point``), per scene, in grid order
-    (ParamError → SweepError). With a preset whose photon_res is matched
-    (``approx.params.AUTO_PHOTON_RES``: best) and photon_res neither set nor varied, each
-    point's photon_res is matched to the paper configuration's frame on its scene
-    (``approx.cost_match.with_auto_photon_res``, as every command does; a point's
-    scene fields are not in the match)."""
-    from volcaustics.approx.params import AUTO_PHOTON_RES
+    (ParamError → SweepError). With a preset that takes values from the scene, each point
+    takes them unless set or varied: layers from its depth complexity
+    (``approx.params.AUTO_LAYERS``), then photon_res matched to the paper configuration's
+    frame on its scene (AUTO_PHOTON_RES; ``approx.cost_match.with_auto_values``, as
+    every command does; a point's scene fields are not in the match)."""
+    from volcaustics.approx.params import AUTO_LAYERS, AUTO_PHOTON_RES
 
-    auto = spec.preset in AUTO_PHOTON_RES and "photon_res" not in spec.fixed and "photon_res" not in {
-        name for grid in (spec.grids or (spec.vary,)) for name, _ in grid}
+    varied = {name for grid in (spec.grids or (spec.vary,)) for name, _ in grid}
+    given = "photon_res" in spec.fixed or "photon_res" in varied
+    layers_given = "layers" in spec.fixed or "layers" in varied
+    auto = (spec.preset in AUTO_PHOTON_RES and not given) or (spec.preset in AUTO_LAYERS and not layers_given)
     fixed = {k: v for k, v in spec.fixed.items() if not is_scene_field(k)}
     fixed_fields = {k: v for k, v in spec.fixed.items() if is_scene_field(k)}
     try:
@@ -323,9 +325,9 @@ def points(spec: SweepSpec, cls: type = ApproxParams) -> list:
                 except ParamError as exc:
                     raise SweepError(f"point {scene}, {changes}: {exc}") from None
                 if auto:
-                    from volcaustics.approx.cost_match import with_auto_photon_res
+                    from volcaustics.approx.cost_match import with_auto_values
 
-                    params = with_auto_photon_res(scene, params, spec.preset, given=False)
+                    params = with_auto_values(scene, params, spec.preset, given, layers_given=layers_given)
                 if (scene, params, fields) not in seen:
                     seen.add((scene, params, fields))
                     out.append(Point(scene, params, spec.seeds, fields))
