@@ -37,7 +37,7 @@ class CameraView:
         self.view_proj = self.proj @ self.view
         self.inv_view_proj = np.linalg.inv(self.view_proj)
 
-    def set_uniforms(self, prog: moderngl.Program) -> None:
+    def set_uniforms(self, prog: moderngl.Program | moderngl.ComputeShader) -> None:
         for name, value in (("eye", tuple(self.eye)), ("viewport", (float(self.width), float(self.height)))):
             if name in prog:
                 uniform(prog, name).value = value

@@ -35,6 +35,7 @@ from .transforms import gl_matrix
 if TYPE_CHECKING:
     from volcaustics.scenes.model import Scene
 
+    from .camera_pass import CameraView
     from .layers import LightMap
     from .light import LightFrustum
     from .params import ApproxParams, ParamsMethods
@@ -398,7 +399,8 @@ class PhotonTracer:
 
     def compact_splats(self, records: moderngl.Buffer, count: int, splats: moderngl.Buffer,
                        commands: moderngl.Buffer, params: ApproxParams | None = None, step: int = 1, *,
-                       records_offset: int = 0, balance: tuple | None = None) -> None:
+                       records_offset: int = 0,
+                       balance: tuple[moderngl.Texture, CameraView] | None = None) -> None:
         """Gather the medium collisions of one step's records (``count`` of them from byte
         ``records_offset`` of ``records``) into ``splats`` (SPLAT_DTYPE rows, capacity
         ``count``) in photon order, and their number into ``commands``

@@ -108,7 +108,9 @@ CANDIDATES.update({f"bsplit{k}-e{m}": {**_STRAT, "steps": 8, "fresnel_splits": k
 AUTO = "auto"
 _PRESET_BEAMS = {"splat": "beams", "beam_width": "differential", "splat_footprints": 1.0, "splat_radius": 0.01,
                  "fresnel": "stratified", "steps": 8, "layers": 2, "fresnel_splits": 2, "split_every": 2}
-CANDIDATES.update({"preset-beams": _PRESET_BEAMS, "beams-auto-layers": {**_PRESET_BEAMS, "layers": AUTO}})
+CANDIDATES.update({"preset-beams": _PRESET_BEAMS, "beams-auto-layers": {**_PRESET_BEAMS, "layers": AUTO},
+                   "beams-balanced": {**_PRESET_BEAMS, "beam_width": "balanced"},
+                   "beams-balanced-auto-layers": {**_PRESET_BEAMS, "beam_width": "balanced", "layers": AUTO}})
 
 
 def candidate(name: str, label: str, base):

@@ -76,11 +76,13 @@ def programs() -> list:
     fog = next(p for p in PARAMS if p.name == "fog_steps")
     for kind, g in PHASES:
         medium = Medium(sigma_s=(0.1, 0.1, 0.1), sigma_a=(0.0, 0.0, 0.0), phase=Phase(kind=kind, g=g))
-        for mode, controls in itertools.product(("fixed", "adaptive", "density", "beams"), splat_controls):
-            if controls and mode not in ("density", "beams"):
+        for mode, controls in itertools.product(("fixed", "adaptive", "density", "beams", "balanced beams"),
+                                                splat_controls):
+            if controls and mode not in ("density", "beams", "balanced beams"):
                 continue
             for name, (stages, d) in Splatter.programs(medium, adaptive=mode == "adaptive", density=mode == "density",
-                                                        beams=mode == "beams", controls=controls).items():
+                                                        beams=mode.endswith("beams"), balanced=mode == "balanced beams",
+                                                        controls=controls).items():
                 out.append((f"{name} splat={mode} phase={kind} {controls or ''}", stages, d))
         for steps in _int_values(fog):
             fog_defines = defines(ApproxParams(fog_steps=steps), "fog")

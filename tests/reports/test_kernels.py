@@ -31,7 +31,8 @@ BATCHES = 8
 SEEDS = [0, 1]
 SPLATS = {"fixed": {}, "adaptive": {"splat": "adaptive"},
           "density": {key: getattr(PRESETS["best"], key) for key in ("splat", "splat_neighbours", "fresnel", "steps")},
-          "differential beams": {"splat": "beams", "beam_width": "differential"}}
+          "differential beams": {"splat": "beams", "beam_width": "differential"},
+          "balanced beams": {"splat": "beams", "beam_width": "balanced"}}
 
 
 def _scene(name: str):
