@@ -178,7 +178,7 @@ _DECLARED: tuple = (  # one entry per ApproxParams field, in its order
           "(splat_footprints × the photon's ray-differential footprint, which changes linearly along the beam at "
           "the rate the differential carries, within [splat_radius/16, 4·splat_radius]: beams widen where the "
           "light spreads and narrow where it focuses) or balanced (the differential width times a factor in "
-          "[1/8, 4] that balances the kernel's blur against its noise along the beam, from a pilot of the "
+          "[1/8, 1] that balances the kernel's blur against its noise along the beam, from a pilot of the "
           "step's beams at a quarter of the pixels: its curvature against its beams' variance); other splat "
           "modes ignore it",
           choices=("fixed", "differential", "balanced"), program="trace", glsl="define",

@@ -65,6 +65,10 @@ GATE_REFERENCE = ReferenceSettings(photons=1 << 16, spp=8, batches=4, target_noi
 GATE_POINT = runner.Point("refocus", dataclasses.replace(QUICK, width=32, height=32, photon_res=64, light_res=64),
                           seeds=2)
 FULL_MEASUREMENT = MeasurementSettings(exact_subphotons=1)
+# the closure tests' reference at 64² (its noise 10–100× below E_∞,s's there: caustic floors
+# 0–0.09%), rendered once a run for every test that measures against it
+CLOSURE_SIZE = 64
+CLOSURE_REFERENCE = ReferenceSettings(photons=1 << 20, spp=32, batches=8, width=CLOSURE_SIZE, height=CLOSURE_SIZE)
 
 
 def with_shared_references(root, shared_references):

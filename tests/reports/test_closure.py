@@ -16,21 +16,19 @@ import math
 import numpy as np
 import pytest
 
-from tests.shared import flat_spot
+from tests.shared import CLOSURE_REFERENCE, CLOSURE_SIZE, flat_spot
 from volcaustics.approx import Renderer
 from volcaustics.approx.cost_match import with_auto_values
 from volcaustics.approx.params import PRESETS, QUICK
 from volcaustics.metrics.decomposition import TERMS
-from volcaustics.reference.settings import ReferenceSettings
 from volcaustics.reports.measuring.experiment import exact_images
 from volcaustics.reports.measuring.experiment.measurement import MeasurementSettings
 from volcaustics.reports.measuring.experiment.pipeline import run_experiment
 from volcaustics.scenes import load_builtin, load_scene, resolve_scene
 from volcaustics.scenes.catalogue import BUILTIN_NAMES, HELDOUT_NAMES, heldout_path
 
-SIZE = 64
-# the reference's noise is 10–100× below E_∞,s's at this size (caustic floors 0–0.09%)
-REFERENCE = ReferenceSettings(photons=1 << 20, spp=32, batches=8, width=SIZE, height=SIZE)
+SIZE = CLOSURE_SIZE
+REFERENCE = CLOSURE_REFERENCE
 SCENES = [*BUILTIN_NAMES, *(heldout_path(name) for name in HELDOUT_NAMES)]  # scene arguments, as a command takes them
 
 

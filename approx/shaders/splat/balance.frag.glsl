@@ -12,12 +12,17 @@
 // s = (V / 4b²)^(1/5), within [BALANCE_MIN, BALANCE_MAX]; b² less the noise the stencil
 // itself reads (20·V·(σ²/2)²), so that noise is not taken for curvature. Written as ln s
 // (0 where the pilot has no beam), read along each beam by splat/balance.glsl.
+// Never wider than the differential width (BALANCE_MAX 1): a beam shades fragments in
+// proportion to its width, so at equal cost a frame of wider beams has proportionally fewer
+// of them and its noise V ∝ 1/(beams·σ) stays what it was, while the blur grows; narrower
+// beams buy photons with the fragments they save (docs/decisions.md "Beam widths from the
+// frame": with BALANCE_MAX 4 the cost match took 51 → 40 photons a side on sphere1).
 // Control: BALANCE_MIRRORED takes the curvature of the mirrored pixel (a wrong curvature).
 #ifndef BALANCE_MIN
 #define BALANCE_MIN 0.125
 #endif
 #ifndef BALANCE_MAX
-#define BALANCE_MAX 4.0
+#define BALANCE_MAX 1.0
 #endif
 uniform sampler2D pilot;  // Y of one half, Y of the other, ΣY·σ², 0 per pilot pixel (RGBA32F)
 out vec4 color;
