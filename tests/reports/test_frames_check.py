@@ -6,6 +6,7 @@ and the report's section showing it."""
 from __future__ import annotations
 
 import json
+import os
 import re
 
 import pandas as pd
@@ -227,3 +228,14 @@ def test_the_report_section_shows_a_missing_number_as_a_dash(tmp_path):
     assert html.count("<tr>") == len(table) + 1 and "– on the held-out scenes" in html
     k_best = next(row for row in html.split("<tr>") if row.startswith("<td class='l'>k") and ">best<" in row)
     assert k_best.count("<td>–</td>") == 4, k_best  # cost, time, one frame's and the mean's ratios
+
+
+def test_a_heldout_scene_named_by_its_path_in_the_checkout_is_held_out():
+    """A held-out scene given as the checkout's file (what a user types: scenes/heldout/…)
+    is grouped as held out, though the installed package names it through a link (a strict
+    editable install: it was grouped as "yours")."""
+    from tests.shared import ROOT
+    from volcaustics.reports.studies.best.frame_check import checked_scenes
+
+    path = os.path.join(ROOT, "scenes", "heldout", "knot.toml")
+    assert [group for _, _, group in checked_scenes([path, "sphere1"], 2)] == ["heldout", "builtin"]

@@ -82,7 +82,8 @@ def checked_scenes(scenes: Iterable[str], seeds: int) -> list:
     """(argument, scene, group) per scene, every one resolved and checked before any
     work: InputError for a bad name or file, a medium without a caustic, a frame that
     cannot run, or two arguments of one scene name (their rows would collide)."""
-    heldout = {os.path.abspath(heldout_path(name)) for name in HELDOUT_NAMES}
+    # by the file itself: an installed package may name the held-out files through links
+    heldout = {os.path.realpath(heldout_path(name)) for name in HELDOUT_NAMES}
     seen: dict
     out, seen = [], {}
     for arg in scenes:
@@ -92,7 +93,7 @@ def checked_scenes(scenes: Iterable[str], seeds: int) -> list:
             raise InputError(f"frames: {seen[scene.name]} and {arg} are both scene {scene.name!r}: a scene is "
                              f"measured once (rename one, its [scene] name)")
         seen[scene.name] = arg
-        group = ("builtin" if arg in BUILTIN_NAMES else "heldout" if os.path.abspath(arg) in heldout else "yours")
+        group = ("builtin" if arg in BUILTIN_NAMES else "heldout" if os.path.realpath(arg) in heldout else "yours")
         out.append((arg, scene, group))
     return out
 
