@@ -179,7 +179,7 @@ _DECLARED: tuple = (  # one entry per ApproxParams field, in its order
           "the rate the differential carries, within [splat_radius/16, 4·splat_radius]: beams widen where the "
           "light spreads and narrow where it focuses) or balanced (the differential width times a factor in "
           "[1/8, 1] that balances the kernel's blur against its noise along the beam, from a pilot of the "
-          "step's beams at a quarter of the pixels: its curvature against its beams' variance); other splat "
+          "step's beams at 1/16 of the pixels: its curvature against the noise between two halves of its beams); other splat "
           "modes ignore it",
           choices=("fixed", "differential", "balanced"), program="trace", glsl="define",
           to_defines=lambda v: {"BEAM_DIFFERENTIAL": 1, **({"BEAM_BALANCED": 1} if v == "balanced" else {})}

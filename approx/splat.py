@@ -44,9 +44,11 @@ DENSITY_FLOOR = 0.5
 # beam_width = differential: the least σ0 a row carries (m), so that one whose footprint is 0
 # where it starts (at a focus) still carries its own kernel (Beam.dir.w > 0; compact.comp.glsl)
 BEAM_SIGMA_FLOOR = 1e-20
-# beam_width = balanced: the pilot's pixels are this many of the image's a side (a quarter
-# of the fragments), fine enough for the curvature of a caustic a few pixels wide
-PILOT_DIVISOR = 2
+# beam_width = balanced: the pilot's pixels are this many of the image's a side (1/16 of
+# the fragments: 6% more shaded beam fragments on sphere1, where 2 cost 32% and the cost
+# match took 51 → 41 photons a side; the balance found the same, docs/decisions.md "Beam
+# widths from the frame")
+PILOT_DIVISOR = 4
 
 # The splat pass's indirect draw commands (compact.comp.glsl PASS_SCAN): two
 # DrawArraysIndirectCommand rows 5 uint32 apart (moderngl's render_indirect stride), the

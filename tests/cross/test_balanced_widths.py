@@ -34,7 +34,7 @@ def _one_frame(scene, beam_width: str, controls: dict | None = None) -> tuple[fl
 
 @pytest.mark.slow  # against a reference
 def test_balanced_widths_beat_differential_ones_and_a_wrong_curvature_does_not(cache):
-    """sphere1 (a built-in, where the rule was chosen), the same photons: balanced 0.315% ±
+    """sphere1 (a built-in, where the rule was chosen), the same photons: balanced 0.322% ±
     0.003 against differential 0.403% and mirrored 0.403% (measured 2026-12-05): each
     comparison by at least 5 SE (beam frames differ only where Fresnel chooses: the SE is small)."""
     scene = load_builtin("sphere1")
