@@ -179,8 +179,8 @@ _DECLARED: tuple = (  # one entry per ApproxParams field, in its order
           "the rate the differential carries, within [splat_radius/16, 4·splat_radius]: beams widen where the "
           "light spreads and narrow where it focuses) or balanced (the differential width times a factor in "
           "[1/8, 1] that balances the kernel's blur against its noise along the beam, from a pilot of the "
-          "step's beams at 1/16 of the pixels: its curvature against the noise between two halves of its beams); other splat "
-          "modes ignore it",
+          "step's beams at 1/16 of the pixels: its curvature against the noise between two halves of its "
+          "beams); other splat modes ignore it",
           choices=("fixed", "differential", "balanced"), program="trace", glsl="define",
           to_defines=lambda v: {"BEAM_DIFFERENTIAL": 1, **({"BEAM_BALANCED": 1} if v == "balanced" else {})}
           if v != "fixed" else {}),
@@ -399,8 +399,9 @@ BEAMS = {"splat": "beams", "beam_width": "differential", "splat_footprints": 1.0
 PRESET_VALUES["beams"] = {**PRESET_VALUES["quick"], **BEAMS}
 AUTO_PHOTON_RES = {"best": "quick", "beams": "quick"}  # preset → the preset whose frame cost its photon_res matches
 # the presets whose layers come from the scene (layers = auto, approx.cost_match.auto_layers:
-# the peeled light-map levels that hold ≥ 1% of the light's texels), unless --layers is given
-AUTO_LAYERS: tuple[str, ...] = ()
+# the peeled light-map levels that hold ≥ 5% of the first level's texels, approx.layers),
+# unless --layers is given (docs/decisions.md "Layers from the scene")
+AUTO_LAYERS: tuple[str, ...] = ("beams",)
 
 
 _P = TypeVar("_P", bound=ParamsMethods)

@@ -413,7 +413,8 @@ class PhotonTracer:
         (``approx.splat.beam_kernels``). With beam_width = balanced, ``balance`` (the
         balance map of the step's pilot, ``approx.splat.Splatter.balance_map``, and the
         camera's view) scales each beam's differential in place by the balance along it
-        (splat/balance.glsl) before its kernel is made; None: the widths as they are (the
+        (splat/balance.glsl) before its kernel is made, the rows rewritten where the first
+        compaction put them (its counts and offsets kept); None: the widths as they are (the
         pilot's)."""
         blocks = math.ceil(count / COMPACT_BLOCK)
         block_buf = self._buffer("compact_blocks", 4 * blocks)
@@ -423,12 +424,13 @@ class PhotonTracer:
         for prog in (self.compact_count, self.compact_write):
             set_uniforms(prog, step_index=step, batch_slots=batch, photon_count=count)
         self.ctx.memory_barrier()  # the records the trace wrote
-        self.compact_count.run(group_x=blocks)
-        self.ctx.memory_barrier()
-        commands.bind_to_storage_buffer(2)
-        uniform(self.compact_scan, "block_count").value = blocks
-        self.compact_scan.run(group_x=1)
-        self.ctx.memory_barrier()
+        if balance is None or self.pool is None:  # a balanced rewrite keeps the first pass's offsets (pooled)
+            self.compact_count.run(group_x=blocks)
+            self.ctx.memory_barrier()
+            commands.bind_to_storage_buffer(2)
+            uniform(self.compact_scan, "block_count").value = blocks
+            self.compact_scan.run(group_x=1)
+            self.ctx.memory_barrier()
         splats.bind_to_storage_buffer(2)
         if self.adaptive or self.beam_differential:
             kernel_source = self.segment_differentials if self.beam_differential else self.differentials
