@@ -157,7 +157,8 @@ def with_auto_values(scene_arg: str, params: ApproxParams, preset_name: str | No
     the preset asks for it (AUTO_PHOTON_RES) and no photon_res was ``given``: the extra
     layers' maps and lookups are paid for with photons. Else ``params`` unchanged."""
     if preset_name in AUTO_LAYERS and not layers_given:
-        params = dataclasses.replace(params, layers=auto_layers(scene_arg, params.light_res))
+        layers = auto_layers(scene_arg, params.light_res)
+        params = params if layers == params.layers else dataclasses.replace(params, layers=layers)
     if preset_name not in AUTO_PHOTON_RES or given:
         return params
     scene = resolve_scene(scene_arg)

@@ -401,7 +401,7 @@ AUTO_PHOTON_RES = {"best": "quick", "beams": "quick"}  # preset → the preset w
 # the presets whose layers come from the scene (layers = auto, approx.cost_match.auto_layers:
 # the peeled light-map levels that hold ≥ 5% of the first level's texels, approx.layers),
 # unless --layers is given (docs/decisions.md "Layers from the scene")
-AUTO_LAYERS: tuple[str, ...] = ("beams",)
+AUTO_LAYERS: tuple[str, ...] = ("best", "beams")
 
 
 _P = TypeVar("_P", bound=ParamsMethods)

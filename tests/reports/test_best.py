@@ -353,7 +353,7 @@ def test_preset_best_matches_the_papers_frame_cost_on_any_scene_file(monkeypatch
     """photon_res = auto (the preset best): on a held-out scene file, at 48², the matched
     best configuration costs at most the paper configuration at the same size, and 5%
     more photons per side would cost more (the match spent what it could); an explicit
-    photon_res is kept (the negative control: no matching)."""
+    photon_res and layers are kept (the negative control: no matching)."""
     from volcaustics.approx.cost_match import with_auto_values
     from volcaustics.approx.params import preset
     from volcaustics.scenes.catalogue import heldout_path
@@ -370,5 +370,5 @@ def test_preset_best_matches_the_papers_frame_cost_on_any_scene_file(monkeypatch
     finally:
         matcher.release()
     assert matched.photon_res != params.photon_res
-    assert with_auto_values(scene, params, "best", given=True) is params
+    assert with_auto_values(scene, params, "best", given=True, layers_given=True) is params
     assert with_auto_values(scene, params, "quick", given=False) is params
