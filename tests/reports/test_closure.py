@@ -101,9 +101,9 @@ def test_the_decomposition_closes_on_every_builtin_and_held_out_scene(cache, con
 
 
 # the preset beams' widths (differential) on every built-in; fixed widths where point-sampled
-# kernels aliased (sphere1, refocus) and on a mesh
+# kernels aliased (sphere1, refocus) and on a mesh; balanced widths on a sphere and a mesh
 BEAM_CASES = [("differential", name) for name in BUILTIN_NAMES] + [
-    ("fixed", name) for name in ("sphere1", "refocus", "bunny")]
+    ("fixed", name) for name in ("sphere1", "refocus", "bunny")] + [("balanced", name) for name in ("sphere1", "bunny")]
 
 
 @pytest.mark.slow  # statistical (about 10 s a point)
@@ -114,11 +114,12 @@ def test_the_decomposition_closes_with_beams_on_every_builtin(cache, beam_width,
     at 0.3 fine pixel, near-parallel beams aliased with their shared offset: sphere1 z 3.2,
     refocus 7.3); the residual R − E_∞,s within noise as for points (|z| ≤ 3), and one
     frame is the mean image (a beam frame has no free-flight noise: its seeds differ only
-    where stochastic Fresnel would choose). With beam_width = differential the E images'
-    beams take A's kernels of the same photon and step (the preset beams' widths)."""
+    where stochastic Fresnel would choose). With beam_width = differential or balanced the
+    E images' beams take A's kernels of the same photon and step (the preset beams' widths;
+    balanced: as the frame's pilot scaled them)."""
     scene = resolve_scene(scene_arg)
-    width = {"beam_width": "differential", "splat_footprints": PRESETS["beams"].splat_footprints,
-             "splat_radius": PRESETS["beams"].splat_radius} if beam_width == "differential" else {}
+    width = {"beam_width": beam_width, "splat_footprints": PRESETS["beams"].splat_footprints,
+             "splat_radius": PRESETS["beams"].splat_radius} if beam_width != "fixed" else {}
     result = _measure(scene, dataclasses.replace(QUICK, splat="beams", **width))
     assert (message := _closes(result, f"{scene.name} beams ({beam_width})")) is None, message
     caustic = result.summary["images"]["caustic"]
