@@ -24,7 +24,7 @@ report: setup
 
 # The frame check: the paper's configuration against --preset best and --preset beams on every
 # built-in and held-out scene, one frame and the mean, without and with OIDN -> runs/frames (the
-# report's "One frame" section); about 25 minutes on 2 cores (22 with the references cached).
+# report's "One frame" section); 35 minutes on 2 cores with four of the twelve references cold (2026-12-05).
 FRAMES ?= runs/frames
 frames: setup
 	$(BIN)/volcaustics frames -o $(FRAMES)

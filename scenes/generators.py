@@ -244,6 +244,9 @@ def water(size_x: float = 1.6, size_z: float = 1.6, depth: float = 0.06, amplitu
     sum of five sine waves (wavelengths 0.7–1.3 × ``wavelength``, directions and phases
     drawn from ``seed``) scaled to peak ``amplitude``: a heightfield on a
     ``resolution``² grid, with flat bottom and sides; the bottom at y = 0."""
+    if amplitude >= depth:
+        raise ValueError(f"amplitude = {amplitude!r} must be below depth = {depth!r} (the waves would cut through "
+                         f"the bottom)")
     rng = np.random.default_rng(seed)
     angles = rng.uniform(0.0, np.pi, 5)
     phases = rng.uniform(0.0, 2.0 * np.pi, 5)

@@ -88,6 +88,10 @@ CASES = [
     ("missing mesh file", _set(["specular", 0, "mesh"], "nowhere/bunny.ply"), "specular[0].mesh.path",
      "'nowhere/bunny.ply'"),
     ("duplicate names", _set(["diffuse", 0, "name"], "ball"), "diffuse[0].name", "'ball'"),
+    # waves deeper than the slab would cut through its bottom (an inverted mesh)
+    ("waves deeper than the water", _set(["specular", 0, "mesh"], {"generator": "water", "depth": 0.02,
+                                                                   "amplitude": 0.03, "resolution": 8}),
+     "specular[0].mesh", "amplitude = 0.03 must be below depth = 0.02"),
 ]
 
 
