@@ -103,7 +103,7 @@ CANDIDATES.update({f"bsplit{k}": {**_STRAT, "steps": 8, "fresnel_splits": k} for
 CANDIDATES.update({f"bsplit{k}-e{m}": {**_STRAT, "steps": 8, "fresnel_splits": k, "split_every": m}
                    for k in (1, 2, 3) for m in (2, 3, 4, 8)})
 
-# issue 71: the preset beams as it is, and with its layers from the scene (layers = auto,
+# rules that read the scene: the preset beams as it is, and with its layers from the scene (layers = auto,
 # approx.cost_match.auto_layers: resolved per scene before the cost match pays for them)
 AUTO = "auto"
 _PRESET_BEAMS = {"splat": "beams", "beam_width": "differential", "splat_footprints": 1.0, "splat_radius": 0.01,
