@@ -174,6 +174,8 @@ def with_auto_values(scene_arg: str, params: ApproxParams, preset_name: str | No
 
 @lru_cache(maxsize=64)
 def _levels(scene_hash: str, scene_arg: str, light_res: int) -> tuple:
+    """The texels per peeled level of ``scene_arg`` (``Renderer.depth_levels``), once per
+    process for a scene's content (``scene_hash``: an edited file is probed again)."""
     scene = resolve_scene(scene_arg)
     renderer = Renderer(scene)
     try:
