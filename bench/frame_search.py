@@ -111,6 +111,11 @@ _PRESET_BEAMS = {"splat": "beams", "beam_width": "differential", "splat_footprin
 CANDIDATES.update({"preset-beams": _PRESET_BEAMS, "beams-auto-layers": {**_PRESET_BEAMS, "layers": AUTO},
                    "beams-balanced": {**_PRESET_BEAMS, "beam_width": "balanced"},
                    "beams-balanced-auto-layers": {**_PRESET_BEAMS, "beam_width": "balanced", "layers": AUTO}})
+# ... the preset beams (its layers from the scene) searching its maps texel by texel or by a
+# min-max pyramid instead of bisection: where layers are many, a search exact at the maps'
+# resolution may find what bisection misses
+CANDIDATES.update({f"beams-auto-layers-{search}": {**_PRESET_BEAMS, "layers": AUTO, "search": search}
+                   for search in ("dda", "hiz")})
 # ... and the preset best with its layers from the scene
 _PRESET_BEST = {"splat": "density", "splat_neighbours": 4, "fresnel": "stochastic", "steps": 4, "layers": 2}
 CANDIDATES.update({"preset-best": _PRESET_BEST, "best-auto-layers": {**_PRESET_BEST, "layers": AUTO}})
