@@ -311,27 +311,33 @@ class Splatter:
         prog = self.program
         if self.density_program is not None and grid is None:
             grid = self.density_grid(splats, commands, view)
+        self._estimate(prog, view, medium, splat_radius, scene_distance)
+        if grid is not None:
+            self._use_density(prog, grid, commands, splat_neighbours)
+        self._add(prog, "splat_vertex_array", splats, commands, target, name)
+
+    def _estimate(self, prog: moderngl.Program, view: CameraView, medium: Medium, splat_radius: float,
+                  scene_distance: moderngl.Texture) -> None:
+        """Set what the splat estimate of ``prog`` reads: the view, the medium, the kernel
+        and the G-buffer's distances (texture unit 0)."""
         view.set_uniforms(prog)
         if self.beams:
             uniform(prog, "sigma_s").value = tuple(medium.sigma_s)
         else:
-            uniform(prog, "scatter_weight").value = tuple(s / sigma_bar for s in medium.sigma_s)
+            uniform(prog, "scatter_weight").value = tuple(s / medium.sigma_bar for s in medium.sigma_s)
         uniform(prog, "sigma_t").value = tuple(medium.sigma_t)
         set_uniforms(prog, splat_radius=float(splat_radius),
                      pixel_angle=2.0 / (float(view.proj[1, 1]) * view.height))
         scene_distance.use(location=0)
         uniform(prog, "scene_distance").value = 0
-        if grid is not None:
-            self._use_density(prog, grid, commands, splat_neighbours)
-        self._add(prog, splats, commands, target, name)
 
-    def _add(self, prog: moderngl.Program, splats: moderngl.Buffer, commands: moderngl.Buffer,
+    def _add(self, prog: moderngl.Program, vertex_array: str, splats: moderngl.Buffer, commands: moderngl.Buffer,
              target: moderngl.Texture, name: str) -> None:
-        """Draw the rows ``commands`` counts with ``prog`` (its uniforms set) into ``target``."""
+        """Draw the rows ``commands`` counts with ``prog`` (its uniforms set) into ``target``
+        (its framebuffer the pool's ``name``), through the pool's ``vertex_array``."""
         fmt, names = attribute_layout(prog, BEAM_PARTS if self.beams else INSTANCE_PARTS, per_instance=True)
         content = [(self.corners, "2f", "in_corner"), (splats, fmt, *names)]
-        vao = self.pool.vertex_array(f"{name}_vertex_array" if prog is not self.program else "splat_vertex_array",
-                                     prog, content)
+        vao = self.pool.vertex_array(vertex_array, prog, content)
         fbo = self.pool.framebuffer(f"{name}_framebuffer", [target])
         _add_into(self.ctx, fbo, vao, moderngl.TRIANGLE_STRIP, commands, "quads")
 
@@ -349,14 +355,9 @@ class Splatter:
         size = (pilot_view.width, pilot_view.height)
         pilot = self.pool.texture("balance_pilot", size)
         self.pool.framebuffer("balance_pilot_framebuffer", [pilot]).clear(0.0, 0.0, 0.0, 0.0)
-        pilot_view.set_uniforms(prog)
-        uniform(prog, "sigma_s").value = tuple(medium.sigma_s)
-        uniform(prog, "sigma_t").value = tuple(medium.sigma_t)
-        set_uniforms(prog, splat_radius=float(splat_radius), gbuffer_step=float(PILOT_DIVISOR),
-                     pixel_angle=2.0 / (float(view.proj[1, 1]) * pilot_view.height))
-        scene_distance.use(location=0)
-        uniform(prog, "scene_distance").value = 0
-        self._add(prog, beams, commands, pilot, "balance_pilot")
+        self._estimate(prog, pilot_view, medium, splat_radius, scene_distance)
+        set_uniforms(prog, gbuffer_step=float(PILOT_DIVISOR))
+        self._add(prog, "balance_pilot_vertex_array", beams, commands, pilot, "balance_pilot")
         out = self.pool.texture("balance_map", size, 1, linear=True)
         pilot.use(location=0)
         uniform(balance, "pilot").value = 0
