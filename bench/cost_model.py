@@ -32,6 +32,8 @@ import platform
 import statistics
 import sys
 
+from volcaustics.approx.params import BEAMS
+
 FIT = {
     "quick": {}, "res128": {"photon_res": 128}, "res384": {"photon_res": 384},
     "radius0.01": {"splat_radius": 0.01}, "radius0.04": {"splat_radius": 0.04},
@@ -47,6 +49,11 @@ FIT = {
     "beams_differential": {"splat": "beams", "beam_width": "differential", "splat_radius": 0.01,
                            "splat_footprints": 1.0},
     "beams_differential_fp4": {"splat": "beams", "beam_width": "differential", "photon_res": 128},
+    # the beams preset near the photon_res its cost match picks (50-80 a side), and its parts
+    "beams_preset": {**BEAMS, "photon_res": 64}, "beams_preset_res96": {**BEAMS, "photon_res": 96},
+    "beams_balanced": {**BEAMS, "beam_width": "balanced", "photon_res": 64},
+    "beams_splits": {"splat": "beams", "fresnel": "stratified", "fresnel_splits": 2, "split_every": 2,
+                     "photon_res": 128},
 }
 HELD_OUT = {  # never in the fit: several axes at once
     "best300": {"splat": "density", "splat_neighbours": 8, "fresnel": "stochastic", "steps": 6, "layers": 2,
@@ -60,6 +67,8 @@ HELD_OUT = {  # never in the fit: several axes at once
     "beams_differential_mixed": {"splat": "beams", "beam_width": "differential", "fresnel": "stochastic",
                                  "steps": 4, "layers": 2, "photon_res": 150, "splat_radius": 0.01,
                                  "splat_footprints": 2.0},
+    "beams_preset_mixed": {**BEAMS, "photon_res": 80, "layers": 3, "steps": 6},
+    "beams_balanced_mixed": {**BEAMS, "beam_width": "balanced", "photon_res": 48, "layers": 1},
 }
 PAPER_SHARES = {"trace": 0.70, "splatting": 0.23}  # the paper's Table 1, at its configuration
 # the weight files go to the checkout's package folder (an editable install's link tree is not it)

@@ -152,7 +152,8 @@ def test_differential_beams_have_a_fragment_weight_of_their_own():
     assert llvmpipe.prices(differential) and sets["paper_gpu"].prices(differential)
     more = {**counts, "shaded_splat": 4 * counts["shaded_splat"]}  # priced by what it shades
     assert llvmpipe.frame(more, differential) > llvmpipe.frame(counts, differential)
-    configs = {k: v for k, v in llvmpipe.provenance["fit"]["configs"].items() if v.get("beam_width") != "differential"}
+    configs = {k: v for k, v in llvmpipe.provenance["fit"]["configs"].items()
+               if v.get("beam_width", "fixed") == "fixed"}
     provenance = {k: v for k, v in llvmpipe.provenance.items() if k != "splat_modes"}
     fixed_only = dataclasses.replace(llvmpipe, name="fixed beams only",
                                      provenance={**provenance, "fit": {**provenance["fit"], "configs": configs}})
