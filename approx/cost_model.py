@@ -67,8 +67,8 @@ def features(cost: dict, params: ApproxParams) -> dict:
     maps = 2.0 * float(params.layers) + 1.0  # a front and a back map per layer, and the shadow map
     # beam_width = balanced: per step a pilot draw, the balance pass and the compaction's
     # write again, priced as a second compaction and draw (its fragments are the splat
-    # pass's, counted with it: the pilot's shader is the beams'; measured on bunny at
-    # photon_res 65: the splat pass 0.102 → 0.119 s on llvmpipe, predicted 0.081 → 0.110)
+    # pass's, counted with it: the pilot's shader is the beams'; the llvmpipe fit measures
+    # balanced configurations: docs/decisions.md "Frame cost")
     passes = 2.0 if balanced_beams(params) else 1.0
     return {
         "layers": {"calls": 1.0, "maps": maps, "texels": maps * float(params.light_res) ** 2,
