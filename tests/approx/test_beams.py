@@ -281,6 +281,7 @@ def test_a_beam_pass_counts_the_fragments_it_shades_beside_those_it_writes(ctx):
     assert walled_written == 0 and walled_shaded == open_shaded
 
 
+@pytest.mark.slow  # statistical: 32 seeds of point photons (7.5 s of the fast suite's 3 min)
 def test_the_tracers_beams_carry_the_power_its_photons_splat(ctx):
     """A glass sphere under the spot above a floor: the frame's caustic with splat = beams
     (one segment per step, no free flight) and the mean caustic of 32 seeds of point
