@@ -7,3 +7,22 @@ The installed namespace of the repository's top-level folders: ``volcaustics.sce
 ``metrics/`` and ``reports/`` (``pyproject.toml`` maps them with setuptools'
 ``package-dir``), so no bare name that belongs to another distribution is installed.
 """
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from volcaustics.reports.api import measure
+
+__all__ = ["measure"]
+
+
+def __getattr__(name: str) -> Any:
+    """The public functions, imported when first used (PEP 562), so that ``import
+    volcaustics`` and ``volcaustics --help`` load no renderer."""
+    if name in __all__:
+        from volcaustics.reports import api
+
+        return getattr(api, name)
+    raise AttributeError(f"module 'volcaustics' has no attribute {name!r}")

@@ -1,0 +1,180 @@
+"""One experiment as typed values: what ``vc.measure`` returns (``import volcaustics as vc``).
+
+A stored summary (``summaries.ExperimentSummary``, plain JSON data) is read into these
+frozen dataclasses once, at the store's boundary (:meth:`Experiment.from_summary`);
+callers read attributes, not string keys. Every number keeps the summary's unit
+(relative MSE as a fraction, times in seconds, costs in map and emission reads).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+from volcaustics.approx.params import ApproxParams
+from volcaustics.infra.errors import InputError
+from volcaustics.reports.measuring.results.summaries import SCHEMAS
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+    from volcaustics.reports.measuring.results.summaries import ExperimentSummary
+
+
+def _number(value: Any) -> float:
+    """A stored number, NaN for None (the store writes NaN as null)."""
+    return math.nan if value is None else float(value)
+
+
+@dataclass(frozen=True)
+class Estimate:
+    """A measured value with its uncertainty: ``value`` as measured, ``debiased`` with
+    the estimator's own noise taken out (NaN where the metric has none), ``standard_error``
+    and the interval ``ci_low`` … ``ci_high`` (NaN where not computed)."""
+
+    value: float
+    debiased: float = math.nan
+    standard_error: float = math.nan
+    ci_low: float = math.nan
+    ci_high: float = math.nan
+
+    @classmethod
+    def from_json(cls, data: Mapping) -> Estimate:
+        return cls(value=_number(data.get("value")), debiased=_number(data.get("debiased")),
+                   standard_error=_number(data.get("standard_error")), ci_low=_number(data.get("ci_low")),
+                   ci_high=_number(data.get("ci_high")))
+
+
+@dataclass(frozen=True)
+class ImageMetric:
+    """One metric of one image component (``caustic``, ``fog``, ``direct``, ``total``)
+    against the reference: ``metric`` as the summary names it (``relative_mse``: the
+    seeds' mean image; ``frame_relative_mse``: one frame; ``energy_ratio``, ``hdr_flip``, …)."""
+
+    component: str
+    metric: str
+    estimate: Estimate
+
+
+@dataclass(frozen=True)
+class DecompositionRow:
+    """One cause of the caustic's error (docs/concepts/decomposition.md): its share of the
+    reference's energy and its part of the relative MSE, each ± its standard error
+    (``relmse_part_debiased``: the part with the frames' noise taken out). The ``noise``
+    row has no energy share (NaN); its relative MSE is ``relmse_part``."""
+
+    term: str
+    energy_share: float
+    energy_share_se: float
+    relmse_part: float
+    relmse_part_se: float
+    relmse_part_debiased: float
+
+    @classmethod
+    def from_json(cls, row: Mapping) -> DecompositionRow:
+        if row.get("term") == "noise":
+            return cls("noise", math.nan, _number(row.get("energy_sigma")), _number(row.get("relmse")), math.nan,
+                       _number(row.get("relmse")))
+        return cls(str(row["term"]), _number(row.get("energy_share")), _number(row.get("energy_share_se")),
+                   _number(row.get("relmse_part")), _number(row.get("relmse_part_se")),
+                   _number(row.get("relmse_part_debiased")))
+
+
+@dataclass(frozen=True)
+class FrameCost:
+    """A frame's cost: ``counted`` (map and emission reads plus splats, the counted
+    total), ``splats``, ``predicted`` (weight set → predicted frame seconds, the cost
+    model) and ``measured_s`` (the frame's wall time, ``timing_method`` says how)."""
+
+    counted: float
+    splats: float
+    predicted: Mapping[str, float]
+    measured_s: float
+    timing_method: str
+
+
+@dataclass(frozen=True)
+class EqualCost:
+    """A preset matched to the paper configuration's cost, checked: ``predicted_ratio``
+    (weight set → predicted frame time / the paper's), ``measured_ratio`` (measured frame
+    time / the paper's, alternating frames) and whether both hold (``at_paper_cost``)."""
+
+    predicted_ratio: Mapping[str, float]
+    measured_ratio: float
+    at_paper_cost: bool
+
+    @classmethod
+    def from_json(cls, data: Mapping | None) -> EqualCost | None:
+        if data is None:
+            return None
+        return cls({k: float(v) for k, v in data["predicted_ratio"].items()},
+                   _number(data["measured_time"]["ratio"]), bool(data["at_paper_cost"]))
+
+
+@dataclass(frozen=True)
+class Experiment:
+    """One experiment: the approximation's frames of ``params`` on ``scene`` (``seeds``
+    frames) against the reference, every metric, the decomposition of the caustic's
+    error and the frame's cost. ``key``: the result store's key of the point.
+    ``tables``: "segments", "photons", "images" → pandas DataFrame (the tidy tables
+    ``measure -o DIR`` writes)."""
+
+    scene: str
+    scene_hash: str
+    key: str
+    params: ApproxParams
+    seeds: int
+    images: tuple[ImageMetric, ...]
+    decomposition: tuple[DecompositionRow, ...]
+    cost: FrameCost
+    equal_cost: EqualCost | None
+    warnings: tuple[str, ...]
+    code_version: str
+    tables: Mapping[str, pd.DataFrame] = field(default_factory=dict, repr=False, compare=False)
+
+    @classmethod
+    def from_summary(cls, summary: ExperimentSummary, *, key: str = "",
+                     tables: Mapping[str, pd.DataFrame] | None = None) -> Experiment:
+        """The experiment a stored summary describes; InputError for a summary of another
+        schema (it names the one read and the one expected)."""
+        schema = summary.get("schema", 1)
+        if schema != SCHEMAS["experiment"]:
+            raise InputError(f"summary.json: schema = {schema!r}: this volcaustics reads experiment schema "
+                             f"{SCHEMAS['experiment']}; measure the point again")
+        images = tuple(ImageMetric(component, metric, Estimate.from_json(value))
+                       for component, metrics in summary["images"].items()
+                       for metric, value in metrics.items() if isinstance(value, Mapping))
+        rows = (summary.get("decomposition") or {}).get("rows", [])
+        cost, timings = summary["cost"], summary["approx_timings_s"]
+        return cls(
+            scene=summary["scene"], scene_hash=summary["scene_hash"], key=key or str(summary.get("key", "")),
+            params=ApproxParams(**summary["params"]), seeds=int(summary["seeds"]), images=images,
+            decomposition=tuple(DecompositionRow.from_json(r) for r in rows),
+            cost=FrameCost(_number(cost.get("total")), _number(cost.get("splats")),
+                           {k: float(v) for k, v in summary.get("predicted_frame", {}).items() if v is not None},
+                           _number(timings.get("frame_wall")), str(summary.get("timing_method", ""))),
+            equal_cost=EqualCost.from_json(summary.get("equal_cost")), warnings=tuple(summary["warnings"]),
+            code_version=summary["code_version"], tables=dict(tables or {}))
+
+    def metric(self, metric: str = "relative_mse", component: str = "caustic") -> Estimate:
+        """One image metric (:class:`ImageMetric`); KeyError naming those there are."""
+        for m in self.images:
+            if m.component == component and m.metric == metric:
+                return m.estimate
+        there = sorted({(m.component, m.metric) for m in self.images})
+        raise KeyError(f"no {component} {metric} in this experiment; it has {there}")
+
+    def images_table(self) -> pd.DataFrame:
+        """The image metrics, a row per (component, metric)."""
+        import pandas as pd
+
+        return pd.DataFrame([{"component": m.component, "metric": m.metric, **vars(m.estimate)}
+                             for m in self.images])
+
+    def decomposition_table(self) -> pd.DataFrame:
+        """The decomposition of the caustic's error, a row per cause."""
+        import pandas as pd
+
+        return pd.DataFrame([vars(r) for r in self.decomposition])

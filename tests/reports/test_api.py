@@ -1,0 +1,86 @@
+"""The public Python face: ``vc.measure`` returns a typed experiment with the numbers
+``volcaustics measure`` writes for the same point, and ``import volcaustics`` loads no
+renderer."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import subprocess
+import sys
+
+import pytest
+
+from tests.shared import SINGLE_SCATTERING
+from volcaustics.approx.params import QUICK
+from volcaustics.infra.errors import InputError
+from volcaustics.reports.cli import main
+from volcaustics.reports.measuring.results.experiment import Experiment
+from volcaustics.reports.measuring.results.sizing import REPORT_REFERENCE
+
+SMALL = {"width": 32, "height": 32, "photon_res": 64, "light_res": 64, "layers": 2}
+REFERENCE = dataclasses.replace(REPORT_REFERENCE, photons=65536, spp=8, batches=4, target_noise=None, max_scatter=1)
+
+
+def test_measure_returns_the_typed_experiment_the_command_writes(cache, tmp_path, capsys):
+    import volcaustics as vc
+
+    e = vc.measure("refocus", seeds=2, reference=REFERENCE, **SMALL)
+    assert isinstance(e, Experiment) and e.scene == "refocus" and e.seeds == 2 and e.params.photon_res == 64
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        e.seeds = 3  # type: ignore[misc]
+    assert e.equal_cost is None  # quick is not matched to the paper's cost
+    assert {"intersection", "truncation", "kernel_blur", "residual"} <= {r.term for r in e.decomposition}
+    assert len(e.images_table()) == len(e.images) and len(e.decomposition_table()) == len(e.decomposition)
+    assert len(e.tables["segments"]) > 0
+
+    # the same point through the command: read back from the store, the same numbers
+    out = tmp_path / "m"
+    args = ["measure", "refocus", "-o", str(out), "--seeds", "2", "--quiet", "--width", "32", "--height", "32",
+            "--photon-res", "64", "--light-res", "64", "--layers", "2", "--photons", "65536", "--spp", "8",
+            "--batches", "4", "--target-noise", "none", *SINGLE_SCATTERING]
+    assert main(args) == 0
+    assert "from the store" in capsys.readouterr().out
+    summary = json.loads((out / "summary.json").read_text())
+    written = Experiment.from_summary(summary)
+    assert written.key == e.key
+    for metric in ("relative_mse", "frame_relative_mse", "energy_ratio"):
+        assert written.metric(metric) == e.metric(metric)
+    assert written.decomposition == e.decomposition
+    caustic = summary["images"]["caustic"]["relative_mse"]
+    assert math.isclose(e.metric().debiased, caustic["debiased"], rel_tol=0, abs_tol=0)
+
+
+def test_a_summary_of_another_schema_is_refused_naming_it():
+    summary = {"schema": 99, "scene": "sphere1"}
+    with pytest.raises(InputError, match="schema = 99"):
+        Experiment.from_summary(summary)  # type: ignore[arg-type]
+
+
+def test_a_metric_not_measured_is_a_key_error_naming_those_there_are():
+    e = Experiment(scene="s", scene_hash="h", key="k", params=QUICK, seeds=1, images=(), decomposition=(),
+                   cost=None, equal_cost=None, warnings=(), code_version="c")  # type: ignore[arg-type]
+    with pytest.raises(KeyError, match="no caustic relative_mse"):
+        e.metric()
+
+
+def test_a_bad_parameter_is_refused_before_anything_renders(cache):
+    import volcaustics as vc
+
+    with pytest.raises(InputError, match="photon_res"):
+        vc.measure("refocus", photon_res=-1)
+    with pytest.raises(InputError, match="preset"):
+        vc.measure("refocus", preset="fastest")
+
+
+def test_importing_volcaustics_loads_no_renderer():
+    # vc.measure is resolved on first use: importing the package alone loads nothing heavy
+    done = subprocess.run([sys.executable, "-c", "import sys, volcaustics; print(sorted(m for m in "
+                           "('moderngl', 'mitsuba', 'drjit', 'pandas') if m in sys.modules))"],
+                          capture_output=True, text=True, check=True)
+    assert done.stdout.strip() == "[]", done.stdout
+    with pytest.raises(AttributeError, match="no attribute 'mesure'"):
+        import volcaustics
+
+        volcaustics.mesure  # noqa: B018
