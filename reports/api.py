@@ -7,11 +7,16 @@ same result store, the same numbers) and returns typed results
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from volcaustics.reference.settings import ReferenceSettings
 from volcaustics.reports.measuring.experiment.measurement import MeasurementSettings
 from volcaustics.reports.measuring.results.experiment import Experiment
+from volcaustics.reports.measuring.results.sizing import REPORT_REFERENCE
+
+if TYPE_CHECKING:
+    from volcaustics.approx.params import ApproxParams
+    from volcaustics.reports.measuring.runner import PointResult
 
 __all__ = ["measure"]
 
@@ -59,23 +64,35 @@ def measure(scene: str, *, preset: str = "quick", seeds: int = 4, reference: Ref
     >>> e.metric("frame_relative_mse").debiased                 # doctest: +SKIP
     0.061
     """
-    from volcaustics.approx.cost_match import equal_cost_check, with_auto_values
     from volcaustics.approx.params import preset as preset_params
+
+    point = measured_point(scene, preset_params(preset, **params), preset, seeds,
+                           reference=reference or REPORT_REFERENCE, measurement=measurement or MeasurementSettings(),
+                           photon_res_given="photon_res" in params, layers_given="layers" in params,
+                           progress=progress)
+    return Experiment.from_summary(point.summary, key=point.key, tables=point.tables)
+
+
+def measured_point(scene: str, params: ApproxParams, preset: str, seeds: int, *, reference: ReferenceSettings,
+                   measurement: MeasurementSettings, photon_res_given: bool, layers_given: bool,
+                   progress: bool) -> PointResult:
+    """One experiment as ``volcaustics measure`` and :func:`measure` run it: the settings
+    checked, the values the preset takes from the scene resolved (layers, photon_res
+    matched to the paper's cost), the point measured through the runner and its store
+    (read back when stored), and for a matched preset its equal cost checked
+    (``summary["equal_cost"]``)."""
+    from volcaustics.approx.cost_match import equal_cost_check, with_auto_values
     from volcaustics.reports.measuring import runner
     from volcaustics.reports.measuring.experiment.point_checks import checked_settings
-    from volcaustics.reports.measuring.results.sizing import REPORT_REFERENCE
     from volcaustics.scenes import resolve_scene
 
     resolved = resolve_scene(scene)
-    given = preset_params(preset, **params)
-    checked_settings(resolved, given, seeds)
-    matched = with_auto_values(scene, given, preset, "photon_res" in params, layers_given="layers" in params)
-    checked_settings(resolved, matched, seeds)
-    run = runner.measure([runner.Point(scene, matched, seeds)], runner.results_store(),
-                         reference_settings=reference or REPORT_REFERENCE,
-                         measurement=measurement or MeasurementSettings(), policy="continue", images=("layers",),
-                         progress=progress)  # the layers image as the command asks: one stored point for both
+    checked_settings(resolved, params, seeds)  # a bad seed count or size: before the cost match
+    matched = with_auto_values(scene, params, preset, photon_res_given, layers_given=layers_given)
+    checked_settings(resolved, matched, seeds)  # the matched frame too: before the reference
+    run = runner.measure([runner.Point(scene, matched, seeds)], runner.results_store(), reference_settings=reference,
+                         measurement=measurement, policy="continue", images=("layers",),
+                         progress=progress)  # the layers image as the command writes it: one stored point for both
     point = run.results[0]
-    summary = dict(point.summary)
-    summary["equal_cost"] = equal_cost_check(scene, matched, preset)
-    return Experiment.from_summary(summary, key=point.key, tables=point.tables)  # type: ignore[arg-type]
+    point.summary["equal_cost"] = equal_cost_check(scene, matched, preset)
+    return point

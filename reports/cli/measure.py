@@ -19,6 +19,8 @@ from volcaustics.reports.measuring.results.param_input import add_param_flags, p
 if TYPE_CHECKING:
     import argparse
 
+    from volcaustics.reports.measuring.results.summaries import ExperimentSummary
+
 # native extensions loaded at start-up, with Ctrl-C held (cli.main)
 NATIVE = ("drjit", "mitsuba", "moderngl")
 
@@ -40,30 +42,22 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from volcaustics.approx.cost_match import equal_cost_check, with_auto_values
-    from volcaustics.reports.measuring import runner
+    from volcaustics.reports.api import measured_point
     from volcaustics.reports.measuring.experiment.measure_outputs import OUTPUT_FILES, write_experiment
-    from volcaustics.reports.measuring.experiment.point_checks import checked_settings
     from volcaustics.reports.measuring.experiment.point_summary import KIND as EXPERIMENT_KIND
     from volcaustics.scenes import resolve_scene
 
     check_output_set(args.output, "-o", files=OUTPUT_FILES, kind=EXPERIMENT_KIND)
     scene = resolve_scene(args.scene)
     measurement = measurement_from_args(args)  # a bad --exact-subphotons: before the cost match and the reference
-    checked_settings(scene, params_from_args(args), args.seeds)  # a bad seed count or size: before the cost match
-    params = with_auto_values(args.scene, params_from_args(args), args.preset, args.photon_res is not None,
-                              layers_given=args.layers is not None)
-    checked_settings(scene, params, args.seeds)  # the matched frame too: before the reference
-    note = preset_size_note(args, params, scene)
+    params = params_from_args(args)
+    note = preset_size_note(args, params, scene)  # the size: the cost match keeps it
     if note:
         print(f"measure: {note}", file=sys.stderr)
     # through the runner and the store the report and the gate share: a point measured before is read back
-    run = runner.measure([runner.Point(args.scene, params, args.seeds)], runner.results_store(),
-                         reference_settings=report_settings(args), measurement=measurement, policy="continue",
-                         images=("layers",), progress=not args.quiet)
-    point = run.results[0]
-    # a preset matched to the paper's cost (best): that cost, predicted under every weight set and measured
-    point.summary["equal_cost"] = equal_cost_check(args.scene, params, args.preset)
+    point = measured_point(args.scene, params, args.preset, args.seeds, reference=report_settings(args),
+                           measurement=measurement, photon_res_given=args.photon_res is not None,
+                           layers_given=args.layers is not None, progress=not args.quiet)
     paths = write_experiment(point, args.output)
     s = point.summary  # as stored: plain JSON data (NaN → None)
     how = f"{s['experiment_seconds']['total']:.1f} s" if point.measured else f"from the store ({point.key[:12]})"
@@ -91,7 +85,7 @@ def _print_equal_cost(check: dict | None) -> None:
           f"({1000 * t['config_s']:.0f} against {1000 * t['paper_s']:.0f} ms, {t['method']}): {verdict}")
 
 
-def _print_images(s: dict) -> None:
+def _print_images(s: ExperimentSummary) -> None:
     for component, m in s["images"].items():
         relmse, ratio, flip = m["relative_mse"], m["energy_ratio"], m["hdr_flip"]
         mean = debiased(relmse["debiased"], low=relmse["ci_low"], high=relmse["ci_high"])
@@ -102,7 +96,7 @@ def _print_images(s: dict) -> None:
               f"energy ratio {num(ratio['value'])}, HDR-FLIP per frame {num(flip['value'])}")
 
 
-def _print_model(s: dict) -> None:
+def _print_model(s: ExperimentSummary) -> None:
     model = s.get("model")
     if model is None:
         return
@@ -119,9 +113,9 @@ def _print_model(s: dict) -> None:
               f"{100 * part['value']:+7.2f}% ± {100 * part['standard_error']:.2f}")
 
 
-def _print_decomposition(s: dict) -> None:
+def _print_decomposition(s: ExperimentSummary) -> None:
     print("  caustic error decomposed: energy share of the reference ± SE, part of the relative MSE ± SE")
-    for row in s["decomposition"]["rows"]:
+    for row in (s["decomposition"] or {}).get("rows", []):  # None: a gate point, which measure never runs
         if row["term"] == "noise":
             print(f"    {'noise':<13} ±{100 * row['energy_sigma']:6.2f}%            {100 * row['relmse']:6.2f}%")
             continue
