@@ -63,7 +63,8 @@ class DecompositionRow:
     """One cause of the caustic's error (docs/concepts/decomposition.md): its share of the
     reference's energy and its part of the relative MSE, each ± its standard error
     (``relmse_part_debiased``: the part with the frames' noise taken out). The ``noise``
-    row has no energy share (NaN); its relative MSE is ``relmse_part``."""
+    row has no energy share (NaN): ``energy_share_se`` holds the σ of the frames' energy,
+    ``relmse_part`` (and its debiased copy) the noise's relative MSE."""
 
     term: str
     energy_share: float
