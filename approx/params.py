@@ -411,11 +411,13 @@ _P = TypeVar("_P", bound=ParamsMethods)
 def preset(name: str, cls: type[ApproxParams] = ..., **changes: object) -> ApproxParams: ...
 @overload
 def preset(name: str, cls: type[_P], **changes: object) -> _P: ...
-def preset(name: str, cls: type = ApproxParams, **changes: object) -> ParamsMethods:
+def preset(name: str, cls: type[ParamsMethods] = ApproxParams, **changes: object) -> ParamsMethods:
     """The preset ``name`` as ``cls`` (a :func:`params_class`) with ``changes``
-    (ParamError for an unknown preset or a bad value)."""
+    (ParamError for an unknown preset, an unknown parameter or a bad value)."""
     if name not in PRESET_VALUES:
         raise ParamError(f"preset = {name!r}: expected {' or '.join(repr(n) for n in PRESET_VALUES)}")
+    for key in changes:
+        param(key, cls.TABLE)  # an unknown name: ParamError listing the table's, not a TypeError
     return cls(**{**PRESET_VALUES[name], **changes})
 
 

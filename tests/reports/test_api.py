@@ -70,6 +70,8 @@ def test_a_bad_parameter_is_refused_before_anything_renders(cache):
         vc.measure("refocus", photon_res=-1)
     with pytest.raises(InputError, match="preset"):
         vc.measure("refocus", preset="fastest")
+    with pytest.raises(InputError, match="photon_ress.*photon_res"):  # a misspelt name: the table's names, no TypeError
+        vc.measure("refocus", photon_ress=64)
 
 
 def test_importing_volcaustics_loads_no_renderer():
