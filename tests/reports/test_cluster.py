@@ -152,16 +152,20 @@ def _sweep_process(spec, out, address) -> subprocess.Popen:
 
 def _wait_until_busy(address, sweep, task: str, worker: str | None = None) -> bool:
     """Whether a worker (named ``worker``, or any) took a ``task`` ("point", "batch")
-    of the sweep before it ended, waiting at most 240 s."""
+    of the sweep before it ended, waiting at most 240 s. The workers' names and their
+    tasks are read in one call on the scheduler: read in two, a worker that left
+    between them was a KeyError (seen once in CI)."""
     from dask.distributed import Client
+
+    def busy_names(dask_scheduler) -> list[str]:
+        return [str(ws.name) for ws in dask_scheduler.workers.values()
+                if any(str(ts.key).startswith(f"volcaustics-{task}-") for ts in ws.processing)]
 
     with Client(address, timeout="30s") as client:
         deadline = time.monotonic() + 240
         while time.monotonic() < deadline and sweep.poll() is None:
-            busy = [w for w, keys in client.processing().items()
-                    if any(str(k).startswith(f"volcaustics-{task}-") for k in keys)]
-            info = client.scheduler_info()["workers"]
-            if any(worker is None or info[w].get("name") == worker for w in busy):
+            names = client.run_on_scheduler(busy_names)
+            if names and (worker is None or worker in names):
                 return True
             time.sleep(0.05)
     return False
