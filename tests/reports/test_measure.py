@@ -30,9 +30,11 @@ def _strict_json(path):
     return json.loads(path.read_text(), parse_constant=no_constant)
 
 
-def test_measure_writes_tidy_tables_exr_and_summary(cache, tmp_path, capsys, monkeypatch):
+def test_measure_writes_tidy_tables_exr_and_summary(empty_cache, tmp_path, capsys, monkeypatch):
     """End to end at the report's measurement settings (16 exact sub-photons: the
-    default), a single-scattering reference."""
+    default), a single-scattering reference. Its references are its own (``empty_cache``):
+    a test beside it that continued the shared entry between its two runs changed the
+    point's key, and the second run measured again."""
     import OpenEXR
     import pandas as pd
 
