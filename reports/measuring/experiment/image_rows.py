@@ -19,6 +19,11 @@
 
 A metric that cannot be computed (a reference black in some channel) gets NaN and a
 ``note``.
+
+Every metric is an entry of :data:`METRICS`, registered by name with
+:func:`register_metric` (:func:`per_frame_metric` builds the common kind: one frame's
+value, averaged, less the reference's floor); ``docs/howto/add-metric.md`` walks through
+adding one.
 """
 
 from __future__ import annotations
@@ -28,6 +33,7 @@ import json
 import math
 import os
 from collections.abc import Sequence
+from dataclasses import dataclass
 from functools import lru_cache
 from typing import TYPE_CHECKING, Callable, Protocol
 
@@ -64,24 +70,12 @@ RESAMPLES = 2000             # bootstrap resamples over the seeds (per-frame met
 FLOOR_DRAWS = 2              # noisy copies averaged for a non-quadratic metric's floor
 LEVEL = 0.95                 # bootstrap interval level
 FLOOR_SEED = 12345           # noise draw of the non-quadratic metrics' floors (metrics.noise.noisy_copy)
-IMAGE_METRICS = ("relative_mse", "frame_relative_mse", "per_pixel_relative_mse", "ssim", "hdr_flip", "delta_e2000",
-                 "energy_ratio")
-MAP_METRICS = ("per_pixel_relative_mse", "hdr_flip")   # whose first-frame error map a report shows
 NAN = float("nan")
 IMAGE_COLUMNS = {"value": NAN, "reference_floor": NAN, "approx_noise": NAN, "debiased": NAN,
                  "approx_noise_removed": False, "standard_error": NAN, "ci_low": NAN, "ci_high": NAN,
                  "reference_sigma": NAN, "note": "", "options": "{}"}
 HEADLINE_COLUMNS = ("value", "debiased", "standard_error", "ci_low", "ci_high", "reference_floor", "approx_noise",
                     "reference_sigma", "note")
-PER_FRAME: dict[str, tuple[Callable, Callable]] = {  # metric: (value of one frame, debias: (mean, floor) -> debiased)
-    "per_pixel_relative_mse": (im.per_pixel_relative_mse, lambda m, f: m - f),
-    "ssim": (im.ssim, lambda m, f: 1.0 - ((1.0 - m) - (1.0 - f))),
-    "hdr_flip": (im.hdr_flip, lambda m, f: m - f),
-    "delta_e2000": (im.delta_e2000, lambda m, f: m - f),
-}
-# metrics with a function of every frame at once (the reference's half computed once): metric -> fn
-FRAMES: dict[str, Callable] = {"hdr_flip": im.hdr_flip_frames, "delta_e2000": im.delta_e2000_frames}
-
 _FLOORS: dict = {}
 
 
@@ -95,25 +89,26 @@ def keep_mask(reference: ReferenceResult, frames: Sequence[_Imaged]) -> np.ndarr
 
 def image_rows(frames: Sequence[_Imaged], reference: ReferenceResult, keep: np.ndarray, columns: dict,
                maps: dict | None = None, components: Sequence[str] = COLOUR_LAYERS,
-               metrics: Sequence[str] = IMAGE_METRICS) -> tuple:
+               metrics: Sequence[str] | None = None) -> tuple:
     """(rows, headline): one row per (component, metric) with the columns of
     IMAGE_COLUMNS and ``columns``; headline: component → metric → the summary's
     numbers (``relative_mse`` with each frame's own value, ``per_seed``). ``maps`` (a
-    dict) receives the first frame's error map of each of MAP_METRICS per component:
+    dict) receives the first frame's error map of each metric with ``error_map`` per component:
     (metric, component) → H×W. ``frames``: objects with ``images`` (layer name → H×W×3)
     holding ``components`` (default every colour layer: an approximation's; ``compare``
-    may have only ``combined``); ``metrics``: which of IMAGE_METRICS (a gate point: those
-    its budgets read)."""
+    may have only ``combined``); ``metrics``: which of :data:`METRICS` (default all; a gate
+    point: those its budgets read)."""
     headline: dict
     rows, headline = [], {}
     for component in components:
         r, rv = reference.mean[component], reference.var[component]
         stack = np.stack([f.images[component] for f in frames])
         head = headline.setdefault(component, {})
-        for metric in metrics:
+        inputs = MetricInputs(r, rv, stack, keep, component, columns["reference_key"],
+                              reference.total_variance_ratio(component), maps)
+        for metric in tuple(METRICS) if metrics is None else metrics:
             try:
-                values = _metric(metric, r, rv, stack, keep, component, columns["reference_key"], maps,
-                                 reference.total_variance_ratio(component))
+                values = METRICS[metric].measure(inputs)
             except ValueError as exc:  # e.g. a reference black in a channel over the compared pixels
                 values = {"note": str(exc)}
             per_seed = values.pop("per_seed", None)
@@ -125,20 +120,70 @@ def image_rows(frames: Sequence[_Imaged], reference: ReferenceResult, keep: np.n
     return rows, headline
 
 
-def _metric(metric, r, rv, stack, keep, component, reference_key, maps, ratio=None) -> dict:
-    if metric == "relative_mse":
-        return _relative_mse(r, rv, stack, keep)
-    if metric == "frame_relative_mse":
-        return _frame_relative_mse(r, rv, stack, keep)
-    if metric == "energy_ratio":
-        return _energy_ratio(r, rv, stack, keep, ratio)
-    return _per_frame(metric, r, rv, stack, keep, component, reference_key, maps)
+@dataclass(frozen=True)
+class MetricInputs:
+    """What a metric reads for one colour component: the reference's mean ``reference``
+    and per-pixel variance ``variance`` (H×W×3), the frames ``frames`` (S×H×W×3), the
+    compared pixels ``keep`` (H×W bool), the ``component``'s name, the reference's cache
+    key (its floors' cache key), the reference total's variance ratio and ``maps``
+    (None, or the dict that receives first-frame error maps)."""
+
+    reference: np.ndarray
+    variance: np.ndarray
+    frames: np.ndarray
+    keep: np.ndarray
+    component: str
+    reference_key: str
+    total_variance_ratio: list | None
+    maps: dict | None
 
 
-def _relative_mse(r, rv, stack, keep) -> dict:
-    err = seed_relative_mse(r, rv, stack, mask=keep, level=LEVEL)
+@dataclass(frozen=True)
+class ImageMetric:
+    """A metric of the images table: ``measure`` returns a row's numbers (the keys of
+    IMAGE_COLUMNS it fills, plus ``per_seed``: each frame's own value, where the summary
+    keeps them); ``error_map``: its first frame's error map is kept and drawn (the
+    report's scale for it: ``reports.presenting.figures.scales.SCALES``)."""
+
+    name: str
+    measure: Callable[[MetricInputs], dict]
+    error_map: bool = False
+
+
+METRICS: dict[str, ImageMetric] = {}  # name -> metric, in the images table's order
+
+
+def register_metric(metric: ImageMetric) -> ImageMetric:
+    """Add ``metric`` to :data:`METRICS`: every point measures it from then on (a name
+    taken is refused: a ValueError)."""
+    if metric.name in METRICS:
+        raise ValueError(f"an image metric named {metric.name!r} is already registered")
+    METRICS[metric.name] = metric
+    return metric
+
+
+def map_metrics() -> tuple[str, ...]:
+    """The metrics whose first frame's error map a point keeps (``error_map``)."""
+    return tuple(name for name, metric in METRICS.items() if metric.error_map)
+
+
+def per_frame_metric(name: str, value: Callable, debias: Callable[[float, float], float], *,
+                     frames: Callable | None = None, error_map: bool = False) -> ImageMetric:
+    """A metric of one frame, averaged over the frames: ``value(reference, frame, mask=,
+    full=)`` returns {"value": …, "map": H×W when ``full``, options…}; ``debias(mean,
+    floor)`` removes the reference's floor (its value for the reference against a noisy
+    copy of itself, :func:`metric_floor`); ``frames(reference, frames, mask=, full=)``,
+    when given, computes every frame's at once. Interval: percentile bootstrap of the mean."""
+    def measure(x: MetricInputs) -> dict:
+        return _per_frame(name, value, debias, frames, error_map, x)
+
+    return ImageMetric(name, measure, error_map)
+
+
+def _relative_mse(x: MetricInputs) -> dict:
+    err = seed_relative_mse(x.reference, x.variance, x.frames, mask=x.keep, level=LEVEL)
     # each frame's own relative MSE, in seed order: what a regression test over seeds compares
-    per_seed = [im.relative_mse(r, a, mask=keep) for a in stack]
+    per_seed = [im.relative_mse(x.reference, a, mask=x.keep) for a in x.frames]
     return {"value": err.raw, "reference_floor": err.reference_floor, "approx_noise": err.approx_noise,
             "debiased": err.debiased, "approx_noise_removed": err.seeds >= 2, "standard_error": err.standard_error,
             **_ci(err.interval), "per_seed": per_seed,
@@ -146,28 +191,27 @@ def _relative_mse(r, rv, stack, keep) -> dict:
                                    "pixels": err.pixels})}
 
 
-def _frame_relative_mse(r, rv, stack, keep) -> dict:
-    err = frame_relative_mse(r, rv, stack, mask=keep, level=LEVEL)
+def _frame_relative_mse(x: MetricInputs) -> dict:
+    err = frame_relative_mse(x.reference, x.variance, x.frames, mask=x.keep, level=LEVEL)
     return {"value": float(np.mean(err.per_seed)), "reference_floor": err.reference_floor, "debiased": err.debiased,
             "standard_error": err.standard_error, **_ci(err.interval),
             "options": json.dumps({"interval": "over the frames and R's noise, Student t", "level": LEVEL})}
 
 
-def _per_frame(metric, r, rv, stack, keep, component, reference_key, maps) -> dict:
-    fn, debias = PER_FRAME[metric]
-    frames = FRAMES.get(metric)
+def _per_frame(metric, fn, debias, frames, error_map, x: MetricInputs) -> dict:
+    r, keep = x.reference, x.keep
+    full = {"full": True} if error_map and x.maps is not None else {}  # a map only where one is kept
     if frames is not None:
-        results = frames(r, stack, mask=keep, **({"full": True} if metric in MAP_METRICS else {}))
-        for x in results[1:]:
-            x.pop("map", None)
+        results = frames(r, x.frames, mask=keep, **full)
     else:
-        results = [fn(r, a, mask=keep, **({"full": True} if i == 0 and metric in MAP_METRICS else {}))
-                   for i, a in enumerate(stack)]
-    if maps is not None and "map" in results[0]:
-        maps[(metric, component)] = results[0].pop("map")
-    floor = metric_floor(metric, reference_key, component, keep, r, rv, lambda x, y: fn(x, y, mask=keep)["value"],
-                         frames=frames and (lambda x, ys: [v["value"] for v in frames(x, ys, mask=keep)]))
-    stat = seed_mean_interval([x["value"] for x in results], resamples=RESAMPLES, level=LEVEL)
+        results = [fn(r, a, mask=keep, **(full if i == 0 else {})) for i, a in enumerate(x.frames)]
+    error = [v.pop("map", None) for v in results][0]
+    if x.maps is not None and error is not None:
+        x.maps[(metric, x.component)] = error
+    floor = metric_floor(metric, x.reference_key, x.component, keep, r, x.variance,
+                         lambda a, b: fn(a, b, mask=keep)["value"],
+                         frames=frames and (lambda a, bs: [v["value"] for v in frames(a, bs, mask=keep)]))
+    stat = seed_mean_interval([v["value"] for v in results], resamples=RESAMPLES, level=LEVEL)
     interval = None if stat["interval"] is None else tuple(debias(v, floor) for v in stat["interval"])
     options = {k: v for k, v in results[0].items() if k != "value"}
     return {"value": stat["mean"], "reference_floor": floor, "debiased": debias(stat["mean"], floor),
@@ -175,14 +219,26 @@ def _per_frame(metric, r, rv, stack, keep, component, reference_key, maps) -> di
                                                     "resamples": stat["resamples"], "level": LEVEL}, default=float)}
 
 
-def _energy_ratio(r, rv, stack, keep, ratio) -> dict:
-    mean_ratio = im.energy_ratio(r, stack.mean(axis=0), mask=keep)["mean"]
-    stat = seed_mean_interval([im.energy_ratio(r, a, mask=keep)["mean"] for a in stack], resamples=RESAMPLES,
+def _energy_ratio(x: MetricInputs) -> dict:
+    r, keep = x.reference, x.keep
+    mean_ratio = im.energy_ratio(r, x.frames.mean(axis=0), mask=keep)["mean"]
+    stat = seed_mean_interval([im.energy_ratio(r, a, mask=keep)["mean"] for a in x.frames], resamples=RESAMPLES,
                               level=LEVEL)
-    sigma = float(np.mean(total_sigma(rv, mask=keep, ratio=ratio) / r[keep].sum(axis=0)))
+    sigma = float(np.mean(total_sigma(x.variance, mask=keep, ratio=x.total_variance_ratio) / r[keep].sum(axis=0)))
     return {"value": mean_ratio, "debiased": mean_ratio, "reference_sigma": sigma, **_ci(stat["interval"]),
             "options": json.dumps({"channels": "per-channel ratios averaged", "interval": "percentile bootstrap",
                                    "resamples": stat["resamples"], "level": LEVEL})}
+
+
+# the built-in metrics, in the images table's order
+IMAGE_METRICS = tuple(register_metric(m).name for m in (
+    ImageMetric("relative_mse", _relative_mse),
+    ImageMetric("frame_relative_mse", _frame_relative_mse),
+    per_frame_metric("per_pixel_relative_mse", im.per_pixel_relative_mse, lambda m, f: m - f, error_map=True),
+    per_frame_metric("ssim", im.ssim, lambda m, f: 1.0 - ((1.0 - m) - (1.0 - f))),
+    per_frame_metric("hdr_flip", im.hdr_flip, lambda m, f: m - f, frames=im.hdr_flip_frames, error_map=True),
+    per_frame_metric("delta_e2000", im.delta_e2000, lambda m, f: m - f, frames=im.delta_e2000_frames),
+    ImageMetric("energy_ratio", _energy_ratio)))
 
 
 def _ci(interval) -> dict:

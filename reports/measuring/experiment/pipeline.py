@@ -39,7 +39,7 @@ from volcaustics.reference.render import render_reference
 from volcaustics.reports.measuring.experiment.approx_frames import render_frames
 from volcaustics.reports.measuring.experiment.decomposition_rows import decompose, decomposition_rows
 from volcaustics.reports.measuring.experiment.exact_images import exact_images
-from volcaustics.reports.measuring.experiment.image_rows import IMAGE_METRICS, image_rows, keep_mask
+from volcaustics.reports.measuring.experiment.image_rows import image_rows, keep_mask
 from volcaustics.reports.measuring.experiment.measurement import GATE_IMAGE_METRICS, MeasurementSettings
 from volcaustics.reports.measuring.experiment.model_rows import model_rows
 from volcaustics.reports.measuring.experiment.photons import photon_rows, replay
@@ -152,7 +152,7 @@ def run_experiment(scene: Scene, params: ApproxParams, *, seeds: int = 1,
         maps: dict
         keep, maps = keep_mask(reference, frames), {}
         images, headline = image_rows(frames, reference, keep, columns, maps,
-                                      metrics=IMAGE_METRICS if scope == "full" else GATE_IMAGE_METRICS)
+                                      metrics=None if scope == "full" else GATE_IMAGE_METRICS)
         decomposition = None if exact is None else _decomposed(scene, exact, reference, keep)
         images += [] if decomposition is None else decomposition_rows(decomposition, columns)
         model, model_summary = model_rows(frames, reference, keep, columns) if scope == "full" else ([], None)
