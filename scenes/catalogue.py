@@ -1,9 +1,11 @@
 """The built-in scene catalogue and SCENE-argument resolution.
 
 Built-in scenes are ordinary TOML files in ``scenes/builtin/`` (they double as
-examples of the format). Paper Table 1: ``sphere1``, ``sphere2``, ``bunny``,
-``feline`` (stand-in), ``skull`` (stand-in); paper Figure 5: ``two_spheres``,
-``refocus``.
+examples of the format): the catalogue is that folder, each file's stem a scene's name,
+in the order its top-level ``order`` key gives (the paper's: Table 1's ``sphere1``,
+``sphere2``, ``bunny``, ``feline`` (stand-in), ``skull`` (stand-in), then Figure 5's
+``two_spheres``, ``refocus``). A file dropped there is a built-in scene
+(``docs/howto/add-scene.md``).
 
 Held-out scenes (``scenes/heldout/``: ``knot``, ``lens_array``, ``dense_forward``,
 ``water``, ``coil``) are
@@ -16,16 +18,43 @@ from __future__ import annotations
 
 import os
 
+try:
+    import tomllib
+except ModuleNotFoundError:  # Python 3.10
+    import tomli as tomllib  # type: ignore[no-redef]
+
 from .errors import SceneError
 from .loader import load_scene
 from .model import Scene
 
+
+def catalogue(folder: str) -> tuple[str, ...]:
+    """The scenes of ``folder``: its ``.toml`` files' stems, by their ``order`` key (files
+    without one after those with one, by name). Two files of one ``order`` are a
+    SceneError naming both."""
+    ranked: dict[str, tuple[float, str]] = {}
+    taken: dict[int, str] = {}
+    for entry in sorted(os.listdir(folder)):
+        stem, ext = os.path.splitext(entry)
+        if ext != ".toml":
+            continue
+        path = os.path.join(folder, entry)
+        with open(path, "rb") as fh:
+            order = tomllib.load(fh).get("order")
+        if isinstance(order, int) and order in taken:
+            raise SceneError(path, "order", order, f"the place of {taken[order]} already: give each scene its own")
+        if isinstance(order, int):
+            taken[order] = entry
+        ranked[stem] = (order if isinstance(order, int) else float("inf"), stem)
+    return tuple(sorted(ranked, key=ranked.__getitem__))
+
+
 BUILTIN_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "builtin")
-BUILTIN_NAMES = ("sphere1", "sphere2", "bunny", "feline", "skull", "two_spheres", "refocus")
+BUILTIN_NAMES = catalogue(BUILTIN_DIR)
 
 
 HELDOUT_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "heldout")
-HELDOUT_NAMES = ("knot", "lens_array", "dense_forward", "water", "coil")
+HELDOUT_NAMES = catalogue(HELDOUT_DIR)
 
 
 def heldout_path(name: str) -> str:

@@ -237,6 +237,7 @@ def parse_scene(data: dict, *, file: str | None = None, base_dir: str = ".", sou
     stem = os.path.splitext(os.path.basename(file))[0] if file else "scene"
     name = t.get("name", name_value, stem if NAME_PATTERN.fullmatch(stem) else "scene")
     description = t.get("description", string_value, "")
+    t.get("order", integer_in(0, 1000), None)  # a built-in scene's place in the catalogue (scenes.catalogue)
     camera = t.get("camera", _camera)
     light = t.get("light", _light)
     medium = t.get("medium", _medium, Medium())

@@ -11,6 +11,7 @@ import pytest
 
 from volcaustics.reports.cli import main
 from volcaustics.scenes import BUILTIN_NAMES, load_builtin
+from volcaustics.scenes.catalogue import builtin_path
 from volcaustics.scenes.mesh import closedness_problem, winding_number
 
 # Paper Table 1 / Figure 5 triangle counts of the specular objects; the issue allows 5%.
@@ -19,6 +20,31 @@ TARGET_TRIANGLES = {"sphere1": 40_000, "sphere2": 20_000, "bunny": 10_000, "feli
 
 def test_seven_scenes_in_paper_order():
     assert BUILTIN_NAMES == ("sphere1", "sphere2", "bunny", "feline", "skull", "two_spheres", "refocus")
+    assert all(load_builtin(name).name == name for name in BUILTIN_NAMES)  # a file's stem is its scene's name
+
+
+def test_the_catalogue_is_the_folder_in_its_files_order(tmp_path):
+    """A file dropped in the folder is a scene of the catalogue, placed by its ``order``
+    (files without one last, by name); two files of one order are refused naming both."""
+    from volcaustics.scenes import SceneError
+    from volcaustics.scenes.catalogue import catalogue
+
+    for name, order in (("b", 2), ("a", None), ("c", 1), ("z", None)):
+        (tmp_path / f"{name}.toml").write_text("" if order is None else f"order = {order}\n")
+    (tmp_path / "notes.txt").write_text("order = 0\n")
+    assert catalogue(str(tmp_path)) == ("c", "b", "a", "z")
+    (tmp_path / "d.toml").write_text("order = 2\n")
+    with pytest.raises(SceneError, match=r"order.*the place of b\.toml already"):
+        catalogue(str(tmp_path))
+
+
+def test_an_order_that_is_not_a_small_integer_is_refused(tmp_path):
+    from volcaustics.scenes import SceneError, load_scene
+
+    text = open(builtin_path("refocus")).read().replace("order = 7", 'order = "seventh"')
+    (tmp_path / "s.toml").write_text(text)
+    with pytest.raises(SceneError, match="order.*expected an integer"):
+        load_scene(str(tmp_path / "s.toml"))
 
 
 @pytest.mark.parametrize("name", list(TARGET_TRIANGLES))
