@@ -22,7 +22,8 @@ from typing import Any
 import moderngl
 
 from .gl_entry import gl_function
-from .timing import TIMER_SENTINEL
+
+TIMER_SENTINEL = 4294967295       # 2**32 - 1: a timer query answer that is no elapsed time
 
 TIMESTAMP = 0x8E28                # GL_TIMESTAMP
 QUERY_COUNTER_BITS = 0x8864       # GL_QUERY_COUNTER_BITS

@@ -17,12 +17,10 @@ from typing import TYPE_CHECKING
 import moderngl
 
 from .invocations import InvocationQuery
+from .late_timer import TIMER_SENTINEL, LateTimer
 
 if TYPE_CHECKING:
-    from .late_timer import LateTimer
     from .resources import FrameResources
-
-TIMER_SENTINEL = 4294967295
 
 
 def timer_queries_work(ctx: moderngl.Context) -> bool:

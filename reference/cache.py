@@ -46,8 +46,8 @@ from volcaustics.infra.storage import (
     read_json_object,
     remove_file,
 )
-from volcaustics.scenes.canonical import canonical_dict
 from volcaustics.scenes.formats import COLOUR_LAYERS, LAYER_NAMES, MASK_LAYER, MODEL_LAYERS, PATH_INTERACTIONS
+from volcaustics.scenes.model import canonical_dict
 
 from . import mi_setup
 

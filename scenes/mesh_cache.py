@@ -7,7 +7,7 @@ from __future__ import annotations
 import functools
 import hashlib
 import os
-from typing import TYPE_CHECKING, cast
+from typing import Any, Protocol, cast
 
 import numpy as np
 
@@ -16,8 +16,19 @@ from volcaustics.infra.storage import atomic_path, cache_dir, cache_path, note_n
 from .generators import GENERATOR_VERSION, generate
 from .mesh import Mesh, read_mesh_file
 
-if TYPE_CHECKING:
-    from .model import MeshSpec
+
+class MeshRequest(Protocol):
+    """What a mesh is built from (``scenes.model.MeshSpec`` is one; hashable: the memory
+    cache's key). Structural, so that the model imports this module and not the reverse."""
+
+    @property
+    def path(self) -> str | None: ...
+    @property
+    def generator(self) -> str | None: ...
+    @property
+    def params(self) -> tuple: ...
+    @property
+    def transform(self) -> Any: ...  # its matrix(): 4×4 object → world
 
 
 # meshes kept in memory, by spec: a test worker or a sweep resolves scenes of more than 32
@@ -27,7 +38,7 @@ MESHES_KEPT = 256
 
 
 @functools.lru_cache(maxsize=MESHES_KEPT)
-def load_mesh_spec(spec: MeshSpec) -> Mesh:
+def load_mesh_spec(spec: MeshRequest) -> Mesh:
     """World-space mesh for a :class:`scenes.model.MeshSpec` (cached by spec in
     memory; generated meshes also on disk, see :func:`generated_mesh`)."""
     if spec.path is not None:

@@ -1,7 +1,7 @@
 """The layers of docs/architecture.md, read from that page and checked against the source
 with ``ast``: no module imports a layer above its own or a sibling on its own layer (between
 the top-level folders, and between the subpackages of ``reports``), no import cycle exists
-anywhere (imports inside functions count), and every import is spelled in the installed
+anywhere (imports inside functions and type-only ones count), and every import is spelled in the installed
 namespace (``volcaustics.<folder>``), never by a bare folder name."""
 
 from __future__ import annotations
@@ -31,22 +31,12 @@ FOLDERS = tuple(name for level in LAYERS["packages"] for name in level)
 REPORTS_LEVELS = tuple(tuple(level) for level in LAYERS["reports"])
 
 
-def _type_only(tree) -> set:
-    """The import nodes under ``if TYPE_CHECKING:``: they never run, so they make no cycle."""
-    return {id(node) for branch in ast.walk(tree) if isinstance(branch, ast.If)
-            and getattr(branch.test, "id", getattr(branch.test, "attr", None)) == "TYPE_CHECKING"
-            for node in ast.walk(branch)}
-
-
-def imported_modules(source: str, package: list[str], runtime_only: bool = False) -> dict:
+def imported_modules(source: str, package: list[str]) -> dict:
     """Every imported module in ``source`` (also inside functions; relative imports
     resolved against ``package``, the module's package path as parts) → first line."""
     found = {}
     tree = ast.parse(source)
-    skipped = _type_only(tree) if runtime_only else set()
     for node in ast.walk(tree):
-        if id(node) in skipped:
-            continue
         if isinstance(node, ast.Import):
             names = [alias.name for alias in node.names]
         elif isinstance(node, ast.ImportFrom):
@@ -83,9 +73,9 @@ def modules(top: str):
                 yield os.path.join(folder, f), package
 
 
-def _imports(path, package, runtime_only: bool = False) -> dict:
+def _imports(path, package) -> dict:
     with open(path, encoding="utf-8") as fh:
-        return imported_modules(fh.read(), package, runtime_only)
+        return imported_modules(fh.read(), package)
 
 
 def _package_level(name: str) -> int | None:
@@ -208,7 +198,8 @@ def test_the_page_states_every_folder_and_room():
 
 
 def module_graph() -> dict:
-    """Module → the project modules it imports (explicitly; inside functions too)."""
+    """Module → the project modules it imports (explicitly; inside functions and under
+    ``if TYPE_CHECKING:`` too)."""
     files = {}
     for top in FOLDERS:
         for path, package in modules(top):
@@ -218,7 +209,7 @@ def module_graph() -> dict:
     graph = {}
     for name, (path, package) in files.items():
         targets = set()
-        for imported in _imports(path, package, runtime_only=True):
+        for imported in _imports(path, package):
             if imported in files:
                 targets.add(imported)
             elif imported.rpartition(".")[0] in files:  # from package import attribute
@@ -259,6 +250,9 @@ def cycles(graph: dict) -> list:
 
 
 def test_no_import_cycles():
+    """Not even through a type-only import: a module that needs another's types while
+    that one calls it back is one concept in two files, or a type in the wrong one (the
+    scene model and its canonical JSON, the gate's result and its writer were)."""
     found = cycles(module_graph())
     assert not found, "\n".join(" <-> ".join(c) for c in found)
 

@@ -12,8 +12,7 @@ import pytest
 
 from volcaustics.approx.debug_groups import DISPLAY_FRAME, debug_group
 from volcaustics.approx.gl_entry import current_gl_version, gl_function
-from volcaustics.approx.late_timer import LateTimer
-from volcaustics.approx.timing import TIMER_SENTINEL
+from volcaustics.approx.late_timer import TIMER_SENTINEL, LateTimer
 
 DEBUG_GROUP_STACK_DEPTH = 0x826D  # GL_DEBUG_GROUP_STACK_DEPTH
 

@@ -14,7 +14,7 @@ from volcaustics.scenes.model import Medium, Phase, Transform
 
 # Frozen once: the canonical-JSON format is a cache key, so an accidental change to
 # it (or to float formatting on another machine) must fail here. Update only on
-# purpose, together with scenes.canonical.FORMAT.
+# purpose, together with scenes.model.FORMAT.
 REFOCUS_HASH = "a00068a4c437"
 
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import os
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 from xml.sax.saxutils import escape, quoteattr
 
@@ -19,7 +20,22 @@ from volcaustics.reports.measuring.results.tables import plain
 if TYPE_CHECKING:
     from volcaustics.approx.params import ApproxParams
     from volcaustics.reports.studies.gate.budgets import Check
-    from volcaustics.reports.studies.gate.gate_run import GateResult
+
+
+@dataclass
+class GateResult:
+    """A gate run: its ``checks`` (``budgets.Check``), exit code, seconds, the baseline
+    it compared with and the one it wrote, and how many points it measured or found
+    in the store."""
+
+    checks: list
+    exit_code: int
+    seconds: float
+    baseline: str | None
+    updated_baseline: str | None
+    measured: int = 0          # points measured in this run
+    from_store: int = 0        # points the result store already held
+
 
 VERDICT = "gate.json"      # in --out; written last, with the baseline and the JUnit file
 

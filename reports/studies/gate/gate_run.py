@@ -13,7 +13,7 @@ from __future__ import annotations
 import os
 import time
 from collections.abc import Iterable
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from typing import TYPE_CHECKING
 
 from volcaustics.approx.cost_match import with_auto_values
@@ -24,7 +24,7 @@ from volcaustics.reports.measuring.results.versions import code_version
 from volcaustics.reports.studies.animate.animation_read import load_animation
 from volcaustics.reports.studies.compare.comparison_read import comparison_folders, load_comparison
 from volcaustics.reports.studies.gate.budgets import GateError, check_measurable, compare_checks, flicker_checks
-from volcaustics.reports.studies.gate.gate_outputs import VERDICT, failure_images, write_outputs
+from volcaustics.reports.studies.gate.gate_outputs import VERDICT, GateResult, failure_images, write_outputs
 from volcaustics.reports.studies.gate.regression import BASELINE, baseline_text, load_baseline
 from volcaustics.reports.studies.gate.verdict import scene_verdict
 from volcaustics.scenes import SceneError, resolve_scene
@@ -33,17 +33,6 @@ if TYPE_CHECKING:
     from volcaustics.reports.measuring.experiment.measurement import MeasurementSettings
 
 MISSING_REFERENCE = "run `make report` (or the gate with --render-references) first"
-
-
-@dataclass
-class GateResult:
-    checks: list
-    exit_code: int
-    seconds: float
-    baseline: str | None
-    updated_baseline: str | None
-    measured: int = 0          # points measured in this run
-    from_store: int = 0        # points the result store already held
 
 
 def run_gate(budgets: dict, *, overrides: dict, baseline_dir: str | None, update_baseline: bool, out_dir: str,
