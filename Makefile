@@ -56,6 +56,7 @@ lint: setup
 	$(BIN)/python scripts/check_imports.py
 	$(BIN)/python -m mypy -p volcaustics
 	$(BIN)/python scripts/check_annotations.py
+	$(BIN)/python scripts/check_sizes.py
 	$(BIN)/python scripts/check_private_names.py
 	$(BIN)/python scripts/check_shaders.py
 
