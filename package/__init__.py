@@ -13,9 +13,9 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
-    from volcaustics.reports.api import measure
+    from volcaustics.reports.api import FrameCheck, frames, measure, render_approx, render_reference, sweep
 
-__all__ = ["measure"]
+__all__ = ["FrameCheck", "frames", "measure", "render_approx", "render_reference", "sweep"]
 
 
 def __getattr__(name: str) -> Any:

@@ -1,24 +1,40 @@
 """The harness from Python: ``import volcaustics as vc; vc.measure("sphere1", seeds=2)``.
 
-Each function runs what its command runs (``volcaustics measure``: the same runner, the
-same result store, the same numbers) and returns typed results
-(``reports.measuring.results.experiment``) instead of printing them.
+Each function runs what its command runs (``volcaustics measure``, ``approx``,
+``reference``, ``sweep``, ``frames``: the same code, the same result store, the same
+numbers) and returns typed results instead of printing them: an
+:class:`~volcaustics.reports.measuring.results.experiment.Experiment`, a frame, a
+reference, a sweep's or a frame check's result, with pandas tables and numpy images.
+
+The renderers are ``render_approx`` and ``render_reference`` here, not
+``vc.approx.render`` and ``vc.reference.render``: ``volcaustics.reference.render`` is the
+reference renderer's package, and both take a scene's name where the packages' own
+functions take a loaded ``Scene``.
 """
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
+from volcaustics.infra.errors import InputError
 from volcaustics.reference.settings import ReferenceSettings
 from volcaustics.reports.measuring.experiment.measurement import MeasurementSettings
 from volcaustics.reports.measuring.results.experiment import Experiment
 from volcaustics.reports.measuring.results.sizing import REPORT_REFERENCE
+from volcaustics.reports.studies.sweep.study_limits import FRAME_CHECK_SEEDS
 
 if TYPE_CHECKING:
-    from volcaustics.approx.params import ApproxParams
-    from volcaustics.reports.measuring.runner import PointResult
+    import pandas as pd
 
-__all__ = ["measure"]
+    from volcaustics.approx.params import ApproxParams
+    from volcaustics.approx.renderer import Frame
+    from volcaustics.reference.cache import ReferenceResult
+    from volcaustics.reports.measuring.runner import PointResult
+    from volcaustics.reports.studies.sweep.sweep_run import SweepResult
+
+__all__ = ["FrameCheck", "frames", "measure", "render_approx", "render_reference", "sweep"]
 
 
 def measure(scene: str, *, preset: str = "quick", seeds: int = 4, reference: ReferenceSettings | None = None,
@@ -96,3 +112,188 @@ def measured_point(scene: str, params: ApproxParams, preset: str, seeds: int, *,
     point = run.results[0]
     point.summary["equal_cost"] = equal_cost_check(scene, matched, preset)
     return point
+
+
+def render_approx(scene: str, *, preset: str = "paper", **params: Any) -> Frame:
+    """One frame of the paper's method (``volcaustics approx``).
+
+    Parameters
+    ----------
+    scene : str
+        A built-in scene's name or the path of a TOML scene file.
+    preset : str
+        ``paper`` (default), ``quick``, ``best`` or ``beams``; ``best`` and ``beams`` take
+        the paper's frame cost on this scene (``photon_res``) and their layers from it.
+    **params
+        Approximation parameters by name (``photon_res=64``, ``width=128``, ``seed=3``, …).
+
+    Returns
+    -------
+    Frame
+        ``.images``: layer name → H×W×3 float32 (``caustic``, ``fog``, ``direct``,
+        ``combined``, …); ``.timings``: seconds per pass; ``.params``: what rendered it.
+
+    Examples
+    --------
+    >>> import volcaustics as vc
+    >>> frame = vc.render_approx("refocus", width=64, height=64)   # doctest: +SKIP
+    >>> frame.images["caustic"].shape                              # doctest: +SKIP
+    (64, 64, 3)
+    """
+    from volcaustics.approx.cost_match import with_auto_values
+    from volcaustics.approx.params import preset as preset_params
+    from volcaustics.approx.renderer import render
+    from volcaustics.reports.measuring.experiment.point_checks import check_denoiser
+    from volcaustics.scenes import resolve_scene
+
+    resolved = resolve_scene(scene)
+    chosen = preset_params(preset, **params)
+    check_denoiser(chosen)
+    return render(resolved, with_auto_values(scene, chosen, preset, "photon_res" in params,
+                                             layers_given="layers" in params))
+
+
+def render_reference(scene: str, settings: ReferenceSettings | None = None, *, mode: str = "caustic",
+                     progress: bool = False) -> ReferenceResult:
+    """Ground truth from Mitsuba 3 (``volcaustics reference``), from the cache when an
+    entry meets ``settings``, else rendered (or continued) and cached.
+
+    Parameters
+    ----------
+    scene : str
+        A built-in scene's name or the path of a TOML scene file.
+    settings : ReferenceSettings, optional
+        The budget and size (photons, spp, batches, width, height, target noise, …);
+        default the command's defaults.
+    mode : str
+        Which light paths the caustic layer counts (``caustic``: through glass).
+    progress : bool
+        Show a progress bar.
+
+    Returns
+    -------
+    ReferenceResult
+        ``.mean`` and ``.var``: layer name → H×W×3 float32 (the mean and its variance);
+        ``.manifest``: photons, batches, seed, seconds, variant.
+
+    Examples
+    --------
+    >>> import volcaustics as vc
+    >>> from volcaustics.infra.errors import InputError
+from volcaustics.reference.settings import ReferenceSettings
+    >>> r = vc.render_reference("refocus", ReferenceSettings(width=64, height=64))   # doctest: +SKIP
+    >>> r.mean["caustic"].shape                                                    # doctest: +SKIP
+    (64, 64, 3)
+    """
+    from volcaustics.reference.render import render_reference as render
+    from volcaustics.scenes import resolve_scene
+
+    return render(resolve_scene(scene), settings, mode=mode, progress=progress)
+
+
+def sweep(output: str, *, spec: str | None = None, scenes: Sequence[str] | None = None,
+          vary: Mapping[str, Sequence[Any]] | None = None, fixed: Mapping[str, Any] | None = None,
+          preset: str = "quick", seeds: int = 1, reference: Mapping[str, Any] | None = None,
+          measurement: Mapping[str, Any] | None = None, workers: int | None = None, dask: str | None = None,
+          progress: bool = False) -> SweepResult:
+    """A grid of experiments over approximation parameters (``volcaustics sweep``),
+    resumable: points already in ``output``'s store are read back, not measured.
+
+    Parameters
+    ----------
+    output : str
+        The sweep's folder: its store, tables and figures.
+    spec : str, optional
+        A sweep spec TOML file (``docs/sweeps.md``); else the grid is given by ``vary``.
+    scenes : sequence of str, optional
+        Scene names or paths; default every built-in (with ``spec``: they replace its scenes).
+    vary : mapping, optional
+        Parameter name → the values to try (``{"layers": [1, 2, 4]}``).
+    fixed : mapping, optional
+        Parameter name → one value, for every point.
+    preset, seeds : str, int
+        The points' preset and seeds.
+    reference, measurement : mapping, optional
+        A spec file's ``[reference]`` and ``[measurement]`` tables (``{"photons": 65536}``,
+        ``{"exact_subphotons": 1}``): the reference's budget and how points are measured.
+    workers, dask : int, str, optional
+        Local worker processes, or a Dask scheduler's address.
+    progress : bool
+        Show a progress bar.
+
+    Returns
+    -------
+    SweepResult
+        ``.tables``: name → pandas table (``points``, …); counts of the points computed,
+        read back and failed.
+
+    Examples
+    --------
+    >>> import volcaustics as vc
+    >>> result = vc.sweep("runs/layers", scenes=["refocus"], vary={"layers": [1, 2]})   # doctest: +SKIP
+    >>> result.tables["points"][["layers", "caustic_relmse_debiased"]]                # doctest: +SKIP
+    """
+    from volcaustics.reports.measuring.pools.executors import default_workers
+    from volcaustics.reports.measuring.results.sizing import reference_settings
+    from volcaustics.reports.studies.sweep.sweep_run import run_sweep
+    from volcaustics.reports.studies.sweep.sweep_spec import SweepError, SweepSpec, checked_spec, spec_from_toml
+    from volcaustics.scenes import BUILTIN_NAMES
+
+    if spec is not None and (vary or fixed or reference or measurement):
+        raise SweepError(f"{spec}: give the grid in the file or as vary=, fixed=, reference= and measurement=, "
+                         f"not both")
+    if spec is not None:
+        grid = spec_from_toml(spec, None, list(scenes) if scenes is not None else None)
+    else:
+        reference_settings(dict(reference or {}))  # a bad budget: refused before anything renders
+        axes = tuple((name, tuple(values)) for name, values in (vary or {}).items())
+        grid = checked_spec(SweepSpec(tuple(scenes or BUILTIN_NAMES), axes, dict(fixed or {}), preset, seeds,
+                                      dict(reference or {}), measurement=dict(measurement or {})), "vc.sweep", None)
+    return run_sweep(grid, output, workers=workers or default_workers(), dask=dask, progress=progress)
+
+
+@dataclass(frozen=True)
+class FrameCheck:
+    """A frame check (``volcaustics frames``): ``table``, one row per (scene,
+    configuration, denoiser) with the one-frame error and the mean's bias against the
+    paper's, its predicted cost and measured time; ``verdict``: the worst ratios per
+    group of scenes against the goal (``goal``, ``met``)."""
+
+    table: pd.DataFrame
+    verdict: Mapping[str, Any]
+
+
+def frames(output: str, *, scenes: Sequence[str] | None = None, seeds: int = FRAME_CHECK_SEEDS,
+           progress: bool = False) -> FrameCheck:
+    """The paper's configuration against ``best`` and ``beams`` at its frame cost, one
+    frame's error per scene (``volcaustics frames``), resumable in ``output``.
+
+    Parameters
+    ----------
+    output : str
+        The check's folder (its points and ``frames.parquet``).
+    scenes : sequence of str, optional
+        Scene names or paths; default every built-in and held-out scene.
+    seeds : int
+        Frames per configuration (2–64).
+    progress : bool
+        Show a progress bar.
+
+    Returns
+    -------
+    FrameCheck
+        The table and the verdict.
+
+    Examples
+    --------
+    >>> import volcaustics as vc
+    >>> check = vc.frames("runs/frames", scenes=["refocus"], seeds=2)   # doctest: +SKIP
+    >>> check.table[["scene", "config", "frame_ratio"]]               # doctest: +SKIP
+    """
+    from volcaustics.reports.studies.best.frame_check import default_scenes, run_frames, verdict
+
+    if isinstance(seeds, bool) or not isinstance(seeds, int) or not 2 <= seeds <= 64:
+        raise InputError(f"frames: seeds = {seeds!r}: expected an integer in [2, 64] (one frame's SE needs 2)")
+    table = run_frames(list(scenes) if scenes is not None else default_scenes(), output, seeds=seeds,
+                       progress=progress)
+    return FrameCheck(table, verdict(table))

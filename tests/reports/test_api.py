@@ -85,3 +85,57 @@ def test_importing_volcaustics_loads_no_renderer():
         import volcaustics
 
         volcaustics.mesure  # noqa: B018
+
+
+def test_render_approx_is_the_renderer_s_frame_on_the_named_scene():
+    """vc.render_approx resolves the name and the preset as `volcaustics approx` does: the
+    frame equals the renderer's own on the loaded scene; another seed's frame does not."""
+    import numpy as np
+
+    import volcaustics as vc
+    from volcaustics.approx.params import preset
+    from volcaustics.approx.renderer import render
+    from volcaustics.scenes import load_builtin
+
+    small = {**SMALL, "photon_res": 32, "light_res": 32}
+    frame = vc.render_approx("refocus", **small)
+    same = render(load_builtin("refocus"), preset("paper", **small))
+    other = vc.render_approx("refocus", seed=1, **small)  # negative control: the comparison can fail
+    assert frame.images["caustic"].shape == (32, 32, 3) and frame.params == same.params
+    assert np.array_equal(frame.images["caustic"], same.images["caustic"])
+    assert not np.array_equal(frame.images["caustic"], other.images["caustic"])
+
+
+def test_render_reference_renders_once_then_reads_the_cache(empty_cache):
+    import volcaustics as vc
+
+    small = dataclasses.replace(REFERENCE, width=32, height=32)
+    first = vc.render_reference("refocus", small)
+    again = vc.render_reference("refocus", small)
+    assert first.mean["caustic"].shape == (32, 32, 3) and not first.cached and again.cached
+    assert (again.mean["caustic"] == first.mean["caustic"]).all() and first.key == again.key
+
+
+@pytest.mark.slow  # two points measured end to end, then resumed: about 10 s on 2 cores
+def test_sweep_from_python_measures_the_grid_and_resumes(cache, tmp_path):
+    import volcaustics as vc
+
+    grid = {"scenes": ["refocus"], "vary": {"layers": [1, 2]}, "fixed": {"width": 32, "height": 32, "photon_res": 64,
+                                                                          "light_res": 64},
+            "reference": {"photons": 65536, "spp": 8, "batches": 4, "target_noise": "none", "max_scatter": 1},
+            "measurement": {"exact_subphotons": 1}}
+    result = vc.sweep(str(tmp_path / "s"), **grid)
+    assert result.computed == 2 and not result.failed
+    assert sorted(result.tables["points"]["layers"]) == [1, 2]
+    again = vc.sweep(str(tmp_path / "s"), **grid)
+    assert again.computed == 0 and again.done_before == 2
+    with pytest.raises(InputError, match="photons"):  # a bad budget: refused before anything renders
+        vc.sweep(str(tmp_path / "t"), **{**grid, "reference": {"photons": -1}})
+
+
+def test_frames_refuses_a_seed_count_without_a_frame_error(tmp_path):
+    import volcaustics as vc
+
+    with pytest.raises(InputError, match="seeds = 1"):
+        vc.frames(str(tmp_path / "f"), scenes=["refocus"], seeds=1)
+    assert not (tmp_path / "f").exists()
