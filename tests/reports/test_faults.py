@@ -118,7 +118,8 @@ def test_check_fits_counts_the_light_maps(monkeypatch):
 
 # --- F: Ctrl-C inside the reference render ------------------------------------------
 
-@pytest.mark.parametrize("command", ["measure", "sweep", "gate", "report"])
+# the gate's case renders its budgets' references first (about 6 s): marked slow, the others stay fast
+@pytest.mark.parametrize("command", ["measure", "sweep", pytest.param("gate", marks=pytest.mark.slow), "report"])
 def test_ctrl_c_inside_the_reference_render_exits_130(cache, tmp_path, monkeypatch, capsys, command):
     """Dr.Jit hands a KeyboardInterrupt raised during its loops back as a RuntimeError
     chained to it; every command that renders a reference exits 130 with "interrupted"."""

@@ -40,6 +40,7 @@ exact_subphotons = 1
 """
 
 
+@pytest.mark.slow  # a fault injection: worker processes started, interrupted mid-render (about 5 s)
 def test_ctrl_c_while_references_render_on_the_workers(empty_cache, tmp_path):
     spec = tmp_path / "sweep.toml"
     spec.write_text(SPEC)  # 64 batches of 2^19 photons: tens of seconds on two workers
