@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from typing import TYPE_CHECKING, NamedTuple, cast
+from typing import TYPE_CHECKING, cast
 
 import moderngl
 import numpy as np
@@ -27,6 +27,7 @@ from .emission import draw_slots
 from .glsl import compute_shader, set_uniforms, uniform
 from .light import spot_constants
 from .limits import check_fits, max_image_size
+from .map_packing import MapBuffers, MapPacker, map_bounds, pyramid_layout
 from .params import carries_differentials
 from .params import defines as table_defines
 from .splat import BEAM_SIGMA_FLOOR
@@ -43,56 +44,11 @@ if TYPE_CHECKING:
 
 MAX_MATERIALS = 16
 COMPACT_BLOCK = 256  # BLOCK of splat/compact.comp.glsl
-PACK = {"PACK_BLOCK": 256, "PACK_TEXELS": 4}  # trace/pack_distances.comp.glsl: invocations a group, texels each
 
 # Start offset of a segment leaving a surface, in light-map texel footprints
 # (common/start_offset.glsl): footprint · (START_SLOPE·sin θ + START_FLOOR) / |d·n|, at most START_MAX.
 # Fewest skipped hits + false re-hits in bench/start_offset.py: docs/decisions.md "Start offset".
 START_OFFSET = {"START_SLOPE": 0.7, "START_FLOOR": 0.25, "START_MAX": 2.0}
-
-class MapBuffers(NamedTuple):
-    """The light maps as the tracer reads them (storage buffers, map-major, rows
-    bottom-up): every texel (RGBA32F: distance, material, octahedral shading normal),
-    the distances alone (R32F), the octahedral geometric normals (2 floats), for the
-    start rule ``id`` only the primitive ids + 1 (R32F; 0 = none) and for the ``hiz``
-    search only the min–max pyramid (:func:`pyramid_layout`); None where not needed;
-    and per map the exact range of its surface distances, two uint32 (the float bits of
-    the min and the max; max 0: an empty map), which the tracer reads on the GPU
-    (:func:`map_bounds` reads it on the host)."""
-
-    texels: moderngl.Buffer
-    distances: moderngl.Buffer
-    geometric: moderngl.Buffer
-    primitive: moderngl.Buffer | None
-    pyramid: moderngl.Buffer | None
-    ranges: moderngl.Buffer
-
-    def release(self) -> None:
-        for buf in self:
-            if buf is not None:
-                buf.release()
-
-
-def pyramid_cells(light_res: int, level: int) -> int:
-    """Cells per side of a min–max pyramid level (cell = texel >> level; as cells() of
-    trace/pyramid.comp.glsl)."""
-    return ((light_res - 1) >> level) + 1
-
-
-def pyramid_layout(light_res: int) -> tuple:
-    """The min–max pyramid of one map (trace/pyramid.comp.glsl): level L >= 1 has
-    :func:`pyramid_cells` cells per side, the top level one; returns (offsets, stride):
-    the cell offset of each level within a map's block (index L; 0 unused) and the
-    cells of one map's block."""
-    offsets, total, level = [0], 0, 1
-    while True:
-        offsets.append(total)
-        n = pyramid_cells(light_res, level)
-        total += n * n
-        if n == 1:
-            return offsets, total
-        level += 1
-
 
 def _materials(scene):
     if len(scene.specular) > MAX_MATERIALS:
@@ -101,14 +57,6 @@ def _materials(scene):
     ior = [o.ior for o in scene.specular] + [1.0] * unused
     absorption = [tuple(o.absorption) for o in scene.specular] + [(0.0, 0.0, 0.0)] * unused
     return ior, absorption
-
-
-def map_bounds(buffers: MapBuffers, maps: int) -> list:
-    """Per map of ``buffers`` the exact (min, max) of its surface distances (m), None for
-    an empty map (reads the GPU's reduction: waits for it)."""
-    bits = np.frombuffer(buffers.ranges.read(size=8 * maps), np.uint32).reshape(-1, 2)
-    values = bits.view(np.float32)
-    return [None if b[1] == 0 else (float(v[0]), float(v[1])) for b, v in zip(bits, values)]
 
 
 class PhotonTracer:
@@ -123,10 +71,9 @@ class PhotonTracer:
         self.pool = pool
         defines = self.defines(params, controls)
         shaders = {name: compute_shader(ctx, *source) for name, source in self.programs(params, controls).items()}
-        self.emit, self.trace, self.pack = shaders["emit"], shaders["trace"], shaders["pack"]
-        self.id_rule = "START_RULE_ID" in defines
-        self.hiz = "SEARCH_HIZ" in defines
-        self.pyramid = shaders.get("pyramid")
+        self.emit, self.trace = shaders["emit"], shaders["trace"]
+        self.id_rule = "START_RULE_ID" in defines  # start rule id: the maps carry primitive ids
+        self.packer = MapPacker(ctx, shaders["pack"], shaders.get("pyramid"), self._buffer, primitive=self.id_rule)
         self.compact_count, self.compact_write = shaders["compact_count"], shaders["compact_write"]
         self.compact_scan = shaders["compact_scan"]
         self.adaptive = "SPLAT_ADAPTIVE" in defines
@@ -171,16 +118,13 @@ class PhotonTracer:
         beams = {name: 1 for name in ("SPLAT_BEAMS", "BEAM_DIFFERENTIAL") if name in defines}
         splits = {"FRESNEL_SPLITS": defines["FRESNEL_SPLITS"]} if "FRESNEL_SPLITS" in defines else {}
         out = {"emit": ("emission/emit.comp.glsl", defines), "trace": ("trace/trace.comp.glsl", defines),
-               "pack": ("trace/pack_distances.comp.glsl",
-                        {**PACK, **({"PACK_PRIMITIVE": 1} if "START_RULE_ID" in defines else {})}),
+               **MapPacker.programs(defines),
                "compact_count": ("splat/compact.comp.glsl", {"PASS_COUNT": 1, **beams, **splits}),
                "compact_scan": ("splat/compact.comp.glsl", {"PASS_SCAN": 1}),
                "compact_write": ("splat/compact.comp.glsl", {**splits, **(
                    {"SPLAT_ADAPTIVE": 1} if "SPLAT_ADAPTIVE" in defines
                    else {**beams, "BEAM_SIGMA_FLOOR": BEAM_SIGMA_FLOOR,
                          **({"BEAM_BALANCED": 1} if "BEAM_BALANCED" in defines else {})} if beams else {})})}
-        if "SEARCH_HIZ" in defines:
-            out["pyramid"] = ("trace/pyramid.comp.glsl", {})
         if "EMISSION_ADAPTIVE" in defines:
             out["importance"] = ("emission/importance.comp.glsl", {})
         return out
@@ -271,54 +215,9 @@ class PhotonTracer:
         return buffers, map_bounds(buffers, len(light_maps))
 
     def pack_maps(self, light_maps: Sequence[LightMap], light_res: int) -> MapBuffers:
-        """The light maps (:class:`approx.layers.LightMap`) copied into the tracer's
-        storage buffers (:class:`MapBuffers`: the pool's, kept across frames, when the
-        tracer has one; else new ones, release them), with the range of each map's distances reduced on
-        the GPU, never read here. With the ``hiz`` search the min–max pyramid is built
-        here too (once per frame, like the maps)."""
-        count = light_res * light_res
-        n = len(light_maps)
-        buffer = self._buffer
-        texels, distances = buffer("map_texels", 16 * count * n), buffer("map_distances", 4 * count * n)
-        geometric = buffer("map_geometric", 8 * count * n)
-        primitive = buffer("map_primitive", 4 * count * n) if self.id_rule else None
-        init = np.zeros((n, 2), np.uint32)
-        init[:, 0] = 0xFFFFFFFF
-        ranges = buffer("map_ranges", init.nbytes)
-        ranges.write(init.tobytes())
-        texels.bind_to_storage_buffer(0)
-        distances.bind_to_storage_buffer(1)
-        ranges.bind_to_storage_buffer(2)
-        geometric.bind_to_storage_buffer(3)
-        if primitive is not None:
-            primitive.bind_to_storage_buffer(4)
-        uniform(self.pack, "res").value = light_res
-        uniform(self.pack, "map_texture").value = 0
-        uniform(self.pack, "geometric_texture").value = 1
-        for m, light_map in enumerate(light_maps):
-            light_map.surface.use(location=0)
-            light_map.geometric.use(location=1)
-            uniform(self.pack, "map_index").value = m
-            self.pack.run(group_x=math.ceil(count / (PACK["PACK_BLOCK"] * PACK["PACK_TEXELS"])))
-        pyramid = None
-        if self.hiz:
-            pyramid = buffer("map_pyramid", 8 * pyramid_layout(light_res)[1] * n)
-            self._build_pyramid(distances, pyramid, n, light_res)
-        return MapBuffers(texels, distances, geometric, primitive, pyramid, ranges)
-
-    def _build_pyramid(self, distances: moderngl.Buffer, pyramid: moderngl.Buffer, maps: int,
-                       light_res: int) -> None:
-        """The min–max pyramid of every map (trace/pyramid.comp.glsl) into ``pyramid``, level by level."""
-        offsets, stride = pyramid_layout(light_res)
-        distances.bind_to_storage_buffer(0)
-        pyramid.bind_to_storage_buffer(1)
-        prog = cast(moderngl.ComputeShader, self.pyramid)  # search = hiz's
-        set_uniforms(prog, light_res=light_res, map_stride=stride)
-        for level in range(1, len(offsets)):
-            cells = pyramid_cells(light_res, level)
-            set_uniforms(prog, level=level, source_offset=offsets[level - 1], target_offset=offsets[level])
-            prog.run(group_x=math.ceil(cells / 8), group_y=math.ceil(cells / 8), group_z=maps)
-            self.ctx.memory_barrier()  # the next level (and the trace) read what this one wrote
+        """The light maps in the tracer's storage buffers (``approx.map_packing.MapPacker.pack``:
+        the pool's, kept across frames, when the tracer has one; else new ones, release them)."""
+        return self.packer.pack(light_maps, light_res)
 
     def trace_step(self, scene: Scene, frustum: LightFrustum, box: tuple[np.ndarray, np.ndarray],
                    map_texels: MapBuffers, light_res: int, photons: moderngl.Buffer,
@@ -450,8 +349,8 @@ class PhotonTracer:
 
     def release(self) -> None:
         self._release_own(self.work, self.differentials, self.segment_differentials)
-        for prog in (self.emit, self.trace, self.pack, self.pyramid, self.compact_count, self.compact_scan,
-                     self.compact_write):
+        self.packer.release()
+        for prog in (self.emit, self.trace, self.compact_count, self.compact_scan, self.compact_write):
             if prog is not None:
                 prog.release()
         for buf in self._solid_angles.values():
