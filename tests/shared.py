@@ -228,6 +228,17 @@ def flat_spot(light, d):
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
+def load_script(name: str):
+    """The module of ``scripts/<name>.py``: the lint checks are scripts, not package
+    modules, and their tests call their functions."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location(name, os.path.join(ROOT, "scripts", f"{name}.py"))
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
 def output_dir(test_name: str) -> str:
     """``test-output/<test_name>`` (characters outside [A-Za-z0-9._-] become ``_``), created."""
     base = os.environ.get("VOLCAUSTICS_TEST_OUTPUT") or os.path.join(ROOT, "test-output")

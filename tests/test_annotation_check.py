@@ -3,20 +3,15 @@ function of the package annotates its parameters and its return."""
 
 from __future__ import annotations
 
-import importlib.util
 import os
 import subprocess
 import sys
 
+from tests.shared import load_script
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SCRIPT = os.path.join(ROOT, "scripts", "check_annotations.py")
 
-
-def _checker():
-    spec = importlib.util.spec_from_file_location("check_annotations", SCRIPT)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
 
 
 def test_every_public_function_of_the_package_is_annotated():
@@ -39,7 +34,7 @@ def test_a_public_function_without_annotations_is_flagged():
               "    def ok(self, x: int) -> int:\n        return x\n"
               "    def _hidden(self, y):\n        pass\n"
               "class _Private:\n    def method(self, x):\n        pass\n")
-    found = _checker().problems(source, "probe.py")
+    found = load_script("check_annotations").problems(source, "probe.py")
     assert found == ["probe.py:5: no_return lacks annotations for return",
                      "probe.py:7: no_param lacks annotations for a",
                      "probe.py:12: method lacks annotations for x",

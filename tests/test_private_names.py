@@ -3,22 +3,16 @@ imports or reaches another module's private name."""
 
 from __future__ import annotations
 
-import importlib.util
 import os
+
+from tests.shared import load_script
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
-def _checker():
-    spec = importlib.util.spec_from_file_location("check_private_names",
-                                                  os.path.join(ROOT, "scripts", "check_private_names.py"))
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
 
 def test_no_module_uses_another_modules_private_name():
-    checker = _checker()
+    checker = load_script("check_private_names")
     problems = [p for path in checker.scanned_files() for p in checker.check_file(path)]
     assert not problems, "\n".join(problems)
 
@@ -35,7 +29,7 @@ def test_a_private_name_crossing_a_module_boundary_is_flagged(tmp_path):
                     "_mine = 1\n"
                     "runner._TOOLS, runner.TOOLS, os._exit, argparse._SubParsersAction, _mine, ranged\n"
                     "volcaustics.metrics\n", encoding="utf-8")
-    found = _checker().check_file(str(path))
+    found = load_script("check_private_names").check_file(str(path))
     assert len(found) == 3, found
     for name in ("imports _REQUIRED from volcaustics.scenes.toml_values", "imports _mesh_spec from .loader",
                  "reaches runner._TOOLS"):

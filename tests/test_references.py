@@ -4,29 +4,23 @@ points at a tracker or a document outside it."""
 
 from __future__ import annotations
 
-import importlib.util
 import os
+
+from tests.shared import load_script
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
-def _checker():
-    spec = importlib.util.spec_from_file_location("check_references", os.path.join(ROOT, "scripts",
-                                                                                  "check_references.py"))
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
 
 def test_every_reference_in_the_repository_resolves():
-    checker = _checker()
+    checker = load_script("check_references")
     problems = [p for path in checker.scanned_files() if os.path.isfile(path) for p in checker.check_file(path)]
     assert not problems, "\n".join(problems)
 
 
 def test_stale_references_are_flagged(tmp_path):
     """Negative control: one of each kind of stale reference, each named."""
-    checker = _checker()
+    checker = load_script("check_references")
     path = tmp_path / "stale.md"
     tracker, outside = "iss" + "ue 12", "DESI" + "GN.md"  # spelled apart: this file is checked too
     titled = "iss" + 'ue "Fast answers"'

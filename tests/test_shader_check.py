@@ -3,22 +3,17 @@ Khronos reference compiler accepts the renderer's programs and flags a broken on
 
 from __future__ import annotations
 
-import importlib.util
 import os
 import shutil
 
 import pytest
 
+from tests.shared import load_script
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 pytestmark = pytest.mark.skipif(shutil.which("glslangValidator") is None,
                                 reason="glslangValidator missing (Debian glslang-tools; make setup installs it)")
 
-
-def _checker():
-    spec = importlib.util.spec_from_file_location("check_shaders", os.path.join(ROOT, "scripts", "check_shaders.py"))
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
 
 
 def test_the_default_programs_compile_and_every_stage_file_is_checked():
@@ -28,7 +23,7 @@ def test_the_default_programs_compile_and_every_stage_file_is_checked():
     from volcaustics.approx.params import PRESETS
     from volcaustics.approx.trace import PhotonTracer
 
-    checker = _checker()
+    checker = load_script("check_shaders")
     items = [(f"{name} {preset}", shader.rsplit(".", 2)[-2], load_source(shader, d))
              for preset in ("quick", "best") for name, (shader, d) in PhotonTracer.programs(PRESETS[preset]).items()]
     assert checker.compile_all(items) == []
@@ -47,7 +42,7 @@ def test_a_broken_shader_is_flagged_with_its_label():
     good = "#version 450 core\nlayout(local_size_x = 8) in;\nvoid main() {}\n"
     items = [("good", "comp", good), ("undeclared", "comp", good.replace("{}", "{ x = 1; }")),
              ("trace at 430", "comp", trace.replace("#version 450 core", "#version 430 core", 1))]
-    problems = _checker().compile_all(items)
+    problems = load_script("check_shaders").compile_all(items)
     assert len(problems) == 2, problems
     assert problems[0].startswith("undeclared: ") and "'x'" in problems[0]
     assert problems[1].startswith("trace at 430: ") and "ballotARB" in problems[1]

@@ -4,20 +4,15 @@ entry there is still past its limit."""
 
 from __future__ import annotations
 
-import importlib.util
 import os
 import subprocess
 import sys
 
+from tests.shared import load_script
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SCRIPT = os.path.join(ROOT, "scripts", "check_sizes.py")
 
-
-def _checker():
-    spec = importlib.util.spec_from_file_location("check_sizes", SCRIPT)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
 
 
 def test_the_package_keeps_the_size_rule():
@@ -28,7 +23,7 @@ def test_the_package_keeps_the_size_rule():
 def test_a_long_module_or_function_not_listed_and_a_stale_entry_are_flagged():
     """Negative control: 351 lines unlisted, a 61-line function unlisted (its docstring not
     counted), and entries for a short module, a short function and a missing file."""
-    check = _checker()
+    check = load_script("check_sizes")
     body = "".join(f"    x{i} = {i}\n" for i in range(61))
     long_function = 'def f():\n    """Doc\n    string."""\n' + body
     files = {"a/long.py": "x = 1\n" * 351, "a/fn.py": long_function,
