@@ -10,7 +10,6 @@ from tests.shared import load_script
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
-
 def test_no_module_uses_another_modules_private_name():
     checker = load_script("check_private_names")
     problems = [p for path in checker.scanned_files() for p in checker.check_file(path)]

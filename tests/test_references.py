@@ -11,7 +11,6 @@ from tests.shared import load_script
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
-
 def test_every_reference_in_the_repository_resolves():
     checker = load_script("check_references")
     problems = [p for path in checker.scanned_files() if os.path.isfile(path) for p in checker.check_file(path)]

@@ -15,7 +15,6 @@ pytestmark = pytest.mark.skipif(shutil.which("glslangValidator") is None,
                                 reason="glslangValidator missing (Debian glslang-tools; make setup installs it)")
 
 
-
 def test_the_default_programs_compile_and_every_stage_file_is_checked():
     """The quick preset's and the best preset's programs (make lint compiles all ~7,000
     variants); no stage file is left out of the checked programs."""
