@@ -37,6 +37,7 @@ from .denoise import DENOISED
 from .emission import emission_reads
 from .params import carries_differentials
 from .splat import splatted
+from .splat_modes import splat_mode
 
 if TYPE_CHECKING:
     from .params import ApproxParams
@@ -69,7 +70,7 @@ def frame_cost(records: list, params: ApproxParams, work: dict | None = None) ->
                               differentials=carries_differentials(params))
     # resolved parameters: width and height set
     denoised = len(DENOISED) * cast(int, params.width) * cast(int, params.height) if params.denoise == "oidn" else 0
-    density = DENSITY_READS * splats if params.splat == "density" else 0
+    density = DENSITY_READS * splats if splat_mode(params).density_pass else 0
     counted = {f"fragments_{name}": float("nan") if fragments is None else int(fragments.get(name, 0))
                for name in FRAGMENT_PASSES}
     counted.update({f"primitives_{name}": float("nan") if primitives is None else int(primitives.get(name, 0))

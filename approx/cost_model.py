@@ -21,6 +21,7 @@ from volcaustics.infra.storage import special_file_kind
 
 from .cost import TIMED_PASSES
 from .params import balanced_beams, differential_beams, param, photon_slots
+from .splat_modes import SPLAT_MODES
 
 if TYPE_CHECKING:
     from .params import ApproxParams
@@ -54,8 +55,8 @@ def features(cost: dict, params: ApproxParams) -> dict:
     launched = float(photon_slots(params))
     steps = float(params.steps)
     pixels = float(cast(int, params.width) * cast(int, params.height))  # resolved: both set
-    density = params.splat == "density"
-    beams = params.splat == "beams"  # a beam's fragment costs what its own shader does: priced apart
+    density = SPLAT_MODES[params.splat].density_pass
+    beams = SPLAT_MODES[params.splat].beams  # a beam's fragment costs what its own shader does: priced apart
     # a beam pass's time follows the fragments it shades, most of them discarded (approx.cost);
     # where the driver cannot count them, the written ones
     shaded = cost.get("shaded_splat")  # NaN, or None from a stored summary's null, where not counted
@@ -141,7 +142,7 @@ def config_splat_modes(configs: dict) -> tuple:
     modes = {"fixed"}
     for changes in configs.values():
         splat, width = str(changes.get("splat", "fixed")), str(changes.get("beam_width", "fixed"))
-        modes.add(DIFFERENTIAL_BEAMS if splat == "beams" and width != "fixed" else splat)
+        modes.add(DIFFERENTIAL_BEAMS if SPLAT_MODES[splat].beams and width != "fixed" else splat)
     return tuple(sorted(modes))
 
 

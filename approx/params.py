@@ -20,6 +20,8 @@ from typing import TYPE_CHECKING, Any, Callable, ClassVar, TypeVar, cast, overlo
 from volcaustics.infra.errors import InputError
 from volcaustics.scenes.rng import FRESNEL_MODES, stochastic_fresnel
 
+from .splat_modes import SPLAT_MODES, splat_help, splat_mode
+
 if TYPE_CHECKING:
     from typing import Self
 
@@ -159,15 +161,8 @@ _DECLARED: tuple = (  # one entry per ApproxParams field, in its order
     # float bounds hold in float32, where the shaders take them (FLOAT32_FLOOR)
     Param("splat_radius", float, 0.01, "standard deviation of the splatted 3D Gaussian", "m", FLOAT32_FLOOR, 10,
           glsl="uniform"),
-    Param("splat", str, "fixed", "the splat kernel's width: fixed (paper: splat_radius for every photon), "
-          "adaptive (splat_footprints × the photon's footprint, its distance to its neighbours' rays carried "
-          "as a ray differential through every refraction and reflection, within [splat_radius/16, "
-          "4·splat_radius] and at least a pixel) or density (the radius of a screen disc holding "
-          "splat_neighbours photons of its step, from a pre-pass counting them per 4×4-pixel cell: "
-          "Abramson's square-root law, within [splat_radius/2, 4·splat_radius]) or beams (no free flights: "
-          "each photon's segment in the medium is a beam, estimated along every camera ray that passes within "
-          "3·splat_radius of it with a 1-D Gaussian kernel: Jarosz et al. 2011)",
-          choices=("fixed", "adaptive", "density", "beams"),
+    Param("splat", str, "fixed", splat_help(),
+          choices=tuple(SPLAT_MODES),
           program="trace",
           glsl="define", to_defines=lambda v: {f"SPLAT_{v.upper()}": 1} if v != "fixed" else {}),
     Param("splat_neighbours", int, 16, "density splats: the photons a kernel's σ-disc holds on average", "", 1,
@@ -343,13 +338,13 @@ def defines(params: ParamsMethods, program: str) -> dict:
 def differential_beams(params: ParamsMethods) -> bool:
     """Whether ``params`` draw beams as wide as their photons' ray differentials (splat =
     beams, beam_width = differential, or balanced: scaled by a pilot): the one test of it."""
-    return getattr(params, "splat", "fixed") == "beams" and getattr(params, "beam_width", "fixed") != "fixed"
+    return splat_mode(params).beams and getattr(params, "beam_width", "fixed") != "fixed"
 
 
 def balanced_beams(params: ParamsMethods) -> bool:
     """Whether ``params``' beam widths are balanced by a pilot (splat = beams, beam_width =
     balanced: approx.splat.Splatter.balance_map)."""
-    return getattr(params, "splat", "fixed") == "beams" and getattr(params, "beam_width", "fixed") == "balanced"
+    return splat_mode(params).beams and getattr(params, "beam_width", "fixed") == "balanced"
 
 
 def photon_slots(params: ApproxParams) -> int:
@@ -361,7 +356,7 @@ def photon_slots(params: ApproxParams) -> int:
 def carries_differentials(params: ParamsMethods) -> bool:
     """Whether ``params``' photons carry ray differentials (common/differential.glsl):
     their kernels come from them (splat = adaptive, or :func:`differential_beams`)."""
-    return getattr(params, "splat", "fixed") == "adaptive" or differential_beams(params)
+    return splat_mode(params).differential_width or differential_beams(params)
 
 
 def label(name: str) -> str:

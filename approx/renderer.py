@@ -52,6 +52,7 @@ from .params import ApproxParams, balanced_beams, defines, photon_slots
 from .records import emission_records, records_from_raw
 from .resources import FrameResources
 from .splat import SPLAT_COMMANDS, Splatter, splat_commands
+from .splat_modes import splat_mode
 from .timing import DisplayTimer, PassTimer, timer_queries_work
 from .trace import PhotonTracer, read_raw_records
 
@@ -111,11 +112,12 @@ class Renderer:
         fog = defines(p, "fog")
         camera = self._cached(("camera", *sorted(fog.items()), phase_key),
                               lambda: CameraPasses(self.ctx, scene, fog, pool=self.pool))
-        controls = controls_for(self.controls, "splat") if p.splat in ("density", "beams") else {}
+        mode = splat_mode(p)
+        controls = controls_for(self.controls, "splat") if mode.controls else {}
         balanced = balanced_beams(p)
         splatter = self._cached(("splat", phase_key, p.splat, balanced, *sorted(controls.items())),
-                                lambda: Splatter(self.ctx, scene.medium, adaptive=p.splat == "adaptive",
-                                                 density=p.splat == "density", beams=p.splat == "beams",
+                                lambda: Splatter(self.ctx, scene.medium, adaptive=mode.differential_width,
+                                                 density=mode.density_pass, beams=mode.beams,
                                                  balanced=balanced, controls=controls, pool=self.pool))
         return camera, splatter
 
@@ -374,7 +376,7 @@ class Renderer:
         sets = [np.ascontiguousarray(s) for s in splat_sets]
         scene = scene or self.scene
         p = (params or ApproxParams()).resolved(scene)
-        dtype, name = (BEAM_DTYPE, "BEAM_DTYPE") if p.splat == "beams" else (SPLAT_DTYPE, "SPLAT_DTYPE")
+        dtype, name = (BEAM_DTYPE, "BEAM_DTYPE") if splat_mode(p).beams else (SPLAT_DTYPE, "SPLAT_DTYPE")
         for splats in sets:
             if splats.dtype != dtype or splats.ndim != 1:
                 raise ValueError(f"splats: expected a 1-D array of {name} rows (splat = {p.splat}), "
@@ -405,7 +407,7 @@ class Renderer:
         other photons splatted with the widths of a frame whose collisions were ``field``."""
         scene = scene or self.scene
         p = (params or ApproxParams()).resolved(scene)
-        if p.splat != "density":
+        if not splat_mode(p).density_pass:
             raise ValueError(f"density_widths: splat = {p.splat!r}, expected 'density'")
         if not len(splats):
             return np.zeros(0, np.float32)

@@ -22,6 +22,7 @@ from .context import bound
 from .glsl import attribute_layout, load_source, program, set_uniforms, uniform
 from .params import differential_beams
 from .resources import FrameResources
+from .splat_modes import SPLAT_MODES, splat_mode
 
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
@@ -100,7 +101,7 @@ def splatted(records: np.ndarray, params: ApproxParams) -> np.ndarray:
     with splat = beams its segments in the medium that reached a surface or the medium's
     end, but for a split batch's share of another's (``scenes.splitting.silent``): what
     splat/compact.comp.glsl gathers."""
-    keep = splatted_mask(records["inside"], records["status"], params.splat == "beams")
+    keep = splatted_mask(records["inside"], records["status"], splat_mode(params).beams)
     if params.fresnel_splits:
         keep &= ~silent(records["photon"], records["step"], params.fresnel_splits, params.photon_res**2)
     return keep
@@ -111,7 +112,7 @@ def record_splats(records: np.ndarray, splat: str) -> np.ndarray:
     SPLAT_DTYPE from each collision, or with ``splat`` = beams BEAM_DTYPE from each
     segment's start, direction, length (to its hit, or the length searched) and power
     at its start."""
-    if splat == "beams":
+    if SPLAT_MODES[splat].beams:
         length = np.where(records["status"] == STATUS_SURFACE, records["t"], records["search_length"])
         return beams_from_arrays(records["start"], records["direction"], length, records["power_start"])
     return splats_from_arrays(records["end"], records["direction"], records["power"])
@@ -144,7 +145,7 @@ def record_kernels(records: np.ndarray, params: ApproxParams) -> np.ndarray | No
     row's σ and its rate along a beam: SPLAT_DTYPE/BEAM_DTYPE dir.w and power.w): splat =
     adaptive the collision's σ (rate 0), beams with beam_width = differential
     :func:`beam_kernels`; None where every row takes splat_radius."""
-    if params.splat == "adaptive":
+    if splat_mode(params).differential_width:
         sigma = adaptive_sigma(records["footprint"], params)
         return np.stack([sigma, np.zeros_like(sigma)], axis=1)
     if differential_beams(params):

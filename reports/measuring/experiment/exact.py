@@ -31,6 +31,7 @@ import numpy as np
 
 from volcaustics.approx import Renderer
 from volcaustics.approx.splat import record_splats, splatted
+from volcaustics.approx.splat_modes import splat_mode
 from volcaustics.reference.oracle import Oracle, exact_photon_records
 from volcaustics.reference.render import render_batches
 from volcaustics.scenes.formats import STATUS_COLLIDED, STATUS_SURFACE
@@ -159,7 +160,7 @@ def exact_photons(scene: Scene, params: ApproxParams, *, steps: int, fresnel: st
         first_records = frame.records[0]
         mask = frame.images["mask_specular"]
     records = exact_photon_records(scene, first_records, steps=steps, seed=p.seed, fresnel=fresnel,
-                                   oracle=oracle or Oracle(scene), beams=p.splat == "beams",
+                                   oracle=oracle or Oracle(scene), beams=splat_mode(p).beams,
                                    splits=p.fresnel_splits, slots=p.photon_res**2)
     return photons_from_records(records, first_records, p, steps=steps, fresnel=fresnel, mask_specular=mask)
 
@@ -171,7 +172,7 @@ def photons_from_records(records: list, first_records: np.ndarray, params: Appro
     that also use the records (power budgets, divergence)."""
     collided = [r[splatted(r, params)] for r in records]
     collided_power = np.zeros((steps, 3))
-    power = "power_start" if params.splat == "beams" else "power"  # what is splatted: beams carry their start's
+    power = "power_start" if splat_mode(params).beams else "power"  # what is splatted: beams carry their start's
     for k, c in enumerate(collided):
         collided_power[k] = c[power].astype(np.float64).sum(axis=0)
     rows = np.concatenate(collided) if collided else np.zeros(0, first_records.dtype)

@@ -30,6 +30,7 @@ import numpy as np
 from volcaustics.approx.emission import true_rays
 from volcaustics.approx.light import LightFrustum
 from volcaustics.approx.splat import beams_from_arrays, record_splats, splats_from_arrays, splatted
+from volcaustics.approx.splat_modes import splat_mode
 from volcaustics.reference.replay import exact_replays
 from volcaustics.reports.measuring.experiment.exact import (
     ExactPhotons,
@@ -99,14 +100,14 @@ def pooled(replays: list) -> ExactPhotons:
 def small_radius(scene: Scene, p: ApproxParams) -> float:
     """E_∞,s's kernel σ (m) at the camera's target distance: SMALL_KERNEL_FINE_PIXELS fine
     pixels, SMALL_BEAM_FINE_PIXELS with splat = beams."""
-    fine = SMALL_BEAM_FINE_PIXELS if p.splat == "beams" else SMALL_KERNEL_FINE_PIXELS
+    fine = SMALL_BEAM_FINE_PIXELS if splat_mode(p).beams else SMALL_KERNEL_FINE_PIXELS
     return fine * pixel_footprint(scene.camera, cast(int, p.height) * SMALL_SUPERSAMPLE)
 
 
 def small_kernel_params(scene: Scene, p: ApproxParams) -> ApproxParams:
     """What E_∞,s is splatted with whatever A's splat mode: the fixed small kernel (beams
     stay beams: E_∞,s's photons are then beams, the small kernel theirs)."""
-    return dataclasses.replace(p, splat="beams" if p.splat == "beams" else "fixed", beam_width="fixed",
+    return dataclasses.replace(p, splat="beams" if splat_mode(p).beams else "fixed", beam_width="fixed",
                                splat_radius=small_radius(scene, p))
 
 
@@ -117,7 +118,7 @@ def small_kernel_rows(rows: np.ndarray, small: ApproxParams) -> np.ndarray:
     near-parallel beams share their offset from the pixel centres and a point-sampled
     kernel of 0.3 fine pixel would alias as a pattern, not as noise (docs/decisions.md
     "Points against beams")."""
-    if small.splat != "beams":
+    if not splat_mode(small).beams:
         return rows
     out = rows.copy()
     out["dir"][:, 3] = np.float32(small.splat_radius)
@@ -232,7 +233,7 @@ def replayed(scene: Scene, p: ApproxParams, fresnel: str, groups: list, oracle: 
     and replayed ``steps`` steps with ``fresnel`` and that seed (split into ``splits`` + 1
     batches first, ``scenes.splitting``), all of them one wavefront on the device
     (``reference.replay.exact_replays``)."""
-    beams = p.splat == "beams"
+    beams = splat_mode(p).beams
     done = exact_replays(scene, groups, steps=steps, fresnel=fresnel, oracle=oracle, beams=beams, splits=splits,
                          slots=p.photon_res**2, every=p.split_every)
     used = {**p.to_dict(), "steps": steps, "fresnel": fresnel, "emission_fresnel": fresnel, "fresnel_splits": splits}

@@ -34,6 +34,7 @@ import numpy as np
 
 from volcaustics.approx.params import differential_beams
 from volcaustics.approx.splat import record_kernels, splats_from_arrays, with_kernels
+from volcaustics.approx.splat_modes import splat_mode
 
 if TYPE_CHECKING:
     from volcaustics.approx.params import ApproxParams
@@ -65,7 +66,7 @@ def splat_params(p: ApproxParams) -> ApproxParams:
     """The parameters an image with a frame's kernels is splatted with: ``p`` itself for
     fixed and adaptive splats; for density splats the per-splat path (``splat =
     adaptive``), which draws each splat with the σ it carries."""
-    return dataclasses.replace(p, splat="adaptive") if p.splat == "density" else p
+    return dataclasses.replace(p, splat="adaptive") if splat_mode(p).density_pass else p
 
 
 def frame_kernels(renderer: Renderer, scene: Scene, p: ApproxParams, collided: np.ndarray) -> Kernels:
@@ -81,7 +82,7 @@ def frame_kernels(renderer: Renderer, scene: Scene, p: ApproxParams, collided: n
     own = record_kernels(collided, p)
     if own is not None:  # adaptive splats, differential beams: per-record kernels
         return _paired(collided, own)
-    if p.splat == "density":
+    if splat_mode(p).density_pass:
         return _density_field(renderer, scene, p, collided)
     return lambda splats, photon, step: splats
 

@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from volcaustics.approx.splat_modes import splat_mode
 from volcaustics.metrics.paths import FATES as FATE_OF_STATUS
 from volcaustics.metrics.paths import path_divergence, power_budget
 from volcaustics.reference.oracle import exact_photon_records
@@ -25,7 +26,7 @@ FATES = tuple(FATE_OF_STATUS.values())   # the power budget's share_<fate> colum
 def replay(scene: Scene, p: ApproxParams, frame: Frame, seed: int, oracle: Oracle) -> list:
     """The frame's photons replayed exactly with its steps and Fresnel."""
     return exact_photon_records(scene, frame.records[0], steps=p.steps, seed=seed, fresnel=p.fresnel, oracle=oracle,
-                                beams=p.splat == "beams", splits=p.fresnel_splits, slots=p.photon_res**2)
+                                beams=splat_mode(p).beams, splits=p.fresnel_splits, slots=p.photon_res**2)
 
 
 def photon_rows(frames: Sequence[Frame], replays: list, columns: dict) -> tuple:
