@@ -95,8 +95,8 @@ def measured_point(scene: str, params: ApproxParams, preset: str, seeds: int, *,
     """One experiment as ``volcaustics measure`` and :func:`measure` run it: the settings
     checked, the values the preset takes from the scene resolved (layers, photon_res
     matched to the paper's cost), the point measured through the runner and its store
-    (read back when stored), and for a matched preset its equal cost checked
-    (``summary["equal_cost"]``)."""
+    (read back when stored), and for a matched preset its equal cost checked once and
+    kept in the point's summary in the store (``summary["equal_cost"]``)."""
     from volcaustics.approx.cost_match import equal_cost_check, with_auto_values
     from volcaustics.reports.measuring import runner
     from volcaustics.reports.measuring.experiment.point_checks import checked_settings
@@ -106,11 +106,15 @@ def measured_point(scene: str, params: ApproxParams, preset: str, seeds: int, *,
     checked_settings(resolved, params, seeds)  # a bad seed count or size: before the cost match
     matched = with_auto_values(scene, params, preset, photon_res_given, layers_given=layers_given)
     checked_settings(resolved, matched, seeds)  # the matched frame too: before the reference
-    run = runner.measure([runner.Point(scene, matched, seeds)], runner.results_store(), reference_settings=reference,
+    store = runner.results_store()
+    run = runner.measure([runner.Point(scene, matched, seeds)], store, reference_settings=reference,
                          measurement=measurement, policy="continue", images=("layers",),
                          progress=progress)  # the layers image as the command writes it: one stored point for both
     point = run.results[0]
-    point.summary["equal_cost"] = equal_cost_check(scene, matched, preset)
+    if point.summary.get("equal_cost") is None:
+        check = equal_cost_check(scene, matched, preset)  # None: a preset not matched to the paper's cost
+        if check is not None:
+            point.summary = store.amend_summary(point.key, {"equal_cost": check})
     return point
 
 

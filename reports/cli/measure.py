@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import sys
 from typing import TYPE_CHECKING
 
@@ -45,6 +46,8 @@ def run(args: argparse.Namespace) -> int:
     from volcaustics.reports.api import measured_point
     from volcaustics.reports.measuring.experiment.measure_outputs import OUTPUT_FILES, write_experiment
     from volcaustics.reports.measuring.experiment.point_summary import KIND as EXPERIMENT_KIND
+    from volcaustics.reports.measuring.results.store import SUMMARY
+    from volcaustics.reports.measuring.runner import results_store
     from volcaustics.scenes import resolve_scene
 
     check_output_set(args.output, "-o", files=OUTPUT_FILES, kind=EXPERIMENT_KIND)
@@ -58,7 +61,8 @@ def run(args: argparse.Namespace) -> int:
     point = measured_point(args.scene, params, args.preset, args.seeds, reference=report_settings(args),
                            measurement=measurement, photon_res_given=args.photon_res is not None,
                            layers_given=args.layers is not None, progress=not args.quiet)
-    paths = write_experiment(point, args.output)
+    stored = os.path.join(results_store().point_dir(point.key), SUMMARY)  # one summary: the store's, copied
+    paths = write_experiment(point, args.output, summary_file=stored)
     s = point.summary  # as stored: plain JSON data (NaN → None)
     how = f"{s['experiment_seconds']['total']:.1f} s" if point.measured else f"from the store ({point.key[:12]})"
     print(f"measure {scene.name}: {s['seeds']} seed(s), {how} -> {paths['summary.json']}")

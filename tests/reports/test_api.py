@@ -139,3 +139,25 @@ def test_frames_refuses_a_seed_count_without_a_frame_error(tmp_path):
     with pytest.raises(InputError, match="seeds = 1"):
         vc.frames(str(tmp_path / "f"), scenes=["refocus"], seeds=1)
     assert not (tmp_path / "f").exists()
+
+
+
+@pytest.mark.slow  # the check renders the paper's frames at its own photon and light resolution: 20-40 s
+def test_a_matched_presets_equal_cost_is_measured_once_and_kept_with_the_point(empty_cache):
+    """The equal-cost check (a measured time: it differs run to run) is stored in the
+    point's summary: the second call reads it back, equal to the float; the store keeps
+    its own fields to itself, and a point not there cannot be amended (negative controls)."""
+    import volcaustics as vc
+    from volcaustics.reports.measuring.runner import results_store
+
+    small = {"width": 32, "height": 32, "light_res": 64, "photon_res": 64, "layers": 1}  # no match: the check alone
+    first = vc.measure("refocus", preset="beams", seeds=2, reference=REFERENCE, **small)
+    assert first.equal_cost is not None and first.equal_cost.measured_ratio > 0
+    again = vc.measure("refocus", preset="beams", seeds=2, reference=REFERENCE, **small)
+    assert again.equal_cost == first.equal_cost and again.key == first.key
+    store = results_store()
+    assert store.summary(first.key)["equal_cost"]["measured_time"]["ratio"] == first.equal_cost.measured_ratio
+    with pytest.raises(ValueError, match="files belong to the store"):
+        store.amend_summary(first.key, {"files": {}})
+    with pytest.raises(OSError, match="not complete"):
+        store.amend_summary("0" * 32, {"equal_cost": None})

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import os
 
 import numpy as np
 import pytest
@@ -46,6 +47,9 @@ def test_measure_writes_tidy_tables_exr_and_summary(empty_cache, tmp_path, capsy
     printed = capsys.readouterr().out
     assert "caustic error decomposed" in printed and "from the store" not in printed  # measured
     summary = _strict_json(out / "summary.json")
+    from volcaustics.reports.measuring.runner import results_store
+    stored = os.path.join(results_store().point_dir(summary["key"]), "summary.json")
+    assert (out / "summary.json").read_bytes() == open(stored, "rb").read()  # one summary, the store's
     assert summary["exact"]["subphotons"] == 16  # the report's
     assert summary["params"]["layers"] == 2 and summary["seeds"] == 2 and summary["seed_values"] == [0, 1]
     assert summary["reference"]["key"] and summary["code_version"] and summary["versions"]["mitsuba"]

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 from typing import TYPE_CHECKING, Protocol
 
 from volcaustics.infra.imageio import write_exr
@@ -42,12 +43,14 @@ def output_paths(out_dir: str) -> dict:
 STORE_FIELDS = ("key_document", "files", "summary_sha256")
 
 
-def write_experiment(experiment: _Written, out_dir: str) -> dict:
+def write_experiment(experiment: _Written, out_dir: str, *, summary_file: str | None = None) -> dict:
     """Write the tables (Parquet + CSV), ``decomposition.exr`` and, last,
     ``summary.json`` into ``out_dir`` as one set (``infra.storage.atomic_set``: an
     interrupted write leaves the last complete set). ``experiment``: a stored point
-    (``tables``: name → DataFrame, ``layers``, ``summary`` as stored: its store fields are
-    left out, its ``key`` kept) or an ``Experiment`` (rows per table). Returns the paths."""
+    (``tables``: name → DataFrame, ``layers``, ``summary``), whose ``summary_file`` in the
+    store is copied byte for byte (one summary per point, the same in the store and in
+    ``out_dir``), or an ``Experiment`` (rows per table; its summary written without the
+    store's fields). Returns the paths."""
     os.makedirs(out_dir, exist_ok=True)
     paths = output_paths(out_dir)  # summary.json last: the set's manifest
     s = {k: v for k, v in experiment.summary.items() if k not in STORE_FIELDS}
@@ -63,7 +66,9 @@ def write_experiment(experiment: _Written, out_dir: str) -> dict:
                    "volcaustics_renderer": "experiment",
                    "volcaustics_layers": json.dumps({**DECOMPOSITION_IMAGES, "term.*": "the decomposition's terms"}),
                    "volcaustics_params": json.dumps(s["params"], sort_keys=True)})
-        summary = {**s, "outputs": {k: os.path.abspath(v) for k, v in paths.items()}}
-        with open(tmp["summary.json"], "w", encoding="utf-8") as fh:
-            fh.write(json.dumps(plain(summary), indent=2, allow_nan=False))
+        if summary_file is not None:
+            shutil.copyfile(summary_file, tmp["summary.json"])
+        else:
+            with open(tmp["summary.json"], "w", encoding="utf-8") as fh:
+                fh.write(json.dumps(plain(s), indent=2, allow_nan=False))
     return paths

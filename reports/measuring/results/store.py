@@ -177,6 +177,21 @@ class Store:
             if os.path.isdir(tmp):
                 shutil.rmtree(tmp, ignore_errors=True)
 
+    def amend_summary(self, key: str, fields: dict) -> ExperimentSummary:
+        """Add ``fields`` to a complete point's summary, resealed and written in one rename:
+        what is measured of a point after it (its equal cost), kept with it from then on.
+        Returns the summary as stored; OSError for a point missing or damaged, ValueError
+        for a field the store owns."""
+        summary = self.summary(key)
+        if summary is None:
+            raise OSError(f"point {key[:12]}: not complete in {self.root}: nothing to amend")
+        owned = sorted(set(fields) & {"key", "key_document", "files", SEAL})
+        if owned:
+            raise ValueError(f"point {key[:12]}: {', '.join(owned)} belong to the store")
+        doc = sealed({**{k: v for k, v in summary.items() if k != SEAL}, **plain(fields)})
+        atomic_write_text(os.path.join(self.point_dir(key), SUMMARY), json.dumps(doc, indent=1, allow_nan=False))
+        return cast(ExperimentSummary, doc)
+
     def point_files(self, key: str) -> dict:
         """The point's files as bytes (name → content): what a worker without the store's
         disk sends back for :meth:`adopt_point`."""
