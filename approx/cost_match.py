@@ -44,6 +44,7 @@ from volcaustics.scenes import resolve_scene
 
 if TYPE_CHECKING:
     from volcaustics.approx.params import ApproxParams
+    from volcaustics.scenes.model import Scene
 
 
 @lru_cache(maxsize=None)
@@ -149,19 +150,20 @@ class CostMatcher:
 
 
 def with_auto_values(scene_arg: str, params: ApproxParams, preset_name: str | None, given: bool, *,
-                     layers_given: bool = False) -> ApproxParams:
+                     layers_given: bool = False, scene: Scene | None = None) -> ApproxParams:
     """``params`` with the values the preset takes from the scene at hand: layers from
     the scene's depth complexity (:func:`auto_layers`) when the preset asks for it
     (AUTO_LAYERS) and no layers were given (``layers_given``); then photon_res matched
     to the paper configuration's frame cost at the same image size on ``scene_arg`` when
     the preset asks for it (AUTO_PHOTON_RES) and no photon_res was ``given``: the extra
-    layers' maps and lookups are paid for with photons. Else ``params`` unchanged."""
+    layers' maps and lookups are paid for with photons. Else ``params`` unchanged.
+    ``scene``: ``scene_arg`` resolved already (None: resolved here when needed)."""
     if preset_name in AUTO_LAYERS and not layers_given:
-        layers = auto_layers(scene_arg, params.light_res)
+        layers = auto_layers(scene_arg, params.light_res, scene=scene)
         params = params if layers == params.layers else dataclasses.replace(params, layers=layers)
     if preset_name not in AUTO_PHOTON_RES or given:
         return params
-    scene = resolve_scene(scene_arg)
+    scene = scene or resolve_scene(scene_arg)
     paper = preset(AUTO_PHOTON_RES[preset_name], width=params.width, height=params.height)
     matcher = CostMatcher(cache_path("cost_match"))  # read as it is; written only if it can be
     try:
@@ -184,11 +186,12 @@ def _levels(scene_hash: str, scene_arg: str, light_res: int) -> tuple:
         renderer.release()
 
 
-def auto_layers(scene_arg: str, light_res: int) -> int:
-    """layers = auto on ``scene_arg``: the peeled light-map levels that hold a share of the
-    light's texels that is not negligible (``approx.layers.levels_needed``), at the
-    frame's ``light_res``, up to 8; 1 for a single convex object."""
-    return levels_needed(list(_levels(resolve_scene(scene_arg).scene_hash(), scene_arg, light_res)))
+def auto_layers(scene_arg: str, light_res: int, *, scene: Scene | None = None) -> int:
+    """layers = auto on ``scene_arg`` (``scene``: resolved already, or None): the peeled
+    light-map levels that hold a share of the light's texels that is not negligible
+    (``approx.layers.levels_needed``), at the frame's ``light_res``, up to 8; 1 for a
+    single convex object."""
+    return levels_needed(list(_levels((scene or resolve_scene(scene_arg)).scene_hash(), scene_arg, light_res)))
 
 
 def cost_ratio(cost: dict, target: dict) -> float:

@@ -33,6 +33,7 @@ if TYPE_CHECKING:
     from volcaustics.reference.cache import ReferenceResult
     from volcaustics.reports.measuring.runner import PointResult
     from volcaustics.reports.studies.sweep.sweep_run import SweepResult
+    from volcaustics.scenes.model import Scene
 
 __all__ = ["FrameCheck", "frames", "measure", "render_approx", "render_reference", "sweep"]
 
@@ -91,23 +92,24 @@ def measure(scene: str, *, preset: str = "quick", seeds: int = 4, reference: Ref
 
 def measured_point(scene: str, params: ApproxParams, preset: str, seeds: int, *, reference: ReferenceSettings,
                    measurement: MeasurementSettings, photon_res_given: bool, layers_given: bool,
-                   progress: bool) -> PointResult:
+                   progress: bool, resolved: Scene | None = None) -> PointResult:
     """One experiment as ``volcaustics measure`` and :func:`measure` run it: the settings
     checked, the values the preset takes from the scene resolved (layers, photon_res
     matched to the paper's cost), the point measured through the runner and its store
     (read back when stored), and for a matched preset its equal cost checked once and
-    kept in the point's summary in the store (``summary["equal_cost"]``)."""
+    kept in the point's summary in the store (``summary["equal_cost"]``). ``resolved``:
+    ``scene`` resolved already (the command's); the scene is resolved once either way."""
     from volcaustics.approx.cost_match import equal_cost_check, with_auto_values
     from volcaustics.reports.measuring import runner
     from volcaustics.reports.measuring.experiment.point_checks import checked_settings
     from volcaustics.scenes import resolve_scene
 
-    resolved = resolve_scene(scene)
+    resolved = resolved or resolve_scene(scene)
     checked_settings(resolved, params, seeds)  # a bad seed count or size: before the cost match
-    matched = with_auto_values(scene, params, preset, photon_res_given, layers_given=layers_given)
+    matched = with_auto_values(scene, params, preset, photon_res_given, layers_given=layers_given, scene=resolved)
     checked_settings(resolved, matched, seeds)  # the matched frame too: before the reference
     store = runner.results_store()
-    run = runner.measure([runner.Point(scene, matched, seeds)], store, reference_settings=reference,
+    run = runner.measure([runner.Point(scene, matched, seeds, resolved=resolved)], store, reference_settings=reference,
                          measurement=measurement, policy="continue", images=("layers",),
                          progress=progress)  # the layers image as the command writes it: one stored point for both
     point = run.results[0]

@@ -60,7 +60,7 @@ def run(args: argparse.Namespace) -> int:
     # through the runner and the store the report and the gate share: a point measured before is read back
     point = measured_point(args.scene, params, args.preset, args.seeds, reference=report_settings(args),
                            measurement=measurement, photon_res_given=args.photon_res is not None,
-                           layers_given=args.layers is not None, progress=not args.quiet)
+                           layers_given=args.layers is not None, progress=not args.quiet, resolved=scene)
     stored = os.path.join(results_store().point_dir(point.key), SUMMARY)  # one summary: the store's, copied
     paths = write_experiment(point, args.output, summary_file=stored)
     s = point.summary  # as stored: plain JSON data (NaN → None)

@@ -78,6 +78,9 @@ class Point:
     params: ApproxParams     # unresolved: width/height unset take the scene camera's
     seeds: int = 1           # frames with seeds params.seed … params.seed + seeds − 1
     fields: tuple = ()       # scene fields changed: ((dotted path, value), ...) (scenes.fields)
+    # the scene already resolved from ``scene`` and ``fields`` (None: the runner resolves it),
+    # so that a command resolves it once; it travels with the point to this process's work
+    resolved: Scene | None = field(default=None, compare=False, repr=False)
 
 
 def point_scene(scene: str, fields: tuple = ()) -> Scene:
@@ -215,7 +218,8 @@ def measure(points: list, store: Store, *, reference_settings: ReferenceSettings
                     failure = outcome["error"]
                     raise RunnerError(f"{scene_of[outcome['key']]}: its point failed on a worker process: {failure}")
         elif pool is None:  # this process: the references as resolved (rendered or cached)
-            outcomes = [run_point(task, progress=progress, reference=references[task.reference_key])
+            outcomes = [run_point(task, progress=progress, reference=references[task.reference_key],
+                                  scene=scenes[task.key])
                         for task in tqdm(unique, desc="experiments", unit="point", disable=not progress)]
         elif dask is not None:  # machines that may share no disk: the reference goes out, the point comes back
             payloads = [{"reference": (task.reference_key, references[task.reference_key]),
@@ -248,7 +252,7 @@ def _tasks(points, store, settings, measurement, policy, *, images, progress, hi
     scenes, wanted, sizes = {}, {}, []
     for point in points:
         if (point.scene, point.fields) not in scenes:
-            scenes[(point.scene, point.fields)] = point_scene(point.scene, point.fields)
+            scenes[(point.scene, point.fields)] = point.resolved or point_scene(point.scene, point.fields)
         scene = scenes[(point.scene, point.fields)]
         sized_settings = sized(settings, scene, point.params)
         size = (point.scene, point.fields, sized_settings.width, sized_settings.height)
@@ -325,14 +329,14 @@ TOOLS: dict = {}
 
 
 def run_point(task: PointTask, payload: dict | None = None, *, progress: bool = False,
-              reference: ReferenceResult | None = None) -> dict:
+              reference: ReferenceResult | None = None, scene: Scene | None = None) -> dict:
     """One point (picklable: plain data in and out). Tasks of one process run one at a
     time, whatever the executor's threads (GL and Mitsuba are per process). A local
     worker reads the run's reference from the cache by key and writes the point into the
     store; this process passes the reference (``reference``: as resolved, rendered in this
-    run or cached). A shipped task (``payload``: its reference and its scene package, for a
-    Dask worker, which may share no disk with the run) sends the point back as files
-    (:func:`_shipped`)."""
+    run or cached) and the scene (``scene``: as the run resolved it). A shipped task
+    (``payload``: its reference and its scene package, for a Dask worker, which may share
+    no disk with the run) sends the point back as files (:func:`_shipped`)."""
     if task.version != TASK_VERSION:
         raise RuntimeError(f"a point task of version {task.version!r}; this worker's volcaustics runs version "
                            f"{TASK_VERSION}: install the same volcaustics on every worker")
@@ -343,7 +347,7 @@ def run_point(task: PointTask, payload: dict | None = None, *, progress: bool = 
         store = Store(task.store)
         if store.status(task.key, images=task.images) == "done":
             return {"key": task.key, "status": "done", "seconds": 0.0}
-        scene = point_scene(task.scene, task.fields)
+        scene = scene or point_scene(task.scene, task.fields)
         # the run's own, never rendered here: the very render the point's key names
         reference = reference or cached_reference(task.reference_key, scene,
                                                   task.key_document.get("reference_content"))

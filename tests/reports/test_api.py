@@ -22,11 +22,16 @@ SMALL = {"width": 32, "height": 32, "photon_res": 64, "light_res": 64, "layers":
 REFERENCE = dataclasses.replace(REPORT_REFERENCE, photons=65536, spp=8, batches=4, target_noise=None, max_scatter=1)
 
 
-def test_measure_returns_the_typed_experiment_the_command_writes(empty_cache, tmp_path, capsys):
+def test_measure_returns_the_typed_experiment_the_command_writes(empty_cache, tmp_path, capsys, monkeypatch):
     # its own references: a shared entry continued by another test between the two calls changes the key
     import volcaustics as vc
+    from volcaustics.scenes import loader
 
+    parsed = []
+    parse = loader.parse_scene
+    monkeypatch.setattr(loader, "parse_scene", lambda *a, **k: parsed.append(1) or parse(*a, **k))
     e = vc.measure("refocus", seeds=2, reference=REFERENCE, **SMALL)
+    assert len(parsed) == 1  # the scene is resolved once, and travels with the point (before: 4 times)
     assert isinstance(e, Experiment) and e.scene == "refocus" and e.seeds == 2 and e.params.photon_res == 64
     with pytest.raises(dataclasses.FrozenInstanceError):
         e.seeds = 3  # type: ignore[misc]
