@@ -403,13 +403,14 @@ _P = TypeVar("_P", bound=ParamsMethods)
 
 
 @overload
-def preset(name: str, cls: type[ApproxParams] = ..., **changes: object) -> ApproxParams: ...
+def preset(name: str, cls: type[ApproxParams] = ..., /, **changes: object) -> ApproxParams: ...
 @overload
-def preset(name: str, cls: type[_P], **changes: object) -> _P: ...
-def preset(name: str, cls: type[ParamsMethods] = ApproxParams, **changes: object) -> ParamsMethods:
+def preset(name: str, cls: type[_P], /, **changes: object) -> _P: ...
+def preset(name: str, cls: type[ParamsMethods] = ApproxParams, /, **changes: object) -> ParamsMethods:
     """The preset ``name`` as ``cls`` (a :func:`params_class`) with ``changes``
-    (ParamError for an unknown preset, an unknown parameter or a bad value)."""
-    if name not in PRESET_VALUES:
+    (ParamError for an unknown preset, an unknown parameter or a bad value; ``name`` and
+    ``cls`` are positional, so a parameter of either name is refused as unknown)."""
+    if not isinstance(name, str) or name not in PRESET_VALUES:
         raise ParamError(f"preset = {name!r}: expected {' or '.join(repr(n) for n in PRESET_VALUES)}")
     for key in changes:
         param(key, cls.TABLE)  # an unknown name: ParamError listing the table's, not a TypeError

@@ -18,6 +18,11 @@ if TYPE_CHECKING:
 __all__ = ["FrameCheck", "frames", "measure", "render_approx", "render_reference", "sweep"]
 
 
+def __dir__() -> list[str]:
+    """The module's names and the public functions, for ``dir(vc)`` and tab completion."""
+    return sorted({*(n for n in globals() if n.startswith("__")), *__all__})
+
+
 def __getattr__(name: str) -> Any:
     """The public functions, imported when first used (PEP 562), so that ``import
     volcaustics`` and ``volcaustics --help`` load no renderer."""

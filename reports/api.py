@@ -14,14 +14,17 @@ functions take a loaded ``Scene``.
 
 from __future__ import annotations
 
+import dataclasses
+import os
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 from volcaustics.infra.errors import InputError
 from volcaustics.reference.settings import ReferenceSettings
-from volcaustics.reports.measuring.experiment.measurement import MeasurementSettings
+from volcaustics.reports.measuring.experiment.measurement import MeasurementSettings, measurement_settings
 from volcaustics.reports.measuring.results.experiment import Experiment
+from volcaustics.reports.measuring.results.output_folders import check_output_set
 from volcaustics.reports.measuring.results.sizing import REPORT_REFERENCE
 from volcaustics.reports.studies.sweep.study_limits import FRAME_CHECK_SEEDS
 
@@ -38,8 +41,10 @@ if TYPE_CHECKING:
 __all__ = ["FrameCheck", "frames", "measure", "render_approx", "render_reference", "sweep"]
 
 
-def measure(scene: str, *, preset: str = "quick", seeds: int = 4, reference: ReferenceSettings | None = None,
-            measurement: MeasurementSettings | None = None, progress: bool = False, **params: Any) -> Experiment:
+def measure(scene: str, *, preset: str = "quick", seeds: int = 4,
+            reference: ReferenceSettings | Mapping[str, Any] | None = None,
+            measurement: MeasurementSettings | Mapping[str, Any] | None = None, progress: bool = False,
+            **params: Any) -> Experiment:
     """Measure the approximation against the reference on one scene.
 
     Parameters
@@ -53,10 +58,11 @@ def measure(scene: str, *, preset: str = "quick", seeds: int = 4, reference: Ref
     seeds : int
         Frames with seeds ``seed`` … ``seed + seeds − 1`` (the approximation's own noise needs
         at least 2).
-    reference : ReferenceSettings, optional
-        The reference's budget; default the report's (``volcaustics measure``'s defaults).
-    measurement : MeasurementSettings, optional
-        How the experiment is measured; default the report's.
+    reference : ReferenceSettings or mapping, optional
+        The reference's budget (or a mapping of its fields over it); default the report's
+        (``volcaustics measure``'s defaults). Its image size follows the frame's.
+    measurement : MeasurementSettings or mapping, optional
+        How the experiment is measured (or a mapping of its fields); default the report's.
     progress : bool
         Show a progress bar.
     **params
@@ -83,11 +89,44 @@ def measure(scene: str, *, preset: str = "quick", seeds: int = 4, reference: Ref
     """
     from volcaustics.approx.params import preset as preset_params
 
+    scene = scene_argument(scene)
     point = measured_point(scene, preset_params(preset, **params), preset, seeds,
-                           reference=reference or REPORT_REFERENCE, measurement=measurement or MeasurementSettings(),
+                           reference=_reference(reference, REPORT_REFERENCE), measurement=_measurement(measurement),
                            photon_res_given="photon_res" in params, layers_given="layers" in params,
                            progress=progress)
     return Experiment.from_summary(point.summary, key=point.key, tables=point.tables)
+
+
+def scene_argument(scene: object, argument: str = "scene") -> str:
+    """A SCENE argument from Python: a name or a path (``str`` or a path object), as the
+    string the commands take; InputError for anything else."""
+    if isinstance(scene, os.PathLike):
+        scene = os.fspath(scene)
+    if not isinstance(scene, str) or not scene:
+        raise InputError(f"{argument} = {scene!r}: expected a built-in scene's name or a scene file's path")
+    return scene
+
+
+def _reference(reference: object, base: ReferenceSettings) -> ReferenceSettings:
+    """``reference`` as settings: ReferenceSettings as it is, a mapping over ``base``."""
+    if reference is None:
+        return base
+    if isinstance(reference, ReferenceSettings):
+        return reference
+    if isinstance(reference, Mapping):
+        try:
+            return dataclasses.replace(base, **reference)
+        except TypeError as exc:
+            raise InputError(f"reference = {dict(reference)!r}: {exc}; expected ReferenceSettings' fields") from None
+    raise InputError(f"reference = {reference!r}: expected ReferenceSettings or a mapping of its fields")
+
+
+def _measurement(measurement: object) -> MeasurementSettings:
+    if measurement is None or isinstance(measurement, MeasurementSettings):
+        return measurement or MeasurementSettings()
+    if isinstance(measurement, Mapping):
+        return measurement_settings(dict(measurement), where="measurement")
+    raise InputError(f"measurement = {measurement!r}: expected MeasurementSettings or a mapping of its fields")
 
 
 def measured_point(scene: str, params: ApproxParams, preset: str, seeds: int, *, reference: ReferenceSettings,
@@ -152,14 +191,16 @@ def render_approx(scene: str, *, preset: str = "paper", **params: Any) -> Frame:
     from volcaustics.reports.measuring.experiment.point_checks import check_denoiser
     from volcaustics.scenes import resolve_scene
 
+    scene = scene_argument(scene)
     resolved = resolve_scene(scene)
     chosen = preset_params(preset, **params)
     check_denoiser(chosen)
     return render(resolved, with_auto_values(scene, chosen, preset, "photon_res" in params,
-                                             layers_given="layers" in params))
+                                             layers_given="layers" in params, scene=resolved))
 
 
-def render_reference(scene: str, settings: ReferenceSettings | None = None, *, mode: str = "caustic",
+def render_reference(scene: str, settings: ReferenceSettings | Mapping[str, Any] | None = None, *,
+                     mode: str = "caustic",
                      progress: bool = False) -> ReferenceResult:
     """Ground truth from Mitsuba 3 (``volcaustics reference``), from the cache when an
     entry meets ``settings``, else rendered (or continued) and cached.
@@ -168,9 +209,9 @@ def render_reference(scene: str, settings: ReferenceSettings | None = None, *, m
     ----------
     scene : str
         A built-in scene's name or the path of a TOML scene file.
-    settings : ReferenceSettings, optional
-        The budget and size (photons, spp, batches, width, height, target noise, …);
-        default the command's defaults.
+    settings : ReferenceSettings or mapping, optional
+        The budget and size (photons, spp, batches, width, height, target noise, …), or a
+        mapping of those fields over the command's defaults; default the command's defaults.
     mode : str
         Which light paths the caustic layer counts (``caustic``: through glass).
     progress : bool
@@ -185,8 +226,7 @@ def render_reference(scene: str, settings: ReferenceSettings | None = None, *, m
     Examples
     --------
     >>> import volcaustics as vc
-    >>> from volcaustics.infra.errors import InputError
-from volcaustics.reference.settings import ReferenceSettings
+    >>> from volcaustics.reference.settings import ReferenceSettings
     >>> r = vc.render_reference("refocus", ReferenceSettings(width=64, height=64))   # doctest: +SKIP
     >>> r.mean["caustic"].shape                                                    # doctest: +SKIP
     (64, 64, 3)
@@ -194,14 +234,15 @@ from volcaustics.reference.settings import ReferenceSettings
     from volcaustics.reference.render import render_reference as render
     from volcaustics.scenes import resolve_scene
 
-    return render(resolve_scene(scene), settings, mode=mode, progress=progress)
+    return render(resolve_scene(scene_argument(scene)), _reference(settings, ReferenceSettings()), mode=mode,
+                  progress=progress)
 
 
 def sweep(output: str, *, spec: str | None = None, scenes: Sequence[str] | None = None,
           vary: Mapping[str, Sequence[Any]] | None = None, fixed: Mapping[str, Any] | None = None,
-          preset: str = "quick", seeds: int = 1, reference: Mapping[str, Any] | None = None,
-          measurement: Mapping[str, Any] | None = None, workers: int | None = None, dask: str | None = None,
-          progress: bool = False) -> SweepResult:
+          preset: str | None = None, seeds: int | None = None,
+          reference: ReferenceSettings | Mapping[str, Any] | None = None, measurement: Mapping[str, Any] | None = None,
+          workers: int | None = None, dask: str | None = None, progress: bool = False) -> SweepResult:
     """A grid of experiments over approximation parameters (``volcaustics sweep``),
     resumable: points already in ``output``'s store are read back, not measured.
 
@@ -217,15 +258,21 @@ def sweep(output: str, *, spec: str | None = None, scenes: Sequence[str] | None 
         Parameter name → the values to try (``{"layers": [1, 2, 4]}``).
     fixed : mapping, optional
         Parameter name → one value, for every point.
-    preset, seeds : str, int
-        The points' preset and seeds.
+    preset, seeds : str, int, optional
+        The points' preset (default ``quick``) and seeds (default 1: one frame each, so a
+        point's debiased error still holds that frame's noise; 2 or more take it out).
     reference, measurement : mapping, optional
         A spec file's ``[reference]`` and ``[measurement]`` tables (``{"photons": 65536}``,
-        ``{"exact_subphotons": 1}``): the reference's budget and how points are measured.
+        ``{"exact_subphotons": 1}``, or ReferenceSettings): the reference's budget and how
+        points are measured.
     workers, dask : int, str, optional
         Local worker processes, or a Dask scheduler's address.
     progress : bool
         Show a progress bar.
+
+    Points run on worker processes that import the calling module again: call it from a
+    notebook, or from a script under ``if __name__ == "__main__":`` (else every point
+    fails, listed in ``failed``).
 
     Returns
     -------
@@ -239,23 +286,69 @@ def sweep(output: str, *, spec: str | None = None, scenes: Sequence[str] | None 
     >>> result = vc.sweep("runs/layers", scenes=["refocus"], vary={"layers": [1, 2]})   # doctest: +SKIP
     >>> result.tables["points"][["layers", "caustic_relmse_debiased"]]                # doctest: +SKIP
     """
+    from volcaustics.reports.measuring.pools.dask_address import parse_dask
     from volcaustics.reports.measuring.pools.executors import default_workers
-    from volcaustics.reports.measuring.results.sizing import reference_settings
-    from volcaustics.reports.studies.sweep.sweep_run import run_sweep
-    from volcaustics.reports.studies.sweep.sweep_spec import SweepError, SweepSpec, checked_spec, spec_from_toml
-    from volcaustics.scenes import BUILTIN_NAMES
+    from volcaustics.reports.studies.sweep.sweep_run import OUTPUT_FILES, OUTPUT_FOLDERS, run_sweep
+    from volcaustics.reports.studies.sweep.sweep_spec import SweepError, spec_from_document, spec_from_toml
 
-    if spec is not None and (vary or fixed or reference or measurement):
-        raise SweepError(f"{spec}: give the grid in the file or as vary=, fixed=, reference= and measurement=, "
-                         f"not both")
+    if spec is not None and any(x is not None for x in (vary, fixed, reference, measurement, preset, seeds)):
+        raise SweepError(f"{spec}: the grid, preset, seeds, reference and measurement belong to the spec file; only "
+                         f"scenes= may narrow it")
+    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 1):
+        raise InputError(f"workers = {workers!r}: expected a number of worker processes, at least 1")
+    if dask is not None:
+        try:
+            parse_dask(dask)
+        except ValueError as exc:
+            raise InputError(f"dask = {dask!r}: {str(exc).split(': ', 1)[-1]}") from None
+    output = _output_folder(output, files=OUTPUT_FILES, folders=OUTPUT_FOLDERS, kind="sweep")
     if spec is not None:
-        grid = spec_from_toml(spec, None, list(scenes) if scenes is not None else None)
+        given = [scene_argument(x, "scenes") for x in _sequence(scenes, "scenes")] if scenes is not None else None
+        grid = spec_from_toml(os.fspath(spec), None, given)
     else:
-        reference_settings(dict(reference or {}))  # a bad budget: refused before anything renders
-        axes = tuple((name, tuple(values)) for name, values in (vary or {}).items())
-        grid = checked_spec(SweepSpec(tuple(scenes or BUILTIN_NAMES), axes, dict(fixed or {}), preset, seeds,
-                                      dict(reference or {}), measurement=dict(measurement or {})), "vc.sweep", None)
+        doc: dict = {"vary": {k: list(v) if isinstance(v, tuple) else v for k, v in _mapping(vary, "vary").items()},
+                     "set": _mapping(fixed, "fixed"), "reference": _reference_table(reference),
+                     "measurement": _mapping(measurement, "measurement"), "preset": preset or "quick",
+                     "seeds": 1 if seeds is None else seeds}
+        if scenes is not None:
+            doc["scenes"] = [scene_argument(x, "scenes") for x in _sequence(scenes, "scenes")]
+        grid = spec_from_document(doc, "vc.sweep", None)
     return run_sweep(grid, output, workers=workers or default_workers(), dask=dask, progress=progress)
+
+
+def _output_folder(folder: object, **expected: Any) -> str:
+    """``folder`` as a path that can hold the outputs ``expected`` describes
+    (``output_folders.check_output_set``); InputError before any work otherwise."""
+    if isinstance(folder, os.PathLike):
+        folder = os.fspath(folder)
+    if not isinstance(folder, str):
+        raise InputError(f"output = {folder!r}: expected a folder's path")
+    check_output_set(folder, "output", **expected)
+    return folder
+
+
+def _mapping(value: object, argument: str) -> dict:
+    if value is None:
+        return {}
+    if not isinstance(value, Mapping):
+        raise InputError(f"{argument} = {value!r}: expected a mapping of parameter names to values")
+    return dict(value)
+
+
+def _sequence(value: object, argument: str) -> list:
+    if isinstance(value, (str, bytes, os.PathLike)) or not isinstance(value, Sequence):
+        raise InputError(f"{argument} = {value!r}: expected a list")
+    return list(value)
+
+
+def _reference_table(reference: object) -> dict:
+    """A sweep's ``[reference]`` table: a mapping as it is, ReferenceSettings as its fields
+    that a spec file can set (REFERENCE_KEYS)."""
+    from volcaustics.reports.measuring.results.sizing import REFERENCE_KEYS
+
+    if isinstance(reference, ReferenceSettings):
+        return {k: getattr(reference, k) for k in REFERENCE_KEYS}
+    return _mapping(reference, "reference")
 
 
 @dataclass(frozen=True)
@@ -296,10 +389,21 @@ def frames(output: str, *, scenes: Sequence[str] | None = None, seeds: int = FRA
     >>> check = vc.frames("runs/frames", scenes=["refocus"], seeds=2)   # doctest: +SKIP
     >>> check.table[["scene", "config", "frame_ratio"]]               # doctest: +SKIP
     """
-    from volcaustics.reports.studies.best.frame_check import default_scenes, run_frames, verdict
+    from volcaustics.reports.studies.best.frame_check import (
+        FRAMES_FILE,
+        KIND,
+        MANIFEST,
+        POINTS,
+        default_scenes,
+        run_frames,
+        verdict,
+    )
 
     if isinstance(seeds, bool) or not isinstance(seeds, int) or not 2 <= seeds <= 64:
         raise InputError(f"frames: seeds = {seeds!r}: expected an integer in [2, 64] (one frame's SE needs 2)")
-    table = run_frames(list(scenes) if scenes is not None else default_scenes(), output, seeds=seeds,
-                       progress=progress)
+    names = [scene_argument(x, "scenes") for x in _sequence(scenes, "scenes")] if scenes is not None else None
+    if names is not None and not names:
+        raise InputError("frames: scenes = []: expected at least one scene (None: every built-in and held-out one)")
+    output = _output_folder(output, files=(FRAMES_FILE, MANIFEST), folders=(POINTS,), kind=KIND)
+    table = run_frames(names if names is not None else default_scenes(), output, seeds=seeds, progress=progress)
     return FrameCheck(table, verdict(table))

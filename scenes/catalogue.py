@@ -89,8 +89,14 @@ def scene_relative_to(arg: str, named_in: str) -> str:
     return os.path.normpath(os.path.join(base, os.path.expanduser(arg)))
 
 
-def resolve_scene(arg: str) -> Scene:
-    """A SCENE argument: a built-in name or a path to a TOML scene file."""
+def resolve_scene(arg: str | os.PathLike) -> Scene:
+    """A SCENE argument: a built-in name or a path to a TOML scene file (a string, or a
+    path object); SceneError for anything else."""
+    if isinstance(arg, os.PathLike):
+        arg = os.fspath(arg)
+    if not isinstance(arg, str):
+        raise SceneError(None, "SCENE", arg, f"expected a built-in scene's name ({', '.join(BUILTIN_NAMES)}) or "
+                                             f"a scene file's path, not a {type(arg).__name__}")
     if arg in BUILTIN_NAMES:
         return load_builtin(arg)
     if is_scene_path(arg) or os.path.exists(arg):

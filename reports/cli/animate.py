@@ -5,7 +5,8 @@ from __future__ import annotations
 import dataclasses
 from typing import TYPE_CHECKING
 
-from volcaustics.reports.cli.common import UsageError, add_report_reference, check_output_set, pct, report_settings
+from volcaustics.reports.cli.common import UsageError, add_report_reference, pct, report_settings
+from volcaustics.reports.measuring.results.output_folders import check_output_set
 from volcaustics.reports.measuring.results.param_input import add_param_flags, params_from_args
 from volcaustics.reports.studies.animate.animation_settings import (
     ANIMATION_REFERENCE,

@@ -5,7 +5,8 @@ from __future__ import annotations
 import sys
 from typing import TYPE_CHECKING
 
-from volcaustics.reports.cli.common import UsageError, check_output_file
+from volcaustics.reports.cli.common import UsageError
+from volcaustics.reports.measuring.results.output_folders import check_output_file
 from volcaustics.reports.measuring.results.param_input import add_param_flags, params_from_args, preset_size_note
 
 if TYPE_CHECKING:

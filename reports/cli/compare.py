@@ -6,14 +6,8 @@ from __future__ import annotations
 import os
 from typing import TYPE_CHECKING
 
-from volcaustics.reports.cli.common import (
-    UsageError,
-    add_report_reference,
-    check_output_set,
-    debiased,
-    num,
-    report_settings,
-)
+from volcaustics.reports.cli.common import UsageError, add_report_reference, debiased, num, report_settings
+from volcaustics.reports.measuring.results.output_folders import check_output_set
 
 if TYPE_CHECKING:
     import argparse

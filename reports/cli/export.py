@@ -5,7 +5,8 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from volcaustics.reports.cli.common import UsageError, check_output_file
+from volcaustics.reports.cli.common import UsageError
+from volcaustics.reports.measuring.results.output_folders import check_output_file
 
 if TYPE_CHECKING:
     import argparse

@@ -6,7 +6,8 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from volcaustics.reports.cli.common import UsageError, check_output_set, debiased
+from volcaustics.reports.cli.common import UsageError, debiased
+from volcaustics.reports.measuring.results.output_folders import check_output_set
 from volcaustics.reports.studies.sweep.study_limits import FRAME_CHECK_SEEDS as SEEDS
 
 if TYPE_CHECKING:

@@ -8,12 +8,11 @@ from volcaustics.reports.cli.common import (
     UsageError,
     add_gate_inputs,
     add_measurement_flags,
-    check_output_file,
-    check_output_set,
     measurement_from_args,
     path_type,
     scene_list,
 )
+from volcaustics.reports.measuring.results.output_folders import check_output_file, check_output_set
 
 if TYPE_CHECKING:
     import argparse

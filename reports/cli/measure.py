@@ -9,12 +9,12 @@ from typing import TYPE_CHECKING
 from volcaustics.reports.cli.common import (
     add_measurement_flags,
     add_report_reference,
-    check_output_set,
     debiased,
     measurement_from_args,
     num,
     report_settings,
 )
+from volcaustics.reports.measuring.results.output_folders import check_output_set
 from volcaustics.reports.measuring.results.param_input import add_param_flags, params_from_args, preset_size_note
 
 if TYPE_CHECKING:

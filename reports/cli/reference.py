@@ -4,7 +4,8 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from volcaustics.reports.cli.common import add_budget, budget, check_output_file
+from volcaustics.reports.cli.common import add_budget, budget
+from volcaustics.reports.measuring.results.output_folders import check_output_file
 
 if TYPE_CHECKING:
     import argparse

@@ -8,7 +8,6 @@ from volcaustics.reports.cli.common import (
     add_gate_inputs,
     add_measurement_flags,
     add_report_reference,
-    check_output_set,
     debiased,
     measurement_from_args,
     num,
@@ -17,6 +16,7 @@ from volcaustics.reports.cli.common import (
     report_settings,
     scene_list,
 )
+from volcaustics.reports.measuring.results.output_folders import check_output_set
 
 if TYPE_CHECKING:
     import argparse

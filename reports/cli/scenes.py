@@ -5,7 +5,7 @@ from __future__ import annotations
 import os
 from typing import TYPE_CHECKING
 
-from volcaustics.reports.cli.common import check_output_dir
+from volcaustics.reports.measuring.results.output_folders import check_output_dir
 
 if TYPE_CHECKING:
     import argparse

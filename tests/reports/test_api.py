@@ -166,3 +166,48 @@ def test_a_matched_presets_equal_cost_is_measured_once_and_kept_with_the_point(e
         store.amend_summary(first.key, {"files": {}})
     with pytest.raises(OSError, match="not complete"):
         store.amend_summary("0" * 32, {"equal_cost": None})
+
+
+@pytest.mark.parametrize("call, match", [
+    (lambda vc, t: vc.measure(None), "scene = None"),
+    (lambda vc, t: vc.render_approx(3), "scene = 3"),
+    (lambda vc, t: vc.measure("refocus", preset=["quick"]), "preset"),
+    (lambda vc, t: vc.measure("refocus", name="x"), "name"),  # a parameter named like the preset's own argument
+    (lambda vc, t: vc.measure("refocus", reference={"photon": 5}), "reference"),
+    (lambda vc, t: vc.measure("refocus", measurement={"exact_subphotonz": 1}), "exact_subphotonz"),
+    (lambda vc, t: vc.measure("refocus", reference="big"), "reference = 'big'"),
+    (lambda vc, t: vc.sweep(str(t / "s"), scenes=["refocus"], vary={"layers": []}), "non-empty list"),
+    (lambda vc, t: vc.sweep(str(t / "s"), scenes=["refocus"], vary={"layers": 2}), "non-empty list"),
+    (lambda vc, t: vc.sweep(str(t / "s"), scenes=["refocus"], vary={"photonres": [32, 64]}), "photonres"),
+    (lambda vc, t: vc.sweep(str(t / "s"), scenes=[]), "scenes"),
+    (lambda vc, t: vc.sweep(str(t / "s"), scenes="refocus"), "expected a list"),
+    (lambda vc, t: vc.sweep(str(t / "s"), spec=str(t / "x.toml"), seeds=2), "belong to the spec file"),
+    (lambda vc, t: vc.sweep(str(t / "s"), scenes=["refocus"], workers=0), "workers = 0"),
+    (lambda vc, t: vc.sweep(str(t / "s"), scenes=["refocus"], dask="nonsense://x"), "dask"),
+    (lambda vc, t: vc.sweep(str(t / "afile"), scenes=["refocus"]), "not a folder"),
+    (lambda vc, t: vc.frames(str(t / "afile"), scenes=["refocus"], seeds=2), "not a folder"),
+    (lambda vc, t: vc.frames(str(t / "afile" / "under"), scenes=["refocus"], seeds=2), "cannot write there"),
+    (lambda vc, t: vc.frames(str(t / "f"), scenes=[], seeds=2), "at least one scene"),
+    (lambda vc, t: vc.frames(None, scenes=["refocus"], seeds=2), "output = None"),
+])
+def test_a_bad_argument_from_python_is_an_input_error_naming_it_before_any_work(call, match, tmp_path, empty_cache):
+    """What a notebook user gets wrong (a hostile pass found each) is refused in one line
+    naming the argument, before anything renders: no TypeError, KeyError or OSError from
+    deep inside, and no silently ignored argument."""
+    import volcaustics as vc
+
+    (tmp_path / "afile").write_text("")
+    with pytest.raises(InputError, match=match):
+        call(vc, tmp_path)
+    assert not (empty_cache / "reference").exists()  # nothing rendered
+
+
+def test_a_path_object_names_a_scene_and_dir_lists_the_public_functions(tmp_path):
+    import pathlib
+
+    import volcaustics as vc
+    from volcaustics.scenes import resolve_scene
+    from volcaustics.scenes.catalogue import builtin_path
+
+    assert resolve_scene(pathlib.Path(builtin_path("refocus"))).scene_hash() == resolve_scene("refocus").scene_hash()
+    assert {"measure", "render_approx", "render_reference", "sweep", "frames"} <= set(dir(vc))

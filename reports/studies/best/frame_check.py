@@ -58,7 +58,7 @@ if TYPE_CHECKING:
 CONFIGS = ("paper", "best", "beams")  # the quick preset (the paper's method), the presets best and beams
 DENOISERS = ("none", "oidn")
 FRAMES_FILE, MANIFEST = "frames.parquet", "frames.json"
-KIND = "frames"                   # frames.json's "kind" (reports.cli.common.FOLDER_MARKERS)
+KIND = "frames"                   # frames.json's "kind" (reports.measuring.results.output_folders.FOLDER_MARKERS)
 SCHEMA = 2                        # frames.json's "schema": its shape, checked when read back (2: sealed)
 MANIFEST_SEAL = "frames_sha256"   # frames.json's field holding the SHA-256 of the rest of it
 POINTS = "points"                 # DIR/points/: one JSON file per measured point, for resuming

@@ -125,7 +125,14 @@ def spec_scenes(doc: dict, path: str, given: list | None = None) -> list:
 def spec_from_toml(path: str, max_points: int | None = MAX_POINTS, scenes: list | None = None) -> SweepSpec:
     """A spec from a TOML file (see the module's docstring); ``scenes`` (``--scenes``)
     replaces its scenes; more than ``max_points`` points (None: no limit) is refused."""
-    doc = load_toml(path, keys=SPEC_KEYS, what="sweep spec")
+    return spec_from_document(load_toml(path, keys=SPEC_KEYS, what="sweep spec"), path, max_points, scenes)
+
+
+def spec_from_document(doc: dict, path: str, max_points: int | None = MAX_POINTS,
+                       scenes: list | None = None) -> SweepSpec:
+    """A spec from a spec file's tables (a parsed TOML file, or ``vc.sweep``'s arguments
+    laid out as one), checked as a file's are; ``path`` names it in errors and anchors its
+    relative scene paths."""
     scenes = spec_scenes(doc, path, scenes)
     tables = doc.get("vary", {})
     several = isinstance(tables, list)
