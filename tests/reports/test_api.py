@@ -211,3 +211,29 @@ def test_a_path_object_names_a_scene_and_dir_lists_the_public_functions(tmp_path
 
     assert resolve_scene(pathlib.Path(builtin_path("refocus"))).scene_hash() == resolve_scene("refocus").scene_hash()
     assert {"measure", "render_approx", "render_reference", "sweep", "frames"} <= set(dir(vc))
+
+
+def test_a_summary_that_is_not_an_experiments_is_refused_naming_what_it_lacks():
+    from volcaustics.reports.measuring.results.summaries import SCHEMAS
+
+    with pytest.raises(InputError, match="no images"):
+        Experiment.from_summary({"schema": SCHEMAS["experiment"], "scene": "s"})  # type: ignore[typeddict-item]
+    with pytest.raises(InputError, match="expected an experiment's summary"):
+        Experiment.from_summary("x")  # type: ignore[arg-type]
+
+
+def test_two_names_of_one_scene_are_two_points_each_labelled_its_own():
+    """The store keyed points by content alone, so a copy of sphere1 named "mine" read back
+    as "sphere1" (or the reverse, by which came first): the name is in the key now."""
+    from volcaustics.reference.cache import ReferenceResult
+    from volcaustics.reference.settings import ReferenceSettings
+    from volcaustics.reports.measuring.results.store import key_document, point_key
+    from volcaustics.scenes import load_builtin
+
+    scene = load_builtin("sphere1")
+    mine = dataclasses.replace(scene, name="mine")
+    assert mine.scene_hash() == scene.scene_hash()  # one content
+    reference = ReferenceResult("k" * 32, {"files": {"exr": "k" * 32 + ".r.exr", "png": "k" * 32 + ".r.png"}},
+                                True, {})
+    keys = {point_key(key_document(s, QUICK, 2, reference, ReferenceSettings())) for s in (scene, mine)}
+    assert len(keys) == 2

@@ -139,11 +139,17 @@ class Experiment:
     def from_summary(cls, summary: ExperimentSummary, *, key: str = "",
                      tables: Mapping[str, pd.DataFrame] | None = None) -> Experiment:
         """The experiment a stored summary describes; InputError for a summary of another
-        schema (it names the one read and the one expected)."""
+        schema (it names the one read and the one expected), or not an experiment's."""
+        if not isinstance(summary, Mapping):
+            raise InputError(f"summary = {summary!r}: expected an experiment's summary.json, read as a mapping")
         schema = summary.get("schema", 1)
         if schema != SCHEMAS["experiment"]:
             raise InputError(f"summary.json: schema = {schema!r}: this volcaustics reads experiment schema "
                              f"{SCHEMAS['experiment']}; measure the point again")
+        missing = [k for k in ("images", "scene", "scene_hash", "params", "seeds", "cost", "approx_timings_s",
+                               "warnings", "code_version") if k not in summary]
+        if missing:
+            raise InputError(f"summary.json: no {', '.join(missing)}: not an experiment's summary (measure writes one)")
         images = tuple(ImageMetric(component, metric, Estimate.from_json(value))
                        for component, metrics in summary["images"].items()
                        for metric, value in metrics.items() if isinstance(value, Mapping))

@@ -91,12 +91,15 @@ def point_key(document: dict) -> str:
 
 def key_document(scene: Scene, params: ApproxParams, seeds: int, reference: ReferenceResult,
                  request: ReferenceSettings) -> dict:
-    """Everything that determines a point's result: the scene, the resolved parameters,
+    """Everything that determines a point's result: the scene (its content, and its name,
+    which its summary and tables carry: two files of one content and two names are two
+    points), the resolved parameters,
     the seeds, the reference (``reference.render.ReferenceResult``: its cache key and,
     since an entry can be continued with more batches under one key, the hash of its
     content), the request it was served to (``request``, sized: its summary judges the
     entry against that request's target and caps, ``reference.served``) and the code version."""
-    return {"format": STORE_FORMAT, "scene_hash": scene.scene_hash(), "params": params.resolved(scene).to_dict(),
+    return {"format": STORE_FORMAT, "scene_hash": scene.scene_hash(), "scene": scene.name,
+            "params": params.resolved(scene).to_dict(),
             "seeds": seeds, "reference_key": reference.key,
             "reference_content": reference.manifest.get("exr_sha256"), "reference_request": request.to_dict(),
             "code_version": code_version()}
