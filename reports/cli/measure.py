@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import os
 import sys
 from typing import TYPE_CHECKING
@@ -14,13 +15,12 @@ from volcaustics.reports.cli.common import (
     num,
     report_settings,
 )
+from volcaustics.reports.measuring.results.experiment import EqualCost, Experiment, ModelTerm
 from volcaustics.reports.measuring.results.output_folders import check_output_set
 from volcaustics.reports.measuring.results.param_input import add_param_flags, params_from_args, preset_size_note
 
 if TYPE_CHECKING:
     import argparse
-
-    from volcaustics.reports.measuring.results.summaries import ExperimentSummary
 
 # native extensions loaded at start-up, with Ctrl-C held (cli.main)
 NATIVE = ("drjit", "mitsuba", "moderngl")
@@ -63,65 +63,77 @@ def run(args: argparse.Namespace) -> int:
                            layers_given=args.layers is not None, progress=not args.quiet, resolved=scene)
     stored = os.path.join(results_store().point_dir(point.key), SUMMARY)  # one summary: the store's, copied
     paths = write_experiment(point, args.output, summary_file=stored)
-    s = point.summary  # as stored: plain JSON data (NaN → None)
-    how = f"{s['experiment_seconds']['total']:.1f} s" if point.measured else f"from the store ({point.key[:12]})"
-    print(f"measure {scene.name}: {s['seeds']} seed(s), {how} -> {paths['summary.json']}")
-    reads = s["map_reads"]
-    print(f"  frame {1000 * s['approx_timings_s']['frame_wall']:.0f} ms ({s['timing_method']}), "
-          f"{reads['per_frame'] / 1e6:.2f} M map reads ({reads['per_segment']:.1f} per segment), frame cost "
-          f"{s['cost']['total'] / 1e6:.2f} M (map and emission reads + {s['cost']['splats'] / 1e6:.3f} M splats)")
-    _print_equal_cost(s.get("equal_cost"))
-    _print_images(s)
-    _print_decomposition(s)
-    _print_model(s)
-    for warning in s["warnings"]:
-        print(f"  warning: {warning}")
+    e = Experiment.from_summary(point.summary, key=point.key)  # read at the store's boundary: attributes from here
+    how = f"{e.seconds:.1f} s" if point.measured else f"from the store ({point.key[:12]})"
+    print(f"measure {scene.name}: {e.seeds} seed(s), {how} -> {paths['summary.json']}")
+    print_experiment(e)
     return 0
 
 
-def _print_equal_cost(check: dict | None) -> None:
+def print_experiment(e: Experiment) -> None:
+    """The console's account of an experiment: its frame and cost, equal cost, image
+    metrics, the decomposition, the model term and its warnings."""
+    reads, cost = e.map_reads, e.cost
+    read_text = "" if reads is None else (f"{reads.per_frame / 1e6:.2f} M map reads ({reads.per_segment:.1f} per "
+                                          f"segment), ")
+    print(f"  frame {1000 * cost.measured_s:.0f} ms ({cost.timing_method}), {read_text}frame cost "
+          f"{cost.counted / 1e6:.2f} M (map and emission reads + {cost.splats / 1e6:.3f} M splats)")
+    _print_equal_cost(e.equal_cost)
+    _print_images(e)
+    _print_decomposition(e)
+    _print_model(e.model)
+    for warning in e.warnings:
+        print(f"  warning: {warning}")
+
+
+def _known(x: float) -> float | None:
+    """None for a number not measured (NaN: the store's null), for the console's "n/a"."""
+    return None if math.isnan(x) else x
+
+
+def _print_equal_cost(check: EqualCost | None) -> None:
     if check is None:
         return
-    predicted = ", ".join(f"{ratio:.2f}x ({name})" for name, ratio in check["predicted_ratio"].items())
-    t = check["measured_time"]
-    verdict = "at the paper's cost" if check["at_paper_cost"] else "NOT at the paper's cost"
-    print(f"  cost against the paper configuration: predicted {predicted}; measured frame time {t['ratio']:.2f}x "
-          f"({1000 * t['config_s']:.0f} against {1000 * t['paper_s']:.0f} ms, {t['method']}): {verdict}")
+    predicted = ", ".join(f"{ratio:.2f}x ({name})" for name, ratio in check.predicted_ratio.items())
+    verdict = "at the paper's cost" if check.at_paper_cost else "NOT at the paper's cost"
+    print(f"  cost against the paper configuration: predicted {predicted}; measured frame time "
+          f"{check.measured_ratio:.2f}x ({1000 * check.measured_s:.0f} against {1000 * check.paper_s:.0f} ms, "
+          f"{check.method}): {verdict}")
 
 
-def _print_images(s: ExperimentSummary) -> None:
-    for component, m in s["images"].items():
-        relmse, ratio, flip = m["relative_mse"], m["energy_ratio"], m["hdr_flip"]
-        mean = debiased(relmse["debiased"], low=relmse["ci_low"], high=relmse["ci_high"])
-        frame = m.get("frame_relative_mse") or {}
-        one = "" if frame.get("debiased") is None else (
-            f"one frame {debiased(frame['debiased'], se=frame.get('standard_error'))}, ")
+def _print_images(e: Experiment) -> None:
+    for component in dict.fromkeys(m.component for m in e.images):
+        relmse, ratio, flip = (e.metric(name, component) for name in ("relative_mse", "energy_ratio", "hdr_flip"))
+        mean = debiased(_known(relmse.debiased), low=_known(relmse.ci_low), high=_known(relmse.ci_high))
+        frame = next((m.estimate for m in e.images if m.component == component and m.metric == "frame_relative_mse"),
+                     None)
+        one = "" if frame is None or _known(frame.debiased) is None else (
+            f"one frame {debiased(frame.debiased, se=_known(frame.standard_error))}, ")
         print(f"  {component:<9} relative MSE debiased {mean}, {one}"
-              f"energy ratio {num(ratio['value'])}, HDR-FLIP per frame {num(flip['value'])}")
+              f"energy ratio {num(_known(ratio.value))}, HDR-FLIP per frame {num(_known(flip.value))}")
 
 
-def _print_model(s: ExperimentSummary) -> None:
-    model = s.get("model")
+def _print_model(model: ModelTerm | None) -> None:
     if model is None:
         return
-    needed = ", ".join(f"{c} {n if n is not None else 'more'}" for c, n in model["orders_needed"].items())
-    print(f"  single-scattering model against {model['max_scatter']} scattering orders (orders needed: {needed}): "
+    needed = ", ".join(f"{c} {n if n is not None else 'more'}" for c, n in model.orders_needed.items())
+    print(f"  single-scattering model against {model.max_scatter} scattering orders (orders needed: {needed}): "
           f"energy left out, its own relative MSE, its part of the relative MSE against R_ms")
-    for component, m in model["components"].items():
-        if "note" in m:
-            print(f"    {component:<9} {m['note']}")
+    for m in model.components:
+        share, own, part = m.energy_share, m.relmse_own, m.relmse_part
+        if share is None or own is None or part is None:
+            print(f"    {m.component:<9} {m.note}")
             continue
-        share, own, part = m["energy_share"], m["relmse_own"], m["relmse_part"]
-        print(f"    {component:<9} {100 * share['value']:6.2f}% ± {100 * share['standard_error']:.2f}  "
-              f"{debiased(own['debiased'], se=own['standard_error'])}  "
-              f"{100 * part['value']:+7.2f}% ± {100 * part['standard_error']:.2f}")
+        print(f"    {m.component:<9} {100 * share.value:6.2f}% ± {100 * share.standard_error:.2f}  "
+              f"{debiased(_known(own.debiased), se=_known(own.standard_error))}  "
+              f"{100 * part.value:+7.2f}% ± {100 * part.standard_error:.2f}")
 
 
-def _print_decomposition(s: ExperimentSummary) -> None:
+def _print_decomposition(e: Experiment) -> None:
     print("  caustic error decomposed: energy share of the reference ± SE, part of the relative MSE ± SE")
-    for row in (s["decomposition"] or {}).get("rows", []):  # None: a gate point, which measure never runs
-        if row["term"] == "noise":
-            print(f"    {'noise':<13} ±{100 * row['energy_sigma']:6.2f}%            {100 * row['relmse']:6.2f}%")
+    for row in e.decomposition:  # none: a gate point, which measure never runs
+        if row.term == "noise":
+            print(f"    {'noise':<13} ±{100 * row.energy_share_se:6.2f}%            {100 * row.relmse_part:6.2f}%")
             continue
-        print(f"    {row['term']:<13} {100 * row['energy_share']:+7.2f}% ± {100 * row['energy_share_se']:.2f}  "
-              f"{100 * row['relmse_part']:+7.2f}% ± {100 * row['relmse_part_se']:.2f}")
+        print(f"    {row.term:<13} {100 * row.energy_share:+7.2f}% ± {100 * row.energy_share_se:.2f}  "
+              f"{100 * row.relmse_part:+7.2f}% ± {100 * row.relmse_part_se:.2f}")

@@ -39,6 +39,8 @@ def test_measure_returns_the_typed_experiment_the_command_writes(empty_cache, tm
     assert {"intersection", "truncation", "kernel_blur", "residual"} <= {r.term for r in e.decomposition}
     assert len(e.images_table()) == len(e.images) and len(e.decomposition_table()) == len(e.decomposition)
     assert len(e.tables["segments"]) > 0
+    assert e.map_reads is not None and e.map_reads.per_frame > 0 and e.seconds > 0
+    assert e.model is None  # a single-scattering reference (max_scatter 1): no model term
 
     # the same point through the command: read back from the store, the same numbers
     out = tmp_path / "m"
@@ -237,3 +239,16 @@ def test_two_names_of_one_scene_are_two_points_each_labelled_its_own():
                                 True, {})
     keys = {point_key(key_document(s, QUICK, 2, reference, ReferenceSettings())) for s in (scene, mine)}
     assert len(keys) == 2
+
+
+def test_the_model_term_reads_into_its_types_a_component_without_numbers_keeps_its_note():
+    from volcaustics.reports.measuring.results.experiment import ModelTerm
+
+    estimate = {"value": 0.1, "debiased": 0.09, "standard_error": 0.01}
+    caustic = {name: estimate for name in ("energy_share", "relmse_own", "relmse_part")}
+    term = ModelTerm.from_json({"max_scatter": 8, "orders_needed": {"caustic": 3, "fog": None}, "converged": False,
+                                "components": {"caustic": caustic, "fog": {"note": "black reference"}}})
+    caustic, fog = term.components
+    assert term.max_scatter == 8 and term.orders_needed["fog"] is None and not term.converged
+    assert caustic.relmse_own.debiased == 0.09 and fog.energy_share is None and fog.note == "black reference"
+    assert ModelTerm.from_json(None) is None

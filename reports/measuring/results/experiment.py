@@ -105,13 +105,67 @@ class EqualCost:
     predicted_ratio: Mapping[str, float]
     measured_ratio: float
     at_paper_cost: bool
+    measured_s: float = math.nan      # the preset's frame, median of the alternating frames
+    paper_s: float = math.nan         # the paper configuration's
+    method: str = ""                  # how the two were timed
 
     @classmethod
     def from_json(cls, data: Mapping | None) -> EqualCost | None:
         if data is None:
             return None
-        return cls({k: float(v) for k, v in data["predicted_ratio"].items()},
-                   _number(data["measured_time"]["ratio"]), bool(data["at_paper_cost"]))
+        t = data["measured_time"]
+        return cls({k: float(v) for k, v in data["predicted_ratio"].items()}, _number(t["ratio"]),
+                   bool(data["at_paper_cost"]), _number(t.get("config_s")), _number(t.get("paper_s")),
+                   str(t.get("method", "")))
+
+
+@dataclass(frozen=True)
+class ModelComponent:
+    """The single-scattering model's term on one component (docs/concepts/model-term.md):
+    the energy it leaves out (``energy_share``), its own relative MSE against the
+    multiple-scattering reference (``relmse_own``) and its part of the approximation's
+    (``relmse_part``); ``note`` where it could not be measured (the estimates None)."""
+
+    component: str
+    energy_share: Estimate | None
+    relmse_own: Estimate | None
+    relmse_part: Estimate | None
+    note: str = ""
+
+
+@dataclass(frozen=True)
+class ModelTerm:
+    """The model term of a point whose reference has ``max_scatter`` > 1 orders:
+    ``orders_needed`` per component (None: more than rendered), whether every component
+    ``converged``, and its :class:`ModelComponent` per component."""
+
+    max_scatter: int | None
+    orders_needed: Mapping[str, int | None]
+    converged: bool
+    components: tuple[ModelComponent, ...]
+
+    @classmethod
+    def from_json(cls, data: Mapping | None) -> ModelTerm | None:
+        if data is None:
+            return None
+        parts = []
+        for component, m in data["components"].items():
+            if "note" in m:
+                parts.append(ModelComponent(component, None, None, None, str(m["note"])))
+            else:
+                parts.append(ModelComponent(component, Estimate.from_json(m["energy_share"]),
+                                            Estimate.from_json(m["relmse_own"]), Estimate.from_json(m["relmse_part"])))
+        return cls(data.get("max_scatter"), dict(data.get("orders_needed") or {}), bool(data.get("converged")),
+                   tuple(parts))
+
+
+@dataclass(frozen=True)
+class MapReads:
+    """The light-map reads of a frame: ``per_frame``, and ``per_segment`` (the search's
+    cost of one segment, averaged)."""
+
+    per_frame: float
+    per_segment: float
 
 
 @dataclass(frozen=True)
@@ -133,6 +187,9 @@ class Experiment:
     equal_cost: EqualCost | None
     warnings: tuple[str, ...]
     code_version: str
+    model: ModelTerm | None = None    # the single-scattering model's term (a reference with max_scatter > 1)
+    map_reads: MapReads | None = None
+    seconds: float = math.nan         # what measuring the point took (its experiment, all seeds)
     tables: Mapping[str, pd.DataFrame] = field(default_factory=dict, repr=False, compare=False)
 
     @classmethod
@@ -154,7 +211,7 @@ class Experiment:
                        for component, metrics in summary["images"].items()
                        for metric, value in metrics.items() if isinstance(value, Mapping))
         rows = (summary.get("decomposition") or {}).get("rows", [])
-        cost, timings = summary["cost"], summary["approx_timings_s"]
+        cost, timings, reads = summary["cost"], summary["approx_timings_s"], summary.get("map_reads")
         return cls(
             scene=summary["scene"], scene_hash=summary["scene_hash"], key=key or str(summary.get("key", "")),
             params=ApproxParams(**summary["params"]), seeds=int(summary["seeds"]), images=images,
@@ -163,7 +220,10 @@ class Experiment:
                            {k: float(v) for k, v in summary.get("predicted_frame", {}).items() if v is not None},
                            _number(timings.get("frame_wall")), str(summary.get("timing_method", ""))),
             equal_cost=EqualCost.from_json(summary.get("equal_cost")), warnings=tuple(summary["warnings"]),
-            code_version=summary["code_version"], tables=dict(tables or {}))
+            code_version=summary["code_version"], tables=dict(tables or {}),
+            model=ModelTerm.from_json(summary.get("model")),
+            map_reads=MapReads(_number(reads.get("per_frame")), _number(reads.get("per_segment"))) if reads else None,
+            seconds=_number((summary.get("experiment_seconds") or {}).get("total")))
 
     def metric(self, metric: str = "relative_mse", component: str = "caustic") -> Estimate:
         """One image metric (:class:`ImageMetric`); KeyError naming those there are."""
