@@ -377,7 +377,7 @@ PRESET_VALUES: dict[str, dict[str, object]] = {
 # best: the configuration the one-frame search adopted (docs/decisions.md "The one-frame
 # search"), at the quick preset's size; its photon_res is matched to the paper
 # configuration's frame cost on the scene at hand (AUTO_PHOTON_RES: the commands do it,
-# ``approx.cost_match``), unless --photon-res is given
+# ``reports.measuring.cost_match``), unless --photon-res is given
 BEST = {"splat": "density", "splat_neighbours": 4, "fresnel": "stochastic", "steps": 4, "layers": 2}
 PRESET_VALUES["best"] = {**PRESET_VALUES["quick"], **BEST}
 # beams: the preset best with its density splats replaced by photon beams (splat = beams),
@@ -393,7 +393,7 @@ BEAMS = {"splat": "beams", "beam_width": "differential", "splat_footprints": 1.0
          "fresnel": "stratified", "steps": 8, "layers": 2, "fresnel_splits": 2, "split_every": 2}
 PRESET_VALUES["beams"] = {**PRESET_VALUES["quick"], **BEAMS}
 AUTO_PHOTON_RES = {"best": "quick", "beams": "quick"}  # preset → the preset whose frame cost its photon_res matches
-# the presets whose layers come from the scene (layers = auto, approx.cost_match.auto_layers:
+# the presets whose layers come from the scene (layers = auto, reports.measuring.cost_match.auto_layers:
 # the peeled light-map levels that hold ≥ 5% of the first level's texels, approx.layers),
 # unless --layers is given (docs/decisions.md "Layers from the scene")
 AUTO_LAYERS: tuple[str, ...] = ("best", "beams")

@@ -25,8 +25,8 @@ import time
 
 
 def config_params(name: str, scene: str):
-    from volcaustics.approx.cost_match import with_auto_values
     from volcaustics.approx.params import PRESETS, QUICK
+    from volcaustics.reports.measuring.cost_match import with_auto_values
 
     if name == "paper":
         return QUICK

@@ -1,6 +1,6 @@
 """`--preset best` at the paper configuration's cost, checked in time on this machine's GL
 renderer: per scene, best's photon_res matched under every shipped weight set
-(``approx.cost_match``), its predicted cost ratio under each set and its measured
+(``reports.measuring.cost_match``), its predicted cost ratio under each set and its measured
 frame time against the paper configuration's (median of alternating frames, one
 renderer); then the paper's own configuration (800², photon_res 1500) split into its
 passes, to set beside the paper's Table 1 (trace ≈ 70%, splatting ≈ 23%).
@@ -25,8 +25,8 @@ def main(argv=None) -> int:
     from volcaustics.approx import Renderer
     from volcaustics.approx.context import shared_context
     from volcaustics.approx.cost import TIMED_PASSES
-    from volcaustics.approx.cost_match import CostMatcher, measured_time_ratio
     from volcaustics.approx.params import PAPER, PRESETS, QUICK
+    from volcaustics.reports.measuring.cost_match import CostMatcher, measured_time_ratio
     from volcaustics.scenes import resolve_scene
     from volcaustics.scenes.catalogue import BUILTIN_NAMES, HELDOUT_NAMES, heldout_path
 

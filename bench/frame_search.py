@@ -1,6 +1,6 @@
 """Candidate configurations ranked by one frame's caustic error at the paper
 configuration's frame cost: each candidate at the photon_res that matches the quick
-preset's frame cost on the scene (``approx.cost_match.CostMatcher``: predicted
+preset's frame cost on the scene (``reports.measuring.cost_match.CostMatcher``: predicted
 time under every weight set of the cost model), 6 seeds, the report's reference, the
 gate's scope (no decomposition); beside it the measured frame time against the paper's
 (``measured_time_ratio``).
@@ -104,7 +104,7 @@ CANDIDATES.update({f"bsplit{k}-e{m}": {**_STRAT, "steps": 8, "fresnel_splits": k
                    for k in (1, 2, 3) for m in (2, 3, 4, 8)})
 
 # rules that read the scene: the preset beams as it is, and with its layers from the scene (layers = auto,
-# approx.cost_match.auto_layers: resolved per scene before the cost match pays for them)
+# reports.measuring.cost_match.auto_layers: resolved per scene before the cost match pays for them)
 AUTO = "auto"
 _PRESET_BEAMS = {"splat": "beams", "beam_width": "differential", "splat_footprints": 1.0, "splat_radius": 0.01,
                  "fresnel": "stratified", "steps": 8, "layers": 2, "fresnel_splits": 2, "split_every": 2}
@@ -124,7 +124,7 @@ CANDIDATES.update({"preset-best": _PRESET_BEST, "best-auto-layers": {**_PRESET_B
 def candidate(name: str, label: str, base):
     """The candidate ``label``'s parameters on scene ``name`` (its layers resolved there
     where it asks for layers = auto)."""
-    from volcaustics.approx.cost_match import auto_layers
+    from volcaustics.reports.measuring.cost_match import auto_layers
 
     changes = dict(CANDIDATES[label])
     if changes.get("layers") == AUTO:
@@ -142,9 +142,9 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     if args.table:
         return print_table(args.table)
-    from volcaustics.approx.cost_match import CostMatcher, cost_ratio, measured_time_ratio
     from volcaustics.approx.params import QUICK
     from volcaustics.reference.render import render_reference
+    from volcaustics.reports.measuring.cost_match import CostMatcher, cost_ratio, measured_time_ratio
     from volcaustics.reports.measuring.experiment.measurement import MeasurementSettings
     from volcaustics.reports.measuring.experiment.pipeline import run_experiment
     from volcaustics.reports.measuring.results.sizing import REPORT_REFERENCE, sized

@@ -9,7 +9,7 @@ Configurations: ``paper`` (the quick preset), ``random`` / ``sobol`` (``emission
 photon_res; ``best+oidn`` etc. with a configuration's changes), or ``NAME=VALUE/NAME=VALUE``
 (any parameters on the quick preset, e.g. ``splat=density/splat_neighbours=4``). Per point:
 the predicted cost (the largest ratio over the cost model's weight sets) and measured frame
-time (alternating frames, ``approx.cost_match.measured_time_ratio``) against the
+time (alternating frames, ``reports.measuring.cost_match.measured_time_ratio``) against the
 paper's, one frame's caustic relMSE less the reference's floor ± SE (``metrics.frame``),
 the seeds' mean's debiased relMSE ± SE, their ratios to the paper's, HDR-FLIP per frame,
 and the denoiser's seconds and pixels beside the frame's. Runs the
@@ -28,8 +28,8 @@ CONFIGS = {"paper": {}, "random": {"emission_jitter": "random"}, "sobol": {"emis
 
 
 def config_params(name: str, scene: str):
-    from volcaustics.approx.cost_match import with_auto_values
     from volcaustics.approx.params import PRESETS, QUICK
+    from volcaustics.reports.measuring.cost_match import with_auto_values
 
     if name == "best" or name.startswith("best+"):
         best = with_auto_values(scene, PRESETS["best"], "best", given=False)
@@ -45,8 +45,8 @@ def config_params(name: str, scene: str):
 
 
 def main(argv=None) -> int:
-    from volcaustics.approx.cost_match import measured_time_ratio
     from volcaustics.reference.render import render_reference
+    from volcaustics.reports.measuring.cost_match import measured_time_ratio
     from volcaustics.reports.measuring.experiment.measurement import MeasurementSettings
     from volcaustics.reports.measuring.experiment.pipeline import run_experiment
     from volcaustics.reports.measuring.results.sizing import REPORT_REFERENCE, sized

@@ -5,7 +5,7 @@
 
 One configuration (--preset, default quick, at --size, default the preset's; best and beams at
 their photon_res matched to the quick preset's cost at that size, as the commands do:
-``approx.cost_match.with_auto_values``), or with --paper the paper's configuration (the
+``reports.measuring.cost_match.with_auto_values``), or with --paper the paper's configuration (the
 preset paper: 800×800, photon_res 1500, layers 4, steps 4, light_res 1024, the table's
 defaults) and then best and beams at 800×800 with photon_res matched to that paper frame's
 cost (``CostMatcher.match_to``, memo in the cache's cost_match folder), one block each and a
@@ -48,10 +48,10 @@ def parse_size(text: str) -> tuple[int, int]:
 
 def matched_to(scene_name: str, params: ApproxParams, paper: ApproxParams) -> ApproxParams:
     """``params`` with the photon_res at which its frame costs at most ``paper``'s (resolved
-    parameters) on the scene, by the project's matching (``approx.cost_match.CostMatcher``),
+    parameters) on the scene, by the project's matching (``reports.measuring.cost_match.CostMatcher``),
     remembered where ``with_auto_values`` remembers its matches."""
-    from volcaustics.approx.cost_match import CostMatcher
     from volcaustics.infra.storage import cache_path
+    from volcaustics.reports.measuring.cost_match import CostMatcher
 
     matcher = CostMatcher(cache_path("cost_match"))
     try:
@@ -64,8 +64,8 @@ def matched_to(scene_name: str, params: ApproxParams, paper: ApproxParams) -> Ap
 
 def configurations(args: argparse.Namespace) -> list[tuple[str, ApproxParams]]:
     """(name, parameters) of each configuration to run, photon_res already matched."""
-    from volcaustics.approx.cost_match import with_auto_values
     from volcaustics.approx.params import preset
+    from volcaustics.reports.measuring.cost_match import with_auto_values
     from volcaustics.scenes import resolve_scene
 
     if not args.paper:

@@ -138,8 +138,8 @@ def measured_point(scene: str, params: ApproxParams, preset: str, seeds: int, *,
     (read back when stored), and for a matched preset its equal cost checked once and
     kept in the point's summary in the store (``summary["equal_cost"]``). ``resolved``:
     ``scene`` resolved already (the command's); the scene is resolved once either way."""
-    from volcaustics.approx.cost_match import equal_cost_check, with_auto_values
     from volcaustics.reports.measuring import runner
+    from volcaustics.reports.measuring.cost_match import equal_cost_check, with_auto_values
     from volcaustics.reports.measuring.experiment.point_checks import checked_settings
     from volcaustics.scenes import resolve_scene
 
@@ -185,9 +185,9 @@ def render_approx(scene: str, *, preset: str = "paper", **params: Any) -> Frame:
     >>> frame.images["caustic"].shape                              # doctest: +SKIP
     (64, 64, 3)
     """
-    from volcaustics.approx.cost_match import with_auto_values
     from volcaustics.approx.params import preset as preset_params
     from volcaustics.approx.renderer import render
+    from volcaustics.reports.measuring.cost_match import with_auto_values
     from volcaustics.reports.measuring.experiment.point_checks import check_denoiser
     from volcaustics.scenes import resolve_scene
 

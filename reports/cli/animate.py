@@ -51,7 +51,7 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from volcaustics.approx.cost_match import with_auto_values
+    from volcaustics.reports.measuring.cost_match import with_auto_values
     from volcaustics.reports.measuring.experiment.point_checks import checked_settings
     from volcaustics.reports.studies.animate.animation_frames import WORK
     from volcaustics.reports.studies.animate.animation_measure import run_animate

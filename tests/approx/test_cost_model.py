@@ -104,8 +104,8 @@ def test_a_set_prices_only_the_splat_modes_its_fit_measured():
     ``cost_ratio`` compares a beams frame under the sets that price both."""
     import dataclasses
 
-    from volcaustics.approx.cost_match import cost_ratio
     from volcaustics.approx.cost_model import predicted_frames
+    from volcaustics.reports.measuring.cost_match import cost_ratio
 
     sets = weight_sets()
     beams = dataclasses.replace(PAPER, splat="beams").resolved(_scene("sphere1"))
@@ -204,7 +204,7 @@ def test_the_weight_bounds_keep_every_frame_and_its_ratio_finite():
     prices a finite frame, and its ratio to the cheapest frame a set can price (one
     always-counted feature at MIN_WEIGHT, every size at its minimum) is finite; the
     shipped sets lie within the bounds."""
-    from volcaustics.approx.cost_match import cost_ratio
+    from volcaustics.reports.measuring.cost_match import cost_ratio
 
     sizes = ("photon_res", "steps", "width", "height", "fog_steps", "layers", "light_res", "fresnel_splits")
     largest = dataclasses.replace(PAPER, splat="density", **{n: param(n).high for n in sizes})

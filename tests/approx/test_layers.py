@@ -196,7 +196,7 @@ def test_auto_layers_follow_the_scenes_depth(ctx, scene_arg, least, most):
     """layers = auto from the occlusion counts of peeled light maps: the minimum on a single
     convex sphere, a level per two surfaces on the coil down to the 5% share (measured: 4 of
     8; its fifth level holds 3.8% of the texels)."""
-    from volcaustics.approx.cost_match import auto_layers
+    from volcaustics.reports.measuring.cost_match import auto_layers
     from volcaustics.scenes.catalogue import HELDOUT_NAMES, heldout_path
 
     assert least <= auto_layers(heldout_path(scene_arg) if scene_arg in HELDOUT_NAMES else scene_arg, 128) <= most
@@ -205,8 +205,8 @@ def test_auto_layers_follow_the_scenes_depth(ctx, scene_arg, least, most):
 def test_the_presets_take_layers_from_the_scene_unless_given(ctx):
     """AUTO_LAYERS: the presets best and beams resolve layers per scene (sphere1: 1) before
     their cost match; --layers (layers_given) keeps the preset's; the paper's does not."""
-    from volcaustics.approx.cost_match import with_auto_values
     from volcaustics.approx.params import preset
+    from volcaustics.reports.measuring.cost_match import with_auto_values
 
     beams = preset("beams", light_res=64)
     assert with_auto_values("sphere1", beams, "beams", given=True).layers == 1

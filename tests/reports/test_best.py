@@ -16,10 +16,10 @@ import pytest
 
 from tests.shared import FAST_MEASUREMENT, SINGLE_SCATTERING
 from tests.shared import SWEEP_TABLES as SMALL_TABLES
-from volcaustics.approx.cost_match import MATCHED, CostMatcher, cost_ratio
 from volcaustics.approx.params import PAPER, QUICK
 from volcaustics.infra.errors import InputError
 from volcaustics.reports.cli import main
+from volcaustics.reports.measuring.cost_match import MATCHED, CostMatcher, cost_ratio
 from volcaustics.reports.studies.best import best_search as best
 from volcaustics.reports.studies.best import best_spec
 from volcaustics.reports.studies.sweep import best_figures
@@ -240,7 +240,7 @@ def test_an_edited_or_damaged_match_is_recomputed(matched_memo, value):
 def test_a_match_on_a_cache_that_cannot_be_written_is_computed_not_stored(tmp_path, monkeypatch, capsys):
     """`--preset best` on a cache that cannot be written: the match is made, said once on
     stderr, nothing raised (the cache folder's parent is a file here)."""
-    from volcaustics.approx.cost_match import with_auto_values
+    from volcaustics.reports.measuring.cost_match import with_auto_values
 
     (tmp_path / "file").write_text("")
     monkeypatch.setenv("VOLCAUSTICS_CACHE", str(tmp_path / "file" / "cache"))
@@ -260,8 +260,8 @@ def test_a_sweep_of_the_preset_best_matches_each_points_photon_res(tmp_path, mon
     """`sweep --preset best` once measured best at the preset's photon_res 256: matching
     ran only in approx, measure and animate. Each point is now matched like them (the
     same function), and a photon_res the sweep sets is kept (the negative control)."""
-    from volcaustics.approx.cost_match import with_auto_values
     from volcaustics.approx.params import PRESETS
+    from volcaustics.reports.measuring.cost_match import with_auto_values
     from volcaustics.reports.studies.sweep.sweep_spec import points, spec_from_args
 
     monkeypatch.setenv("VOLCAUSTICS_CACHE", str(tmp_path / "cache"))
@@ -354,8 +354,8 @@ def test_preset_best_matches_the_papers_frame_cost_on_any_scene_file(monkeypatch
     best configuration costs at most the paper configuration at the same size, and 5%
     more photons per side would cost more (the match spent what it could); an explicit
     photon_res and layers are kept (the negative control: no matching)."""
-    from volcaustics.approx.cost_match import with_auto_values
     from volcaustics.approx.params import preset
+    from volcaustics.reports.measuring.cost_match import with_auto_values
     from volcaustics.scenes.catalogue import heldout_path
 
     monkeypatch.setenv("VOLCAUSTICS_CACHE", str(tmp_path))

@@ -18,9 +18,9 @@ import pytest
 
 from tests.shared import CLOSURE_REFERENCE, CLOSURE_SIZE, flat_spot
 from volcaustics.approx import Renderer
-from volcaustics.approx.cost_match import with_auto_values
 from volcaustics.approx.params import PRESETS, QUICK
 from volcaustics.metrics.decomposition import TERMS
+from volcaustics.reports.measuring.cost_match import with_auto_values
 from volcaustics.reports.measuring.experiment import exact_images
 from volcaustics.reports.measuring.experiment.measurement import MeasurementSettings
 from volcaustics.reports.measuring.experiment.pipeline import run_experiment
@@ -34,7 +34,7 @@ SCENES = [*BUILTIN_NAMES, *(heldout_path(name) for name in HELDOUT_NAMES)]  # sc
 
 def _best(scene_arg: str):
     """``--preset best`` at the test's size: photon_res matched to the paper configuration's
-    frame cost on the scene (``approx.cost_match``), as the commands do."""
+    frame cost on the scene (``reports.measuring.cost_match``), as the commands do."""
     return with_auto_values(scene_arg, dataclasses.replace(PRESETS["best"], width=SIZE, height=SIZE), "best",
                                 given=False)
 

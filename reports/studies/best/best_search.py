@@ -40,11 +40,11 @@ import numpy as np
 import pandas as pd
 from tqdm import tqdm
 
-from volcaustics.approx.cost_match import CostMatcher
 from volcaustics.approx.params import ParamError, preset
 from volcaustics.infra.folder_lock import folder_lock
 from volcaustics.metrics.decomposition import TERMS
 from volcaustics.reports.measuring import runner
+from volcaustics.reports.measuring.cost_match import CostMatcher
 from volcaustics.reports.measuring.experiment.measurement import measurement_settings
 from volcaustics.reports.measuring.results.sizing import reference_settings
 from volcaustics.reports.measuring.results.store import Store

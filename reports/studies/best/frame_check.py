@@ -1,7 +1,7 @@
 """The frame check (``volcaustics frames``, ``make frames``): per scene, the paper's
 configuration against ``--preset best`` and ``--preset beams`` (the paper's competitors:
 best with photon beams; both with photon_res matched to the paper's frame cost on that
-scene, ``approx.cost_match``), each without and with OIDN
+scene, ``reports.measuring.cost_match``), each without and with OIDN
 (``denoise``: the same seeds, so the same frames, denoised), by one frame's caustic
 error and the seeds' mean's debiased error. The scenes are the built-ins and the
 held-out scenes (``scenes/heldout``), which no search saw: a configuration that wins
@@ -35,10 +35,10 @@ from typing import TYPE_CHECKING
 import pandas as pd
 from tqdm import tqdm
 
-from volcaustics.approx.cost_match import with_auto_values
 from volcaustics.approx.params import preset
 from volcaustics.infra.errors import InputError
 from volcaustics.infra.storage import atomic_path, atomic_set, document_sha256, file_sha256, read_json_object
+from volcaustics.reports.measuring.cost_match import with_auto_values
 from volcaustics.reports.measuring.experiment.measurement import MeasurementSettings
 from volcaustics.reports.measuring.experiment.pipeline import run_experiment
 from volcaustics.reports.measuring.experiment.point_checks import checked_settings

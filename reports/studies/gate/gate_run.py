@@ -16,9 +16,9 @@ from collections.abc import Iterable
 from dataclasses import replace
 from typing import TYPE_CHECKING
 
-from volcaustics.approx.cost_match import with_auto_values
 from volcaustics.infra.storage import remove_file
 from volcaustics.reports.measuring import runner
+from volcaustics.reports.measuring.cost_match import with_auto_values
 from volcaustics.reports.measuring.experiment.point_checks import measured_settings
 from volcaustics.reports.measuring.results.versions import code_version
 from volcaustics.reports.studies.animate.animation_read import load_animation

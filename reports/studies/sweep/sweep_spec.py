@@ -302,7 +302,7 @@ def points(spec: SweepSpec, cls: type = ApproxParams) -> list:
     (ParamError → SweepError). With a preset that takes values from the scene, each point
     takes them unless set or varied: layers from its depth complexity
     (``approx.params.AUTO_LAYERS``), then photon_res matched to the paper configuration's
-    frame on its scene (AUTO_PHOTON_RES; ``approx.cost_match.with_auto_values``, as
+    frame on its scene (AUTO_PHOTON_RES; ``reports.measuring.cost_match.with_auto_values``, as
     every command does; a point's scene fields are not in the match)."""
     from volcaustics.approx.params import AUTO_LAYERS, AUTO_PHOTON_RES
 
@@ -332,7 +332,7 @@ def points(spec: SweepSpec, cls: type = ApproxParams) -> list:
                 except ParamError as exc:
                     raise SweepError(f"point {scene}, {changes}: {exc}") from None
                 if auto:
-                    from volcaustics.approx.cost_match import with_auto_values
+                    from volcaustics.reports.measuring.cost_match import with_auto_values
 
                     params = with_auto_values(scene, params, spec.preset, given, layers_given=layers_given)
                 if (scene, params, fields) not in seen:

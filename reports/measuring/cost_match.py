@@ -32,13 +32,13 @@ import statistics
 from functools import lru_cache
 from typing import TYPE_CHECKING
 
-from volcaustics import scenes
+from volcaustics import approx, scenes
 from volcaustics.approx import Renderer, cost_model
 from volcaustics.approx.cost import frame_cost
 from volcaustics.approx.cost_model import WeightSetError, predicted_frames, weight_sets
 from volcaustics.approx.layers import levels_needed
 from volcaustics.approx.params import AUTO_LAYERS, AUTO_PHOTON_RES, preset
-from volcaustics.infra.sources import source_hash
+from volcaustics.infra.sources import source_code, source_hash
 from volcaustics.infra.storage import atomic_path, cache_path, document_sha256, note_not_cached, read_json_object
 from volcaustics.scenes import resolve_scene
 
@@ -50,8 +50,10 @@ if TYPE_CHECKING:
 @lru_cache(maxsize=None)
 def code_version() -> str:
     """The code a frame's cost depends on, part of every memo key: the approximation's
-    and the scenes' sources (``infra.sources``), wherever the packages are installed."""
-    return source_hash({"approx": os.path.dirname(os.path.abspath(__file__)), "scenes": scenes.__path__[0]})
+    and the scenes' sources and this module's (``infra.sources``), wherever the packages
+    are installed."""
+    own = hashlib.sha256(source_code(os.path.abspath(__file__))).hexdigest()[:16]
+    return source_hash({"approx": approx.__path__[0], "scenes": scenes.__path__[0]}) + own
 
 
 MATCHED = "matched.json"  # the cost-matched photon_res per scene and configuration (a memo: recomputed if lost)
