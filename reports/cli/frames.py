@@ -29,28 +29,20 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from volcaustics.reports.studies.best.frame_check import (
-        FRAMES_FILE,
-        GROUPS,
-        KIND,
-        MANIFEST,
-        POINTS,
-        default_scenes,
-        run_frames,
-        verdict,
-    )
+    from volcaustics.reports.api import frames
+    from volcaustics.reports.studies.best.frame_check import FRAMES_FILE, GROUPS, KIND, MANIFEST, POINTS
 
     check_output_set(args.output, "-o", files=(FRAMES_FILE, MANIFEST), folders=(POINTS,), kind=KIND)
     if isinstance(args.seeds, bool) or not 2 <= args.seeds <= 64:
         raise UsageError("--seeds", args.seeds, "expected an integer in [2, 64] (one frame's SE needs 2)")
-    table = run_frames(args.scenes or default_scenes(), args.output, seeds=args.seeds, progress=not args.quiet)
+    check = frames(args.output, scenes=args.scenes or None, seeds=args.seeds, progress=not args.quiet)
+    table, v = check.table, check.verdict
     label = {"builtin": "", "heldout": " (held out)", "yours": " (yours)"}
     for _, r in table.iterrows():
         print(f"  {r['scene']:<14}{label[r['group']]:<11} {r['config']:<6} {r['denoise']:<5} "
               f"cost {r['cost_ratio']:.3f}x predicted, time {r['time_ratio']:.2f}x measured, "
               f"one frame {debiased(r['frame_relmse'], se=r['frame_relmse_se'])} ({r['frame_ratio']:.2f}x), "
               f"mean {debiased(r['relmse_debiased'], se=r['relmse_se'])} ({r['relmse_ratio']:.2f}x)")
-    v = verdict(table)
     names = {"builtin": "on the built-ins", "heldout": "held out", "yours": "on your scenes"}
     worst = ", ".join(f"{v[f'none_{g}_worst_frame_ratio']:.2f}x {names[g]}" for g in GROUPS
                       if f"none_{g}_worst_frame_ratio" in v)
