@@ -8,6 +8,8 @@ import os
 import subprocess
 import sys
 
+import pytest
+
 from volcaustics.approx.params import PARAMS, ApproxParams, params_class
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
@@ -21,6 +23,7 @@ def test_the_fields_carry_the_table():
     assert params_class(PARAMS)(layers=2).to_dict() == ApproxParams(layers=2).to_dict()
 
 
+@pytest.mark.slow  # a whole mypy run over the params module's imports (13-14 s, cold cache): make lint types the rest
 def test_mypy_sees_the_fields(tmp_path):
     """A probe using the fields type-checks; the same probe with a misspelt field and a
     misspelt keyword fails with both named (the negative control)."""
