@@ -25,7 +25,7 @@ from volcaustics.reference.settings import ReferenceSettings
 from volcaustics.reports.measuring.experiment.measurement import MeasurementSettings, measurement_settings
 from volcaustics.reports.measuring.results.experiment import Experiment
 from volcaustics.reports.measuring.results.output_folders import check_output_set
-from volcaustics.reports.measuring.results.sizing import REPORT_REFERENCE
+from volcaustics.reports.measuring.results.sizing import reference_settings
 from volcaustics.reports.studies.sweep.study_limits import FRAME_CHECK_SEEDS
 
 if TYPE_CHECKING:
@@ -59,8 +59,8 @@ def measure(scene: str, *, preset: str = "quick", seeds: int = 4,
         Frames with seeds ``seed`` … ``seed + seeds − 1`` (the approximation's own noise needs
         at least 2).
     reference : ReferenceSettings or mapping, optional
-        The reference's budget (or a mapping of its fields over it); default the report's
-        (``volcaustics measure``'s defaults). Its image size follows the frame's.
+        The reference's budget, or a mapping of a spec file's ``[reference]`` keys over the
+        report's (``volcaustics measure``'s defaults); its image size follows the frame's.
     measurement : MeasurementSettings or mapping, optional
         How the experiment is measured (or a mapping of its fields); default the report's.
     progress : bool
@@ -91,7 +91,9 @@ def measure(scene: str, *, preset: str = "quick", seeds: int = 4,
 
     scene = scene_argument(scene)
     point = measured_point(scene, preset_params(preset, **params), preset, seeds,
-                           reference=_reference(reference, REPORT_REFERENCE), measurement=_measurement(measurement),
+                           reference=reference if isinstance(reference, ReferenceSettings)
+                           else reference_settings(_mapping(reference, "reference")),  # a spec's [reference] rule
+                           measurement=_measurement(measurement),
                            photon_res_given="photon_res" in params, layers_given="layers" in params,
                            progress=progress)
     return Experiment.from_summary(point.summary, key=point.key, tables=point.tables)
@@ -107,8 +109,10 @@ def scene_argument(scene: object, argument: str = "scene") -> str:
     return scene
 
 
-def _reference(reference: object, base: ReferenceSettings) -> ReferenceSettings:
-    """``reference`` as settings: ReferenceSettings as it is, a mapping over ``base``."""
+def _reference(reference: object) -> ReferenceSettings:
+    """``render_reference``'s settings: ReferenceSettings as it is, a mapping over the
+    command's defaults (size fields included: the render is this size)."""
+    base = ReferenceSettings()
     if reference is None:
         return base
     if isinstance(reference, ReferenceSettings):
@@ -234,7 +238,7 @@ def render_reference(scene: str, settings: ReferenceSettings | Mapping[str, Any]
     from volcaustics.reference.render import render_reference as render
     from volcaustics.scenes import resolve_scene
 
-    return render(resolve_scene(scene_argument(scene)), _reference(settings, ReferenceSettings()), mode=mode,
+    return render(resolve_scene(scene_argument(scene)), _reference(settings), mode=mode,
                   progress=progress)
 
 

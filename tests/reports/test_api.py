@@ -176,6 +176,7 @@ def test_a_matched_presets_equal_cost_is_measured_once_and_kept_with_the_point(e
     (lambda vc, t: vc.measure("refocus", preset=["quick"]), "preset"),
     (lambda vc, t: vc.measure("refocus", name="x"), "name"),  # a parameter named like the preset's own argument
     (lambda vc, t: vc.measure("refocus", reference={"photon": 5}), "reference"),
+    (lambda vc, t: vc.measure("refocus", reference={"width": 48}), "reference.width"),  # the frame sets the size
     (lambda vc, t: vc.measure("refocus", measurement={"exact_subphotonz": 1}), "exact_subphotonz"),
     (lambda vc, t: vc.measure("refocus", reference="big"), "reference = 'big'"),
     (lambda vc, t: vc.sweep(str(t / "s"), scenes=["refocus"], vary={"layers": []}), "non-empty list"),
