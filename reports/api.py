@@ -96,7 +96,7 @@ def measure(scene: str, *, preset: str = "quick", seeds: int = 4,
                            measurement=_measurement(measurement),
                            photon_res_given="photon_res" in params, layers_given="layers" in params,
                            progress=progress)
-    return Experiment.from_summary(point.summary, key=point.key, tables=point.tables)
+    return point.experiment
 
 
 def scene_argument(scene: object, argument: str = "scene") -> str:
@@ -140,7 +140,7 @@ def measured_point(scene: str, params: ApproxParams, preset: str, seeds: int, *,
     checked, the values the preset takes from the scene resolved (layers, photon_res
     matched to the paper's cost), the point measured through the runner and its store
     (read back when stored), and for a matched preset its equal cost checked once and
-    kept in the point's summary in the store (``summary["equal_cost"]``). ``resolved``:
+    kept in the point's summary in the store (its experiment's ``equal_cost``). ``resolved``:
     ``scene`` resolved already (the command's); the scene is resolved once either way."""
     from volcaustics.reports.measuring import runner
     from volcaustics.reports.measuring.cost_match import equal_cost_check, with_auto_values
@@ -156,10 +156,10 @@ def measured_point(scene: str, params: ApproxParams, preset: str, seeds: int, *,
                          measurement=measurement, policy="continue", images=("layers",),
                          progress=progress)  # the layers image as the command writes it: one stored point for both
     point = run.results[0]
-    if point.summary.get("equal_cost") is None:
+    if point.experiment.equal_cost is None:
         check = equal_cost_check(scene, matched, preset)  # None: a preset not matched to the paper's cost
-        if check is not None:
-            point.summary = store.amend_summary(point.key, {"equal_cost": check})
+        if check is not None:  # the summary amended in the store, and read again (its experiment with it)
+            point = dataclasses.replace(point, summary=store.amend_summary(point.key, {"equal_cost": check}))
     return point
 
 

@@ -63,7 +63,7 @@ def run(args: argparse.Namespace) -> int:
                            layers_given=args.layers is not None, progress=not args.quiet, resolved=scene)
     stored = os.path.join(results_store().point_dir(point.key), SUMMARY)  # one summary: the store's, copied
     paths = write_experiment(point, args.output, summary_file=stored)
-    e = Experiment.from_summary(point.summary, key=point.key)  # read at the store's boundary: attributes from here
+    e = point.experiment  # read at the store's boundary: attributes from here
     how = f"{e.seconds:.1f} s" if point.measured else f"from the store ({point.key[:12]})"
     print(f"measure {scene.name}: {e.seeds} seed(s), {how} -> {paths['summary.json']}")
     print_experiment(e)

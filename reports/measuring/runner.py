@@ -44,6 +44,7 @@ from volcaustics.reports.measuring.experiment.measurement import MeasurementSett
 from volcaustics.reports.measuring.experiment.pipeline import run_experiment
 from volcaustics.reports.measuring.experiment.point_checks import measurement_bytes
 from volcaustics.reports.measuring.pools.executors import default_workers, disk_full, open_pool, run_tasks
+from volcaustics.reports.measuring.results.experiment import Experiment
 from volcaustics.reports.measuring.results.sizing import sized
 from volcaustics.reports.measuring.results.store import IMAGE_FILES, TABLES, Store, key_document, point_key
 from volcaustics.reports.measuring.results.summaries import ExperimentSummary
@@ -128,6 +129,10 @@ class PointResult:
     views: dict
     measured: bool           # measured in this run (False: from the store)
     layers: dict = field(default_factory=dict)
+    experiment: Experiment = field(init=False, repr=False)  # the summary read once, typed (attributes from here)
+
+    def __post_init__(self) -> None:
+        self.experiment = Experiment.from_summary(self.summary, key=self.key, tables=self.tables)
 
     @property
     def segments(self) -> list:

@@ -56,6 +56,14 @@ def test_measure_returns_the_typed_experiment_the_command_writes(empty_cache, tm
         assert written.metric(metric) == e.metric(metric)
     assert written.decomposition == e.decomposition
     assert e.metric().debiased == summary["images"]["caustic"]["relative_mse"]["debiased"]
+    # what the report copies into its own summary.json comes back from the types as stored
+    for component, metrics in summary["images"].items():
+        for metric, stored in metrics.items():
+            assert written.metric(metric, component).to_json() == stored, (component, metric)
+    assert [r.to_json() for r in written.decomposition] == summary["decomposition"]["rows"]
+    assert written.closure is not None and written.closure.to_json() == summary["decomposition"]["residual"]
+    assert written.map_reads is not None and written.map_reads.to_json() == summary["map_reads"]
+    assert written.reference is not None and written.reference.to_json() == summary["reference"]
 
 
 def test_a_summary_of_another_schema_is_refused_naming_it():

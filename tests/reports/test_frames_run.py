@@ -1,7 +1,8 @@
 """The frame check run end to end on small points (refocus at 32², the gate's small
-reference): an interrupted check resumes from the points it stored, a finished one
-measures nothing again, and a scene without a caustic is refused after its first
-reference, not measured to NaN for every configuration and denoiser."""
+reference): an interrupted check resumes from the points its result store holds, a
+finished one measures nothing again, a point edited by hand is measured again, and a
+scene without a caustic is refused after its first point, not measured to NaN for every
+configuration and denoiser."""
 
 from __future__ import annotations
 
@@ -15,7 +16,7 @@ import pytest
 from tests.shared import GATE_REFERENCE
 from volcaustics.approx.params import preset
 from volcaustics.reports.cli import main
-from volcaustics.reports.measuring.results.sizing import sized
+from volcaustics.reports.measuring import runner
 from volcaustics.reports.studies.best import frame_check as frames
 
 # the measured frame times (and the ratios of them) differ between two measurements of one point
@@ -27,7 +28,7 @@ def small(monkeypatch, cache):
     """Small frame-check points, and a count of the points measured (``calls``); the
     measurement raises KeyboardInterrupt at call ``stop_at`` when that is set."""
     state = {"calls": 0, "stop_at": None}
-    real = frames.run_experiment
+    real = runner.run_experiment
 
     def counted(*args, **kwargs):
         state["calls"] += 1
@@ -35,14 +36,19 @@ def small(monkeypatch, cache):
             raise KeyboardInterrupt
         return real(*args, **kwargs)
 
-    def params(config, scene_arg):
+    def params(config, scene_arg, scene=None):
         base = preset("quick" if config == "paper" else config)
         return dataclasses.replace(base, width=32, height=32, photon_res=64, light_res=64)
 
-    monkeypatch.setattr(frames, "run_experiment", counted)
+    monkeypatch.setattr(runner, "run_experiment", counted)
     monkeypatch.setattr(frames, "config_params", params)
-    monkeypatch.setattr(frames, "sized", lambda base, scene, p: sized(GATE_REFERENCE, scene, p))
+    monkeypatch.setattr(frames, "FRAMES_REFERENCE", GATE_REFERENCE)
     return state
+
+
+def _points(out: Path) -> list:
+    """The points the check's result store holds (DIR/points/KEY/)."""
+    return sorted(p for p in (out / frames.POINTS).iterdir() if p.is_dir() and not p.name.startswith("."))
 
 
 @pytest.mark.slow  # end to end, several points (10-50 s on 2 cores): `make test-fast` skips it
@@ -52,7 +58,7 @@ def test_an_interrupted_frame_check_resumes_and_a_finished_one_measures_nothing(
     small["stop_at"] = 2
     with pytest.raises(KeyboardInterrupt):
         frames.run_frames(["refocus"], str(out), seeds=2, progress=False)
-    assert len(list((out / frames.POINTS).iterdir())) == 1       # the point finished before Ctrl-C is kept
+    assert len(_points(out)) == 1                                # the point finished before Ctrl-C is kept
     assert not (out / frames.MANIFEST).exists()                  # and no manifest claims a whole check
     small.update(calls=0, stop_at=None)
     table = frames.run_frames(["refocus"], str(out), seeds=2, progress=False)
@@ -62,9 +68,10 @@ def test_an_interrupted_frame_check_resumes_and_a_finished_one_measures_nothing(
     assert small["calls"] == 0                                   # a finished check measures nothing
     pd.testing.assert_frame_equal(again, table)
     assert frames.load_frames(str(out))[0].shape == table.shape
-    point = sorted((out / frames.POINTS).iterdir())[0]           # a stored number edited by hand ...
-    doc = json.loads(point.read_text())
-    point.write_text(json.dumps({**doc, "row": {**doc["row"], "frame_relmse": doc["row"]["frame_relmse"] / 100}}))
+    summary = _points(out)[0] / "summary.json"                  # a stored number edited by hand ...
+    doc = json.loads(summary.read_text())
+    doc["images"]["caustic"]["frame_relative_mse"]["debiased"] /= 100
+    summary.write_text(json.dumps(doc))
     small["calls"] = 0
     healed = frames.run_frames(["refocus"], str(out), seeds=2, progress=False)
     assert small["calls"] == 1                                   # ... is measured again, not served

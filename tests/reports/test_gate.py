@@ -166,14 +166,11 @@ def test_fail_closed_cases_exit_2(bare, capsys, case):
 
 
 def test_a_nan_metric_is_an_error_not_a_pass():
+    from volcaustics.reports.measuring.results.experiment import Estimate
     from volcaustics.reports.studies.gate.budgets import GateError, budget_checks
 
-    class Fake:
-        summary = {"images": {"caustic": {"hdr_flip": {"value": float("nan")}}}}
-        segments = []
-
     with pytest.raises(GateError, match="NaN"):
-        budget_checks("bunny", {"caustic.hdr_flip_max": 0.9}, Fake())
+        budget_checks("bunny", {"caustic.hdr_flip_max": 0.9}, lambda metric, component: Estimate(float("nan")))
 
 
 @pytest.mark.slow  # the report's references rendered to their noise targets (about a minute)

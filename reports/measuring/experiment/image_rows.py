@@ -51,6 +51,7 @@ from volcaustics.infra.storage import (
 from volcaustics.metrics import image as im
 from volcaustics.metrics.frame import frame_relative_mse
 from volcaustics.metrics.noise import noisy_copy, seed_mean_interval, seed_relative_mse, total_sigma
+from volcaustics.reports.measuring.results.experiment import HEADLINE_COLUMNS
 from volcaustics.reports.measuring.results.versions import code_version
 from volcaustics.scenes.formats import COLOUR_LAYERS, MASK_LAYER
 
@@ -74,8 +75,6 @@ NAN = float("nan")
 IMAGE_COLUMNS = {"value": NAN, "reference_floor": NAN, "approx_noise": NAN, "debiased": NAN,
                  "approx_noise_removed": False, "standard_error": NAN, "ci_low": NAN, "ci_high": NAN,
                  "reference_sigma": NAN, "note": "", "options": "{}"}
-HEADLINE_COLUMNS = ("value", "debiased", "standard_error", "ci_low", "ci_high", "reference_floor", "approx_noise",
-                    "reference_sigma", "note")
 _FLOORS: dict = {}
 
 

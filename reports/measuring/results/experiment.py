@@ -28,6 +28,17 @@ def _number(value: Any) -> float:
     return math.nan if value is None else float(value)
 
 
+def _stored(value: float) -> float | None:
+    """A number as the store writes it: None for NaN."""
+    return None if math.isnan(value) else value
+
+
+# a stored image metric's fields (the summary's "images", measuring.experiment.image_rows writes them)
+HEADLINE_COLUMNS = ("value", "debiased", "standard_error", "ci_low", "ci_high", "reference_floor", "approx_noise",
+                    "reference_sigma", "note")
+ESTIMATE_KEYS = ("value", "debiased", "standard_error")  # what every estimate stores (the model term's: only these)
+
+
 @dataclass(frozen=True)
 class Estimate:
     """A measured value with its uncertainty: ``value`` as measured, ``debiased`` with
@@ -39,12 +50,25 @@ class Estimate:
     standard_error: float = math.nan
     ci_low: float = math.nan
     ci_high: float = math.nan
+    reference_floor: float = math.nan   # the reference's noise the debiased value had subtracted
+    approx_noise: float = math.nan      # the frames' own noise it had subtracted
+    reference_sigma: float = math.nan   # the reference total's relative σ (energy_ratio)
+    note: str = ""                      # why the metric is not measured ("" when it is)
+    per_seed: tuple[float, ...] | None = None   # each frame's own value (relative_mse)
 
     @classmethod
     def from_json(cls, data: Mapping) -> Estimate:
-        return cls(value=_number(data.get("value")), debiased=_number(data.get("debiased")),
-                   standard_error=_number(data.get("standard_error")), ci_low=_number(data.get("ci_low")),
-                   ci_high=_number(data.get("ci_high")))
+        per_seed = data.get("per_seed")
+        numbers = {k: _number(data.get(k)) for k in HEADLINE_COLUMNS if k != "note"}
+        return cls(**numbers, note=str(data.get("note") or ""),
+                   per_seed=None if per_seed is None else tuple(_number(v) for v in per_seed))
+
+    def to_json(self, keys: tuple[str, ...] = HEADLINE_COLUMNS) -> dict:
+        """The stored form (``keys`` of it; NaN as None, ``per_seed`` where there is one)."""
+        out: dict[str, Any] = {k: getattr(self, k) if k == "note" else _stored(getattr(self, k)) for k in keys}
+        if self.per_seed is not None:
+            out["per_seed"] = [_stored(v) for v in self.per_seed]
+        return out
 
 
 @dataclass(frozen=True)
@@ -62,8 +86,9 @@ class ImageMetric:
 class DecompositionRow:
     """One cause of the caustic's error (docs/concepts/decomposition.md): its share of the
     reference's energy and its part of the relative MSE, each ± its standard error
-    (``relmse_part_debiased``: the part with the frames' noise taken out). The ``noise``
-    row has no energy share (NaN): ``energy_share_se`` holds the σ of the frames' energy,
+    (``relmse_part_debiased``: the part with the frames' noise taken out; ``relmse_own``:
+    the cause's own relative MSE, as if it were the only error). The ``noise`` row has no
+    energy share (NaN): ``energy_share_se`` holds the σ of the frames' energy,
     ``relmse_part`` (and its debiased copy) the noise's relative MSE."""
 
     term: str
@@ -72,28 +97,70 @@ class DecompositionRow:
     relmse_part: float
     relmse_part_se: float
     relmse_part_debiased: float
+    relmse_own: float = math.nan
+    relmse_own_se: float = math.nan
 
     @classmethod
     def from_json(cls, row: Mapping) -> DecompositionRow:
         if row.get("term") == "noise":
             return cls("noise", math.nan, _number(row.get("energy_sigma")), _number(row.get("relmse")), math.nan,
                        _number(row.get("relmse")))
-        return cls(str(row["term"]), _number(row.get("energy_share")), _number(row.get("energy_share_se")),
-                   _number(row.get("relmse_part")), _number(row.get("relmse_part_se")),
-                   _number(row.get("relmse_part_debiased")))
+        return cls(str(row["term"]), *(_number(row.get(k)) for k in _ROW_NUMBERS))
+
+    def to_json(self) -> dict:
+        """The stored row."""
+        if self.term == "noise":
+            return {"term": "noise", "energy_sigma": _stored(self.energy_share_se), "relmse": _stored(self.relmse_part)}
+        stored = ("energy_share", "energy_share_se", "relmse_part", "relmse_part_se", "relmse_own", "relmse_own_se",
+                  "relmse_part_debiased")
+        return {"term": self.term, **{k: _stored(getattr(self, k)) for k in stored}}
+
+
+_ROW_NUMBERS = ("energy_share", "energy_share_se", "relmse_part", "relmse_part_se", "relmse_part_debiased",
+                "relmse_own", "relmse_own_se")  # DecompositionRow's numbers, in its order
+
+
+@dataclass(frozen=True)
+class Closure:
+    """Whether the decomposition closes: the residual's energy share and debiased relative
+    MSE, each with its standard error and z-score, ``within_noise`` when both |z| are
+    within the limit, and the warning's ``message`` when not."""
+
+    energy_share: float
+    energy_se: float
+    energy_z: float
+    debiased_relmse: float
+    relmse_se: float
+    relmse_z: float
+    within_noise: bool
+    message: str
+
+    @classmethod
+    def from_json(cls, data: Mapping) -> Closure:
+        numbers = ("energy_share", "energy_se", "energy_z", "debiased_relmse", "relmse_se", "relmse_z")
+        return cls(*(_number(data.get(k)) for k in numbers), bool(data.get("within_noise")),
+                   str(data.get("message") or ""))
+
+    def to_json(self) -> dict:
+        return {k: v if isinstance(v, (bool, str)) else _stored(v) for k, v in vars(self).items()}
 
 
 @dataclass(frozen=True)
 class FrameCost:
     """A frame's cost: ``counted`` (map and emission reads plus splats, the counted
-    total), ``splats``, ``predicted`` (weight set → predicted frame seconds, the cost
-    model) and ``measured_s`` (the frame's wall time, ``timing_method`` says how)."""
+    total) with its parts ``map_reads``, ``emission_reads`` and ``splats``, the pixels
+    the denoiser ran on (``denoised_pixels``), ``predicted`` (weight set → predicted frame
+    seconds, the cost model) and ``measured_s`` (the frame's wall time, ``timing_method``
+    says how). The means over the seeds' frames."""
 
     counted: float
     splats: float
     predicted: Mapping[str, float]
     measured_s: float
     timing_method: str
+    map_reads: float = math.nan
+    emission_reads: float = math.nan
+    denoised_pixels: float = math.nan
 
 
 @dataclass(frozen=True)
@@ -123,26 +190,36 @@ class EqualCost:
 class ModelComponent:
     """The single-scattering model's term on one component (docs/concepts/model-term.md):
     the energy it leaves out (``energy_share``), its own relative MSE against the
-    multiple-scattering reference (``relmse_own``) and its part of the approximation's
-    (``relmse_part``); ``note`` where it could not be measured (the estimates None)."""
+    multiple-scattering reference (``relmse_own``), its part of the approximation's
+    (``relmse_part``) and the approximation's whole error against that reference
+    (``approx_part``); ``note`` where it could not be measured (the estimates None)."""
 
     component: str
     energy_share: Estimate | None
     relmse_own: Estimate | None
     relmse_part: Estimate | None
     note: str = ""
+    approx_part: Estimate | None = None
+
+    def to_json(self) -> dict:
+        if self.note:
+            return {"note": self.note}
+        parts = {"energy_share": self.energy_share, "relmse_own": self.relmse_own, "relmse_part": self.relmse_part,
+                 "approx_part": self.approx_part}
+        return {name: e.to_json(ESTIMATE_KEYS) for name, e in parts.items() if e is not None}
 
 
 @dataclass(frozen=True)
 class ModelTerm:
     """The model term of a point whose reference has ``max_scatter`` > 1 orders:
     ``orders_needed`` per component (None: more than rendered), whether every component
-    ``converged``, and its :class:`ModelComponent` per component."""
+    ``converged`` (by ``rule``), and its :class:`ModelComponent` per component."""
 
     max_scatter: int | None
     orders_needed: Mapping[str, int | None]
     converged: bool
     components: tuple[ModelComponent, ...]
+    rule: str = ""
 
     @classmethod
     def from_json(cls, data: Mapping | None) -> ModelTerm | None:
@@ -153,19 +230,52 @@ class ModelTerm:
             if "note" in m:
                 parts.append(ModelComponent(component, None, None, None, str(m["note"])))
             else:
-                parts.append(ModelComponent(component, Estimate.from_json(m["energy_share"]),
-                                            Estimate.from_json(m["relmse_own"]), Estimate.from_json(m["relmse_part"])))
+                estimates = {k: Estimate.from_json(m[k]) if k in m else None
+                             for k in ("energy_share", "relmse_own", "relmse_part", "approx_part")}
+                parts.append(ModelComponent(component, **estimates))
         return cls(data.get("max_scatter"), dict(data.get("orders_needed") or {}), bool(data.get("converged")),
-                   tuple(parts))
+                   tuple(parts), str(data.get("rule", "")))
+
+    def to_json(self) -> dict:
+        """The stored form."""
+        return {"max_scatter": self.max_scatter, "orders_needed": dict(self.orders_needed),
+                "converged": self.converged, "components": {c.component: c.to_json() for c in self.components},
+                "rule": self.rule}
 
 
 @dataclass(frozen=True)
 class MapReads:
-    """The light-map reads of a frame: ``per_frame``, and ``per_segment`` (the search's
-    cost of one segment, averaged)."""
+    """The light-map reads of a frame: ``per_frame``, ``per_segment`` (the search's
+    cost of one segment, averaged) and ``per_step`` (per segment at each step)."""
 
     per_frame: float
     per_segment: float
+    per_step: tuple[float, ...] = ()
+
+    def to_json(self) -> dict:
+        return {"per_frame": self.per_frame, "per_segment": self.per_segment, "per_step": list(self.per_step)}
+
+
+@dataclass(frozen=True)
+class ReferenceUsed:
+    """The reference a point was measured against: its cache ``key``, the ``settings`` it
+    was rendered with, its relative ``noise_floor`` per component and why it stopped
+    (``stopped_by``). ``to_json`` gives the whole stored record (the reference cache's
+    own fields: its request, batches, variant, …), which the report shows as it is."""
+
+    key: str
+    settings: Mapping[str, Any]
+    noise_floor: Mapping[str, float | None]
+    stopped_by: str
+    record: Mapping[str, Any] = field(default_factory=dict, repr=False, compare=False)
+
+    @classmethod
+    def from_json(cls, data: Mapping) -> ReferenceUsed:
+        return cls(str(data.get("key", "")), dict(data.get("settings") or {}), dict(data.get("noise_floor") or {}),
+                   str(data.get("stopped_by", "")), dict(data))
+
+    def to_json(self) -> dict:
+        return dict(self.record)
 
 
 @dataclass(frozen=True)
@@ -190,6 +300,17 @@ class Experiment:
     model: ModelTerm | None = None    # the single-scattering model's term (a reference with max_scatter > 1)
     map_reads: MapReads | None = None
     seconds: float = math.nan         # what measuring the point took (its experiment, all seeds)
+    description: str = ""
+    optical_depth: float = math.nan   # the scene's medium along the light's axis
+    seed_values: tuple[int, ...] = ()
+    reference: ReferenceUsed | None = None
+    compared_pixels: int = 0          # the pixels every metric compares (the mask)
+    closure: Closure | None = None    # the decomposition's residual against its noise (None: no decomposition)
+    paths: Mapping[str, Any] = field(default_factory=dict)  # where the frames' photon paths first diverge
+    timings: Mapping[str, float] = field(default_factory=dict)  # pass → seconds of the timed frame; "frame_wall"
+    timed_frames: int = 0
+    gl_renderer: str | None = None
+    summary_sha256: str = ""          # the stored summary's seal: another measurement of the point differs
     tables: Mapping[str, pd.DataFrame] = field(default_factory=dict, repr=False, compare=False)
 
     @classmethod
@@ -212,26 +333,44 @@ class Experiment:
                        for metric, value in metrics.items() if isinstance(value, Mapping))
         rows = (summary.get("decomposition") or {}).get("rows", [])
         cost, timings, reads = summary["cost"], summary["approx_timings_s"], summary.get("map_reads")
+        decomposition = summary.get("decomposition")
         return cls(
             scene=summary["scene"], scene_hash=summary["scene_hash"], key=key or str(summary.get("key", "")),
             params=ApproxParams(**summary["params"]), seeds=int(summary["seeds"]), images=images,
             decomposition=tuple(DecompositionRow.from_json(r) for r in rows),
             cost=FrameCost(_number(cost.get("total")), _number(cost.get("splats")),
                            {k: float(v) for k, v in summary.get("predicted_frame", {}).items() if v is not None},
-                           _number(timings.get("frame_wall")), str(summary.get("timing_method", ""))),
+                           _number(timings.get("frame_wall")), str(summary.get("timing_method", "")),
+                           _number(cost.get("map_reads")), _number(cost.get("emission_reads")),
+                           _number(cost.get("denoised_pixels"))),
             equal_cost=EqualCost.from_json(summary.get("equal_cost")), warnings=tuple(summary["warnings"]),
             code_version=summary["code_version"], tables=dict(tables or {}),
             model=ModelTerm.from_json(summary.get("model")),
-            map_reads=MapReads(_number(reads.get("per_frame")), _number(reads.get("per_segment"))) if reads else None,
-            seconds=_number((summary.get("experiment_seconds") or {}).get("total")))
+            map_reads=MapReads(_number(reads.get("per_frame")), _number(reads.get("per_segment")),
+                               tuple(reads.get("per_step", ()))) if reads else None,
+            seconds=_number((summary.get("experiment_seconds") or {}).get("total")),
+            description=str(summary.get("description", "")), optical_depth=_number(summary.get("optical_depth")),
+            seed_values=tuple(summary.get("seed_values", ())),
+            reference=ReferenceUsed.from_json(summary["reference"]) if summary.get("reference") else None,
+            compared_pixels=int(summary.get("compared_pixels") or 0),
+            closure=Closure.from_json(decomposition["residual"]) if decomposition else None,
+            paths=dict(summary.get("paths") or {}), timings={k: float(v) for k, v in timings.items()},
+            timed_frames=int(summary.get("timed_frames") or 0),
+            gl_renderer=(summary.get("gl") or {}).get("renderer"),
+            summary_sha256=str(summary.get("summary_sha256", "")))
 
     def metric(self, metric: str = "relative_mse", component: str = "caustic") -> Estimate:
         """One image metric (:class:`ImageMetric`); KeyError naming those there are."""
-        for m in self.images:
-            if m.component == component and m.metric == metric:
-                return m.estimate
+        found = self.find_metric(metric, component)
+        if found is not None:
+            return found
         there = sorted({(m.component, m.metric) for m in self.images})
         raise KeyError(f"no {component} {metric} in this experiment; it has {there}")
+
+    def find_metric(self, metric: str = "relative_mse", component: str = "caustic") -> Estimate | None:
+        """One image metric, None where this experiment did not measure it (a gate point
+        measures only the metrics its budgets read)."""
+        return next((m.estimate for m in self.images if m.component == component and m.metric == metric), None)
 
     def images_table(self) -> pd.DataFrame:
         """The image metrics, a row per (component, metric)."""

@@ -54,6 +54,7 @@ from volcaustics.infra.storage import (
     owner,
     read_json_object,
 )
+from volcaustics.reports.measuring.results.experiment import Experiment
 from volcaustics.reports.measuring.results.points_table import point_row
 from volcaustics.reports.measuring.results.summaries import ExperimentSummary, of_schema
 from volcaustics.reports.measuring.results.tables import plain, table
@@ -133,6 +134,12 @@ class Store:
         edited by hand, or written before summaries carried their hash (an older
         store), counts as damaged: a sweep or the report recomputes the point."""
         return _complete_summary(self.point_dir(key), key)
+
+    def experiment(self, key: str) -> Experiment | None:
+        """The point's summary read into its typed :class:`Experiment` (the store's
+        boundary: callers read attributes), None as :meth:`summary`."""
+        summary = self.summary(key)
+        return None if summary is None else Experiment.from_summary(summary, key=key)
 
     def stored_images(self, key: str) -> tuple | None:
         """The optional images (names of :data:`IMAGE_FILES`) a complete, undamaged point

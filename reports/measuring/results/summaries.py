@@ -1,9 +1,9 @@
 """The results that cross subpackages, typed: a field renamed fails in one place.
 
-``ExperimentSummary`` (one experiment's summary.json, as measured and as stored),
-``SceneResult`` (one scene's experiment and the gate's verdicts on it, as the report
-gathers them) and ``SweepTables`` (a sweep store's consolidated tables) are what
-``reports.presenting.report`` hands ``reports.presenting.page``; the summaries written to disk carry a
+``ExperimentSummary`` (one experiment's summary.json, as measured and as stored: read
+into ``results.experiment.Experiment`` at the store's boundary) and ``SweepTables`` (a
+sweep store's consolidated tables, which ``reports.presenting.report`` hands
+``reports.presenting.page``); the summaries written to disk carry a
 ``schema`` version (:data:`SCHEMAS`) that their readers check.
 """
 
@@ -68,21 +68,6 @@ class ExperimentSummary(_Measured, total=False):
     summary_sha256: str
     equal_cost: dict | None      # measure: a preset matched to the paper's cost
     outputs: dict                # measure -o DIR: the files written
-
-
-@dataclass
-class SceneResult:
-    """One scene's experiment as the store holds it, and the gate's verdicts on it."""
-
-    name: str
-    key: str
-    summary: ExperimentSummary  # the experiment's, as the store holds it
-    tables: dict             # "segments", "photons", "images" → pandas DataFrame
-    views: dict              # reports.measuring.experiment.point_summary.VIEWS name → H×W×3 float32
-    checks: list = field(default_factory=list)   # reports.studies.gate.budgets.Check
-    gate_note: str = ""      # why the gate could not check this scene (no budgets, a GateError)
-    budgeted: bool = False   # the budgets have this scene
-    measured: bool = False   # measured in this run (False: from the store)
 
 
 @dataclass

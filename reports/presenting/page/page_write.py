@@ -32,7 +32,8 @@ from volcaustics.reports.studies.sweep.sweep_figures import draw_figures
 from volcaustics.reports.studies.sweep.variants import draw_variants, is_variants_sweep, variant_table
 
 if TYPE_CHECKING:
-    from volcaustics.reports.measuring.results.summaries import SceneResult, SweepTables
+    from volcaustics.reports.measuring.results.scene_result import SceneResult
+    from volcaustics.reports.measuring.results.summaries import SweepTables
 
 
 def write_report(out_dir: str, results: list, summary: dict, sweep: SweepTables | None = None, *,
@@ -84,7 +85,7 @@ def cached_scene_images(result: SceneResult, page: dict) -> dict:
     """:func:`scene_images`, from the cache when this code drew them for this stored result
     (its key and its summary) before: a warm report draws no picture. A cache that cannot
     be written is noted."""
-    stored = json.dumps(result.summary, sort_keys=True, default=str)  # a point measured again draws anew
+    stored = result.experiment.summary_sha256  # a point measured again draws anew
     key = hashlib.sha256(json.dumps([result.key, stored, code_version(PAGE_FOLDERS)]).encode()).hexdigest()[:24]
     try:
         return read_json_object(cache_path("page-images", key + ".json"))

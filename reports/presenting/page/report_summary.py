@@ -11,6 +11,7 @@ that very data (``page.html``, ``page.write``) with the images of each scene's v
 from __future__ import annotations
 
 import dataclasses
+import math
 import os
 import time
 from typing import TYPE_CHECKING, cast
@@ -37,7 +38,9 @@ if TYPE_CHECKING:
     from volcaustics.approx.params import ApproxParams
     from volcaustics.reference.settings import ReferenceSettings
     from volcaustics.reports.measuring.experiment.measurement import MeasurementSettings
-    from volcaustics.reports.measuring.results.summaries import SceneResult, SweepTables
+    from volcaustics.reports.measuring.results.experiment import Closure, Experiment
+    from volcaustics.reports.measuring.results.scene_result import SceneResult
+    from volcaustics.reports.measuring.results.summaries import SweepTables
 
 # Wang, Wang & Chen: intersection estimation takes about 70% of a frame and splatting about 23% on their GPU
 OUTPUT_FILES = ("index.html", "summary.json")  # in --out; the manifest, summary.json, last
@@ -100,44 +103,47 @@ def power_budget(photons: pd.DataFrame) -> list:
     return out
 
 
-def timing(summary: dict) -> dict:
+def timing(e: Experiment) -> dict:
     """One frame's time per pass (the experiment's timed frame with the median frame
     time, rendered without records) and its share of that frame; ``other``: the frame's
     time outside the passes (reading images back, the host's work)."""
-    t = summary["approx_timings_s"]
+    t = e.timings
     frame = t["frame_wall"]
     passes = [{"pass": name, "seconds": t[name], "share": t[name] / frame} for name in PASSES if name in t]
     other = max(frame - sum(p["seconds"] for p in passes), 0.0)
     passes.append({"pass": "other", "seconds": other, "share": other / frame})
-    return {"method": summary["timing_method"], "frame_s": frame, "passes": passes, "paper_shares": PAPER_SHARES,
-            "timed_frames": summary.get("timed_frames"), "gl_renderer": (summary.get("gl") or {}).get("renderer"),
-            "map_reads": summary.get("map_reads")}
+    return {"method": e.cost.timing_method, "frame_s": frame, "passes": passes, "paper_shares": PAPER_SHARES,
+            "timed_frames": e.timed_frames, "gl_renderer": e.gl_renderer,
+            "map_reads": None if e.map_reads is None else e.map_reads.to_json()}
 
 
 def scene_page(result: SceneResult, *, exposures: dict) -> dict:
-    """Everything the page shows of one scene (``result``: ``reports.measuring.results.summaries.SceneResult``)."""
-    s = result.summary
+    """Everything the page shows of one scene (``result``: ``reports.measuring.results.scene_result.SceneResult``)."""
+    e = result.experiment
     components = {}
     for component in COLOUR_LAYERS:
-        metrics = s["images"][component]
-        components[component] = {name: metrics.get(name, {}) for name in HEADLINE}
+        metrics = {m.metric: m.estimate for m in e.images if m.component == component}
+        components[component] = {name: metrics[name].to_json() if name in metrics else {} for name in HEADLINE}
         # the floor over the compared pixels: what the debiased error had subtracted
-        components[component]["reference_noise_floor"] = metrics.get("relative_mse", {}).get("reference_floor")
-    decomposition = cast(dict, s["decomposition"])  # the report measures scope "full": None only at a gate point
-    rows = {r["term"]: r for r in decomposition["rows"]}
+        floor = metrics["relative_mse"].reference_floor if "relative_mse" in metrics else math.nan
+        components[component]["reference_noise_floor"] = None if math.isnan(floor) else floor
+    rows = {r.term: r.to_json() for r in e.decomposition}  # the report measures scope "full": a decomposition
     checks = sorted(result.checks, key=lambda c: (c.passed, c.name))
+    params = e.params.to_dict()
     return {
-        "scene": result.name, "description": s["description"], "scene_hash": s["scene_hash"], "point": result.key,
-        "measured_in_this_run": result.measured, "params": s["params"],
-        "shown_params": {k: s["params"][k] for k in SHOWN_PARAMS}, "seed_values": s["seed_values"],
-        "reference": s["reference"], "compared_pixels": s["compared_pixels"], "components": components,
+        "scene": result.name, "description": e.description, "scene_hash": e.scene_hash, "point": result.key,
+        "measured_in_this_run": result.measured, "params": params,
+        "shown_params": {k: params[k] for k in SHOWN_PARAMS}, "seed_values": list(e.seed_values),
+        "reference": None if e.reference is None else e.reference.to_json(), "compared_pixels": e.compared_pixels,
+        "components": components,
         "gate": {"passed": None if not checks else all(c.passed for c in checks), "note": result.gate_note,
                  "budgeted": result.budgeted, "checks": [dataclasses.asdict(c) for c in checks]},
-        "timing": timing(cast(dict, s)), "hit_classes": hit_classes(result.tables["segments"]),
+        "timing": timing(e), "hit_classes": hit_classes(result.tables["segments"]),
         "power_budget": power_budget(result.tables["photons"]),
-        "decomposition": {"terms": [rows[t] for t in TERMS],
-                          "total": rows["total"], "noise": rows["noise"], "residual": decomposition["residual"]},
-        "model": s.get("model"), "paths": s["paths"], "exposure": exposures, "warnings": s["warnings"],
+        "decomposition": {"terms": [rows[t] for t in TERMS], "total": rows["total"], "noise": rows["noise"],
+                          "residual": cast("Closure", e.closure).to_json()},
+        "model": None if e.model is None else e.model.to_json(), "paths": dict(e.paths), "exposure": exposures,
+        "warnings": list(e.warnings),
     }
 
 
@@ -168,7 +174,7 @@ def report_summary(results: list, *, params: ApproxParams, seeds: int, reference
                          "compared pixels maps to 1 (metrics.image.reference_exposure); all images of that "
                          "component share it",
         "scenes": pages, "sweep": _sweep_summary(sweep) if sweep is not None else None,
-        "gl_renderers": sorted({str((r.summary.get("gl") or {}).get("renderer")) for r in results}),
+        "gl_renderers": sorted({str(r.experiment.gl_renderer) for r in results}),
         "code_version": code_version(), "versions": library_versions(), "seconds": clock,
     }
     return summary

@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING, cast
 
 from volcaustics.reports.measuring import runner
 from volcaustics.reports.measuring.experiment.point_checks import measured_settings
-from volcaustics.reports.measuring.results.summaries import SceneResult
+from volcaustics.reports.measuring.results.scene_result import SceneResult
 from volcaustics.reports.measuring.results.timing import Clock
 from volcaustics.reports.presenting.page.animations import animation_rows
 from volcaustics.reports.presenting.page.external import comparison_images, comparison_row
@@ -84,7 +84,7 @@ def budgets_key(name: str, budgets: dict) -> str | None:
 
 
 def _scene_result(name, result, budgets: dict, baseline: dict | None) -> SceneResult:
-    out = SceneResult(name=name, key=result.key, summary=result.summary, tables=result.tables, views=result.views,
+    out = SceneResult(name=name, key=result.key, experiment=result.experiment, tables=result.tables, views=result.views,
                       measured=result.measured)
     key = budgets_key(name, budgets)
     if key is None:

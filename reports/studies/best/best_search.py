@@ -46,6 +46,7 @@ from volcaustics.metrics.decomposition import TERMS
 from volcaustics.reports.measuring import runner
 from volcaustics.reports.measuring.cost_match import CostMatcher
 from volcaustics.reports.measuring.experiment.measurement import measurement_settings
+from volcaustics.reports.measuring.results.experiment import Estimate
 from volcaustics.reports.measuring.results.sizing import reference_settings
 from volcaustics.reports.measuring.results.store import Store
 from volcaustics.reports.studies.best.best_spec import BestSpec
@@ -121,26 +122,23 @@ class BestSearch:
         """One row per measured point (module docstring), ``role`` still empty."""
         rows = []
         for (scene, config), key in self.keys.items():
-            summary = self.store.summary(key)
-            if summary is None:
+            e = self.store.experiment(key)
+            if e is None:
                 continue  # failed
-            caustic = summary["images"]["caustic"]["relative_mse"]
-            frame = summary["images"]["caustic"].get("frame_relative_mse", {})
-            terms = {r["term"]: r for r in summary["decomposition"]["rows"]}
-            row = {"scene": summary["scene"], "scene_arg": scene, "point": key,
-                   "config": config_label(config, self.base), **summary["params"],
-                   "frame_cost": summary["cost"]["total"], "splats_per_frame": summary["cost"]["splats"],
-                   **{f"predicted_{name}": v for name, v in summary.get("predicted_frame", {}).items()},
-                   "map_reads_per_frame": summary["cost"]["map_reads"],
-                   "emission_reads_per_frame": summary["cost"]["emission_reads"],
-                   "frame_time_s": summary["approx_timings_s"].get("frame_wall"),
-                   "caustic_relmse_debiased": caustic["debiased"], "caustic_relmse_se": caustic["standard_error"],
-                   "caustic_relmse_ci_low": caustic.get("ci_low"), "caustic_relmse_ci_high": caustic.get("ci_high"),
-                   "frame_relmse": frame.get("debiased", np.nan),
-                   "frame_relmse_se": frame.get("standard_error", np.nan)}
+            caustic, frame = e.metric("relative_mse"), e.find_metric("frame_relative_mse") or Estimate(np.nan)
+            terms = {r.term: r for r in e.decomposition}
+            row = {"scene": e.scene, "scene_arg": scene, "point": key,
+                   "config": config_label(config, self.base), **e.params.to_dict(),
+                   "frame_cost": e.cost.counted, "splats_per_frame": e.cost.splats,
+                   **{f"predicted_{name}": v for name, v in e.cost.predicted.items()},
+                   "map_reads_per_frame": e.cost.map_reads, "emission_reads_per_frame": e.cost.emission_reads,
+                   "frame_time_s": e.timings.get("frame_wall"),
+                   "caustic_relmse_debiased": caustic.debiased, "caustic_relmse_se": caustic.standard_error,
+                   "caustic_relmse_ci_low": caustic.ci_low, "caustic_relmse_ci_high": caustic.ci_high,
+                   "frame_relmse": frame.debiased, "frame_relmse_se": frame.standard_error}
             for term in TERMS:
-                row[f"share_{term}"] = terms.get(term, {}).get("energy_share")
-                row[f"relmse_{term}"] = terms.get(term, {}).get("relmse_part_debiased")
+                row[f"share_{term}"] = terms[term].energy_share if term in terms else None
+                row[f"relmse_{term}"] = terms[term].relmse_part_debiased if term in terms else None
             rows.append(row)
         table = pd.DataFrame(rows)
         return with_ratios(table, self.base) if len(table) else table

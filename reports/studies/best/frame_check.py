@@ -8,11 +8,12 @@ held-out scenes (``scenes/heldout``), which no search saw: a configuration that 
 only where it was chosen shows it here.
 
 Every scene is resolved and checked before any work (a bad name, a medium without a
-caustic, two files of one scene name are refused at once). Each measured point is kept
-in ``DIR/points/`` under a key of its scene, parameters, seeds and the code version,
-sealed with the SHA-256 of its key and row, so an interrupted check resumes where it
-stopped; a point edited or damaged since is measured again. A scene whose reference has
-no caustic over the compared pixels is refused after its first reference, naming it.
+caustic, two files of one scene name are refused at once). Every point is measured by
+the runner (``reports.measuring.runner``) into a result store in ``DIR`` (``DIR/points/KEY/``,
+its ``summary.json`` and tables, ``reports.measuring.results.store``), one scene at a time,
+and its row is read from there: an interrupted check resumes where it stopped, and a
+point edited or damaged since is measured again. A scene whose reference has no caustic
+over the compared pixels is refused after its first points, naming it.
 
 Output (``DIR``): ``frames.parquet`` (one row per scene, configuration and denoiser;
 ``group``: builtin, heldout or yours) and ``frames.json`` (its manifest, ``kind`` frames,
@@ -24,7 +25,6 @@ strict JSON, recording the table's SHA-256 and its own), written as one set
 from __future__ import annotations
 
 import dataclasses
-import hashlib
 import json
 import math
 import os
@@ -33,26 +33,25 @@ from collections.abc import Iterable, Sequence
 from typing import TYPE_CHECKING
 
 import pandas as pd
-from tqdm import tqdm
 
 from volcaustics.approx.params import preset
 from volcaustics.infra.errors import InputError
-from volcaustics.infra.storage import atomic_path, atomic_set, document_sha256, file_sha256, read_json_object
+from volcaustics.infra.storage import atomic_set, document_sha256, file_sha256, read_json_object
+from volcaustics.reports.measuring import runner
 from volcaustics.reports.measuring.cost_match import with_auto_values
 from volcaustics.reports.measuring.experiment.measurement import MeasurementSettings
-from volcaustics.reports.measuring.experiment.pipeline import run_experiment
 from volcaustics.reports.measuring.experiment.point_checks import checked_settings
-from volcaustics.reports.measuring.results.sizing import REPORT_REFERENCE, sized
-from volcaustics.reports.measuring.results.summaries import ExperimentSummary
+from volcaustics.reports.measuring.results.sizing import REPORT_REFERENCE
+from volcaustics.reports.measuring.results.store import Store
 from volcaustics.reports.measuring.results.tables import plain
 from volcaustics.reports.measuring.results.versions import code_version
-from volcaustics.reports.measuring.runner import reference_for
 from volcaustics.reports.studies.sweep.study_limits import FRAME_CHECK_SEEDS
 from volcaustics.scenes import resolve_scene
 from volcaustics.scenes.catalogue import BUILTIN_NAMES, HELDOUT_NAMES, heldout_path
 
 if TYPE_CHECKING:
     from volcaustics.approx.params import ApproxParams
+    from volcaustics.reports.measuring.results.experiment import Experiment
     from volcaustics.scenes.model import Scene
 
 CONFIGS = ("paper", "best", "beams")  # the quick preset (the paper's method), the presets best and beams
@@ -61,8 +60,8 @@ FRAMES_FILE, MANIFEST = "frames.parquet", "frames.json"
 KIND = "frames"                   # frames.json's "kind" (reports.measuring.results.output_folders.FOLDER_MARKERS)
 SCHEMA = 2                        # frames.json's "schema": its shape, checked when read back (2: sealed)
 MANIFEST_SEAL = "frames_sha256"   # frames.json's field holding the SHA-256 of the rest of it
-POINTS = "points"                 # DIR/points/: one JSON file per measured point, for resuming
-POINT_SEAL = "point_sha256"       # a point's field holding the SHA-256 of its key and row
+POINTS = "points"                 # DIR/points/: the result store's points (reports.measuring.results.store)
+FRAMES_REFERENCE = REPORT_REFERENCE  # every point's reference: the report's
 GROUPS = ("builtin", "heldout", "yours")  # a scene's group: a built-in, a held-out scene, a file of yours
 
 
@@ -71,11 +70,12 @@ def default_scenes() -> list:
     return [*BUILTIN_NAMES, *(heldout_path(name) for name in HELDOUT_NAMES)]
 
 
-def config_params(config: str, scene_arg: str) -> ApproxParams:
-    """The parameters of ``config`` on ``scene_arg`` (best, beams: photon_res matched)."""
+def config_params(config: str, scene_arg: str, scene: Scene | None = None) -> ApproxParams:
+    """The parameters of ``config`` on ``scene_arg`` (``scene``: it resolved; best,
+    beams: photon_res matched)."""
     if config == "paper":
         return preset("quick")
-    return with_auto_values(scene_arg, preset(config), config, given=False)
+    return with_auto_values(scene_arg, preset(config), config, given=False, scene=scene)
 
 
 def checked_scenes(scenes: Iterable[str], seeds: int) -> list:
@@ -100,34 +100,30 @@ def checked_scenes(scenes: Iterable[str], seeds: int) -> list:
 
 def run_frames(scenes: Sequence[str], out_dir: str, *, seeds: int = FRAME_CHECK_SEEDS,
                progress: bool = True) -> pd.DataFrame:
-    """Measure every (scene, configuration, denoiser), reusing the points ``out_dir``
-    already holds; write and return the table."""
+    """Measure every (scene, configuration, denoiser) the store in ``out_dir`` does not
+    hold yet; write and return the table."""
     checked = checked_scenes(scenes, seeds)
     denoisers = usable_denoisers(progress)
-    rows, t0, version = [], time.perf_counter(), code_version()
-    todo = [(s, c) for s in checked for c in CONFIGS]
-    for (scene_arg, scene, group), config in tqdm(todo, desc="frames", unit="configuration", disable=not progress):
-        matched = config_params(config, scene_arg)  # once: the denoiser is beside the cost
-        for denoiser in denoisers:
-            params = dataclasses.replace(matched, denoise=denoiser)
-            key = point_key(scene, params, seeds, version)
-            identity = {"scene": scene.name, "heldout": group == "heldout", "group": group, "config": config,
-                        "denoise": denoiser}
-            row = stored_point(out_dir, key, identity)
-            if row is None:
-                reference = reference_for(scene, sized(REPORT_REFERENCE, scene, params), "continue")
-                summary = run_experiment(scene, params, seeds=seeds, reference=reference,
-                                         measurement=MeasurementSettings(scope="gate")).summary
-                row = {**identity, **_row(summary)}
-                if row["frame_relmse"] is None or not math.isfinite(row["frame_relmse"]):
-                    raise InputError(f"frames: {scene_arg}: the reference's caustic is zero over the compared "
-                                     f"pixels, so there is no caustic error to measure (does the light's beam "
-                                     f"reach the glass, and the glass's light the medium?)")
-                store_point(out_dir, key, row)
-            rows.append({name: math.nan if value is None else value for name, value in row.items()})
-    table = with_ratios(pd.DataFrame(rows))  # None as NaN: a stored row's NaN came back as null
+    store, rows, t0 = Store(out_dir), [], time.perf_counter()
+    for scene_arg, scene, group in checked:
+        wanted = [(config, denoiser, dataclasses.replace(matched, denoise=denoiser))  # the denoiser beside the cost
+                  for config in CONFIGS for matched in (config_params(config, scene_arg, scene),)
+                  for denoiser in denoisers]
+        points = [runner.Point(scene_arg, params, seeds, resolved=scene) for *_, params in wanted]
+        results = []
+        for batch in (points[:1], points[1:]):  # the first alone: a scene without a caustic stops there
+            results += runner.measure(batch, store, reference_settings=FRAMES_REFERENCE, policy="continue",
+                                      measurement=MeasurementSettings(scope="gate"), progress=progress).results
+            if not math.isfinite(results[0].experiment.metric("frame_relative_mse").debiased):
+                raise InputError(f"frames: {scene_arg}: the reference's caustic is zero over the compared "
+                                 f"pixels, so there is no caustic error to measure (does the light's beam "
+                                 f"reach the glass, and the glass's light the medium?)")
+        identity = {"scene": scene.name, "heldout": group == "heldout", "group": group}
+        rows += [{**identity, "config": config, "denoise": denoiser, **_row(point.experiment)}
+                 for (config, denoiser, _), point in zip(wanted, results)]
+    table = with_ratios(pd.DataFrame(rows))
     manifest = {"kind": KIND, "schema": SCHEMA, "scenes": list(scenes), "seeds": seeds, "configs": list(CONFIGS),
-                "denoisers": list(denoisers), "code_version": version, "seconds": time.perf_counter() - t0,
+                "denoisers": list(denoisers), "code_version": code_version(), "seconds": time.perf_counter() - t0,
                 "verdict": verdict(table)}
     write_frames(out_dir, table, manifest)
     return table
@@ -173,80 +169,16 @@ def usable_denoisers(say: bool = True) -> tuple:
     return tuple(d for d in DENOISERS if d != "oidn")
 
 
-def point_key(scene: Scene, params: ApproxParams, seeds: int, version: str) -> str:
-    doc = [scene.scene_hash(), params.to_dict(), seeds, version]
-    return hashlib.sha256(json.dumps(doc, sort_keys=True).encode()).hexdigest()[:24]
-
-
-def stored_point(out_dir: str, key: str, identity: dict) -> dict | None:
-    """The row a previous run stored under ``key``, with ``identity``'s fields (scene,
-    config and denoise must be the stored ones; group and heldout are this run's: how the
-    scene was named); None when there is none, or it is damaged (measured again): not of
-    ``key``, not matching its seal (POINT_SEAL: a number edited by hand), or a row not of
-    the fields, types and finite numbers :func:`run_frames` stores (:func:`row_problem`)."""
-    try:
-        doc = read_json_object(os.path.join(out_dir, POINTS, f"{key}.json"))
-        sealed = doc.get(POINT_SEAL) == document_sha256(doc, POINT_SEAL)
-    except (OSError, ValueError):  # ValueError: unreadable, or NaN/inf in an edited file (no strict JSON)
-        return None
-    row = doc.get("row")
-    if doc.get("key") != key or not sealed or not isinstance(row, dict) or row_problem(row) is not None:
-        return None
-    if any(row[name] != identity[name] for name in ("scene", "config", "denoise")):
-        return None
-    return {**row, **identity}
-
-
-def store_point(out_dir: str, key: str, row: dict) -> None:
-    """Keep ``row`` in ``DIR/points/<key>.json``, sealed with the SHA-256 of its key and
-    row (POINT_SEAL), through a temporary file."""
-    doc = plain({"key": key, "row": row})
-    doc[POINT_SEAL] = document_sha256(doc, POINT_SEAL)
-    os.makedirs(os.path.join(out_dir, POINTS), exist_ok=True)
-    with atomic_path(os.path.join(out_dir, POINTS, f"{key}.json")) as tmp, open(tmp, "w", encoding="utf-8") as fh:
-        json.dump(doc, fh, allow_nan=False)
-
-
-# a stored row's fields (``_row`` and the identity run_frames adds), by what each must hold
-ROW_TEXT = ("scene", "group", "config", "denoise")
-ROW_NUMBERS = ("frame_cost", "frame_relmse")  # finite: the ratios and the verdict divide by them
-ROW_OPTIONAL = ("frame_relmse_se", "relmse_debiased", "relmse_se", "hdr_flip", "frame_s", "denoise_s",
-                "denoised_pixels")  # finite or null (a metric without a value, a stage not timed, no denoiser)
-
-
-def row_problem(row: dict) -> str | None:
-    """What is wrong with a stored point's row, or None: a field missing or unknown, of
-    another type, or a number that is not finite (``predicted_<set>`` columns are
-    optional numbers, one per weight set that prices the configuration)."""
-    def number(value: object) -> bool:
-        return not isinstance(value, bool) and isinstance(value, (int, float)) and math.isfinite(value)
-
-    fields = {*ROW_TEXT, "heldout", "photon_res", *ROW_NUMBERS, *ROW_OPTIONAL}
-    missing = sorted(fields - set(row))
-    unknown = sorted(name for name in set(row) - fields if not name.startswith("predicted_"))
-    if missing or unknown:
-        return f"fields {missing or unknown}: {'missing' if missing else 'unknown'}"
-    bad = [name for name in ROW_TEXT if not isinstance(row[name], str)]
-    bad += [] if isinstance(row["heldout"], bool) else ["heldout"]
-    photon_res = row["photon_res"]
-    bad += [] if type(photon_res) is int and photon_res >= 1 else ["photon_res"]
-    bad += [name for name in ROW_NUMBERS if not number(row[name])]
-    bad += [name for name in row if (name in ROW_OPTIONAL or name.startswith("predicted_"))
-            and row[name] is not None and not number(row[name])]
-    return f"{bad[0]} = {row[bad[0]]!r}: not of its type or not finite" if bad else None
-
-
-def _row(summary: ExperimentSummary) -> dict:
-    """A point's numbers: photon_res, cost, one frame's and the mean's caustic errors, times."""
-    caustic = summary["images"]["caustic"]
-    frame, mean = caustic["frame_relative_mse"], caustic["relative_mse"]
-    timings = summary["approx_timings_s"]
-    return {"photon_res": summary["params"]["photon_res"], "frame_cost": summary["cost"]["total"],
-            **{f"predicted_{name}": value for name, value in summary.get("predicted_frame", {}).items()},
-            "frame_relmse": frame["debiased"], "frame_relmse_se": frame["standard_error"],
-            "relmse_debiased": mean["debiased"], "relmse_se": mean["standard_error"],
-            "hdr_flip": caustic["hdr_flip"]["value"], "frame_s": timings.get("frame_wall"),
-            "denoise_s": timings.get("denoise"), "denoised_pixels": summary["cost"].get("denoised_pixels")}
+def _row(e: Experiment) -> dict:
+    """A point's numbers: photon_res, cost, one frame's and the mean's caustic errors, times
+    (NaN where not measured: a stage not timed, no denoiser)."""
+    frame, mean = e.metric("frame_relative_mse"), e.metric("relative_mse")
+    return {"photon_res": e.params.photon_res, "frame_cost": e.cost.counted,
+            **{f"predicted_{name}": value for name, value in e.cost.predicted.items()},
+            "frame_relmse": frame.debiased, "frame_relmse_se": frame.standard_error,
+            "relmse_debiased": mean.debiased, "relmse_se": mean.standard_error,
+            "hdr_flip": e.metric("hdr_flip").value, "frame_s": e.timings.get("frame_wall", math.nan),
+            "denoise_s": e.timings.get("denoise", math.nan), "denoised_pixels": e.cost.denoised_pixels}
 
 
 def with_ratios(table: pd.DataFrame) -> pd.DataFrame:

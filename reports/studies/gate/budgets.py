@@ -30,31 +30,31 @@ from __future__ import annotations
 
 import math
 import os
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 from volcaustics.approx.params import PRESETS
 from volcaustics.infra.errors import InputError
 from volcaustics.reports.measuring.experiment.measurement import measurement_settings
+from volcaustics.reports.measuring.results.experiment import Estimate
 from volcaustics.reports.measuring.results.sizing import REFERENCE_KEYS, reference_settings
 from volcaustics.reports.measuring.results.tomlfile import load_toml
 from volcaustics.scenes import SceneError, resolve_scene
 from volcaustics.scenes.catalogue import scene_relative_to
 
 if TYPE_CHECKING:
-    from collections.abc import Mapping
-    from typing import Any, Protocol
+    from typing import Protocol
 
     from volcaustics.approx.params import ApproxParams
+    from volcaustics.reports.measuring.results.experiment import Experiment
 
     class MeasuredResult(Protocol):
-        """What the gate reads of a measured result (``reports.measuring.runner.PointResult``,
-        ``reports.measuring.experiment.pipeline.Experiment``, a comparison's summary): its
-        summary and its segment records."""
+        """What the gate reads of a measured result (``reports.measuring.runner.PointResult``):
+        its typed experiment and its segment records."""
 
         @property
-        def summary(self) -> Mapping[str, Any]: ...
+        def experiment(self) -> Experiment: ...
 
         @property
         def segments(self) -> list: ...
@@ -183,21 +183,14 @@ def compare_checks(comparison: dict, renderer: str, limits: dict, path: str) -> 
             raise GateError(f"{path}: compare.{renderer}.{s['scene']}.{name}: {comparison['folder']} has no "
                             f"{group} (its images gave {', '.join(s['components'])}): drop the limit or compare "
                             f"images with caustic, fog and direct layers")
-    checks = budget_checks(s["scene"], limits, _Measured(s))
+    images = s["images"]  # a comparison's summary, read at its boundary (comparison_read checked its shape)
+    checks = budget_checks(s["scene"], limits, lambda metric, component: Estimate.from_json(images[component][metric]))
     for check in checks:
         check.name = f"compare.{renderer}.{check.name}"
         check.detail["folder"] = comparison["folder"]
         if not check.passed:
             check.message = f"{s['scene']}: {check.name} = {check.value:.4g}, limit {check.limit}"
     return checks
-
-
-@dataclass
-class _Measured:
-    """What :func:`budget_checks` reads of a result: its summary (no segment records)."""
-
-    summary: dict
-    segments: list = field(default_factory=list)
 
 
 def _flicker_budgets(path: str, tables) -> dict:
@@ -259,6 +252,11 @@ def check_measurable(budgets: dict, names: Iterable[str], params: ApproxParams) 
                             f"{params.steps}: set steps ≥ 2, or gate with budgets without segment limits")
 
 
+def _or_zero(value: float) -> float:
+    """A noise figure, 0 where not measured (NaN)."""
+    return value if math.isfinite(value) else 0.0
+
+
 def _number(value, scene, what) -> float:
     if value is None or not isinstance(value, (int, float)) or not math.isfinite(value):
         raise GateError(f"{scene}: {what} is {value!r}: a metric the gate needs is missing or NaN")
@@ -272,15 +270,15 @@ def _step2(segments: list, scene: str) -> dict:
     return rows[0]
 
 
-def budget_checks(scene: str, limits: dict, experiment: MeasuredResult) -> list:
-    """The scene's budgets against its experiment; GateError for a budget the noise
-    cannot resolve or a NaN metric."""
-    s = experiment.summary
+def budget_checks(scene: str, limits: dict, metric: Callable[[str, str], Estimate], segments: list = ()) -> list:
+    """The scene's budgets against its measured metrics (``metric(name, component)``:
+    e.g. ``Experiment.metric``) and ``segments`` (the segment records the segment budgets
+    read); GateError for a budget the noise cannot resolve or a NaN metric."""
     checks = []
     for name, limit in limits.items():
         group, key = name.split(".", 1)
         if group == "segments":
-            row = _step2(experiment.segments, scene)
+            row = _step2(list(segments), scene)
             if key == "missed_step2_max":
                 missed = sum(row.get(f"count_{c}", 0) + row.get(f"count_beyond_self_rehit_{c}", 0)
                              for c in ("missed_inside", "missed_medium"))
@@ -289,27 +287,26 @@ def budget_checks(scene: str, limits: dict, experiment: MeasuredResult) -> list:
                 value = _number(row["abs_dt_p90"], scene, name)
             checks.append(Check(scene, name, value, f"≤ {limit:g}", value <= limit))
             continue
-        metrics = s["images"][group]
         if key in RELMSE_KEYS:
-            m = metrics[RELMSE_KEYS[key]]
-            value = _number(m["debiased"], scene, f"{group} {RELMSE_KEYS[key].replace('_', ' ')}")
-            se = m.get("standard_error")
-            resolvable = (m.get("reference_floor") or 0.0) + RESOLVE_SIGMAS * (se if se and math.isfinite(se) else 0)
+            m = metric(RELMSE_KEYS[key], group)
+            value = _number(m.debiased, scene, f"{group} {RELMSE_KEYS[key].replace('_', ' ')}")
+            se, floor = _or_zero(m.standard_error), _or_zero(m.reference_floor)
+            resolvable = floor + RESOLVE_SIGMAS * se
             if limit < resolvable:
                 raise GateError(f"{scene}: {name} = {limit:g} is tighter than the noise can resolve (the reference's "
-                                f"floor {m.get('reference_floor', 0):.2e} + {RESOLVE_SIGMAS:g} SE = {resolvable:.2e}): "
+                                f"floor {floor:.2e} + {RESOLVE_SIGMAS:g} SE = {resolvable:.2e}): "
                                 f"raise it or render a finer reference / more seeds")
             checks.append(Check(scene, name, value, f"≤ {limit:g}", value <= limit))
         elif key == "energy_ratio":
-            m = metrics["energy_ratio"]
-            value = _number(m["value"], scene, f"{group} energy ratio")
-            sigma = m.get("reference_sigma") or 0.0
+            m = metric("energy_ratio", group)
+            value = _number(m.value, scene, f"{group} energy ratio")
+            sigma = _or_zero(m.reference_sigma)
             if (limit[1] - limit[0]) / 2 < RESOLVE_SIGMAS * sigma:
                 raise GateError(f"{scene}: {name} = {limit} is narrower than {RESOLVE_SIGMAS:g} σ of the reference's "
                                 f"total ({sigma:.2e}): widen it")
             checks.append(Check(scene, name, value, f"in [{limit[0]:g}, {limit[1]:g}]", limit[0] <= value <= limit[1]))
         else:
-            value = _number(metrics["hdr_flip"]["value"], scene, f"{group} HDR-FLIP")
+            value = _number(metric("hdr_flip", group).value, scene, f"{group} HDR-FLIP")
             checks.append(Check(scene, name, value, f"≤ {limit:g}", value <= limit))
     for c in checks:
         if not c.passed:

@@ -69,14 +69,17 @@ def regression_check(scene: str, current: dict, baseline: dict) -> Check:
     return check
 
 
-def baseline_entry(experiment: MeasuredResult) -> dict:
-    s = experiment.summary
-    per_seed = s["images"]["caustic"].get("relative_mse", {}).get("per_seed")
-    if not per_seed:
-        raise GateError(f"{s['scene']}: no per-frame caustic relative MSE "
-                        f"({s['images']['caustic'].get('relative_mse', {}).get('note') or 'not computed'})")
-    return {"params": s["params"], "seeds": s["seed_values"], "reference_key": s["reference"]["key"],
-            "caustic_relmse_per_seed": per_seed, "code_version": s["code_version"]}
+def baseline_entry(result: MeasuredResult) -> dict:
+    """The result as the baseline keeps it: its parameters, seeds, reference and each
+    frame's caustic relative MSE; GateError without the per-frame values."""
+    e = result.experiment
+    relmse = e.find_metric("relative_mse", "caustic")
+    if relmse is None or not relmse.per_seed:
+        raise GateError(f"{e.scene}: no per-frame caustic relative MSE "
+                        f"({(relmse.note if relmse is not None else '') or 'not computed'})")
+    return {"params": e.params.to_dict(), "seeds": list(e.seed_values),
+            "reference_key": e.reference.key if e.reference is not None else None,
+            "caustic_relmse_per_seed": list(relmse.per_seed), "code_version": e.code_version}
 
 
 def load_baseline(folder: str) -> dict:

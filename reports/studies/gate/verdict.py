@@ -23,7 +23,7 @@ class Verdict:
 
 def scene_verdict(name: str, result: MeasuredResult, limits: dict, baseline: dict | None = None, *,
                   strict: bool = True) -> Verdict:
-    """The budgets ``limits`` of scene ``name`` checked on ``result`` (``.summary`` and
+    """The budgets ``limits`` of scene ``name`` checked on ``result`` (``.experiment`` and
     ``.segments``, e.g. ``reports.measuring.runner.PointResult``) and, with ``baseline`` (the
     baseline file's document), the regression test against its entry ``name``: the budgets
     key as written (``mine/scene.toml`` for a scene file, not the scene's own name), the
@@ -33,7 +33,7 @@ def scene_verdict(name: str, result: MeasuredResult, limits: dict, baseline: dic
     baseline entry raise GateError; lenient: they become ``notes``."""
     verdict = Verdict(checks=[])
     try:
-        verdict.checks = budget_checks(name, limits, result)
+        verdict.checks = budget_checks(name, limits, result.experiment.metric, result.segments)
     except GateError as exc:
         if strict:
             raise
