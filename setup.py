@@ -5,7 +5,7 @@ namespace, ``volcaustics.<folder>``; ``package/`` holds the namespace's own file
 ``__main__``, the ``py.typed`` marker), so that no folder named ``volcaustics`` in the repository
 shadows the installed package (the development install is setuptools' strict editable mode, a
 link tree that static tools such as mypy and pyright follow). Most of the bare names (``approx``,
-``reference``, ``scenes``, ``metrics``, ``reports``) belong to other PyPI distributions, and
+``reference``, ``scenes``, ``metrics``, ``experiment``, ``reports``) belong to other PyPI distributions, and
 installing them bare would overwrite those. setuptools'
 ``package-dir`` maps each dotted name to its folder; the list of subpackages is
 found here so that a new subpackage needs no edit of this file (data folders such as
@@ -14,7 +14,7 @@ found here so that a new subpackage needs no edit of this file (data folders suc
 
 from setuptools import find_namespace_packages, setup
 
-FOLDERS = ("infra", "scenes", "approx", "reference", "metrics", "reports")
+FOLDERS = ("infra", "scenes", "approx", "reference", "metrics", "experiment", "reports")
 
 packages = ["volcaustics"]
 for folder in FOLDERS:

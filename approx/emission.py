@@ -10,7 +10,7 @@ texel i receives n_i slots with E[n_i] = N·q_i/Q exactly (N slots, Q = Σq), ea
 weight Q/(N·q_i), so the expected power of every texel is its uniform photon's — the
 estimate stays unbiased whatever the importance (tests/approx/test_adaptive_emission.py).
 Slots fall in texel order, so photon index ranges still cover the light in stripes
-(``reports.measuring.experiment.exact.interleaved_subsets``).
+(``experiment.exact.interleaved_subsets``).
 
 The draw runs on the host (numpy over photon_res² floats); a GPU implementation would
 scan the importance in parallel. Its cost in map reads is counted like the search's

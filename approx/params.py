@@ -48,7 +48,7 @@ class Param:
     to_defines  value → the program's #defines (default: {NAME_IN_CAPITALS: value})
     exact       False: the error decomposition's exact images do not depend on it (how the
                 approximation searches): they are reused across its values
-                (``reports.measuring.experiment.exact_store``)
+                (``experiment.exact_store``)
     """
 
     name: str

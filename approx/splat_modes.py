@@ -5,7 +5,7 @@ parameter table's choices and help, the renderer's programs and record layout, t
 model's passes and the decomposition's replay read its properties rather than its name.
 A new mode is an entry here, its shaders (``approx/shaders/splat/``, selected by the
 ``SPLAT_<NAME>`` define) and its rule in the decomposition's kernel replay
-(``reports.measuring.experiment.kernels.KERNEL_RULES``).
+(``experiment.kernels.KERNEL_RULES``).
 """
 
 from __future__ import annotations

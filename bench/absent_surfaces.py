@@ -69,6 +69,7 @@ def main(argv=None) -> int:
     from volcaustics.approx.layers import read_map
     from volcaustics.approx.light import LightFrustum
     from volcaustics.approx.params import param, preset
+    from volcaustics.experiment.segments import beyond, start_normals
     from volcaustics.metrics.intersection import (
         MISSED_INSIDE,
         MISSED_MEDIUM,
@@ -78,7 +79,6 @@ def main(argv=None) -> int:
         classify_segments,
     )
     from volcaustics.reference.oracle import Oracle
-    from volcaustics.reports.measuring.experiment.segments import beyond, start_normals
     from volcaustics.scenes import load_builtin
     from volcaustics.scenes.bounds import medium_bounds
 

@@ -30,7 +30,7 @@ def main(argv=None) -> int:
     parser.add_argument("--out", default="runs/bench-compare")
     args = parser.parse_args(argv)
 
-    from volcaustics.reports.measuring.results.sizing import REPORT_REFERENCE
+    from volcaustics.experiment.sizing import REPORT_REFERENCE
     from volcaustics.scenes import resolve_scene
 
     print(f"{'scene':10} {'renderer':16} {'render s':>9} {'compare s':>10} {'ref s':>7}  "

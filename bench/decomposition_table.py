@@ -17,10 +17,10 @@ import sys
 
 def main(argv=None) -> int:
     from volcaustics.approx.params import QUICK
+    from volcaustics.experiment.pipeline import run_experiment
     from volcaustics.metrics.decomposition import TERMS
     from volcaustics.metrics.intersection import CLASS_NAMES
-    from volcaustics.reports.measuring.experiment.measure_outputs import write_experiment
-    from volcaustics.reports.measuring.experiment.pipeline import run_experiment
+    from volcaustics.reports.presenting.exports.measure_files import write_experiment
     from volcaustics.scenes import load_builtin
     from volcaustics.scenes.catalogue import BUILTIN_NAMES
 

@@ -4,7 +4,7 @@
 
 For each scene, at the report's settings (quick preset, the report's seeds and
 sub-photons): the frames, then the E_∞ replays of the decomposition
-(``reports.measuring.experiment.exact_images.replayed``: A's emission with A's Fresnel and, for a
+(``experiment.exact_images.replayed``: A's emission with A's Fresnel and, for a
 deterministic Fresnel, with the stochastic one, and the light's true emission, every
 seed and sub-photon as one wavefront per Fresnel mode, each from the emission ray), timed,
 then once more with their rays kept (``Oracle.segments``). Then, in the same process, the
@@ -60,11 +60,11 @@ def main(argv=None) -> int:
     from volcaustics.approx.emission import true_rays
     from volcaustics.approx.light import LightFrustum
     from volcaustics.approx.params import QUICK
+    from volcaustics.experiment.approx_frames import render_frames
+    from volcaustics.experiment.exact_images import replay_seed, replayed
+    from volcaustics.experiment.measurement import EXACT_STEPS
+    from volcaustics.experiment.point_checks import checked_settings
     from volcaustics.reference.oracle import Oracle
-    from volcaustics.reports.measuring.experiment.approx_frames import render_frames
-    from volcaustics.reports.measuring.experiment.exact_images import replay_seed, replayed
-    from volcaustics.reports.measuring.experiment.measurement import EXACT_STEPS
-    from volcaustics.reports.measuring.experiment.point_checks import checked_settings
     from volcaustics.scenes import resolve_scene
     from volcaustics.scenes.bounds import medium_bounds
 

@@ -27,9 +27,9 @@ def main(argv=None) -> int:
     import numpy as np
 
     from volcaustics.approx.params import QUICK
+    from volcaustics.experiment.pipeline import run_experiment
+    from volcaustics.experiment.sizing import REPORT_REFERENCE, sized
     from volcaustics.reference.cache import existing_reference
-    from volcaustics.reports.measuring.experiment.pipeline import run_experiment
-    from volcaustics.reports.measuring.results.sizing import REPORT_REFERENCE, sized
     from volcaustics.reports.studies.gate.regression import baseline_entry, regression_check
     from volcaustics.scenes import load_builtin
 

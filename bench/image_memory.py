@@ -1,6 +1,6 @@
 """Bytes per pixel of each command's images: the constants that check image sizes
 against memory (``approx.limits.IMAGE_BYTES_PER_PIXEL``,
-``reference.settings.IMAGE_BYTES_PER_PIXEL``, ``reports.measuring.experiment.point_checks``).
+``reference.settings.IMAGE_BYTES_PER_PIXEL``, ``experiment.point_checks``).
 
     .venv/bin/python bench/image_memory.py [approx reference measure compare] [--sizes 1024,2048] [--seeds 1,2,4]
 

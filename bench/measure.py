@@ -20,7 +20,7 @@ import time
 
 def main(argv=None) -> int:
     from volcaustics.approx.params import QUICK
-    from volcaustics.reports.measuring.experiment.pipeline import run_experiment
+    from volcaustics.experiment.pipeline import run_experiment
     from volcaustics.scenes import load_builtin
     from volcaustics.scenes.catalogue import BUILTIN_NAMES
 

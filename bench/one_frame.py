@@ -45,11 +45,11 @@ def config_params(name: str, scene: str):
 
 
 def main(argv=None) -> int:
+    from volcaustics.experiment.measurement import MeasurementSettings
+    from volcaustics.experiment.pipeline import run_experiment
+    from volcaustics.experiment.sizing import REPORT_REFERENCE, sized
     from volcaustics.reference.render import render_reference
     from volcaustics.reports.measuring.cost_match import measured_time_ratio
-    from volcaustics.reports.measuring.experiment.measurement import MeasurementSettings
-    from volcaustics.reports.measuring.experiment.pipeline import run_experiment
-    from volcaustics.reports.measuring.results.sizing import REPORT_REFERENCE, sized
     from volcaustics.scenes import resolve_scene
     from volcaustics.scenes.catalogue import BUILTIN_NAMES
 

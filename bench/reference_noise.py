@@ -4,7 +4,7 @@
         [--target-noise caustic=0.005,fog=0.002,direct=0.002] [--max-seconds 120]
 
 Renders each scene's reference afresh (not from the cache; nothing is stored)
-with the main job's batch size (reports/measuring/results/sizing.py) until every component's
+with the main job's batch size (experiment/sizing.py) until every component's
 noise floor — Σ var / Σ mean² over non-glass pixels — is at its target or the
 time cap passes, and prints per component the floor reached, the render time at
 which it first met its target, the batches and photons, and what stopped it.
@@ -19,7 +19,7 @@ import sys
 
 
 def main(argv=None) -> int:
-    from volcaustics.reports.measuring.results.sizing import REPORT_REFERENCE, REPORT_TARGET
+    from volcaustics.experiment.sizing import REPORT_REFERENCE, REPORT_TARGET
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("scenes", nargs="*",

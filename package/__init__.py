@@ -2,10 +2,10 @@
 Photon Tracing (Wang, Wang & Chen).
 
 The installed namespace of the repository's top-level folders: ``volcaustics.scenes``,
-``volcaustics.approx``, ``volcaustics.reference``, ``volcaustics.metrics`` and
-``volcaustics.reports`` are the folders ``scenes/``, ``approx/``, ``reference/``,
-``metrics/`` and ``reports/`` (``pyproject.toml`` maps them with setuptools'
-``package-dir``), so no bare name that belongs to another distribution is installed.
+``volcaustics.approx``, ``volcaustics.reference``, ``volcaustics.metrics``,
+``volcaustics.experiment`` and ``volcaustics.reports`` are the folders ``scenes/``,
+``approx/``, ``reference/``, ``metrics/``, ``experiment/`` and ``reports/`` (``setup.py``
+maps them with setuptools' ``package-dir``), so no bare name that belongs to another distribution is installed.
 """
 
 from __future__ import annotations

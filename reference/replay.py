@@ -1,7 +1,7 @@
 """The exact replay as a wavefront: many replays traced together.
 
 The decomposition's E images replay every emission texel of every seed several times
-(sub-photons, ``reports.measuring.experiment.exact_images``). Replayed one by one, each step of
+(sub-photons, ``experiment.exact_images``). Replayed one by one, each step of
 each replay is one oracle query and one round of numpy, so a point paid thousands of
 small Dr.Jit launches and their fixed costs. Here every replay (a *group*: an emission
 state and its seed) of a point is one set of photons, each photon carrying its group's

@@ -3,7 +3,7 @@
 Each function runs what its command runs (``volcaustics measure``, ``approx``,
 ``reference``, ``sweep``, ``frames``: the same code, the same result store, the same
 numbers) and returns typed results instead of printing them: an
-:class:`~volcaustics.reports.measuring.results.experiment.Experiment`, a frame, a
+:class:`~volcaustics.experiment.result.Experiment`, a frame, a
 reference, a sweep's or a frame check's result, with pandas tables and numpy images.
 
 The renderers are ``render_approx`` and ``render_reference`` here, not
@@ -20,12 +20,12 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
+from volcaustics.experiment.measurement import MeasurementSettings, measurement_settings
+from volcaustics.experiment.result import Experiment
+from volcaustics.experiment.sizing import reference_settings
 from volcaustics.infra.errors import InputError
 from volcaustics.reference.settings import ReferenceSettings
-from volcaustics.reports.measuring.experiment.measurement import MeasurementSettings, measurement_settings
-from volcaustics.reports.measuring.results.experiment import Experiment
 from volcaustics.reports.measuring.results.output_folders import check_output_set
-from volcaustics.reports.measuring.results.sizing import reference_settings
 from volcaustics.reports.studies.sweep.study_limits import FRAME_CHECK_SEEDS
 
 if TYPE_CHECKING:
@@ -142,9 +142,9 @@ def measured_point(scene: str, params: ApproxParams, preset: str, seeds: int, *,
     (read back when stored), and for a matched preset its equal cost checked once and
     kept in the point's summary in the store (its experiment's ``equal_cost``). ``resolved``:
     ``scene`` resolved already (the command's); the scene is resolved once either way."""
+    from volcaustics.experiment.point_checks import checked_settings
     from volcaustics.reports.measuring import runner
     from volcaustics.reports.measuring.cost_match import equal_cost_check, with_auto_values
-    from volcaustics.reports.measuring.experiment.point_checks import checked_settings
     from volcaustics.scenes import resolve_scene
 
     resolved = resolved or resolve_scene(scene)
@@ -191,8 +191,8 @@ def render_approx(scene: str, *, preset: str = "paper", **params: Any) -> Frame:
     """
     from volcaustics.approx.params import preset as preset_params
     from volcaustics.approx.renderer import render
+    from volcaustics.experiment.point_checks import check_denoiser
     from volcaustics.reports.measuring.cost_match import with_auto_values
-    from volcaustics.reports.measuring.experiment.point_checks import check_denoiser
     from volcaustics.scenes import resolve_scene
 
     scene = scene_argument(scene)
@@ -348,7 +348,7 @@ def _sequence(value: object, argument: str) -> list:
 def _reference_table(reference: object) -> dict:
     """A sweep's ``[reference]`` table: a mapping as it is, ReferenceSettings as its fields
     that a spec file can set (REFERENCE_KEYS)."""
-    from volcaustics.reports.measuring.results.sizing import REFERENCE_KEYS
+    from volcaustics.experiment.sizing import REFERENCE_KEYS
 
     if isinstance(reference, ReferenceSettings):
         return {k: getattr(reference, k) for k in REFERENCE_KEYS}

@@ -17,7 +17,7 @@ import numpy as np
 from volcaustics.infra.imageio import MASK_LAYER  # re-exported: the image files name the one-channel layer
 
 # --- how far ground truth follows light: interactions (surface hits and medium collisions) of
-# an exact photon path (the decomposition's E_∞, reports.measuring.experiment.exact_images) and, at
+# an exact photon path (the decomposition's E_∞, experiment.exact_images) and, at
 # most as many, segments of a reference light path (reference.render.integrators). Light
 # trapped by total internal reflection (the held-out knot's tube) kept 0.3-0.4% of its
 # power after 128; after 512 < 0.1% on every built-in and held-out scene (docs/decisions.md

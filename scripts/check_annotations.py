@@ -12,7 +12,7 @@ import os
 import sys
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-FOLDERS = ("infra", "scenes", "approx", "reference", "metrics", "reports")
+FOLDERS = ("infra", "scenes", "approx", "reference", "metrics", "experiment", "reports")
 
 
 def missing(node: ast.FunctionDef | ast.AsyncFunctionDef, method: bool) -> list:

@@ -16,7 +16,7 @@ import os
 import sys
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-TREES = ("infra", "scenes", "approx", "reference", "metrics", "reports", "tests", "bench", "scripts")
+TREES = ("infra", "scenes", "approx", "reference", "metrics", "experiment", "reports", "tests", "bench", "scripts")
 OWN = ("volcaustics", "tests", *TREES)  # the first part of a module name of this project
 
 

@@ -16,7 +16,7 @@ import sys
 import tokenize
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-FOLDERS = ("infra", "scenes", "approx", "reference", "metrics", "reports")
+FOLDERS = ("infra", "scenes", "approx", "reference", "metrics", "experiment", "reports")
 TREES = (*FOLDERS, "tests", "bench", "scripts", "docs", "volcaustics", ".ci")
 TOP_FILES = ("README.md", "Makefile", "pyproject.toml", "setup.py", "mkdocs.yml")
 SCANNED = (".py", ".md", ".toml", ".sh", ".glsl", ".yml", ".cfg")

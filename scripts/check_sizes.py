@@ -14,7 +14,7 @@ import re
 import sys
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-FOLDERS = ("infra", "scenes", "approx", "reference", "metrics", "reports", "package")
+FOLDERS = ("infra", "scenes", "approx", "reference", "metrics", "experiment", "reports", "package")
 PAGE = os.path.join(ROOT, "docs", "development.md")
 MODULE_LINES = 350
 FUNCTION_LINES = 60

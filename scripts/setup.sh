@@ -79,7 +79,7 @@ fi
 # The install is setuptools' strict editable mode: a link tree (build/__editable__.*) that static
 # tools follow, unlike the import hook of the default mode. A new or removed module needs a new
 # link, so the list of the package's files is part of the stamp.
-modules=$(find package infra scenes approx reference metrics reports -type f \( -name '*.py' -o -name '*.glsl' \
+modules=$(find package infra scenes approx reference metrics experiment reports -type f \( -name '*.py' -o -name '*.glsl' \
           -o -name '*.toml' -o -name '*.ply' -o -name '*.md' -o -name '*.json' -o -name 'py.typed' \) -not -path '*/__pycache__/*' | sort)
 want=$( { cat pyproject.toml setup.py scripts/setup.sh; echo "$modules"; } | sha256sum | cut -d' ' -f1)
 if [ -x "$VENV/bin/python" ] && [ -f "$STAMP" ] && [ "$(cat "$STAMP")" = "$want" ]; then

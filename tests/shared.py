@@ -15,10 +15,10 @@ import numpy as np
 
 from volcaustics.approx.light import spot_constants
 from volcaustics.approx.params import QUICK
+from volcaustics.experiment.measurement import MeasurementSettings
 from volcaustics.infra.imageio import auto_exposure, write_exr, write_png
 from volcaustics.reference.settings import ReferenceSettings
 from volcaustics.reports.measuring import runner
-from volcaustics.reports.measuring.experiment.measurement import MeasurementSettings
 from volcaustics.scenes.model import (
     Camera,
     DiffuseSurface,

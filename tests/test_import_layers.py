@@ -111,7 +111,7 @@ def _level(room: str | None) -> int | None:
 
 def room_of(name: str) -> str | None:
     """The room of the layer line that module ``name`` (``volcaustics.reports.…``) is in:
-    the longest room (``measuring.experiment``, ``cli``) its dotted path starts with."""
+    the longest room (``measuring.results``, ``cli``) its dotted path starts with."""
     parts = name.split(".")[2:]
     for depth in range(len(parts), 0, -1):
         if ".".join(parts[:depth]) in ROOMS:

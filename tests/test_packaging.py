@@ -10,7 +10,7 @@ import sys
 import zipfile
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-FOLDERS = ("infra", "scenes", "approx", "reference", "metrics", "reports")
+FOLDERS = ("infra", "scenes", "approx", "reference", "metrics", "experiment", "reports")
 SHIPPED_SPECS = ("reports/studies/gate/budgets.toml", "reports/studies/sweep/variants.toml",
                  "reports/studies/best/best.toml", "reports/studies/sweep/density.toml")
 

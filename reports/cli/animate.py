@@ -51,8 +51,8 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from volcaustics.experiment.point_checks import checked_settings
     from volcaustics.reports.measuring.cost_match import with_auto_values
-    from volcaustics.reports.measuring.experiment.point_checks import checked_settings
     from volcaustics.reports.studies.animate.animation_frames import WORK
     from volcaustics.reports.studies.animate.animation_measure import run_animate
     from volcaustics.reports.studies.animate.animation_read import KIND

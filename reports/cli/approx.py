@@ -27,8 +27,8 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from volcaustics.experiment.point_checks import check_denoiser
     from volcaustics.reports.measuring.cost_match import with_auto_values
-    from volcaustics.reports.measuring.experiment.point_checks import check_denoiser
     from volcaustics.reports.presenting.exports.approx_files import run_approx
     from volcaustics.scenes import resolve_scene
 

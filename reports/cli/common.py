@@ -5,15 +5,15 @@ from __future__ import annotations
 
 import argparse
 
-from volcaustics.infra.errors import InputError
-from volcaustics.reference.settings import ReferenceSettings
-from volcaustics.reports.measuring.experiment.measurement import (
+from volcaustics.experiment.measurement import (
     MEASUREMENT_KEYS,
     MEASUREMENT_PARAMS,
     MeasurementSettings,
     measurement_settings,
 )
-from volcaustics.reports.measuring.results.sizing import REPORT_REFERENCE, REPORT_TARGET
+from volcaustics.experiment.sizing import REPORT_REFERENCE, REPORT_TARGET
+from volcaustics.infra.errors import InputError
+from volcaustics.reference.settings import ReferenceSettings
 from volcaustics.reports.presenting.page.parts import debiased_pct
 
 
@@ -110,7 +110,7 @@ def report_settings(args: argparse.Namespace) -> ReferenceSettings:
 
 
 def add_measurement_flags(p: argparse.ArgumentParser, *, default: str = "{value}, the report's") -> None:
-    """One flag per measurement setting (``reports.measuring.experiment.measurement``), e.g.
+    """One flag per measurement setting (``experiment.measurement``), e.g.
     ``--exact-subphotons N``; ``default`` says where an unset one comes from (``{value}``:
     the report's value)."""
     for param in MEASUREMENT_PARAMS:

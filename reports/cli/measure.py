@@ -7,6 +7,7 @@ import os
 import sys
 from typing import TYPE_CHECKING
 
+from volcaustics.experiment.result import EqualCost, Experiment, ModelTerm
 from volcaustics.reports.cli.common import (
     add_measurement_flags,
     add_report_reference,
@@ -15,7 +16,6 @@ from volcaustics.reports.cli.common import (
     num,
     report_settings,
 )
-from volcaustics.reports.measuring.results.experiment import EqualCost, Experiment, ModelTerm
 from volcaustics.reports.measuring.results.output_folders import check_output_set
 from volcaustics.reports.measuring.results.param_input import add_param_flags, params_from_args, preset_size_note
 
@@ -43,11 +43,11 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from volcaustics.experiment.point_summary import KIND as EXPERIMENT_KIND
     from volcaustics.reports.api import measured_point
-    from volcaustics.reports.measuring.experiment.measure_outputs import OUTPUT_FILES, write_experiment
-    from volcaustics.reports.measuring.experiment.point_summary import KIND as EXPERIMENT_KIND
     from volcaustics.reports.measuring.results.store import SUMMARY
     from volcaustics.reports.measuring.runner import results_store
+    from volcaustics.reports.presenting.exports.measure_files import OUTPUT_FILES, write_experiment
     from volcaustics.scenes import resolve_scene
 
     check_output_set(args.output, "-o", files=OUTPUT_FILES, kind=EXPERIMENT_KIND)

@@ -7,8 +7,8 @@ import sys
 from typing import TYPE_CHECKING
 
 from volcaustics.approx.params import PARAMS, PRESETS
+from volcaustics.experiment.measurement import MEASUREMENT_KEYS
 from volcaustics.reports.cli.common import UsageError, add_measurement_flags, measurement_from_args
-from volcaustics.reports.measuring.experiment.measurement import MEASUREMENT_KEYS
 from volcaustics.reports.measuring.pools.dask_address import WORKER_WAIT, check_reachable, parse_dask
 from volcaustics.reports.measuring.results.output_folders import check_output_set
 from volcaustics.reports.studies.sweep.study_limits import CRITERIA, MAX_POINTS

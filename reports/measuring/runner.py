@@ -32,6 +32,12 @@ from tqdm import tqdm
 from volcaustics.approx import Renderer
 from volcaustics.approx.cost_model import weight_sets
 from volcaustics.approx.params import ApproxParams
+from volcaustics.experiment.measurement import MeasurementSettings
+from volcaustics.experiment.pipeline import run_experiment
+from volcaustics.experiment.point_checks import measurement_bytes
+from volcaustics.experiment.result import Experiment
+from volcaustics.experiment.sizing import sized
+from volcaustics.experiment.summaries import ExperimentSummary
 from volcaustics.infra.errors import InputError
 from volcaustics.infra.memory import memory_budget
 from volcaustics.infra.storage import CacheError, cache_dir, cache_path
@@ -40,14 +46,8 @@ from volcaustics.reference.oracle import Oracle
 from volcaustics.reference.render import render_references
 from volcaustics.reference.render.tasks import PROCESS_LOCK
 from volcaustics.reference.settings import ReferenceSettings
-from volcaustics.reports.measuring.experiment.measurement import MeasurementSettings
-from volcaustics.reports.measuring.experiment.pipeline import run_experiment
-from volcaustics.reports.measuring.experiment.point_checks import measurement_bytes
 from volcaustics.reports.measuring.pools.executors import default_workers, disk_full, open_pool, run_tasks
-from volcaustics.reports.measuring.results.experiment import Experiment
-from volcaustics.reports.measuring.results.sizing import sized
 from volcaustics.reports.measuring.results.store import IMAGE_FILES, TABLES, Store, key_document, point_key
-from volcaustics.reports.measuring.results.summaries import ExperimentSummary
 from volcaustics.reports.measuring.results.tables import rows_of
 from volcaustics.scenes import resolve_scene
 from volcaustics.scenes.fields import scene_with

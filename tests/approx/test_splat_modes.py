@@ -9,7 +9,7 @@ import pytest
 
 from volcaustics.approx.params import PARAMS, QUICK, ParamError, defines, preset
 from volcaustics.approx.splat_modes import SPLAT_MODES, splat_mode
-from volcaustics.reports.measuring.experiment.kernels import KERNEL_RULES
+from volcaustics.experiment.kernels import KERNEL_RULES
 
 
 def test_the_table_offers_every_registered_mode_and_says_what_each_is():

@@ -12,8 +12,8 @@ import pytest
 from tests.shared import CLOSURE_REFERENCE, CLOSURE_SIZE
 from volcaustics.approx import Renderer
 from volcaustics.approx.params import PRESETS
-from volcaustics.reports.measuring.experiment.measurement import MeasurementSettings
-from volcaustics.reports.measuring.experiment.pipeline import run_experiment
+from volcaustics.experiment.measurement import MeasurementSettings
+from volcaustics.experiment.pipeline import run_experiment
 from volcaustics.scenes import load_builtin
 
 # the preset beams at the closure tests' 64², photon_res 32 (about its equal-cost share there)

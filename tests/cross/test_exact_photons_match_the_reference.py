@@ -7,8 +7,8 @@ exact intersections and the same random numbers (``reference.oracle``, stochasti
 Fresnel, STEPS interaction steps: < 0.1% of the power is alive afterwards, asserted),
 every medium collision splatted by the approximation's own splatter
 (``approx.Renderer.splat``: view, G-buffer depth test, kernel, σs/σ̄, phase,
-transmittance to the eye), through ``reports.measuring.experiment.exact.exact_caustic``. R: the
-reference light tracer's caustic (``reports.measuring.experiment.exact.reference_caustic``). Both are
+transmittance to the eye), through ``experiment.exact.exact_caustic``. R: the
+reference light tracer's caustic (``experiment.exact.reference_caustic``). Both are
 single-scattered light after ≥ 1 specular interaction, the replay's photons all
 start at the glass, so E and R are unbiased estimates of one image and must agree
 within their noise: this checks the splatter (kernel normalisation, weights,
@@ -53,9 +53,9 @@ import pytest
 
 from tests.shared import write_compared_images
 from volcaustics.approx import ApproxParams, Renderer
+from volcaustics.experiment.exact import exact_caustic, pixel_footprint, reference_caustic
 from volcaustics.metrics.noise import batch_energy_ratio, debiased_relative_mse
 from volcaustics.reference.settings import ReferenceSettings
-from volcaustics.reports.measuring.experiment.exact import exact_caustic, pixel_footprint, reference_caustic
 from volcaustics.scenes import load_builtin
 from volcaustics.scenes.catalogue import BUILTIN_NAMES
 from volcaustics.scenes.model import Phase
@@ -117,8 +117,8 @@ CASES["sphere1_absorbing"] = Case("sphere1", variant=_absorbing)  # Beer–Lambe
 class Computed:
     scene: object
     params: ApproxParams
-    exact: object      # reports.measuring.experiment.exact.ExactCaustic
-    reference: object  # reports.measuring.experiment.exact.ReferenceCaustic
+    exact: object      # experiment.exact.ExactCaustic
+    reference: object  # experiment.exact.ReferenceCaustic
     keep: np.ndarray   # H×W bool: pixels where neither renderer sees glass
 
 

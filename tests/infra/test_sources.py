@@ -73,7 +73,7 @@ def test_every_folder_a_key_hashes_exists_and_a_missing_one_is_an_error():
     """A folder moved away would hash nothing, leaving a key blind to its code (the page
     pictures' key named a folder after it had moved): every folder the result and page
     keys name exists, and a missing one raises (the negative control)."""
-    from volcaustics.reports.measuring.results.versions import EXPERIMENT_FOLDERS, code_version
+    from volcaustics.experiment.versions import EXPERIMENT_FOLDERS, code_version
     from volcaustics.reports.presenting.page.page_write import PAGE_FOLDERS
 
     assert len(code_version(EXPERIMENT_FOLDERS)) == 16 and len(code_version(PAGE_FOLDERS)) == 16

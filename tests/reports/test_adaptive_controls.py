@@ -11,9 +11,9 @@ import pytest
 
 from volcaustics.approx import Renderer
 from volcaustics.approx.params import QUICK
+from volcaustics.experiment.measurement import MeasurementSettings
+from volcaustics.experiment.pipeline import run_experiment
 from volcaustics.reference.settings import ReferenceSettings
-from volcaustics.reports.measuring.experiment.measurement import MeasurementSettings
-from volcaustics.reports.measuring.experiment.pipeline import run_experiment
 from volcaustics.scenes import load_builtin
 
 SIZE = 64

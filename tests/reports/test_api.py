@@ -13,10 +13,10 @@ import pytest
 
 from tests.shared import SINGLE_SCATTERING
 from volcaustics.approx.params import QUICK
+from volcaustics.experiment.result import Experiment
+from volcaustics.experiment.sizing import REPORT_REFERENCE
 from volcaustics.infra.errors import InputError
 from volcaustics.reports.cli import main
-from volcaustics.reports.measuring.results.experiment import Experiment
-from volcaustics.reports.measuring.results.sizing import REPORT_REFERENCE
 
 SMALL = {"width": 32, "height": 32, "photon_res": 64, "light_res": 64, "layers": 2}
 REFERENCE = dataclasses.replace(REPORT_REFERENCE, photons=65536, spp=8, batches=4, target_noise=None, max_scatter=1)
@@ -225,7 +225,7 @@ def test_a_path_object_names_a_scene_and_dir_lists_the_public_functions(tmp_path
 
 
 def test_a_summary_that_is_not_an_experiments_is_refused_naming_what_it_lacks():
-    from volcaustics.reports.measuring.results.summaries import SCHEMAS
+    from volcaustics.experiment.summaries import SCHEMAS
 
     with pytest.raises(InputError, match="no images"):
         Experiment.from_summary({"schema": SCHEMAS["experiment"], "scene": "s"})  # type: ignore[typeddict-item]
@@ -251,7 +251,7 @@ def test_two_names_of_one_scene_are_two_points_each_labelled_its_own():
 
 
 def test_the_model_term_reads_into_its_types_a_component_without_numbers_keeps_its_note():
-    from volcaustics.reports.measuring.results.experiment import ModelTerm
+    from volcaustics.experiment.result import ModelTerm
 
     estimate = {"value": 0.1, "debiased": 0.09, "standard_error": 0.01}
     caustic = {name: estimate for name in ("energy_share", "relmse_own", "relmse_part")}

@@ -141,7 +141,7 @@ def test_a_frame_float32_cannot_hold_is_refused_before_it_is_written(ctx, tmp_pa
     from volcaustics.approx import Renderer
     from volcaustics.approx.frame_checks import NonFiniteFrame
     from volcaustics.approx.params import PARAMS, PRESETS, params_class
-    from volcaustics.reports.measuring.experiment.approx_frames import render_frames
+    from volcaustics.experiment.approx_frames import render_frames
     from volcaustics.reports.presenting.exports.approx_files import run_approx
     from volcaustics.scenes import resolve_scene
 

@@ -8,8 +8,8 @@ import json
 import numpy as np
 import pytest
 
+from volcaustics.experiment import image_rows as images
 from volcaustics.metrics import image as im
-from volcaustics.reports.measuring.experiment import image_rows as images
 
 FLOOR_DAMAGES = {
     "NaN": '{"value": NaN}', "Infinity": '{"value": Infinity}', "null value": '{"value": null}',
@@ -98,7 +98,7 @@ def test_an_edited_point_summary_counts_as_damaged(tmp_path, damage):
 
 def test_a_metric_floor_outlives_a_change_to_the_renderers(tmp_path, monkeypatch):
     """A floor is the reference against its own noisy copy: its key holds the metrics'
-    code (metrics/ and reports/measuring/experiment/image_rows.py), not the renderers', so the floors
+    code (metrics/ and experiment/image_rows.py), not the renderers', so the floors
     cached before a shader or exact-replay change still serve; a change to the metrics
     computes them again."""
     monkeypatch.setenv("VOLCAUSTICS_CACHE", str(tmp_path))

@@ -19,11 +19,11 @@ import pytest
 from tests.shared import CLOSURE_REFERENCE, CLOSURE_SIZE, flat_spot
 from volcaustics.approx import Renderer
 from volcaustics.approx.params import PRESETS, QUICK
+from volcaustics.experiment import exact_images
+from volcaustics.experiment.measurement import MeasurementSettings
+from volcaustics.experiment.pipeline import run_experiment
 from volcaustics.metrics.decomposition import TERMS
 from volcaustics.reports.measuring.cost_match import with_auto_values
-from volcaustics.reports.measuring.experiment import exact_images
-from volcaustics.reports.measuring.experiment.measurement import MeasurementSettings
-from volcaustics.reports.measuring.experiment.pipeline import run_experiment
 from volcaustics.scenes import load_builtin, load_scene, resolve_scene
 from volcaustics.scenes.catalogue import BUILTIN_NAMES, HELDOUT_NAMES, heldout_path
 

@@ -62,7 +62,7 @@ def _image_numbers(path) -> pd.DataFrame:
 
 def test_compare_reproduces_measure_on_the_approximations_own_files(env, capsys):
     """The same frames through files: every image metric, floor, noise and interval equal
-    to `measure`'s (one code path: reports.measuring.experiment.image_rows)."""
+    to `measure`'s (one code path: experiment.image_rows)."""
     assert compare(env, env / "s0.exr", env / "s1.exr", name="approx-files") == 0
     assert "relative MSE debiased" in capsys.readouterr().out
     ours, theirs = _image_numbers(env / "cmp" / "images.parquet"), _image_numbers(env / "measure" / "images.parquet")

@@ -1,4 +1,4 @@
-"""reports.measuring.experiment.exact: subsets, the box filter, and the exact caustic's batches adding up to
+"""experiment.exact: subsets, the box filter, and the exact caustic's batches adding up to
 the caustic of all photons (the splatter is linear in the photons)."""
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ import pytest
 
 from tests.shared import make_scene, sphere_spec, write_compared_images
 from volcaustics.approx import ApproxParams, Renderer
-from volcaustics.reports.measuring.experiment.exact import (
+from volcaustics.experiment.exact import (
     box_downsample,
     exact_caustic,
     exact_photons,
@@ -93,7 +93,7 @@ def test_sub_photons_pool_independent_replays_of_the_same_texels(gl_context):
     grid has its own random numbers (the first A's), their pool keeps the texel indices
     (subsets stay paired) at 1/M of the power, and pooling M copies of one replay is that
     replay's image."""
-    from volcaustics.reports.measuring.experiment.exact_images import pooled, replay_seed
+    from volcaustics.experiment.exact_images import pooled, replay_seed
 
     assert replay_seed(7, 0) == 7 and len({replay_seed(7, m) for m in range(1, 9)} | {7, 8, 9}) == 11
     scene = make_scene([(sphere_spec(0.4, (0, 1.5, 0), 16), 1.5, (0, 0, 0))], cutoff=20.0, width=32, height=32)

@@ -1,4 +1,4 @@
-"""reports.measuring.experiment.exact_store: the decomposition's exact images do not depend on how
+"""experiment.exact_store: the decomposition's exact images do not depend on how
 the approximation searched, are stored under their own key and read back bit for bit;
 what they do depend on gives another key; a damaged entry is computed again."""
 
@@ -13,12 +13,12 @@ import pytest
 
 from tests.shared import make_scene, sphere_spec
 from volcaustics.approx import ApproxParams, Renderer
+from volcaustics.experiment.exact_store import EXACT_IMAGES
+from volcaustics.experiment.measurement import MeasurementSettings
+from volcaustics.experiment.pipeline import run_experiment
 from volcaustics.reference.oracle import Oracle
 from volcaustics.reference.render import render_reference
 from volcaustics.reference.settings import ReferenceSettings
-from volcaustics.reports.measuring.experiment.exact_store import EXACT_IMAGES
-from volcaustics.reports.measuring.experiment.measurement import MeasurementSettings
-from volcaustics.reports.measuring.experiment.pipeline import run_experiment
 
 PARAMS = ApproxParams(photon_res=48, light_res=128, width=32, height=32, splat_radius=0.03, steps=3, seed=5)
 # every parameter the table marks exact=False, changed at once
@@ -63,7 +63,7 @@ def test_exact_images_reused_across_the_search_bit_for_bit(setup, monkeypatch):
     reused = measure(other)
     assert reused.summary["exact"]["images_reused"] and len(_stored()) == 1
     assert reused.summary["exact"]["images_key"] == first.summary["exact"]["images_key"]
-    monkeypatch.setattr("volcaustics.reports.measuring.experiment.exact_images.load_exact", lambda key, document: None)
+    monkeypatch.setattr("volcaustics.experiment.exact_images.load_exact", lambda key, document: None)
     fresh = measure(other)
     assert not fresh.summary["exact"]["images_reused"]
     for name, image in _exact_images(fresh).items():

@@ -166,7 +166,7 @@ def test_fail_closed_cases_exit_2(bare, capsys, case):
 
 
 def test_a_nan_metric_is_an_error_not_a_pass():
-    from volcaustics.reports.measuring.results.experiment import Estimate
+    from volcaustics.experiment.result import Estimate
     from volcaustics.reports.studies.gate.budgets import GateError, budget_checks
 
     with pytest.raises(GateError, match="NaN"):

@@ -7,9 +7,9 @@ from __future__ import annotations
 import dataclasses
 
 from tests.shared import FULL_MEASUREMENT, GATE_POINT, GATE_REFERENCE
+from volcaustics.experiment.image_rows import IMAGE_METRICS
+from volcaustics.experiment.measurement import GATE_IMAGE_METRICS
 from volcaustics.reports.measuring import runner
-from volcaustics.reports.measuring.experiment.image_rows import IMAGE_METRICS
-from volcaustics.reports.measuring.experiment.measurement import GATE_IMAGE_METRICS
 from volcaustics.reports.measuring.results.store import Store
 from volcaustics.reports.studies.gate.budgets import COMPONENT_KEYS
 

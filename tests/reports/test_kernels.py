@@ -1,4 +1,4 @@
-"""The kernels of the decomposition's images (``reports.measuring.experiment.kernels``): A's paired
+"""The kernels of the decomposition's images (``experiment.kernels``): A's paired
 subsets average to the real frames for every splat mode (differential beams included: their
 kernels rebuilt from the records are the frame's, bit for bit) (negative control: subsets
 splatted with their own density, the old path), the widths pass gives the frame's own
@@ -15,13 +15,13 @@ import pytest
 from volcaustics.approx import Renderer
 from volcaustics.approx.params import PRESETS, QUICK
 from volcaustics.approx.splat import record_kernels, record_splats, splats_from_arrays, splatted, with_kernels
+from volcaustics.experiment import exact_images as exact_module
+from volcaustics.experiment.approx_frames import render_frames
+from volcaustics.experiment.exact import subset_images
+from volcaustics.experiment.exact_images import approx_subsets, exact_images
+from volcaustics.experiment.measurement import MeasurementSettings
 from volcaustics.metrics.noise import debiased_relative_mse
 from volcaustics.reference.oracle import Oracle
-from volcaustics.reports.measuring.experiment import exact_images as exact_module
-from volcaustics.reports.measuring.experiment.approx_frames import render_frames
-from volcaustics.reports.measuring.experiment.exact import subset_images
-from volcaustics.reports.measuring.experiment.exact_images import approx_subsets, exact_images
-from volcaustics.reports.measuring.experiment.measurement import MeasurementSettings
 from volcaustics.scenes import load_builtin, load_scene
 from volcaustics.scenes.catalogue import HELDOUT_NAMES, heldout_path
 from volcaustics.scenes.formats import STATUS_COLLIDED

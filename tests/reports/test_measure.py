@@ -1,4 +1,4 @@
-"""`volcaustics measure` and ``reports.measuring.experiment``: one experiment, its tables, and
+"""`volcaustics measure` and ``experiment``: one experiment, its tables, and
 the caustic's error decomposition explaining the whole error on every built-in."""
 
 from __future__ import annotations
@@ -12,10 +12,10 @@ import pytest
 
 from tests.shared import SINGLE_SCATTERING
 from volcaustics.approx.params import QUICK, ApproxParams, ParamError
+from volcaustics.experiment.image_rows import IMAGE_METRICS
 from volcaustics.metrics.intersection import CLASS_NAMES
 from volcaustics.reference.settings import ReferenceSettings
 from volcaustics.reports.cli import main
-from volcaustics.reports.measuring.experiment.image_rows import IMAGE_METRICS
 from volcaustics.scenes.formats import COLOUR_LAYERS
 
 SIZE = 64
@@ -117,7 +117,7 @@ def test_measure_writes_tidy_tables_exr_and_summary(empty_cache, tmp_path, capsy
 
     # Ctrl-C while a second run writes its set (inside the EXR writer, after the tables):
     # the first run's eight files stay, byte for byte, and no temporaries
-    import volcaustics.reports.measuring.experiment.measure_outputs as write
+    import volcaustics.reports.presenting.exports.measure_files as write
 
     first = {p.name: p.read_bytes() for p in out.iterdir()}
     assert len(first) == 8
@@ -156,7 +156,7 @@ def test_measure_output_that_is_a_file_exits_2_before_rendering(empty_cache, tmp
 def test_start_normals_follow_the_photon_across_steps():
     """Step k's start normal is step k−1's hit normal of the same photon (records are
     not in photon order after compaction), nan at step 1 and where there was no hit."""
-    from volcaustics.reports.measuring.experiment.segments import start_normals as _start_normals
+    from volcaustics.experiment.segments import start_normals as _start_normals
     from volcaustics.scenes.formats import RECORD_DTYPE
 
     step1 = np.zeros(3, RECORD_DTYPE)
@@ -198,8 +198,8 @@ def test_measure_passes_every_measurement_setting_on(cache, tmp_path):
 def test_the_sub_photons_are_a_setting_of_the_result(cache, tmp_path):
     """The measurement setting exact_subphotons is recorded in the summary and part of a
     stored result's key: the runner measures a point once per setting."""
+    from volcaustics.experiment.measurement import MeasurementSettings
     from volcaustics.reports.measuring import runner
-    from volcaustics.reports.measuring.experiment.measurement import MeasurementSettings
     from volcaustics.reports.measuring.results.store import Store
 
     keys = {}
@@ -220,8 +220,8 @@ def test_subset_batches_and_exact_steps_are_settings_of_the_result(cache, tmp_pa
     """The other measurement settings reach the measurement: the decomposition's batches are
     subset_batches per seed, E_∞ replays exact_steps steps; each is in the result's key and
     its summary. Negative control: a value out of range is refused by name, before any work."""
+    from volcaustics.experiment.measurement import MeasurementSettings
     from volcaustics.reports.measuring import runner
-    from volcaustics.reports.measuring.experiment.measurement import MeasurementSettings
     from volcaustics.reports.measuring.results.store import Store
 
     point = runner.Point("refocus", dataclasses.replace(PARAMS, width=32, height=32, photon_res=64, light_res=64),
@@ -243,8 +243,8 @@ def test_a_reference_stopped_at_its_time_cap_above_its_target_is_said(empty_cach
     """A reference whose time cap stops it above its noise target: summary.json names the
     component, its floor and target (its reference's ``short_of_target``) and warns; one that
     met its target (the negative control, another size so another cache entry) does not."""
-    from volcaustics.reports.measuring.experiment.measurement import MeasurementSettings
-    from volcaustics.reports.measuring.experiment.pipeline import run_experiment
+    from volcaustics.experiment.measurement import MeasurementSettings
+    from volcaustics.experiment.pipeline import run_experiment
     from volcaustics.scenes import load_builtin
 
     scene = load_builtin("sphere1")
@@ -269,7 +269,7 @@ def test_the_measurement_settings_are_one_table_checked_once_when_made():
     """Every MeasurementSettings field carries its Param (the table the flags and the
     [measurement] keys come from); a value out of range or of the wrong type is refused
     when the settings are made, naming the setting and its default."""
-    from volcaustics.reports.measuring.experiment.measurement import (
+    from volcaustics.experiment.measurement import (
         MEASUREMENT_KEYS,
         MEASUREMENT_PARAMS,
         MeasurementSettings,
@@ -291,8 +291,8 @@ def test_the_reports_views_and_measures_layers_do_not_push_each_other_out(cache,
     measured once more, and kept with both: neither command measures it again after that
     (before: each removed the other's copy, so the report and measure took turns)."""
     from tests.shared import GATE_POINT, GATE_REFERENCE
+    from volcaustics.experiment.measurement import MeasurementSettings
     from volcaustics.reports.measuring import runner
-    from volcaustics.reports.measuring.experiment.measurement import MeasurementSettings
     from volcaustics.reports.measuring.results.store import Store
 
     store = Store(str(tmp_path / "store"))

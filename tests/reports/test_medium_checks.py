@@ -43,7 +43,7 @@ def test_a_scene_file_without_scattering_is_refused_by_measure_and_compare(tmp_p
 
 def test_the_builtins_pass_the_medium_check():
     """The negative control: every built-in is measurable (the check refuses nothing real)."""
-    from volcaustics.reports.measuring.experiment.point_checks import MAX_OPTICAL_DEPTH, check_medium
+    from volcaustics.experiment.point_checks import MAX_OPTICAL_DEPTH, check_medium
     from volcaustics.scenes import BUILTIN_NAMES, load_builtin
     from volcaustics.scenes.fields import optical_depth
 

@@ -7,8 +7,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from volcaustics.experiment import image_rows as images
 from volcaustics.reference.cache import ReferenceResult
-from volcaustics.reports.measuring.experiment import image_rows as images
 from volcaustics.reports.presenting.figures.scales import SCALES
 
 

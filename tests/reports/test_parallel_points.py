@@ -49,7 +49,7 @@ def test_a_point_failing_on_a_worker_fails_the_run(cache, tmp_path, monkeypatch)
 def test_points_whose_images_fit_the_memory_only_one_at_a_time_run_in_this_process(cache, tmp_path, monkeypatch):
     """``check_frame`` gives one point the whole memory budget: two such points at once
     could exhaust the machine, so they run one after another here."""
-    from volcaustics.reports.measuring.experiment.point_checks import measurement_bytes
+    from volcaustics.experiment.point_checks import measurement_bytes
 
     one = measurement_bytes(32, 32, POINT.seeds)
     monkeypatch.setattr(runner, "default_workers", lambda: 2)

@@ -62,7 +62,7 @@ def test_a_parser_module_that_loads_a_heavy_library_is_caught():
 def test_exact_steps_is_the_reference_path_length():
     """measurement.EXACT_STEPS is written out (its module loads with every parser; the
     other loads numpy): it must equal scenes.formats.PATH_INTERACTIONS."""
-    from volcaustics.reports.measuring.experiment.measurement import EXACT_STEPS
+    from volcaustics.experiment.measurement import EXACT_STEPS
     from volcaustics.scenes.formats import PATH_INTERACTIONS
 
     assert EXACT_STEPS == PATH_INTERACTIONS

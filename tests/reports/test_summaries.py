@@ -5,8 +5,8 @@ import json
 
 import pytest
 
+from volcaustics.experiment.summaries import SCHEMAS, check_schema
 from volcaustics.infra.errors import InputError
-from volcaustics.reports.measuring.results.summaries import SCHEMAS, check_schema
 from volcaustics.reports.studies.animate.animation_read import KIND, load_animation
 
 

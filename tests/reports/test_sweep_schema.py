@@ -10,10 +10,10 @@ import pandas as pd
 import pytest
 
 from volcaustics.approx.params import PARAMS, ApproxParams
+from volcaustics.experiment.versions import code_version
 from volcaustics.infra.storage import file_sha256
 from volcaustics.reports.measuring.results.points_table import POINT_COLUMNS, point_row
 from volcaustics.reports.measuring.results.store import document_sha256
-from volcaustics.reports.measuring.results.versions import code_version
 from volcaustics.reports.presenting.page.html import sweep_section
 from volcaustics.reports.presenting.report.sweep_store import ReportError, load_sweep
 from volcaustics.reports.studies.sweep.sweep_run import MANIFEST_SEAL

@@ -1,7 +1,7 @@
 // splat = density, the widths pass: the kernel σ the splat pass would give each splat
 // (splat.vert.glsl) from a density pre-pass of any photons, written out by transform
 // feedback instead of drawn. The decomposition splats every image of a seed with the
-// widths of that seed's real frame (reports/measuring/experiment/kernels.py).
+// widths of that seed's real frame (experiment/kernels.py).
 #include "common/photon.glsl"
 #include "splat/density_width.glsl"
 

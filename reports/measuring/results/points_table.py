@@ -11,7 +11,7 @@ from volcaustics.metrics.decomposition import TERMS
 from volcaustics.scenes.fields import field_columns
 
 if TYPE_CHECKING:
-    from volcaustics.reports.measuring.results.summaries import ExperimentSummary
+    from volcaustics.experiment.summaries import ExperimentSummary
 
 # What a store's points table holds besides the parameters (point_row writes exactly these):
 # its schema, which ``report --sweep`` checks a store against.

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from volcaustics.reports.measuring.results.experiment import Experiment
+from volcaustics.experiment.result import Experiment
 
 
 @dataclass
@@ -16,7 +16,7 @@ class SceneResult:
     key: str
     experiment: Experiment   # the point's summary, typed (``Experiment.from_summary``)
     tables: dict             # "segments", "photons", "images" → pandas DataFrame
-    views: dict              # reports.measuring.experiment.point_summary.VIEWS name → H×W×3 float32
+    views: dict              # experiment.point_summary.VIEWS name → H×W×3 float32
     checks: list = field(default_factory=list)   # reports.studies.gate.budgets.Check
     gate_note: str = ""      # why the gate could not check this scene (no budgets, a GateError)
     budgeted: bool = False   # the budgets have this scene

@@ -4,7 +4,7 @@ Layout of a store folder::
 
     points/<key>/segments.parquet, photons.parquet, images.parquet
     points/<key>/views.exr        optional: the images a report shows
-                                  (``reports.measuring.experiment.point_summary.VIEWS``; the report's store)
+                                  (``experiment.point_summary.VIEWS``; the report's store)
     points/<key>/layers.exr       optional: the error decomposition's images and terms
                                   (what ``measure -o DIR`` writes as decomposition.exr)
     points/<key>/summary.json     written last: the experiment's summary, the key's
@@ -45,6 +45,9 @@ from typing import TYPE_CHECKING, Protocol, cast
 
 import pandas as pd
 
+from volcaustics.experiment.result import Experiment
+from volcaustics.experiment.summaries import ExperimentSummary, of_schema
+from volcaustics.experiment.versions import code_version
 from volcaustics.infra.imageio import read_exr, write_exr
 from volcaustics.infra.storage import (
     atomic_write_text,
@@ -54,11 +57,8 @@ from volcaustics.infra.storage import (
     owner,
     read_json_object,
 )
-from volcaustics.reports.measuring.results.experiment import Experiment
 from volcaustics.reports.measuring.results.points_table import point_row
-from volcaustics.reports.measuring.results.summaries import ExperimentSummary, of_schema
 from volcaustics.reports.measuring.results.tables import plain, table
-from volcaustics.reports.measuring.results.versions import code_version
 
 if TYPE_CHECKING:
     from volcaustics.approx.params import ApproxParams
@@ -68,7 +68,7 @@ if TYPE_CHECKING:
 
     class _Experiment(Protocol):
         """What :meth:`Store.write_point` reads of an experiment
-        (``reports.measuring.experiment.pipeline.Experiment``): its summary, and the
+        (``experiment.pipeline.Experiment``): its summary, and the
         tables and images it names by attribute."""
 
         @property
@@ -157,7 +157,7 @@ class Store:
 
     def images(self, key: str, name: str) -> dict:
         """The point's images ``name`` of :data:`IMAGE_FILES` (layer name → array): its
-        views (``reports.measuring.experiment.point_summary.VIEWS``) or its decomposition's layers."""
+        views (``experiment.point_summary.VIEWS``) or its decomposition's layers."""
         layers, _ = read_exr(os.path.join(self.point_dir(key), IMAGE_FILES[name]))
         return layers
 

@@ -7,7 +7,7 @@ from __future__ import annotations
 import math
 from html import escape
 
-from volcaustics.reports.measuring.results.versions import code_version
+from volcaustics.experiment.versions import code_version
 
 SHOWN = ("caustic", "combined")
 

@@ -12,9 +12,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from volcaustics.experiment.photons import FATES
 from volcaustics.metrics.decomposition import TERMS
 from volcaustics.metrics.intersection import OUTCOME_CLASSES
-from volcaustics.reports.measuring.experiment.photons import FATES
 from volcaustics.reports.presenting.figures.plotting import OKABE_ITO, png_bytes, pyplot
 
 if TYPE_CHECKING:

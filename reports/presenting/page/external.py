@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from html import escape
 
-from volcaustics.reports.measuring.results.versions import code_version
+from volcaustics.experiment.versions import code_version
 from volcaustics.reports.presenting.page.data_uris import SCALES, colour_bar_css, component_images, exposures
 from volcaustics.reports.presenting.page.parts import CSS, SCRIPT, debiased_pct
 from volcaustics.reports.presenting.page.parts import colour_bar as _colour_bar

@@ -1,4 +1,4 @@
-"""The page's view of the single-scattering model's own error (``reports.measuring.experiment.model_rows``):
+"""The page's view of the single-scattering model's own error (``experiment.model_rows``):
 an overview cell per component and a table per scene, beside the decomposition."""
 
 from __future__ import annotations

@@ -12,6 +12,7 @@ from typing import TYPE_CHECKING
 
 from tqdm import tqdm
 
+from volcaustics.experiment.versions import code_version
 from volcaustics.infra.storage import (
     atomic_write_text,
     atomic_write_texts,
@@ -21,7 +22,6 @@ from volcaustics.infra.storage import (
     read_json_object,
 )
 from volcaustics.reports.measuring.results.tables import plain
-from volcaustics.reports.measuring.results.versions import code_version
 from volcaustics.reports.presenting.figures.plotting import remove_stale_figures
 from volcaustics.reports.presenting.page import charts
 from volcaustics.reports.presenting.page.data_uris import component_images, data_uri, render_uri
@@ -33,7 +33,7 @@ from volcaustics.reports.studies.sweep.variants import draw_variants, is_variant
 
 if TYPE_CHECKING:
     from volcaustics.reports.measuring.results.scene_result import SceneResult
-    from volcaustics.reports.measuring.results.summaries import SweepTables
+    from volcaustics.reports.measuring.results.sweep_tables import SweepTables
 
 
 def write_report(out_dir: str, results: list, summary: dict, sweep: SweepTables | None = None, *,

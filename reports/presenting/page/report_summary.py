@@ -14,17 +14,17 @@ import dataclasses
 import math
 import os
 import time
-from typing import TYPE_CHECKING, cast
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
 from volcaustics.approx.cost import TIMED_PASSES
 from volcaustics.approx.params import PARAMS
+from volcaustics.experiment.photons import FATES
+from volcaustics.experiment.versions import code_version, library_versions
 from volcaustics.metrics.decomposition import TERMS
 from volcaustics.metrics.intersection import OUTCOME_CLASSES
-from volcaustics.reports.measuring.experiment.photons import FATES
 from volcaustics.reports.measuring.results.tables import rows_of
-from volcaustics.reports.measuring.results.versions import code_version, library_versions
 from volcaustics.reports.presenting.page.data_uris import SCALES, exposures
 from volcaustics.reports.studies.best.best_search import verdict
 from volcaustics.reports.studies.sweep.best_figures import role_rows
@@ -36,11 +36,11 @@ if TYPE_CHECKING:
     import pandas as pd
 
     from volcaustics.approx.params import ApproxParams
+    from volcaustics.experiment.measurement import MeasurementSettings
+    from volcaustics.experiment.result import Closure, Experiment
     from volcaustics.reference.settings import ReferenceSettings
-    from volcaustics.reports.measuring.experiment.measurement import MeasurementSettings
-    from volcaustics.reports.measuring.results.experiment import Closure, Experiment
     from volcaustics.reports.measuring.results.scene_result import SceneResult
-    from volcaustics.reports.measuring.results.summaries import SweepTables
+    from volcaustics.reports.measuring.results.sweep_tables import SweepTables
 
 # Wang, Wang & Chen: intersection estimation takes about 70% of a frame and splatting about 23% on their GPU
 OUTPUT_FILES = ("index.html", "summary.json")  # in --out; the manifest, summary.json, last
@@ -109,7 +109,8 @@ def timing(e: Experiment) -> dict:
     time outside the passes (reading images back, the host's work)."""
     t = e.timings
     frame = t["frame_wall"]
-    passes = [{"pass": name, "seconds": t[name], "share": t[name] / frame} for name in PASSES if name in t]
+    passes: list[dict[str, Any]] = [{"pass": name, "seconds": t[name], "share": t[name] / frame}
+                                    for name in PASSES if name in t]
     other = max(frame - sum(p["seconds"] for p in passes), 0.0)
     passes.append({"pass": "other", "seconds": other, "share": other / frame})
     return {"method": e.cost.timing_method, "frame_s": frame, "passes": passes, "paper_shares": PAPER_SHARES,
@@ -120,7 +121,7 @@ def timing(e: Experiment) -> dict:
 def scene_page(result: SceneResult, *, exposures: dict) -> dict:
     """Everything the page shows of one scene (``result``: ``reports.measuring.results.scene_result.SceneResult``)."""
     e = result.experiment
-    components = {}
+    components: dict[str, dict[str, Any]] = {}
     for component in COLOUR_LAYERS:
         metrics = {m.metric: m.estimate for m in e.images if m.component == component}
         components[component] = {name: metrics[name].to_json() if name in metrics else {} for name in HEADLINE}

@@ -15,10 +15,10 @@ import os
 from collections.abc import Iterable, Sequence
 from typing import TYPE_CHECKING, cast
 
+from volcaustics.experiment.point_checks import measured_settings
+from volcaustics.experiment.timing import Clock
 from volcaustics.reports.measuring import runner
-from volcaustics.reports.measuring.experiment.point_checks import measured_settings
 from volcaustics.reports.measuring.results.scene_result import SceneResult
-from volcaustics.reports.measuring.results.timing import Clock
 from volcaustics.reports.presenting.page.animations import animation_rows
 from volcaustics.reports.presenting.page.external import comparison_images, comparison_row
 from volcaustics.reports.presenting.page.frame_check_section import frames_rows
@@ -34,8 +34,8 @@ from volcaustics.scenes import SceneError, resolve_scene
 
 if TYPE_CHECKING:
     from volcaustics.approx.params import ApproxParams
+    from volcaustics.experiment.measurement import MeasurementSettings
     from volcaustics.reference.settings import ReferenceSettings
-    from volcaustics.reports.measuring.experiment.measurement import MeasurementSettings
 
 
 def collect_scenes(names: Sequence[str], params: ApproxParams, *, seeds: int, reference_settings: ReferenceSettings,
@@ -50,7 +50,7 @@ def collect_scenes(names: Sequence[str], params: ApproxParams, *, seeds: int, re
         camera size where unset).
     seeds : frames per experiment (seeds params.seed …).
     reference_settings : ``reference.settings.ReferenceSettings``, sized per scene.
-    measurement : ``reports.measuring.experiment.measurement.MeasurementSettings``.
+    measurement : ``experiment.measurement.MeasurementSettings``.
     budgets : ``reports.studies.gate.budgets.load_budgets``'s result; scenes without budgets get none.
     baseline : ``reports.studies.gate.regression.load_baseline``'s result, for the regression test.
     clock : receives the seconds of each stage.

@@ -8,12 +8,12 @@ import os
 import pandas as pd
 
 from volcaustics.approx.params import PARAMS, ApproxParams
+from volcaustics.experiment.versions import code_version
 from volcaustics.infra.errors import InputError
 from volcaustics.infra.storage import file_sha256, read_json_object, special_file_kind
 from volcaustics.reports.measuring.results.points_table import POINT_COLUMNS
 from volcaustics.reports.measuring.results.store import document_sha256
-from volcaustics.reports.measuring.results.summaries import SweepTables
-from volcaustics.reports.measuring.results.versions import code_version
+from volcaustics.reports.measuring.results.sweep_tables import SweepTables
 from volcaustics.reports.studies.sweep.sweep_run import MANIFEST_SEAL
 
 

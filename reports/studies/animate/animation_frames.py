@@ -28,10 +28,10 @@ from tqdm import tqdm
 
 from volcaustics.approx import Renderer
 from volcaustics.approx.frame_checks import check_finite_frame
+from volcaustics.experiment.sizing import sized
+from volcaustics.experiment.versions import code_version
 from volcaustics.infra.storage import atomic_path
-from volcaustics.reports.measuring.results.sizing import sized
 from volcaustics.reports.measuring.results.tables import plain
-from volcaustics.reports.measuring.results.versions import code_version
 from volcaustics.reports.measuring.runner import reference_for
 from volcaustics.reports.studies.animate.animation_settings import chain_seed, reference_seed
 from volcaustics.scenes.formats import COLOUR_LAYERS, MASK_LAYER

@@ -1,6 +1,6 @@
 """An animation measured (``volcaustics animate``): every frame of the approximation and the
 reference through one Renderer and the cache (``run``), temporal reuse beside, the tables,
-the summary (its ``schema``: ``reports.measuring.results.summaries.SCHEMAS``) and the media written."""
+the summary (its ``schema``: ``experiment.summaries.SCHEMAS``) and the media written."""
 
 from __future__ import annotations
 
@@ -8,8 +8,8 @@ import dataclasses
 import time
 from typing import TYPE_CHECKING
 
-from volcaustics.reports.measuring.results.summaries import SCHEMAS
-from volcaustics.reports.measuring.results.versions import code_version
+from volcaustics.experiment.summaries import SCHEMAS
+from volcaustics.experiment.versions import code_version
 from volcaustics.reports.studies.animate.animation_frames import render_animation
 from volcaustics.reports.studies.animate.animation_metrics import frame_rows, summarize, temporal_rows
 from volcaustics.reports.studies.animate.animation_read import KIND

@@ -1,5 +1,5 @@
 """An animation's tables: every per-frame image metric as a time series
-(``frames.parquet``: the rows of ``reports.measuring.experiment.image_rows.image_rows`` with the frame,
+(``frames.parquet``: the rows of ``experiment.image_rows.image_rows`` with the frame,
 its time and the seed mode) and the temporal metrics on frame differences
 (``temporal.parquet``: ``metrics.temporal`` per seed mode, component and frame pair).
 """
@@ -12,8 +12,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from volcaustics.experiment.image_rows import image_rows, keep_mask
 from volcaustics.metrics.temporal import energy_jitter, flicker, trailing_lag
-from volcaustics.reports.measuring.experiment.image_rows import image_rows, keep_mask
 from volcaustics.scenes.formats import COLOUR_LAYERS, MASK_LAYER
 
 if TYPE_CHECKING:

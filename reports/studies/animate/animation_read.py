@@ -7,9 +7,9 @@ import base64
 import os
 from typing import Any, NoReturn
 
+from volcaustics.experiment.summaries import check_schema
 from volcaustics.infra.errors import InputError
 from volcaustics.infra.storage import read_json_object
-from volcaustics.reports.measuring.results.summaries import check_schema
 
 KIND = "animation"  # summary.json "kind" of an animate output folder
 MIME = {"webp": "image/webp", "gif": "image/gif"}

@@ -41,13 +41,13 @@ import pandas as pd
 from tqdm import tqdm
 
 from volcaustics.approx.params import ParamError, preset
+from volcaustics.experiment.measurement import measurement_settings
+from volcaustics.experiment.result import Estimate
+from volcaustics.experiment.sizing import reference_settings
 from volcaustics.infra.folder_lock import folder_lock
 from volcaustics.metrics.decomposition import TERMS
 from volcaustics.reports.measuring import runner
 from volcaustics.reports.measuring.cost_match import CostMatcher
-from volcaustics.reports.measuring.experiment.measurement import measurement_settings
-from volcaustics.reports.measuring.results.experiment import Estimate
-from volcaustics.reports.measuring.results.sizing import reference_settings
 from volcaustics.reports.measuring.results.store import Store
 from volcaustics.reports.studies.best.best_spec import BestSpec
 from volcaustics.reports.studies.sweep.study_limits import CRITERIA

@@ -35,23 +35,23 @@ from typing import TYPE_CHECKING
 import pandas as pd
 
 from volcaustics.approx.params import preset
+from volcaustics.experiment.measurement import MeasurementSettings
+from volcaustics.experiment.point_checks import checked_settings
+from volcaustics.experiment.sizing import REPORT_REFERENCE
+from volcaustics.experiment.versions import code_version
 from volcaustics.infra.errors import InputError
 from volcaustics.infra.storage import atomic_set, document_sha256, file_sha256, read_json_object
 from volcaustics.reports.measuring import runner
 from volcaustics.reports.measuring.cost_match import with_auto_values
-from volcaustics.reports.measuring.experiment.measurement import MeasurementSettings
-from volcaustics.reports.measuring.experiment.point_checks import checked_settings
-from volcaustics.reports.measuring.results.sizing import REPORT_REFERENCE
 from volcaustics.reports.measuring.results.store import Store
 from volcaustics.reports.measuring.results.tables import plain
-from volcaustics.reports.measuring.results.versions import code_version
 from volcaustics.reports.studies.sweep.study_limits import FRAME_CHECK_SEEDS
 from volcaustics.scenes import resolve_scene
 from volcaustics.scenes.catalogue import BUILTIN_NAMES, HELDOUT_NAMES, heldout_path
 
 if TYPE_CHECKING:
     from volcaustics.approx.params import ApproxParams
-    from volcaustics.reports.measuring.results.experiment import Experiment
+    from volcaustics.experiment.result import Experiment
     from volcaustics.scenes.model import Scene
 
 CONFIGS = ("paper", "best", "beams")  # the quick preset (the paper's method), the presets best and beams

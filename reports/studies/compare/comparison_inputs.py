@@ -18,9 +18,9 @@ from typing import TYPE_CHECKING, cast
 
 import numpy as np
 
+from volcaustics.experiment.point_checks import check_images_fit
 from volcaustics.infra.errors import InputError
 from volcaustics.infra.storage import file_sha256, special_file_kind
-from volcaustics.reports.measuring.experiment.point_checks import check_images_fit
 from volcaustics.scenes.formats import COLOUR_LAYERS, MASK_LAYER
 
 if TYPE_CHECKING:

@@ -5,10 +5,10 @@ from __future__ import annotations
 
 import os
 
+from volcaustics.experiment.summaries import check_schema
 from volcaustics.infra.errors import InputError
 from volcaustics.infra.imageio import read_exr
 from volcaustics.infra.storage import document_sha256, file_sha256, read_json_object
-from volcaustics.reports.measuring.results.summaries import check_schema
 from volcaustics.reports.studies.compare.comparison_run import KIND
 from volcaustics.reports.studies.compare.comparison_write import DATA_FILES, SEAL, SUMMARY
 

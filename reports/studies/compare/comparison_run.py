@@ -1,5 +1,5 @@
 """Another renderer's frames of a scene against the reference: the same image metrics,
-noise debiasing and error maps the approximation gets (``reports.measuring.experiment.image_rows``:
+noise debiasing and error maps the approximation gets (``experiment.image_rows``:
 one code path, so ``compare`` on the approximation's own EXRs gives ``measure``'s
 numbers). The segment and photon metrics need the approximation's records and stay
 ``measure``'s.
@@ -13,15 +13,15 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from volcaustics.experiment.image_rows import image_rows, keep_mask
+from volcaustics.experiment.point_checks import check_medium
+from volcaustics.experiment.point_summary import reference_summary, reference_warnings
+from volcaustics.experiment.sizing import at_size
+from volcaustics.experiment.summaries import SCHEMAS
+from volcaustics.experiment.timing import Clock
+from volcaustics.experiment.versions import code_version, library_versions
 from volcaustics.metrics.noise import MIN_SEEDS_FOR_INTERVAL
 from volcaustics.reports.measuring import runner
-from volcaustics.reports.measuring.experiment.image_rows import image_rows, keep_mask
-from volcaustics.reports.measuring.experiment.point_checks import check_medium
-from volcaustics.reports.measuring.experiment.point_summary import reference_summary, reference_warnings
-from volcaustics.reports.measuring.results.sizing import at_size
-from volcaustics.reports.measuring.results.summaries import SCHEMAS
-from volcaustics.reports.measuring.results.timing import Clock
-from volcaustics.reports.measuring.results.versions import code_version, library_versions
 from volcaustics.reports.studies.compare.comparison_inputs import CompareError, read_images
 
 if TYPE_CHECKING:

@@ -30,15 +30,15 @@ from __future__ import annotations
 
 import math
 import os
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 from volcaustics.approx.params import PRESETS
+from volcaustics.experiment.measurement import measurement_settings
+from volcaustics.experiment.result import Estimate
+from volcaustics.experiment.sizing import REFERENCE_KEYS, reference_settings
 from volcaustics.infra.errors import InputError
-from volcaustics.reports.measuring.experiment.measurement import measurement_settings
-from volcaustics.reports.measuring.results.experiment import Estimate
-from volcaustics.reports.measuring.results.sizing import REFERENCE_KEYS, reference_settings
 from volcaustics.reports.measuring.results.tomlfile import load_toml
 from volcaustics.scenes import SceneError, resolve_scene
 from volcaustics.scenes.catalogue import scene_relative_to
@@ -47,7 +47,7 @@ if TYPE_CHECKING:
     from typing import Protocol
 
     from volcaustics.approx.params import ApproxParams
-    from volcaustics.reports.measuring.results.experiment import Experiment
+    from volcaustics.experiment.result import Experiment
 
     class MeasuredResult(Protocol):
         """What the gate reads of a measured result (``reports.measuring.runner.PointResult``):
@@ -270,7 +270,7 @@ def _step2(segments: list, scene: str) -> dict:
     return rows[0]
 
 
-def budget_checks(scene: str, limits: dict, metric: Callable[[str, str], Estimate], segments: list = ()) -> list:
+def budget_checks(scene: str, limits: dict, metric: Callable[[str, str], Estimate], segments: Sequence = ()) -> list:
     """The scene's budgets against its measured metrics (``metric(name, component)``:
     e.g. ``Experiment.metric``) and ``segments`` (the segment records the segment budgets
     read); GateError for a budget the noise cannot resolve or a NaN metric."""

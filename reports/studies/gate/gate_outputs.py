@@ -43,7 +43,7 @@ VERDICT = "gate.json"      # in --out; written last, with the baseline and the J
 def failure_images(out_dir: str, scene: str, check: Check, views: dict) -> dict:
     """The caustic as the approximation and the reference see it, and |A − R|, at the
     reference's exposure (PNG) — what a reader of the failure looks at first.
-    ``views``: the point's views (``reports.measuring.experiment.point_summary.VIEWS``)."""
+    ``views``: the point's views (``experiment.point_summary.VIEWS``)."""
     a, r = np.asarray(views["approx.caustic"]), np.asarray(views["reference.caustic"])
     try:
         exposure = reference_exposure(r)

@@ -16,11 +16,11 @@ from collections.abc import Iterable
 from dataclasses import replace
 from typing import TYPE_CHECKING
 
+from volcaustics.experiment.point_checks import measured_settings
+from volcaustics.experiment.versions import code_version
 from volcaustics.infra.storage import remove_file
 from volcaustics.reports.measuring import runner
 from volcaustics.reports.measuring.cost_match import with_auto_values
-from volcaustics.reports.measuring.experiment.point_checks import measured_settings
-from volcaustics.reports.measuring.results.versions import code_version
 from volcaustics.reports.studies.animate.animation_read import load_animation
 from volcaustics.reports.studies.compare.comparison_read import comparison_folders, load_comparison
 from volcaustics.reports.studies.gate.budgets import GateError, check_measurable, compare_checks, flicker_checks
@@ -30,7 +30,7 @@ from volcaustics.reports.studies.gate.verdict import scene_verdict
 from volcaustics.scenes import SceneError, resolve_scene
 
 if TYPE_CHECKING:
-    from volcaustics.reports.measuring.experiment.measurement import MeasurementSettings
+    from volcaustics.experiment.measurement import MeasurementSettings
 
 MISSING_REFERENCE = "run `make report` (or the gate with --render-references) first"
 

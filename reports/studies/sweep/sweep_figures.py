@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from volcaustics.approx.params import label as param_label
-from volcaustics.reports.measuring.experiment.photons import FATES
+from volcaustics.experiment.photons import FATES
 from volcaustics.reports.presenting.figures.plotting import OKABE_ITO, pyplot, save_figure
 from volcaustics.reports.studies.sweep.density_reading import draw_model_vs_depth, has_depth_sweep
 from volcaustics.reports.studies.sweep.suffice import CRITERIA, NUMERIC, at_best, field_keys

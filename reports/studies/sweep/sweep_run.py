@@ -11,11 +11,11 @@ from dataclasses import dataclass, field
 
 import pandas as pd
 
+from volcaustics.experiment.measurement import measurement_settings
+from volcaustics.experiment.sizing import reference_settings
 from volcaustics.infra.folder_lock import folder_lock
 from volcaustics.infra.storage import atomic_set, file_sha256, remove_file
 from volcaustics.reports.measuring import runner
-from volcaustics.reports.measuring.experiment.measurement import measurement_settings
-from volcaustics.reports.measuring.results.sizing import reference_settings
 from volcaustics.reports.measuring.results.store import TABLES, Store, document_sha256
 from volcaustics.reports.presenting.figures.plotting import remove_stale_figures
 from volcaustics.reports.studies.sweep.best_figures import draw_best

@@ -39,11 +39,11 @@ import math
 from dataclasses import dataclass, field
 
 from volcaustics.approx.params import PRESETS, ApproxParams, ParamError, preset
+from volcaustics.experiment.measurement import measurement_settings
+from volcaustics.experiment.point_checks import check_frame, check_medium
+from volcaustics.experiment.sizing import reference_settings
 from volcaustics.infra.errors import InputError
-from volcaustics.reports.measuring.experiment.measurement import measurement_settings
-from volcaustics.reports.measuring.experiment.point_checks import check_frame, check_medium
 from volcaustics.reports.measuring.results.param_input import parse_assignment, parse_overrides, parse_value
-from volcaustics.reports.measuring.results.sizing import reference_settings
 from volcaustics.reports.measuring.results.tomlfile import load_toml
 from volcaustics.reports.measuring.runner import Point
 from volcaustics.reports.studies.sweep.study_limits import MAX_POINTS
@@ -66,7 +66,7 @@ class SweepSpec:
     every varied name, every value); fixed: name → value; preset: "quick" or "paper";
     seeds per point; reference: settings overrides (REFERENCE_KEYS); grids: the grids
     when there are several (each like ``vary``), else empty; measurement: the
-    measurement settings' overrides (``reports.measuring.experiment.measurement``)."""
+    measurement settings' overrides (``experiment.measurement``)."""
 
     scenes: tuple
     vary: tuple

@@ -8,7 +8,7 @@ photon grid and the splat, not on how A searched. The parameters the table marks
 rules, the light maps' size, the fog) are therefore left out of their key, so a sweep
 over them computes the E images once per scene and seed set and reads them back for
 every other point. With adaptive or density splats the E images take the kernels of A's
-real frames (``reports.measuring.experiment.kernels``), so every parameter is in the key.
+real frames (``experiment.kernels``), so every parameter is in the key.
 
 An entry is ``$VOLCAUSTICS_CACHE/exact-images/<key>.npz`` (the batch images,
 compressed) and ``<key>.json`` (written last: the key's document, the alive fractions,
@@ -28,6 +28,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from volcaustics.approx.params import PARAMS
+from volcaustics.experiment.versions import code_version
 from volcaustics.infra.storage import (
     CacheError,
     atomic_write_bytes,
@@ -37,7 +38,6 @@ from volcaustics.infra.storage import (
     note_not_cached,
     read_json_object,
 )
-from volcaustics.reports.measuring.results.versions import code_version
 
 if TYPE_CHECKING:
     from volcaustics.approx.params import ApproxParams

@@ -9,9 +9,9 @@ from typing import TYPE_CHECKING, cast
 
 from volcaustics.approx.limits import check_fits
 from volcaustics.approx.params import ParamError, preset
+from volcaustics.experiment.exact_images import SMALL_SUPERSAMPLE
 from volcaustics.infra.memory import image_fits
 from volcaustics.metrics.image import SSIM_WINDOW
-from volcaustics.reports.measuring.experiment.exact_images import SMALL_SUPERSAMPLE
 
 if TYPE_CHECKING:
     from volcaustics.approx.params import ApproxParams

@@ -1,7 +1,7 @@
 """The exact caustic images of the decomposition, as paired photon subsets: A, E_k,
 E_∞ (A's Fresnel), E_∞ (stochastic), E_em (the light's true emission) and E_∞,s (the
 true emission, small kernel, supersampled). Every image but E_∞,s takes its kernels from
-the seed's real frame (``reports.measuring.experiment.kernels``: A's own for A, so A's subsets
+the seed's real frame (``experiment.kernels``: A's own for A, so A's subsets
 average to the real frame whatever the splat mode); E_∞,s always takes the fixed small
 kernel, so kernel_blur = E_∞,s − E_em is the blur of A's kernels.
 
@@ -17,7 +17,7 @@ with A's random numbers, the others with seeds of their own, :func:`replay_seed`
 at 1/EXACT_SUBPHOTONS of the power: the subsets stay paired by emission texel, and the
 terms that difference E_∞ images with the reference (reflections, residual) lose the
 noise of one exact photon per texel (docs/decisions.md "Sub-photons"). The
-count is the measurement setting ``exact_subphotons`` (``reports.measuring.experiment.measurement``:
+count is the measurement setting ``exact_subphotons`` (``experiment.measurement``:
 a flag and a ``[measurement]`` key, part of a result's key)."""
 
 from __future__ import annotations
@@ -31,29 +31,29 @@ from volcaustics.approx.emission import true_rays
 from volcaustics.approx.light import LightFrustum
 from volcaustics.approx.splat import beams_from_arrays, record_splats, splats_from_arrays, splatted
 from volcaustics.approx.splat_modes import splat_mode
-from volcaustics.reference.replay import exact_replays
-from volcaustics.reports.measuring.experiment.exact import (
+from volcaustics.experiment.exact import (
     ExactPhotons,
     pixel_footprint,
     subset_images,
 )
-from volcaustics.reports.measuring.experiment.exact_store import (
+from volcaustics.experiment.exact_store import (
     EXACT_IMAGES,
     exact_document,
     exact_key,
     load_exact,
     save_exact,
 )
-from volcaustics.reports.measuring.experiment.kernels import frame_kernels, kernel_rule, splat_params
-from volcaustics.reports.measuring.experiment.measurement import EXACT_STEPS, SUBSET_BATCHES, MeasurementSettings
+from volcaustics.experiment.kernels import frame_kernels, kernel_rule, splat_params
+from volcaustics.experiment.measurement import EXACT_STEPS, SUBSET_BATCHES, MeasurementSettings
+from volcaustics.reference.replay import exact_replays
 from volcaustics.scenes.bounds import medium_bounds
 from volcaustics.scenes.rng import pcg_hash
 
 if TYPE_CHECKING:
     from volcaustics.approx.params import ApproxParams
     from volcaustics.approx.renderer import Frame, Renderer
+    from volcaustics.experiment.kernels import Kernels
     from volcaustics.reference.oracle import Oracle
-    from volcaustics.reports.measuring.experiment.kernels import Kernels
     from volcaustics.scenes.model import Scene
 
 # E_∞ and E_∞,s: docs/decisions.md "Exact steps and the small kernel"
@@ -129,7 +129,7 @@ def small_kernel_rows(rows: np.ndarray, small: ApproxParams) -> np.ndarray:
 def exact_images(scene: Scene, p: ApproxParams, frames: list[Frame], seeds: list[int], renderer: Renderer,
                  oracle: Oracle, settings: MeasurementSettings | None = None) -> dict:
     """Per seed, ``settings.subset_batches`` paired subset images
-    (``reports.measuring.experiment.exact.subset_images``) of A, E_k, E_∞ (A's Fresnel), E_∞
+    (``experiment.exact.subset_images``) of A, E_k, E_∞ (A's Fresnel), E_∞
     (stochastic), E_em and E_∞,s, the E_∞ images from ``settings.exact_subphotons``
     replays of every texel (:func:`pooled`), ``settings.exact_steps`` steps each
     (``settings`` None: the report's measurement settings); all seeds' batches

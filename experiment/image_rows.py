@@ -39,6 +39,8 @@ from typing import TYPE_CHECKING, Callable, Protocol
 
 import numpy as np
 
+from volcaustics.experiment.result import HEADLINE_COLUMNS
+from volcaustics.experiment.versions import code_version
 from volcaustics.infra.storage import (
     CacheError,
     atomic_write_text,
@@ -51,8 +53,6 @@ from volcaustics.infra.storage import (
 from volcaustics.metrics import image as im
 from volcaustics.metrics.frame import frame_relative_mse
 from volcaustics.metrics.noise import noisy_copy, seed_mean_interval, seed_relative_mse, total_sigma
-from volcaustics.reports.measuring.results.experiment import HEADLINE_COLUMNS
-from volcaustics.reports.measuring.results.versions import code_version
 from volcaustics.scenes.formats import COLOUR_LAYERS, MASK_LAYER
 
 if TYPE_CHECKING:

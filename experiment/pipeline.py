@@ -33,26 +33,26 @@ import numpy as np
 from tqdm import tqdm
 
 from volcaustics.approx import Renderer
-from volcaustics.infra.errors import InputError
-from volcaustics.reference.oracle import Oracle
-from volcaustics.reference.render import render_reference
-from volcaustics.reports.measuring.experiment.approx_frames import render_frames
-from volcaustics.reports.measuring.experiment.decomposition_rows import decompose, decomposition_rows
-from volcaustics.reports.measuring.experiment.exact_images import exact_images
-from volcaustics.reports.measuring.experiment.image_rows import image_rows, keep_mask
-from volcaustics.reports.measuring.experiment.measurement import GATE_IMAGE_METRICS, MeasurementSettings
-from volcaustics.reports.measuring.experiment.model_rows import model_rows
-from volcaustics.reports.measuring.experiment.photons import photon_rows, replay
-from volcaustics.reports.measuring.experiment.point_checks import checked_settings
-from volcaustics.reports.measuring.experiment.point_summary import (
+from volcaustics.experiment.approx_frames import render_frames
+from volcaustics.experiment.decomposition_rows import decompose, decomposition_rows
+from volcaustics.experiment.exact_images import exact_images
+from volcaustics.experiment.image_rows import image_rows, keep_mask
+from volcaustics.experiment.measurement import GATE_IMAGE_METRICS, MeasurementSettings
+from volcaustics.experiment.model_rows import model_rows
+from volcaustics.experiment.photons import photon_rows, replay
+from volcaustics.experiment.point_checks import checked_settings
+from volcaustics.experiment.point_summary import (
     experiment_summary,
     experiment_views,
     parameter_columns,
 )
-from volcaustics.reports.measuring.experiment.segments import segment_rows
-from volcaustics.reports.measuring.results.sizing import REPORT_REFERENCE, sized
-from volcaustics.reports.measuring.results.summaries import ExperimentSummary
-from volcaustics.reports.measuring.results.timing import Clock
+from volcaustics.experiment.segments import segment_rows
+from volcaustics.experiment.sizing import REPORT_REFERENCE, sized
+from volcaustics.experiment.summaries import ExperimentSummary
+from volcaustics.experiment.timing import Clock
+from volcaustics.infra.errors import InputError
+from volcaustics.reference.oracle import Oracle
+from volcaustics.reference.render import render_reference
 
 if TYPE_CHECKING:
     from volcaustics.approx.params import ApproxParams
@@ -96,7 +96,7 @@ def run_experiment(scene: Scene, params: ApproxParams, *, seeds: int = 1,
     seeds : frames with seeds params.seed … params.seed + seeds − 1 (≥ 1; the
         approximation's own noise and the bootstrap intervals need ≥ 2).
     reference_settings : ``reference.settings.ReferenceSettings`` (default: the
-        report's, ``reports.measuring.results.sizing.REPORT_REFERENCE``), sized to the frames;
+        report's, ``experiment.sizing.REPORT_REFERENCE``), sized to the frames;
         rendered when not cached (``reference`` None). The request the summary judges the
         reference by (``reference.served.judged``: its target and caps; with ``reference``
         given and no settings, the request the entry was rendered for).
@@ -104,7 +104,7 @@ def run_experiment(scene: Scene, params: ApproxParams, *, seeds: int = 1,
         at the frames' size).
     fields : the scene fields this scene changed (dotted path → value, ``scenes.fields``):
         a column each in every row, and the summary's ``scene_fields``.
-    measurement : how the point is measured, ``reports.measuring.experiment.measurement.MeasurementSettings``
+    measurement : how the point is measured, ``experiment.measurement.MeasurementSettings``
         (None: the report's): the exact images' sub-photons, subset batches and steps, and
         the scope: "full", or "gate": only what the gate's budgets read (the image metrics
         of ``measurement.GATE_IMAGE_METRICS`` and the segments); the exact images, the

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
+from volcaustics.experiment.image_rows import IMAGE_COLUMNS, NAN
 from volcaustics.metrics.decomposition import decompose_caustic
-from volcaustics.reports.measuring.experiment.image_rows import IMAGE_COLUMNS, NAN
 
 if TYPE_CHECKING:
     import numpy as np

@@ -1,15 +1,11 @@
-"""The results that cross subpackages, typed: a field renamed fails in one place.
-
-``ExperimentSummary`` (one experiment's summary.json, as measured and as stored: read
-into ``results.experiment.Experiment`` at the store's boundary) and ``SweepTables`` (a
-sweep store's consolidated tables, which ``reports.presenting.report`` hands
-``reports.presenting.page``); the summaries written to disk carry a
-``schema`` version (:data:`SCHEMAS`) that their readers check.
+"""The summaries written to disk, typed: ``ExperimentSummary`` (one experiment's
+summary.json, as measured and as stored: read into ``experiment.result.Experiment`` at
+the store's boundary), and the ``schema`` version of every summary a command writes and
+another reads back (:data:`SCHEMAS`), which their readers check.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
 from typing import TypedDict
 
 from volcaustics.infra.errors import InputError
@@ -24,7 +20,7 @@ class _Measured(TypedDict):
     """The keys every experiment summary has (:class:`ExperimentSummary`; two classes, as
     Python 3.10 has no ``NotRequired``)."""
 
-    kind: str                    # reports.measuring.experiment.point_summary.KIND
+    kind: str                    # experiment.point_summary.KIND
     schema: int
     scene: str
     scene_hash: str
@@ -33,7 +29,7 @@ class _Measured(TypedDict):
     params: dict                 # ApproxParams.to_dict(), resolved
     seeds: int
     seed_values: list
-    reference: dict              # reports.measuring.experiment.point_summary.reference_summary
+    reference: dict              # experiment.point_summary.reference_summary
     exact: dict | None           # None: a gate point (scope "gate")
     compared_pixels: int
     images: dict                 # component → metric → {"value", "debiased", …}
@@ -56,7 +52,7 @@ class _Measured(TypedDict):
 
 class ExperimentSummary(_Measured, total=False):
     """One experiment's summary
-    (``reports.measuring.experiment.point_summary.experiment_summary``): what ``measure -o
+    (``experiment.point_summary.experiment_summary``): what ``measure -o
     DIR`` writes as summary.json and a result store keeps with each point
     (``reports.measuring.results.store``: with the keys below, which only some have).
     Plain JSON data once stored (NaN as None). Its ``schema`` is ``SCHEMAS["experiment"]``:
@@ -68,17 +64,6 @@ class ExperimentSummary(_Measured, total=False):
     summary_sha256: str
     equal_cost: dict | None      # measure: a preset matched to the paper's cost
     outputs: dict                # measure -o DIR: the files written
-
-
-@dataclass
-class SweepTables:
-    """A sweep store's consolidated tables and the parameters it varied."""
-
-    folder: str
-    tables: dict             # "segments", "photons", "images", "points" → DataFrame
-    varied: list
-    spec: dict
-    notes: list = field(default_factory=list)  # what differs from this code (shown on the page)
 
 
 def of_schema(summary: dict, kind: str) -> bool:

@@ -12,7 +12,7 @@ from volcaustics.infra.sources import source_hash
 
 # the folders an experiment's numbers depend on (the reference's own pixels have their key,
 # reference.cache.code_version); as the repository names them
-EXPERIMENT_FOLDERS = ("scenes", "approx", "reference", "metrics", "reports/measuring/experiment")
+EXPERIMENT_FOLDERS = ("scenes", "approx", "reference", "metrics", "experiment")
 
 
 def _folder(name: str) -> str:

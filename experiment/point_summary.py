@@ -11,12 +11,12 @@ import numpy as np
 from volcaustics.approx.context import gl_info, shared_context
 from volcaustics.approx.cost import COST_FIELDS, frame_cost
 from volcaustics.approx.cost_model import predicted_frames
+from volcaustics.experiment.approx_frames import median_timings
+from volcaustics.experiment.exact_images import SMALL_SUPERSAMPLE
+from volcaustics.experiment.summaries import SCHEMAS, ExperimentSummary
+from volcaustics.experiment.versions import code_version, library_versions
 from volcaustics.metrics.noise import MIN_SEEDS_FOR_INTERVAL
 from volcaustics.reference.served import AS_CACHED, describe_budget, judged
-from volcaustics.reports.measuring.experiment.approx_frames import median_timings
-from volcaustics.reports.measuring.experiment.exact_images import SMALL_SUPERSAMPLE
-from volcaustics.reports.measuring.results.summaries import SCHEMAS, ExperimentSummary
-from volcaustics.reports.measuring.results.versions import code_version, library_versions
 from volcaustics.scenes.fields import field_columns, optical_depth
 from volcaustics.scenes.formats import COLOUR_LAYERS
 

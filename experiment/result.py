@@ -14,13 +14,13 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 from volcaustics.approx.params import ApproxParams
+from volcaustics.experiment.summaries import SCHEMAS
 from volcaustics.infra.errors import InputError
-from volcaustics.reports.measuring.results.summaries import SCHEMAS
 
 if TYPE_CHECKING:
     import pandas as pd
 
-    from volcaustics.reports.measuring.results.summaries import ExperimentSummary
+    from volcaustics.experiment.summaries import ExperimentSummary
 
 
 def _number(value: Any) -> float:
@@ -33,7 +33,7 @@ def _stored(value: float) -> float | None:
     return None if math.isnan(value) else value
 
 
-# a stored image metric's fields (the summary's "images", measuring.experiment.image_rows writes them)
+# a stored image metric's fields (the summary's "images", experiment.image_rows writes them)
 HEADLINE_COLUMNS = ("value", "debiased", "standard_error", "ci_low", "ci_high", "reference_floor", "approx_noise",
                     "reference_sigma", "note")
 ESTIMATE_KEYS = ("value", "debiased", "standard_error")  # what every estimate stores (the model term's: only these)
@@ -137,9 +137,11 @@ class Closure:
 
     @classmethod
     def from_json(cls, data: Mapping) -> Closure:
-        numbers = ("energy_share", "energy_se", "energy_z", "debiased_relmse", "relmse_se", "relmse_z")
-        return cls(*(_number(data.get(k)) for k in numbers), bool(data.get("within_noise")),
-                   str(data.get("message") or ""))
+        def n(name: str) -> float:
+            return _number(data.get(name))
+
+        return cls(n("energy_share"), n("energy_se"), n("energy_z"), n("debiased_relmse"), n("relmse_se"),
+                   n("relmse_z"), bool(data.get("within_noise")), str(data.get("message") or ""))
 
     def to_json(self) -> dict:
         return {k: v if isinstance(v, (bool, str)) else _stored(v) for k, v in vars(self).items()}
@@ -230,9 +232,11 @@ class ModelTerm:
             if "note" in m:
                 parts.append(ModelComponent(component, None, None, None, str(m["note"])))
             else:
-                estimates = {k: Estimate.from_json(m[k]) if k in m else None
-                             for k in ("energy_share", "relmse_own", "relmse_part", "approx_part")}
-                parts.append(ModelComponent(component, **estimates))
+                def e(name: str, m: Mapping = m) -> Estimate | None:
+                    return Estimate.from_json(m[name]) if name in m else None
+
+                parts.append(ModelComponent(component, e("energy_share"), e("relmse_own"), e("relmse_part"),
+                                            approx_part=e("approx_part")))
         return cls(data.get("max_scatter"), dict(data.get("orders_needed") or {}), bool(data.get("converged")),
                    tuple(parts), str(data.get("rule", "")))
 

@@ -1,6 +1,6 @@
 """``measure -o DIR``: an experiment's tables (Parquet and CSV), ``decomposition.exr`` and,
 last, ``summary.json``, written as one set: from the point as the result store holds it
-(``reports.measuring.runner.PointResult``) or from an :class:`~reports.measuring.experiment.pipeline.Experiment`."""
+(``reports.measuring.runner.PointResult``) or from an :class:`~experiment.pipeline.Experiment`."""
 
 from __future__ import annotations
 
@@ -15,7 +15,7 @@ from volcaustics.reports.measuring.results.store import TABLES
 from volcaustics.reports.measuring.results.tables import plain, table
 
 if TYPE_CHECKING:
-    from volcaustics.reports.measuring.results.summaries import ExperimentSummary
+    from volcaustics.experiment.summaries import ExperimentSummary
 
     class _Written(Protocol):
         """What :func:`write_experiment` reads: a stored point

@@ -8,8 +8,8 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
+from volcaustics.experiment.image_rows import IMAGE_COLUMNS, NAN
 from volcaustics.metrics.model_term import interval, model_term
-from volcaustics.reports.measuring.experiment.image_rows import IMAGE_COLUMNS, NAN
 from volcaustics.scenes.formats import COLOUR_LAYERS
 
 if TYPE_CHECKING:
