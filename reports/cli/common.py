@@ -4,6 +4,7 @@ scene lists, and the option groups several commands take."""
 from __future__ import annotations
 
 import argparse
+import math
 
 from volcaustics.experiment.measurement import (
     MEASUREMENT_KEYS,
@@ -34,6 +35,11 @@ def debiased(x: float | None, *, se: float | None = None, low: float | None = No
     """A debiased relative MSE on the console, padded as :func:`pct`, with its ± SE or
     95% interval (``parts.debiased_pct``: a negative estimate reads "≤ noise")."""
     return "   n/a" if x is None else f"{debiased_pct(x, se=se, low=low, high=high):>7}"
+
+
+def known(x: float) -> float | None:
+    """None for a number not measured (NaN: the store's null), for the console's "n/a"."""
+    return None if math.isnan(x) else x
 
 
 def num(x: float | None) -> str:

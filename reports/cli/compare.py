@@ -6,7 +6,7 @@ from __future__ import annotations
 import os
 from typing import TYPE_CHECKING
 
-from volcaustics.reports.cli.common import UsageError, add_report_reference, debiased, num, report_settings
+from volcaustics.reports.cli.common import UsageError, add_report_reference, debiased, known, num, report_settings
 from volcaustics.reports.measuring.results.output_folders import check_output_set
 
 if TYPE_CHECKING:
@@ -35,6 +35,7 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 def run(args: argparse.Namespace) -> int:
     from volcaustics.reports.measuring.results.tables import plain
     from volcaustics.reports.presenting.page.external import comparison_images, comparison_page, comparison_row
+    from volcaustics.reports.studies.compare.comparison_read import ComparedRenderer
     from volcaustics.reports.studies.compare.comparison_run import KIND, run_compare
     from volcaustics.reports.studies.compare.comparison_write import OUTPUT_FILES, write_comparison
     from volcaustics.scenes import resolve_scene
@@ -46,17 +47,19 @@ def run(args: argparse.Namespace) -> int:
     scene = resolve_scene(args.scene)
     comparison = run_compare(scene, args.images, name=name, reference_settings=report_settings(args),
                              progress=not args.quiet)
-    loaded = {"folder": os.path.abspath(args.output), "summary": plain(comparison.summary), "views": comparison.views}
-    row = comparison_row(loaded)
+    compared = ComparedRenderer.from_summary(plain(comparison.summary), os.path.abspath(args.output),
+                                             comparison.views)
+    row = comparison_row(compared)
     paths = write_comparison(comparison, args.output, comparison_page(row, comparison_images(row, comparison.views)))
-    s = loaded["summary"]
-    print(f"compare {name} on {scene.name}: {s['seeds']} file(s) at {s['width']}x{s['height']}, "
-          f"{s['compared_pixels']:,} pixels compared, {s['seconds']['total']:.1f} s -> {paths['summary.json']}")
-    for component, m in s["images"].items():
-        relmse, ratio, flip = m["relative_mse"], m["energy_ratio"], m["hdr_flip"]
-        mean = debiased(relmse["debiased"], low=relmse["ci_low"], high=relmse["ci_high"])
-        print(f"  {component:<9} relative MSE debiased {mean}, "
-              f"energy ratio {num(ratio['value'])}, HDR-FLIP {num(flip['value'])}")
-    for warning in s["warnings"]:
+    print(f"compare {name} on {scene.name}: {compared.seeds} file(s) at {compared.width}x{compared.height}, "
+          f"{compared.compared_pixels:,} pixels compared, {(compared.seconds or {})['total']:.1f} s "
+          f"-> {paths['summary.json']}")
+    for component in compared.components:
+        relmse, ratio = compared.metric("relative_mse", component), compared.metric("energy_ratio", component)
+        mean = debiased(known(relmse.debiased), low=known(relmse.ci_low), high=known(relmse.ci_high))
+        flip = compared.metric("hdr_flip", component).value
+        print(f"  {component:<9} relative MSE debiased {mean}, energy ratio {num(known(ratio.value))}, "
+              f"HDR-FLIP {num(known(flip))}")
+    for warning in compared.warnings:
         print(f"  warning: {warning}")
     return 0

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 import os
 import sys
 from typing import TYPE_CHECKING
@@ -12,6 +11,7 @@ from volcaustics.reports.cli.common import (
     add_measurement_flags,
     add_report_reference,
     debiased,
+    known,
     measurement_from_args,
     num,
     report_settings,
@@ -86,11 +86,6 @@ def print_experiment(e: Experiment) -> None:
         print(f"  warning: {warning}")
 
 
-def _known(x: float) -> float | None:
-    """None for a number not measured (NaN: the store's null), for the console's "n/a"."""
-    return None if math.isnan(x) else x
-
-
 def _print_equal_cost(check: EqualCost | None) -> None:
     if check is None:
         return
@@ -104,13 +99,13 @@ def _print_equal_cost(check: EqualCost | None) -> None:
 def _print_images(e: Experiment) -> None:
     for component in dict.fromkeys(m.component for m in e.images):
         relmse, ratio, flip = (e.metric(name, component) for name in ("relative_mse", "energy_ratio", "hdr_flip"))
-        mean = debiased(_known(relmse.debiased), low=_known(relmse.ci_low), high=_known(relmse.ci_high))
+        mean = debiased(known(relmse.debiased), low=known(relmse.ci_low), high=known(relmse.ci_high))
         frame = next((m.estimate for m in e.images if m.component == component and m.metric == "frame_relative_mse"),
                      None)
-        one = "" if frame is None or _known(frame.debiased) is None else (
-            f"one frame {debiased(frame.debiased, se=_known(frame.standard_error))}, ")
+        one = "" if frame is None or known(frame.debiased) is None else (
+            f"one frame {debiased(frame.debiased, se=known(frame.standard_error))}, ")
         print(f"  {component:<9} relative MSE debiased {mean}, {one}"
-              f"energy ratio {num(_known(ratio.value))}, HDR-FLIP per frame {num(_known(flip.value))}")
+              f"energy ratio {num(known(ratio.value))}, HDR-FLIP per frame {num(known(flip.value))}")
 
 
 def _print_model(model: ModelTerm | None) -> None:
@@ -125,7 +120,7 @@ def _print_model(model: ModelTerm | None) -> None:
             print(f"    {m.component:<9} {m.note}")
             continue
         print(f"    {m.component:<9} {100 * share.value:6.2f}% ± {100 * share.standard_error:.2f}  "
-              f"{debiased(_known(own.debiased), se=_known(own.standard_error))}  "
+              f"{debiased(known(own.debiased), se=known(own.standard_error))}  "
               f"{100 * part.value:+7.2f}% ± {100 * part.standard_error:.2f}")
 
 

@@ -301,7 +301,7 @@ def test_a_resealed_summary_missing_what_is_read_is_refused(env, tmp_path, field
     assert compare(env, env / "s0.exr", env / "s1.exr", out="cmp_read") == 0
     folder = tmp_path / "cmp"
     shutil.copytree(env / "cmp_read", folder)
-    assert load_comparison(str(folder), views=False)["summary"]["scene"] == "refocus"
+    assert load_comparison(str(folder), views=False).scene == "refocus"
     path = folder / "summary.json"
     doc = json.loads(path.read_text())
     doc[field] = {} if field == "images" else None

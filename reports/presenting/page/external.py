@@ -7,6 +7,7 @@ per renderer beside the approximation in the overview's "Renderers" table."""
 from __future__ import annotations
 
 from html import escape
+from typing import TYPE_CHECKING
 
 from volcaustics.experiment.versions import code_version
 from volcaustics.reports.presenting.page.data_uris import SCALES, colour_bar_css, component_images, exposures
@@ -16,22 +17,28 @@ from volcaustics.reports.presenting.page.parts import figure as _figure
 from volcaustics.reports.presenting.page.parts import num as _num
 from volcaustics.reports.presenting.page.parts import pct as _pct
 
+if TYPE_CHECKING:
+    from volcaustics.reports.studies.compare.comparison_read import ComparedRenderer
+
 COLUMNS = ("relative_mse", "energy_ratio", "hdr_flip", "per_pixel_relative_mse")
 
 
-def comparison_row(loaded: dict, name: str | None = None) -> dict:
+def comparison_row(c: ComparedRenderer, name: str | None = None) -> dict:
     """What a report's summary.json keeps of one comparison (``compare.read.load_comparison``):
     the renderer's name (``name`` given to ``report --compare``, else its own), scene,
     size, seeds, components and their headline numbers, exposures, warnings."""
-    s = loaded["summary"]
-    return {"renderer": name or s["renderer"], "scene": s["scene"], "scene_hash": s["scene_hash"],
-            "folder": loaded["folder"], "width": s["width"], "height": s["height"], "seeds": s["seeds"],
-            "components": s["components"], "mask": s["mask"], "reference": s["reference"],
-            "compared_pixels": s["compared_pixels"],
-            "images": {c: {m: s["images"][c].get(m, {}) for m in COLUMNS} for c in s["components"]},
-            "exposure": exposures(loaded["views"], s["components"]), "warnings": s["warnings"],
-            "code_version": s.get("code_version"), "stale": s.get("code_version") != code_version(),
-            "seconds": s.get("seconds")}
+    def stored(metric: str, component: str) -> dict:
+        found = c.find_metric(metric, component)
+        return {} if found is None else found.to_json()
+
+    return {"renderer": name or c.renderer, "scene": c.scene, "scene_hash": c.scene_hash,
+            "folder": c.folder, "width": c.width, "height": c.height, "seeds": c.seeds,
+            "components": list(c.components), "mask": c.mask, "reference": dict(c.reference),
+            "compared_pixels": c.compared_pixels,
+            "images": {comp: {m: stored(m, comp) for m in COLUMNS} for comp in c.components},
+            "exposure": exposures(dict(c.views), list(c.components)), "warnings": list(c.warnings),
+            "code_version": c.code_version, "stale": c.code_version != code_version(),
+            "seconds": None if c.seconds is None else dict(c.seconds)}
 
 
 def comparison_images(row: dict, views: dict) -> dict:

@@ -149,18 +149,17 @@ def load_comparisons(pairs: Iterable[tuple[str, str]], names: Iterable[str]) -> 
     out, seen = [], set()
     for name, folder in pairs:
         for path in comparison_folders(folder, f"--compare {name}="):
-            loaded = load_comparison(path, f"--compare {name}=")
-            s = loaded["summary"]
-            if s["scene_hash"] not in shown:
-                raise ReportError(f"--compare {name}={path}: compares {s['scene']!r} (hash {s['scene_hash'][:12]}), "
+            c = load_comparison(path, f"--compare {name}=")
+            if c.scene_hash not in shown:
+                raise ReportError(f"--compare {name}={path}: compares {c.scene!r} (hash {c.scene_hash[:12]}), "
                                   f"which this report does not show (or shows changed): add it to --scenes, or "
                                   f"rerun compare on the scene as it is now")
-            if (name, s["scene_hash"]) in seen:
-                raise ReportError(f"--compare {name}={path}: a second comparison of {name} on {s['scene']}: give "
+            if (name, c.scene_hash) in seen:
+                raise ReportError(f"--compare {name}={path}: a second comparison of {name} on {c.scene}: give "
                                   f"each renderer one folder per scene")
-            seen.add((name, s["scene_hash"]))
-            row = comparison_row(loaded, name)
-            row["scene"], row["anchor"] = shown[s["scene_hash"]], f"compare-{len(out)}"
-            out.append((row, loaded["views"]))
+            seen.add((name, c.scene_hash))
+            row = comparison_row(c, name)
+            row["scene"], row["anchor"] = shown[c.scene_hash], f"compare-{len(out)}"
+            out.append((row, c.views))
     return out
 

@@ -36,7 +36,6 @@ from typing import TYPE_CHECKING
 
 from volcaustics.approx.params import PRESETS
 from volcaustics.experiment.measurement import measurement_settings
-from volcaustics.experiment.result import Estimate
 from volcaustics.experiment.sizing import REFERENCE_KEYS, reference_settings
 from volcaustics.infra.errors import InputError
 from volcaustics.reports.measuring.results.tomlfile import load_toml
@@ -47,7 +46,8 @@ if TYPE_CHECKING:
     from typing import Protocol
 
     from volcaustics.approx.params import ApproxParams
-    from volcaustics.experiment.result import Experiment
+    from volcaustics.experiment.result import Estimate, Experiment
+    from volcaustics.reports.studies.compare.comparison_read import ComparedRenderer
 
     class MeasuredResult(Protocol):
         """What the gate reads of a measured result (``reports.measuring.runner.PointResult``):
@@ -172,24 +172,23 @@ def _compare_budgets(path: str, tables) -> dict:
     return out
 
 
-def compare_checks(comparison: dict, renderer: str, limits: dict, path: str) -> list:
-    """Another renderer's comparison (``compare``'s summary) against its budgets, as
-    :func:`budget_checks` holds the approximation to them; checks named
+def compare_checks(comparison: ComparedRenderer, renderer: str, limits: dict, path: str) -> list:
+    """Another renderer's comparison (``compare``'s output, read back) against its budgets,
+    as :func:`budget_checks` holds the approximation to them; checks named
     ``compare.RENDERER.component.key``."""
-    s = comparison["summary"]
+    c = comparison
     for name in limits:
         group = name.split(".", 1)[0]
-        if group not in s["components"]:
-            raise GateError(f"{path}: compare.{renderer}.{s['scene']}.{name}: {comparison['folder']} has no "
-                            f"{group} (its images gave {', '.join(s['components'])}): drop the limit or compare "
+        if group not in c.components:
+            raise GateError(f"{path}: compare.{renderer}.{c.scene}.{name}: {c.folder} has no "
+                            f"{group} (its images gave {', '.join(c.components)}): drop the limit or compare "
                             f"images with caustic, fog and direct layers")
-    images = s["images"]  # a comparison's summary, read at its boundary (comparison_read checked its shape)
-    checks = budget_checks(s["scene"], limits, lambda metric, component: Estimate.from_json(images[component][metric]))
+    checks = budget_checks(c.scene, limits, c.metric)
     for check in checks:
         check.name = f"compare.{renderer}.{check.name}"
-        check.detail["folder"] = comparison["folder"]
+        check.detail["folder"] = c.folder
         if not check.passed:
-            check.message = f"{s['scene']}: {check.name} = {check.value:.4g}, limit {check.limit}"
+            check.message = f"{c.scene}: {check.name} = {check.value:.4g}, limit {check.limit}"
     return checks
 
 

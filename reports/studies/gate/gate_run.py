@@ -84,7 +84,7 @@ def run_gate(budgets: dict, *, overrides: dict, baseline_dir: str | None, update
     for animation in animations:
         checks += flicker_checks(animation, budgets["animations"][animation["summary"]["scene"]], budgets["path"])
     for name, comparison in compared:
-        checks += compare_checks(comparison, name, budgets["compare"][name][comparison["summary"]["scene"]],
+        checks += compare_checks(comparison, name, budgets["compare"][name][comparison.scene],
                                  budgets["path"])
     failed = [c for c in checks if not c.passed]
     # only results that pass their budgets are accepted as the baseline
@@ -117,12 +117,11 @@ def _comparisons(budgets: dict, name: str, folder: str) -> list:
     out = []
     for path in comparison_folders(folder, option):
         comparison = load_comparison(path, option, views=False)
-        s = comparison["summary"]
-        if s["scene"] not in budgets["compare"].get(name, {}):
-            raise GateError(f"{option}{path}: no [compare.{name}.{s['scene']}] budgets in {budgets['path']}")
-        if s.get("code_version") != code_version():
-            raise GateError(f"{option}{path}: measured with other code (version {s.get('code_version')}, now "
-                            f"{code_version()}): rerun `volcaustics compare {s['scene']} IMAGE.exr … -o {path}`")
+        if comparison.scene not in budgets["compare"].get(name, {}):
+            raise GateError(f"{option}{path}: no [compare.{name}.{comparison.scene}] budgets in {budgets['path']}")
+        if comparison.code_version != code_version():
+            raise GateError(f"{option}{path}: measured with other code (version {comparison.code_version}, now "
+                            f"{code_version()}): rerun `volcaustics compare {comparison.scene} IMAGE.exr … -o {path}`")
         out.append((name, comparison))
     return out
 
