@@ -92,17 +92,21 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _print(s: dict, paths: dict) -> None:
-    sec = s["seconds"]
-    print(f"animate {s['scene']}: {len(s['frames'])} frames x {len(s['seed_modes'])} seed mode(s) x {s['chains']} "
+def _print(summary: dict, paths: dict) -> None:
+    from volcaustics.reports.studies.animate.animation_read import MeasuredAnimation
+
+    a = MeasuredAnimation.from_summary(summary)
+    sec = a.seconds
+    print(f"animate {a.scene}: {len(a.frames)} frames x {len(a.seed_modes)} seed mode(s) x {a.chains} "
           f"chain(s), {sec['total']:.1f} s -> {paths['summary.json']}")
     print(f"  per frame: approximation {1000 * sec['approx_frame_median']:.0f} ms, reference "
-          f"{sec['reference_frame_median']:.1f} s ({sec['references_cached']} of {len(s['frames'])} from the cache)")
-    print(f"  note: {s['perceptual_video_metric']['reason']}")
-    for mode, components in s["metrics"].items():
+          f"{sec['reference_frame_median']:.1f} s ({sec['references_cached']} of {len(a.frames)} from the cache)")
+    print(f"  note: {(a.perceptual_video_metric or {}).get('reason')}")
+    for mode, components in a.metrics.items():
         for component in ("caustic", "combined"):
             m = components[component]
-            print(f"  {mode:<9} {component:<8} flicker {pct(m['flicker'])} ± {pct(m['flicker_se']).strip()} "
-                  f"(systematic {pct(m['flicker_systematic']).strip()}), relative MSE per frame mean "
-                  f"{pct(m['relative_mse_mean']).strip()} worst {pct(m['relative_mse_worst']).strip()}, "
-                  f"energy jitter RMS {m['energy_jitter_rms']:.4f}, lag {m['lag_frames']:g} frame(s)")
+            mean, worst = m.series["relative_mse"]
+            print(f"  {mode:<9} {component:<8} flicker {pct(m.flicker)} ± {pct(m.flicker_se).strip()} "
+                  f"(systematic {pct(m.flicker_systematic).strip()}), relative MSE per frame mean "
+                  f"{pct(mean).strip()} worst {pct(worst).strip()}, "
+                  f"energy jitter RMS {m.energy_jitter_rms:.4f}, lag {m.lag_frames:g} frame(s)")

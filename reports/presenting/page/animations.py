@@ -6,22 +6,24 @@ from __future__ import annotations
 
 import math
 from html import escape
+from typing import TYPE_CHECKING
 
 from volcaustics.experiment.versions import code_version
+
+if TYPE_CHECKING:
+    from volcaustics.reports.studies.animate.animation_read import MeasuredAnimation
 
 SHOWN = ("caustic", "combined")
 
 
-def animation_rows(loaded: list) -> list:
+def animation_rows(loaded: list[MeasuredAnimation]) -> list:
     """What the report's summary.json keeps of each animation (the media stay in its folder)."""
     current = code_version()
-    return [{"scene": a["summary"]["scene"], "folder": a["folder"], "frames": a["summary"]["frames"],
-             "fps": a["summary"]["animation"]["fps"], "seed_modes": a["summary"]["seed_modes"],
-             "chains": a["summary"]["chains"], "metrics": a["summary"]["metrics"],
-             "seconds": a["summary"]["seconds"], "video": a["summary"]["video"],
-             "code_version": a["summary"].get("code_version"),
-             "perceptual_video_metric": a["summary"].get("perceptual_video_metric"),
-             "stale": a["summary"].get("code_version") != current} for a in loaded]
+    return [{"scene": a.scene, "folder": a.folder, "frames": a.frames, "fps": a.fps, "seed_modes": list(a.seed_modes),
+             "chains": a.chains,
+             "metrics": {mode: {c: f.to_json() for c, f in parts.items()} for mode, parts in a.metrics.items()},
+             "seconds": dict(a.seconds), "video": dict(a.video), "code_version": a.code_version,
+             "perceptual_video_metric": a.perceptual_video_metric, "stale": a.code_version != current} for a in loaded]
 
 
 def _pct(value, digits: int = 2) -> str:

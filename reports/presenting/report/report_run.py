@@ -128,7 +128,7 @@ def run_report(out_dir: str, names: Sequence[str], *, overrides: dict, seeds: in
     summary["frames"] = None if frames is None else {"rows": frames_rows(frames[0]), "verdict": frames[1]["verdict"],
                                                      "folder": os.path.abspath(cast(str, frames_dir))}
     return write_report(out_dir, results, summary, sweep, progress=progress, started=clock.started,
-                        animation_media=[a["media"] for a in animations],
+                        animation_media=[dict(a.media) for a in animations],
                         comparison_media=[comparison_images(row, views) for row, views in compared])
 
 

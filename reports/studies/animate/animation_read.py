@@ -4,7 +4,10 @@ gate's flicker budgets): its summary and its media as data URIs."""
 from __future__ import annotations
 
 import base64
+import math
 import os
+from collections.abc import Mapping
+from dataclasses import dataclass, field
 from typing import Any, NoReturn
 
 from volcaustics.experiment.summaries import check_schema
@@ -15,8 +18,86 @@ KIND = "animation"  # summary.json "kind" of an animate output folder
 MIME = {"webp": "image/webp", "gif": "image/gif"}
 
 
-def load_animation(folder: str, option: str = "--animation") -> dict:
-    """An animate output folder's summary and its media as data URIs; InputError (exit 2)
+def _number(value: Any) -> float:
+    return math.nan if value is None else float(value)
+
+
+def _stored(value: float) -> float | None:
+    return None if math.isnan(value) else value
+
+
+FLICKER_NUMBERS = ("flicker", "flicker_se", "flicker_systematic", "flicker_approx_noise", "flicker_max",
+                   "energy_jitter_rms")
+
+
+@dataclass(frozen=True)
+class Flicker:
+    """One component over time in one seed mode (docs/over-time.md): the mean ``flicker``
+    over the frame pairs ± ``flicker_se``, its systematic part and the frames' own noise
+    in it, the worst pair, the RMS of the energy ratio's jitter, per image metric the mean
+    and worst of its per-frame series (``series``: metric → (mean, worst)), the pairs
+    measured and how many frames the chains' mean trails the references (``lag_frames``).
+    NaN where not measured."""
+
+    flicker: float
+    flicker_se: float
+    flicker_systematic: float
+    flicker_approx_noise: float
+    flicker_max: float
+    energy_jitter_rms: float
+    series: Mapping[str, tuple[float, float]]
+    pairs: int
+    lag_frames: float
+
+    @classmethod
+    def from_json(cls, data: Mapping) -> Flicker:
+        metrics = [k[:-len("_mean")] for k in data if k.endswith("_mean")]
+        series = {m: (_number(data.get(f"{m}_mean")), _number(data.get(f"{m}_worst"))) for m in metrics}
+        numbers = {k: _number(data.get(k)) for k in FLICKER_NUMBERS}
+        return cls(**numbers, series=series, pairs=int(data.get("pairs") or 0),
+                   lag_frames=_number(data.get("lag_frames")))
+
+    def to_json(self) -> dict:
+        """The stored form (NaN as None)."""
+        return {**{k: _stored(getattr(self, k)) for k in FLICKER_NUMBERS},
+                **{f"{m}_mean": _stored(mean) for m, (mean, _) in self.series.items()},
+                **{f"{m}_worst": _stored(worst) for m, (_, worst) in self.series.items()},
+                "pairs": self.pairs, "lag_frames": _stored(self.lag_frames)}
+
+
+@dataclass(frozen=True)
+class MeasuredAnimation:
+    """An animation ``animate`` measured, read at its boundary (callers read attributes):
+    the ``scene``, the ``frames`` measured at ``fps``, its ``seed_modes`` and ``chains``,
+    per seed mode and component its :class:`Flicker`, what it took (``seconds``), its
+    video files, the code that measured it and why the perceptual video metric was not
+    measured. ``folder``: where it was read from ("" for one measured in this process);
+    ``media``: its video and plot as data URIs (empty unless read)."""
+
+    scene: str
+    frames: list
+    fps: float
+    seed_modes: tuple[str, ...]
+    chains: int
+    metrics: Mapping[str, Mapping[str, Flicker]]
+    seconds: Mapping[str, Any]
+    video: Mapping[str, Any]
+    code_version: str | None
+    perceptual_video_metric: Mapping[str, Any] | None
+    folder: str = ""
+    media: Mapping[str, str] = field(default_factory=dict, repr=False, compare=False)
+
+    @classmethod
+    def from_summary(cls, s: Mapping, folder: str = "", media: Mapping | None = None) -> MeasuredAnimation:
+        """The animation a summary (checked by :func:`check_animation_shape`) describes."""
+        metrics = {mode: {c: Flicker.from_json(m) for c, m in s["metrics"][mode].items()} for mode in s["metrics"]}
+        return cls(s["scene"], s["frames"], s["animation"]["fps"], tuple(s["seed_modes"]), int(s["chains"]), metrics,
+                   dict(s["seconds"]), dict(s.get("video") or {}), s.get("code_version"),
+                   s.get("perceptual_video_metric"), folder, dict(media or {}))
+
+
+def load_animation(folder: str, option: str = "--animation") -> MeasuredAnimation:
+    """An animate output folder, with its media as data URIs; InputError (exit 2)
     naming the folder and the fix when it is not one, or one of another schema."""
     fix = f"run `volcaustics animate SCENE -o {folder}` first"
     try:
@@ -41,7 +122,7 @@ def load_animation(folder: str, option: str = "--animation") -> dict:
             raise InputError(f"{option} {folder}: {path} unreadable ({exc.strerror or exc}): {fix}") from None
         ext = os.path.splitext(file)[1].lstrip(".").lower()
         media[name] = f"data:{MIME.get(ext, 'image/png')};base64," + base64.b64encode(data).decode("ascii")
-    return {"folder": os.path.abspath(folder), "summary": summary, "media": media}
+    return MeasuredAnimation.from_summary(summary, os.path.abspath(folder), media)
 
 
 def check_animation_shape(summary: dict, where: str, fix: str) -> None:
@@ -64,9 +145,9 @@ def check_animation_shape(summary: dict, where: str, fix: str) -> None:
     modes = summary.get("seed_modes")
     if not isinstance(modes, list) or not modes or not all(isinstance(m, str) for m in modes):
         bad("seed_modes", "a non-empty list of seed modes")
-    for field, kind in (("chains", int), ("seconds", dict), ("video", dict)):
-        if isinstance(summary.get(field), bool) or not isinstance(summary.get(field), kind):
-            bad(field, f"a{'n integer' if kind is int else ' table'}")
+    for key, kind in (("chains", int), ("seconds", dict), ("video", dict)):
+        if isinstance(summary.get(key), bool) or not isinstance(summary.get(key), kind):
+            bad(key, f"a{'n integer' if kind is int else ' table'}")
     metrics: dict = summary["metrics"]
     for mode in modes:
         table = metrics.get(mode)

@@ -47,6 +47,7 @@ if TYPE_CHECKING:
 
     from volcaustics.approx.params import ApproxParams
     from volcaustics.experiment.result import Estimate, Experiment
+    from volcaustics.reports.studies.animate.animation_read import MeasuredAnimation
     from volcaustics.reports.studies.compare.comparison_read import ComparedRenderer
 
     class MeasuredResult(Protocol):
@@ -216,25 +217,24 @@ def _flicker_budgets(path: str, tables) -> dict:
     return out
 
 
-def flicker_checks(animation: dict, limits: dict, path: str) -> list:
-    """An animation's flicker (``animate``'s summary) against its budgets; GateError for a
-    budget on a seed mode it did not measure, a NaN, or a limit the noise cannot resolve."""
-    s = animation["summary"]
-    scene, checks = s["scene"], []
+def flicker_checks(animation: MeasuredAnimation, limits: dict, path: str) -> list:
+    """An animation's flicker (``animate``'s output, read back) against its budgets; GateError
+    for a budget on a seed mode it did not measure, a NaN, or a limit the noise cannot resolve."""
+    scene, checks = animation.scene, []
     for name, limit in limits.items():
         group, key = name.split(".", 1)
         mode = FLICKER_KEYS[key]
-        if mode not in s["seed_modes"]:
+        if mode not in animation.seed_modes:
             raise GateError(f"{path}: animation.{scene}.{name} checks the {mode} seed, which "
-                            f"{animation['folder']} did not measure: rerun animate with both seed modes")
-        m = s["metrics"][mode][group]
-        value = _number(m.get("flicker"), scene, f"{group} flicker ({mode} seed)")
-        se = m.get("flicker_se") or 0.0
+                            f"{animation.folder} did not measure: rerun animate with both seed modes")
+        m = animation.metrics[mode][group]
+        value = _number(m.flicker, scene, f"{group} flicker ({mode} seed)")
+        se = _or_zero(m.flicker_se)
         if limit < RESOLVE_SIGMAS * se:
             raise GateError(f"{scene}: animation.{scene}.{name} = {limit:g} is tighter than the noise can resolve "
                             f"({RESOLVE_SIGMAS:g} SE = {RESOLVE_SIGMAS * se:.2e}): raise it or animate more chains")
         check = Check(scene, f"over_time.{name}", value, f"≤ {limit:g}", value <= limit,
-                      detail={"standard_error": se, "seed_mode": mode, "folder": animation["folder"]})
+                      detail={"standard_error": se, "seed_mode": mode, "folder": animation.folder})
         if not check.passed:
             check.message = f"{scene}: over_time.{name} = {value:.4g}, limit {check.limit}"
         checks.append(check)

@@ -31,6 +31,7 @@ from volcaustics.scenes import SceneError, resolve_scene
 
 if TYPE_CHECKING:
     from volcaustics.experiment.measurement import MeasurementSettings
+    from volcaustics.reports.studies.animate.animation_read import MeasuredAnimation
 
 MISSING_REFERENCE = "run `make report` (or the gate with --render-references) first"
 
@@ -82,7 +83,7 @@ def run_gate(budgets: dict, *, overrides: dict, baseline_dir: str | None, update
                 check.images = failure_images(out_dir, name, check, result.views)
         checks += verdict.checks
     for animation in animations:
-        checks += flicker_checks(animation, budgets["animations"][animation["summary"]["scene"]], budgets["path"])
+        checks += flicker_checks(animation, budgets["animations"][animation.scene], budgets["path"])
     for name, comparison in compared:
         checks += compare_checks(comparison, name, budgets["compare"][name][comparison.scene],
                                  budgets["path"])
@@ -97,15 +98,15 @@ def run_gate(budgets: dict, *, overrides: dict, baseline_dir: str | None, update
     return result
 
 
-def _animation(budgets: dict, folder: str) -> dict:
+def _animation(budgets: dict, folder: str) -> MeasuredAnimation:
     """An animate output with flicker budgets, measured with this code."""
     animation = load_animation(folder)
-    scene = animation["summary"]["scene"]
+    scene = animation.scene
     if scene not in budgets["animations"]:
         raise GateError(f"--animation {folder}: no [animation.{scene}] flicker budgets in {budgets['path']}")
-    if animation["summary"].get("code_version") != code_version():
+    if animation.code_version != code_version():
         raise GateError(f"--animation {folder}: measured with other code (version "
-                        f"{animation['summary'].get('code_version')}, now {code_version()}): rerun "
+                        f"{animation.code_version}, now {code_version()}): rerun "
                         f"`volcaustics animate {scene} -o {folder}`")
     return animation
 
