@@ -23,12 +23,12 @@ if TYPE_CHECKING:
     from volcaustics.experiment.summaries import ExperimentSummary
 
 
-def _number(value: Any) -> float:
+def from_stored(value: Any) -> float:
     """A stored number, NaN for None (the store writes NaN as null)."""
     return math.nan if value is None else float(value)
 
 
-def _stored(value: float) -> float | None:
+def to_stored(value: float) -> float | None:
     """A number as the store writes it: None for NaN."""
     return None if math.isnan(value) else value
 
@@ -59,15 +59,15 @@ class Estimate:
     @classmethod
     def from_json(cls, data: Mapping) -> Estimate:
         per_seed = data.get("per_seed")
-        numbers = {k: _number(data.get(k)) for k in HEADLINE_COLUMNS if k != "note"}
+        numbers = {k: from_stored(data.get(k)) for k in HEADLINE_COLUMNS if k != "note"}
         return cls(**numbers, note=str(data.get("note") or ""),
-                   per_seed=None if per_seed is None else tuple(_number(v) for v in per_seed))
+                   per_seed=None if per_seed is None else tuple(from_stored(v) for v in per_seed))
 
     def to_json(self, keys: tuple[str, ...] = HEADLINE_COLUMNS) -> dict:
         """The stored form (``keys`` of it; NaN as None, ``per_seed`` where there is one)."""
-        out: dict[str, Any] = {k: getattr(self, k) if k == "note" else _stored(getattr(self, k)) for k in keys}
+        out: dict[str, Any] = {k: getattr(self, k) if k == "note" else to_stored(getattr(self, k)) for k in keys}
         if self.per_seed is not None:
-            out["per_seed"] = [_stored(v) for v in self.per_seed]
+            out["per_seed"] = [to_stored(v) for v in self.per_seed]
         return out
 
 
@@ -103,17 +103,18 @@ class DecompositionRow:
     @classmethod
     def from_json(cls, row: Mapping) -> DecompositionRow:
         if row.get("term") == "noise":
-            return cls("noise", math.nan, _number(row.get("energy_sigma")), _number(row.get("relmse")), math.nan,
-                       _number(row.get("relmse")))
-        return cls(str(row["term"]), *(_number(row.get(k)) for k in _ROW_NUMBERS))
+            noise = from_stored(row.get("relmse"))
+            return cls("noise", math.nan, from_stored(row.get("energy_sigma")), noise, math.nan, noise)
+        return cls(str(row["term"]), *(from_stored(row.get(k)) for k in _ROW_NUMBERS))
 
     def to_json(self) -> dict:
         """The stored row."""
         if self.term == "noise":
-            return {"term": "noise", "energy_sigma": _stored(self.energy_share_se), "relmse": _stored(self.relmse_part)}
+            return {"term": "noise", "energy_sigma": to_stored(self.energy_share_se),
+                    "relmse": to_stored(self.relmse_part)}
         stored = ("energy_share", "energy_share_se", "relmse_part", "relmse_part_se", "relmse_own", "relmse_own_se",
                   "relmse_part_debiased")
-        return {"term": self.term, **{k: _stored(getattr(self, k)) for k in stored}}
+        return {"term": self.term, **{k: to_stored(getattr(self, k)) for k in stored}}
 
 
 _ROW_NUMBERS = ("energy_share", "energy_share_se", "relmse_part", "relmse_part_se", "relmse_part_debiased",
@@ -138,13 +139,13 @@ class Closure:
     @classmethod
     def from_json(cls, data: Mapping) -> Closure:
         def n(name: str) -> float:
-            return _number(data.get(name))
+            return from_stored(data.get(name))
 
         return cls(n("energy_share"), n("energy_se"), n("energy_z"), n("debiased_relmse"), n("relmse_se"),
                    n("relmse_z"), bool(data.get("within_noise")), str(data.get("message") or ""))
 
     def to_json(self) -> dict:
-        return {k: v if isinstance(v, (bool, str)) else _stored(v) for k, v in vars(self).items()}
+        return {k: v if isinstance(v, (bool, str)) else to_stored(v) for k, v in vars(self).items()}
 
 
 @dataclass(frozen=True)
@@ -183,8 +184,8 @@ class EqualCost:
         if data is None:
             return None
         t = data["measured_time"]
-        return cls({k: float(v) for k, v in data["predicted_ratio"].items()}, _number(t["ratio"]),
-                   bool(data["at_paper_cost"]), _number(t.get("config_s")), _number(t.get("paper_s")),
+        return cls({k: float(v) for k, v in data["predicted_ratio"].items()}, from_stored(t["ratio"]),
+                   bool(data["at_paper_cost"]), from_stored(t.get("config_s")), from_stored(t.get("paper_s")),
                    str(t.get("method", "")))
 
 
@@ -342,18 +343,18 @@ class Experiment:
             scene=summary["scene"], scene_hash=summary["scene_hash"], key=key or str(summary.get("key", "")),
             params=ApproxParams(**summary["params"]), seeds=int(summary["seeds"]), images=images,
             decomposition=tuple(DecompositionRow.from_json(r) for r in rows),
-            cost=FrameCost(_number(cost.get("total")), _number(cost.get("splats")),
+            cost=FrameCost(from_stored(cost.get("total")), from_stored(cost.get("splats")),
                            {k: float(v) for k, v in summary.get("predicted_frame", {}).items() if v is not None},
-                           _number(timings.get("frame_wall")), str(summary.get("timing_method", "")),
-                           _number(cost.get("map_reads")), _number(cost.get("emission_reads")),
-                           _number(cost.get("denoised_pixels"))),
+                           from_stored(timings.get("frame_wall")), str(summary.get("timing_method", "")),
+                           from_stored(cost.get("map_reads")), from_stored(cost.get("emission_reads")),
+                           from_stored(cost.get("denoised_pixels"))),
             equal_cost=EqualCost.from_json(summary.get("equal_cost")), warnings=tuple(summary["warnings"]),
             code_version=summary["code_version"], tables=dict(tables or {}),
             model=ModelTerm.from_json(summary.get("model")),
-            map_reads=MapReads(_number(reads.get("per_frame")), _number(reads.get("per_segment")),
+            map_reads=MapReads(from_stored(reads.get("per_frame")), from_stored(reads.get("per_segment")),
                                tuple(reads.get("per_step", ()))) if reads else None,
-            seconds=_number((summary.get("experiment_seconds") or {}).get("total")),
-            description=str(summary.get("description", "")), optical_depth=_number(summary.get("optical_depth")),
+            seconds=from_stored((summary.get("experiment_seconds") or {}).get("total")),
+            description=str(summary.get("description", "")), optical_depth=from_stored(summary.get("optical_depth")),
             seed_values=tuple(summary.get("seed_values", ())),
             reference=ReferenceUsed.from_json(summary["reference"]) if summary.get("reference") else None,
             compared_pixels=int(summary.get("compared_pixels") or 0),

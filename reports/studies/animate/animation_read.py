@@ -4,26 +4,18 @@ gate's flicker budgets): its summary and its media as data URIs."""
 from __future__ import annotations
 
 import base64
-import math
 import os
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any, NoReturn
 
+from volcaustics.experiment.result import from_stored, to_stored
 from volcaustics.experiment.summaries import check_schema
 from volcaustics.infra.errors import InputError
 from volcaustics.infra.storage import read_json_object
 
 KIND = "animation"  # summary.json "kind" of an animate output folder
 MIME = {"webp": "image/webp", "gif": "image/gif"}
-
-
-def _number(value: Any) -> float:
-    return math.nan if value is None else float(value)
-
-
-def _stored(value: float) -> float | None:
-    return None if math.isnan(value) else value
 
 
 FLICKER_NUMBERS = ("flicker", "flicker_se", "flicker_systematic", "flicker_approx_noise", "flicker_max",
@@ -52,17 +44,17 @@ class Flicker:
     @classmethod
     def from_json(cls, data: Mapping) -> Flicker:
         metrics = [k[:-len("_mean")] for k in data if k.endswith("_mean")]
-        series = {m: (_number(data.get(f"{m}_mean")), _number(data.get(f"{m}_worst"))) for m in metrics}
-        numbers = {k: _number(data.get(k)) for k in FLICKER_NUMBERS}
+        series = {m: (from_stored(data.get(f"{m}_mean")), from_stored(data.get(f"{m}_worst"))) for m in metrics}
+        numbers = {k: from_stored(data.get(k)) for k in FLICKER_NUMBERS}
         return cls(**numbers, series=series, pairs=int(data.get("pairs") or 0),
-                   lag_frames=_number(data.get("lag_frames")))
+                   lag_frames=from_stored(data.get("lag_frames")))
 
     def to_json(self) -> dict:
         """The stored form (NaN as None)."""
-        return {**{k: _stored(getattr(self, k)) for k in FLICKER_NUMBERS},
-                **{f"{m}_mean": _stored(mean) for m, (mean, _) in self.series.items()},
-                **{f"{m}_worst": _stored(worst) for m, (_, worst) in self.series.items()},
-                "pairs": self.pairs, "lag_frames": _stored(self.lag_frames)}
+        return {**{k: to_stored(getattr(self, k)) for k in FLICKER_NUMBERS},
+                **{f"{m}_mean": to_stored(mean) for m, (mean, _) in self.series.items()},
+                **{f"{m}_worst": to_stored(worst) for m, (_, worst) in self.series.items()},
+                "pairs": self.pairs, "lag_frames": to_stored(self.lag_frames)}
 
 
 @dataclass(frozen=True)
