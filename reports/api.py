@@ -374,7 +374,8 @@ def frames(output: str, *, scenes: Sequence[str] | None = None, seeds: int = FRA
     Parameters
     ----------
     output : str
-        The check's folder (its points and ``frames.parquet``).
+        The check's folder: its result store (``points/``, every point's ``summary.json``
+        and tables) and ``frames.parquet``.
     scenes : sequence of str, optional
         Scene names or paths; default every built-in and held-out scene.
     seeds : int
