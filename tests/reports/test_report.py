@@ -309,16 +309,18 @@ def test_a_warm_report_measures_nothing_and_says_the_same(built):
 @pytest.mark.slow  # the whole report on the built-ins (about 40 s, once a run): `make test-fast` skips it
 def test_a_point_measured_again_draws_its_pictures_again(built, monkeypatch, tmp_path):
     """Negative control for the pictures' cache: a stored summary that changed (a point
-    measured again) is a new cache entry, not the old pictures."""
+    measured again: another seal) is a new cache entry, not the old pictures."""
+    from types import SimpleNamespace
+
     from volcaustics.reports.presenting.page import page_write as write
 
     monkeypatch.setenv("VOLCAUSTICS_CACHE", str(tmp_path))
     drawn = []
     monkeypatch.setattr(write, "scene_images", lambda result, page: drawn.append(result.key) or {"x": "y"})
-    result = type("Result", (), {"key": "k", "summary": {"a": 1}})()
+    result = SimpleNamespace(key="k", experiment=SimpleNamespace(summary_sha256="a" * 64))
     assert write.cached_scene_images(result, {}) == {"x": "y"} and drawn == ["k"]
     assert write.cached_scene_images(result, {}) == {"x": "y"} and drawn == ["k"]   # from the cache
-    result.summary = {"a": 2}
+    result.experiment = SimpleNamespace(summary_sha256="b" * 64)
     write.cached_scene_images(result, {})
     assert drawn == ["k", "k"]
 
