@@ -254,6 +254,20 @@ def test_a_port_that_is_not_a_scheduler_is_refused_in_bounded_time(empty_cache, 
     assert message in err and f"127.0.0.1:{server.port}" in err and "Traceback" not in err and not out.exists()
 
 
+def _wait_until_it_answers(address: str, deadline: float) -> None:
+    """Until a client's handshake with the scheduler at ``address`` succeeds (or ``deadline``)."""
+    from dask.distributed import Client
+
+    while True:
+        try:
+            Client(address, timeout="5s", set_as_default=False).close()
+            return
+        except Exception:  # noqa: BLE001 (not up yet: whatever the handshake raised)
+            if time.monotonic() > deadline:
+                raise
+            time.sleep(0.5)
+
+
 def test_a_scheduler_without_workers_is_refused_after_the_stated_wait(empty_cache, tmp_path, capsys):
     """A scheduler with no workers: silent for 900 s once; now exit 2 after --dask-wait."""
     file = tmp_path / "scheduler.json"
@@ -265,6 +279,7 @@ def test_a_scheduler_without_workers_is_refused_after_the_stated_wait(empty_cach
         while not file.exists() and time.monotonic() < deadline:
             time.sleep(0.2)
         address = json.loads(file.read_text())["address"]
+        _wait_until_it_answers(address, deadline)  # the file comes before the scheduler answers (a flake in CI)
         out = tmp_path / "store"
         assert main(["sweep", "--scenes", "refocus", "--dask", address, "--dask-wait", "2", "-o", str(out),
                      "--quiet"]) == 2
