@@ -82,6 +82,11 @@ class ImageMetric:
     estimate: Estimate
 
 
+def find_estimate(images: tuple[ImageMetric, ...], metric: str, component: str) -> Estimate | None:
+    """The estimate of ``metric`` on ``component`` among ``images``, None where absent."""
+    return next((m.estimate for m in images if m.component == component and m.metric == metric), None)
+
+
 @dataclass(frozen=True)
 class DecompositionRow:
     """One cause of the caustic's error (docs/concepts/decomposition.md): its share of the
@@ -375,7 +380,7 @@ class Experiment:
     def find_metric(self, metric: str = "relative_mse", component: str = "caustic") -> Estimate | None:
         """One image metric, None where this experiment did not measure it (a gate point
         measures only the metrics its budgets read)."""
-        return next((m.estimate for m in self.images if m.component == component and m.metric == metric), None)
+        return find_estimate(self.images, metric, component)
 
     def images_table(self) -> pd.DataFrame:
         """The image metrics, a row per (component, metric)."""

@@ -8,7 +8,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-from volcaustics.experiment.result import Estimate, ImageMetric
+from volcaustics.experiment.result import Estimate, ImageMetric, find_estimate
 from volcaustics.experiment.summaries import check_schema
 from volcaustics.infra.errors import InputError
 from volcaustics.infra.imageio import read_exr
@@ -85,7 +85,7 @@ class ComparedRenderer:
 
     def find_metric(self, metric: str, component: str) -> Estimate | None:
         """One image metric, None where it was not measured."""
-        return next((m.estimate for m in self.images if m.component == component and m.metric == metric), None)
+        return find_estimate(self.images, metric, component)
 
     def metric(self, metric: str, component: str) -> Estimate:
         """One image metric; KeyError naming it where it was not measured."""
