@@ -262,6 +262,13 @@ class MapReads:
     per_segment: float
     per_step: tuple[float, ...] = ()
 
+    @classmethod
+    def from_json(cls, data: Mapping | None) -> MapReads | None:
+        if not data:
+            return None
+        return cls(from_stored(data.get("per_frame")), from_stored(data.get("per_segment")),
+                   tuple(data.get("per_step", ())))
+
     def to_json(self) -> dict:
         return {"per_frame": self.per_frame, "per_segment": self.per_segment, "per_step": list(self.per_step)}
 
@@ -283,6 +290,21 @@ class ReferenceUsed:
     def from_json(cls, data: Mapping) -> ReferenceUsed:
         return cls(str(data.get("key", "")), dict(data.get("settings") or {}), dict(data.get("noise_floor") or {}),
                    str(data.get("stopped_by", "")), dict(data))
+
+    @property
+    def photons(self) -> int | None:
+        """Photons traced for the caustic (the cache record's count)."""
+        return self.record.get("photons")
+
+    @property
+    def batches(self) -> int | None:
+        """Caustic batches rendered."""
+        return self.record.get("batches")
+
+    @property
+    def camera_batches(self) -> int | None:
+        """Camera (fog and direct) batches rendered."""
+        return self.record.get("camera_batches")
 
     def to_json(self) -> dict:
         return dict(self.record)
@@ -356,8 +378,7 @@ class Experiment:
             equal_cost=EqualCost.from_json(summary.get("equal_cost")), warnings=tuple(summary["warnings"]),
             code_version=summary["code_version"], tables=dict(tables or {}),
             model=ModelTerm.from_json(summary.get("model")),
-            map_reads=MapReads(from_stored(reads.get("per_frame")), from_stored(reads.get("per_segment")),
-                               tuple(reads.get("per_step", ()))) if reads else None,
+            map_reads=MapReads.from_json(reads),
             seconds=from_stored((summary.get("experiment_seconds") or {}).get("total")),
             description=str(summary.get("description", "")), optical_depth=from_stored(summary.get("optical_depth")),
             seed_values=tuple(summary.get("seed_values", ())),

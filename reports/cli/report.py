@@ -9,6 +9,7 @@ from volcaustics.reports.cli.common import (
     add_measurement_flags,
     add_report_reference,
     debiased,
+    known,
     measurement_from_args,
     num,
     path_type,
@@ -59,32 +60,31 @@ def run(args: argparse.Namespace) -> int:
     check_output_set(args.out, "--out", files=OUTPUT_FILES, folders=("figures",))
     names = scene_list(args.scenes, "--scenes")
     budgets = load_budgets(args.budgets or default_budgets_path())
-    summary = run_report(args.out, names if names is not None else list(BUILTIN_NAMES),
+    document = run_report(args.out, names if names is not None else list(BUILTIN_NAMES),
                          overrides=parse_overrides(args.set), seeds=args.seeds, seed=args.seed,
                          reference_settings=report_settings(args), budgets=budgets, baseline_dir=args.baseline,
                          measurement=measurement_from_args(args, budgets["measurement"]),
                          sweep_dir=args.sweep, animation_dirs=args.animation or (), frames_dir=args.frames,
                          comparisons=[parse_named(text, "--compare") for text in args.compare or ()],
                          progress=not args.quiet)
-    for page in summary["scenes"]:
-        c = page["components"]
-        failed = [ch["name"] for ch in page["gate"]["checks"] if not ch["passed"]]
-        note = page["gate"].get("note")
-        gate = ("FAIL " + ", ".join(failed)) if failed else ("pass" if page["gate"]["checks"] else
+    for page in document.scenes:
+        caustic, combined = page.components["caustic"], page.components["combined"]
+        failed = [ch.name for ch in page.gate.failed]
+        note = page.gate.note
+        gate = ("FAIL " + ", ".join(failed)) if failed else ("pass" if page.gate.checks else
                                                              f"not checked ({note})" if note else "not checked")
-        print(f"{page['scene']:<12} caustic relMSE {debiased(c['caustic']['relative_mse'].get('debiased'))}, "
-              f"energy {num(c['caustic']['energy_ratio'].get('value'))}; combined relMSE "
-              f"{debiased(c['combined']['relative_mse'].get('debiased'))}; gate {gate}")
-    gate = summary["gate"]
-    verdict = "passed" if gate["passed"] else "FAILED" if gate["failed"] else "not checked"
-    for row in summary["animations"]:
+        print(f"{page.scene:<12} caustic relMSE {debiased(known(caustic.estimate('relative_mse').debiased))}, "
+              f"energy {num(known(caustic.estimate('energy_ratio').value))}; combined relMSE "
+              f"{debiased(known(combined.estimate('relative_mse').debiased))}; gate {gate}")
+    verdict = "passed" if document.gate.passed else "FAILED" if document.gate.failed else "not checked"
+    for row in document.animations:
         m = row["metrics"][row["seed_modes"][0]]["caustic"]
         print(f"{row['scene']:<12} over time: caustic flicker {pct(m['flicker'])} ({row['seed_modes'][0]} seed), "
               f"{len(row['frames'])} frames" + (" (measured with other code: rerun animate)" if row["stale"] else ""))
-    for row in summary["comparisons"]:
+    for row in document.comparisons:
         m = row["images"].get("caustic") or row["images"]["combined"]
         print(f"{row['scene']:<12} {row['renderer']}: {'caustic' if 'caustic' in row['images'] else 'combined'} "
               f"relMSE {debiased(m['relative_mse'].get('debiased'))}, energy {num(m['energy_ratio'].get('value'))}")
-    print(f"report: {len(summary['scenes'])} scenes, gate {verdict} ({gate['failed']} of {gate['checks']} checks "
-          f"failed), {summary['seconds']['total']:.0f} s -> {args.out}/index.html")
+    print(f"report: {len(document.scenes)} scenes, gate {verdict} ({document.gate.failed} of {document.gate.checks} "
+          f"checks failed), {document.seconds['total']:.0f} s -> {args.out}/index.html")
     return 0

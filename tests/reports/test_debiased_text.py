@@ -9,6 +9,7 @@ import pandas as pd
 from volcaustics.reports.cli.common import debiased
 from volcaustics.reports.presenting.page.frame_check_section import frames_rows, frames_section
 from volcaustics.reports.presenting.page.parts import BELOW_NOISE, debiased_pct
+from volcaustics.reports.presenting.page.report_document import FramesSummary
 from volcaustics.reports.studies.best.frame_check import verdict, with_ratios
 
 
@@ -32,6 +33,6 @@ def test_the_frame_checks_section_prints_a_negative_mean_as_below_noise():
     table = with_ratios(pd.DataFrame([_row("dense_forward", "paper", 0.8584, 0.8538),
                                       _row("dense_forward", "best", 0.7555, 0.1514),
                                       _row("dense_forward", "beams", 0.5375, -0.0248)]))
-    html = frames_section({"rows": frames_rows(table), "verdict": verdict(table)})
+    html = frames_section(FramesSummary(tuple(frames_rows(table)), verdict(table), "frames"))
     assert f"<td>{BELOW_NOISE} (-2.48% ± 1.10)</td>" in html
     assert "<td>-2.48%" not in html and "<td>15.14% ± 1.10</td>" in html

@@ -13,6 +13,7 @@ import pandas as pd
 import pytest
 
 from volcaustics.reports.presenting.page.frame_check_section import frames_rows, frames_section
+from volcaustics.reports.presenting.page.report_document import FramesSummary
 from volcaustics.reports.studies.best.frame_check import verdict, with_ratios
 
 
@@ -48,13 +49,13 @@ def test_beams_worst_ratios_stand_beside_bests_verdict_which_they_do_not_change(
     v = verdict(table)
     assert v["met"] and v["beams_none_builtin_worst_frame_ratio"] == 0.3
     assert v["beams_none_heldout_worst_frame_ratio"] == 2.0 and "beams_oidn_builtin_worst_frame_ratio" not in v
-    html = frames_section({"rows": frames_rows(table), "verdict": v})
+    html = frames_section(FramesSummary(tuple(frames_rows(table)), v, "frames"))
     assert "beams' worst one-frame ratio without a denoiser: 0.30× on the built-ins, 2.00× on the held-out" in html
 
 
 def test_the_report_section_shows_every_row_and_the_verdict():
     table = _table(0.045)
-    html = frames_section({"rows": frames_rows(table), "verdict": verdict(table)})
+    html = frames_section(FramesSummary(tuple(frames_rows(table)), verdict(table), "frames"))
     assert html.count("<tr>") == len(table) + 1 and "(held out)" in html and "<b>met</b>" in html
     assert frames_section(None) == ""
 
@@ -145,7 +146,7 @@ def test_the_report_section_shows_a_missing_number_as_a_dash(tmp_path):
     measured = table[~((table["scene"] == "k") & (table["config"] == "paper"))][list(_row("k", True, "", "", 0))]
     table, manifest = load_frames(_frame_check(tmp_path / "frames", table=with_ratios(measured)))
     assert manifest["verdict"]["none_heldout_worst_frame_ratio"] is None
-    html = frames_section({"rows": frames_rows(table), "verdict": manifest["verdict"]})
+    html = frames_section(FramesSummary(tuple(frames_rows(table)), manifest["verdict"], "frames"))
     assert html.count("<tr>") == len(table) + 1 and "– on the held-out scenes" in html
     k_best = next(row for row in html.split("<tr>") if row.startswith("<td class='l'>k") and ">best<" in row)
     assert k_best.count("<td>–</td>") == 4, k_best  # cost, time, one frame's and the mean's ratios

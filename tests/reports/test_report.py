@@ -113,6 +113,24 @@ def _parse(page: str) -> _Page:
 
 
 @pytest.mark.slow  # the whole report on the built-ins (about 40 s, once a run): `make test-fast` skips it
+def test_the_document_reads_back_as_written(built):
+    """summary.json read into the report's types and written back is the file, key for key
+    and in its order (sweep, animations, comparisons and all); a part edited in the types
+    is in what they write."""
+    import dataclasses
+
+    from volcaustics.reports.measuring.results.tables import plain
+    from volcaustics.reports.presenting.page.report_document import ReportDocument
+
+    cold = built["cold"]
+    document = ReportDocument.from_json(cold)
+    assert json.dumps(plain(document.to_json())) == json.dumps(cold)
+    assert document.scenes[0].components["caustic"].estimate("relative_mse").value > 0
+    edited = dataclasses.replace(document, seeds=document.seeds + 1)
+    assert plain(edited.to_json())["seeds"] == cold["seeds"] + 1
+
+
+@pytest.mark.slow  # the whole report on the built-ins (about 40 s, once a run): `make test-fast` skips it
 def test_summary_holds_every_scene_and_the_gate_verdicts(built):
     s = built["cold"]
     assert [p["scene"] for p in s["scenes"]] == list(SCENES)
@@ -348,6 +366,7 @@ def test_the_page_survives_missing_numbers_and_odd_names(built):
     import copy
 
     from volcaustics.reports.presenting.page.html import render_page
+    from volcaustics.reports.presenting.page.report_document import ReportDocument
 
     summary = copy.deepcopy(built["cold"])
     page = summary["scenes"][0]
@@ -367,7 +386,7 @@ def test_the_page_survives_missing_numbers_and_odd_names(built):
         for metric in ("per_pixel_relative_mse", "hdr_flip"):
             for c in ("caustic", "combined"):
                 images[name][f"map.{metric}.{c}"] = None       # not computed
-    html = render_page(summary, images, {})
+    html = render_page(ReportDocument.from_json(summary), images, {})
     parsed = _parse(html)
     assert {r["scene"] for r in parsed.rows} == {odd, "sphere1"}
     assert odd not in html                                  # only escaped
@@ -580,12 +599,11 @@ def test_the_first_screen_answers_the_question(built):
 def test_the_error_by_cause_chart_draws_negative_parts_and_missing_numbers():
     """The chart takes a part below zero (drawn leftwards), a null part and a scene without a
     one-frame error; it is a PNG."""
-    from volcaustics.metrics.decomposition import TERMS
-    from volcaustics.reports.presenting.page.first_screen import error_by_cause_chart
+    import math
 
-    terms = [{"term": t, "relmse_part_debiased": (-0.01 if i == 0 else None if i == 1 else 0.02)}
-             for i, t in enumerate(TERMS)]
-    pages = [{"scene": name, "decomposition": {"terms": terms},
-              "components": {"caustic": {"relative_mse": {"debiased": 0.08}, **frame}}}
-             for name, frame in (("a", {"frame_relative_mse": {"debiased": 0.1}}), ("b", {}))]
-    assert error_by_cause_chart({"scenes": pages}).startswith(b"\x89PNG")
+    from volcaustics.metrics.decomposition import TERMS
+    from volcaustics.reports.presenting.page.first_screen import CauseBar, error_by_cause_chart
+
+    parts = tuple(-0.01 if i == 0 else math.nan if i == 1 else 0.02 for i in range(len(TERMS)))
+    bars = [CauseBar("a", parts, 0.08, 0.1), CauseBar("b", parts, 0.08, math.nan)]
+    assert error_by_cause_chart(bars).startswith(b"\x89PNG")

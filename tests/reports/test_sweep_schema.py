@@ -14,7 +14,8 @@ from volcaustics.experiment.versions import code_version
 from volcaustics.infra.storage import file_sha256
 from volcaustics.reports.measuring.results.points_table import POINT_COLUMNS, point_row
 from volcaustics.reports.measuring.results.store import document_sha256
-from volcaustics.reports.presenting.page.html import sweep_section
+from volcaustics.reports.presenting.page.report_document import SweepSummary
+from volcaustics.reports.presenting.page.sweep_section import sweep_section
 from volcaustics.reports.presenting.report.sweep_store import ReportError, load_sweep
 from volcaustics.reports.studies.sweep.sweep_run import MANIFEST_SEAL
 
@@ -57,8 +58,9 @@ def test_a_store_before_a_parameter_and_of_another_code_version_is_marked(tmp_pa
     assert list(sweep.tables["points"]["crossing"]) == ["sign", "sign"]  # what its points ran
     assert any("predates the parameter crossing" in n and "crossing = sign" in n for n in sweep.notes)
     assert any(n.startswith("measured by code version 0ld, not this code's") for n in sweep.notes)
-    html = sweep_section({"folder": "s", "points": 2, "varied": ["layers"], "suffice": [], "suffice_factor": None,
-                           "notes": sweep.notes}, {})
+    summary = SweepSummary(folder="s", varied=("layers",), spec={}, points=2, suffice=(), point_rows=(),
+                           suffice_factor=None, figures=(), variants=None, best=None, notes=tuple(sweep.notes))
+    html = sweep_section(summary, {})
     assert html.count("class='warn sweep-note'") == 2 and "predates the parameter crossing" in html
 
 

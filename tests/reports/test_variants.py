@@ -104,7 +104,7 @@ def test_the_report_shows_the_best_variants():
     """The page's Variants table (reports/presenting/page/html.py) shows each scene's paper point and
     best variant with their numbers; a sweep that varies no variant choice shows none."""
     from volcaustics.reports.measuring.results.tables import rows_of
-    from volcaustics.reports.presenting.page.html import variants_table
+    from volcaustics.reports.presenting.page.sweep_section import variants_table
 
     best = rows_of(best_variants(variant_table(_tables(ROWS))))
     html = variants_table({"best": best, "points": []})

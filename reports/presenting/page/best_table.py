@@ -4,6 +4,7 @@ by the search's criterion, with every decomposition term's part."""
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from html import escape
 
 from volcaustics.metrics.decomposition import TERMS as BEST_TERMS
@@ -18,7 +19,7 @@ def percent_pm(value: float | None, se: float | None, fmt: str = "{:.2f}") -> st
     return fmt.format(100 * value) + "%" + (f" ± {100 * se:.2f}" if se is not None else "")
 
 
-def best_table(best: dict | None) -> str:
+def best_table(best: Mapping | None) -> str:
     if not best:
         return ""
     v = best["verdict"]

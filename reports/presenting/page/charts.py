@@ -1,5 +1,5 @@
 """The small charts of one scene in the accuracy report, drawn from its entry in the
-report's summary only (``page.summary.scene_page``): hit classes by step and layer,
+report's document only (``page.report_document.ScenePage``): hit classes by step and layer,
 power by fate per step for both tracers, the caustic error decomposition, and the
 per-pass times beside the paper's shares. Each returns PNG bytes; colours are
 Okabe–Ito and every bar carries its number or a legend entry (not colour alone).
@@ -7,7 +7,8 @@ Okabe–Ito and every bar carries its number or a legend entry (not colour alone
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+import math
+from collections.abc import Callable, Mapping, Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -20,12 +21,14 @@ from volcaustics.reports.presenting.figures.plotting import OKABE_ITO, png_bytes
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
 
+    from volcaustics.reports.presenting.page.report_document import PageDecomposition, PassTiming
+
 CLASS_COLOURS = dict(zip(OUTCOME_CLASSES, ("#009E73", "#E69F00", "#D55E00", "#CC79A7", "#0072B2", "#BBBBBB")))
 PASS_COLOURS = {"trace": "#D55E00", "splat": "#0072B2", "layers": "#E69F00", "emission": "#56B4E9",
                 "camera": "#CC79A7", "fog": "#009E73", "direct": "#F0E442", "other": "#BBBBBB"}
 
 
-def hit_classes_chart(hit_classes: dict) -> bytes:
+def hit_classes_chart(hit_classes: Mapping) -> bytes:
     """One panel per step: per light-map layer of the approximation's hit ("none": it
     found none), that layer's segments by class, as % of the step's segments."""
     plt = pyplot()
@@ -95,23 +98,23 @@ def signed_stack(ax: Axes, y: float, values: Sequence[float], colours: Sequence[
             left += value
 
 
-def decomposition_chart(decomposition: dict) -> bytes:
+def decomposition_chart(decomposition: PageDecomposition) -> bytes:
     """The caustic's error split into its causes: energy shares (% of the reference's
     caustic energy; they sum to 1 − energy ratio) and debiased parts of the relative
     MSE, as the tables give them (they sum to it, less the noise), each a stacked bar
     with its numbers; the total marked."""
     plt = pyplot()
-    terms = {t["term"]: t for t in decomposition["terms"]}
+    terms = {t.term: t for t in decomposition.terms}
     colours = [OKABE_ITO[i] for i in range(len(TERMS))]
-    number = lambda v: 0.0 if v is None else v  # noqa: E731  (a term the store holds as null: drawn as 0)
+    number = lambda v: 0.0 if math.isnan(v) else v  # noqa: E731  (a term the store holds as null: drawn as 0)
     fig, axes = plt.subplots(2, 1, figsize=(5.6, 2.3))
     for ax, (key, title, scale) in zip(axes, (("energy_share", "energy share (% of R's caustic energy)", 100.0),
                                              ("relmse_part_debiased",
                                               "part of the relative MSE, debiased (% points)", 100.0))):
-        values = [scale * number(terms[t][key]) for t in TERMS]
+        values = [scale * number(getattr(terms[t], key)) for t in TERMS]
         signed_stack(ax, 0, values, colours, [t.replace("_", " ") for t in TERMS] if ax is axes[0] else
                       [None] * len(TERMS), lambda v: f"{v:+.1f}")
-        total = scale * number(decomposition["total"][key])
+        total = scale * number(getattr(decomposition.total, key))
         ax.axvline(total, color="black", lw=1, ls="--")
         ax.text(total, 0.42, f"total {total:+.1f}", fontsize=6.5, ha="left", va="bottom")
         ax.axvline(0, color="black", lw=0.5)
@@ -123,13 +126,13 @@ def decomposition_chart(decomposition: dict) -> bytes:
     return png_bytes(fig)
 
 
-def pass_times_chart(timing: dict) -> bytes:
+def pass_times_chart(timing: PassTiming) -> bytes:
     """Shares of the frame per pass, this run beside the paper's (intersection
     estimation ≈ 70%, splatting ≈ 23% on the authors' GPU)."""
     plt = pyplot()
     fig, ax = plt.subplots(figsize=(5.6, 1.5))
-    measured = {p["pass"]: 100.0 * p["share"] for p in timing["passes"]}
-    paper = {name: 100.0 * share for name, share in timing["paper_shares"].items()}
+    measured = {p.name: 100.0 * p.share for p in timing.passes}
+    paper = {name: 100.0 * share for name, share in timing.paper_shares.items()}
     for y, shares in ((1, measured), (0, paper)):
         left = 0.0
         for name, value in shares.items():

@@ -5,7 +5,7 @@ bars that go with them."""
 from __future__ import annotations
 
 import base64
-from collections.abc import Collection
+from collections.abc import Collection, Mapping
 
 import numpy as np
 
@@ -48,7 +48,7 @@ def exposures(views: dict, components: Collection[str] = SHOWN) -> dict:
     return out
 
 
-def component_images(views: dict, exposure: dict, own: str) -> dict:
+def component_images(views: dict, exposure: Mapping, own: str) -> dict:
     """Data URIs of the renders and error maps of every component in ``exposure``: the
     renderer's (``own``: "approx", "renderer") and the reference's at that exposure, the
     maps on the fixed scales (None where the metric had no value)."""

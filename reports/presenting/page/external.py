@@ -6,6 +6,7 @@ per renderer beside the approximation in the overview's "Renderers" table."""
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from html import escape
 from typing import TYPE_CHECKING
 
@@ -16,8 +17,11 @@ from volcaustics.reports.presenting.page.parts import colour_bar as _colour_bar
 from volcaustics.reports.presenting.page.parts import figure as _figure
 from volcaustics.reports.presenting.page.parts import num as _num
 from volcaustics.reports.presenting.page.parts import pct as _pct
+from volcaustics.reports.presenting.page.report_document import MISSING, ComponentErrors
 
 if TYPE_CHECKING:
+    from volcaustics.experiment.result import Estimate
+    from volcaustics.reports.presenting.page.report_document import ScenePage
     from volcaustics.reports.studies.compare.comparison_read import ComparedRenderer
 
 COLUMNS = ("relative_mse", "energy_ratio", "hdr_flip", "per_pixel_relative_mse")
@@ -132,31 +136,33 @@ def comparison_page(row: dict, images: dict) -> str:
 """
 
 
-def renderers_table(summary: dict) -> str:
+def renderers_table(pages: Sequence[ScenePage], rows: Sequence[Mapping]) -> str:
     """The overview's "Renderers" table: per scene the approximation, then each other
-    renderer compared on it (empty without ``report --compare``)."""
-    rows = summary.get("comparisons") or []
+    renderer compared on it (``rows``: the report's comparisons; empty without ``report --compare``)."""
     if not rows:
         return ""
     head = ("<tr><th class='l'>scene</th><th class='l'>renderer</th><th>size, seeds</th>"
             "<th>caustic relative MSE, debiased</th><th>caustic energy ratio</th>"
             "<th>combined relative MSE, debiased</th><th>combined energy ratio</th><th>combined HDR-FLIP</th></tr>")
     body = []
-    for index, page in enumerate(summary["scenes"]):
-        entries = [("approximation (this report)", page["params"]["width"], page["params"]["height"],
-                    len(page["seed_values"]), page["components"], f"#scene-{index}")]
-        entries += [(r["renderer"], r["width"], r["height"], r["seeds"], r["images"], f"#{r['anchor']}")
-                    for r in rows if r["scene"] == page["scene"]]
+    for index, page in enumerate(pages):
+        entries = [("approximation (this report)", page.params["width"], page.params["height"],
+                    len(page.seed_values), page.components, f"#scene-{index}")]
+        entries += [(r["renderer"], r["width"], r["height"], r["seeds"],
+                     {c: ComponentErrors.from_json(v) for c, v in r["images"].items()}, f"#{r['anchor']}")
+                    for r in rows if r["scene"] == page.scene]
         if len(entries) == 1:
             continue
         for k, (name, w, h, seeds, images, anchor) in enumerate(entries):
-            cells = "".join(
-                f"<td>{debiased_pct((images.get(c) or {}).get('relative_mse', {}).get('debiased'))}</td>"
-                f"<td>{_num((images.get(c) or {}).get('energy_ratio', {}).get('value'), '{:.3f}')}</td>"
-                for c in ("caustic", "combined"))
-            flip = (images.get("combined") or {}).get("hdr_flip", {}).get("value")
-            scene_cell = f"<td class='l' rowspan={len(entries)}>{escape(page['scene'])}</td>" if k == 0 else ""
-            body.append(f"<tr class='renderer-row' data-scene='{escape(page['scene'])}' "
+            def shown(c: str, metric: str, images: Mapping = images) -> Estimate:
+                return images[c].estimate(metric) if c in images else MISSING  # a layer the renderer lacks
+
+            cells = "".join(f"<td>{debiased_pct(shown(c, 'relative_mse').debiased)}</td>"
+                            f"<td>{_num(shown(c, 'energy_ratio').value, '{:.3f}')}</td>"
+                            for c in ("caustic", "combined"))
+            flip = shown("combined", "hdr_flip").value
+            scene_cell = f"<td class='l' rowspan={len(entries)}>{escape(page.scene)}</td>" if k == 0 else ""
+            body.append(f"<tr class='renderer-row' data-scene='{escape(page.scene)}' "
                         f"data-renderer='{escape(name)}'>{scene_cell}<td class='l'><a href='{anchor}'>"
                         f"{escape(name)}</a></td><td>{w}×{h}, {seeds}</td>{cells}<td>{_num(flip)}</td></tr>")
     return (f"<h3 id='renderers'>Renderers</h3><p class='note'>Other renderers' images of the same scenes "

@@ -13,6 +13,8 @@ from volcaustics.reports.presenting.page.parts import debiased_pct
 if TYPE_CHECKING:
     import pandas as pd
 
+    from volcaustics.reports.presenting.page.report_document import FramesSummary
+
 
 def _seconds(value) -> str:
     return "" if not value or value != value else f"{value:.2f}"
@@ -29,11 +31,11 @@ def _ratio(value, fmt: str = "{:.2f}×") -> str:
     return "–" if value is None or value != value else fmt.format(value)
 
 
-def frames_section(frames: dict | None) -> str:
-    """HTML of ``summary["frames"]`` (rows and verdict), "" without one."""
-    if not frames:
+def frames_section(frames: FramesSummary | None) -> str:
+    """HTML of the report's frame check (rows and verdict), "" without one."""
+    if frames is None:
         return ""
-    v = frames["verdict"]
+    v = frames.verdict
     head = ("<tr><th class='l'>scene</th><th class='l'>configuration</th><th class='l'>denoiser</th>"
             "<th>photon_res</th><th>predicted cost vs paper</th><th>measured time vs paper</th>"
             "<th>one frame's relMSE</th><th>vs paper</th>"
@@ -46,7 +48,7 @@ def frames_section(frames: dict | None) -> str:
         f"<td>{debiased_pct(r['frame_relmse'], se=r['frame_relmse_se'])}</td>"
         f"<td>{_ratio(r['frame_ratio'])}</td><td>{debiased_pct(r['relmse_debiased'], se=r['relmse_se'])}</td>"
         f"<td>{_ratio(r['relmse_ratio'])}</td><td>{_seconds(r.get('denoise_s'))}</td></tr>"
-        for r in frames["rows"])
+        for r in frames.rows)
     worst = (f"best's worst one-frame ratio without a denoiser: "
              f"{_ratio(v.get('none_builtin_worst_frame_ratio'))} on the built-ins, "
              f"{_ratio(v.get('none_heldout_worst_frame_ratio'))} on the held-out scenes "

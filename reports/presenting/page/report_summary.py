@@ -10,22 +10,33 @@ that very data (``page.html``, ``page.write``) with the images of each scene's v
 
 from __future__ import annotations
 
-import dataclasses
 import math
 import os
 import time
-from typing import TYPE_CHECKING, Any, cast
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
 
 from volcaustics.approx.cost import TIMED_PASSES
 from volcaustics.approx.params import PARAMS
 from volcaustics.experiment.photons import FATES
+from volcaustics.experiment.result import find_estimate
 from volcaustics.experiment.versions import code_version, library_versions
 from volcaustics.metrics.decomposition import TERMS
 from volcaustics.metrics.intersection import OUTCOME_CLASSES
 from volcaustics.reports.measuring.results.tables import rows_of
 from volcaustics.reports.presenting.page.data_uris import SCALES, exposures
+from volcaustics.reports.presenting.page.report_document import (
+    ComponentErrors,
+    GateSummary,
+    PageDecomposition,
+    PassShare,
+    PassTiming,
+    ReportDocument,
+    SceneGate,
+    ScenePage,
+    SweepSummary,
+)
 from volcaustics.reports.studies.best.best_search import verdict
 from volcaustics.reports.studies.sweep.best_figures import role_rows
 from volcaustics.reports.studies.sweep.suffice import settings_that_suffice
@@ -103,49 +114,43 @@ def power_budget(photons: pd.DataFrame) -> list:
     return out
 
 
-def timing(e: Experiment) -> dict:
+def timing(e: Experiment) -> PassTiming:
     """One frame's time per pass (the experiment's timed frame with the median frame
     time, rendered without records) and its share of that frame; ``other``: the frame's
     time outside the passes (reading images back, the host's work)."""
     t = e.timings
     frame = t["frame_wall"]
-    passes: list[dict[str, Any]] = [{"pass": name, "seconds": t[name], "share": t[name] / frame}
-                                    for name in PASSES if name in t]
-    other = max(frame - sum(p["seconds"] for p in passes), 0.0)
-    passes.append({"pass": "other", "seconds": other, "share": other / frame})
-    return {"method": e.cost.timing_method, "frame_s": frame, "passes": passes, "paper_shares": PAPER_SHARES,
-            "timed_frames": e.timed_frames, "gl_renderer": e.gl_renderer,
-            "map_reads": None if e.map_reads is None else e.map_reads.to_json()}
+    passes = [PassShare(name, t[name], t[name] / frame) for name in PASSES if name in t]
+    other = max(frame - sum(p.seconds for p in passes), 0.0)
+    passes.append(PassShare("other", other, other / frame))
+    return PassTiming(e.cost.timing_method, frame, tuple(passes), PAPER_SHARES, e.timed_frames, e.gl_renderer,
+                      e.map_reads)
 
 
-def scene_page(result: SceneResult, *, exposures: dict) -> dict:
+def scene_page(result: SceneResult, *, exposures: dict) -> ScenePage:
     """Everything the page shows of one scene (``result``: ``reports.measuring.results.scene_result.SceneResult``)."""
     e = result.experiment
-    components: dict[str, dict[str, Any]] = {}
+    components = {}
     for component in COLOUR_LAYERS:
-        metrics = {m.metric: m.estimate for m in e.images if m.component == component}
-        components[component] = {name: metrics[name].to_json() if name in metrics else {} for name in HEADLINE}
+        metrics = {name: find_estimate(e.images, name, component) for name in HEADLINE}
         # the floor over the compared pixels: what the debiased error had subtracted
-        floor = metrics["relative_mse"].reference_floor if "relative_mse" in metrics else math.nan
-        components[component]["reference_noise_floor"] = None if math.isnan(floor) else floor
-    rows = {r.term: r.to_json() for r in e.decomposition}  # the report measures scope "full": a decomposition
+        relmse = metrics["relative_mse"]
+        components[component] = ComponentErrors(metrics, math.nan if relmse is None else relmse.reference_floor)
+    rows = {r.term: r for r in e.decomposition}  # the report measures scope "full": a decomposition
     checks = sorted(result.checks, key=lambda c: (c.passed, c.name))
     params = e.params.to_dict()
-    return {
-        "scene": result.name, "description": e.description, "scene_hash": e.scene_hash, "point": result.key,
-        "measured_in_this_run": result.measured, "params": params,
-        "shown_params": {k: params[k] for k in SHOWN_PARAMS}, "seed_values": list(e.seed_values),
-        "reference": None if e.reference is None else e.reference.to_json(), "compared_pixels": e.compared_pixels,
-        "components": components,
-        "gate": {"passed": None if not checks else all(c.passed for c in checks), "note": result.gate_note,
-                 "budgeted": result.budgeted, "checks": [dataclasses.asdict(c) for c in checks]},
-        "timing": timing(e), "hit_classes": hit_classes(result.tables["segments"]),
-        "power_budget": power_budget(result.tables["photons"]),
-        "decomposition": {"terms": [rows[t] for t in TERMS], "total": rows["total"], "noise": rows["noise"],
-                          "residual": cast("Closure", e.closure).to_json()},
-        "model": None if e.model is None else e.model.to_json(), "paths": dict(e.paths), "exposure": exposures,
-        "warnings": list(e.warnings),
-    }
+    return ScenePage(
+        scene=result.name, description=e.description, scene_hash=e.scene_hash, point=result.key,
+        measured_in_this_run=result.measured, params=params, shown_params={k: params[k] for k in SHOWN_PARAMS},
+        seed_values=tuple(e.seed_values), reference=e.reference, compared_pixels=e.compared_pixels,
+        components=components,
+        gate=SceneGate(None if not checks else all(c.passed for c in checks), result.gate_note, result.budgeted,
+                       tuple(checks)),
+        timing=timing(e), hit_classes=hit_classes(result.tables["segments"]),
+        power_budget=tuple(power_budget(result.tables["photons"])),
+        decomposition=PageDecomposition(tuple(rows[t] for t in TERMS), rows["total"], rows["noise"],
+                                        cast("Closure", e.closure)),
+        model=e.model, paths=dict(e.paths), exposure=exposures, warnings=tuple(e.warnings))
 
 
 def scene_exposures(result: SceneResult) -> dict:
@@ -155,43 +160,39 @@ def scene_exposures(result: SceneResult) -> dict:
 
 def report_summary(results: list, *, params: ApproxParams, seeds: int, reference_settings: ReferenceSettings,
                    budgets: dict, measurement: MeasurementSettings, baseline_dir: str | None,
-                   sweep: SweepTables | None = None, clock: dict) -> dict:
-    pages = [scene_page(r, exposures=scene_exposures(r)) for r in results]
-    checks = [c for p in pages for c in p["gate"]["checks"]]
-    failed = [c for c in checks if not c["passed"]]
+                   sweep: SweepTables | None = None, clock: dict) -> ReportDocument:
+    pages = tuple(scene_page(r, exposures=scene_exposures(r)) for r in results)
+    checks = [c for p in pages for c in p.gate.checks]
+    failed = [c for c in checks if not c.passed]
     # a scene with budgets that could not be checked: the gate would fail closed (exit 2), never pass
-    unchecked = [p["scene"] for p in pages if p["gate"]["budgeted"] and not p["gate"]["checks"]]
-    unbudgeted = [p["scene"] for p in pages if not p["gate"]["budgeted"]]
+    unchecked = tuple(p.scene for p in pages if p.gate.budgeted and not p.gate.checks)
+    unbudgeted = tuple(p.scene for p in pages if not p.gate.budgeted)
     passed = False if failed else (None if unchecked or not checks else True)
-    summary = {
-        "kind": "accuracy report", "created": time.strftime("%Y-%m-%d %H:%M:%S %Z"),
-        "params": params.to_dict(), "seeds": seeds, "reference_settings": reference_settings.to_dict(),
-        "measurement": measurement.to_dict(),
-        "budgets": budgets["path"], "baseline": baseline_dir,
-        "gate": {"passed": passed, "checks": len(checks), "failed": len(failed), "unchecked_scenes": unchecked,
-                 "scenes_without_budgets": unbudgeted},
-        "scales": {name: scale.to_dict() for name, scale in SCALES.items()},
-        "exposure_rule": "per scene and component: the reference's 99.5th percentile of lit luminance over the "
-                         "compared pixels maps to 1 (metrics.image.reference_exposure); all images of that "
-                         "component share it",
-        "scenes": pages, "sweep": _sweep_summary(sweep) if sweep is not None else None,
-        "gl_renderers": sorted({str(r.experiment.gl_renderer) for r in results}),
-        "code_version": code_version(), "versions": library_versions(), "seconds": clock,
-    }
-    return summary
+    return ReportDocument(
+        kind="accuracy report", created=time.strftime("%Y-%m-%d %H:%M:%S %Z"),
+        params=params.to_dict(), seeds=seeds, reference_settings=reference_settings.to_dict(),
+        measurement=measurement.to_dict(), budgets=budgets["path"], baseline=baseline_dir,
+        gate=GateSummary(passed, len(checks), len(failed), unchecked, unbudgeted),
+        scales={name: scale.to_dict() for name, scale in SCALES.items()},
+        exposure_rule="per scene and component: the reference's 99.5th percentile of lit luminance over the "
+                      "compared pixels maps to 1 (metrics.image.reference_exposure); all images of that "
+                      "component share it",
+        scenes=pages, sweep=_sweep_summary(sweep) if sweep is not None else None,
+        gl_renderers=tuple(sorted({str(r.experiment.gl_renderer) for r in results})),
+        code_version=code_version(), versions=library_versions(), seconds=clock)
 
 
-def _sweep_summary(sweep) -> dict:
+def _sweep_summary(sweep) -> SweepSummary:
     suffice = settings_that_suffice(sweep.tables["points"], sweep.varied)
     wanted = suffice[suffice["parameter"].isin(("layers", "iterations", "peak_samples"))] if len(suffice) else suffice
-    return {"folder": os.path.abspath(sweep.folder), "varied": sweep.varied, "spec": sweep.spec,
-            "points": int(len(sweep.tables["points"])), "suffice": rows_of(wanted),
-            # what the sweep's figures plot (one row per point: parameters, errors, frame time); the segment and
-            # photon tables they also draw stay in the store (DIR/segments.parquet, DIR/photons.parquet)
-            "point_rows": rows_of(sweep.tables["points"]),
-            "suffice_factor": float(wanted["factor"].iloc[0]) if len(wanted) else None, "figures": [],
-            "variants": _variants_summary(sweep), "best": _best_summary(sweep),
-            "notes": list(getattr(sweep, "notes", []))}
+    return SweepSummary(
+        folder=os.path.abspath(sweep.folder), varied=tuple(sweep.varied), spec=sweep.spec,
+        points=int(len(sweep.tables["points"])), suffice=tuple(rows_of(wanted)),
+        # what the sweep's figures plot (one row per point: parameters, errors, frame time); the segment and
+        # photon tables they also draw stay in the store (DIR/segments.parquet, DIR/photons.parquet)
+        point_rows=tuple(rows_of(sweep.tables["points"])),
+        suffice_factor=float(wanted["factor"].iloc[0]) if len(wanted) else None, figures=(),
+        variants=_variants_summary(sweep), best=_best_summary(sweep), notes=tuple(getattr(sweep, "notes", [])))
 
 
 def _best_summary(sweep) -> dict | None:

@@ -11,6 +11,7 @@ see the same data. ``reports.presenting.page`` draws from what :func:`run_report
 
 from __future__ import annotations
 
+import dataclasses
 import os
 from collections.abc import Iterable, Sequence
 from typing import TYPE_CHECKING, cast
@@ -23,6 +24,7 @@ from volcaustics.reports.presenting.page.animations import animation_rows
 from volcaustics.reports.presenting.page.external import comparison_images, comparison_row
 from volcaustics.reports.presenting.page.frame_check_section import frames_rows
 from volcaustics.reports.presenting.page.page_write import write_report
+from volcaustics.reports.presenting.page.report_document import FramesSummary, ReportDocument
 from volcaustics.reports.presenting.page.report_summary import report_summary
 from volcaustics.reports.presenting.report.sweep_store import ReportError, load_sweep
 from volcaustics.reports.studies.animate.animation_read import load_animation
@@ -99,9 +101,9 @@ def run_report(out_dir: str, names: Sequence[str], *, overrides: dict, seeds: in
                reference_settings: ReferenceSettings, budgets: dict, measurement: MeasurementSettings | None = None,
                baseline_dir: str | None = None, sweep_dir: str | None = None, animation_dirs: Iterable[str] = (),
                comparisons: Iterable[tuple[str, str]] = (), frames_dir: str | None = None,
-               progress: bool = True) -> dict:
+               progress: bool = True) -> ReportDocument:
     """Gather every scene's results and the sweep's, then draw the report into
-    ``out_dir`` (``page.write``). Returns the report's summary.
+    ``out_dir`` (``page.write``). Returns the report's document (its ``summary.json``, typed).
 
     The approximation's parameters are the budgets' preset with ``overrides``; the
     seeds ``seed`` … ``seed + seeds − 1`` (``seeds`` default: the budgets'); the
@@ -120,14 +122,14 @@ def run_report(out_dir: str, names: Sequence[str], *, overrides: dict, seeds: in
     results = collect_scenes(names, params, seeds=seeds, reference_settings=reference_settings,
                              measurement=measurement, budgets=budgets,
                              baseline=baseline, progress=progress, clock=clock)
-    summary = report_summary(results, params=params, seeds=seeds, reference_settings=reference_settings,
-                             measurement=measurement,
-                             budgets=budgets, baseline_dir=baseline_dir, sweep=sweep, clock=clock.seconds)
-    summary["animations"] = animation_rows(animations)
-    summary["comparisons"] = [row for row, _ in compared]
-    summary["frames"] = None if frames is None else {"rows": frames_rows(frames[0]), "verdict": frames[1]["verdict"],
-                                                     "folder": os.path.abspath(cast(str, frames_dir))}
-    return write_report(out_dir, results, summary, sweep, progress=progress, started=clock.started,
+    document = report_summary(results, params=params, seeds=seeds, reference_settings=reference_settings,
+                              measurement=measurement,
+                              budgets=budgets, baseline_dir=baseline_dir, sweep=sweep, clock=clock.seconds)
+    document = dataclasses.replace(
+        document, animations=tuple(animation_rows(animations)), comparisons=tuple(row for row, _ in compared),
+        frames=None if frames is None else FramesSummary(tuple(frames_rows(frames[0]) or ()), frames[1]["verdict"],
+                                                         os.path.abspath(cast(str, frames_dir))))
+    return write_report(out_dir, results, document, sweep, progress=progress, started=clock.started,
                         animation_media=[dict(a.media) for a in animations],
                         comparison_media=[comparison_images(row, views) for row, views in compared])
 
