@@ -52,6 +52,7 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from volcaustics.experiment.point_checks import checked_settings
+    from volcaustics.reports.measuring import runner
     from volcaustics.reports.measuring.cost_match import with_auto_values
     from volcaustics.reports.studies.animate.animation_frames import WORK
     from volcaustics.reports.studies.animate.animation_measure import run_animate
@@ -86,19 +87,21 @@ def run(args: argparse.Namespace) -> int:
     params, _ = checked_settings(scene, dataclasses.replace(params, seed=top_seed), 1)  # fits and seeds: before work
     params = dataclasses.replace(params, seed=base)
     settings = report_settings(args)
-    summary, paths = run_animate(scene, params, frames=frames, modes=tuple(args.modes), chains=args.chains,
-                                 reference_settings=settings, out_dir=args.output, progress=not args.quiet)
-    _print(summary, paths)
+    summary, paths, measured = run_animate(scene, params, frames=frames, modes=tuple(args.modes), chains=args.chains,
+                                           reference_settings=settings, out_dir=args.output,
+                                           store=runner.results_store(), progress=not args.quiet)
+    _print(summary, paths, measured)
     return 0
 
 
-def _print(summary: dict, paths: dict) -> None:
+def _print(summary: dict, paths: dict, measured: bool) -> None:
     from volcaustics.reports.studies.animate.animation_read import MeasuredAnimation
 
     a = MeasuredAnimation.from_summary(summary)
     sec = a.seconds
+    source = f"{sec['total']:.1f} s" if measured else f"from the result store (measured in {sec['total']:.1f} s)"
     print(f"animate {a.scene}: {len(a.frames)} frames x {len(a.seed_modes)} seed mode(s) x {a.chains} "
-          f"chain(s), {sec['total']:.1f} s -> {paths['summary.json']}")
+          f"chain(s), {source} -> {paths['summary.json']}")
     print(f"  per frame: approximation {1000 * sec['approx_frame_median']:.0f} ms, reference "
           f"{sec['reference_frame_median']:.1f} s ({sec['references_cached']} of {len(a.frames)} from the cache)")
     print(f"  note: {(a.perceptual_video_metric or {}).get('reason')}")

@@ -1,7 +1,9 @@
 """The one measurement runner (docs/architecture.md): points → references by a stated policy
 (rendered on the executor's pool when there is one) → result-store lookup → experiments on
-an executor → results. ``measure``, the sweep, the gate and the report measure through
-it (the frame check, ``reports.studies.best.frame_check``, keeps a store of its own).
+an executor → results. ``measure``, the sweep, the gate, the report and the frame check
+(``reports.studies.best.frame_check``, into a store in its folder) measure through it;
+``animate`` keeps its animations in the same result store, as sealed sets
+(``reports.measuring.results.sealed_sets``), and its references come from here.
 
 A point is a scene, the approximation's parameters and a number of seeds. Its key
 (``reports.measuring.results.store.point_key``) hashes everything that determines its result, so

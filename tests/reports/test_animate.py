@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import shutil
 
 import numpy as np
 import pandas as pd
@@ -96,11 +97,19 @@ def test_animate_writes_the_set_and_a_new_seed_per_frame_flickers_more(cache, tm
         assert image.n_frames == FRAMES
     assert (out / "timeseries.png").stat().st_size > 0
 
+    # one summary per animation: the result store's, byte for byte the one in DIR
+    stored = cache / "report-results" / "animations" / summary["key"]
+    written = (out / "summary.json").read_bytes()
+    assert (stored / "summary.json").read_bytes() == written
     (out / ".animate" / "frame-0002.npz").write_bytes(b"PK\x03\x04 damaged")  # a damaged frame: rendered again
     # the right key over arrays of the wrong shape: a ValueError traceback before, now rendered again
     with np.load(out / ".animate" / "frame-0001.npz") as data:
         arrays = {k: data[k][:, :16] if k.endswith("/caustic") else data[k] for k in data.files}
     np.savez(out / ".animate" / "frame-0001.npz", **arrays)
+    other = tmp_path / "other"  # a second run, into another folder: read from the store, nothing rendered
+    assert main(["animate", scene, "-o", str(other), *ARGS]) == 0
+    assert (other / "summary.json").read_bytes() == written and not (other / ".animate").exists()
+    shutil.rmtree(stored)  # without the stored set: measured again, its undamaged frames read back from DIR
     assert main(["animate", scene, "-o", str(out), *ARGS]) == 0
     again = json.loads((out / "summary.json").read_text())
     assert again["seconds"]["frames_resumed"] == FRAMES - 2
@@ -109,6 +118,38 @@ def test_animate_writes_the_set_and_a_new_seed_per_frame_flickers_more(cache, tm
     # another --frames selection reuses the frames it shares with the runs before
     assert main(["animate", scene, "-o", str(out), *[a if a != f"0:{FRAMES}" else "1:3" for a in ARGS]]) == 0
     assert json.loads((out / "summary.json").read_text())["seconds"]["frames_resumed"] == 2
+
+
+@pytest.mark.slow  # end to end, one animation of 2 frames at 32² (about 10 s)
+def test_a_stored_animation_edited_is_measured_again_and_refused_by_the_report(cache, tmp_path):
+    """The stored set's seal: a number edited in the store's summary.json makes animate
+    measure the animation again rather than copy the edited number out; one edited in DIR
+    is refused by `report --animation DIR` (exit 2, naming the edit; it was drawn before),
+    as is a plot replaced."""
+    from volcaustics.infra.errors import InputError
+    from volcaustics.reports.studies.animate.animation_read import load_animation
+
+    out = tmp_path / "anim"
+    args = [a if a != f"0:{FRAMES}" else "0:2" for a in ARGS]
+    assert main(["animate", "refocus", "-o", str(out), *args]) == 0
+    first = json.loads((out / "summary.json").read_text())
+    assert load_animation(str(out)).scene == "refocus"
+    stored = cache / "report-results" / "animations" / first["key"] / "summary.json"
+    text = stored.read_text()
+    edited = text.replace(f'"chains": {first["chains"]}', f'"chains": {first["chains"] + 1}', 1)
+    assert edited != text
+    stored.write_text(edited)
+    assert main(["animate", "refocus", "-o", str(out), *args]) == 0
+    again = json.loads((out / "summary.json").read_text())
+    assert again["chains"] == first["chains"] and again["seconds"]["frames_resumed"] == 2  # measured again
+    assert stored.read_bytes() == (out / "summary.json").read_bytes()
+    (out / "summary.json").write_text(edited)
+    with pytest.raises(InputError, match="summary.json was edited after it was written"):
+        load_animation(str(out))
+    shutil.copyfile(stored, out / "summary.json")
+    (out / "timeseries.png").write_bytes(b"\x89PNG another plot")
+    with pytest.raises(InputError, match="timeseries.png is not the file it was written as"):
+        load_animation(str(out))
 
 
 @pytest.mark.slow  # every built-in animation, 3 frames at 32² (about 40 s)

@@ -266,20 +266,7 @@ class Store:
     def clean_stale(self) -> int:
         """Remove temporary folders of processes on this host that no longer run, and
         damaged copies set aside; returns how many were removed."""
-        removed = 0
-        for name in os.listdir(self.points):
-            path = os.path.join(self.points, name)
-            stale = ".damaged-" in name
-            if name.startswith(".tmp-"):  # .tmp-<key>-<host>-<pid>-<uuid> (scenes.storage.owner)
-                parts = name.split("-")
-                try:
-                    stale = len(parts) == 5 and orphaned(parts[2], int(parts[3]))
-                except ValueError:
-                    continue
-            if stale:
-                shutil.rmtree(path, ignore_errors=True)
-                removed += 1
-        return removed
+        return remove_stale(self.points)
 
     def tables(self, keys: Iterable[str]) -> dict:
         """One DataFrame per kind over the complete points of ``keys`` (a ``point``
@@ -300,6 +287,26 @@ class Store:
                for name, parts in frames.items()}
         out["points"] = table(points) if points else pd.DataFrame()
         return out
+
+
+def remove_stale(folder: str) -> int:
+    """Remove from ``folder`` the temporary folders of processes on this host that no
+    longer run, and damaged copies set aside (a store's points, or its sealed sets);
+    returns how many were removed."""
+    removed = 0
+    for name in os.listdir(folder):
+        path = os.path.join(folder, name)
+        stale = ".damaged-" in name
+        if name.startswith(".tmp-"):  # .tmp-<key>-<host>-<pid>-<uuid> (scenes.storage.owner)
+            parts = name.split("-")
+            try:
+                stale = len(parts) == 5 and orphaned(parts[2], int(parts[3]))
+            except ValueError:
+                continue
+        if stale:
+            shutil.rmtree(path, ignore_errors=True)
+            removed += 1
+    return removed
 
 
 @contextlib.contextmanager

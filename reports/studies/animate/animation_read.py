@@ -13,6 +13,7 @@ from volcaustics.experiment.result import from_stored, to_stored
 from volcaustics.experiment.summaries import check_schema
 from volcaustics.infra.errors import InputError
 from volcaustics.infra.storage import read_json_object
+from volcaustics.reports.measuring.results.sealed_sets import damaged_set
 
 KIND = "animation"  # summary.json "kind" of an animate output folder
 MIME = {"webp": "image/webp", "gif": "image/gif"}
@@ -100,6 +101,9 @@ def load_animation(folder: str, option: str = "--animation") -> MeasuredAnimatio
         what = (f"of kind {summary.get('kind')!r}" if summary.get("kind") != KIND else "without its metrics table")
         raise InputError(f"{option} {folder}: summary.json is not an animation's ({what}): {fix}")
     check_schema(summary, "animation", f"{option} {folder}", fix)
+    damage = damaged_set(folder, summary)
+    if damage:
+        raise InputError(f"{option} {folder}: {damage}: run `volcaustics animate SCENE -o {folder}` again")
     check_animation_shape(summary, f"{option} {folder}: summary.json", fix)
     media = {}
     video = summary.get("video") or {}
