@@ -13,8 +13,16 @@ import sys
 from collections.abc import Sequence
 
 EXIT_USAGE = 2
-COMMANDS = ("doctor", "scenes", "approx", "reference", "export", "measure", "compare", "animate", "sweep", "frames",
-            "gate", "report")
+TOOLS = ("doctor", "scenes", "approx", "reference", "export", "measure")  # the commands that are not studies
+
+
+def commands() -> tuple[str, ...]:
+    """Every command's module under ``reports.cli``, in ``--help`` order: the tools, every
+    study of the registry (``reports.studies.registry``: its ``command``) and the report."""
+    from volcaustics.reports.studies.registry import studies
+
+    return (*(f"volcaustics.reports.cli.{name}" for name in TOOLS), *(s.command for s in studies()),
+            "volcaustics.reports.cli.report")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -26,8 +34,8 @@ def build_parser() -> argparse.ArgumentParser:
         "Validation harness for Real-time Volume Caustics with Image-based Photon Tracing: "
         "the paper's GPU method beside Mitsuba 3 ground truth."))
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    for command in COMMANDS:
-        importlib.import_module(f"volcaustics.reports.cli.{command}").register(sub)
+    for module in commands():
+        importlib.import_module(module).register(sub)
     return parser
 
 

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, cast
 
 from volcaustics.reports.cli.common import (
     add_gate_inputs,
@@ -18,9 +18,12 @@ from volcaustics.reports.cli.common import (
     scene_list,
 )
 from volcaustics.reports.measuring.results.output_folders import check_output_set
+from volcaustics.reports.studies.registry import reported
 
 if TYPE_CHECKING:
     import argparse
+
+    from volcaustics.reports.studies.study import ReportInput
 
 # native extensions loaded at start-up, with Ctrl-C held (cli.main)
 NATIVE = ("drjit", "mitsuba", "moderngl")
@@ -31,29 +34,30 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
                                       "approximation against ground truth, with the gate's verdicts")
     p.add_argument("--out", default="runs/report", help="output folder (default runs/report)")
     add_gate_inputs(p, scenes="comma-separated SCENE arguments (default: every built-in)")
-    p.add_argument("--sweep", type=path_type, metavar="DIR",
-                   help="add a sweep store's figures and settings that suffice")
-    p.add_argument("--animation", action="append", type=path_type, metavar="DIR",
-                   help="add an animation that `volcaustics animate SCENE -o DIR` measured: the 'Over time' section "
-                        "(repeatable)")
-    p.add_argument("--compare", action="append", metavar="NAME=DIR",
-                   help="add another renderer that `volcaustics compare SCENE IMAGE.exr -o DIR` measured (DIR: one "
-                        "such folder or a folder of them, one per scene): a row beside the approximation and its "
-                        "images in each scene it compared (repeatable)")
-    p.add_argument("--frames", type=path_type, metavar="DIR",
-                   help="add the frame check `volcaustics frames -o DIR` measured: the 'One frame' section (the "
-                        "paper's configuration against --preset best, without and with OIDN)")
+    for study in reported():  # each study's output the report takes (reports.studies.registry)
+        r = cast("ReportInput", study.report)
+        p.add_argument(r.option, action="append" if r.repeatable else "store", type=path_type if r.path else str,
+                       metavar=r.metavar, help=r.help)
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     add_report_reference(p)
     add_measurement_flags(p, default="the budgets' [measurement] table, else {value}")
     p.set_defaults(func=run)
 
 
+def study_values(args: argparse.Namespace) -> dict:
+    """Study name → the values its report option was given (none: left out)."""
+    out = {}
+    for study in reported():
+        value = getattr(args, cast("ReportInput", study.report).option.lstrip("-").replace("-", "_"))
+        if value:
+            out[study.name] = value if isinstance(value, list) else [value]
+    return out
+
+
 def run(args: argparse.Namespace) -> int:
     from volcaustics.reports.measuring.results.param_input import parse_overrides
     from volcaustics.reports.presenting.page.report_summary import OUTPUT_FILES
     from volcaustics.reports.presenting.report.report_run import run_report
-    from volcaustics.reports.studies.compare.comparison_read import parse_named
     from volcaustics.reports.studies.gate.budgets import default_budgets_path, load_budgets
     from volcaustics.scenes import BUILTIN_NAMES
 
@@ -61,12 +65,10 @@ def run(args: argparse.Namespace) -> int:
     names = scene_list(args.scenes, "--scenes")
     budgets = load_budgets(args.budgets or default_budgets_path())
     document = run_report(args.out, names if names is not None else list(BUILTIN_NAMES),
-                         overrides=parse_overrides(args.set), seeds=args.seeds, seed=args.seed,
-                         reference_settings=report_settings(args), budgets=budgets, baseline_dir=args.baseline,
-                         measurement=measurement_from_args(args, budgets["measurement"]),
-                         sweep_dir=args.sweep, animation_dirs=args.animation or (), frames_dir=args.frames,
-                         comparisons=[parse_named(text, "--compare") for text in args.compare or ()],
-                         progress=not args.quiet)
+                          overrides=parse_overrides(args.set), seeds=args.seeds, seed=args.seed,
+                          reference_settings=report_settings(args), budgets=budgets, baseline_dir=args.baseline,
+                          measurement=measurement_from_args(args, budgets["measurement"]),
+                          studies=study_values(args), progress=not args.quiet)
     for page in document.scenes:
         caustic, combined = page.components["caustic"], page.components["combined"]
         failed = [ch.name for ch in page.gate.failed]

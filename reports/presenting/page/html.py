@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import json
 import math
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from html import escape
 from typing import TYPE_CHECKING, cast
 
@@ -37,6 +37,7 @@ from volcaustics.reports.presenting.page.parts import num as _num
 from volcaustics.reports.presenting.page.parts import pct as _pct
 from volcaustics.reports.presenting.page.parts import verdict as _verdict
 from volcaustics.reports.presenting.page.sweep_section import sweep_section
+from volcaustics.reports.studies.registry import reported, resolve
 from volcaustics.scenes.formats import COLOUR_LAYERS
 
 if TYPE_CHECKING:
@@ -48,6 +49,7 @@ if TYPE_CHECKING:
         ScenePage,
     )
     from volcaustics.reports.studies.gate.budgets import Check
+    from volcaustics.reports.studies.study import ReportInput
 
 
 def _check_text(check: Check) -> str:
@@ -241,12 +243,24 @@ Result <code>{escape(page.point)}</code> {'measured in this run' if page.measure
 </section>"""
 
 
-def render_page(doc: ReportDocument, images: dict, sweep_figures: dict, animation_media: Iterable[dict] = (),
-                comparison_media: Sequence[dict] = ()) -> str:
+def other_sections(doc: ReportDocument, media: Mapping[str, Sequence[dict]]) -> str:
+    """The sections of the studies the page does not place itself (``reports.studies.study.
+    ReportInput.section``): each reported study whose field the document keeps in ``extra``."""
+    parts = []
+    for study in reported():
+        report = cast("ReportInput", study.report)
+        if report.section and report.field in doc.extra:
+            parts.append(resolve(report.section)(doc.extra[report.field], list(media.get(report.field, ()))))
+    return "".join(parts)
+
+
+def render_page(doc: ReportDocument, images: dict, sweep_figures: dict,
+                media: Mapping[str, Sequence[dict]] | None = None) -> str:
     """The page; ``images``: scene → name → data URI (``page.write.scene_images``);
-    ``animation_media``: per ``doc.animations`` row its data URIs;
-    ``comparison_media``: per ``doc.comparisons`` row its data URIs
-    (``page.external.comparison_images``)."""
+    ``media``: per field of the document a study filled, per row its data URIs
+    (``animations``: page.animations; ``comparisons``: ``page.external.comparison_images``)."""
+    media = media or {}
+    animation_media, comparison_media = list(media.get("animations", ())), list(media.get("comparisons", ()))
     bars = {name: {"css": colour_bar_css(scale), "ticks": scale.ticks()} for name, scale in SCALES.items()}
     nav = "".join(f"<a href='#scene-{i}'>{escape(p.scene)}</a>" for i, p in enumerate(doc.scenes))
     if doc.sweep is not None:
@@ -290,7 +304,8 @@ reference: <code>{escape(json.dumps(dict(doc.reference_settings)))}</code><br>
 measurement: <code>{escape(json.dumps(dict(doc.measurement)))}</code></p></details>
 {sections}
 {sweep_section(doc.sweep, sweep_figures)}
-{over_time_section(animations, list(animation_media))}
+{over_time_section(animations, animation_media)}
+{other_sections(doc, media)}
 <script>{SCRIPT}</script>
 </body></html>
 """

@@ -8,7 +8,7 @@ import hashlib
 import json
 import os
 import time
-from collections.abc import Iterable
+from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING
 
 from tqdm import tqdm
@@ -40,15 +40,15 @@ if TYPE_CHECKING:
 
 
 def write_report(out_dir: str, results: list, document: ReportDocument, sweep: SweepTables | None = None, *,
-                 progress: bool = False, started: float | None = None, animation_media: Iterable[dict] = (),
-                 comparison_media: Iterable[dict] = ()) -> ReportDocument:
+                 progress: bool = False, started: float | None = None,
+                 media: Mapping[str, Sequence[dict]] | None = None) -> ReportDocument:
     """Draw ``index.html`` from ``document`` (and each scene's views), write it and,
     last, ``summary.json``; the sweep's figures also as files under ``figures/`` (an
     earlier run's figures removed). The page is drawn from the document read back from
     the strict-JSON data that ``summary.json`` holds (NaN as null), and that document is
     returned. ``started``: the run's ``time.perf_counter()`` at its start, for the total;
-    ``animation_media``: per ``document.animations`` row, its data URIs (page.animations);
-    ``comparison_media``: per ``document.comparisons`` row, its data URIs (page.external)."""
+    ``media``: per field of the document a study filled, per row its data URIs
+    (``animations``: page.animations; ``comparisons``: page.external)."""
     t0 = time.perf_counter()
     os.makedirs(out_dir, exist_ok=True)
     sweep_figures, paths = {}, []
@@ -71,7 +71,7 @@ def write_report(out_dir: str, results: list, document: ReportDocument, sweep: S
     images = {page.scene: cached_scene_images(result, page)
               for result, page in tqdm(list(zip(results, shown.scenes)), desc="page", unit="scene",
                                        disable=not progress)}
-    html = render_page(shown, images, sweep_figures, list(animation_media), list(comparison_media))
+    html = render_page(shown, images, sweep_figures, media or {})
     seconds = {**shown.seconds, "page": time.perf_counter() - t0}
     if started is not None:
         seconds["total"] = time.perf_counter() - started

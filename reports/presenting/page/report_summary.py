@@ -11,7 +11,6 @@ that very data (``page.html``, ``page.write``) with the images of each scene's v
 from __future__ import annotations
 
 import math
-import os
 import time
 from typing import TYPE_CHECKING, cast
 
@@ -24,7 +23,6 @@ from volcaustics.experiment.result import find_estimate
 from volcaustics.experiment.versions import code_version, library_versions
 from volcaustics.metrics.decomposition import TERMS
 from volcaustics.metrics.intersection import OUTCOME_CLASSES
-from volcaustics.reports.measuring.results.tables import rows_of
 from volcaustics.reports.presenting.page.data_uris import SCALES, exposures
 from volcaustics.reports.presenting.page.report_document import (
     ComponentErrors,
@@ -35,12 +33,7 @@ from volcaustics.reports.presenting.page.report_document import (
     ReportDocument,
     SceneGate,
     ScenePage,
-    SweepSummary,
 )
-from volcaustics.reports.studies.best.best_search import verdict
-from volcaustics.reports.studies.sweep.best_figures import role_rows
-from volcaustics.reports.studies.sweep.suffice import settings_that_suffice
-from volcaustics.reports.studies.sweep.variants import best_variants, is_variants_sweep, variant_table
 from volcaustics.scenes.formats import COLOUR_LAYERS
 
 if TYPE_CHECKING:
@@ -51,7 +44,6 @@ if TYPE_CHECKING:
     from volcaustics.experiment.result import Closure, Experiment
     from volcaustics.reference.settings import ReferenceSettings
     from volcaustics.reports.measuring.results.scene_result import SceneResult
-    from volcaustics.reports.measuring.results.sweep_tables import SweepTables
 
 # Wang, Wang & Chen: intersection estimation takes about 70% of a frame and splatting about 23% on their GPU
 OUTPUT_FILES = ("index.html", "summary.json")  # in --out; the manifest, summary.json, last
@@ -160,7 +152,9 @@ def scene_exposures(result: SceneResult) -> dict:
 
 def report_summary(results: list, *, params: ApproxParams, seeds: int, reference_settings: ReferenceSettings,
                    budgets: dict, measurement: MeasurementSettings, baseline_dir: str | None,
-                   sweep: SweepTables | None = None, clock: dict) -> ReportDocument:
+                   clock: dict) -> ReportDocument:
+    """The report's document of every scene's result; the studies' fields (the sweep, the
+    animations, the comparisons, the frame check) empty: ``report_run`` fills those it was given."""
     pages = tuple(scene_page(r, exposures=scene_exposures(r)) for r in results)
     checks = [c for p in pages for c in p.gate.checks]
     failed = [c for c in checks if not c.passed]
@@ -177,40 +171,6 @@ def report_summary(results: list, *, params: ApproxParams, seeds: int, reference
         exposure_rule="per scene and component: the reference's 99.5th percentile of lit luminance over the "
                       "compared pixels maps to 1 (metrics.image.reference_exposure); all images of that "
                       "component share it",
-        scenes=pages, sweep=_sweep_summary(sweep) if sweep is not None else None,
+        scenes=pages, sweep=None,
         gl_renderers=tuple(sorted({str(r.experiment.gl_renderer) for r in results})),
         code_version=code_version(), versions=library_versions(), seconds=clock)
-
-
-def _sweep_summary(sweep) -> SweepSummary:
-    suffice = settings_that_suffice(sweep.tables["points"], sweep.varied)
-    wanted = suffice[suffice["parameter"].isin(("layers", "iterations", "peak_samples"))] if len(suffice) else suffice
-    return SweepSummary(
-        folder=os.path.abspath(sweep.folder), varied=tuple(sweep.varied), spec=sweep.spec,
-        points=int(len(sweep.tables["points"])), suffice=tuple(rows_of(wanted)),
-        # what the sweep's figures plot (one row per point: parameters, errors, frame time); the segment and
-        # photon tables they also draw stay in the store (DIR/segments.parquet, DIR/photons.parquet)
-        point_rows=tuple(rows_of(sweep.tables["points"])),
-        suffice_factor=float(wanted["factor"].iloc[0]) if len(wanted) else None, figures=(),
-        variants=_variants_summary(sweep), best=_best_summary(sweep), notes=tuple(getattr(sweep, "notes", [])))
-
-
-def _best_summary(sweep) -> dict | None:
-    """The best-configuration search's rows with a role (paper, adopted, scene best) and
-    its verdict (reports/studies/best/best_search.py); None for another sweep."""
-    table = sweep.tables.get("best")
-    if table is None or not len(table):
-        return None
-    adopted = next((r["config"] for _, r in table.iterrows() if "adopted" in str(r["role"]).split(", ")), None)
-    criterion = str(table["criterion"].iloc[0]) if "criterion" in table else "bias"  # older searches: bias
-    return {"rows": rows_of(role_rows(table)), "verdict": verdict(table, adopted, criterion),
-            "points": int(len(table))}
-
-
-def _variants_summary(sweep) -> dict | None:
-    """A variants sweep's table per point and, per scene, the paper's point and the best
-    variant at no more map reads per segment (reports/studies/sweep/variants.py); else None."""
-    if not is_variants_sweep(sweep.varied) or "best" in sweep.tables:  # the best search has its own view
-        return None
-    table = variant_table(sweep.tables)
-    return {"best": rows_of(best_variants(table)), "points": rows_of(table)}

@@ -13,31 +13,28 @@ from __future__ import annotations
 
 import dataclasses
 import os
-from collections.abc import Iterable, Sequence
+from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, cast
 
 from volcaustics.experiment.point_checks import measured_settings
 from volcaustics.experiment.timing import Clock
 from volcaustics.reports.measuring import runner
 from volcaustics.reports.measuring.results.scene_result import SceneResult
-from volcaustics.reports.presenting.page.animations import animation_rows
-from volcaustics.reports.presenting.page.external import comparison_images, comparison_row
-from volcaustics.reports.presenting.page.frame_check_section import frames_rows
 from volcaustics.reports.presenting.page.page_write import write_report
-from volcaustics.reports.presenting.page.report_document import FramesSummary, ReportDocument
+from volcaustics.reports.presenting.page.report_document import ReportDocument
 from volcaustics.reports.presenting.page.report_summary import report_summary
-from volcaustics.reports.presenting.report.sweep_store import ReportError, load_sweep
-from volcaustics.reports.studies.animate.animation_read import load_animation
-from volcaustics.reports.studies.best.frame_check import load_frames
-from volcaustics.reports.studies.compare.comparison_read import comparison_folders, load_comparison
+from volcaustics.reports.presenting.report.sweep_store import ReportError
 from volcaustics.reports.studies.gate.regression import load_baseline
 from volcaustics.reports.studies.gate.verdict import scene_verdict
+from volcaustics.reports.studies.registry import reported, resolve
+from volcaustics.reports.studies.study import Gathered
 from volcaustics.scenes import SceneError, resolve_scene
 
 if TYPE_CHECKING:
     from volcaustics.approx.params import ApproxParams
     from volcaustics.experiment.measurement import MeasurementSettings
     from volcaustics.reference.settings import ReferenceSettings
+    from volcaustics.reports.studies.study import ReportInput
 
 
 def collect_scenes(names: Sequence[str], params: ApproxParams, *, seeds: int, reference_settings: ReferenceSettings,
@@ -99,24 +96,22 @@ def _scene_result(name, result, budgets: dict, baseline: dict | None) -> SceneRe
 
 def run_report(out_dir: str, names: Sequence[str], *, overrides: dict, seeds: int | None, seed: int,
                reference_settings: ReferenceSettings, budgets: dict, measurement: MeasurementSettings | None = None,
-               baseline_dir: str | None = None, sweep_dir: str | None = None, animation_dirs: Iterable[str] = (),
-               comparisons: Iterable[tuple[str, str]] = (), frames_dir: str | None = None,
+               baseline_dir: str | None = None, studies: Mapping[str, Sequence[str]] | None = None,
                progress: bool = True) -> ReportDocument:
-    """Gather every scene's results and the sweep's, then draw the report into
+    """Gather every scene's results and the studies' outputs, then draw the report into
     ``out_dir`` (``page.write``). Returns the report's document (its ``summary.json``, typed).
 
     The approximation's parameters are the budgets' preset with ``overrides``; the
     seeds ``seed`` … ``seed + seeds − 1`` (``seeds`` default: the budgets'); the
     measurement settings ``measurement`` (default: the budgets' ``[measurement]``).
-    ``comparisons``: (NAME, DIR) pairs of ``report --compare``, each DIR a compare
-    output or a folder of them, shown beside the approximation on their scenes."""
+    ``studies``: study name → the values given to its report option
+    (``reports.studies.registry.reported``: ``sweep`` → [DIR], ``animate`` → [DIR, …],
+    ``compare`` → [NAME=DIR, …], ``frames`` → [DIR]), each read by the study's ``gather``
+    into its field of the document before anything is measured."""
     clock = Clock()
     params, seeds = measured_settings(budgets["preset"], overrides, seeds=budgets["seeds"] if seeds is None else seeds,
                                       seed=seed, min_seeds=1, why="intervals need 4")
-    sweep = load_sweep(sweep_dir) if sweep_dir else None      # bad input fails before anything renders
-    animations = [load_animation(folder) for folder in animation_dirs or ()]
-    frames = _load_frames(frames_dir) if frames_dir else None
-    compared = load_comparisons(comparisons, names)
+    gathered = gather_studies(studies or {}, names)      # bad input fails before anything renders
     baseline = load_baseline(baseline_dir) if baseline_dir else None
     measurement = measurement or budgets["measurement"]
     results = collect_scenes(names, params, seeds=seeds, reference_settings=reference_settings,
@@ -124,44 +119,28 @@ def run_report(out_dir: str, names: Sequence[str], *, overrides: dict, seeds: in
                              baseline=baseline, progress=progress, clock=clock)
     document = report_summary(results, params=params, seeds=seeds, reference_settings=reference_settings,
                               measurement=measurement,
-                              budgets=budgets, baseline_dir=baseline_dir, sweep=sweep, clock=clock.seconds)
-    document = dataclasses.replace(
-        document, animations=tuple(animation_rows(animations)), comparisons=tuple(row for row, _ in compared),
-        frames=None if frames is None else FramesSummary(tuple(frames_rows(frames[0]) or ()), frames[1]["verdict"],
-                                                         os.path.abspath(cast(str, frames_dir))))
-    return write_report(out_dir, results, document, sweep, progress=progress, started=clock.started,
-                        animation_media=[dict(a.media) for a in animations],
-                        comparison_media=[comparison_images(row, views) for row, views in compared])
+                              budgets=budgets, baseline_dir=baseline_dir, clock=clock.seconds)
+    own = {f.name for f in dataclasses.fields(document)}  # a new study's field: kept in the document's extra
+    parts = {field: part.document for field, part in gathered.items()}
+    document = dataclasses.replace(document, **{f: v for f, v in parts.items() if f in own},
+                                   extra={f: v for f, v in parts.items() if f not in own})
+    sweep = gathered.get("sweep")
+    return write_report(out_dir, results, document, None if sweep is None else sweep.tables, progress=progress,
+                        started=clock.started, media={field: part.media for field, part in gathered.items()})
 
 
-def _load_frames(folder: str) -> tuple:
-    """A frame check's (table, manifest); ReportError naming the fix."""
-    try:
-        return load_frames(folder)
-    except (OSError, ValueError, KeyError) as exc:
-        raise ReportError(f"--frames {folder}: not a readable frame check ({exc}): run `volcaustics frames -o "
-                          f"{folder}`") from None
-
-
-def load_comparisons(pairs: Iterable[tuple[str, str]], names: Iterable[str]) -> list:
-    """(row, views) of every comparison ``report --compare NAME=DIR`` names, each of a
-    scene the report shows (by content: the scene hash), in the order given."""
-    shown = {resolve_scene(name).scene_hash(): name for name in names}
-    out: list
-    out, seen = [], set()
-    for name, folder in pairs:
-        for path in comparison_folders(folder, f"--compare {name}="):
-            c = load_comparison(path, f"--compare {name}=")
-            if c.scene_hash not in shown:
-                raise ReportError(f"--compare {name}={path}: compares {c.scene!r} (hash {c.scene_hash[:12]}), "
-                                  f"which this report does not show (or shows changed): add it to --scenes, or "
-                                  f"rerun compare on the scene as it is now")
-            if (name, c.scene_hash) in seen:
-                raise ReportError(f"--compare {name}={path}: a second comparison of {name} on {c.scene}: give "
-                                  f"each renderer one folder per scene")
-            seen.add((name, c.scene_hash))
-            row = comparison_row(c, name)
-            row["scene"], row["anchor"] = shown[c.scene_hash], f"compare-{len(out)}"
-            out.append((row, c.views))
+def gather_studies(values: Mapping[str, Sequence[str]], names: Sequence[str]) -> dict[str, Gathered]:
+    """Each reported study given values, read by its ``gather``: field of the document →
+    what it gathered, in the registry's order; a study the registry does not know is a
+    ValueError (a caller's mistake, not the user's)."""
+    known = {s.name: s for s in reported()}
+    unknown = sorted(set(values) - set(known))
+    if unknown:
+        raise ValueError(f"no reported study named {', '.join(unknown)}: one of {', '.join(known)}")
+    out: dict[str, Gathered] = {}
+    for name, study in known.items():
+        given = list(values.get(name) or ())
+        if given:
+            report = cast("ReportInput", study.report)
+            out[report.field] = resolve(report.gather)(given, names)
     return out
-
