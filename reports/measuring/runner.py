@@ -2,8 +2,9 @@
 (rendered on the executor's pool when there is one) → result-store lookup → experiments on
 an executor → results. ``measure``, the sweep, the gate, the report and the frame check
 (``reports.studies.best.frame_check``, into a store in its folder) measure through it;
-``animate`` keeps its animations in the same result store, as sealed sets
-(``reports.measuring.results.sealed_sets``), and its references come from here.
+``animate`` measures its animations through :func:`measure_set` into the same result
+store (sealed sets, ``reports.measuring.results.sealed_sets``: read back, never measured
+twice), with its references from here.
 
 A point is a scene, the approximation's parameters and a number of seeds. Its key
 (``reports.measuring.results.store.point_key``) hashes everything that determines its result, so
@@ -25,6 +26,7 @@ from __future__ import annotations
 import contextlib
 import os
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, cast
 
@@ -49,6 +51,7 @@ from volcaustics.reference.render import render_references
 from volcaustics.reference.render.tasks import PROCESS_LOCK
 from volcaustics.reference.settings import ReferenceSettings
 from volcaustics.reports.measuring.pools.executors import default_workers, disk_full, open_pool, run_tasks
+from volcaustics.reports.measuring.results.sealed_sets import complete_set, write_set
 from volcaustics.reports.measuring.results.store import IMAGE_FILES, TABLES, Store, key_document, point_key
 from volcaustics.reports.measuring.results.tables import rows_of
 from volcaustics.scenes import resolve_scene
@@ -153,6 +156,28 @@ class Measured:
     seconds: float
     point_seconds: list = field(default_factory=list)   # each computed point's own seconds
     results: list = field(default_factory=list)
+
+
+@dataclass(frozen=True)
+class StoredSet:
+    """A study's result kept as a sealed set (``results.sealed_sets``): its summary, its
+    folder in the store, and whether this call measured it (False: read back)."""
+
+    summary: dict
+    folder: str
+    measured: bool
+
+
+def measure_set(store: Store, folder: str, key: str, kind: str, measure: Callable[[str], dict]) -> StoredSet:
+    """A study's result that is not a point (an animation) under ``key`` in the store's
+    ``folder``: read back when a complete, undamaged set is there, else measured once by
+    ``measure(into)`` (which writes its files into the fresh folder ``into`` and returns
+    its summary of ``kind``) and stored whole."""
+    where = os.path.join(store.root, folder, key)
+    summary = complete_set(where, key, kind)
+    if summary is not None:
+        return StoredSet(summary, where, False)
+    return StoredSet(write_set(where, key, kind, measure), where, True)
 
 
 def reference_for(scene: Scene, settings: ReferenceSettings, policy: str, *, progress: bool = False,

@@ -6,15 +6,15 @@ sealed set in the result store under the animation's key and copied to ``-o DIR`
 from __future__ import annotations
 
 import dataclasses
-import os
 import time
 from typing import TYPE_CHECKING
 
 from volcaustics.experiment.sizing import sized
 from volcaustics.experiment.summaries import SCHEMAS
 from volcaustics.experiment.versions import code_version
-from volcaustics.reports.measuring.results.sealed_sets import complete_set, copy_set, write_set
+from volcaustics.reports.measuring.results.sealed_sets import copy_set
 from volcaustics.reports.measuring.results.store import point_key
+from volcaustics.reports.measuring.runner import measure_set
 from volcaustics.reports.studies.animate.animation_frames import render_animation
 from volcaustics.reports.studies.animate.animation_metrics import frame_rows, summarize, temporal_rows
 from volcaustics.reports.studies.animate.animation_read import KIND
@@ -47,20 +47,17 @@ def run_animate(scene: Scene, params: ApproxParams, *, frames: list, modes: tupl
                 reference_settings: ReferenceSettings, out_dir: str, store: Store,
                 progress: bool = True) -> tuple:
     """Measure ``scene``'s animation at ``frames`` in each seed mode of ``modes`` (with
-    ``temporal = ema``, also per-frame beside it) over ``chains`` chains into the result
-    ``store`` (a sealed set under its key: an animation stored there is read, not measured
-    again), then copy it into ``out_dir``; returns (summary, paths written, measured)."""
+    ``temporal = ema``, also per-frame beside it) over ``chains`` chains through the runner
+    into the result ``store`` (``runner.measure_set``: a sealed set under its key, read
+    back when stored, never measured twice), then copy it into ``out_dir``; returns
+    (summary, paths written, measured)."""
     modes = modes + (("per-frame",) if params.temporal == "ema" and "per-frame" not in modes else ())
     key = animation_key(scene, params, frames=frames, modes=modes, chains=chains,
                         reference_settings=reference_settings)
-    folder = os.path.join(store.root, ANIMATIONS, key)
-    summary = complete_set(folder, key, KIND)
-    measured = summary is None
-    if summary is None:
-        summary = write_set(folder, key, KIND, lambda tmp: _measure(
-            scene, params, frames=frames, modes=modes, chains=chains, reference_settings=reference_settings,
-            work_dir=out_dir, into=tmp, progress=progress))
-    return summary, copy_set(folder, summary, out_dir), measured
+    stored = measure_set(store, ANIMATIONS, key, KIND, lambda into: _measure(
+        scene, params, frames=frames, modes=modes, chains=chains, reference_settings=reference_settings,
+        work_dir=out_dir, into=into, progress=progress))
+    return stored.summary, copy_set(stored.folder, stored.summary, out_dir), stored.measured
 
 
 def _measure(scene: Scene, params: ApproxParams, *, frames: list, modes: tuple, chains: int,
