@@ -39,8 +39,10 @@ test: setup
 	@bash scripts/setup.sh --browser
 	@bash scripts/run_tests.sh
 
-# The inner loop: the suite without the tests marked slow (pytest -m "not slow").
+# The inner loop: the suite without the tests marked slow (pytest -m "not slow"); its GL-call
+# tests need apitrace, which --browser installs (a fresh machine's test-fast errored without it).
 test-fast: setup
+	@bash scripts/setup.sh --browser
 	@bash scripts/run_tests.sh -m "not slow"
 
 # ruff (pyproject.toml [tool.ruff]), the reference check (every path, module name and docs
