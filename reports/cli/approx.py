@@ -42,8 +42,8 @@ def run(args: argparse.Namespace) -> int:
     note = preset_size_note(args, params, scene)
     if note:
         print(f"approx: {note}", file=sys.stderr)
-    summary = run_approx(scene, params, args.output, records_max=args.records_max)
-    t = summary["timings_s"]
-    print(f"approx {scene.name}: {t['frame_wall']:.2f} s ({summary['timing_method']}), "
-          f"trace {t['trace']:.2f} s, splat {t['splat']:.2f} s -> {summary['outputs']['exr']}")
+    frame, outputs = run_approx(scene, params, args.output, records_max=args.records_max)
+    t = frame.timings
+    print(f"approx {scene.name}: {t['frame_wall']:.2f} s ({frame.timing_method}), "
+          f"trace {t['trace']:.2f} s, splat {t['splat']:.2f} s -> {outputs['exr']}")
     return 0

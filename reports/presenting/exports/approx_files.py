@@ -18,6 +18,7 @@ from volcaustics.infra.storage import atomic_set
 from volcaustics.reports.presenting.exports.output_paths import render_outputs
 
 if TYPE_CHECKING:
+    from volcaustics.approx.frame import Frame
     from volcaustics.approx.params import ApproxParams
     from volcaustics.scenes.model import Scene
 
@@ -36,19 +37,20 @@ def subsample_records(records: list, max_per_step: int) -> tuple[np.ndarray, int
     return np.concatenate([r[::stride] for r in records]), stride
 
 
-def run_approx(scene: Scene, params: ApproxParams, out: str, *, records_max: int = 200_000) -> dict:
-    """Render and write the outputs; returns the JSON summary written."""
+def run_approx(scene: Scene, params: ApproxParams, out: str, *, records_max: int = 200_000) -> tuple[Frame, dict]:
+    """Render and write the outputs; returns the frame and the paths written (name → absolute path)."""
     frame = render(scene, params, keep_records=records_max != 0)
     paths = output_paths(out)
     check_finite_frame(frame.images, params, paths["exr"])  # NonFiniteFrame: exit 2, nothing written
     metadata = {"volcaustics_scene": scene.name, "volcaustics_scene_hash": scene.scene_hash(),
                 "volcaustics_renderer": "approx", "volcaustics_params": json.dumps(frame.params, sort_keys=True)}
     recs, stride = subsample_records(frame.records, records_max)
+    outputs = {k: os.path.abspath(v) for k, v in paths.items()}
     summary = {
         "scene": scene.name, "scene_hash": scene.scene_hash(), "params": frame.params,
         "timings_s": frame.timings, "timing_method": frame.timing_method, "gl": frame.gl,
         "photons_emitted": frame.photons_emitted, "records_stride": stride,
-        "outputs": {k: os.path.abspath(v) for k, v in paths.items()},
+        "outputs": outputs,
     }
     # one unit: an interrupted run leaves the last complete set, never files of two runs
     with atomic_set([paths["exr"], paths["png"], paths["records"], paths["json"]]) as (exr, png, records, manifest):
@@ -58,4 +60,4 @@ def run_approx(scene: Scene, params: ApproxParams, out: str, *, records_max: int
             np.savez(fh, records=recs, stride=np.int64(stride))
         with open(manifest, "w") as fh:
             fh.write(json.dumps(summary, indent=2, default=float))
-    return summary
+    return frame, outputs
