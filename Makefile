@@ -40,7 +40,8 @@ test: setup
 	@bash scripts/run_tests.sh
 
 # The inner loop: the suite without the tests marked slow (pytest -m "not slow"); its GL-call
-# tests need apitrace, which --browser installs (a fresh machine's test-fast errored without it).
+# tests need apitrace, which --browser installs with the browser and Node tools of make test
+# (once; a fresh machine's test-fast errored without it).
 test-fast: setup
 	@bash scripts/setup.sh --browser
 	@bash scripts/run_tests.sh -m "not slow"

@@ -177,6 +177,9 @@ def measure_set(store: Store, folder: str, key: str, kind: str, measure: Callabl
     summary = complete_set(where, key, kind)
     if summary is not None:
         return StoredSet(summary, where, False)
+    if not os.access(store.root, os.W_OK | os.X_OK):  # before anything is measured
+        raise CacheError(f"result store {store.root} is not a writable folder, and this {kind} is not in it: make it "
+                         f"writable, or point VOLCAUSTICS_CACHE at a writable folder")
     return StoredSet(write_set(where, key, kind, measure), where, True)
 
 

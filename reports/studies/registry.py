@@ -24,10 +24,12 @@ def studies() -> tuple[Study, ...]:
         if info.ispkg:
             module = importlib.import_module(f"{studies_package.__name__}.{info.name}")
             found.extend(getattr(module, "STUDIES", ()))
-    names = [s.name for s in found]
-    twice = sorted({n for n in names if names.count(n) > 1})
-    if twice:
-        raise ValueError(f"studies declared twice: {', '.join(twice)}")
+    for what, values in (("studies", [s.name for s in found]),
+                         ("report options", [s.report.option for s in found if s.report]),
+                         ("report fields", [s.report.field for s in found if s.report])):
+        twice = sorted({v for v in values if values.count(v) > 1})
+        if twice:
+            raise ValueError(f"{what} declared twice: {', '.join(twice)}")
     return tuple(sorted(found, key=lambda s: (s.order, s.name)))
 
 

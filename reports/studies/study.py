@@ -49,7 +49,8 @@ class Study:
 @dataclass(frozen=True)
 class Gathered:
     """A study's outputs read for the report: ``document``, its field's value in the
-    report's ``summary.json`` (typed or records); ``media``, data the page shows but the
+    report's ``summary.json`` (JSON data: records; the built-in studies' fields, which the
+    report's document types, take their types); ``media``, data the page shows but the
     document does not keep (data URIs of its images, per row); ``tables``, what the page
     draws figures from (a sweep's tables)."""
 

@@ -113,3 +113,24 @@ def test_two_studies_of_one_name_are_refused(fresh_registry, tmp_path, monkeypat
     monkeypatch.delitem(sys.modules, "volcaustics.reports.studies.twice_study", raising=False)
     with pytest.raises(ValueError, match="studies declared twice: sweep"):
         registry.studies()
+
+
+def test_a_report_option_or_field_taken_is_refused(fresh_registry, tmp_path, monkeypatch):
+    """A planted study with the sweep's report option, then one with a field the report's
+    document has of its own (`gate`): refused, not silently replacing it."""
+    from volcaustics.reports.presenting.report.report_run import gather_studies
+
+    folder = tmp_path / "clash_study"
+    folder.mkdir()
+    init = folder / "__init__.py"
+    monkeypatch.setattr(studies_package, "__path__", [*studies_package.__path__, str(tmp_path)])
+    for option, field, error in (("--sweep", "clash", "report options declared twice: --sweep"),
+                                 ("--clash", "gate", "study fields gate: the report's document has such fields")):
+        init.write_text('from volcaustics.reports.studies.study import ReportInput, Study\n'
+                        f'STUDIES = (Study("clash", "volcaustics.reports.cli.sweep", order=98, report=ReportInput('
+                        f'"{option}", "{field}", "DIR", "h", "x:y")),)\n')
+        monkeypatch.delitem(sys.modules, "volcaustics.reports.studies.clash_study", raising=False)
+        registry.studies.cache_clear()
+        with pytest.raises(ValueError, match=error):
+            registry.studies()
+            gather_studies({}, [])

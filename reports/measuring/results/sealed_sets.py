@@ -12,6 +12,7 @@ result, the same in the store and in ``DIR``. ``animate`` stores its animations 
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import shutil
@@ -45,8 +46,8 @@ def damaged_set(folder: str, summary: dict) -> str | None:
     """Why the sealed set in ``folder`` (its ``summary``, as read) is damaged: its summary
     edited or a file changed; None when it is whole or was never sealed (an output
     written before sets were stored)."""
-    if SEAL not in summary:
-        return None
+    if SEAL not in summary:  # a set's summary always has it: one without it lost it
+        return "its summary.json lost its seal" if "files" in summary or "key" in summary else None
     if summary.get(SEAL) != summary_sha256(summary):
         return "its summary.json was edited after it was written"
     for name, digest in (summary.get("files") or {}).items():
@@ -67,25 +68,28 @@ def write_set(folder: str, key: str, kind: str, write: Callable[[str], dict]) ->
     remove_stale(parent)  # an earlier writer's temporary folder, its process gone
     tmp = os.path.join(parent, f".tmp-{key}-{owner()}-{uuid.uuid4().hex[:8]}")
     os.makedirs(tmp)
+    aside: list[str] = []
     try:
         summary = write(tmp)
         files = {name: file_sha256(os.path.join(tmp, name)) for name in sorted(os.listdir(tmp)) if name != SUMMARY}
         doc = sealed({**summary, "kind": kind, "key": key, "files": files})
         atomic_write_text(os.path.join(tmp, SUMMARY), json.dumps(doc, indent=2, allow_nan=False))
-        try:
-            os.rename(tmp, folder)
-        except OSError:
-            kept = complete_set(folder, key, kind)
-            if kept is not None:
-                return kept
-            aside = f"{folder}.damaged-{uuid.uuid4().hex[:8]}"
-            os.rename(folder, aside)
-            shutil.rmtree(aside, ignore_errors=True)
-            os.rename(tmp, folder)
-        return doc
+        for _ in range(3):
+            try:
+                os.rename(tmp, folder)
+                return doc
+            except OSError:
+                kept = complete_set(folder, key, kind)  # another process's, complete: kept
+                if kept is not None:
+                    return kept
+                aside.append(f"{folder}.damaged-{uuid.uuid4().hex[:8]}")
+                with contextlib.suppress(OSError):  # gone meanwhile, or set aside by another process
+                    os.rename(folder, aside[-1])
+        raise OSError(f"{folder}: cannot put the measured set in place (another process keeps replacing it)")
     finally:
-        if os.path.isdir(tmp):
-            shutil.rmtree(tmp, ignore_errors=True)
+        for path in (tmp, *aside):  # the new set is in place before a damaged one is deleted
+            if os.path.isdir(path):
+                shutil.rmtree(path, ignore_errors=True)
 
 
 def copy_set(folder: str, summary: dict, out_dir: str) -> dict:

@@ -44,9 +44,10 @@ def larger_error(page: ScenePage, component: str) -> str | None:
     model's own relative MSE or the approximation's (both debiased); None if unknown."""
     m = _numbers(page, component)
     approx = page.components[component].estimate("relative_mse").debiased
-    if m is None or math.isnan(approx):
+    own = math.nan if m is None else _e(m.relmse_own).debiased
+    if math.isnan(own) or math.isnan(approx):
         return None
-    return "model" if _e(m.relmse_own).debiased > approx else "approximation"
+    return "model" if own > approx else "approximation"
 
 
 def model_section(page: ScenePage) -> str:

@@ -1,7 +1,7 @@
 """The accuracy report's own document, typed: what its ``summary.json`` holds.
 
 ``report_summary`` builds a :class:`ReportDocument`, the page is drawn from it, the CLI
-prints from it and ``api.report`` returns it. Each part reads itself from its stored form
+prints from it and ``run_report`` returns it. Each part reads itself from its stored form
 (``from_json``, once, where ``summary.json`` is read) and writes it back (``to_json``) key
 for key, so that the file is what it was before these types. The page is drawn from the
 document read back from its own strict JSON: every number on the page is in the file.
@@ -318,3 +318,7 @@ class ReportDocument:
             "comparisons": list(self.comparisons), "frames": None if self.frames is None else self.frames.to_json(),
             **self.extra,
         }
+
+
+DOCUMENT_FIELDS = frozenset({*(f.name for f in dataclasses.fields(ReportDocument)), "extra"})
+STUDY_FIELDS = ("sweep", "animations", "comparisons", "frames")  # the built-in studies' fields, typed here

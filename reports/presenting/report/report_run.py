@@ -21,7 +21,7 @@ from volcaustics.experiment.timing import Clock
 from volcaustics.reports.measuring import runner
 from volcaustics.reports.measuring.results.scene_result import SceneResult
 from volcaustics.reports.presenting.page.page_write import write_report
-from volcaustics.reports.presenting.page.report_document import ReportDocument
+from volcaustics.reports.presenting.page.report_document import DOCUMENT_FIELDS, STUDY_FIELDS, ReportDocument
 from volcaustics.reports.presenting.page.report_summary import report_summary
 from volcaustics.reports.presenting.report.sweep_store import ReportError
 from volcaustics.reports.studies.gate.regression import load_baseline
@@ -120,10 +120,9 @@ def run_report(out_dir: str, names: Sequence[str], *, overrides: dict, seeds: in
     document = report_summary(results, params=params, seeds=seeds, reference_settings=reference_settings,
                               measurement=measurement,
                               budgets=budgets, baseline_dir=baseline_dir, clock=clock.seconds)
-    own = {f.name for f in dataclasses.fields(document)}  # a new study's field: kept in the document's extra
-    parts = {field: part.document for field, part in gathered.items()}
-    document = dataclasses.replace(document, **{f: v for f, v in parts.items() if f in own},
-                                   extra={f: v for f, v in parts.items() if f not in own})
+    parts = {field: part.document for field, part in gathered.items()}  # a new study's field: the document's extra
+    document = dataclasses.replace(document, **{f: v for f, v in parts.items() if f in STUDY_FIELDS},
+                                   extra={f: v for f, v in parts.items() if f not in STUDY_FIELDS})
     sweep = gathered.get("sweep")
     return write_report(out_dir, results, document, None if sweep is None else sweep.tables, progress=progress,
                         started=clock.started, media={field: part.media for field, part in gathered.items()})
@@ -137,6 +136,10 @@ def gather_studies(values: Mapping[str, Sequence[str]], names: Sequence[str]) ->
     unknown = sorted(set(values) - set(known))
     if unknown:
         raise ValueError(f"no reported study named {', '.join(unknown)}: one of {', '.join(known)}")
+    taken = sorted(f for s in known.values() if (f := cast("ReportInput", s.report).field) in DOCUMENT_FIELDS
+                   and f not in STUDY_FIELDS)
+    if taken:
+        raise ValueError(f"study fields {', '.join(taken)}: the report's document has such fields of its own")
     out: dict[str, Gathered] = {}
     for name, study in known.items():
         given = list(values.get(name) or ())
