@@ -56,3 +56,30 @@ def test_an_edited_number_a_changed_file_and_a_removed_seal_are_named(tmp_path):
     (folder / "table.csv").write_text("x\n7\n")
     assert damaged_set(str(folder), doc) == "table.csv is not the file it was written as"
     assert damaged_set(str(folder), {"kind": KIND, "value": 1}) is None
+
+
+def test_another_writer_putting_its_set_in_place_meanwhile_wins_nothing_lost(tmp_path, monkeypatch):
+    """Two processes replace one damaged set: the other one's complete set lands in the
+    gap after this one set the damaged copy aside. This one keeps the other's (before:
+    its rename failed with "Directory not empty" and the command exited 2)."""
+    import shutil
+
+    from volcaustics.reports.measuring.results import sealed_sets
+
+    folder = str(tmp_path / "animations" / "k1")
+    write_set(folder, "k1", KIND, _writer(1))
+    theirs = str(tmp_path / "theirs")
+    shutil.copytree(folder, theirs)                                  # the other process's complete set
+    with open(os.path.join(folder, "table.csv"), "a") as fh:
+        fh.write("9\n")                                              # the stored one damaged
+    rename = os.rename
+
+    def racing(src, dst):
+        rename(src, dst)
+        if ".damaged-" in str(dst) and not os.path.exists(folder):   # the damaged copy set aside: they land
+            shutil.copytree(theirs, folder)
+
+    monkeypatch.setattr(sealed_sets.os, "rename", racing)
+    doc = write_set(folder, "k1", KIND, _writer(2))
+    assert doc["value"] == 1 and complete_set(folder, "k1", KIND) == doc
+    assert sorted(os.listdir(tmp_path / "animations")) == ["k1"]
