@@ -26,18 +26,14 @@ STORE_FIELDS = ("key", "files", SEAL)  # what a stored set's summary holds for t
 
 
 def complete_set(folder: str, key: str, kind: str) -> dict | None:
-    """The summary in ``folder`` if it is of ``key`` and ``kind``, matches its own SHA-256
-    and every file it lists matches its hash, else None (missing, damaged or edited)."""
+    """The summary in ``folder`` if it is a sealed set of ``key`` and ``kind`` that
+    :func:`damaged_set` finds whole, else None (missing, damaged or edited)."""
     try:
         summary = read_json_object(os.path.join(folder, SUMMARY))
         files = summary.get("files")
-        if summary.get("key") != key or summary.get("kind") != kind or summary.get(SEAL) != summary_sha256(summary) \
-                or not isinstance(files, dict) or not files:
+        if summary.get("key") != key or summary.get("kind") != kind or not isinstance(files, dict) or not files:
             return None
-        for name, digest in files.items():
-            if os.path.basename(name) != name or file_sha256(os.path.join(folder, name)) != digest:
-                return None
-        return summary
+        return summary if damaged_set(folder, summary) is None else None
     except (OSError, ValueError):
         return None
 
@@ -51,8 +47,8 @@ def damaged_set(folder: str, summary: dict) -> str | None:
     if summary.get(SEAL) != summary_sha256(summary):
         return "its summary.json was edited after it was written"
     for name, digest in (summary.get("files") or {}).items():
-        path = os.path.join(folder, os.path.basename(name))
-        if not os.path.isfile(path) or file_sha256(path) != digest:
+        path = os.path.join(folder, name)
+        if os.path.basename(name) != name or not os.path.isfile(path) or file_sha256(path) != digest:
             return f"{name} is not the file it was written as"
     return None
 
