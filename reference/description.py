@@ -9,14 +9,18 @@ plain, hashable data and need no Mitsuba import:
   up; ``translate``; ``scale``), so the render is what Mitsuba's look-at gives;
 * a mesh is ``{"type": "ply", "mesh": digest}``, the SHA-256 of the PLY file's
   bytes (positions, our vertex normals, faces), and ``Description.meshes`` maps
-  the digest to those bytes.
+  the digest to those bytes;
+* a heterogeneous medium's extinction is ``{"type": "gridvolume", "volume": digest}``,
+  the SHA-256 of a ``.vol`` file's bytes (ρ·σt / scale, three channels, over the density
+  grid's box: ``scenes.density``), which ``Description.volumes`` maps to those bytes.
 
 The reference cache key hashes this description, so whatever changes Mitsuba's
 input — the medium box (scenes.bounds), the vertex normals (scenes.mesh), the
 exporter — changes the key.
 
-Same camera (pinhole, vertical fov, box filter), spot emitter, homogeneous
-medium confined to the scene box (a null-BSDF cube whose interior is the fog,
+Same camera (pinhole, vertical fov, box filter), spot emitter, homogeneous (or
+heterogeneous: Mitsuba's ``heterogeneous`` with a trilinear ``gridvolume``, the grid's own
+convention) medium confined to the scene box (a null-BSDF cube whose interior is the fog,
 see scenes.bounds), dielectric objects with absorbing interior media, diffuse
 surfaces. Meshes carry our angle-weighted vertex normals, so both renderers shade
 with identical normals.
@@ -33,6 +37,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from volcaustics.scenes.bounds import medium_bounds
+from volcaustics.scenes.density import density_grid
+from volcaustics.scenes.volume_files import vol_bytes
 
 if TYPE_CHECKING:
     from volcaustics.scenes.mesh import Mesh
@@ -48,6 +54,7 @@ class Description:
 
     tree: dict
     meshes: dict = field(default_factory=dict)
+    volumes: dict = field(default_factory=dict)
 
     def json(self) -> str:
         """Canonical JSON of the tree (sorted keys, shortest round-trip floats)."""
@@ -108,9 +115,26 @@ def _homogeneous(sigma_t, albedo, phase=None) -> dict:
     return d
 
 
+def _heterogeneous(scene: Scene, sigma_t, albedo, phase, volumes: dict) -> dict:
+    """Mitsuba's ``heterogeneous`` medium: extinction ρ(x)·sigma_t from a three-channel
+    trilinear grid of ρ·sigma_t / scale (scale: sigma_t's largest channel), placed on the
+    density grid's box; volumes receives the ``.vol`` bytes by digest."""
+    grid = density_grid(scene)
+    assert grid is not None
+    sigma_t = np.asarray(sigma_t, float)
+    scale = float(sigma_t.max())
+    data = vol_bytes(grid.values[..., None] * (sigma_t / scale).astype(np.float32), grid.lo, grid.hi)
+    digest = hashlib.sha256(data).hexdigest()
+    volumes[digest] = data
+    place = {"type": "transform", "ops": [["translate", _vec(grid.lo)], ["scale", _vec(grid.hi - grid.lo)]]}
+    extinction = {"type": "gridvolume", "volume": digest, "filter_type": "trilinear", "to_world": place}
+    return {"type": "heterogeneous", "albedo": _rgb(albedo), "sigma_t": extinction, "scale": scale, "phase": phase}
+
+
 def describe(scene: Scene, *, integrator: dict | None = None, spp: int = 16, medium_box: bool = True) -> Description:
     """The Mitsuba scene of ``scene`` as plain data; ``integrator`` defaults to volpath."""
     meshes: dict[str, bytes] = {}
+    volumes: dict[str, bytes] = {}
 
     def ply(mesh: Mesh) -> dict:
         data = ply_bytes(mesh)
@@ -138,7 +162,8 @@ def describe(scene: Scene, *, integrator: dict | None = None, spp: int = 16, med
         sigma_t = np.asarray(medium.sigma_t, float)
         albedo = np.divide(medium.sigma_s, sigma_t, out=np.zeros(3), where=sigma_t > 0)
         phase = {"type": "hg", "g": float(medium.phase.g)} if medium.phase.kind == "hg" else {"type": "isotropic"}
-        d[FOG_ID] = _homogeneous(sigma_t, albedo, phase)
+        d[FOG_ID] = (_homogeneous(sigma_t, albedo, phase) if medium.density is None else
+                     _heterogeneous(scene, sigma_t, albedo, phase, volumes))
         d["sensor"]["medium"] = {"type": "ref", "id": FOG_ID}
         d["light"]["medium"] = {"type": "ref", "id": FOG_ID}
         if medium_box:
@@ -158,4 +183,4 @@ def describe(scene: Scene, *, integrator: dict | None = None, spp: int = 16, med
         d[f"diffuse_{i}"] = {**ply(surface.mesh.load()),
                              "bsdf": {"type": "twosided", "material": {"type": "diffuse",
                                                                         "reflectance": _rgb(surface.albedo)}}}
-    return Description(d, meshes)
+    return Description(d, meshes, volumes)

@@ -22,6 +22,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from .density import Density
 from .generators import GENERATOR_VERSION
 from .mesh_cache import load_mesh_spec
 
@@ -82,15 +83,21 @@ class Phase:
 
 @dataclass(frozen=True)
 class Medium:
-    """Homogeneous medium filling the scene outside the objects.
+    """The medium filling the scene outside the objects.
 
     ``sigma_s`` and ``sigma_a`` are scattering and absorption coefficients in 1/m
-    (RGB, >= 0). All zero means vacuum.
+    (RGB, >= 0). All zero means vacuum. ``density`` (``scenes.density``) makes it
+    heterogeneous: σs(x) = ρ(x)·sigma_s and σa(x) = ρ(x)·sigma_a; None is ρ ≡ 1.
     """
 
     sigma_s: RGB = (0.0, 0.0, 0.0)
     sigma_a: RGB = (0.0, 0.0, 0.0)
     phase: Phase = field(default_factory=Phase)
+    density: Density | None = None
+
+    @property
+    def is_heterogeneous(self) -> bool:
+        return self.density is not None and not self.is_vacuum
 
     @property
     def sigma_t(self) -> RGB:
@@ -220,8 +227,16 @@ def _mesh(spec: MeshSpec) -> dict:
                                  "scale": float(t.scale)}}
 
 
+def _medium(m: Medium) -> dict:
+    out = {"sigma_s": _floats(m.sigma_s), "sigma_a": _floats(m.sigma_a),
+           "phase": {"kind": m.phase.kind, "g": float(m.phase.g)}}
+    if m.density is not None:  # a homogeneous medium's text (and hash) is what it always was
+        out["density"] = m.density.canonical()
+    return out
+
+
 def canonical_dict(scene: Scene) -> dict:
-    c, light, m = scene.camera, scene.light, scene.medium
+    c, light = scene.camera, scene.light
     return {
         "format": FORMAT,
         "camera": {"position": _floats(c.position), "target": _floats(c.target), "up": _floats(c.up),
@@ -229,8 +244,7 @@ def canonical_dict(scene: Scene) -> dict:
         "light": {"position": _floats(light.position), "direction": _floats(light.direction),
                   "intensity": _floats(light.intensity), "cutoff_angle": float(light.cutoff_angle),
                   "beam_width": float(light.beam_width)},
-        "medium": {"sigma_s": _floats(m.sigma_s), "sigma_a": _floats(m.sigma_a),
-                   "phase": {"kind": m.phase.kind, "g": float(m.phase.g)}},
+        "medium": _medium(scene.medium),
         "specular": [{"mesh": _mesh(o.mesh), "ior": float(o.ior), "absorption": _floats(o.absorption)}
                      for o in scene.specular],
         "diffuse": [{"mesh": _mesh(o.mesh), "albedo": _floats(o.albedo)} for o in scene.diffuse],

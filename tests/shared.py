@@ -183,9 +183,20 @@ def spot_falloff64(light, w):
     return float((cutoff - np.arccos(cos_theta)) / (cutoff - beam))
 
 
-def fog_quadrature(scene, eye, d, s_end):
+def optical_depth(density, a, b, n=801):
+    """∫ρ along the segment a → b of a density grid (scenes.density.DensityGrid) by the
+    trapezoid rule on n points: ρ is piecewise trilinear, so the rule's error is O(1/n²)."""
+    a, b = np.asarray(a, np.float64), np.asarray(b, np.float64)
+    t = np.linspace(0.0, 1.0, n)
+    rho = density.eval(a + t[:, None] * (b - a))
+    return float(np.trapezoid(rho, t) * np.linalg.norm(b - a))
+
+
+def fog_quadrature(scene, eye, d, s_end, density=None):
     """Single scattering of the unoccluded spot light along eye + s·d, s in [0, s_end]:
-    ∫ σs p(θ) I falloff(ω)/r² exp(−σt (r + s)) ds by scipy quadrature (red channel)."""
+    ∫ σs p(θ) I falloff(ω)/r² exp(−σt (r + s)) ds by scipy quadrature (red channel); with a
+    ``density`` grid, σs and σt are scaled by ρ and the optical depths integrated along
+    both legs (:func:`optical_depth`)."""
     from scipy import integrate
 
     light, medium = scene.light, scene.medium
@@ -193,12 +204,18 @@ def fog_quadrature(scene, eye, d, s_end):
     sigma_s, sigma_t = medium.sigma_s[0], medium.sigma_t[0]
 
     def integrand(s):
-        to_x = eye + d * s - np.asarray(light.position)
+        x = eye + d * s
+        to_x = x - np.asarray(light.position)
         r = np.linalg.norm(to_x)
         w = to_x / r
         cos_t = float(w @ -d)
         phase = (1 - g * g) / (4 * np.pi * (1 + g * g - 2 * g * cos_t) ** 1.5)
-        return sigma_s * phase * light.intensity[0] * spot_falloff64(light, w) / r**2 * np.exp(-sigma_t * (r + s))
+        if density is None:
+            rho, depth = 1.0, r + s
+        else:
+            rho = float(density.eval(x[None])[0])
+            depth = optical_depth(density, eye, x) + optical_depth(density, x, light.position)
+        return rho * sigma_s * phase * light.intensity[0] * spot_falloff64(light, w) / r**2 * np.exp(-sigma_t * depth)
 
     return integrate.quad(integrand, 0.0, s_end, limit=400, points=np.linspace(0, s_end, 40)[1:-1])[0]
 

@@ -34,12 +34,14 @@ PLY_NAME_DIGITS = 32  # hex digits of the content hash in a PLY file name
 MESH_FOLDER = "mitsuba-meshes"  # the cache's folder of PLY files
 
 
-def ply_file(data: bytes, folder: str | None = None, digest: str | None = None) -> str:
-    """Path of the PLY file holding ``data`` in ``folder`` (default: the cache's
-    MESH_FOLDER, which serves what it holds when read-only), named by its content hash;
+def ply_file(data: bytes, folder: str | None = None, digest: str | None = None, kind: str = "mesh") -> str:
+    """Path of the file holding ``data`` in ``folder`` (default: the cache's
+    MESH_FOLDER, which serves what it holds when read-only), named by its content hash
+    (``mesh-HASH.ply``, or ``density-HASH.vol`` for ``kind`` ``"density"``);
     written (atomically) unless a file of exactly these bytes is there: one that is not
     (truncated, garbage, another mesh's bytes) is rewritten, never given to Mitsuba."""
-    name = f"mesh-{(digest or ply_digest(data))[:PLY_NAME_DIGITS]}.ply"
+    suffix = ".vol" if kind == "density" else ".ply"
+    name = f"{kind}-{(digest or ply_digest(data))[:PLY_NAME_DIGITS]}{suffix}"
     path = os.path.join(folder or cache_path(MESH_FOLDER), name)
     if not _holds(path, data):
         path = os.path.join(folder or cache_dir(MESH_FOLDER), name)
@@ -106,6 +108,8 @@ def mitsuba_dict(description: Description, mesh_dir: str | None = None) -> dict:
         for key, value in node.items():
             if key == "mesh" and node.get("type") == "ply":
                 out["filename"] = ply_file(description.meshes[value], mesh_dir, value)
+            elif key == "volume" and node.get("type") == "gridvolume":
+                out["filename"] = ply_file(description.volumes[value], mesh_dir, value, kind="density")
             else:
                 out[key] = convert(value)
         return out
@@ -205,6 +209,10 @@ def _xml_object(tag, obj, depth, folder, name_id=None):
             lines.append(f'{inner}<ref{name} id="{value["id"]}"/>')
         elif isinstance(value, dict) and value.get("type") == "rgb":
             lines.append(f'{inner}<rgb name="{key}" value="{", ".join(repr(float(x)) for x in value["value"])}"/>')
+        elif isinstance(value, dict) and value.get("type") == "gridvolume":
+            sub = _xml_object("volume", value, depth + 1, folder)
+            sub[0] = sub[0].replace("<volume", f'<volume name="{key}"', 1)
+            lines += sub
         elif isinstance(value, dict):
             sub = _xml_object(_TAGS.get(key, key), value, depth + 1, folder)
             if key in ("interior", "exterior"):

@@ -48,6 +48,7 @@ from .sampling import (
     subtended_angle,
 )
 from .shapes import ShapeTable
+from .tracking import Medium
 
 if TYPE_CHECKING:
     import numpy as np
@@ -65,6 +66,7 @@ def configure(integrator: _Integrator, scene_model: Scene, mi_scene: Any) -> _In
     integrator.sigma_t = mi.Color3f(*(float(x) for x in medium.sigma_t))
     integrator.sigma_bar = medium.sigma_bar
     integrator.has_medium = not medium.is_vacuum
+    integrator.medium = Medium(scene_model)
     integrator.g = float(medium.phase.g) if medium.phase.kind == "hg" else 0.0
     integrator.table = ShapeTable(mi, mi_scene, scene_model)
     light = scene_model.light
@@ -195,8 +197,15 @@ class VolumetricLightTracer(mi.AdjointIntegrator):  # type: ignore[name-defined]
                     it.wavelengths = ray.wavelengths
                     ds, sensor_weight = sensor.sample_direction(it, sampler.next_2d())
                     visible = (ds.pdf > 0.0) & ~scene.ray_test(it.spawn_ray_to(ds.p), ds.pdf > 0.0)
-                    tr = dr.exp(-self.sigma_t * (t + ds.dist))
-                    value = (throughput * self.sigma_s * hg_phase(dr.dot(ray.d, ds.d), self.g) * tr
+                    # from the segment's start to t, and on to the eye
+                    if dr.hint(self.medium.heterogeneous, mode="scalar"):
+                        tr = (self.medium.transmittance(ray.o, ray.d, t, sampler, visible)
+                              * self.medium.transmittance(it.p, ds.d, ds.dist, sampler, visible))
+                        sigma_s = self.medium.scattering(it.p, visible)
+                    else:
+                        tr = dr.exp(-self.sigma_t * (t + ds.dist))
+                        sigma_s = self.sigma_s
+                    value = (throughput * sigma_s * hg_phase(dr.dot(ray.d, ds.d), self.g) * tr
                              / (pdf * mi.Float(n)) * sensor_weight * sample_scale)
                     block.put(ds.uv + block.offset(), ray.wavelengths, value, 0.0, 0.0, visible)
                     if orders:
@@ -211,16 +220,22 @@ class VolumetricLightTracer(mi.AdjointIntegrator):  # type: ignore[name-defined]
             reach_surface = mi.Bool(hit)
             if volume:
                 can_scatter = in_medium & (scatters < most_scatters)
-                t_ff = -dr.log(1.0 - sampler.next_1d(in_medium)) / self.sigma_bar
-                scatter = can_scatter & (t_ff < t_end)
-                # analog tracking, weighted for RGB sigma_t sampled with the mean sigma_bar
-                w_scatter = (dr.exp(-self.sigma_t * t_ff) * self.sigma_s
-                             / (self.sigma_bar * dr.exp(-self.sigma_bar * t_ff)))
-                w_pass = dr.exp(-self.sigma_t * t_end) / dr.exp(-self.sigma_bar * t_end)
                 single = in_medium & ~can_scatter
-                throughput[single] *= dr.exp(-self.sigma_t * t_end)
-                throughput[can_scatter & ~scatter] *= w_pass
-                throughput[scatter] *= w_scatter
+                # delta tracking; ratio tracking where it only passes
+                if dr.hint(self.medium.heterogeneous, mode="scalar"):
+                    t_ff, scatter, w_flight = self.medium.free_flight(ray.o, ray.d, t_end, sampler, can_scatter)
+                    throughput[single] *= self.medium.transmittance(ray.o, ray.d, t_end, sampler, single)
+                    throughput[can_scatter] *= w_flight
+                else:
+                    t_ff = -dr.log(1.0 - sampler.next_1d(in_medium)) / self.sigma_bar
+                    scatter = can_scatter & (t_ff < t_end)
+                    # analog tracking, weighted for RGB sigma_t sampled with the mean sigma_bar
+                    w_scatter = (dr.exp(-self.sigma_t * t_ff) * self.sigma_s
+                                 / (self.sigma_bar * dr.exp(-self.sigma_bar * t_ff)))
+                    w_pass = dr.exp(-self.sigma_t * t_end) / dr.exp(-self.sigma_bar * t_end)
+                    throughput[single] *= dr.exp(-self.sigma_t * t_end)
+                    throughput[can_scatter & ~scatter] *= w_pass
+                    throughput[scatter] *= w_scatter
                 new_dir = hg_sample(ray.d, self.g, sampler.next_2d(scatter))
                 ray = dr.select(scatter, mi.Ray3f(ray(t_ff), new_dir, ray.time, ray.wavelengths), ray)
                 scatters[scatter] += 1
@@ -248,8 +263,10 @@ class VolumetricLightTracer(mi.AdjointIntegrator):  # type: ignore[name-defined]
                 consistent = (wi_geo * cos_wi > 0.0) & (wo_geo * cos_wo > 0.0)
                 correction = dr.select(consistent, dr.abs(cos_wi * wo_geo / (cos_wo * wi_geo)), 0.0)
                 value = throughput * bsdf_value * correction * sensor_weight * sample_scale
-                if volume:
-                    value *= dr.exp(-self.sigma_t * ds.dist)  # the medium between surface and eye
+                if dr.hint(volume and self.medium.heterogeneous, mode="scalar"):  # the medium between surface and eye
+                    value *= self.medium.transmittance(si.p, ds.d, ds.dist, sampler, seen)
+                elif volume:
+                    value *= dr.exp(-self.sigma_t * ds.dist)
                 block.put(ds.uv + block.offset(), ray.wavelengths, value, 0.0, 0.0, seen)
                 if orders:
                     self._put_order(ds.uv, value, ORDER_COMPONENTS.index("direct"), scatters, seen)
@@ -309,16 +326,26 @@ class SingleScatterIntegrator(mi.SamplingIntegrator):  # type: ignore[name-defin
             it.wavelengths = ray.wavelengths
             ds, emitted = scene.sample_emitter_direction(it, sampler.next_2d(use), True, use)  # shadow ray included
             use &= ds.pdf > 0.0
-            tr = dr.exp(-self.sigma_t * (t + ds.dist))
+            sigma_s = mi.Color3f(self.sigma_s)
+            if dr.hint(self.medium.heterogeneous, mode="scalar"):  # from the eye to t, and on to the light
+                tr = (self.medium.transmittance(ray.o, ray.d, t, sampler, use)
+                      * self.medium.transmittance(it.p, ds.d, ds.dist, sampler, use))
+                sigma_s = self.medium.scattering(it.p, use)
+            else:
+                tr = dr.exp(-self.sigma_t * (t + ds.dist))
             phase = hg_phase(dr.dot(-ds.d, -ray.d), self.g)  # light travels −ds.d, leaves towards the camera (−ray.d)
-            fog[use] = self.sigma_s * phase * emitted * tr / pdf
+            fog[use] = sigma_s * phase * emitted * tr / pdf
 
         direct = mi.Color3f(0.0)
         on_diffuse = hit & (kind == KIND_DIFFUSE)
         ds, emitted = scene.sample_emitter_direction(si, sampler.next_2d(on_diffuse), True, on_diffuse)
         ctx = mi.BSDFContext()
         bsdf_value = si.bsdf().eval(ctx, si, si.to_local(ds.d), on_diffuse)
-        if self.has_medium:
+        if dr.hint(self.has_medium and self.medium.heterogeneous, mode="scalar"):
+            lit = on_diffuse & (ds.pdf > 0.0)
+            emitted *= (self.medium.transmittance(ray.o, ray.d, si.t, sampler, lit)
+                        * self.medium.transmittance(si.p, ds.d, ds.dist, sampler, lit))
+        elif self.has_medium:
             emitted *= dr.exp(-self.sigma_t * (si.t + ds.dist))
         direct[on_diffuse & (ds.pdf > 0.0)] = bsdf_value * emitted
 
