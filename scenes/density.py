@@ -26,7 +26,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .density_fields import FIELD_VERSION, field_values
+from .density_fields import FIELD_VERSION, FIELDS, field_values
 from .volume_files import read_grid
 
 if TYPE_CHECKING:
@@ -51,6 +51,16 @@ class Density:
     path: str | None = None
     content_hash: str | None = None
     box: Box | None = None
+
+    def __post_init__(self):
+        if self.field is not None:  # every parameter stated, sorted: one field, one text, one hash
+            spec = FIELDS[self.field].params
+            unknown = sorted(set(dict(self.params)) - set(spec))
+            if unknown:
+                raise ValueError(f"density field {self.field!r}: unknown parameter {unknown[0]!r}; "
+                                 f"it has {', '.join(spec)}")
+            params = {name: p.default for name, p in spec.items()} | dict(self.params)
+            object.__setattr__(self, "params", tuple(sorted(params.items())))
 
     @property
     def label(self) -> str:

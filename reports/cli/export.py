@@ -26,7 +26,7 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from volcaustics.reference.render.export import export_xml, mesh_folder_problem
-    from volcaustics.reports.presenting.exports.gltf import FORMATS, export_gltf
+    from volcaustics.reports.presenting.exports.gltf import DENSITY_SUFFIX, FORMATS, export_gltf
     from volcaustics.scenes import resolve_scene
 
     if args.mitsuba_xml is None and args.gltf is None:
@@ -52,5 +52,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"export {scene.name} -> {done['files'][0]} (glTF 2.0: {done['nodes']} nodes, {done['meshes']} meshes, "
               f"{done['triangles']} triangles, {done['vertices']} vertices)")
         for extra in done["files"][1:]:
-            print(f"export {scene.name} -> {extra} (its buffer, {done['bytes']} bytes)")
+            what = ("the medium's density grid" if extra.endswith(DENSITY_SUFFIX) else
+                    f"its buffer, {done['bytes']} bytes")
+            print(f"export {scene.name} -> {extra} ({what})")
     return 0

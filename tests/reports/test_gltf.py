@@ -18,7 +18,9 @@ from pygltflib import GLTF2
 from volcaustics.reports.presenting.exports.gltf import export_gltf, unit_vertex_normals
 from volcaustics.reports.presenting.exports.gltf_parts import CONE_GAP, EXTRAS_KEY, quaternion
 from volcaustics.scenes import BUILTIN_NAMES, Phase, Transform, resolve_scene
+from volcaustics.scenes.density import Density, density_grid
 from volcaustics.scenes.formats import LAYER_NAMES
+from volcaustics.scenes.volume_files import read_grid
 
 from .gltf_validator import ValidatorUnavailable, validate_gltf
 
@@ -64,6 +66,7 @@ def exported(tmp_path_factory):
     out["bunny.gltf"] = (out["bunny"][0], str(folder / "bunny.gltf"))
     out["spaced.gltf"] = (out["sphere2"][0], str(folder / "a scene #1.gltf"))  # its buffer's uri is escaped
     out["placed"] = (_placed_scene(), str(folder / "placed.glb"))
+    out["fog"] = (_fog_scene(), str(folder / "fog.gltf"))
     for scene, path in out.values():
         export_gltf(scene, path)
     return out
@@ -102,7 +105,7 @@ def reports(exported, broken):
 
 # --- the validator ---------------------------------------------------------------------
 
-@pytest.mark.parametrize("name", [*BUILTIN_NAMES, "bunny.gltf", "spaced.gltf", "placed"])
+@pytest.mark.parametrize("name", [*BUILTIN_NAMES, "bunny.gltf", "spaced.gltf", "placed", "fog"])
 def test_the_validator_finds_no_error(reports, exported, name):
     issues = reports[exported[name][1]]["issues"]
     assert issues["numErrors"] == 0, issues["messages"]
@@ -261,6 +264,34 @@ def test_the_scene_extras_hold_what_gltf_cannot(exported, name):
     assert tuple(extras["layers"]) == LAYER_NAMES
     assert ("animation" in extras) == (scene.animation is not None)  # bunny is animated: only its rest is here
     assert gltf.asset.generator == "volcaustics" and gltf.asset.version == "2.0"
+
+
+def _fog_scene():
+    """sphere2 in a plume of smoke: a heterogeneous medium."""
+    scene = resolve_scene("sphere2")
+    plume = Density(field="plume", params=(("center", (0.0, 0.0, 0.0)), ("radius", 0.4)), resolution=(8, 12, 8))
+    return dataclasses.replace(scene, medium=dataclasses.replace(scene.medium, density=plume))
+
+
+def test_a_heterogeneous_medium_travels_as_a_side_file(exported):
+    scene, path = exported["fog"]
+    gltf, _ = _read(path)
+    density = gltf.scenes[gltf.scene].extras[EXTRAS_KEY]["medium"]["density"]
+    assert gltf.scenes[gltf.scene].extras[EXTRAS_KEY]["medium"]["kind"] == "heterogeneous"
+    side = os.path.join(os.path.dirname(path), density["file"])
+    assert density["file"] == "fog_density.vol" and os.path.isfile(side)
+    values, (lo, hi) = read_grid(side)
+    grid = density_grid(scene)
+    assert np.array_equal(values, grid.values) and np.allclose(lo, grid.lo) and np.allclose(hi, grid.hi)
+    assert density["resolution"] == [8, 12, 8] and density["source"]["field"] == "plume"
+    # negative control: a homogeneous scene writes no side file and says so
+    homogeneous = gltf_scene_extras(exported["placed"][1])
+    assert homogeneous["medium"]["kind"] == "homogeneous" and "density" not in homogeneous
+
+
+def gltf_scene_extras(path):
+    gltf, _ = _read(path)
+    return gltf.scenes[gltf.scene].extras[EXTRAS_KEY]
 
 
 # --- pieces --------------------------------------------------------------------------------

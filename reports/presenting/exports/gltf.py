@@ -26,6 +26,9 @@ What goes where:
 - **scene extras** (key ``"volcaustics"``): what glTF cannot express: the medium,
   the image (size, box pixel filter, radiance units), the layers an image holds, the
   single-scattering model, the inside/outside-glass rule, units and conventions.
+- **a heterogeneous medium's density**: glTF has no volume either, so its grid is a
+  side file, ``STEM_density.vol`` (Mitsuba's format, written with the document as one
+  unit), which the extras' ``medium.density`` names with the grid's convention.
 
 Only the scene at rest is exported: an ``[animation]`` is not (the extras say so).
 It lives with the files the commands write (``volcaustics export``): an interchange format
@@ -41,8 +44,10 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from volcaustics.infra.storage import atomic_set, atomic_write_bytes
+from volcaustics.infra.storage import atomic_set
+from volcaustics.scenes.density import density_grid
 from volcaustics.scenes.model import Transform
+from volcaustics.scenes.volume_files import vol_bytes
 
 from .gltf_parts import (
     EXTRAS_KEY,
@@ -68,6 +73,7 @@ if TYPE_CHECKING:
 # glTF constants (glTF 2.0 spec, 3.6 and 3.7)
 _FLOAT, _UINT = 5126, 5125
 _ARRAY_BUFFER, _ELEMENT_ARRAY_BUFFER = 34962, 34963
+DENSITY_SUFFIX = "_density.vol"  # a heterogeneous medium's grid, beside the document
 
 
 def export_gltf(scene: Scene, path: str) -> dict:
@@ -81,26 +87,38 @@ def export_gltf(scene: Scene, path: str) -> dict:
     if ext is None:
         raise ValueError(f"{path}: expected a file name ending in .glb (one binary file) or .gltf (with a .bin "
                          f"beside it)")
-    gltf, blob = gltf_document(scene)
+    density = density_sidecar(scene, path[: -len(ext)] + DENSITY_SUFFIX)
+    gltf, blob = gltf_document(scene, None if density is None else os.path.basename(density[0]))
+    sidecars = [density] if density is not None else []
     if ext == ".glb":
         gltf.set_binary_blob(blob)
-        atomic_write_bytes(path, b"".join(gltf.save_to_bytes()))
-        files = [path]
+        parts = [*sidecars, (path, b"".join(gltf.save_to_bytes()))]
     else:
         bin_path = path[: -len(ext)] + ".bin"
         gltf.buffers[0].uri = urllib.parse.quote(os.path.basename(bin_path))  # a URI: "a b#1.bin" → "a%20b%231.bin"
-        with atomic_set([bin_path, path]) as (bin_tmp, gltf_tmp):  # the .gltf (which names the .bin) goes last
-            with open(bin_tmp, "wb") as fh:
-                fh.write(blob)
-            with open(gltf_tmp, "w", encoding="utf-8") as fh:
-                fh.write(gltf.gltf_to_json())
-        files = [path, bin_path]
+        parts = [(bin_path, blob), *sidecars, (path, gltf.gltf_to_json().encode("utf-8"))]
+    with atomic_set([p for p, _ in parts]) as temporaries:  # the document (which names the others) goes last
+        for tmp, (_, data) in zip(temporaries, parts):
+            with open(tmp, "wb") as fh:
+                fh.write(data)
+    files = [parts[-1][0], *(p for p, _ in parts[:-1])]
     return {"files": files, **document_counts(gltf), "bytes": len(blob)}
 
 
-def gltf_document(scene: Scene) -> tuple[GLTF2, bytes]:
+def density_sidecar(scene: Scene, path: str) -> tuple[str, bytes] | None:
+    """(``path``, the bytes of a Mitsuba ``.vol`` of the medium's density grid) for a
+    heterogeneous medium, None for a homogeneous one: glTF has no field for a volume, so
+    the grid travels beside the document and its extras name it."""
+    grid = density_grid(scene)
+    if grid is None:
+        return None
+    return path, vol_bytes(grid.values, grid.lo, grid.hi)
+
+
+def gltf_document(scene: Scene, density_file: str | None = None) -> tuple[GLTF2, bytes]:
     """(pygltflib.GLTF2, buffer bytes) of ``scene`` at rest (module docstring); the
-    document's one buffer has no uri yet (a .glb's own chunk, or a .bin to name)."""
+    document's one buffer has no uri yet (a .glb's own chunk, or a .bin to name);
+    ``density_file``: the name of the density grid's side file, for the extras."""
     from pygltflib import GLTF2, Asset, Buffer, Node
     from pygltflib import Scene as GltfScene
 
@@ -121,7 +139,7 @@ def gltf_document(scene: Scene) -> tuple[GLTF2, bytes]:
                       rotation=quaternion(look_rotation(scene.camera.forward, scene.camera.up))))
     gltf.nodes = nodes
     gltf.scenes = [GltfScene(name=scene.name, nodes=list(range(len(nodes))),
-                             extras={EXTRAS_KEY: scene_extras(scene)})]
+                             extras={EXTRAS_KEY: scene_extras(scene, density_file)})]
     gltf.scene = 0
     used = ["KHR_lights_punctual"]
     if scene.specular:

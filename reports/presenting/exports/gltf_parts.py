@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from volcaustics.scenes.bounds import MARGIN, medium_bounds
+from volcaustics.scenes.density import density_grid
 from volcaustics.scenes.formats import COLOUR_LAYERS, LAYER_MEANINGS, MASK_LAYER
 
 if TYPE_CHECKING:
@@ -155,9 +156,29 @@ def quaternion(rotation: np.ndarray) -> list:
 
 # --- what glTF cannot express ----------------------------------------------------------
 
-def scene_extras(scene: Scene) -> dict:
+def density_extras(scene: Scene, density_file: str | None) -> dict:
+    """A heterogeneous medium's density in the extras: its side file, the grid's convention
+    and where it came from."""
+    grid = density_grid(scene)
+    assert grid is not None and scene.medium.density is not None
+    return {
+        "file": density_file,
+        "format": "Mitsuba 3 .vol: float32, one channel, its bounding box in its header",
+        "meaning": "sigma_s(x) = rho(x)·sigma_s and sigma_a(x) = rho(x)·sigma_a",
+        "convention": "values[k, j, i] at the centre of cell (i, j, k) of the box; trilinear between centres, "
+                      "clamped beyond the outermost ones, 0 outside the box (a GL 3D texture with linear "
+                      "filtering and clamp-to-edge, Mitsuba's trilinear gridvolume)",
+        "resolution": list(grid.resolution),
+        "box_min": float_list(grid.lo),
+        "box_max": float_list(grid.hi),
+        "source": scene.medium.density.canonical(),
+    }
+
+
+def scene_extras(scene: Scene, density_file: str | None = None) -> dict:
     """The scene's ``extras["volcaustics"]``: the facts of docs/conventions.md
-    that glTF has no field for (glTF has no ratified participating-media extension)."""
+    that glTF has no field for (glTF has no ratified participating-media extension);
+    ``density_file``: the side file holding a heterogeneous medium's density grid."""
     medium = scene.medium
     lo, hi = medium_bounds(scene)
     extras = {
@@ -169,7 +190,7 @@ def scene_extras(scene: Scene) -> dict:
         "units": {"length": "m", "sigma": "1/m", "light intensity": "W/sr (radiometric)",
                   "radiance": "W·m⁻²·sr⁻¹, linear Rec.709 primaries"},
         "medium": {
-            "kind": "homogeneous",
+            "kind": "homogeneous" if medium.density is None else "heterogeneous",
             "sigma_s": float_list(medium.sigma_s),
             "sigma_a": float_list(medium.sigma_a),
             "sigma_t": float_list(medium.sigma_t),
@@ -181,6 +202,7 @@ def scene_extras(scene: Scene) -> dict:
             "box_min": float_list(lo),
             "box_max": float_list(hi),
             "vacuum": bool(medium.is_vacuum),
+            **({} if medium.density is None else {"density": density_extras(scene, density_file)}),
         },
         "image": {
             "width": int(scene.camera.width),
