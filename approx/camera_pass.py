@@ -14,6 +14,7 @@ from .context import bound
 from .glsl import program, uniform
 from .glsl import set_uniforms as _set
 from .light import spot_constants
+from .medium_volumes import medium_defines
 from .resources import FrameResources
 from .transforms import gl_matrix, look_at, perspective
 
@@ -22,6 +23,7 @@ if TYPE_CHECKING:
 
     from .geometry import SceneGeometry
     from .light import LightFrustum
+    from .medium_volumes import MediumVolumes
 
 MAX_DIFFUSE = 16
 
@@ -55,9 +57,11 @@ class CameraPasses:
         """name → (shader stages, defines) of the camera passes' programs: the
         constructor's list and the shader check's (scripts/check_shaders.py)."""
         phase = {"PHASE_G": repr(float(medium.phase.g))} if medium.phase.kind == "hg" else {}
+        density = medium_defines(medium)  # a density grid: ρ and the transmittance volumes
         return {"gbuffer": (("camera/gbuffer.vert.glsl", "camera/gbuffer.frag.glsl"), {}),
-                "fog": (("shade/fullscreen.vert.glsl", "shade/fog.frag.glsl"), {**fog_defines, **phase}),
-                "direct": (("shade/fullscreen.vert.glsl", "shade/direct.frag.glsl"), {"MAX_DIFFUSE": MAX_DIFFUSE}),
+                "fog": (("shade/fullscreen.vert.glsl", "shade/fog.frag.glsl"), {**fog_defines, **phase, **density}),
+                "direct": (("shade/fullscreen.vert.glsl", "shade/direct.frag.glsl"),
+                           {"MAX_DIFFUSE": MAX_DIFFUSE, **density}),
                 "add": (("shade/fullscreen.vert.glsl", "shade/add.frag.glsl"), {})}
 
     def __init__(self, ctx: moderngl.Context, scene, fog_defines: dict, pool: FrameResources | None = None):
@@ -141,20 +145,25 @@ class CameraPasses:
         return out
 
     def render_fog(self, scene: Scene, view: CameraView, frustum: LightFrustum, box: tuple[np.ndarray, np.ndarray],
-                   shadow_map: moderngl.Texture, light_res: int,
-                   gbuffer_geometry: moderngl.Texture) -> moderngl.Texture:
-        """Fog of ``scene`` inside ``box``, the (min, max) corners of its medium (scenes.bounds)."""
+                   shadow_map: moderngl.Texture, light_res: int, gbuffer_geometry: moderngl.Texture,
+                   volumes: MediumVolumes | None = None) -> moderngl.Texture:
+        """Fog of ``scene`` inside ``box``, the (min, max) corners of its medium (scenes.bounds);
+        ``volumes``: a heterogeneous medium's (``approx.medium_volumes``)."""
         prog = self.fog
         self._common(prog, scene, view, frustum, shadow_map, light_res, gbuffer_geometry)
+        if volumes is not None:
+            volumes.bind(prog)
         _set(prog, sigma_s=tuple(scene.medium.sigma_s), scene_min=tuple(box[0]),
              scene_max=tuple(box[1]))
         return self._draw(self.empty_vao, view, "fog")
 
     def render_direct(self, scene: Scene, view: CameraView, frustum: LightFrustum, shadow_map: moderngl.Texture,
-                      light_res: int, gbuffer_geometry: moderngl.Texture,
-                      gbuffer_normal: moderngl.Texture) -> moderngl.Texture:
+                      light_res: int, gbuffer_geometry: moderngl.Texture, gbuffer_normal: moderngl.Texture,
+                      volumes: MediumVolumes | None = None) -> moderngl.Texture:
         prog = self.direct
         self._common(prog, scene, view, frustum, shadow_map, light_res, gbuffer_geometry)
+        if volumes is not None:
+            volumes.bind(prog)
         gbuffer_normal.use(location=2)
         albedo = [tuple(o.albedo) for o in scene.diffuse][:MAX_DIFFUSE]
         albedo += [(0.0, 0.0, 0.0)] * (MAX_DIFFUSE - len(albedo))

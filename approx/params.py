@@ -205,6 +205,18 @@ _DECLARED: tuple = (  # one entry per ApproxParams field, in its order
     Param("height", int, None, "image height", "pixels", 1, 16384, unset="the scene's"),
     Param("fog_steps", int, 64, "ray-marching samples of the fog integral per pixel", "", 1, 4096, program="fog",
           glsl="define", exact=False),
+    Param("march_steps", int, 16, "heterogeneous media: midpoint samples of the density along each photon "
+          "segment (and from the light to the first surface) for its transmittance", "", 1, 1024, glsl="uniform"),
+    Param("light_volume_res", int, 128, "heterogeneous media: columns per side of the light's transmittance "
+          "volume (the optical depth from the light through its frustum: the fog's and direct light's light "
+          "side)", "texels per side", 2, 2048, glsl="uniform"),
+    Param("light_volume_slices", int, 64, "heterogeneous media: distances per column of the light's "
+          "transmittance volume", "", 2, 1024, glsl="uniform"),
+    Param("camera_volume_res", int, 128, "heterogeneous media: columns per side of the camera's transmittance "
+          "volume (froxels: the optical depth from the eye, the eye's side of fog, direct light and splats)",
+          "texels per side", 2, 2048, glsl="uniform"),
+    Param("camera_volume_slices", int, 64, "heterogeneous media: distances per column of the camera's "
+          "transmittance volume", "", 2, 1024, glsl="uniform"),
     Param("fresnel", str, "deterministic", "deterministic (refracted power × (1 − R)), stochastic (choose by R) or "
           "stratified (choose by R with numbers stratified over the photons: neighbours split in proportion to R, "
           "scenes.rng.stratified)", choices=FRESNEL_MODES, program="trace", glsl="define",
@@ -291,6 +303,11 @@ class ApproxParams(ParamsMethods):
     width: int | None = declared("width")
     height: int | None = declared("height")
     fog_steps: int = declared("fog_steps")
+    march_steps: int = declared("march_steps")
+    light_volume_res: int = declared("light_volume_res")
+    light_volume_slices: int = declared("light_volume_slices")
+    camera_volume_res: int = declared("camera_volume_res")
+    camera_volume_slices: int = declared("camera_volume_slices")
     fresnel: str = declared("fresnel")
     fresnel_splits: int = declared("fresnel_splits")
     split_every: int = declared("split_every")

@@ -48,7 +48,8 @@ from .geometry import SceneGeometry
 from .late_timer import LateTimer
 from .layers import BOTH, LightMapRenderer
 from .light import LightFrustum
-from .params import ApproxParams, balanced_beams, defines, photon_slots
+from .medium_volumes import MediumVolumes
+from .params import ApproxParams, ParamError, balanced_beams, defines, photon_slots
 from .records import emission_records, records_from_raw
 from .resources import FrameResources
 from .splat import SPLAT_COMMANDS, Splatter, splat_commands
@@ -57,7 +58,7 @@ from .timing import DisplayTimer, PassTimer, timer_queries_work
 from .trace import PhotonTracer, read_raw_records
 
 if TYPE_CHECKING:
-    from volcaustics.scenes.model import Scene
+    from volcaustics.scenes.model import Medium, Scene
 
 __all__ = ["Frame", "Renderer", "render"]
 
@@ -93,6 +94,7 @@ class Renderer:
         self.pool.track(*(b for b in (self.geometry.specular, self.geometry.diffuse) if b is not None))
         self._programs: dict[tuple, PhotonTracer | CameraPasses | Splatter] = {}
         self._use_queries = timer_queries_work(self.ctx)
+        self.volumes: MediumVolumes | None = None  # a heterogeneous medium's, made on first use
         # display frames' pass times, read frames later (where the driver's timer queries work)
         self.late_timer = LateTimer(self.ctx, frames_in_flight) if self._use_queries else None
 
@@ -101,14 +103,14 @@ class Renderer:
             self._programs[key] = factory()
         return self._programs[key]
 
-    def _tracer(self, p: ApproxParams) -> PhotonTracer:
-        """The emission and trace programs for ``p`` (equal defines, one program)."""
-        key = ("tracer", *sorted(PhotonTracer.defines(p, self.controls).items()))
-        return self._cached(key, lambda: PhotonTracer(self.ctx, p, self.controls, self.pool))
+    def _tracer(self, p: ApproxParams, medium: Medium | None = None) -> PhotonTracer:
+        """The emission and trace programs for ``p`` and ``medium`` (equal defines, one program)."""
+        key = ("tracer", *sorted(PhotonTracer.defines(p, self.controls, medium).items()))
+        return self._cached(key, lambda: PhotonTracer(self.ctx, p, self.controls, self.pool, medium))
 
     def _shading_programs(self, scene, p: ApproxParams) -> tuple:
         """(CameraPasses, Splatter) for the fog program's defines and the phase function."""
-        phase_key = (scene.medium.phase.kind, scene.medium.phase.g)
+        phase_key = (scene.medium.phase.kind, scene.medium.phase.g, scene.medium.is_heterogeneous)
         fog = defines(p, "fog")
         camera = self._cached(("camera", *sorted(fog.items()), phase_key),
                               lambda: CameraPasses(self.ctx, scene, fog, pool=self.pool))
@@ -192,9 +194,14 @@ class Renderer:
         self.geometry.place(scene)  # this frame's object transforms (meshes stay uploaded)
         box = medium_bounds(scene)  # holds light and camera: this frame's, not the construction's
         frustum = LightFrustum.for_scene(scene, *box)
-        tracer = self._tracer(p)
+        tracer = self._tracer(p, scene.medium)
         tracer.check_limits(p, keep_records=keep_records)
         camera_passes, splatter = self._shading_programs(scene, p)
+        view = camera_view(scene, p, box)
+        volumes = self._medium_volumes(scene, frustum, view, box, p, timer)
+        if volumes is not None:
+            tracer.use_medium(volumes, p.march_steps)
+            splatter.volumes = volumes
         with timer.measure("layers", counted=False):  # the light maps' own queries count it
             layer_maps = self.light_maps.render_layers(frustum, p.light_res, p.layers, p.layer_strategy,
                                                        primitive_ids=tracer.id_rule, pool=pool, count=counted)
@@ -209,20 +216,36 @@ class Renderer:
                                                             count=counted)
             photons = tracer.emit_photons(scene, frustum, emission_map, p.photon_res, p.seed)
         timer.count("emission", self.light_maps.take_queries())
-        view = camera_view(scene, p, box)
         with timer.measure("camera"):
             gbuf_geo, gbuf_nrm = camera_passes.render_gbuffer(self.geometry, view)
         steps = self._trace_and_splat(timer, tracer, splatter, scene, frustum, box, maps, photons, view, gbuf_geo, p,
                                       keep_records)
         with timer.measure("fog"):
-            fog = camera_passes.render_fog(scene, view, frustum, box, shadow_map, p.light_res, gbuf_geo)
+            fog = camera_passes.render_fog(scene, view, frustum, box, shadow_map, p.light_res, gbuf_geo, volumes)
         with timer.measure("direct"):
-            direct = camera_passes.render_direct(scene, view, frustum, shadow_map, p.light_res, gbuf_geo, gbuf_nrm)
+            direct = camera_passes.render_direct(scene, view, frustum, shadow_map, p.light_res, gbuf_geo, gbuf_nrm,
+                                                 volumes)
         with timer.measure("compose", counted=False):  # the caustic as the host sums it, then the frame
             caustic = camera_passes.compose(steps["images"], view, "caustic")
             combined = camera_passes.compose([caustic, fog, direct], view, "combined")
         return FramePasses(tracer, steps["images"], steps["records"], steps["kernels"], steps["stride"], gbuf_geo,
                            gbuf_nrm, fog, direct, caustic, combined)
+
+    def _medium_volumes(self, scene: Scene, frustum: LightFrustum, view, box, p: ApproxParams,
+                        timer: PassTimer | DisplayTimer) -> MediumVolumes | None:
+        """A heterogeneous medium's grid and this frame's transmittance volumes (a pass of
+        their own, ``volumes``); None for a homogeneous medium. Beams are refused there:
+        their transmittance along and toward the beam is not written yet."""
+        if not scene.medium.is_heterogeneous:
+            return None
+        if splat_mode(p).beams:
+            raise ParamError(f"{scene.name}: splat = {p.splat!r} in a heterogeneous medium (medium.density): "
+                             f"beams do not track a density grid yet; use splat = fixed, adaptive or density")
+        if self.volumes is None:
+            self.volumes = MediumVolumes(self.ctx, self.pool)
+        with timer.measure("volumes"):
+            self.volumes.update(scene, frustum, view, box, p)
+        return self.volumes
 
     def _trace_and_splat(self, timer, tracer, splatter, scene, frustum, box, maps, photons, view, gbuf_geo,
                          p: ApproxParams, keep_records: bool) -> dict:
@@ -305,6 +328,8 @@ class Renderer:
         p = params.resolved(scene)
         self.geometry.place(scene)
         frustum = LightFrustum.for_scene(scene, *medium_bounds(scene))
+        if scene.medium.is_heterogeneous:
+            raise ParamError(f"{scene.name}: the exact replay does not track a density grid (medium.density) yet")
         tracer = self._tracer(p)
         tracer.check_limits(p, keep_records=True)
         emission_map = self.light_maps.render_light_map(frustum, p.photon_res, facing=BOTH, pool=self.pool,
@@ -327,6 +352,8 @@ class Renderer:
         if p.emission not in RULES:  # a rule the shader knows and its numpy twin does not: E would replay another
             raise NotImplementedError(f"emission = {p.emission!r}: approx.emission.approx_rays has no rays for it")
         frustum = LightFrustum.for_scene(scene, *medium_bounds(scene))
+        if scene.medium.is_heterogeneous:
+            raise ParamError(f"{scene.name}: the exact replay does not track a density grid (medium.density) yet")
         tracer = self._tracer(p)
         importance = None
         if tracer.emission_adaptive:

@@ -83,6 +83,17 @@ class FrameResources:
             return tex
         return self._get(name, ("texture", tuple(size), components, dtype, linear), make)
 
+    def texture3d(self, name: str, size: tuple[int, int, int], components: int = 1, *,
+                  dtype: str = "f4") -> moderngl.Texture3D:
+        """A ``size`` 3D texture (width, height, depth) of ``components`` ``dtype`` channels,
+        trilinear filtered, clamped at its edges; its content is the last frame's."""
+        def make() -> moderngl.Texture3D:
+            tex = self.ctx.texture3d(size, components, dtype=dtype)
+            tex.filter = (moderngl.LINEAR, moderngl.LINEAR)
+            tex.repeat_x = tex.repeat_y = tex.repeat_z = False
+            return tex
+        return self._get(name, ("texture3d", tuple(size), components, dtype), make)
+
     def buffer(self, name: str, nbytes: int) -> moderngl.Buffer:
         """A buffer of at least ``nbytes`` (never 0: GL refuses empty storage)."""
         return self._get(name, ("buffer", max(int(nbytes), 4)), lambda: self.ctx.buffer(reserve=max(int(nbytes), 4)))

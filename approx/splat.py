@@ -30,6 +30,7 @@ if TYPE_CHECKING:
     from volcaustics.scenes.model import Medium
 
     from .camera_pass import CameraView
+    from .medium_volumes import MediumVolumes
     from .params import ApproxParams
 
 # Instance attributes of a splat (SPLAT_DTYPE, 48 bytes) and of a beam (BEAM_DTYPE, 48 bytes).
@@ -201,6 +202,7 @@ class Splatter:
             (vertex, fragment), _ = programs["density"]
             self.density_program = program(ctx, vertex, fragment)
         self.defines = programs["splat"][1]
+        self.volumes: MediumVolumes | None = None  # a heterogeneous medium's this frame (the renderer's)
         self.widths_program: moderngl.Program | None = None  # the widths pass (density_widths), when first used
         corners = np.array([[-1, -1], [1, -1], [-1, 1], [1, 1]], np.float32)
         self.corners = ctx.buffer(corners.tobytes())
@@ -218,6 +220,8 @@ class Splatter:
         constructor's list and the shader check's (scripts/check_shaders.py); "widths"
         (a vertex stage alone, by transform feedback) is compiled when first used."""
         defines: dict[str, object] = {"PHASE_G": repr(float(medium.phase.g))} if medium.phase.kind == "hg" else {}
+        if medium.is_heterogeneous and not beams:  # τ(eye, x) from the camera's transmittance volume
+            defines["HETEROGENEOUS"] = 1
         if adaptive or density:  # per-splat kernels (SPLAT_DTYPE dir.w or the density), integrated over each pixel
             defines["SPLAT_ADAPTIVE"] = 1
         if density:
@@ -322,6 +326,10 @@ class Splatter:
         """Set what the splat estimate of ``prog`` reads: the view, the medium, the kernel
         and the G-buffer's distances (texture unit 0)."""
         view.set_uniforms(prog)
+        if "HETEROGENEOUS" in self.defines:
+            if self.volumes is None:
+                raise RuntimeError("a heterogeneous medium's splats need the frame's volumes (Splatter.volumes)")
+            self.volumes.bind(prog)
         if self.beams:
             uniform(prog, "sigma_s").value = tuple(medium.sigma_s)
         else:

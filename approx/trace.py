@@ -28,17 +28,19 @@ from .glsl import compute_shader, set_uniforms, uniform
 from .light import spot_constants
 from .limits import check_fits, max_image_size
 from .map_packing import MapBuffers, MapPacker, map_bounds, pyramid_layout
+from .medium_volumes import medium_defines
 from .params import carries_differentials
 from .params import defines as table_defines
 from .splat import BEAM_SIGMA_FLOOR
 from .transforms import gl_matrix
 
 if TYPE_CHECKING:
-    from volcaustics.scenes.model import Scene
+    from volcaustics.scenes.model import Medium, Scene
 
     from .camera_pass import CameraView
     from .layers import LightMap
     from .light import LightFrustum
+    from .medium_volumes import MediumVolumes
     from .params import ApproxParams, ParamsMethods
     from .resources import FrameResources
 
@@ -64,13 +66,17 @@ class PhotonTracer:
     (:meth:`defines`: the parameter table's ``program="trace"`` entries)."""
 
     def __init__(self, ctx: moderngl.Context, params, controls: dict | None = None,
-                 pool: FrameResources | None = None):
+                 pool: FrameResources | None = None, medium: Medium | None = None):
         self.ctx = ctx
         # where the frame's buffers live across frames (a renderer's); without one each call
         # makes its own: the photons for the caller to release, the rest released here
         self.pool = pool
-        defines = self.defines(params, controls)
-        shaders = {name: compute_shader(ctx, *source) for name, source in self.programs(params, controls).items()}
+        defines = self.defines(params, controls, medium)
+        shaders = {name: compute_shader(ctx, *source)
+                   for name, source in self.programs(params, controls, medium).items()}
+        self.heterogeneous = "HETEROGENEOUS" in defines  # a density grid: emission and trace read it
+        self.volumes: MediumVolumes | None = None  # ... this frame's (use_medium)
+        self.march_steps = 16
         self.emit, self.trace = shaders["emit"], shaders["trace"]
         self.id_rule = "START_RULE_ID" in defines  # start rule id: the maps carry primitive ids
         self.packer = MapPacker(ctx, shaders["pack"], shaders.get("pyramid"), self._buffer, primitive=self.id_rule)
@@ -96,12 +102,13 @@ class PhotonTracer:
         self._max_size = max_image_size(ctx.info)
 
     @staticmethod
-    def defines(params: ParamsMethods, controls: dict | None = None) -> dict:
+    def defines(params: ParamsMethods, controls: dict | None = None, medium: Medium | None = None) -> dict:
         """The #defines of the emission and trace programs for ``params``: the fixed
-        ones and those the parameter table derives (``approx.params.defines``). Equal
-        defines, equal programs: the renderer's cache key."""
+        ones, the ``medium``'s (``approx.medium_volumes.medium_defines``) and those the
+        parameter table derives (``approx.params.defines``). Equal defines, equal
+        programs: the renderer's cache key."""
         fixed = {"MAX_MATERIALS": MAX_MATERIALS, **START_OFFSET,
-                 **controls_for(controls, "trace")}
+                 **controls_for(controls, "trace"), **(medium_defines(medium) if medium is not None else {})}
         table = table_defines(params, "trace")
         if "SPLAT_BEAMS" not in table:
             for name in ("BEAM_DIFFERENTIAL", "BEAM_BALANCED"):  # beam_width: beams only (one program for the others)
@@ -111,10 +118,10 @@ class PhotonTracer:
         return {**fixed, **table}
 
     @staticmethod
-    def programs(params: ParamsMethods, controls: dict | None = None) -> dict:
+    def programs(params: ParamsMethods, controls: dict | None = None, medium: Medium | None = None) -> dict:
         """name → (shader, defines) of every compute program a tracer for ``params``
         compiles: the constructor's list and the shader check's (scripts/check_shaders.py)."""
-        defines = PhotonTracer.defines(params, controls)
+        defines = PhotonTracer.defines(params, controls, medium)
         beams = {name: 1 for name in ("SPLAT_BEAMS", "BEAM_DIFFERENTIAL") if name in defines}
         splits = {"FRESNEL_SPLITS": defines["FRESNEL_SPLITS"]} if "FRESNEL_SPLITS" in defines else {}
         out = {"emit": ("emission/emit.comp.glsl", defines), "trace": ("trace/trace.comp.glsl", defines),
@@ -170,6 +177,7 @@ class PhotonTracer:
             self.differentials.bind_to_storage_buffer(2)
             self.segment_differentials = self._buffer("segment_differentials", nbytes) if self.beam_differential \
                 else None
+        self._bind_medium(prog)
         prog.run(group_x=math.ceil(photon_res / 8), group_y=math.ceil(photon_res / 8), group_z=batches)
         if slots is not None:
             slots.release()
@@ -267,8 +275,21 @@ class PhotonTracer:
             self.start_frame(step)
         work = cast(moderngl.Buffer, self.work)
         work.bind_to_storage_buffer(8)
+        self._bind_medium(prog)
         self.ctx.memory_barrier()  # the photons and maps the passes before wrote
         prog.run(group_x=math.ceil(count / 64))
+
+    def use_medium(self, volumes: MediumVolumes, march_steps: int) -> None:
+        """A heterogeneous medium's grid (this frame's ``approx.medium_volumes``) and the
+        march's samples, for the emission and trace programs that follow."""
+        self.volumes, self.march_steps = volumes, march_steps
+
+    def _bind_medium(self, prog) -> None:
+        if self.heterogeneous:
+            if self.volumes is None:
+                raise RuntimeError("a heterogeneous medium's tracer needs use_medium(volumes, march_steps) first")
+            self.volumes.bind_grid(prog)
+            set_uniforms(prog, march_steps=self.march_steps)
 
     def start_frame(self, steps: int) -> None:
         """Zero the trace loop's work counters of a frame of ``steps`` steps."""

@@ -1,7 +1,8 @@
 // Emission (paper §4.3): one photon per covered texel of the photon_res² light
 // map, at the first surface, with power I·falloff(ω)·ΔΩ(texel) (exact texel
 // solid angle from the CPU) times the medium's transmittance exp(−σt·r) over the
-// distance r from the light to that surface, then the first specular interaction.
+// distance r from the light to that surface (HETEROGENEOUS: exp(−σt·∫ρ) by march_steps
+// midpoint samples), then the first specular interaction.
 // Adaptive emission (EMISSION_ADAPTIVE, approx.emission): slot i emits in the texel
 // the host drew for it in proportion to the texel's importance, at a uniformly random
 // point of that texel (the slot's Owen-scrambled Sobol point with EMISSION_JITTER_SOBOL),
@@ -21,6 +22,10 @@
 #include "common/photon.glsl"
 #include "common/start_offset.glsl"
 #include "emission/map.glsl"
+#ifdef HETEROGENEOUS  // a density grid scales the medium: the light's path marched (common/density.glsl)
+#include "common/density.glsl"
+uniform int march_steps;
+#endif
 
 layout(local_size_x = 8, local_size_y = 8) in;
 
@@ -113,10 +118,15 @@ void main() {
         float t = abs(along) > 1e-3 ? dot(map_point(texel, map.r) - light_position, geometric) / along : -1.0;
         if (t > 0.5 * map.r && t < 2.0 * map.r) r = t;
 #endif
-#ifdef EMISSION_ADAPTIVE
-        vec3 power = light_intensity * falloff * solid_angle[texel_index] * weight * exp(-sigma_t * r);
+#ifdef HETEROGENEOUS
+        vec3 transmittance = exp(-sigma_t * march_depth(light_position, d, r, march_steps));
 #else
-        vec3 power = light_intensity * falloff * solid_angle[texel_index] * exp(-sigma_t * r);
+        vec3 transmittance = exp(-sigma_t * r);
+#endif
+#ifdef EMISSION_ADAPTIVE
+        vec3 power = light_intensity * falloff * solid_angle[texel_index] * weight * transmittance;
+#else
+        vec3 power = light_intensity * falloff * solid_angle[texel_index] * transmittance;
 #endif
         power *= split_factor;
         int inside = -1;

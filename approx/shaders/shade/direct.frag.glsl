@@ -1,10 +1,14 @@
 // Direct lighting on diffuse (Lambertian) surfaces seen by the camera: spot light
 // with shadow map, attenuated by the medium on the light path and to the eye:
 //   L = albedo/π · I·falloff(ω)/r² · cos θ · V · exp(-σt (r + s))
+// (HETEROGENEOUS: exp(−σt·∫ρ) of both legs from the transmittance volumes, common/volumes.glsl).
 #include "common/camera.glsl"
 #include "common/spot.glsl"
 #include "common/shadow.glsl"
 #include "common/kinds.glsl"
+#ifdef HETEROGENEOUS  // both legs' transmittance from the transmittance volumes
+#include "common/volumes.glsl"
+#endif
 
 uniform sampler2D gbuffer_geometry;  // (distance to eye, KIND_*, material, 0)
 uniform sampler2D gbuffer_normal;
@@ -30,7 +34,12 @@ void main() {
             float bias = 2.0 * texel_angle * dist / max(cos_theta, 0.1);
             float vis = light_visibility(x, dist, bias);
             radiance = albedo[int(g.z + 0.5)] / 3.141592653589793 * light_intensity * spot_falloff(-l)
-                     * cos_theta / (dist * dist) * vis * exp(-sigma_t * (dist + g.x));
+                     * cos_theta / (dist * dist) * vis
+#ifdef HETEROGENEOUS
+                     * exp(-sigma_t * (light_depth(x) + camera_depth(x)));
+#else
+                     * exp(-sigma_t * (dist + g.x));
+#endif
         }
     }
     out_color = vec4(radiance, 1.0);

@@ -7,12 +7,18 @@
 // s = Δ + D·tan φ (Δ: ray parameter closest to the light, D: that distance), the
 // substitution that cancels the 1/r² peak near the light (ds = r²/D dφ); uniform
 // steps in s undersample it where the ray passes close to the light.
+// HETEROGENEOUS (a density grid): σs(x) = ρ(x)·σs at each sample, and exp(−σt·(r + s)) becomes
+// the light's and the camera's transmittance volumes at x (common/volumes.glsl).
 #include "common/camera.glsl"
 #include "common/spot.glsl"
 #include "common/phase.glsl"
 #include "common/shadow.glsl"
 #include "common/kinds.glsl"
 #include "common/box.glsl"
+#ifdef HETEROGENEOUS  // σs(x) = ρ(x)·σs; both legs' transmittance from the transmittance volumes
+#include "common/density.glsl"
+#include "common/volumes.glsl"
+#endif
 
 uniform sampler2D gbuffer_geometry;  // (distance to eye, KIND_*, material, 0)
 uniform vec3 sigma_s;
@@ -86,7 +92,12 @@ void main() {
             float vis = light_visibility(x, dist, 0.0);
             if (vis > 0.0) {
                 // integrand · ds/dφ with ds/dφ = dist²/D: the 1/dist² cancels
+#ifdef HETEROGENEOUS
+                radiance += density_at(x) * phase_eval(dot(w, -r)) * spot_falloff(w) / D
+                          * exp(-sigma_t * (light_depth(x) + camera_depth(x)));
+#else
                 radiance += phase_eval(dot(w, -r)) * spot_falloff(w) / D * exp(-sigma_t * (dist + s));
+#endif
             }
         }
         radiance *= sigma_s * light_intensity * dphi;

@@ -4,10 +4,15 @@
 // Gaussian's 3σ sphere in perspective (the fragment shader renormalises the
 // truncated kernel so that its integral stays exact). The per-photon weight is
 // Φ·(σs/sigma_bar)·p(θ)·τ(eye, x): power, scattering per collision, phase towards
-// the camera, transmittance to the eye (evaluated at the photon centre).
+// the camera, transmittance to the eye (evaluated at the photon centre; HETEROGENEOUS: from
+// the camera's transmittance volume). In a heterogeneous medium collisions come at rate
+// ρ(x)·sigma_bar and scatter ρ(x)·σs: the weight σs/sigma_bar is the same.
 #include "common/phase.glsl"
 #include "common/photon.glsl"
 #include "splat/kernel.glsl"
+#ifdef HETEROGENEOUS  // τ(eye, x) from the camera's transmittance volume (common/volumes.glsl)
+#include "common/volumes.glsl"
+#endif
 
 uniform mat4 view_proj;
 uniform vec3 eye;
@@ -51,7 +56,11 @@ void main() {
     vec3 to_eye = eye - c;
     float dist = length(to_eye);
     vec3 w = to_eye / dist;
+#ifdef HETEROGENEOUS
+    v_weight = in_power.rgb * scatter_weight * phase_eval(dot(in_dir_t.xyz, w)) * exp(-sigma_t * camera_depth(c));
+#else
     v_weight = in_power.rgb * scatter_weight * phase_eval(dot(in_dir_t.xyz, w)) * exp(-sigma_t * dist);
+#endif
     v_center = c;
 #ifdef SPLAT_ADAPTIVE
     // splat = adaptive: the photon's own kernel (in_dir_t.w, splat/compact.comp.glsl),

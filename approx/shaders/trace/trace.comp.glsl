@@ -42,6 +42,10 @@
 // DIFFERENTIALS (splat = adaptive, beam_width = differential): the photons carry ray
 // differentials through every step; BEAM_DIFFERENTIAL also keeps each photon's at its
 // segment's start (the beam's footprint there and its rate along it) for the compaction.
+// HETEROGENEOUS (a density grid, common/density.glsl): free flights by delta tracking through
+// the grid of majorants at rate ρ(x)·sigma_bar (its tentative collisions count as lookups),
+// and a segment's transmittance from march_steps midpoint samples of ρ (a fixed march: the
+// approximation the harness measures).
 // Where the driver has subgroups (GL_ARB_shader_ballot, 64-bit ballots), the loop work
 // is also counted in lockstep: a subgroup runs until its longest search ends.
 #extension GL_ARB_shader_ballot : enable
@@ -55,6 +59,11 @@
 #include "common/photon.glsl"
 #include "common/start_offset.glsl"
 #include "common/box.glsl"
+#ifdef HETEROGENEOUS  // a density grid scales the medium (common/density.glsl): delta tracking, marched transmittance
+#define DELTA_TRACKING 1
+#include "common/density.glsl"
+uniform int march_steps;             // midpoint samples of ρ for a segment's transmittance
+#endif
 
 layout(local_size_x = 64) in;
 
@@ -400,7 +409,14 @@ void main() {
     float max_len = span;
 #ifndef SPLAT_BEAMS
     if (inside < 0 && sigma_bar > 0.0) {
+#ifdef HETEROGENEOUS  // the first collision at rate ρ(x)·sigma_bar, or none before the box's end
+        uint tentative;
+        float collision = delta_track(o, d, span, sigma_bar, seed, i, step_index, tentative);
+        max_len = collision >= 0.0 ? collision : 2.0 * span + 1.0;
+        g_lookups += tentative;
+#else
         max_len = -log(1.0 - rng_uniform(seed, i, step_index, 0u)) / sigma_bar;
+#endif
     }
 #endif  // splat = beams: no free flight; the whole segment to the next surface is a beam
     float search = min(max_len, span);
@@ -453,7 +469,11 @@ void main() {
         vec4 best_texel = best_index >= 0 ? map_texels[best_index] : vec4(0.0);
         vec2 best_geometric = best_index >= 0 ? map_geometric[best_index] : vec2(0.0);
         end = o + d * best_t;
+#ifdef HETEROGENEOUS
+        power *= inside >= 0 ? exp(-absorption[inside] * best_t) : exp(-sigma_t * march_depth(o, d, best_t, march_steps));
+#else
         power *= exp(-(inside >= 0 ? absorption[inside] : sigma_t) * best_t);
+#endif
         normal = octa_decode(best_texel.ba);
         vec3 geometric = octa_decode(best_geometric);
         material_hit = int(best_texel.g + 0.5);
@@ -486,7 +506,11 @@ void main() {
 #ifndef SPLAT_BEAMS
     } else if (max_len <= span) {
         end = o + d * max_len;
+#ifdef HETEROGENEOUS
+        power *= exp(-sigma_t * march_depth(o, d, max_len, march_steps));
+#else
         power *= exp(-sigma_t * max_len);
+#endif
         status = STATUS_COLLIDED;
 #ifdef DIFFERENTIALS
         diff.x += diff.y * max_len;  // the footprint where it is splatted (compact.comp.glsl)
