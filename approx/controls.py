@@ -15,6 +15,10 @@ CONTROLS = {
     "DIFFERENTIAL_UNPROPAGATED": ("trace", "photon differentials not propagated through interactions "
                                            "(common/differential.glsl)"),
     "EMISSION_SHIFT": ("trace", "photons leave this many texels off their emission points (emit.comp.glsl)"),
+    "GRID_IGNORED": ("trace", "heterogeneous media: delta tracking ignores the density grid, collisions at the "
+                              "mean rate sigma_bar everywhere (common/density.glsl)"),
+    "MAJORANT_SCALE": ("trace", "heterogeneous media: delta tracking's majorants times this factor (below 1: "
+                                "below the density, a wrong tracker; common/density.glsl)"),
     "DENSITY_IGNORED": ("splat", "density splats ignore the density pre-pass (splat/density.*.glsl)"),
     "BEAM_NO_SINE": ("splat", "beams without the estimator's 1/sin θ (splat/beam.frag.glsl)"),
     "BEAM_NO_CAMERA_TRANSMITTANCE": ("splat", "beams without the transmittance to the camera (splat/beam.frag.glsl)"),

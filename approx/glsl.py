@@ -21,7 +21,7 @@ from typing import cast
 import moderngl
 
 from volcaustics.scenes.formats import FLAG_BITS, SHAPE_KINDS, STATUS_CODES
-from volcaustics.scenes.rng import FRESNEL_DIM, GOLDEN, ROTATION_PHOTON
+from volcaustics.scenes.rng import FRESNEL_DIM, GOLDEN, MAX_TENTATIVE, ROTATION_PHOTON, TRACKING_DIM
 
 SHADER_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "shaders")
 GLSL_VERSION = "#version 450 core"
@@ -30,7 +30,8 @@ _INCLUDE = re.compile(r'^\s*#include\s+"([^"]+)"\s*$', re.MULTILINE)
 #: Status codes and shape kinds as int, flag bits and the stratified numbers' constants
 #: (``scenes.rng``) as uint (GLSL ``1u``: they are or-ed and added into uints).
 SHARED_DEFINES = {**STATUS_CODES, **{name: f"{bit}u" for name, bit in FLAG_BITS.items()}, **SHAPE_KINDS,
-                  "GOLDEN": f"{GOLDEN}u", "ROTATION_PHOTON": f"{ROTATION_PHOTON}u", "FRESNEL_DIM": f"{FRESNEL_DIM}u"}
+                  "GOLDEN": f"{GOLDEN}u", "ROTATION_PHOTON": f"{ROTATION_PHOTON}u", "FRESNEL_DIM": f"{FRESNEL_DIM}u",
+                  "TRACKING_DIM": f"{TRACKING_DIM}u", "MAX_TENTATIVE": f"{MAX_TENTATIVE}u"}
 
 
 def _expand(text: str, seen: set[str]) -> str:

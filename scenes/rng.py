@@ -41,6 +41,11 @@ GOLDEN = 0x9E3779B9          # 2**32 / golden ratio, rounded: the Weyl sequence'
 ROTATION_PHOTON = 2**32 - 1  # the "photon" whose hash rotates a stratified sequence (no photon has this index)
 FRESNEL_MODES = ("deterministic", "stochastic", "stratified")  # the parameter fresnel's values
 FRESNEL_DIM = 1              # the dimension a Fresnel choice draws (0: free flight, 2–3: emission jitter)
+# heterogeneous media: tentative collision k of a delta-tracked free flight draws its distance
+# from dim TRACKING_DIM + 2k and whether it is real from TRACKING_DIM + 2k + 1 (4: splitting);
+# a flight stops, without a collision, after MAX_TENTATIVE tentative ones
+TRACKING_DIM = 8
+MAX_TENTATIVE = 4096
 _MULT, _INC, _WORD = np.uint32(PCG_MULT), np.uint32(PCG_INC), np.uint32(PCG_WORD)
 
 

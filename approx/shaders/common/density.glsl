@@ -87,11 +87,21 @@ float delta_track(vec3 o, vec3 d, float t_max, float rate, uint seed, uint photo
     while (t < t_end && tentative < MAX_TENTATIVE) {
         float t_exit = min(min(min(t_next.x, t_next.y), t_next.z), t_end);
         float mu = majorant_values[(cell.z * majorant_res.y + cell.y) * majorant_res.x + cell.x] * rate;
+#ifdef MAJORANT_SCALE  // a control: majorants scaled (below 1: below the density, a wrong tracker)
+        mu *= float(MAJORANT_SCALE);
+#endif
+#ifdef GRID_IGNORED    // a control: the grid ignored, every tentative collision real at the mean rate
+        mu = rate;
+#endif
         if (mu * (t_exit - t) > budget) {  // a tentative collision in this cell
             t += budget / mu;
             uint k = tentative++;
-            if (rng_uniform(seed, photon, flight_step, TRACKING_DIM + 2u * k + 1u) * mu < density_at(o + d * t) * rate)
-                return t;
+#ifdef GRID_IGNORED
+            float rho = 1.0;
+#else
+            float rho = density_at(o + d * t);
+#endif
+            if (rng_uniform(seed, photon, flight_step, TRACKING_DIM + 2u * k + 1u) * mu < rho * rate) return t;
             budget = -log(1.0 - rng_uniform(seed, photon, flight_step, TRACKING_DIM + 2u * tentative));
             continue;
         }
