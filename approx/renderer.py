@@ -232,7 +232,7 @@ class Renderer:
                            gbuf_nrm, fog, direct, caustic, combined)
 
     def _medium_volumes(self, scene: Scene, frustum: LightFrustum, view, box, p: ApproxParams,
-                        timer: PassTimer | DisplayTimer) -> MediumVolumes | None:
+                        timer: PassTimer | DisplayTimer | None = None) -> MediumVolumes | None:
         """A heterogeneous medium's grid and this frame's transmittance volumes (a pass of
         their own, ``volumes``); None for a homogeneous medium. Beams are refused there:
         their transmittance along and toward the beam is not written yet."""
@@ -243,8 +243,11 @@ class Renderer:
                              f"beams do not track a density grid yet; use splat = fixed, adaptive or density")
         if self.volumes is None:
             self.volumes = MediumVolumes(self.ctx, self.pool)
-        with timer.measure("volumes"):
+        if timer is None:
             self.volumes.update(scene, frustum, view, box, p)
+        else:
+            with timer.measure("volumes"):
+                self.volumes.update(scene, frustum, view, box, p)
         return self.volumes
 
     def _trace_and_splat(self, timer, tracer, splatter, scene, frustum, box, maps, photons, view, gbuf_geo,
@@ -327,11 +330,13 @@ class Renderer:
         scene = scene or self.scene
         p = params.resolved(scene)
         self.geometry.place(scene)
-        frustum = LightFrustum.for_scene(scene, *medium_bounds(scene))
-        if scene.medium.is_heterogeneous:
-            raise ParamError(f"{scene.name}: the exact replay does not track a density grid (medium.density) yet")
-        tracer = self._tracer(p)
+        box = medium_bounds(scene)
+        frustum = LightFrustum.for_scene(scene, *box)
+        tracer = self._tracer(p, scene.medium)
         tracer.check_limits(p, keep_records=True)
+        volumes = self._medium_volumes(scene, frustum, camera_view(scene, p, box), box, p)
+        if volumes is not None:  # emission carries the light's path through the grid
+            tracer.use_medium(volumes, p.march_steps)
         emission_map = self.light_maps.render_light_map(frustum, p.photon_res, facing=BOTH, pool=self.pool,
                                                         name="emission_map", primitive_ids=tracer.id_rule, count=False)
         out = []
@@ -352,9 +357,7 @@ class Renderer:
         if p.emission not in RULES:  # a rule the shader knows and its numpy twin does not: E would replay another
             raise NotImplementedError(f"emission = {p.emission!r}: approx.emission.approx_rays has no rays for it")
         frustum = LightFrustum.for_scene(scene, *medium_bounds(scene))
-        if scene.medium.is_heterogeneous:
-            raise ParamError(f"{scene.name}: the exact replay does not track a density grid (medium.density) yet")
-        tracer = self._tracer(p)
+        tracer = self._tracer(p, scene.medium)
         importance = None
         if tracer.emission_adaptive:
             self.geometry.place(scene)

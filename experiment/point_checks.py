@@ -80,15 +80,6 @@ def check_medium(scene: Scene) -> None:
                     f"camera; give a thinner medium")
 
 
-def check_replay(scene: Scene) -> None:
-    """ParamError before any work for a medium the exact replay cannot yet follow: a
-    heterogeneous one (its density grid)."""
-    if scene.medium.is_heterogeneous:
-        raise ParamError(f"{scene.name}: a heterogeneous medium (medium.density): the decomposition's exact replay "
-                         f"does not track a density grid yet; `volcaustics approx` and `volcaustics reference` "
-                         f"render the scene, and `volcaustics compare` measures the frames against the reference")
-
-
 def check_denoiser(params: ApproxParams) -> None:
     """ParamError before any work when ``params`` ask for a denoiser this machine cannot
     load (``denoise = oidn`` without a loadable OIDN binding: it failed mid-render)."""
@@ -103,10 +94,8 @@ def check_denoiser(params: ApproxParams) -> None:
 def checked_settings(scene: Scene, params: ApproxParams, seeds: int) -> tuple:
     """(resolved params, seed list); ParamError before any work for a bad seed count,
     a frame that cannot be measured, a denoiser that cannot load (:func:`check_denoiser`)
-    or a medium without a caustic (:func:`check_medium`) or one the replay cannot follow
-    (:func:`check_replay`)."""
+    or a medium without a caustic (:func:`check_medium`)."""
     check_medium(scene)
-    check_replay(scene)
     check_denoiser(params)
     if isinstance(seeds, bool) or not isinstance(seeds, int) or not 1 <= seeds <= 1024:
         raise ParamError(f"seeds = {seeds!r}: expected an integer in [1, 1024]")

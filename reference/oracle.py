@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING, Any, cast
 import numpy as np
 
 from volcaustics.scenes.bounds import box_exit, medium_bounds
+from volcaustics.scenes.density import density_grid
 from volcaustics.scenes.formats import (
     FLAG_REFLECTED,
     FLAG_TIR,
@@ -30,6 +31,7 @@ from volcaustics.scenes.formats import (
 )
 from volcaustics.scenes.rng import FRESNEL_MODES, fresnel_uniform, stochastic_fresnel, uniform
 from volcaustics.scenes.splitting import split_number
+from volcaustics.scenes.tracking import delta_track, optical_depth
 
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
@@ -183,6 +185,13 @@ class ReplayConstants:
         self.stochastic = stochastic_fresnel(fresnel)
         self.beams = beams
         self.splits, self.slots = splits, slots  # fresnel_splits and a batch's photon slots (scenes.splitting)
+        self.grid = density_grid(scene)  # a heterogeneous medium's density (None: homogeneous)
+
+    def transmittance(self, o: np.ndarray, d: np.ndarray, length: np.ndarray) -> np.ndarray:
+        """The medium's transmittance over o + s·d, s < ``length`` (N×3): exp(−σt·length),
+        or exp(−σt·∫ρ) through the density grid (``scenes.tracking.optical_depth``: exact)."""
+        depth = length if self.grid is None else optical_depth(self.grid, o, d, length)
+        return np.exp(-self.sigma_t[None, :] * depth[:, None])
 
 
 def advance(c: ReplayConstants, oracle: Oracle, step: int, seed: int | np.ndarray, idx: np.ndarray, o: np.ndarray,
@@ -198,7 +207,12 @@ def advance(c: ReplayConstants, oracle: Oracle, step: int, seed: int | np.ndarra
     span = box_exit(o, d, c.lo, c.hi)
     max_len = span.copy()
     medium = inside < 0
-    if c.sigma_bar > 0 and not c.beams:
+    if c.sigma_bar > 0 and not c.beams and c.grid is not None:  # the GPU's delta tracking, its numbers
+        seeds = np.broadcast_to(np.asarray(seed, np.uint32), (n,))[medium]
+        tracked = delta_track(c.grid, o[medium], d[medium], span[medium], c.sigma_bar, seeds,
+                              idx[medium].astype(np.uint32), step)
+        max_len[medium] = np.where(tracked >= 0.0, tracked, 2.0 * span[medium] + 1.0)
+    elif c.sigma_bar > 0 and not c.beams:
         u = uniform(seed, idx.astype(np.uint32), step, 0).astype(np.float32)
         free = (-np.log(np.float32(1.0) - u) / np.float32(c.sigma_bar)).astype(np.float64)
         max_len = np.where(medium, free, span)
@@ -214,7 +228,11 @@ def advance(c: ReplayConstants, oracle: Oracle, step: int, seed: int | np.ndarra
     # transmittance of the distance travelled
     coeff = np.where(medium[:, None], c.sigma_t[None, :], c.absorption[np.where(medium, -1, inside)])
     travelled = np.where(hit, t, np.where(collides, max_len, 0.0))
-    new_power = power * np.exp(-coeff * travelled[:, None])
+    if c.grid is None:
+        new_power = power * np.exp(-coeff * travelled[:, None])
+    else:  # glass absorbs as always; the medium through its grid
+        new_power = power * np.exp(-c.absorption[np.where(medium, -1, inside)] * travelled[:, None])
+        new_power[medium] *= c.transmittance(o[medium], d[medium], travelled[medium])
     status[hit] = STATUS_SURFACE
     status[~hit & ~medium] = STATUS_LOST
     status[~hit & collides] = STATUS_COLLIDED

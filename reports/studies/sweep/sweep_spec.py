@@ -40,7 +40,7 @@ from dataclasses import dataclass, field
 
 from volcaustics.approx.params import PRESETS, ApproxParams, ParamError, preset
 from volcaustics.experiment.measurement import measurement_settings
-from volcaustics.experiment.point_checks import check_frame, check_medium, check_replay
+from volcaustics.experiment.point_checks import check_frame, check_medium
 from volcaustics.experiment.sizing import reference_settings
 from volcaustics.infra.errors import InputError
 from volcaustics.reports.measuring.results.param_input import parse_assignment, parse_overrides, parse_value
@@ -274,7 +274,6 @@ def checked_spec(spec: SweepSpec, where: str, max_points: int | None = MAX_POINT
         label = f"{where}: {dict(fields)}" if fields else where
         try:
             check_medium(measured)
-            check_replay(measured)
         except InputError as exc:
             raise SweepError(f"{label}: {exc}") from None
     for point in every:
