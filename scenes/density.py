@@ -94,25 +94,41 @@ class DensityGrid:
     def eval(self, points: np.ndarray) -> np.ndarray:
         """ρ at ``points`` (N×3, m): N float64; trilinear between cell centres, 0 outside the box."""
         p = np.asarray(points, np.float64).reshape(-1, 3)
-        res = np.asarray(self.resolution, np.float64)
+        res = np.asarray(self.resolution)
         u = (p - self.lo) / (self.hi - self.lo) * res - 0.5
         inside = np.all((p >= self.lo) & (p <= self.hi), axis=1)
-        i0 = np.floor(u)
-        f = u - i0
-        i0 = i0.astype(np.int64)
-        top = np.asarray(self.resolution) - 1
-        out = np.zeros(len(p))
-        for corner in range(8):
-            offset = np.array([(corner >> 0) & 1, (corner >> 1) & 1, (corner >> 2) & 1])
-            idx = np.clip(i0 + offset, 0, top)
-            weight = np.prod(np.where(offset == 1, f, 1.0 - f), axis=1)
-            out += weight * self.values[idx[:, 2], idx[:, 1], idx[:, 0]]
+        base = np.floor(u)
+        f = u - base
+        base = base.astype(np.int64)
+        a, b = np.clip(base, 0, res - 1), np.clip(base + 1, 0, res - 1)
+        flat = self._flat()
+        nx, ny = int(res[0]), int(res[1])
+        out = 0.0
+        for z, wz in ((a[:, 2], 1.0 - f[:, 2]), (b[:, 2], f[:, 2])):
+            for y, wy in ((a[:, 1], 1.0 - f[:, 1]), (b[:, 1], f[:, 1])):
+                row = (z * ny + y) * nx
+                out = out + wz * wy * ((1.0 - f[:, 0]) * flat[row + a[:, 0]] + f[:, 0] * flat[row + b[:, 0]])
         return np.where(inside, out, 0.0)
+
+    def _flat(self) -> np.ndarray:
+        """The values as one float64 row (x fastest), made once."""
+        flat = self.__dict__.get("_flat_values")
+        if flat is None:
+            flat = self.values.astype(np.float64).ravel()
+            object.__setattr__(self, "_flat_values", flat)
+        return flat
 
     def majorants(self, block: int = MAJORANT_BLOCK) -> np.ndarray:
         """The coarse majorant grid [mz, my, mx] float32, m = ⌈n / block⌉: each value bounds ρ
         everywhere in its block of ``block``³ cells (the cells' samples and the neighbours'
-        that trilinear interpolation reaches into it)."""
+        that trilinear interpolation reaches into it). Made once per block size."""
+        made = self.__dict__.setdefault("_majorant_grids", {})
+        if block not in made:
+            made[block] = self._majorants(block)
+            made[block].setflags(write=False)
+        return made[block]
+
+    def _majorants(self, block: int) -> np.ndarray:
         padded = np.pad(self.values, 1, mode="edge")
         counts = [-(-n // block) for n in self.values.shape]
         out = np.empty(counts, np.float32)

@@ -124,11 +124,17 @@ def _depth(grid: DensityGrid, o: np.ndarray, d: np.ndarray, length: np.ndarray, 
     breaks = np.concatenate(cuts, axis=1)
     breaks = np.where(np.isfinite(breaks) & (breaks >= 0.0) & (breaks < length[:, None]), breaks, length[:, None])
     breaks = np.sort(breaks, axis=1)  # the first is the zeros column's 0
-    a, b = breaks[:, :-1], breaks[:, 1:]
-    mid = 0.5 * (a + b)
-    centre = o[:, None] + d[:, None] * mid[..., None]
+    width = np.diff(breaks, axis=1)
+    mid = breaks[:, :-1] + 0.5 * width
+    row, piece = np.nonzero(width > 0.0)  # the pieces that are there (the rest pad the rows)
+    centre = o[row] + d[row] * mid[row, piece, None]
     inside = np.all((centre >= grid.lo) & (centre <= grid.hi), axis=-1)  # a piece beyond a face holds ρ = 0
-    # a piece inside the box ends on its face at most: clamped there, rounding cannot put the end outside
-    values = [grid.eval(np.clip(o[:, None] + d[:, None] * s[..., None], grid.lo, grid.hi).reshape(-1, 3))
-              .reshape(s.shape) for s in (a, mid, b)]
-    return np.where(inside, (b - a) / 6.0 * (values[0] + 4.0 * values[1] + values[2]), 0.0).sum(axis=1)
+    row, piece, centre = row[inside], piece[inside], centre[inside]
+
+    def rho(s: np.ndarray) -> np.ndarray:
+        # a piece inside the box ends on its face at most: clamped there, rounding cannot put the end outside
+        return grid.eval(np.clip(o[row] + d[row] * s[:, None], grid.lo, grid.hi))
+
+    simpson = width[row, piece] / 6.0 * (rho(breaks[row, piece]) + 4.0 * grid.eval(centre)
+                                         + rho(breaks[row, piece + 1]))
+    return np.bincount(row, weights=simpson, minlength=len(o))
