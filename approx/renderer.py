@@ -49,7 +49,7 @@ from .late_timer import LateTimer
 from .layers import BOTH, LightMapRenderer
 from .light import LightFrustum
 from .medium_volumes import MediumVolumes
-from .params import ApproxParams, ParamError, balanced_beams, defines, photon_slots
+from .params import ApproxParams, balanced_beams, defines, photon_slots
 from .records import emission_records, records_from_raw
 from .resources import FrameResources
 from .splat import SPLAT_COMMANDS, Splatter, splat_commands
@@ -201,7 +201,7 @@ class Renderer:
         volumes = self._medium_volumes(scene, frustum, view, box, p, timer)
         if volumes is not None:
             tracer.use_medium(volumes, p.march_steps)
-            splatter.volumes = volumes
+            splatter.volumes, splatter.march_steps = volumes, p.march_steps
         with timer.measure("layers", counted=False):  # the light maps' own queries count it
             layer_maps = self.light_maps.render_layers(frustum, p.light_res, p.layers, p.layer_strategy,
                                                        primitive_ids=tracer.id_rule, pool=pool, count=counted)
@@ -234,13 +234,9 @@ class Renderer:
     def _medium_volumes(self, scene: Scene, frustum: LightFrustum, view, box, p: ApproxParams,
                         timer: PassTimer | DisplayTimer | None = None) -> MediumVolumes | None:
         """A heterogeneous medium's grid and this frame's transmittance volumes (a pass of
-        their own, ``volumes``); None for a homogeneous medium. Beams are refused there:
-        their transmittance along and toward the beam is not written yet."""
+        their own, ``volumes``); None for a homogeneous medium."""
         if not scene.medium.is_heterogeneous:
             return None
-        if splat_mode(p).beams:
-            raise ParamError(f"{scene.name}: splat = {p.splat!r} in a heterogeneous medium (medium.density): "
-                             f"beams do not track a density grid yet; use splat = fixed, adaptive or density")
         if self.volumes is None:
             self.volumes = MediumVolumes(self.ctx, self.pool)
         if timer is None:
@@ -249,6 +245,12 @@ class Renderer:
             with timer.measure("volumes"):
                 self.volumes.update(scene, frustum, view, box, p)
         return self.volumes
+
+    def _use_medium(self, splatter: Splatter, scene: Scene, view, box, p: ApproxParams) -> None:
+        """Give ``splatter`` a heterogeneous medium's grid and volumes for splats from any source."""
+        volumes = self._medium_volumes(scene, LightFrustum.for_scene(scene, *box), view, box, p)
+        if volumes is not None:
+            splatter.volumes, splatter.march_steps = volumes, p.march_steps
 
     def _trace_and_splat(self, timer, tracer, splatter, scene, frustum, box, maps, photons, view, gbuf_geo,
                          p: ApproxParams, keep_records: bool) -> dict:
@@ -412,8 +414,10 @@ class Renderer:
                 raise ValueError(f"splats: expected a 1-D array of {name} rows (splat = {p.splat}), "
                                  f"got {splats.dtype} {splats.shape}")
         self.geometry.place(scene)
-        view = camera_view(scene, p, medium_bounds(scene))
+        box = medium_bounds(scene)
+        view = camera_view(scene, p, box)
         camera_passes, splatter = self._shading_programs(scene, p)
+        self._use_medium(splatter, scene, view, box, p)
         gbuf_geo, _ = camera_passes.render_gbuffer(self.geometry, view)
         commands = self.pool.buffer("splat_commands", SPLAT_COMMANDS["nbytes"])
         image = self.pool.texture("splat_image", image_size(p))
@@ -442,7 +446,9 @@ class Renderer:
         if not len(splats):
             return np.zeros(0, np.float32)
         _, splatter = self._shading_programs(scene, p)
-        view = camera_view(scene, p, medium_bounds(scene))
+        box = medium_bounds(scene)
+        view = camera_view(scene, p, box)
+        self._use_medium(splatter, scene, view, box, p)
         buffers = [self.ctx.buffer(np.ascontiguousarray(a, SPLAT_DTYPE).tobytes() or bytes(SPLAT_DTYPE.itemsize))
                    for a in (splats, field)]
         try:

@@ -203,6 +203,7 @@ class Splatter:
             self.density_program = program(ctx, vertex, fragment)
         self.defines = programs["splat"][1]
         self.volumes: MediumVolumes | None = None  # a heterogeneous medium's this frame (the renderer's)
+        self.march_steps = 16                      # ... and its beams' march (the renderer's params)
         self.widths_program: moderngl.Program | None = None  # the widths pass (density_widths), when first used
         corners = np.array([[-1, -1], [1, -1], [-1, 1], [1, 1]], np.float32)
         self.corners = ctx.buffer(corners.tobytes())
@@ -220,7 +221,7 @@ class Splatter:
         constructor's list and the shader check's (scripts/check_shaders.py); "widths"
         (a vertex stage alone, by transform feedback) is compiled when first used."""
         defines: dict[str, object] = {"PHASE_G": repr(float(medium.phase.g))} if medium.phase.kind == "hg" else {}
-        if medium.is_heterogeneous and not beams:  # τ(eye, x) from the camera's transmittance volume
+        if medium.is_heterogeneous:  # ρ and the transmittance volumes (approx.medium_volumes)
             defines["HETEROGENEOUS"] = 1
         if adaptive or density:  # per-splat kernels (SPLAT_DTYPE dir.w or the density), integrated over each pixel
             defines["SPLAT_ADAPTIVE"] = 1
@@ -329,7 +330,7 @@ class Splatter:
         if "HETEROGENEOUS" in self.defines:
             if self.volumes is None:
                 raise RuntimeError("a heterogeneous medium's splats need the frame's volumes (Splatter.volumes)")
-            self.volumes.bind(prog)
+            self.volumes.bind(prog, self.march_steps)
         if self.beams:
             uniform(prog, "sigma_s").value = tuple(medium.sigma_s)
         else:

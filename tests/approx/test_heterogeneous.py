@@ -15,7 +15,6 @@ from scipy import stats
 
 from tests.shared import make_scene, sphere_spec
 from volcaustics.approx import ApproxParams, Renderer
-from volcaustics.approx.params import ParamError
 from volcaustics.scenes.bounds import box_exit, medium_bounds
 from volcaustics.scenes.density import Density, density_grid
 from volcaustics.scenes.model import Medium, Phase
@@ -118,13 +117,3 @@ def test_a_grid_of_ones_renders_the_homogeneous_frame():
     finally:
         renderer.release()
     assert np.abs(fog - frames["hom"][0]["fog"]).sum() > 1e-2 * np.abs(frames["hom"][0]["fog"]).sum()
-
-
-def test_beams_refuse_a_density_grid():
-    scene = _scene()
-    renderer = Renderer(scene)
-    try:
-        with pytest.raises(ParamError, match="beams"):
-            renderer.render(scene, dataclasses.replace(PARAMS, splat="beams"))
-    finally:
-        renderer.release()

@@ -25,6 +25,9 @@
 // luminance Y of each half of the beams (alternate rows: two interleaved estimates, whose
 // difference is the frame's own noise, stratified or not) and the sum of Y·σ² (σ the
 // kernel in pilot pixels at the closest approach).
+// HETEROGENEOUS (a density grid): σs(x) = ρ(x)·σs at the closest approach, the transmittance
+// along the beam from march_steps midpoint samples of ρ and to the eye from the camera's
+// transmittance volume (common/volumes.glsl).
 // Controls (negative controls of tests): BEAM_NO_SINE drops 1/sin θ,
 // BEAM_NO_CAMERA_TRANSMITTANCE drops exp(−σt·t), BEAM_CLOSEST_DEPTH depth-tests the
 // closest approach alone instead of cutting the beam at the surface.
@@ -33,6 +36,11 @@
 #include "splat/kernel.glsl"
 #include "splat/beam_width.glsl"
 #include "common/kinds.glsl"
+#ifdef HETEROGENEOUS  // σs(x) = ρ(x)·σs; along the beam a fixed march, to the eye the camera's volume
+#include "common/density.glsl"
+#include "common/volumes.glsl"
+uniform int march_steps;
+#endif
 
 uniform mat4 view_proj;
 uniform vec2 viewport;             // image size (pixels)
@@ -172,12 +180,18 @@ void main() {
 #endif
     // the transmittance along the beam and from there to the eye, at the closest approach
     // within the visible part (past its ends, where its Gaussians still reach, at the end itself)
-#ifdef BEAM_NO_CAMERA_TRANSMITTANCE
+#if defined(HETEROGENEOUS)
+    vec3 x = v_start + on_beam * v_dir;
+    vec3 transmittance = exp(-sigma_t * (march_depth(v_start, v_dir, on_beam, march_steps) + camera_depth(x)));
+    vec3 scattering = sigma_s * density_at(x);
+#elif defined(BEAM_NO_CAMERA_TRANSMITTANCE)
     vec3 transmittance = exp(-sigma_t * on_beam);
+    vec3 scattering = sigma_s;
 #else
     vec3 transmittance = exp(-sigma_t * (on_beam + distance(v_start + on_beam * v_dir, eye)));
+    vec3 scattering = sigma_s;
 #endif
-    vec3 radiance = v_power * sigma_s * phase_eval(-b) * transmittance * k * ends * jacobian;
+    vec3 radiance = v_power * scattering * phase_eval(-b) * transmittance * k * ends * jacobian;
 #ifdef BEAM_PILOT
     float y = dot(radiance, vec3(0.2126, 0.7152, 0.0722));
     float sigma_px = sigma / (pixel_angle * max(t, 1e-6));
