@@ -24,7 +24,8 @@ from typing import TYPE_CHECKING
 import moderngl
 import numpy as np
 
-from volcaustics.scenes.density import MAJORANT_BLOCK, density_grid
+from volcaustics.scenes.density import MAJORANT_BLOCK
+from volcaustics.scenes.medium_grid import density_grid
 
 from .glsl import compute_shader, set_uniforms, uniform
 from .transforms import gl_matrix
@@ -32,8 +33,8 @@ from .transforms import gl_matrix
 if TYPE_CHECKING:
     from volcaustics.scenes.model import Medium, Scene
 
-    from .camera_pass import CameraView
     from .light import LightFrustum
+    from .params import ApproxParams
     from .resources import FrameResources
 
 DENSITY_BINDING, MAJORANT_BINDING = 11, 12   # storage buffers (common/density.glsl's defaults)
@@ -63,9 +64,11 @@ class MediumVolumes:
         self.uniforms: dict = {}
         self._grid_key: object = None
 
-    def update(self, scene: Scene, frustum: LightFrustum, view: CameraView, box: tuple[np.ndarray, np.ndarray],
-               params) -> None:
-        """Upload ``scene``'s density grid (when it changed) and make this frame's volumes."""
+    def update(self, scene: Scene, frustum: LightFrustum, eye: np.ndarray, view_proj: np.ndarray,
+               box: tuple[np.ndarray, np.ndarray], params: ApproxParams) -> None:
+        """Upload ``scene``'s density grid (when it changed) and make this frame's volumes: the
+        light's through ``frustum``, the camera's from ``eye`` through the view ``view_proj``
+        (4×4 world → clip)."""
         grid = density_grid(scene)
         assert grid is not None, "MediumVolumes needs a heterogeneous medium"
         if self._grid_key is not grid:
@@ -81,10 +84,11 @@ class MediumVolumes:
         self.bind_grid(self.builder)
         self.light = self._volume("light_volume", frustum.position, frustum.view_proj, params.light_volume_res,
                                   params.light_volume_slices, box)
-        self.camera = self._volume("camera_volume", view.eye, view.view_proj, params.camera_volume_res,
+        self.camera = self._volume("camera_volume", eye, view_proj, params.camera_volume_res,
                                    params.camera_volume_slices, box)
 
-    def _volume(self, name: str, origin, view_proj: np.ndarray, res: int, slices: int, box) -> dict:
+    def _volume(self, name: str, origin: np.ndarray, view_proj: np.ndarray, res: int, slices: int,
+                box: tuple[np.ndarray, np.ndarray]) -> dict:
         origin = np.asarray(origin, np.float64)
         texture = self.pool.texture3d(name, (res, res, slices))
         distance = _far(origin, box)
@@ -96,13 +100,13 @@ class MediumVolumes:
         return {"texture": texture, "view_proj": view_proj, "origin": tuple(origin), "distance": distance,
                 "slices": slices}
 
-    def bind_grid(self, prog) -> None:
+    def bind_grid(self, prog: moderngl.Program | moderngl.ComputeShader) -> None:
         """Give ``prog`` the density grid and its majorants (storage buffers and uniforms)."""
         self.density.bind_to_storage_buffer(DENSITY_BINDING)
         self.majorants.bind_to_storage_buffer(MAJORANT_BINDING)
         set_uniforms(prog, **self.uniforms)
 
-    def bind(self, prog, march_steps: int | None = None) -> None:
+    def bind(self, prog: moderngl.Program | moderngl.ComputeShader, march_steps: int | None = None) -> None:
         """Give ``prog`` the grid, the volumes (texture units :data:`LIGHT_VOLUME_UNIT`,
         :data:`CAMERA_VOLUME_UNIT`) and ``march_steps``, whichever of them it reads."""
         self.ctx.memory_barrier()  # the volumes' image stores before any read

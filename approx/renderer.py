@@ -240,10 +240,10 @@ class Renderer:
         if self.volumes is None:
             self.volumes = MediumVolumes(self.ctx, self.pool)
         if timer is None:
-            self.volumes.update(scene, frustum, view, box, p)
+            self.volumes.update(scene, frustum, view.eye, view.view_proj, box, p)
         else:
             with timer.measure("volumes"):
-                self.volumes.update(scene, frustum, view, box, p)
+                self.volumes.update(scene, frustum, view.eye, view.view_proj, box, p)
         return self.volumes
 
     def _use_medium(self, splatter: Splatter, scene: Scene, view, box, p: ApproxParams) -> None:

@@ -284,7 +284,7 @@ class PhotonTracer:
         march's samples, for the emission and trace programs that follow."""
         self.volumes, self.march_steps = volumes, march_steps
 
-    def _bind_medium(self, prog) -> None:
+    def _bind_medium(self, prog: moderngl.ComputeShader) -> None:
         if self.heterogeneous:
             if self.volumes is None:
                 raise RuntimeError("a heterogeneous medium's tracer needs use_medium(volumes, march_steps) first")

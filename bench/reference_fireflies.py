@@ -43,8 +43,9 @@ SCENES = ("sphere1", "sphere2", "bunny", "feline", "skull", "two_spheres", "refo
 
 def measure(name: str, photons: int, batches: int, size: int, geometry_per_connection: float | None) -> dict:
     from volcaustics.reference.mi_setup import mitsuba
+    from volcaustics.reference.render.camera_integrator import SingleScatterIntegrator
     from volcaustics.reference.render.export import load_scene
-    from volcaustics.reference.render.integrators import SingleScatterIntegrator, VolumetricLightTracer, configure
+    from volcaustics.reference.render.integrators import VolumetricLightTracer, configure
     from volcaustics.reference.request import resolve
     from volcaustics.reference.settings import ReferenceSettings
     from volcaustics.scenes import load_builtin

@@ -37,7 +37,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from volcaustics.scenes.bounds import medium_bounds
-from volcaustics.scenes.density import density_grid
+from volcaustics.scenes.medium_grid import density_grid
 from volcaustics.scenes.volume_files import vol_bytes
 
 if TYPE_CHECKING:

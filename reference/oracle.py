@@ -19,7 +19,6 @@ from typing import TYPE_CHECKING, Any, cast
 import numpy as np
 
 from volcaustics.scenes.bounds import box_exit, medium_bounds
-from volcaustics.scenes.density import density_grid
 from volcaustics.scenes.formats import (
     FLAG_REFLECTED,
     FLAG_TIR,
@@ -29,6 +28,7 @@ from volcaustics.scenes.formats import (
     STATUS_LOST,
     STATUS_SURFACE,
 )
+from volcaustics.scenes.medium_grid import density_grid
 from volcaustics.scenes.rng import FRESNEL_MODES, fresnel_uniform, stochastic_fresnel, uniform
 from volcaustics.scenes.splitting import split_number
 from volcaustics.scenes.tracking import delta_track, optical_depth

@@ -3,8 +3,8 @@
 :class:`Density` says where ρ comes from: a procedural field (``scenes.density_fields``)
 baked onto a grid of ``resolution`` cells over a box (the scene's medium box unless the
 scene names one), or a grid file (``scenes.volume_files``: ``.npy`` over a stated box, or
-Mitsuba's ``.vol``, which states its own). :func:`density_grid` gives the
-:class:`DensityGrid` both renderers read.
+Mitsuba's ``.vol``, which states its own). :func:`baked_grid` gives the
+:class:`DensityGrid` both renderers read (``scenes.medium_grid.density_grid`` of a scene).
 
 The grid's one convention, the one a GL 3D texture with linear filtering and
 clamp-to-edge and Dr.Jit's ``Texture3f`` use: ``values[k, j, i]`` is ρ at the centre of cell
@@ -22,15 +22,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from functools import lru_cache
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
 from .density_fields import FIELD_VERSION, FIELDS, field_values
 from .volume_files import read_grid
-
-if TYPE_CHECKING:
-    from .model import Scene
 
 Box = tuple[tuple[float, float, float], tuple[float, float, float]]
 DEFAULT_RESOLUTION = (32, 32, 32)  # cells (x, y, z) a field is baked onto, unless the scene says
@@ -158,19 +155,10 @@ def covers(box: Box, lo: np.ndarray, hi: np.ndarray) -> bool:
     return bool(np.all(np.asarray(box[0]) <= lo) and np.all(np.asarray(box[1]) >= hi))
 
 
-def density_grid(scene: Scene) -> DensityGrid | None:
-    """The grid of ``scene``'s medium density (None for a homogeneous medium)."""
-    density = scene.medium.density
-    if density is None:
-        return None
-    from .bounds import medium_bounds
-
-    lo, hi = medium_bounds(scene)
-    return _grid(density, tuple(lo), tuple(hi))
-
-
 @lru_cache(maxsize=8)
-def _grid(density: Density, lo: tuple, hi: tuple) -> DensityGrid:
+def baked_grid(density: Density, lo: tuple, hi: tuple) -> DensityGrid:
+    """The grid of ``density`` (read from its file, or its field baked at its resolution) over
+    its box, or over the box ``lo``..``hi`` (the medium's) when it states none; made once."""
     if density.path is not None:
         values, stated = read_grid(density.path)
         box = density.box or stated

@@ -66,12 +66,10 @@ except ModuleNotFoundError:  # Python 3.10
 
 from volcaustics.infra.storage import CacheError, file_sha256, special_file_kind
 
-from .bounds import medium_bounds
-from .density import DEFAULT_RESOLUTION, Density, covers, grid_problem
-from .density_fields import FIELDS
 from .errors import SceneError
 from .generators import GENERATORS
 from .loader_animation import parse_animation
+from .loader_density import check_density_covers, density_value
 from .mesh import MeshReadError, closedness_problem, winding_number
 from .mesh_cache import MESHES_KEPT
 from .model import Camera, DiffuseSurface, Medium, MeshSpec, Phase, Scene, SpecularObject, SpotLight, Transform
@@ -94,7 +92,6 @@ from .toml_values import (
     vec3_value,
     view_angle,
 )
-from .volume_files import GridFileError, read_grid
 
 
 def _camera(ctx, key, value) -> Camera:
@@ -136,83 +133,11 @@ def _medium(ctx, key, value) -> Medium:
     if kind not in ("isotropic", "hg"):
         raise ctx.error("medium.phase", kind, 'expected "isotropic" or "hg"')
     g = t.get("g", ranged(-1, 1, low_open=True, high_open=True), None)
-    density = t.get("density", _density, None)
+    density = t.get("density", density_value, None)
     t.finish()
     if g is not None and kind != "hg":
         raise ctx.error("medium.g", g, 'only allowed with phase = "hg"')
     return Medium(sigma_s, sigma_a, Phase(kind, 0.0 if g is None else g), density)
-
-
-def _box(ctx, key, value) -> tuple:
-    t = Table(ctx, key, value)
-    lo, hi = t.get("min", vec3_value), t.get("max", vec3_value)
-    t.finish()
-    if not all(a < b for a, b in zip(lo, hi)):
-        raise ctx.error(f"{key}.max", list(hi), f"must exceed {key}.min = {list(lo)} on every axis")
-    return lo, hi
-
-
-def _density(ctx, key, value) -> Density:
-    t = Table(ctx, key, value)
-    box = t.get("box", _box, None)
-    if "path" in value:
-        path, digest, values, stated = _grid_file(ctx, key, t.get("path", string_value))
-        t.finish()
-        if box is None and stated is None:
-            raise ctx.error(f"{key}.box", None, "a .npy grid needs its box: box = { min = [x, y, z], max = [x, y, z] }")
-        nz, ny, nx = values.shape
-        return Density(path=path, content_hash=digest, resolution=(nx, ny, nz), box=box or stated)
-    name = t.get("field", string_value)
-    if name not in FIELDS:
-        raise ctx.error(f"{key}.field", name, f"expected one of: {', '.join(FIELDS)} (or path = a .npy or .vol grid)")
-    params = {}
-    for pname, spec in FIELDS[name].params.items():
-        parse = {"integer": integer_in(int(spec.low), int(spec.high)), "point": vec3_value,
-                 "number": ranged(spec.low, spec.high)}[spec.kind]
-        params[pname] = t.get(pname, parse, spec.default)
-    resolution = t.get("resolution", _resolution, DEFAULT_RESOLUTION)
-    t.finish()
-    return Density(field=name, params=tuple(sorted(params.items())), resolution=resolution, box=box)
-
-
-def _resolution(ctx, key, value) -> tuple[int, int, int]:
-    if not isinstance(value, list) or len(value) != 3:
-        raise ctx.error(key, value, "expected [nx, ny, nz]: cells along x, y and z")
-    parse = integer_in(1, 512)
-    return tuple(parse(ctx, f"{key}[{a}]", v) for a, v in enumerate(value))  # type: ignore[return-value]
-
-
-def _grid_file(ctx, key, rel: str):
-    """(absolute path, SHA-256, values, the box the file states) of a density grid file."""
-    path = os.path.normpath(os.path.join(ctx.base_dir, os.path.expanduser(rel)))
-    kind = special_file_kind(path)
-    if kind:
-        raise ctx.error(f"{key}.path", rel, f"a readable .npy or .vol grid ({path} is {kind})")
-    try:
-        digest = file_sha256(path)
-        values, stated = read_grid(path)
-    except OSError as exc:
-        raise ctx.error(f"{key}.path", rel, f"a readable .npy or .vol grid ({path}: {exc.strerror or exc})") from None
-    except GridFileError as exc:
-        raise ctx.error(f"{key}.path", rel, f"{path}: {exc}") from None
-    problem = grid_problem(values)
-    if problem is not None:
-        raise ctx.error(f"{key}.path", rel, f"{path}: a density grid holds {problem}")
-    return path, digest, values, stated
-
-
-def _check_density_covers(ctx, scene: Scene) -> None:
-    """A density grid covers the medium box: outside its box ρ would be 0, a hole in the fog."""
-    density = scene.medium.density
-    if density is None or density.box is None:
-        return
-    lo, hi = medium_bounds(scene)
-    if not covers(density.box, lo, hi):
-        whose = "" if density.path is None else f" (the grid {density.path})"
-        raise ctx.error("medium.density.box", [list(density.box[0]), list(density.box[1])],
-                        f"a density grid{whose} must cover the medium box (min {[round(float(x), 4) for x in lo]}, "
-                        f"max {[round(float(x), 4) for x in hi]}: the scene's meshes, light and camera); "
-                        f"enlarge its box")
 
 
 def _transform(ctx, key, value) -> Transform:
@@ -337,7 +262,7 @@ def parse_scene(data: dict, *, file: str | None = None, base_dir: str = ".", sou
     _check_outside_glass(ctx, camera, light, specular)
     scene = Scene(name=name, description=description, camera=camera, light=light, medium=medium,
                   specular=specular, diffuse=diffuse, source=source)
-    _check_density_covers(ctx, scene)
+    check_density_covers(ctx, scene)
     if animation is not None:
         scene = replace(scene, animation=parse_animation(ctx, animation, scene))
     return scene

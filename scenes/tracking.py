@@ -28,8 +28,8 @@ def _box_interval(grid: DensityGrid, o: np.ndarray, d: np.ndarray) -> tuple[np.n
     return np.maximum(np.minimum(ta, tb).max(axis=1), 0.0), np.maximum(ta, tb).min(axis=1)
 
 
-def delta_track(grid: DensityGrid, o: np.ndarray, d: np.ndarray, t_max: np.ndarray, rate: float, seed, photon,
-                step: int, *, block: int = MAJORANT_BLOCK) -> np.ndarray:
+def delta_track(grid: DensityGrid, o: np.ndarray, d: np.ndarray, t_max: np.ndarray, rate: float,
+                seed: int | np.ndarray, photon: np.ndarray, step: int, *, block: int = MAJORANT_BLOCK) -> np.ndarray:
     """The first real collision on o + t·d, t < ``t_max`` (N), at rate ρ(x)·``rate`` (1/m),
     as the GPU draws it: N float64, −1 where none. ``seed``: one or N; ``photon``: N indices."""
     o, d = np.asarray(o, np.float64), np.asarray(d, np.float64)

@@ -85,7 +85,7 @@ def _vol(path: str) -> tuple[np.ndarray, tuple[tuple[float, ...], tuple[float, .
     return np.frombuffer(body, "<f4").reshape(nz, ny, nx).astype(np.float32), (tuple(box[:3]), tuple(box[3:]))
 
 
-def vol_bytes(values: np.ndarray, lo, hi) -> bytes:
+def vol_bytes(values: np.ndarray, lo: np.ndarray | tuple, hi: np.ndarray | tuple) -> bytes:
     """A Mitsuba ``.vol`` file's bytes: ``values`` ``[nz, ny, nx]`` or ``[nz, ny, nx, channels]``
     float32 over the box (``lo``, ``hi``)."""
     grid = np.asarray(values, np.float32)

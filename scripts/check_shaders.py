@@ -45,7 +45,8 @@ def trace_variants() -> list:
 
     table = [p for p in PARAMS if p.glsl == "define" and p.program == "trace"]
     strings = [p for p in table if p.choices]
-    on = {"CLIP_TO_OBJECTS": 1, "DIFFERENTIAL_UNPROPAGATED": 1, "EMISSION_SHIFT": 0.5}
+    on = {"CLIP_TO_OBJECTS": 1, "DIFFERENTIAL_UNPROPAGATED": 1, "EMISSION_SHIFT": 0.5, "GRID_IGNORED": 1,
+          "MAJORANT_SCALE": 0.25}
     controls = [{}] + [{name: on[name]} for name, (program, _) in CONTROLS.items() if program == "trace"]
     out = []
     for values in itertools.product(*(p.choices for p in strings)):
@@ -59,35 +60,54 @@ def trace_variants() -> list:
 
 def programs() -> list:
     """(label, stage files, defines) of every program checked."""
-    from volcaustics.approx.camera_pass import CameraPasses
     from volcaustics.approx.controls import CONTROLS
     from volcaustics.approx.layers import LightMapRenderer
-    from volcaustics.approx.params import PARAMS, ApproxParams, defines
+    from volcaustics.approx.params import PARAMS
     from volcaustics.approx.preview import PREVIEW_STAGES
-    from volcaustics.approx.splat import Splatter
     from volcaustics.approx.trace import PhotonTracer
+    from volcaustics.scenes.density import Density
     from volcaustics.scenes.model import Medium, Phase
 
     out = [("light maps", LightMapRenderer.STAGES, {}), ("preview", PREVIEW_STAGES, {})]
     for label, params, controls in trace_variants():
         out += [(f"{name} {label}", (shader,), d)
                 for name, (shader, d) in PhotonTracer.programs(params, controls).items()]
+    # a heterogeneous medium (a density grid): its emission, trace and depth-volume programs
+    grid = Medium(sigma_s=(0.1, 0.1, 0.1), density=Density(field="box"))
+    for label, params, controls in trace_variants():
+        if "GRID_IGNORED" in controls or "MAJORANT_SCALE" in controls or not controls:
+            out += [(f"{name} {label} heterogeneous", (shader,), d)
+                    for name, (shader, d) in PhotonTracer.programs(params, controls, grid).items()]
+    out.append(("transmittance volume", ("medium/depth_volume.comp.glsl",), {}))
     splat_controls = [{}] + [{name: 1} for name, (program, _) in CONTROLS.items() if program == "splat"]
     fog = next(p for p in PARAMS if p.name == "fog_steps")
     for kind, g in PHASES:
-        medium = Medium(sigma_s=(0.1, 0.1, 0.1), sigma_a=(0.0, 0.0, 0.0), phase=Phase(kind=kind, g=g))
-        for mode, controls in itertools.product(("fixed", "adaptive", "density", "beams", "balanced beams"),
-                                                splat_controls):
-            if controls and mode not in ("density", "beams", "balanced beams"):
-                continue
-            for name, (stages, d) in Splatter.programs(medium, adaptive=mode == "adaptive", density=mode == "density",
-                                                        beams=mode.endswith("beams"), balanced=mode == "balanced beams",
-                                                        controls=controls).items():
-                out.append((f"{name} splat={mode} phase={kind} {controls or ''}", stages, d))
-        for steps in _int_values(fog):
-            fog_defines = defines(ApproxParams(fog_steps=steps), "fog")
-            for name, (stages, d) in CameraPasses.programs(medium, fog_defines).items():
-                out.append((f"{name} fog_steps={steps} phase={kind}", stages, d))
+        for medium in (Medium(sigma_s=(0.1, 0.1, 0.1), sigma_a=(0.0, 0.0, 0.0), phase=Phase(kind=kind, g=g)),
+                       Medium(sigma_s=(0.1, 0.1, 0.1), phase=Phase(kind=kind, g=g), density=Density(field="box"))):
+            out += _shading(medium, kind, splat_controls, fog)
+    return out
+
+
+def _shading(medium, kind: str, splat_controls: list, fog) -> list:
+    """The splat and camera programs of ``medium`` (homogeneous or not) with phase ``kind``."""
+    from volcaustics.approx.camera_pass import CameraPasses
+    from volcaustics.approx.params import ApproxParams, defines
+    from volcaustics.approx.splat import Splatter
+
+    out = []
+    where = " heterogeneous" if medium.is_heterogeneous else ""
+    for mode, controls in itertools.product(("fixed", "adaptive", "density", "beams", "balanced beams"),
+                                            splat_controls):
+        if controls and mode not in ("density", "beams", "balanced beams"):
+            continue
+        for name, (stages, d) in Splatter.programs(medium, adaptive=mode == "adaptive", density=mode == "density",
+                                                    beams=mode.endswith("beams"), balanced=mode == "balanced beams",
+                                                    controls=controls).items():
+            out.append((f"{name} splat={mode} phase={kind}{where} {controls or ''}", stages, d))
+    for steps in _int_values(fog):
+        fog_defines = defines(ApproxParams(fog_steps=steps), "fog")
+        for name, (stages, d) in CameraPasses.programs(medium, fog_defines).items():
+            out.append((f"{name} fog_steps={steps} phase={kind}{where}", stages, d))
     return out
 
 

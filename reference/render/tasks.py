@@ -96,8 +96,9 @@ def _prepared(key: str, request) -> tuple:
         _PREPARED.move_to_end(key)
         return _PREPARED[key]
     from ..mi_setup import mitsuba
+    from .camera_integrator import SingleScatterIntegrator
     from .export import load_scene
-    from .integrators import SingleScatterIntegrator, VolumetricLightTracer, configure
+    from .integrators import VolumetricLightTracer, configure
 
     mi = mitsuba()
     scene, settings = request.scene, request.settings

@@ -27,7 +27,7 @@ from typing import TYPE_CHECKING, Any
 
 import drjit as dr
 
-from volcaustics.scenes.density import density_grid
+from volcaustics.scenes.medium_grid import density_grid
 
 from ..mi_setup import mitsuba
 

@@ -16,7 +16,8 @@ from scipy import stats
 from tests.shared import make_scene, sphere_spec
 from volcaustics.approx import ApproxParams, Renderer
 from volcaustics.scenes.bounds import box_exit, medium_bounds
-from volcaustics.scenes.density import Density, density_grid
+from volcaustics.scenes.density import Density
+from volcaustics.scenes.medium_grid import density_grid
 from volcaustics.scenes.model import Medium, Phase
 
 PARAMS = ApproxParams(photon_res=96, light_res=256, width=48, height=48, steps=3, fog_steps=32, splat_radius=0.03)

@@ -11,7 +11,8 @@ import numpy as np
 from tests.shared import make_scene, sphere_spec
 from volcaustics.approx import ApproxParams, Renderer
 from volcaustics.scenes.bounds import box_exit, medium_bounds
-from volcaustics.scenes.density import Density, density_grid
+from volcaustics.scenes.density import Density
+from volcaustics.scenes.medium_grid import density_grid
 from volcaustics.scenes.model import Medium, Phase
 from volcaustics.scenes.tracking import delta_track
 

@@ -19,10 +19,12 @@ import pytest
 from tests.reference.agreement import agree, integrator_batches
 from tests.shared import fog_quadrature, make_scene, pixel_ray, sphere_spec
 from volcaustics.reference.mi_setup import mitsuba
+from volcaustics.reference.render.camera_integrator import SingleScatterIntegrator
 from volcaustics.reference.render.export import to_mitsuba
-from volcaustics.reference.render.integrators import SingleScatterIntegrator, VolumetricLightTracer, configure
+from volcaustics.reference.render.integrators import VolumetricLightTracer, configure
 from volcaustics.reference.render.tracking import Medium as TrackedMedium
-from volcaustics.scenes.density import Density, density_grid
+from volcaustics.scenes.density import Density
+from volcaustics.scenes.medium_grid import density_grid
 from volcaustics.scenes.model import Camera, Medium, Phase
 
 mi = mitsuba()

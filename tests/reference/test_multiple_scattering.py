@@ -23,8 +23,9 @@ import pytest
 from tests.reference.agreement import Batches, agree
 from tests.shared import make_scene, sphere_spec
 from volcaustics.reference.mi_setup import mitsuba
+from volcaustics.reference.render.camera_integrator import SingleScatterIntegrator
 from volcaustics.reference.render.export import to_mitsuba
-from volcaustics.reference.render.integrators import SingleScatterIntegrator, VolumetricLightTracer, configure
+from volcaustics.reference.render.integrators import VolumetricLightTracer, configure
 from volcaustics.scenes.model import Camera
 
 pytestmark = pytest.mark.slow  # statistical validations: a minute or two

@@ -100,7 +100,7 @@ def test_multiple_scattering_adds_light():
 
 
 def test_registered_integrators_load_by_name():
-    from volcaustics.reference.render.integrators import SingleScatterIntegrator
+    from volcaustics.reference.render.camera_integrator import SingleScatterIntegrator
 
     tracer = mi.load_dict({"type": "vc_lighttracer", "mode": "fog", "max_scatter": 2})
     assert isinstance(tracer, VolumetricLightTracer) and tracer.mode == "fog" and tracer.max_scatter == 2

@@ -17,8 +17,9 @@ from tests.reference.agreement import agree, integrator_batches
 from tests.shared import fog_quadrature, make_scene, pixel_ray, sphere_spec
 from volcaustics.metrics.stats import z_test
 from volcaustics.reference.mi_setup import mitsuba
+from volcaustics.reference.render.camera_integrator import SingleScatterIntegrator
 from volcaustics.reference.render.export import to_mitsuba
-from volcaustics.reference.render.integrators import SingleScatterIntegrator, VolumetricLightTracer, configure
+from volcaustics.reference.render.integrators import VolumetricLightTracer, configure
 from volcaustics.scenes.model import Camera, DiffuseSurface, Medium, MeshSpec, Phase, Scene, SpotLight, Transform
 
 # statistical validations (z-tests over batches of renders): minutes; `make test-fast` skips them

@@ -18,8 +18,9 @@ from pygltflib import GLTF2
 from volcaustics.reports.presenting.exports.gltf import export_gltf, unit_vertex_normals
 from volcaustics.reports.presenting.exports.gltf_parts import CONE_GAP, EXTRAS_KEY, quaternion
 from volcaustics.scenes import BUILTIN_NAMES, Phase, Transform, resolve_scene
-from volcaustics.scenes.density import Density, density_grid
+from volcaustics.scenes.density import Density
 from volcaustics.scenes.formats import LAYER_NAMES
+from volcaustics.scenes.medium_grid import density_grid
 from volcaustics.scenes.volume_files import read_grid
 
 from .gltf_validator import ValidatorUnavailable, validate_gltf

@@ -45,7 +45,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from volcaustics.infra.storage import atomic_set
-from volcaustics.scenes.density import density_grid
+from volcaustics.scenes.medium_grid import density_grid
 from volcaustics.scenes.model import Transform
 from volcaustics.scenes.volume_files import vol_bytes
 

@@ -11,8 +11,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from volcaustics.scenes.bounds import MARGIN, medium_bounds
-from volcaustics.scenes.density import density_grid
 from volcaustics.scenes.formats import COLOUR_LAYERS, LAYER_MEANINGS, MASK_LAYER
+from volcaustics.scenes.medium_grid import density_grid
 
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
