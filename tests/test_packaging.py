@@ -20,7 +20,7 @@ def test_every_spec_in_the_repository_is_shipped():
     list does not name fails here, so a new spec cannot be left out of the package data."""
     found = {os.path.relpath(os.path.join(d, f), ROOT) for top in FOLDERS
              for d, _, fs in os.walk(os.path.join(ROOT, top))
-             for f in fs if f.endswith(".toml") and os.path.basename(d) not in ("builtin", "heldout")}
+             for f in fs if f.endswith(".toml") and os.path.basename(d) not in ("builtin", "heldout", "media")}
     assert found == set(SHIPPED_SPECS), sorted(found ^ set(SHIPPED_SPECS))
 
 
@@ -42,6 +42,9 @@ def test_the_wheel_installs_only_the_volcaustics_package(tmp_path):
     data = [n for n in names if n.endswith((".glsl", ".toml", ".ply"))]
     assert any(n.startswith("volcaustics/approx/shaders/") and n.endswith(".glsl") for n in data)
     assert any(n.startswith("volcaustics/scenes/builtin/") and n.endswith(".toml") for n in data)
+    for folder in ("heldout", "media"):  # the held-out and the heterogeneous media's scenes travel too
+        for name in os.listdir(os.path.join(ROOT, "scenes", folder)):
+            assert f"volcaustics/scenes/{folder}/{name}" in names, name
     assert "volcaustics/scenes/assets/bunny10k.ply" in names
     for weights in os.listdir(os.path.join(ROOT, "approx", "cost_weights")):  # the cost model's weight sets
         assert f"volcaustics/approx/cost_weights/{weights}" in names, weights

@@ -22,7 +22,7 @@ from volcaustics.scenes.formats import (
     SPLAT_DTYPE,
     STATUS_CODES,
 )
-from volcaustics.scenes.rng import FRESNEL_DIM, GOLDEN, ROTATION_PHOTON
+from volcaustics.scenes.rng import FRESNEL_DIM, GOLDEN, MAX_TENTATIVE, ROTATION_PHOTON, TRACKING_DIM
 
 STRUCTS = [("Photon", PHOTON_DTYPE), ("Record", RAW_RECORD_DTYPE), ("Splat", SPLAT_DTYPE), ("Beam", BEAM_DTYPE)]
 # numpy kind → (GLSL scalar type, vector prefix, literal suffix)
@@ -114,7 +114,8 @@ def read_codes(ctx, names) -> dict:
 
 PYTHON_CODES = {**STATUS_CODES, **FLAG_BITS, **SHAPE_KINDS}
 # the stratified numbers' constants (uint beyond int32: test_rng_glsl.py checks them in use)
-RNG_CONSTANTS = {"GOLDEN": GOLDEN, "ROTATION_PHOTON": ROTATION_PHOTON, "FRESNEL_DIM": FRESNEL_DIM}
+RNG_CONSTANTS = {"GOLDEN": GOLDEN, "ROTATION_PHOTON": ROTATION_PHOTON, "FRESNEL_DIM": FRESNEL_DIM,
+                 "TRACKING_DIM": TRACKING_DIM, "MAX_TENTATIVE": MAX_TENTATIVE}
 
 
 def test_shared_defines_are_the_python_codes():
