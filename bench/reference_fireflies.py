@@ -87,8 +87,8 @@ def cause(name: str, photons: int, batches: int, size: int) -> list:
     import drjit as dr
 
     from volcaustics.reference.mi_setup import mitsuba
-    from volcaustics.reference.render.export import load_scene
     from volcaustics.reference.render.camera_integrator import SingleScatterIntegrator
+    from volcaustics.reference.render.export import load_scene
     from volcaustics.reference.render.integrators import VolumetricLightTracer, configure
     from volcaustics.reference.render.sampling import subtended_angle
     from volcaustics.reference.request import resolve

@@ -16,7 +16,7 @@
   ``max_scatter`` > 1 continues paths through real scattering events (analog free
   flight, phase sampling) to measure what single scattering leaves out.
 It and ``camera_integrator.SingleScatterIntegrator`` are configured after construction
-with :func:`configure` (scene model, Mitsuba scene): the medium (``tracking.Medium``:
+with :func:`configure` (scene model, Mitsuba scene): the medium (``tracking.TrackedMedium``:
 coefficients, and a heterogeneous medium's density grid) and the shape table.
 """
 
@@ -41,7 +41,7 @@ from .sampling import (
     subtended_angle,
 )
 from .shapes import ShapeTable
-from .tracking import Medium
+from .tracking import TrackedMedium
 
 if TYPE_CHECKING:
     import numpy as np
@@ -59,7 +59,7 @@ def configure(integrator: _Integrator, scene_model: Scene, mi_scene: Any) -> _In
     integrator.sigma_t = mi.Color3f(*(float(x) for x in medium.sigma_t))
     integrator.sigma_bar = medium.sigma_bar
     integrator.has_medium = not medium.is_vacuum
-    integrator.medium = Medium(scene_model)
+    integrator.medium = TrackedMedium(scene_model)
     integrator.g = float(medium.phase.g) if medium.phase.kind == "hg" else 0.0
     integrator.table = ShapeTable(mi, mi_scene, scene_model)
     light = scene_model.light

@@ -7,13 +7,13 @@ Dr.Jit ``Texture3f`` (trilinear, clamped, the grid's convention; 0 outside its b
 against one majorant μ = max ρ · max σt (Novák et al. 2014, "Residual ratio tracking";
 Novák et al. 2018, "Monte Carlo methods for physically based volume rendering", §5):
 
-* :meth:`Medium.transmittance`: residual ratio tracking, an unbiased estimate of
+* :meth:`TrackedMedium.transmittance`: residual ratio tracking, an unbiased estimate of
   exp(−∫σt ds) per channel: the control ρ_min·σt in closed form, times tentative
   collisions at rate μ_r = 2·(max ρ − min ρ)·max σt, each multiplying by
   1 − (σt(x) − ρ_min·σt)/μ_r (Novák et al. 2014, §4). Twice the residual's bound keeps
   every factor ≥ ½, so an estimate never collapses to 0 as a track-length estimate does
   (a grid of ones, which is its control alone, gives the closed form exactly);
-* :meth:`Medium.free_flight` (heterogeneous only): delta tracking: tentative collisions at
+* :meth:`TrackedMedium.free_flight` (heterogeneous only): delta tracking: tentative collisions at
   rate μ, each real with probability σ̄(x)/μ (σ̄ the channels' mean), with the weights
   that keep RGB σt unbiased.
 
@@ -37,7 +37,7 @@ if TYPE_CHECKING:
 mi = mitsuba()
 
 
-class Medium:
+class TrackedMedium:
     """The scene's medium as the integrators sample it (``sigma_s``, ``sigma_t``: Color3f;
     ``sigma_bar``: float; ``heterogeneous``: whether a density grid scales them)."""
 

@@ -21,8 +21,8 @@ import pytest
 from tests.shared import make_scene, sphere_spec
 from volcaustics.metrics.stats import z_test
 from volcaustics.reference.mi_setup import mitsuba
-from volcaustics.reference.render.export import to_mitsuba
 from volcaustics.reference.render.camera_integrator import SingleScatterIntegrator
+from volcaustics.reference.render.export import to_mitsuba
 from volcaustics.reference.render.integrators import VolumetricLightTracer, configure
 from volcaustics.reference.render.sampling import ViewPyramid, subtended_angle
 from volcaustics.scenes.model import Camera

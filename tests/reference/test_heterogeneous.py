@@ -22,7 +22,7 @@ from volcaustics.reference.mi_setup import mitsuba
 from volcaustics.reference.render.camera_integrator import SingleScatterIntegrator
 from volcaustics.reference.render.export import to_mitsuba
 from volcaustics.reference.render.integrators import VolumetricLightTracer, configure
-from volcaustics.reference.render.tracking import Medium as TrackedMedium
+from volcaustics.reference.render.tracking import TrackedMedium
 from volcaustics.scenes.density import Density
 from volcaustics.scenes.medium_grid import density_grid
 from volcaustics.scenes.model import Camera, Medium, Phase
