@@ -55,6 +55,9 @@ BUILTIN_NAMES = catalogue(BUILTIN_DIR)
 
 HELDOUT_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "heldout")
 HELDOUT_NAMES = catalogue(HELDOUT_DIR)
+# heterogeneous media's scenes (docs/concepts/heterogeneous-media.md), loaded by path until
+# they join the built-ins: the exact replay of a density grid runs in numpy (minutes a point)
+MEDIA_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "media")
 
 
 def heldout_path(name: str) -> str:
