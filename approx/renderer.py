@@ -115,7 +115,7 @@ class Renderer:
         camera = self._cached(("camera", *sorted(fog.items()), phase_key),
                               lambda: CameraPasses(self.ctx, scene, fog, pool=self.pool))
         mode = splat_mode(p)
-        controls = controls_for(self.controls, "splat") if mode.controls else {}
+        controls = controls_for(self.controls, "splat")
         balanced = balanced_beams(p)
         splatter = self._cached(("splat", phase_key, p.splat, balanced, *sorted(controls.items())),
                                 lambda: Splatter(self.ctx, scene.medium, adaptive=mode.differential_width,

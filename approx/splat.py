@@ -19,6 +19,7 @@ from volcaustics.scenes.formats import BEAM_DTYPE, SPLAT_DTYPE, STATUS_COLLIDED,
 from volcaustics.scenes.splitting import silent
 
 from .context import bound
+from .controls import EXACT_TRANSMITTANCE
 from .glsl import attribute_layout, load_source, program, set_uniforms, uniform
 from .params import differential_beams
 from .resources import FrameResources
@@ -223,6 +224,8 @@ class Splatter:
         defines: dict[str, object] = {"PHASE_G": repr(float(medium.phase.g))} if medium.phase.kind == "hg" else {}
         if medium.is_heterogeneous:  # ρ and the transmittance volumes (approx.medium_volumes)
             defines["HETEROGENEOUS"] = 1
+        # the decomposition's exact transmittance goes to every mode; a test's faults to the density and beam modes
+        defines.update({k: v for k, v in (controls or {}).items() if k in EXACT_TRANSMITTANCE})
         if adaptive or density:  # per-splat kernels (SPLAT_DTYPE dir.w or the density), integrated over each pixel
             defines["SPLAT_ADAPTIVE"] = 1
         if density:

@@ -20,15 +20,13 @@ class SplatMode:
     flights; each photon's segment in the medium is drawn as a beam (BEAM_DTYPE rows).
     ``differential_width``: point splats as wide as the photon's ray differential (the
     photons carry differentials). ``density_pass``: a pre-pass counts the step's photons
-    per screen cell, from which each splat takes its width. ``controls``: the splat
-    program takes the renderer's controls (a test's deliberate faults)."""
+    per screen cell, from which each splat takes its width."""
 
     name: str
     help: str
     beams: bool = False
     differential_width: bool = False
     density_pass: bool = False
-    controls: bool = False
 
 
 SPLAT_MODES: dict[str, SplatMode] = {m.name: m for m in (
@@ -38,10 +36,10 @@ SPLAT_MODES: dict[str, SplatMode] = {m.name: m for m in (
                           "[splat_radius/16, 4·splat_radius] and at least a pixel)", differential_width=True),
     SplatMode("density", "density (the radius of a screen disc holding splat_neighbours photons of its step, from a "
                          "pre-pass counting them per 4×4-pixel cell: Abramson's square-root law, within "
-                         "[splat_radius/2, 4·splat_radius])", density_pass=True, controls=True),
+                         "[splat_radius/2, 4·splat_radius])", density_pass=True),
     SplatMode("beams", "beams (no free flights: each photon's segment in the medium is a beam, estimated along every "
                        "camera ray that passes within 3·splat_radius of it with a 1-D Gaussian kernel: Jarosz et al. "
-                       "2011)", beams=True, controls=True),
+                       "2011)", beams=True),
 )}
 
 

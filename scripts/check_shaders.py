@@ -40,14 +40,14 @@ def trace_variants() -> list:
     """(label, params, controls) of every trace program setting checked: every
     combination of the string-valued #defines (with each control alone, and none), and
     each integer #define at its range's ends with the others at their defaults."""
-    from volcaustics.approx.controls import CONTROLS
+    from volcaustics.approx.controls import CONTROLS, control_programs
     from volcaustics.approx.params import PARAMS, ApproxParams
 
     table = [p for p in PARAMS if p.glsl == "define" and p.program == "trace"]
     strings = [p for p in table if p.choices]
     on = {"CLIP_TO_OBJECTS": 1, "DIFFERENTIAL_UNPROPAGATED": 1, "EMISSION_SHIFT": 0.5, "GRID_IGNORED": 1,
-          "MAJORANT_SCALE": 0.25}
-    controls = [{}] + [{name: on[name]} for name, (program, _) in CONTROLS.items() if program == "trace"]
+          "MAJORANT_SCALE": 0.25, "EXACT_MARCH": 1}
+    controls = [{}] + [{name: on[name]} for name in CONTROLS if "trace" in control_programs(name)]
     out = []
     for values in itertools.product(*(p.choices for p in strings)):
         params = ApproxParams(**dict(zip((p.name for p in strings), values)))
@@ -60,7 +60,7 @@ def trace_variants() -> list:
 
 def programs() -> list:
     """(label, stage files, defines) of every program checked."""
-    from volcaustics.approx.controls import CONTROLS
+    from volcaustics.approx.controls import CONTROLS, control_programs
     from volcaustics.approx.layers import LightMapRenderer
     from volcaustics.approx.params import PARAMS
     from volcaustics.approx.preview import PREVIEW_STAGES
@@ -75,11 +75,11 @@ def programs() -> list:
     # a heterogeneous medium (a density grid): its emission, trace and depth-volume programs
     grid = Medium(sigma_s=(0.1, 0.1, 0.1), density=Density(field="box"))
     for label, params, controls in trace_variants():
-        if "GRID_IGNORED" in controls or "MAJORANT_SCALE" in controls or not controls:
+        if {"GRID_IGNORED", "MAJORANT_SCALE", "EXACT_MARCH"} & set(controls) or not controls:
             out += [(f"{name} {label} heterogeneous", (shader,), d)
                     for name, (shader, d) in PhotonTracer.programs(params, controls, grid).items()]
     out.append(("transmittance volume", ("medium/depth_volume.comp.glsl",), {}))
-    splat_controls = [{}] + [{name: 1} for name, (program, _) in CONTROLS.items() if program == "splat"]
+    splat_controls = [{}] + [{name: 1} for name in CONTROLS if "splat" in control_programs(name)]
     fog = next(p for p in PARAMS if p.name == "fog_steps")
     for kind, g in PHASES:
         for medium in (Medium(sigma_s=(0.1, 0.1, 0.1), sigma_a=(0.0, 0.0, 0.0), phase=Phase(kind=kind, g=g)),
@@ -98,7 +98,7 @@ def _shading(medium, kind: str, splat_controls: list, fog) -> list:
     where = " heterogeneous" if medium.is_heterogeneous else ""
     for mode, controls in itertools.product(("fixed", "adaptive", "density", "beams", "balanced beams"),
                                             splat_controls):
-        if controls and mode not in ("density", "beams", "balanced beams"):
+        if controls and mode not in ("density", "beams", "balanced beams") and not controls.keys() & {"EXACT_EYE"}:
             continue
         for name, (stages, d) in Splatter.programs(medium, adaptive=mode == "adaptive", density=mode == "density",
                                                     beams=mode.endswith("beams"), balanced=mode == "balanced beams",

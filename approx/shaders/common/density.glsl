@@ -58,6 +58,42 @@ float march_depth(vec3 o, vec3 d, float len, int steps) {
     return sum * h;
 }
 
+// ∫ρ ds over o + s·d (d unit), s in [0, len], exact but for float32 rounding: along a line the
+// trilinear ρ is a cubic between the planes through the cell centres, so Simpson's rule on each
+// piece between them is exact (scenes.tracking.optical_depth, its float64 twin). The decomposition's
+// transmittance terms take it in place of the march and the camera volume (controls EXACT_MARCH,
+// EXACT_EYE); no display frame reads it.
+float exact_depth(vec3 o, vec3 d, float len) {
+    vec3 inv = 1.0 / d;
+    vec3 ta = (density_min - o) * inv, tb = (density_max - o) * inv;
+    vec3 t_lo = min(ta, tb), t_hi = max(ta, tb);
+    float t = max(max(max(t_lo.x, t_lo.y), t_lo.z), 0.0);
+    float t_end = min(min(min(t_hi.x, t_hi.y), t_hi.z), len);
+    if (!(t < t_end)) return 0.0;
+    vec3 h = (density_max - density_min) / vec3(density_res);
+    bvec3 moving = notEqual(d, vec3(0.0));
+    // the first plane through cell centres beyond the entry, along each axis
+    vec3 u = (o + d * t - density_min) / h - 0.5;
+    vec3 next = mix(ceil(u - 1.0), floor(u + 1.0), greaterThan(d, vec3(0.0)));
+    vec3 t_next = mix(vec3(1e30), (density_min + (next + 0.5) * h - o) * inv, moving);
+    vec3 t_step = mix(vec3(1e30), abs(h * inv), moving);
+    vec3 lo = density_min, hi = density_max;
+    float f0 = density_at(clamp(o + d * t, lo, hi));
+    float depth = 0.0;
+    int pieces = density_res.x + density_res.y + density_res.z + 4;  // planes crossed, at most
+    for (int k = 0; k < pieces && t < t_end; ++k) {
+        float t1 = min(min(min(t_next.x, t_next.y), t_next.z), t_end);
+        if (t1 > t) {
+            float f1 = density_at(clamp(o + d * t1, lo, hi));
+            depth += (t1 - t) / 6.0 * (f0 + 4.0 * density_at(clamp(o + d * (0.5 * (t + t1)), lo, hi)) + f1);
+            f0 = f1;
+            t = t1;
+        }
+        t_next += mix(vec3(0.0), t_step, lessThanEqual(t_next, vec3(t1)));
+    }
+    return depth;
+}
+
 #ifdef DELTA_TRACKING
 #include "common/rng.glsl"
 layout(std430, binding = MAJORANT_BINDING) readonly buffer MajorantValues { float majorant_values[]; };

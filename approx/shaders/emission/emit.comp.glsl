@@ -118,7 +118,9 @@ void main() {
         float t = abs(along) > 1e-3 ? dot(map_point(texel, map.r) - light_position, geometric) / along : -1.0;
         if (t > 0.5 * map.r && t < 2.0 * map.r) r = t;
 #endif
-#ifdef HETEROGENEOUS
+#if defined(HETEROGENEOUS) && defined(EXACT_MARCH)  // the decomposition's control: the march made exact
+        vec3 transmittance = exp(-sigma_t * exact_depth(light_position, d, r));
+#elif defined(HETEROGENEOUS)
         vec3 transmittance = exp(-sigma_t * march_depth(light_position, d, r, march_steps));
 #else
         vec3 transmittance = exp(-sigma_t * r);

@@ -27,7 +27,8 @@
 // kernel in pilot pixels at the closest approach).
 // HETEROGENEOUS (a density grid): σs(x) = ρ(x)·σs at the closest approach, the transmittance
 // along the beam from march_steps midpoint samples of ρ and to the eye from the camera's
-// transmittance volume (common/volumes.glsl).
+// transmittance volume (common/volumes.glsl); the decomposition's controls EXACT_MARCH and
+// EXACT_EYE make either exact (common/density.glsl's exact_depth).
 // Controls (negative controls of tests): BEAM_NO_SINE drops 1/sin θ,
 // BEAM_NO_CAMERA_TRANSMITTANCE drops exp(−σt·t), BEAM_CLOSEST_DEPTH depth-tests the
 // closest approach alone instead of cutting the beam at the surface.
@@ -182,7 +183,17 @@ void main() {
     // within the visible part (past its ends, where its Gaussians still reach, at the end itself)
 #if defined(HETEROGENEOUS)
     vec3 x = v_start + on_beam * v_dir;
-    vec3 transmittance = exp(-sigma_t * (march_depth(v_start, v_dir, on_beam, march_steps) + camera_depth(x)));
+#ifdef EXACT_MARCH
+    float on_beam_depth = exact_depth(v_start, v_dir, on_beam);
+#else
+    float on_beam_depth = march_depth(v_start, v_dir, on_beam, march_steps);
+#endif
+#ifdef EXACT_EYE
+    float to_eye = exact_depth(eye, normalize(x - eye), distance(x, eye));
+#else
+    float to_eye = camera_depth(x);
+#endif
+    vec3 transmittance = exp(-sigma_t * (on_beam_depth + to_eye));
     vec3 scattering = sigma_s * density_at(x);
 #elif defined(BEAM_NO_CAMERA_TRANSMITTANCE)
     vec3 transmittance = exp(-sigma_t * on_beam);

@@ -5,13 +5,16 @@
 // truncated kernel so that its integral stays exact). The per-photon weight is
 // Φ·(σs/sigma_bar)·p(θ)·τ(eye, x): power, scattering per collision, phase towards
 // the camera, transmittance to the eye (evaluated at the photon centre; HETEROGENEOUS: from
-// the camera's transmittance volume). In a heterogeneous medium collisions come at rate
+// the camera's transmittance volume, or exact under the decomposition's control EXACT_EYE). In a heterogeneous medium collisions come at rate
 // ρ(x)·sigma_bar and scatter ρ(x)·σs: the weight σs/sigma_bar is the same.
 #include "common/phase.glsl"
 #include "common/photon.glsl"
 #include "splat/kernel.glsl"
 #ifdef HETEROGENEOUS  // τ(eye, x) from the camera's transmittance volume (common/volumes.glsl)
 #include "common/volumes.glsl"
+#ifdef EXACT_EYE
+#include "common/density.glsl"
+#endif
 #endif
 
 uniform mat4 view_proj;
@@ -56,7 +59,9 @@ void main() {
     vec3 to_eye = eye - c;
     float dist = length(to_eye);
     vec3 w = to_eye / dist;
-#ifdef HETEROGENEOUS
+#if defined(HETEROGENEOUS) && defined(EXACT_EYE)
+    v_weight = in_power.rgb * scatter_weight * phase_eval(dot(in_dir_t.xyz, w)) * exp(-sigma_t * exact_depth(eye, -w, dist));
+#elif defined(HETEROGENEOUS)
     v_weight = in_power.rgb * scatter_weight * phase_eval(dot(in_dir_t.xyz, w)) * exp(-sigma_t * camera_depth(c));
 #else
     v_weight = in_power.rgb * scatter_weight * phase_eval(dot(in_dir_t.xyz, w)) * exp(-sigma_t * dist);

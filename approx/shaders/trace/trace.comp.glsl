@@ -63,6 +63,11 @@
 #define DELTA_TRACKING 1
 #include "common/density.glsl"
 uniform int march_steps;             // midpoint samples of ρ for a segment's transmittance
+#ifdef EXACT_MARCH  // the decomposition's control: a segment's transmittance exact (its march term)
+#define SEGMENT_DEPTH(o, d, len) exact_depth(o, d, len)
+#else
+#define SEGMENT_DEPTH(o, d, len) march_depth(o, d, len, march_steps)
+#endif
 #endif
 
 layout(local_size_x = 64) in;
@@ -470,7 +475,7 @@ void main() {
         vec2 best_geometric = best_index >= 0 ? map_geometric[best_index] : vec2(0.0);
         end = o + d * best_t;
 #ifdef HETEROGENEOUS
-        power *= inside >= 0 ? exp(-absorption[inside] * best_t) : exp(-sigma_t * march_depth(o, d, best_t, march_steps));
+        power *= inside >= 0 ? exp(-absorption[inside] * best_t) : exp(-sigma_t * SEGMENT_DEPTH(o, d, best_t));
 #else
         power *= exp(-(inside >= 0 ? absorption[inside] : sigma_t) * best_t);
 #endif
@@ -507,7 +512,7 @@ void main() {
     } else if (max_len <= span) {
         end = o + d * max_len;
 #ifdef HETEROGENEOUS
-        power *= exp(-sigma_t * march_depth(o, d, max_len, march_steps));
+        power *= exp(-sigma_t * SEGMENT_DEPTH(o, d, max_len));
 #else
         power *= exp(-sigma_t * max_len);
 #endif
