@@ -92,7 +92,7 @@ class Renderer:
         self.light_maps = LightMapRenderer(self.ctx, self.geometry)
         self.pool = FrameResources(self.ctx)  # every frame's buffers and images, across frames
         self.pool.track(*(b for b in (self.geometry.specular, self.geometry.diffuse) if b is not None))
-        self._programs: dict[tuple, PhotonTracer | CameraPasses | Splatter] = {}
+        self._programs: dict[tuple, PhotonTracer | CameraPasses | Splatter | Renderer] = {}
         self._use_queries = timer_queries_work(self.ctx)
         self.volumes: MediumVolumes | None = None  # a heterogeneous medium's, made on first use
         # display frames' pass times, read frames later (where the driver's timer queries work)
@@ -102,6 +102,14 @@ class Renderer:
         if key not in self._programs:
             self._programs[key] = factory()
         return self._programs[key]
+
+    def variant(self, controls: dict) -> Renderer:
+        """A renderer of this one's scene on its context with ``controls`` added to its own
+        (the decomposition's exact-transmittance images: ``approx.controls.EXACT_TRANSMITTANCE``);
+        made once per set of controls and released with this one."""
+        merged = check_controls({**self.controls, **controls})
+        return cast(Renderer, self._cached(("variant", *sorted(merged.items())),
+                                           lambda: Renderer(self.scene, self.ctx, controls=merged)))
 
     def _tracer(self, p: ApproxParams, medium: Medium | None = None) -> PhotonTracer:
         """The emission and trace programs for ``p`` and ``medium`` (equal defines, one program)."""

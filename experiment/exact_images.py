@@ -1,6 +1,7 @@
-"""The exact caustic images of the decomposition, as paired photon subsets: A, E_k,
-E_∞ (A's Fresnel), E_∞ (stochastic), E_em (the light's true emission) and E_∞,s (the
-true emission, small kernel, supersampled). Every image but E_∞,s takes its kernels from
+"""The exact caustic images of the decomposition, as paired photon subsets: A, A_m (A
+with the march exact), E_k, E_∞ (A's Fresnel), E_∞ (stochastic), E_em (the light's true
+emission), E_∞,s (the true emission, small kernel, supersampled) and E_∞,s,τ (E_∞,s with
+the transmittance to the eye exact). Every image but E_∞,s and E_∞,s,τ takes its kernels from
 the seed's real frame (``experiment.kernels``: A's own for A, so A's subsets
 average to the real frame whatever the splat mode); E_∞,s always takes the fixed small
 kernel, so kernel_blur = E_∞,s − E_em is the blur of A's kernels.
@@ -11,6 +12,13 @@ surface, so A's step-1 interaction at the light map is the intersection term's; 
 and E_∞,s from photons jittered in every texel with the spot's exact profile, so the
 emission grid's aliasing (and any emission rule's bias) is the emission term E_em − E_∞
 (docs/decisions.md "The emission term").
+
+In a heterogeneous medium A_m is each seed's frame rendered again by a variant of the
+renderer with the control EXACT_MARCH (``Renderer.variant``: the same photons, their
+powers from the exact optical depth), splatted with A's kernels; every E image is
+splatted by that variant too (a beam's transmittance along itself exact), and E_∞,s,τ by
+one with EXACT_EYE as well (docs/decisions.md "Heterogeneous media"). In a homogeneous
+medium there is no march and no camera volume: A_m is A and E_∞,s,τ is E_∞,s.
 
 The E_∞ images replay every emission texel EXACT_SUBPHOTONS times (the first replay
 with A's random numbers, the others with seeds of their own, :func:`replay_seed`), each
@@ -37,11 +45,13 @@ from volcaustics.experiment.exact import (
     subset_images,
 )
 from volcaustics.experiment.exact_store import (
+    ALIASES,
     EXACT_IMAGES,
     exact_document,
     exact_key,
     load_exact,
     save_exact,
+    with_aliases,
 )
 from volcaustics.experiment.kernels import frame_kernels, kernel_rule, splat_params
 from volcaustics.experiment.measurement import EXACT_STEPS, SUBSET_BATCHES, MeasurementSettings
@@ -144,12 +154,16 @@ def exact_images(scene: Scene, p: ApproxParams, frames: list[Frame], seeds: list
     document = exact_document(scene, p, seeds, subphotons, constants, renderer.controls)
     key = exact_key(document)
     approx, kernels = approx_subsets(scene, p, frames, seeds, renderer, subset_batches)
+    march = renderer.variant({"EXACT_MARCH": 1}) if scene.medium.is_heterogeneous else renderer
+    marched = approx if march is renderer else np.concatenate([
+        _frame_subsets(march, scene, p, march.render(scene, dataclasses.replace(p, seed=seed), keep_records=True),
+                       seed, kernel, subset_batches) for seed, kernel in zip(seeds, kernels)])
     exact = load_exact(key, document)
     reused = exact is not None
     if exact is None:
-        exact = _exact_batches(scene, p, kernels, seeds, renderer, oracle, subphotons, subset_batches, exact_steps)
+        exact = _exact_batches(scene, p, kernels, seeds, march, oracle, subphotons, subset_batches, exact_steps)
         save_exact(key, document, exact)
-    return {"batches": {"approx": approx, **exact["batches"]}, "alive": exact["alive"],
+    return {"batches": {"approx": approx, "approx_exact_march": marched, **exact["batches"]}, "alive": exact["alive"],
             "small_radius": exact["small_radius"], "subphotons": subphotons, "exact_key": key,
             "exact_reused": reused, "exact_steps": exact_steps, "subset_batches": subset_batches,
             "kernels": kernel_rule(p)}
@@ -163,13 +177,23 @@ def approx_subsets(scene: Scene, p: ApproxParams, frames: list[Frame], seeds: li
     seed the kernels of its real frame (``kernels.frame_kernels``) for the E images."""
     images, kernels = [], []
     for frame, seed in zip(frames, seeds):
-        collided = np.concatenate([r[splatted(r, p)] for r in frame.records])
-        kernel = frame_kernels(renderer, scene, p, collided)
-        splats = record_splats(collided, p.splat)
-        images.append(_subsets(renderer, scene, dataclasses.replace(splat_params(p), seed=seed),
-                               kernel(splats, collided["photon"], collided["step"]), collided["photon"], batches))
+        kernel = frame_kernels(renderer, scene, p, _collided(frame, p))
+        images.append(_frame_subsets(renderer, scene, p, frame, seed, kernel, batches))
         kernels.append(kernel)
     return np.concatenate(images), kernels
+
+
+def _collided(frame: Frame, p: ApproxParams) -> np.ndarray:
+    """The frame's records of the medium collisions it splats."""
+    return np.concatenate([r[splatted(r, p)] for r in frame.records])
+
+
+def _frame_subsets(renderer, scene, p, frame, seed: int, kernel, batches: int) -> np.ndarray:
+    """``batches`` paired subset images of ``frame``'s medium collisions with ``kernel``."""
+    collided = _collided(frame, p)
+    splats = record_splats(collided, p.splat)
+    return _subsets(renderer, scene, dataclasses.replace(splat_params(p), seed=seed),
+                    kernel(splats, collided["photon"], collided["step"]), collided["photon"], batches)
 
 
 def _subsets(renderer, scene, params, splats, photon, batches: int, supersample: int = 1) -> np.ndarray:
@@ -188,8 +212,11 @@ def _exact_batches(scene, p, kernels, seeds, renderer, oracle, subphotons: int, 
     E_∞,s from the light's true distribution (``approx.emission.true_rays``: jittered
     in every texel, the spot's exact profile), with the same replay seeds. ``kernels``:
     per seed, the kernels of its real frame (``kernels.frame_kernels``) for every image
-    but E_∞,s, which takes the fixed small kernel whatever A's splat mode."""
-    out: dict = {name: [] for name in EXACT_IMAGES}
+    but E_∞,s and E_∞,s,τ, which take the fixed small kernel whatever A's splat mode.
+    ``renderer`` splats them (in a heterogeneous medium: the variant with the march
+    exact), E_∞,s,τ its variant with EXACT_EYE too."""
+    eye = renderer.variant({"EXACT_EYE": 1}) if scene.medium.is_heterogeneous else None
+    out: dict = {name: [] for name in EXACT_IMAGES if eye is not None or name not in ALIASES}
     alive: dict = {}
     small = small_kernel_params(scene, p)
     frustum = LightFrustum.for_scene(scene, *medium_bounds(scene))
@@ -210,12 +237,15 @@ def _exact_batches(scene, p, kernels, seeds, renderer, oracle, subphotons: int, 
                               ("exact_emission", emitted)):
             out[name].append(_subsets(renderer, scene, ps, kernel(photons.splats, photons.photon, photons.step),
                                       photons.photon, batches))
-        out["exact_all_small"].append(_subsets(renderer, scene, dataclasses.replace(small, seed=seed),
-                                               small_kernel_rows(emitted.splats, small), emitted.photon, batches,
-                                               SMALL_SUPERSAMPLE))
+        for name, splatter in (("exact_all_small", renderer), ("exact_all_small_eye", eye)):
+            if splatter is None:
+                continue
+            out[name].append(_subsets(splatter, scene, dataclasses.replace(small, seed=seed),
+                                      small_kernel_rows(emitted.splats, small), emitted.photon, batches,
+                                      SMALL_SUPERSAMPLE))
         for name, photons in {p.fresnel: same, "stochastic": everything, "true_emission": emitted}.items():
             alive.setdefault(name, []).append(photons.alive_fraction)
-    return {"batches": {name: np.concatenate(images) for name, images in out.items()}, "alive": alive,
+    return {"batches": with_aliases({name: np.concatenate(images) for name, images in out.items()}), "alive": alive,
             "small_radius": small.splat_radius}
 
 

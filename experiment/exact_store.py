@@ -1,6 +1,6 @@
 """The decomposition's exact images, stored under their own key and reused.
 
-The E images (E_k, E_∞ with A's Fresnel, E_∞ stochastic, E_em, E_∞,s) replay A's
+The E images (E_k, E_∞ with A's Fresnel, E_∞ stochastic, E_em, E_∞,s, E_∞,s,τ) replay A's
 emission and the light's true emission exactly from the emission ray: they depend on
 the scene, the emission, the Fresnel mode, ``steps``, the seeds, the sub-photons, the
 photon grid and the splat, not on how A searched. The parameters the table marks
@@ -44,8 +44,11 @@ if TYPE_CHECKING:
     from volcaustics.scenes.model import Scene
 
 FOLDER = "exact-images"
-FORMAT = 3  # 2: every E image from the emission ray, and E_em; 3: the real frame's kernels, E_∞,s fixed
-EXACT_IMAGES = ("exact_steps", "exact_all_same", "exact_all", "exact_emission", "exact_all_small")
+FORMAT = 4  # 2: every E image from the emission ray, and E_em; 3: the real frame's kernels, E_∞,s fixed; 4: E_∞,s,τ
+EXACT_IMAGES = ("exact_steps", "exact_all_same", "exact_all", "exact_emission", "exact_all_small",
+                "exact_all_small_eye")
+# images equal to another in a homogeneous medium (no camera volume): stored only where they differ
+ALIASES = {"exact_all_small_eye": "exact_all_small"}
 SEARCH_ONLY = tuple(p.name for p in PARAMS if not p.exact)  # what the E images do not depend on
 
 
@@ -60,6 +63,11 @@ def exact_document(scene: Scene, p: ApproxParams, seeds: list, subphotons: int, 
     return {"format": FORMAT, "scene_hash": scene.scene_hash(), "params": params, "seeds": [int(s) for s in seeds],
             "subphotons": int(subphotons), "constants": constants, "code_version": code_version(),
             "test_defines": {k: str(v) for k, v in sorted(controls.items())}}  # the renderer's controls
+
+
+def with_aliases(batches: dict) -> dict:
+    """``batches`` with every alias it lacks (ALIASES) set to its image."""
+    return {**batches, **{name: batches[alias] for name, alias in ALIASES.items() if name not in batches}}
 
 
 def exact_key(document: dict) -> str:
@@ -81,9 +89,10 @@ def load_exact(key: str, document: dict) -> dict | None:
         if manifest.get("document") != document or hashlib.sha256(data).hexdigest() != manifest.get("npz_sha256"):
             return None
         with np.load(io.BytesIO(data), allow_pickle=False) as npz:
-            batches = {name: npz[name] for name in EXACT_IMAGES}
+            batches = {name: npz[name] for name in EXACT_IMAGES if name in npz or name not in ALIASES}
     except (OSError, ValueError, KeyError):
         return None
+    batches = with_aliases(batches)
     shapes = {b.shape for b in batches.values()}
     if len(shapes) != 1 or any(b.dtype != np.float32 or not np.isfinite(b).all() for b in batches.values()):
         return None
@@ -92,9 +101,12 @@ def load_exact(key: str, document: dict) -> dict | None:
 
 def save_exact(key: str, document: dict, exact: dict) -> None:
     """Store ``exact`` (as :func:`load_exact` returns it) under ``key``: the images
-    first, the manifest last; a cache that cannot be written is noted, not an error."""
+    first (an alias not when it is its image), the manifest last; a cache that cannot
+    be written is noted, not an error."""
+    batches = exact["batches"]
     buffer = io.BytesIO()
-    np.savez_compressed(buffer, **{name: exact["batches"][name] for name in EXACT_IMAGES})
+    np.savez_compressed(buffer, **{name: batches[name] for name in EXACT_IMAGES
+                                   if name in batches and batches[name] is not batches.get(ALIASES.get(name))})
     data = buffer.getvalue()
     manifest = {"document": document, "alive": exact["alive"], "small_radius": float(exact["small_radius"]),
                 "npz_sha256": hashlib.sha256(data).hexdigest()}

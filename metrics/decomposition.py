@@ -2,34 +2,49 @@
 
 docs/concepts/measuring.md → Images. With one splatter for all:
 
-=====================  =======================================================
-``approx``             A: the approximation's caustic (mean over its seeds)
-``exact_steps``        E_k: A's emission rays replayed exactly from the light, same
-                       ``fresnel`` and ``steps``
-``exact_all_same``     E_∞ with A's ``fresnel``: so many steps that < 0.1% of the
-                       power is still alive
-``exact_all``          E_∞: the same with stochastic Fresnel (every reflection kept)
-``exact_emission``     E_em: E_∞ of photons from the light's true distribution
-                       (jittered in every texel, the spot's exact profile)
-``exact_all_small``    E_∞,s: E_em splatted with a small kernel, box-filtered pixels
-``reference``          R: the reference light tracer
-=====================  =======================================================
+=======================  =====================================================
+``approx``               A: the approximation's caustic (mean over its seeds)
+``approx_exact_march``   A_m: A with every fixed march of ρ exact (heterogeneous
+                         media: the light's path, a segment's, along a beam;
+                         control ``EXACT_MARCH``); A itself in a homogeneous medium
+``exact_steps``          E_k: A's emission rays replayed exactly from the light, same
+                         ``fresnel`` and ``steps``
+``exact_all_same``       E_∞ with A's ``fresnel``: so many steps that < 0.1% of the
+                         power is still alive
+``exact_all``            E_∞: the same with stochastic Fresnel (every reflection kept)
+``exact_emission``       E_em: E_∞ of photons from the light's true distribution
+                         (jittered in every texel, the spot's exact profile)
+``exact_all_small``      E_∞,s: E_em splatted with a small kernel, box-filtered pixels
+``exact_all_small_eye``  E_∞,s,τ: E_∞,s with the transmittance to the eye exact instead
+                         of the camera volume's (control ``EXACT_EYE``); E_∞,s itself
+                         in a homogeneous medium
+``reference``            R: the reference light tracer
+=======================  =====================================================
+
+Every E image is splatted with the march exact, as A_m is.
 
 The terms telescope, so they sum to R − A exactly, pixel by pixel (in the order a
-reader meets them, the emission first; the chain runs A → E_k → E_∞ → E_em → E_∞,s → R):
+reader meets them, the emission first; the chain runs A → A_m → E_k → E_∞ → E_em → E_∞,s → E_∞,s,τ
+→ R):
 
 ==================  ===================  ===========================================
 ``emission``        E_em − E_∞           where A's photons leave the light: the
                                          emission grid's aliasing, or any emission
                                          rule's bias
-``intersection``    E_k − A              the image-space intersection estimate (the
+``march``           A_m − A              a heterogeneous medium's transmittance
+                                         marched with ``march_steps`` samples of ρ
+                                         (zero in a homogeneous one)
+``intersection``    E_k − A_m            the image-space intersection estimate (the
                                          emission map's first interaction included)
 ``truncation``      E_∞(same) − E_k      paths cut after ``steps`` interactions
 ``reflections``     E_∞ − E_∞(same)      reflections a deterministic Fresnel drops
                                          (zero when A is stochastic)
 ``kernel_blur``     E_∞,s − E_em         the splat kernel's blur (and point-sampled
                                          pixels)
-``residual``        R − E_∞,s            what none of the above explains: must be
+``camera_volume``   E_∞,s,τ − E_∞,s      a heterogeneous medium's transmittance to
+                                         the eye from the camera volume (zero in a
+                                         homogeneous one)
+``residual``        R − E_∞,s,τ          what none of the above explains: must be
                                          within noise, else a renderer is wrong
 ==================  ===================  ===========================================
 
@@ -81,16 +96,20 @@ from volcaustics.metrics.noise import total_sigma
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
 
-IMAGES = ("approx", "exact_steps", "exact_all_same", "exact_all", "exact_emission", "exact_all_small", "reference")
+IMAGES = ("approx", "approx_exact_march", "exact_steps", "exact_all_same", "exact_all", "exact_emission",
+          "exact_all_small", "exact_all_small_eye", "reference")
 BATCHED = IMAGES[:-1]  # every image but the reference comes as paired batches
 TERMS = {  # name: (closer to R, farther from R)
     "emission": ("exact_emission", "exact_all"),
-    "intersection": ("exact_steps", "approx"),
+    "march": ("approx_exact_march", "approx"),
+    "intersection": ("exact_steps", "approx_exact_march"),
     "truncation": ("exact_all_same", "exact_steps"),
     "reflections": ("exact_all", "exact_all_same"),
     "kernel_blur": ("exact_all_small", "exact_emission"),
-    "residual": ("reference", "exact_all_small"),
+    "camera_volume": ("exact_all_small_eye", "exact_all_small"),
+    "residual": ("reference", "exact_all_small_eye"),
 }
+LAST = TERMS["residual"][1]  # the image the residual compares R with
 ROUNDING = 1e-12  # relative values (shares of the reference) this small are float64 rounding, not a difference
 
 
@@ -125,17 +144,17 @@ def _reference_relmse_se(groups, keep, rv, sums, k, energy2) -> float:
     (pixels independent: noise × noise only)."""
     if groups is None:
         return float(np.sqrt(2.0 * np.sum(rv * rv))) / energy2
-    e = sums["exact_all_small"] / k
+    e = sums[LAST] / k
     return _grouped_se(groups, keep, e, e, float(rv.sum())) / energy2
 
 
 def _reference_part_se(term: str, groups, keep, r, rv, sums, k, energy2) -> float:
     """R's part of the SE of the relMSE part of ``term`` ("total": Σ(R − A)², "residual":
-    Σ(R − E_∞,s)(R − A), each less R's noise), the batched images held at their means:
+    Σ(R − E_∞,s,τ)(R − A), each less R's noise), the batched images held at their means:
     with ``groups`` a delete-one-group jackknife (R's pixels covary), else first order
     with independent pixels (Σ var · (∂/∂R)², plus 2 Σ var² for the noise × noise part)."""
     a = sums["approx"] / k
-    e = a if term == "total" else sums["exact_all_small"] / k
+    e = a if term == "total" else sums[LAST] / k
     if groups is None:
         return float(np.sqrt(np.sum(rv * ((r - e) + (r - a)) ** 2) + 2.0 * np.sum(rv * rv))) / energy2
     return _grouped_se(groups, keep, e, a, float(rv.sum())) / energy2
@@ -195,7 +214,7 @@ def decompose_caustic(batches: dict, reference: ArrayLike, *, keep: ArrayLike | 
         ``*_se``, and ``relmse_part_debiased`` — then ``noise``: ``energy_sigma`` (σ of the total's energy share)
         and ``relmse`` (the relative MSE noise alone gives: R's floor + A's variance);
       ``residual``: ``energy_share`` and ``energy_se``, ``energy_z``,
-        ``debiased_relmse`` (Σ(R − E_∞,s)² less both noises, over Σ R²) and
+        ``debiased_relmse`` (Σ(R − E_∞,s,τ)² less both noises, over Σ R²) and
         ``relmse_se``, ``relmse_z``, ``within_noise`` and a ``message`` saying which
         renderers disagree when it is not;
       ``options``: what was used.
@@ -262,7 +281,7 @@ class _Jackknife:
         self.kept, self.sums, self.r = kept, sums, r
         self.k = len(kept[BATCHED[0]])
         self.channel_energy, self.energy2, self.reference_noise = channel_energy, energy2, reference_noise
-        self.small = kept["exact_all_small"]
+        self.small = kept[LAST]
         self.small_squares = np.square(self.small, dtype=np.float64).sum(axis=0)
 
     def numbers(self, means: dict) -> dict:
@@ -275,17 +294,17 @@ class _Jackknife:
             t = d if name == "total" else full[near] - full[far]  # the total is R − A itself
             out[name] = (float(np.mean(t.sum(axis=0) / self.channel_energy)), float(np.sum(t * d)) / self.energy2,
                          float(np.sum(t * t)) / self.energy2)
-        out["debiased"] = (float(np.sum((r - means["exact_all_small"]) ** 2)) - self.reference_noise
+        out["debiased"] = (float(np.sum((r - means[LAST]) ** 2)) - self.reference_noise
                            - means["_small_noise"]) / self.energy2
         return out
 
     def means_without(self, i) -> dict:
-        """The batches' means (and Σ of E_∞,s's variance of the mean) without batch i
+        """The batches' means (and Σ of E_∞,s,τ's variance of the mean) without batch i
         (None: all), from running sums."""
         k, sums, kept, small = self.k, self.sums, self.kept, self.small
         n = k - (i is not None)
         m = {name: (sums[name] - kept[name][i]) / n if i is not None else sums[name] / n for name in BATCHED}
-        s1 = sums["exact_all_small"] - (small[i] if i is not None else 0.0)
+        s1 = sums[LAST] - (small[i] if i is not None else 0.0)
         s2 = self.small_squares - (np.square(small[i], dtype=np.float64) if i is not None else 0.0)
         m["_small_noise"] = float(np.sum(s2 - s1 * s1 / n)) / (n - 1) / n
         return m

@@ -14,7 +14,7 @@ from volcaustics.metrics.decomposition import BATCHED, IMAGES, TERMS, caustic_te
 from volcaustics.metrics.image import energy_ratio, relative_mse
 
 H, W, K = 16, 16, 16
-SIX = tuple(TERMS)
+ALL_TERMS = tuple(TERMS)
 FIELDS = ("energy_share", "relmse_part", "relmse_own")
 
 
@@ -71,7 +71,7 @@ def test_terms_telescope_to_the_total_error():
     np.testing.assert_array_equal(images["reference"], reference)
     r, a = reference, images["approx"]
     terms = caustic_terms(images)
-    assert set(terms) == set(SIX) == set(result["terms"])
+    assert set(terms) == set(ALL_TERMS) == set(result["terms"])
     np.testing.assert_allclose(sum(terms.values()), r - a, rtol=0, atol=1e-12)
     np.testing.assert_allclose(sum(result["terms"].values()), r - a, rtol=0, atol=1e-12)
 
@@ -81,44 +81,46 @@ def test_terms_telescope_to_the_total_error():
     assert total["energy_share"] == pytest.approx(1 - energy_ratio(r, a, mask=keep)["mean"], rel=0, abs=1e-12)
     assert total["relmse_part"] == pytest.approx(relative_mse(r, a, mask=keep), rel=1e-12)
     assert total["relmse_own"] == pytest.approx(total["relmse_part"], rel=1e-12)  # the total's part is itself
-    assert sum(_row(result, t)["energy_share"] for t in SIX) == pytest.approx(total["energy_share"], abs=1e-12)
-    assert sum(_row(result, t)["relmse_part"] for t in SIX) == pytest.approx(total["relmse_part"], rel=1e-12)
-    for t in SIX:  # each term's own relMSE from its image
+    assert sum(_row(result, t)["energy_share"] for t in ALL_TERMS) == pytest.approx(total["energy_share"], abs=1e-12)
+    assert sum(_row(result, t)["relmse_part"] for t in ALL_TERMS) == pytest.approx(total["relmse_part"], rel=1e-12)
+    for t in ALL_TERMS:  # each term's own relMSE from its image
         own = np.sum(result["terms"][t][keep] ** 2) / np.sum(r[keep] ** 2)
         assert _row(result, t)["relmse_own"] == pytest.approx(own, rel=1e-12)
     for row in result["rows"][:-1]:  # every term and the total carry finite, non-negative SEs
         for field in FIELDS:
             assert np.isfinite(row[f"{field}_se"]) and row[f"{field}_se"] >= 0, (row["term"], field)
-    assert [row["term"] for row in result["rows"]] == [*SIX, "total", "noise"]
+    assert [row["term"] for row in result["rows"]] == [*ALL_TERMS, "total", "noise"]
     assert set(_row(result, "noise")) == {"term", "energy_sigma", "relmse"}
     assert result["options"]["pixels"] == int(keep.sum()) and result["options"]["batches"] == K
 
 
 def test_constructed_ladder_has_known_shares():
     """R = 1 everywhere and noiseless batches (so every jackknife SE is 0):
-    E_∞,s = E_em = R; E_∞ = 0.9 R; E_∞(same) = 0.8 R; E_k = 0.7 R; A = 0.6 R. Each of
-    emission, intersection, truncation and reflections closes 0.1 of the energy; blur
-    and residual are 0. relMSE parts: term · (R − A) / R² = 0.1 · 0.4 = 0.04; own:
-    0.1² = 0.01."""
+    E_∞,s,τ = R; E_∞,s = E_em = 0.9 R; E_∞ = 0.8 R; E_∞(same) = 0.7 R; E_k = 0.6 R;
+    A_m = 0.5 R; A = 0.4 R. Each of camera_volume, emission, reflections, truncation,
+    intersection and march closes 0.1 of the energy; blur and residual are 0. relMSE
+    parts: term · (R − A) / R² = 0.1 · 0.6 = 0.06; own: 0.1² = 0.01."""
     one = np.ones((H, W, 3))
-    images = {"exact_all_small": one, "exact_emission": one, "exact_all": 0.9 * one, "exact_all_same": 0.8 * one,
-              "exact_steps": 0.7 * one, "approx": 0.6 * one}
+    images = {"exact_all_small_eye": one, "exact_all_small": 0.9 * one, "exact_emission": 0.9 * one,
+              "exact_all": 0.8 * one, "exact_all_same": 0.7 * one, "exact_steps": 0.6 * one,
+              "approx_exact_march": 0.5 * one, "approx": 0.4 * one}
     result = decompose_caustic(_noiseless(images, 8), one)
-    expected = {"emission": 0.1, "intersection": 0.1, "truncation": 0.1, "reflections": 0.1, "kernel_blur": 0.0,
-                "residual": 0.0}
+    expected = {"emission": 0.1, "march": 0.1, "intersection": 0.1, "truncation": 0.1, "reflections": 0.1,
+                "kernel_blur": 0.0, "camera_volume": 0.1, "residual": 0.0}
+    assert set(expected) == set(TERMS)
     for term, share in expected.items():
         row = _row(result, term)
         assert row["energy_share"] == pytest.approx(share, abs=1e-12), term
-        assert row["relmse_part"] == pytest.approx(share * 0.4, abs=1e-12), term
+        assert row["relmse_part"] == pytest.approx(share * 0.6, abs=1e-12), term
         assert row["relmse_own"] == pytest.approx(share**2, abs=1e-12), term
         for field in FIELDS:
             assert row[f"{field}_se"] == 0.0, (term, field)
         np.testing.assert_allclose(result["terms"][term], share * one, rtol=0, atol=1e-12)
     total = _row(result, "total")
-    assert total["energy_share"] == pytest.approx(0.4, abs=1e-12)
-    assert total["relmse_part"] == pytest.approx(0.16, abs=1e-12)
+    assert total["energy_share"] == pytest.approx(0.6, abs=1e-12)
+    assert total["relmse_part"] == pytest.approx(0.36, abs=1e-12)
     assert all(total[f"{field}_se"] == 0.0 for field in FIELDS)
-    noise = _row(result, "noise")  # A's batch variance is rounding only (0.6 is not exact in binary)
+    noise = _row(result, "noise")  # A's batch variance is rounding only (0.4 is not exact in binary)
     assert noise["energy_sigma"] == 0.0 and noise["relmse"] == pytest.approx(0.0, abs=1e-12)
     residual = result["residual"]
     assert residual["energy_share"] == 0.0 and residual["debiased_relmse"] == 0.0
@@ -132,11 +134,11 @@ def test_energy_shares_are_per_channel_averaged_over_rgb():
     would be (0.1 + 3 + 50) / 111 ≈ 0.48."""
     r = _truth() * np.array([1.0, 10.0, 100.0])
     images = {name: r for name in BATCHED}
-    images["approx"] = r * np.array([0.9, 0.7, 0.5])
+    images["approx"] = images["approx_exact_march"] = r * np.array([0.9, 0.7, 0.5])
     result = decompose_caustic(_noiseless(images, 4), r)
     assert _row(result, "total")["energy_share"] == pytest.approx(0.3, abs=1e-12)
     assert _row(result, "intersection")["energy_share"] == pytest.approx(0.3, abs=1e-12)
-    for t in SIX:
+    for t in ALL_TERMS:
         if t != "intersection":
             assert _row(result, t)["energy_share"] == pytest.approx(0.0, abs=1e-12), t
 
@@ -151,7 +153,7 @@ def test_identity_is_zero_and_within_noise(k):
     for seed in range(11, 16):
         x = np.random.default_rng(seed).uniform(0.1, 2.0, (H, W, 3))
         result = decompose_caustic(_noiseless({name: x for name in BATCHED}, k), x)
-        for t in SIX:
+        for t in ALL_TERMS:
             np.testing.assert_allclose(result["terms"][t], 0.0, rtol=0, atol=1e-12)
             for field in FIELDS:
                 assert _row(result, t)[field] == pytest.approx(0.0, abs=1e-12), (t, field)
@@ -169,7 +171,7 @@ def test_noisy_identity_is_zero_and_within_noise():
     rng = np.random.default_rng(17)
     batches = _truth() + _blurred_noise(rng, (K, H, W, 3), 0.05)
     result = decompose_caustic({name: batches for name in BATCHED}, batches.mean(axis=0))
-    for t in SIX:
+    for t in ALL_TERMS:
         np.testing.assert_allclose(result["terms"][t], 0.0, rtol=0, atol=1e-12)
     assert _row(result, "total")["energy_share"] == 0.0
     assert _row(result, "total")["energy_share_se"] > 0  # A's noise
@@ -210,7 +212,7 @@ def test_an_unbiased_residual_is_within_noise(reference_noise):
     for seed in range(20):
         rng = np.random.default_rng(100 + seed)
         noise = _blurred_noise(rng, (K, H, W, 3), 0.02)
-        batches = {name: f * truth + noise for name, f in zip(BATCHED, (0.7, 0.8, 0.9, 0.95, 0.97, 1.0))}
+        batches = {name: f * truth + noise for name, f in zip(BATCHED, (0.6, 0.7, 0.8, 0.9, 0.95, 0.97, 0.99, 1.0))}
         kwargs, reference = {}, truth
         if reference_noise:
             kwargs["reference_var"] = np.full_like(truth, 0.005**2)
@@ -352,8 +354,9 @@ def test_jackknife_standard_error_matches_the_spread_over_draws():
         same = 0.9 * full
         steps = 0.95 * same
         approx = 0.9 * steps
-        batches = {"exact_all_small": small, "exact_emission": full, "exact_all": full, "exact_all_same": same,
-                   "exact_steps": steps, "approx": approx}
+        batches = {"exact_all_small_eye": small, "exact_all_small": small, "exact_emission": full,
+                   "exact_all": full, "exact_all_same": same, "exact_steps": steps, "approx_exact_march": approx,
+                   "approx": approx}
         reference = 1.05 * truth + _photon_noise(rng, truth.shape, ref_sd)
         result = decompose_caustic(batches, reference, reference_var=var)
         for term, field in checked:
@@ -488,13 +491,13 @@ def test_debiased_parts_remove_the_noise_a_term_shares_with_the_error():
     result = decompose_caustic(batches, truth)
     residual, total = _row(result, "residual"), _row(result, "total")
     assert residual["relmse_part"] > 4 * residual["relmse_part_se"]
-    for term in SIX:
+    for term in ALL_TERMS:
         row = _row(result, term)
         assert abs(row["relmse_part_debiased"]) <= 4 * row["relmse_part_se"] + 1e-15, term
     a = batches["approx"]
     debiased_total = (np.sum((truth - a.mean(axis=0)) ** 2) - a.var(axis=0, ddof=1).sum() / K) / np.sum(truth**2)
     assert total["relmse_part_debiased"] == pytest.approx(debiased_total, rel=1e-9)
-    assert sum(_row(result, t)["relmse_part_debiased"] for t in SIX) == pytest.approx(
+    assert sum(_row(result, t)["relmse_part_debiased"] for t in ALL_TERMS) == pytest.approx(
         total["relmse_part_debiased"], rel=1e-9)
 
 

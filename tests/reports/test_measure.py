@@ -93,7 +93,8 @@ def test_measure_writes_tidy_tables_exr_and_summary(empty_cache, tmp_path, capsy
     assert relmse["debiased"] == pytest.approx(relmse["value"] - relmse["reference_floor"] - relmse["approx_noise"])
     assert relmse["approx_noise"] > 0 and relmse["approx_noise_removed"]
     terms = images[(images["metric"] == "energy_share") & images["term"].notna()].set_index("term")
-    parts = ["emission", "intersection", "truncation", "reflections", "kernel_blur", "residual"]
+    parts = ["emission", "march", "intersection", "truncation", "reflections", "kernel_blur", "camera_volume",
+             "residual"]
     assert terms.loc[parts, "value"].sum() == pytest.approx(terms.loc["total", "value"], abs=1e-9)
     assert (terms["standard_error"] >= 0).all()
     ratio = images[(images["component"] == "caustic") & (images["metric"] == "energy_ratio")].iloc[0]
@@ -101,7 +102,8 @@ def test_measure_writes_tidy_tables_exr_and_summary(empty_cache, tmp_path, capsy
 
     with OpenEXR.File(str(out / "decomposition.exr")) as exr:
         channels = set(exr.channels())
-    for layer in ("approx", "reference", "exact_emission", "exact_all_small", "term.emission", "term.intersection",
+    for layer in ("approx", "approx_exact_march", "reference", "exact_emission", "exact_all_small",
+                  "exact_all_small_eye", "term.emission", "term.march", "term.intersection", "term.camera_volume",
                   "term.residual"):
         assert f"{layer}.R" in channels or layer in channels, (layer, sorted(channels)[:8])
     assert not [p for p in out.iterdir() if p.name.startswith(".")]  # no temporary files left

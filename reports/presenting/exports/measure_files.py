@@ -30,9 +30,9 @@ if TYPE_CHECKING:
 
 OUTPUT_FILES = (*(f"{name}.{ext}" for name in TABLES for ext in ("parquet", "csv")), "decomposition.exr",
                 "summary.json")  # what `measure -o DIR` writes; the manifest, summary.json, last
-DECOMPOSITION_IMAGES = {"approx": "A", "exact_steps": "E_k", "exact_all_same": "E_inf(A's fresnel)",
-                        "exact_all": "E_inf", "exact_emission": "E_em", "exact_all_small": "E_inf,s",
-                        "reference": "R"}
+DECOMPOSITION_IMAGES = {"approx": "A", "approx_exact_march": "A_m", "exact_steps": "E_k",
+                        "exact_all_same": "E_inf(A's fresnel)", "exact_all": "E_inf", "exact_emission": "E_em",
+                        "exact_all_small": "E_inf,s", "exact_all_small_eye": "E_inf,s,tau", "reference": "R"}
 
 
 def output_paths(out_dir: str) -> dict:
