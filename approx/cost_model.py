@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING, cast
 from volcaustics.infra.errors import InputError
 from volcaustics.infra.storage import special_file_kind
 
-from .cost import TIMED_PASSES
+from .cost import MEDIUM_PARTS, TIMED_PASSES
 from .params import balanced_beams, differential_beams, param, photon_slots
 from .splat_modes import SPLAT_MODES
 
@@ -51,7 +51,9 @@ def features(cost: dict, params: ApproxParams) -> dict:
     parameters. ``calls``: the pass's dispatches or draws (a fixed cost each);
     ``invocations``: compute invocations launched (every photon slot per dispatch, alive or
     not: ``params.photon_slots``);
-    ``maps``, ``texels``: the light maps drawn and their texels (cleared and packed)."""
+    ``maps``, ``texels``: the light maps drawn and their texels (cleared and packed);
+    ``medium_reads``: a heterogeneous medium's reads in the pass (``approx.cost``'s
+    ``medium_reads_<pass>``; the ``volumes`` pass's are its volumes' texels)."""
     launched = float(photon_slots(params))
     steps = float(params.steps)
     pixels = float(cast(int, params.width) * cast(int, params.height))  # resolved: both set
@@ -71,24 +73,29 @@ def features(cost: dict, params: ApproxParams) -> dict:
     # pass's, counted with it: the pilot's shader is the beams'; the llvmpipe fit measures
     # balanced configurations: docs/decisions.md "Frame cost")
     passes = 2.0 if balanced_beams(params) else 1.0
+    medium = {name: cost.get(f"medium_reads_{name}", 0.0) for name in MEDIUM_PARTS}
+    medium = {name: float(v) if isinstance(v, (int, float)) and math.isfinite(v) else 0.0 for name, v in medium.items()}
     return {
+        "volumes": {"calls": 1.0 if medium["volumes"] else 0.0, "medium_reads": medium["volumes"]},
         "layers": {"calls": 1.0, "maps": maps, "texels": maps * float(params.light_res) ** 2,
                    "primitives": cost["primitives_layers"], "fragments": cost["fragments_layers"]},
         "emission": {"calls": 1.0, "primitives": cost["primitives_emission"], "fragments": cost["fragments_emission"],
-                     "invocations": launched, "emission_reads": cost["emission_reads"]},
+                     "invocations": launched, "emission_reads": cost["emission_reads"],
+                     "medium_reads": medium["emission"]},
         "camera": {"calls": 1.0, "primitives": cost["primitives_camera"], "fragments": cost["fragments_camera"]},
         "trace": {"calls": steps, "invocations": launched * steps, "segments": cost["segments"],
                   "segment_maps": cost["segments"] * 2.0 * float(params.layers),
                   "map_reads": cost["map_reads"], "lookups": cost["lookups"],
-                  "lockstep_lookups": cost["lockstep_lookups"]},
+                  "lockstep_lookups": cost["lockstep_lookups"], "medium_reads": medium["trace"]},
         "density": {"calls": steps if density else 0.0, "splats": cost["splats"] if density else 0.0,
                     "fragments": cost["fragments_density"]},
         "splat": {"calls": steps * passes, "invocations": launched * steps * passes,
                   "splats": 0.0 if beams else cost["splats"], "fragments": 0.0 if beams else cost["fragments_splat"],
                   "beams": cost["splats"] if beams else 0.0, "beam_fragments": 0.0 if own else beam_fragments,
-                  "own_beam_fragments": beam_fragments if own else 0.0},
-        "fog": {"calls": 1.0, "fragments": cost["fragments_fog"] * float(params.fog_steps)},
-        "direct": {"calls": 1.0, "fragments": cost["fragments_direct"]},
+                  "own_beam_fragments": beam_fragments if own else 0.0, "medium_reads": medium["splat"]},
+        "fog": {"calls": 1.0, "fragments": cost["fragments_fog"] * float(params.fog_steps),
+                "medium_reads": medium["fog"]},
+        "direct": {"calls": 1.0, "fragments": cost["fragments_direct"], "medium_reads": medium["direct"]},
         "other": {"calls": 1.0, "pixels": pixels, "step_pixels": pixels * steps},
     }
 
@@ -117,9 +124,19 @@ class WeightSet:
             return (*param("splat").choices, DIFFERENTIAL_BEAMS)
         return config_splat_modes(configs)
 
-    def prices(self, params: ApproxParams) -> bool:
-        """Whether the set can price a frame of ``params`` (:attr:`splat_modes`, :func:`splat_mode`)."""
-        return splat_mode(params) in self.splat_modes
+    @property
+    def media(self) -> bool:
+        """Whether the set prices a heterogeneous medium's reads (a weight for them in some
+        pass: ``bench/cost_model.py --media``). A set fitted on homogeneous scenes alone would
+        price them as free."""
+        return any("medium_reads" in w for w in self.weights.values())
+
+    def prices(self, params: ApproxParams, cost: dict | None = None) -> bool:
+        """Whether the set can price a frame of ``params`` (:attr:`splat_modes`, :func:`splat_mode`)
+        and ``cost`` (a heterogeneous medium's reads only with :attr:`media`)."""
+        reads = (cost or {}).get("medium_reads", 0)
+        heterogeneous = isinstance(reads, (int, float)) and math.isfinite(reads) and reads > 0
+        return splat_mode(params) in self.splat_modes and (self.media or not heterogeneous)
 
     def predict(self, cost: dict, params: ApproxParams) -> dict:
         """pass → predicted time, and ``frame``: their sum."""
@@ -274,9 +291,10 @@ def weight_sets(folder: str | None = None) -> dict:
 
 def predicted_frames(cost: dict, params: ApproxParams, sets: dict | None = None) -> dict:
     """name → predicted frame time of (cost, params) under each weight set that prices it
-    (:meth:`WeightSet.prices`; default: the shipped ones; each in its set's unit)."""
+    (:meth:`WeightSet.prices`: its splat mode, and a heterogeneous medium's reads; default:
+    the shipped ones; each in its set's unit)."""
     sets = weight_sets() if sets is None else sets
-    return {name: ws.frame(cost, params) for name, ws in sets.items() if ws.prices(params)}
+    return {name: ws.frame(cost, params) for name, ws in sets.items() if ws.prices(params, cost)}
 
 
 _COST_NAMES = ("map_reads", "emission_reads", "splats", "segments", "lookups", "lockstep_lookups",

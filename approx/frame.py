@@ -35,7 +35,9 @@ class Frame:
         over its steps; 0 for a compute pass), ``shaded`` (pass name → fragments shaded,
         discards included, where the driver counts them: ``approx.invocations``),
         ``lookups`` and ``lockstep_lookups`` (the trace loop's map lookups over every
-        step: the photons' own, and their subgroups' in lockstep, ``Tracer.loop_work``).
+        step: the photons' own, and their subgroups' in lockstep, ``Tracer.loop_work``),
+        ``medium_reads`` (the trace's samples of a heterogeneous medium's ρ, 0 in a
+        homogeneous one) and ``heterogeneous`` (whether the medium has a density grid).
     params: the parameters actually used (width/height resolved).
     guides: the G-buffer a temporal filter or denoiser reads: ``distance`` (H×W, to the
         eye, 0 where nothing is hit) and ``normal`` (H×W×3, world).

@@ -178,7 +178,7 @@ class Renderer:
         records = self._read_records(passes, p) if keep_records else []
         emitted = len(records[0]) if keep_records and records else None  # photons alive after emission
         timer.collect()
-        loop_work = dict(zip(("lookups", "lockstep_lookups"), passes.tracer.loop_work(p.steps)))
+        loop_work = dict(zip(("lookups", "lockstep_lookups", "medium_reads"), passes.tracer.loop_work(p.steps)))
         timings = dict(timer.seconds)
         timings["trace"] = sum(v for k, v in timings.items() if k.startswith("trace_step"))
         timings["frame_wall"] = time.perf_counter() - wall0
@@ -188,7 +188,8 @@ class Renderer:
         return Frame(images=images, caustic_steps=caustic_steps, records=records, timings=timings,
                      timing_method=timer.method, params=p.to_dict(), photons_emitted=emitted, gl=gl_info(ctx),
                      work={"fragments": dict(timer.fragments), "primitives": dict(timer.primitives),
-                           "shaded": dict(timer.shaded), **loop_work},
+                           "shaded": dict(timer.shaded), **loop_work,
+                           "heterogeneous": scene.medium.is_heterogeneous},
                      guides={"distance": geometry[..., 0], "normal": normal} if keep_guides else {})
 
     def _passes(self, scene: Scene, p: ApproxParams, timer: PassTimer | DisplayTimer, *,

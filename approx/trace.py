@@ -46,6 +46,8 @@ if TYPE_CHECKING:
 
 MAX_MATERIALS = 16
 COMPACT_BLOCK = 256  # BLOCK of splat/compact.comp.glsl
+WORK_COUNTERS = 3  # per step: lookups, lockstep lookups, medium reads (trace.comp.glsl Work)
+WORK_BYTES = 4 * WORK_COUNTERS
 
 # Start offset of a segment leaving a surface, in light-map texel footprints
 # (common/start_offset.glsl): footprint · (START_SLOPE·sin θ + START_FLOOR) / |d·n|, at most START_MAX.
@@ -95,7 +97,7 @@ class PhotonTracer:
         self.emission_shift = float(defines.get("EMISSION_SHIFT", 0.0))  # texels (a test's wrong grid, emit.comp.glsl)
         self.importance = shaders.get("importance")
         self.maps = defines["MAPS"]
-        # per step its lookups, own and lockstep (trace.comp.glsl Work), zeroed by start_frame
+        # per step its lookups, own and lockstep, and its medium reads (trace.comp.glsl Work), zeroed by start_frame
         self.work: moderngl.Buffer | None = None
         self._solid_angles: dict[tuple, moderngl.Buffer] = {}
         self._max_groups = int(ctx.info["GL_MAX_COMPUTE_WORK_GROUP_COUNT"][0])
@@ -271,7 +273,7 @@ class PhotonTracer:
             map_texels.pyramid.bind_to_storage_buffer(6)
             set_uniforms(prog, pyramid_offset=offsets + [0] * (16 - len(offsets)), pyramid_stride=stride,
                          pyramid_top=len(offsets) - 1)
-        if self.work is None or self.work.size < 8 * step:
+        if self.work is None or self.work.size < WORK_BYTES * step:
             self.start_frame(step)
         work = cast(moderngl.Buffer, self.work)
         work.bind_to_storage_buffer(8)
@@ -294,7 +296,7 @@ class PhotonTracer:
     def start_frame(self, steps: int) -> None:
         """Zero the trace loop's work counters of a frame of ``steps`` steps."""
         self._release_own(self.work)
-        self.work = self._buffer("trace_work", 8 * steps)
+        self.work = self._buffer("trace_work", WORK_BYTES * steps)
         self.work.write(bytes(self.work.size))
 
     def _buffer(self, name: str, nbytes: int) -> moderngl.Buffer:
@@ -309,12 +311,15 @@ class PhotonTracer:
                     buf.release()
 
     def loop_work(self, steps: int) -> tuple:
-        """The loop work of the frame's ``steps`` steps: (lookups, lockstep lookups), each
-        summed over the steps (reads the counters: waits for the GPU). Lookups: the map
-        distances its photons looked up (every search loop iteration, whether it read
-        memory or a register); lockstep: per subgroup its longest photon's lookups × the
-        subgroup's size (where the driver has subgroups; else the lookups)."""
-        work = np.frombuffer(cast(moderngl.Buffer, self.work).read(size=8 * steps), np.uint32).reshape(steps, 2)
+        """The loop work of the frame's ``steps`` steps: (lookups, lockstep lookups, medium
+        reads), each summed over the steps (reads the counters: waits for the GPU). Lookups:
+        the map distances its photons looked up (every search loop iteration, whether it
+        read memory or a register); lockstep: per subgroup its longest photon's lookups ×
+        the subgroup's size (where the driver has subgroups; else the lookups); medium
+        reads: a heterogeneous medium's samples of ρ (delta tracking's tentative
+        collisions, the march's samples)."""
+        work = np.frombuffer(cast(moderngl.Buffer, self.work).read(size=WORK_BYTES * steps),
+                             np.uint32).reshape(steps, WORK_COUNTERS)
         return tuple(int(n) for n in work.sum(axis=0, dtype=np.uint64))
 
     def compact_splats(self, records: moderngl.Buffer, count: int, splats: moderngl.Buffer,

@@ -3,6 +3,7 @@ configurations and scenes left out of the fit.
 
     .venv/bin/python bench/cost_model.py [--rounds N] [--size PX] [--write] [--json FILE]
         [--points FILE [--measure NAME,...]]
+    .venv/bin/python bench/cost_model.py --media [--rounds N] [--size PX] [--write]
 
 Every built-in renders the FIT configurations (changes from the quick preset, one axis
 at a time: photon_res, splat_radius, layers, steps, iterations, the searches, the splat
@@ -19,6 +20,16 @@ provenance as ``approx/cost_weights/<GL kind>.json`` and, anchored in the paper'
 pass shares (Table 1: at the paper's configuration trace ≈ 70% and splatting ≈ 23% of a
 frame), ``approx/cost_weights/paper_gpu.json`` (``--no-anchor``: the fitted set alone, e.g.
 a GPU's beside the shipped anchor).
+
+``--media`` prices a heterogeneous medium's work (``approx.cost``'s medium reads: its
+volumes' texels, the march's and delta tracking's samples of ρ, the volumes' reads) on top
+of the shipped weight set of this machine's kind: the MEDIA_FIT configurations on
+fogbank and smoke (scenes/media) are measured, and per pass the medium reads' weight (and
+the ``volumes`` pass's call) is fitted by non-negative least squares to what the shipped
+weights leave unexplained (a homogeneous frame has no medium reads, so the built-ins'
+points could not constrain these weights). Checked on the held-out ``layered_fog``, every
+configuration; ``--write`` stores the set with the new weights and the paper anchor again
+(whose homogeneous counts, and so its scale, are unchanged).
 """
 
 from __future__ import annotations
@@ -70,6 +81,18 @@ HELD_OUT = {  # never in the fit: several axes at once
     "beams_preset_mixed": {**BEAMS, "photon_res": 80, "layers": 3, "steps": 6},
     "beams_balanced_mixed": {**BEAMS, "beam_width": "balanced", "photon_res": 48, "layers": 1},
 }
+# heterogeneous media (--media): what scales the medium's reads, points and beams
+MEDIA_FIT = {
+    "quick": {}, "march4": {"march_steps": 4}, "march64": {"march_steps": 64},
+    "volumes32": {"camera_volume_res": 32, "camera_volume_slices": 16, "light_volume_res": 32,
+                  "light_volume_slices": 16},
+    "volumes256": {"camera_volume_res": 256, "camera_volume_slices": 128, "light_volume_res": 256,
+                   "light_volume_slices": 128},
+    "fog24": {"fog_steps": 24}, "res384": {"photon_res": 384}, "steps6": {"steps": 6},
+    "beams_preset": {**BEAMS, "photon_res": 64}, "beams_march4": {**BEAMS, "photon_res": 64, "march_steps": 4},
+    "beams_march64": {**BEAMS, "photon_res": 64, "march_steps": 64}, "beams": {"splat": "beams"},
+}
+MEDIA_SCENES, MEDIA_HELD_OUT = ("fogbank", "smoke"), ("layered_fog",)
 PAPER_SHARES = {"trace": 0.70, "splatting": 0.23}  # the paper's Table 1, at its configuration
 # the weight files go to the checkout's package folder (an editable install's link tree is not it)
 OUT_DIR = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "approx", "cost_weights")
@@ -79,7 +102,7 @@ SPLATTING = ("splat", "density")
 def measure(scene_arg: str, configs: dict, rounds: int, size: int) -> list:
     """Per configuration of one scene: its counts and the median time of every pass."""
     from volcaustics.approx import Renderer
-    from volcaustics.approx.cost import frame_cost
+    from volcaustics.approx.cost import TIMED_PASSES, frame_cost
     from volcaustics.approx.params import QUICK
     from volcaustics.scenes import resolve_scene
 
@@ -101,8 +124,7 @@ def measure(scene_arg: str, configs: dict, rounds: int, size: int) -> list:
     for name in configs:
         med = {k: statistics.median(t.get(k, 0.0) for t in times[name])
                for k in {k for t in times[name] for k in t} if not k.startswith("trace_step")}
-        passes = {k: med.get(k, 0.0) for k in ("layers", "emission", "camera", "trace", "density", "splat", "fog",
-                                               "direct")}
+        passes = {k: med.get(k, 0.0) for k in TIMED_PASSES}
         passes["other"] = max(med["frame_wall"] - sum(passes.values()), 0.0)
         rows.append({"scene": scene_arg, "config": name, "params": params[name], "cost": costs[name],
                      "passes": passes, "frame": med["frame_wall"]})
@@ -144,6 +166,81 @@ def fit(rows: list) -> dict:
         total = float(((y - y.mean()) ** 2).sum())
         r2[name] = 1.0 - float(((a @ w - y) ** 2).sum()) / total if total > 0 else 1.0
     return {"weights": weights, "r2": r2}
+
+
+def fit_media(rows: list, ws) -> dict:
+    """pass → feature → weight: ``ws``'s weights with, per pass, the medium reads' weight (the
+    ``volumes`` pass: its call's too) fitted by non-negative least squares to what ``ws``
+    leaves unexplained in ``rows`` (heterogeneous frames); and the R² of that fit per pass."""
+    import numpy as np
+    from scipy.optimize import nnls
+
+    from volcaustics.approx.cost_model import MODEL_PASSES, features
+
+    weights, r2 = {name: dict(w) for name, w in ws.weights.items()}, {}
+    for name in MODEL_PASSES:
+        xs = [features(r["cost"], r["params"])[name] for r in rows]
+        names = ["calls", "medium_reads"] if name == "volumes" else ["medium_reads"]
+        if "medium_reads" not in xs[0]:
+            continue
+        a = np.array([[x[f] for f in names] for x in xs], float)
+        y = np.array([r["passes"][name] - ws.predict(r["cost"], r["params"])[name] for r in rows], float)
+        scale = np.maximum(a.max(axis=0), 1e-30)
+        w, _ = nnls(a / scale, y)
+        w = w / scale
+        weights[name] = {**weights.get(name, {}), **{f: float(v) for f, v in zip(names, w) if v > 0}}
+        total = float(((y - y.mean()) ** 2).sum())
+        r2[name] = 1.0 - float(((a @ w - y) ** 2).sum()) / total if total > 0 else 1.0
+    return {"weights": weights, "r2": r2}
+
+
+def media(args, argv) -> int:
+    """--media: the shipped set of this machine's kind extended with a heterogeneous medium's weights."""
+    from volcaustics.approx.context import shared_context
+    from volcaustics.approx.cost_model import weight_sets
+    from volcaustics.scenes.catalogue import MEDIA_DIR
+
+    renderer_name = shared_context().info["GL_RENDERER"]
+    kind = "llvmpipe" if "llvmpipe" in renderer_name.lower() else "gpu_" + "".join(
+        c if c.isalnum() else "_" for c in renderer_name.lower()).strip("_")[:40]
+    ws = weight_sets()[kind]
+    rows, held = [], []
+    for name in MEDIA_SCENES + MEDIA_HELD_OUT:
+        measured = measure(os.path.join(MEDIA_DIR, f"{name}.toml"), MEDIA_FIT, args.rounds, args.size)
+        (held if name in MEDIA_HELD_OUT else rows).extend(measured)
+        print(f"{name}: {len(measured)} configurations", flush=True)
+    before = {"fit": summary("before, fit scenes", errors(rows, ws)), "held_out": summary("before, held out",
+                                                                                          errors(held, ws))}
+    fitted = fit_media(rows, ws)
+    extended = dataclasses.replace(ws, weights=fitted["weights"])
+    print("R² of the medium reads' fit per pass: " + ", ".join(f"{k} {v:.3f}" for k, v in fitted["r2"].items()))
+    report = {"fit": summary("fit (fogbank, smoke x MEDIA_FIT)", errors(rows, extended)),
+              "held_out": summary("held-out layered_fog, every configuration", errors(held, extended))}
+    print("\n| scene | config | measured ms | predicted before ms | predicted ms | error |\n"
+          "|---|---|---:|---:|---:|---:|")
+    for (r, pred, e), (_, old, _) in zip(errors(rows + held, extended), errors(rows + held, ws)):
+        print(f"| {os.path.basename(r['scene']).removesuffix('.toml')} | {r['config']} | {1000 * r['frame']:.0f} | "
+              f"{1000 * old:.0f} | {1000 * pred:.0f} | {100 * e:+.1f}% |")
+    provenance = {**ws.provenance, "media_fit": {
+        "scenes": list(MEDIA_SCENES), "configs": MEDIA_FIT, "held_out_scenes": list(MEDIA_HELD_OUT),
+        "size": args.size, "rounds": args.rounds, "r2": fitted["r2"], "before": before, **report,
+        "date": datetime.date.today().isoformat(), "gl_renderer": renderer_name,
+        "command": "bench/cost_model.py " + " ".join(argv if argv is not None else sys.argv[1:])}}
+    if args.write:
+        write_sets([dataclasses.replace(extended, provenance=provenance), *([paper_anchor(extended, "two_spheres")]
+                                                                            if args.anchor else [])])
+    return 0
+
+
+def write_sets(sets: list) -> None:
+    """Store each weight set as approx/cost_weights/<name>.json (a temporary file, then renamed)."""
+    for s in sets:
+        path = os.path.join(OUT_DIR, f"{s.name}.json")
+        tmp = path + ".tmp"
+        with open(tmp, "w", encoding="utf-8") as fh:
+            json.dump(s.to_dict(), fh, indent=1, sort_keys=True)
+        os.replace(tmp, path)
+        print(f"wrote {path}")
 
 
 def errors(rows: list, ws) -> list:
@@ -205,7 +302,11 @@ def main(argv=None) -> int:
                         "anew on every scene and take the others from the file")
     parser.add_argument("--anchor", action=argparse.BooleanOptionalAction, default=True,
                         help="with --write, also write paper_gpu.json anchored in this fit (default: yes)")
+    parser.add_argument("--media", action="store_true",
+                        help="extend this machine's shipped weight set with a heterogeneous medium's weights")
     args = parser.parse_args(argv)
+    if args.media:
+        return media(args, argv)
 
     from volcaustics.approx.context import shared_context
     from volcaustics.approx.cost_model import WeightSet, config_splat_modes
@@ -268,13 +369,7 @@ def main(argv=None) -> int:
             json.dump([{"scene": r["scene"], "config": r["config"], "cost": r["cost"], "passes": r["passes"],
                         "frame": r["frame"]} for r in rows + held + held_scenes], fh)
     if args.write:
-        for s in (ws, paper_anchor(ws, "two_spheres")) if args.anchor else (ws,):
-            path = os.path.join(OUT_DIR, f"{s.name}.json")
-            tmp = path + ".tmp"
-            with open(tmp, "w", encoding="utf-8") as fh:
-                json.dump(s.to_dict(), fh, indent=1, sort_keys=True)
-            os.replace(tmp, path)
-            print(f"wrote {path}")
+        write_sets([ws, paper_anchor(ws, "two_spheres")] if args.anchor else [ws])
     return 0
 
 

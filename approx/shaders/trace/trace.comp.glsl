@@ -43,9 +43,9 @@
 // differentials through every step; BEAM_DIFFERENTIAL also keeps each photon's at its
 // segment's start (the beam's footprint there and its rate along it) for the compaction.
 // HETEROGENEOUS (a density grid, common/density.glsl): free flights by delta tracking through
-// the grid of majorants at rate ρ(x)·sigma_bar (its tentative collisions count as lookups),
-// and a segment's transmittance from march_steps midpoint samples of ρ (a fixed march: the
-// approximation the harness measures).
+// the grid of majorants at rate ρ(x)·sigma_bar, and a segment's transmittance from
+// march_steps midpoint samples of ρ (a fixed march: the approximation the harness
+// measures); the tracking's tentative collisions and the march's samples are its medium reads.
 // Where the driver has subgroups (GL_ARB_shader_ballot, 64-bit ballots), the loop work
 // is also counted in lockstep: a subgroup runs until its longest search ends.
 #extension GL_ARB_shader_ballot : enable
@@ -66,7 +66,7 @@ uniform int march_steps;             // midpoint samples of ρ for a segment's t
 #ifdef EXACT_MARCH  // the decomposition's control: a segment's transmittance exact (its march term)
 #define SEGMENT_DEPTH(o, d, len) exact_depth(o, d, len)
 #else
-#define SEGMENT_DEPTH(o, d, len) march_depth(o, d, len, march_steps)
+#define SEGMENT_DEPTH(o, d, len) (g_medium += uint(march_steps), march_depth(o, d, len, march_steps))
 #endif
 #endif
 
@@ -130,17 +130,20 @@ layout(std430, binding = 7) buffer Differentials { vec2 differentials[]; };
 layout(std430, binding = 9) writeonly buffer SegmentDifferentials { vec2 segment_differentials[]; };
 #endif
 
-// the trace loop's work per step, two counters a step (approx.cost: lookups, one atomic add
+// the trace loop's work per step, three counters a step (approx.cost: lookups, one atomic add
 // per photon; lockstep_lookups, one per subgroup: its longest search × its size, what a SIMD
 // machine spends on it, since every lane waits for the last; without subgroups the photons'
-// own), read once after the frame
+// own; medium_reads, a heterogeneous medium's samples of ρ, one atomic add per photon that
+// read any), read once after the frame
 layout(std430, binding = 8) buffer Work { uint work[]; };
-#define WORK_LOOKUPS work[2u * (step_index - 1u)]
-#define WORK_LOCKSTEP work[2u * (step_index - 1u) + 1u]
+#define WORK_LOOKUPS work[3u * (step_index - 1u)]
+#define WORK_LOCKSTEP work[3u * (step_index - 1u) + 1u]
+#define WORK_MEDIUM work[3u * (step_index - 1u) + 2u]
 
 uint g_flags;
 uint g_map_reads;  // map texels the search read for this segment (map_reads: cost that travels across hardware)
 uint g_lookups;    // map distances the search looked up, registers included: the search loops' iterations
+uint g_medium;     // samples of a heterogeneous medium's ρ: delta tracking's tentative collisions, the march's
 float g_start_id;  // start rule `id`: primitive id + 1 of the triangle the segment leaves (0 none)
 vec3 g_dir;        // start rule `facing`: the segment's direction ...
 bool g_inside;     // ... and whether it runs inside glass
@@ -408,6 +411,7 @@ void main() {
     g_flags = 0u;
     g_map_reads = 0u;
     g_lookups = 0u;
+    g_medium = 0u;
 
     // --- segment: free flight in the medium, or the way out of the glass
     float span = box_exit(o, d, scene_min, scene_max);
@@ -418,7 +422,7 @@ void main() {
         uint tentative;
         float collision = delta_track(o, d, span, sigma_bar, seed, i, step_index, tentative);
         max_len = collision >= 0.0 ? collision : 2.0 * span + 1.0;
-        g_lookups += tentative;
+        g_medium += tentative;
 #else
         max_len = -log(1.0 - rng_uniform(seed, i, step_index, 0u)) / sigma_bar;
 #endif
@@ -543,5 +547,6 @@ void main() {
     rec.power_start.w = float(g_map_reads);
     records[i] = rec;
     atomicAdd(WORK_LOOKUPS, g_lookups);
+    if (g_medium > 0u) atomicAdd(WORK_MEDIUM, g_medium);
     count_lockstep_work();
 }
