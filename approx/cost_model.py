@@ -53,7 +53,8 @@ def features(cost: dict, params: ApproxParams) -> dict:
     not: ``params.photon_slots``);
     ``maps``, ``texels``: the light maps drawn and their texels (cleared and packed);
     ``medium_reads``: a heterogeneous medium's reads in the pass (``approx.cost``'s
-    ``medium_reads_<pass>``; the ``volumes`` pass's are its volumes' texels)."""
+    ``medium_reads_<pass>``; the ``volumes`` pass's are its volumes' texels), and
+    ``medium_fragments`` a beam's fragments there (what each costs beside its march)."""
     launched = float(photon_slots(params))
     steps = float(params.steps)
     pixels = float(cast(int, params.width) * cast(int, params.height))  # resolved: both set
@@ -92,7 +93,9 @@ def features(cost: dict, params: ApproxParams) -> dict:
         "splat": {"calls": steps * passes, "invocations": launched * steps * passes,
                   "splats": 0.0 if beams else cost["splats"], "fragments": 0.0 if beams else cost["fragments_splat"],
                   "beams": cost["splats"] if beams else 0.0, "beam_fragments": 0.0 if own else beam_fragments,
-                  "own_beam_fragments": beam_fragments if own else 0.0, "medium_reads": medium["splat"]},
+                  "own_beam_fragments": beam_fragments if own else 0.0, "medium_reads": medium["splat"],
+                  # a beam fragment in a heterogeneous medium: ρ, the camera volume and the exp beside its march
+                  "medium_fragments": beam_fragments if medium["volumes"] else 0.0},
         "fog": {"calls": 1.0, "fragments": cost["fragments_fog"] * float(params.fog_steps),
                 "medium_reads": medium["fog"]},
         "direct": {"calls": 1.0, "fragments": cost["fragments_direct"], "medium_reads": medium["direct"]},

@@ -25,8 +25,9 @@ a GPU's beside the shipped anchor).
 volumes' texels, the march's and delta tracking's samples of ρ, the volumes' reads) on top
 of the shipped weight set of this machine's kind: the MEDIA_FIT configurations on
 fogbank and smoke (scenes/media) are measured, and per pass the medium reads' weight (and
-the ``volumes`` pass's call) is fitted by non-negative least squares to what the shipped
-weights leave unexplained (a homogeneous frame has no medium reads, so the built-ins'
+the ``volumes`` pass's call, a beam fragment's beside its march) is fitted by non-negative
+least squares, relative to each frame's time, to what the shipped weights leave
+unexplained (a homogeneous frame has no medium reads, so the built-ins'
 points could not constrain these weights). Checked on the held-out ``layered_fog``, every
 configuration; ``--write`` stores the set with the new weights and the paper anchor again
 (whose homogeneous counts, and so its scale, are unchanged).
@@ -170,8 +171,10 @@ def fit(rows: list) -> dict:
 
 def fit_media(rows: list, ws) -> dict:
     """pass → feature → weight: ``ws``'s weights with, per pass, the medium reads' weight (the
-    ``volumes`` pass: its call's too) fitted by non-negative least squares to what ``ws``
-    leaves unexplained in ``rows`` (heterogeneous frames); and the R² of that fit per pass."""
+    ``volumes`` pass: its call's too; the splat pass: a beam fragment's beside its march)
+    fitted by non-negative least squares, relative to each frame's time, to what ``ws``
+    leaves unexplained in ``rows`` (heterogeneous frames); and the R² of that fit per pass
+    (of the relative residuals)."""
     import numpy as np
     from scipy.optimize import nnls
 
@@ -180,11 +183,14 @@ def fit_media(rows: list, ws) -> dict:
     weights, r2 = {name: dict(w) for name, w in ws.weights.items()}, {}
     for name in MODEL_PASSES:
         xs = [features(r["cost"], r["params"])[name] for r in rows]
-        names = ["calls", "medium_reads"] if name == "volumes" else ["medium_reads"]
-        if "medium_reads" not in xs[0]:
+        names = [f for f in ("calls", "medium_reads", "medium_fragments") if f in xs[0]
+                 and (f != "calls" or name == "volumes")]
+        if "medium_reads" not in names:
             continue
-        a = np.array([[x[f] for f in names] for x in xs], float)
-        y = np.array([r["passes"][name] - ws.predict(r["cost"], r["params"])[name] for r in rows], float)
+        # relative to each frame's time: the 25-s frames of default beams must not outweigh the presets'
+        frame = np.array([r["frame"] for r in rows], float)[:, None]
+        a = np.array([[x[f] for f in names] for x in xs], float) / frame
+        y = np.array([r["passes"][name] - ws.predict(r["cost"], r["params"])[name] for r in rows], float) / frame[:, 0]
         scale = np.maximum(a.max(axis=0), 1e-30)
         w, _ = nnls(a / scale, y)
         w = w / scale

@@ -89,6 +89,7 @@ def test_a_set_without_medium_weights_refuses_a_heterogeneous_frame(fogbank):
     assert set(predicted_frames(homogeneous, p, unaware)) == {n for n, ws in sets.items() if ws.prices(p)}
     # a set that learnt the reads prices them: more reads, a longer predicted frame
     priced = {n: ws for n, ws in sets.items() if ws.media}
+    assert {"llvmpipe", "paper_gpu"} <= set(priced)  # bench/cost_model.py --media fitted them
     more = {**cost, "medium_reads_trace": 2 * cost["medium_reads_trace"]}
     for name, ws in priced.items():
         assert ws.frame(more, p) > ws.frame(cost, p), name
