@@ -6,7 +6,9 @@ For each scene and configuration (the paper's points at the report's ``quick`` p
 settings, 4 seeds, 128²):
 the caustic's one-frame relative MSE and its mean image's (the bias), the fog's (the
 transmittance volumes' error: the fog has no photons), the decomposition's closure (its
-residual's z for energy and relMSE), the frame's wall time and its ``volumes`` pass. Then the
+residual's z for energy and relMSE), the frame's wall time and its ``volumes`` pass, and for
+the beams preset its cost against the paper configuration's (predicted under every weight set
+that prices it, and measured: ``equal_cost``). Then the
 transmittance approximations' own cost: the volumes and the march at a quarter and at four
 times their defaults on the first scene, at a quarter on smoke's sharp plume; the
 decomposition's ``march`` and ``camera_volume`` terms (energy share ± SE / debiased part of
@@ -45,14 +47,17 @@ def _row(label: str, result) -> str:
     closure = result.closure
     z = "–" if closure is None else f"{closure.energy_z:+.1f} / {closure.relmse_z:+.1f}"
     t = result.timings
+    match = result.equal_cost
+    cost = "–" if match is None else (" / ".join(f"{v:.2f}" for v in match.predicted_ratio.values())
+                                      + f" / {match.measured_ratio:.2f}")
     return (f"| {label} | {pct('frame_relative_mse', 'caustic')} | {pct('relative_mse', 'caustic')} | "
             f"{pct('relative_mse', 'fog')} | {term('march')} | {term('camera_volume')} | {z} | "
-            f"{1000 * t.get('frame_wall', float('nan')):.0f} | {1000 * t.get('volumes', 0.0):.1f} |")
+            f"{1000 * t.get('frame_wall', float('nan')):.0f} | {1000 * t.get('volumes', 0.0):.1f} | {cost} |")
 
 
 HEADER = ("| configuration | caustic one frame | caustic mean image | fog | march (energy / relMSE part) "
-          "| camera_volume (energy / relMSE part) | residual z (energy / relMSE) | frame (ms) | volumes (ms) |"
-          "\n|---|---|---|---|---|---|---|---|---|")
+          "| camera_volume (energy / relMSE part) | residual z (energy / relMSE) | frame (ms) | volumes (ms) "
+          "| × the paper's cost (predicted per set / measured) |\n|---|---|---|---|---|---|---|---|---|---|")
 
 
 def _homogeneous(path: str, folder: str) -> str:
