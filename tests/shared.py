@@ -281,3 +281,18 @@ def write_compared_images(test_name: str, layers: dict, *, info: dict | None = N
         with open(os.path.join(folder, "info.json"), "w", encoding="utf-8") as fh:
             json.dump(info, fh, indent=2, default=lambda x: np.asarray(x).tolist())
     return folder
+
+
+def media_renderer(name: str):
+    """(scene, Renderer) for scenes/media/<name>.toml: a generator for a module fixture
+    (released after it)."""
+    from volcaustics.approx import Renderer
+    from volcaustics.scenes import resolve_scene
+    from volcaustics.scenes.catalogue import MEDIA_DIR
+
+    scene = resolve_scene(os.path.join(MEDIA_DIR, f"{name}.toml"))
+    renderer = Renderer(scene)
+    try:
+        yield scene, renderer
+    finally:
+        renderer.release()

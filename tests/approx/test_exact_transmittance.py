@@ -8,26 +8,22 @@ a fine one. A homogeneous medium has neither: the controls leave its frame bit f
 from __future__ import annotations
 
 import dataclasses
-import os
 
 import numpy as np
 import pytest
 
+from tests.shared import media_renderer
 from volcaustics.approx import Renderer
 from volcaustics.approx.params import QUICK
 from volcaustics.approx.splat import record_splats, splatted
-from volcaustics.scenes import load_builtin, resolve_scene
-from volcaustics.scenes.catalogue import MEDIA_DIR
+from volcaustics.scenes import load_builtin
 
 SIZE = 64
 
 
 @pytest.fixture(scope="module")
 def smoke(gl_context):
-    scene = resolve_scene(os.path.join(MEDIA_DIR, "smoke.toml"))
-    renderer = Renderer(scene)
-    yield scene, renderer
-    renderer.release()
+    yield from media_renderer("smoke")
 
 
 def _params(scene, **changes):

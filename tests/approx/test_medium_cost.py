@@ -8,17 +8,16 @@ refuses its frames instead of pricing the reads as free."""
 from __future__ import annotations
 
 import dataclasses
-import os
 
 import numpy as np
 import pytest
 
+from tests.shared import media_renderer
 from volcaustics.approx import Renderer
 from volcaustics.approx.cost import MEDIUM_PARTS, frame_cost
 from volcaustics.approx.cost_model import WeightSet, predicted_frames, weight_sets
 from volcaustics.approx.params import BEAMS, QUICK
-from volcaustics.scenes import load_builtin, resolve_scene
-from volcaustics.scenes.catalogue import MEDIA_DIR
+from volcaustics.scenes import load_builtin
 from volcaustics.scenes.formats import STATUS_COLLIDED, STATUS_SURFACE
 
 SIZE = 64
@@ -26,10 +25,7 @@ SIZE = 64
 
 @pytest.fixture(scope="module")
 def fogbank(gl_context):
-    scene = resolve_scene(os.path.join(MEDIA_DIR, "fogbank.toml"))
-    renderer = Renderer(scene)
-    yield scene, renderer
-    renderer.release()
+    yield from media_renderer("fogbank")
 
 
 def _frame(setup, **changes):
