@@ -37,7 +37,7 @@ def _row(label: str, result) -> str:
 
     def pct(metric: str, component: str) -> str:
         e = find_estimate(result.images, metric, component)
-        return "–" if e is None else f"{100 * e.debiased:.2f}%"
+        return "–" if e is None or e.debiased != e.debiased else f"{100 * e.debiased:.2f}%"  # NaN: no such light
 
     def term(name: str) -> str:
         rows = [r for r in result.decomposition if r.term == name]
