@@ -1,6 +1,8 @@
 """The caustic's error by cause on the report's page: each scene's decomposition table,
 and its overview cell (the terms' debiased relMSE parts, emission first, and whether
-the residual is within noise)."""
+the residual is within noise; a term that is exactly 0, its two images the same, is left
+out of the cell: march and camera_volume in a homogeneous medium, reflections when A's
+Fresnel is stochastic)."""
 
 from __future__ import annotations
 
@@ -21,13 +23,15 @@ def _hundred(value: float) -> float:
 
 
 def overview_cell(page: ScenePage, component: str) -> str:
-    """The caustic row's cell: every term's debiased part, then the residual's verdict;
-    an empty cell for the other components (the decomposition is the caustic's)."""
+    """The caustic row's cell: every term's debiased part but those exactly 0 (both numbers),
+    then the residual's verdict; an empty cell for the other components (the decomposition
+    is the caustic's)."""
     d = page.decomposition
     if component != "caustic":
         return "<td class='l'></td>"
     parts = "<br>".join(f"{escape(t.term.replace('_', ' '))} "
-                        f"{_num(_hundred(t.relmse_part_debiased), '{:+.2f}')}" for t in d.terms)
+                        f"{_num(_hundred(t.relmse_part_debiased), '{:+.2f}')}" for t in d.terms
+                        if not (t.energy_share == 0.0 and t.relmse_part == 0.0))
     res = d.residual
     closes = _verdict(res.within_noise, "closes" if res.within_noise else "does not close")
     return f"<td class='l note'>{parts}<br>{closes}</td>"
