@@ -48,8 +48,8 @@ def _row(label: str, result) -> str:
     z = "–" if closure is None else f"{closure.energy_z:+.1f} / {closure.relmse_z:+.1f}"
     t = result.timings
     match = result.equal_cost
-    cost = "–" if match is None else (" / ".join(f"{v:.2f}" for v in match.predicted_ratio.values())
-                                      + f" / {match.measured_ratio:.2f}")
+    cost = "–" if match is None else (", ".join(f"{name} {v:.2f}" for name, v in match.predicted_ratio.items())
+                                      + f"; measured {match.measured_ratio:.2f}")
     return (f"| {label} | {pct('frame_relative_mse', 'caustic')} | {pct('relative_mse', 'caustic')} | "
             f"{pct('relative_mse', 'fog')} | {term('march')} | {term('camera_volume')} | {z} | "
             f"{1000 * t.get('frame_wall', float('nan')):.0f} | {1000 * t.get('volumes', 0.0):.1f} | {cost} |")
@@ -57,7 +57,7 @@ def _row(label: str, result) -> str:
 
 HEADER = ("| configuration | caustic one frame | caustic mean image | fog | march (energy / relMSE part) "
           "| camera_volume (energy / relMSE part) | residual z (energy / relMSE) | frame (ms) | volumes (ms) "
-          "| × the paper's cost (predicted per set / measured) |\n|---|---|---|---|---|---|---|---|---|---|")
+          "| × the paper's cost (predicted per weight set; measured) |\n|---|---|---|---|---|---|---|---|---|---|")
 
 
 def _homogeneous(path: str, folder: str) -> str:
