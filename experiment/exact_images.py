@@ -156,7 +156,7 @@ def exact_images(scene: Scene, p: ApproxParams, frames: list[Frame], seeds: list
     approx, kernels = approx_subsets(scene, p, frames, seeds, renderer, subset_batches)
     march = renderer.variant({"EXACT_MARCH": 1}) if scene.medium.is_heterogeneous else renderer
     marched = approx if march is renderer else np.concatenate([
-        _frame_subsets(march, scene, p, march.render(scene, dataclasses.replace(p, seed=seed), keep_records=True),
+        _frame_subsets(march, scene, p, _collided(march.render(scene, dataclasses.replace(p, seed=seed)), p),
                        seed, kernel, subset_batches) for seed, kernel in zip(seeds, kernels)])
     exact = load_exact(key, document)
     reused = exact is not None
@@ -177,8 +177,9 @@ def approx_subsets(scene: Scene, p: ApproxParams, frames: list[Frame], seeds: li
     seed the kernels of its real frame (``kernels.frame_kernels``) for the E images."""
     images, kernels = [], []
     for frame, seed in zip(frames, seeds):
-        kernel = frame_kernels(renderer, scene, p, _collided(frame, p))
-        images.append(_frame_subsets(renderer, scene, p, frame, seed, kernel, batches))
+        collided = _collided(frame, p)
+        kernel = frame_kernels(renderer, scene, p, collided)
+        images.append(_frame_subsets(renderer, scene, p, collided, seed, kernel, batches))
         kernels.append(kernel)
     return np.concatenate(images), kernels
 
@@ -188,9 +189,8 @@ def _collided(frame: Frame, p: ApproxParams) -> np.ndarray:
     return np.concatenate([r[splatted(r, p)] for r in frame.records])
 
 
-def _frame_subsets(renderer, scene, p, frame, seed: int, kernel, batches: int) -> np.ndarray:
-    """``batches`` paired subset images of ``frame``'s medium collisions with ``kernel``."""
-    collided = _collided(frame, p)
+def _frame_subsets(renderer, scene, p, collided: np.ndarray, seed: int, kernel, batches: int) -> np.ndarray:
+    """``batches`` paired subset images of a frame's medium collisions (:func:`_collided`) with ``kernel``."""
     splats = record_splats(collided, p.splat)
     return _subsets(renderer, scene, dataclasses.replace(splat_params(p), seed=seed),
                     kernel(splats, collided["photon"], collided["step"]), collided["photon"], batches)
