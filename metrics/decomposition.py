@@ -229,9 +229,9 @@ def decompose_caustic(batches: dict, reference: ArrayLike, *, keep: ArrayLike | 
         raise ValueError("reference caustic is zero over the compared pixels (in some channel): shares are undefined")
     # Σ over the batches of every pixel (H×W×3), summed in batch order as a sum of the kept pixels
     # alone would be: the kept pixels' sums and the images' means both come from it
-    full_sums = {name: s.sum(axis=0, dtype=np.float64) for name, s in stacks.items()}
-    kept = {name: s[:, keep] for name, s in stacks.items()}  # K×N×3, as given (float32 or float64)
-    jack = _Jackknife(kept, {name: s[keep] for name, s in full_sums.items()}, r, channel_energy, energy2,
+    full_sums = _once(stacks, lambda s: s.sum(axis=0, dtype=np.float64))
+    kept = _once(stacks, lambda s: s[:, keep])  # K×N×3, as given (float32 or float64)
+    jack = _Jackknife(kept, _once(full_sums, lambda s: s[keep]), r, channel_energy, energy2,
                       float(rv.sum()))
     value = jack.numbers(jack.means_without(None))
     leave_out = [jack.numbers(jack.means_without(i)) for i in range(k)]
@@ -248,6 +248,19 @@ def decompose_caustic(batches: dict, reference: ArrayLike, *, keep: ArrayLike | 
                "reference_ratio": None if reference_ratio is None else [float(x) for x in reference_ratio]}
     return {"images": images, "terms": caustic_terms(images), "rows": rows, "residual": residual,
             "options": options}
+
+
+def _once(named: dict, f) -> dict:
+    """name → f(value), f evaluated once per distinct value (by identity, tuples by their
+    items'): the images a homogeneous medium aliases (A_m is A, E_∞,s,τ is E_∞,s) cost once."""
+    done: dict = {}
+    out = {}
+    for name, value in named.items():
+        key = tuple(map(id, value)) if isinstance(value, tuple) else id(value)
+        if key not in done:
+            done[key] = f(value)
+        out[name] = done[key]
+    return out
 
 
 def _checked(batches: dict, reference, keep, reference_var) -> tuple:
@@ -303,7 +316,8 @@ class _Jackknife:
         (None: all), from running sums."""
         k, sums, kept, small = self.k, self.sums, self.kept, self.small
         n = k - (i is not None)
-        m = {name: (sums[name] - kept[name][i]) / n if i is not None else sums[name] / n for name in BATCHED}
+        m = _once({name: (sums[name], kept[name]) for name in BATCHED},
+                  lambda pair: (pair[0] - pair[1][i]) / n if i is not None else pair[0] / n)
         s1 = sums[LAST] - (small[i] if i is not None else 0.0)
         s2 = self.small_squares - (np.square(small[i], dtype=np.float64) if i is not None else 0.0)
         m["_small_noise"] = float(np.sum(s2 - s1 * s1 / n)) / (n - 1) / n
@@ -339,7 +353,8 @@ def _rows(jack: _Jackknife, value: dict, leave_out: list, rv, reference_ratio, r
     # Σ cov(X̄, Ā) over the paired batches; a term near − far shares −(C(near) − C(far)),
     # and R's variance where R is in both (module docstring, "debiased parts")
     approx_dev = kept["approx"] - sums["approx"] / k
-    shared = {name: float(np.sum((kept[name] - sums[name] / k) * approx_dev)) / (k - 1) / k for name in BATCHED}
+    shared = _once({name: (kept[name], sums[name]) for name in BATCHED},
+                   lambda pair: float(np.sum((pair[0] - pair[1] / k) * approx_dev)) / (k - 1) / k)
     shared["reference"] = 0.0
     for row in rows:
         near, far = TERMS.get(row["term"], ("reference", "approx"))
