@@ -190,8 +190,6 @@ def exact_collisions(scene: Scene, groups: Iterable[tuple[np.ndarray, int]], *, 
         raise ValueError(f"engine = {engine!r}: expected one of {', '.join(ENGINES)}")
     oracle = oracle or Oracle(scene)
     constants = ReplayConstants(scene, fresnel, beams=beams, splits=splits, slots=slots)
-    if constants.grid is not None:  # a density grid: the numpy engine tracks it (the Dr.Jit steps do not yet)
-        engine = "numpy"
     tracer = (functools.partial(_numpy_steps, c=constants, oracle=oracle) if engine == "numpy"
               else _wavefront(constants, oracle).trace)
     return _packed(groups, lambda group: len(group[0]), lambda part: _launch(constants, oracle, part, steps, tracer),
@@ -261,8 +259,6 @@ def exact_replays(scene: Scene, groups: Sequence[tuple[Rays, int]], *, steps: in
     oracle = oracle or Oracle(scene)
     groups = split_groups(groups, splits, slots, every)
     split = {"splits": splits, "slots": slots}
-    if scene.medium.is_heterogeneous:  # a density grid: the numpy engine tracks it (the Dr.Jit steps do not yet)
-        engine = "numpy"
     if engine == "numpy":
         firsts = exact_emission(scene, groups, fresnel=fresnel, oracle=oracle, max_photons=max_photons, **split)
         return exact_collisions(scene, [(first, seed) for first, (_, seed) in zip(firsts, groups)], steps=steps,

@@ -54,7 +54,14 @@ class Wavefront:
         self.ior = self.F64(c.ior)                   # per object, the medium's last
         self.absorption = [self.F64(c.absorption[:, k]) for k in range(3)]
         self.shape_index = self.I32(oracle.shape_index.astype(np.int32))
-        self.free = self.F32(free_flight_table(c.sigma_bar)) if c.sigma_bar > 0 and not c.beams else None
+        self.tracks = c.sigma_bar > 0 and not c.beams  # photons fly free in the medium
+        self.free = self.F32(free_flight_table(c.sigma_bar)) if self.tracks and c.grid is None else None
+        self.grid = None
+        if c.grid is not None:  # a density grid: delta tracking and exact optical depths on the device
+            from .wavefront_grid import GridWavefront
+
+            self.grid = GridWavefront(c.grid, (dr, self.F64, self.V64, self.U32, self.I32, self.F32, mi.Bool),
+                                      self.uniform)
 
     # --- the counter-based random numbers (scenes.rng) ---------------------------------
     def _pcg(self, v):
@@ -109,8 +116,12 @@ class Wavefront:
         step_u = dr.opaque(self.U32, step)  # one kernel for every step: the step is a value, not a constant
         span = self._box_exit(o, d)
         medium = inside < 0
-        # free flight from u(seed, photon, step, 0): numpy's own float32 distances
-        if self.free is not None:
+        # free flight: through the grid by delta tracking, else from u(seed, photon, step, 0), numpy's own
+        # float32 distances
+        if self.grid is not None and self.tracks:
+            tracked = self.grid.delta_track(o, d, dr.select(medium, span, -1.0), self.c.sigma_bar, seed, idx, step_u)
+            max_len = dr.select(medium, dr.select(tracked >= 0.0, tracked, 2.0 * span + 1.0), span)
+        elif self.free is not None:
             k = self._hash(seed, idx, step_u, 0) >> 8
             max_len = dr.select(medium, F64(dr.gather(self.F32, self.free, k)), span)
         else:
@@ -123,9 +134,14 @@ class Wavefront:
         # transmittance of the distance travelled (the medium's, or the glass's inside)
         travelled = dr.select(hit, t, dr.select(collides, max_len, 0.0))
         inside_at = self.U32(dr.select(medium, dr.width(self.ior) - 1, inside))
-        new_power = V64(*(power[k] * dr.exp(-dr.select(medium, self.sigma_t[k],
-                                                        dr.gather(F64, self.absorption[k], inside_at))
-                                            * travelled) for k in range(3)))
+        if self.grid is None:
+            new_power = V64(*(power[k] * dr.exp(-dr.select(medium, self.sigma_t[k],
+                                                            dr.gather(F64, self.absorption[k], inside_at))
+                                                * travelled) for k in range(3)))
+        else:  # glass absorbs as always (the medium's row is 0); the medium through its grid
+            depth = self.grid.optical_depth(o, d, dr.select(medium, travelled, 0.0))
+            new_power = V64(*(power[k] * dr.exp(-dr.gather(F64, self.absorption[k], inside_at) * travelled)
+                              * dr.select(medium, dr.exp(-self.sigma_t[k] * depth), 1.0) for k in range(3)))
         status = dr.select(hit, STATUS_SURFACE, dr.select(~medium, STATUS_LOST,
                                                           dr.select(collides, STATUS_COLLIDED, STATUS_LEFT_SCENE)))
         # the surface interaction where it hit (oracle.surface_interaction)
@@ -189,7 +205,11 @@ class Wavefront:
         if dr.width(at) == 0:
             return np.zeros(0, np.int64), None
         t, d, carried = dr.gather(self.F64, t, at), dr.gather(V64, d, at), dr.gather(V64, power, at)
-        carried = V64(*(carried[k] * dr.exp(-self.sigma_t[k] * t) for k in range(3)))
+        if self.grid is None:
+            depth = t
+        else:
+            depth = self.grid.optical_depth(V64(*(dr.full(self.F64, float(x), dr.width(at)) for x in light)), d, t)
+        carried = V64(*(carried[k] * dr.exp(-self.sigma_t[k] * depth) for k in range(3)))
         where = dr.gather(U32, lit, at)
         hits = {"photon": dr.gather(U32, U32(photon.astype(np.uint32)), where),
                 "start": V64(*(float(light[k]) + d[k] * t for k in range(3))), "d": d, "carried": carried,

@@ -45,8 +45,9 @@ def delta_track(grid: DensityGrid, o: np.ndarray, d: np.ndarray, t_max: np.ndarr
     cell_size = (grid.hi - grid.lo) / np.asarray(grid.resolution) * block
     with np.errstate(divide="ignore", invalid="ignore"):
         inv = 1.0 / d
-    start = (o + d * t_in[:, None] - grid.lo) / cell_size
-    cell = np.clip(np.floor(start).astype(np.int64), 0, res - 1)
+    with np.errstate(over="ignore", invalid="ignore"):  # a ray along a face: its lanes are not active
+        start = (o + d * t_in[:, None] - grid.lo) / cell_size
+        cell = np.clip(np.floor(start).astype(np.int64), 0, res - 1)
     stride = np.sign(d).astype(np.int64)
     next_plane = grid.lo + (cell + (d >= 0)) * cell_size
     moving = d != 0
