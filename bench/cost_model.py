@@ -24,7 +24,7 @@ a GPU's beside the shipped anchor).
 ``--media`` prices a heterogeneous medium's work (``approx.cost``'s medium reads: its
 volumes' texels, the march's and delta tracking's samples of ρ, the volumes' reads) on top
 of the shipped weight set of this machine's kind: the MEDIA_FIT configurations on
-fogbank and smoke (scenes/media) are measured, and per pass the medium reads' weight (and
+fogbank and smoke (built-ins) are measured, and per pass the medium reads' weight (and
 the ``volumes`` pass's call, a beam fragment's beside its march) is fitted by non-negative
 least squares, relative to each frame's time, to what the shipped weights leave
 unexplained (a homogeneous frame has no medium reads, so the built-ins'
@@ -204,7 +204,7 @@ def media(args, argv) -> int:
     """--media: the shipped set of this machine's kind extended with a heterogeneous medium's weights."""
     from volcaustics.approx.context import shared_context
     from volcaustics.approx.cost_model import weight_sets
-    from volcaustics.scenes.catalogue import MEDIA_DIR
+    from volcaustics.scenes.catalogue import heldout_path
 
     renderer_name = shared_context().info["GL_RENDERER"]
     kind = "llvmpipe" if "llvmpipe" in renderer_name.lower() else "gpu_" + "".join(
@@ -212,7 +212,7 @@ def media(args, argv) -> int:
     ws = weight_sets()[kind]
     rows, held = [], []
     for name in MEDIA_SCENES + MEDIA_HELD_OUT:
-        measured = measure(os.path.join(MEDIA_DIR, f"{name}.toml"), MEDIA_FIT, args.rounds, args.size)
+        measured = measure(name if name in MEDIA_SCENES else heldout_path(name), MEDIA_FIT, args.rounds, args.size)
         (held if name in MEDIA_HELD_OUT else rows).extend(measured)
         print(f"{name}: {len(measured)} configurations", flush=True)
     before = {"fit": summary("before, fit scenes", errors(rows, ws)), "held_out": summary("before, held out",

@@ -194,7 +194,8 @@ class GridWavefront:
             for k in range(3):
                 within = (centre[k] >= self.lo[k]) & (centre[k] <= self.hi[k])
                 inside = within if inside is None else inside & within
-            simpson = width / self._opaque(6.0) * (self._clamped(o, d, t) + 4.0 * self.eval(centre) + self._clamped(o, d, t1))
+            ends = self._clamped(o, d, t), self._clamped(o, d, t1)
+            simpson = width / self._opaque(6.0) * (ends[0] + 4.0 * self.eval(centre) + ends[1])
             depth = dr.select(inside, depth + simpson, depth)
             ix, iy, iz = (dr.select(p <= t1, i + s, i) for p, i, s in zip(planes, (ix, iy, iz), step))
             return t1, depth, ix, iy, iz

@@ -4,11 +4,13 @@ Built-in scenes are ordinary TOML files in ``scenes/builtin/`` (they double as
 examples of the format): the catalogue is that folder, each file's stem a scene's name,
 in the order its top-level ``order`` key gives (the paper's: Table 1's ``sphere1``,
 ``sphere2``, ``bunny``, ``feline`` (stand-in), ``skull`` (stand-in), then Figure 5's
-``two_spheres``, ``refocus``). A file dropped there is a built-in scene
+``two_spheres``, ``refocus``, then two heterogeneous media of docs/concepts/heterogeneous-media.md:
+``fogbank``, a glass sphere's focus in ground fog, and ``smoke``, a sphere focusing into a
+plume). A file dropped there is a built-in scene
 (``docs/howto/add-scene.md``).
 
 Held-out scenes (``scenes/heldout/``: ``knot``, ``lens_array``, ``dense_forward``,
-``water``, ``coil``) are
+``water``, ``coil``, ``layered_fog``: a slab of two densities) are
 scene files of other character that no search may tune on: the cross-validation of a
 configuration chosen on the built-ins (docs/decisions.md "Held-out scenes"). They are
 named by path (:func:`heldout_path`), never by a built-in name.
@@ -55,9 +57,6 @@ BUILTIN_NAMES = catalogue(BUILTIN_DIR)
 
 HELDOUT_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "heldout")
 HELDOUT_NAMES = catalogue(HELDOUT_DIR)
-# heterogeneous media's scenes (docs/concepts/heterogeneous-media.md), loaded by path until
-# they join the built-ins: the exact replay of a density grid runs in numpy (minutes a point)
-MEDIA_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "media")
 
 
 def heldout_path(name: str) -> str:

@@ -283,14 +283,21 @@ def write_compared_images(test_name: str, layers: dict, *, info: dict | None = N
     return folder
 
 
-def media_renderer(name: str):
-    """(scene, Renderer) for scenes/media/<name>.toml: a generator for a module fixture
-    (released after it)."""
-    from volcaustics.approx import Renderer
-    from volcaustics.scenes import resolve_scene
-    from volcaustics.scenes.catalogue import MEDIA_DIR
+def media_scene(name: str):
+    """The heterogeneous medium's scene ``name``: fogbank and smoke are built-ins, layered_fog
+    is held out."""
+    from volcaustics.scenes import BUILTIN_NAMES, resolve_scene
+    from volcaustics.scenes.catalogue import heldout_path
 
-    scene = resolve_scene(os.path.join(MEDIA_DIR, f"{name}.toml"))
+    return resolve_scene(name if name in BUILTIN_NAMES else heldout_path(name))
+
+
+def media_renderer(name: str):
+    """(scene, Renderer) for a heterogeneous medium's scene ``name`` (a built-in, or
+    layered_fog, held out): a generator for a module fixture (released after it)."""
+    from volcaustics.approx import Renderer
+
+    scene = media_scene(name)
     renderer = Renderer(scene)
     try:
         yield scene, renderer

@@ -5,11 +5,10 @@ for row, as ``tests/reference/test_wavefront.py`` holds the homogeneous ones."""
 
 from __future__ import annotations
 
-import os
-
 import numpy as np
 import pytest
 
+from tests.shared import media_scene
 from volcaustics.approx.emission import true_rays
 from volcaustics.approx.light import LightFrustum
 from volcaustics.reference import replay
@@ -17,21 +16,15 @@ from volcaustics.reference.oracle import Oracle, ReplayConstants
 from volcaustics.reference.wavefront import Wavefront, _vector
 from volcaustics.scenes import tracking
 from volcaustics.scenes.bounds import medium_bounds
-from volcaustics.scenes.catalogue import MEDIA_DIR
-from volcaustics.scenes.loader import load_scene
 
 from .test_wavefront import PHOTON_RES, STEPS, _same
 
 MEDIA = ("fogbank", "smoke", "layered_fog")
 
 
-def _media(name: str):
-    return load_scene(os.path.join(MEDIA_DIR, f"{name}.toml"))
-
-
 @pytest.fixture(scope="module")
 def smoke():
-    scene = _media("smoke")
+    scene = media_scene("smoke")
     constants = ReplayConstants(scene, "stochastic")
     return constants, Wavefront(constants, Oracle(scene))
 
@@ -89,7 +82,7 @@ def test_delta_tracking_draws_the_numpy_collisions(smoke):
 @pytest.mark.parametrize("name", MEDIA)
 @pytest.mark.parametrize("beams", [False, True])
 def test_the_drjit_replay_of_a_grid_is_the_numpy_replay(name, beams):
-    scene = _media(name)
+    scene = media_scene(name)
     oracle = Oracle(scene)
     frustum = LightFrustum.for_scene(scene, *medium_bounds(scene))
     groups = [(true_rays(scene.light, frustum, PHOTON_RES, seed), seed) for seed in (3, 4, 5)]

@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import os
 
 import numpy as np
 import pytest
@@ -26,7 +25,7 @@ from volcaustics.experiment.pipeline import run_experiment
 from volcaustics.metrics.decomposition import TERMS
 from volcaustics.reports.measuring.cost_match import with_auto_values
 from volcaustics.scenes import load_builtin, load_scene, resolve_scene
-from volcaustics.scenes.catalogue import BUILTIN_NAMES, HELDOUT_NAMES, MEDIA_DIR, heldout_path
+from volcaustics.scenes.catalogue import BUILTIN_NAMES, HELDOUT_NAMES, heldout_path
 
 SIZE = CLOSURE_SIZE
 REFERENCE = CLOSURE_REFERENCE
@@ -256,17 +255,3 @@ def test_the_decomposition_closes_with_fresnel_splits(cache, scene_arg):
     reflections = next(r for r in result.summary["decomposition"]["rows"] if r["term"] == "reflections")
     assert abs(reflections["energy_share"]) <= 3 * reflections["energy_share_se"], reflections
 
-
-# the heterogeneous media's scenes (scenes/media): delta tracking, the exact replay's exact
-# optical depths and the transmittance volumes on the paper's points (about 40 s a point: the
-# replay runs in numpy); smoke's points fail homogeneous too (docs/decisions.md "Heterogeneous media")
-MEDIA = [os.path.join(MEDIA_DIR, f"{name}.toml") for name in ("fogbank", "layered_fog")]
-
-
-@pytest.mark.slow
-@pytest.mark.parametrize("scene_arg", MEDIA, ids=[os.path.basename(a)[:-5] for a in MEDIA])
-def test_the_decomposition_closes_in_heterogeneous_media(cache, scene_arg):
-    scene = resolve_scene(scene_arg)
-    assert scene.medium.is_heterogeneous
-    result = _measure(scene, QUICK)
-    assert (message := _closes(result, f"{scene.name} paper")) is None, message

@@ -18,8 +18,11 @@ from volcaustics.scenes.mesh import closedness_problem, winding_number
 TARGET_TRIANGLES = {"sphere1": 40_000, "sphere2": 20_000, "bunny": 10_000, "feline": 150_000, "skull": 10_000}
 
 
-def test_seven_scenes_in_paper_order():
-    assert BUILTIN_NAMES == ("sphere1", "sphere2", "bunny", "feline", "skull", "two_spheres", "refocus")
+def test_the_papers_seven_scenes_in_its_order_then_two_heterogeneous_media():
+    assert BUILTIN_NAMES == ("sphere1", "sphere2", "bunny", "feline", "skull", "two_spheres", "refocus", "fogbank",
+                             "smoke")
+    heterogeneous = [name for name in BUILTIN_NAMES if load_builtin(name).medium.is_heterogeneous]
+    assert heterogeneous == ["fogbank", "smoke"]
     assert all(load_builtin(name).name == name for name in BUILTIN_NAMES)  # a file's stem is its scene's name
 
 
@@ -126,7 +129,7 @@ def test_refocus_focus_lies_between_sphere_and_floor():
     assert 0.0 < focus_y < lo[1] - 0.2  # a visible reconverging cone below the sphere, above the floor
 
 
-def test_cli_lists_seven_scenes(capsys):
+def test_cli_lists_every_builtin(capsys):
     assert main(["scenes"]) == 0
     out = capsys.readouterr().out
     for name in BUILTIN_NAMES:

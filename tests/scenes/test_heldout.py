@@ -51,6 +51,8 @@ def test_heldout_scenes_load_with_their_character():
     surface = [o for o in scenes["water"].specular if o.name == "water"][0].mesh.load().vertices
     top = surface[surface[:, 1] > surface[:, 1].min() + 1e-6, 1]  # the top: every vertex off the flat bottom
     assert 0.03 <= np.ptp(top) <= 0.045  # waves of ±2 cm peak (the top's range), not a flat slab
+    layered = scenes["layered_fog"].medium.density  # a slab of two densities: the box field
+    assert layered is not None and layered.field == "box"
     assert not set(HELDOUT_NAMES) & set(BUILTIN_NAMES)
 
 
