@@ -24,7 +24,7 @@ a GPU's beside the shipped anchor).
 ``--media`` prices a heterogeneous medium's work (``approx.cost``'s medium reads: its
 volumes' texels, the march's and delta tracking's samples of ρ, the volumes' reads) on top
 of the shipped weight set of this machine's kind: the MEDIA_FIT configurations on
-fogbank and smoke (built-ins) are measured, and per pass the medium reads' weight (and
+fogbank and smoke (scenes/media) are measured, and per pass the medium reads' weight (and
 the ``volumes`` pass's call, a beam fragment's beside its march) is fitted by non-negative
 least squares, relative to each frame's time, to what the shipped weights leave
 unexplained (a homogeneous frame has no medium reads, so the built-ins'

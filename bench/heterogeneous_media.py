@@ -1,5 +1,5 @@
 """Heterogeneous media measured: the paper's claim that its photon tracing "can handle
-[inhomogeneous media] easily with small tweak" (§6), on fogbank, smoke (built-ins) and layered_fog (held out).
+[inhomogeneous media] easily with small tweak" (§6), on fogbank, smoke (scenes/media) and layered_fog (held out).
 
 For each scene and configuration (the paper's points at the report's ``quick`` preset, and
 ``--preset beams``), through the public API (``vc.measure``, the report's reference
@@ -30,10 +30,10 @@ import tempfile
 
 
 def _scene_path(name: str) -> str:
-    """A media scene's file: fogbank and smoke are built-ins, layered_fog is held out."""
-    from volcaustics.scenes.catalogue import BUILTIN_NAMES, builtin_path, heldout_path
+    """A media scene's file: fogbank and smoke are named media scenes, layered_fog is held out."""
+    from volcaustics.scenes.catalogue import HELDOUT_NAMES, heldout_path, named_path
 
-    return builtin_path(name) if name in BUILTIN_NAMES else heldout_path(name)
+    return heldout_path(name) if name in HELDOUT_NAMES else str(named_path(name))
 
 
 def _row(label: str, result) -> str:

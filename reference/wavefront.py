@@ -29,6 +29,7 @@ from volcaustics.scenes.formats import STATUS_COLLIDED, STATUS_LEFT_SCENE, STATU
 from volcaustics.scenes.rng import FRESNEL_DIM, GOLDEN, PCG_INC, PCG_MULT, PCG_WORD, ROTATION_PHOTON
 
 from .oracle import Oracle, ReplayConstants
+from .wavefront_grid import GridWavefront
 
 
 @lru_cache(maxsize=4)
@@ -56,12 +57,9 @@ class Wavefront:
         self.shape_index = self.I32(oracle.shape_index.astype(np.int32))
         self.tracks = c.sigma_bar > 0 and not c.beams  # photons fly free in the medium
         self.free = self.F32(free_flight_table(c.sigma_bar)) if self.tracks and c.grid is None else None
-        self.grid = None
-        if c.grid is not None:  # a density grid: delta tracking and exact optical depths on the device
-            from .wavefront_grid import GridWavefront
-
-            self.grid = GridWavefront(c.grid, (dr, self.F64, self.V64, self.U32, self.I32, self.F32, mi.Bool),
-                                      self.uniform)
+        types = (dr, self.F64, self.V64, self.U32, self.I32, self.F32, mi.Bool)
+        # a density grid: delta tracking and exact optical depths on the device
+        self.grid = GridWavefront(c.grid, types, self.uniform) if c.grid is not None else None
 
     # --- the counter-based random numbers (scenes.rng) ---------------------------------
     def _pcg(self, v):
@@ -205,10 +203,8 @@ class Wavefront:
         if dr.width(at) == 0:
             return np.zeros(0, np.int64), None
         t, d, carried = dr.gather(self.F64, t, at), dr.gather(V64, d, at), dr.gather(V64, power, at)
-        if self.grid is None:
-            depth = t
-        else:
-            depth = self.grid.optical_depth(V64(*(dr.full(self.F64, float(x), dr.width(at)) for x in light)), d, t)
+        light_at = V64(*(dr.full(self.F64, float(x), dr.width(at)) for x in light))
+        depth = t if self.grid is None else self.grid.optical_depth(light_at, d, t)
         carried = V64(*(carried[k] * dr.exp(-self.sigma_t[k] * depth) for k in range(3)))
         where = dr.gather(U32, lit, at)
         hits = {"photon": dr.gather(U32, U32(photon.astype(np.uint32)), where),

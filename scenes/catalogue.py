@@ -4,10 +4,14 @@ Built-in scenes are ordinary TOML files in ``scenes/builtin/`` (they double as
 examples of the format): the catalogue is that folder, each file's stem a scene's name,
 in the order its top-level ``order`` key gives (the paper's: Table 1's ``sphere1``,
 ``sphere2``, ``bunny``, ``feline`` (stand-in), ``skull`` (stand-in), then Figure 5's
-``two_spheres``, ``refocus``, then two heterogeneous media of docs/concepts/heterogeneous-media.md:
-``fogbank``, a glass sphere's focus in ground fog, and ``smoke``, a sphere focusing into a
-plume). A file dropped there is a built-in scene
+``two_spheres``, ``refocus``). A file dropped there is a built-in scene
 (``docs/howto/add-scene.md``).
+
+Media scenes (``scenes/media/``: ``fogbank``, a glass sphere's focus in ground fog, and
+``smoke``, a sphere focusing into a plume; docs/concepts/heterogeneous-media.md) are named
+like the built-ins (``volcaustics measure fogbank``) but measured apart: a point of theirs
+costs the exact images' splats through the exact-transmittance programs, so they have a
+report and budgets of their own (``make report-media``) instead of growing the report's.
 
 Held-out scenes (``scenes/heldout/``: ``knot``, ``lens_array``, ``dense_forward``,
 ``water``, ``coil``, ``layered_fog``: a slab of two densities) are
@@ -55,6 +59,10 @@ BUILTIN_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "builtin"
 BUILTIN_NAMES = catalogue(BUILTIN_DIR)
 
 
+MEDIA_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "media")
+MEDIA_NAMES = catalogue(MEDIA_DIR)
+
+
 HELDOUT_DIR = os.path.join(os.path.dirname(os.path.abspath(__file__)), "heldout")
 HELDOUT_NAMES = catalogue(HELDOUT_DIR)
 
@@ -70,6 +78,20 @@ def builtin_path(name: str) -> str:
     return os.path.join(BUILTIN_DIR, f"{name}.toml")
 
 
+def named_path(name: str) -> str | None:
+    """The file of the scene a SCENE argument names (a built-in or a media scene), None
+    when ``name`` names none."""
+    if name in BUILTIN_NAMES:
+        return builtin_path(name)
+    if name in MEDIA_NAMES:
+        return os.path.join(MEDIA_DIR, f"{name}.toml")
+    return None
+
+
+def _names() -> str:
+    return f"a built-in scene ({', '.join(BUILTIN_NAMES)}), a media scene ({', '.join(MEDIA_NAMES)})"
+
+
 def load_builtin(name: str) -> Scene:
     if name not in BUILTIN_NAMES:
         raise SceneError(None, "SCENE", name, f"expected a built-in scene ({', '.join(BUILTIN_NAMES)})")
@@ -77,14 +99,14 @@ def load_builtin(name: str) -> Scene:
 
 
 def is_scene_path(arg: str) -> bool:
-    """Whether a SCENE argument names a scene file (else a built-in name)."""
-    return arg not in BUILTIN_NAMES and (arg.endswith(".toml") or os.sep in arg)
+    """Whether a SCENE argument names a scene file (else a built-in or media scene's name)."""
+    return named_path(arg) is None and (arg.endswith(".toml") or os.sep in arg)
 
 
 def scene_relative_to(arg: str, named_in: str) -> str:
     """A SCENE named in the file ``named_in`` (a sweep spec, a budgets file): a scene
     file's relative path is relative to that file's folder, as a scene file's mesh
-    paths are to it; built-in names and absolute paths stay as they are."""
+    paths are to it; scene names and absolute paths stay as they are."""
     if not is_scene_path(arg):
         return arg
     base = os.path.dirname(os.path.abspath(named_in))
@@ -92,16 +114,16 @@ def scene_relative_to(arg: str, named_in: str) -> str:
 
 
 def resolve_scene(arg: str | os.PathLike) -> Scene:
-    """A SCENE argument: a built-in name or a path to a TOML scene file (a string, or a
-    path object); SceneError for anything else."""
+    """A SCENE argument: a built-in or media scene's name or a path to a TOML scene file (a
+    string, or a path object); SceneError for anything else."""
     if isinstance(arg, os.PathLike):
         arg = os.fspath(arg)
     if not isinstance(arg, str):
-        raise SceneError(None, "SCENE", arg, f"expected a built-in scene's name ({', '.join(BUILTIN_NAMES)}) or "
-                                             f"a scene file's path, not a {type(arg).__name__}")
-    if arg in BUILTIN_NAMES:
-        return load_builtin(arg)
+        raise SceneError(None, "SCENE", arg, f"expected {_names()} or a scene file's path, not a "
+                                             f"{type(arg).__name__}")
+    named = named_path(arg)
+    if named is not None:
+        return load_scene(named)
     if is_scene_path(arg) or os.path.exists(arg):
         return load_scene(arg)
-    raise SceneError(None, "SCENE", arg,
-                     f"expected a built-in scene ({', '.join(BUILTIN_NAMES)}) or a path to a .toml file")
+    raise SceneError(None, "SCENE", arg, f"expected {_names()} or a path to a .toml file")

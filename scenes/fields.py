@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .catalogue import BUILTIN_NAMES, builtin_path
+from .catalogue import named_path
 from .errors import SceneError
 from .loader import parse_scene, tomllib  # tomllib, or tomli on Python 3.10
 
@@ -77,7 +77,7 @@ def _index(part: str) -> bool:
 
 def _document(arg: str) -> tuple:
     """(TOML document, file label, folder for relative mesh paths) of a SCENE argument."""
-    path = builtin_path(arg) if arg in BUILTIN_NAMES else arg
+    path = named_path(arg) or arg
     try:
         with open(path, "rb") as fh:
             return tomllib.load(fh), path, os.path.dirname(os.path.abspath(path))
@@ -118,7 +118,7 @@ def scene_with(arg: str, fields: dict[str, Any] | Iterable[tuple[str, Any]]) -> 
     stem = os.path.splitext(os.path.basename(path))[0]
     if "name" not in doc and stem.isidentifier():
         doc["name"] = stem  # what the loader names the file's scene: not the label's stem
-    return parse_scene(doc, file=label, base_dir=base, source=None if arg in BUILTIN_NAMES else os.path.abspath(path))
+    return parse_scene(doc, file=label, base_dir=base, source=None if named_path(arg) else os.path.abspath(path))
 
 
 def optical_depth(scene: Scene) -> float:

@@ -284,17 +284,17 @@ def write_compared_images(test_name: str, layers: dict, *, info: dict | None = N
 
 
 def media_scene(name: str):
-    """The heterogeneous medium's scene ``name``: fogbank and smoke are built-ins, layered_fog
-    is held out."""
-    from volcaustics.scenes import BUILTIN_NAMES, resolve_scene
-    from volcaustics.scenes.catalogue import heldout_path
+    """The heterogeneous medium's scene ``name``: fogbank and smoke are media scenes (named),
+    layered_fog is held out."""
+    from volcaustics.scenes import resolve_scene
+    from volcaustics.scenes.catalogue import HELDOUT_NAMES, heldout_path
 
-    return resolve_scene(name if name in BUILTIN_NAMES else heldout_path(name))
+    return resolve_scene(heldout_path(name) if name in HELDOUT_NAMES else name)
 
 
 def media_renderer(name: str):
-    """(scene, Renderer) for a heterogeneous medium's scene ``name`` (a built-in, or
-    layered_fog, held out): a generator for a module fixture (released after it)."""
+    """(scene, Renderer) for a heterogeneous medium's scene ``name`` (:func:`media_scene`):
+    a generator for a module fixture (released after it)."""
     from volcaustics.approx import Renderer
 
     scene = media_scene(name)
@@ -303,3 +303,24 @@ def media_renderer(name: str):
         yield scene, renderer
     finally:
         renderer.release()
+
+
+# the exact replay's engine comparisons: 1,600 photons a replay, 3 replays (about a second a scene)
+REPLAY_PHOTON_RES = 40
+
+
+def replay_differences(a, b) -> list:
+    """What differs between two replays' collisions (empty: the same to the records' float32)."""
+    wrong = []
+    for k, (x, y) in enumerate(zip(a, b)):
+        if len(x.rows) != len(y.rows):
+            wrong.append(f"replay {k}: {len(x.rows)} against {len(y.rows)} collisions")
+            continue
+        for field in x.rows.dtype.names:
+            if not np.array_equal(x.rows[field], y.rows[field]):
+                wrong.append(f"replay {k}: {field} differs in {int((x.rows[field] != y.rows[field]).sum())} values")
+        for budget in ("emitted_power", "alive_power", "collided_power"):
+            # float64 sums of float32 values: Dr.Jit's exp may differ from numpy's in the last bit of a float64
+            if not np.allclose(getattr(x, budget), getattr(y, budget), rtol=1e-12, atol=0.0):
+                wrong.append(f"replay {k}: {budget} differs")
+    return wrong

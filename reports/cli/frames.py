@@ -37,13 +37,14 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError("--seeds", args.seeds, "expected an integer in [2, 64] (one frame's SE needs 2)")
     check = frames(args.output, scenes=args.scenes or None, seeds=args.seeds, progress=not args.quiet)
     table, v = check.table, check.verdict
-    label = {"builtin": "", "heldout": " (held out)", "yours": " (yours)"}
+    label = {"builtin": "", "media": " (medium)", "heldout": " (held out)", "yours": " (yours)"}
     for _, r in table.iterrows():
         print(f"  {r['scene']:<14}{label[r['group']]:<11} {r['config']:<6} {r['denoise']:<5} "
               f"cost {r['cost_ratio']:.3f}x predicted, time {r['time_ratio']:.2f}x measured, "
               f"one frame {debiased(r['frame_relmse'], se=r['frame_relmse_se'])} ({r['frame_ratio']:.2f}x), "
               f"mean {debiased(r['relmse_debiased'], se=r['relmse_se'])} ({r['relmse_ratio']:.2f}x)")
-    names = {"builtin": "on the built-ins", "heldout": "held out", "yours": "on your scenes"}
+    names = {"builtin": "on the built-ins", "media": "in the media scenes", "heldout": "held out",
+             "yours": "on your scenes"}
     worst = ", ".join(f"{v[f'none_{g}_worst_frame_ratio']:.2f}x {names[g]}" for g in GROUPS
                       if f"none_{g}_worst_frame_ratio" in v)
     print(f"frames: best's worst one-frame ratio {worst} (goal {v['goal']:g}x): "

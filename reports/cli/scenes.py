@@ -21,7 +21,8 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from volcaustics.scenes import BUILTIN_NAMES, load_builtin, load_scene
+    from volcaustics.scenes import BUILTIN_NAMES, load_builtin, load_scene, resolve_scene
+    from volcaustics.scenes.catalogue import MEDIA_NAMES
 
     if args.preview is not None:
         check_output_dir(args.preview, "--preview")
@@ -36,10 +37,11 @@ def run(args: argparse.Namespace) -> int:
             print(f"preview -> {_write_preview(scene, args.preview)}")
         return 0
     print(f"{'name':<12} {'triangles':>10}  description")
-    for name in BUILTIN_NAMES:
-        scene = load_builtin(name)
+    for name in (*BUILTIN_NAMES, *MEDIA_NAMES):
+        scene = load_builtin(name) if name in BUILTIN_NAMES else resolve_scene(name)
         animated = f" [animation: {scene.animation.frames} frames]" if scene.animation else ""
-        print(f"{name:<12} {scene.specular_triangle_count():>10,}  {scene.description}{animated}")
+        medium = " [heterogeneous medium: make report-media]" if name in MEDIA_NAMES else ""
+        print(f"{name:<12} {scene.specular_triangle_count():>10,}  {scene.description}{animated}{medium}")
         if args.preview:
             _write_preview(scene, args.preview)
     if args.preview:

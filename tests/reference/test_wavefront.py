@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from tests.shared import REPLAY_PHOTON_RES, replay_differences
 from volcaustics.approx.emission import true_rays
 from volcaustics.approx.light import LightFrustum
 from volcaustics.reference import replay, wavefront
@@ -17,7 +18,7 @@ from volcaustics.reference.oracle import Oracle
 from volcaustics.scenes import BUILTIN_NAMES, load_builtin
 from volcaustics.scenes.bounds import medium_bounds
 
-PHOTON_RES = 40  # 1,600 photons a replay, 3 replays: every built-in in about a second each
+PHOTON_RES = REPLAY_PHOTON_RES
 STEPS = 512      # the replay's own (measurement.EXACT_STEPS)
 
 
@@ -31,29 +32,12 @@ def _both(name: str, fresnel: str, beams: bool = False, splits: int = 0, every: 
                  for engine in ("numpy", "drjit"))
 
 
-def _same(a, b) -> list:
-    """What differs between two replays' collisions (empty: the same to the records' float32)."""
-    wrong = []
-    for k, (x, y) in enumerate(zip(a, b)):
-        if len(x.rows) != len(y.rows):
-            wrong.append(f"replay {k}: {len(x.rows)} against {len(y.rows)} collisions")
-            continue
-        for field in x.rows.dtype.names:
-            if not np.array_equal(x.rows[field], y.rows[field]):
-                wrong.append(f"replay {k}: {field} differs in {int((x.rows[field] != y.rows[field]).sum())} values")
-        for budget in ("emitted_power", "alive_power", "collided_power"):
-            # float64 sums of float32 values: Dr.Jit's exp may differ from numpy's in the last bit of a float64
-            if not np.allclose(getattr(x, budget), getattr(y, budget), rtol=1e-12, atol=0.0):
-                wrong.append(f"replay {k}: {budget} differs")
-    return wrong
-
-
 @pytest.mark.parametrize("name", BUILTIN_NAMES)
 @pytest.mark.parametrize("fresnel", ["deterministic", "stochastic", "stratified"])
 def test_the_drjit_replay_is_the_numpy_replay(name, fresnel):
     numpy_engine, drjit_engine = _both(name, fresnel)
     assert sum(len(c.rows) for c in numpy_engine) > 100, "too few collisions to compare"
-    assert _same(numpy_engine, drjit_engine) == []
+    assert replay_differences(numpy_engine, drjit_engine) == []
 
 
 @pytest.mark.parametrize("name", ["sphere1", "bunny", "refocus"])
@@ -63,7 +47,7 @@ def test_the_drjit_beams_are_the_numpy_beams(name):
     numpy_engine, drjit_engine = _both(name, "stochastic", beams=True)
     assert numpy_engine[0].rows.dtype == replay.BEAM_ROW_DTYPE
     assert sum(len(c.rows) for c in numpy_engine) > 100, "too few beams to compare"
-    assert _same(numpy_engine, drjit_engine) == []
+    assert replay_differences(numpy_engine, drjit_engine) == []
 
 
 @pytest.mark.parametrize(("beams", "every"), [(False, 1), (True, 1), (True, 3)])
@@ -73,7 +57,7 @@ def test_the_drjit_splits_are_the_numpy_splits(beams, every):
     batches' photons all there."""
     numpy_engine, drjit_engine = _both("two_spheres", "stratified", beams=beams, splits=2, every=every)
     assert {int(p) // PHOTON_RES**2 for p in numpy_engine[0].rows["photon"]} == {0, 1, 2}
-    assert _same(numpy_engine, drjit_engine) == []
+    assert replay_differences(numpy_engine, drjit_engine) == []
 
 
 def test_free_flights_from_drjits_own_log_are_flagged(monkeypatch):
@@ -88,7 +72,7 @@ def test_free_flights_from_drjits_own_log_are_flagged(monkeypatch):
         return -dr.log(mitsuba().Float(np.float32(1.0) - u)).numpy() / np.float32(sigma_bar)
 
     monkeypatch.setattr(wavefront, "free_flight_table", own_log)
-    assert _same(*_both("sphere1", "stochastic")) != []
+    assert replay_differences(*_both("sphere1", "stochastic")) != []
 
 
 def test_launches_without_a_photon_that_reaches_glass_are_empty_not_errors():
@@ -107,7 +91,7 @@ def test_launches_without_a_photon_that_reaches_glass_are_empty_not_errors():
         numpy_engine, drjit_engine = (replay.exact_replays(scene, groups, steps=64, fresnel="stochastic",
                                                            oracle=oracle, engine=engine)
                                       for engine in ("numpy", "drjit"))
-        assert _same(numpy_engine, drjit_engine) == []
+        assert replay_differences(numpy_engine, drjit_engine) == []
         assert [c.photons for c in drjit_engine][:1] == [0]
     first = np.zeros(0, replay.RECORD_DTYPE)
     assert [len(c.rows) for c in replay.exact_collisions(scene, [(first, 1)], steps=8, fresnel="stochastic",

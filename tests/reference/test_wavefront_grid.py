@@ -8,16 +8,15 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from tests.shared import media_scene
+from tests.shared import REPLAY_PHOTON_RES, media_scene, replay_differences
 from volcaustics.approx.emission import true_rays
 from volcaustics.approx.light import LightFrustum
+from volcaustics.experiment.measurement import EXACT_STEPS
 from volcaustics.reference import replay
 from volcaustics.reference.oracle import Oracle, ReplayConstants
-from volcaustics.reference.wavefront import Wavefront, _vector
+from volcaustics.reference.wavefront import Wavefront
 from volcaustics.scenes import tracking
 from volcaustics.scenes.bounds import medium_bounds
-
-from .test_wavefront import PHOTON_RES, STEPS, _same
 
 MEDIA = ("fogbank", "smoke", "layered_fog")
 
@@ -27,6 +26,11 @@ def smoke():
     scene = media_scene("smoke")
     constants = ReplayConstants(scene, "stochastic")
     return constants, Wavefront(constants, Oracle(scene))
+
+
+def _v(w, a: np.ndarray):
+    """An N×3 numpy array as the wavefront's 3-vector of float64."""
+    return w.V64(*(w.F64(np.ascontiguousarray(a[:, k])) for k in range(3)))
 
 
 def _segments(grid, n: int = 20_000, seed: int = 1) -> tuple:
@@ -42,8 +46,8 @@ def _segments(grid, n: int = 20_000, seed: int = 1) -> tuple:
 def test_density_and_optical_depth_are_the_numpy_twins_bit_for_bit(smoke):
     constants, w = smoke
     o, d, length = _segments(constants.grid)
-    assert np.array_equal(w.grid.eval(_vector(w.V64, o)).numpy(), constants.grid.eval(o))
-    depth = w.grid.optical_depth(_vector(w.V64, o), _vector(w.V64, d), w.F64(length)).numpy()
+    assert np.array_equal(w.grid.eval(_v(w, o)).numpy(), constants.grid.eval(o))
+    depth = w.grid.optical_depth(_v(w, o), _v(w, d), w.F64(length)).numpy()
     want = tracking.optical_depth(constants.grid, o, d, length)
     assert (want > 0).sum() > 5_000, "too few segments through the smoke to compare"
     assert np.array_equal(depth, want)
@@ -55,7 +59,7 @@ def test_a_division_by_a_literal_is_flagged(smoke, monkeypatch):
     constants, w = smoke
     o, _, _ = _segments(constants.grid)
     monkeypatch.setattr(w.grid, "_opaque", lambda value: value)
-    assert not np.array_equal(w.grid.eval(_vector(w.V64, o)).numpy(), constants.grid.eval(o))
+    assert not np.array_equal(w.grid.eval(_v(w, o)).numpy(), constants.grid.eval(o))
 
 
 def test_delta_tracking_draws_the_numpy_collisions(smoke):
@@ -69,7 +73,7 @@ def test_delta_tracking_draws_the_numpy_collisions(smoke):
     want = tracking.delta_track(constants.grid, o, d, length, constants.sigma_bar, seed, photon, 3)
 
     def tracked(step):
-        return w.grid.delta_track(_vector(w.V64, o), _vector(w.V64, d), w.F64(length), constants.sigma_bar,
+        return w.grid.delta_track(_v(w, o), _v(w, d), w.F64(length), constants.sigma_bar,
                                   w.U32(seed), w.U32(photon), dr.opaque(w.U32, step)).numpy()
 
     got = tracked(3)
@@ -85,9 +89,9 @@ def test_the_drjit_replay_of_a_grid_is_the_numpy_replay(name, beams):
     scene = media_scene(name)
     oracle = Oracle(scene)
     frustum = LightFrustum.for_scene(scene, *medium_bounds(scene))
-    groups = [(true_rays(scene.light, frustum, PHOTON_RES, seed), seed) for seed in (3, 4, 5)]
-    numpy_engine, drjit_engine = (replay.exact_replays(scene, groups, steps=STEPS, fresnel="stochastic",
+    groups = [(true_rays(scene.light, frustum, REPLAY_PHOTON_RES, seed), seed) for seed in (3, 4, 5)]
+    numpy_engine, drjit_engine = (replay.exact_replays(scene, groups, steps=EXACT_STEPS, fresnel="stochastic",
                                                        oracle=oracle, engine=engine, beams=beams)
                                   for engine in ("numpy", "drjit"))
     assert sum(len(c.rows) for c in numpy_engine) > 100, "too few collisions to compare"
-    assert _same(numpy_engine, drjit_engine) == []
+    assert replay_differences(numpy_engine, drjit_engine) == []

@@ -25,11 +25,12 @@ from volcaustics.experiment.pipeline import run_experiment
 from volcaustics.metrics.decomposition import TERMS
 from volcaustics.reports.measuring.cost_match import with_auto_values
 from volcaustics.scenes import load_builtin, load_scene, resolve_scene
-from volcaustics.scenes.catalogue import BUILTIN_NAMES, HELDOUT_NAMES, heldout_path
+from volcaustics.scenes.catalogue import BUILTIN_NAMES, HELDOUT_NAMES, MEDIA_NAMES, heldout_path
 
 SIZE = CLOSURE_SIZE
 REFERENCE = CLOSURE_REFERENCE
-SCENES = [*BUILTIN_NAMES, *(heldout_path(name) for name in HELDOUT_NAMES)]  # scene arguments, as a command takes them
+# scene arguments, as a command takes them; the media scenes' exact replay tracks their grids (reference.wavefront_grid)
+SCENES = [*BUILTIN_NAMES, *MEDIA_NAMES, *(heldout_path(name) for name in HELDOUT_NAMES)]
 
 
 def _best(scene_arg: str):
@@ -102,7 +103,7 @@ def test_the_decomposition_closes_on_every_builtin_and_held_out_scene(cache, con
 
 # the preset beams' widths (differential) on every built-in; fixed widths where point-sampled
 # kernels aliased (sphere1, refocus) and on a mesh; balanced widths on a sphere and a mesh
-BEAM_CASES = [("differential", name) for name in BUILTIN_NAMES] + [
+BEAM_CASES = [("differential", name) for name in (*BUILTIN_NAMES, *MEDIA_NAMES)] + [
     ("fixed", name) for name in ("sphere1", "refocus", "bunny")] + [("balanced", name) for name in ("sphere1", "bunny")]
 
 

@@ -173,6 +173,21 @@ def test_a_nan_metric_is_an_error_not_a_pass():
         budget_checks("bunny", {"caustic.hdr_flip_max": 0.9}, lambda metric, component: Estimate(float("nan")))
 
 
+def test_the_media_budgets_gate_the_media_scenes_at_the_reports_settings():
+    """reports/studies/gate/media_budgets.toml (make report-media) budgets every media scene
+    and nothing else, at the preset, seeds, reference and measurement of the default budgets,
+    so that its points are the report's points of those scenes."""
+    from volcaustics.reports.studies.gate.budgets import default_budgets_path, load_budgets, media_budgets_path
+    from volcaustics.scenes.catalogue import MEDIA_NAMES
+
+    media, default = load_budgets(media_budgets_path()), load_budgets(default_budgets_path())
+    assert sorted(media["scenes"]) == sorted(MEDIA_NAMES)
+    assert not set(media["scenes"]) & set(default["scenes"])
+    for key in ("preset", "seeds", "reference_settings", "measurement"):
+        assert media[key] == default[key], key
+    assert all(media["scenes"][name]["caustic.relmse_max"] > 0 for name in MEDIA_NAMES)
+
+
 @pytest.mark.slow  # the report's references rendered to their noise targets (about a minute)
 def test_the_unmodified_approximation_passes_the_default_budgets(env, capsys):
     """The shipped budgets (reports/studies/gate/budgets.toml, quick preset, 4 seeds) on two built-ins

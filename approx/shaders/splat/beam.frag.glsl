@@ -41,6 +41,10 @@
 #include "common/density.glsl"
 #include "common/volumes.glsl"
 uniform int march_steps;
+#ifdef EXACT_MARCH
+#include "splat/beam_knots.glsl"
+flat in float v_knots[BEAM_KNOTS];  // the exact depth at the beam's knots (beam.vert.glsl)
+#endif
 #endif
 
 uniform mat4 view_proj;
@@ -184,7 +188,9 @@ void main() {
 #if defined(HETEROGENEOUS)
     vec3 x = v_start + on_beam * v_dir;
 #ifdef EXACT_MARCH
-    float on_beam_depth = exact_depth(v_start, v_dir, on_beam);
+    int knot = beam_knot_before(v_length, on_beam);
+    float from = beam_knot(v_length, knot);
+    float on_beam_depth = v_knots[knot] + exact_depth(v_start + v_dir * from, v_dir, on_beam - from);
 #else
     float on_beam_depth = march_depth(v_start, v_dir, on_beam, march_steps);
 #endif

@@ -24,6 +24,15 @@
 #include "common/photon.glsl"
 #include "splat/kernel.glsl"
 #include "splat/beam_width.glsl"
+#if defined(HETEROGENEOUS) && defined(EXACT_MARCH)
+// The decomposition's control EXACT_MARCH: the depth along the beam exact (common/density.glsl).
+// Taken per fragment from the start it cost a walk over every cell plane up to the fragment's
+// point; here the beam's exact depth at BEAM_KNOTS points along it, once per vertex, and the
+// fragment walks only from the knot before its point (beam.frag.glsl): the same integral.
+#include "common/density.glsl"
+#include "splat/beam_knots.glsl"
+flat out float v_knots[BEAM_KNOTS];
+#endif
 
 uniform mat4 view_proj;
 uniform vec3 eye;
@@ -184,6 +193,13 @@ void main() {
         keep_where(dot(plane, vec4(a, 1.0)) / norm + reach, dot(plane.xyz, d) / norm, lo, hi);
     }
     if (!(hi > lo)) return;
+#if defined(HETEROGENEOUS) && defined(EXACT_MARCH)
+    v_knots[0] = 0.0;
+    for (int j = 1; j < BEAM_KNOTS; ++j) {
+        float from = beam_knot(len, j - 1);
+        v_knots[j] = v_knots[j - 1] + exact_depth(a + d * from, d, beam_knot(len, j) - from);
+    }
+#endif
     // a radius at each end whose line along the drawn part bounds every kernel between:
     // the widest kernel at both ends, or, where narrower, the ends' floored σ, a convex
     // bound of σ that its chord holds (a trapezoid: a beam that widens along its length

@@ -47,7 +47,7 @@ from volcaustics.reports.measuring.results.store import Store
 from volcaustics.reports.measuring.results.tables import plain
 from volcaustics.reports.studies.sweep.study_limits import FRAME_CHECK_SEEDS
 from volcaustics.scenes import resolve_scene
-from volcaustics.scenes.catalogue import BUILTIN_NAMES, HELDOUT_NAMES, heldout_path
+from volcaustics.scenes.catalogue import BUILTIN_NAMES, HELDOUT_NAMES, MEDIA_NAMES, heldout_path
 
 if TYPE_CHECKING:
     from volcaustics.approx.params import ApproxParams
@@ -62,7 +62,7 @@ SCHEMA = 2                        # frames.json's "schema": its shape, checked w
 MANIFEST_SEAL = "frames_sha256"   # frames.json's field holding the SHA-256 of the rest of it
 POINTS = "points"                 # DIR/points/: the result store's points (reports.measuring.results.store)
 FRAMES_REFERENCE = REPORT_REFERENCE  # every point's reference: the report's
-GROUPS = ("builtin", "heldout", "yours")  # a scene's group: a built-in, a held-out scene, a file of yours
+GROUPS = ("builtin", "media", "heldout", "yours")  # a scene's group: a built-in, a media scene, held out, yours
 
 
 def default_scenes() -> list:
@@ -93,7 +93,8 @@ def checked_scenes(scenes: Iterable[str], seeds: int) -> list:
             raise InputError(f"frames: {seen[scene.name]} and {arg} are both scene {scene.name!r}: a scene is "
                              f"measured once (rename one, its [scene] name)")
         seen[scene.name] = arg
-        group = ("builtin" if arg in BUILTIN_NAMES else "heldout" if os.path.realpath(arg) in heldout else "yours")
+        group = ("builtin" if arg in BUILTIN_NAMES else "media" if arg in MEDIA_NAMES
+                 else "heldout" if os.path.realpath(arg) in heldout else "yours")
         out.append((arg, scene, group))
     return out
 

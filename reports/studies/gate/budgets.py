@@ -89,6 +89,11 @@ def default_budgets_path() -> str:
     return os.path.join(os.path.dirname(os.path.abspath(__file__)), "budgets.toml")
 
 
+def media_budgets_path() -> str:
+    """The media scenes' budgets (``make report-media``): scenes/media, gated apart."""
+    return os.path.join(os.path.dirname(os.path.abspath(__file__)), "media_budgets.toml")
+
+
 def load_budgets(path: str) -> dict:
     """{"preset", "seeds", "scenes": {name: {check: limit}}, "scene_args": {name: SCENE
     argument}, "path", "reference_settings", "measurement"}, validated. A scene file named by a relative
