@@ -16,7 +16,7 @@ point edited or damaged since is measured again. A scene whose reference has no 
 over the compared pixels is refused after its first points, naming it.
 
 Output (``DIR``): ``frames.parquet`` (one row per scene, configuration and denoiser;
-``group``: builtin, heldout or yours) and ``frames.json`` (its manifest, ``kind`` frames,
+``group``: builtin, media, heldout or yours) and ``frames.json`` (its manifest, ``kind`` frames,
 strict JSON, recording the table's SHA-256 and its own), written as one set
 (``infra.storage.atomic_set``). The report's "One frame" section reads them
 (``report --frames DIR``), refusing a table or manifest that does not match.
