@@ -57,7 +57,7 @@ class Wavefront:
         self.shape_index = self.I32(oracle.shape_index.astype(np.int32))
         self.tracks = c.sigma_bar > 0 and not c.beams  # photons fly free in the medium
         self.free = self.F32(free_flight_table(c.sigma_bar)) if self.tracks and c.grid is None else None
-        types = (dr, self.F64, self.V64, self.U32, self.I32, self.F32, mi.Bool)
+        types = (dr, self.F64, self.V64, self.U32, self.I32, self.F32)
         # a density grid: delta tracking and exact optical depths on the device
         self.grid = GridWavefront(c.grid, types, self.uniform) if c.grid is not None else None
 

@@ -31,11 +31,11 @@ from volcaustics.scenes.rng import MAX_TENTATIVE, TRACKING_DIM
 class GridWavefront:
     """One density grid on the device: ρ, free flights by delta tracking, optical depths.
 
-    ``types``: the variant's (dr, F64, V64, U32, I32, F32, Bool); ``uniform(seed, photon,
+    ``types``: the variant's (dr, F64, V64, U32, I32, F32); ``uniform(seed, photon,
     step, dim)``: ``scenes.rng.uniform`` as Dr.Jit float32 (``Wavefront.uniform``)."""
 
     def __init__(self, grid: DensityGrid, types: tuple, uniform, *, block: int = MAJORANT_BLOCK):
-        self.dr, self.F64, self.V64, self.U32, self.I32, self.F32, self.Bool = types
+        self.dr, self.F64, self.V64, self.U32, self.I32, self.F32 = types
         self.uniform = uniform
         self.lo = [float(x) for x in grid.lo]
         self.hi = [float(x) for x in grid.hi]
