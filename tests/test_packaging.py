@@ -11,7 +11,8 @@ import zipfile
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 FOLDERS = ("infra", "scenes", "approx", "reference", "metrics", "experiment", "reports")
-SHIPPED_SPECS = ("reports/studies/gate/budgets.toml", "reports/studies/sweep/variants.toml",
+SHIPPED_SPECS = ("reports/studies/gate/budgets.toml", "reports/studies/gate/media_budgets.toml",
+                 "reports/studies/sweep/variants.toml",
                  "reports/studies/best/best.toml", "reports/studies/sweep/density.toml")
 
 
