@@ -29,7 +29,9 @@ report-media: setup
 
 # The frame check: the paper's configuration against --preset best and --preset beams on every
 # built-in and held-out scene, one frame and the mean, without and with OIDN -> runs/frames (the
-# report's "One frame" section); 35 minutes on 2 cores with four of the twelve references cold (2026-12-05).
+# report's "One frame" section); 35 minutes on 2 cores with four of the twelve references cold (2026-12-05),
+# a few more since the held-out layered_fog joined (2026-12-06). The media scenes by name:
+# $(BIN)/volcaustics frames fogbank smoke (10 minutes, references cached).
 FRAMES ?= runs/frames
 MEDIA_BUDGETS = reports/studies/gate/media_budgets.toml
 frames: setup

@@ -79,7 +79,7 @@ def main(argv=None) -> int:
         classify_segments,
     )
     from volcaustics.reference.oracle import Oracle
-    from volcaustics.scenes import load_builtin
+    from volcaustics.scenes import resolve_scene
     from volcaustics.scenes.bounds import medium_bounds
 
     changes = {}
@@ -93,7 +93,7 @@ def main(argv=None) -> int:
           f"{'self':>6} | {'W':>6} {'absent':>7} {'early':>7} {'start':>7} {'jump':>7} | {'M':>6} {'absent':>7} | "
           f"{'T held':>7}")
     for name in args.scenes:
-        scene = load_builtin(name)
+        scene = resolve_scene(name)
         oracle = Oracle(scene)
         renderer = Renderer(scene)
         frustum = LightFrustum.for_scene(scene, *medium_bounds(scene))

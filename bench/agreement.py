@@ -47,7 +47,7 @@ def main(argv=None) -> int:
     from volcaustics.reference.oracle import Oracle, exact_photon_records
     from volcaustics.reference.render import render_reference
     from volcaustics.reference.settings import ReferenceSettings
-    from volcaustics.scenes import load_builtin
+    from volcaustics.scenes import resolve_scene
     from volcaustics.scenes.formats import FLAG_LEFT_FRUSTUM, STATUS_LOST
 
     settings = ReferenceSettings(photons=1 << 22, spp=64, batches=4, width=args.size, height=args.size)
@@ -57,7 +57,7 @@ def main(argv=None) -> int:
     print(f"{'scene':10} {'fresnel':13} {'steps':>5} {'lost approx':>11} {'lost exact':>10} "
           f"{'left_frustum':>12} {'caustic approx/ref':>18} {'trace s':>7}")
     for name in args.scenes:
-        scene = load_builtin(name)
+        scene = resolve_scene(name)
         ref = render_reference(scene, settings, progress=False)
         keep = ref.mean["mask_specular"][..., 0] < 0.5
         ref_total = float(ref.mean["caustic"][keep].sum())

@@ -341,6 +341,8 @@ def main(argv=None) -> int:
         held += [r for r in measured if r["config"] in HELD_OUT]
         print(f"{scene}: {len(measured)} configurations", flush=True)
     for name in HELDOUT_NAMES:
+        if name in MEDIA_HELD_OUT:  # a density grid: its reads are --media's weights, not this fit's
+            continue
         held_scenes += scene_points(heldout_path(name))
         print(f"{name} (held out): measured", flush=True)
     fitted = fit(rows)

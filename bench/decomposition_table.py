@@ -21,7 +21,7 @@ def main(argv=None) -> int:
     from volcaustics.metrics.decomposition import TERMS
     from volcaustics.metrics.intersection import CLASS_NAMES
     from volcaustics.reports.presenting.exports.measure_files import write_experiment
-    from volcaustics.scenes import load_builtin
+    from volcaustics.scenes import resolve_scene
     from volcaustics.scenes.catalogue import BUILTIN_NAMES
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -33,7 +33,7 @@ def main(argv=None) -> int:
     terms = (*TERMS, "total", "noise")
     decomposition, classes = [], []
     for name in args.scenes:
-        scene = load_builtin(name)
+        scene = resolve_scene(name)
         for strategy in ("threshold", "peel"):
             params = dataclasses.replace(QUICK, layer_strategy=strategy)
             result = run_experiment(scene, params, seeds=args.seeds)

@@ -31,7 +31,7 @@ def main(argv=None) -> int:
     from volcaustics.experiment.sizing import REPORT_REFERENCE, sized
     from volcaustics.reference.cache import existing_reference
     from volcaustics.reports.studies.gate.regression import baseline_entry, regression_check
-    from volcaustics.scenes import load_builtin
+    from volcaustics.scenes import resolve_scene
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--scene", default="bunny")
@@ -40,7 +40,7 @@ def main(argv=None) -> int:
     parser.add_argument("--degrade", action="append", metavar="NAME=VALUE",
                         help="a degraded setting (repeatable; default splat_radius=0.0175)")
     args = parser.parse_args(argv)
-    scene = load_builtin(args.scene)
+    scene = resolve_scene(args.scene)
     p = QUICK.resolved(scene)
     reference = existing_reference(scene, sized(REPORT_REFERENCE, scene, p))
     if reference is None:

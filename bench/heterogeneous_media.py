@@ -31,9 +31,13 @@ import tempfile
 
 def _scene_path(name: str) -> str:
     """A media scene's file: fogbank and smoke are named media scenes, layered_fog is held out."""
-    from volcaustics.scenes.catalogue import HELDOUT_NAMES, heldout_path, named_path
+    from volcaustics.scenes import SceneError
+    from volcaustics.scenes.catalogue import HELDOUT_NAMES, MEDIA_NAMES, heldout_path, named_path
 
-    return heldout_path(name) if name in HELDOUT_NAMES else str(named_path(name))
+    path = heldout_path(name) if name in HELDOUT_NAMES else named_path(name) if name in MEDIA_NAMES else None
+    if path is None:
+        raise SceneError(None, "--scenes", name, f"expected a media scene ({', '.join(MEDIA_NAMES)}) or layered_fog")
+    return path
 
 
 def _row(label: str, result) -> str:

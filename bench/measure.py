@@ -21,7 +21,7 @@ import time
 def main(argv=None) -> int:
     from volcaustics.approx.params import QUICK
     from volcaustics.experiment.pipeline import run_experiment
-    from volcaustics.scenes import load_builtin
+    from volcaustics.scenes import resolve_scene
     from volcaustics.scenes.catalogue import BUILTIN_NAMES
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -32,7 +32,7 @@ def main(argv=None) -> int:
     stages = ("reference", "approx", "segments", "photons", "exact_images", "metrics")
     print(f"{'scene':12} {'seeds':>5} {'first s':>8} {'median s':>9}  " + " ".join(f"{s:>12}" for s in stages))
     for name in args.scenes:
-        scene = load_builtin(name)
+        scene = resolve_scene(name)
         for seeds in (int(x) for x in args.seeds.split(",")):
             t0 = time.perf_counter()
             run_experiment(scene, QUICK, seeds=seeds)

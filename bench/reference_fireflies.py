@@ -48,11 +48,11 @@ def measure(name: str, photons: int, batches: int, size: int, geometry_per_conne
     from volcaustics.reference.render.integrators import VolumetricLightTracer, configure
     from volcaustics.reference.request import resolve
     from volcaustics.reference.settings import ReferenceSettings
-    from volcaustics.scenes import load_builtin
+    from volcaustics.scenes import resolve_scene
 
     mi = mitsuba()
     settings = ReferenceSettings(photons=photons, spp=batches, batches=batches, width=size, height=size)
-    request = resolve(load_builtin(name), settings, "caustic")
+    request = resolve(resolve_scene(name), settings, "caustic")
     mi_scene = load_scene(mi, request.description)
     props = mi.Properties()
     props["mode"] = "caustic"
@@ -93,7 +93,7 @@ def cause(name: str, photons: int, batches: int, size: int) -> list:
     from volcaustics.reference.render.sampling import subtended_angle
     from volcaustics.reference.request import resolve
     from volcaustics.reference.settings import ReferenceSettings
-    from volcaustics.scenes import load_builtin
+    from volcaustics.scenes import resolve_scene
 
     mi = mitsuba()
 
@@ -109,7 +109,7 @@ def cause(name: str, photons: int, batches: int, size: int) -> list:
             return dr.zeros(mi.Float, dr.width(t_end)), t_end, chosen, dr.full(mi.UInt32, 1, dr.width(t_end))
 
     settings = ReferenceSettings(photons=photons, spp=batches, batches=batches, width=size, height=size)
-    request = resolve(load_builtin(name), settings, "caustic")
+    request = resolve(resolve_scene(name), settings, "caustic")
     mi_scene = load_scene(mi, request.description)
     props = mi.Properties()
     props["mode"] = "caustic"

@@ -33,7 +33,7 @@ def main(argv=None) -> int:
 
     import volcaustics.reference  # noqa: F401  (libLLVM before drjit)
     from volcaustics.reference.render import render_batches
-    from volcaustics.scenes import load_builtin
+    from volcaustics.scenes import resolve_scene
 
     target = None if args.target_noise.lower() == "none" else args.target_noise
     settings = dataclasses.replace(REPORT_REFERENCE, width=args.size, height=args.size, target_noise=target,
@@ -44,7 +44,7 @@ def main(argv=None) -> int:
     print(f"{'scene':12} {'component':9} {'floor':>8} {'target':>7} {'s to target':>11} {'batches':>7} "
           f"{'photons':>13} {'seconds':>7}  stopped by")
     for name in args.scenes:
-        out = render_batches(load_builtin(name), settings, progress=False)
+        out = render_batches(resolve_scene(name), settings, progress=False)
         info = out["_info"]
         for component in ("caustic", "fog", "direct"):
             floor = info["noise_floor"][component]

@@ -93,7 +93,7 @@ def main(argv=None) -> int:
     from volcaustics.approx import ApproxParams, Renderer, trace
     from volcaustics.approx.light import LightFrustum
     from volcaustics.reference.oracle import Oracle
-    from volcaustics.scenes import load_builtin
+    from volcaustics.scenes import resolve_scene
     from volcaustics.scenes.bounds import medium_bounds
 
     new_rule = dict(trace.START_OFFSET)
@@ -109,7 +109,7 @@ def main(argv=None) -> int:
     print(f"photon_res {args.photon_res}, stochastic Fresnel, 6 steps; shares of segments leaving a surface")
     print(f"{'scene':8} {'light_res':>9} {'rule':13} {'segments':>9} {'skipped':>8} {'false re-hit':>12}")
     for name in args.scenes:
-        scene = load_builtin(name)
+        scene = resolve_scene(name)
         oracle = Oracle(scene)
         for light_res in (int(x) for x in args.light_res.split(",")):
             frustum = LightFrustum.for_scene(scene, *medium_bounds(scene))

@@ -7,12 +7,12 @@ JSON and ``scene_hash`` that key caches, procedural and file meshes, the
 built-in catalogue of the paper's scenes, and the shared counter-based RNG.
 """
 
-from .catalogue import BUILTIN_NAMES, load_builtin, resolve_scene
+from .catalogue import BUILTIN_NAMES, MEDIA_NAMES, load_builtin, resolve_scene
 from .errors import SceneError
 from .loader import load_scene, parse_scene
 from .model import Camera, DiffuseSurface, Medium, MeshSpec, Phase, Scene, SpecularObject, SpotLight, Transform
 
 __all__ = [
-    "BUILTIN_NAMES", "Camera", "DiffuseSurface", "Medium", "MeshSpec", "Phase", "Scene", "SceneError",
+    "BUILTIN_NAMES", "MEDIA_NAMES", "Camera", "DiffuseSurface", "Medium", "MeshSpec", "Phase", "Scene", "SceneError",
     "SpecularObject", "SpotLight", "Transform", "load_builtin", "load_scene", "parse_scene", "resolve_scene",
 ]

@@ -161,3 +161,19 @@ def test_a_heldout_scene_named_by_its_path_in_the_checkout_is_held_out():
 
     path = os.path.join(ROOT, "scenes", "heldout", "knot.toml")
     assert [group for _, _, group in checked_scenes([path, "sphere1"], 2)] == ["heldout", "builtin"]
+
+
+def test_a_media_scene_by_name_or_by_its_path_is_a_media_scene():
+    """fogbank by name and smoke by the checkout's file are the media group (the CLI's
+    "(medium)"), not a user's scene; the report's section labels the group and gives its
+    worst ratio."""
+    from tests.shared import ROOT
+    from volcaustics.reports.studies.best.frame_check import checked_scenes
+
+    path = os.path.join(ROOT, "scenes", "media", "smoke.toml")
+    assert [group for _, _, group in checked_scenes(["fogbank", path], 2)] == ["media", "media"]
+    rows = [{**_row("fogbank", False, config, "none", frame), "group": "media"}
+            for config, frame in (("paper", 0.10), ("best", 0.06))]
+    table = _table(0.045, more=rows)
+    html = frames_section(FramesSummary(tuple(frames_rows(table)), verdict(table), "frames"))
+    assert "(medium)" in html and "in the media scenes" in html

@@ -31,6 +31,12 @@ def _ratio(value, fmt: str = "{:.2f}×") -> str:
     return "–" if value is None or value != value else fmt.format(value)
 
 
+def _group_label(row) -> str:
+    """The scene's group beside its name: held out, a media scene, or nothing (a built-in)."""
+    group = row.get("group", "heldout" if row["heldout"] else "builtin")
+    return {"heldout": " <i>(held out)</i>", "media": " <i>(medium)</i>", "yours": " <i>(yours)</i>"}.get(group, "")
+
+
 def frames_section(frames: FramesSummary | None) -> str:
     """HTML of the report's frame check (rows and verdict), "" without one."""
     if frames is None:
@@ -41,7 +47,7 @@ def frames_section(frames: FramesSummary | None) -> str:
             "<th>one frame's relMSE</th><th>vs paper</th>"
             "<th>mean's relMSE, debiased</th><th>vs paper</th><th>OIDN s/frame</th></tr>")
     body = "".join(
-        f"<tr><td class='l'>{escape(r['scene'])}{' <i>(held out)</i>' if r['heldout'] else ''}</td>"
+        f"<tr><td class='l'>{escape(r['scene'])}{_group_label(r)}</td>"
         f"<td class='l'>{escape(r['config'])}</td><td class='l'>{escape(r['denoise'])}</td>"
         f"<td>{_ratio(r['photon_res'], '{:.0f}')}</td><td>{_ratio(r['cost_ratio'], '{:.3f}×')}</td>"
         f"<td>{_ratio(r.get('time_ratio'))}</td>"
@@ -51,8 +57,10 @@ def frames_section(frames: FramesSummary | None) -> str:
         for r in frames.rows)
     worst = (f"best's worst one-frame ratio without a denoiser: "
              f"{_ratio(v.get('none_builtin_worst_frame_ratio'))} on the built-ins, "
-             f"{_ratio(v.get('none_heldout_worst_frame_ratio'))} on the held-out scenes "
-             f"(goal ≤ {v['goal']:g}× on every scene: <b>{'met' if v['met'] else 'not met'}</b>); with OIDN "
+             f"{_ratio(v.get('none_heldout_worst_frame_ratio'))} on the held-out scenes"
+             + (f", {_ratio(v['none_media_worst_frame_ratio'])} in the media scenes"
+                if "none_media_worst_frame_ratio" in v else "")
+             + f" (goal ≤ {v['goal']:g}× on every scene: <b>{'met' if v['met'] else 'not met'}</b>); with OIDN "
              f"{_ratio(v.get('oidn_builtin_worst_frame_ratio'))} and "
              f"{_ratio(v.get('oidn_heldout_worst_frame_ratio'))}")
     if "beams_none_builtin_worst_frame_ratio" in v:

@@ -47,7 +47,7 @@ from volcaustics.reports.measuring.results.store import Store
 from volcaustics.reports.measuring.results.tables import plain
 from volcaustics.reports.studies.sweep.study_limits import FRAME_CHECK_SEEDS
 from volcaustics.scenes import resolve_scene
-from volcaustics.scenes.catalogue import BUILTIN_NAMES, HELDOUT_NAMES, MEDIA_NAMES, heldout_path
+from volcaustics.scenes.catalogue import BUILTIN_NAMES, HELDOUT_NAMES, MEDIA_NAMES, heldout_path, named_path
 
 if TYPE_CHECKING:
     from volcaustics.approx.params import ApproxParams
@@ -84,6 +84,7 @@ def checked_scenes(scenes: Iterable[str], seeds: int) -> list:
     cannot run, or two arguments of one scene name (their rows would collide)."""
     # by the file itself: an installed package may name the held-out files through links
     heldout = {os.path.realpath(heldout_path(name)) for name in HELDOUT_NAMES}
+    media = {os.path.realpath(str(named_path(name))) for name in MEDIA_NAMES}  # by name or by path
     seen: dict
     out, seen = [], {}
     for arg in scenes:
@@ -93,7 +94,7 @@ def checked_scenes(scenes: Iterable[str], seeds: int) -> list:
             raise InputError(f"frames: {seen[scene.name]} and {arg} are both scene {scene.name!r}: a scene is "
                              f"measured once (rename one, its [scene] name)")
         seen[scene.name] = arg
-        group = ("builtin" if arg in BUILTIN_NAMES else "media" if arg in MEDIA_NAMES
+        group = ("builtin" if arg in BUILTIN_NAMES else "media" if os.path.realpath(named_path(arg) or arg) in media
                  else "heldout" if os.path.realpath(arg) in heldout else "yours")
         out.append((arg, scene, group))
     return out
