@@ -33,11 +33,17 @@ from .transforms import gl_matrix
 if TYPE_CHECKING:
     from volcaustics.scenes.model import Medium, Scene
 
+    from .camera_pass import CameraView
     from .light import LightFrustum
     from .params import ApproxParams
     from .resources import FrameResources
 
 DENSITY_BINDING, MAJORANT_BINDING = 11, 12   # storage buffers (common/density.glsl's defaults)
+EYE_KNOTS_BINDING = 13                        # ... and beams' eye knots (splat/eye_knots.glsl's default)
+# EXACT_EYE's knots per pixel: up to 32 (a fragment walks ~1/32 of its ray's cell planes; the whole
+# walk per fragment took 37 of a smoke closure case's 165 s at 256² fine pixels, docs/decisions.md
+# "Heterogeneous media"), fewer where the view's pixels would take more than 2^24 floats (64 MB)
+EYE_KNOTS_MAX, EYE_KNOT_FLOATS = 32, 1 << 24
 LIGHT_VOLUME_UNIT, CAMERA_VOLUME_UNIT = 5, 6  # texture units of the volumes (common/volumes.glsl)
 
 
@@ -45,6 +51,11 @@ def medium_defines(medium: Medium) -> dict:
     """The #defines a program of the frame gets for ``medium``: HETEROGENEOUS when a density
     grid scales it (the program reads the grid and the volumes), none otherwise."""
     return {"HETEROGENEOUS": 1} if medium.is_heterogeneous else {}
+
+
+def eye_knot_count(width: int, height: int) -> int:
+    """EXACT_EYE's knots per pixel of a ``width``×``height`` view (splat/eye_knots.glsl)."""
+    return max(1, min(EYE_KNOTS_MAX, EYE_KNOT_FLOATS // (width * height)))
 
 
 def _far(origin: np.ndarray, box: tuple[np.ndarray, np.ndarray]) -> float:
@@ -63,6 +74,9 @@ class MediumVolumes:
         pool.track(self.builder)
         self.uniforms: dict = {}
         self._grid_key: object = None
+        self.eye_builder: moderngl.ComputeShader | None = None  # EXACT_EYE's knots, compiled when first used
+        self._eye_key: object = None
+        self._eye_grid: object = None
 
     def update(self, scene: Scene, frustum: LightFrustum, eye: np.ndarray, view_proj: np.ndarray,
                box: tuple[np.ndarray, np.ndarray], params: ApproxParams) -> None:
@@ -99,6 +113,29 @@ class MediumVolumes:
         prog.run(-(-res // 8), -(-res // 8), 1)
         return {"texture": texture, "view_proj": view_proj, "origin": tuple(origin), "distance": distance,
                 "slices": slices}
+
+    def bind_eye_knots(self, prog: moderngl.Program, view: CameraView) -> None:
+        """Give ``prog`` (a beam program under EXACT_EYE) the eye knots of ``view``: per pixel the
+        exact depth from the eye along its ray at :func:`eye_knot_count` distances
+        (splat/eye_knots.comp.glsl), made when the view or the grid changed."""
+        count = eye_knot_count(view.width, view.height)
+        reach = _far(view.eye, (np.asarray(self.uniforms["density_min"]), np.asarray(self.uniforms["density_max"])))
+        key = (view.width, view.height, count, view.eye.tobytes(), view.view_proj.tobytes())
+        self.eye_knots = self.pool.buffer("eye_knots", 4 * count * view.width * view.height)
+        if self._eye_key != key or self._eye_grid is not self._grid_key:
+            if self.eye_builder is None:
+                self.eye_builder = compute_shader(self.ctx, "splat/eye_knots.comp.glsl")
+                self.pool.track(self.eye_builder)
+            builder = self.eye_builder
+            self.bind_grid(builder)
+            view.set_uniforms(builder)
+            set_uniforms(builder, eye_knot_count=count, eye_reach=reach)
+            self.eye_knots.bind_to_storage_buffer(EYE_KNOTS_BINDING)
+            builder.run(-(-view.width // 8), -(-view.height // 8), 1)
+            self.ctx.memory_barrier()
+            self._eye_key, self._eye_grid = key, self._grid_key
+        self.eye_knots.bind_to_storage_buffer(EYE_KNOTS_BINDING)
+        set_uniforms(prog, eye_knot_count=count, eye_reach=reach)
 
     def bind_grid(self, prog: moderngl.Program | moderngl.ComputeShader) -> None:
         """Give ``prog`` the density grid and its majorants (storage buffers and uniforms)."""

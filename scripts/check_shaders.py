@@ -79,6 +79,7 @@ def programs() -> list:
             out += [(f"{name} {label} heterogeneous", (shader,), d)
                     for name, (shader, d) in PhotonTracer.programs(params, controls, grid).items()]
     out.append(("transmittance volume", ("medium/depth_volume.comp.glsl",), {}))
+    out.append(("beams' eye knots", ("splat/eye_knots.comp.glsl",), {}))
     splat_controls = [{}] + [{name: 1} for name in CONTROLS if "splat" in control_programs(name)]
     fog = next(p for p in PARAMS if p.name == "fog_steps")
     for kind, g in PHASES:

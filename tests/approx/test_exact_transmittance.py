@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from tests.shared import media_renderer
-from volcaustics.approx import Renderer
+from volcaustics.approx import Renderer, medium_volumes
 from volcaustics.approx.params import QUICK
 from volcaustics.approx.splat import record_splats, splatted
 from volcaustics.scenes import load_builtin
@@ -85,6 +85,53 @@ def test_the_exact_eye_moves_the_caustic_less_with_a_finer_camera_volume(smoke):
         change[res] = _change(volume, direct)
     print("caustic change with the eye's transmittance exact:", change)
     assert change[8] > 1e-3 and change[256] < 0.1 * change[8]  # measured 0.15 and 1.7e-4
+
+
+def _small_beams(scene, renderer, size: int = 128):
+    """(rows, params): smoke's beams of a 64² frame carrying a small σ of their own (as
+    E_∞,s's do, integrated over each pixel) at ``size``² pixels."""
+    p = _params(scene, splat="beams")
+    frame = renderer.render(scene, p)
+    rows = record_splats(np.concatenate([r[splatted(r, p)] for r in frame.records]), p.splat)
+    rows["dir"][:, 3] = np.float32(2e-3)
+    return rows, dataclasses.replace(p, width=size, height=size)
+
+
+def test_beams_exact_eye_from_knots_is_the_walk_from_the_eye(smoke, monkeypatch):
+    """Beams under EXACT_EYE take the depth to the eye from knots along every pixel's ray
+    (splat/eye_knots.glsl) and walk only from the knot before their point: the image one
+    knot per pixel gives (the whole walk from the eye), to float32 rounding (measured
+    6e-8 of the caustic; the knots' count follows the view's pixels,
+    ``approx.medium_volumes.eye_knot_count``); a coarse camera volume, the negative
+    control, is flagged."""
+    scene, renderer = smoke
+    rows, p = _small_beams(scene, renderer)
+    knots = renderer.variant({"EXACT_EYE": 1}).splat(rows, scene, p)
+    assert medium_volumes.eye_knot_count(p.width, p.height) == medium_volumes.EYE_KNOTS_MAX > 1
+    monkeypatch.setattr(medium_volumes, "EYE_KNOTS_MAX", 1)
+    walked = renderer.variant({"EXACT_EYE": 1}).splat(rows, scene, p)
+    coarse = renderer.splat(rows, scene, dataclasses.replace(p, camera_volume_res=8, camera_volume_slices=4))
+    apart = {name: float(np.abs(image - knots).sum() / knots.sum()) for name, image in
+             (("walked", walked), ("coarse", coarse))}
+    print("beams' exact eye from knots against the walk and a coarse camera volume:", apart)
+    assert apart["walked"] < 1e-5 < 1e-3 < apart["coarse"]
+
+
+def test_beams_eye_knots_follow_the_view(smoke):
+    """The eye knots are kept while the view is the same and made again when the camera
+    moves: a moved camera's image is the one a fresh renderer makes."""
+    scene, renderer = smoke
+    rows, p = _small_beams(scene, renderer, size=64)
+    eye = renderer.variant({"EXACT_EYE": 1})
+    eye.splat(rows, scene, p)
+    moved = dataclasses.replace(scene, camera=dataclasses.replace(
+        scene.camera, position=tuple(np.add(scene.camera.position, (0.4, 0.1, -0.2)))))
+    fresh = Renderer(scene)
+    try:
+        expected = fresh.variant({"EXACT_EYE": 1}).splat(rows, moved, p)
+    finally:
+        fresh.release()
+    np.testing.assert_array_equal(eye.splat(rows, moved, p), expected)
 
 
 def test_a_homogeneous_frame_is_the_same_under_the_controls(gl_context):

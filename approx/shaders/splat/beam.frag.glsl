@@ -27,8 +27,12 @@
 // kernel in pilot pixels at the closest approach).
 // HETEROGENEOUS (a density grid): σs(x) = ρ(x)·σs at the closest approach, the transmittance
 // along the beam from march_steps midpoint samples of ρ and to the eye from the camera's
-// transmittance volume (common/volumes.glsl); the decomposition's controls EXACT_MARCH and
-// EXACT_EYE make either exact (common/density.glsl's exact_depth).
+// transmittance volume (common/volumes.glsl) at the closest approach; the decomposition's
+// controls EXACT_MARCH and EXACT_EYE make either exact (common/density.glsl's exact_depth).
+// EXACT_EYE takes the depth along the pixel's ray up to the closest approach's depth on it,
+// the estimator's own (Jarosz et al. 2011 take the query ray's transmittance at its t), from
+// knots along every pixel's ray (splat/eye_knots.glsl); the point's own line to the eye, off
+// the ray by less than the kernel's reach, differed from it by a symmetric first-order term.
 // Controls (negative controls of tests): BEAM_NO_SINE drops 1/sin θ,
 // BEAM_NO_CAMERA_TRANSMITTANCE drops exp(−σt·t), BEAM_CLOSEST_DEPTH depth-tests the
 // closest approach alone instead of cutting the beam at the surface.
@@ -36,6 +40,7 @@
 #include "common/phase.glsl"
 #include "splat/kernel.glsl"
 #include "splat/beam_width.glsl"
+#include "splat/pixel_ray.glsl"
 #include "common/kinds.glsl"
 #ifdef HETEROGENEOUS  // σs(x) = ρ(x)·σs; along the beam a fixed march, to the eye the camera's volume
 #include "common/density.glsl"
@@ -44,6 +49,10 @@ uniform int march_steps;
 #ifdef EXACT_MARCH
 #include "splat/beam_knots.glsl"
 flat in float v_knots[BEAM_KNOTS];  // the exact depth at the beam's knots (beam.vert.glsl)
+#endif
+#ifdef EXACT_EYE
+#include "splat/eye_knots.glsl"
+layout(std430, binding = EYE_KNOTS_BINDING) readonly buffer EyeKnots { float eye_knots[]; };  // eye_knots.comp.glsl
 #endif
 #endif
 
@@ -105,19 +114,8 @@ float beam_pixel_mass(float z, float alpha, float beta) {
                + kernel_cdf_integral(z - hi), 0.0) / (a * b);
 }
 
-// The camera ray through this pixel's centre (unit, world space): the image-plane point
-// (x/P00, y/P11) at NDC (x, y), along view_proj's rows (row 0 = P00·right, row 1 = P11·up,
-// row 3 = forward).
-vec3 pixel_ray() {
-    vec2 ndc = gl_FragCoord.xy / viewport * 2.0 - 1.0;
-    vec3 right = vec3(view_proj[0][0], view_proj[1][0], view_proj[2][0]);
-    vec3 up = vec3(view_proj[0][1], view_proj[1][1], view_proj[2][1]);
-    vec3 forward = vec3(view_proj[0][3], view_proj[1][3], view_proj[2][3]);
-    return normalize(forward + ndc.x / dot(right, right) * right + ndc.y / dot(up, up) * up);
-}
-
 void main() {
-    vec3 ray = pixel_ray();
+    vec3 ray = pixel_ray_through(gl_FragCoord.xy, viewport, view_proj);
     vec3 w0 = eye - v_start;
     // the signed distance between pixel ray and beam and its change per pixel (m), taken
     // before any fragment of the 2×2 quad is discarded (v_boxed is the primitive's: uniform there)
@@ -194,8 +192,12 @@ void main() {
 #else
     float on_beam_depth = march_depth(v_start, v_dir, on_beam, march_steps);
 #endif
-#ifdef EXACT_EYE
-    float to_eye = exact_depth(eye, normalize(x - eye), distance(x, eye));
+#ifdef EXACT_EYE  // along this pixel's ray to x's depth on it, from the knot before (splat/eye_knots.glsl)
+    float t_x = dot(x - eye, ray);
+    int eye_knot_j = eye_knot_before(t_x);
+    float eye_from = eye_knot(eye_knot_j);
+    float to_eye = eye_knots[eye_knot_slot(ivec2(gl_FragCoord.xy), eye_knot_j, ivec2(viewport))]
+                   + exact_depth(eye + ray * eye_from, ray, t_x - eye_from);
 #else
     float to_eye = camera_depth(x);
 #endif
