@@ -33,7 +33,6 @@ from .transforms import gl_matrix
 if TYPE_CHECKING:
     from volcaustics.scenes.model import Medium, Scene
 
-    from .camera_pass import CameraView
     from .light import LightFrustum
     from .params import ApproxParams
     from .resources import FrameResources
@@ -114,24 +113,28 @@ class MediumVolumes:
         return {"texture": texture, "view_proj": view_proj, "origin": tuple(origin), "distance": distance,
                 "slices": slices}
 
-    def bind_eye_knots(self, prog: moderngl.Program, view: CameraView) -> None:
-        """Give ``prog`` (a beam program under EXACT_EYE) the eye knots of ``view``: per pixel the
+    def bind_eye_knots(self, prog: moderngl.Program, eye: np.ndarray, view_proj: np.ndarray,
+                       size: tuple[int, int]) -> None:
+        """Give ``prog`` (a beam program under EXACT_EYE) the eye knots of the view from ``eye``
+        through ``view_proj`` (4×4 world → clip) at ``size`` (width, height) pixels: per pixel the
         exact depth from the eye along its ray at :func:`eye_knot_count` distances
         (splat/eye_knots.comp.glsl), made when the view or the grid changed."""
-        count = eye_knot_count(view.width, view.height)
-        reach = _far(view.eye, (np.asarray(self.uniforms["density_min"]), np.asarray(self.uniforms["density_max"])))
-        key = (view.width, view.height, count, view.eye.tobytes(), view.view_proj.tobytes())
-        self.eye_knots = self.pool.buffer("eye_knots", 4 * count * view.width * view.height)
+        width, height = size
+        count = eye_knot_count(width, height)
+        reach = _far(eye, (np.asarray(self.uniforms["density_min"]), np.asarray(self.uniforms["density_max"])))
+        key = (width, height, count, np.asarray(eye, np.float64).tobytes(), np.asarray(view_proj).tobytes())
+        self.eye_knots = self.pool.buffer("eye_knots", 4 * count * width * height)
         if self._eye_key != key or self._eye_grid is not self._grid_key:
             if self.eye_builder is None:
                 self.eye_builder = compute_shader(self.ctx, "splat/eye_knots.comp.glsl")
                 self.pool.track(self.eye_builder)
             builder = self.eye_builder
             self.bind_grid(builder)
-            view.set_uniforms(builder)
-            set_uniforms(builder, eye_knot_count=count, eye_reach=reach)
+            uniform(builder, "view_proj").write(gl_matrix(view_proj))
+            set_uniforms(builder, eye=tuple(float(v) for v in eye), viewport=(float(width), float(height)),
+                         eye_knot_count=count, eye_reach=reach)
             self.eye_knots.bind_to_storage_buffer(EYE_KNOTS_BINDING)
-            builder.run(-(-view.width // 8), -(-view.height // 8), 1)
+            builder.run(-(-width // 8), -(-height // 8), 1)
             self.ctx.memory_barrier()
             self._eye_key, self._eye_grid = key, self._grid_key
         self.eye_knots.bind_to_storage_buffer(EYE_KNOTS_BINDING)

@@ -335,7 +335,7 @@ class Splatter:
                 raise RuntimeError("a heterogeneous medium's splats need the frame's volumes (Splatter.volumes)")
             self.volumes.bind(prog, self.march_steps)
             if self.beams and "EXACT_EYE" in self.defines:
-                self.volumes.bind_eye_knots(prog, view)
+                self.volumes.bind_eye_knots(prog, view.eye, view.view_proj, (view.width, view.height))
         if self.beams:
             uniform(prog, "sigma_s").value = tuple(medium.sigma_s)
         else:
