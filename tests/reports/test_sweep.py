@@ -255,17 +255,27 @@ def test_a_port_that_is_not_a_scheduler_is_refused_in_bounded_time(empty_cache, 
 
 
 def _wait_until_it_answers(address: str, deadline: float) -> None:
-    """Until a client's handshake with the scheduler at ``address`` succeeds (or ``deadline``)."""
+    """Until a client's handshake with the scheduler at ``address`` succeeds (AssertionError
+    at ``deadline``). Each try runs in a thread bounded by the wall clock: the client's own
+    timeout does not bound a handshake that never completes (``dask_address`` says the same
+    of the sweep's probe), and a try left waiting hung this test for 23 minutes once."""
     from dask.distributed import Client
 
     while True:
-        try:
-            Client(address, timeout="5s", set_as_default=False).close()
+        answered = threading.Event()
+
+        def handshake(answered: threading.Event = answered) -> None:
+            try:
+                Client(address, timeout="5s", set_as_default=False).close(timeout=5)
+                answered.set()
+            except Exception:  # noqa: BLE001 (not up yet: whatever the handshake raised)
+                pass
+
+        threading.Thread(target=handshake, daemon=True, name="scheduler-handshake").start()
+        if answered.wait(12.0):
             return
-        except Exception:  # noqa: BLE001 (not up yet: whatever the handshake raised)
-            if time.monotonic() > deadline:
-                raise
-            time.sleep(0.5)
+        assert time.monotonic() < deadline, f"the scheduler at {address} did not answer a handshake"
+        time.sleep(0.5)
 
 
 def test_a_scheduler_without_workers_is_refused_after_the_stated_wait(empty_cache, tmp_path, capsys):
