@@ -208,3 +208,19 @@ def test_glsl_box_exit_matches_numpy_twin(ctx):
     exit_points = origins + directions * want[:, None]
     on_face = np.isclose(exit_points, lo, atol=1e-5) | np.isclose(exit_points, hi, atol=1e-5)
     assert np.all(on_face.any(axis=1))
+
+
+def test_the_media_storage_bindings_are_the_shaders_defaults():
+    """The storage-buffer bindings a heterogeneous medium's programs read (the density grid,
+    its majorants, beams' eye knots) are bound by ``approx.medium_volumes`` at the binding
+    points their GLSL files state; a binding one off fails here, not as a silent read of
+    another buffer."""
+    from volcaustics.approx import medium_volumes
+
+    stated = {}
+    for name in ("common/density.glsl", "splat/eye_knots.glsl"):
+        with open(os.path.join(SHADER_DIR, name), encoding="utf-8") as fh:
+            stated.update(re.findall(r"^#define (\w+_BINDING) (\d+)$", fh.read(), re.MULTILINE))
+    python = {name: getattr(medium_volumes, name) for name in ("DENSITY_BINDING", "MAJORANT_BINDING",
+                                                                "EYE_KNOTS_BINDING")}
+    assert {name: int(value) for name, value in stated.items()} == python

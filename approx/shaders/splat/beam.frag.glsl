@@ -31,8 +31,9 @@
 // controls EXACT_MARCH and EXACT_EYE make either exact (common/density.glsl's exact_depth).
 // EXACT_EYE takes the depth along the pixel's ray up to the closest approach's depth on it,
 // the estimator's own (Jarosz et al. 2011 take the query ray's transmittance at its t), from
-// knots along every pixel's ray (splat/eye_knots.glsl); the point's own line to the eye, off
-// the ray by less than the kernel's reach, differed from it by a symmetric first-order term.
+// knots along every pixel's ray (splat/eye_knots.glsl). The point's own line to the eye lies
+// off the ray by less than the kernel's reach: on smoke's small-kernel beams the two differ
+// by 2e-5 of the caustic (docs/decisions.md "Heterogeneous media").
 // Controls (negative controls of tests): BEAM_NO_SINE drops 1/sin θ,
 // BEAM_NO_CAMERA_TRANSMITTANCE drops exp(−σt·t), BEAM_CLOSEST_DEPTH depth-tests the
 // closest approach alone instead of cutting the beam at the surface.
