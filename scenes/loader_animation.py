@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING, Callable
 import numpy as np
 
 from .animation import FPS_RANGE, MAX_FRAMES, OBJECT_PATHS, TRACK_PATHS, Animation, Track, aim, track_kind
-from .mesh import winding_number
+from .mesh import winding_number, within_box
 from .model import Scene, Transform
 from .toml_values import (
     COORDINATE_LIMIT,
@@ -123,7 +123,7 @@ def _check_frames(ctx, animation: Animation, scene: Scene) -> None:
                 mesh = replace(obj.mesh, transform=Transform()).load()
                 for what, position in (("camera", at.camera.position), ("light", at.light.position)):
                     local = np.linalg.solve(obj.mesh.transform.matrix(), [*position, 1.0])[:3]
-                    if winding_number(mesh, local) > 0.5:
+                    if within_box(mesh, local) and winding_number(mesh, local) > 0.5:
                         raise ctx.error(f"{what}.position", list(position),
                                         f"the {what} must be outside every specular object (it is inside "
                                         f"specular[{i}] '{obj.name}'){where}")

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from volcaustics.scenes.generators import quad, skull_standin, sphere
-from volcaustics.scenes.mesh import Mesh, closedness_problem, read_mesh_file, winding_number
+from volcaustics.scenes.mesh import Mesh, closedness_problem, read_mesh_file, winding_number, within_box
 from volcaustics.scenes.model import Transform
 
 
@@ -37,6 +37,21 @@ def test_winding_number_inside_outside():
     assert winding_number(m, (0.1, -0.2, 0.3)) == pytest.approx(1.0, abs=1e-9)
     assert winding_number(m, (1.5, 0, 0)) == pytest.approx(0.0, abs=1e-9)
     assert winding_number(m.flipped(), (0, 0, 0)) == pytest.approx(-1.0, abs=1e-9)
+
+
+def test_only_points_within_the_box_can_be_inside():
+    """The animation check's shortcut (``within_box``) passes every point the winding number
+    calls inside, and refuses only points whose winding number is 0: a box corner of a sphere
+    is within the box and outside the sphere; a point past a face of the box is outside both."""
+    m = sphere(subdivisions=4)
+    rng = np.random.default_rng(7)
+    for p in rng.uniform(-1.3, 1.3, size=(400, 3)):
+        if winding_number(m, p) > 0.5:
+            assert within_box(m, p)
+        if not within_box(m, p):
+            assert winding_number(m, p) == pytest.approx(0.0, abs=1e-9)
+    assert within_box(m, (0.95, 0.95, 0.95)) and winding_number(m, (0.95, 0.95, 0.95)) < 0.5
+    assert not within_box(m, (1.01, 0.0, 0.0))
 
 
 def test_skull_standin_is_nested_shell():
