@@ -70,7 +70,7 @@ from .errors import SceneError
 from .generators import GENERATORS
 from .loader_animation import parse_animation
 from .loader_density import check_density_covers, density_value
-from .mesh import MeshReadError, closedness_problem, winding_number
+from .mesh import MeshReadError, closedness_problem, winding_number, within_box
 from .mesh_cache import MESHES_KEPT
 from .model import Camera, DiffuseSurface, Medium, MeshSpec, Phase, Scene, SpecularObject, SpotLight, Transform
 from .toml_values import (
@@ -275,7 +275,7 @@ def _check_outside_glass(ctx, camera: Camera, light: SpotLight, specular) -> Non
     for i, obj in enumerate(specular):
         mesh = obj.mesh.load()
         for what, position in (("camera", camera.position), ("light", light.position)):
-            if winding_number(mesh, position) > 0.5:
+            if within_box(mesh, position) and winding_number(mesh, position) > 0.5:
                 raise ctx.error(f"{what}.position", list(position),
                                 f"the {what} must be outside every specular object "
                                 f"(it is inside specular[{i}] '{obj.name}')")

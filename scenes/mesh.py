@@ -106,7 +106,8 @@ def closedness_problem(mesh: Mesh) -> str | None:
 def within_box(mesh: Mesh, point: ArrayLike) -> bool:
     """Whether ``point`` lies within ``mesh``'s bounding box: outside it a closed mesh's
     :func:`winding_number` is 0, so a check of every animation frame's camera and light
-    sums the triangles only for points within (refocus's 48 took its whole load, 0.16 s)."""
+    sums the triangles only for points within (refocus's 48 took its whole load, 0.16 s; sphere1's two
+    took 0.01 s of its 0.013 s)."""
     p = np.asarray(point, dtype=np.float64)
     lo, hi = mesh.bounds()
     return bool(np.all(p >= lo) and np.all(p <= hi))
