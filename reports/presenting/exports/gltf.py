@@ -215,7 +215,7 @@ def unit_vertex_normals(mesh: Mesh) -> np.ndarray:
     zero-area faces (whose normal is 0: the skull stand-in has one) takes the mean of its
     neighbours' normals, or +Y: glTF wants every NORMAL unit, and such a vertex shades no
     area, so any unit vector renders the same."""
-    normals = mesh.vertex_normals()
+    normals = mesh.vertex_normals().copy()  # the mesh's own are read-only
     zero = np.linalg.norm(normals, axis=1) < 0.5
     for v in np.flatnonzero(zero):
         ring = np.unique(mesh.faces[(mesh.faces == v).any(axis=1)])
