@@ -58,7 +58,7 @@ def test_beams_exact_march_is_a_fine_march(smoke):
     (about 3e-6, measured 4e-6); 2 steps, the negative control, are flagged."""
     scene, renderer = smoke
     exact = renderer.variant({"EXACT_MARCH": 1})
-    p = _params(scene, splat="beams")
+    p = _params(scene, splat="beams", photon_res=48)  # beams: a quarter of the points' photons (the suite's time)
     knots = exact.render(scene, p).images["caustic"]
     assert knots.sum() > 0
 
@@ -92,7 +92,7 @@ def small_beams(smoke):
     """(rows, params, image): smoke's beams of a 64² frame carrying a small σ of their own
     (as E_∞,s's do, integrated over each pixel), and their image with the eye exact."""
     scene, renderer = smoke
-    p = _params(scene, splat="beams")
+    p = _params(scene, splat="beams", photon_res=48)
     frame = renderer.render(scene, p)
     rows = record_splats(np.concatenate([r[splatted(r, p)] for r in frame.records]), p.splat)
     rows["dir"][:, 3] = np.float32(2e-3)
