@@ -235,6 +235,9 @@ def _exact_batches(scene, p, kernels, seeds, renderer, oracle, subphotons: int, 
         e_k = _cut(same_all[i * subphotons], p.steps)
         for name, photons in (("exact_steps", e_k), ("exact_all_same", same), ("exact_all", everything),
                               ("exact_emission", emitted)):
+            if name == "exact_all" and same_all is everything_all:  # A's Fresnel is stochastic: the same photons
+                out[name].append(out["exact_all_same"][-1])
+                continue
             out[name].append(_subsets(renderer, scene, ps, kernel(photons.splats, photons.photon, photons.step),
                                       photons.photon, batches))
         for name, splatter in (("exact_all_small", renderer), ("exact_all_small_eye", eye)):
