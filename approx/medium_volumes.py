@@ -124,6 +124,7 @@ class MediumVolumes:
         reach = _far(eye, (np.asarray(self.uniforms["density_min"]), np.asarray(self.uniforms["density_max"])))
         key = (width, height, count, np.asarray(eye, np.float64).tobytes(), np.asarray(view_proj).tobytes())
         self.eye_knots = self.pool.buffer("eye_knots", 4 * count * width * height)
+        self.eye_knots.bind_to_storage_buffer(EYE_KNOTS_BINDING)
         if self._eye_key != key or self._eye_grid is not self._grid_key:
             if self.eye_builder is None:
                 self.eye_builder = compute_shader(self.ctx, "splat/eye_knots.comp.glsl")
@@ -133,11 +134,9 @@ class MediumVolumes:
             uniform(builder, "view_proj").write(gl_matrix(view_proj))
             set_uniforms(builder, eye=tuple(float(v) for v in eye), viewport=(float(width), float(height)),
                          eye_knot_count=count, eye_reach=reach)
-            self.eye_knots.bind_to_storage_buffer(EYE_KNOTS_BINDING)
             builder.run(-(-width // 8), -(-height // 8), 1)
             self.ctx.memory_barrier()
             self._eye_key, self._eye_grid = key, self._grid_key
-        self.eye_knots.bind_to_storage_buffer(EYE_KNOTS_BINDING)
         set_uniforms(prog, eye_knot_count=count, eye_reach=reach)
 
     def bind_grid(self, prog: moderngl.Program | moderngl.ComputeShader) -> None:

@@ -32,8 +32,9 @@ class Mesh:
         return int(len(self.faces))
 
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
-        """(min, max) corners of the axis-aligned bounding box, each (3,) float64."""
-        return self.vertices.min(axis=0), self.vertices.max(axis=0)
+        """(min, max) corners of the axis-aligned bounding box, each (3,) float64 (read-only)."""
+        corners = self._kept("_bounds", lambda: np.stack([self.vertices.min(axis=0), self.vertices.max(axis=0)]))
+        return corners[0], corners[1]
 
     def signed_volume(self) -> float:
         """Signed enclosed volume (m³); positive when faces wind outward (closed meshes only)."""
