@@ -68,15 +68,14 @@ if TYPE_CHECKING:
 
 # E_∞ and E_∞,s: docs/decisions.md "Exact steps and the small kernel"
 SMALL_SUPERSAMPLE = 4        # E_∞,s: splatted at 4× and box-averaged (the reference's pixel filter)
-SMALL_KERNEL_FINE_PIXELS = 0.3  # E_∞,s kernel σ in fine pixels (0.075 pixel): its aliasing is noise, not bias
-# splat = beams: E_∞,s's beams integrate their kernel over each fine pixel, so a narrower one
-# costs no aliasing and blurs less (docs/decisions.md "Points against beams")
-SMALL_BEAM_FINE_PIXELS = 0.1
+# E_∞,s's kernel σ in fine pixels (0.025 pixel), integrated over each fine pixel for points and
+# beams alike, so that it costs no aliasing and blurs little (docs/decisions.md "Points against
+# beams", "The small kernel integrated")
+SMALL_KERNEL_FINE_PIXELS = 0.1
 _SUBPHOTON_SALT = 0x5EB9_07A1  # keeps the replays' seeds apart from the frames' seeds (seed, seed + 1, …)
 # what the E images depend on beyond the parameters: part of their key (exact_store)
 CONSTANTS = {"exact_steps": EXACT_STEPS, "small_supersample": SMALL_SUPERSAMPLE,
-             "small_kernel_fine_pixels": SMALL_KERNEL_FINE_PIXELS, "small_beam_fine_pixels": SMALL_BEAM_FINE_PIXELS,
-             "subset_batches": SUBSET_BATCHES,
+             "small_kernel_fine_pixels": SMALL_KERNEL_FINE_PIXELS, "subset_batches": SUBSET_BATCHES,
              "subphoton_salt": _SUBPHOTON_SALT}
 
 
@@ -109,30 +108,28 @@ def pooled(replays: list) -> ExactPhotons:
 
 def small_radius(scene: Scene, p: ApproxParams) -> float:
     """E_∞,s's kernel σ (m) at the camera's target distance: SMALL_KERNEL_FINE_PIXELS fine
-    pixels, SMALL_BEAM_FINE_PIXELS with splat = beams."""
-    fine = SMALL_BEAM_FINE_PIXELS if splat_mode(p).beams else SMALL_KERNEL_FINE_PIXELS
-    return fine * pixel_footprint(scene.camera, cast(int, p.height) * SMALL_SUPERSAMPLE)
+    pixels."""
+    return SMALL_KERNEL_FINE_PIXELS * pixel_footprint(scene.camera, cast(int, p.height) * SMALL_SUPERSAMPLE)
 
 
 def small_kernel_params(scene: Scene, p: ApproxParams) -> ApproxParams:
-    """What E_∞,s is splatted with whatever A's splat mode: the fixed small kernel (beams
-    stay beams: E_∞,s's photons are then beams, the small kernel theirs)."""
-    return dataclasses.replace(p, splat="beams" if splat_mode(p).beams else "fixed", beam_width="fixed",
+    """What E_∞,s is splatted with whatever A's splat mode: the small kernel that every row
+    carries (:func:`small_kernel_rows`), integrated over each fine pixel — points through
+    the per-splat path (``splat = adaptive``), beams stay beams."""
+    return dataclasses.replace(p, splat="beams" if splat_mode(p).beams else "adaptive", beam_width="fixed",
                                splat_radius=small_radius(scene, p))
 
 
 def small_kernel_rows(rows: np.ndarray, small: ApproxParams) -> np.ndarray:
-    """E_∞,s's rows: point splats as they are (the small kernel point-sampled: its
-    aliasing is noise over photons at continuous positions); beams carrying the small σ,
-    which the splatter integrates over each fine pixel (splat/beam.frag.glsl), since
-    near-parallel beams share their offset from the pixel centres and a point-sampled
-    kernel of 0.3 fine pixel would alias as a pattern, not as noise (docs/decisions.md
-    "Points against beams")."""
-    if not splat_mode(small).beams:
-        return rows
+    """E_∞,s's rows, each carrying the small σ, which the splatter integrates over each fine
+    pixel (splat/splat.frag.glsl, splat/beam.frag.glsl): near-parallel beams share their
+    offset from the pixel centres, and so do collisions at a tight focus on the optical
+    axis, so a point-sampled kernel would alias as a pattern there, not as noise
+    (docs/decisions.md "The small kernel integrated")."""
     out = rows.copy()
     out["dir"][:, 3] = np.float32(small.splat_radius)
-    out["power"][:, 3] = 0.0  # the same σ all along
+    if splat_mode(small).beams:
+        out["power"][:, 3] = 0.0  # the same σ all along
     return out
 
 
