@@ -17,7 +17,7 @@ def decompose(exact: dict, reference: ReferenceResult, keep: np.ndarray) -> dict
     return decompose_caustic(exact["batches"], reference.mean["caustic"], keep=keep,
                              reference_var=reference.var["caustic"],
                              reference_ratio=reference.total_variance_ratio("caustic"),
-                             reference_groups=reference.groups("caustic"))
+                             reference_groups=reference.groups("caustic"), subsets=exact["subset_batches"])
 
 
 def decomposition_rows(decomposition: dict, columns: dict) -> list:

@@ -184,7 +184,8 @@ def caustic_terms(images: dict) -> dict:
 def decompose_caustic(batches: dict, reference: ArrayLike, *, keep: ArrayLike | None = None,
                       reference_var: ArrayLike | None = None,
                       reference_ratio: Sequence[float] | np.ndarray | None = None,
-                      reference_groups: tuple[ArrayLike, ArrayLike] | None = None, z_limit: float = 3.0) -> dict:
+                      reference_groups: tuple[ArrayLike, ArrayLike] | None = None, z_limit: float = 3.0,
+                      subsets: int | None = None) -> dict:
     """Split the caustic's error R − A into the terms of this module.
 
     Parameters
@@ -203,6 +204,10 @@ def decompose_caustic(batches: dict, reference: ArrayLike, *, keep: ArrayLike | 
         jackknife, which sees R's pixels covary); None: pixels independent.
     z_limit : the residual is within noise when its energy and its debiased relative
         MSE are within ``z_limit`` standard errors of 0.
+    subsets : the batches are seeds × ``subsets`` photon subsets, seed-major (batch j:
+        subset j mod ``subsets`` of seed j // ``subsets``): with two seeds or more the noise
+        is estimated within each subset, across the seeds (module docstring, "Strata").
+        None: every batch an independent unit.
 
     Returns
     -------
@@ -222,6 +227,7 @@ def decompose_caustic(batches: dict, reference: ArrayLike, *, keep: ArrayLike | 
     stacks, r_full, keep, rv = cast("tuple[dict, np.ndarray, np.ndarray, np.ndarray]",
                                     _checked(batches, reference, keep, reference_var))
     k = len(stacks[BATCHED[0]])
+    strata = _strata(k, subsets)
     r = r_full[keep]
     channel_energy = r.sum(axis=0)
     energy2 = float(np.sum(r * r))
@@ -230,24 +236,53 @@ def decompose_caustic(batches: dict, reference: ArrayLike, *, keep: ArrayLike | 
     # Σ over the batches of every pixel (H×W×3), summed in batch order as a sum of the kept pixels
     # alone would be: the kept pixels' sums and the images' means both come from it
     full_sums = _once(stacks, lambda s: s.sum(axis=0, dtype=np.float64))
-    kept = _once(stacks, lambda s: s[:, keep])  # K×N×3, as given (float32 or float64)
+    kept = _once(stacks, lambda s: strata.centred(s[:, keep]))  # K×N×3, as given (float32 or float64)
     jack = _Jackknife(kept, _once(full_sums, lambda s: s[keep]), r, channel_energy, energy2,
-                      float(rv.sum()))
+                      float(rv.sum()), strata.factor)
     value = jack.numbers(jack.means_without(None))
     leave_out = [jack.numbers(jack.means_without(i)) for i in range(k)]
     rows = _rows(jack, value, leave_out, rv, reference_ratio, reference_groups, keep)
-    relmse_se = float(np.hypot(_jackknife_se(leave_out, "debiased"),
+    relmse_se = float(np.hypot(_jackknife_se(leave_out, "debiased") * np.sqrt(strata.factor),
                                _reference_relmse_se(reference_groups, keep, rv, jack.sums, k, energy2)))
     residual = _residual(next(x for x in rows if x["term"] == "residual"), value["debiased"], relmse_se, z_limit)
     images = {name: full_sums[name] / k for name in BATCHED}  # the batches' means (np.mean's own sum / k)
     images["reference"] = r_full
-    options = {"z_limit": z_limit, "pixels": int(keep.sum()), "batches": k,
+    options = {"z_limit": z_limit, "pixels": int(keep.sum()), "batches": k, "subsets": strata.subsets,
                "blur_sign": "exact_all_small - exact_emission", "energy_share": "per channel, averaged over RGB",
-               "standard_errors": "delete-one jackknife over the paired batches; the reference's noise (its "
+               "standard_errors": "delete-one jackknife over the paired batches (within each subset across the "
+                                  "seeds where there are two or more); the reference's noise (its "
                                   "total's, from the measured total_variance_ratio) in quadrature where it enters",
                "reference_ratio": None if reference_ratio is None else [float(x) for x in reference_ratio]}
     return {"images": images, "terms": caustic_terms(images), "rows": rows, "residual": residual,
             "options": options}
+
+
+class _Strata:
+    """The batches' subsets as strata (module docstring, "Strata"): :meth:`centred` moves
+    each subset's batches to the mean of all (its seeds' spread about their own mean
+    kept), and ``factor`` scales what the independent-batch formulas then give, over the
+    K − 1 degrees of freedom they assume, to the B(S − 1) the seeds within the subsets
+    have. One seed (or ``subsets`` None): every batch its own unit, factor 1."""
+
+    def __init__(self, k: int, subsets: int | None):
+        self.subsets = subsets if subsets is not None and k // subsets >= 2 else None
+        seeds = k // subsets if self.subsets else 1
+        self.factor = (k - 1) / (subsets * (seeds - 1)) if self.subsets else 1.0
+
+    def centred(self, batches: np.ndarray) -> np.ndarray:
+        """K×… batches with each subset's mean replaced by the mean of all (in their dtype:
+        float32's rounding, 6e-8 of a value, is far below any batch's noise)."""
+        if self.subsets is None:
+            return batches
+        by_subset = batches.reshape(-1, self.subsets, *batches.shape[1:])  # S×B×…
+        shift = batches.mean(axis=0, dtype=np.float64) - by_subset.mean(axis=0, dtype=np.float64)
+        return (by_subset + shift).astype(batches.dtype).reshape(batches.shape)
+
+
+def _strata(k: int, subsets: int | None) -> _Strata:
+    if subsets is not None and (subsets < 1 or k % subsets):
+        raise ValueError(f"subsets: {subsets}, expected a divisor of the {k} batches (seeds × subsets)")
+    return _Strata(k, subsets)
 
 
 def _once(named: dict, f) -> dict:
@@ -290,8 +325,9 @@ class _Jackknife:
     """The kept pixels' batches (K×N×3) and their running sums: every reported number for
     the means of all batches or of all but one."""
 
-    def __init__(self, kept: dict, sums: dict, r, channel_energy, energy2: float, reference_noise: float):
-        self.kept, self.sums, self.r = kept, sums, r
+    def __init__(self, kept: dict, sums: dict, r, channel_energy, energy2: float, reference_noise: float,
+                 factor: float = 1.0):
+        self.kept, self.sums, self.r, self.factor = kept, sums, r, factor
         self.k = len(kept[BATCHED[0]])
         self.channel_energy, self.energy2, self.reference_noise = channel_energy, energy2, reference_noise
         self.small = kept[LAST]
@@ -320,7 +356,7 @@ class _Jackknife:
                   lambda pair: (pair[0] - pair[1][i]) / n if i is not None else pair[0] / n)
         s1 = sums[LAST] - (small[i] if i is not None else 0.0)
         s2 = self.small_squares - (np.square(small[i], dtype=np.float64) if i is not None else 0.0)
-        m["_small_noise"] = float(np.sum(s2 - s1 * s1 / n)) / (n - 1) / n
+        m["_small_noise"] = self.factor * float(np.sum(s2 - s1 * s1 / n)) / (n - 1) / n
         return m
 
 
@@ -332,7 +368,7 @@ def _jackknife_se(leave_out: list, name: str, i=None) -> float:
 
 def _rows(jack: _Jackknife, value: dict, leave_out: list, rv, reference_ratio, reference_groups, keep) -> list:
     """One row per term and the total (values, SEs, debiased parts), then the noise row."""
-    k, kept, sums, energy2 = jack.k, jack.kept, jack.sums, jack.energy2
+    k, kept, sums, energy2, factor = jack.k, jack.kept, jack.sums, jack.energy2, jack.factor
     # R's noise where R enters (total, residual): its total's σ per channel, from Σ var and
     # the measured ratio of pixels covarying (channels of one photon are strongly
     # correlated: their σ add, an upper bound)
@@ -342,7 +378,7 @@ def _rows(jack: _Jackknife, value: dict, leave_out: list, rv, reference_ratio, r
         row: dict[str, Any] = {"term": name}
         for i, field in enumerate(("energy_share", "relmse_part", "relmse_own")):
             row[field] = value[name][i]
-            row[f"{field}_se"] = _jackknife_se(leave_out, name, i)
+            row[f"{field}_se"] = _jackknife_se(leave_out, name, i) * np.sqrt(factor)
         if name in ("total", "residual"):
             row["energy_share_se"] = float(np.hypot(row["energy_share_se"], ref_share_sigma))
             reference_se = _reference_part_se(name, reference_groups, keep, jack.r, rv, sums, k, energy2)
@@ -354,13 +390,13 @@ def _rows(jack: _Jackknife, value: dict, leave_out: list, rv, reference_ratio, r
     # and R's variance where R is in both (module docstring, "debiased parts")
     approx_dev = kept["approx"] - sums["approx"] / k
     shared = _once({name: (kept[name], sums[name]) for name in BATCHED},
-                   lambda pair: float(np.sum((pair[0] - pair[1] / k) * approx_dev)) / (k - 1) / k)
+                   lambda pair: factor * float(np.sum((pair[0] - pair[1] / k) * approx_dev)) / (k - 1) / k)
     shared["reference"] = 0.0
     for row in rows:
         near, far = TERMS.get(row["term"], ("reference", "approx"))
         own_reference = float(rv.sum()) if near == "reference" else 0.0
         row["relmse_part_debiased"] = row["relmse_part"] + (shared[near] - shared[far] - own_reference) / energy2
-    approx_var = kept["approx"].var(axis=0, ddof=1, dtype=np.float64) / k
+    approx_var = factor * kept["approx"].var(axis=0, ddof=1, dtype=np.float64) / k
     rows.append({"term": "noise", "energy_sigma": next(x for x in rows if x["term"] == "total")["energy_share_se"],
                  "relmse": (float(rv.sum()) + float(approx_var.sum())) / energy2})
     return rows

@@ -223,6 +223,60 @@ def test_an_unbiased_residual_is_within_noise(reference_noise):
     assert passed >= 18
 
 
+def _stratified(rng, truth, seeds=4, subsets=8, spread=0.05, sd=0.01):
+    """Batches as the experiment makes them: seeds × subsets, seed-major; subset b holds
+    the same texels in every seed, so it is off the mean by a fixed pattern of its own
+    (``spread``: what its texels alone make; the patterns sum to 0) plus noise (``sd``,
+    new in every seed)."""
+    offsets = _blurred_noise(rng, (subsets, H, W, 3), spread)
+    offsets -= offsets.mean(axis=0)
+    noise = _blurred_noise(rng, (seeds, subsets, H, W, 3), sd)
+    batches = (truth + offsets + noise).reshape(seeds * subsets, H, W, 3)
+    return {name: batches for name in BATCHED}
+
+
+def test_subsets_that_differ_by_their_texels_are_not_noise():
+    """Subsets whose means differ by their texels alone (5× the noise): with ``subsets``
+    the residual of an unbiased R is within noise in at least 18 of 20 draws (the bound
+    of test_an_unbiased_residual_is_within_noise), and its z is spread as noise
+    (sd ≤ 1.5: the jackknife errs on the large side); taken as independent batches (the
+    old estimate, subsets None) the texels' spread counts as noise the mean does not
+    have, and the relMSE's z falls below −3 every time."""
+    truth = _truth()
+    within, z, independent = 0, [], []
+    for seed in range(20):
+        rng = np.random.default_rng(300 + seed)
+        batches = _stratified(rng, truth)
+        var = np.full_like(truth, 0.002**2)
+        reference = truth + _photon_noise(rng, truth.shape, 0.002)
+        residual = decompose_caustic(batches, reference, reference_var=var, subsets=8)["residual"]
+        within += residual["within_noise"] and abs(residual["relmse_z"]) <= 3
+        z += [residual["energy_z"], residual["relmse_z"]]
+        independent.append(decompose_caustic(batches, reference, reference_var=var)["residual"]["relmse_z"])
+    assert within >= 18
+    assert np.std(z) <= 1.5
+    assert max(independent) < -3
+
+
+def test_a_biased_residual_is_caught_within_subsets():
+    """The negative control of the strata: the same batches against an R 3% brighter in
+    a blob (a renderer that disagrees) leave the noise on both z-scores."""
+    truth = _truth()
+    rng = np.random.default_rng(7)
+    batches = _stratified(rng, truth)
+    y, x = np.mgrid[0:H, 0:W]
+    reference = truth * (1 + 0.03 * np.exp(-((x - 7.0) ** 2 + (y - 9.0) ** 2) / 8.0))[..., None]
+    residual = decompose_caustic(batches, reference, reference_var=np.full_like(truth, 0.002**2),
+                                 subsets=8)["residual"]
+    assert residual["energy_z"] > 3 and residual["relmse_z"] > 3 and not residual["within_noise"]
+
+
+def test_subsets_must_divide_the_batches():
+    batches = _stratified(np.random.default_rng(1), _truth(), seeds=2, subsets=8)
+    with pytest.raises(ValueError, match="subsets: 5"):
+        decompose_caustic(batches, _truth(), subsets=5)
+
+
 def test_noise_row_is_what_noise_alone_explains():
     """A and R both unbiased (A's batches white noise of sd 0.3 per batch, R's of sd
     0.02): the total relMSE is noise, and the noise row's relMSE, (Σ var_R + Σ s²_A/K)
