@@ -265,9 +265,9 @@ class _Strata:
     have. One seed (or ``subsets`` None): every batch its own unit, factor 1."""
 
     def __init__(self, k: int, subsets: int | None):
-        self.subsets = subsets if subsets is not None and k // subsets >= 2 else None
-        seeds = k // subsets if self.subsets else 1
-        self.factor = (k - 1) / (subsets * (seeds - 1)) if self.subsets else 1.0
+        self.subsets, self.factor = None, 1.0
+        if subsets is not None and k // subsets >= 2:
+            self.subsets, self.factor = subsets, (k - 1) / (subsets * (k // subsets - 1))
 
     def centred(self, batches: np.ndarray) -> np.ndarray:
         """K×… batches with each subset's mean replaced by the mean of all (in their dtype:
