@@ -103,6 +103,7 @@ def test_the_decomposition_closes_on_every_builtin_and_held_out_scene(cache, con
 
 # the preset beams' widths (differential) on every built-in; fixed widths where point-sampled
 # kernels aliased (sphere1, refocus) and on a mesh; balanced widths on a sphere and a mesh
+MEDIA_BEAM_PHOTON_RES = 128
 BEAM_CASES = [("differential", name) for name in (*BUILTIN_NAMES, *MEDIA_NAMES)] + [
     ("fixed", name) for name in ("sphere1", "refocus", "bunny")] + [("balanced", name) for name in ("sphere1", "bunny")]
 
@@ -121,7 +122,10 @@ def test_the_decomposition_closes_with_beams_on_every_builtin(cache, beam_width,
     scene = resolve_scene(scene_arg)
     width = {"beam_width": beam_width, "splat_footprints": PRESETS["beams"].splat_footprints,
              "splat_radius": PRESETS["beams"].splat_radius} if beam_width != "fixed" else {}
-    result = _measure(scene, dataclasses.replace(QUICK, splat="beams", **width))
+    # the media scenes' beams at a quarter of the photons: a beam through the plume walks its grid in
+    # every fragment (the march exact), 70-100 s a case at 256² photons (docs/decisions.md "The test suite's settings")
+    photons = {"photon_res": MEDIA_BEAM_PHOTON_RES} if scene_arg in MEDIA_NAMES else {}
+    result = _measure(scene, dataclasses.replace(QUICK, splat="beams", **width, **photons))
     assert (message := _closes(result, f"{scene.name} beams ({beam_width})")) is None, message
     caustic = result.summary["images"]["caustic"]
     assert math.isclose(caustic["frame_relative_mse"]["value"], caustic["relative_mse"]["value"], rel_tol=1e-3,
