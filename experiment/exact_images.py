@@ -237,12 +237,12 @@ def _exact_batches(scene, p, kernels, seeds, renderer, oracle, subphotons: int, 
                 continue
             out[name].append(_subsets(renderer, scene, ps, kernel(photons.splats, photons.photon, photons.step),
                                       photons.photon, batches))
+        small_rows = small_kernel_rows(emitted.splats, small)  # E_∞,s's and E_∞,s,τ's rows: one copy
         for name, splatter in (("exact_all_small", renderer), ("exact_all_small_eye", eye)):
             if splatter is None:
                 continue
-            out[name].append(_subsets(splatter, scene, dataclasses.replace(small, seed=seed),
-                                      small_kernel_rows(emitted.splats, small), emitted.photon, batches,
-                                      SMALL_SUPERSAMPLE))
+            out[name].append(_subsets(splatter, scene, dataclasses.replace(small, seed=seed), small_rows,
+                                      emitted.photon, batches, SMALL_SUPERSAMPLE))
         for name, photons in {p.fresnel: same, "stochastic": everything, "true_emission": emitted}.items():
             alive.setdefault(name, []).append(photons.alive_fraction)
     return {"batches": with_aliases({name: np.concatenate(images) for name, images in out.items()}), "alive": alive,

@@ -227,7 +227,7 @@ def decompose_caustic(batches: dict, reference: ArrayLike, *, keep: ArrayLike | 
     stacks, r_full, keep, rv = cast("tuple[dict, np.ndarray, np.ndarray, np.ndarray]",
                                     _checked(batches, reference, keep, reference_var))
     k = len(stacks[BATCHED[0]])
-    strata = _strata(k, subsets)
+    strata = _Strata(k, subsets)
     r = r_full[keep]
     channel_energy = r.sum(axis=0)
     energy2 = float(np.sum(r * r))
@@ -265,6 +265,8 @@ class _Strata:
     have. One seed (or ``subsets`` None): every batch its own unit, factor 1."""
 
     def __init__(self, k: int, subsets: int | None):
+        if subsets is not None and (subsets < 1 or k % subsets):
+            raise ValueError(f"subsets: {subsets}, expected a divisor of the {k} batches (seeds × subsets)")
         self.subsets, self.factor = None, 1.0
         if subsets is not None and k // subsets >= 2:
             self.subsets, self.factor = subsets, (k - 1) / (subsets * (k // subsets - 1))
@@ -277,12 +279,6 @@ class _Strata:
         by_subset = batches.reshape(-1, self.subsets, *batches.shape[1:])  # S×B×…
         shift = batches.mean(axis=0, dtype=np.float64) - by_subset.mean(axis=0, dtype=np.float64)
         return (by_subset + shift).astype(batches.dtype).reshape(batches.shape)
-
-
-def _strata(k: int, subsets: int | None) -> _Strata:
-    if subsets is not None and (subsets < 1 or k % subsets):
-        raise ValueError(f"subsets: {subsets}, expected a divisor of the {k} batches (seeds × subsets)")
-    return _Strata(k, subsets)
 
 
 def _once(named: dict, f) -> dict:
@@ -326,7 +322,7 @@ class _Jackknife:
     the means of all batches or of all but one."""
 
     def __init__(self, kept: dict, sums: dict, r, channel_energy, energy2: float, reference_noise: float,
-                 factor: float = 1.0):
+                 factor: float):
         self.kept, self.sums, self.r, self.factor = kept, sums, r, factor
         self.k = len(kept[BATCHED[0]])
         self.channel_energy, self.energy2, self.reference_noise = channel_energy, energy2, reference_noise
