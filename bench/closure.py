@@ -38,6 +38,7 @@ def config_params(name: str, scene: str):
 
 
 def main(argv=None) -> int:
+    from volcaustics.experiment.measurement import MeasurementSettings
     from volcaustics.experiment.pipeline import run_experiment
     from volcaustics.experiment.sizing import REPORT_REFERENCE, sized
     from volcaustics.reference.render import render_reference
@@ -60,8 +61,8 @@ def main(argv=None) -> int:
             p = config_params(config, name)
             reference = render_reference(scene, sized(REPORT_REFERENCE, scene, p), progress=False)
             t0 = time.perf_counter()
-            d = run_experiment(scene, p, seeds=args.seeds, reference=reference, progress=False).summary[
-                "decomposition"]
+            d = run_experiment(scene, p, seeds=args.seeds, reference=reference, progress=False,
+                               measurement=MeasurementSettings(scope="decomposition")).summary["decomposition"]
             seconds = time.perf_counter() - t0
             res = d["residual"]
             print(f"== {name} {config} ({seconds:.0f} s): residual energy z {res['energy_z']:+.2f}, "

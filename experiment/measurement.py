@@ -18,11 +18,14 @@ exact_steps        512      32–1024 steps of the exact replay in the E_∞ ima
                                     docs/decisions.md "Exact steps and the small kernel")
 =================  =======  ======  ===================================================
 
-Beside the table, ``scope`` (default "full"): what a point measures. The gate sets it
-to "gate": only what its budgets read (``reports.studies.gate.budgets``: the image metrics of
-GATE_IMAGE_METRICS and the segments), so a gate point skips the exact replay, the
+Beside the table, ``scope`` (default "full"): what a point measures (SCOPE_PARTS). The gate
+sets it to "gate": only what its budgets read (``reports.studies.gate.budgets``: the image
+metrics of GATE_IMAGE_METRICS and the segments), so a gate point skips the exact replay, the
 decomposition, the model term and the image metrics no budget names, and its key says
-so. A full point (the report's) still serves the gate (``reports.measuring.runner``: a superset).
+so. "decomposition" is what the caustic's closure reads: the exact images, the
+decomposition and the image metrics it sums to, without the timed frames, the segments,
+the photon paths and the model term (the closure tests' points). A full point (the
+report's) serves either (``reports.measuring.runner``: a superset).
 """
 
 from __future__ import annotations
@@ -50,15 +53,21 @@ MEASUREMENT_PARAMS: tuple = (
     # E_k is E_∞ cut at the approximation's steps (at most 32): E_∞ replays at least that many
     Param("exact_steps", int, EXACT_STEPS, "steps of the exact replay in the decomposition's E_∞ images (E_k is "
           "it cut at the approximation's steps)", low=32, high=1024),
-    Param("scope", str, "full", "what a point measures: full, or gate (only what the gate's budgets read)",
-          choices=("full", "gate")),
+    Param("scope", str, "full", "what a point measures: full, gate (only what the gate's budgets read) or "
+          "decomposition (only what the caustic's decomposition reads)", choices=("full", "gate", "decomposition")),
 )
 MEASUREMENT_KEYS = tuple(p.name for p in MEASUREMENT_PARAMS if p.name != "scope")  # a flag and a table key each
-SCOPES = next(p.choices for p in MEASUREMENT_PARAMS if p.name == "scope")
 _BY_NAME = {p.name: p for p in MEASUREMENT_PARAMS}
 # the image metrics a gate budget can name (reports.studies.gate.budgets.COMPONENT_KEYS: relmse_max,
 # frame_relmse_max, energy_ratio, hdr_flip_max; a test ties the two)
 GATE_IMAGE_METRICS = ("relative_mse", "frame_relative_mse", "energy_ratio", "hdr_flip")
+# what a point of each scope measures beside its record frames and GATE_IMAGE_METRICS: "timings" the
+# untimed warm-up and the timed frames, "segments" the intersection table, "photons" the photon paths'
+# table, "exact" the exact images and the caustic's decomposition, "metrics" every other image metric,
+# "model" the model term
+SCOPE_PARTS = {"full": frozenset({"timings", "segments", "photons", "exact", "metrics", "model"}),
+               "gate": frozenset({"timings", "segments", "photons"}),
+               "decomposition": frozenset({"exact"})}
 
 
 def _setting(name: str):

@@ -37,7 +37,7 @@ from volcaustics.experiment.approx_frames import render_frames
 from volcaustics.experiment.decomposition_rows import decompose, decomposition_rows
 from volcaustics.experiment.exact_images import exact_images
 from volcaustics.experiment.image_rows import image_rows, keep_mask
-from volcaustics.experiment.measurement import GATE_IMAGE_METRICS, MeasurementSettings
+from volcaustics.experiment.measurement import GATE_IMAGE_METRICS, SCOPE_PARTS, MeasurementSettings
 from volcaustics.experiment.model_rows import model_rows
 from volcaustics.experiment.photons import photon_rows, replay
 from volcaustics.experiment.point_checks import checked_settings
@@ -106,14 +106,18 @@ def run_experiment(scene: Scene, params: ApproxParams, *, seeds: int = 1,
         a column each in every row, and the summary's ``scene_fields``.
     measurement : how the point is measured, ``experiment.measurement.MeasurementSettings``
         (None: the report's): the exact images' sub-photons, subset batches and steps, and
-        the scope: "full", or "gate": only what the gate's budgets read (the image metrics
-        of ``measurement.GATE_IMAGE_METRICS`` and the segments); the exact images, the
-        caustic's decomposition and the model term are skipped (the summary's ``exact``,
-        ``decomposition`` and ``model`` are then None).
+        the scope (``measurement.SCOPE_PARTS``): "full"; "gate", only what the gate's budgets
+        read (the image metrics of ``measurement.GATE_IMAGE_METRICS`` and the segments): the
+        exact images, the caustic's decomposition and the model term are skipped (the
+        summary's ``exact``, ``decomposition`` and ``model`` are then None); or
+        "decomposition", only what the caustic's closure reads (those image metrics, the
+        exact images and the decomposition): no timed frames (the summary's
+        ``approx_timings_s`` empty, ``timed_frames`` 0), no segment or photon rows (its
+        ``paths`` None) and no model term.
     """
     p, seed_list = checked_settings(scene, params, seeds)
     measurement = measurement or MeasurementSettings()
-    scope = measurement.scope
+    parts = SCOPE_PARTS[measurement.scope]
     clock = Clock()
     bar = tqdm(total=len(STAGES), desc="measure", unit="stage", disable=not progress, leave=False)
     # the request the summary judges the reference by (None: the one the given entry was rendered for)
@@ -131,17 +135,13 @@ def run_experiment(scene: Scene, params: ApproxParams, *, seeds: int = 1,
         with clock.stage("oracle"):
             oracle = oracle or Oracle(scene)
         with clock.stage("approx"):
-            frames, timed = render_frames(renderer, scene, p, seed_list, warm_up=own_renderer)
+            frames, timed = render_frames(renderer, scene, p, seed_list, warm_up=own_renderer,
+                                          timing="timings" in parts)
         bar.update(2)
-        with clock.stage("segments"):
-            segments = segment_rows(scene, p, frames, oracle, columns)
-        bar.update()
-        with clock.stage("photons"):
-            replays = [replay(scene, p, f, s, oracle) for f, s in zip(frames, seed_list)]
-            photons, divergence = photon_rows(frames, replays, columns)
-        bar.update()
+        segments, photons, divergence = _frame_tables(scene, p, frames, seed_list, oracle, columns, parts, clock)
+        bar.update(2)
         exact = None
-        if scope == "full":
+        if "exact" in parts:
             with clock.stage("exact_images"):
                 exact = exact_images(scene, p, frames, seed_list, renderer, oracle, measurement)
         bar.update()
@@ -152,10 +152,10 @@ def run_experiment(scene: Scene, params: ApproxParams, *, seeds: int = 1,
         maps: dict
         keep, maps = keep_mask(reference, frames), {}
         images, headline = image_rows(frames, reference, keep, columns, maps,
-                                      metrics=None if scope == "full" else GATE_IMAGE_METRICS)
+                                      metrics=None if "metrics" in parts else GATE_IMAGE_METRICS)
         decomposition = None if exact is None else _decomposed(scene, exact, reference, keep)
         images += [] if decomposition is None else decomposition_rows(decomposition, columns)
-        model, model_summary = model_rows(frames, reference, keep, columns) if scope == "full" else ([], None)
+        model, model_summary = model_rows(frames, reference, keep, columns) if "model" in parts else ([], None)
         images += model
     bar.update()
     bar.close()
@@ -168,6 +168,20 @@ def run_experiment(scene: Scene, params: ApproxParams, *, seeds: int = 1,
         layers.update({f"term.{name}": np.asarray(img, np.float32) for name, img in decomposition["terms"].items()})
     return Experiment(segments=segments, photons=photons, images=images, summary=summary, layers=layers,
                       views=experiment_views(frames, reference, keep, layers, maps))
+
+
+def _frame_tables(scene, p, frames, seeds, oracle, columns, parts, clock) -> tuple[list, list, dict | None]:
+    """The segments' rows, the photon paths' rows and where the paths first diverge, each
+    where the scope's ``parts`` ask for it (else none), timed as stages of ``clock``."""
+    segments, photons, divergence = [], [], None
+    if "segments" in parts:
+        with clock.stage("segments"):
+            segments = segment_rows(scene, p, frames, oracle, columns)
+    if "photons" in parts:
+        with clock.stage("photons"):
+            replays = [replay(scene, p, f, s, oracle) for f, s in zip(frames, seeds)]
+            photons, divergence = photon_rows(frames, replays, columns)
+    return segments, photons, divergence
 
 
 def _decomposed(scene, exact, reference, keep) -> dict:

@@ -120,7 +120,7 @@ def reference_warnings(summary: dict) -> list:
 
 def experiment_summary(scene: Scene, p: ApproxParams, seeds: list[int], reference: ReferenceResult,
                        frames: Sequence[Frame], exact: dict | None, headline: dict, decomposition: dict | None,
-                       divergence: dict, clock: dict[str, float], keep: np.ndarray, timed: list[dict],
+                       divergence: dict | None, clock: dict[str, float], keep: np.ndarray, timed: list[dict],
                        model: dict | None = None, fields: dict | None = None,
                        request: ReferenceSettings | None = None) -> ExperimentSummary:
     alive = {} if exact is None else {k: float(max(v)) for k, v in exact["alive"].items()}

@@ -34,12 +34,12 @@ class _Measured(TypedDict):
     compared_pixels: int
     images: dict                 # component → metric → {"value", "debiased", …}
     decomposition: dict | None   # {"rows", "residual", "options"}; None: a gate point
-    model: dict | None           # the model term; None: a gate point
-    paths: dict
+    model: dict | None           # the model term; None: a gate or a decomposition point
+    paths: dict | None           # None: a decomposition point (scope "decomposition")
     map_reads: dict
     cost: dict
     predicted_frame: dict
-    approx_timings_s: dict
+    approx_timings_s: dict       # empty, and timed_frames 0: a decomposition point
     timed_frames: int
     timing_method: str
     experiment_seconds: dict     # stage → seconds

@@ -49,7 +49,7 @@ def _measure(scene, params, seeds: int = 2, **kwargs):
     # one exact replay per texel: R's covarying pixels are the weak spot at 16 (docs/decisions.md "Sub-photons")
     p = dataclasses.replace(params, width=SIZE, height=SIZE)
     return run_experiment(scene, p, seeds=seeds, reference_settings=REFERENCE, progress=False,
-                          measurement=MeasurementSettings(exact_subphotons=1),
+                          measurement=MeasurementSettings(exact_subphotons=1, scope="decomposition"),
                           **kwargs)
 
 
