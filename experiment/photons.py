@@ -57,17 +57,23 @@ def photon_rows(frames: Sequence[Frame], replays: list, columns: dict) -> tuple:
         if tracer == "approx":
             at = first == step
             row["photons"] = int(len(first))
-            row["diverged_fate"] = float(np.mean(at & (cause == "fate")))
-            row["diverged_place"] = float(np.mean(at & (cause == "place")))
+            row["diverged_fate"] = _share(at & (cause == "fate"))
+            row["diverged_place"] = _share(at & (cause == "place"))
             row["drift_distance_median"] = _median(distance[at])
             row["drift_distance_p90"] = _percentile(distance[at], 90)
             row["power_drift_median"] = _median(drift[at])
         row.update(columns)
         out.append(row)
-    summary = {"photons": int(len(first)), "never_diverged": float(np.mean(first == 0)),
-               "first_divergence_by_step": {int(k): float(np.mean(first == k)) for k in range(1, steps + 1)},
+    summary = {"photons": int(len(first)), "never_diverged": _share(first == 0),
+               "first_divergence_by_step": {int(k): _share(first == k) for k in range(1, steps + 1)},
                "place_tolerance_m": divergence[0]["options"]["place_tolerance"]}
     return sorted(out, key=lambda r: (r["tracer"], r["step"])), summary
+
+
+def _share(mask) -> float:
+    """The share of photons ``mask`` holds; NaN (no warning) when there are none: a scene
+    whose light reaches no glass."""
+    return float(np.mean(mask)) if len(mask) else float("nan")
 
 
 def _median(v):
