@@ -277,8 +277,12 @@ class _DaskPool:
         try:
             if kind == "local":
                 with _signals_ignored_by_children():
+                    # no dashboard; the scheduler's HTTP server (health, metrics) still starts, at
+                    # :8787 with a warning when that port is taken: on the loopback at a free port
                     self._cluster = LocalCluster(n_workers=value, threads_per_worker=1, processes=True,
-                                                 dashboard_address=None, silence_logs=logging.CRITICAL)
+                                                 dashboard_address=None,
+                                                 scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
+                                                 silence_logs=logging.CRITICAL)
                 self.client = Client(self._cluster)
             else:
                 self.client = Client(value, timeout="10s")
