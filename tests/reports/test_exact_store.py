@@ -38,7 +38,7 @@ def setup(tmp_path_factory):
 
         def measure(params, subphotons=2):
             return run_experiment(scene, params, seeds=2, reference=reference, renderer=renderer, oracle=oracle,
-                                  measurement=MeasurementSettings(exact_subphotons=subphotons))
+                                  measurement=MeasurementSettings(exact_subphotons=subphotons, scope="decomposition"))
 
         yield scene, measure
         renderer.release()
