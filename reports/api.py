@@ -62,7 +62,9 @@ def measure(scene: str, *, preset: str = "quick", seeds: int = 4,
         The reference's budget, or a mapping of a spec file's ``[reference]`` keys over the
         report's (``volcaustics measure``'s defaults); its image size follows the frame's.
     measurement : MeasurementSettings or mapping, optional
-        How the experiment is measured (or a mapping of its fields); default the report's.
+        How the experiment is measured (or a mapping of a spec file's ``[measurement]`` keys,
+        ``exact_subphotons``, ``subset_batches``, ``exact_steps``; a scope other than the
+        report's, ``"decomposition"`` say, takes a MeasurementSettings); default the report's.
     progress : bool
         Show a progress bar.
     **params
