@@ -42,6 +42,14 @@ SUBSET_BATCHES = 8           # paired photon subsets per seed of A and the E ima
 EXACT_SUBPHOTONS = 16        # exact replays of each emission texel in the E_∞ images (docs/decisions.md "Sub-photons")
 
 
+# what a point of each scope measures beside its record frames and GATE_IMAGE_METRICS: "timings" the
+# untimed warm-up and the timed frames, "segments" the intersection table, "photons" the photon paths'
+# table, "exact" the exact images and the caustic's decomposition, "metrics" every other image metric,
+# "model" the model term
+SCOPE_PARTS = {"full": frozenset({"timings", "segments", "photons", "exact", "metrics", "model"}),
+               "gate": frozenset({"timings", "segments", "photons"}),
+               "decomposition": frozenset({"exact"})}
+
 # name, type, default, help, range: the settings a flag and a [measurement] table may set
 # (MEASUREMENT_KEYS), then scope (set by the command: the gate's points are "gate")
 MEASUREMENT_PARAMS: tuple = (
@@ -54,20 +62,13 @@ MEASUREMENT_PARAMS: tuple = (
     Param("exact_steps", int, EXACT_STEPS, "steps of the exact replay in the decomposition's E_∞ images (E_k is "
           "it cut at the approximation's steps)", low=32, high=1024),
     Param("scope", str, "full", "what a point measures: full, gate (only what the gate's budgets read) or "
-          "decomposition (only what the caustic's decomposition reads)", choices=("full", "gate", "decomposition")),
+          "decomposition (only what the caustic's decomposition reads)", choices=tuple(SCOPE_PARTS)),
 )
 MEASUREMENT_KEYS = tuple(p.name for p in MEASUREMENT_PARAMS if p.name != "scope")  # a flag and a table key each
 _BY_NAME = {p.name: p for p in MEASUREMENT_PARAMS}
 # the image metrics a gate budget can name (reports.studies.gate.budgets.COMPONENT_KEYS: relmse_max,
 # frame_relmse_max, energy_ratio, hdr_flip_max; a test ties the two)
 GATE_IMAGE_METRICS = ("relative_mse", "frame_relative_mse", "energy_ratio", "hdr_flip")
-# what a point of each scope measures beside its record frames and GATE_IMAGE_METRICS: "timings" the
-# untimed warm-up and the timed frames, "segments" the intersection table, "photons" the photon paths'
-# table, "exact" the exact images and the caustic's decomposition, "metrics" every other image metric,
-# "model" the model term
-SCOPE_PARTS = {"full": frozenset({"timings", "segments", "photons", "exact", "metrics", "model"}),
-               "gate": frozenset({"timings", "segments", "photons"}),
-               "decomposition": frozenset({"exact"})}
 
 
 def _setting(name: str):
